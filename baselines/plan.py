@@ -1,0 +1,70 @@
+"""The result type every planner returns."""
+
+from __future__ import annotations
+
+import json
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from ios_uav_env import ScenarioConfig, TrajectoryReport, average_rate, check_trajectory
+from ios_uav_env.io import atomic_write_text
+
+
+@dataclass
+class Plan:
+    """A planned trajectory, scored by the one model (``ios_uav_env.average_rate``)."""
+
+    scheme: str  # e.g. "ia", "ra", "ia-ft", "cuc", "dp"
+    config: ScenarioConfig
+    trajectory: np.ndarray  # (N, 2) m
+    mean_rate: float  # bps/Hz, eq. (9) with the exact model
+    feasible: bool  # eq. (10) within FEASIBILITY_TOL
+    report: TrajectoryReport
+    seconds: float  # wall time of the planner
+    history: list[dict[str, Any]] = field(default_factory=list)  # per-iteration records (SCA)
+    info: dict[str, Any] = field(default_factory=dict)  # planner-specific extras
+
+    @classmethod
+    def from_trajectory(
+        cls,
+        scheme: str,
+        config: ScenarioConfig,
+        trajectory: np.ndarray,
+        seconds: float,
+        history: list[dict[str, Any]] | None = None,
+        info: dict[str, Any] | None = None,
+    ) -> Plan:
+        """Score ``trajectory`` with the model and check it against eq. (10)."""
+        q = np.asarray(trajectory, dtype=float)
+        report = check_trajectory(config, q)
+        return cls(
+            scheme=scheme,
+            config=config,
+            trajectory=q,
+            mean_rate=average_rate(config, q),
+            feasible=report.feasible,
+            report=report,
+            seconds=float(seconds),
+            history=list(history or []),
+            info=dict(info or {}),
+        )
+
+    def to_dict(self) -> dict[str, Any]:
+        return {
+            "scheme": self.scheme,
+            "config": self.config.to_dict(),
+            "mean_rate": self.mean_rate,
+            "feasible": self.feasible,
+            "report": self.report.to_dict(),
+            "seconds": self.seconds,
+            "trajectory": self.trajectory.tolist(),
+            "history": self.history,
+            "info": self.info,
+        }
+
+    def save_json(self, path: str | Path) -> Path:
+        """Write the plan as JSON atomically (temp file + rename)."""
+        return atomic_write_text(path, json.dumps(self.to_dict(), indent=1, default=float))

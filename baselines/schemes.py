@@ -1,0 +1,138 @@
+"""The paper's benchmark schemes (and the DP optimum), runnable on any ScenarioConfig.
+
+=========  =======  ==========================================================
+scheme     surface  planner
+=========  =======  ==========================================================
+``ia``     IOS      SCA (``baselines.sca.solve``), the paper's proposal
+``ra``     RIS      SCA
+``ia-ft``  IOS      fixed fly-hover-fly trajectory (``baselines.fixed``)
+``cuc``    none     SCA
+``dp``     config's global optimum on a grid (``baselines.dp.solve``)
+``dp-ia``  IOS      DP
+``dp-ra``  RIS      DP
+``dp-cuc`` none     DP
+=========  =======  ==========================================================
+
+``baselines.sca`` (which needs cvxpy) is imported only when an SCA scheme runs, so the
+other schemes work without it.
+
+>>> from baselines.schemes import run_scheme
+>>> from ios_uav_env import ScenarioConfig
+>>> plan = run_scheme("ia-ft", ScenarioConfig(T=60, ios_shape=(10, 6)))
+>>> plan.scheme, plan.feasible
+('ia-ft', True)
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import importlib
+from collections.abc import Callable
+from dataclasses import dataclass
+from typing import Any
+
+from baselines.plan import Plan
+from ios_uav_env import ScenarioConfig
+
+
+@dataclass(frozen=True)
+class Scheme:
+    """A named benchmark: which surface, which planner."""
+
+    name: str
+    surface: str | None  # "ios", "ris", "none"; None keeps the config's surface
+    planner: str  # "sca", "dp" or "fixed"
+    description: str
+
+
+SCHEMES: dict[str, Scheme] = {
+    s.name: s
+    for s in (
+        Scheme("ia", "ios", "sca", "IOS, trajectory optimised by SCA (the paper's proposal)"),
+        Scheme("ra", "ris", "sca", "RIS (reflection only), trajectory optimised by SCA"),
+        Scheme("ia-ft", "ios", "fixed", "IOS, fixed fly-hover-fly trajectory over G"),
+        Scheme("cuc", "none", "sca", "no surface, trajectory optimised by SCA"),
+        Scheme("dp", None, "dp", "global optimum on a grid (DP), the config's surface"),
+        Scheme("dp-ia", "ios", "dp", "IOS, global optimum on a grid (DP)"),
+        Scheme("dp-ra", "ris", "dp", "RIS, global optimum on a grid (DP)"),
+        Scheme("dp-cuc", "none", "dp", "no surface, global optimum on a grid (DP)"),
+    )
+}
+
+
+def get_scheme(name: str) -> Scheme:
+    """The :class:`Scheme` called ``name``; ``ValueError`` listing the valid names otherwise."""
+    try:
+        return SCHEMES[name]
+    except (KeyError, TypeError):
+        raise ValueError(f"unknown scheme {name!r}; valid schemes: {', '.join(SCHEMES)}") from None
+
+
+def sca_unavailable_reason() -> str | None:
+    """Why the SCA schemes cannot run (``baselines.sca`` missing or broken), or None if they can."""
+    try:
+        module = importlib.import_module("baselines.sca")
+    except ImportError as exc:
+        return f"baselines.sca cannot be imported ({exc}); the SCA schemes need it and cvxpy"
+    if not callable(getattr(module, "solve", None)):
+        return "baselines.sca has no solve(config, **kwargs) -> Plan yet"
+    return None
+
+
+def available(name: str) -> bool:
+    """Whether scheme ``name`` can run in this installation."""
+    return get_scheme(name).planner != "sca" or sca_unavailable_reason() is None
+
+
+def _planner(kind: str) -> Callable[..., Plan]:
+    if kind == "dp":
+        from baselines.dp import solve
+
+        return solve
+    if kind == "fixed":
+        from baselines.fixed import fly_hover_fly
+
+        return fly_hover_fly
+    reason = sca_unavailable_reason()
+    if reason is not None:
+        raise ImportError(reason)
+    return importlib.import_module("baselines.sca").solve
+
+
+def scheme_config(name: str, config: ScenarioConfig) -> ScenarioConfig:
+    """``config`` with the surface of scheme ``name`` (unchanged for ``"dp"``)."""
+    scheme = get_scheme(name)
+    if scheme.surface is None or scheme.surface == config.surface:
+        return config
+    return config.replace(surface=scheme.surface)
+
+
+def run_scheme(name: str, config: ScenarioConfig, **kwargs: Any) -> Plan:
+    """Run benchmark scheme ``name`` on ``config`` (its surface set by the scheme).
+
+    Parameters
+    ----------
+    name : str
+        One of :data:`SCHEMES` (``ia``, ``ra``, ``ia-ft``, ``cuc``, ``dp``, ``dp-ia``,
+        ``dp-ra``, ``dp-cuc``).
+    config : ScenarioConfig
+        The scenario; only its ``surface`` is overridden by the scheme.
+    **kwargs
+        Passed to the planner: ``resolution``, ``margin``, ``progress`` (DP), ``hover``
+        (ia-ft), whatever ``baselines.sca.solve`` takes (SCA).
+
+    Returns
+    -------
+    Plan
+        The planner's plan, with ``scheme`` set to ``name``.
+
+    Raises
+    ------
+    ValueError
+        Unknown scheme.
+    ImportError
+        An SCA scheme while ``baselines.sca`` (or cvxpy) is not available.
+    """
+    scheme = get_scheme(name)
+    plan = _planner(scheme.planner)(scheme_config(name, config), **kwargs)
+    return dataclasses.replace(plan, scheme=name)

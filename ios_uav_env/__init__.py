@@ -1,0 +1,74 @@
+"""ios_uav_env: Gymnasium environment and system model for IOS-aided UAV communications.
+
+The model follows Liu et al., "Full-Dimensional Rate Enhancement for UAV-Enabled
+Communications via Intelligent Omni-Surface", IEEE WCL 11(9), 2022; its contract is
+``shared/spec/model.md``. Importing the package registers the env ids (idempotently):
+
+>>> import gymnasium as gym
+>>> import ios_uav_env
+>>> env = gym.make("ios_uav_env/IOSUAV-v0")
+
+The system model (``config``, ``surface``, ``channel``, ``trajectory``) needs only numpy;
+the env needs Gymnasium; rendering imports matplotlib lazily.
+"""
+
+from ios_uav_env.channel import (
+    RateKernel,
+    channel,
+    direct_amplitude,
+    element_amplitudes,
+    faded_rates,
+    los_channel,
+    phase_shifts,
+    radiation_patterns,
+    rate_kernel,
+    side_factor,
+    slot_rates,
+    surface_amplitude,
+    surface_terms,
+    zeta,
+)
+from ios_uav_env.config import FEASIBILITY_TOL, SURFACES, ScenarioConfig
+from ios_uav_env.surface import element_positions, surface_nodes
+from ios_uav_env.trajectory import TrajectoryReport, average_rate, check_trajectory
+
+__version__ = "0.1.0"
+
+__all__ = [
+    "FEASIBILITY_TOL",
+    "SURFACES",
+    "RateKernel",
+    "ScenarioConfig",
+    "TrajectoryReport",
+    "average_rate",
+    "channel",
+    "check_trajectory",
+    "direct_amplitude",
+    "element_amplitudes",
+    "element_positions",
+    "faded_rates",
+    "los_channel",
+    "phase_shifts",
+    "radiation_patterns",
+    "rate_kernel",
+    "side_factor",
+    "slot_rates",
+    "surface_amplitude",
+    "surface_nodes",
+    "surface_terms",
+    "zeta",
+]
+
+try:  # the env needs Gymnasium; the model does not
+    import gymnasium as _gymnasium  # noqa: F401
+except ImportError:  # pragma: no cover - exercised in a subprocess test
+    _HAS_GYMNASIUM = False
+else:
+    _HAS_GYMNASIUM = True
+
+if _HAS_GYMNASIUM:
+    from ios_uav_env.env import IOSUAVEnv
+    from ios_uav_env.registration import ENV_IDS, register_envs
+
+    register_envs()
+    __all__ += ["ENV_IDS", "IOSUAVEnv", "register_envs"]

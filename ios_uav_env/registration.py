@@ -1,0 +1,58 @@
+"""Registration of the namespaced, versioned env ids (idempotent; called on import)."""
+
+from __future__ import annotations
+
+from typing import Any
+
+import gymnasium as gym
+from gymnasium.envs.registration import WrapperSpec
+
+from ios_uav_env.config import ScenarioConfig
+
+_DEFAULT_STEPS = ScenarioConfig().N - 1  # one step per move: N - 1 = 149 at the paper's T = 150 s
+
+#: id -> keyword arguments of ``IOSUAVEnv`` for that id.
+ENV_IDS: dict[str, dict[str, Any]] = {
+    "ios_uav_env/IOSUAV-v0": {"surface": "ios"},  # the paper's scenario (IA)
+    "ios_uav_env/RISUAV-v0": {"surface": "ris"},  # the IOS replaced by a reflect-only RIS (RA)
+    "ios_uav_env/UAV-v0": {"surface": "none"},  # no surface: direct link only (CUC)
+}
+
+
+class HorizonCheck(gym.Wrapper, gym.utils.RecordConstructorArgs):
+    """Refuses, at reset, a ``TimeLimit`` below it that would end the episode before slot N.
+
+    ``gym.make`` gives the env itself a spec without ``max_episode_steps`` (only the wrappers
+    know it), so the check runs here, outermost, where ``self.env.spec`` has the limit.
+    """
+
+    def __init__(self, env: gym.Env) -> None:
+        gym.utils.RecordConstructorArgs.__init__(self)
+        gym.Wrapper.__init__(self, env)
+
+    def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None) -> Any:
+        self.env.unwrapped.check_time_limit(self.env.spec)
+        return self.env.reset(seed=seed, options=options)
+
+
+_WRAPPERS = (WrapperSpec("HorizonCheck", f"{__name__}:HorizonCheck", {}),)
+
+
+def register_envs() -> None:
+    """Register every id of :data:`ENV_IDS` that is not registered yet.
+
+    ``max_episode_steps`` is N - 1 of the default horizon; the env itself ends every
+    episode after its own N - 1 steps, and refuses (at reset, through the
+    :class:`HorizonCheck` wrapper every id adds on top) a TimeLimit shorter than that, so a
+    longer ``T`` needs ``gym.make(..., T=300, max_episode_steps=299)``.
+    """
+    for env_id, kwargs in ENV_IDS.items():
+        if env_id in gym.registry:
+            continue
+        gym.register(
+            id=env_id,
+            entry_point="ios_uav_env.env:IOSUAVEnv",
+            max_episode_steps=_DEFAULT_STEPS,
+            kwargs=dict(kwargs),
+            additional_wrappers=_WRAPPERS,
+        )

@@ -1,0 +1,100 @@
+"""ScenarioConfig: the paper's defaults, derived values and validation."""
+
+import dataclasses
+import math
+import pickle
+
+import pytest
+
+from ios_uav_env import ScenarioConfig
+
+
+def test_defaults_are_the_papers():
+    c = ScenarioConfig()
+    assert (c.surface, c.T, c.dt, c.v_max) == ("ios", 150.0, 1.0, 25.0)
+    assert c.q0 == (-400.0, 20.0) and c.qF == (400.0, 20.0)
+    assert c.ground_node == (-100.0, -20.0) and c.ios_center == (0.0, 0.0, 40.0)
+    assert c.ios_shape == (100, 60) and c.uav_altitude == 100.0
+    assert (c.epsilon, c.kappa, c.alpha, c.power_w, c.noise_dbm, c.wavelength) == (
+        3.55,
+        3.0,
+        5.0,
+        0.1,
+        -80.0,
+        0.05,
+    )
+
+
+def test_derived_values():
+    c = ScenarioConfig()
+    assert c.N == 150 and c.D == 25.0 and c.M == 6000
+    assert math.isclose(c.eta, 1e10, rel_tol=1e-12)
+    assert math.isclose(c.noise_w, 1e-11, rel_tol=1e-12)
+    assert math.isclose(c.J, 0.05 * 0.025 / (4 * math.pi) ** 1.5, rel_tol=1e-12)
+    assert c.transmit_factor == 3.55
+    assert c.replace(surface="ris").transmit_factor == 0.0
+    derived = {"N", "D", "eta", "M"}
+    assert not derived & {f.name for f in dataclasses.fields(c)}, "derived values must not be fields"
+
+
+def test_frozen_hashable_picklable():
+    c = ScenarioConfig()
+    with pytest.raises(dataclasses.FrozenInstanceError):
+        c.T = 10.0  # type: ignore[misc]
+    assert hash(c) == hash(ScenarioConfig())
+    assert pickle.loads(pickle.dumps(c)) == c
+    assert ScenarioConfig(**c.to_dict()) == c
+
+
+def test_min_horizon_is_the_boundary():
+    c = ScenarioConfig()
+    assert c.min_horizon() == 33.0  # 800 m at 25 m per move: 32 moves, 33 slots
+    ScenarioConfig(T=33.0)
+    with pytest.raises(ValueError, match=r"T=32.0 s is too short.*T must be >= 33 s"):
+        ScenarioConfig(T=32.0)
+
+
+@pytest.mark.parametrize(
+    ("changes", "field"),
+    [
+        ({"surface": "star"}, "surface"),
+        ({"T": -1.0}, "T"),
+        ({"T": float("nan")}, "T"),
+        ({"dt": 0.0}, "dt"),
+        ({"v_max": 0.0}, "v_max"),
+        ({"T": 150.5}, "T"),
+        ({"ios_shape": (0, 60)}, "ios_shape"),
+        ({"ios_shape": (100, -1)}, "ios_shape"),
+        ({"ios_shape": (10.5, 6)}, "ios_shape"),
+        ({"q0": (1.0, float("nan"))}, "q0"),
+        ({"qF": (1.0, 2.0, 3.0)}, "qF"),
+        ({"ground_node": "here"}, "ground_node"),
+        ({"epsilon": -1.0}, "epsilon"),
+        ({"kappa": float("inf")}, "kappa"),
+        ({"wavelength": 0.0}, "wavelength"),
+        ({"uav_altitude": 40.0}, "uav_altitude"),
+        ({"ios_center": (0.0, 0.0, 0.5)}, "ios_center"),
+        ({"quadrature_nodes": -1}, "quadrature_nodes"),
+        ({"noise_dbm": float("nan")}, "noise_dbm"),
+    ],
+)
+def test_bad_values_name_the_field(changes, field):
+    with pytest.raises(ValueError, match=field):
+        ScenarioConfig(**changes)
+
+
+def test_unknown_field_fails_loudly():
+    with pytest.raises(TypeError, match="unknown ScenarioConfig field"):
+        ScenarioConfig().replace(speed=3)
+    with pytest.raises(TypeError):
+        ScenarioConfig(speed=3)  # type: ignore[call-arg]
+
+
+def test_numpy_scalars_are_accepted_and_normalised():
+    import numpy as np
+
+    c = ScenarioConfig(T=np.int64(100), v_max=np.float32(25.0), quadrature_nodes=np.int64(4))
+    assert c == ScenarioConfig(T=100.0, quadrature_nodes=4)
+    assert type(c.T) is float and type(c.quadrature_nodes) is int
+    with pytest.raises(ValueError, match="T"):
+        ScenarioConfig(T=True)

@@ -1,0 +1,52 @@
+"""The main job (``python -m ios_uav_env``) and the step-speed benchmark, run as the user runs them."""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from ios_uav_env import ScenarioConfig, average_rate
+from ios_uav_env.__main__ import HoverPolicy, straight_line
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+def run(args: list[str], cwd: Path) -> subprocess.CompletedProcess:
+    out = subprocess.run([sys.executable, *args], cwd=cwd, capture_output=True, text=True, timeout=120)
+    assert out.returncode == 0, out.stdout + out.stderr
+    return out
+
+
+def test_main_job_rolls_out_scores_and_draws(tmp_path):
+    pytest.importorskip("matplotlib")
+    out = run(["-m", "ios_uav_env", "--surface", "ris", "--seed", "3", "--out", "frames/demo.png"], tmp_path)
+    assert "ios_uav_env/RISUAV-v0" in out.stdout and "feasible: start error 0 m" in out.stdout
+    heuristic = float(out.stdout.split("average rate (eq. 9)")[1].split()[0])
+    line = average_rate(ScenarioConfig(surface="ris"), straight_line(ScenarioConfig(surface="ris")))
+    assert heuristic > line  # hovering at the best-rate point beats flying straight through
+    assert (tmp_path / "frames" / "demo.png").stat().st_size > 10_000
+    assert not (tmp_path / "docs").exists()  # the docs frame only on request
+
+
+def test_main_job_writes_the_docs_frame_on_request(tmp_path):
+    pytest.importorskip("matplotlib")
+    run(["-m", "ios_uav_env", "--out", "demo.png", "--docs-frame"], tmp_path)
+    docs = tmp_path / "docs" / "demo_frame.png"
+    assert 10_000 < docs.stat().st_size < 150_000
+
+
+def test_hover_policy_heads_for_its_target_within_one_move():
+    policy = HoverPolicy((100.0, 0.0), length_scale=400.0, D=25.0)
+    far = policy(np.array([-1.0, 0.0] + [0.0] * 9, dtype=np.float32))  # at x = -400 m
+    assert far.dtype == np.float32 and np.hypot(*far) == pytest.approx(1.0) and far[0] > 0.99
+    near = policy(np.array([90.0 / 400, 0.0] + [0.0] * 9, dtype=np.float32))
+    np.testing.assert_allclose(near, [0.4, 0.0], atol=1e-6)
+
+
+def test_step_speed_benchmark_runs(tmp_path):
+    out = run([str(ROOT / "benchmarks" / "step_speed.py"), "--steps", "300", "--repeats", "1"], tmp_path)
+    assert "CartPole-v1" in out.stdout and "raw ratio" in out.stdout

@@ -1,0 +1,113 @@
+"""The registered ids (ios_uav_env/registration.py): gym.make forms, overrides, time limits."""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+import warnings
+
+import gymnasium as gym
+import numpy as np
+import pytest
+from gymnasium.envs.registration import EnvSpec
+
+import ios_uav_env
+from ios_uav_env import ScenarioConfig
+from ios_uav_env.env import IOSUAVEnv
+
+IOS_ID = "ios_uav_env/IOSUAV-v0"
+
+
+def run_to_end(env: gym.Env) -> tuple[int, bool, bool, dict]:
+    env.reset(seed=0)
+    steps, terminated, truncated = 0, False, False
+    while not (terminated or truncated):
+        _, _, terminated, truncated, info = env.step(env.action_space.sample())
+        steps += 1
+    return steps, terminated, truncated, info
+
+
+def test_make_with_module_prefix_in_a_fresh_interpreter():
+    code = (
+        "import sys, gymnasium as gym\n"
+        "assert 'ios_uav_env' not in sys.modules\n"
+        "env = gym.make('ios_uav_env:ios_uav_env/IOSUAV-v0')\n"
+        "obs, info = env.reset(seed=0)\n"
+        "print(type(env.unwrapped).__name__, env.unwrapped.config.surface, obs.shape)\n"
+    )
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=60)
+    assert out.returncode == 0, out.stderr
+    assert out.stdout.split() == ["IOSUAVEnv", "ios", "(11,)"]
+
+
+@pytest.mark.parametrize("env_id", sorted(ios_uav_env.ENV_IDS))
+def test_each_id_has_its_surface_and_the_paper_horizon(env_id):
+    env = gym.make(env_id)
+    assert isinstance(env.unwrapped, IOSUAVEnv)
+    assert env.unwrapped.config == ScenarioConfig(surface=ios_uav_env.ENV_IDS[env_id]["surface"])
+    assert env.spec.max_episode_steps == ScenarioConfig().N - 1
+    steps, terminated, truncated, info = run_to_end(env)
+    assert steps == ScenarioConfig().N - 1 and terminated and info["feasible"]
+
+
+def test_register_envs_again_is_harmless():
+    before = {env_id: gym.spec(env_id) for env_id in ios_uav_env.ENV_IDS}
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        ios_uav_env.register_envs()
+        ios_uav_env.register_envs()
+    assert all(gym.spec(env_id) is spec for env_id, spec in before.items())
+    assert gym.make(IOS_ID).unwrapped.config == ScenarioConfig()
+
+
+def test_config_and_keyword_overrides_through_make():
+    env = gym.make("ios_uav_env/RISUAV-v0", config=ScenarioConfig(T=100.0), max_episode_steps=99)
+    assert env.unwrapped.config == ScenarioConfig(T=100.0, surface="ris")  # the id sets the surface
+    assert run_to_end(env)[:2] == (99, True)
+    env = gym.make(IOS_ID, T=60.0, v_max=20.0, channel="rician", max_episode_steps=59)
+    assert env.unwrapped.config == ScenarioConfig(T=60.0, v_max=20.0) and env.unwrapped.channel == "rician"
+    steps, terminated, _, info = run_to_end(env)
+    assert (steps, terminated) == (59, True) and "mean_faded_rate" in info
+    # a longer registered limit than needed is fine: the env ends the episode itself
+    env = gym.make(IOS_ID, config=ScenarioConfig(T=60.0))
+    assert run_to_end(env)[:3] == (59, True, False)
+
+
+def test_bad_override_names_the_field():
+    with pytest.raises(TypeError, match="v_maxx"):
+        gym.make(IOS_ID, v_maxx=30.0)
+    with pytest.raises(ValueError, match="channel"):
+        gym.make(IOS_ID, channel="awgn")
+
+
+@pytest.mark.parametrize("kwargs", [{"T": 300.0}, {"T": 60.0, "max_episode_steps": 58}])
+def test_too_short_time_limit_is_refused_at_reset(kwargs):
+    env = gym.make(IOS_ID, **kwargs)
+    moves = env.unwrapped.config.N - 1
+    with pytest.raises(ValueError, match=f"pass max_episode_steps={moves} to gym.make"):
+        env.reset(seed=0)
+    gym.make(IOS_ID, **{**kwargs, "max_episode_steps": moves}).reset(seed=0)
+
+
+def test_env_checks_its_own_spec_too():
+    env = IOSUAVEnv(T=60.0)
+    env.spec = EnvSpec(IOS_ID, entry_point="ios_uav_env.env:IOSUAVEnv", max_episode_steps=10)
+    with pytest.raises(ValueError, match="max_episode_steps=59"):
+        env.reset()
+
+
+def test_spec_round_trip_remakes_the_same_stack():
+    env = gym.make(IOS_ID, T=60.0, max_episode_steps=59)
+    again = gym.make(env.spec)
+    assert str(again) == str(env) and again.unwrapped.config == env.unwrapped.config
+
+
+def test_sb3_make_vec_env():
+    env_util = pytest.importorskip("stable_baselines3.common.env_util")
+    vec = env_util.make_vec_env(IOS_ID, n_envs=2, seed=0)
+    obs = vec.reset()
+    assert obs.shape == (2, 11)
+    for _ in range(3):
+        obs, rewards, dones, infos = vec.step(np.zeros((2, 2), dtype=np.float32))
+    assert rewards.shape == (2,) and not dones.any() and infos[0]["slot"] == 4
+    vec.close()
