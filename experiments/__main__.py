@@ -1,0 +1,84 @@
+"""``python -m experiments figures``: the paper's sweeps and figures under ``results/``.
+
+    python -m experiments figures [--quick] [--jobs N] [--out results] [--no-agents]
+
+Solves every point of :class:`experiments.sweep.SweepSpec` in parallel (a progress bar;
+finished points are cached under ``OUT/cache`` so an interrupted run resumes), then writes
+``OUT/sweep.csv`` (scheme, T, M, average rate, % of DP, feasible, seconds), the PNG panels
+and ``OUT/claims.md`` (the paper's qualitative claims checked with the numbers).
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+import time
+from collections.abc import Sequence
+from pathlib import Path
+
+import numpy as np
+
+from experiments.figures import check_claims, make_figures, write_claims
+from experiments.sweep import SweepSpec, run_sweep, with_pct_of_dp, write_csv
+
+QUICK = SweepSpec(Ts=(40.0, 60.0), Ms=(200, 400), M_schemes=400, dp_resolution=5.0)
+
+
+def agent_trajectories(spec: SweepSpec) -> dict[str, np.ndarray]:
+    """Deterministic trajectories of the shipped RL agents whose scenario is Fig. 1(a)'s."""
+    try:
+        from agents.evaluate import shipped_trajectories
+    except ImportError:
+        return {}
+    t = 150.0 if 150.0 in spec.Ts else max(spec.Ts)
+    config = spec.base.replace(
+        T=t, ios_shape=(spec.base.ios_shape[0], spec.M_schemes // spec.base.ios_shape[0])
+    )
+    return shipped_trajectories(config)
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(
+        prog="python -m experiments",
+        description=__doc__,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
+    sub = parser.add_subparsers(dest="command", required=True)
+    fig = sub.add_parser("figures", help="run the sweeps and write the CSV, the figures and claims.md")
+    fig.add_argument("--out", type=Path, default=Path("results"), help="output folder (default: results)")
+    fig.add_argument("--jobs", type=int, default=None, help="worker processes (default: all cores)")
+    fig.add_argument("--quick", action="store_true", help="a tiny sweep: T in {40, 60} s, M in {200, 400}")
+    fig.add_argument("--no-agents", action="store_true", help="do not draw the shipped RL agents")
+    fig.add_argument("--no-progress", action="store_true", help="no progress bar")
+    return parser
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    if args.jobs is not None and args.jobs < 1:
+        parser.error(f"argument --jobs: must be >= 1, got {args.jobs}")
+    spec = QUICK if args.quick else SweepSpec()
+    t0 = time.perf_counter()
+    records = with_pct_of_dp(
+        run_sweep(spec, args.out / "cache", jobs=args.jobs, progress=not args.no_progress)
+    )
+    csv = write_csv(records, args.out / "sweep.csv")
+    agents = {} if args.no_agents else agent_trajectories(spec)
+    figures = make_figures(records, spec, args.out, agents)
+    claims, ok = check_claims(records, spec)
+    write_claims(claims, args.out / "claims.md")
+    infeasible = [f"{r['scheme']} T={r['T']:g} M={r['M']}" for r in records if not r["feasible"]]
+    print(claims)
+    print(
+        f"{len(records)} points in {time.perf_counter() - t0:.1f} s; wrote {csv}, {args.out / 'claims.md'}, "
+        + ", ".join(str(p) for p in figures)
+    )
+    if infeasible:
+        print(f"INFEASIBLE plans: {infeasible}", file=sys.stderr)
+        return 1
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

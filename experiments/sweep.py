@@ -1,0 +1,183 @@
+"""The sweep behind the paper's figures: points, parallel solves, a resumable cache.
+
+A point is one (scheme, T, M) solve on the default scenario with T and M replaced
+(M = 100 x M_z, as in the paper's sweeps). Every point is solved by the planners of
+``baselines`` (SCA for ia / ra / cuc, fly-hover-fly for ia-ft, DP for dp-*), scored by
+``ios_uav_env.average_rate`` and cached as one JSON file per point, written atomically as
+soon as it finishes: an interrupted run resumes where it stopped. The cache key includes
+the base scenario and the planner settings, so changing them re-solves.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import multiprocessing
+import os
+from collections.abc import Iterable, Sequence
+from concurrent.futures import ProcessPoolExecutor, as_completed
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+from ios_uav_env import ScenarioConfig
+from ios_uav_env.io import atomic_write_text
+
+#: The DP scheme that gives the optimum of each scheme's surface (for "% of DP").
+DP_OF = {
+    "ia": "dp-ia",
+    "ia-ft": "dp-ia",
+    "ra": "dp-ra",
+    "cuc": "dp-cuc",
+    "dp-ia": "dp-ia",
+    "dp-ra": "dp-ra",
+    "dp-cuc": "dp-cuc",
+}
+PAPER_SCHEMES = ("ia", "ra", "ia-ft", "cuc")
+CSV_COLUMNS = ("scheme", "T", "M", "average_rate", "pct_of_dp", "feasible", "seconds")
+
+
+@dataclass(frozen=True)
+class Point:
+    """One solve of the sweep."""
+
+    scheme: str  # a name of baselines.schemes.SCHEMES
+    T: float  # s
+    M: int  # elements, M = 100 x M_z
+
+    def config(self, base: ScenarioConfig) -> ScenarioConfig:
+        if self.M % base.ios_shape[0]:
+            raise ValueError(f"M must be a multiple of M_y = {base.ios_shape[0]}, got {self.M}")
+        return base.replace(T=float(self.T), ios_shape=(base.ios_shape[0], self.M // base.ios_shape[0]))
+
+    @property
+    def name(self) -> str:
+        return f"{self.scheme}_T{self.T:g}_M{self.M}"
+
+
+@dataclass(frozen=True)
+class SweepSpec:
+    """What to solve: the T grid, the M values and the planner settings."""
+
+    # s, the paper's T axis (40 to 200 s), with T = 150 s of the trajectory panels
+    Ts: tuple[float, ...] = tuple(sorted({*(float(t) for t in range(40, 201, 20)), 150.0}))
+    Ms: tuple[int, ...] = (2000, 4000, 6000)  # the paper's Fig. 2 element counts
+    M_schemes: int = 6000  # M of Fig. 1 (all schemes)
+    dp_resolution: float = 2.5  # m, DP grid
+    base: ScenarioConfig = ScenarioConfig()
+
+    def points(self) -> list[Point]:
+        """Fig. 1: every scheme and DP at M_schemes; Fig. 2: IA and DP-IA at every M."""
+        pts: list[Point] = []
+        for T in self.Ts:
+            for scheme in (*PAPER_SCHEMES, "dp-ia", "dp-ra", "dp-cuc"):
+                pts.append(Point(scheme, T, self.M_schemes))
+            for M in self.Ms:
+                if M != self.M_schemes:
+                    pts += [Point("ia", T, M), Point("dp-ia", T, M)]
+        return pts
+
+    def planner_kwargs(self, scheme: str) -> dict[str, Any]:
+        return {"resolution": self.dp_resolution} if scheme.startswith("dp") else {}
+
+    def cache_key(self, point: Point) -> str:
+        blob = json.dumps(
+            [point.name, self.base.to_dict(), self.planner_kwargs(point.scheme)], sort_keys=True
+        )
+        return f"{point.name}_{hashlib.sha1(blob.encode()).hexdigest()[:10]}"
+
+
+def solve_point(point: Point, spec: SweepSpec) -> dict[str, Any]:
+    """Solve one point (in a worker process) and return its record."""
+    import warnings
+
+    from baselines.schemes import run_scheme
+
+    with warnings.catch_warnings():  # an SCA start that stopped early is recorded in "status" instead
+        warnings.simplefilter("ignore", RuntimeWarning)
+        plan = run_scheme(point.scheme, point.config(spec.base), **spec.planner_kwargs(point.scheme))
+    return {
+        "status": plan.info.get("status", "ok"),
+        "scheme": point.scheme,
+        "T": point.T,
+        "M": point.M,
+        "average_rate": plan.mean_rate,
+        "feasible": plan.feasible,
+        "worst_violation": plan.report.worst_violation,
+        "seconds": plan.seconds,
+        "trajectory": plan.trajectory.tolist(),
+    }
+
+
+def _init_worker() -> None:
+    os.environ.setdefault("OMP_NUM_THREADS", "1")
+
+
+def run_sweep(
+    spec: SweepSpec,
+    cache_dir: str | Path,
+    *,
+    jobs: int | None = None,
+    progress: bool = True,
+    points: Iterable[Point] | None = None,
+) -> list[dict[str, Any]]:
+    """Solve every point not yet in ``cache_dir`` (in parallel over ``jobs`` processes) and
+    return all records, cached ones included, in the order of ``spec.points()``."""
+    cache_dir = Path(cache_dir)
+    cache_dir.mkdir(parents=True, exist_ok=True)
+    todo = list(spec.points() if points is None else points)
+    records: dict[Point, dict[str, Any]] = {}
+    missing = []
+    for p in todo:
+        path = cache_dir / f"{spec.cache_key(p)}.json"
+        if path.exists():
+            records[p] = json.loads(path.read_text())
+        else:
+            missing.append(p)
+    jobs = max(1, min(jobs or os.cpu_count() or 1, len(missing) or 1))
+    if missing:
+        from tqdm.auto import tqdm
+
+        bar = tqdm(
+            total=len(todo),
+            initial=len(todo) - len(missing),
+            desc="sweep",
+            unit="solve",
+            disable=not progress,
+        )
+        ctx = multiprocessing.get_context("spawn")  # fresh workers: no inherited BLAS threads
+        os.environ.setdefault("OMP_NUM_THREADS", "1")
+        # slowest first (SCA on the IOS at large T) so the pool ends evenly
+        missing.sort(key=lambda p: (p.scheme != "ia", p.scheme.startswith("dp"), -p.T, -p.M))
+        with ProcessPoolExecutor(max_workers=jobs, mp_context=ctx, initializer=_init_worker) as pool:
+            futures = {pool.submit(solve_point, p, spec): p for p in missing}
+            for future in as_completed(futures):
+                p = futures[future]
+                record = future.result()
+                atomic_write_text(cache_dir / f"{spec.cache_key(p)}.json", json.dumps(record))
+                records[p] = record
+                bar.set_postfix_str(f"{p.name}: {record['average_rate']:.4f}")
+                bar.update()
+        bar.close()
+    return [records[p] for p in todo]
+
+
+def with_pct_of_dp(records: Sequence[dict[str, Any]]) -> list[dict[str, Any]]:
+    """Add ``pct_of_dp``: each rate as % of the DP optimum of its surface at the same (T, M)."""
+    dp = {(r["scheme"], r["T"], r["M"]): r["average_rate"] for r in records if r["scheme"].startswith("dp")}
+    out = []
+    for r in records:
+        ref = dp.get((DP_OF.get(r["scheme"], ""), r["T"], r["M"]))
+        out.append({**r, "pct_of_dp": 100.0 * r["average_rate"] / ref if ref else float("nan")})
+    return out
+
+
+def write_csv(records: Sequence[dict[str, Any]], path: str | Path) -> Path:
+    """One row per point: scheme, T, M, average rate, % of DP, feasible, seconds."""
+    lines = [",".join(CSV_COLUMNS)]
+    for r in records:
+        lines.append(
+            f"{r['scheme']},{r['T']:g},{r['M']},{r['average_rate']:.8f},{r['pct_of_dp']:.4f},"
+            f"{int(bool(r['feasible']))},{r['seconds']:.3f}"
+        )
+    return atomic_write_text(path, "\n".join(lines) + "\n")
