@@ -7,6 +7,7 @@ Communications via Intelligent Omni-Surface", IEEE WCL 11(9), 2022; its contract
 >>> import gymnasium as gym
 >>> import ios_uav_env
 >>> env = gym.make("ios_uav_env/IOSUAV-v0")
+>>> generalist_env = gym.make("ios_uav_env/IOSUAV-Random-v0")  # a new scenario at every reset
 
 The system model (``config``, ``surface``, ``channel``, ``trajectory``) needs only numpy;
 the env needs Gymnasium; rendering imports matplotlib lazily.
@@ -68,7 +69,17 @@ else:
 
 if _HAS_GYMNASIUM:
     from ios_uav_env.env import IOSUAVEnv
-    from ios_uav_env.registration import ENV_IDS, register_envs
+    from ios_uav_env.random_env import DEFAULT_RANGES, RandomIOSUAVEnv, ScenarioRanges, sample_scenario
+    from ios_uav_env.registration import ENV_IDS, RANDOM_ENV_ID, register_envs
 
     register_envs()
-    __all__ += ["ENV_IDS", "IOSUAVEnv", "register_envs"]
+    __all__ += [
+        "DEFAULT_RANGES",
+        "ENV_IDS",
+        "IOSUAVEnv",
+        "RANDOM_ENV_ID",
+        "RandomIOSUAVEnv",
+        "ScenarioRanges",
+        "register_envs",
+        "sample_scenario",
+    ]

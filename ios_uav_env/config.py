@@ -11,6 +11,7 @@ from __future__ import annotations
 import dataclasses
 import math
 import numbers
+from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import Any, Literal
 
@@ -190,3 +191,26 @@ class ScenarioConfig:
     def to_dict(self) -> dict[str, Any]:
         """Plain-JSON dictionary of the fields (round-trips through ``ScenarioConfig(**d)``)."""
         return {k: list(v) if isinstance(v, tuple) else v for k, v in dataclasses.asdict(self).items()}
+
+
+def as_config(value: Any, name: str = "config") -> ScenarioConfig:
+    """``value`` as a ``ScenarioConfig``: itself, the fields of a dict, or the defaults for None."""
+    if value is None:
+        return ScenarioConfig()
+    if isinstance(value, ScenarioConfig):
+        return value
+    if isinstance(value, Mapping):
+        return ScenarioConfig(**value)
+    raise TypeError(f"{name} must be a ScenarioConfig, a dict of its fields or None, got {value!r}")
+
+
+def scenario_option(options: Mapping[str, Any] | None) -> ScenarioConfig | None:
+    """The scenario pinned by ``reset(options=...)``: ``options["config"]`` (a ``ScenarioConfig``
+    or a dict of its fields) or None; any other key raises ``ValueError``."""
+    if not isinstance(options, (Mapping, type(None))) or set(options or ()) - {"config"}:
+        raise ValueError(
+            'reset accepts only options={"config": ScenarioConfig(...)} (the episode\'s scenario) or '
+            f"None, got options={options!r}"
+        )
+    config = (options or {}).get("config")
+    return None if config is None else as_config(config, 'options["config"]')

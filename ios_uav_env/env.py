@@ -17,32 +17,24 @@ import numpy as np
 from gymnasium import spaces
 
 from ios_uav_env.channel import RateKernel, rate_kernel, slot_rates
-from ios_uav_env.config import FEASIBILITY_TOL, ScenarioConfig
+from ios_uav_env.config import FEASIBILITY_TOL, ScenarioConfig, as_config, scenario_option
 from ios_uav_env.guard import guarded_position
+from ios_uav_env.observation import (
+    INSTANCE_NAMES,
+    OBS_NAMES,
+    T_SCALE,
+    check_fits,
+    instance_values,
+    observation_bounds,
+    rate_upper_bound,
+)
 from ios_uav_env.trajectory import average_rate, check_trajectory
 
 #: Values of the ``channel`` argument: the expected-gain rate (the paper's objective) or a
 #: Rician faded-rate sample per slot.
 CHANNELS: tuple[str, ...] = ("expected", "rician")
 
-#: Names of the observation components, in order (see the class docstring for the units).
-OBS_NAMES: tuple[str, ...] = (
-    "x", "y", "dx_final", "dy_final", "dx_ground", "dy_ground", "dx_ios", "dy_ios",
-    "time_left", "slack", "rate",
-)  # fmt: skip
-
-
-def rate_upper_bound(kernel: RateKernel) -> float:
-    """An upper bound of the expected-gain rate anywhere at the UAV altitude (bps/Hz).
-
-    Uses d_UG >= z_U and, per node, |dx|^3 / (dx^2 + h^2)^2 <= 3 sqrt(3) / (16 h) with h the
-    smallest vertical UAV-node gap; it bounds the observation's ``rate`` component.
-    """
-    zeta = kernel.k_direct * kernel.z_u2**kernel.d_exp
-    if kernel.has_surface:
-        h = math.sqrt(float(np.min(kernel.dz2)))
-        zeta += max(1.0, kernel.t_factor) * float(np.abs(kernel.jw).sum()) * 3.0 * math.sqrt(3.0) / (16 * h)
-    return math.log2(1.0 + kernel.eta * zeta * zeta)
+__all__ = ["CHANNELS", "INSTANCE_NAMES", "OBS_NAMES", "IOSUAVEnv", "rate_upper_bound", "scenario_option"]
 
 
 class IOSUAVEnv(gym.Env):
@@ -103,6 +95,11 @@ class IOSUAVEnv(gym.Env):
     function of the position (it adds no state) given to ease learning; r_ub is
     :func:`rate_upper_bound`. Together they make the problem Markov.
 
+    With ``instance_features=True`` (the randomised id's default) 6 features that define the
+    instance follow (names in ``INSTANCE_NAMES``): M / 6000 (0 without a surface), is-IOS and
+    is-RIS flags, t / (1 + t) with t the transmissive factor (epsilon or 0), T / 200 s and the
+    seconds left / 200 s: shape (17,). See ``ios_uav_env.random_env``.
+
     ## Rewards
 
     Step n moves the UAV to q' = q[n+1] with m = moves_left after the move:
@@ -123,7 +120,12 @@ class IOSUAVEnv(gym.Env):
     ## Starting State
 
     The UAV at ``q0``, slot 1 (deterministic; with channel "rician" the first slot's faded
-    rate is drawn at reset from ``np_random``).
+    rate is drawn at reset from ``np_random``). ``reset(options={"config": cfg})`` (the only
+    option; ``cfg`` a ``ScenarioConfig`` or a dict of its fields) runs that episode on ``cfg``,
+    surface included (``env.unwrapped.config`` is the episode's scenario); the next reset
+    without it returns to the env's own. A ``cfg`` that could take the observation out of the
+    space (derived from the construction config: e.g. a longer T, a farther G) is refused
+    with ``ValueError``; make the env on it instead (``gym.make(id, config=cfg, ...)``).
 
     ## Episode End
 
@@ -151,6 +153,7 @@ class IOSUAVEnv(gym.Env):
       defaults a final miss of e moves costs 3 e + 2 sqrt(e), more than the rate it can win
       (the rate map's steepest slope is 1.5 bps/Hz per move at M = 6000).
     - ``length_scale`` (400.0 m): L of the observation.
+    - ``instance_features`` (False): append the 6 instance features to the observation.
     - ``render_mode``: None or "rgb_array" (the trajectory over the rate map; needs
       ``pip install ios-uav-env[render]``).
     - ``**overrides``: ``ScenarioConfig`` fields applied with ``config.replace``; the ids set
@@ -168,7 +171,8 @@ class IOSUAVEnv(gym.Env):
 
     ## Version History
 
-    * v0: Initial version.
+    * v0: Initial version; later, without changing v0's observations: ``reset(options=
+      {"config": cfg})`` and ``instance_features`` (issue #6).
     """
 
     metadata = {"render_modes": ["rgb_array"], "render_fps": 10}
@@ -182,16 +186,12 @@ class IOSUAVEnv(gym.Env):
         reach_weight: float = 1.0,
         terminal_weight: float = 2.0,
         length_scale: float = 400.0,
+        instance_features: bool = False,
         render_mode: str | None = None,
         **overrides: Any,
     ) -> None:
-        if config is None:
-            config = ScenarioConfig()
-        elif isinstance(config, Mapping):
-            config = ScenarioConfig(**config)
-        elif not isinstance(config, ScenarioConfig):
-            raise TypeError(f"config must be a ScenarioConfig, a dict of its fields or None, got {config!r}")
-        self.config: ScenarioConfig = config.replace(**overrides) if overrides else config
+        config = as_config(config)
+        self._base_config: ScenarioConfig = config.replace(**overrides) if overrides else config
         if channel not in CHANNELS:
             raise ValueError(f"channel must be one of {CHANNELS}, got {channel!r}")
         if not isinstance(arrival_guard, (bool, np.bool_)):
@@ -201,6 +201,8 @@ class IOSUAVEnv(gym.Env):
                 raise ValueError(f"{name} must be a finite number >= 0, got {value!r}")
         if not (isinstance(length_scale, (int, float)) and math.isfinite(length_scale) and length_scale > 0):
             raise ValueError(f"length_scale must be a finite number > 0 (m), got {length_scale!r}")
+        if not isinstance(instance_features, (bool, np.bool_)):
+            raise ValueError(f"instance_features must be True or False, got {instance_features!r}")
         if render_mode is not None and render_mode not in self.metadata["render_modes"]:
             raise ValueError(
                 f"render_mode must be None or one of {self.metadata['render_modes']}, got {render_mode!r}"
@@ -210,65 +212,85 @@ class IOSUAVEnv(gym.Env):
         self.reach_weight, self.terminal_weight = float(reach_weight), float(terminal_weight)
         self.length_scale = float(length_scale)
         self.render_mode = render_mode
-        self.kernel: RateKernel = rate_kernel(self.config)
-
-        cfg = self.config
-        self._moves = cfg.N - 1
-        self._D = cfg.D
-        self._qf = cfg.qF
-        self._points = (cfg.qF, cfg.ground_node, cfg.ios_center[:2])
+        self.instance_features = bool(instance_features)
         self._inv_l = 1.0 / self.length_scale
-        self._scaled = tuple(c * self._inv_l for p in self._points for c in p)  # the points / L
-        self._inv_moves = 1.0 / self._moves
         self._rician = channel == "rician"
+        self._renderer: Any = None
+        self.config: ScenarioConfig | None = None  # the current episode's scenario
+        self.kernel: RateKernel  # the rate kernel of self.config
+        self._set_config(self._base_config)
         self.action_space = spaces.Box(-1.0, 1.0, (2,), np.float32)
-        self.observation_space = spaces.Box(*self._obs_bounds(), dtype=np.float32)
+        self.observation_space = spaces.Box(*self._space_bounds(), dtype=np.float32)
 
         self._n: int | None = None  # moves made; None before the first reset
-        self._x, self._y = cfg.q0
+        self._x, self._y = self.config.q0
         self._xs: list[float] = []  # way-points so far (x, then y)
         self._ys: list[float] = []
         self._faded: list[float] = []
-        self._renderer: Any = None
 
-    # --- spaces -------------------------------------------------------------------
-    def _obs_bounds(self) -> tuple[np.ndarray, np.ndarray]:
-        reach = self._moves * self._D  # no position is farther than this from q0
-        q0 = self.config.q0
-        bound = [abs(c) + reach for c in q0]
-        for p in self._points:
-            bound += [abs(p[i] - q0[i]) + reach for i in range(2)]
-        high = [b * self._inv_l * (1 + 1e-6) + 1e-6 for b in bound]
-        high += [1.0, 1.0, rate_upper_bound(self.kernel) * (1 + 1e-6) + 1e-6]
-        low = [-h for h in high[:8]] + [0.0, -1.0, 0.0]
-        return np.array(low, dtype=np.float32), np.array(high, dtype=np.float32)
+    # --- scenario and spaces --------------------------------------------------------------
+    def _set_config(self, cfg: ScenarioConfig) -> None:
+        """Make ``cfg`` the current scenario: its rate kernel and the observation's constants."""
+        if cfg is self.config:
+            return
+        self.config = cfg
+        self.kernel = rate_kernel(cfg)
+        self._moves = cfg.N - 1
+        self._D = cfg.D
+        self._qf = cfg.qF
+        points = (cfg.qF, cfg.ground_node, cfg.ios_center[:2])
+        self._scaled = tuple(c * self._inv_l for p in points for c in p)  # the points / L
+        self._inv_moves = 1.0 / self._moves
+        self._instance = instance_values(cfg) if self.instance_features else ()
+        self._left_scale = cfg.dt / T_SCALE  # seconds left / T_SCALE per move left
+        self.close()  # the renderer's rate map is the previous scenario's
+
+    def _space_bounds(self) -> tuple[np.ndarray, np.ndarray]:
+        """(low, high) of the observation space: those of the construction config."""
+        rate_high = rate_upper_bound(self.kernel)
+        return observation_bounds(self._base_config, self.length_scale, self.instance_features, rate_high)
+
+    def _episode_config(self, pinned: ScenarioConfig | None) -> ScenarioConfig:  # at reset
+        return self._base_config if pinned is None else pinned
+
+    def _horizon_moves(self, pinned: ScenarioConfig | None) -> int:  # an episode's most steps
+        return (self._base_config if pinned is None else pinned).N - 1
 
     def _observe(self, x: float, y: float, left: int, dist: float, rate: float) -> np.ndarray:
         x, y = x * self._inv_l, y * self._inv_l
         fx, fy, gx, gy, cx, cy = self._scaled
         s = left - dist / self._D
         relative = (fx - x, fy - y, gx - x, gy - y, cx - x, cy - y)
+        if self.instance_features:
+            return np.array((x, y, *relative, left * self._inv_moves, s / (1.0 + abs(s)), rate,
+                             *self._instance, left * self._left_scale), dtype=np.float32)  # fmt: skip
         return np.array((x, y, *relative, left * self._inv_moves, s / (1.0 + abs(s)), rate), dtype=np.float32)
 
     # --- API ----------------------------------------------------------------------
-    def check_time_limit(self, spec: Any) -> None:
-        """Raise ``ValueError`` if ``spec.max_episode_steps`` would cut the episode before slot N."""
+    def check_time_limit(self, spec: Any, config: ScenarioConfig | None = None) -> None:
+        """Raise ``ValueError`` if ``spec.max_episode_steps`` would cut an episode (on ``config``
+        if given, the one pinned at reset) before slot N."""
         limit = getattr(spec, "max_episode_steps", None)
-        if limit is not None and limit < self._moves:
+        moves = self._horizon_moves(config)
+        if limit is not None and limit < moves:
+            what = "" if config is None else f" (options config: T={config.T:g} s, dt={config.dt:g} s)"
             raise ValueError(
                 f"max_episode_steps={limit} would truncate the episode before it reaches slot N: this "
-                f"scenario (T={self.config.T:g} s, dt={self.config.dt:g} s) has N - 1 = {self._moves} steps; "
-                f"pass max_episode_steps={self._moves} to gym.make"
+                f"env's episodes{what} last up to N - 1 = {moves} steps; "
+                f"pass max_episode_steps={moves} to gym.make"
             )
 
     def reset(
         self, *, seed: int | None = None, options: dict[str, Any] | None = None
     ) -> tuple[np.ndarray, dict[str, Any]]:
         super().reset(seed=seed)
-        if options:
-            raise ValueError(f"options are not supported by IOSUAVEnv.reset, got keys {sorted(options)}")
-        self.check_time_limit(self.spec)
-        x, y = self.config.q0
+        pinned = scenario_option(options)
+        self.check_time_limit(self.spec, pinned)
+        cfg = self._episode_config(pinned)
+        if cfg is not self._base_config and cfg != self.config:  # may it leave the space?
+            check_fits(cfg, self.length_scale, self.instance_features, self.observation_space)
+        self._set_config(cfg)
+        x, y = cfg.q0
         self._n, self._x, self._y = 0, x, y
         self._xs, self._ys = [x], [y]
         expected = self.kernel.rate(x, y)
@@ -277,13 +299,8 @@ class IOSUAVEnv(gym.Env):
             rate = self.kernel.faded_rate(x, y, self.np_random)
             self._faded = [rate]
         dist = math.hypot(self._qf[0] - x, self._qf[1] - y)
-        info = {
-            "rate": rate,
-            "expected_rate": expected,
-            "position": (x, y),
-            "distance_to_final": dist,
-            "slot": 1,
-        }
+        info = {"rate": rate, "expected_rate": expected, "position": (x, y),
+                "distance_to_final": dist, "slot": 1}  # fmt: skip
         return self._observe(x, y, self._moves, dist, expected), info
 
     def step(self, action: Any) -> tuple[np.ndarray, float, bool, bool, dict[str, Any]]:
