@@ -120,6 +120,16 @@ class ScenarioRanges:
         """``ios_shape`` (M_y, M_z) for ``rows`` rows."""
         return (self.ios_columns, int(rows))
 
+    def contains(self, other: ScenarioRanges) -> bool:
+        """Whether every scenario of ``other`` is a scenario of these ranges."""
+        intervals = ("ground_x", "ground_y", "T", "ios_rows", "start_x", "start_y", "end_x", "end_y")
+        inside = all(
+            getattr(self, n)[0] <= getattr(other, n)[0] and getattr(other, n)[1] <= getattr(self, n)[1]
+            for n in intervals
+        )
+        same = other.ios_columns == self.ios_columns and other.base == self.base
+        return inside and same and set(other.surfaces) <= set(self.surfaces)
+
     def to_dict(self) -> dict[str, Any]:
         """Plain-JSON dictionary (round-trips through :meth:`from_dict`)."""
         out: dict[str, Any] = {}
@@ -137,6 +147,14 @@ class ScenarioRanges:
         if "base" in data:
             data["base"] = as_config(data["base"], "base")
         return cls(**{k: tuple(v) if isinstance(v, list) else v for k, v in data.items()})
+
+
+def _as_ranges(value: Any, name: str) -> ScenarioRanges:
+    if isinstance(value, ScenarioRanges):
+        return value
+    if isinstance(value, Mapping):
+        return ScenarioRanges.from_dict(value)
+    raise TypeError(f"{name} must be a ScenarioRanges, a dict of its fields or None, got {value!r}")
 
 
 #: The ranges of issue #6 (and of ``ios_uav_env/IOSUAV-Random-v0``).
@@ -250,6 +268,11 @@ class RandomIOSUAVEnv(IOSUAVEnv):
 
     - ``ranges``: a :class:`ScenarioRanges` or a dict of its fields (default: the above).
     - ``config``: None (draw at every reset) or a scenario that every episode runs on.
+    - ``focus`` (None) and ``focus_prob`` (0): narrower ranges inside ``ranges`` (a dict of
+      the fields that differ, e.g. ``{"ground_x": (-150, 150), "ground_y": (-60, 60)}``),
+      drawn instead with probability ``focus_prob``: a training distribution that visits
+      more often the scenarios where the surface changes the best plan. The observation
+      space stays that of ``ranges``; with ``focus_prob = 0`` the draws are unchanged.
     - ``instance_features`` (True), ``channel``, ``arrival_guard``, ``reach_weight``,
       ``terminal_weight``, ``length_scale``, ``render_mode``: as ``IOSUAVEnv``.
     - ``**overrides``: ``ScenarioConfig`` fields that the ranges do not draw (e.g.
@@ -282,14 +305,11 @@ class RandomIOSUAVEnv(IOSUAVEnv):
         *,
         config: ScenarioConfig | Mapping[str, Any] | None = None,
         instance_features: bool = True,
+        focus: ScenarioRanges | Mapping[str, Any] | None = None,
+        focus_prob: float = 0.0,
         **kwargs: Any,
     ) -> None:
-        if ranges is None:
-            ranges = DEFAULT_RANGES
-        elif isinstance(ranges, Mapping):
-            ranges = ScenarioRanges.from_dict(ranges)
-        elif not isinstance(ranges, ScenarioRanges):
-            raise TypeError(f"ranges must be a ScenarioRanges, a dict of its fields or None, got {ranges!r}")
+        ranges = _as_ranges(DEFAULT_RANGES if ranges is None else ranges, "ranges")
         env_args = {
             "channel",
             "arrival_guard",
@@ -308,6 +328,17 @@ class RandomIOSUAVEnv(IOSUAVEnv):
         if overrides:
             ranges = dataclasses.replace(ranges, base=ranges.base.replace(**overrides))
         self.ranges: ScenarioRanges = ranges
+        if not (isinstance(focus_prob, (int, float)) and 0.0 <= focus_prob <= 1.0):
+            raise ValueError(f"focus_prob must be a probability in [0, 1], got {focus_prob!r}")
+        self.focus: ScenarioRanges | None = None
+        if focus is not None:
+            # narrower ranges (filled in from ``ranges``), drawn with probability focus_prob:
+            # a training distribution that visits the scenarios where the decision matters
+            fields = focus if isinstance(focus, Mapping) else focus.to_dict()
+            self.focus = _as_ranges({**ranges.to_dict(), **dict(fields)}, "focus")
+            if not ranges.contains(self.focus):
+                raise ValueError(f"focus must lie inside ranges, got {dict(fields)!r}")
+        self.focus_prob = float(focus_prob) if self.focus is not None else 0.0
         self.pinned: ScenarioConfig | None = None if config is None else as_config(config)
         super().__init__(self.pinned or ranges.base, instance_features=instance_features, **kwargs)
         if self.pinned is not None:
@@ -334,7 +365,11 @@ class RandomIOSUAVEnv(IOSUAVEnv):
     def _episode_config(self, pinned: ScenarioConfig | None) -> ScenarioConfig:
         if pinned is not None:
             return pinned
-        return self.pinned if self.pinned is not None else sample_scenario(self.np_random, self.ranges)
+        if self.pinned is not None:
+            return self.pinned
+        if self.focus_prob > 0.0 and self.np_random.random() < self.focus_prob:
+            return sample_scenario(self.np_random, self.focus)
+        return sample_scenario(self.np_random, self.ranges)
 
     def _horizon_moves(self, pinned: ScenarioConfig | None) -> int:
         pinned = pinned if pinned is not None else self.pinned

@@ -340,3 +340,44 @@ def test_sb3_vec_env_auto_resets_across_horizons():
         assert all(vec.observation_space.contains(o) for o in obs)
     assert ends >= 4
     vec.close()
+
+
+FOCUS = {"ground_x": (-150.0, 150.0), "ground_y": (-60.0, 60.0)}
+
+
+def test_focus_mixes_in_narrower_ranges_at_the_given_rate():
+    env = RandomIOSUAVEnv(focus=FOCUS, focus_prob=1.0)
+    for seed in range(50):
+        env.reset(seed=seed)
+        x, y = env.unwrapped.config.ground_node
+        assert abs(x) <= 150 and abs(y) <= 60
+    half = RandomIOSUAVEnv(focus=FOCUS, focus_prob=0.5)
+    inside = []
+    for seed in range(400):
+        half.reset(seed=seed)
+        x, y = half.config.ground_node
+        inside.append(abs(x) <= 150 and abs(y) <= 60)
+    # P(inside) = 0.5 + 0.5 * (300/500) * (120/300) = 0.62; 400 draws: sd 0.024
+    assert 0.53 < np.mean(inside) < 0.71
+    assert half.observation_space == RandomIOSUAVEnv().observation_space
+
+
+def test_focus_prob_zero_leaves_the_draws_unchanged():
+    plain, focused = RandomIOSUAVEnv(), RandomIOSUAVEnv(focus=FOCUS, focus_prob=0.0)
+    for seed in range(5):
+        plain.reset(seed=seed)
+        focused.reset(seed=seed)
+        assert plain.config == focused.config
+
+
+@pytest.mark.parametrize(
+    ("kwargs", "match"),
+    [
+        ({"focus": {"ground_x": (-300.0, 0.0)}, "focus_prob": 0.5}, "focus must lie inside ranges"),
+        ({"focus": FOCUS, "focus_prob": 1.5}, "focus_prob"),
+        ({"focus": {"surfaces": ("none",)}, "focus_prob": 0.5}, "focus must lie inside ranges"),
+    ],
+)
+def test_bad_focus_is_refused(kwargs, match):
+    with pytest.raises(ValueError, match=match):
+        RandomIOSUAVEnv(**kwargs)
