@@ -1,5 +1,5 @@
 # Two entry points on a fresh machine (see README):
-#   make demo   - create .venv, install everything, run the main job
+#   make demo   - create .venv, install everything, run the main job (planners vs shipped agents)
 #   make test   - create .venv, install everything, lint and run the test suite
 PYTHON ?= python3.11
 VENV ?= .venv
@@ -19,7 +19,8 @@ $(VENV)/.installed: pyproject.toml Makefile
 	touch $@
 
 demo: $(VENV)/.installed
-	$(PY) -m ios_uav_env
+	$(PY) -m ios_uav_env --out out/demo.png
+	$(PY) -m agents.evaluate --shipped --out out/compare
 
 test: $(VENV)/.installed
 	$(VENV)/bin/ruff check .

@@ -1,0 +1,206 @@
+"""Evaluate trained agents against the planners on one scenario: table (markdown + CSV) and figure.
+
+Each agent is rolled out deterministically (``agents.rollout``); its trajectory
+(``env.unwrapped.trajectory``) is checked with ``check_trajectory`` and scored with
+``average_rate``, exactly like the planners' plans (SCA "ia", DP, "ia-ft", "cuc") on the same
+``ScenarioConfig``. Under the Rician channel every trajectory, agent's or planner's, is replayed
+through the env with ``channel="rician"`` for seeds 0..K-1 (the same seed gives every scheme
+the same fading draws) and the mean and standard deviation of its faded average rate reported.
+
+    python -m agents.evaluate --shipped                     # shipped agents vs planners (make demo)
+    python -m agents.evaluate runs/<run> agents/models/ppo_IOSUAV-v0 --scenario T:100
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+import time
+from collections.abc import Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from agents.rollout import Agent, load_agent, make_env, rollout
+from ios_uav_env import ScenarioConfig
+
+MODELS_DIR = Path(__file__).resolve().parent / "models"
+#: The shipped agents (folders of agents/models), in table order.
+SHIPPED: tuple[str, ...] = ("ppo_IOSUAV-v0", "sac_IOSUAV-v0", "ppo_IOSUAV-v0_noguard")
+PLANNERS: tuple[str, ...] = ("dp", "ia", "ia-ft", "cuc")
+PLANNER_LABELS = {"dp": "DP (2.5 m grid)", "ia": "SCA (IA)", "ia-ft": "IA-FT", "cuc": "CUC (SCA)"}
+
+
+@dataclass
+class Row:
+    """One line of the comparison table."""
+
+    scheme: str
+    kind: str  # "planner" or "agent"
+    average_rate: float  # bps/Hz, eq. (9)
+    feasible: bool
+    terminal_miss: float  # m
+    wall_time: float  # s: planning time, or the agent's deterministic episode
+    trajectory: np.ndarray
+    config: ScenarioConfig  # the scenario the trajectory was scored on (CUC: surface "none")
+    pct_dp: float = float("nan")  # 100 x average_rate / DP's
+    faded_mean: float = float("nan")  # bps/Hz, over the Rician seeds
+    faded_std: float = float("nan")
+
+
+def planner_rows(config: ScenarioConfig, schemes: Sequence[str] = PLANNERS) -> list[Row]:
+    """Run each planner scheme on ``config`` (surface set by the scheme, as in the paper)."""
+    from baselines.schemes import available, run_scheme
+
+    rows = []
+    for name in schemes:
+        if not available(name):
+            print(f"skipping {name}: its planner is not available here", file=sys.stderr)
+            continue
+        plan = run_scheme(name, config)
+        rows.append(
+            Row(
+                PLANNER_LABELS.get(name, name),
+                "planner",
+                plan.mean_rate,
+                plan.feasible,
+                plan.report.end_error,
+                plan.seconds,
+                plan.trajectory,
+                plan.config,
+            )
+        )
+    return rows
+
+
+def agent_row(agent: Agent, config: ScenarioConfig) -> Row:
+    """Roll ``agent`` out deterministically on ``config`` (its own env kwargs, e.g. the guard)."""
+    start = time.perf_counter()
+    episode = rollout(agent, config=config)
+    seconds = time.perf_counter() - start
+    return Row(
+        agent.name,
+        "agent",
+        episode.average_rate,
+        episode.feasible,
+        episode.terminal_miss,
+        seconds,
+        episode.trajectory,
+        config,
+    )
+
+
+def faded_replay(config: ScenarioConfig, trajectory: np.ndarray, seed: int) -> float:
+    """Mean faded rate of ``trajectory`` replayed through the env (``channel="rician"``, no guard)."""
+    env = make_env("ios_uav_env/IOSUAV-v0", {"channel": "rician", "arrival_guard": False}, config)
+    env.reset(seed=seed)
+    info: dict[str, Any] = {}
+    for move in np.diff(np.asarray(trajectory, dtype=float), axis=0) / config.D:
+        _, _, _, _, info = env.step(move)
+    env.close()
+    return float(info["mean_faded_rate"])
+
+
+def add_rician(rows: list[Row], agents: dict[str, Agent], seeds: int) -> None:
+    """Fill ``faded_mean`` / ``faded_std`` over ``seeds`` Rician episodes for every row.
+
+    Agents run in their own env with ``channel="rician"``; planners' trajectories are replayed.
+    """
+    for row in rows:
+        if row.kind == "agent":
+            agent = agents[row.scheme]
+            kwargs = {**agent.env_kwargs, "channel": "rician"}
+            samples = [
+                rollout(agent, env_kwargs=kwargs, config=row.config, seed=s).mean_faded_rate
+                for s in range(seeds)
+            ]
+        else:
+            samples = [faded_replay(row.config, row.trajectory, s) for s in range(seeds)]
+        row.faded_mean, row.faded_std = float(np.mean(samples)), float(np.std(samples))
+
+
+def compare(
+    agents: Sequence[Agent],
+    config: ScenarioConfig | None = None,
+    schemes: Sequence[str] = PLANNERS,
+    rician_seeds: int = 20,
+) -> list[Row]:
+    """The comparison table's rows: planners first, then the agents, on ``config``."""
+    config = config or ScenarioConfig()
+    rows = planner_rows(config, schemes)
+    rows += [agent_row(agent, config) for agent in agents]
+    dp = next((r.average_rate for r in rows if r.scheme == PLANNER_LABELS["dp"]), None)
+    for row in rows:
+        if dp:
+            row.pct_dp = 100.0 * row.average_rate / dp
+    if rician_seeds > 0:
+        add_rician(rows, {a.name: a for a in agents}, rician_seeds)
+    return rows
+
+
+def shipped_agents(names: Sequence[str] = SHIPPED) -> list[Agent]:
+    """Load the shipped agents of ``agents/models`` that exist."""
+    return [load_agent(MODELS_DIR / name) for name in names if (MODELS_DIR / name / "model.zip").exists()]
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(prog="python -m agents.evaluate", description=__doc__.splitlines()[0])
+    parser.add_argument("models", nargs="*", help="run or model folders (model.zip + config.json)")
+    parser.add_argument("--shipped", action="store_true", help="evaluate the agents shipped in agents/models")
+    parser.add_argument(
+        "--schemes", nargs="*", default=list(PLANNERS), help="planner schemes to compare with"
+    )
+    parser.add_argument(
+        "--scenario",
+        nargs="*",
+        default=None,
+        metavar="KEY:VALUE",
+        help="ScenarioConfig fields, e.g. T:100 ios_shape:(100,40)",
+    )
+    parser.add_argument("--rician-seeds", type=int, default=20, help="Rician episodes per scheme (0: none)")
+    parser.add_argument("--out", type=Path, default=Path("out/agents"), help="folder of the table and figure")
+    return parser
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    from agents.hyperparams import parse_env_kwargs
+    from agents.report import markdown_table, save_comparison_figure, save_table_csv
+
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    if not args.models and not args.shipped:
+        parser.error("give model folders or --shipped")
+    try:
+        config = ScenarioConfig(**parse_env_kwargs(args.scenario))
+    except (TypeError, ValueError) as exc:
+        parser.error(f"argument --scenario: {exc}")
+    if args.rician_seeds < 0:
+        parser.error(f"argument --rician-seeds: must be >= 0, got {args.rician_seeds}")
+    try:
+        agents = [load_agent(path) for path in args.models]
+    except (FileNotFoundError, ValueError) as exc:
+        parser.error(str(exc))
+    if args.shipped:
+        agents += shipped_agents()
+    rows = compare(agents, config, args.schemes, args.rician_seeds)
+    table = markdown_table(rows)
+    print(table)
+    for agent in agents:
+        summary = agent.meta.get("summary", {})
+        if summary:
+            print(
+                f"{agent.name}: trained {summary['steps']} steps in {summary['wall_time_s']:.0f} s "
+                f"({summary['steps_per_s']:.0f} steps/s)"
+            )
+    from ios_uav_env.io import atomic_write_text
+
+    atomic_write_text(args.out / "comparison.md", table + "\n")
+    print(f"table: {args.out / 'comparison.md'}, {save_table_csv(rows, args.out / 'comparison.csv')}")
+    print(f"figure: {save_comparison_figure(rows, config, args.out / 'comparison.png')}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

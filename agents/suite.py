@@ -1,0 +1,407 @@
+"""The held-out suite of issue #6: fixed random scenarios with their planners' results, cached.
+
+A generalist policy is trained on ``ios_uav_env/IOSUAV-Random-v0`` (a new scenario from
+``ios_uav_env.DEFAULT_RANGES`` at every reset; training seeds are small integers) and scored
+on scenarios it has never seen: :data:`HELDOUT_SEED` (20261122) draws :data:`DEFAULT_SIZE`
+(60) scenarios from the same ranges with ``sample_scenario(np.random.default_rng(seed))``,
+and each one's DP optimum (``baselines.dp.solve`` at 2.5 m: rate, trajectory, seconds) and
+SCA plan (``baselines.sca.solve``, the paper's algorithm with its default multi-start:
+rate, feasibility, seconds, trajectory) are precomputed into ``agents/suite/heldout.json``:
+the seed, the ranges, and one line per scenario (its full ``ScenarioConfig``, the plans).
+Rates and feasibility are those of the planners' own trajectories; the stored trajectories
+are rounded to 1e-3 m (for figures and warm starts), which keeps the file ~300 KB.
+
+    python -m agents.suite build [--n 60] [--seed 20261122] [--jobs 2]   # ~5-10 min, resumable
+    python -m agents.suite show [--table]
+    python -m agents.suite report --model runs/<run> [--algo ppo|sac] [--out out/suite]
+
+``build`` solves the scenarios in parallel (spawned worker processes, a tqdm bar) and
+caches each scenario's result as one JSON file (``--cache``, default ``out/suite-cache``,
+written atomically as soon as it is solved; the key hashes the config and the planner
+settings), so an interrupted build resumes where it stopped; the suite file is written
+atomically at the end. ``report`` is :mod:`agents.suite_report`.
+"""
+
+from __future__ import annotations
+
+import argparse
+import hashlib
+import json
+import multiprocessing
+import os
+import sys
+import time
+from collections.abc import Iterator, Sequence
+from concurrent.futures import ProcessPoolExecutor, as_completed
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from ios_uav_env import DEFAULT_RANGES, ScenarioConfig, ScenarioRanges, sample_scenario
+from ios_uav_env.io import atomic_write_text
+
+#: The seed of the held-out suite: never a training seed (those are small integers).
+HELDOUT_SEED = 20261122
+#: Scenarios in the suite.
+DEFAULT_SIZE = 60
+#: Grid (m) of the DP optimum of each scenario.
+DP_RESOLUTION = 2.5
+#: Decimals (m) of the stored trajectories.
+TRAJECTORY_DECIMALS = 3
+SUITE_PATH = Path(__file__).resolve().parent / "suite" / "heldout.json"
+CACHE_DIR = Path("out/suite-cache")
+FORMAT = "ios_uav_env held-out suite, v1"
+
+
+@dataclass
+class SuiteEntry:
+    """One scenario of the suite and its planners' results."""
+
+    index: int
+    config: ScenarioConfig
+    dp: dict[str, Any]  # rate (bps/Hz), seconds, resolution (m), trajectory ((N, 2) array, m)
+    sca: dict[str, Any]  # rate, feasible, worst_violation (m), seconds, status, trajectory
+
+    @property
+    def dp_rate(self) -> float:
+        return float(self.dp["rate"])
+
+    @property
+    def sca_pct_dp(self) -> float:
+        return 100.0 * self.sca["rate"] / self.dp["rate"]
+
+
+@dataclass
+class Suite:
+    """The held-out suite: its seed, its ranges and its scenarios."""
+
+    seed: int
+    ranges: ScenarioRanges
+    entries: list[SuiteEntry]
+    dp_resolution: float = DP_RESOLUTION
+    meta: dict[str, Any] = field(default_factory=dict)  # build information
+
+    def __len__(self) -> int:
+        return len(self.entries)
+
+    def __iter__(self) -> Iterator[SuiteEntry]:
+        return iter(self.entries)
+
+    def __getitem__(self, i: int) -> SuiteEntry:
+        return self.entries[i]
+
+    def configs(self) -> list[ScenarioConfig]:
+        return [e.config for e in self.entries]
+
+    def subset(self, n: int | None) -> list[SuiteEntry]:
+        """The first ``n`` entries (all for None): a fixed subset, e.g. for a training callback."""
+        return list(self.entries if n is None else self.entries[: max(0, int(n))])
+
+
+def suite_configs(
+    n: int = DEFAULT_SIZE, seed: int = HELDOUT_SEED, ranges: ScenarioRanges = DEFAULT_RANGES
+) -> list[ScenarioConfig]:
+    """The suite's scenarios: ``n`` draws of ``sample_scenario`` from ``default_rng(seed)``."""
+    rng = np.random.default_rng(seed)
+    return [sample_scenario(rng, ranges) for _ in range(n)]
+
+
+def cache_key(config: ScenarioConfig, dp_resolution: float) -> str:
+    """The cache file stem of one scenario: a hash of its config and the planner settings."""
+    blob = json.dumps([config.to_dict(), dp_resolution, "sca:defaults"], sort_keys=True)
+    return hashlib.sha1(blob.encode()).hexdigest()[:16]
+
+
+def solve_scenario(config: ScenarioConfig, dp_resolution: float = DP_RESOLUTION) -> dict[str, Any]:
+    """DP optimum and SCA plan of ``config`` (run in a worker), full precision."""
+    import warnings
+
+    from baselines import dp, sca
+
+    dp_plan = dp.solve(config, resolution=dp_resolution)
+    with warnings.catch_warnings():  # an SCA start that stopped early is recorded in "status"
+        warnings.simplefilter("ignore", RuntimeWarning)
+        sca_plan = sca.solve(config)
+    return {
+        "config": config.to_dict(),
+        "dp": {
+            "rate": dp_plan.mean_rate,
+            "seconds": dp_plan.seconds,
+            "resolution": float(dp_resolution),
+            "feasible": dp_plan.feasible,
+            "trajectory": dp_plan.trajectory.tolist(),
+        },
+        "sca": {
+            "rate": sca_plan.mean_rate,
+            "feasible": sca_plan.feasible,
+            "worst_violation": sca_plan.report.worst_violation,
+            "seconds": sca_plan.seconds,
+            "status": sca_plan.info.get("status", "ok"),
+            "start": sca_plan.info.get("start"),
+            "trajectory": sca_plan.trajectory.tolist(),
+        },
+    }
+
+
+def _init_worker() -> None:
+    os.environ.setdefault("OMP_NUM_THREADS", "1")
+
+
+def solve_all(
+    configs: Sequence[ScenarioConfig],
+    cache_dir: str | Path = CACHE_DIR,
+    *,
+    dp_resolution: float = DP_RESOLUTION,
+    jobs: int = 2,
+    progress: bool = True,
+) -> list[dict[str, Any]]:
+    """Each scenario's :func:`solve_scenario` record, from the cache or solved (in parallel over
+    ``jobs`` spawned processes; in this one for ``jobs=1``), each record cached atomically as
+    soon as it is solved."""
+    cache_dir = Path(cache_dir)
+    cache_dir.mkdir(parents=True, exist_ok=True)
+    paths = [cache_dir / f"{cache_key(c, dp_resolution)}.json" for c in configs]
+    records: dict[int, dict[str, Any]] = {}
+    for i, path in enumerate(paths):
+        if path.exists():
+            records[i] = json.loads(path.read_text())
+    missing = sorted(set(range(len(configs))) - set(records), key=lambda i: -configs[i].N)  # slowest first
+    if missing:
+        from tqdm.auto import tqdm
+
+        bar = tqdm(
+            total=len(configs), initial=len(records), desc="suite", unit="scenario", disable=not progress
+        )
+
+        def done(i: int, record: dict[str, Any]) -> None:
+            records[i] = record
+            atomic_write_text(paths[i], json.dumps(record))
+            bar.set_postfix_str(f"#{i}: SCA {100 * record['sca']['rate'] / record['dp']['rate']:.2f}% of DP")
+            bar.update()
+
+        jobs = max(1, min(int(jobs), len(missing)))
+        if jobs == 1:  # in this process
+            for i in missing:
+                done(i, solve_scenario(configs[i], dp_resolution))
+        else:
+            os.environ.setdefault("OMP_NUM_THREADS", "1")
+            ctx = multiprocessing.get_context("spawn")  # fresh workers: no inherited BLAS threads
+            with ProcessPoolExecutor(max_workers=jobs, mp_context=ctx, initializer=_init_worker) as pool:
+                futures = {pool.submit(solve_scenario, configs[i], dp_resolution): i for i in missing}
+                for future in as_completed(futures):
+                    done(futures[future], future.result())
+        bar.close()
+    return [records[i] for i in range(len(configs))]
+
+
+def _rounded(trajectory: Any) -> list[list[float]]:
+    return np.round(np.asarray(trajectory, dtype=float), TRAJECTORY_DECIMALS).tolist()
+
+
+def suite_text(suite: Suite) -> str:
+    """The suite as JSON: the header indented, then one line per scenario."""
+    head = {
+        "format": FORMAT,
+        "description": (
+            "Held-out scenarios of ios_uav_env/IOSUAV-Random-v0: sample_scenario(default_rng(seed), ranges) "
+            "drawn n times; per scenario its ScenarioConfig, the DP optimum (baselines.dp.solve at "
+            "dp_resolution m) and the SCA plan (baselines.sca.solve, defaults). Rates (eq. (9), bps/Hz) and "
+            "feasibility are those of the planners' trajectories; stored trajectories are rounded to 1e-3 m."
+        ),
+        "seed": suite.seed,
+        "n": len(suite),
+        "dp_resolution": suite.dp_resolution,
+        "trajectory_decimals": TRAJECTORY_DECIMALS,
+        "ranges": suite.ranges.to_dict(),
+        "build": suite.meta,
+    }
+    lines = []
+    for e in suite.entries:
+        record = {
+            "index": e.index,
+            "config": e.config.to_dict(),
+            "dp": {**e.dp, "trajectory": _rounded(e.dp["trajectory"])},
+            "sca": {**e.sca, "trajectory": _rounded(e.sca["trajectory"])},
+        }
+        lines.append("  " + json.dumps(record, separators=(",", ":")))
+    text = json.dumps(head, indent=1)
+    return text[: text.rindex("}")].rstrip() + ',\n "scenarios": [\n' + ",\n".join(lines) + "\n ]\n}\n"
+
+
+def build_suite(
+    path: str | Path = SUITE_PATH,
+    n: int = DEFAULT_SIZE,
+    seed: int = HELDOUT_SEED,
+    *,
+    ranges: ScenarioRanges = DEFAULT_RANGES,
+    dp_resolution: float = DP_RESOLUTION,
+    jobs: int = 2,
+    cache_dir: str | Path = CACHE_DIR,
+    progress: bool = True,
+) -> Suite:
+    """Draw the suite, solve (or read from the cache) every scenario, write ``path`` atomically."""
+    start = time.perf_counter()
+    configs = suite_configs(n, seed, ranges)
+    records = solve_all(configs, cache_dir, dp_resolution=dp_resolution, jobs=jobs, progress=progress)
+    entries = [
+        SuiteEntry(i, c, r["dp"], r["sca"]) for i, (c, r) in enumerate(zip(configs, records, strict=True))
+    ]
+    meta = {
+        "created": time.strftime("%Y-%m-%dT%H:%M:%S%z"),
+        "jobs": int(jobs),
+        "build_seconds": round(time.perf_counter() - start, 1),
+        "cpu_count": os.cpu_count(),
+        "load_average": [round(v, 2) for v in os.getloadavg()],
+        "note": "planner seconds are wall times in worker processes on this machine, with its load",
+    }
+    suite = Suite(seed, ranges, entries, float(dp_resolution), meta)
+    atomic_write_text(path, suite_text(suite))
+    return suite
+
+
+def load_suite(path: str | Path = SUITE_PATH) -> Suite:
+    """Read a suite file (trajectories as (N, 2) arrays)."""
+    path = Path(path)
+    if not path.exists():
+        raise FileNotFoundError(f"no suite at {path}: build it with `python -m agents.suite build`")
+    data = json.loads(path.read_text())
+    if data.get("format") != FORMAT:
+        raise ValueError(f"{path} is not a suite file ({FORMAT!r}), its format is {data.get('format')!r}")
+    entries = []
+    for rec in data["scenarios"]:
+        dp = {**rec["dp"], "trajectory": np.asarray(rec["dp"]["trajectory"], dtype=float)}
+        sca = {**rec["sca"], "trajectory": np.asarray(rec["sca"]["trajectory"], dtype=float)}
+        entries.append(SuiteEntry(int(rec["index"]), ScenarioConfig(**rec["config"]), dp, sca))
+    ranges = ScenarioRanges.from_dict(data["ranges"])
+    return Suite(
+        int(data["seed"]), ranges, entries, float(data["dp_resolution"]), dict(data.get("build", {}))
+    )
+
+
+def summary(suite: Suite) -> dict[str, Any]:
+    """Headline numbers of the suite: DP rates, SCA's % of DP, feasibility and times."""
+    dp = np.array([e.dp_rate for e in suite])
+    pct = np.array([e.sca_pct_dp for e in suite])
+    surfaces = [e.config.surface for e in suite]
+    return {
+        "n": len(suite),
+        "seed": suite.seed,
+        "surfaces": {s: surfaces.count(s) for s in sorted(set(surfaces))},
+        "T_range_s": [min(e.config.T for e in suite), max(e.config.T for e in suite)],
+        "M_range": [min(e.config.M for e in suite), max(e.config.M for e in suite)],
+        "dp_rate_mean": float(dp.mean()),
+        "dp_rate_range": [float(dp.min()), float(dp.max())],
+        "sca_pct_dp_mean": float(pct.mean()),
+        "sca_pct_dp_range": [float(pct.min()), float(pct.max())],
+        "sca_feasible": sum(bool(e.sca["feasible"]) for e in suite),
+        "sca_seconds_median": float(np.median([e.sca["seconds"] for e in suite])),
+        "dp_seconds_median": float(np.median([e.dp["seconds"] for e in suite])),
+    }
+
+
+def show_text(suite: Suite, path: Path | None = None, table: bool = False) -> str:
+    """The printed summary of ``show`` (and, with ``table``, one line per scenario)."""
+    s = summary(suite)
+    size = f", {path.stat().st_size / 1024:.0f} KB" if path is not None and path.exists() else ""
+    lines = [
+        f"held-out suite{f' {path}' if path else ''}: {s['n']} scenarios, seed {s['seed']}{size}",
+        f"  surfaces {s['surfaces']}, T {s['T_range_s'][0]:g}-{s['T_range_s'][1]:g} s, "
+        f"M {s['M_range'][0]}-{s['M_range'][1]}",
+        f"  DP ({suite.dp_resolution:g} m grid): mean rate {s['dp_rate_mean']:.4f} bps/Hz "
+        f"(range {s['dp_rate_range'][0]:.4f}-{s['dp_rate_range'][1]:.4f}), "
+        f"median {s['dp_seconds_median']:.2f} s",
+        f"  SCA: {s['sca_pct_dp_mean']:.2f}% of DP on average (range {s['sca_pct_dp_range'][0]:.2f}-"
+        f"{s['sca_pct_dp_range'][1]:.2f}%), feasible {s['sca_feasible']}/{s['n']}, "
+        f"median {s['sca_seconds_median']:.2f} s",
+    ]
+    if suite.meta:
+        lines.append(f"  built {suite.meta.get('created', '?')} in {suite.meta.get('build_seconds', '?')} s "
+                     f"with {suite.meta.get('jobs', '?')} jobs")  # fmt: skip
+    if table:
+        lines.append(
+            f"  {'#':>3} {'surf':4} {'T':>4} {'M':>5} {'G (m)':>15} "
+            f"{'DP rate':>8} {'SCA %DP':>8} {'SCA s':>6}"
+        )
+        for e in suite:
+            c = e.config
+            lines.append(
+                f"  {e.index:3d} {c.surface:4} {c.T:4g} {c.M:5d} "
+                f"({c.ground_node[0]:6.1f},{c.ground_node[1]:6.1f}) "
+                f"{e.dp_rate:8.4f} {e.sca_pct_dp:8.2f} {e.sca['seconds']:6.2f}"
+            )
+    return "\n".join(lines)
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(prog="python -m agents.suite", description=__doc__.splitlines()[0])
+    sub = parser.add_subparsers(dest="command", required=True)
+    b = sub.add_parser("build", help="draw the suite and precompute its DP and SCA plans (resumable)")
+    b.add_argument("--n", type=int, default=DEFAULT_SIZE, help=f"scenarios (default {DEFAULT_SIZE})")
+    b.add_argument("--seed", type=int, default=HELDOUT_SEED, help=f"suite seed (default {HELDOUT_SEED})")
+    b.add_argument("--jobs", type=int, default=2, help="worker processes (default 2)")
+    b.add_argument(
+        "--out", type=Path, default=SUITE_PATH, help="suite file (default agents/suite/heldout.json)"
+    )
+    b.add_argument("--cache", type=Path, default=CACHE_DIR, help=f"per-scenario cache (default {CACHE_DIR})")
+    b.add_argument("--no-progress", action="store_true", help="no progress bar")
+    s = sub.add_parser("show", help="print the suite's summary")
+    s.add_argument("--suite", type=Path, default=SUITE_PATH, help="suite file")
+    s.add_argument("--table", action="store_true", help="one line per scenario")
+    r = sub.add_parser("report", help="score a trained policy on the suite (see agents.suite_report)")
+    r.add_argument("--model", required=True, help="run or model folder, a model .zip, or 'heuristic'")
+    r.add_argument("--algo", choices=("ppo", "sac"), default=None, help="algorithm (default: the run's)")
+    r.add_argument("--suite", type=Path, default=SUITE_PATH, help="suite file")
+    r.add_argument("--n", type=int, default=None, help="only the first n scenarios")
+    r.add_argument("--out", type=Path, default=Path("out/suite"), help="folder of the table and figures")
+    c = sub.add_parser("curve", help="score every checkpoint of a training run (the learning curve)")
+    c.add_argument("--run", type=Path, required=True, help="run folder (with checkpoints/)")
+    c.add_argument("--suite", type=Path, default=SUITE_PATH, help="suite file")
+    c.add_argument("--n", type=int, default=None, help="only the first n scenarios")
+    c.add_argument("--out", type=Path, default=Path("out/suite_curve"), help="folder of the CSV and PNG")
+    return parser
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    if args.command == "build":
+        if args.n < 1 or args.jobs < 1:
+            parser.error("--n and --jobs must be >= 1")
+        start = time.perf_counter()
+        suite = build_suite(args.out, args.n, args.seed, jobs=args.jobs, cache_dir=args.cache,
+                            progress=not args.no_progress)  # fmt: skip
+        print(show_text(suite, args.out))
+        print(f"wrote {args.out} in {time.perf_counter() - start:.1f} s")
+        return 0
+    try:
+        suite = load_suite(args.suite)
+    except (FileNotFoundError, ValueError) as exc:
+        parser.error(str(exc))
+    if args.command == "show":
+        print(show_text(suite, args.suite, table=args.table))
+        return 0
+    if args.n is not None and args.n < 1:
+        parser.error("--n must be >= 1")
+    if args.command == "curve":
+        from agents.suite_curve import learning_curve, write_curve
+
+        try:
+            rows = learning_curve(args.run, suite, args.n)
+        except FileNotFoundError as exc:
+            parser.error(f"argument --run: {exc}")
+        print("wrote " + ", ".join(str(p) for p in write_curve(rows, args.out)))
+        return 0
+    from agents.suite_report import load_policy, run_report
+
+    try:
+        policy = load_policy(args.model, args.algo)
+    except (FileNotFoundError, ValueError) as exc:
+        parser.error(f"argument --model: {exc}")
+    run_report(policy, suite, args.out, n=args.n)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,90 @@
+"""The learning curve of the suite score: every checkpoint of a run, scored on the held-out suite.
+
+    python -m agents.suite curve --run runs/<run> [--n 60] [--out out/suite_curve]
+
+Reads the run's ``checkpoints/rl_model_<steps>_steps.zip`` (and the matching VecNormalize
+statistics, if any), scores each with :func:`agents.suite_report.evaluate_suite` and writes a
+CSV (steps, wall time of the checkpoint, mean / p10 / min % of DP, feasible) and a PNG.
+"""
+
+from __future__ import annotations
+
+import pickle
+from pathlib import Path
+from typing import Any
+
+from agents.suite import Suite
+from ios_uav_env.io import atomic_write_text, save_figure
+
+
+def checkpoints(run: str | Path) -> list[tuple[int, Path]]:
+    """(steps, zip) of every checkpoint of ``run``, by steps."""
+    from agents.training import _checkpoints
+
+    found = _checkpoints(Path(run))
+    if not found:
+        raise FileNotFoundError(f"no checkpoints (rl_model_<steps>_steps.zip) in {Path(run) / 'checkpoints'}")
+    return found
+
+
+def load_checkpoint(zip_path: Path, steps: int, env_id: str) -> Any:
+    """An ``agents.rollout.Agent`` of one checkpoint (PPO or SAC, read from the run's config)."""
+    import json
+
+    import torch
+    from stable_baselines3 import PPO, SAC
+
+    from agents.rollout import Agent
+
+    torch.set_num_threads(1)
+    config_file = zip_path.parent.parent / "config.json"
+    config = json.loads(config_file.read_text()) if config_file.exists() else {}
+    algo = {"ppo": PPO, "sac": SAC}[config.get("algo", "ppo")]
+    model = algo.load(zip_path, device="cpu")
+    stats = zip_path.parent / f"rl_model_vecnormalize_{steps}_steps.pkl"
+    vecnormalize = None
+    if stats.exists():
+        with stats.open("rb") as fh:
+            vecnormalize = pickle.load(fh)
+        vecnormalize.training = False
+    return Agent(
+        model, vecnormalize, config.get("env_id", env_id), dict(config.get("env_kwargs", {})), zip_path.stem
+    )
+
+
+def learning_curve(run: str | Path, suite: Suite, n: int | None = None) -> list[dict[str, Any]]:
+    """One summary row per checkpoint: steps, seconds since the run started, suite score."""
+    from agents.suite_report import RANDOM_ENV_ID, evaluate_suite, summarize
+
+    rows = []
+    points = checkpoints(run)
+    t0 = min(p.stat().st_mtime for _, p in points) if points else 0.0
+    for steps, path in points:
+        agent = load_checkpoint(path, steps, RANDOM_ENV_ID)
+        s = summarize(evaluate_suite(agent, suite, n))
+        rows.append({"steps": steps, "minutes": (path.stat().st_mtime - t0) / 60.0, **s})
+        print(f"{steps:>9d} steps: mean {s['mean_pct_dp']:.2f}%  p10 {s['p10_pct_dp']:.2f}%  "
+              f"min {s['min_pct_dp']:.2f}%  feasible {s['feasible']}/{s['n']}", flush=True)  # fmt: skip
+    return rows
+
+
+def write_curve(rows: list[dict[str, Any]], out: str | Path) -> list[Path]:
+    """CSV and PNG of the curve under ``out``."""
+    from matplotlib.figure import Figure
+
+    out = Path(out)
+    keys = ("steps", "minutes", "mean_pct_dp", "p10_pct_dp", "min_pct_dp", "feasible", "n")
+    text = ",".join(keys) + "\n" + "".join(",".join(f"{r[k]:.6g}" for k in keys) + "\n" for r in rows)
+    csv = atomic_write_text(out / "suite_curve.csv", text)
+    fig = Figure(figsize=(6.5, 3.8), layout="constrained")
+    ax = fig.add_subplot()
+    steps = [r["steps"] / 1e6 for r in rows]
+    for key, label in (("mean_pct_dp", "mean"), ("p10_pct_dp", "10th percentile"), ("min_pct_dp", "minimum")):
+        ax.plot(steps, [r[key] for r in rows], marker="o", ms=3, label=label)
+    ax.axhline(97, color="k", ls=":", lw=1)
+    ax.axhline(90, color="k", ls="--", lw=1)
+    ax.set_xlabel("training steps (millions)")
+    ax.set_ylabel("% of the DP optimum (held-out suite)")
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=8)
+    return [csv, save_figure(fig, out / "suite_curve.png", dpi=110)]

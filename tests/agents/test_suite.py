@@ -1,0 +1,153 @@
+"""agents.suite / agents.suite_report: the held-out suite file, its build (cached, resumable) and
+the report of a policy on it (run with a heuristic policy: no training needed)."""
+
+from __future__ import annotations
+
+import csv
+import json
+
+import numpy as np
+import pytest
+
+from agents import suite as suite_mod
+from agents.suite import (
+    DEFAULT_SIZE,
+    HELDOUT_SEED,
+    SUITE_PATH,
+    build_suite,
+    cache_key,
+    load_suite,
+    main,
+    suite_configs,
+)
+from agents.suite_report import GroundSeeker, evaluate_suite, run_report, suite_score, summarize
+from baselines import dp
+from ios_uav_env import DEFAULT_RANGES, ScenarioRanges, average_rate, check_trajectory
+
+#: A family of tiny scenarios (N <= 12, M <= 60) whose planners run in a fraction of a second.
+TINY = ScenarioRanges(
+    ground_x=(-50.0, 50.0), ground_y=(-30.0, 30.0), T=(10.0, 12.0), ios_rows=(4, 6), ios_columns=10,
+    start_x=(-60.0, -60.0), start_y=(-5.0, 5.0), end_x=(60.0, 60.0), end_y=(-5.0, 5.0),
+)  # fmt: skip
+
+
+@pytest.fixture(scope="module")
+def suite():
+    return load_suite()
+
+
+# --- the shipped suite -----------------------------------------------------------------------
+def test_the_shipped_suite_is_the_documented_draw(suite):
+    assert SUITE_PATH.exists() and SUITE_PATH.stat().st_size < 500_000
+    assert len(suite) == DEFAULT_SIZE >= 50 and suite.seed == HELDOUT_SEED == 20261122
+    assert suite.ranges == DEFAULT_RANGES and suite.dp_resolution == 2.5
+    assert suite.configs() == suite_configs(DEFAULT_SIZE, HELDOUT_SEED, DEFAULT_RANGES)
+    training = {c for seed in range(16) for c in suite_configs(4, seed)}  # small training seeds
+    assert not training & set(suite.configs())
+    for e in suite:
+        n = e.config.N
+        assert e.dp["trajectory"].shape == e.sca["trajectory"].shape == (n, 2)
+        assert e.dp_rate > 0 and e.sca["rate"] > 0 and isinstance(e.sca["feasible"], bool)
+        assert 95.0 < e.sca_pct_dp < 105.0 and e.dp["seconds"] > 0 and e.sca["seconds"] > 0
+
+
+def test_cached_optima_match_a_fresh_dp(suite):
+    e = min(suite, key=lambda e: e.config.N)
+    plan = dp.solve(e.config, resolution=suite.dp_resolution)
+    assert abs(plan.mean_rate - e.dp_rate) <= 1e-9
+    assert np.abs(plan.trajectory - e.dp["trajectory"]).max() <= 5e-4 + 1e-9  # rounded to 1e-3 m
+
+
+def test_stored_trajectories_reproduce_their_rates(suite):
+    for e in suite:
+        for plan in (e.dp, e.sca):
+            assert average_rate(e.config, plan["trajectory"]) == pytest.approx(plan["rate"], abs=1e-5)
+        assert check_trajectory(e.config, e.dp["trajectory"], tol=2e-3).feasible
+
+
+# --- building a suite --------------------------------------------------------------------------
+def test_build_writes_a_suite_and_resumes_from_its_cache(tmp_path, monkeypatch):
+    path, cache = tmp_path / "tiny.json", tmp_path / "cache"
+    built = build_suite(path, n=3, seed=1, ranges=TINY, jobs=1, cache_dir=cache, progress=False)
+    loaded = load_suite(path)
+    assert loaded.configs() == built.configs() == suite_configs(3, 1, TINY) and loaded.ranges == TINY
+    assert [e.dp_rate for e in loaded] == [e.dp_rate for e in built]
+    for e in loaded:
+        fresh = dp.solve(e.config, resolution=2.5)
+        assert abs(fresh.mean_rate - e.dp_rate) <= 1e-9 and e.sca["feasible"]
+    files = sorted(cache.glob("*.json"))
+    assert [f.stem for f in files] == sorted(cache_key(c, 2.5) for c in built.configs())
+
+    calls = []
+    real = suite_mod.solve_scenario
+    monkeypatch.setattr(suite_mod, "solve_scenario", lambda c, r: calls.append(c) or real(c, r))
+    files[0].unlink()  # as if interrupted before that scenario
+    again = build_suite(path, n=3, seed=1, ranges=TINY, jobs=1, cache_dir=cache, progress=False)
+    assert len(calls) == 1 and json.loads(files[0].read_text())["config"] == calls[0].to_dict()
+    assert [e.dp_rate for e in again] == [e.dp_rate for e in built]
+
+
+def test_show_and_bad_files(tmp_path, capsys):
+    assert main(["show", "--table"]) == 0
+    out = capsys.readouterr().out
+    assert f"{DEFAULT_SIZE} scenarios, seed {HELDOUT_SEED}" in out and "% of DP on average" in out
+    assert len([line for line in out.splitlines() if line.strip()[:2].strip().isdigit()]) == DEFAULT_SIZE
+    with pytest.raises(SystemExit):
+        main(["show", "--suite", str(tmp_path / "missing.json")])
+    (tmp_path / "other.json").write_text('{"format": "something else"}')
+    with pytest.raises(ValueError, match="not a suite file"):
+        load_suite(tmp_path / "other.json")
+
+
+# --- the report ------------------------------------------------------------------------------
+def test_report_end_to_end_with_a_heuristic_policy(suite, tmp_path):
+    result = run_report(GroundSeeker(), suite, tmp_path, n=3, progress=False)
+    rows, s = result["rows"], result["summary"]
+    assert [r.index for r in rows] == [0, 1, 2] and s["n"] == 3
+    for r in rows:
+        cfg = suite[r.index].config
+        assert r.rate == average_rate(cfg, r.trajectory) and r.feasible  # the guard
+        assert r.pct_dp == pytest.approx(100 * r.rate / suite[r.index].dp_rate)
+        assert 0 < r.pct_dp < 102.0 and 0 < r.seconds < r.sca_seconds
+        assert np.array_equal(r.trajectory[0], cfg.q0) and np.allclose(r.trajectory[-1], cfg.qF, atol=1e-6)
+    pct = [r.pct_dp for r in rows]
+    assert s["mean_pct_dp"] == pytest.approx(np.mean(pct)) and s["min_pct_dp"] == min(pct)
+    assert s["feasible"] == 3 and s["speedup"] > 1
+    with open(result["paths"]["csv"], newline="") as fh:
+        table = list(csv.DictReader(fh))
+    assert [int(t["index"]) for t in table] == [0, 1, 2] and float(table[0]["rate"]) == rows[0].rate
+    text = (tmp_path / "suite_report.md").read_text()
+    assert text.count("\n| ") == 4 and "% of DP on average" in text
+    for name in ("suite_trajectories.png", "suite_pct_dp.png"):
+        assert (tmp_path / name).read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+
+
+def test_suite_score_and_fixed_id_policies(suite):
+    score = suite_score(GroundSeeker(), suite, n=3)
+    rows = evaluate_suite(GroundSeeker(), suite, n=3)
+    assert score == {
+        "mean_pct_dp": summarize(rows)["mean_pct_dp"],
+        "p10_pct_dp": summarize(rows)["p10_pct_dp"],
+        "min_pct_dp": summarize(rows)["min_pct_dp"],
+        "feasible_frac": 1.0,
+        "n": 3,
+    }
+    # a policy of a fixed id runs in that id made on each scenario: same observation prefix
+    fixed = evaluate_suite(GroundSeeker(env_id="ios_uav_env/IOSUAV-v0"), suite, n=3)
+    assert [r.rate for r in fixed] == [r.rate for r in rows]
+
+
+def test_report_cli_and_shipped_agent(tmp_path, capsys):
+    pytest.importorskip("stable_baselines3")
+    from agents.evaluate import MODELS_DIR
+    from agents.suite_report import load_policy
+
+    assert main(["report", "--model", "heuristic", "--n", "2", "--out", str(tmp_path)]) == 0
+    assert "held-out scenarios" in capsys.readouterr().out and (tmp_path / "suite_report.csv").exists()
+    with pytest.raises(SystemExit):
+        main(["report", "--model", str(tmp_path / "nothing"), "--n", "1"])
+    shipped = MODELS_DIR / "ppo_IOSUAV-v0"
+    with pytest.raises(ValueError, match="PPO model, not SAC"):
+        load_policy(shipped, "sac")
+    rows = evaluate_suite(load_policy(shipped, "ppo"), load_suite(), n=2)  # an 11-feature agent
+    assert len(rows) == 2 and all(r.rate > 0 for r in rows)
