@@ -4,7 +4,8 @@
 ``n_envs``, ``policy``, ``normalize`` (``true`` or a string such as
 ``"{'norm_obs': False, 'norm_reward': True}"``), ``policy_kwargs`` (a Python string, e.g.
 ``"dict(net_arch=[64, 64])"``), ``learning_rate`` (a number or ``lin_<value>``, the zoo's
-linear schedule) and the algorithm's own keyword arguments. The same files train with the zoo:
+linear schedule), ``callback`` (``module.Class`` or a list of ``{module.Class: {kwargs}}``)
+and the algorithm's own keyword arguments. The same files train with the zoo:
 
     python -m rl_zoo3.train --algo ppo --env ios_uav_env/IOSUAV-v0 --gym-packages ios_uav_env \\
         --conf-file agents/hyperparams/ppo.yml

@@ -20,21 +20,27 @@ import numpy as np
 
 from experiments.figures import check_claims, make_figures, write_claims
 from experiments.sweep import SweepSpec, run_sweep, with_pct_of_dp, write_csv
+from ios_uav_env import ScenarioConfig
 
 QUICK = SweepSpec(Ts=(40.0, 60.0), Ms=(200, 400), M_schemes=400, dp_resolution=5.0)
 
 
 def agent_trajectories(spec: SweepSpec) -> dict[str, np.ndarray]:
-    """Deterministic trajectories of the shipped RL agents whose scenario is Fig. 1(a)'s."""
-    try:
-        from agents.evaluate import shipped_trajectories
-    except ImportError:
-        return {}
+    """Deterministic trajectories of the shipped RL agents on Fig. 1(a)'s scenario (the one
+    they were trained on: T = 150 s, M = 6000); {} if that scenario is not in the sweep or
+    the agents (SB3, torch) are not installed."""
     t = 150.0 if 150.0 in spec.Ts else max(spec.Ts)
     config = spec.base.replace(
         T=t, ios_shape=(spec.base.ios_shape[0], spec.M_schemes // spec.base.ios_shape[0])
     )
-    return shipped_trajectories(config)
+    if config != ScenarioConfig():
+        return {}  # the shipped agents' scenario does not apply
+    try:
+        from agents.evaluate import shipped_agents
+        from agents.rollout import rollout
+    except ImportError:
+        return {}
+    return {f"RL: {agent.name}": rollout(agent, config=config).trajectory for agent in shipped_agents()}
 
 
 def build_parser() -> argparse.ArgumentParser:

@@ -14,7 +14,7 @@ from typing import Any
 
 import numpy as np
 
-from ios_uav_env import ScenarioConfig
+from ios_uav_env import ScenarioConfig, average_rate
 from ios_uav_env.io import atomic_write_text, save_figure
 
 LABELS = {
@@ -115,8 +115,10 @@ def make_figures(
         for s in ("ia", "ra", "ia-ft", "cuc", "dp-ia")
     }
     colors = {LABELS[s]: COLORS[s] for s in ("ia", "ra", "ia-ft", "cuc")} | {LABELS["dp-ia"]: "white"}
-    for name, q in (agents or {}).items():
+    agent_colors = ["#9467bd", "#e377c2", "#7f7f7f", "#17becf", "#bcbd22"]
+    for i, (name, q) in enumerate((agents or {}).items()):
         traj[name] = q
+        colors[name] = agent_colors[i % len(agent_colors)]
     paths.append(
         trajectory_panel(
             out / "fig1a_trajectories.png",
@@ -132,6 +134,13 @@ def make_figures(
         curves[LABELS[s]] = (*_curve(records, s, m0), {"color": COLORS[s], "marker": "o", "ms": 4})
     for s in ("dp-ia", "dp-ra", "dp-cuc"):
         curves[LABELS[s]] = (*_curve(records, s, m0), {"color": COLORS[s], "ls": "--", "lw": 1})
+    for name, q in (agents or {}).items():  # the agents' scenario only: one point each at t_traj
+        rate = np.array([average_rate(cfg, q)])
+        curves[name] = (
+            np.array([t_traj]),
+            rate,
+            {"marker": "*", "ms": 11, "ls": "none", "color": colors[name]},
+        )
     paths.append(rate_panel(out / "fig1b_rate_vs_T.png", curves, f"Fig. 1(b): average rate vs T, M = {m0}"))
     cmap = ["#1b9e77", "#7570b3", "#d62728", "#e7298a", "#66a61e"]
     traj_m = {
