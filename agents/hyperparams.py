@@ -4,8 +4,9 @@
 ``n_envs``, ``policy``, ``normalize`` (``true`` or a string such as
 ``"{'norm_obs': False, 'norm_reward': True}"``), ``policy_kwargs`` (a Python string, e.g.
 ``"dict(net_arch=[64, 64])"``), ``learning_rate`` (a number or ``lin_<value>``, the zoo's
-linear schedule), ``callback`` (``module.Class`` or a list of ``{module.Class: {kwargs}}``)
-and the algorithm's own keyword arguments. The same files train with the zoo:
+linear schedule), ``callback`` and ``env_wrapper`` (``module.Class`` or a list of
+``{module.Class: {kwargs}}``, e.g. ``agents.wrappers.ShiftReward``) and the algorithm's own
+keyword arguments. The same files train with the zoo:
 
     python -m rl_zoo3.train --algo ppo --env ios_uav_env/IOSUAV-v0 --gym-packages ios_uav_env \\
         --conf-file agents/hyperparams/ppo.yml
@@ -38,6 +39,7 @@ class Hyperparams:
     normalize: dict[str, Any] | None  # VecNormalize keyword arguments, None = no VecNormalize
     model_kwargs: dict[str, Any] = field(default_factory=dict)  # for PPO(...) / SAC(...)
     callbacks: list[Any] = field(default_factory=list)  # instances from the zoo's ``callback`` key
+    env_wrappers: list[tuple[Any, dict[str, Any]]] = field(default_factory=list)  # (class, kwargs)
 
 
 def hyperparams_path(algo: str) -> Path:
@@ -78,9 +80,9 @@ def _python_value(text: str, key: str) -> Any:
         raise ValueError(f"hyperparameter {key}: cannot evaluate {text!r}: {exc}") from exc
 
 
-def _callbacks(spec: Any) -> list[Any]:
-    """The zoo's ``callback`` value: "module.Class", or a list of such names or of
-    {"module.Class": {kwargs}} mappings; returns the instances."""
+def _classes(spec: Any, key: str) -> list[tuple[Any, dict[str, Any], str]]:
+    """A zoo value "module.Class", or a list of such names or of {"module.Class": {kwargs}}
+    mappings: the (class, kwargs, name) triples."""
     import importlib
 
     if spec is None:
@@ -90,8 +92,19 @@ def _callbacks(spec: Any) -> list[Any]:
         name, kwargs = (item, {}) if isinstance(item, str) else next(iter(item.items()))
         module, _, cls = name.rpartition(".")
         try:
-            out.append(getattr(importlib.import_module(module), cls)(**(kwargs or {})))
-        except (ImportError, AttributeError, TypeError, ValueError) as exc:
+            out.append((getattr(importlib.import_module(module), cls), dict(kwargs or {}), name))
+        except (ImportError, AttributeError, ValueError) as exc:
+            raise ValueError(f"hyperparameter {key}: cannot import {name!r}: {exc}") from exc
+    return out
+
+
+def _callbacks(spec: Any) -> list[Any]:
+    """The zoo's ``callback`` value (see :func:`_classes`); returns the instances."""
+    out = []
+    for cls, kwargs, name in _classes(spec, "callback"):
+        try:
+            out.append(cls(**kwargs))
+        except (TypeError, ValueError) as exc:
             raise ValueError(f"hyperparameter callback: cannot build {name!r}: {exc}") from exc
     return out
 
@@ -100,9 +113,8 @@ def resolve(entry: dict[str, Any]) -> Hyperparams:
     """Turn a zoo entry into algorithm keyword arguments, the way the zoo does."""
     raw = copy.deepcopy(entry)
     kwargs = {k: v for k, v in entry.items() if k not in _ZOO_KEYS}
-    unsupported = sorted(k for k in ("env_wrapper", "frame_stack") if k in entry)
-    if unsupported:
-        raise ValueError(f"zoo keys {unsupported} are not supported by train.py")
+    if "frame_stack" in entry:
+        raise ValueError("zoo key 'frame_stack' is not supported by train.py")
     if isinstance(kwargs.get("policy_kwargs"), str):
         kwargs["policy_kwargs"] = _python_value(kwargs["policy_kwargs"], "policy_kwargs")
     for key in ("learning_rate", "clip_range"):
@@ -122,6 +134,7 @@ def resolve(entry: dict[str, Any]) -> Hyperparams:
     return Hyperparams(
         raw=raw,
         callbacks=_callbacks(entry.get("callback")),
+        env_wrappers=[(cls, kw) for cls, kw, _ in _classes(entry.get("env_wrapper"), "env_wrapper")],
         n_timesteps=int(float(entry.get("n_timesteps", 100_000))),
         n_envs=int(entry.get("n_envs", 1)),
         policy=str(entry.get("policy", "MlpPolicy")),

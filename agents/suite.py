@@ -350,7 +350,9 @@ def build_parser() -> argparse.ArgumentParser:
     s.add_argument("--suite", type=Path, default=SUITE_PATH, help="suite file")
     s.add_argument("--table", action="store_true", help="one line per scenario")
     r = sub.add_parser("report", help="score a trained policy on the suite (see agents.suite_report)")
-    r.add_argument("--model", required=True, help="run or model folder, a model .zip, or 'heuristic'")
+    r.add_argument(
+        "--model", required=True, help="run or model folder, a model .zip, 'heuristic' or 'peak-heuristic'"
+    )
     r.add_argument("--algo", choices=("ppo", "sac"), default=None, help="algorithm (default: the run's)")
     r.add_argument("--suite", type=Path, default=SUITE_PATH, help="suite file")
     r.add_argument("--n", type=int, default=None, help="only the first n scenarios")

@@ -12,6 +12,7 @@ beat it (SCA does by 0.1-1.6% on the suite, most on short horizons).
 
     python -m agents.suite report --model runs/<run> [--algo ppo|sac] [--n 60] [--out out/suite]
     python -m agents.suite report --model heuristic      # fly to G, hover, arrive (guard)
+    python -m agents.suite report --model peak-heuristic # fly to the reachable rate peak instead
 
 Writes ``suite_report.csv`` (one row per scenario), ``suite_report.md`` (the table and the
 summary), ``suite_trajectories.png`` (six scenarios, policy vs DP vs SCA over the rate map,
@@ -57,11 +58,28 @@ class GroundSeeker:
     name: str = "fly to G and hover (heuristic)"
     length_scale: float = 400.0  # m, the env's L
     D: float = 25.0  # m, v_max dt of the scenarios
+    target: tuple[int, int] = (4, 6)  # the slice of the observation's (target - q) / L: G's
 
     def act(self, obs: np.ndarray, deterministic: bool = True) -> np.ndarray:
-        move = np.asarray(obs[4:6], dtype=np.float64) * (self.length_scale / self.D)  # (w_G - q) / D
+        move = np.asarray(obs[self.target[0] : self.target[1]], dtype=np.float64) * (
+            self.length_scale / self.D
+        )
         norm = float(np.hypot(*move))
         return (move / norm if norm > 1.0 else move).astype(np.float32)
+
+
+def peak_seeker() -> GroundSeeker:
+    """The same heuristic towards the reachable rate peak (``ios_uav_env.rate_peak``, the env's
+    ``peak_hint`` features): fly there, hover, let the guard bring the UAV to qF."""
+    return GroundSeeker(
+        env_kwargs={"peak_hint": True},
+        name="fly to the rate peak and hover (heuristic)",
+        target=(-3, -1),
+    )
+
+
+#: The heuristic policies ``load_policy`` knows by name.
+HEURISTICS = {"heuristic": GroundSeeker, "peak-heuristic": peak_seeker}
 
 
 @dataclass
@@ -86,10 +104,11 @@ class SuiteRow:
 
 
 def load_policy(path: str | Path, algo: str | None = None) -> Any:
-    """The policy at ``path`` (``agents.rollout.load_agent``), or :class:`GroundSeeker` for
-    ``"heuristic"``. ``algo`` checks the run's algorithm, or names a bare ``.zip``'s."""
-    if str(path) == "heuristic":
-        return GroundSeeker()
+    """The policy at ``path`` (``agents.rollout.load_agent``), or a heuristic by name
+    (:data:`HEURISTICS`: ``"heuristic"`` flies to G, ``"peak-heuristic"`` to the rate peak).
+    ``algo`` checks the run's algorithm, or names a bare ``.zip``'s."""
+    if str(path) in HEURISTICS:
+        return HEURISTICS[str(path)]()
     from agents.rollout import Agent, load_agent
 
     path = Path(path)

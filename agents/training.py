@@ -17,6 +17,7 @@ the TensorBoard run, the monitor files and the wall-time clock go on where they 
 from __future__ import annotations
 
 import dataclasses
+import functools
 import json
 import platform
 import re
@@ -30,6 +31,7 @@ import gymnasium as gym
 
 import ios_uav_env
 from agents.hyperparams import ALGOS, Hyperparams, load_hyperparams
+from agents.wrappers import apply_wrappers
 from ios_uav_env.io import atomic_write_text
 
 RUNS_DIR = Path("runs")
@@ -107,8 +109,10 @@ def _make_venv(settings: TrainSettings, hp: Hyperparams, run_dir: Path, resume_f
     from stable_baselines3.common.env_util import make_vec_env
     from stable_baselines3.common.vec_env import DummyVecEnv, VecNormalize
 
+    wrap = functools.partial(apply_wrappers, wrappers=hp.env_wrappers) if hp.env_wrappers else None
     venv = make_vec_env(
         settings.env_id,
+        wrapper_class=wrap,
         n_envs=settings.n_envs,
         seed=settings.seed,
         env_kwargs=settings.env_kwargs,

@@ -6,9 +6,10 @@ so a reset costs more than a fixed env's; steps cost the same (same kernel size,
 observation code plus 6 constants). Measured on the bare envs (``.unwrapped``): the reset
 time per distinct scenario (median and 95th percentile), and the step throughput without
 and with the resets (pre-sampled actions, the two envs taking turns).
-The issue's bars: a reset < 5 ms, steps at the fixed env's speed.
+The issue's bars: a reset < 5 ms, steps at the fixed env's speed. ``--peak-hint`` times the
+env with ``peak_hint=True`` too: its reset adds the grid search of ``ios_uav_env.rate_peak``.
 
-    python benchmarks/random_env.py [--resets 500] [--steps 5000] [--repeats 5]
+    python benchmarks/random_env.py [--resets 500] [--steps 5000] [--repeats 5] [--peak-hint]
 """
 
 from __future__ import annotations
@@ -25,9 +26,9 @@ import ios_uav_env  # noqa: F401  (registers the ids)
 RANDOM, FIXED = "ios_uav_env/IOSUAV-Random-v0", "ios_uav_env/IOSUAV-v0"
 
 
-def reset_times(resets: int, seed: int = 0) -> np.ndarray:
+def reset_times(resets: int, seed: int = 0, **env_kwargs: object) -> np.ndarray:
     """Seconds of each of ``resets`` resets of the bare random env (a new scenario each)."""
-    env = gym.make(RANDOM).unwrapped
+    env = gym.make(RANDOM, **env_kwargs).unwrapped
     env.reset(seed=seed)
     out = np.empty(resets)
     for i in range(resets):
@@ -79,6 +80,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser.add_argument("--resets", type=int, default=500, help="timed resets (default 500)")
     parser.add_argument("--steps", type=int, default=5000, help="timed steps per repeat (default 5000)")
     parser.add_argument("--repeats", type=int, default=5, help="timed repeats; the best counts (default 5)")
+    parser.add_argument("--peak-hint", action="store_true", help="also time resets with peak_hint=True")
     args = parser.parse_args(argv)
     if min(args.resets, args.steps, args.repeats) < 1:
         parser.error("--resets, --steps and --repeats must be >= 1")
@@ -87,6 +89,10 @@ def main(argv: Sequence[str] | None = None) -> int:
     print(f"{RANDOM} reset (new scenario + rate kernel), {args.resets} resets:")
     print(f"  median {median:.3f} ms, 95th percentile {p95:.3f} ms, max {times.max():.3f} ms")
     print(f"  {'meets' if median < 5 else 'MISSES'} the bar (< 5 ms)")
+    if args.peak_hint:
+        hinted = reset_times(args.resets, peak_hint=True) * 1e3
+        print(f"{RANDOM} reset with peak_hint=True (+ rate_peak), {args.resets} resets:")
+        print(f"  median {np.median(hinted):.3f} ms, 95th percentile {np.percentile(hinted, 95):.3f} ms")
     rates = step_rates(args.steps, args.repeats)
     print(f"throughput of the bare envs, best of {args.repeats} x {args.steps} steps:")
     print(f"  {'':32s} {'step() alone':>22s} {'resets included':>22s}")

@@ -30,6 +30,7 @@ from ios_uav_env.channel import (
     zeta,
 )
 from ios_uav_env.config import FEASIBILITY_TOL, SURFACES, ScenarioConfig
+from ios_uav_env.peak import Peak, rate_peak
 from ios_uav_env.surface import element_positions, surface_nodes
 from ios_uav_env.trajectory import TrajectoryReport, average_rate, check_trajectory
 
@@ -38,6 +39,7 @@ __version__ = "0.1.0"
 __all__ = [
     "FEASIBILITY_TOL",
     "SURFACES",
+    "Peak",
     "RateKernel",
     "ScenarioConfig",
     "TrajectoryReport",
@@ -52,6 +54,7 @@ __all__ = [
     "phase_shifts",
     "radiation_patterns",
     "rate_kernel",
+    "rate_peak",
     "side_factor",
     "slot_rates",
     "surface_amplitude",

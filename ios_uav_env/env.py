@@ -22,19 +22,29 @@ from ios_uav_env.guard import guarded_position
 from ios_uav_env.observation import (
     INSTANCE_NAMES,
     OBS_NAMES,
+    PEAK_NAMES,
     T_SCALE,
     check_fits,
     instance_values,
     observation_bounds,
     rate_upper_bound,
 )
+from ios_uav_env.peak import rate_peak
 from ios_uav_env.trajectory import average_rate, check_trajectory
 
 #: Values of the ``channel`` argument: the expected-gain rate (the paper's objective) or a
 #: Rician faded-rate sample per slot.
 CHANNELS: tuple[str, ...] = ("expected", "rician")
 
-__all__ = ["CHANNELS", "INSTANCE_NAMES", "OBS_NAMES", "IOSUAVEnv", "rate_upper_bound", "scenario_option"]
+__all__ = [
+    "CHANNELS",
+    "INSTANCE_NAMES",
+    "OBS_NAMES",
+    "PEAK_NAMES",
+    "IOSUAVEnv",
+    "rate_upper_bound",
+    "scenario_option",
+]
 
 
 class IOSUAVEnv(gym.Env):
@@ -100,6 +110,11 @@ class IOSUAVEnv(gym.Env):
     is-RIS flags, t / (1 + t) with t the transmissive factor (epsilon or 0), T / 200 s and the
     seconds left / 200 s: shape (17,). See ``ios_uav_env.random_env``.
 
+    With ``peak_hint=True`` 3 more follow (names in ``PEAK_NAMES``): the reachable rate peak
+    P of the scenario (``ios_uav_env.peak.rate_peak``: the best point a fly-hover-fly
+    trajectory can visit) relative to the UAV, (P - q) / L, and its rate r(P) (bps/Hz). It
+    is derived from the instance (no new information) and computed once per scenario.
+
     ## Rewards
 
     Step n moves the UAV to q' = q[n+1] with m = moves_left after the move:
@@ -154,6 +169,7 @@ class IOSUAVEnv(gym.Env):
       (the rate map's steepest slope is 1.5 bps/Hz per move at M = 6000).
     - ``length_scale`` (400.0 m): L of the observation.
     - ``instance_features`` (False): append the 6 instance features to the observation.
+    - ``peak_hint`` (False): append the 3 features of the reachable rate peak.
     - ``render_mode``: None or "rgb_array" (the trajectory over the rate map; needs
       ``pip install ios-uav-env[render]``).
     - ``**overrides``: ``ScenarioConfig`` fields applied with ``config.replace``; the ids set
@@ -172,7 +188,7 @@ class IOSUAVEnv(gym.Env):
     ## Version History
 
     * v0: Initial version; later, without changing v0's observations: ``reset(options=
-      {"config": cfg})`` and ``instance_features`` (issue #6).
+      {"config": cfg})``, ``instance_features`` and ``peak_hint`` (issue #6).
     """
 
     metadata = {"render_modes": ["rgb_array"], "render_fps": 10}
@@ -187,6 +203,7 @@ class IOSUAVEnv(gym.Env):
         terminal_weight: float = 2.0,
         length_scale: float = 400.0,
         instance_features: bool = False,
+        peak_hint: bool = False,
         render_mode: str | None = None,
         **overrides: Any,
     ) -> None:
@@ -203,6 +220,8 @@ class IOSUAVEnv(gym.Env):
             raise ValueError(f"length_scale must be a finite number > 0 (m), got {length_scale!r}")
         if not isinstance(instance_features, (bool, np.bool_)):
             raise ValueError(f"instance_features must be True or False, got {instance_features!r}")
+        if not isinstance(peak_hint, (bool, np.bool_)):
+            raise ValueError(f"peak_hint must be True or False, got {peak_hint!r}")
         if render_mode is not None and render_mode not in self.metadata["render_modes"]:
             raise ValueError(
                 f"render_mode must be None or one of {self.metadata['render_modes']}, got {render_mode!r}"
@@ -213,6 +232,7 @@ class IOSUAVEnv(gym.Env):
         self.length_scale = float(length_scale)
         self.render_mode = render_mode
         self.instance_features = bool(instance_features)
+        self.peak_hint = bool(peak_hint)
         self._inv_l = 1.0 / self.length_scale
         self._rician = channel == "rician"
         self._renderer: Any = None
@@ -242,13 +262,19 @@ class IOSUAVEnv(gym.Env):
         self._scaled = tuple(c * self._inv_l for p in points for c in p)  # the points / L
         self._inv_moves = 1.0 / self._moves
         self._instance = instance_values(cfg) if self.instance_features else ()
+        self._peak: tuple[float, ...] = ()
+        if self.peak_hint:
+            peak = rate_peak(cfg)
+            self._peak = (peak.x * self._inv_l, peak.y * self._inv_l, peak.rate)
         self._left_scale = cfg.dt / T_SCALE  # seconds left / T_SCALE per move left
         self.close()  # the renderer's rate map is the previous scenario's
 
     def _space_bounds(self) -> tuple[np.ndarray, np.ndarray]:
         """(low, high) of the observation space: those of the construction config."""
         rate_high = rate_upper_bound(self.kernel)
-        return observation_bounds(self._base_config, self.length_scale, self.instance_features, rate_high)
+        return observation_bounds(
+            self._base_config, self.length_scale, self.instance_features, rate_high, self.peak_hint
+        )
 
     def _episode_config(self, pinned: ScenarioConfig | None) -> ScenarioConfig:  # at reset
         return self._base_config if pinned is None else pinned
@@ -261,10 +287,15 @@ class IOSUAVEnv(gym.Env):
         fx, fy, gx, gy, cx, cy = self._scaled
         s = left - dist / self._D
         relative = (fx - x, fy - y, gx - x, gy - y, cx - x, cy - y)
+        base = (x, y, *relative, left * self._inv_moves, s / (1.0 + abs(s)), rate)
+        if self.peak_hint:
+            px, py, peak_rate = self._peak
+            hint: tuple[float, ...] = (px - x, py - y, peak_rate)
+        else:
+            hint = ()
         if self.instance_features:
-            return np.array((x, y, *relative, left * self._inv_moves, s / (1.0 + abs(s)), rate,
-                             *self._instance, left * self._left_scale), dtype=np.float32)  # fmt: skip
-        return np.array((x, y, *relative, left * self._inv_moves, s / (1.0 + abs(s)), rate), dtype=np.float32)
+            return np.array((*base, *self._instance, left * self._left_scale, *hint), dtype=np.float32)
+        return np.array((*base, *hint), dtype=np.float32)
 
     # --- API ----------------------------------------------------------------------
     def check_time_limit(self, spec: Any, config: ScenarioConfig | None = None) -> None:
@@ -288,7 +319,7 @@ class IOSUAVEnv(gym.Env):
         self.check_time_limit(self.spec, pinned)
         cfg = self._episode_config(pinned)
         if cfg is not self._base_config and cfg != self.config:  # may it leave the space?
-            check_fits(cfg, self.length_scale, self.instance_features, self.observation_space)
+            check_fits(cfg, self.length_scale, self.instance_features, self.observation_space, self.peak_hint)
         self._set_config(cfg)
         x, y = cfg.q0
         self._n, self._x, self._y = 0, x, y

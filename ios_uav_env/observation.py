@@ -26,6 +26,10 @@ OBS_NAMES: tuple[str, ...] = (
 #: Names of the instance features appended with ``instance_features=True``, in order.
 INSTANCE_NAMES: tuple[str, ...] = ("elements", "is_ios", "is_ris", "transmit", "horizon", "seconds_left")
 
+#: Names of the peak hint appended (after the instance features, if any) with ``peak_hint=True``:
+#: the reachable rate peak P relative to the UAV, (P - q) / L, and its rate (bps/Hz).
+PEAK_NAMES: tuple[str, ...] = ("dx_peak", "dy_peak", "rate_peak")
+
 #: Element count of the paper's surface (M = 6000): the ``elements`` feature is M / M_SCALE.
 M_SCALE = 6000.0
 #: Seconds (the longest horizon of the default ranges): ``horizon`` is T / T_SCALE and
@@ -106,39 +110,59 @@ def length_bounds(
 
 
 def assemble_bounds(
-    lengths: list[float], rate_high: float, instance: tuple[float, float] | None
+    lengths: list[float],
+    rate_high: float,
+    instance: tuple[float, float] | None,
+    peak_reach: float | None = None,
 ) -> tuple[np.ndarray, np.ndarray]:
     """(low, high) float32 arrays from the length bounds, the rate bound and, for the instance
-    features, the largest (elements, horizon) values (their upper bounds are at least 1)."""
+    features, the largest (elements, horizon) values (their upper bounds are at least 1); for
+    the peak hint, ``peak_reach``: the largest (N - 1) D / L (the peak and the UAV are both
+    within it of q0, so |P - q| / L <= 2 ``peak_reach``)."""
     high = [*lengths, 1.0, 1.0, _pad(rate_high)]
     low = [-h for h in high[:8]] + [0.0, -1.0, 0.0]
     if instance is not None:
         elements, horizon = (_pad(max(1.0, v)) for v in instance)
         high += [elements, 1.0, 1.0, 1.0, horizon, horizon]
         low += [0.0] * len(INSTANCE_NAMES)
+    if peak_reach is not None:
+        high += [_pad(2.0 * peak_reach)] * 2 + [_pad(rate_high)]
+        low += [-_pad(2.0 * peak_reach)] * 2 + [0.0]
     return np.array(low, dtype=np.float32), np.array(high, dtype=np.float32)
 
 
 def observation_bounds(
-    config: ScenarioConfig, length_scale: float, instance: bool, rate_high: float | None = None
+    config: ScenarioConfig,
+    length_scale: float,
+    instance: bool,
+    rate_high: float | None = None,
+    peak: bool = False,
 ) -> tuple[np.ndarray, np.ndarray]:
     """(low, high) float32 arrays that hold every observation of an episode on ``config``.
 
     ``rate_high``: the rate bound (default :func:`rate_bound`). With ``instance`` the 6
-    instance features follow the 11 base ones.
+    instance features follow the 11 base ones; with ``peak`` the 3 of the peak hint follow.
     """
     q0 = ((config.q0[0],) * 2, (config.q0[1],) * 2)
     points = [((p[0],) * 2, (p[1],) * 2) for p in (config.qF, config.ground_node, config.ios_center)]
     lengths = length_bounds(q0, points, (config.N - 1) * config.D, length_scale)
     elements, *_, horizon = instance_values(config)
     rate_high = rate_bound(config) if rate_high is None else rate_high
-    return assemble_bounds(lengths, rate_high, (elements, horizon) if instance else None)
+    reach = (config.N - 1) * config.D / length_scale if peak else None
+    return assemble_bounds(lengths, rate_high, (elements, horizon) if instance else None, reach)
 
 
-def check_fits(config: ScenarioConfig, length_scale: float, instance: bool, space: Any) -> None:
+def observation_names(instance: bool, peak: bool = False) -> tuple[str, ...]:
+    """The names of the observation's components, in order."""
+    return OBS_NAMES + (INSTANCE_NAMES if instance else ()) + (PEAK_NAMES if peak else ())
+
+
+def check_fits(
+    config: ScenarioConfig, length_scale: float, instance: bool, space: Any, peak: bool = False
+) -> None:
     """Raise ``ValueError`` if an episode on ``config`` could leave the Box ``space``."""
-    low, high = observation_bounds(config, length_scale, instance)
-    names = OBS_NAMES + INSTANCE_NAMES
+    low, high = observation_bounds(config, length_scale, instance, peak=peak)
+    names = observation_names(instance, peak)
     for i in np.flatnonzero((high > space.high) | (low < space.low))[:1]:
         raise ValueError(
             f"the scenario {config} does not fit this env's observation space: component {i} "

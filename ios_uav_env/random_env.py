@@ -273,7 +273,8 @@ class RandomIOSUAVEnv(IOSUAVEnv):
       drawn instead with probability ``focus_prob``: a training distribution that visits
       more often the scenarios where the surface changes the best plan. The observation
       space stays that of ``ranges``; with ``focus_prob = 0`` the draws are unchanged.
-    - ``instance_features`` (True), ``channel``, ``arrival_guard``, ``reach_weight``,
+    - ``instance_features`` (True), ``peak_hint`` (False: with True, 3 more components,
+      the reachable rate peak; see ``IOSUAVEnv``), ``channel``, ``arrival_guard``, ``reach_weight``,
       ``terminal_weight``, ``length_scale``, ``render_mode``: as ``IOSUAVEnv``.
     - ``**overrides``: ``ScenarioConfig`` fields that the ranges do not draw (e.g.
       ``v_max``, ``alpha``), applied to ``ranges.base``; a drawn field (``T``,
@@ -316,6 +317,7 @@ class RandomIOSUAVEnv(IOSUAVEnv):
             "reach_weight",
             "terminal_weight",
             "length_scale",
+            "peak_hint",
             "render_mode",
         }
         overrides = {k: kwargs.pop(k) for k in list(kwargs) if k not in env_args}
@@ -342,7 +344,9 @@ class RandomIOSUAVEnv(IOSUAVEnv):
         self.pinned: ScenarioConfig | None = None if config is None else as_config(config)
         super().__init__(self.pinned or ranges.base, instance_features=instance_features, **kwargs)
         if self.pinned is not None:
-            check_fits(self.pinned, self.length_scale, self.instance_features, self.observation_space)
+            check_fits(
+                self.pinned, self.length_scale, self.instance_features, self.observation_space, self.peak_hint
+            )
 
     def _space_bounds(self) -> tuple[np.ndarray, np.ndarray]:
         """(low, high) over every scenario of the ranges."""
@@ -360,7 +364,8 @@ class RandomIOSUAVEnv(IOSUAVEnv):
             for rows in range(r.ios_rows[0], r.ios_rows[1] + 1)
         )
         largest = (r.ios_columns * r.ios_rows[1] / M_SCALE, r.slot_range[1] * base.dt / T_SCALE)
-        return assemble_bounds(lengths, rate_high, largest if self.instance_features else None)
+        reach = r.max_moves * base.D / self.length_scale if self.peak_hint else None
+        return assemble_bounds(lengths, rate_high, largest if self.instance_features else None, reach)
 
     def _episode_config(self, pinned: ScenarioConfig | None) -> ScenarioConfig:
         if pinned is not None:

@@ -9,6 +9,7 @@ import json
 import numpy as np
 import pytest
 
+import ios_uav_env
 from agents import suite as suite_mod
 from agents.suite import (
     DEFAULT_SIZE,
@@ -151,3 +152,37 @@ def test_report_cli_and_shipped_agent(tmp_path, capsys):
         load_policy(shipped, "sac")
     rows = evaluate_suite(load_policy(shipped, "ppo"), load_suite(), n=2)  # an 11-feature agent
     assert len(rows) == 2 and all(r.rate > 0 for r in rows)
+
+
+def test_peak_heuristic_follows_the_hint_and_beats_flying_to_g_where_the_surface_matters(suite):
+    from agents.suite_report import HEURISTICS, load_policy
+
+    assert set(HEURISTICS) == {"heuristic", "peak-heuristic"}
+    peak = load_policy("peak-heuristic")
+    assert peak.env_kwargs == {"peak_hint": True}
+    # scenario 15: G at (49, -30), 50 m in front of the IOS; the best hover point is across it
+    cfg = suite[15].config
+    assert cfg.ground_node[0] > 0 and ios_uav_env.rate_peak(cfg).x < 0
+    (by_peak,) = [r for r in evaluate_suite(peak, suite) if r.index == 15]
+    (by_g,) = [r for r in evaluate_suite(GroundSeeker(), suite) if r.index == 15]
+    assert by_peak.feasible and by_peak.pct_dp > 98.0 > 80.0 > by_g.pct_dp
+
+
+def test_shipped_generalist_reproduces_its_recorded_suite_rows(suite):
+    pytest.importorskip("stable_baselines3")
+    from agents.evaluate import MODELS_DIR
+    from agents.suite_report import load_policy
+
+    folder = MODELS_DIR / "ppo_IOSUAV-Random-v0"
+    with open(folder / "suite_report.csv", newline="") as fh:
+        recorded = list(csv.DictReader(fh))
+    assert len(recorded) == len(suite) == 60
+    pct = [float(r["pct_dp"]) for r in recorded]
+    # the bars, on the recorded table
+    assert np.mean(pct) >= 97.0 and min(pct) >= 90.0 and all(r["feasible"] == "True" for r in recorded)
+    agent = load_policy(folder)
+    assert agent.env_kwargs["peak_hint"] is True
+    rows = evaluate_suite(agent, suite, n=8)
+    for row, rec in zip(rows, recorded, strict=False):
+        assert row.index == int(rec["index"]) and row.feasible
+        assert row.rate == pytest.approx(float(rec["rate"]), rel=1e-9)

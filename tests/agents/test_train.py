@@ -184,3 +184,57 @@ def test_log_std_schedule_anneals_the_exploration_noise():
     model.learn(256, callback=Spy(start=-1.0, end=-3.0))
     assert [float(s[0]) for s in seen] == pytest.approx([-1.0, -1.5, -2.0, -2.5])  # rollouts at 0..192
     assert not model.policy.log_std.requires_grad and np.all(seen[-1] == seen[-1][0])
+
+
+def test_target_entropy_schedule_anneals_sac_noise_and_refuses_ppo():
+    import gymnasium as gym
+    import torch
+    from stable_baselines3 import PPO, SAC
+
+    from agents.callbacks import TargetEntropySchedule
+
+    torch.set_num_threads(1)
+    env = gym.make("ios_uav_env/IOSUAV-v0")
+    model = SAC("MlpPolicy", env, learning_starts=50, batch_size=16, policy_kwargs={"net_arch": [8]}, seed=0)
+    seen = []
+
+    class Spy(TargetEntropySchedule):
+        def _on_step(self) -> bool:
+            super()._on_step()
+            seen.append(self.model.target_entropy)
+            return True
+
+    model.learn(100, callback=Spy(start=-2.0, end=-6.0))
+    assert (
+        seen[0] == pytest.approx(-2.04)
+        and seen[49] == pytest.approx(-4.0)
+        and seen[-1] == pytest.approx(-6.0)
+    )
+    ppo = PPO("MlpPolicy", env, n_steps=64, batch_size=64, n_epochs=1, policy_kwargs={"net_arch": [8]})
+    with pytest.raises(TypeError, match="needs SAC"):
+        ppo.learn(64, callback=TargetEntropySchedule())
+
+
+def test_env_wrapper_key_wraps_the_training_envs_and_the_monitor_keeps_raw_rewards(tmp_path):
+    from agents.hyperparams import resolve
+    from agents.training import TrainSettings, _make_venv
+    from agents.wrappers import ShiftReward
+
+    hp = resolve(
+        {"n_envs": 1, "env_wrapper": [{"agents.wrappers.ShiftReward": {"offset": 2.0, "scale": 3.0}}]}
+    )
+    assert hp.env_wrappers == [(ShiftReward, {"offset": 2.0, "scale": 3.0})]
+    venv = _make_venv(TrainSettings("sac", n_envs=1, seed=0), hp, tmp_path, None)
+    venv.reset()
+    shifted, raw = [], []
+    for _ in range(148):
+        _, reward, _, info = venv.step(np.zeros((1, 2), dtype=np.float32))
+        shifted.append(float(reward[0]))
+        raw.append(info[0]["rate"])
+    np.testing.assert_allclose(shifted, 3.0 * (np.array(raw) - 2.0), rtol=1e-6)
+    _, _, done, info = venv.step(np.zeros((1, 2), dtype=np.float32))
+    assert done[0] and info[0]["episode"]["r"] == pytest.approx(sum(raw) + info[0]["rate"], rel=1e-5)
+    with pytest.raises(ValueError, match="env_wrapper: cannot import 'agents.wrappers.Nope'"):
+        resolve({"env_wrapper": "agents.wrappers.Nope"})
+    with pytest.raises(ValueError, match="scale must be > 0"):
+        ShiftReward(venv.envs[0], scale=0.0)

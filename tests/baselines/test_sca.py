@@ -264,3 +264,27 @@ def test_tight_horizon_off_axis_solves_without_the_dp_start():
     plan = sca.solve(cfg)
     assert plan.feasible and plan.info["status"] == "ok"  # a start at exactly D per move is no failure
     assert not any(name.startswith("dp") for name, _ in sca.default_starts(cfg))
+
+
+def test_a_losing_start_that_stops_early_is_recorded_without_a_warning(monkeypatch):
+    import warnings
+
+    original = sca._run
+
+    def first_start_fails(surrogate, q0, name, *args):
+        if name == "init0":  # stops at once on its (worse) initial trajectory
+            return q0, ie.average_rate(SMALL, q0), 0, "solver_error"
+        return original(surrogate, q0, name, *args)
+
+    monkeypatch.setattr(sca, "_run", first_start_fails)
+    starts = [straight_line(SMALL), fly_hover_fly(SMALL, BEHIND)]
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        plan = sca.solve(SMALL, init=starts, max_iters=3)
+    assert plan.info["status"] == "partial_failure" and plan.info["start"] == "init1"
+    with pytest.warns(RuntimeWarning, match="init0"):  # the winner failing still warns
+        assert sca.solve(SMALL, init=starts[:1], max_iters=3).info["status"] == "failed"
+    monkeypatch.setattr(sca, "_run", lambda s, q0, name, *a: (q0, ie.average_rate(SMALL, q0), 1, "decrease"))
+    with warnings.catch_warnings():  # a stop on an exact decrease is SCA's normal end: recorded only
+        warnings.simplefilter("error")
+        assert sca.solve(SMALL, init=starts[:1]).info["status"] == "failed"
