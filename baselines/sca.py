@@ -153,6 +153,7 @@ import ios_uav_env as ie
 from baselines.plan import Plan
 from baselines.sca_problem import PLANE_TOL, STEP_MARGIN, Surrogate
 from ios_uav_env import ScenarioConfig
+from ios_uav_env.peak import reachable
 
 #: Default tiles per axis (2 x 2 = 4 nodes; see the module docstring for the measured error).
 DEFAULT_TILES = 2
@@ -193,23 +194,18 @@ def _validate(config: Any, tiles: Any, max_iters: Any, tol: Any, solver: Any) ->
 # --- initial trajectories -----------------------------------------------------------------
 
 
-def _moves(config: ScenarioConfig, a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    dist = np.linalg.norm(np.asarray(b) - np.asarray(a), axis=-1)
-    return np.where(dist > 0, np.ceil(dist / config.D - 1e-9), 0)
-
-
 def best_hover_points(config: ScenarioConfig) -> dict[str, tuple[float, float]]:
     """Best reachable hover point of the rate map on each side of the surface plane.
 
     Keys ``"front"`` (G's side) and ``"behind"``; a hover point P is reachable when
-    fly-hover-fly can visit it: ceil(|P - q0|/D) + ceil(|qF - P|/D) <= N - 1.
+    fly-hover-fly can visit it (``ios_uav_env.peak.reachable``): ceil(|P - q0|/D) + ceil(|qF - P|/D) <= N - 1.
     """
     from baselines.dp import rate_map
 
     xs, ys, rates = rate_map(config, HOVER_MAP_RESOLUTION)
     xx, yy = np.meshgrid(xs, ys)
     pts = np.stack([xx, yy], axis=-1)
-    reach = _moves(config, config.q0, pts) + _moves(config, pts, config.qF) <= config.N - 1
+    reach = reachable(config, pts.reshape(-1, 2)).reshape(xx.shape)
     side = np.sign(xx - config.ios_center[0]) * np.sign(config.ground_node[0] - config.ios_center[0])
     out = {}
     for name, mask in (("front", side > 0), ("behind", side < 0)):
