@@ -155,6 +155,10 @@ class TargetEntropySchedule(BaseCallback):
         if not hasattr(self.model, "target_entropy"):
             name = type(self.model).__name__
             raise TypeError(f"TargetEntropySchedule needs SAC (an entropy target), got {name}")
+        if getattr(self.model, "ent_coef_optimizer", None) is None:  # a fixed ent_coef ignores the target
+            raise ValueError(
+                "TargetEntropySchedule needs SAC's automatic entropy coefficient (ent_coef: 'auto')"
+            )
         self._update()
 
     def _on_step(self) -> bool:

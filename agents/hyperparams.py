@@ -89,12 +89,35 @@ def _classes(spec: Any, key: str) -> list[tuple[Any, dict[str, Any], str]]:
         return []
     out = []
     for item in spec if isinstance(spec, list) else [spec]:
-        name, kwargs = (item, {}) if isinstance(item, str) else next(iter(item.items()))
+        if isinstance(item, dict) and len(item) == 1:
+            name, kwargs = next(iter(item.items()))
+        else:
+            name, kwargs = item, {}
+        if not isinstance(name, str) or not (kwargs is None or isinstance(kwargs, dict)):
+            raise ValueError(
+                f"hyperparameter {key}: each entry must be 'module.Class' or {{'module.Class': {{kwargs}}}}, "
+                f"got {item!r}"
+            )
         module, _, cls = name.rpartition(".")
         try:
             out.append((getattr(importlib.import_module(module), cls), dict(kwargs or {}), name))
         except (ImportError, AttributeError, ValueError) as exc:
             raise ValueError(f"hyperparameter {key}: cannot import {name!r}: {exc}") from exc
+    return out
+
+
+def _wrappers(spec: Any) -> list[tuple[Any, dict[str, Any]]]:
+    """The zoo's ``env_wrapper`` value (see :func:`_classes`): (class, kwargs) pairs whose
+    keyword arguments fit the class (checked now, not when the envs are made)."""
+    import inspect
+
+    out = []
+    for cls, kwargs, name in _classes(spec, "env_wrapper"):
+        try:
+            inspect.signature(cls).bind(None, **kwargs)  # None stands for the env
+        except TypeError as exc:
+            raise ValueError(f"hyperparameter env_wrapper: bad arguments for {name!r}: {exc}") from exc
+        out.append((cls, kwargs))
     return out
 
 
@@ -134,7 +157,7 @@ def resolve(entry: dict[str, Any]) -> Hyperparams:
     return Hyperparams(
         raw=raw,
         callbacks=_callbacks(entry.get("callback")),
-        env_wrappers=[(cls, kw) for cls, kw, _ in _classes(entry.get("env_wrapper"), "env_wrapper")],
+        env_wrappers=_wrappers(entry.get("env_wrapper")),
         n_timesteps=int(float(entry.get("n_timesteps", 100_000))),
         n_envs=int(entry.get("n_envs", 1)),
         policy=str(entry.get("policy", "MlpPolicy")),

@@ -4,7 +4,7 @@
 
 Reads the run's ``checkpoints/rl_model_<steps>_steps.zip`` (and the matching VecNormalize
 statistics, if any), scores each with :func:`agents.suite_report.evaluate_suite` and writes a
-CSV (steps, wall time of the checkpoint, mean / p10 / min % of DP, feasible) and a PNG.
+CSV (steps, minutes since the first checkpoint, mean / p10 / min % of DP, feasible) and a PNG.
 """
 
 from __future__ import annotations
@@ -53,7 +53,7 @@ def load_checkpoint(zip_path: Path, steps: int, env_id: str) -> Any:
 
 
 def learning_curve(run: str | Path, suite: Suite, n: int | None = None) -> list[dict[str, Any]]:
-    """One summary row per checkpoint: steps, seconds since the run started, suite score."""
+    """One summary row per checkpoint: steps, minutes since the first checkpoint (file times), suite score."""
     from agents.suite_report import RANDOM_ENV_ID, evaluate_suite, summarize
 
     rows = []

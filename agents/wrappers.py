@@ -17,8 +17,8 @@ class ShiftReward(gym.RewardWrapper):
 
     Every episode of the fixed ids has exactly N - 1 steps, so subtracting a constant leaves
     the optimal policy unchanged, but it changes what a bootstrapped critic has to fit: with
-    the raw rate (~2.4 bps/Hz per slot) SAC's Q-values run from ~240 at the start to ~2 at
-    the end of an episode (gamma 0.99), and the differences between hover points (a few
+    the raw rate (~2.4 bps/Hz per slot) SAC's Q-values run from ~190 at the start to ~2 at
+    the end of an episode (gamma 0.99, 149 steps), and the differences between hover points (a few
     hundredths of a bps/Hz per slot) drown in that time trend. With ``offset`` near the
     rate of the best hover point the trend nearly vanishes and the critic spends its
     capacity on where to fly. The monitor (``monitor/``) still logs the env's own rewards.

@@ -126,10 +126,11 @@ multi-start that is ~2-4 s saved.
 
 **Failures.** A solver exception or a status other than optimal / optimal_inaccurate stops
 that start with ``"solver_error: ..."`` in the history and keeps its last feasible iterate;
-so does an iterate that fails ``check_trajectory`` (``"infeasible_iterate ..."``). A
+so does an iterate that fails ``check_trajectory`` (``"infeasible_iterate ..."``).
 ``info["status"]`` is then ``"partial_failure"`` or ``"failed"`` (a stop on an exact decrease
 counts too), and a ``RuntimeWarning`` says so when the winning start hit a solver error or an
-infeasible iterate (a losing start's stop cannot change the plan: it is only recorded).
+infeasible iterate. A losing start's stop is only recorded: it did not produce the plan
+(though it might have won had it run on).
 A solver name cvxpy does not know raises ``ValueError``; a known one that is not installed or
 cannot take exponential cones (e.g. "OSQP") fails at the first solve and falls back.
 
@@ -450,10 +451,10 @@ def solve(
         s["start"] for s in summaries if s["stop"] in ("solver_error", "infeasible_iterate", "decrease")
     ]
     stops = {s["start"]: s["stop"] for s in summaries if s["start"] in failed}
-    # warn when the plan itself may be affected: the winning start hit a solver error or an
-    # infeasible iterate. A losing start's early stop cannot change the plan, and "decrease"
-    # (the exact objective fell, the previous iterate is kept) is SCA's usual stop when the
-    # surrogate's error exceeds the improvement left: both are only recorded in ``info``
+    # warn when the winning start hit a solver error or an infeasible iterate. A losing
+    # start's early stop did not produce the plan, and "decrease" (the exact objective fell,
+    # the previous iterate is kept) is SCA's usual stop when the surrogate's error exceeds
+    # the improvement left: both are only recorded in ``info``
     if stops.get(best[2], "decrease") != "decrease":
         warnings.warn(
             f"SCA: start(s) {failed} stopped early ({list(stops.values())}); "

@@ -47,6 +47,26 @@ def test_no_reachable_point_beats_the_peak(surface):
     assert rates.max() >= peak.rate - 0.05  # and the samples do come near it (the test can fail)
 
 
+def test_a_higher_uav_widens_the_search_to_the_surfaces_farther_peak():
+    # at 250 m the surface's link peaks ~300 m from the IOS: beyond a fixed 200 m box
+    cfg = SMALL.replace(uav_altitude=250.0, ground_node=(30.0, 0.0), q0=(-400, 150), qF=(400, 150))
+    peak = rate_peak(cfg)
+    assert peak.x < -250.0  # a fixed 200 m box around the IOS and G ends at x = -200
+    rates = slot_rates(cfg, random_reachable(cfg, 4000, seed=2))
+    assert rates.max() <= peak.rate + 1e-3
+    assert rate_peak(cfg, margin=200.0).rate < 0.9 * peak.rate  # what the fixed box found (-13%)
+
+
+def test_a_far_away_ground_node_keeps_the_search_within_reach():
+    import time
+
+    cfg = SMALL.replace(surface="none", ground_node=(50_000.0, 0.0))
+    start = time.perf_counter()
+    peak = rate_peak(cfg)
+    assert time.perf_counter() - start < 5.0  # a box around G would have ~10^8 points
+    assert reachable(cfg, np.array([[peak.x, peak.y]]))[0] and peak.x > 300.0  # as near G as it can
+
+
 def test_without_a_surface_the_peak_is_above_g():
     cfg = DEFAULT.replace(surface="none", ground_node=(37.0, -52.0))
     peak = rate_peak(cfg)

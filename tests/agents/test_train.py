@@ -238,3 +238,27 @@ def test_env_wrapper_key_wraps_the_training_envs_and_the_monitor_keeps_raw_rewar
         resolve({"env_wrapper": "agents.wrappers.Nope"})
     with pytest.raises(ValueError, match="scale must be > 0"):
         ShiftReward(venv.envs[0], scale=0.0)
+
+
+def test_bad_env_wrapper_entries_are_refused_when_read():
+    from agents.hyperparams import resolve
+
+    for spec, match in (
+        ({"agents.wrappers.ShiftReward": {"offst": 1.0}}, "bad arguments for 'agents.wrappers.ShiftReward'"),
+        ([3], "each entry must be"),
+        ({"agents.wrappers.ShiftReward": [1.0]}, "each entry must be"),
+    ):
+        with pytest.raises(ValueError, match=match):
+            resolve({"env_wrapper": spec})
+
+
+def test_target_entropy_schedule_refuses_a_fixed_entropy_coefficient():
+    import gymnasium as gym
+    from stable_baselines3 import SAC
+
+    from agents.callbacks import TargetEntropySchedule
+
+    model = SAC("MlpPolicy", gym.make("ios_uav_env/IOSUAV-v0"), ent_coef=0.1, learning_starts=10,
+                policy_kwargs={"net_arch": [8]})  # fmt: skip
+    with pytest.raises(ValueError, match="ent_coef: 'auto'"):
+        model.learn(20, callback=TargetEntropySchedule())
