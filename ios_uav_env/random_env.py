@@ -10,6 +10,7 @@ and the start and end points; every other field is its ``base`` config's),
 from __future__ import annotations
 
 import dataclasses
+import inspect
 import math
 from collections.abc import Mapping
 from dataclasses import dataclass
@@ -190,6 +191,14 @@ def sample_scenario(
     )
 
 
+#: ``IOSUAVEnv``'s keyword arguments (the rest of ``**kwargs`` are ``ScenarioConfig`` overrides).
+_ENV_ARGS = frozenset(
+    name
+    for name, p in inspect.signature(IOSUAVEnv.__init__).parameters.items()
+    if p.kind is inspect.Parameter.KEYWORD_ONLY
+)
+
+
 class RandomIOSUAVEnv(IOSUAVEnv):
     r"""``IOSUAVEnv`` on a new scenario at every reset, drawn from documented ranges.
 
@@ -311,16 +320,7 @@ class RandomIOSUAVEnv(IOSUAVEnv):
         **kwargs: Any,
     ) -> None:
         ranges = _as_ranges(DEFAULT_RANGES if ranges is None else ranges, "ranges")
-        env_args = {
-            "channel",
-            "arrival_guard",
-            "reach_weight",
-            "terminal_weight",
-            "length_scale",
-            "peak_hint",
-            "render_mode",
-        }
-        overrides = {k: kwargs.pop(k) for k in list(kwargs) if k not in env_args}
+        overrides = {k: kwargs.pop(k) for k in list(kwargs) if k not in _ENV_ARGS}
         drawn = sorted(set(overrides) & RANGED_FIELDS)
         if drawn:
             raise ValueError(
