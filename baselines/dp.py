@@ -50,8 +50,9 @@ _RATE_CHUNK = 65536  # cells per slot_rates call (bounds the (cells, nodes) temp
 
 
 def grid_box(config: ScenarioConfig, margin: float = DEFAULT_MARGIN) -> tuple[float, float, float, float]:
-    """Box (x_min, x_max, y_min, y_max) in m: bounding box of q0, qF, G, IOS centre + margin."""
-    pts = np.array([config.q0, config.qF, config.ground_node, config.ios_center[:2]])
+    """Box (x_min, x_max, y_min, y_max) in m: bounding box of q0, qF, the ground node(s) and the
+    IOS centre, + margin."""
+    pts = np.array([config.q0, config.qF, *config.nodes, config.ios_center[:2]])
     lo, hi = pts.min(axis=0) - margin, pts.max(axis=0) + margin
     return float(lo[0]), float(hi[0]), float(lo[1]), float(hi[1])
 

@@ -30,6 +30,15 @@ from ios_uav_env.channel import (
     zeta,
 )
 from ios_uav_env.config import FEASIBILITY_TOL, SURFACES, ScenarioConfig
+from ios_uav_env.multinode import (
+    Schedule,
+    best_schedule,
+    maxmin_rate,
+    maxmin_schedule,
+    node_rates,
+    schedule,
+    scheduled_rates,
+)
 from ios_uav_env.peak import Peak, rate_peak
 from ios_uav_env.surface import element_positions, surface_nodes
 from ios_uav_env.trajectory import TrajectoryReport, average_rate, check_trajectory
@@ -42,8 +51,10 @@ __all__ = [
     "Peak",
     "RateKernel",
     "ScenarioConfig",
+    "Schedule",
     "TrajectoryReport",
     "average_rate",
+    "best_schedule",
     "channel",
     "check_trajectory",
     "direct_amplitude",
@@ -51,10 +62,15 @@ __all__ = [
     "element_positions",
     "faded_rates",
     "los_channel",
+    "maxmin_rate",
+    "maxmin_schedule",
+    "node_rates",
     "phase_shifts",
     "radiation_patterns",
     "rate_kernel",
     "rate_peak",
+    "schedule",
+    "scheduled_rates",
     "side_factor",
     "slot_rates",
     "surface_amplitude",
