@@ -160,6 +160,10 @@ def solve(
         Scheme ``"dp"``; ``info`` holds ``dp_objective`` (the DP's optimum, equal to
         ``mean_rate``), ``resolution``, ``margin``, ``box`` and ``grid_shape``.
 
+    Several ground nodes (K > 1): :func:`baselines.dp_bound.solve_multinode`, the best plan
+    found by grid DPs on the dual's per-slot rewards, with ``info["upper_bound"]``, a bound no
+    feasible continuous trajectory can beat (``info["gap"]`` = upper_bound / mean_rate - 1).
+
     Raises
     ------
     ValueError
@@ -168,6 +172,10 @@ def solve(
     """
     t0 = time.perf_counter()
     _validate(config, resolution, margin)
+    if config.K > 1:  # several ground nodes: best plan found + certified upper bound
+        from baselines.dp_bound import solve_multinode
+
+        return solve_multinode(config, resolution=resolution, margin=margin, progress=progress)
     n_slots, d_max = config.N, config.D
     q0, q_f = np.asarray(config.q0), np.asarray(config.qF)
     info = {"resolution": float(resolution), "margin": float(margin), "box": list(grid_box(config, margin))}
@@ -185,10 +193,30 @@ def solve(
             "resolution or a smaller margin"
         )
     _, _, rates = rate_map(config, resolution, margin)
-    offsets = disk_offsets(resolution, d_max)
     r_f = float(slot_rates(config, q_f)[0])
-    info.update(grid_shape=[len(ys), len(xs)], n_offsets=len(offsets))
+    info.update(grid_shape=[len(ys), len(xs)], n_offsets=len(disk_offsets(resolution, d_max)))
+    traj, info["dp_objective"] = grid_path(config, rates, r_f, resolution, margin, progress)
+    return _finish(config, traj, info, t0)
 
+
+def grid_path(
+    config: ScenarioConfig,
+    rates: np.ndarray,
+    r_f: float,
+    resolution: float,
+    margin: float = DEFAULT_MARGIN,
+    progress: bool = False,
+) -> tuple[np.ndarray, float]:
+    """The best grid path for a per-slot reward: (trajectory (N, 2), objective).
+
+    ``rates`` (ny, nx) is the reward of each cell of :func:`grid_axes` (q0's cell gives slot
+    1's reward), ``r_f`` that of qF (slot N); the objective is the path's mean reward, the
+    optimum over grid paths (module docstring). ``ValueError`` when no grid path reaches qF.
+    """
+    n_slots, d_max = config.N, config.D
+    q_f = np.asarray(config.qF, dtype=float)
+    xs, ys, (iy0, ix0) = grid_axes(config, resolution, margin)
+    offsets = disk_offsets(resolution, d_max)
     # values[k] is V at layer k + 1 (0-based slots; layer 0 is q0, layer N-1 is qF)
     values = np.empty((n_slots - 2, len(ys), len(xs)))
     near_f = np.hypot(xs[None, :] - q_f[0], ys[:, None] - q_f[1]) <= d_max
@@ -217,8 +245,7 @@ def solve(
         path.append(_best_move(values[k], path[-1], offsets))
     idx = np.array(path)
     traj = np.vstack([np.column_stack([xs[idx[:, 1]], ys[idx[:, 0]]]), q_f])
-    info["dp_objective"] = total / n_slots
-    return _finish(config, traj, info, t0)
+    return traj, total / n_slots
 
 
 def _best_move(layer: np.ndarray, cell: tuple[int, int], offsets: np.ndarray) -> tuple[int, int] | None:
