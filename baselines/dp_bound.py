@@ -49,8 +49,9 @@ below ``tol`` (relative) or after ``max_cuts``. The start is the tour's dual wei
 **Below the bound** (plans): at every w_i, the plain grid DP (``baselines.dp.grid_path``:
 moves <= D between grid points, rewards f_w at the grid points) gives a feasible
 trajectory; each is scored by ``ios_uav_env.maxmin_rate``. These are good only when one
-point serves all nodes; the plans that mix hover points come from the tour heuristic and
-SCA, which take the DP paths' hover points as candidates.
+point serves all nodes, so the longest hovers of those paths, with the nodes' peaks, are
+also given to the tour heuristic (routes mixing them), and the tour's own plan competes:
+the plan returned is the best of all, ``info["plan_source"]`` says which.
 
 **Which side is loose.** Two things separate UB from the best plan: (i) the grid
 relaxation, chiefly the move rule (a cell-to-cell move may cover D + h... D + 2 sqrt(2) h
@@ -227,6 +228,18 @@ class RelaxedDP:
         return g / self.config.N
 
 
+def hover_points(paths: list[np.ndarray], limit: int) -> list[tuple[str, tuple[float, float]]]:
+    """The ``limit`` longest hovers (way-points repeated in consecutive slots) of the paths."""
+    stays: dict[tuple[float, float], int] = {}
+    for q in paths:
+        same = np.all(np.diff(q, axis=0) == 0, axis=1)
+        for n in np.flatnonzero(same):
+            key = (float(q[n, 0]), float(q[n, 1]))
+            stays[key] = stays.get(key, 0) + 1
+    ranked = sorted(stays, key=lambda p: -stays[p])[:limit]
+    return [(f"dp-hover({p[0]:g},{p[1]:g})", p) for p in ranked]
+
+
 def _kelley_step(cuts: list[np.ndarray]) -> tuple[np.ndarray, float]:
     """argmin and min over the simplex of max_i G_i . w (an LP)."""
     from scipy.optimize import linprog
@@ -274,10 +287,11 @@ def solve_multinode(
     h = resolution if bound_resolution is None else bound_resolution
     if not (isinstance(h, (int, float)) and math.isfinite(h) and h > 0):
         raise ValueError(f"bound_resolution must be a finite number > 0 (m), got {h!r}")
-    if start_weights is None:
-        from baselines.tour import solve as tour_solve
+    from baselines import tour
 
-        start_weights = ie.schedule(config, tour_solve(config).trajectory).weights
+    tour_plan = tour.solve(config)
+    if start_weights is None:
+        start_weights = ie.schedule(config, tour_plan.trajectory).weights
     w = np.asarray(start_weights, dtype=float)
     if w.shape != (config.K,) or not (np.all(w >= 0) and abs(w.sum() - 1) < 1e-9):
         raise ValueError(f"start_weights must be K={config.K} numbers >= 0 summing to 1, got {w!r}")
@@ -290,7 +304,8 @@ def solve_multinode(
     cuts: list[np.ndarray] = []
     records: list[dict[str, Any]] = []
     best_ub, best_w, lower = math.inf, w, -math.inf
-    best_plan: tuple[float, np.ndarray] | None = None
+    best_plan: tuple[float, np.ndarray, str] | None = None
+    dp_paths: list[np.ndarray] = []
     for it in range(max_cuts):
         ub, g = relaxed.value(w)
         cuts.append(g)
@@ -303,9 +318,10 @@ def solve_multinode(
         except ValueError:  # no grid path in time on this grid: the bound still holds
             traj = None
         if traj is not None:
+            dp_paths.append(traj)
             score = ie.maxmin_rate(config, traj)
             if best_plan is None or score > best_plan[0]:
-                best_plan = (score, traj)
+                best_plan = (score, traj, f"dp{it}")
         records.append({"iteration": it, "weights": w.tolist(), "upper_bound": ub, "plan_score": score})
         w, lower = _kelley_step(cuts)
         if progress:
@@ -314,6 +330,13 @@ def solve_multinode(
             break
     if best_plan is None:
         raise ValueError(f"no grid path reaches qF in time at resolution={resolution:g} m: use a finer grid")
+    # the DP paths hover where some f_w peaks: routes through those points (and the nodes'
+    # peaks) mix them; the tour heuristic's own plan competes too
+    peaks = [(n, p) for n, p in tour_plan.info["candidates"].items() if n.startswith("peak")]
+    routed = tour.solve(config, candidates=peaks + hover_points(dp_paths, config.K))
+    for source, plan in (("tour", tour_plan), ("tour-dp-hovers", routed)):
+        if plan.mean_rate > best_plan[0]:
+            best_plan = (plan.mean_rate, plan.trajectory, source)
     info = {
         "upper_bound": best_ub,
         "weights": best_w.tolist(),
@@ -322,6 +345,7 @@ def solve_multinode(
         "resolution": float(resolution),
         "bound_resolution": float(h),
         "margin": float(margin),
+        "plan_source": best_plan[2],
     }
     plan = Plan.from_trajectory("dp", config, best_plan[1], time.perf_counter() - t0, info=info)
     plan.info["gap"] = best_ub / plan.mean_rate - 1.0

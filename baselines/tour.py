@@ -119,7 +119,7 @@ def route_trajectory(config: ScenarioConfig, points: np.ndarray, hover_slots: np
     if h.shape != (len(where),) or np.any(h < 0) or int(h.sum()) != config.N - len(path):
         raise ValueError(f"hover_slots must be {len(where)} integers >= 0 summing to {config.N - len(path)}")
     repeats = np.ones(len(path), dtype=int)
-    repeats[where] += h.astype(int)
+    np.add.at(repeats, where, h.astype(int))  # two stops may share a way-point (a leg of 0 moves)
     return np.repeat(path, repeats, axis=0)
 
 

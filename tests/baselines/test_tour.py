@@ -64,3 +64,13 @@ def test_bad_arguments():
         tour.solve(c, orders=0)
     with pytest.raises(ValueError, match="candidates must hold at least one"):
         tour.solve(c, candidates=[])
+
+
+def test_coinciding_hover_points_keep_n_slots(config):
+    """Two stops at the same point (a leg of 0 moves) share one way-point of the path."""
+    points = np.array([[-100.0, -20.0], [-100.0, -20.0]])
+    lp = tour.route_lp(config, points)
+    assert lp is not None
+    spare = int(round(lp[1].sum()))
+    q = tour.route_trajectory(config, points, np.array([spare - 3, 3]))
+    assert q.shape == (config.N, 2) and ie.check_trajectory(config, q).feasible
