@@ -1,6 +1,7 @@
 """``python -m experiments figures``: the paper's sweeps and figures under ``results/``.
 
     python -m experiments figures [--quick] [--jobs N] [--out results] [--no-agents]
+    python -m experiments multinode [--quick] [--jobs N] [--out DIR]   (see experiments.multinode)
 
 Solves every point of :class:`experiments.sweep.SweepSpec` in parallel (a progress bar;
 finished points are cached under ``OUT/cache`` so an interrupted run resumes), then writes
@@ -21,6 +22,7 @@ import numpy as np
 from experiments.figures import check_claims, make_figures, write_claims
 from experiments.sweep import SweepSpec, run_sweep, with_pct_of_dp, write_csv
 from ios_uav_env import ScenarioConfig
+from ios_uav_env.io import atomic_write_text
 
 QUICK = SweepSpec(Ts=(40.0, 60.0), Ms=(200, 400), M_schemes=400, dp_resolution=5.0)
 
@@ -56,7 +58,31 @@ def build_parser() -> argparse.ArgumentParser:
     fig.add_argument("--quick", action="store_true", help="a tiny sweep: T in {40, 60} s, M in {200, 400}")
     fig.add_argument("--no-agents", action="store_true", help="do not draw the shipped RL agents")
     fig.add_argument("--no-progress", action="store_true", help="no progress bar")
+    multi = sub.add_parser("multinode", help="several ground nodes: rate vs T and vs K, bound, claims")
+    multi.add_argument(
+        "--out", type=Path, default=None, help="output folder (default: results/multinode; --quick: out/...)"
+    )
+    multi.add_argument("--jobs", type=int, default=1, help="worker processes (default 1)")
+    multi.add_argument("--quick", action="store_true", help="M = 60, T in {60, 100} s, K <= 3, one seed")
     return parser
+
+
+def multinode_main(args: argparse.Namespace) -> int:
+    """``python -m experiments multinode``: solve (cached), write CSV, figures and claims."""
+    from experiments import multinode
+
+    spec = multinode.QUICK if args.quick else multinode.MultiSpec()
+    out = args.out or Path("out/multinode-quick" if args.quick else "results/multinode")
+    t0 = time.perf_counter()
+    records = multinode.run(spec, out / "cache", jobs=args.jobs)
+    csv = multinode.write_csv(records, out / "multinode.csv")
+    figures = multinode.make_figures(records, out)
+    text = multinode.claims(records)
+    atomic_write_text(out / "claims_multinode.md", text)
+    print(text)
+    print(f"{len(records)} points in {time.perf_counter() - t0:.1f} s; wrote {csv}, "
+          + ", ".join(str(p) for p in figures))  # fmt: skip
+    return 0 if all(r["feasible"] for r in records) else 1
 
 
 def main(argv: Sequence[str] | None = None) -> int:
@@ -64,6 +90,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     args = parser.parse_args(argv)
     if args.jobs is not None and args.jobs < 1:
         parser.error(f"argument --jobs: must be >= 1, got {args.jobs}")
+    if args.command == "multinode":
+        return multinode_main(args)
     spec = QUICK if args.quick else SweepSpec()
     t0 = time.perf_counter()
     records = with_pct_of_dp(

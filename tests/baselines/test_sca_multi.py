@@ -16,7 +16,7 @@ SMALL = {"ios_shape": (10, 6), "quadrature_nodes": 4}
 
 @pytest.fixture(scope="module")
 def config():
-    return ScenarioConfig(ground_nodes=NODES, T=70.0, **SMALL)
+    return ScenarioConfig(ground_nodes=NODES, T=50.0, **SMALL)
 
 
 @pytest.fixture(scope="module")
