@@ -192,3 +192,28 @@ def test_plan_scores_several_nodes_with_maxmin_rate():
     plan = Plan.from_trajectory("line", c, _line(c), 0.0)
     assert plan.mean_rate == ie.maxmin_rate(c, _line(c)) and plan.feasible
     assert np.array(plan.info["shares"]).shape == (3, c.N) and len(plan.info["node_rates"]) == 3
+
+
+def test_an_uncertified_lp_answer_raises(monkeypatch):
+    """The primal-dual check: corrupt the LP's dual weights and the scorer must refuse."""
+    import scipy.optimize
+
+    real = scipy.optimize.linprog
+
+    def corrupted(*args, **kwargs):
+        res = real(*args, **kwargs)
+        res.ineqlin.marginals[:3] = np.array([-1.0, 0.0, 0.0])  # w = e_1: g(w) = mean r_1 > V
+        return res
+
+    monkeypatch.setattr(scipy.optimize, "linprog", corrupted)
+    r = np.array([[2.0, 2.0], [0.0, 1.0], [1.0, 0.0]])
+    with pytest.raises(RuntimeError, match="not certified"):
+        maxmin_schedule(r)
+
+
+def test_env_refuses_several_nodes():
+    pytest.importorskip("gymnasium")
+    c = ScenarioConfig(ground_nodes=NODES, **SMALL)
+    with pytest.raises(ValueError, match="K=3 ground_nodes"):
+        env = ie.IOSUAVEnv(config=c)
+        env.reset(seed=0)
