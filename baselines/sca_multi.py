@@ -26,8 +26,10 @@ start stops (``"decrease"`` beyond 1e-9 relative, else ``"converged"``), keeping
 accepted iterate. The history records the exact score of every solve.
 
 **Multi-start.** The tour heuristic's plan (``baselines.tour``), a fly-hover-fly over its
-all-node compromise point, the straight line, and any ``init`` trajectories (e.g. DP plans);
-the best exact score wins.
+all-node compromise point, and any ``init`` trajectories (e.g. the plan of
+``baselines.dp.solve``, routed through the DP paths' hover points); the best exact score
+wins. (The straight line was dropped: from it SCA needed the whole iteration budget and
+ended below the tour.)
 
 A slot's side of the surface is kept within an iteration (constraint (17), as in the
 single-node code), so the slot at which the UAV crosses the plane comes from the start.
@@ -224,8 +226,8 @@ def _run(
 
 
 def default_starts(config: ScenarioConfig) -> list[tuple[str, np.ndarray]]:
-    """Tour plan, fly-hover-fly over the tour's all-node compromise point, the straight line."""
-    from baselines.fixed import fly_hover_fly, straight_line_path
+    """The tour's plan and fly-hover-fly over the tour's all-node compromise point(s)."""
+    from baselines.fixed import fly_hover_fly
     from baselines.tour import solve as tour_solve
 
     plan = tour_solve(config)
@@ -235,7 +237,6 @@ def default_starts(config: ScenarioConfig) -> list[tuple[str, np.ndarray]]:
     ]
     for name in mids:
         starts.append((f"fhf-{name}", fly_hover_fly(config, plan.info["candidates"][name]).trajectory))
-    starts.append(("line", straight_line_path(config)))
     return starts
 
 
