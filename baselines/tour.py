@@ -17,14 +17,18 @@ L - 1 moves; the H = N - L slots left are spent hovering. The route is infeasibl
 
 (x_i hover slots at P_i, y_ik of them given to node k; the L path points, P_i included
 once, are the legs). The hover slots are rounded to integers summing to H (largest
-remainders, then one-slot moves between hover points while the exact score improves), the
-trajectory is built (feasible by construction) and scored by ``ios_uav_env.maxmin_rate``,
+remainders; on the best rounded route, then one-slot moves between hover points while the
+exact score improves), the trajectory is built (feasible by construction) and scored by
+``ios_uav_env.maxmin_rate``,
 which re-optimises the shares: the score of a route is that of its trajectory, whoever
 proposed it.
 
 **Orders.** For every subset of at most ``max_points`` candidates, the ``orders`` orders
 with the fewest travel moves (then the shortest length) are solved; the ``keep`` best LP
-values are rounded and scored exactly, and the best trajectory wins.
+values are rounded and scored exactly, and the best trajectory wins. A route is skipped
+without its LP when the weak-duality bound :func:`route_bound` at the best route's dual
+weights of the best routes so far is not above the ``keep``-th best LP value (it could not
+enter the best ``keep``).
 """
 
 from __future__ import annotations
@@ -126,16 +130,23 @@ def route_trajectory(config: ScenarioConfig, points: np.ndarray, hover_slots: np
 def route_lp(config: ScenarioConfig, points: np.ndarray) -> tuple[float, np.ndarray] | None:
     """The route LP (module doc): (LP value, hover slots x (m,), continuous), or None when the
     route is infeasible."""
-    from scipy.optimize import linprog
-
     points = np.asarray(points, float).reshape(-1, 2)
     legs = _legs(config, points)
     if legs is None:
         return None
     path, where = legs
-    k_nodes, n_path, m = config.K, len(path), len(points)
+    solved = _solve_route(config, ie.node_rates(config, path), where)
+    return None if solved is None else solved[:2]
+
+
+def _solve_route(
+    config: ScenarioConfig, r_path: np.ndarray, where: list[int]
+) -> tuple[float, np.ndarray, np.ndarray] | None:
+    """The route LP on the path's rates (K, L): (value, hover slots x, dual weights w)."""
+    from scipy.optimize import linprog
+
+    k_nodes, n_path, m = r_path.shape[0], r_path.shape[1], len(where)
     spare = config.N - n_path
-    r_path = ie.node_rates(config, path)  # (K, L)
     r_hover = r_path[:, where]  # (K, m)
     # variables: a (K * L, k-major), y (m * K, i-major), x (m), t
     n_a, n_y = k_nodes * n_path, m * k_nodes
@@ -159,7 +170,19 @@ def route_lp(config: ScenarioConfig, points: np.ndarray) -> tuple[float, np.ndar
     res = linprog(c, A_ub=a_ub, b_ub=b_ub, A_eq=a_eq, b_eq=[spare], bounds=bounds, method="highs")
     if res.status != 0:
         return None
-    return float(-res.fun), np.maximum(res.x[n_a + n_y : n_a + n_y + m], 0.0)
+    w = np.maximum(-np.asarray(res.ineqlin.marginals[:k_nodes]), 0.0)
+    w = w / w.sum() if w.sum() > 0 else np.full(k_nodes, 1.0 / k_nodes)
+    return float(-res.fun), np.maximum(res.x[n_a + n_y : n_a + n_y + m], 0.0), w
+
+
+def route_bound(config: ScenarioConfig, r_path: np.ndarray, where: list[int], weights: np.ndarray) -> float:
+    """An upper bound of the route LP: for every w in the simplex (weak duality, as in
+    ``ios_uav_env.multinode``) (1/N) [sum_n max_k w_k r_k[n] + H max_i max_k w_k r_k(P_i)]
+    bounds it (H = N - L the hover slots); the minimum over the rows w of ``weights`` (J, K).
+    Used to skip routes that cannot enter the best ``keep``."""
+    per_slot = np.max(np.asarray(weights)[:, :, None] * r_path[None], axis=1)  # (J, L)
+    values = per_slot.sum(axis=1) + (config.N - r_path.shape[1]) * per_slot[:, where].max(axis=1)
+    return float(values.min() / config.N)
 
 
 def _round(x: np.ndarray, total: int) -> np.ndarray:
@@ -216,23 +239,55 @@ def solve(
     if not cands:
         raise ValueError("candidates must hold at least one (name, (x, y)) hover point")
     results: list[tuple[float, tuple[int, ...], np.ndarray]] = []
-    n_routes = 0
+    n_routes = n_pruned = 0
     pts = np.array([p for _, p in cands], dtype=float)
+    stops = [np.asarray(config.q0, float), *pts, np.asarray(config.qF, float)]  # q0 = 0, qF = -1
+    leg_rates: dict[tuple[int, int], np.ndarray] = {}
+
+    def path_rates(order: tuple[int, ...]) -> tuple[np.ndarray, list[int]]:
+        """Rates (K, L) along the route's legs (cached per leg) and the hover points' indices."""
+        seq = [0, *(i + 1 for i in order), len(stops) - 1]
+        parts, where, count = [ends_rates[:, :1]], [], 1
+        for a, b in itertools.pairwise(seq):
+            if (a, b) not in leg_rates:
+                d = float(np.linalg.norm(stops[b] - stops[a]))
+                leg = _leg(stops[a], stops[b], config.D, _moves(config, d))
+                leg_rates[a, b] = ie.node_rates(config, leg) if len(leg) else np.empty((config.K, 0))
+            parts.append(leg_rates[a, b])
+            count += leg_rates[a, b].shape[1]
+            where.append(count - 1)
+        return np.hstack(parts), where[:-1]
+
+    ends_rates = ie.node_rates(config, np.array([config.q0]))
+    hop_dist = {
+        (a, b): float(np.linalg.norm(stops[b] - stops[a]))
+        for a in range(len(stops))
+        for b in range(len(stops))
+    }
+    hop_moves = {h: _moves(config, d) for h, d in hop_dist.items()}
+    duals: list[np.ndarray] = []  # dual weights of the routes that entered the best ``keep``
     for size in range(1, min(max_points, len(cands)) + 1):
         for subset in itertools.combinations(range(len(cands)), size):
             perms = []
             for order in itertools.permutations(subset):
-                stops = [np.asarray(config.q0), *pts[list(order)], np.asarray(config.qF)]
-                dists = [float(np.linalg.norm(b - a)) for a, b in itertools.pairwise(stops)]
-                perms.append((sum(_moves(config, d) for d in dists), sum(dists), order))
+                seq = [0, *(i + 1 for i in order), len(stops) - 1]
+                hops = list(itertools.pairwise(seq))
+                perms.append((sum(hop_moves[h] for h in hops), sum(hop_dist[h] for h in hops), order))
             perms.sort()
             for moves, _, order in perms[:orders]:
                 if moves > config.N - 1:
                     break
-                lp = route_lp(config, pts[list(order)])
+                r_path, where = path_rates(order)
+                threshold = sorted(r[0] for r in results)[-keep] if len(results) >= keep else -np.inf
+                if duals and route_bound(config, r_path, where, np.array(duals)) <= threshold:
+                    n_pruned += 1
+                    continue
+                solved = _solve_route(config, r_path, where)
                 n_routes += 1
-                if lp is not None:
-                    results.append((lp[0], order, lp[1]))
+                if solved is not None:
+                    if solved[0] > threshold:
+                        duals = [solved[2], *duals][:32]
+                    results.append((solved[0], order, solved[1]))
     if not results:  # cannot happen: a route through a reachable point is feasible
         raise RuntimeError("no feasible tour: no candidate hover point is reachable")
     results.sort(key=lambda r: -r[0])
@@ -240,11 +295,13 @@ def solve(
     for lp_value, order, x in results[:keep]:
         route = pts[list(order)]
         spare = config.N - len(_legs(config, route)[0])  # type: ignore[index]
-        slots, value = _polish(config, route, _round(x, spare))
+        slots = _round(x, spare)
+        value = ie.maxmin_rate(config, route_trajectory(config, route, slots))
         if best is None or value > best[3]:
             best = (lp_value, order, slots, value)
     assert best is not None
     lp_value, order, slots, _ = best
+    slots, _ = _polish(config, pts[list(order)], slots)  # the best rounded route only
     traj = route_trajectory(config, pts[list(order)], slots)
     info: dict[str, Any] = {
         "route": [cands[i][0] for i in order],
@@ -252,6 +309,7 @@ def solve(
         "hover_slots": [int(s) for s in slots],
         "lp_value": lp_value,
         "n_routes": n_routes,
+        "n_pruned": n_pruned,
         "candidates": {name: list(p) for name, p in cands},
     }
     return Plan.from_trajectory("tour", config, traj, time.perf_counter() - t0, info=info)

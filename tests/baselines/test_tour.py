@@ -74,3 +74,15 @@ def test_coinciding_hover_points_keep_n_slots(config):
     spare = int(round(lp[1].sum()))
     q = tour.route_trajectory(config, points, np.array([spare - 3, 3]))
     assert q.shape == (config.N, 2) and ie.check_trajectory(config, q).feasible
+
+
+def test_route_bound_is_above_the_route_lp(config):
+    """The pruning bound (weak duality) never cuts a route that could be better."""
+    points = np.array([[-100.0, -20.0], [150.0, -60.0], [-40.0, 90.0]])
+    path, where = tour._legs(config, points)
+    r_path = ie.node_rates(config, path)
+    value, _, w_star = tour._solve_route(config, r_path, where)
+    rng = np.random.default_rng(2)
+    weights = rng.dirichlet(np.ones(3), size=20)
+    assert tour.route_bound(config, r_path, where, weights) >= value - 1e-12
+    assert tour.route_bound(config, r_path, where, w_star[None]) == pytest.approx(value, abs=1e-7)
