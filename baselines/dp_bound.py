@@ -54,11 +54,12 @@ also given to the tour heuristic (routes mixing them), and the tour's own plan c
 the plan returned is the best of all, ``info["plan_source"]`` says which.
 
 **Which side is loose.** Two things separate UB from the best plan: (i) the grid
-relaxation, chiefly the move rule (a cell-to-cell move may cover D + h... D + 2 sqrt(2) h
-between cell centres, so travel is up to ~h/D faster in the relaxed DP); (ii) the duality
-gap of the non-convex problem (min_w max_q >= max_q min_w): the dual lets each w's optimum
-hover where f_w is largest, ignoring the travel between the hover points that a single
-trajectory needs to serve all nodes.
+relaxation, chiefly the move rule (two squares at most D apart may have centres up to
+D + sqrt(2) h apart, so the relaxed path travels up to ~h/D faster per slot and hovers
+longer); it shrinks about linearly with h; (ii) the duality gap of the non-convex problem
+(min_w max_q >= max_q min_w): min_w max_q is the best point of the convex hull of the
+per-node rate vectors single trajectories achieve, so it mixes hovering near different
+nodes without paying the flight between them (measured in ``benchmarks/README.md``).
 """
 
 from __future__ import annotations
