@@ -229,6 +229,23 @@ class RelaxedDP:
         return g / self.config.N
 
 
+def weighted_dp_path(
+    config: ScenarioConfig, weights: np.ndarray, resolution: float = 5.0, margin: float = DEFAULT_MARGIN
+) -> np.ndarray | None:
+    """The plain grid DP's best path for the per-slot reward f_w = max_k w_k r_k (moves <= D
+    between grid points; ``baselines.dp.grid_path``): a feasible trajectory, or None when no
+    grid path reaches qF in time."""
+    w = np.asarray(weights, dtype=float)
+    xs, ys, _ = grid_axes(config, resolution, margin)
+    xx, yy = np.meshgrid(xs, ys)
+    rates = ie.node_rates(config, np.column_stack([xx.ravel(), yy.ravel()])).reshape(config.K, *xx.shape)
+    r_f = float(np.max(w * ie.node_rates(config, np.array([config.qF]))[:, 0]))
+    try:
+        return grid_path(config, np.max(w[:, None, None] * rates, axis=0), r_f, resolution, margin)[0]
+    except ValueError:
+        return None
+
+
 def hover_points(paths: list[np.ndarray], limit: int) -> list[tuple[str, tuple[float, float]]]:
     """The ``limit`` longest hovers (way-points repeated in consecutive slots) of the paths."""
     stays: dict[tuple[float, float], int] = {}

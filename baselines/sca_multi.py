@@ -25,11 +25,12 @@ it is feasible (``check_trajectory``) and its exact score does not decrease; oth
 start stops (``"decrease"`` beyond 1e-9 relative, else ``"converged"``), keeping the last
 accepted iterate. The history records the exact score of every solve.
 
-**Multi-start.** The tour heuristic's plan (``baselines.tour``), a fly-hover-fly over its
+**Multi-start.** The tour heuristic's plan (``baselines.tour``), a DP-derived plan (the
+tour through the hover points of the grid DP's path for the dual reward f_w at the tour's
+dual weights, ``baselines.dp_bound.weighted_dp_path``), a fly-hover-fly over the tour's
 all-node compromise point, and any ``init`` trajectories (e.g. the plan of
-``baselines.dp.solve``, routed through the DP paths' hover points); the best exact score
-wins. (The straight line was dropped: from it SCA needed the whole iteration budget and
-ended below the tour.)
+``baselines.dp.solve``); the best exact score wins. (The straight line was dropped: from
+it SCA needed the whole iteration budget and ended below the tour.)
 
 A slot's side of the surface is kept within an iteration (constraint (17), as in the
 single-node code), so the slot at which the UAV crosses the plane comes from the start.
@@ -226,12 +227,21 @@ def _run(
 
 
 def default_starts(config: ScenarioConfig) -> list[tuple[str, np.ndarray]]:
-    """The tour's plan and fly-hover-fly over the tour's all-node compromise point(s)."""
+    """The tour's plan; a DP-derived plan (the tour through the hover points of the grid DP's
+    path for f_w at the tour's dual weights, and the nodes' peaks); fly-hover-fly over the
+    tour's all-node compromise point(s). Starts equal to an earlier one are dropped."""
+    from baselines.dp_bound import hover_points, weighted_dp_path
     from baselines.fixed import fly_hover_fly
     from baselines.tour import solve as tour_solve
 
     plan = tour_solve(config)
     starts = [("tour", plan.trajectory)]
+    path = weighted_dp_path(config, ie.schedule(config, plan.trajectory).weights)
+    if path is not None:
+        peaks = [(n, p) for n, p in plan.info["candidates"].items() if n.startswith("peak")]
+        routed = tour_solve(config, candidates=peaks + hover_points([path], config.K)).trajectory
+        if not np.array_equal(routed, plan.trajectory):
+            starts.append(("tour-dp-hovers", routed))
     mids = [
         name for name in plan.info["candidates"] if name.count("-") == config.K - 1 and name.startswith("mid")
     ]
