@@ -16,7 +16,7 @@ gives the exact optimum over all such grid paths. The grid is anchored at q0 (so
 grid cell) with spacing ``resolution``; qF need not be on the grid: the last move goes to
 qF exactly. The disk maximum is computed, per layer and vectorised, as the maximum over the
 disk's rows of 1-D running maxima (``scipy.ndimage.maximum_filter1d``), which equals
-``maximum_filter`` with the disk footprint (tested) and is ~30x faster.
+``maximum_filter`` with the disk footprint (tested) and is much faster.
 
 **Grid box.** The axis-aligned bounding box of q0, qF, G and the IOS centre, widened by
 ``margin`` (m, default 100) on every side. Rate peaks lie near G and near the IOS, so the
@@ -40,7 +40,7 @@ import numpy as np
 from scipy.ndimage import maximum_filter1d
 
 from baselines.plan import Plan
-from ios_uav_env import ScenarioConfig, slot_rates
+from ios_uav_env import ScenarioConfig, scene_box, slot_rates
 
 #: Default widening (m) of the grid box around q0, qF, G and the IOS centre.
 DEFAULT_MARGIN = 100.0
@@ -50,10 +50,9 @@ _RATE_CHUNK = 65536  # cells per slot_rates call (bounds the (cells, nodes) temp
 
 
 def grid_box(config: ScenarioConfig, margin: float = DEFAULT_MARGIN) -> tuple[float, float, float, float]:
-    """Box (x_min, x_max, y_min, y_max) in m: bounding box of q0, qF, G, IOS centre + margin."""
-    pts = np.array([config.q0, config.qF, config.ground_node, config.ios_center[:2]])
-    lo, hi = pts.min(axis=0) - margin, pts.max(axis=0) + margin
-    return float(lo[0]), float(hi[0]), float(lo[1]), float(hi[1])
+    """Box (x_min, x_max, y_min, y_max) in m: ``ios_uav_env.scene_box`` (q0, qF, G, IOS centre)
+    widened by ``margin``."""
+    return scene_box(config, margin)
 
 
 def grid_axes(
@@ -145,7 +144,7 @@ def solve(
     config : ScenarioConfig
         The scenario; its ``surface`` decides the rate map.
     resolution : float
-        Grid spacing in m, in (0, D]; ~0.6 s at 2.5 m on the default scenario. Prefer one
+        Grid spacing in m, in (0, D]. Prefer one
         that divides D: otherwise the longest axial grid move, floor(D / resolution) *
         resolution, is shorter than D and tight horizons have no grid path.
     margin : float

@@ -1,6 +1,6 @@
 """Scenario configuration: every parameter of the system model, with the paper's defaults.
 
-The contract is ``shared/spec/model.md`` (Liu et al., IEEE WCL 11(9), 2022). Each field
+The model is that of Liu et al., IEEE WCL 11(9), 2022 (``docs/model.md``). Each field
 comment gives the unit and the paper's symbol. Choices the paper leaves open are marked
 *(assumption)* and are fields, never hidden constants. Derived quantities (N, D, eta, M)
 are properties. Variants are made with :func:`dataclasses.replace`, which re-validates.
@@ -14,6 +14,8 @@ import numbers
 from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import Any, Literal
+
+import numpy as np
 
 Surface = Literal["ios", "ris", "none"]
 SURFACES: tuple[str, ...] = ("ios", "ris", "none")
@@ -177,20 +179,43 @@ class ScenarioConfig:
 
     def min_horizon(self) -> float:
         """Shortest T (s) that still lets the UAV reach qF from q0 at v_max."""
-        dist = math.dist(self.q0, self.qF)
-        moves = math.ceil(dist / self.D - 1e-9) if dist > 0 else 0
-        return (moves + 1) * self.dt
+        return (int(moves_needed(math.dist(self.q0, self.qF), self.D)) + 1) * self.dt
 
     def replace(self, **changes: Any) -> ScenarioConfig:
-        """A copy with ``changes`` applied (unknown fields raise ``TypeError``); re-validated."""
-        unknown = set(changes) - {f.name for f in dataclasses.fields(self)}
-        if unknown:
-            raise TypeError(f"unknown ScenarioConfig field(s): {sorted(unknown)}")
+        """A copy with ``changes`` applied (an unknown field raises ``TypeError`` worded as
+        Python's own); re-validated."""
+        for name in changes:
+            if name not in SCENARIO_FIELDS:
+                raise TypeError(f"ScenarioConfig.replace() got an unexpected keyword argument {name!r}")
         return dataclasses.replace(self, **changes)
 
     def to_dict(self) -> dict[str, Any]:
         """Plain-JSON dictionary of the fields (round-trips through ``ScenarioConfig(**d)``)."""
         return {k: list(v) if isinstance(v, tuple) else v for k, v in dataclasses.asdict(self).items()}
+
+
+#: The names of the ``ScenarioConfig`` fields (the scenario's keyword arguments everywhere).
+SCENARIO_FIELDS: frozenset[str] = frozenset(f.name for f in dataclasses.fields(ScenarioConfig))
+
+
+def moves_needed(distance: Any, D: float) -> Any:
+    """Moves of at most D needed to cover ``distance`` (m): ceil(distance / D), 0 for 0.
+
+    A distance of exactly k D takes k moves (a relative slack of 1e-9 absorbs rounding).
+    Vectorised: an array of distances gives an array of counts (floats), a number an int.
+    """
+    moves = np.maximum(np.ceil(np.asarray(distance, dtype=float) / D - 1e-9), 0.0)
+    return int(moves) if moves.ndim == 0 else moves
+
+
+def scene_box(config: ScenarioConfig, margin: float = 0.0, *, ends: bool = True) -> tuple[float, ...]:
+    """(x_min, x_max, y_min, y_max) in m: the bounding box of G and the IOS centre (and of q0
+    and qF with ``ends``), widened by ``margin`` on every side. The planners' grids, the peak
+    search and the figures all start from this box."""
+    points = [config.ground_node, config.ios_center[:2]] + ([config.q0, config.qF] if ends else [])
+    pts = np.asarray(points, dtype=float)
+    lo, hi = pts.min(axis=0) - margin, pts.max(axis=0) + margin
+    return float(lo[0]), float(hi[0]), float(lo[1]), float(hi[1])
 
 
 def as_config(value: Any, name: str = "config") -> ScenarioConfig:

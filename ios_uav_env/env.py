@@ -3,7 +3,7 @@
 The env is a thin adapter over the model (``ios_uav_env.channel`` and ``.trajectory``):
 action -> next way-point (optionally through the arrival guard) -> rate -> reward. It never
 re-derives a formula: the per-step rate is ``RateKernel.rate`` / ``RateKernel.faded_rate``,
-the episode's score is ``average_rate`` (eq. (9)) and its feasibility ``check_trajectory``.
+and the score of a finished episode is ``average_rate`` (eq. (9)) of ``env.trajectory``.
 """
 
 from __future__ import annotations
@@ -26,25 +26,20 @@ from ios_uav_env.observation import (
     T_SCALE,
     check_fits,
     instance_values,
-    observation_bounds,
-    rate_upper_bound,
+    space_bounds,
 )
+from ios_uav_env.options import CHANNELS, EnvOptions, split_kwargs
 from ios_uav_env.peak import rate_peak
-from ios_uav_env.trajectory import average_rate, check_trajectory
+from ios_uav_env.scenarios import ScenarioRanges
 
-#: Values of the ``channel`` argument: the expected-gain rate (the paper's objective) or a
-#: Rician faded-rate sample per slot.
-CHANNELS: tuple[str, ...] = ("expected", "rician")
+#: The keys of every step's (and the reset's) ``info``, in order: all numbers (``position``
+#: a float64 array of shape (2,)), the same on every step of every id.
+INFO_KEYS: tuple[str, ...] = (
+    "rate", "expected_rate", "position", "distance_to_final", "slot", "reward_rate", "reward_reach",
+    "reward_terminal", "average_rate", "mean_faded_rate", "feasible", "worst_violation", "terminal_miss",
+)  # fmt: skip
 
-__all__ = [
-    "CHANNELS",
-    "INSTANCE_NAMES",
-    "OBS_NAMES",
-    "PEAK_NAMES",
-    "IOSUAVEnv",
-    "rate_upper_bound",
-    "scenario_option",
-]
+__all__ = ["CHANNELS", "INFO_KEYS", "INSTANCE_NAMES", "OBS_NAMES", "PEAK_NAMES", "IOSUAVEnv"]
 
 
 class IOSUAVEnv(gym.Env):
@@ -53,8 +48,8 @@ class IOSUAVEnv(gym.Env):
     ## Description
 
     The scenario of Liu et al., "Full-Dimensional Rate Enhancement for UAV-Enabled
-    Communications via Intelligent Omni-Surface" (IEEE WCL 2022); the model is
-    ``shared/spec/model.md``. A UAV at altitude z_U sends to a ground node G through the
+    Communications via Intelligent Omni-Surface" (IEEE WCL 2022; the model: ``docs/model.md``).
+    A UAV at altitude z_U sends to a ground node G through the
     direct link and an intelligent omni-surface (IOS) in the plane x = x_c, which serves G by
     reflection when the UAV is on G's side and by transmission from the other side; its
     phases are the closed-form optimum (eq. (13)), so the rate depends on the UAV position
@@ -63,9 +58,7 @@ class IOSUAVEnv(gym.Env):
     eq. (10): arrive at ``qF`` at slot N with at most D = v_max dt per move. Ids:
     ``ios_uav_env/IOSUAV-v0`` (IOS), ``ios_uav_env/RISUAV-v0`` (reflect-only RIS) and
     ``ios_uav_env/UAV-v0`` (no surface). ``env.unwrapped.trajectory`` is the (n, 2) array
-    of the way-points so far (m); every step's info has ``rate`` (the reward's rate term),
-    ``expected_rate``, ``position`` (x, y), ``distance_to_final``, ``slot`` (the paper's
-    1-based index n of the UAV's way-point q[n]) and ``rewards``.
+    of the way-points so far (m).
 
     ## Action Space
 
@@ -103,7 +96,7 @@ class IOSUAVEnv(gym.Env):
     The slack s is how many spare moves the UAV has to still reach qF (s < 0: qF is out of
     reach); the squashing keeps it O(1) with most resolution near s = 0. The rate at q is a
     function of the position (it adds no state) given to ease learning; r_ub is
-    :func:`rate_upper_bound`. Together they make the problem Markov.
+    ``ios_uav_env.observation.rate_bound``. Together they make the problem Markov.
 
     With ``instance_features=True`` (the randomised id's default) 6 features that define the
     instance follow (names in ``INSTANCE_NAMES``): M / 6000 (0 without a surface), is-IOS and
@@ -129,8 +122,23 @@ class IOSUAVEnv(gym.Env):
     so lingering too long costs more at every step; ``terminal`` is the final miss, steep
     near zero so that even a tiny miss never pays. Both are 0 for a trajectory that meets
     eq. (10), so with the guard the reward is the rate alone and the return is N R - r(q0)
-    with R of eq. (9). ``info["rewards"]`` holds the three weighted terms, which sum to the
-    reward: {"rate": rate, "reach": -w_reach reach, "terminal": -w_terminal terminal}.
+    with R of eq. (9). ``info`` holds the three weighted terms, which sum to the reward:
+    ``reward_rate`` (rate), ``reward_reach`` (-w_reach reach), ``reward_terminal``
+    (-w_terminal terminal).
+
+    ## Info
+
+    The same keys on every step and at reset (``INFO_KEYS``), all numbers, so loggers and
+    replay buffers can stack them: ``rate`` (the reward's rate term), ``expected_rate``,
+    ``position`` (x, y in m, a float64 array), ``distance_to_final`` (m), ``slot`` (the
+    paper's 1-based index n of the way-point q[n]), the three reward terms, and the running
+    score and check of the trajectory so far: ``average_rate`` (mean expected-gain rate of
+    the way-points so far; at slot N, eq. (9)), ``mean_faded_rate`` (mean of the ``rate``
+    terms; equal to ``average_rate`` for channel "expected"), ``terminal_miss`` (m by which qF
+    is out of reach in the moves left; at slot N, |q[N] - qF|), ``worst_violation`` (m, the
+    worst breach of eq. (10) so far) and ``feasible`` (``worst_violation`` <= 1e-6 m; at slot
+    N, eq. (10)). The full report: ``check_trajectory(env.unwrapped.config,
+    env.unwrapped.trajectory)``.
 
     ## Starting State
 
@@ -145,15 +153,16 @@ class IOSUAVEnv(gym.Env):
     ## Episode End
 
     ``terminated=True`` after the (N - 1)th step, at slot N: time is in the observation,
-    so this is a true terminal state. The env never truncates (``gym.make``'s ``TimeLimit`` of
-    N - 1 steps flags ``truncated`` at that same step too; ``terminated`` is what counts), and
-    a ``TimeLimit`` shorter than N - 1 steps is refused at reset (pass e.g.
-    ``gym.make(..., T=300, max_episode_steps=299)``). The
-    last step's info adds ``average_rate`` (eq. (9) over all N way-points), for "rician"
-    ``mean_faded_rate`` (mean of the N faded samples), and the eq. (10) check: ``feasible``,
-    ``terminal_miss`` (m), ``worst_violation`` (m) and the full ``report``.
+    so this is a true terminal state. The env never truncates, and the ids register no
+    ``TimeLimit``: ``gym.make("ios_uav_env/IOSUAV-v0", T=300)`` runs 299 steps. (A
+    ``max_episode_steps`` passed to ``gym.make`` adds Gymnasium's ``TimeLimit``, which
+    truncates as asked: a trajectory cut before slot N is not a plan of eq. (10).)
 
     ## Arguments
+
+    The scenario and the env's options are two separate things: ``config`` (and keywords
+    named like its fields) is the scenario; the other keywords are ``EnvOptions``. Any
+    other keyword raises ``TypeError`` as Python does.
 
     - ``config``: a ``ScenarioConfig`` (or a dict of its fields); default: the paper's.
     - ``channel``: "expected" (default, deterministic) or "rician".
@@ -172,13 +181,14 @@ class IOSUAVEnv(gym.Env):
     - ``peak_hint`` (False): append the 3 features of the reachable rate peak.
     - ``render_mode``: None or "rgb_array" (the trajectory over the rate map; needs
       ``pip install ios-uav-env[render]``).
-    - ``**overrides``: ``ScenarioConfig`` fields applied with ``config.replace``; the ids set
-      ``surface`` this way, so ``config``'s surface is replaced by the id's.
+    - ``**kwargs``: ``EnvOptions`` fields (the options above) and ``ScenarioConfig`` fields,
+      applied with ``config.replace``; the ids set ``surface`` this way, so ``config``'s
+      surface is replaced by the id's.
 
     ```python
     >>> import gymnasium as gym
     >>> import ios_uav_env
-    >>> env = gym.make("ios_uav_env/IOSUAV-v0", channel="rician", T=100, max_episode_steps=99)
+    >>> env = gym.make("ios_uav_env/IOSUAV-v0", channel="rician", T=100)
     >>> obs, info = env.reset(seed=0)
     >>> obs.shape, info["slot"]
     ((11,), 1)
@@ -187,8 +197,9 @@ class IOSUAVEnv(gym.Env):
 
     ## Version History
 
-    * v0: Initial version; later, without changing v0's observations: ``reset(options=
-      {"config": cfg})``, ``instance_features`` and ``peak_hint`` (issue #6).
+    * v0: Initial version; later, without changing v0's episodes or observations:
+      ``reset(options={"config": cfg})``, ``instance_features`` and ``peak_hint``; then a flat
+      ``info`` with fixed keys (``INFO_KEYS``) and registration without a ``TimeLimit``.
     """
 
     metadata = {"render_modes": ["rgb_array"], "render_fps": 10}
@@ -197,58 +208,47 @@ class IOSUAVEnv(gym.Env):
         self,
         config: ScenarioConfig | Mapping[str, Any] | None = None,
         *,
-        channel: str = "expected",
-        arrival_guard: bool = True,
-        reach_weight: float = 1.0,
-        terminal_weight: float = 2.0,
-        length_scale: float = 400.0,
-        instance_features: bool = False,
-        peak_hint: bool = False,
         render_mode: str | None = None,
-        **overrides: Any,
+        **kwargs: Any,
     ) -> None:
+        options, overrides = split_kwargs(kwargs, f"{type(self).__name__}.__init__")
         config = as_config(config)
         self._base_config: ScenarioConfig = config.replace(**overrides) if overrides else config
-        if channel not in CHANNELS:
-            raise ValueError(f"channel must be one of {CHANNELS}, got {channel!r}")
-        if not isinstance(arrival_guard, (bool, np.bool_)):
-            raise ValueError(f"arrival_guard must be True or False, got {arrival_guard!r}")
-        for name, value in (("reach_weight", reach_weight), ("terminal_weight", terminal_weight)):
-            if not (isinstance(value, (int, float)) and math.isfinite(value) and value >= 0):
-                raise ValueError(f"{name} must be a finite number >= 0, got {value!r}")
-        if not (isinstance(length_scale, (int, float)) and math.isfinite(length_scale) and length_scale > 0):
-            raise ValueError(f"length_scale must be a finite number > 0 (m), got {length_scale!r}")
-        if not isinstance(instance_features, (bool, np.bool_)):
-            raise ValueError(f"instance_features must be True or False, got {instance_features!r}")
-        if not isinstance(peak_hint, (bool, np.bool_)):
-            raise ValueError(f"peak_hint must be True or False, got {peak_hint!r}")
+        self.options = EnvOptions(**options)
         if render_mode is not None and render_mode not in self.metadata["render_modes"]:
             raise ValueError(
                 f"render_mode must be None or one of {self.metadata['render_modes']}, got {render_mode!r}"
             )
-        self.channel = channel
-        self.arrival_guard = bool(arrival_guard)
-        self.reach_weight, self.terminal_weight = float(reach_weight), float(terminal_weight)
-        self.length_scale = float(length_scale)
         self.render_mode = render_mode
-        self.instance_features = bool(instance_features)
-        self.peak_hint = bool(peak_hint)
-        self._inv_l = 1.0 / self.length_scale
-        self._rician = channel == "rician"
+        self._inv_l = 1.0 / self.options.length_scale
+        self._rician = self.options.channel == "rician"
+        self._guard = self.options.arrival_guard
         self._renderer: Any = None
         self.config: ScenarioConfig | None = None  # the current episode's scenario
         self.kernel: RateKernel  # the rate kernel of self.config
         self._set_config(self._base_config)
         self.action_space = spaces.Box(-1.0, 1.0, (2,), np.float32)
-        self.observation_space = spaces.Box(*self._space_bounds(), dtype=np.float32)
-
+        low, high = space_bounds(
+            self._ranges(), self.options.length_scale, self.options.instance_features, self.options.peak_hint
+        )
+        self.observation_space = spaces.Box(low, high, dtype=np.float32)
         self._n: int | None = None  # moves made; None before the first reset
         self._x, self._y = self.config.q0
         self._xs: list[float] = []  # way-points so far (x, then y)
         self._ys: list[float] = []
-        self._faded: list[float] = []
+
+    # --- options (read-only views of self.options) ---------------------------------------
+    channel = property(lambda self: self.options.channel)
+    arrival_guard = property(lambda self: self.options.arrival_guard)
+    length_scale = property(lambda self: self.options.length_scale)
+    instance_features = property(lambda self: self.options.instance_features)
+    peak_hint = property(lambda self: self.options.peak_hint)
 
     # --- scenario and spaces --------------------------------------------------------------
+    def _ranges(self) -> ScenarioRanges:
+        """The family of scenarios the observation space holds: here the construction config."""
+        return ScenarioRanges.from_config(self._base_config)
+
     def _set_config(self, cfg: ScenarioConfig) -> None:
         """Make ``cfg`` the current scenario: its rate kernel and the observation's constants."""
         if cfg is self.config:
@@ -261,26 +261,16 @@ class IOSUAVEnv(gym.Env):
         points = (cfg.qF, cfg.ground_node, cfg.ios_center[:2])
         self._scaled = tuple(c * self._inv_l for p in points for c in p)  # the points / L
         self._inv_moves = 1.0 / self._moves
-        self._instance = instance_values(cfg) if self.instance_features else ()
+        self._instance = instance_values(cfg) if self.options.instance_features else ()
         self._peak: tuple[float, ...] = ()
-        if self.peak_hint:
+        if self.options.peak_hint:
             peak = rate_peak(cfg)
             self._peak = (peak.x * self._inv_l, peak.y * self._inv_l, peak.rate)
         self._left_scale = cfg.dt / T_SCALE  # seconds left / T_SCALE per move left
         self.close()  # the renderer's rate map is the previous scenario's
 
-    def _space_bounds(self) -> tuple[np.ndarray, np.ndarray]:
-        """(low, high) of the observation space: those of the construction config."""
-        rate_high = rate_upper_bound(self.kernel)
-        return observation_bounds(
-            self._base_config, self.length_scale, self.instance_features, rate_high, self.peak_hint
-        )
-
     def _episode_config(self, pinned: ScenarioConfig | None) -> ScenarioConfig:  # at reset
         return self._base_config if pinned is None else pinned
-
-    def _horizon_moves(self, pinned: ScenarioConfig | None) -> int:  # an episode's most steps
-        return (self._base_config if pinned is None else pinned).N - 1
 
     def _observe(self, x: float, y: float, left: int, dist: float, rate: float) -> np.ndarray:
         x, y = x * self._inv_l, y * self._inv_l
@@ -288,50 +278,42 @@ class IOSUAVEnv(gym.Env):
         s = left - dist / self._D
         relative = (fx - x, fy - y, gx - x, gy - y, cx - x, cy - y)
         base = (x, y, *relative, left * self._inv_moves, s / (1.0 + abs(s)), rate)
-        if self.peak_hint:
-            px, py, peak_rate = self._peak
-            hint: tuple[float, ...] = (px - x, py - y, peak_rate)
-        else:
-            hint = ()
-        if self.instance_features:
-            return np.array((*base, *self._instance, left * self._left_scale, *hint), dtype=np.float32)
-        return np.array((*base, *hint), dtype=np.float32)
+        instance = (*self._instance, left * self._left_scale) if self.options.instance_features else ()
+        hint = (self._peak[0] - x, self._peak[1] - y, self._peak[2]) if self.options.peak_hint else ()
+        return np.array((*base, *instance, *hint), dtype=np.float32)
+
+    def _info(self, rate: float, expected: float, dist: float, left: int, terms: tuple[float, ...]) -> dict:
+        """The step's info (``INFO_KEYS``): the running eq. (9) score and eq. (10) check."""
+        n = self._n + 1  # way-points so far
+        deficit = max(0.0, dist - left * self._D)  # how far qF is out of reach (m)
+        worst = max(self._excess, deficit)
+        return {"rate": rate, "expected_rate": expected, "position": np.array((self._x, self._y)),
+                "distance_to_final": dist, "slot": n, "reward_rate": terms[0], "reward_reach": terms[1],
+                "reward_terminal": terms[2], "average_rate": self._sum_expected / n,
+                "mean_faded_rate": self._sum_rate / n, "feasible": worst <= FEASIBILITY_TOL,
+                "worst_violation": worst, "terminal_miss": deficit}  # fmt: skip
 
     # --- API ----------------------------------------------------------------------
-    def check_time_limit(self, spec: Any, config: ScenarioConfig | None = None) -> None:
-        """Raise ``ValueError`` if ``spec.max_episode_steps`` would cut an episode (on ``config``
-        if given, the one pinned at reset) before slot N."""
-        limit = getattr(spec, "max_episode_steps", None)
-        moves = self._horizon_moves(config)
-        if limit is not None and limit < moves:
-            what = "" if config is None else f" (options config: T={config.T:g} s, dt={config.dt:g} s)"
-            raise ValueError(
-                f"max_episode_steps={limit} would truncate the episode before it reaches slot N: this "
-                f"env's episodes{what} last up to N - 1 = {moves} steps; "
-                f"pass max_episode_steps={moves} to gym.make"
-            )
-
     def reset(
         self, *, seed: int | None = None, options: dict[str, Any] | None = None
     ) -> tuple[np.ndarray, dict[str, Any]]:
         super().reset(seed=seed)
         pinned = scenario_option(options)
-        self.check_time_limit(self.spec, pinned)
         cfg = self._episode_config(pinned)
         if cfg is not self._base_config and cfg != self.config:  # may it leave the space?
-            check_fits(cfg, self.length_scale, self.instance_features, self.observation_space, self.peak_hint)
+            check_fits(
+                cfg, self.options.length_scale, self.options.instance_features, self.observation_space,
+                self.options.peak_hint,
+            )  # fmt: skip
         self._set_config(cfg)
         x, y = cfg.q0
         self._n, self._x, self._y = 0, x, y
         self._xs, self._ys = [x], [y]
         expected = self.kernel.rate(x, y)
-        rate = expected
-        if self._rician:
-            rate = self.kernel.faded_rate(x, y, self.np_random)
-            self._faded = [rate]
+        rate = self.kernel.faded_rate(x, y, self.np_random) if self._rician else expected
+        self._sum_expected, self._sum_rate, self._excess = expected, rate, 0.0
         dist = math.hypot(self._qf[0] - x, self._qf[1] - y)
-        info = {"rate": rate, "expected_rate": expected, "position": (x, y),
-                "distance_to_final": dist, "slot": 1}  # fmt: skip
+        info = self._info(rate, expected, dist, self._moves, (0.0, 0.0, 0.0))
         return self._observe(x, y, self._moves, dist, expected), info
 
     def step(self, action: Any) -> tuple[np.ndarray, float, bool, bool, dict[str, Any]]:
@@ -350,33 +332,31 @@ class IOSUAVEnv(gym.Env):
         if norm2 > 1.0:
             scale = 1.0 / math.sqrt(norm2)
             ax, ay = ax * scale, ay * scale
-        D, (fx, fy) = self._D, self._qf
-        x, y = self._x + D * ax, self._y + D * ay
+        D, (fx, fy), (x0, y0) = self._D, self._qf, (self._x, self._y)
+        x, y = x0 + D * ax, y0 + D * ay
         left = self._moves - n - 1  # moves left after this one
-        if self.arrival_guard:
-            x, y = guarded_position((self._x, self._y), (x, y), (fx, fy), D, left)
+        if self._guard:
+            x, y = guarded_position((x0, y0), (x, y), (fx, fy), D, left)
         self._n, self._x, self._y = n + 1, x, y
         self._xs.append(x)
         self._ys.append(y)
+        self._excess = max(self._excess, math.hypot(x - x0, y - y0) - D)
 
         expected = self.kernel.rate(x, y)
-        rate = expected
-        if self._rician:
-            rate = self.kernel.faded_rate(x, y, self.np_random)
-            self._faded.append(rate)
+        rate = self.kernel.faded_rate(x, y, self.np_random) if self._rician else expected
+        self._sum_expected += expected
+        self._sum_rate += rate
         dist = math.hypot(fx - x, fy - y)
         reach = max(0.0, dist - left * D - FEASIBILITY_TOL) / D
-        terms = {"rate": rate, "reach": -self.reach_weight * reach if reach else 0.0, "terminal": 0.0}
+        reach_term = -self.options.reach_weight * reach if reach else 0.0
         terminated = left == 0
+        terminal_term = 0.0
         if terminated:
             miss = max(0.0, dist - FEASIBILITY_TOL) / D
             if miss:
-                terms["terminal"] = -self.terminal_weight * (miss + math.sqrt(miss))
-        reward = terms["rate"] + terms["reach"] + terms["terminal"]
-        info = {"rate": rate, "expected_rate": expected, "position": (x, y),
-                "distance_to_final": dist, "slot": n + 2, "rewards": terms}  # fmt: skip
-        if terminated:
-            self._final_info(info)
+                terminal_term = -self.options.terminal_weight * (miss + math.sqrt(miss))
+        reward = rate + reach_term + terminal_term
+        info = self._info(rate, expected, dist, left, (rate, reach_term, terminal_term))
         return self._observe(x, y, left, dist, expected), reward, terminated, False, info
 
     def _parse_action(self, action: Any) -> tuple[float, float]:
@@ -387,15 +367,6 @@ class IOSUAVEnv(gym.Env):
         if arr.shape != (2,):
             raise ValueError(f"action must have shape (2,) (x, y displacement / D), got shape {arr.shape}")
         return float(arr[0]), float(arr[1])
-
-    def _final_info(self, info: dict[str, Any]) -> None:
-        trajectory = self.trajectory
-        report = check_trajectory(self.config, trajectory)
-        info["average_rate"] = average_rate(self.config, trajectory)
-        if self._rician:
-            info["mean_faded_rate"] = float(np.mean(self._faded))
-        info.update(feasible=report.feasible, terminal_miss=report.end_error,
-                    worst_violation=report.worst_violation, report=report)  # fmt: skip
 
     @property
     def trajectory(self) -> np.ndarray:

@@ -99,10 +99,3 @@ def surface_nodes(config: ScenarioConfig) -> SurfaceNodes:
     weight = ly @ beta @ lz.T  # (ny, nz)
     yy, zz = np.meshgrid(node_y, node_z, indexing="ij")
     return SurfaceNodes(yy.ravel(), zz.ravel(), weight.ravel(), exact=False)
-
-
-def exact_nodes(config: ScenarioConfig) -> SurfaceNodes:
-    """The per-element nodes (no compression), whatever ``config.quadrature_nodes`` says."""
-    if config.quadrature_nodes == 0:
-        return surface_nodes(config)
-    return surface_nodes(config.replace(quadrature_nodes=0))
