@@ -78,10 +78,18 @@ class RateEvalCallback(BaseCallback):
         self._last = self.model.num_timesteps // self.eval_freq if self.eval_freq > 0 else 0
 
     def evaluate(self) -> dict[str, Any]:
-        from agents.rollout import Agent, rollout
+        """One deterministic episode (seed 0) of the model now; recorded, logged and returned."""
+        import gymnasium as gym
+
+        from agents.loading import Agent
+        from ios_uav_env.rollout import run_episode
 
         agent = Agent(self.model, self.model.get_vec_normalize_env(), self.env_id, self.env_kwargs)
-        result = rollout(agent)
+        env = gym.make(self.env_id, **self.env_kwargs)
+        try:
+            result = run_episode(env, agent.act, seed=0)
+        finally:
+            env.close()
         record = {
             "steps": int(self.num_timesteps),
             "wall_time_s": round(self.clock.seconds(), 2),

@@ -23,7 +23,6 @@ from typing import Any
 import yaml
 
 HYPERPARAMS_DIR = Path(__file__).resolve().parent / "hyperparams"
-ALGOS: tuple[str, ...] = ("ppo", "sac")
 #: zoo keys that are not keyword arguments of the algorithm
 _ZOO_KEYS = ("n_timesteps", "n_envs", "policy", "normalize", "env_wrapper", "frame_stack", "callback")
 
@@ -48,12 +47,13 @@ def hyperparams_path(algo: str) -> Path:
 
 
 def load_hyperparams(algo: str, env_id: str, path: str | Path | None = None) -> Hyperparams:
-    """Read and resolve the entry of ``env_id`` in the zoo-format file of ``algo``."""
+    """Read and resolve the entry of ``env_id`` in the zoo-format file of ``algo``; ``ValueError``
+    if the file has no entry for ``env_id`` or an entry cannot be resolved."""
     path = Path(path) if path is not None else hyperparams_path(algo)
     with open(path, encoding="utf-8") as fh:
         table = yaml.safe_load(fh) or {}
     if env_id not in table:
-        raise KeyError(f"{path} has no hyperparameters for env id {env_id!r} (has: {', '.join(table)})")
+        raise ValueError(f"{path} has no hyperparameters for env id {env_id!r} (has: {', '.join(table)})")
     return resolve(table[env_id])
 
 
@@ -166,23 +166,24 @@ def resolve(entry: dict[str, Any]) -> Hyperparams:
     )
 
 
-def parse_env_kwargs(items: list[str] | None) -> dict[str, Any]:
-    """Parse zoo-style ``key:value`` pairs; a value is a Python literal or else a plain string.
+def parse_env_kwarg(item: str) -> tuple[str, Any]:
+    """Parse one zoo-style ``key:value`` pair; the value is a Python literal or else a plain word.
 
-    ``arrival_guard:False T:100 channel:rician channel:"'rician'"`` all work (a string may be
-    quoted or not). Raises ``ValueError`` naming the malformed item.
+    ``arrival_guard:False``, ``T:100``, ``channel:rician`` and ``channel:"'rician'"`` all work
+    (a string may be quoted or not). Raises ``ValueError`` naming the malformed item.
     """
-    out: dict[str, Any] = {}
-    for item in items or []:
-        key, sep, text = item.partition(":")
-        key = key.strip()
-        if not sep or not key.isidentifier() or not text.strip():
-            raise ValueError(f"expected key:value (e.g. arrival_guard:False), got {item!r}")
-        try:
-            value = ast.literal_eval(text.strip())
-        except (ValueError, SyntaxError):
-            if not text.strip().replace("_", "").replace("-", "").isalnum():
-                raise ValueError(f"cannot read the value of {item!r} (a Python literal or a word)") from None
-            value = text.strip()
-        out[key] = value
-    return out
+    key, sep, text = item.partition(":")
+    key, text = key.strip(), text.strip()
+    if not sep or not key.isidentifier() or not text:
+        raise ValueError(f"expected key:value (e.g. arrival_guard:False), got {item!r}")
+    try:
+        return key, ast.literal_eval(text)
+    except (ValueError, SyntaxError):
+        if not text.replace("_", "").replace("-", "").isalnum():
+            raise ValueError(f"cannot read the value of {item!r} (a Python literal or a word)") from None
+        return key, text
+
+
+def parse_env_kwargs(items: list[str] | None) -> dict[str, Any]:
+    """Parse zoo-style ``key:value`` pairs (:func:`parse_env_kwarg`); a later key wins."""
+    return dict(parse_env_kwarg(item) for item in items or [])

@@ -30,12 +30,63 @@ from typing import Any
 import gymnasium as gym
 
 import ios_uav_env
-from agents.hyperparams import ALGOS, Hyperparams, load_hyperparams
+from agents.hyperparams import Hyperparams, load_hyperparams
+from agents.loading import ALGOS, CHECKPOINT_PREFIX, checkpoint_file, checkpoints
 from agents.wrappers import apply_wrappers
 from ios_uav_env.io import atomic_write_text
 
 RUNS_DIR = Path("runs")
-CHECKPOINT_PREFIX = "rl_model"
+DEFAULT_ENV_ID = "ios_uav_env/IOSUAV-v0"
+
+
+# --- checks of the settings (ValueError / FileNotFoundError / FileExistsError with the reason);
+# --- TrainSettings.validate and train.py's argument parser both use them
+
+
+def check_algo(algo: str) -> str:
+    if algo not in ALGOS:
+        raise ValueError(f"unknown algorithm {algo!r}; choose from {', '.join(ALGOS)}")
+    return algo
+
+
+def check_env_id(env_id: str) -> str:
+    if env_id not in gym.registry:
+        ours = ", ".join(sorted(ios_uav_env.ENV_IDS))
+        raise ValueError(f"unknown env id {env_id!r}; registered ids of this package: {ours}")
+    return env_id
+
+
+def check_positive(value: Any) -> int:
+    if isinstance(value, bool) or not isinstance(value, int) or value <= 0:
+        raise ValueError(f"must be a positive integer, got {value!r}")
+    return value
+
+
+def check_env_kwargs(env_id: str, env_kwargs: dict[str, Any]) -> dict[str, Any]:
+    """``env_kwargs`` if ``gym.make(env_id, **env_kwargs)`` accepts them."""
+    try:
+        gym.make(env_id, **env_kwargs).close()
+    except (TypeError, ValueError) as exc:
+        raise ValueError(f"{env_kwargs!r} rejected by {env_id}: {exc}") from exc
+    return env_kwargs
+
+
+def check_new_run_dir(run_dir: str | Path) -> Path:
+    """``run_dir`` if a new run can start there (missing or empty)."""
+    run_dir = Path(run_dir)
+    if run_dir.exists() and (not run_dir.is_dir() or any(run_dir.iterdir())):
+        raise FileExistsError(f"run folder {run_dir} exists and is not empty (resume it instead)")
+    return run_dir
+
+
+def check_resumable(run_dir: str | Path) -> Path:
+    """``run_dir`` if it is a run folder with a checkpoint to resume from."""
+    run_dir = Path(run_dir)
+    if not (run_dir / "config.json").exists():
+        raise FileNotFoundError(f"{run_dir} is not a run folder (no config.json)")
+    if not checkpoints(run_dir):
+        raise FileNotFoundError(f"{run_dir / 'checkpoints'} holds no checkpoint to resume from")
+    return run_dir
 
 
 @dataclass
@@ -43,7 +94,7 @@ class TrainSettings:
     """Everything a run needs; the fields are ``train.py``'s arguments."""
 
     algo: str  # "ppo" or "sac"
-    env_id: str = "ios_uav_env/IOSUAV-v0"  # a registered id
+    env_id: str = DEFAULT_ENV_ID  # a registered id
     timesteps: int | None = None  # total env steps; None = the hyperparameter file's n_timesteps
     seed: int = 0  # seeds torch, numpy, the model and the envs (env i gets seed + i)
     n_envs: int | None = None  # parallel envs (DummyVecEnv); None = the file's n_envs
@@ -56,19 +107,19 @@ class TrainSettings:
 
     def validate(self) -> None:
         """Raise ``ValueError`` naming the first bad field."""
-        if self.algo not in ALGOS:
-            raise ValueError(f"algo: unknown algorithm {self.algo!r}; choose from {', '.join(ALGOS)}")
-        if self.env_id not in gym.registry:
-            ours = ", ".join(sorted(ios_uav_env.ENV_IDS))
-            raise ValueError(f"env: unknown env id {self.env_id!r}; registered ids of this package: {ours}")
+        checks: list[tuple[str, Any, Any]] = [
+            ("algo", check_algo, self.algo),
+            ("env_id", check_env_id, self.env_id),
+        ]
         for name in ("timesteps", "n_envs", "checkpoint_freq"):
-            value = getattr(self, name)
-            if value is not None and (not isinstance(value, int) or value <= 0):
-                raise ValueError(f"{name}: must be a positive integer, got {value!r}")
-        try:
-            gym.make(self.env_id, **self.env_kwargs).close()
-        except (TypeError, ValueError) as exc:
-            raise ValueError(f"env_kwargs: {self.env_kwargs!r} rejected by {self.env_id}: {exc}") from exc
+            if getattr(self, name) is not None:  # None: the hyperparameter file's value
+                checks.append((name, check_positive, getattr(self, name)))
+        checks.append(("env_kwargs", functools.partial(check_env_kwargs, self.env_id), self.env_kwargs))
+        for name, check, value in checks:
+            try:
+                check(value)
+            except ValueError as exc:
+                raise ValueError(f"{name}: {exc}") from exc
 
 
 @dataclass
@@ -99,12 +150,6 @@ def versions() -> dict[str, str]:
     }
 
 
-def _algo_class(algo: str) -> Any:
-    from stable_baselines3 import PPO, SAC
-
-    return {"ppo": PPO, "sac": SAC}[algo]
-
-
 def _make_venv(settings: TrainSettings, hp: Hyperparams, run_dir: Path, resume_from: str | None) -> Any:
     from stable_baselines3.common.env_util import make_vec_env
     from stable_baselines3.common.vec_env import DummyVecEnv, VecNormalize
@@ -127,15 +172,6 @@ def _make_venv(settings: TrainSettings, hp: Hyperparams, run_dir: Path, resume_f
     return VecNormalize(venv, gamma=hp.model_kwargs.get("gamma", 0.99), **hp.normalize)
 
 
-def _checkpoints(run_dir: Path) -> list[tuple[int, Path]]:
-    found = []
-    for path in (run_dir / "checkpoints").glob(f"{CHECKPOINT_PREFIX}_*_steps.zip"):
-        match = re.fullmatch(rf"{CHECKPOINT_PREFIX}_(\d+)_steps\.zip", path.name)
-        if match:
-            found.append((int(match.group(1)), path))
-    return sorted(found)
-
-
 def train(settings: TrainSettings, *, _resume: bool = False) -> TrainResult:
     """Train (or, through :func:`resume`, continue) a run; return its folder, model and summary."""
     import torch
@@ -152,17 +188,16 @@ def train(settings: TrainSettings, *, _resume: bool = False) -> TrainResult:
     run_dir = Path(settings.out) if settings.out else RUNS_DIR / run_name(settings)
     settings.out = str(run_dir)
     ckpt_dir = run_dir / "checkpoints"
-    algo_cls = _algo_class(settings.algo)
+    algo_cls = ALGOS[settings.algo]
 
     clock, history, start_steps = Clock(), [], 0
     if _resume:
-        steps, ckpt = _checkpoints(run_dir)[-1]
-        stem = ckpt_dir / f"{CHECKPOINT_PREFIX}_{{}}_{steps}_steps.pkl"
-        vecnorm = str(stem).format("vecnormalize") if hp.normalize is not None else None
+        steps, ckpt = checkpoints(run_dir)[-1]
+        vecnorm = str(checkpoint_file(run_dir, steps, "vecnormalize")) if hp.normalize is not None else None
         venv = _make_venv(settings, hp, run_dir, vecnorm)
         model = algo_cls.load(ckpt, env=venv, device="cpu", tensorboard_log=str(run_dir / "tb"))
         if settings.algo == "sac":
-            model.load_replay_buffer(str(stem).format("replay_buffer"))
+            model.load_replay_buffer(str(checkpoint_file(run_dir, steps, "replay_buffer")))
         progress = ckpt_dir / PROGRESS_FILE
         if progress.exists():
             record = json.loads(progress.read_text())
@@ -170,8 +205,7 @@ def train(settings: TrainSettings, *, _resume: bool = False) -> TrainResult:
             history = [h for h in record["eval_history"] if h["steps"] <= steps]
         start_steps = steps
     else:
-        if run_dir.exists() and any(run_dir.iterdir()):
-            raise FileExistsError(f"out: run folder {run_dir} exists and is not empty (use --resume)")
+        check_new_run_dir(run_dir)
         run_dir.mkdir(parents=True, exist_ok=True)
         set_random_seed(settings.seed)
         venv = _make_venv(settings, hp, run_dir, None)
@@ -253,34 +287,9 @@ def write_config(run_dir: Path, settings: TrainSettings, hp: Hyperparams, total:
 def resume(run_dir: str | Path, *, timesteps: int | None = None, progress_bar: bool = True) -> TrainResult:
     """Continue the run in ``run_dir`` from its last checkpoint (same folder, same settings);
     ``timesteps`` changes the total number of steps (default: the run's own)."""
-    run_dir = Path(run_dir)
-    config_path = run_dir / "config.json"
-    if not config_path.exists():
-        raise FileNotFoundError(f"resume: {run_dir} is not a run folder (no config.json)")
-    if not _checkpoints(run_dir):
-        raise FileNotFoundError(f"resume: {run_dir / 'checkpoints'} holds no checkpoint to resume from")
-    args = json.loads(config_path.read_text())["args"]
+    run_dir = check_resumable(run_dir)
+    config = json.loads((run_dir / "config.json").read_text())
+    args = config["args"]
     args.update(out=str(run_dir), progress_bar=progress_bar)
-    if timesteps is not None:
-        args["timesteps"] = timesteps
-    else:
-        args["timesteps"] = json.loads(config_path.read_text())["total_timesteps"]
+    args["timesteps"] = config["total_timesteps"] if timesteps is None else timesteps
     return train(TrainSettings(**args), _resume=True)
-
-
-def export_run(run_dir: str | Path, dest: str | Path) -> Path:
-    """Copy a finished run's shippable files (model.zip without replay buffer, vecnormalize.pkl,
-    config.json, summary.json) to ``dest``, e.g. ``agents/models/ppo_IOSUAV-v0``."""
-    import shutil
-
-    run_dir, dest = Path(run_dir), Path(dest)
-    if not (run_dir / "summary.json").exists():
-        raise FileNotFoundError(f"{run_dir} has no summary.json: the run has not finished")
-    dest.mkdir(parents=True, exist_ok=True)
-    for name in ("model.zip", "vecnormalize.pkl", "config.json"):
-        if (run_dir / name).exists():
-            shutil.copyfile(run_dir / name, dest / name)
-    summary = json.loads((run_dir / "summary.json").read_text())
-    summary["run"] = run_dir.name
-    atomic_write_text(dest / "summary.json", json.dumps(summary, indent=1))
-    return dest

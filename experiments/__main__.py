@@ -35,12 +35,14 @@ def agent_trajectories(spec: SweepSpec) -> dict[str, np.ndarray]:
     )
     if config != ScenarioConfig():
         return {}  # the shipped agents' scenario does not apply
+    from agents.evaluate import shipped_agents
+    from agents.rollout import rollout
+
     try:
-        from agents.evaluate import shipped_agents
-        from agents.rollout import rollout
-    except ImportError:
+        agents = shipped_agents()
+    except ImportError:  # no stable-baselines3 / torch here
         return {}
-    return {f"RL: {agent.name}": rollout(agent, config=config).trajectory for agent in shipped_agents()}
+    return {f"RL: {agent.name}": rollout(agent, config).trajectory for agent in agents}
 
 
 def build_parser() -> argparse.ArgumentParser:

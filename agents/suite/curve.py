@@ -2,65 +2,34 @@
 
     python -m agents.suite curve --run runs/<run> [--n 60] [--out out/suite_curve]
 
-Reads the run's ``checkpoints/rl_model_<steps>_steps.zip`` (and the matching VecNormalize
-statistics, if any), scores each with :func:`agents.suite_report.evaluate_suite` and writes a
-CSV (steps, minutes since the first checkpoint, mean / p10 / min % of DP, feasible) and a PNG.
+Loads each of the run's checkpoints (``agents.loading.load_agent(run, checkpoint=steps)``:
+``checkpoints/rl_model_<steps>_steps.zip`` with the matching VecNormalize statistics, if
+any), scores it with :func:`agents.suite.report.evaluate_suite` and writes a CSV (steps,
+minutes since the first checkpoint, mean / p10 / min % of DP, feasible) and a PNG.
 """
 
 from __future__ import annotations
 
-import pickle
 from pathlib import Path
 from typing import Any
 
+from agents.loading import checkpoints, load_agent
 from agents.suite import Suite
+from agents.suite.report import evaluate_suite, summarize
+from ios_uav_env import RANDOM_ENV_ID
 from ios_uav_env.io import atomic_write_text, save_figure
 
 
-def checkpoints(run: str | Path) -> list[tuple[int, Path]]:
-    """(steps, zip) of every checkpoint of ``run``, by steps."""
-    from agents.training import _checkpoints
-
-    found = _checkpoints(Path(run))
-    if not found:
-        raise FileNotFoundError(f"no checkpoints (rl_model_<steps>_steps.zip) in {Path(run) / 'checkpoints'}")
-    return found
-
-
-def load_checkpoint(zip_path: Path, steps: int, env_id: str) -> Any:
-    """An ``agents.rollout.Agent`` of one checkpoint (PPO or SAC, read from the run's config)."""
-    import json
-
-    import torch
-    from stable_baselines3 import PPO, SAC
-
-    from agents.rollout import Agent
-
-    torch.set_num_threads(1)
-    config_file = zip_path.parent.parent / "config.json"
-    config = json.loads(config_file.read_text()) if config_file.exists() else {}
-    algo = {"ppo": PPO, "sac": SAC}[config.get("algo", "ppo")]
-    model = algo.load(zip_path, device="cpu")
-    stats = zip_path.parent / f"rl_model_vecnormalize_{steps}_steps.pkl"
-    vecnormalize = None
-    if stats.exists():
-        with stats.open("rb") as fh:
-            vecnormalize = pickle.load(fh)
-        vecnormalize.training = False
-    return Agent(
-        model, vecnormalize, config.get("env_id", env_id), dict(config.get("env_kwargs", {})), zip_path.stem
-    )
-
-
 def learning_curve(run: str | Path, suite: Suite, n: int | None = None) -> list[dict[str, Any]]:
-    """One summary row per checkpoint: steps, minutes since the first checkpoint (file times), suite score."""
-    from agents.suite_report import RANDOM_ENV_ID, evaluate_suite, summarize
-
-    rows = []
+    """One summary row per checkpoint: steps, minutes since the first checkpoint (file times), suite
+    score. ``FileNotFoundError`` if the run has no checkpoint."""
     points = checkpoints(run)
-    t0 = min(p.stat().st_mtime for _, p in points) if points else 0.0
+    if not points:
+        raise FileNotFoundError(f"no checkpoints (rl_model_<steps>_steps.zip) in {Path(run) / 'checkpoints'}")
+    t0 = min(p.stat().st_mtime for _, p in points)
+    rows = []
     for steps, path in points:
-        agent = load_checkpoint(path, steps, RANDOM_ENV_ID)
+        agent = load_agent(run, checkpoint=steps, env_id=RANDOM_ENV_ID)
         s = summarize(evaluate_suite(agent, suite, n))
         rows.append({"steps": steps, "minutes": (path.stat().st_mtime - t0) / 60.0, **s})
         print(f"{steps:>9d} steps: mean {s['mean_pct_dp']:.2f}%  p10 {s['p10_pct_dp']:.2f}%  "
