@@ -12,7 +12,7 @@ trajectory, problem (25):
 with c_k = J s(q) w_k, s(q) the side factor (1 reflection, epsilon / 0 transmission),
 (y_k, z_k, w_k) the weighted nodes ("tiles") of ``ios_uav_env.surface_nodes`` and
 d_k^2 = (x - x_c)^2 + (y - y_k)^2 + (z_U - z_k)^2, K = sqrt(G_tx G_rx). With
-``config.quadrature_nodes = 8`` the 64 nodes reproduce the 6000-element sum to ~1e-12; SCA
+the default compression the nodes reproduce the element sum to ``config.quadrature_tol``; SCA
 uses ``tiles`` x ``tiles`` nodes (default 2, 4 tiles) and the exact model scores every iterate.
 
 **Problem (15)** (per slot; one u_k per tile, not per element):
@@ -135,7 +135,7 @@ import numpy as np
 
 import ios_uav_env as ie
 from baselines.plan import Plan
-from baselines.sca_problem import PLANE_TOL, STEP_MARGIN, Surrogate
+from baselines.sca_problem import PLANE_TOL, STEP_MARGIN, Surrogate, tiled_config
 from ios_uav_env import ScenarioConfig
 from ios_uav_env.peak import rate_peak
 
@@ -242,7 +242,7 @@ def tiling_error(config: ScenarioConfig, trajectory: np.ndarray, tiles: int) -> 
     Against the config's own model (the one that scores plans): ``zeta_max_rel`` =
     max_n |zeta_tiled - zeta| / zeta, ``rate_abs`` / ``rate_rel`` = error of the mean rate.
     """
-    tiled = config.replace(quadrature_nodes=tiles)
+    tiled = tiled_config(config, tiles)
     z_exact, z_tiled = ie.zeta(config, trajectory), ie.zeta(tiled, trajectory)
     r_exact, r_tiled = ie.average_rate(config, trajectory), ie.average_rate(tiled, trajectory)
     return {
@@ -311,6 +311,9 @@ def _run(
                   "seconds": time.perf_counter() - t0, "solver_seconds": solver_seconds, "accepted": False,
                   "rel_improvement": None, "worst_violation": None}  # fmt: skip
         history.append(record)
+        if q_new is not None and not np.all(np.isfinite(q_new)):  # a broken solution: a failure
+            q_new, status = None, f"solver_error: non-finite trajectory (status {status})"
+            record["status"] = status
         if q_new is None:
             if not status.startswith("solver_error"):
                 record["status"] = f"solver_error: status {status}"

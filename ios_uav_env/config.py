@@ -72,11 +72,14 @@ class ScenarioConfig:
     gamma: float = 1.0  # element amplitude ratio |gamma_m| (assumption)
     element_spacing_wl: float = 0.5  # wavelengths, element pitch on the grid (assumption: lambda/2)
     element_size_wl: float = 0.5  # wavelengths, element size delta_y = delta_z (assumption: lambda/2)
-    # Nodes per axis of the Chebyshev compression of the element sum (see ios_uav_env.surface):
-    # the exact per-element sum is replaced by an equivalent one over at most n x n weighted
-    # nodes, exact for polynomials of degree < n along each axis; relative error < 1e-12 at
-    # the defaults. 0 = always sum over every element (slow for M = 6000, identical result).
-    quadrature_nodes: int = 8
+    # Chebyshev compression of the element sum (see ios_uav_env.surface): the exact per-element
+    # sum is replaced by an equivalent one over n x n weighted nodes, exact for polynomials of
+    # degree < n along each axis. n is at least quadrature_nodes, raised where the geometry needs
+    # it (a UAV close above a large surface) until an a-priori bound of the relative amplitude
+    # error is <= quadrature_tol; the exact sum once n reaches the grid size. 0 = always the
+    # exact sum (slow for M = 6000); quadrature_tol = inf = exactly quadrature_nodes.
+    quadrature_nodes: int = 8  # nodes per axis, at least (0: exact per-element sum)
+    quadrature_tol: float = 1e-12  # relative amplitude error the compression must stay within
 
     def __post_init__(self) -> None:
         if self.surface not in SURFACES:
@@ -86,7 +89,9 @@ class ScenarioConfig:
         object.__setattr__(self, "ground_node", _pair(self.ground_node, "ground_node"))
         object.__setattr__(self, "ios_center", _pair(self.ios_center, "ios_center", 3))
         shape = _pair(self.ios_shape, "ios_shape")
-        if not all(s == int(s) and s >= 1 for s in shape):
+        if any(isinstance(v, (bool, np.bool_)) for v in self.ios_shape) or not all(
+            s == int(s) and s >= 1 for s in shape
+        ):
             raise ValueError(f"ios_shape must be two integers >= 1 (M_y, M_z; M > 0), got {self.ios_shape!r}")
         object.__setattr__(self, "ios_shape", (int(shape[0]), int(shape[1])))
         positive = {
@@ -106,9 +111,23 @@ class ScenarioConfig:
             raise ValueError(f"noise_dbm must be finite, got {self.noise_dbm!r}")
         if not (_is_int(self.quadrature_nodes) and 0 <= self.quadrature_nodes <= 64):
             raise ValueError(f"quadrature_nodes must be an integer in [0, 64], got {self.quadrature_nodes!r}")
+        if not (_is_real(self.quadrature_tol) and self.quadrature_tol > 0):
+            raise ValueError(f"quadrature_tol must be a number > 0 (inf: none), got {self.quadrature_tol!r}")
         # plain Python numbers (numpy scalars accepted): stable hashing, equality and JSON
-        for name in (*positive, *nonneg, "noise_dbm"):
+        for name in (*positive, *nonneg, "noise_dbm", "quadrature_tol"):
             object.__setattr__(self, name, float(getattr(self, name)))
+        # derived powers must be finite numbers too: eta = P / sigma^2 enters every rate
+        for name in ("noise_w", "eta"):
+            try:
+                value = getattr(self, name)
+            except OverflowError:
+                value = math.inf
+            if not (math.isfinite(value) and 1e-150 < value < 1e150):
+                raise ValueError(
+                    f"power_w={self.power_w!r} W and noise_dbm={self.noise_dbm!r} dBm give {name} = "
+                    f"{value!r}: it must be a finite number in (1e-150, 1e150) "
+                    "(e.g. noise_dbm in [-250, 250] dBm)"
+                )
         object.__setattr__(self, "quadrature_nodes", int(self.quadrature_nodes))
         ratio = self.T / self.dt
         if abs(ratio - round(ratio)) > 1e-9 * max(1.0, ratio):
@@ -148,8 +167,9 @@ class ScenarioConfig:
 
     @property
     def eta(self) -> float:
-        """Transmit SNR eta = P / sigma^2."""
-        return self.power_w / self.noise_w
+        """Transmit SNR eta = P / sigma^2 (inf when sigma^2 underflows to 0)."""
+        noise = self.noise_w
+        return self.power_w / noise if noise > 0 else math.inf
 
     @property
     def M(self) -> int:

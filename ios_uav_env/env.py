@@ -328,10 +328,9 @@ class IOSUAVEnv(gym.Env):
             ax, ay = self._parse_action(action)
         if not (math.isfinite(ax) and math.isfinite(ay)):
             raise ValueError(f"action must be finite (no NaN or inf), got {action!r}")
-        norm2 = ax * ax + ay * ay
-        if norm2 > 1.0:
-            scale = 1.0 / math.sqrt(norm2)
-            ax, ay = ax * scale, ay * scale
+        norm = math.hypot(ax, ay)  # no overflow for huge actions, unlike ax * ax + ay * ay
+        if norm > 1.0:
+            ax, ay = ax / norm, ay / norm
         D, (fx, fy), (x0, y0) = self._D, self._qf, (self._x, self._y)
         x, y = x0 + D * ax, y0 + D * ay
         left = self._moves - n - 1  # moves left after this one

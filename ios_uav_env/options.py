@@ -17,6 +17,8 @@ from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import Any
 
+import numpy as np
+
 from ios_uav_env.config import SCENARIO_FIELDS
 
 #: Values of the ``channel`` option: the expected-gain rate (the paper's objective) or a
@@ -25,7 +27,7 @@ CHANNELS: tuple[str, ...] = ("expected", "rician")
 
 
 def _flag(value: Any, name: str) -> bool:
-    if not isinstance(value, bool) and type(value).__name__ != "bool_":
+    if not isinstance(value, (bool, np.bool_)):
         raise ValueError(f"{name} must be True or False, got {value!r}")
     return bool(value)
 

@@ -1,0 +1,116 @@
+"""Fault injection (issue "Nothing lost"): bad numbers, broken solvers and extreme inputs.
+
+Each test injects one fault and checks that it is refused with a clear error or handled
+right; each fails on the code before the fix (see the comment on each)."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from ios_uav_env import ScenarioConfig, surface_amplitude
+from ios_uav_env.env import IOSUAVEnv
+from ios_uav_env.options import EnvOptions
+from ios_uav_env.surface import node_count, quadrature_error_bound
+
+
+def _near_surface_points(config: ScenarioConfig) -> np.ndarray:
+    """UAV positions from 1 cm to 100 m off the surface plane, over and beside the surface."""
+    xc, yc, _ = config.ios_center
+    width = config.ios_shape[0] * config.element_spacing
+    offsets = [(dx, dy) for dx in (0.01, 0.3, 2.0, 10.0, 100.0) for dy in (0.0, 0.5 * width, 2 * width)]
+    return np.array([(xc + s * dx, yc + dy) for dx, dy in offsets for s in (1, -1)])
+
+
+# --- numerics of the element sum: the default is accurate wherever a config is accepted --------
+@pytest.mark.parametrize(
+    "changes",
+    [{"uav_altitude": 41.0}, {"uav_altitude": 45.0}, {"ios_shape": (1000, 1000)}, {"ios_shape": (400, 300)}],
+)
+def test_default_compression_matches_the_exact_sum_near_large_or_close_surfaces(changes):
+    # before: 8 nodes always; 86% amplitude error at 41 m, 1.7e-4 for a 1000 x 1000 surface
+    config = ScenarioConfig(**changes)
+    exact = surface_amplitude(config.replace(quadrature_nodes=0), _near_surface_points(config))
+    fast = surface_amplitude(config, _near_surface_points(config))
+    assert np.max(np.abs(fast - exact) / exact) <= 1e-11
+    assert node_count(config) > 8 or node_count(config) == 0  # it took more nodes (0: exact)
+    # and the plain 8 nodes were indeed not enough there: the test can see the difference
+    coarse = surface_amplitude(config.replace(quadrature_tol=math.inf), _near_surface_points(config))
+    assert np.max(np.abs(coarse - exact) / exact) > config.quadrature_tol
+
+
+def test_default_geometry_keeps_eight_nodes_and_the_bound_is_honest():
+    config = ScenarioConfig()
+    assert node_count(config) == 8 and quadrature_error_bound(config, 8) <= 1e-12
+    assert node_count(config.replace(quadrature_nodes=0)) == 0
+    assert node_count(config.replace(quadrature_nodes=2, quadrature_tol=math.inf)) == 2
+
+
+@pytest.mark.parametrize("bad", [0.0, -1e-12, math.nan, "small"])
+def test_quadrature_tol_is_validated(bad):
+    with pytest.raises(ValueError, match="quadrature_tol"):
+        ScenarioConfig(quadrature_tol=bad)
+
+
+# --- parameters whose derived powers overflow ----------------------------------------------
+@pytest.mark.parametrize(
+    ("changes", "what"),
+    [({"power_w": 1e300}, "eta"), ({"noise_dbm": 1e6}, "noise_w"), ({"noise_dbm": -1e6}, "noise_w")],
+)
+def test_parameters_with_non_finite_derived_powers_are_refused(changes, what):
+    # before: inf / NaN rates or ZeroDivisionError deep in the model
+    with pytest.raises(ValueError, match=rf"{what} = .*must be a finite number"):
+        ScenarioConfig(**changes)
+
+
+def test_bools_are_not_integers_and_numpy_floats_are_numbers():
+    with pytest.raises(ValueError, match="ios_shape"):  # before: accepted as (1, 1)
+        ScenarioConfig(ios_shape=(True, True))
+    assert ScenarioConfig(v_max=np.float32(25.0), power_w=np.float16(0.1)).v_max == 25.0
+    options = EnvOptions(reach_weight=np.float32(1.0), length_scale=np.float32(400.0))
+    assert options.reach_weight == 1.0 and type(options.length_scale) is float
+    env = IOSUAVEnv(terminal_weight=np.float32(2.0), arrival_guard=np.bool_(False))
+    assert env.options.terminal_weight == 2.0 and env.arrival_guard is False
+
+
+# --- actions ---------------------------------------------------------------------------------
+@pytest.mark.parametrize("action", [[1e200, 1e200], [1e308, -1e308], [-3e300, 0.0]])
+def test_huge_actions_move_a_full_step_along_their_direction(action):
+    # before: the squared norm overflowed to inf and the UAV did not move at all
+    env = IOSUAVEnv(arrival_guard=False)
+    env.reset(seed=0)
+    start = env.trajectory[-1]
+    env.step(np.array(action))
+    move = env.trajectory[-1] - start
+    direction = np.array(action) / np.hypot(*np.array(action) / 1e300) / 1e300
+    assert np.hypot(*move) == pytest.approx(env.config.D, rel=1e-12)
+    np.testing.assert_allclose(move / env.config.D, direction, atol=1e-12)
+
+
+# --- planners --------------------------------------------------------------------------------
+def test_a_solver_returning_nan_is_a_solver_failure_not_an_abort(monkeypatch):
+    pytest.importorskip("cvxpy")
+    from baselines import sca
+    from baselines.fixed import fly_hover_fly, straight_line
+    from baselines.sca_problem import Surrogate
+
+    small = ScenarioConfig(T=40.0, ios_shape=(10, 6))
+    original = Surrogate.solve
+    calls = {"n": 0}
+
+    def nan_once(self, lin, verbose=False):  # the first start's first solve returns NaNs
+        calls["n"] += 1
+        q, value, status, seconds = original(self, lin, verbose)
+        if calls["n"] == 1:
+            q = np.full_like(q, np.nan)
+        return q, value, status, seconds
+
+    monkeypatch.setattr(Surrogate, "solve", nan_once)
+    starts = [straight_line(small), fly_hover_fly(small)]
+    plan = sca.solve(small, init=starts, max_iters=5)  # before: ValueError from the scorer
+    summary = {s["start"]: s["stop"] for s in plan.info["starts"]}
+    assert summary["init0"] == "solver_error" and summary["init1"] != "solver_error"
+    assert plan.info["status"] == "partial_failure" and plan.feasible
+    assert any("non-finite trajectory" in h["status"] for h in plan.history)
