@@ -8,7 +8,7 @@ PY := $(VENV)/bin/python
 # CPU build on this machine's local index instead of resolving a multi-GB CUDA build.
 TORCH_SPEC ?= torch==2.13.0
 
-.PHONY: demo test lint format bench clean
+.PHONY: demo test docs lint format bench clean
 
 $(VENV)/.installed: pyproject.toml Makefile
 	@command -v $(PYTHON) >/dev/null 2>&1 || { echo "need $(PYTHON) (set PYTHON=...)"; exit 1; }
@@ -22,7 +22,7 @@ demo: $(VENV)/.installed
 	$(PY) -m ios_uav_env --out out/demo.png
 	$(PY) -m agents.evaluate --shipped --out out/compare
 
-test: $(VENV)/.installed
+test: $(VENV)/.installed docs
 	$(VENV)/bin/ruff check .
 	$(VENV)/bin/ruff format --check .
 	$(PY) -m pytest -q
@@ -32,6 +32,9 @@ lint: $(VENV)/.installed
 
 format: $(VENV)/.installed
 	$(VENV)/bin/ruff check --fix . && $(VENV)/bin/ruff format .
+
+docs: $(VENV)/.installed
+	$(VENV)/bin/mkdocs build --strict --site-dir site
 
 bench: $(VENV)/.installed
 	$(PY) benchmarks/step_speed.py
