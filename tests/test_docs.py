@@ -64,6 +64,16 @@ def _commands(path: Path) -> list[list[str]]:
     return out
 
 
+def _anchors(path: Path) -> set[str]:
+    """The anchors of the headings of a Markdown file (the slugs of GitHub and MkDocs' toc)."""
+    text = FENCE.sub("", path.read_text(encoding="utf-8"))
+    slugs = set()
+    for heading in re.findall(r"^#{1,6}\s+(.+?)\s*$", text, re.M):
+        slug = re.sub(r"[^\w\- ]", "", heading.strip().lower().replace("`", ""))
+        slugs.add(re.sub(r"[ ]+", "-", slug).strip("-"))
+    return slugs
+
+
 def _module_exists(name: str) -> bool:
     base = ROOT.joinpath(*name.split("."))
     return base.with_suffix(".py").is_file() or (base / "__init__.py").is_file()
@@ -89,6 +99,8 @@ def test_links_point_at_files_of_the_repository(path: Path) -> None:
             broken.append(f"{target} (outside the repository)")
         elif not resolved.exists():
             broken.append(f"{target} (no such file)")
+        elif "#" in target and resolved.suffix == ".md" and target.split("#", 1)[1] not in _anchors(resolved):
+            broken.append(f"{target} (no such heading)")
     assert not broken, f"{_rel(path)} links to: {broken}"
 
 
