@@ -1,18 +1,21 @@
-"""Griffe extension for the API reference: show bare ``>>>`` examples of a docstring as code.
+"""Griffe extension for the API reference: docstrings written for the terminal, read as Markdown.
 
-The docstrings are Markdown read by mkdocstrings; a doctest written without a fence
-(``>>> import ...`` lines and their output) would render as nested block quotes. This wraps
-each such run of lines in a ``pycon`` fence when the API pages are built; the docstrings
-themselves stay plain doctests (pytest runs them).
+The docstrings are Markdown read by mkdocstrings. A doctest written without a fence
+(``>>> import ...`` lines and their output) would render as nested block quotes, and a
+Sphinx role (``:func:`zeta` ``) would show its markup. When the API pages are built this
+wraps each such run of doctest lines in a ``pycon`` fence and reduces each role to its code
+span; the docstrings themselves stay as they are (pytest runs the doctests).
 """
 
 from __future__ import annotations
 
+import re
 from typing import Any
 
 import griffe
 
 FENCE = "```"
+ROLE = re.compile(r":(?:py:)?(?:func|class|data|attr|meth|mod|exc|obj|const):`~?([^`]+)`")
 
 
 def fence_doctests(text: str) -> str:
@@ -36,11 +39,11 @@ def fence_doctests(text: str) -> str:
 
 
 class DoctestBlocks(griffe.Extension):
-    """Fence the bare doctests of every docstring that griffe loads."""
+    """Fence the bare doctests and reduce the roles of every docstring that griffe loads."""
 
     def on_object(self, *, obj: griffe.Object, **kwargs: Any) -> None:
-        if obj.docstring is not None and ">>>" in obj.docstring.value:
-            obj.docstring.value = fence_doctests(obj.docstring.value)
+        if obj.docstring is not None:
+            obj.docstring.value = ROLE.sub(r"`\1`", fence_doctests(obj.docstring.value))
 
     def on_package(self, *, pkg: griffe.Module, **kwargs: Any) -> None:
         self.on_object(obj=pkg)
