@@ -17,17 +17,9 @@ import numpy as np
 from gymnasium import spaces
 
 from ios_uav_env.channel import RateKernel, rate_kernel, slot_rates
-from ios_uav_env.config import FEASIBILITY_TOL, ScenarioConfig, as_config, scenario_option
-from ios_uav_env.guard import guarded_position
-from ios_uav_env.observation import (
-    INSTANCE_NAMES,
-    OBS_NAMES,
-    PEAK_NAMES,
-    T_SCALE,
-    check_fits,
-    instance_values,
-    space_bounds,
-)
+from ios_uav_env.config import ScenarioConfig, as_config, scenario_option
+from ios_uav_env.dynamics import INFO, STATE, episode_row, flags_of, reset_rows, step_rows
+from ios_uav_env.observation import INSTANCE_NAMES, OBS_NAMES, PEAK_NAMES, check_fits, space_bounds
 from ios_uav_env.options import CHANNELS, EnvOptions, split_kwargs
 from ios_uav_env.peak import rate_peak
 from ios_uav_env.scenarios import ScenarioRanges
@@ -220,22 +212,29 @@ class IOSUAVEnv(gym.Env):
                 f"render_mode must be None or one of {self.metadata['render_modes']}, got {render_mode!r}"
             )
         self.render_mode = render_mode
-        self._inv_l = 1.0 / self.options.length_scale
         self._rician = self.options.channel == "rician"
-        self._guard = self.options.arrival_guard
         self._renderer: Any = None
         self.config: ScenarioConfig | None = None  # the current episode's scenario
         self.kernel: RateKernel  # the rate kernel of self.config
-        self._set_config(self._base_config)
         self.action_space = spaces.Box(-1.0, 1.0, (2,), np.float32)
         low, high = space_bounds(
             self._ranges(), self.options.length_scale, self.options.instance_features, self.options.peak_hint
         )
         self.observation_space = spaces.Box(low, high, dtype=np.float32)
-        self._n: int | None = None  # moves made; None before the first reset
-        self._x, self._y = self.config.q0
-        self._xs: list[float] = []  # way-points so far (x, then y)
-        self._ys: list[float] = []
+        # a batch of one episode for the kernels of ios_uav_env.dynamics (rows of length 1)
+        self._flags = flags_of(self.options)
+        self._rows = np.zeros(1, dtype=np.int64)
+        self._active = np.ones(1, dtype=np.bool_)
+        self._state = np.zeros((1, len(STATE)))
+        self._action = np.zeros((1, 2))
+        self._normals = np.zeros((1, 2))
+        self._obs = np.zeros((1, low.size), dtype=np.float32)
+        self._reward = np.zeros(1)
+        self._terminated = np.zeros(1, dtype=np.bool_)
+        self._info_row = np.zeros((1, len(INFO)))
+        self._set_config(self._base_config)
+        self._path = np.zeros((1, self.config.N, 2))
+        self._started = False
 
     # --- options (read-only views of self.options) ---------------------------------------
     channel = property(lambda self: self.options.channel)
@@ -250,54 +249,23 @@ class IOSUAVEnv(gym.Env):
         return ScenarioRanges.from_config(self._base_config)
 
     def _set_config(self, cfg: ScenarioConfig) -> None:
-        """Make ``cfg`` the current scenario: its rate kernel and the observation's constants."""
+        """Make ``cfg`` the current scenario: its rate kernel and the episode's constants."""
         if cfg is self.config:
             return
         self.config = cfg
         self.kernel = rate_kernel(cfg)
-        self._moves = cfg.N - 1
-        self._D = cfg.D
-        self._qf = cfg.qF
-        points = (cfg.qF, cfg.ground_node, cfg.ios_center[:2])
-        self._scaled = tuple(c * self._inv_l for p in points for c in p)  # the points / L
-        self._inv_moves = 1.0 / self._moves
-        self._instance = instance_values(cfg) if self.options.instance_features else ()
-        self._peak: tuple[float, ...] = ()
-        if self.options.peak_hint:
-            peak = rate_peak(cfg)
-            self._peak = (peak.x * self._inv_l, peak.y * self._inv_l, peak.rate)
-        self._left_scale = cfg.dt / T_SCALE  # seconds left / T_SCALE per move left
+        peak = rate_peak(cfg) if self.options.peak_hint else (0.0, 0.0, 0.0)
+        self._episode = episode_row(cfg, self.options.length_scale, peak[:3])[None, :]
+        self._nodes, self._params = self.kernel.nodes[None], self.kernel.params[None]
         self.close()  # the renderer's rate map is the previous scenario's
 
     def _episode_config(self, pinned: ScenarioConfig | None) -> ScenarioConfig:  # at reset
         return self._base_config if pinned is None else pinned
 
-    def _observe(self, x: float, y: float, left: int, dist: float, rate: float) -> np.ndarray:
-        x, y = x * self._inv_l, y * self._inv_l
-        fx, fy, gx, gy, cx, cy = self._scaled
-        s = left - dist / self._D
-        relative = (fx - x, fy - y, gx - x, gy - y, cx - x, cy - y)
-        base = (x, y, *relative, left * self._inv_moves, s / (1.0 + abs(s)), rate)
-        instance = (*self._instance, left * self._left_scale) if self.options.instance_features else ()
-        hint = (self._peak[0] - x, self._peak[1] - y, self._peak[2]) if self.options.peak_hint else ()
-        return np.array((*base, *instance, *hint), dtype=np.float32)
-
-    def _info(self, rate: float, expected: float, dist: float, left: int, terms: tuple[float, ...]) -> dict:
-        """The step's info (``INFO_KEYS``): the running eq. (9) score and eq. (10) check."""
-        n = self._n + 1  # way-points so far
-        deficit = max(0.0, dist - left * self._D)  # how far qF is out of reach (m)
-        worst = max(self._excess, deficit)
-        return {"rate": rate, "expected_rate": expected, "position": np.array((self._x, self._y)),
-                "distance_to_final": dist, "slot": n, "reward_rate": terms[0], "reward_reach": terms[1],
-                "reward_terminal": terms[2], "average_rate": self._sum_expected / n,
-                "mean_faded_rate": self._sum_rate / n, "feasible": worst <= FEASIBILITY_TOL,
-                "worst_violation": worst, "terminal_miss": deficit}  # fmt: skip
-
-    # --- API ----------------------------------------------------------------------
-    def reset(
-        self, *, seed: int | None = None, options: dict[str, Any] | None = None
-    ) -> tuple[np.ndarray, dict[str, Any]]:
-        super().reset(seed=seed)
+    def _begin(self, seed: int | None, options: dict[str, Any] | None) -> ScenarioConfig:
+        """The scenario part of ``reset``: seed ``np_random``, pick the episode's scenario (drawn,
+        pinned or the env's own), check that it fits the space, make it current."""
+        gym.Env.reset(self, seed=seed)
         pinned = scenario_option(options)
         cfg = self._episode_config(pinned)
         if cfg is not self._base_config and cfg != self.config:  # may it leave the space?
@@ -306,57 +274,51 @@ class IOSUAVEnv(gym.Env):
                 self.options.peak_hint,
             )  # fmt: skip
         self._set_config(cfg)
-        x, y = cfg.q0
-        self._n, self._x, self._y = 0, x, y
-        self._xs, self._ys = [x], [y]
-        expected = self.kernel.rate(x, y)
-        rate = self.kernel.faded_rate(x, y, self.np_random) if self._rician else expected
-        self._sum_expected, self._sum_rate, self._excess = expected, rate, 0.0
-        dist = math.hypot(self._qf[0] - x, self._qf[1] - y)
-        info = self._info(rate, expected, dist, self._moves, (0.0, 0.0, 0.0))
-        return self._observe(x, y, self._moves, dist, expected), info
+        return cfg
+
+    def _draw_normals(self) -> None:
+        if self._rician:  # h_SS of the slot: real, then imaginary part
+            self._normals[0] = self.np_random.standard_normal(2)
+
+    def _info(self) -> dict[str, Any]:
+        """The ``info`` dict (``INFO_KEYS``) of the kernels' info row."""
+        r = self._info_row[0].tolist()
+        return {"rate": r[0], "expected_rate": r[1], "position": np.array(r[2:4]), "distance_to_final": r[4],
+                "slot": int(r[5]), "reward_rate": r[6], "reward_reach": r[7], "reward_terminal": r[8],
+                "average_rate": r[9], "mean_faded_rate": r[10], "feasible": r[11] != 0.0,
+                "worst_violation": r[12], "terminal_miss": r[13]}  # fmt: skip
+
+    # --- API ----------------------------------------------------------------------
+    def reset(
+        self, *, seed: int | None = None, options: dict[str, Any] | None = None
+    ) -> tuple[np.ndarray, dict[str, Any]]:
+        cfg = self._begin(seed, options)
+        if self._path.shape[1] != cfg.N:
+            self._path = np.zeros((1, cfg.N, 2))
+        self._path[0, 0] = self._state[0, 0:2] = cfg.q0
+        self._draw_normals()
+        reset_rows(self._rows, self._state, self._episode, self._nodes, self._params, self._normals,
+                   self._flags, self._obs, self._info_row)  # fmt: skip
+        self._started = True
+        return self._obs[0].copy(), self._info()
 
     def step(self, action: Any) -> tuple[np.ndarray, float, bool, bool, dict[str, Any]]:
-        n = self._n
-        if n is None:
+        if not self._started:
             raise RuntimeError("call reset() before step()")
-        if n >= self._moves:
-            raise RuntimeError(f"the episode ended at slot N = {self._moves + 1}; call reset()")
+        if self._state[0, 2] >= self._episode[0, 3]:
+            raise RuntimeError(f"the episode ended at slot N = {self.config.N}; call reset()")
         if type(action) is np.ndarray and action.shape == (2,):
             ax, ay = action.tolist()
         else:
             ax, ay = self._parse_action(action)
         if not (math.isfinite(ax) and math.isfinite(ay)):
             raise ValueError(f"action must be finite (no NaN or inf), got {action!r}")
-        norm = math.hypot(ax, ay)  # no overflow for huge actions, unlike ax * ax + ay * ay
-        if norm > 1.0:
-            ax, ay = ax / norm, ay / norm
-        D, (fx, fy), (x0, y0) = self._D, self._qf, (self._x, self._y)
-        x, y = x0 + D * ax, y0 + D * ay
-        left = self._moves - n - 1  # moves left after this one
-        if self._guard:
-            x, y = guarded_position((x0, y0), (x, y), (fx, fy), D, left)
-        self._n, self._x, self._y = n + 1, x, y
-        self._xs.append(x)
-        self._ys.append(y)
-        self._excess = max(self._excess, math.hypot(x - x0, y - y0) - D)
-
-        expected = self.kernel.rate(x, y)
-        rate = self.kernel.faded_rate(x, y, self.np_random) if self._rician else expected
-        self._sum_expected += expected
-        self._sum_rate += rate
-        dist = math.hypot(fx - x, fy - y)
-        reach = max(0.0, dist - left * D - FEASIBILITY_TOL) / D
-        reach_term = -self.options.reach_weight * reach if reach else 0.0
-        terminated = left == 0
-        terminal_term = 0.0
-        if terminated:
-            miss = max(0.0, dist - FEASIBILITY_TOL) / D
-            if miss:
-                terminal_term = -self.options.terminal_weight * (miss + math.sqrt(miss))
-        reward = rate + reach_term + terminal_term
-        info = self._info(rate, expected, dist, left, (rate, reach_term, terminal_term))
-        return self._observe(x, y, left, dist, expected), reward, terminated, False, info
+        self._action[0, 0], self._action[0, 1] = ax, ay
+        self._draw_normals()
+        step_rows(self._action, self._state, self._episode, self._nodes, self._params, self._normals,
+                  self._flags, self._obs, self._reward, self._terminated, self._info_row, self._path,
+                  self._active)  # fmt: skip
+        return self._obs[0].copy(), float(self._reward[0]), bool(self._terminated[0]), False, self._info()
 
     def _parse_action(self, action: Any) -> tuple[float, float]:
         try:
@@ -370,7 +332,9 @@ class IOSUAVEnv(gym.Env):
     @property
     def trajectory(self) -> np.ndarray:
         """The way-points so far, q[1] = q0 .. q[n+1], as an (n + 1, 2) array in metres."""
-        return np.array((self._xs, self._ys), dtype=float).T.copy()
+        if not self._started:
+            return np.zeros((0, 2))
+        return self._path[0, : int(self._state[0, 2]) + 1].copy()
 
     def render(self) -> np.ndarray | None:
         """The trajectory so far over the rate map, as an (H, W, 3) uint8 array ("rgb_array")."""

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import inspect
 from typing import Any
 
 import gymnasium as gym
@@ -17,14 +18,31 @@ ENV_IDS: dict[str, dict[str, Any]] = {
 RANDOM_ENV_ID = "ios_uav_env/IOSUAV-Random-v0"
 
 
+def _vector(entry_point: str) -> dict[str, str]:
+    """The ``vector_entry_point`` argument where Gymnasium has it (1.0 and later)."""
+    has_vector = "vector_entry_point" in inspect.signature(gym.register).parameters
+    return {"vector_entry_point": entry_point} if has_vector else {}
+
+
 def register_envs() -> None:
     """Register every id of :data:`ENV_IDS` and :data:`RANDOM_ENV_ID` not registered yet.
 
     No ``max_episode_steps``: the env ends every episode itself at slot N of its scenario
-    (``terminated=True``), whatever T is, so no ``TimeLimit`` can cut a mission short.
+    (``terminated=True``), whatever T is, so no ``TimeLimit`` can cut a mission short. Each id
+    also names its natively batched env (``gym.make_vec(id, num_envs=B,
+    vectorization_mode="vector_entry_point")``, Gymnasium >= 1.0).
     """
     for env_id, kwargs in ENV_IDS.items():
         if env_id not in gym.registry:
-            gym.register(id=env_id, entry_point="ios_uav_env.env:IOSUAVEnv", kwargs=dict(kwargs))
+            gym.register(
+                id=env_id,
+                entry_point="ios_uav_env.env:IOSUAVEnv",
+                kwargs=dict(kwargs),
+                **_vector("ios_uav_env.vector_env:IOSUAVVectorEnv"),
+            )
     if RANDOM_ENV_ID not in gym.registry:
-        gym.register(id=RANDOM_ENV_ID, entry_point="ios_uav_env.random_env:RandomIOSUAVEnv")
+        gym.register(
+            id=RANDOM_ENV_ID,
+            entry_point="ios_uav_env.random_env:RandomIOSUAVEnv",
+            **_vector("ios_uav_env.vector_env:RandomIOSUAVVectorEnv"),
+        )
