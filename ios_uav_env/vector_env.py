@@ -10,7 +10,11 @@ same fading draws, so a batch reproduces B single envs exactly (tested).
 Scenario choice at reset stays in Python, in one template env per row (the single env's own
 code: its ``np_random``, its scenario draws, pinned configs, the space check), and costs
 nothing per step. Autoreset follows Gymnasium's default ``NEXT_STEP`` mode: the step after
-an episode ends resets that row and returns its first observation with reward 0.
+an episode ends resets that row and returns its first observation with reward 0. With
+``autoreset_mode="same_step"`` (Gymnasium's ``SAME_STEP``, what SB3 expects) a row that ends
+is reset in the same step: its observation is the new episode's first, and
+``info["final_obs"]`` / ``info["final_info"]`` (masked by ``_final_obs`` / ``_final_info``)
+hold the episode's last observation and info.
 ``info`` is a dict of arrays (``INFO_KEYS``, ``position`` of shape (B, 2)) with Gymnasium's
 ``_key`` masks (all True: every row has every key). :attr:`trajectories` holds each row's
 way-points so far.
@@ -35,8 +39,12 @@ try:  # Gymnasium >= 1.1 names the autoreset modes
     from gymnasium.vector import AutoresetMode
 
     _AUTORESET: Any = AutoresetMode.NEXT_STEP
+    _SAME_STEP: Any = AutoresetMode.SAME_STEP
 except ImportError:  # pragma: no cover - Gymnasium 1.0: next-step is the only mode
-    _AUTORESET = "NextStep"
+    _AUTORESET, _SAME_STEP = "NextStep", None
+
+#: Values of ``autoreset_mode`` (Gymnasium's ``AutoresetMode`` members are accepted too).
+AUTORESET_MODES = ("next_step", "same_step")
 
 
 class IOSUAVVectorEnv(gym.vector.VectorEnv):
@@ -52,13 +60,28 @@ class IOSUAVVectorEnv(gym.vector.VectorEnv):
     env_class: type[IOSUAVEnv] = IOSUAVEnv
     metadata = {"autoreset_mode": _AUTORESET, "render_modes": []}
 
-    def __init__(self, num_envs: int = 1, config: Any = None, *, render_mode: None = None, **kwargs: Any):
+    def __init__(
+        self,
+        num_envs: int = 1,
+        config: Any = None,
+        *,
+        autoreset_mode: Any = "next_step",
+        render_mode: None = None,
+        **kwargs: Any,
+    ):
         if isinstance(num_envs, bool) or not isinstance(num_envs, (int, np.integer)) or num_envs < 1:
             raise ValueError(f"num_envs must be an integer >= 1, got {num_envs!r}")
+        mode = str(getattr(autoreset_mode, "value", autoreset_mode)).lower().replace("step", "_step")
+        mode = mode.replace("__", "_")
+        if mode not in AUTORESET_MODES:
+            raise ValueError(f"autoreset_mode must be one of {AUTORESET_MODES}, got {autoreset_mode!r}")
+        self.same_step = mode == "same_step"
         if render_mode is not None:
             raise ValueError(f"render_mode must be None for the batched env, got {render_mode!r}")
         self.num_envs = int(num_envs)
         self.render_mode = None
+        if self.same_step and _SAME_STEP is not None:
+            self.metadata = {**self.metadata, "autoreset_mode": _SAME_STEP}
         template = self.env_class(config, **kwargs)
         self.single_observation_space = template.observation_space
         self.single_action_space = template.action_space
@@ -117,11 +140,12 @@ class IOSUAVVectorEnv(gym.vector.VectorEnv):
         reset_rows(rows.astype(np.int64), self._state, self._episode, self._nodes, self._params,
                    self._normals, self._flags, self._obs, self._info)  # fmt: skip
 
-    def _infos(self) -> dict[str, Any]:
+    def _infos(self, table: np.ndarray | None = None) -> dict[str, Any]:
         """``info`` as column views of the info array (``INFO_KEYS``; ``_key`` masks)."""
-        columns = self._info.T
+        table = self._info if table is None else table
+        columns = table.T
         out = {key: columns[i] for i, key in enumerate(INFO) if not key.startswith("position")}
-        out["position"] = self._info[:, 2:4]
+        out["position"] = table[:, 2:4]
         out["slot"] = out["slot"].astype(np.int64)
         out["feasible"] = out["feasible"] != 0.0
         out = {key: out[key] for key in INFO_KEYS}
@@ -167,9 +191,18 @@ class IOSUAVVectorEnv(gym.vector.VectorEnv):
                 self._normals[i] = self.envs[i].np_random.standard_normal(2)
         step_rows(actions, self._state, self._episode, self._nodes, self._params, self._normals, self._flags,
                   self._obs, self._reward, self._terminated, self._info, self._path, active)  # fmt: skip
-        self._autoreset = self._terminated.copy()
         truncated = np.zeros(self.num_envs, dtype=np.bool_)
-        return self._obs, self._reward, self._terminated, truncated, self._infos()
+        if not self.same_step:
+            self._autoreset = self._terminated.copy()
+            return self._obs, self._reward, self._terminated, truncated, self._infos()
+        ended = np.flatnonzero(self._terminated)
+        final_obs, final_info = self._obs.copy(), self._infos(self._info.copy())
+        if ended.size:  # SAME_STEP: the rows that ended start their next episode now
+            self._reset_rows(ended, [None] * ended.size, None)
+        info = self._infos()
+        mask = self._terminated.copy()
+        info.update(final_obs=final_obs, _final_obs=mask, final_info=final_info, _final_info=mask)
+        return self._obs, self._reward, self._terminated, truncated, info
 
     @property
     def trajectories(self) -> list[np.ndarray]:
@@ -193,5 +226,5 @@ class RandomIOSUAVVectorEnv(IOSUAVVectorEnv):
 
     env_class = RandomIOSUAVEnv
 
-    def __init__(self, num_envs: int = 1, ranges: Any = None, *, render_mode: None = None, **kwargs: Any):
-        super().__init__(num_envs, ranges, render_mode=render_mode, **kwargs)
+    def __init__(self, num_envs: int = 1, ranges: Any = None, **kwargs: Any):
+        super().__init__(num_envs, ranges, **kwargs)

@@ -173,3 +173,20 @@ def test_plain_python_kernels_agree_with_the_compiled_ones(tmp_path):
         assert run.returncode == 0, run.stderr
         results.append(np.load(path))
     np.testing.assert_allclose(results[0], results[1], rtol=1e-12, atol=1e-12)
+
+
+def test_same_step_autoreset_returns_the_new_episode_and_the_final_one_in_info():
+    vec = IOSUAVVectorEnv(2, SHORT, autoreset_mode="same_step")
+    first, _ = vec.reset(seed=0)
+    zeros = np.zeros((2, 2))
+    for _ in range(SHORT.N - 2):
+        vec.step(zeros)
+    obs, reward, terminated, _, info = vec.step(zeros)
+    assert terminated.all() and info["_final_obs"].all() and reward.min() > 0
+    np.testing.assert_array_equal(obs, first)  # already the next episode's first observation
+    assert info["slot"].tolist() == [1, 1] and info["final_info"]["slot"].tolist() == [SHORT.N] * 2
+    assert info["final_obs"][0][8] == 0.0 and info["final_info"]["feasible"].all()  # no time left
+    obs, reward, terminated, _, info = vec.step(zeros)  # an ordinary step of the new episode
+    assert info["slot"].tolist() == [2, 2] and not info["_final_obs"].any()
+    with pytest.raises(ValueError, match="autoreset_mode"):
+        IOSUAVVectorEnv(2, SHORT, autoreset_mode="sometimes")

@@ -1,0 +1,96 @@
+"""Stable-Baselines3 on the natively batched env: a ``VecEnv`` over ``IOSUAVVectorEnv``.
+
+SB3's ``DummyVecEnv`` steps B Python envs one by one and deep-copies every info dict; this
+adapter steps the B episodes as one array computation (``ios_uav_env.vector_env``, same-step
+autoreset as SB3 expects: a finished row's last observation is in its info's
+``terminal_observation``) and hands SB3 an empty info dict for every row that did not just
+finish. Wrap it in ``VecMonitor`` for episode statistics and in ``VecNormalize`` as usual.
+
+>>> venv = BatchedVecEnv("ios_uav_env/IOSUAV-v0", n_envs=256, seed=0)  # doctest: +SKIP
+>>> model = PPO("MlpPolicy", VecMonitor(venv))                        # doctest: +SKIP
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterable, Sequence
+from typing import Any
+
+import gymnasium as gym
+import numpy as np
+from stable_baselines3.common.vec_env.base_vec_env import VecEnv, VecEnvIndices, VecEnvStepReturn
+
+import ios_uav_env  # noqa: F401  (registers the ids)
+
+
+class BatchedVecEnv(VecEnv):
+    """``n_envs`` episodes of the registered id ``env_id`` (its ``vector_entry_point``) as an SB3
+    ``VecEnv``; ``env_kwargs`` are the env's arguments, ``seed`` seeds row i with ``seed + i``."""
+
+    def __init__(
+        self, env_id: str, n_envs: int, env_kwargs: dict[str, Any] | None = None, seed: int | None = None
+    ):
+        self.env_id = env_id
+        self.vector_env = gym.make_vec(
+            env_id,
+            num_envs=n_envs,
+            vectorization_mode="vector_entry_point",
+            autoreset_mode="same_step",
+            **dict(env_kwargs or {}),
+        )
+        vec = self.vector_env
+        super().__init__(n_envs, vec.single_observation_space, vec.single_action_space)
+        self._actions: np.ndarray | None = None
+        if seed is not None:
+            self.seed(seed)
+
+    def reset(self) -> np.ndarray:
+        seeds = [s for s in self._seeds] if any(s is not None for s in self._seeds) else None
+        obs, _ = self.vector_env.reset(seed=seeds)
+        self._reset_seeds()
+        self._reset_options()
+        return obs
+
+    def step_async(self, actions: np.ndarray) -> None:
+        self._actions = np.asarray(actions, dtype=np.float64).reshape(self.num_envs, -1)
+
+    def step_wait(self) -> VecEnvStepReturn:
+        obs, reward, terminated, truncated, info = self.vector_env.step(self._actions)
+        dones = terminated | truncated
+        infos: list[dict[str, Any]] = [{} for _ in range(self.num_envs)]
+        for i in np.flatnonzero(dones):
+            infos[i] = {
+                "terminal_observation": info["final_obs"][i],
+                "TimeLimit.truncated": bool(truncated[i] and not terminated[i]),
+                "average_rate": float(info["final_info"]["average_rate"][i]),
+                "feasible": bool(info["final_info"]["feasible"][i]),
+            }
+        return obs, reward.astype(np.float32), dones, infos
+
+    def close(self) -> None:
+        self.vector_env.close()
+
+    def get_images(self) -> Sequence[np.ndarray | None]:
+        return [None] * self.num_envs
+
+    # --- the per-env API: the rows are not separate env objects -------------------------
+    def get_attr(self, attr_name: str, indices: VecEnvIndices = None) -> list[Any]:
+        return [getattr(self.vector_env.envs[i], attr_name) for i in self._get_indices(indices)]
+
+    def set_attr(self, attr_name: str, value: Any, indices: VecEnvIndices = None) -> None:
+        raise AttributeError(f"BatchedVecEnv cannot set {attr_name!r} on its rows (they share one kernel)")
+
+    def env_method(
+        self, method_name: str, *method_args: Any, indices: VecEnvIndices = None, **method_kwargs: Any
+    ) -> list[Any]:
+        rows = self._get_indices(indices)
+        return [getattr(self.vector_env.envs[i], method_name)(*method_args, **method_kwargs) for i in rows]
+
+    def env_is_wrapped(self, wrapper_class: type[gym.Wrapper], indices: VecEnvIndices = None) -> list[bool]:
+        return [False for _ in self._get_indices(indices)]
+
+    def _get_indices(self, indices: VecEnvIndices) -> Iterable[int]:
+        if indices is None:
+            return range(self.num_envs)
+        if isinstance(indices, int):
+            return [indices]
+        return indices
