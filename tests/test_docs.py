@@ -74,6 +74,13 @@ def _anchors(path: Path) -> set[str]:
     return slugs
 
 
+def _searched(folder: Path) -> bool:
+    """Whether a folder holds the project's own files (not a venv, a cache or a build)."""
+    name = folder.name
+    hidden = name.startswith(".") and name not in (".ci", ".github")
+    return not (hidden or name in SKIP_DIRS or name.endswith(".egg-info") or (folder / "pyvenv.cfg").exists())
+
+
 def _module_exists(name: str) -> bool:
     base = ROOT.joinpath(*name.split("."))
     return base.with_suffix(".py").is_file() or (base / "__init__.py").is_file()
@@ -107,7 +114,7 @@ def test_links_point_at_files_of_the_repository(path: Path) -> None:
 def test_nothing_points_into_the_shared_folder() -> None:
     offenders = []
     for folder, dirs, files in os.walk(ROOT):
-        dirs[:] = [d for d in dirs if d not in SKIP_DIRS and not d.endswith(".egg-info")]
+        dirs[:] = [d for d in dirs if _searched(Path(folder, d))]
         for name in files:
             path = Path(folder, name)
             if path.suffix in TEXT_SUFFIXES and path != Path(__file__).resolve():
