@@ -128,7 +128,7 @@ def test_resume_continues_the_step_count_in_the_same_folder(ppo_run):
         (["--algo", "ppo", "--env-kwargs", "warp:9"], "--env-kwargs", "warp"),
         (["--algo", "ppo", "--env-kwargs", "channel:rayleigh"], "--env-kwargs", "channel"),
         (["--timesteps", "10"], "--algo", "required"),
-        (["--algo", "ppo", "--env", "ios_uav_env/RISUAV-v0"], "--env", "no hyperparameters"),
+        (["--algo", "ppo", "--env", "CartPole-v1"], "--env", "no hyperparameters"),
         (["--algo", "ppo", "--hyperparams", "/nonexistent.yml"], "--hyperparams", "no such file"),
         (["--resume", "/nonexistent/run"], "--resume", "not a run folder"),
         (["--algo", "ppo", "--eval-freq", "-1"], "--eval-freq", "integer >= 0"),
