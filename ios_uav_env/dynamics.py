@@ -19,7 +19,7 @@ import numpy as np
 from ios_uav_env.channel import RateKernel, faded_point, rate_point
 from ios_uav_env.config import FEASIBILITY_TOL, ScenarioConfig
 from ios_uav_env.guard import guarded_position
-from ios_uav_env.jit import jit
+from ios_uav_env.jit import jit, prange
 from ios_uav_env.observation import T_SCALE, instance_values
 from ios_uav_env.options import EnvOptions
 
@@ -131,8 +131,7 @@ def reset_rows(
         _info(info, i, state, episode, rate, expected, dist, ep[3], 0.0, 0.0, 0.0)
 
 
-@jit
-def step_rows(
+def _step_rows(
     actions: np.ndarray, state: np.ndarray, episode: np.ndarray, nodes: np.ndarray, params: np.ndarray,
     normals: np.ndarray, flags: np.ndarray, obs: np.ndarray, reward: np.ndarray, terminated: np.ndarray,
     info: np.ndarray, path: np.ndarray, active: np.ndarray,
@@ -140,7 +139,7 @@ def step_rows(
     """One slot of every active row: move (unit-disk projection, then the arrival guard), rate,
     reward. ``actions`` (B, 2) must be finite (the caller checks); ``path`` (B, N_max, 2)
     receives the new way-point of each row (at index ``moves made``)."""
-    for i in range(actions.shape[0]):
+    for i in prange(actions.shape[0]):
         if not active[i]:
             continue
         ep, st = episode[i], state[i]
@@ -178,3 +177,9 @@ def step_rows(
         terminated[i] = done
         _observe(obs, i, x, y, left, dist, expected, episode, flags)
         _info(info, i, state, episode, rate, expected, dist, left, rate, r_reach, r_terminal)
+
+
+#: :func:`_step_rows` compiled for one core (the single env, small batches) ...
+step_rows = jit(_step_rows)
+#: ... and for all cores (large batches; the rows are independent).
+step_rows_parallel = jit(_step_rows, parallel=True)
