@@ -194,6 +194,8 @@ def test_cli_scores_a_policy_and_a_file(tmp_path, capsys):
     assert main(["list"]) == 0 and "single-node-v1: 60 scenarios" in capsys.readouterr().out
     assert main(["show", "--n", "3"]) == 0
     assert capsys.readouterr().out.count("on single-node-v1 (3 scenarios)") == 4
+    assert main(["show", "--reference", "sca"]) == 0
+    assert capsys.readouterr().out.startswith("sca on single-node-v1 (60 scenarios): % of DP mean 100.51 |")
     out = tmp_path / "peak"
     spec = "ios_uav_env.policies:HoverAt('peak')"
     assert (
@@ -212,6 +214,16 @@ def test_cli_scores_a_policy_and_a_file(tmp_path, capsys):
     assert capsys.readouterr().out.splitlines()[0] == line  # the same scores, the same plan times
     with pytest.raises(SystemExit):
         main(["evaluate", "--policy", "no_such_module:f"])
+
+
+def test_the_docstring_examples_hold():
+    import doctest
+
+    import ios_uav_env.benchmark as package
+    import ios_uav_env.benchmark.scoring as module
+
+    for mod in (package, module):
+        assert doctest.testmod(mod).failed == 0, mod.__name__
 
 
 def test_scoring_imports_no_planner_and_no_deep_learning_library():

@@ -11,7 +11,7 @@ alone (no planner, no deep-learning library):
 
 - :mod:`~ios_uav_env.benchmark.suite`: the suites (:data:`SUITES`, :func:`load_suite`; a
   file that does not match its registered hash fails to load);
-- :mod:`~ios_uav_env.benchmark.evaluate`: :func:`evaluate` (a policy) and
+- :mod:`~ios_uav_env.benchmark.scoring`: :func:`evaluate` (a policy) and
   :func:`score_trajectories` (one trajectory per scenario);
 - :mod:`~ios_uav_env.benchmark.results`: :class:`Results` (per scenario and aggregate; CSV,
   JSON, markdown, figure);
@@ -20,8 +20,8 @@ alone (no planner, no deep-learning library):
   (:mod:`~ios_uav_env.benchmark.cli`).
 """
 
-from ios_uav_env.benchmark.evaluate import action_function, evaluate, score_trajectories
 from ios_uav_env.benchmark.results import Aggregate, Results, ScenarioResult, reference_results
+from ios_uav_env.benchmark.scoring import action_function, evaluate, score_trajectories
 from ios_uav_env.benchmark.suite import DEFAULT_SUITE, SUITES, Suite, SuiteScenario, list_suites, load_suite
 from ios_uav_env.benchmark.trajectories import read_trajectories, write_trajectories
 

@@ -1,7 +1,7 @@
 """The benchmark's command line: list the suites, show their references, score a policy or a file.
 
     python -m ios_uav_env.benchmark list
-    python -m ios_uav_env.benchmark show [--suite single-node-v1]
+    python -m ios_uav_env.benchmark show [--suite single-node-v1] [--reference dp|sca|hover_peak|hover_ground]
     python -m ios_uav_env.benchmark evaluate [--suite single-node-v1] --policy PKG.MODULE:ATTR \\
         [--batched] [--env-kwargs KEY:VALUE ...] [--n N] [--name NAME] [--out DIR]
     python -m ios_uav_env.benchmark evaluate [--suite single-node-v1] --trajectories FILE.npz|FILE.csv \\
@@ -26,9 +26,9 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
-from ios_uav_env.benchmark.evaluate import evaluate, score_trajectories
 from ios_uav_env.benchmark.results import reference_results
-from ios_uav_env.benchmark.suite import DEFAULT_SUITE, SUITES, list_suites, load_suite
+from ios_uav_env.benchmark.scoring import evaluate, score_trajectories
+from ios_uav_env.benchmark.suite import DEFAULT_SUITE, REFERENCES, SUITES, list_suites, load_suite
 from ios_uav_env.benchmark.trajectories import read_trajectories
 
 
@@ -86,6 +86,9 @@ def _parser() -> argparse.ArgumentParser:
     show = sub.add_parser("show", help="the stored reference values of a suite")
     show.add_argument("--suite", default=DEFAULT_SUITE, help=f"a suite name ({', '.join(SUITES)}) or file")
     show.add_argument("--n", type=int, default=None, help="the first n scenarios only")
+    show.add_argument(
+        "--reference", choices=REFERENCES, default=None, help="one reference only (default: all)"
+    )
     ev = sub.add_parser("evaluate", help="score a policy or a file of trajectories")
     ev.add_argument("--suite", default=DEFAULT_SUITE, help=f"a suite name ({', '.join(SUITES)}) or file")
     what = ev.add_mutually_exclusive_group(required=True)
@@ -112,9 +115,10 @@ def main(argv: Sequence[str] | None = None) -> int:
             return 0
         suite = load_suite(args.suite)
         if args.command == "show":
-            print(f"{suite.name} (version {suite.version}, sha256 {suite.sha256}): {len(suite)} scenarios "
-                  f"of {suite.env_id}; the stored reference values:")  # fmt: skip
-            for reference in ("dp", "sca", "hover_peak", "hover_ground"):
+            if args.reference is None:
+                head = f"{suite.name} (version {suite.version}, sha256 {suite.sha256})"
+                print(f"{head}: {len(suite)} scenarios of {suite.env_id}; the stored reference values:")
+            for reference in REFERENCES if args.reference is None else (args.reference,):
                 print(reference_results(suite, reference, args.n).summary())
             return 0
         if args.trajectories is not None:

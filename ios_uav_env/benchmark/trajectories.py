@@ -6,7 +6,7 @@
   row order) and optionally ``seconds`` (the scenario's time to plan, on each of its rows).
 
 :func:`read_trajectories` checks the file's layout (clear ``ValueError`` naming the scenario or
-the line); :func:`~ios_uav_env.benchmark.evaluate.score_trajectories` checks each trajectory
+the line); :func:`~ios_uav_env.benchmark.scoring.score_trajectories` checks each trajectory
 against its scenario.
 """
 
