@@ -6,8 +6,9 @@ A policy is any of:
   ``ios_uav_env.policies.HoverAt``, a CleanRL/TorchRL actor wrapped in a function);
 - an object with ``predict(obs, deterministic=True) -> (action, state)`` (Stable-Baselines3);
 - a batched callable from a (B, obs_dim) array to a (B, 2) array: pass ``batched=True`` or give
-  it an attribute ``batched = True``; it then runs in the id's natively batched env
-  (``vector_entry_point``, Gymnasium >= 1.0; the single env on a batch of one otherwise).
+  it an attribute ``batched = True``; it then runs in the id's natively batched env (its
+  ``vector_entry_point``, made directly, so on every supported Gymnasium), a batch of one
+  row per scenario; an id without one runs the single env, the policy on a batch of one.
 
 Actions may be numpy arrays, lists or CPU tensors (anything with ``detach``). Each scenario is
 one deterministic episode in the suite's env (``suite.env_id``) pinned to the scenario with
@@ -26,6 +27,7 @@ episode's wall time from the reset to the last step (policy and env).
 
 from __future__ import annotations
 
+import importlib
 import time
 from collections.abc import Callable, Mapping
 from typing import Any
@@ -102,8 +104,12 @@ def _make_env(env_id: str, env_kwargs: Mapping[str, Any], batched: bool) -> tupl
 
     import ios_uav_env  # noqa: F401  (registers the ids)
 
-    if batched and getattr(gym.spec(env_id), "vector_entry_point", None) is not None:
-        return gym.make_vec(env_id, num_envs=1, vectorization_mode="vector_entry_point", **env_kwargs), True
+    spec = gym.spec(env_id)
+    entry = getattr(spec, "vector_entry_point", None)
+    if batched and isinstance(entry, str):  # as make_vec(vectorization_mode="vector_entry_point") does
+        module, _, attr = entry.partition(":")
+        vector_env = getattr(importlib.import_module(module), attr)
+        return vector_env(num_envs=1, **{**(spec.kwargs or {}), **env_kwargs}), True
     return gym.make(env_id, **env_kwargs), False
 
 
