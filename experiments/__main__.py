@@ -1,11 +1,17 @@
 """``python -m experiments figures``: the paper's sweeps and figures under ``results/``.
 
-    python -m experiments figures [--quick] [--jobs N] [--out results] [--no-agents]
+    python -m experiments figures --overwrite             # regenerate the shipped results/
+    python -m experiments figures --quick                 # a tiny sweep into out/figures-quick
+    python -m experiments figures [--quick] [--jobs N] [--out DIR] [--no-agents]
 
-Solves every point of :class:`experiments.sweep.SweepSpec` in parallel (a progress bar;
-finished points are cached under ``OUT/cache`` so an interrupted run resumes), then writes
-``OUT/sweep.csv`` (scheme, T, M, average rate, % of DP, feasible, seconds), the PNG panels
-and ``OUT/claims.md`` (the paper's qualitative claims checked with the numbers).
+The shipped ``results/`` is replaced only with ``--overwrite`` (the full sweep's default
+``--out`` is ``results``, ``--quick``'s is ``out/figures-quick``). Solves every point of
+:class:`experiments.sweep.SweepSpec` in parallel (a progress bar; finished points are
+cached under ``OUT/cache`` so an interrupted run resumes), then writes ``OUT/sweep.csv``
+(scheme, T, M, average rate, % of DP, feasible, seconds), the PNG panels and
+``OUT/claims.md`` (the paper's qualitative claims checked with the numbers). SIGINT or
+SIGTERM stops the worker processes and keeps the finished points in the cache (exit status
+130 or 143); running the command again resumes.
 """
 
 from __future__ import annotations
@@ -18,11 +24,15 @@ from pathlib import Path
 
 import numpy as np
 
+from baselines.runner import check_writable
 from experiments.figures import check_claims, make_figures, write_claims
 from experiments.sweep import SweepSpec, run_sweep, with_pct_of_dp, write_csv
 from ios_uav_env import ScenarioConfig
 
 QUICK = SweepSpec(Ts=(40.0, 60.0), Ms=(200, 400), M_schemes=400, dp_resolution=5.0)
+#: The shipped results (replaced only with --overwrite) and the default folder of --quick.
+RESULTS_DIR = Path(__file__).resolve().parents[1] / "results"
+QUICK_OUT = Path("out/figures-quick")
 
 
 def agent_trajectories(spec: SweepSpec) -> dict[str, np.ndarray]:
@@ -53,7 +63,9 @@ def build_parser() -> argparse.ArgumentParser:
     )
     sub = parser.add_subparsers(dest="command", required=True)
     fig = sub.add_parser("figures", help="run the sweeps and write the CSV, the figures and claims.md")
-    fig.add_argument("--out", type=Path, default=Path("results"), help="output folder (default: results)")
+    fig.add_argument("--out", type=Path, default=None,
+                     help="output folder (default: results, or out/figures-quick with --quick)")  # fmt: skip
+    fig.add_argument("--overwrite", action="store_true", help="allow replacing the shipped results/")
     fig.add_argument("--jobs", type=int, default=None, help="worker processes (default: all cores)")
     fig.add_argument("--quick", action="store_true", help="a tiny sweep: T in {40, 60} s, M in {200, 400}")
     fig.add_argument("--no-agents", action="store_true", help="do not draw the shipped RL agents")
@@ -66,11 +78,25 @@ def main(argv: Sequence[str] | None = None) -> int:
     args = parser.parse_args(argv)
     if args.jobs is not None and args.jobs < 1:
         parser.error(f"argument --jobs: must be >= 1, got {args.jobs}")
+    if args.out is None:
+        args.out = QUICK_OUT if args.quick else Path("results")
+    if args.out.resolve() == RESULTS_DIR and not args.overwrite:
+        parser.error(
+            f"argument --out: {args.out} holds the shipped results; pass --overwrite to replace them "
+            "(or --out another folder)"
+        )
+    try:
+        check_writable(args.out)
+    except OSError as exc:
+        parser.error(f"argument --out: {exc}")
     spec = QUICK if args.quick else SweepSpec()
     t0 = time.perf_counter()
-    records = with_pct_of_dp(
-        run_sweep(spec, args.out / "cache", jobs=args.jobs, progress=not args.no_progress)
-    )
+    try:
+        records = with_pct_of_dp(
+            run_sweep(spec, args.out / "cache", jobs=args.jobs, progress=not args.no_progress)
+        )
+    except KeyboardInterrupt:
+        return 130
     csv = write_csv(records, args.out / "sweep.csv")
     agents = {} if args.no_agents else agent_trajectories(spec)
     figures = make_figures(records, spec, args.out, agents)

@@ -6,7 +6,9 @@ A point is one (scheme, T, M) solve on the default scenario with T and M replace
 ``ios_uav_env.average_rate`` and cached as one JSON file per point by
 ``baselines.runner.run_tasks`` (parallel, written atomically as soon as it finishes): an
 interrupted run resumes where it stopped. The cache key includes the base scenario and the
-planner settings, so changing them re-solves.
+planner settings, so changing them re-solves; a cached record that is unreadable, lacks a key
+of :data:`RECORD_KEYS` or holds a non-finite number is solved again (with a warning naming
+its file).
 """
 
 from __future__ import annotations
@@ -35,6 +37,8 @@ DP_OF = {
 }
 PAPER_SCHEMES = ("ia", "ra", "ia-ft", "cuc")
 CSV_COLUMNS = ("scheme", "T", "M", "average_rate", "pct_of_dp", "feasible", "seconds")
+#: The keys of a point's record (a cached record without one of them is solved again).
+RECORD_KEYS = ("scheme", "T", "M", "average_rate", "feasible", "worst_violation", "seconds", "trajectory")
 
 
 @dataclass(frozen=True)
@@ -138,6 +142,7 @@ def run_sweep(
         desc="sweep",
         unit="solve",
         describe=lambda i, record: f"{todo[i].name}: {record['average_rate']:.4f}",
+        required=RECORD_KEYS,
     )
 
 

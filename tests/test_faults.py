@@ -5,7 +5,10 @@ right; each fails on the code before the fix (see the comment on each)."""
 
 from __future__ import annotations
 
+import json
 import math
+import signal
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -114,3 +117,127 @@ def test_a_solver_returning_nan_is_a_solver_failure_not_an_abort(monkeypatch):
     assert summary["init0"] == "solver_error" and summary["init1"] != "solver_error"
     assert plan.info["status"] == "partial_failure" and plan.feasible
     assert any("non-finite trajectory" in h["status"] for h in plan.history)
+
+
+# ============ issue #12, items 2, 4, 6, 8: default outputs, damaged caches, interrupted sweeps ============
+# (training, agents and the suite: tests/agents/test_faults.py)
+def _square(x: int) -> dict:
+    return {"x": x, "y": float(x * x)}
+
+
+@pytest.mark.parametrize(
+    ("damage", "reason"),
+    [('{"x": 3, "y": NaN}', "y is nan"), ('{"x": 3, "y": 9.0', "unreadable"), ("", "unreadable"),
+     ('{"x": 3}', "no 'y'"), ("[1, 2]", "not a JSON object")],
+)  # fmt: skip
+def test_unreadable_incomplete_or_non_finite_cached_records_are_recomputed(tmp_path, damage, reason):
+    # before: NaN flowed into the results; truncated / empty gave JSONDecodeError, a missing key KeyError
+    from baselines.runner import run_tasks
+
+    run_tasks(_square, [3, 4], tmp_path, key=str, jobs=1, progress=False, required=("x", "y"))
+    (tmp_path / "3.json").write_text(damage)
+    with pytest.warns(RuntimeWarning, match=rf"cached record {tmp_path / '3.json'}: .*{reason}"):
+        records = run_tasks(_square, [3, 4], tmp_path, key=str, jobs=1, progress=False, required=("x", "y"))
+    assert records == [{"x": 3, "y": 9.0}, {"x": 4, "y": 16.0}]
+    assert (tmp_path / "3.json").read_text() == '{"x": 3, "y": 9.0}'  # replaced
+
+
+def test_a_nan_in_a_sweep_cache_is_solved_again_and_claims_do_not_hold_on_nan(tmp_path):
+    # before: the NaN went into sweep.csv and claims.md still said "holds"
+    from experiments.__main__ import QUICK
+    from experiments.figures import check_claims
+    from experiments.sweep import Point, run_sweep
+
+    point = Point("ia-ft", 40.0, 200)
+    (first,) = run_sweep(QUICK, tmp_path, jobs=1, progress=False, points=[point])
+    path = tmp_path / f"{QUICK.cache_key(point)}.json"
+    path.write_text(path.read_text().replace(repr(first["average_rate"]), "NaN", 1))
+    with pytest.warns(RuntimeWarning, match="average_rate is nan"):
+        (again,) = run_sweep(QUICK, tmp_path, jobs=1, progress=False, points=[point])
+    assert again["average_rate"] == first["average_rate"]
+    text, ok = check_claims([{**again, "average_rate": math.nan}], QUICK)
+    assert not ok and "cannot be checked" in text and "holds" not in text
+
+
+def test_quick_figures_never_write_the_shipped_results(tmp_path, monkeypatch, capsys):
+    # before: `figures --quick` rewrote results/ (110 rows became 18, claims.md replaced)
+    import experiments.__main__ as cli
+
+    seen = []
+
+    def fake_sweep(spec, cache_dir, **kwargs):
+        seen.append(cache_dir)
+        raise KeyboardInterrupt  # stop before any solve
+
+    monkeypatch.setattr(cli, "run_sweep", fake_sweep)
+    monkeypatch.chdir(tmp_path)
+    assert cli.main(["figures", "--quick", "--no-progress"]) == 130
+    assert seen == [Path("out/figures-quick/cache")]
+    before = {p.name: p.stat().st_mtime_ns for p in cli.RESULTS_DIR.iterdir()}
+    monkeypatch.chdir(cli.RESULTS_DIR.parent)  # the full sweep's default --out is ./results
+    for argv in (["figures", "--quick", "--out", str(cli.RESULTS_DIR)], ["figures"]):
+        with pytest.raises(SystemExit) as exc:
+            cli.main(argv)
+        assert exc.value.code == 2 and "pass --overwrite" in capsys.readouterr().err
+    assert cli.main(["figures", "--out", str(cli.RESULTS_DIR), "--overwrite"]) == 130  # explicit: allowed
+    assert {p.name: p.stat().st_mtime_ns for p in cli.RESULTS_DIR.iterdir()} == before
+
+
+def _children(pid: int) -> list[int]:
+    kids = []
+    for stat in Path("/proc").glob("[0-9]*/stat"):
+        try:
+            fields = stat.read_text().rsplit(")", 1)[1].split()
+        except OSError:
+            continue
+        if int(fields[1]) == pid:
+            kids.append(int(stat.parent.name))
+    return kids
+
+
+def _alive(pid: int) -> bool:
+    try:
+        state = Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()[0]
+    except OSError:
+        return False
+    return state != "Z"
+
+
+@pytest.mark.skipif(not Path("/proc/self/stat").exists(), reason="needs /proc")
+def test_sigterm_to_the_figures_command_stops_its_workers_and_keeps_finished_points(tmp_path):
+    # before: the spawned workers outlived the command (73 s later, 147 MB each)
+    import subprocess
+    import sys
+    import time
+
+    pytest.importorskip("cvxpy")
+    root = Path(__file__).resolve().parents[1]
+    cmd = [sys.executable, "-m", "experiments", "figures", "--quick", "--out", str(tmp_path), "--jobs", "2",
+           "--no-agents", "--no-progress"]  # fmt: skip
+    env = {"PYTHONPATH": str(root), "PATH": "/usr/bin:/bin"}
+    proc = subprocess.Popen(cmd, cwd=root, env=env, stderr=subprocess.PIPE, text=True)
+    deadline, workers = time.time() + 120, []
+    while time.time() < deadline and proc.poll() is None:
+        workers = [p for p in _children(proc.pid) if "spawn_main" in Path(f"/proc/{p}/cmdline").read_text()]
+        if len(workers) == 2 and list((tmp_path / "cache").glob("*.json")):
+            break
+        time.sleep(0.2)
+    assert len(workers) == 2, "the sweep ended before its workers could be seen"
+    proc.send_signal(signal.SIGTERM)
+    _, err = proc.communicate(timeout=60)
+    assert proc.returncode == 143 and "records are kept in" in err
+    time.sleep(0.5)
+    assert not [p for p in workers if _alive(p)]
+    kept = list((tmp_path / "cache").glob("*.json"))
+    assert kept and all(json.loads(p.read_text())["scheme"] for p in kept)  # whole records
+
+
+def test_baselines_out_is_checked_before_planning(tmp_path, monkeypatch, capsys):
+    # before: an unwritable --out failed only after the plan was solved
+    import baselines.__main__ as cli
+
+    monkeypatch.setattr(cli, "run_scheme", lambda *a, **k: pytest.fail("planned before checking --out"))
+    (tmp_path / "a_file").write_text("")
+    with pytest.raises(SystemExit) as exc:
+        cli.main(["--scheme", "ia-ft", "--out", str(tmp_path / "a_file" / "plans")])
+    assert exc.value.code == 2 and "argument --out: cannot create" in capsys.readouterr().err
