@@ -5,8 +5,12 @@
         --env-kwargs arrival_guard:False channel:rician --out runs/sac_noguard
     python train.py --resume runs/sac_noguard                    # from its last checkpoint
 
-Every argument is checked as it is parsed (an error names it and exits with status 2); the
-library is :mod:`agents.training` (``TrainSettings``, ``train``, ``resume``).
+Every argument is checked as it is parsed, before the run folder is made: the env kwargs by
+making the env and resetting it, the hyperparameters by building the algorithm with them, the
+output folder by its permissions (an error names the argument and exits with status 2).
+SIGINT (Ctrl-C) or SIGTERM saves a checkpoint of that moment and exits with status 130 or
+143; ``--resume`` then goes on from it. The library is :mod:`agents.training`
+(``TrainSettings``, ``train``, ``resume``).
 """
 
 from __future__ import annotations
@@ -96,15 +100,16 @@ def build_parser() -> argparse.ArgumentParser:
     add("--env-kwargs", type=_checked(_env_kwarg), nargs="*", default=None, metavar="KEY:VALUE",
         help="env arguments, zoo style: arrival_guard:False channel:rician T:100")  # fmt: skip
     add("--out", type=_checked(_new_run_dir), default=None,
-        help="run folder, new or empty (default: runs/<env>__<algo>__<seed>__<time>)")  # fmt: skip
+        help="run folder: new, empty, or one whose run stopped before its first checkpoint (its files "
+             "are replaced) (default: runs/<env>__<algo>__<seed>__<time>)")  # fmt: skip
     add("--hyperparams", type=_checked(_existing_file), default=None,
         help="zoo-format YAML (default: agents/hyperparams/<algo>.yml)")  # fmt: skip
     add("--checkpoint-freq", type=_checked(_count), default=25_000, help="steps between checkpoints")
     add("--eval-freq", type=_checked(lambda text: _count(text, 0)), default=10_000,
         help="steps between evaluations (0: none)")  # fmt: skip
     add("--resume", type=_checked(_resumable), default=None, metavar="RUN_DIR",
-        help="continue RUN_DIR from its last checkpoint (its own settings; --timesteps may change "
-             "the total)")  # fmt: skip
+        help="continue RUN_DIR from its newest checkpoint that loads (older ones are the fallback; "
+             "none: from step 0), with its own settings; --timesteps may raise the total")  # fmt: skip
     add("--no-progress", action="store_true", help="no progress bar")
     return parser
 
@@ -118,11 +123,18 @@ def parse_args(argv: Sequence[str] | None = None) -> tuple[argparse.Namespace, A
         given = [f"--{name.replace('_', '-')}" for name in RUN_SETTINGS if getattr(args, name) is not None]
         if given:
             parser.error(f"argument --resume: the run's own settings are used; drop {', '.join(given)}")
+        from agents.loading import checkpoints
+
+        done = max((steps for steps, _ in checkpoints(args.resume)), default=0)
+        if args.timesteps is not None and args.timesteps < done:
+            parser.error(
+                f"argument --timesteps: {args.resume} is at {done} steps already; the new total must be "
+                f"at least {done}, got {args.timesteps}"
+            )
         return args, None
     if args.algo is None:
         parser.error("argument --algo is required (unless --resume)")
-    from agents.hyperparams import load_hyperparams
-    from agents.training import TrainSettings, check_env_kwargs
+    from agents.training import RUNS_DIR, TrainSettings, check_env_kwargs, check_hyperparams, check_writable
 
     env_id = args.env or DEFAULT_ENV_ID
     env_kwargs = dict(args.env_kwargs or [])
@@ -131,9 +143,14 @@ def parse_args(argv: Sequence[str] | None = None) -> tuple[argparse.Namespace, A
     except ValueError as exc:
         parser.error(f"argument --env-kwargs: {exc}")
     try:
-        load_hyperparams(args.algo, env_id, args.hyperparams)
+        check_hyperparams(args.algo, env_id, args.hyperparams, env_kwargs, args.n_envs)
     except ValueError as exc:
         parser.error(f"argument {'--hyperparams' if args.hyperparams else '--env'}: {exc}")
+    if args.out is None:
+        try:
+            check_writable(RUNS_DIR)
+        except OSError as exc:
+            parser.error(f"argument --out: the default run folder: {exc}")
     settings = TrainSettings(
         algo=args.algo,
         env_id=env_id,
@@ -152,12 +169,16 @@ def parse_args(argv: Sequence[str] | None = None) -> tuple[argparse.Namespace, A
 
 def main(argv: Sequence[str] | None = None) -> int:
     args, settings = parse_args(argv)
-    from agents.training import resume, train
+    from agents.training import TrainingInterrupted, resume, train
 
-    if settings is None:
-        result = resume(args.resume, timesteps=args.timesteps, progress_bar=not args.no_progress)
-    else:
-        result = train(settings)
+    try:
+        if settings is None:
+            result = resume(args.resume, timesteps=args.timesteps, progress_bar=not args.no_progress)
+        else:
+            result = train(settings)
+    except TrainingInterrupted as stop:
+        print(f"train.py: {stop}", file=sys.stderr)
+        return stop.exit_status
     summary = result.summary
     final = summary["final_eval"]
     print(f"run: {result.run_dir}")

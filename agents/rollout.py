@@ -26,6 +26,13 @@ from ios_uav_env.rollout import Episode, run_episode
 Policy = Callable[[np.ndarray], Any]
 
 
+def _check_policy_env(policy: Any, env: gym.Env) -> None:
+    """An agent's (``agents.loading.Agent``, or its bound ``act``) observation size must be the env's."""
+    agent = getattr(policy, "__self__", policy)
+    if hasattr(agent, "check_env"):
+        agent.check_env(env)
+
+
 class ScenarioRunner:
     """Runs policies on scenarios in ``env_id`` with ``env_kwargs`` (the env of the id is made
     once and pinned per scenario, unless the id is a fixed one: then one env per scenario)."""
@@ -41,11 +48,13 @@ class ScenarioRunner:
             env_id = next(i for i, kw in ENV_IDS.items() if kw["surface"] == config.surface)
             env = gym.make(env_id, **{**self.env_kwargs, "config": config})
             try:
+                _check_policy_env(policy, env)
                 return run_episode(env, policy, seed=seed)
             finally:
                 env.close()
         if self._env is None:
             self._env = gym.make(self.env_id, **self.env_kwargs)
+        _check_policy_env(policy, self._env)
         options = None if config is None else {"config": config}
         return run_episode(self._env, policy, seed=seed, options=options)
 

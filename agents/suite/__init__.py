@@ -15,7 +15,8 @@ This module is the data model (:class:`Suite`, :class:`SuiteEntry`) and its buil
 load; :mod:`agents.suite.report` scores a policy on it, :mod:`agents.suite.curve` every
 checkpoint of a run, and ``python -m agents.suite`` is the command line:
 
-    python -m agents.suite build [--n 60] [--seed 20261122] [--jobs 2]   # resumable
+    python -m agents.suite build --overwrite [--jobs 2]   # rebuild the shipped suite (resumable)
+    python -m agents.suite build --n 3           # a trial suite: out/suite_n3_seed20261122.json
     python -m agents.suite show [--table]
     python -m agents.suite report --model runs/<run> [--algo ppo|sac] [--out out/suite]
     python -m agents.suite curve --run runs/<run> [--out out/suite_curve]
@@ -23,8 +24,11 @@ checkpoint of a run, and ``python -m agents.suite`` is the command line:
 ``build`` solves the scenarios with ``baselines.runner.run_tasks`` (spawned worker processes,
 a progress bar) and caches each scenario's result as one JSON file (``--cache``, default
 ``out/suite-cache``, written atomically as soon as it is solved; the key hashes the config
-and the planner settings), so an interrupted build resumes where it stopped; the suite file
-is written atomically at the end.
+and the planner settings), so an interrupted build resumes where it stopped (a cached
+record that cannot be read or holds a NaN is solved again); the suite file is written
+atomically at the end. An existing
+suite file (the shipped ``heldout.json`` above all) is replaced only with ``--overwrite``;
+a build of another size or seed goes to ``out/`` unless ``--out`` says otherwise.
 """
 
 from __future__ import annotations
@@ -179,6 +183,7 @@ def solve_all(
         desc="suite",
         unit="scenario",
         describe=describe,
+        required=("config", "dp", "sca"),
     )
 
 
@@ -231,6 +236,9 @@ def build_suite(
     start = time.perf_counter()
     configs = suite_configs(n, seed, ranges)
     records = solve_all(configs, cache_dir, dp_resolution=dp_resolution, jobs=jobs, progress=progress)
+    bad = [f"#{i}: {p}" for i, r in enumerate(records) if (p := _problem({"index": i, "config": {}, **r}))]
+    if bad:
+        raise ValueError(f"solved scenarios cannot go into a suite: {'; '.join(bad)}")
     entries = [
         SuiteEntry(i, c, r["dp"], r["sca"]) for i, (c, r) in enumerate(zip(configs, records, strict=True))
     ]
@@ -247,23 +255,69 @@ def build_suite(
     return suite
 
 
+def _problem(rec: Any) -> str | None:
+    """What is wrong with one scenario record of a suite file (None if nothing)."""
+    if not isinstance(rec, dict):
+        return f"not a JSON object but a {type(rec).__name__}"
+    for key, fields in (
+        ("dp", ("rate", "trajectory")),
+        ("sca", ("rate", "feasible", "seconds", "trajectory")),
+    ):
+        if not isinstance(rec.get(key), dict):
+            return f"no {key!r} record"
+        missing = [f for f in fields if f not in rec[key]]
+        if missing:
+            return f"{key} has no {', '.join(map(repr, missing))}"
+    if "config" not in rec or "index" not in rec:
+        return "no 'config'" if "config" not in rec else "no 'index'"
+    for key in ("dp", "sca"):
+        rate = rec[key]["rate"]
+        if isinstance(rate, bool) or not isinstance(rate, int | float) or not np.isfinite(rate):
+            return f"{key} rate {rate!r} is not a finite number"
+    if rec["dp"]["rate"] <= 0:
+        return f"DP rate {rec['dp']['rate']!r} must be > 0 (the scores are % of it)"
+    return None
+
+
 def load_suite(path: str | Path = SUITE_PATH) -> Suite:
-    """Read a suite file (trajectories as (N, 2) arrays)."""
+    """Read a suite file (trajectories as (N, 2) arrays); ``ValueError`` naming the file (and the
+    scenario) if it is unreadable, has no scenarios, or a scenario lacks a key, has an invalid
+    config or a non-finite or zero DP rate."""
     path = Path(path)
     if not path.exists():
         raise FileNotFoundError(f"no suite at {path}: build it with `python -m agents.suite build`")
-    data = json.loads(path.read_text())
-    if data.get("format") != FORMAT:
-        raise ValueError(f"{path} is not a suite file ({FORMAT!r}), its format is {data.get('format')!r}")
+    try:
+        data = json.loads(path.read_text())
+    except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:
+        raise ValueError(f"{path} cannot be read: {exc}") from None
+    if not isinstance(data, dict) or data.get("format") != FORMAT:
+        found = data.get("format") if isinstance(data, dict) else None
+        raise ValueError(f"{path} is not a suite file ({FORMAT!r}), its format is {found!r}")
+    missing = [k for k in ("seed", "dp_resolution", "ranges", "scenarios") if k not in data]
+    if missing:
+        raise ValueError(f"{path}: no {', '.join(map(repr, missing))} in the suite file")
+    if not isinstance(data["scenarios"], list) or not data["scenarios"]:
+        raise ValueError(f"{path}: the suite has no scenarios")
     entries = []
-    for rec in data["scenarios"]:
-        dp = {**rec["dp"], "trajectory": np.asarray(rec["dp"]["trajectory"], dtype=float)}
-        sca = {**rec["sca"], "trajectory": np.asarray(rec["sca"]["trajectory"], dtype=float)}
-        entries.append(SuiteEntry(int(rec["index"]), ScenarioConfig(**rec["config"]), dp, sca))
-    ranges = ScenarioRanges.from_dict(data["ranges"])
-    return Suite(
-        int(data["seed"]), ranges, entries, float(data["dp_resolution"]), dict(data.get("build", {}))
-    )
+    for i, rec in enumerate(data["scenarios"]):
+        problem = _problem(rec)
+        try:
+            if problem is None:
+                dp = {**rec["dp"], "trajectory": np.asarray(rec["dp"]["trajectory"], dtype=float)}
+                sca = {**rec["sca"], "trajectory": np.asarray(rec["sca"]["trajectory"], dtype=float)}
+                entries.append(SuiteEntry(int(rec["index"]), ScenarioConfig(**rec["config"]), dp, sca))
+        except (TypeError, ValueError) as exc:
+            problem = f"{type(exc).__name__}: {exc}"
+        if problem is not None:
+            name = rec.get("index", i) if isinstance(rec, dict) else i
+            raise ValueError(f"{path}: scenario #{name}: {problem}")
+    try:
+        ranges = ScenarioRanges.from_dict(data["ranges"])
+        return Suite(
+            int(data["seed"]), ranges, entries, float(data["dp_resolution"]), dict(data.get("build", {}))
+        )
+    except (TypeError, ValueError, AttributeError) as exc:
+        raise ValueError(f"{path}: bad suite header: {type(exc).__name__}: {exc}") from None
 
 
 def summary(suite: Suite) -> dict[str, Any]:

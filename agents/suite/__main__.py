@@ -19,6 +19,7 @@ from agents.suite import (
     load_suite,
     show_text,
 )
+from baselines.runner import check_writable
 
 
 def _at_least_one(text: str) -> int:
@@ -44,8 +45,11 @@ def build_parser() -> argparse.ArgumentParser:
     b.add_argument("--seed", type=int, default=HELDOUT_SEED, help=f"suite seed (default {HELDOUT_SEED})")
     b.add_argument("--jobs", type=_at_least_one, default=2, help="worker processes (default 2)")
     b.add_argument(
-        "--out", type=Path, default=SUITE_PATH, help="suite file (default agents/suite/heldout.json)"
-    )
+        "--out", type=Path, default=None,
+        help="suite file (default: agents/suite/heldout.json for the default --n and --seed, "
+             "else out/suite_n<n>_seed<seed>.json)",
+    )  # fmt: skip
+    b.add_argument("--overwrite", action="store_true", help="replace an existing suite file")
     b.add_argument("--cache", type=Path, default=CACHE_DIR, help=f"per-scenario cache (default {CACHE_DIR})")
     b.add_argument("--no-progress", action="store_true", help="no progress bar")
     s = sub.add_parser("show", help="print the suite's summary")
@@ -71,6 +75,15 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser = build_parser()
     args = parser.parse_args(argv)
     if args.command == "build":
+        if args.out is None:
+            default = args.n == DEFAULT_SIZE and args.seed == HELDOUT_SEED
+            args.out = SUITE_PATH if default else Path(f"out/suite_n{args.n}_seed{args.seed}.json")
+        if args.out.exists() and not args.overwrite:
+            parser.error(f"argument --out: {args.out} exists; pass --overwrite to replace it")
+        try:
+            check_writable(args.out.parent)
+        except OSError as exc:
+            parser.error(f"argument --out: {exc}")
         start = time.perf_counter()
         suite = build_suite(args.out, args.n, args.seed, jobs=args.jobs, cache_dir=args.cache,
                             progress=not args.no_progress)  # fmt: skip
@@ -88,9 +101,16 @@ def main(argv: Sequence[str] | None = None) -> int:
         from agents.suite.curve import learning_curve, write_curve
 
         try:
-            rows = learning_curve(args.run, suite, args.n)
+            rows = learning_curve(args.run, suite, args.n, out=args.out)
         except FileNotFoundError as exc:
             parser.error(f"argument --run: {exc}")
+        except KeyboardInterrupt:
+            print(f"interrupted: the checkpoints scored so far are in {args.out / 'suite_curve.csv'}",
+                  file=sys.stderr)  # fmt: skip
+            return 130
+        if not rows:
+            print(f"no checkpoint of {args.run} loads", file=sys.stderr)
+            return 1
         print("wrote " + ", ".join(str(p) for p in write_curve(rows, args.out)))
         return 0
     from agents.suite.report import load_policy, run_report

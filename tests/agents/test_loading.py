@@ -91,9 +91,9 @@ def test_algorithm_comes_from_the_config_and_a_bare_zip_needs_it(tmp_path):
     shutil.copy(shipped / "model.zip", bare)
     with pytest.raises(ValueError, match="pass the algorithm"):
         load_agent(bare)
-    agent = load_agent(bare, "ppo", env_id="ios_uav_env/IOSUAV-Random-v0")
+    agent = load_agent(bare, "ppo", env_id="ios_uav_env/RISUAV-v0")
     assert isinstance(agent.model, PPO) and agent.vecnormalize is None
-    assert agent.env_id == "ios_uav_env/IOSUAV-Random-v0" and agent.name == "sac_named_but_ppo"
+    assert agent.env_id == "ios_uav_env/RISUAV-v0" and agent.name == "sac_named_but_ppo"
     with pytest.raises(FileNotFoundError, match="no model at"):
         load_agent(tmp_path / "nothing")
 

@@ -145,7 +145,7 @@ def test_bad_cli_input_names_the_argument_and_exits_non_zero(capsys, argv, argum
 
 def test_resume_takes_the_runs_own_settings(tmp_path, capsys):
     (tmp_path / "checkpoints").mkdir()
-    (tmp_path / "config.json").write_text("{}")
+    (tmp_path / "config.json").write_text(json.dumps({"algo": "ppo", "total_timesteps": 128, "args": {}}))
     (tmp_path / "checkpoints" / "rl_model_64_steps.zip").write_bytes(b"")
     with pytest.raises(SystemExit) as exc:
         main(["--resume", str(tmp_path), "--seed", "1", "--env-kwargs", "T:60"])
