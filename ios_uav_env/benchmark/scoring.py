@@ -4,7 +4,9 @@ A policy is any of:
 
 - a callable from one observation to one action (a plain function, a
   ``ios_uav_env.policies.HoverAt``, a CleanRL/TorchRL actor wrapped in a function);
-- an object with ``predict(obs, deterministic=True) -> (action, state)`` (Stable-Baselines3);
+- an object with ``predict(obs, deterministic=True) -> (action, state)`` (Stable-Baselines3;
+  a model trained with ``VecNormalize`` needs its statistics applied to the observation, as
+  ``agents.loading.load_agent`` of a checkout does);
 - a batched callable from a (B, obs_dim) array to a (B, 2) array: pass ``batched=True`` or give
   it an attribute ``batched = True``; it then runs in the id's natively batched env (its
   ``vector_entry_point``, made directly, so on every supported Gymnasium), a batch of one
@@ -137,7 +139,7 @@ def evaluate(
     batched = bool(getattr(policy, "batched", False) if batched is None else batched)
     act = action_function(policy)
     env, vector = _make_env(suite.env_id, kwargs, batched)
-    if batched and not vector:  # no batched env for this id (Gymnasium < 1.0): a batch of one
+    if batched and not vector:  # an id without a batched env: the policy on a batch of one
         batch_act = act
         act = lambda obs: np.asarray(batch_act(np.asarray(obs)[None]))[0]  # noqa: E731
     try:
