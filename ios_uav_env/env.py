@@ -120,8 +120,9 @@ class IOSUAVEnv(gym.Env):
 
     ## Info
 
-    The same keys on every step and at reset (``INFO_KEYS``), all numbers, so loggers and
-    replay buffers can stack them: ``rate`` (the reward's rate term), ``expected_rate``,
+    The same keys on every step and at reset (``INFO_KEYS``), all numpy numbers (float64;
+    ``slot`` int64, ``feasible`` bool_; each has a dtype), so loggers, replay buffers and
+    TorchRL's info readers can stack them: ``rate`` (the reward's rate term), ``expected_rate``,
     ``position`` (x, y in m, a float64 array), ``distance_to_final`` (m), ``slot`` (the
     paper's 1-based index n of the way-point q[n]), the three reward terms, and the running
     score and check of the trajectory so far: ``average_rate`` (mean expected-gain rate of
@@ -281,10 +282,11 @@ class IOSUAVEnv(gym.Env):
             self._normals[0] = self.np_random.standard_normal(2)
 
     def _info(self) -> dict[str, Any]:
-        """The ``info`` dict (``INFO_KEYS``) of the kernels' info row."""
-        r = self._info_row[0].tolist()
-        return {"rate": r[0], "expected_rate": r[1], "position": np.array(r[2:4]), "distance_to_final": r[4],
-                "slot": int(r[5]), "reward_rate": r[6], "reward_reach": r[7], "reward_terminal": r[8],
+        """The ``info`` dict (``INFO_KEYS``) of the kernels' info row: numpy scalars (float64,
+        ``slot`` int64, ``feasible`` bool_), which every client reads (they have a dtype)."""
+        r = self._info_row[0].copy()
+        return {"rate": r[0], "expected_rate": r[1], "position": r[2:4], "distance_to_final": r[4],
+                "slot": np.int64(r[5]), "reward_rate": r[6], "reward_reach": r[7], "reward_terminal": r[8],
                 "average_rate": r[9], "mean_faded_rate": r[10], "feasible": r[11] != 0.0,
                 "worst_violation": r[12], "terminal_miss": r[13]}  # fmt: skip
 

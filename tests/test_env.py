@@ -400,3 +400,14 @@ def test_ids_have_no_time_limit_and_end_at_slot_n():
     assert env.spec.max_episode_steps is None
     out = rollout(env.unwrapped, lambda env: np.zeros(2))
     assert len(out["rewards"]) == 299 and out["infos"][-1]["slot"] == 300
+
+
+def test_info_values_are_numpy_numbers_with_a_dtype():
+    # TorchRL's default_info_dict_reader reads ``value.dtype``: plain Python floats break it
+    env = IOSUAVEnv(T=40.0)
+    _, info = env.reset(seed=0)
+    _, _, _, _, step_info = env.step(np.zeros(2))
+    for i in (info, step_info):
+        assert all(hasattr(v, "dtype") for v in i.values())
+        assert i["slot"].dtype == np.int64 and i["feasible"].dtype == np.bool_
+    assert info["position"] is not step_info["position"] and step_info["slot"] == 2
