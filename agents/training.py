@@ -448,6 +448,7 @@ def _train(settings: TrainSettings, stop: StopFlag, _resume: bool) -> TrainResul
         save_vecnormalize=hp.normalize is not None,
     )
     evaluation = RateEvalCallback(settings.eval_freq, settings.env_id, settings.env_kwargs, clock, history)
+    print(f"training {run_dir}: step {start_steps} of {total}", file=sys.stderr, flush=True)
     model.learn(
         total_timesteps=max(0, total - start_steps),
         callback=CallbackList([*hp.callbacks, checkpoint, evaluation]),
