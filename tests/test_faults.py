@@ -120,7 +120,7 @@ def test_a_solver_returning_nan_is_a_solver_failure_not_an_abort(monkeypatch):
 
 
 # ============ issue #12, items 2, 4, 6, 8: default outputs, damaged caches, interrupted sweeps ============
-# (training, agents and the suite: tests/agents/test_faults.py)
+# (training, agents and the suite: tests/agents/test_agent_faults.py)
 def _square(x: int) -> dict:
     return {"x": x, "y": float(x * x)}
 
