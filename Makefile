@@ -18,7 +18,7 @@ OLDEST_PINS ?= numpy==1.24.4 gymnasium==0.29.1 stable-baselines3==2.3.2 pytest
 OLDEST_TESTS ?= tests/test_env.py tests/test_registration.py tests/test_random_env.py \
 	tests/test_config.py tests/test_channel.py tests/test_policies.py tests/test_trajectory.py \
 	tests/test_peak.py tests/test_rendering.py tests/test_optional.py \
-	'tests/examples/test_example_sb3.py::test_sb3_ppo[ios_uav_env/IOSUAV-v0]' tests/examples/test_example_cleanrl.py
+	tests/examples/test_example_sb3.py tests/examples/test_example_cleanrl.py
 
 .PHONY: demo test test-oldest docs lint format bench clean
 

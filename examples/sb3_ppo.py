@@ -32,25 +32,28 @@ def evaluate(model: PPO, env_id: str, seed: int) -> dict:
     return info
 
 
-def main(argv: list[str] | None = None) -> dict:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--env", default="ios_uav_env/IOSUAV-v0")
-    parser.add_argument("--steps", type=int, default=2048, help="training timesteps")
-    parser.add_argument("--seed", type=int, default=0)
-    args = parser.parse_args(argv)
-
-    check_env(gym.make(args.env).unwrapped)
-    venv = make_vec_env(args.env, n_envs=2, seed=args.seed)
-    model = PPO("MlpPolicy", venv, n_steps=128, batch_size=64, n_epochs=2, gamma=0.999, seed=args.seed)
-    model.learn(total_timesteps=args.steps)
+def train_and_evaluate(env_id: str, steps: int, seed: int) -> dict:
+    """SB3's env checker, PPO for ``steps`` timesteps, then one evaluation episode; its last info."""
+    check_env(gym.make(env_id).unwrapped)
+    venv = make_vec_env(env_id, n_envs=2, seed=seed)
+    model = PPO("MlpPolicy", venv, n_steps=128, batch_size=64, n_epochs=2, gamma=0.999, seed=seed)
+    model.learn(total_timesteps=steps)
     venv.close()
-
-    info = evaluate(model, args.env, args.seed)
+    info = evaluate(model, env_id, seed)
     print(
-        f"{args.env}: average rate {info['average_rate']:.3f} bps/Hz, feasible {bool(info['feasible'])}, "
+        f"{env_id}: average rate {info['average_rate']:.3f} bps/Hz, feasible {bool(info['feasible'])}, "
         f"{int(info['slot'])} slots, {info['distance_to_final']:.1f} m from qF"
     )
     return info
+
+
+def main(argv: list[str] | None = None) -> list[dict]:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--env", nargs="+", default=["ios_uav_env/IOSUAV-v0"], help="one or more ids")
+    parser.add_argument("--steps", type=int, default=2048, help="training timesteps")
+    parser.add_argument("--seed", type=int, default=0)
+    args = parser.parse_args(argv)
+    return [train_and_evaluate(env_id, args.steps, args.seed) for env_id in args.env]
 
 
 if __name__ == "__main__":

@@ -26,24 +26,19 @@ class InfoReader(default_info_dict_reader):
         return super().__call__({k: np.asarray(v) for k, v in info_dict.items()}, tensordict)
 
 
-def main(argv: list[str] | None = None) -> TensorDictBase:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--env", default="ios_uav_env/IOSUAV-v0")
-    parser.add_argument("--steps", type=int, default=200, help="rollout length (stops at the episode's end)")
-    parser.add_argument("--seed", type=int, default=0)
-    args = parser.parse_args(argv)
-
-    env = GymEnv(args.env)
+def rollout(env_id: str, steps: int, seed: int) -> TensorDictBase:
+    """``GymEnv(env_id)``, ``check_env_specs`` and a random rollout of ``steps`` steps with the info keys."""
+    env = GymEnv(env_id)
     # read the env's (flat, numeric) info into the tensordict, one entry per key; the specs
     # (shape, dtype) are inferred from the reset's info, the same keys as every step's
     env.set_info_dict_reader(InfoReader())
-    env.set_seed(args.seed)
+    env.set_seed(seed)
     check_env_specs(env)
 
-    rollout = env.rollout(args.steps)  # random actions from the action spec
+    rollout = env.rollout(steps)  # random actions from the action spec
     n, done = rollout.batch_size[0], bool(rollout["next", "done"][-1])
     obs_dim = env.observation_spec["observation"].shape[-1]
-    if rollout["next", "observation"].shape != (n, obs_dim) or (n < args.steps and not done):
+    if rollout["next", "observation"].shape != (n, obs_dim) or (n < steps and not done):
         raise RuntimeError(f"unexpected rollout {rollout}")
     missing = [k for k in ios_uav_env.INFO_KEYS if ("next", k) not in rollout.keys(include_nested=True)]
     if missing:
@@ -52,11 +47,20 @@ def main(argv: list[str] | None = None) -> TensorDictBase:
     if not torch.isfinite(rate).all():
         raise RuntimeError("non-finite rate in the rollout")
     print(
-        f"{args.env}: {n} steps, mean rate {rate.mean():.3f} bps/Hz, episode done {done}, "
+        f"{env_id}: {n} steps, mean rate {rate.mean():.3f} bps/Hz, episode done {done}, "
         f"final position {rollout['next', 'position'][-1].tolist()}"
     )
     env.close()
     return rollout
+
+
+def main(argv: list[str] | None = None) -> list[TensorDictBase]:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--env", nargs="+", default=["ios_uav_env/IOSUAV-v0"], help="one or more ids")
+    parser.add_argument("--steps", type=int, default=200, help="rollout length (stops at the episode's end)")
+    parser.add_argument("--seed", type=int, default=0)
+    args = parser.parse_args(argv)
+    return [rollout(env_id, args.steps, args.seed) for env_id in args.env]
 
 
 if __name__ == "__main__":

@@ -2,14 +2,14 @@
 
 import re
 
-import pytest
 from conftest import require
 
 
-@pytest.mark.parametrize("env_id", ["ios_uav_env/IOSUAV-v0", "ios_uav_env/IOSUAV-Random-v0"])
-def test_sb3_ppo(run_example, env_id):
+def test_sb3_ppo_fixed_and_random_ids(run_example):
     require("stable_baselines3", "torch")
-    out = run_example("sb3_ppo.py", "--env", env_id, "--steps", "256")
-    match = re.search(rf"{env_id}: average rate ([0-9.]+) bps/Hz, feasible True, (\d+) slots", out)
-    assert match, out
-    assert float(match.group(1)) > 0
+    env_ids = ["ios_uav_env/IOSUAV-v0", "ios_uav_env/IOSUAV-Random-v0"]
+    out = run_example("sb3_ppo.py", "--env", *env_ids, "--steps", "256")
+    for env_id in env_ids:
+        match = re.search(rf"{env_id}: average rate ([0-9.]+) bps/Hz, feasible True, (\d+) slots", out)
+        assert match, out
+        assert float(match.group(1)) > 0

@@ -1,17 +1,14 @@
 """examples/torchrl_env.py: TorchRL's GymEnv on every id, check_env_specs, a rollout with the info keys."""
 
-import pytest
 from conftest import require
 
 import ios_uav_env
 
 
-@pytest.mark.parametrize("env_id", ["ios_uav_env/IOSUAV-v0", ios_uav_env.RANDOM_ENV_ID])
-def test_torchrl_gymenv(run_example, env_id):
+def test_torchrl_gymenv_every_id(run_example):
     require("torchrl", "tensordict", "torch")
-    steps = "200" if env_id == "ios_uav_env/IOSUAV-v0" else "20"
-    out = run_example("torchrl_env.py", "--env", env_id, "--steps", steps)
-    if env_id == "ios_uav_env/IOSUAV-v0":  # the whole episode: it ends at slot N = 150
-        assert f"{env_id}: 149 steps" in out and "episode done True" in out, out
-    else:
-        assert f"{env_id}: 20 steps" in out, out
+    ids = [*ios_uav_env.ENV_IDS, ios_uav_env.RANDOM_ENV_ID]
+    out = run_example("torchrl_env.py", "--env", *ids, "--steps", "200")
+    for env_id in ios_uav_env.ENV_IDS:  # the fixed scenario's whole episode: N - 1 = 149 < 200 steps
+        assert f"{env_id}: 149 steps, mean rate" in out, out
+    assert f"{ios_uav_env.RANDOM_ENV_ID}: " in out and out.count("episode done True") == len(ids), out
