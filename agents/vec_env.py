@@ -12,12 +12,18 @@ finish. Wrap it in ``VecMonitor`` for episode statistics and in ``VecNormalize``
 
 from __future__ import annotations
 
+import math
 from collections.abc import Iterable, Sequence
 from typing import Any
 
 import gymnasium as gym
 import numpy as np
-from stable_baselines3.common.vec_env.base_vec_env import VecEnv, VecEnvIndices, VecEnvStepReturn
+from stable_baselines3.common.vec_env.base_vec_env import (
+    VecEnv,
+    VecEnvIndices,
+    VecEnvStepReturn,
+    VecEnvWrapper,
+)
 
 import ios_uav_env  # noqa: F401  (registers the ids)
 
@@ -94,3 +100,43 @@ class BatchedVecEnv(VecEnv):
         if isinstance(indices, int):
             return [indices]
         return indices
+
+
+class VecShiftReward(VecEnvWrapper):
+    """``agents.wrappers.ShiftReward`` on a whole VecEnv: rewards become ``scale * (reward - offset)``
+    (the terminal observations and infos pass through unchanged)."""
+
+    def __init__(self, venv: VecEnv, offset: float = 0.0, scale: float = 1.0):
+        for name, value in (("offset", offset), ("scale", scale)):
+            if isinstance(value, bool) or not (isinstance(value, (int, float)) and math.isfinite(value)):
+                raise ValueError(f"VecShiftReward {name} must be a finite number, got {value!r}")
+        if scale <= 0:
+            raise ValueError(f"VecShiftReward scale must be > 0, got {scale!r}")
+        super().__init__(venv)
+        self.offset, self.scale = float(offset), float(scale)
+
+    def reset(self) -> np.ndarray:
+        return self.venv.reset()
+
+    def step_wait(self) -> VecEnvStepReturn:
+        obs, reward, dones, infos = self.venv.step_wait()
+        return obs, (self.scale * (reward - self.offset)).astype(np.float32), dones, infos
+
+
+#: Gymnasium wrappers of the zoo's ``env_wrapper`` key that have a VecEnv form here.
+VEC_FORMS: dict[str, type[VecEnvWrapper]] = {"agents.wrappers.ShiftReward": VecShiftReward}
+
+
+def wrap_batched(venv: VecEnv, wrappers: Sequence[tuple[Any, dict[str, Any]]]) -> VecEnv:
+    """Apply the zoo's ``env_wrapper`` list (``(class, kwargs)`` pairs, as ``agents.hyperparams``
+    resolves them) to a batched VecEnv through their VecEnv forms (:data:`VEC_FORMS`);
+    ``ValueError`` naming a wrapper that has none (its rows are not separate gym envs)."""
+    for cls, kwargs in wrappers:
+        name = f"{cls.__module__}.{cls.__qualname__}"
+        if name not in VEC_FORMS:
+            raise ValueError(
+                f"env_wrapper {name!r} cannot wrap the batched env (its rows are not separate gym envs); "
+                f"wrappers with a VecEnv form: {', '.join(VEC_FORMS)}"
+            )
+        venv = VEC_FORMS[name](venv, **kwargs)
+    return venv
