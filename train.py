@@ -168,12 +168,20 @@ def parse_args(argv: Sequence[str] | None = None) -> tuple[argparse.Namespace, A
 
 
 def main(argv: Sequence[str] | None = None) -> int:
-    args, settings = parse_args(argv)
+    try:
+        args, settings = parse_args(argv)
+    except KeyboardInterrupt:  # before the run started: nothing to save
+        print("train.py: interrupted while checking the arguments; nothing was written", file=sys.stderr)
+        return 130
     from agents.training import TrainingInterrupted, resume, train
 
     try:
         if settings is None:
-            result = resume(args.resume, timesteps=args.timesteps, progress_bar=not args.no_progress)
+            try:
+                result = resume(args.resume, timesteps=args.timesteps, progress_bar=not args.no_progress)
+            except ValueError as exc:  # the run's files, once read: no checkpoint loads, a bad --timesteps
+                print(f"train.py: error: argument --resume: {exc}", file=sys.stderr)
+                return 2
         else:
             result = train(settings)
     except TrainingInterrupted as stop:

@@ -53,7 +53,7 @@ ios_uav_env/IOSUAV-v0:
 """,
 }
 ROLLOUT = {"ppo": 64 * 2, "sac": 0}  # the steps an interruption may lose
-TARGET = {"ppo": 6144, "sac": 2000}
+TARGET = {"ppo": 8192, "sac": 2000}
 STOPPED = re.compile(r"(SIGINT|SIGTERM) at step (\d+): saved checkpoint (\S+) \((\d+) steps\)")
 STARTED = re.compile(r"training (.+): step (\d+) of (\d+)")
 
@@ -124,7 +124,7 @@ def soak(algo: str, interrupts: int, seed: int, workdir: Path, timesteps: int) -
             pending = None
         if done == interrupts:
             break
-        delay = rng.uniform(0.2, 4.0)
+        delay = rng.uniform(0.2, 2.5)
         signum = (signal.SIGINT, signal.SIGTERM)[done % 2]  # both kinds, in turn
         time.sleep(delay)
         if session.proc.poll() is None:
@@ -132,8 +132,9 @@ def soak(algo: str, interrupts: int, seed: int, workdir: Path, timesteps: int) -
         code = session.wait()
         text = "".join(session.lines)
         match = STOPPED.search(text)
-        if code == 0:
-            print(f"  the run finished before the signal ({delay:.2f} s); {done} interruptions made")
+        if match is None and (run / "summary.json").exists():  # it ended first (exit 0, or the signal
+            print(f"  the run finished before the signal ({delay:.2f} s, exit {code}); "  # hit its shutdown)
+                  f"{done} interruptions made")  # fmt: skip
             break
         if match is None or code != 128 + signum:
             print(f"  unexpected end (exit {code}):\n{text}")
@@ -148,7 +149,7 @@ def soak(algo: str, interrupts: int, seed: int, workdir: Path, timesteps: int) -
     code = session.wait()
     summary = json.loads((run / "summary.json").read_text()) if (run / "summary.json").exists() else {}
     steps = summary.get("steps")
-    reached = code == 0 and steps is not None and steps >= timesteps and steps - timesteps < max(bound, 1)
+    reached = steps is not None and steps >= timesteps and steps - timesteps < max(bound, 1)
     ok &= reached
     n_ckpt = len(list((run / "checkpoints").glob("*.zip")))
     verdict = "OK" if ok else "FAIL"
