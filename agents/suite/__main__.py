@@ -85,8 +85,11 @@ def main(argv: Sequence[str] | None = None) -> int:
         except OSError as exc:
             parser.error(f"argument --out: {exc}")
         start = time.perf_counter()
-        suite = build_suite(args.out, args.n, args.seed, jobs=args.jobs, cache_dir=args.cache,
-                            progress=not args.no_progress)  # fmt: skip
+        try:
+            suite = build_suite(args.out, args.n, args.seed, jobs=args.jobs, cache_dir=args.cache,
+                                progress=not args.no_progress)  # fmt: skip
+        except KeyboardInterrupt:  # the solved scenarios are cached (baselines.runner said where)
+            return 130
         print(show_text(suite, args.out))
         print(f"wrote {args.out} in {time.perf_counter() - start:.1f} s")
         return 0
