@@ -1,6 +1,6 @@
 """Record an ios_uav_env episode to mp4 with Gymnasium's ``RecordVideo`` (needs moviepy).
 
-Run:  python examples/record_video.py --out videos [--frames 40] [--env ios_uav_env/IOSUAV-Random-v0]
+Run:  python examples/record_video.py --out videos [--frames 40] [--env ID [ID ...]]
 Makes the id with ``render_mode="rgb_array"``, flies the fly-to-G-and-hover heuristic
 (``ios_uav_env.policies.HoverAt``; the env's arrival guard brings it back to qF) and checks the mp4.
 """

@@ -1,6 +1,6 @@
 """Stable-Baselines3 PPO on an ios_uav_env id: check the env, train briefly, evaluate one episode.
 
-Run:  python examples/sb3_ppo.py --steps 2048 [--env ios_uav_env/IOSUAV-Random-v0] [--seed 0]
+Run:  python examples/sb3_ppo.py --steps 2048 [--env ID [ID ...]] [--seed 0]
 SB3's env checker, PPO on two vectorised copies of the id, then one deterministic episode whose
 final ``info`` (average rate, feasibility) is printed. Needs the ``rl`` extra.
 """

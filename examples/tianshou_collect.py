@@ -1,6 +1,6 @@
 """Tianshou on an ios_uav_env id: a Collector fills a replay buffer with whole episodes and their info.
 
-Run:  python examples/tianshou_collect.py --episodes 4 [--env ios_uav_env/IOSUAV-Random-v0]
+Run:  python examples/tianshou_collect.py --episodes 4 [--env ID [ID ...]]
 Two ``DummyVectorEnv`` copies of the id, a random-action policy, ``Collector(..., VectorReplayBuffer)``
 with Tianshou's NaN check on; asserts the buffer holds every key of the env's info, all finite.
 """

@@ -1,6 +1,6 @@
 """TorchRL on an ios_uav_env id: ``GymEnv`` as a new user writes it, spec check, a rollout with info.
 
-Run:  python examples/torchrl_env.py --steps 200 [--env ios_uav_env/IOSUAV-Random-v0]
+Run:  python examples/torchrl_env.py --steps 200 [--env ID [ID ...]]
 Builds ``torchrl.envs.GymEnv(id)`` (TorchRL first tries ``frameskip=1``, which the env refuses
 with Python's own TypeError wording), runs ``check_env_specs`` and a random rollout that reads ``info``.
 """
@@ -9,7 +9,6 @@ from __future__ import annotations
 
 import argparse
 
-import numpy as np
 import torch
 from tensordict import TensorDictBase
 from torchrl.envs import GymEnv
@@ -19,19 +18,12 @@ from torchrl.envs.utils import check_env_specs
 import ios_uav_env
 
 
-class InfoReader(default_info_dict_reader):
-    """TorchRL's info reader, given numpy values: it reads ``value.dtype``, which Python numbers lack."""
-
-    def __call__(self, info_dict: dict, tensordict: TensorDictBase) -> TensorDictBase:
-        return super().__call__({k: np.asarray(v) for k, v in info_dict.items()}, tensordict)
-
-
 def rollout(env_id: str, steps: int, seed: int) -> TensorDictBase:
     """``GymEnv(env_id)``, ``check_env_specs`` and a random rollout of ``steps`` steps with the info keys."""
     env = GymEnv(env_id)
-    # read the env's (flat, numeric) info into the tensordict, one entry per key; the specs
-    # (shape, dtype) are inferred from the reset's info, the same keys as every step's
-    env.set_info_dict_reader(InfoReader())
+    # TorchRL's own info reader puts the env's info (flat numpy numbers, the same keys at reset
+    # and on every step) into the tensordict; it infers the specs (shape, dtype) from them
+    env.set_info_dict_reader(default_info_dict_reader())
     env.set_seed(seed)
     check_env_specs(env)
 
