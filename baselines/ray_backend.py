@@ -40,8 +40,8 @@ def require_ray() -> Any:
 
 def init_ray(address: str | None = None, num_cpus: int | None = None) -> Any:
     """Connect to Ray unless this process already is: ``address`` is a running cluster's
-    (``HOST:PORT`` or ``"auto"``), None starts a local instance with ``num_cpus`` CPUs (default:
-    all cores). Returns the ``ray`` module."""
+    (``HOST:PORT``, or ``"auto"`` for the one started on this machine), None starts a new local
+    instance with ``num_cpus`` CPUs (default: all cores). Returns the ``ray`` module."""
     ray = require_ray()
     if ray.is_initialized():
         return ray
@@ -49,12 +49,16 @@ def init_ray(address: str | None = None, num_cpus: int | None = None) -> Any:
         raise ValueError("num_cpus: a cluster (address) has its own CPUs; give one or the other")
     env_vars = {"OMP_NUM_THREADS": "1", "PYTHONPATH": os.pathsep.join(filter(None, [str(ROOT),
                 os.environ.get("PYTHONPATH")]))}  # fmt: skip
+    # without an address a new local instance (not one that `ray start` left running here: that
+    # is --address auto), listening on the loopback interface only
+    local = {"_node_ip_address": "127.0.0.1"} if address is None else {}
     ray.init(
-        address=address,
+        address="local" if address is None else address,
         num_cpus=num_cpus,
         include_dashboard=False,
         log_to_driver=False,
         runtime_env={"env_vars": env_vars},
+        **local,
     )
     return ray
 

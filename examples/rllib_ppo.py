@@ -42,8 +42,9 @@ def main(argv: list[str] | None = None) -> list[float]:
     args = parser.parse_args(argv)
 
     start = time.perf_counter()
-    if args.address is None:
-        ray.init(num_cpus=args.num_cpus, include_dashboard=False, log_to_driver=False)
+    if args.address is None:  # a new local instance, on the loopback interface only
+        ray.init(address="local", num_cpus=args.num_cpus, include_dashboard=False, log_to_driver=False,
+                 _node_ip_address="127.0.0.1")  # fmt: skip
     else:
         ray.init(address=args.address, log_to_driver=False)
     print(f"ray.init: {time.perf_counter() - start:.1f} s")
