@@ -44,7 +44,7 @@ import re
 import sys
 import tempfile
 import time
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -129,13 +129,15 @@ def parse_overrides(items: Sequence[str] | None) -> dict[str, list[Any]]:
 def make_trials(
     algos: Sequence[str], env_ids: Sequence[str], seeds: Sequence[int], overrides: dict[str, list[Any]]
 ) -> list[Trial]:
-    """The cartesian product of the algorithms, env ids, seeds and override values."""
+    """The cartesian product of the algorithms, env ids, seeds and override values (each trial
+    once, in that order)."""
     keys = list(overrides)
     combos = list(itertools.product(*(overrides[k] for k in keys)))
-    return [
+    trials = [
         Trial(algo, env_id, int(seed), tuple(zip(keys, combo, strict=True)))
         for algo, env_id, combo, seed in itertools.product(algos, env_ids, combos, seeds)
     ]
+    return list({t.name: t for t in trials}.values())  # values may be lists: not hashable
 
 
 def trial_hyperparams(trial: Trial, out: Path) -> Path | None:
@@ -244,9 +246,16 @@ def _tune_trainable(config: dict[str, Any]) -> None:
 
 
 def _run_tune(
-    trials: list[Trial], run: dict[str, Any], jobs: int | None, address: str | None, progress: bool
-) -> list[dict[str, Any]]:
-    """The trials' records, each run as a Ray Tune trial (one CPU each, at most ``jobs`` at once)."""
+    trials: list[Trial],
+    run: dict[str, Any],
+    jobs: int | None,
+    address: str | None,
+    progress: bool,
+    done: Callable[[Trial, dict[str, Any]], None],
+) -> None:
+    """Run the trials as Ray Tune trials (one CPU each, at most ``jobs`` at once) and call
+    ``done(trial, record)`` for each that finished; ``RuntimeError`` naming the others (failed,
+    or stopped by an interrupt) after that."""
     from baselines.ray_backend import init_ray
 
     init_ray(address)
@@ -264,11 +273,20 @@ def _run_tune(
         ),
     )
     results = tuner.fit()
-    errors = [str(r.error) for r in results if r.error is not None]
-    if errors:
-        raise RuntimeError(f"{len(errors)} of {len(trials)} Tune trials failed; the first: {errors[0]}")
-    by_name = {r.metrics["trial"]: {k: r.metrics[k] for k in CSV_COLUMNS} for r in results}
-    return [by_name[t.name] for t in trials]
+    by_name = {t.name: t for t in trials}
+    finished = set()
+    errors = [f"{Trial.from_dict(r.config['trial']).name}: {r.error}" for r in results if r.error is not None]
+    for result in results:
+        if result.error is None and result.metrics and result.metrics.get("trial") in by_name:
+            finished.add(result.metrics["trial"])
+            done(by_name[result.metrics["trial"]], {k: result.metrics[k] for k in CSV_COLUMNS})
+    unfinished = [t.name for t in trials if t.name not in finished]
+    if unfinished:
+        first = errors[0] if errors else "stopped before its end"
+        raise RuntimeError(
+            f"{len(unfinished)} of {len(trials)} Tune trials did not finish ({first}); run the command "
+            "again to resume them from their run folders"
+        )
 
 
 def record_key(timesteps: int, trial: Trial) -> str:
@@ -310,12 +328,14 @@ def run_sweep(
     cache_dir.mkdir(parents=True, exist_ok=True)
     records = cached_records(trials, cache_dir, key, RECORD_KEYS)
     todo = [t for i, t in enumerate(trials) if i not in records]
+    index = {t.name: i for i, t in enumerate(trials)}
+
+    def done(trial: Trial, record: dict[str, Any]) -> None:  # the same file as run_tasks writes
+        atomic_write_text(cache_dir / f"{key(trial)}.json", json.dumps(record))
+        records[index[trial.name]] = record
+
     if todo:
-        fresh = _run_tune(todo, run, jobs, address, progress)
-        for trial, record in zip(todo, fresh, strict=True):
-            atomic_write_text(cache_dir / f"{key(trial)}.json", json.dumps(record))
-        done = dict(zip((t.name for t in todo), fresh, strict=True))
-        records.update({i: done[t.name] for i, t in enumerate(trials) if i not in records})
+        _run_tune(todo, run, jobs, address, progress, done)
     return [records[i] for i in range(len(trials))]
 
 
@@ -401,7 +421,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     from agents.training import check_hyperparams
 
     with tempfile.TemporaryDirectory() as tmp:  # bad overrides fail here, before any training
-        for trial in {dataclasses.replace(t, seed=0) for t in trials}:
+        for trial in {t.name: t for t in (dataclasses.replace(t, seed=0) for t in trials)}.values():
             try:
                 check_hyperparams(
                     trial.algo, trial.env_id, trial_hyperparams(trial, Path(tmp)), env_kwargs=env_kwargs
