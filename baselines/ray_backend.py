@@ -49,18 +49,26 @@ def init_ray(address: str | None = None, num_cpus: int | None = None) -> Any:
         raise ValueError("num_cpus: a cluster (address) has its own CPUs; give one or the other")
     env_vars = {"OMP_NUM_THREADS": "1", "PYTHONPATH": os.pathsep.join(filter(None, [str(ROOT),
                 os.environ.get("PYTHONPATH")]))}  # fmt: skip
-    # without an address a new local instance (not one that `ray start` left running here: that
-    # is --address auto), listening on the loopback interface only
-    local = {"_node_ip_address": "127.0.0.1"} if address is None else {}
+    if address is None:
+        _loopback_only()
     ray.init(
-        address="local" if address is None else address,
+        address="local" if address is None else address,  # not a cluster `ray start` left here
         num_cpus=num_cpus,
         include_dashboard=False,
         log_to_driver=False,
         runtime_env={"env_vars": env_vars},
-        **local,
     )
     return ray
+
+
+def _loopback_only() -> None:
+    """A local instance on the loopback interface only (Ray's single-node mode, its default on
+    macOS and Windows): on Linux Ray would otherwise listen on every interface and reach its own
+    processes through the machine's network address."""
+    from ray._private import ray_constants
+
+    os.environ[ray_constants.ENABLE_RAY_CLUSTERS_ENV_VAR] = "0"  # Ray's processes started from here
+    ray_constants.ENABLE_RAY_CLUSTER = False  # this one (the constant is read when ray is imported)
 
 
 def _call(fn: Callable[[Any], dict[str, Any]], task: Any) -> dict[str, Any]:
