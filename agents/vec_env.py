@@ -30,12 +30,26 @@ import ios_uav_env  # noqa: F401  (registers the ids)
 
 class BatchedVecEnv(VecEnv):
     """``n_envs`` episodes of the registered id ``env_id`` (its ``vector_entry_point``) as an SB3
-    ``VecEnv``; ``env_kwargs`` are the env's arguments, ``seed`` seeds row i with ``seed + i``."""
+    ``VecEnv``; ``env_kwargs`` are the env's arguments, ``seed`` seeds row i with ``seed + i``.
+
+    ``stagger=True`` spreads the rows over the episode at each ``reset()``: row i's first episode
+    starts ``(i * L) // n_envs`` hover moves in (zero actions from q0; L its number of steps),
+    so later episodes end at different times. Without it every row of a fixed id starts and
+    ends its episodes together, and a PPO rollout of n_steps << L steps holds one slice of
+    the episode at a time (the value and the policy are then fitted to slot 1-16, then to
+    slot 17-32, ...). The hover prefix is not returned (the monitor's first episodes are
+    shorter); the default (off) keeps the rows equal to single envs seeded ``seed + i``.
+    """
 
     def __init__(
-        self, env_id: str, n_envs: int, env_kwargs: dict[str, Any] | None = None, seed: int | None = None
+        self,
+        env_id: str,
+        n_envs: int,
+        env_kwargs: dict[str, Any] | None = None,
+        seed: int | None = None,
+        stagger: bool = False,
     ):
-        self.env_id = env_id
+        self.env_id, self.stagger = env_id, bool(stagger)
         self.vector_env = gym.make_vec(
             env_id,
             num_envs=n_envs,
@@ -54,7 +68,22 @@ class BatchedVecEnv(VecEnv):
         obs, _ = self.vector_env.reset(seed=seeds)
         self._reset_seeds()
         self._reset_options()
-        return obs
+        return self._stagger() if self.stagger else obs
+
+    def _stagger(self) -> np.ndarray:
+        """Hover row i for (i * L_i) // n moves into its episode (see the class); the current observations."""
+        vec = self.vector_env
+        n = self.num_envs
+        lengths = np.array([round(env.config.T / env.config.dt) - 1 for env in vec.envs])
+        phase = (np.arange(n) * lengths) // n
+        last = int(phase.max())
+        hover = np.zeros((n, 2))
+        for j in range(1, last + 1):
+            vec.step(hover)
+            rows = np.flatnonzero(last - phase == j)  # these take the remaining phase[i] moves from here
+            if rows.size:
+                vec._reset_rows(rows, [None] * rows.size, None)
+        return vec._obs
 
     def step_async(self, actions: np.ndarray) -> None:
         self._actions = np.asarray(actions, dtype=np.float64).reshape(self.num_envs, -1)

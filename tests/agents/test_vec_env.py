@@ -126,3 +126,20 @@ def test_shift_reward_on_the_batched_env() -> None:
         VecShiftReward(plain, scale=0.0)
     with pytest.raises(ValueError, match="cannot wrap the batched env"):
         wrap_batched(plain, [(gym.wrappers.ClipAction, {})])
+
+
+def test_stagger_spreads_the_rows_over_the_episode() -> None:
+    n, steps = 8, 39  # T = 40 s: 39 moves per episode
+    venv = VecMonitor(BatchedVecEnv(ENV_ID, n, env_kwargs=SHORT, seed=0, stagger=True))
+    obs = venv.reset()
+    moves_left = np.rint(obs[:, 8] * steps).astype(int)  # time_left = moves_left / (N - 1)
+    np.testing.assert_array_equal(moves_left, steps - (np.arange(n) * steps) // n)
+    ends = np.zeros(n, dtype=int)
+    for t in range(1, steps + 1):
+        _, _, dones, infos = venv.step(np.zeros((n, 2), dtype=np.float32))
+        ends[dones] = t
+        for i in np.flatnonzero(dones):
+            assert infos[i]["feasible"] and "terminal_observation" in infos[i]
+    np.testing.assert_array_equal(ends, moves_left)  # each row ends when its moves run out
+    plain = BatchedVecEnv(ENV_ID, n, env_kwargs=SHORT, seed=0)
+    assert (plain.reset()[:, 8] == 1.0).all()  # without stagger every row starts at slot 1
