@@ -4,13 +4,15 @@ evaluation that logs the paper's metrics (average rate, feasibility, terminal mi
 from __future__ import annotations
 
 import json
+import os
 import time
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
 from stable_baselines3.common.callbacks import BaseCallback, CheckpointCallback
 
-from ios_uav_env.io import atomic_write_text
+from ios_uav_env.io import atomic_write_bytes, atomic_write_text
 
 PROGRESS_FILE = "progress.json"
 
@@ -29,35 +31,111 @@ class Clock:
         return self.prior + time.perf_counter() - self._start
 
 
+def replace_into(path: str | Path, write: Callable[[Path], Any]) -> Path:
+    """Write ``path`` atomically: ``write(tmp)`` writes a temporary file in the same folder (its name
+    starts with a dot and keeps the suffix), which then replaces ``path``."""
+    path = Path(path)
+    tmp = path.with_name(f".{path.stem}.tmp{os.getpid()}{path.suffix}")
+    try:
+        write(tmp)
+        os.replace(tmp, path)
+    except BaseException:
+        tmp.unlink(missing_ok=True)
+        raise
+    return path
+
+
 class TimedCheckpointCallback(CheckpointCallback):
     """SB3's ``CheckpointCallback`` (model, replay buffer, VecNormalize stats) that also writes
-    ``progress.json`` (steps and wall time at the checkpoint) next to the checkpoints, so that
-    ``--resume`` can continue the run's clock and evaluation history."""
+    the steps, wall time and evaluation history of each checkpoint (``rl_model_progress_<steps>_steps.json``
+    and the run's latest, ``progress.json``), so that ``--resume`` continues the run's clock and
+    evaluation history.
 
-    def __init__(self, every: int, save_path: str | Path, clock: Clock, history: list, **kwargs: Any):
+    Every file is written atomically (a temporary file, then a rename) and the model's ``.zip``
+    last: a checkpoint whose ``.zip`` exists has all its files. ``stop()`` (the training's
+    signal flag) is asked at every step: when true, the step ends training (``learn`` returns)
+    with nothing of it lost: SAC's transition goes into the replay buffer first; PPO's
+    unfinished rollout, which no update has used, is dropped and its steps are not counted
+    (``num_timesteps`` goes back to the rollout's start), so a resume redoes them.
+    """
+
+    def __init__(
+        self,
+        every: int,
+        save_path: str | Path,
+        clock: Clock,
+        history: list,
+        stop: Callable[[], bool] | None = None,
+        **kwargs: Any,
+    ):
         super().__init__(1, str(save_path), **kwargs)
-        self.every, self.clock, self.history = every, clock, history
+        self.every, self.clock, self.history, self.stop = every, clock, history, stop
         self._last = -1
+        self.rollout_start = 0
+        self.stopped_at: int | None = None  # the step count when ``stop()`` was seen
 
     def _init_callback(self) -> None:
         super()._init_callback()
         self._last = self.model.num_timesteps // self.every  # a resumed run goes on from its count
+        self.rollout_start = self.model.num_timesteps
 
-    def save(self) -> None:
-        """Checkpoint now (model, replay buffer, VecNormalize statistics, progress.json)."""
-        self.model.save(self._checkpoint_path(extension="zip"))  # (re)written: the model of now
-        if self.save_replay_buffer and getattr(self.model, "replay_buffer", None) is not None:
-            self.model.save_replay_buffer(self._checkpoint_path("replay_buffer_", extension="pkl"))
-        if self.save_vecnormalize and self.model.get_vec_normalize_env() is not None:
-            self.model.get_vec_normalize_env().save(self._checkpoint_path("vecnormalize_", extension="pkl"))
+    def file(self, kind: str = "", extension: str = "pkl") -> Path:
+        """The checkpoint file of the model's step count: the model (``kind=""``, a .zip) or its
+        ``"replay_buffer"`` / ``"vecnormalize"`` pickle or ``"progress"`` JSON."""
+        self.num_timesteps = self.model.num_timesteps
+        return Path(self._checkpoint_path(f"{kind}_" if kind else "", extension))
+
+    def save(self) -> Path:
+        """Checkpoint now (progress, VecNormalize statistics, replay buffer, then the model); return
+        the model's path."""
+        import pickle
+
+        Path(self.save_path).mkdir(parents=True, exist_ok=True)
         record = {
-            "steps": int(self.num_timesteps),
+            "steps": int(self.model.num_timesteps),
             "wall_time_s": self.clock.seconds(),
             "eval_history": self.history,
         }
-        atomic_write_text(Path(self.save_path) / PROGRESS_FILE, json.dumps(record, indent=1))
+        text = json.dumps(record, indent=1)
+        atomic_write_text(self.file("progress", "json"), text)
+        vecnormalize = self.model.get_vec_normalize_env()
+        if self.save_vecnormalize and vecnormalize is not None:
+            atomic_write_bytes(self.file("vecnormalize"), pickle.dumps(vecnormalize))  # as VecNormalize.save
+        if self.save_replay_buffer and getattr(self.model, "replay_buffer", None) is not None:
+            replay_buffer = self.model.replay_buffer
+
+            def dump(tmp: Path) -> None:
+                with tmp.open("wb") as fh:
+                    pickle.dump(replay_buffer, fh, protocol=pickle.HIGHEST_PROTOCOL)
+
+            replace_into(self.file("replay_buffer"), dump)
+        model = replace_into(self.file(extension="zip"), self.model.save)  # last: it marks a whole checkpoint
+        atomic_write_text(Path(self.save_path) / PROGRESS_FILE, text)
+        return model
+
+    def _on_rollout_start(self) -> None:
+        self.rollout_start = self.model.num_timesteps
+
+    def _keep_last_step(self) -> None:
+        """Before training stops at this step: SAC stores its transition (SB3 would drop it);
+        PPO goes back to the step count of its last update."""
+        from stable_baselines3.common.off_policy_algorithm import OffPolicyAlgorithm
+
+        if isinstance(self.model, OffPolicyAlgorithm):
+            loc = self.locals
+            self.model._update_info_buffer(loc["infos"], loc["dones"])
+            self.model._store_transition(
+                loc["replay_buffer"], loc["buffer_actions"], loc["new_obs"], loc["rewards"], loc["dones"],
+                loc["infos"],
+            )  # fmt: skip
+        else:
+            self.model.num_timesteps = self.rollout_start
 
     def _on_step(self) -> bool:  # at every multiple of ``every`` env steps, resumed or not
+        if self.stop is not None and self.stop():
+            self.stopped_at = int(self.model.num_timesteps)
+            self._keep_last_step()
+            return False
         if self.num_timesteps // self.every > self._last:
             self._last = self.num_timesteps // self.every
             self.save()
@@ -78,10 +156,18 @@ class RateEvalCallback(BaseCallback):
         self._last = self.model.num_timesteps // self.eval_freq if self.eval_freq > 0 else 0
 
     def evaluate(self) -> dict[str, Any]:
-        from agents.rollout import Agent, rollout
+        """One deterministic episode (seed 0) of the model now; recorded, logged and returned."""
+        import gymnasium as gym
+
+        from agents.loading import Agent
+        from ios_uav_env.rollout import run_episode
 
         agent = Agent(self.model, self.model.get_vec_normalize_env(), self.env_id, self.env_kwargs)
-        result = rollout(agent)
+        env = gym.make(self.env_id, **self.env_kwargs)
+        try:
+            result = run_episode(env, agent.act, seed=0)
+        finally:
+            env.close()
         record = {
             "steps": int(self.num_timesteps),
             "wall_time_s": round(self.clock.seconds(), 2),

@@ -1,8 +1,8 @@
 """Evaluate trained agents against the planners on one scenario: table (markdown + CSV) and figure.
 
-Each agent is rolled out deterministically (``agents.rollout``); its trajectory
-(``env.unwrapped.trajectory``) is checked with ``check_trajectory`` and scored with
-``average_rate``, exactly like the planners' plans (SCA "ia", DP, "ia-ft", "cuc") on the same
+Each agent is rolled out deterministically (``agents.rollout``, ``ios_uav_env.rollout.run_episode``):
+its trajectory is checked with ``check_trajectory`` and scored with ``average_rate``, exactly
+like the planners' plans (SCA "ia", DP, "ia-ft", "cuc") on the same
 ``ScenarioConfig``. Under the Rician channel every trajectory, agent's or planner's, is replayed
 through the env with ``channel="rician"`` for seeds 0..K-1 (the same seed gives every scheme
 the same fading draws) and the mean and standard deviation of its faded average rate reported.
@@ -15,15 +15,14 @@ from __future__ import annotations
 
 import argparse
 import sys
-import time
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
 
 import numpy as np
 
-from agents.rollout import Agent, load_agent, make_env, rollout
+from agents.loading import Agent, load_agent
+from agents.rollout import ScenarioRunner, rollout
 from ios_uav_env import ScenarioConfig
 
 MODELS_DIR = Path(__file__).resolve().parent / "models"
@@ -42,7 +41,7 @@ class Row:
     average_rate: float  # bps/Hz, eq. (9)
     feasible: bool
     terminal_miss: float  # m
-    wall_time: float  # s: planning time, or the agent's deterministic episode
+    wall_time: float  # s: planning time, or the agent's episode from reset to the last step
     trajectory: np.ndarray
     config: ScenarioConfig  # the scenario the trajectory was scored on (CUC: surface "none")
     pct_dp: float = float("nan")  # 100 x average_rate / DP's
@@ -77,16 +76,14 @@ def planner_rows(config: ScenarioConfig, schemes: Sequence[str] = PLANNERS) -> l
 
 def agent_row(agent: Agent, config: ScenarioConfig) -> Row:
     """Roll ``agent`` out deterministically on ``config`` (its own env kwargs, e.g. the guard)."""
-    start = time.perf_counter()
-    episode = rollout(agent, config=config)
-    seconds = time.perf_counter() - start
+    episode = rollout(agent, config)
     return Row(
         agent.name,
         "agent",
         episode.average_rate,
         episode.feasible,
         episode.terminal_miss,
-        seconds,
+        episode.seconds,
         episode.trajectory,
         config,
     )
@@ -94,13 +91,9 @@ def agent_row(agent: Agent, config: ScenarioConfig) -> Row:
 
 def faded_replay(config: ScenarioConfig, trajectory: np.ndarray, seed: int) -> float:
     """Mean faded rate of ``trajectory`` replayed through the env (``channel="rician"``, no guard)."""
-    env = make_env("ios_uav_env/IOSUAV-v0", {"channel": "rician", "arrival_guard": False}, config)
-    env.reset(seed=seed)
-    info: dict[str, Any] = {}
-    for move in np.diff(np.asarray(trajectory, dtype=float), axis=0) / config.D:
-        _, _, _, _, info = env.step(move)
-    env.close()
-    return float(info["mean_faded_rate"])
+    moves = iter(np.diff(np.asarray(trajectory, dtype=float), axis=0) / config.D)
+    with ScenarioRunner("ios_uav_env/IOSUAV-v0", {"channel": "rician", "arrival_guard": False}) as runner:
+        return runner.run(lambda obs: next(moves), config, seed=seed).mean_faded_rate
 
 
 def add_rician(rows: list[Row], agents: dict[str, Agent], seeds: int) -> None:
@@ -113,8 +106,7 @@ def add_rician(rows: list[Row], agents: dict[str, Agent], seeds: int) -> None:
             agent = agents[row.scheme]
             kwargs = {**agent.env_kwargs, "channel": "rician"}
             samples = [
-                rollout(agent, env_kwargs=kwargs, config=row.config, seed=s).mean_faded_rate
-                for s in range(seeds)
+                rollout(agent, row.config, env_kwargs=kwargs, seed=s).mean_faded_rate for s in range(seeds)
             ]
         else:
             samples = [faded_replay(row.config, row.trajectory, s) for s in range(seeds)]
@@ -181,7 +173,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     try:
         agents = [load_agent(path) for path in args.models]
     except (FileNotFoundError, ValueError) as exc:
-        parser.error(str(exc))
+        parser.error(f"argument models: {exc}")
     if args.shipped:
         agents += shipped_agents()
     rows = compare(agents, config, args.schemes, args.rician_seeds)

@@ -23,7 +23,6 @@ from typing import Any
 import yaml
 
 HYPERPARAMS_DIR = Path(__file__).resolve().parent / "hyperparams"
-ALGOS: tuple[str, ...] = ("ppo", "sac")
 #: zoo keys that are not keyword arguments of the algorithm
 _ZOO_KEYS = ("n_timesteps", "n_envs", "policy", "normalize", "env_wrapper", "frame_stack", "callback")
 
@@ -48,13 +47,105 @@ def hyperparams_path(algo: str) -> Path:
 
 
 def load_hyperparams(algo: str, env_id: str, path: str | Path | None = None) -> Hyperparams:
-    """Read and resolve the entry of ``env_id`` in the zoo-format file of ``algo``."""
+    """Read and resolve the entry of ``env_id`` in the zoo-format file of ``algo``; ``ValueError``
+    naming the file and the key if the file is not YAML, has no entry for ``env_id``, or an
+    entry cannot be resolved (:func:`check_entry`)."""
     path = Path(path) if path is not None else hyperparams_path(algo)
-    with open(path, encoding="utf-8") as fh:
-        table = yaml.safe_load(fh) or {}
+    try:
+        with open(path, encoding="utf-8") as fh:
+            table = yaml.safe_load(fh) or {}
+    except yaml.YAMLError as exc:
+        raise ValueError(f"{path} is not valid YAML: {exc}") from None
+    except UnicodeDecodeError as exc:
+        raise ValueError(f"{path} is not a text file: {exc}") from None
+    if not isinstance(table, dict):
+        raise ValueError(f"{path} must map env ids to hyperparameters, got a {type(table).__name__}")
     if env_id not in table:
-        raise KeyError(f"{path} has no hyperparameters for env id {env_id!r} (has: {', '.join(table)})")
-    return resolve(table[env_id])
+        raise ValueError(f"{path} has no hyperparameters for env id {env_id!r} (has: {', '.join(table)})")
+    entry = table[env_id]
+    if not isinstance(entry, dict):
+        raise ValueError(f"{path}: the entry of {env_id!r} must be a mapping of hyperparameters")
+    try:
+        return resolve(check_entry(algo, entry))
+    except ValueError as exc:
+        raise ValueError(f"{path}, {env_id}: {exc}") from None
+
+
+#: Counts that must be positive integers, and those that may be zero.
+POSITIVE_KEYS = (
+    "n_timesteps", "n_envs", "n_steps", "batch_size", "n_epochs", "buffer_size", "gradient_steps",
+)  # fmt: skip
+NON_NEGATIVE_KEYS = ("learning_starts",)
+#: Numbers in [0, 1] and numbers >= 0.
+FRACTION_KEYS = ("gamma", "gae_lambda", "tau")
+NUMBER_KEYS = ("max_grad_norm", "vf_coef", "clip_range_vf", "target_kl")
+
+
+def check_entry(algo: str, entry: dict[str, Any]) -> dict[str, Any]:
+    """``entry`` if every key is a zoo key or an argument of the algorithm and every count and
+    number is in its range; ``ValueError`` naming the key and the allowed values otherwise."""
+    import inspect
+    import math
+
+    from agents.loading import ALGOS
+
+    cls = ALGOS[algo]
+    allowed = set(inspect.signature(cls.__init__).parameters) - {"self", "env", "policy", "_init_setup_model"}
+    unknown = [k for k in entry if k not in _ZOO_KEYS and k not in allowed]
+    if unknown:
+        raise ValueError(
+            f"hyperparameter {unknown[0]!r} is neither a zoo key ({', '.join(_ZOO_KEYS)}) nor an "
+            f"argument of {cls.__name__}"
+        )
+
+    def number(key: str, value: Any) -> float:
+        if isinstance(value, bool) or not isinstance(value, int | float) and not _is_number_text(value):
+            raise ValueError(f"hyperparameter {key} must be a number, got {value!r}")
+        value = float(value)
+        if not math.isfinite(value):
+            raise ValueError(f"hyperparameter {key} must be finite, got {value!r}")
+        return value
+
+    for key in (*POSITIVE_KEYS, *NON_NEGATIVE_KEYS):
+        if key in entry:
+            value = number(key, entry[key])
+            low = 1 if key in POSITIVE_KEYS else 0
+            if value != int(value) or value < low:
+                what = "a positive integer" if low else "an integer >= 0"
+                raise ValueError(f"hyperparameter {key} must be {what}, got {entry[key]!r}")
+    for key in FRACTION_KEYS:
+        if key in entry and not 0.0 <= number(key, entry[key]) <= 1.0:
+            raise ValueError(f"hyperparameter {key} must be in [0, 1], got {entry[key]!r}")
+    for key in NUMBER_KEYS:
+        if key in entry and entry[key] is not None and number(key, entry[key]) < 0:
+            raise ValueError(f"hyperparameter {key} must be >= 0, got {entry[key]!r}")
+    for key in ("learning_rate", "clip_range"):
+        if key in entry:
+            value = entry[key]
+            text = value[4:] if isinstance(value, str) and value.startswith("lin_") else value
+            if number(key, text) <= 0:
+                raise ValueError(
+                    f"hyperparameter {key} must be > 0 (a number or lin_<number>), got {value!r}"
+                )
+    if "train_freq" in entry:
+        freq = entry["train_freq"]
+        count = freq[0] if isinstance(freq, list | tuple) and len(freq) == 2 else freq
+        unit = freq[1] if isinstance(freq, list | tuple) and len(freq) == 2 else "step"
+        bad_count = isinstance(count, bool) or not isinstance(count, int) or count < 1
+        if bad_count or unit not in ("step", "episode"):
+            raise ValueError(f"hyperparameter train_freq must be n or [n, 'step'|'episode'] with n >= 1, "
+                             f"got {freq!r}")  # fmt: skip
+    return entry
+
+
+def _is_number_text(value: Any) -> bool:
+    if not isinstance(value, str):
+        return False
+    try:
+        float(value)
+    except ValueError:
+        return False
+    return True
 
 
 def _linear(initial: float) -> Any:
@@ -166,23 +257,24 @@ def resolve(entry: dict[str, Any]) -> Hyperparams:
     )
 
 
-def parse_env_kwargs(items: list[str] | None) -> dict[str, Any]:
-    """Parse zoo-style ``key:value`` pairs; a value is a Python literal or else a plain string.
+def parse_env_kwarg(item: str) -> tuple[str, Any]:
+    """Parse one zoo-style ``key:value`` pair; the value is a Python literal or else a plain word.
 
-    ``arrival_guard:False T:100 channel:rician channel:"'rician'"`` all work (a string may be
-    quoted or not). Raises ``ValueError`` naming the malformed item.
+    ``arrival_guard:False``, ``T:100``, ``channel:rician`` and ``channel:"'rician'"`` all work
+    (a string may be quoted or not). Raises ``ValueError`` naming the malformed item.
     """
-    out: dict[str, Any] = {}
-    for item in items or []:
-        key, sep, text = item.partition(":")
-        key = key.strip()
-        if not sep or not key.isidentifier() or not text.strip():
-            raise ValueError(f"expected key:value (e.g. arrival_guard:False), got {item!r}")
-        try:
-            value = ast.literal_eval(text.strip())
-        except (ValueError, SyntaxError):
-            if not text.strip().replace("_", "").replace("-", "").isalnum():
-                raise ValueError(f"cannot read the value of {item!r} (a Python literal or a word)") from None
-            value = text.strip()
-        out[key] = value
-    return out
+    key, sep, text = item.partition(":")
+    key, text = key.strip(), text.strip()
+    if not sep or not key.isidentifier() or not text:
+        raise ValueError(f"expected key:value (e.g. arrival_guard:False), got {item!r}")
+    try:
+        return key, ast.literal_eval(text)
+    except (ValueError, SyntaxError):
+        if not text.replace("_", "").replace("-", "").isalnum():
+            raise ValueError(f"cannot read the value of {item!r} (a Python literal or a word)") from None
+        return key, text
+
+
+def parse_env_kwargs(items: list[str] | None) -> dict[str, Any]:
+    """Parse zoo-style ``key:value`` pairs (:func:`parse_env_kwarg`); a later key wins."""
+    return dict(parse_env_kwarg(item) for item in items or [])

@@ -1,11 +1,11 @@
 """Fast deterministic inference: an SB3 MLP policy as a few numpy matrix products.
 
-``model.predict`` costs ~0.5-1 ms per call (tensor conversion, distribution objects); a plan
-is a whole episode of calls, so for "plan in milliseconds" the deterministic actor is
-exported to numpy once: the VecNormalize observation transform (if any), the actor MLP, and
-the action's post-processing (PPO: the Gaussian mean clipped to the action space; SAC: the
-tanh-squashed mean). :meth:`NumpyPolicy.act` equals ``Agent.act(obs, True)`` to float
-precision (tested).
+``model.predict`` pays a per-call overhead (tensor conversion, distribution objects) that
+outweighs a small MLP's arithmetic, and a plan is a whole episode of calls, so the
+deterministic actor is exported to numpy once: the VecNormalize observation transform (if
+any), the actor MLP, and the action's post-processing (PPO: the Gaussian mean clipped to
+the action space; SAC: the tanh-squashed mean). :meth:`NumpyPolicy.act` equals
+``Agent.act(obs, True)`` to float precision (tested).
 """
 
 from __future__ import annotations

@@ -72,12 +72,13 @@ def save_comparison_figure(rows: Sequence[Any], config: ScenarioConfig, path: st
     from matplotlib.backends.backend_agg import FigureCanvasAgg
     from matplotlib.figure import Figure
 
-    from ios_uav_env.rendering import best_rate_point, plot_rate_map, plot_trajectories
+    from ios_uav_env.peak import rate_peak
+    from ios_uav_env.rendering import plot_rate_map, plot_trajectories
 
     fig = Figure(figsize=(10, 8.4), dpi=100)
     FigureCanvasAgg(fig)
     full, zoom = fig.subplots(2, 1, height_ratios=[1.0, 0.9])
-    px, py = best_rate_point(config)
+    px, py, _ = rate_peak(config)
     plot_rate_map(full, config)
     plot_rate_map(
         zoom, config, extent=(px - 90, px + 90, py - 45, py + 45), resolution=(180, 90), scene=False

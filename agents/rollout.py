@@ -1,133 +1,87 @@
-"""A trained agent (SB3 model + optional VecNormalize statistics) and its episodes.
+"""Policies on given scenarios, each in the env it was trained in; the episode loop is
+``ios_uav_env.rollout.run_episode`` and the result its ``Episode``.
 
->>> agent = load_agent("agents/models/ppo_IOSUAV-v0")                  # doctest: +SKIP
->>> result = rollout(agent, agent.env_id, agent.env_kwargs)           # doctest: +SKIP
->>> result.average_rate, result.feasible, result.terminal_miss        # doctest: +SKIP
+A fixed id (``ios_uav_env.ENV_IDS``) sets the surface, so a scenario runs in the id of its
+surface made on it (``gym.make(id, config=cfg, **env_kwargs)``); any other id (the randomised
+``ios_uav_env/IOSUAV-Random-v0``) runs it in one env pinned per episode with
+``reset(options={"config": cfg})``.
+
+>>> from agents.loading import load_agent                                  # doctest: +SKIP
+>>> agent = load_agent("agents/models/ppo_IOSUAV-v0")                      # doctest: +SKIP
+>>> episode = rollout(agent, env_id=agent.env_id, env_kwargs=agent.env_kwargs)  # doctest: +SKIP
+>>> episode.average_rate, episode.feasible, episode.terminal_miss          # doctest: +SKIP
 """
 
 from __future__ import annotations
 
-import json
-from dataclasses import dataclass, field
-from pathlib import Path
+from collections.abc import Callable, Mapping
 from typing import Any
 
 import gymnasium as gym
 import numpy as np
 
-import ios_uav_env  # noqa: F401  (registers the ids)
-from ios_uav_env import ScenarioConfig, average_rate, check_trajectory
-from ios_uav_env.registration import ENV_IDS
+from ios_uav_env import ENV_IDS, ScenarioConfig
+from ios_uav_env.rollout import Episode, run_episode
+
+Policy = Callable[[np.ndarray], Any]
 
 
-@dataclass
-class Agent:
-    """A policy: ``model.predict`` on observations normalised as in training (if they were)."""
-
-    model: Any  # an SB3 algorithm
-    vecnormalize: Any = None  # VecNormalize with the training statistics, or None
-    env_id: str = "ios_uav_env/IOSUAV-v0"
-    env_kwargs: dict[str, Any] = field(default_factory=dict)  # the env arguments it was trained with
-    name: str = "agent"
-    meta: dict[str, Any] = field(default_factory=dict)  # config.json and summary.json of its run
-
-    def act(self, obs: np.ndarray, deterministic: bool = True) -> np.ndarray:
-        if self.vecnormalize is not None:
-            obs = self.vecnormalize.normalize_obs(obs)
-        action, _ = self.model.predict(obs, deterministic=deterministic)
-        return action
+def _check_policy_env(policy: Any, env: gym.Env) -> None:
+    """An agent's (``agents.loading.Agent``, or its bound ``act``) observation size must be the env's."""
+    agent = getattr(policy, "__self__", policy)
+    if hasattr(agent, "check_env"):
+        agent.check_env(env)
 
 
-def load_agent(path: str | Path, name: str | None = None) -> Agent:
-    """Load the agent of a run or model folder (``model.zip``, ``config.json`` and, if any,
-    ``vecnormalize.pkl`` and ``summary.json``), or of a bare ``.zip`` (default env settings)."""
-    import torch
-    from stable_baselines3 import PPO, SAC
+class ScenarioRunner:
+    """Runs policies on scenarios in ``env_id`` with ``env_kwargs`` (the env of the id is made
+    once and pinned per scenario, unless the id is a fixed one: then one env per scenario)."""
 
-    torch.set_num_threads(1)
-    path = Path(path)
-    folder, zip_path = (path.parent, path) if path.suffix == ".zip" else (path, path / "model.zip")
-    if not zip_path.exists():
-        raise FileNotFoundError(f"no model at {zip_path}")
-    meta: dict[str, Any] = {}
-    for key in ("config", "summary"):
-        file = folder / f"{key}.json"
-        if file.exists():
-            meta[key] = json.loads(file.read_text())
-    config = meta.get("config", {})
-    algo = config.get("algo") or ("sac" if "sac" in zip_path.as_posix().lower() else "ppo")
-    model = {"ppo": PPO, "sac": SAC}[algo].load(zip_path, device="cpu")
-    vecnormalize = None
-    if (folder / "vecnormalize.pkl").exists():
-        from stable_baselines3.common.vec_env import DummyVecEnv, VecNormalize
+    def __init__(self, env_id: str, env_kwargs: Mapping[str, Any] | None = None) -> None:
+        self.env_id, self.env_kwargs = env_id, dict(env_kwargs or {})
+        self.fixed = env_id in ENV_IDS
+        self._env: gym.Env | None = None
 
-        env_id = config.get("env_id", "ios_uav_env/IOSUAV-v0")
-        dummy = DummyVecEnv([lambda: gym.make(env_id, **config.get("env_kwargs", {}))])
-        vecnormalize = VecNormalize.load(str(folder / "vecnormalize.pkl"), dummy)
-        vecnormalize.training, vecnormalize.norm_reward = False, False
-    return Agent(
-        model,
-        vecnormalize,
-        config.get("env_id", "ios_uav_env/IOSUAV-v0"),
-        dict(config.get("env_kwargs", {})),
-        name or folder.name,
-        meta,
-    )
-
-
-@dataclass
-class Episode:
-    """One deterministic episode of an agent, scored by the model (eq. (9)) and checked (eq. (10))."""
-
-    trajectory: np.ndarray  # (N, 2) m
-    average_rate: float  # bps/Hz, expected-gain rate of eq. (9)
-    feasible: bool
-    terminal_miss: float  # m, |q[N] - qF|
-    max_step: float  # m
-    episode_return: float
-    mean_faded_rate: float | None = None  # channel "rician" only
-
-
-def make_env(env_id: str, env_kwargs: dict[str, Any], config: ScenarioConfig | None = None) -> gym.Env:
-    """``gym.make`` of ``env_id`` with ``env_kwargs``, on ``config`` when given (its horizon too;
-    its surface picks the matching id of this package, since an id sets the surface)."""
-    kwargs = dict(env_kwargs)
-    if config is not None:
-        kwargs.update(config=config, max_episode_steps=config.N - 1)
-        if env_id in ENV_IDS:
+    def run(self, policy: Policy, config: ScenarioConfig | None = None, *, seed: int | None = 0) -> Episode:
+        """One episode of ``policy`` (reset with ``seed``) on ``config`` (None: the env's own)."""
+        if config is not None and self.fixed:
             env_id = next(i for i, kw in ENV_IDS.items() if kw["surface"] == config.surface)
-    return gym.make(env_id, **kwargs)
+            env = gym.make(env_id, **{**self.env_kwargs, "config": config})
+            try:
+                _check_policy_env(policy, env)
+                return run_episode(env, policy, seed=seed)
+            finally:
+                env.close()
+        if self._env is None:
+            self._env = gym.make(self.env_id, **self.env_kwargs)
+        _check_policy_env(policy, self._env)
+        options = None if config is None else {"config": config}
+        return run_episode(self._env, policy, seed=seed, options=options)
+
+    def close(self) -> None:
+        if self._env is not None:
+            self._env.close()
+            self._env = None
+
+    def __enter__(self) -> ScenarioRunner:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
 
 
 def rollout(
-    agent: Agent,
-    env_id: str | None = None,
-    env_kwargs: dict[str, Any] | None = None,
-    *,
+    policy: Any,
     config: ScenarioConfig | None = None,
-    seed: int = 0,
-    deterministic: bool = True,
+    *,
+    env_id: str | None = None,
+    env_kwargs: Mapping[str, Any] | None = None,
+    seed: int | None = 0,
 ) -> Episode:
-    """Run one episode of ``agent`` (default: on its own env id and kwargs; ``config`` replaces
-    the scenario) and score its trajectory with ``average_rate`` / ``check_trajectory``."""
-    env_id = env_id or agent.env_id
-    env = make_env(env_id, agent.env_kwargs if env_kwargs is None else env_kwargs, config)
-    obs, info = env.reset(seed=seed)
-    total, done = 0.0, False
-    while not done:
-        obs, reward, terminated, truncated, info = env.step(agent.act(obs, deterministic))
-        total += float(reward)
-        done = terminated or truncated
-    base = env.unwrapped
-    trajectory = base.trajectory
-    env.close()
-    report = check_trajectory(base.config, trajectory)
-    return Episode(
-        trajectory,
-        average_rate(base.config, trajectory),
-        report.feasible,
-        report.end_error,
-        report.max_step,
-        total,
-        info.get("mean_faded_rate"),
-    )
+    """One deterministic episode of ``policy`` on ``config`` (None: the env's own scenario), in
+    ``env_id`` with ``env_kwargs`` (default: the policy's ``env_id`` / ``env_kwargs``, as an
+    ``agents.loading.Agent`` has them)."""
+    env_id = env_id or getattr(policy, "env_id", "ios_uav_env/IOSUAV-v0")
+    kwargs = getattr(policy, "env_kwargs", {}) if env_kwargs is None else env_kwargs
+    with ScenarioRunner(env_id, kwargs) as runner:
+        return runner.run(policy.act if hasattr(policy, "act") else policy, config, seed=seed)

@@ -25,6 +25,7 @@ from pathlib import Path
 import numpy as np
 
 from baselines.plan import Plan
+from baselines.runner import check_writable
 from baselines.schemes import SCHEMES, get_scheme, run_scheme, sca_unavailable_reason
 from ios_uav_env import SURFACES, ScenarioConfig, io
 
@@ -174,6 +175,10 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser = build_parser()
     args = parser.parse_args(argv)
     config = _config(args, parser)
+    try:  # before any planning: an unwritable --out would fail only after the solves
+        check_writable(args.out)
+    except OSError as exc:
+        parser.error(f"argument --out: {exc}")
     names = list(dict.fromkeys(args.scheme))  # keep order, drop repeats
     print(_row(_HEADER))
     plans: list[Plan] = []

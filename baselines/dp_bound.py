@@ -10,7 +10,7 @@ trajectory's score, and so does min_w UB(w). UB(w) is convex in w (a maximum of 
 functions of w), so it is minimised by Kelley's cutting planes (below).
 
 **Accounting for the grid** (so that UB(w) bounds the continuous problem, not only grid
-paths). The plane is cut into the square cells of side h of ``baselines.dp.grid_axes``
+paths). The plane is cut into the square cells of side h of ``baselines.grid.grid_axes``
 (centred on the grid points; their union is the box B) plus one state O, "outside B". A
 feasible trajectory is mapped slot by slot to the cell holding q[n] (or O); q[1] = q0 and
 q[N] = qF keep their exact rewards. The relaxed DP maximises over sequences of states with
@@ -46,7 +46,7 @@ the same choice of node). The next w minimises max_i G_i . w over the simplex (a
 whose value L is a lower bound of min_w UB(w): iterations stop when min_i UB(w_i) - L is
 below ``tol`` (relative) or after ``max_cuts``. The start is the tour's dual weights.
 
-**Below the bound** (plans): at every w_i, the plain grid DP (``baselines.dp.grid_path``:
+**Below the bound** (plans): at every w_i, the plain grid DP (``baselines.grid.grid_path``:
 moves <= D between grid points, rewards f_w at the grid points) gives a feasible
 trajectory; each is scored by ``ios_uav_env.maxmin_rate``. These are good only when one
 point serves all nodes, so the longest hovers of those paths, with the nodes' peaks, are
@@ -71,7 +71,7 @@ from typing import Any
 import numpy as np
 
 import ios_uav_env as ie
-from baselines.dp import DEFAULT_MARGIN, _best_move, disk_max, grid_axes, grid_path
+from baselines.grid import DEFAULT_MARGIN, _best_move, disk_max, grid_axes, grid_path
 from baselines.plan import Plan
 from ios_uav_env import ScenarioConfig
 
@@ -233,7 +233,7 @@ def weighted_dp_path(
     config: ScenarioConfig, weights: np.ndarray, resolution: float = 5.0, margin: float = DEFAULT_MARGIN
 ) -> np.ndarray | None:
     """The plain grid DP's best path for the per-slot reward f_w = max_k w_k r_k (moves <= D
-    between grid points; ``baselines.dp.grid_path``): a feasible trajectory, or None when no
+    between grid points; ``baselines.grid.grid_path``): a feasible trajectory, or None when no
     grid path reaches qF in time."""
     w = np.asarray(weights, dtype=float)
     xs, ys, _ = grid_axes(config, resolution, margin)

@@ -6,19 +6,13 @@ to rounding) and are scored by the one model through :meth:`Plan.from_trajectory
 
 from __future__ import annotations
 
-import math
 import time
 from collections.abc import Sequence
 
 import numpy as np
 
 from baselines.plan import Plan
-from ios_uav_env import ScenarioConfig
-
-
-def _moves(config: ScenarioConfig, dist: float) -> int:
-    """Moves needed to cover ``dist`` at D per move (the rounding of ScenarioConfig.min_horizon)."""
-    return math.ceil(dist / config.D - 1e-9) if dist > 0 else 0
+from ios_uav_env import ScenarioConfig, moves_needed
 
 
 def _leg(start: np.ndarray, end: np.ndarray, step: float, moves: int) -> np.ndarray:
@@ -51,7 +45,7 @@ def fly_hover_fly_path(
     if target.shape != (2,) or not np.all(np.isfinite(target)):
         raise ValueError(f"hover must be a finite (x, y) point in m, got {hover!r}")
     d_out = float(np.linalg.norm(target - q0))
-    k_out = _moves(config, d_out)
+    k_out = moves_needed(d_out, config.D)
     unit = (target - q0) / d_out if d_out > 0 else np.zeros(2)
 
     def turn_point(m: int) -> np.ndarray:
@@ -59,10 +53,10 @@ def fly_hover_fly_path(
 
     # the largest number m of outbound moves after which qF is still reachable at slot N
     m = k_out
-    while m > 0 and m + _moves(config, float(np.linalg.norm(q_f - turn_point(m)))) > n_moves:
+    while m > 0 and m + moves_needed(float(np.linalg.norm(q_f - turn_point(m))), config.D) > n_moves:
         m -= 1
     turn = turn_point(m)
-    k_back = _moves(config, float(np.linalg.norm(q_f - turn)))
+    k_back = moves_needed(float(np.linalg.norm(q_f - turn)), config.D)
     hover_moves = n_moves - m - k_back
     out = _leg(q0, turn, d_max, m)
     stay = np.repeat(turn[None, :], hover_moves, axis=0)

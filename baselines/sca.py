@@ -12,7 +12,7 @@ trajectory, problem (25):
 with c_k = J s(q) w_k, s(q) the side factor (1 reflection, epsilon / 0 transmission),
 (y_k, z_k, w_k) the weighted nodes ("tiles") of ``ios_uav_env.surface_nodes`` and
 d_k^2 = (x - x_c)^2 + (y - y_k)^2 + (z_U - z_k)^2, K = sqrt(G_tx G_rx). With
-``config.quadrature_nodes = 8`` the 64 nodes reproduce the 6000-element sum to ~1e-12; SCA
+the default compression the nodes reproduce the element sum to ``config.quadrature_tol``; SCA
 uses ``tiles`` x ``tiles`` nodes (default 2, 4 tiles) and the exact model scores every iterate.
 
 **Problem (15)** (per slot; one u_k per tile, not per element):
@@ -73,8 +73,7 @@ controlled: (i) tiling: the tiled per-node terms are *anchored* per slot (multip
 exact / tiled surface amplitude at q^l), so the surrogate equals the exact rate at q^l and
 only its curvature uses the tiles (the bound then holds to the change of exact / tiled
 between q^l and q^(l+1)); (ii) the step constraint has an inward margin of 1e-6 m; (iii) a
-slot within 0.1 m of the plane drops its surface term (below 1e-7 of zeta there). No
-decrease was observed in any run (tests, benchmark sweeps).
+slot within 0.1 m of the plane drops its surface term (below 1e-7 of zeta there).
 Every iterate is scored by ``ios_uav_env.average_rate`` and checked by
 ``ios_uav_env.check_trajectory``; the history records the exact rate of every solve
 (accepted or not), and an iterate that lowers the exact rate is not accepted (the run
@@ -93,36 +92,26 @@ to a point behind the IOS (x > 0, G at x = -100) SCA keeps hovering there (this 
 IA optimum of the default scenario, at (100.0, -0.2) m; see the tests and the benchmark).
 
 **Multi-start (SCA is local).** Default starts (:func:`default_starts`): the straight
-line; fly-hover-fly (``baselines.fixed.fly_hover_fly``) above G; fly-hover-fly to the best
-reachable hover point of the rate map (5 m grid, ``baselines.dp.rate_map``) on G's side of
-the plane ("front") and on the other side ("behind"), each skipped when within D of an
-earlier hover point; and "DP + SCA polish", a coarse ``baselines.dp.solve`` at 5 m (~0.1 s;
-at 10 m the grid's moves are slower than v_max and, the crossing slot being fixed, the
-polish ended 0.7% lower). The best plan by the exact objective wins.
+line; fly-hover-fly (``baselines.fixed.fly_hover_fly``) above G; fly-hover-fly to the reachable
+rate peak (``ios_uav_env.rate_peak``) on G's side of the plane ("front") and on the other
+side ("behind"), each skipped when within D of an
+earlier hover point; and "DP + SCA polish", a coarse ``baselines.dp.solve`` at 5 m (at 10 m
+the grid's moves are slower than v_max and, the crossing slot being fixed, the polish ends
+lower). The best plan by the exact objective wins.
 
-**Tiles.** Default 2 x 2. Measured on the default scenario (``benchmarks/sca_bench.py``):
-max relative zeta error of the un-anchored tiled model over a 5 m map of +-400 x +-200 m:
-1.5e-4 (1 tile), 6.9e-5 (2 x 2), 1.3e-8 (3 x 3), 2.6e-9 (4 x 4); on the converged IA
-trajectory the mean-rate error is 8e-5, 2e-5, 1e-9, 2e-10. Thanks to the anchoring, all four
-converge to the same plan (to 1e-6 bps/Hz) in the same iterations, at 0.04 / 0.05 / 0.07 /
-0.15 s per iteration and 0.1 / 0.2 / 0.6 / 1.3 s of compilation.
+**Tiles.** Default 2 x 2: thanks to the anchoring the tile count changes the curvature of
+the surrogate only, not its value at q^l (measurements: ``benchmarks/README.md``).
 
-**Solver.** Clarabel (interior point, native exponential and second-order cones; ~25
-iterations, ~0.05 s per solve at N = 150). ECOS is not installed. SCS (first order) took
-~20 s for one solve at N = 150 and returned steps 2e-4 m longer than D (the iterate is then
-rejected, status ``infeasible_iterate``). Each solve builds a fresh Clarabel instance
-(``warm_start=False``): cvxpy's in-place data update of the cached instance failed
-spuriously (RA, second start). The slack offsets are boxed (s', v' >= -10, u' <= 10; q^l
-stays feasible, so the guarantees hold; it acts as a loose trust region, d_k at most 2.4x and
-d_UG at most 3x their values at q^l per iteration): without the box, Clarabel failed on 13
-and was inaccurate on 69 of 281 solves (IA and RA, T = 100..300 s); with it, 0 and 1 of 338,
-with the same final plans.
+**Solver.** Clarabel (interior point, native exponential and second-order cones). Each
+solve builds a fresh Clarabel instance (``warm_start=False``): cvxpy's in-place data update of
+the cached instance can fail spuriously. The slack offsets are boxed (s', v' >= -10,
+u' <= 10; q^l stays feasible, so the guarantees hold; it acts as a loose trust region, d_k at
+most 2.4x and d_UG at most 3x their values at q^l per iteration), which keeps the solver's
+conditioning sane on long horizons.
 
 **DPP.** Every linearisation point and coefficient is a ``cvxpy.Parameter``: the problem is
-canonicalised once (~0.2-0.4 s at N = 150, cached across ``solve`` calls for the same
-config, tiles and solver) and each iteration costs ~0.05 s instead of ~0.08-0.11 s when the
-problem is rebuilt with constants (``dpp=False``); over the ~65 solves of the default
-multi-start that is ~2-4 s saved.
+canonicalised once (cached across ``solve`` calls for the same config, tiles and solver) and
+each iteration only rewrites the parameter values.
 
 **Failures.** A solver exception or a status other than optimal / optimal_inaccurate stops
 that start with ``"solver_error: ..."`` in the history and keeps its last feasible iterate;
@@ -133,12 +122,6 @@ infeasible iterate. A losing start's stop is only recorded: it did not produce t
 (though it might have won had it run on).
 A solver name cvxpy does not know raises ``ValueError``; a known one that is not installed or
 cannot take exponential cones (e.g. "OSQP") fails at the first solve and falls back.
-
-**Measured** (default scenario, T = 150 s, M = 6000; DP at 2.5 m as reference): IA 2.408318
-bps/Hz (100.18% of DP 2.404068), RA 1.530194 (100.28% of 1.525924), CUC 0.818985 (100.37% of
-0.815952), all feasible (worst violation 0 m), 4-5 s / 2 s / 0.3 s including compilation on
-the shared 2-core machine. SCA started at the DP plan gains the same margins: the off-grid
-optimum beats the 2.5 m grid by 0.18-0.37%.
 """
 
 from __future__ import annotations
@@ -152,18 +135,16 @@ import numpy as np
 
 import ios_uav_env as ie
 from baselines.plan import Plan
-from baselines.sca_problem import PLANE_TOL, STEP_MARGIN, Surrogate
+from baselines.sca_problem import PLANE_TOL, STEP_MARGIN, Surrogate, tiled_config
 from ios_uav_env import ScenarioConfig
-from ios_uav_env.peak import reachable
+from ios_uav_env.peak import rate_peak
 
-#: Default tiles per axis (2 x 2 = 4 nodes; see the module docstring for the measured error).
+#: Default tiles per axis (2 x 2 = 4 nodes; see the module docstring).
 DEFAULT_TILES = 2
 #: Default cap on SCA iterations per start.
 DEFAULT_MAX_ITERS = 50
 #: An exact-objective decrease beyond this (relative) is flagged ``"decrease"``.
 DECREASE_TOL = 1e-9
-#: Grid (m) of the rate map used to pick the fly-hover-fly hover points.
-HOVER_MAP_RESOLUTION = 5.0
 #: DP resolution (m) of the "DP + SCA polish" start.
 DP_START_RESOLUTION = 5.0
 SCHEME_NAMES = {"ios": "ia", "ris": "ra", "none": "cuc"}
@@ -196,24 +177,13 @@ def _validate(config: Any, tiles: Any, max_iters: Any, tol: Any, solver: Any) ->
 
 
 def best_hover_points(config: ScenarioConfig) -> dict[str, tuple[float, float]]:
-    """Best reachable hover point of the rate map on each side of the surface plane.
-
-    Keys ``"front"`` (G's side) and ``"behind"``; a hover point P is reachable when
-    fly-hover-fly can visit it (``ios_uav_env.peak.reachable``): ceil(|P - q0|/D) + ceil(|qF - P|/D) <= N - 1.
-    """
-    from baselines.dp import rate_map
-
-    xs, ys, rates = rate_map(config, HOVER_MAP_RESOLUTION)
-    xx, yy = np.meshgrid(xs, ys)
-    pts = np.stack([xx, yy], axis=-1)
-    reach = reachable(config, pts.reshape(-1, 2)).reshape(xx.shape)
-    side = np.sign(xx - config.ios_center[0]) * np.sign(config.ground_node[0] - config.ios_center[0])
+    """The reachable rate peak (``ios_uav_env.rate_peak``) on each side of the surface plane:
+    keys ``"front"`` (G's side) and ``"behind"``, each present when a reachable point lies there."""
     out = {}
-    for name, mask in (("front", side > 0), ("behind", side < 0)):
-        ok = mask & reach
-        if ok.any():
-            i = np.unravel_index(np.argmax(np.where(ok, rates, -np.inf)), rates.shape)
-            out[name] = (float(xx[i]), float(yy[i]))
+    for side in ("front", "behind"):
+        peak = rate_peak(config, side=side)
+        if peak is not None:
+            out[side] = (peak.x, peak.y)
     return out
 
 
@@ -272,7 +242,7 @@ def tiling_error(config: ScenarioConfig, trajectory: np.ndarray, tiles: int) -> 
     Against the config's own model (the one that scores plans): ``zeta_max_rel`` =
     max_n |zeta_tiled - zeta| / zeta, ``rate_abs`` / ``rate_rel`` = error of the mean rate.
     """
-    tiled = config.replace(quadrature_nodes=tiles)
+    tiled = tiled_config(config, tiles)
     z_exact, z_tiled = ie.zeta(config, trajectory), ie.zeta(tiled, trajectory)
     r_exact, r_tiled = ie.average_rate(config, trajectory), ie.average_rate(tiled, trajectory)
     return {
@@ -341,6 +311,9 @@ def _run(
                   "seconds": time.perf_counter() - t0, "solver_seconds": solver_seconds, "accepted": False,
                   "rel_improvement": None, "worst_violation": None}  # fmt: skip
         history.append(record)
+        if q_new is not None and not np.all(np.isfinite(q_new)):  # a broken solution: a failure
+            q_new, status = None, f"solver_error: non-finite trajectory (status {status})"
+            record["status"] = status
         if q_new is None:
             if not status.startswith("solver_error"):
                 record["status"] = f"solver_error: status {status}"

@@ -43,6 +43,12 @@ U_BOUND = 10.0
 OK_STATUSES = ("optimal", "optimal_inaccurate")
 
 
+def tiled_config(config: ScenarioConfig, tiles: int) -> ScenarioConfig:
+    """``config`` with exactly ``tiles`` x ``tiles`` surface nodes (no accuracy floor): the
+    coarse model of the surrogate's curvature (its value is anchored to the exact model)."""
+    return config.replace(quadrature_nodes=tiles, quadrature_tol=math.inf)
+
+
 @dataclass
 class Linearisation:
     """Problem (20) at one iterate q^l: its parameter values and the surrogate's constant."""
@@ -65,7 +71,7 @@ class Surrogate:
         solver_options: dict[str, Any] | None = None,
     ):
         self.config = config
-        self.tiled = config.replace(quadrature_nodes=tiles)
+        self.tiled = tiled_config(config, tiles)
         self.solver = solver
         self.dpp = dpp
         self.warm_start = False  # see solve(): cvxpy's in-place Clarabel update can fail

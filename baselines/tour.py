@@ -41,9 +41,9 @@ from typing import Any
 import numpy as np
 
 import ios_uav_env as ie
-from baselines.fixed import _leg, _moves
+from baselines.fixed import _leg
 from baselines.plan import Plan
-from ios_uav_env import ScenarioConfig
+from ios_uav_env import ScenarioConfig, moves_needed
 from ios_uav_env.peak import reachable
 
 #: Grid (m) of the node rate maps that give the compromise points.
@@ -56,7 +56,7 @@ def node_rate_maps(
     config: ScenarioConfig, resolution: float, margin: float | None = None
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Every node's rate on the DP grid of ``config``: xs (nx,), ys (ny,), rates (K, ny, nx)."""
-    from baselines.dp import DEFAULT_MARGIN, grid_axes
+    from baselines.grid import DEFAULT_MARGIN, grid_axes
 
     xs, ys, _ = grid_axes(config, resolution, DEFAULT_MARGIN if margin is None else margin)
     xx, yy = np.meshgrid(xs, ys)
@@ -100,7 +100,7 @@ def _legs(config: ScenarioConfig, points: np.ndarray) -> tuple[np.ndarray, list[
     path, where = [stops[0][None, :]], []
     count = 1
     for a, b in itertools.pairwise(stops):
-        leg = _leg(a, b, config.D, _moves(config, float(np.linalg.norm(b - a))))
+        leg = _leg(a, b, config.D, moves_needed(float(np.linalg.norm(b - a)), config.D))
         path.append(leg)
         count += len(leg)
         where.append(count - 1)
@@ -251,7 +251,7 @@ def solve(
         for a, b in itertools.pairwise(seq):
             if (a, b) not in leg_rates:
                 d = float(np.linalg.norm(stops[b] - stops[a]))
-                leg = _leg(stops[a], stops[b], config.D, _moves(config, d))
+                leg = _leg(stops[a], stops[b], config.D, moves_needed(d, config.D))
                 leg_rates[a, b] = ie.node_rates(config, leg) if len(leg) else np.empty((config.K, 0))
             parts.append(leg_rates[a, b])
             count += leg_rates[a, b].shape[1]
@@ -264,7 +264,7 @@ def solve(
         for a in range(len(stops))
         for b in range(len(stops))
     }
-    hop_moves = {h: _moves(config, d) for h, d in hop_dist.items()}
+    hop_moves = {h: moves_needed(d, config.D) for h, d in hop_dist.items()}
     duals: list[np.ndarray] = []  # dual weights of the routes that entered the best ``keep``
     for size in range(1, min(max_points, len(cands)) + 1):
         for subset in itertools.combinations(range(len(cands)), size):

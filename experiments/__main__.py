@@ -1,12 +1,18 @@
 """``python -m experiments figures``: the paper's sweeps and figures under ``results/``.
 
-    python -m experiments figures [--quick] [--jobs N] [--out results] [--no-agents]
+    python -m experiments figures --overwrite             # regenerate the shipped results/
+    python -m experiments figures --quick                 # a tiny sweep into out/figures-quick
+    python -m experiments figures [--quick] [--jobs N] [--out DIR] [--no-agents]
     python -m experiments multinode [--quick] [--jobs N] [--out DIR]   (see experiments.multinode)
 
-Solves every point of :class:`experiments.sweep.SweepSpec` in parallel (a progress bar;
-finished points are cached under ``OUT/cache`` so an interrupted run resumes), then writes
-``OUT/sweep.csv`` (scheme, T, M, average rate, % of DP, feasible, seconds), the PNG panels
-and ``OUT/claims.md`` (the paper's qualitative claims checked with the numbers).
+The shipped ``results/`` is replaced only with ``--overwrite`` (the full sweep's default
+``--out`` is ``results``, ``--quick``'s is ``out/figures-quick``). Solves every point of
+:class:`experiments.sweep.SweepSpec` in parallel (a progress bar; finished points are
+cached under ``OUT/cache`` so an interrupted run resumes), then writes ``OUT/sweep.csv``
+(scheme, T, M, average rate, % of DP, feasible, seconds), the PNG panels and
+``OUT/claims.md`` (the paper's qualitative claims checked with the numbers). SIGINT or
+SIGTERM stops the worker processes and keeps the finished points in the cache (exit status
+130 or 143); running the command again resumes.
 """
 
 from __future__ import annotations
@@ -19,12 +25,16 @@ from pathlib import Path
 
 import numpy as np
 
+from baselines.runner import check_writable
 from experiments.figures import check_claims, make_figures, write_claims
 from experiments.sweep import SweepSpec, run_sweep, with_pct_of_dp, write_csv
 from ios_uav_env import ScenarioConfig
 from ios_uav_env.io import atomic_write_text
 
 QUICK = SweepSpec(Ts=(40.0, 60.0), Ms=(200, 400), M_schemes=400, dp_resolution=5.0)
+#: The shipped results (replaced only with --overwrite) and the default folder of --quick.
+RESULTS_DIR = Path(__file__).resolve().parents[1] / "results"
+QUICK_OUT = Path("out/figures-quick")
 
 
 def agent_trajectories(spec: SweepSpec) -> dict[str, np.ndarray]:
@@ -37,12 +47,14 @@ def agent_trajectories(spec: SweepSpec) -> dict[str, np.ndarray]:
     )
     if config != ScenarioConfig():
         return {}  # the shipped agents' scenario does not apply
+    from agents.evaluate import shipped_agents
+    from agents.rollout import rollout
+
     try:
-        from agents.evaluate import shipped_agents
-        from agents.rollout import rollout
-    except ImportError:
+        agents = shipped_agents()
+    except ImportError:  # no stable-baselines3 / torch here
         return {}
-    return {f"RL: {agent.name}": rollout(agent, config=config).trajectory for agent in shipped_agents()}
+    return {f"RL: {agent.name}": rollout(agent, config).trajectory for agent in agents}
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -53,7 +65,9 @@ def build_parser() -> argparse.ArgumentParser:
     )
     sub = parser.add_subparsers(dest="command", required=True)
     fig = sub.add_parser("figures", help="run the sweeps and write the CSV, the figures and claims.md")
-    fig.add_argument("--out", type=Path, default=Path("results"), help="output folder (default: results)")
+    fig.add_argument("--out", type=Path, default=None,
+                     help="output folder (default: results, or out/figures-quick with --quick)")  # fmt: skip
+    fig.add_argument("--overwrite", action="store_true", help="allow replacing the shipped results/")
     fig.add_argument("--jobs", type=int, default=None, help="worker processes (default: all cores)")
     fig.add_argument("--quick", action="store_true", help="a tiny sweep: T in {40, 60} s, M in {200, 400}")
     fig.add_argument("--no-agents", action="store_true", help="do not draw the shipped RL agents")
@@ -62,17 +76,24 @@ def build_parser() -> argparse.ArgumentParser:
     multi.add_argument(
         "--out", type=Path, default=None, help="output folder (default: results/multinode; --quick: out/...)"
     )
+    multi.add_argument("--overwrite", action="store_true", help="allow replacing results/multinode")
     multi.add_argument("--jobs", type=int, default=1, help="worker processes (default 1)")
     multi.add_argument("--quick", action="store_true", help="M = 60, T in {60, 100} s, K <= 3, one seed")
     return parser
 
 
-def multinode_main(args: argparse.Namespace) -> int:
+def multinode_main(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
     """``python -m experiments multinode``: solve (cached), write CSV, figures and claims."""
     from experiments import multinode
 
     spec = multinode.QUICK if args.quick else multinode.MultiSpec()
     out = args.out or Path("out/multinode-quick" if args.quick else "results/multinode")
+    if out.resolve() == RESULTS_DIR / "multinode" and not args.overwrite:
+        parser.error(f"argument --out: {out} holds the shipped results; pass --overwrite to replace them")
+    try:
+        check_writable(out)
+    except OSError as exc:
+        parser.error(f"argument --out: {exc}")
     t0 = time.perf_counter()
     records = multinode.run(spec, out / "cache", jobs=args.jobs)
     csv = multinode.write_csv(records, out / "multinode.csv")
@@ -91,12 +112,26 @@ def main(argv: Sequence[str] | None = None) -> int:
     if args.jobs is not None and args.jobs < 1:
         parser.error(f"argument --jobs: must be >= 1, got {args.jobs}")
     if args.command == "multinode":
-        return multinode_main(args)
+        return multinode_main(args, parser)
+    if args.out is None:
+        args.out = QUICK_OUT if args.quick else Path("results")
+    if args.out.resolve() == RESULTS_DIR and not args.overwrite:
+        parser.error(
+            f"argument --out: {args.out} holds the shipped results; pass --overwrite to replace them "
+            "(or --out another folder)"
+        )
+    try:
+        check_writable(args.out)
+    except OSError as exc:
+        parser.error(f"argument --out: {exc}")
     spec = QUICK if args.quick else SweepSpec()
     t0 = time.perf_counter()
-    records = with_pct_of_dp(
-        run_sweep(spec, args.out / "cache", jobs=args.jobs, progress=not args.no_progress)
-    )
+    try:
+        records = with_pct_of_dp(
+            run_sweep(spec, args.out / "cache", jobs=args.jobs, progress=not args.no_progress)
+        )
+    except KeyboardInterrupt:
+        return 130
     csv = write_csv(records, args.out / "sweep.csv")
     agents = {} if args.no_agents else agent_trajectories(spec)
     figures = make_figures(records, spec, args.out, agents)

@@ -199,6 +199,10 @@ def check_claims(records: Sequence[dict[str, Any]], spec: Any) -> tuple[str, boo
         ok_all &= ok
         lines.append(f"- **{'holds' if ok else 'does NOT hold'}**: {text}")
 
+    broken = [f"{r['scheme']} T={r['T']:g} M={r['M']}" for r in records if not np.isfinite(r["average_rate"])]
+    if broken:  # a NaN compares false both ways: no claim can hold or fail on it
+        lines.append(f"- **cannot be checked**: non-finite average rate for {', '.join(broken)}")
+        return "\n".join(lines) + "\n", False
     rate = {(r["scheme"], r["T"], r["M"]): r["average_rate"] for r in records}
     ts = sorted(spec.Ts)
     order = [rate[("ia", t, m0)] > rate[("ra", t, m0)] > rate[("cuc", t, m0)] for t in ts]

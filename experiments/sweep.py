@@ -3,23 +3,25 @@
 A point is one (scheme, T, M) solve on the default scenario with T and M replaced
 (M = 100 x M_z, as in the paper's sweeps). Every point is solved by the planners of
 ``baselines`` (SCA for ia / ra / cuc, fly-hover-fly for ia-ft, DP for dp-*), scored by
-``ios_uav_env.average_rate`` and cached as one JSON file per point, written atomically as
-soon as it finishes: an interrupted run resumes where it stopped. The cache key includes
-the base scenario and the planner settings, so changing them re-solves.
+``ios_uav_env.average_rate`` and cached as one JSON file per point by
+``baselines.runner.run_tasks`` (parallel, written atomically as soon as it finishes): an
+interrupted run resumes where it stopped. The cache key includes the base scenario and the
+planner settings, so changing them re-solves; a cached record that is unreadable, lacks a key
+of :data:`RECORD_KEYS` or holds a non-finite number is solved again (with a warning naming
+its file).
 """
 
 from __future__ import annotations
 
+import functools
 import hashlib
 import json
-import multiprocessing
-import os
 from collections.abc import Iterable, Sequence
-from concurrent.futures import ProcessPoolExecutor, as_completed
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+from baselines.runner import run_tasks
 from ios_uav_env import ScenarioConfig
 from ios_uav_env.io import atomic_write_text
 
@@ -35,6 +37,8 @@ DP_OF = {
 }
 PAPER_SCHEMES = ("ia", "ra", "ia-ft", "cuc")
 CSV_COLUMNS = ("scheme", "T", "M", "average_rate", "pct_of_dp", "feasible", "seconds")
+#: The keys of a point's record (a cached record without one of them is solved again).
+RECORD_KEYS = ("scheme", "T", "M", "average_rate", "feasible", "worst_violation", "seconds", "trajectory")
 
 
 @dataclass(frozen=True)
@@ -109,8 +113,10 @@ def solve_point(point: Point, spec: SweepSpec) -> dict[str, Any]:
     }
 
 
-def _init_worker() -> None:
-    os.environ.setdefault("OMP_NUM_THREADS", "1")
+def solve_order(point: Point) -> tuple[bool, bool, float, int]:
+    """Sort key of the points to solve: the slowest first (SCA on the IOS at large T, then the
+    other SCA schemes, DP last), so that the worker pool ends evenly."""
+    return (point.scheme != "ia", point.scheme.startswith("dp"), -point.T, -point.M)
 
 
 def run_sweep(
@@ -121,45 +127,23 @@ def run_sweep(
     progress: bool = True,
     points: Iterable[Point] | None = None,
 ) -> list[dict[str, Any]]:
-    """Solve every point not yet in ``cache_dir`` (in parallel over ``jobs`` processes) and
-    return all records, cached ones included, in the order of ``spec.points()``."""
-    cache_dir = Path(cache_dir)
-    cache_dir.mkdir(parents=True, exist_ok=True)
+    """Solve every point not yet in ``cache_dir`` (in parallel over ``jobs`` processes, default
+    all cores; ``baselines.runner.run_tasks``) and return all records, cached ones included,
+    in the order of ``spec.points()`` (or ``points``)."""
     todo = list(spec.points() if points is None else points)
-    records: dict[Point, dict[str, Any]] = {}
-    missing = []
-    for p in todo:
-        path = cache_dir / f"{spec.cache_key(p)}.json"
-        if path.exists():
-            records[p] = json.loads(path.read_text())
-        else:
-            missing.append(p)
-    jobs = max(1, min(jobs or os.cpu_count() or 1, len(missing) or 1))
-    if missing:
-        from tqdm.auto import tqdm
-
-        bar = tqdm(
-            total=len(todo),
-            initial=len(todo) - len(missing),
-            desc="sweep",
-            unit="solve",
-            disable=not progress,
-        )
-        ctx = multiprocessing.get_context("spawn")  # fresh workers: no inherited BLAS threads
-        os.environ.setdefault("OMP_NUM_THREADS", "1")
-        # slowest first (SCA on the IOS at large T) so the pool ends evenly
-        missing.sort(key=lambda p: (p.scheme != "ia", p.scheme.startswith("dp"), -p.T, -p.M))
-        with ProcessPoolExecutor(max_workers=jobs, mp_context=ctx, initializer=_init_worker) as pool:
-            futures = {pool.submit(solve_point, p, spec): p for p in missing}
-            for future in as_completed(futures):
-                p = futures[future]
-                record = future.result()
-                atomic_write_text(cache_dir / f"{spec.cache_key(p)}.json", json.dumps(record))
-                records[p] = record
-                bar.set_postfix_str(f"{p.name}: {record['average_rate']:.4f}")
-                bar.update()
-        bar.close()
-    return [records[p] for p in todo]
+    return run_tasks(
+        functools.partial(solve_point, spec=spec),
+        todo,
+        cache_dir,
+        key=spec.cache_key,
+        jobs=jobs,
+        order=solve_order,
+        progress=progress,
+        desc="sweep",
+        unit="solve",
+        describe=lambda i, record: f"{todo[i].name}: {record['average_rate']:.4f}",
+        required=RECORD_KEYS,
+    )
 
 
 def with_pct_of_dp(records: Sequence[dict[str, Any]]) -> list[dict[str, Any]]:

@@ -13,35 +13,21 @@ import sys
 import time
 from collections.abc import Sequence
 from pathlib import Path
-from typing import Any
 
 import gymnasium as gym
 import numpy as np
 
 import ios_uav_env  # noqa: F401  (registers the ids)
 from ios_uav_env.config import SURFACES, ScenarioConfig
-from ios_uav_env.peak import rate_peak
+from ios_uav_env.policies import HoverAt
 from ios_uav_env.registration import ENV_IDS
 from ios_uav_env.rendering import save_png
-from ios_uav_env.trajectory import average_rate
+from ios_uav_env.rollout import Episode, run_episode
+from ios_uav_env.trajectory import average_rate, check_trajectory
 
 ID_OF_SURFACE = {kwargs["surface"]: env_id for env_id, kwargs in ENV_IDS.items()}
 DOCS_FRAME = Path("docs/demo_frame.png")
 DOCS_FRAME_MAX_BYTES = 150_000
-
-
-class HoverPolicy:
-    """Fly to ``target`` at full speed and hover there (the guard handles the way to qF)."""
-
-    def __init__(self, target: tuple[float, float], length_scale: float, D: float) -> None:
-        self.target = np.asarray(target, dtype=float)
-        self.length_scale, self.D = length_scale, D
-
-    def __call__(self, obs: np.ndarray) -> np.ndarray:
-        position = obs[:2].astype(float) * self.length_scale  # observation 0-1: q / L
-        move = (self.target - position) / self.D
-        norm = float(np.hypot(*move))
-        return (move / norm if norm > 1.0 else move).astype(np.float32)
 
 
 def straight_line(config: ScenarioConfig) -> np.ndarray:
@@ -49,21 +35,14 @@ def straight_line(config: ScenarioConfig) -> np.ndarray:
     return np.linspace(config.q0, config.qF, config.N)
 
 
-def run_episode(env_id: str, seed: int, **env_kwargs: Any) -> tuple[dict[str, Any], np.ndarray, float]:
-    """Roll out the hover heuristic once; return (final info, last frame, return)."""
-    env = gym.make(env_id, render_mode="rgb_array", **env_kwargs)
-    base = env.unwrapped
-    peak = rate_peak(base.config)
-    policy = HoverPolicy((peak.x, peak.y), base.length_scale, base.config.D)
-    obs, info = env.reset(seed=seed)
-    total, done = 0.0, False
-    while not done:
-        obs, reward, terminated, truncated, info = env.step(policy(obs))
-        total += float(reward)
-        done = terminated or truncated
+def demo_episode(env_id: str, seed: int) -> tuple[Episode, np.ndarray]:
+    """Roll out the hover heuristic once; return the episode and its last frame."""
+    policy = HoverAt("peak")
+    env = gym.make(env_id, render_mode="rgb_array", **policy.env_kwargs)
+    episode = run_episode(env, policy, seed=seed)
     frame = env.render()
     env.close()
-    return info, frame, total
+    return episode, frame
 
 
 def main(argv: Sequence[str] | None = None) -> int:
@@ -78,13 +57,13 @@ def main(argv: Sequence[str] | None = None) -> int:
 
     env_id = ID_OF_SURFACE[args.surface]
     start = time.perf_counter()
-    info, frame, total = run_episode(env_id, args.seed)
+    episode, frame = demo_episode(env_id, args.seed)
     seconds = time.perf_counter() - start
     config = ScenarioConfig(surface=args.surface)
     print(f"{env_id}: M = {config.M}, N = {config.N} slots, D = {config.D:g} m, seed {args.seed}")
     print(f"heuristic (fly to the reachable rate peak, hover, guard to qF), {seconds:.2f} s:")
-    print(f"  average rate (eq. 9)  {info['average_rate']:.4f} bps/Hz   return {total:.4f}")
-    print(f"  feasibility (eq. 10)  {info['report']}")
+    print(f"  average rate (eq. 9)  {episode.average_rate:.4f} bps/Hz   return {episode.episode_return:.4f}")
+    print(f"  feasibility (eq. 10)  {check_trajectory(episode.config, episode.trajectory)}")
     print(f"straight line q0 -> qF: average rate {average_rate(config, straight_line(config)):.4f} bps/Hz")
     print(f"frame: {save_png(frame, args.out)}")
     if args.docs_frame:
@@ -92,7 +71,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         if path.stat().st_size > DOCS_FRAME_MAX_BYTES:  # keep the README light: use a palette
             path = save_png(frame, DOCS_FRAME, colors=256)
         print(f"docs frame: {path} ({path.stat().st_size / 1024:.0f} KB)")
-    return 0 if info["feasible"] else 1
+    return 0 if episode.feasible else 1
 
 
 if __name__ == "__main__":

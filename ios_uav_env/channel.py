@@ -19,6 +19,7 @@ from functools import lru_cache
 import numpy as np
 
 from ios_uav_env.config import ScenarioConfig
+from ios_uav_env.jit import jit
 from ios_uav_env.surface import element_positions, element_to_ground, surface_nodes
 
 
@@ -45,6 +46,51 @@ def side_factor(config: ScenarioConfig, x: np.ndarray) -> np.ndarray:
     return np.where(dx * k.g_side > 0, 1.0, np.where(dx == 0, 0.0, k.t_factor))
 
 
+#: Layout of ``RateKernel.params`` (the scalars of :func:`zeta_point`), by name.
+PARAMS = (
+    "x_c", "g_side", "t_factor", "has_surface", "gx", "gy", "z_u2", "k_direct", "d_exp", "eta",
+    "wavelength", "los_gain", "nlos_gain",
+)  # fmt: skip
+
+
+@jit
+def zeta_point(x: float, y: float, nodes: np.ndarray, params: np.ndarray) -> float:
+    """zeta at one position: the formula of :func:`zeta` as a loop over the surface nodes
+    (compiled with numba when installed: the env's hot path). ``nodes`` is the (3, K) array
+    (y_k, (z_U - z_k)^2, J w_k) and ``params`` the scalars of :data:`PARAMS`."""
+    dxg, dyg = x - params[4], y - params[5]
+    direct = params[7] * (dxg * dxg + dyg * dyg + params[6]) ** params[8]
+    dx = x - params[0]
+    if params[3] == 0.0 or dx == 0.0:
+        return direct
+    side = 1.0 if dx * params[1] > 0.0 else params[2]
+    dx2, total = dx * dx, 0.0
+    for k in range(nodes.shape[1]):
+        dy = y - nodes[0, k]
+        d2 = dy * dy + nodes[1, k] + dx2
+        total += nodes[2, k] / (d2 * d2)
+    return side * abs(dx) ** 3 * total + direct
+
+
+@jit
+def rate_point(x: float, y: float, nodes: np.ndarray, params: np.ndarray) -> float:
+    """Expected-gain rate log2(1 + eta zeta^2) at one position (see :func:`zeta_point`)."""
+    z = zeta_point(x, y, nodes, params)
+    return math.log2(1.0 + params[9] * z * z)
+
+
+@jit
+def faded_point(x: float, y: float, n_re: float, n_im: float, nodes: np.ndarray, params: np.ndarray) -> float:
+    """One faded-rate sample log2(1 + eta |h|^2) at one position, given the two standard
+    normal draws of h_SS (real, then imaginary part): the scalar form of :func:`faded_rates`."""
+    z = zeta_point(x, y, nodes, params)
+    dxg, dyg = x - params[4], y - params[5]
+    phase = 2.0 * math.pi * math.sqrt(dxg * dxg + dyg * dyg + params[6]) / params[10]
+    re = params[11] * math.cos(phase) + params[12] * n_re
+    im = -params[11] * math.sin(phase) + params[12] * n_im
+    return math.log2(1.0 + params[9] * z * z * (re * re + im * im))
+
+
 @dataclass(frozen=True, eq=False)
 class RateKernel:
     """Per-config constants of zeta(q) (the surface's weighted nodes and the rest), with the
@@ -68,30 +114,22 @@ class RateKernel:
     los_gain: float  # sqrt(kappa / (1 + kappa))
     nlos_gain: float  # sqrt(1 / (1 + kappa)) / sqrt(2): per real/imaginary part of h_SS
 
+    nodes: np.ndarray  # (3, K): node_y, dz2, jw stacked (the arrays of zeta_point)
+    params: np.ndarray  # (10,): the scalars of zeta_point, in the order of PARAMS
+
     def zeta(self, x: float, y: float) -> float:
-        """zeta at one position (x, y): the same formula as :func:`zeta`, tested equal to it."""
-        direct = self.k_direct * ((x - self.gx) ** 2 + (y - self.gy) ** 2 + self.z_u2) ** self.d_exp
-        dx = x - self.x_c
-        if not self.has_surface or dx == 0:
-            return float(direct)
-        side = 1.0 if dx * self.g_side > 0 else self.t_factor
-        d2 = (y - self.node_y) ** 2 + (self.dz2 + dx * dx)
-        return float(side * abs(dx) ** 3 * np.dot(self.jw, 1.0 / (d2 * d2)) + direct)
+        """zeta at one position (x, y): :func:`zeta_point`, tested equal to :func:`zeta`."""
+        return zeta_point(float(x), float(y), self.nodes, self.params)
 
     def rate(self, x: float, y: float) -> float:
         """Expected-gain rate log2(1 + eta zeta^2) at one position (x, y)."""
-        z = self.zeta(x, y)
-        return math.log2(1.0 + self.eta * z * z)
+        return rate_point(float(x), float(y), self.nodes, self.params)
 
     def faded_rate(self, x: float, y: float, rng: np.random.Generator) -> float:
-        """One faded-rate sample log2(1 + eta |h|^2) at (x, y): the scalar form of
-        :func:`faded_rates`, drawing h_SS from ``rng`` in the same order (real, then imaginary)."""
-        z = self.zeta(x, y)
-        d_ug = math.sqrt((x - self.gx) ** 2 + (y - self.gy) ** 2 + self.z_u2)
-        phase = 2.0 * math.pi * d_ug / self.wavelength
-        re = self.los_gain * math.cos(phase) + self.nlos_gain * rng.standard_normal()
-        im = -self.los_gain * math.sin(phase) + self.nlos_gain * rng.standard_normal()
-        return math.log2(1.0 + self.eta * z * z * (re * re + im * im))
+        """One faded-rate sample log2(1 + eta |h|^2) at (x, y): :func:`faded_point` with h_SS
+        drawn from ``rng`` in the order of :func:`faded_rates` (real, then imaginary part)."""
+        n_re, n_im = rng.standard_normal(2)
+        return faded_point(float(x), float(y), float(n_re), float(n_im), self.nodes, self.params)
 
 
 @lru_cache(maxsize=64)
@@ -99,7 +137,7 @@ def rate_kernel(config: ScenarioConfig) -> RateKernel:
     """The (cached) :class:`RateKernel` of ``config`` (one ground node: ``ValueError`` if K > 1)."""
     config.require_single_node("the single-node rate model (slot_rates, average_rate, rate_peak, the env)")
     nodes = surface_nodes(config)
-    return RateKernel(
+    fields = dict(
         node_y=nodes.y,
         dz2=(config.uav_altitude - nodes.z) ** 2,
         jw=config.J * nodes.weight,
@@ -118,6 +156,9 @@ def rate_kernel(config: ScenarioConfig) -> RateKernel:
         los_gain=math.sqrt(config.kappa / (1.0 + config.kappa)),
         nlos_gain=math.sqrt(1.0 / (1.0 + config.kappa)) / math.sqrt(2.0),
     )
+    packed = np.vstack([fields["node_y"], fields["dz2"], fields["jw"]])
+    params = np.array([float(fields[name]) for name in PARAMS])
+    return RateKernel(**fields, nodes=packed, params=params)
 
 
 def surface_terms(config: ScenarioConfig, positions: np.ndarray) -> np.ndarray:

@@ -1,6 +1,6 @@
 """Scenario configuration: every parameter of the system model, with the paper's defaults.
 
-The contract is ``shared/spec/model.md`` (Liu et al., IEEE WCL 11(9), 2022). Each field
+The model is that of Liu et al., IEEE WCL 11(9), 2022 (``docs/model.md``). Each field
 comment gives the unit and the paper's symbol. Choices the paper leaves open are marked
 *(assumption)* and are fields, never hidden constants. Derived quantities (N, D, eta, M)
 are properties. Variants are made with :func:`dataclasses.replace`, which re-validates.
@@ -14,6 +14,8 @@ import numbers
 from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import Any, Literal
+
+import numpy as np
 
 Surface = Literal["ios", "ris", "none"]
 SURFACES: tuple[str, ...] = ("ios", "ris", "none")
@@ -70,11 +72,14 @@ class ScenarioConfig:
     gamma: float = 1.0  # element amplitude ratio |gamma_m| (assumption)
     element_spacing_wl: float = 0.5  # wavelengths, element pitch on the grid (assumption: lambda/2)
     element_size_wl: float = 0.5  # wavelengths, element size delta_y = delta_z (assumption: lambda/2)
-    # Nodes per axis of the Chebyshev compression of the element sum (see ios_uav_env.surface):
-    # the exact per-element sum is replaced by an equivalent one over at most n x n weighted
-    # nodes, exact for polynomials of degree < n along each axis; relative error < 1e-12 at
-    # the defaults. 0 = always sum over every element (slow for M = 6000, identical result).
-    quadrature_nodes: int = 8
+    # Chebyshev compression of the element sum (see ios_uav_env.surface): the exact per-element
+    # sum is replaced by an equivalent one over n x n weighted nodes, exact for polynomials of
+    # degree < n along each axis. n is at least quadrature_nodes, raised where the geometry needs
+    # it (a UAV close above a large surface) until an a-priori bound of the relative amplitude
+    # error is <= quadrature_tol; the exact sum once n reaches the grid size. 0 = always the
+    # exact sum (slow for M = 6000); quadrature_tol = inf = exactly quadrature_nodes.
+    quadrature_nodes: int = 8  # nodes per axis, at least (0: exact per-element sum)
+    quadrature_tol: float = 1e-12  # relative amplitude error the compression must stay within
     # m, several ground nodes w_k (TDMA, max-min fairness; see ios_uav_env.multinode). None:
     # the single node ``ground_node``. When given (K >= 1 pairs), ``ground_node`` is set to
     # ground_nodes[0] and one node collapses to None (one canonical single-node value).
@@ -89,7 +94,9 @@ class ScenarioConfig:
         self._canonical_nodes()
         object.__setattr__(self, "ios_center", _pair(self.ios_center, "ios_center", 3))
         shape = _pair(self.ios_shape, "ios_shape")
-        if not all(s == int(s) and s >= 1 for s in shape):
+        if any(isinstance(v, (bool, np.bool_)) for v in self.ios_shape) or not all(
+            s == int(s) and s >= 1 for s in shape
+        ):
             raise ValueError(f"ios_shape must be two integers >= 1 (M_y, M_z; M > 0), got {self.ios_shape!r}")
         object.__setattr__(self, "ios_shape", (int(shape[0]), int(shape[1])))
         positive = {
@@ -109,9 +116,23 @@ class ScenarioConfig:
             raise ValueError(f"noise_dbm must be finite, got {self.noise_dbm!r}")
         if not (_is_int(self.quadrature_nodes) and 0 <= self.quadrature_nodes <= 64):
             raise ValueError(f"quadrature_nodes must be an integer in [0, 64], got {self.quadrature_nodes!r}")
+        if not (_is_real(self.quadrature_tol) and self.quadrature_tol > 0):
+            raise ValueError(f"quadrature_tol must be a number > 0 (inf: none), got {self.quadrature_tol!r}")
         # plain Python numbers (numpy scalars accepted): stable hashing, equality and JSON
-        for name in (*positive, *nonneg, "noise_dbm"):
+        for name in (*positive, *nonneg, "noise_dbm", "quadrature_tol"):
             object.__setattr__(self, name, float(getattr(self, name)))
+        # derived powers must be finite numbers too: eta = P / sigma^2 enters every rate
+        for name in ("noise_w", "eta"):
+            try:
+                value = getattr(self, name)
+            except OverflowError:
+                value = math.inf
+            if not (math.isfinite(value) and 1e-150 < value < 1e150):
+                raise ValueError(
+                    f"power_w={self.power_w!r} W and noise_dbm={self.noise_dbm!r} dBm give {name} = "
+                    f"{value!r}: it must be a finite number in (1e-150, 1e150) "
+                    "(e.g. noise_dbm in [-250, 250] dBm)"
+                )
         object.__setattr__(self, "quadrature_nodes", int(self.quadrature_nodes))
         ratio = self.T / self.dt
         if abs(ratio - round(ratio)) > 1e-9 * max(1.0, ratio):
@@ -198,8 +219,9 @@ class ScenarioConfig:
 
     @property
     def eta(self) -> float:
-        """Transmit SNR eta = P / sigma^2."""
-        return self.power_w / self.noise_w
+        """Transmit SNR eta = P / sigma^2 (inf when sigma^2 underflows to 0)."""
+        noise = self.noise_w
+        return self.power_w / noise if noise > 0 else math.inf
 
     @property
     def M(self) -> int:
@@ -229,15 +251,14 @@ class ScenarioConfig:
 
     def min_horizon(self) -> float:
         """Shortest T (s) that still lets the UAV reach qF from q0 at v_max."""
-        dist = math.dist(self.q0, self.qF)
-        moves = math.ceil(dist / self.D - 1e-9) if dist > 0 else 0
-        return (moves + 1) * self.dt
+        return (int(moves_needed(math.dist(self.q0, self.qF), self.D)) + 1) * self.dt
 
     def replace(self, **changes: Any) -> ScenarioConfig:
-        """A copy with ``changes`` applied (unknown fields raise ``TypeError``); re-validated."""
-        unknown = set(changes) - {f.name for f in dataclasses.fields(self)}
-        if unknown:
-            raise TypeError(f"unknown ScenarioConfig field(s): {sorted(unknown)}")
+        """A copy with ``changes`` applied (an unknown field raises ``TypeError`` worded as
+        Python's own); re-validated."""
+        for name in changes:
+            if name not in SCENARIO_FIELDS:
+                raise TypeError(f"ScenarioConfig.replace() got an unexpected keyword argument {name!r}")
         if "ground_nodes" in changes:
             if changes["ground_nodes"] is None:  # back to one node: keep the first one
                 changes.setdefault("ground_node", self.ground_node)
@@ -259,6 +280,30 @@ class ScenarioConfig:
         else:
             del out["ground_nodes"]
         return out
+
+
+#: The names of the ``ScenarioConfig`` fields (the scenario's keyword arguments everywhere).
+SCENARIO_FIELDS: frozenset[str] = frozenset(f.name for f in dataclasses.fields(ScenarioConfig))
+
+
+def moves_needed(distance: Any, D: float) -> Any:
+    """Moves of at most D needed to cover ``distance`` (m): ceil(distance / D), 0 for 0.
+
+    A distance of exactly k D takes k moves (a relative slack of 1e-9 absorbs rounding).
+    Vectorised: an array of distances gives an array of counts (floats), a number an int.
+    """
+    moves = np.maximum(np.ceil(np.asarray(distance, dtype=float) / D - 1e-9), 0.0)
+    return int(moves) if moves.ndim == 0 else moves
+
+
+def scene_box(config: ScenarioConfig, margin: float = 0.0, *, ends: bool = True) -> tuple[float, ...]:
+    """(x_min, x_max, y_min, y_max) in m: the bounding box of the ground nodes and the IOS
+    centre (and of q0 and qF with ``ends``), widened by ``margin`` on every side. The planners'
+    grids, the peak search and the figures all start from this box."""
+    points = [*config.nodes, config.ios_center[:2]] + ([config.q0, config.qF] if ends else [])
+    pts = np.asarray(points, dtype=float)
+    lo, hi = pts.min(axis=0) - margin, pts.max(axis=0) + margin
+    return float(lo[0]), float(hi[0]), float(lo[1]), float(hi[1])
 
 
 def as_config(value: Any, name: str = "config") -> ScenarioConfig:

@@ -3,7 +3,7 @@
 The env is a thin adapter over the model (``ios_uav_env.channel`` and ``.trajectory``):
 action -> next way-point (optionally through the arrival guard) -> rate -> reward. It never
 re-derives a formula: the per-step rate is ``RateKernel.rate`` / ``RateKernel.faded_rate``,
-the episode's score is ``average_rate`` (eq. (9)) and its feasibility ``check_trajectory``.
+and the score of a finished episode is ``average_rate`` (eq. (9)) of ``env.trajectory``.
 """
 
 from __future__ import annotations
@@ -17,34 +17,21 @@ import numpy as np
 from gymnasium import spaces
 
 from ios_uav_env.channel import RateKernel, rate_kernel, slot_rates
-from ios_uav_env.config import FEASIBILITY_TOL, ScenarioConfig, as_config, scenario_option
-from ios_uav_env.guard import guarded_position
-from ios_uav_env.observation import (
-    INSTANCE_NAMES,
-    OBS_NAMES,
-    PEAK_NAMES,
-    T_SCALE,
-    check_fits,
-    instance_values,
-    observation_bounds,
-    rate_upper_bound,
-)
+from ios_uav_env.config import ScenarioConfig, as_config, scenario_option
+from ios_uav_env.dynamics import INFO, STATE, episode_row, flags_of, reset_rows, step_rows
+from ios_uav_env.observation import INSTANCE_NAMES, OBS_NAMES, PEAK_NAMES, check_fits, space_bounds
+from ios_uav_env.options import CHANNELS, EnvOptions, split_kwargs
 from ios_uav_env.peak import rate_peak
-from ios_uav_env.trajectory import average_rate, check_trajectory
+from ios_uav_env.scenarios import ScenarioRanges
 
-#: Values of the ``channel`` argument: the expected-gain rate (the paper's objective) or a
-#: Rician faded-rate sample per slot.
-CHANNELS: tuple[str, ...] = ("expected", "rician")
+#: The keys of every step's (and the reset's) ``info``, in order: all numbers (``position``
+#: a float64 array of shape (2,)), the same on every step of every id.
+INFO_KEYS: tuple[str, ...] = (
+    "rate", "expected_rate", "position", "distance_to_final", "slot", "reward_rate", "reward_reach",
+    "reward_terminal", "average_rate", "mean_faded_rate", "feasible", "worst_violation", "terminal_miss",
+)  # fmt: skip
 
-__all__ = [
-    "CHANNELS",
-    "INSTANCE_NAMES",
-    "OBS_NAMES",
-    "PEAK_NAMES",
-    "IOSUAVEnv",
-    "rate_upper_bound",
-    "scenario_option",
-]
+__all__ = ["CHANNELS", "INFO_KEYS", "INSTANCE_NAMES", "OBS_NAMES", "PEAK_NAMES", "IOSUAVEnv"]
 
 
 class IOSUAVEnv(gym.Env):
@@ -53,8 +40,8 @@ class IOSUAVEnv(gym.Env):
     ## Description
 
     The scenario of Liu et al., "Full-Dimensional Rate Enhancement for UAV-Enabled
-    Communications via Intelligent Omni-Surface" (IEEE WCL 2022); the model is
-    ``shared/spec/model.md``. A UAV at altitude z_U sends to a ground node G through the
+    Communications via Intelligent Omni-Surface" (IEEE WCL 2022; the model: ``docs/model.md``).
+    A UAV at altitude z_U sends to a ground node G through the
     direct link and an intelligent omni-surface (IOS) in the plane x = x_c, which serves G by
     reflection when the UAV is on G's side and by transmission from the other side; its
     phases are the closed-form optimum (eq. (13)), so the rate depends on the UAV position
@@ -63,9 +50,7 @@ class IOSUAVEnv(gym.Env):
     eq. (10): arrive at ``qF`` at slot N with at most D = v_max dt per move. Ids:
     ``ios_uav_env/IOSUAV-v0`` (IOS), ``ios_uav_env/RISUAV-v0`` (reflect-only RIS) and
     ``ios_uav_env/UAV-v0`` (no surface). ``env.unwrapped.trajectory`` is the (n, 2) array
-    of the way-points so far (m); every step's info has ``rate`` (the reward's rate term),
-    ``expected_rate``, ``position`` (x, y), ``distance_to_final``, ``slot`` (the paper's
-    1-based index n of the UAV's way-point q[n]) and ``rewards``.
+    of the way-points so far (m).
 
     ## Action Space
 
@@ -103,7 +88,7 @@ class IOSUAVEnv(gym.Env):
     The slack s is how many spare moves the UAV has to still reach qF (s < 0: qF is out of
     reach); the squashing keeps it O(1) with most resolution near s = 0. The rate at q is a
     function of the position (it adds no state) given to ease learning; r_ub is
-    :func:`rate_upper_bound`. Together they make the problem Markov.
+    ``ios_uav_env.observation.rate_bound``. Together they make the problem Markov.
 
     With ``instance_features=True`` (the randomised id's default) 6 features that define the
     instance follow (names in ``INSTANCE_NAMES``): M / 6000 (0 without a surface), is-IOS and
@@ -129,8 +114,24 @@ class IOSUAVEnv(gym.Env):
     so lingering too long costs more at every step; ``terminal`` is the final miss, steep
     near zero so that even a tiny miss never pays. Both are 0 for a trajectory that meets
     eq. (10), so with the guard the reward is the rate alone and the return is N R - r(q0)
-    with R of eq. (9). ``info["rewards"]`` holds the three weighted terms, which sum to the
-    reward: {"rate": rate, "reach": -w_reach reach, "terminal": -w_terminal terminal}.
+    with R of eq. (9). ``info`` holds the three weighted terms, which sum to the reward:
+    ``reward_rate`` (rate), ``reward_reach`` (-w_reach reach), ``reward_terminal``
+    (-w_terminal terminal).
+
+    ## Info
+
+    The same keys on every step and at reset (``INFO_KEYS``), all numpy numbers (float64;
+    ``slot`` int64, ``feasible`` bool_; each has a dtype), so loggers, replay buffers and
+    TorchRL's info readers can stack them: ``rate`` (the reward's rate term), ``expected_rate``,
+    ``position`` (x, y in m, a float64 array), ``distance_to_final`` (m), ``slot`` (the
+    paper's 1-based index n of the way-point q[n]), the three reward terms, and the running
+    score and check of the trajectory so far: ``average_rate`` (mean expected-gain rate of
+    the way-points so far; at slot N, eq. (9)), ``mean_faded_rate`` (mean of the ``rate``
+    terms; equal to ``average_rate`` for channel "expected"), ``terminal_miss`` (m by which qF
+    is out of reach in the moves left; at slot N, |q[N] - qF|), ``worst_violation`` (m, the
+    worst breach of eq. (10) so far) and ``feasible`` (``worst_violation`` <= 1e-6 m; at slot
+    N, eq. (10)). The full report: ``check_trajectory(env.unwrapped.config,
+    env.unwrapped.trajectory)``.
 
     ## Starting State
 
@@ -145,15 +146,16 @@ class IOSUAVEnv(gym.Env):
     ## Episode End
 
     ``terminated=True`` after the (N - 1)th step, at slot N: time is in the observation,
-    so this is a true terminal state. The env never truncates (``gym.make``'s ``TimeLimit`` of
-    N - 1 steps flags ``truncated`` at that same step too; ``terminated`` is what counts), and
-    a ``TimeLimit`` shorter than N - 1 steps is refused at reset (pass e.g.
-    ``gym.make(..., T=300, max_episode_steps=299)``). The
-    last step's info adds ``average_rate`` (eq. (9) over all N way-points), for "rician"
-    ``mean_faded_rate`` (mean of the N faded samples), and the eq. (10) check: ``feasible``,
-    ``terminal_miss`` (m), ``worst_violation`` (m) and the full ``report``.
+    so this is a true terminal state. The env never truncates, and the ids register no
+    ``TimeLimit``: ``gym.make("ios_uav_env/IOSUAV-v0", T=300)`` runs 299 steps. (A
+    ``max_episode_steps`` passed to ``gym.make`` adds Gymnasium's ``TimeLimit``, which
+    truncates as asked: a trajectory cut before slot N is not a plan of eq. (10).)
 
     ## Arguments
+
+    The scenario and the env's options are two separate things: ``config`` (and keywords
+    named like its fields) is the scenario; the other keywords are ``EnvOptions``. Any
+    other keyword raises ``TypeError`` as Python does.
 
     - ``config``: a ``ScenarioConfig`` (or a dict of its fields); default: the paper's.
     - ``channel``: "expected" (default, deterministic) or "rician".
@@ -172,13 +174,14 @@ class IOSUAVEnv(gym.Env):
     - ``peak_hint`` (False): append the 3 features of the reachable rate peak.
     - ``render_mode``: None or "rgb_array" (the trajectory over the rate map; needs
       ``pip install ios-uav-env[render]``).
-    - ``**overrides``: ``ScenarioConfig`` fields applied with ``config.replace``; the ids set
-      ``surface`` this way, so ``config``'s surface is replaced by the id's.
+    - ``**kwargs``: ``EnvOptions`` fields (the options above) and ``ScenarioConfig`` fields,
+      applied with ``config.replace``; the ids set ``surface`` this way, so ``config``'s
+      surface is replaced by the id's.
 
     ```python
     >>> import gymnasium as gym
     >>> import ios_uav_env
-    >>> env = gym.make("ios_uav_env/IOSUAV-v0", channel="rician", T=100, max_episode_steps=99)
+    >>> env = gym.make("ios_uav_env/IOSUAV-v0", channel="rician", T=100)
     >>> obs, info = env.reset(seed=0)
     >>> obs.shape, info["slot"]
     ((11,), 1)
@@ -187,8 +190,9 @@ class IOSUAVEnv(gym.Env):
 
     ## Version History
 
-    * v0: Initial version; later, without changing v0's observations: ``reset(options=
-      {"config": cfg})``, ``instance_features`` and ``peak_hint`` (issue #6).
+    * v0: Initial version; later, without changing v0's episodes or observations:
+      ``reset(options={"config": cfg})``, ``instance_features`` and ``peak_hint``; then a flat
+      ``info`` with fixed keys (``INFO_KEYS``) and registration without a ``TimeLimit``.
     """
 
     metadata = {"render_modes": ["rgb_array"], "render_fps": 10}
@@ -197,187 +201,126 @@ class IOSUAVEnv(gym.Env):
         self,
         config: ScenarioConfig | Mapping[str, Any] | None = None,
         *,
-        channel: str = "expected",
-        arrival_guard: bool = True,
-        reach_weight: float = 1.0,
-        terminal_weight: float = 2.0,
-        length_scale: float = 400.0,
-        instance_features: bool = False,
-        peak_hint: bool = False,
         render_mode: str | None = None,
-        **overrides: Any,
+        **kwargs: Any,
     ) -> None:
+        options, overrides = split_kwargs(kwargs, f"{type(self).__name__}.__init__")
         config = as_config(config)
         self._base_config: ScenarioConfig = config.replace(**overrides) if overrides else config
-        if channel not in CHANNELS:
-            raise ValueError(f"channel must be one of {CHANNELS}, got {channel!r}")
-        if not isinstance(arrival_guard, (bool, np.bool_)):
-            raise ValueError(f"arrival_guard must be True or False, got {arrival_guard!r}")
-        for name, value in (("reach_weight", reach_weight), ("terminal_weight", terminal_weight)):
-            if not (isinstance(value, (int, float)) and math.isfinite(value) and value >= 0):
-                raise ValueError(f"{name} must be a finite number >= 0, got {value!r}")
-        if not (isinstance(length_scale, (int, float)) and math.isfinite(length_scale) and length_scale > 0):
-            raise ValueError(f"length_scale must be a finite number > 0 (m), got {length_scale!r}")
-        if not isinstance(instance_features, (bool, np.bool_)):
-            raise ValueError(f"instance_features must be True or False, got {instance_features!r}")
-        if not isinstance(peak_hint, (bool, np.bool_)):
-            raise ValueError(f"peak_hint must be True or False, got {peak_hint!r}")
+        self.options = EnvOptions(**options)
         if render_mode is not None and render_mode not in self.metadata["render_modes"]:
             raise ValueError(
                 f"render_mode must be None or one of {self.metadata['render_modes']}, got {render_mode!r}"
             )
-        self.channel = channel
-        self.arrival_guard = bool(arrival_guard)
-        self.reach_weight, self.terminal_weight = float(reach_weight), float(terminal_weight)
-        self.length_scale = float(length_scale)
         self.render_mode = render_mode
-        self.instance_features = bool(instance_features)
-        self.peak_hint = bool(peak_hint)
-        self._inv_l = 1.0 / self.length_scale
-        self._rician = channel == "rician"
+        self._rician = self.options.channel == "rician"
         self._renderer: Any = None
         self.config: ScenarioConfig | None = None  # the current episode's scenario
         self.kernel: RateKernel  # the rate kernel of self.config
-        self._set_config(self._base_config)
         self.action_space = spaces.Box(-1.0, 1.0, (2,), np.float32)
-        self.observation_space = spaces.Box(*self._space_bounds(), dtype=np.float32)
+        low, high = space_bounds(
+            self._ranges(), self.options.length_scale, self.options.instance_features, self.options.peak_hint
+        )
+        self.observation_space = spaces.Box(low, high, dtype=np.float32)
+        # a batch of one episode for the kernels of ios_uav_env.dynamics (rows of length 1)
+        self._flags = flags_of(self.options)
+        self._rows = np.zeros(1, dtype=np.int64)
+        self._active = np.ones(1, dtype=np.bool_)
+        self._state = np.zeros((1, len(STATE)))
+        self._action = np.zeros((1, 2))
+        self._normals = np.zeros((1, 2))
+        self._obs = np.zeros((1, low.size), dtype=np.float32)
+        self._reward = np.zeros(1)
+        self._terminated = np.zeros(1, dtype=np.bool_)
+        self._info_row = np.zeros((1, len(INFO)))
+        self._set_config(self._base_config)
+        self._path = np.zeros((1, self.config.N, 2))
+        self._started = False
 
-        self._n: int | None = None  # moves made; None before the first reset
-        self._x, self._y = self.config.q0
-        self._xs: list[float] = []  # way-points so far (x, then y)
-        self._ys: list[float] = []
-        self._faded: list[float] = []
+    # --- options (read-only views of self.options) ---------------------------------------
+    channel = property(lambda self: self.options.channel)
+    arrival_guard = property(lambda self: self.options.arrival_guard)
+    length_scale = property(lambda self: self.options.length_scale)
+    instance_features = property(lambda self: self.options.instance_features)
+    peak_hint = property(lambda self: self.options.peak_hint)
 
     # --- scenario and spaces --------------------------------------------------------------
+    def _ranges(self) -> ScenarioRanges:
+        """The family of scenarios the observation space holds: here the construction config."""
+        return ScenarioRanges.from_config(self._base_config)
+
     def _set_config(self, cfg: ScenarioConfig) -> None:
-        """Make ``cfg`` the current scenario: its rate kernel and the observation's constants."""
+        """Make ``cfg`` the current scenario: its rate kernel and the episode's constants."""
         if cfg is self.config:
             return
         self.config = cfg
         self.kernel = rate_kernel(cfg)
-        self._moves = cfg.N - 1
-        self._D = cfg.D
-        self._qf = cfg.qF
-        points = (cfg.qF, cfg.ground_node, cfg.ios_center[:2])
-        self._scaled = tuple(c * self._inv_l for p in points for c in p)  # the points / L
-        self._inv_moves = 1.0 / self._moves
-        self._instance = instance_values(cfg) if self.instance_features else ()
-        self._peak: tuple[float, ...] = ()
-        if self.peak_hint:
-            peak = rate_peak(cfg)
-            self._peak = (peak.x * self._inv_l, peak.y * self._inv_l, peak.rate)
-        self._left_scale = cfg.dt / T_SCALE  # seconds left / T_SCALE per move left
+        peak = rate_peak(cfg) if self.options.peak_hint else (0.0, 0.0, 0.0)
+        self._episode = episode_row(cfg, self.options.length_scale, peak[:3])[None, :]
+        self._nodes, self._params = self.kernel.nodes[None], self.kernel.params[None]
         self.close()  # the renderer's rate map is the previous scenario's
-
-    def _space_bounds(self) -> tuple[np.ndarray, np.ndarray]:
-        """(low, high) of the observation space: those of the construction config."""
-        rate_high = rate_upper_bound(self.kernel)
-        return observation_bounds(
-            self._base_config, self.length_scale, self.instance_features, rate_high, self.peak_hint
-        )
 
     def _episode_config(self, pinned: ScenarioConfig | None) -> ScenarioConfig:  # at reset
         return self._base_config if pinned is None else pinned
 
-    def _horizon_moves(self, pinned: ScenarioConfig | None) -> int:  # an episode's most steps
-        return (self._base_config if pinned is None else pinned).N - 1
+    def _begin(self, seed: int | None, options: dict[str, Any] | None) -> ScenarioConfig:
+        """The scenario part of ``reset``: seed ``np_random``, pick the episode's scenario (drawn,
+        pinned or the env's own), check that it fits the space, make it current."""
+        gym.Env.reset(self, seed=seed)
+        pinned = scenario_option(options)
+        cfg = self._episode_config(pinned)
+        if cfg is not self._base_config and cfg != self.config:  # may it leave the space?
+            check_fits(
+                cfg, self.options.length_scale, self.options.instance_features, self.observation_space,
+                self.options.peak_hint,
+            )  # fmt: skip
+        self._set_config(cfg)
+        return cfg
 
-    def _observe(self, x: float, y: float, left: int, dist: float, rate: float) -> np.ndarray:
-        x, y = x * self._inv_l, y * self._inv_l
-        fx, fy, gx, gy, cx, cy = self._scaled
-        s = left - dist / self._D
-        relative = (fx - x, fy - y, gx - x, gy - y, cx - x, cy - y)
-        base = (x, y, *relative, left * self._inv_moves, s / (1.0 + abs(s)), rate)
-        if self.peak_hint:
-            px, py, peak_rate = self._peak
-            hint: tuple[float, ...] = (px - x, py - y, peak_rate)
-        else:
-            hint = ()
-        if self.instance_features:
-            return np.array((*base, *self._instance, left * self._left_scale, *hint), dtype=np.float32)
-        return np.array((*base, *hint), dtype=np.float32)
+    def _draw_normals(self) -> None:
+        if self._rician:  # h_SS of the slot: real, then imaginary part
+            self._normals[0] = self.np_random.standard_normal(2)
+
+    def _info(self) -> dict[str, Any]:
+        """The ``info`` dict (``INFO_KEYS``) of the kernels' info row: numpy scalars (float64,
+        ``slot`` int64, ``feasible`` bool_), which every client reads (they have a dtype)."""
+        r = self._info_row[0].copy()
+        return {"rate": r[0], "expected_rate": r[1], "position": r[2:4], "distance_to_final": r[4],
+                "slot": np.int64(r[5]), "reward_rate": r[6], "reward_reach": r[7], "reward_terminal": r[8],
+                "average_rate": r[9], "mean_faded_rate": r[10], "feasible": r[11] != 0.0,
+                "worst_violation": r[12], "terminal_miss": r[13]}  # fmt: skip
 
     # --- API ----------------------------------------------------------------------
-    def check_time_limit(self, spec: Any, config: ScenarioConfig | None = None) -> None:
-        """Raise ``ValueError`` if ``spec.max_episode_steps`` would cut an episode (on ``config``
-        if given, the one pinned at reset) before slot N."""
-        limit = getattr(spec, "max_episode_steps", None)
-        moves = self._horizon_moves(config)
-        if limit is not None and limit < moves:
-            what = "" if config is None else f" (options config: T={config.T:g} s, dt={config.dt:g} s)"
-            raise ValueError(
-                f"max_episode_steps={limit} would truncate the episode before it reaches slot N: this "
-                f"env's episodes{what} last up to N - 1 = {moves} steps; "
-                f"pass max_episode_steps={moves} to gym.make"
-            )
-
     def reset(
         self, *, seed: int | None = None, options: dict[str, Any] | None = None
     ) -> tuple[np.ndarray, dict[str, Any]]:
-        super().reset(seed=seed)
-        pinned = scenario_option(options)
-        self.check_time_limit(self.spec, pinned)
-        cfg = self._episode_config(pinned)
-        if cfg is not self._base_config and cfg != self.config:  # may it leave the space?
-            check_fits(cfg, self.length_scale, self.instance_features, self.observation_space, self.peak_hint)
-        self._set_config(cfg)
-        x, y = cfg.q0
-        self._n, self._x, self._y = 0, x, y
-        self._xs, self._ys = [x], [y]
-        expected = self.kernel.rate(x, y)
-        rate = expected
-        if self._rician:
-            rate = self.kernel.faded_rate(x, y, self.np_random)
-            self._faded = [rate]
-        dist = math.hypot(self._qf[0] - x, self._qf[1] - y)
-        info = {"rate": rate, "expected_rate": expected, "position": (x, y),
-                "distance_to_final": dist, "slot": 1}  # fmt: skip
-        return self._observe(x, y, self._moves, dist, expected), info
+        cfg = self._begin(seed, options)
+        if self._path.shape[1] != cfg.N:
+            self._path = np.zeros((1, cfg.N, 2))
+        self._path[0, 0] = self._state[0, 0:2] = cfg.q0
+        self._draw_normals()
+        reset_rows(self._rows, self._state, self._episode, self._nodes, self._params, self._normals,
+                   self._flags, self._obs, self._info_row)  # fmt: skip
+        self._started = True
+        return self._obs[0].copy(), self._info()
 
     def step(self, action: Any) -> tuple[np.ndarray, float, bool, bool, dict[str, Any]]:
-        n = self._n
-        if n is None:
+        if not self._started:
             raise RuntimeError("call reset() before step()")
-        if n >= self._moves:
-            raise RuntimeError(f"the episode ended at slot N = {self._moves + 1}; call reset()")
+        if self._state[0, 2] >= self._episode[0, 3]:
+            raise RuntimeError(f"the episode ended at slot N = {self.config.N}; call reset()")
         if type(action) is np.ndarray and action.shape == (2,):
             ax, ay = action.tolist()
         else:
             ax, ay = self._parse_action(action)
         if not (math.isfinite(ax) and math.isfinite(ay)):
             raise ValueError(f"action must be finite (no NaN or inf), got {action!r}")
-        norm2 = ax * ax + ay * ay
-        if norm2 > 1.0:
-            scale = 1.0 / math.sqrt(norm2)
-            ax, ay = ax * scale, ay * scale
-        D, (fx, fy) = self._D, self._qf
-        x, y = self._x + D * ax, self._y + D * ay
-        left = self._moves - n - 1  # moves left after this one
-        if self.arrival_guard:
-            x, y = guarded_position((self._x, self._y), (x, y), (fx, fy), D, left)
-        self._n, self._x, self._y = n + 1, x, y
-        self._xs.append(x)
-        self._ys.append(y)
-
-        expected = self.kernel.rate(x, y)
-        rate = expected
-        if self._rician:
-            rate = self.kernel.faded_rate(x, y, self.np_random)
-            self._faded.append(rate)
-        dist = math.hypot(fx - x, fy - y)
-        reach = max(0.0, dist - left * D - FEASIBILITY_TOL) / D
-        terms = {"rate": rate, "reach": -self.reach_weight * reach if reach else 0.0, "terminal": 0.0}
-        terminated = left == 0
-        if terminated:
-            miss = max(0.0, dist - FEASIBILITY_TOL) / D
-            if miss:
-                terms["terminal"] = -self.terminal_weight * (miss + math.sqrt(miss))
-        reward = terms["rate"] + terms["reach"] + terms["terminal"]
-        info = {"rate": rate, "expected_rate": expected, "position": (x, y),
-                "distance_to_final": dist, "slot": n + 2, "rewards": terms}  # fmt: skip
-        if terminated:
-            self._final_info(info)
-        return self._observe(x, y, left, dist, expected), reward, terminated, False, info
+        self._action[0, 0], self._action[0, 1] = ax, ay
+        self._draw_normals()
+        step_rows(self._action, self._state, self._episode, self._nodes, self._params, self._normals,
+                  self._flags, self._obs, self._reward, self._terminated, self._info_row, self._path,
+                  self._active)  # fmt: skip
+        return self._obs[0].copy(), float(self._reward[0]), bool(self._terminated[0]), False, self._info()
 
     def _parse_action(self, action: Any) -> tuple[float, float]:
         try:
@@ -388,19 +331,12 @@ class IOSUAVEnv(gym.Env):
             raise ValueError(f"action must have shape (2,) (x, y displacement / D), got shape {arr.shape}")
         return float(arr[0]), float(arr[1])
 
-    def _final_info(self, info: dict[str, Any]) -> None:
-        trajectory = self.trajectory
-        report = check_trajectory(self.config, trajectory)
-        info["average_rate"] = average_rate(self.config, trajectory)
-        if self._rician:
-            info["mean_faded_rate"] = float(np.mean(self._faded))
-        info.update(feasible=report.feasible, terminal_miss=report.end_error,
-                    worst_violation=report.worst_violation, report=report)  # fmt: skip
-
     @property
     def trajectory(self) -> np.ndarray:
         """The way-points so far, q[1] = q0 .. q[n+1], as an (n + 1, 2) array in metres."""
-        return np.array((self._xs, self._ys), dtype=float).T.copy()
+        if not self._started:
+            return np.zeros((0, 2))
+        return self._path[0, : int(self._state[0, 2]) + 1].copy()
 
     def render(self) -> np.ndarray | None:
         """The trajectory so far over the rate map, as an (H, W, 3) uint8 array ("rgb_array")."""

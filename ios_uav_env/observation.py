@@ -1,9 +1,9 @@
 """The env's observation: component names, the instance features and the bounds of the space.
 
-Pure functions of a ``ScenarioConfig`` (no Gymnasium): ``IOSUAVEnv`` derives its observation
-space from its construction config, ``RandomIOSUAVEnv`` from its ranges, and both check with
-:func:`observation_bounds` that a scenario pinned at reset (``options={"config": cfg}``) keeps
-every observation inside the space.
+Pure functions (no Gymnasium): every env derives its observation space from a family of
+scenarios with :func:`space_bounds` (``IOSUAVEnv`` from the family of its one construction
+config, ``RandomIOSUAVEnv`` from its ranges) and checks with :func:`check_fits` that a
+scenario pinned at reset (``options={"config": cfg}``) keeps every observation inside it.
 """
 
 from __future__ import annotations
@@ -15,6 +15,7 @@ import numpy as np
 
 from ios_uav_env.channel import RateKernel, rate_kernel
 from ios_uav_env.config import ScenarioConfig
+from ios_uav_env.scenarios import ScenarioRanges
 from ios_uav_env.surface import _axes
 
 #: Names of the observation components, in order (see ``IOSUAVEnv``'s docstring for the units).
@@ -93,63 +94,44 @@ def _pad(value: float) -> float:
     return value * (1 + 1e-6) + 1e-6
 
 
-Interval = tuple[float, float]
-
-
-def length_bounds(
-    q0: tuple[Interval, Interval], points: list[tuple[Interval, Interval]], reach: float, length_scale: float
-) -> list[float]:
-    """Bounds (in units of L) of the 8 length components when q0 and the points (qF, G, IOS
-    centre) range over the (x, y) intervals given: the largest value at q0 plus ``reach``
-    ((N - 1) D: no position is farther from q0), in absolute terms."""
-    bound = [max(abs(lo), abs(hi)) + reach for lo, hi in q0]
-    for p in points:
-        bound += [max(abs(p[i][1] - q0[i][0]), abs(p[i][0] - q0[i][1])) + reach for i in range(2)]
-    inv_l = 1.0 / length_scale
-    return [b * inv_l * (1 + 1e-6) + 1e-6 for b in bound]
-
-
-def assemble_bounds(
-    lengths: list[float],
-    rate_high: float,
-    instance: tuple[float, float] | None,
-    peak_reach: float | None = None,
+def space_bounds(
+    ranges: ScenarioRanges, length_scale: float, instance: bool, peak: bool = False
 ) -> tuple[np.ndarray, np.ndarray]:
-    """(low, high) float32 arrays from the length bounds, the rate bound and, for the instance
-    features, the largest (elements, horizon) values (their upper bounds are at least 1); for
-    the peak hint, ``peak_reach``: the largest (N - 1) D / L (the peak and the UAV are both
-    within it of q0, so |P - q| / L <= 2 ``peak_reach``)."""
-    high = [*lengths, 1.0, 1.0, _pad(rate_high)]
+    """(low, high) float32 arrays that hold every observation of every episode of ``ranges``
+    (a fixed scenario is the family ``ScenarioRanges.from_config(config)``).
+
+    Lengths: the largest absolute value at q0 over the ranges plus (N_max - 1) D / L (no
+    position is farther from q0, guard or not). Rate: :func:`rate_bound` where G is fixed,
+    else :func:`ground_free_rate_bound`, over the family's surfaces and sizes. Instance
+    features: their largest values (at least 1). Peak hint: the peak and the UAV are both
+    within (N_max - 1) D of q0, so |P - q| / L <= 2 (N_max - 1) D / L. Margins of 1e-6.
+    """
+    r, base = ranges, ranges.base
+    reach = r.max_moves * base.D
+    q0 = (r.start_x, r.start_y)
+    points = [
+        (r.end_x, r.end_y),
+        (r.ground_x, r.ground_y),
+        ((base.ios_center[0],) * 2, (base.ios_center[1],) * 2),
+    ]
+    lengths = [max(abs(lo), abs(hi)) + reach for lo, hi in q0]
+    for p in points:
+        lengths += [max(abs(p[i][1] - q0[i][0]), abs(p[i][0] - q0[i][1])) + reach for i in range(2)]
+    bound = rate_bound if r.fixed_ground else ground_free_rate_bound
+    rate_high = max(bound(c) for c in r.configs_per_surface())
+    high = [_pad(v / length_scale) for v in lengths] + [1.0, 1.0, _pad(rate_high)]
     low = [-h for h in high[:8]] + [0.0, -1.0, 0.0]
-    if instance is not None:
-        elements, horizon = (_pad(max(1.0, v)) for v in instance)
+    if instance:
+        has_surface = set(r.surfaces) != {"none"}
+        elements = r.ios_columns * r.ios_rows[1] / M_SCALE if has_surface else 0.0
+        elements, horizon = (_pad(max(1.0, v)) for v in (elements, r.slot_range[1] * base.dt / T_SCALE))
         high += [elements, 1.0, 1.0, 1.0, horizon, horizon]
         low += [0.0] * len(INSTANCE_NAMES)
-    if peak_reach is not None:
-        high += [_pad(2.0 * peak_reach)] * 2 + [_pad(rate_high)]
-        low += [-_pad(2.0 * peak_reach)] * 2 + [0.0]
+    if peak:
+        offset = _pad(2.0 * reach / length_scale)
+        high += [offset, offset, _pad(rate_high)]
+        low += [-offset, -offset, 0.0]
     return np.array(low, dtype=np.float32), np.array(high, dtype=np.float32)
-
-
-def observation_bounds(
-    config: ScenarioConfig,
-    length_scale: float,
-    instance: bool,
-    rate_high: float | None = None,
-    peak: bool = False,
-) -> tuple[np.ndarray, np.ndarray]:
-    """(low, high) float32 arrays that hold every observation of an episode on ``config``.
-
-    ``rate_high``: the rate bound (default :func:`rate_bound`). With ``instance`` the 6
-    instance features follow the 11 base ones; with ``peak`` the 3 of the peak hint follow.
-    """
-    q0 = ((config.q0[0],) * 2, (config.q0[1],) * 2)
-    points = [((p[0],) * 2, (p[1],) * 2) for p in (config.qF, config.ground_node, config.ios_center)]
-    lengths = length_bounds(q0, points, (config.N - 1) * config.D, length_scale)
-    elements, *_, horizon = instance_values(config)
-    rate_high = rate_bound(config) if rate_high is None else rate_high
-    reach = (config.N - 1) * config.D / length_scale if peak else None
-    return assemble_bounds(lengths, rate_high, (elements, horizon) if instance else None, reach)
 
 
 def observation_names(instance: bool, peak: bool = False) -> tuple[str, ...]:
@@ -161,12 +143,12 @@ def check_fits(
     config: ScenarioConfig, length_scale: float, instance: bool, space: Any, peak: bool = False
 ) -> None:
     """Raise ``ValueError`` if an episode on ``config`` could leave the Box ``space``."""
-    low, high = observation_bounds(config, length_scale, instance, peak=peak)
+    low, high = space_bounds(ScenarioRanges.from_config(config), length_scale, instance, peak)
     names = observation_names(instance, peak)
     for i in np.flatnonzero((high > space.high) | (low < space.low))[:1]:
         raise ValueError(
             f"the scenario {config} does not fit this env's observation space: component {i} "
             f"({names[i]}) can reach [{low[i]:.6g}, {high[i]:.6g}], outside the space's "
             f"[{space.low[i]:.6g}, {space.high[i]:.6g}]; make an env on it instead "
-            f"(gym.make(id, config=cfg, max_episode_steps={config.N - 1}))"
+            "(gym.make(id, config=cfg))"
         )

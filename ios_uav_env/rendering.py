@@ -21,7 +21,7 @@ from typing import Any
 import numpy as np
 
 from ios_uav_env.channel import slot_rates
-from ios_uav_env.config import ScenarioConfig
+from ios_uav_env.config import ScenarioConfig, scene_box
 
 _INSTALL = "pip install ios-uav-env[render]"
 Extent = tuple[float, float, float, float]  # (x_min, x_max, y_min, y_max) in m
@@ -39,8 +39,8 @@ def _matplotlib() -> tuple[Any, Any]:
 
 def default_extent(config: ScenarioConfig, aspect: float = 0.5) -> Extent:
     """A map around q0, qF, G and the IOS with a margin, at least ``aspect`` times as tall as wide."""
-    pts = np.array([config.q0, config.qF, config.ground_node, config.ios_center[:2]])
-    lo, hi = pts.min(axis=0), pts.max(axis=0)
+    x0, x1, y0, y1 = scene_box(config)
+    lo, hi = np.array([x0, y0]), np.array([x1, y1])
     pad = 0.08 * max(float((hi - lo).max()), 4 * config.D)
     lo, hi = lo - pad, hi + pad
     width, height = hi - lo
@@ -62,13 +62,6 @@ def rate_grid(
     for arr in (xs, ys, rates):
         arr.setflags(write=False)
     return xs, ys, rates
-
-
-def best_rate_point(config: ScenarioConfig, extent: Extent | None = None) -> tuple[float, float]:
-    """The grid point of :func:`rate_grid` with the highest rate (m)."""
-    xs, ys, rates = rate_grid(config, extent)
-    iy, ix = np.unravel_index(int(np.argmax(rates)), rates.shape)
-    return float(xs[ix]), float(ys[iy])
 
 
 def plot_scene(ax: Any, config: ScenarioConfig, *, labels: bool = True) -> None:

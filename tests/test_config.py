@@ -4,6 +4,7 @@ import dataclasses
 import math
 import pickle
 
+import numpy as np
 import pytest
 
 from ios_uav_env import ScenarioConfig
@@ -84,7 +85,8 @@ def test_bad_values_name_the_field(changes, field):
 
 
 def test_unknown_field_fails_loudly():
-    with pytest.raises(TypeError, match="unknown ScenarioConfig field"):
+    message = r"ScenarioConfig.replace\(\) got an unexpected keyword argument 'speed'"
+    with pytest.raises(TypeError, match=message):
         ScenarioConfig().replace(speed=3)
     with pytest.raises(TypeError):
         ScenarioConfig(speed=3)  # type: ignore[call-arg]
@@ -98,3 +100,22 @@ def test_numpy_scalars_are_accepted_and_normalised():
     assert type(c.T) is float and type(c.quadrature_nodes) is int
     with pytest.raises(ValueError, match="T"):
         ScenarioConfig(T=True)
+
+
+def test_moves_needed_counts_whole_moves_for_numbers_and_arrays():
+    from ios_uav_env import moves_needed
+
+    assert moves_needed(0.0, 25.0) == 0 and moves_needed(25.0, 25.0) == 1 and moves_needed(25.001, 25.0) == 2
+    assert isinstance(moves_needed(30.0, 25.0), int)
+    assert moves_needed(25.0 * (1 + 1e-12), 25.0) == 1  # rounding of a whole number of moves
+    np.testing.assert_array_equal(moves_needed(np.array([0.0, 10.0, 50.0, 51.0]), 25.0), [0, 1, 2, 3])
+    assert ScenarioConfig().min_horizon() == (moves_needed(800.0, 25.0) + 1) * 1.0 == 33.0
+
+
+def test_scene_box_holds_the_scene_with_its_margin():
+    from ios_uav_env import scene_box
+
+    config = ScenarioConfig(ground_node=(50.0, 300.0))
+    assert scene_box(config) == (-400.0, 400.0, 0.0, 300.0)
+    assert scene_box(config, 10.0) == (-410.0, 410.0, -10.0, 310.0)
+    assert scene_box(config, ends=False) == (0.0, 50.0, 0.0, 300.0)  # G and the IOS only

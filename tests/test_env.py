@@ -13,8 +13,9 @@ from gymnasium.utils.env_checker import check_env
 
 import ios_uav_env
 from ios_uav_env import ScenarioConfig, average_rate, check_trajectory, faded_rates, slot_rates
-from ios_uav_env.env import CHANNELS, OBS_NAMES, IOSUAVEnv, rate_upper_bound
+from ios_uav_env.env import CHANNELS, INFO_KEYS, OBS_NAMES, IOSUAVEnv
 from ios_uav_env.guard import guarded_position, project_to_disks
+from ios_uav_env.observation import rate_upper_bound
 from ios_uav_env.rendering import rate_grid
 
 DEFAULT = ScenarioConfig()
@@ -125,8 +126,11 @@ def test_wrong_action_shape_is_refused(bad):
 def test_bad_arguments_name_themselves():
     with pytest.raises(ValueError, match="channel.*'expected', 'rician'"):
         IOSUAVEnv(channel="rayleigh")
-    with pytest.raises(TypeError, match="not_a_field"):
-        IOSUAVEnv(not_a_field=1)
+    # Python's own wording: TorchRL retries without its keywords only on this message
+    with pytest.raises(
+        TypeError, match=r"^IOSUAVEnv.__init__\(\) got an unexpected keyword argument 'frameskip'$"
+    ):
+        IOSUAVEnv(frameskip=1)
     with pytest.raises(ValueError, match="render_mode"):
         IOSUAVEnv(render_mode="human")
     with pytest.raises(ValueError, match="terminal_weight"):
@@ -170,7 +174,8 @@ def test_seeded_rollouts_match_exactly(channel, guard):
     assert all(np.array_equal(x, y) for x, y in zip(a["obs"], b["obs"], strict=True))
     assert a["rewards"] == b["rewards"]
     assert [i["rate"] for i in a["infos"]] == [i["rate"] for i in b["infos"]]
-    assert [i["rewards"] for i in a["infos"][1:]] == [i["rewards"] for i in b["infos"][1:]]
+    for x, y in zip(a["infos"], b["infos"], strict=True):
+        assert x.keys() == y.keys() and all(np.array_equal(x[k], y[k]) for k in x)
     assert np.array_equal(a["trajectory"], b["trajectory"])
 
 
@@ -196,7 +201,7 @@ def test_pickle_round_trip_continues_identically(channel):
     for a in actions[40:]:
         out_a, out_b = env.step(a), clone.step(a)
         assert np.array_equal(out_a[0], out_b[0]) and out_a[1:4] == out_b[1:4]
-        assert out_a[4]["rate"] == out_b[4]["rate"]
+        assert out_a[4]["rate"] == out_b[4]["rate"] and out_a[4]["average_rate"] == out_b[4]["average_rate"]
     assert np.array_equal(env.trajectory, clone.trajectory)
 
 
@@ -222,7 +227,7 @@ def test_guard_makes_any_action_sequence_feasible(name, T):
     report = check_trajectory(env.config, q)
     assert report.feasible and out["infos"][-1]["feasible"]
     assert out["infos"][-1]["terminal_miss"] == report.end_error == 0.0
-    penalties = [i["rewards"][k] for i in out["infos"][1:] for k in ("reach", "terminal")]
+    penalties = [i[f"reward_{k}"] for i in out["infos"][1:] for k in ("reach", "terminal")]
     assert all(p == 0.0 for p in penalties)
 
 
@@ -268,13 +273,13 @@ def test_shaping_makes_arrival_pay():
     flee = rollout(IOSUAVEnv(arrival_guard=False), away_from_final)
     assert arrive["infos"][-1]["feasible"] and not hover["infos"][-1]["feasible"]
     assert sum(arrive["rewards"]) > sum(hover["rewards"]) + 50 > sum(flee["rewards"])
-    hover_rates = sum(i["rewards"]["rate"] for i in hover["infos"][1:])
+    hover_rates = sum(i["reward_rate"] for i in hover["infos"][1:])
     assert hover_rates > sum(arrive["rewards"])  # without the shaping, not arriving would pay
     for out in (flee, hover):
         last = out["infos"][-1]
-        assert last["rewards"]["terminal"] < 0 and last["terminal_miss"] > 1.0
-        assert any(i["rewards"]["reach"] < 0 for i in out["infos"][1:])
-    assert all(i["rewards"]["reach"] == 0 and i["rewards"]["terminal"] == 0 for i in arrive["infos"][1:])
+        assert last["reward_terminal"] < 0 and last["terminal_miss"] > 1.0
+        assert any(i["reward_reach"] < 0 for i in out["infos"][1:])
+    assert all(i["reward_reach"] == 0 and i["reward_terminal"] == 0 for i in arrive["infos"][1:])
 
 
 def test_penalty_terms_follow_the_documented_equations():
@@ -285,10 +290,11 @@ def test_penalty_terms_follow_the_documented_equations():
     for k, info in enumerate(out["infos"][1:], start=1):
         left = DEFAULT.N - 1 - k
         excess = max(0.0, info["distance_to_final"] - left * D - 1e-6) / D
-        assert info["rewards"]["reach"] == pytest.approx(-w_reach * excess, rel=1e-12, abs=0)
-        assert out["rewards"][k - 1] == pytest.approx(sum(info["rewards"].values()), rel=1e-12)
+        assert info["reward_reach"] == pytest.approx(-w_reach * excess, rel=1e-12, abs=0)
+        terms = info["reward_rate"] + info["reward_reach"] + info["reward_terminal"]
+        assert out["rewards"][k - 1] == pytest.approx(terms, rel=1e-12)
     miss = (800.0 - 1e-6) / D
-    assert out["infos"][-1]["rewards"]["terminal"] == pytest.approx(-w_term * (miss + math.sqrt(miss)))
+    assert out["infos"][-1]["reward_terminal"] == pytest.approx(-w_term * (miss + math.sqrt(miss)))
 
 
 def test_default_weights_make_any_final_miss_cost_more_than_it_can_win():
@@ -299,7 +305,7 @@ def test_default_weights_make_any_final_miss_cost_more_than_it_can_win():
     env = IOSUAVEnv(arrival_guard=False)
     for miss in np.geomspace(1e-4, 1e3, 29):
         e = miss / D  # the last step's reach term is e too
-        cost = env.reach_weight * e + env.terminal_weight * (e + math.sqrt(e))
+        cost = env.options.reach_weight * e + env.options.terminal_weight * (e + math.sqrt(e))
         assert cost > slope * miss
 
 
@@ -309,8 +315,8 @@ def test_rate_terms_sum_to_the_average_rate_and_info_matches_the_model():
     out = rollout(env, towards((100.0, 0.0)))
     last = out["infos"][-1]
     r0 = slot_rates(DEFAULT, np.array(DEFAULT.q0))[0]
-    assert last["average_rate"] == average_rate(DEFAULT, out["trajectory"])
-    rates = sum(i["rewards"]["rate"] for i in out["infos"][1:])
+    assert last["average_rate"] == pytest.approx(average_rate(DEFAULT, out["trajectory"]), rel=1e-13)
+    rates = sum(i["reward_rate"] for i in out["infos"][1:])
     assert rates == pytest.approx(DEFAULT.N * last["average_rate"] - r0, abs=1e-9)
     assert sum(out["rewards"]) == pytest.approx(rates, abs=1e-12)  # the guard: no penalties
     positions = np.array([i["position"] for i in out["infos"]])
@@ -350,3 +356,58 @@ def test_rician_mean_rate_is_near_the_expected_rate():
         )
     assert np.ptp(expected) == 0.0 and np.ptp(faded) > 0.0
     assert 0.8 * expected[0] < np.mean(faded) < expected[0]
+
+
+# --- info: fixed keys, numbers only, the running score and check ------------------------------
+@pytest.mark.parametrize("guard", [True, False])
+@pytest.mark.parametrize("channel", CHANNELS)
+def test_info_has_the_same_numeric_keys_on_every_step(guard, channel):
+    out = rollout(IOSUAVEnv(T=60.0, arrival_guard=guard, channel=channel), away_from_final)
+    for info in out["infos"]:
+        assert tuple(info) == INFO_KEYS
+        values = np.concatenate([np.atleast_1d(np.asarray(v, dtype=float)) for v in info.values()])
+        assert np.all(np.isfinite(values))
+        assert np.asarray(info["position"]).shape == (2,)
+
+
+@pytest.mark.parametrize("policy", [away_from_final, towards((100.0, 0.0)), lambda env: np.zeros(2)])
+def test_info_running_check_ends_as_the_trajectory_check(policy):
+    for guard in (True, False):
+        out = rollout(IOSUAVEnv(T=60.0, arrival_guard=guard), policy)
+        report = check_trajectory(ScenarioConfig(T=60.0), out["trajectory"])
+        last = out["infos"][-1]
+        assert last["feasible"] == report.feasible
+        assert last["terminal_miss"] == pytest.approx(report.end_error, abs=1e-9)
+        assert last["worst_violation"] == pytest.approx(report.worst_violation, abs=1e-9)
+        # before the end: feasible so far means qF is still within reach
+        for info, obs in zip(out["infos"], out["obs"], strict=True):
+            assert info["feasible"] == (info["worst_violation"] <= 1e-6)
+            assert (info["terminal_miss"] > 1e-6) == (obs[9] < -1e-7 / D)
+
+
+def test_info_average_rate_is_the_running_mean_of_the_way_points():
+    out = rollout(IOSUAVEnv(T=60.0), towards((100.0, 0.0)))
+    for k, info in enumerate(out["infos"], start=1):
+        q = out["trajectory"][:k]
+        assert info["average_rate"] == pytest.approx(float(np.mean(slot_rates(DEFAULT, q))), rel=1e-12)
+        assert info["mean_faded_rate"] == info["average_rate"]
+
+
+def test_ids_have_no_time_limit_and_end_at_slot_n():
+    import gymnasium as gym
+
+    env = gym.make("ios_uav_env/IOSUAV-v0", T=300)
+    assert env.spec.max_episode_steps is None
+    out = rollout(env.unwrapped, lambda env: np.zeros(2))
+    assert len(out["rewards"]) == 299 and out["infos"][-1]["slot"] == 300
+
+
+def test_info_values_are_numpy_numbers_with_a_dtype():
+    # TorchRL's default_info_dict_reader reads ``value.dtype``: plain Python floats break it
+    env = IOSUAVEnv(T=40.0)
+    _, info = env.reset(seed=0)
+    _, _, _, _, step_info = env.step(np.zeros(2))
+    for i in (info, step_info):
+        assert all(hasattr(v, "dtype") for v in i.values())
+        assert i["slot"].dtype == np.int64 and i["feasible"].dtype == np.bool_
+    assert info["position"] is not step_info["position"] and step_info["slot"] == 2

@@ -6,11 +6,10 @@ import subprocess
 import sys
 from pathlib import Path
 
-import numpy as np
 import pytest
 
 from ios_uav_env import ScenarioConfig, average_rate
-from ios_uav_env.__main__ import HoverPolicy, straight_line
+from ios_uav_env.__main__ import straight_line
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -37,14 +36,6 @@ def test_main_job_writes_the_docs_frame_on_request(tmp_path):
     run(["-m", "ios_uav_env", "--out", "demo.png", "--docs-frame"], tmp_path)
     docs = tmp_path / "docs" / "demo_frame.png"
     assert 10_000 < docs.stat().st_size < 150_000
-
-
-def test_hover_policy_heads_for_its_target_within_one_move():
-    policy = HoverPolicy((100.0, 0.0), length_scale=400.0, D=25.0)
-    far = policy(np.array([-1.0, 0.0] + [0.0] * 9, dtype=np.float32))  # at x = -400 m
-    assert far.dtype == np.float32 and np.hypot(*far) == pytest.approx(1.0) and far[0] > 0.99
-    near = policy(np.array([90.0 / 400, 0.0] + [0.0] * 9, dtype=np.float32))
-    np.testing.assert_allclose(near, [0.4, 0.0], atol=1e-6)
 
 
 def test_step_speed_benchmark_runs(tmp_path):

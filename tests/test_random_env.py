@@ -81,7 +81,7 @@ def test_registration_and_episode_lengths_follow_the_drawn_horizon():
     assert RANDOM_ENV_ID not in ios_uav_env.ENV_IDS  # the fixed ids' table is unchanged
     env = gym.make(RANDOM_ENV_ID)
     assert isinstance(env.unwrapped, RandomIOSUAVEnv)
-    assert env.spec.max_episode_steps == DEFAULT_RANGES.max_moves == 199
+    assert env.spec.max_episode_steps is None and DEFAULT_RANGES.max_moves == 199
     env.reset(seed=4)
     lengths = set()
     for _ in range(4):
@@ -301,7 +301,7 @@ def test_a_fixed_id_may_be_pinned_to_another_surface_that_fits():
         ({"config": 5}, TypeError, r'options\["config"\] must be a ScenarioConfig'),
         ({"config": {"v_maxx": 3}}, TypeError, "v_maxx"),
         ({"config": {"T": 10.0}}, ValueError, "too short"),
-        ({"config": DEFAULT.replace(T=300.0)}, ValueError, "pass max_episode_steps=299"),
+        ({"config": DEFAULT.replace(T=300.0)}, ValueError, "does not fit this env's observation space"),
         ({"config": DEFAULT.replace(ground_node=(-4000.0, 0.0))}, ValueError, "ground"),
     ],
 )
@@ -317,13 +317,15 @@ def test_bad_options_name_the_problem(env_id, options, error, match):
 def test_drawn_fields_cannot_be_overridden_but_the_others_can():
     with pytest.raises(ValueError, match=r"\['T'\] are drawn from the ranges"):
         gym.make(RANDOM_ENV_ID, T=100.0)
-    with pytest.raises(TypeError, match="not_a_field"):
-        gym.make(RANDOM_ENV_ID, not_a_field=1)
+    with pytest.raises(
+        TypeError, match=r"RandomIOSUAVEnv.__init__\(\) got an unexpected keyword argument 'nope'"
+    ):
+        gym.make(RANDOM_ENV_ID, nope=1)
     env = gym.make(RANDOM_ENV_ID, v_max=20.0, arrival_guard=False)
     env.reset(seed=0)
     assert env.unwrapped.config.v_max == 20.0 and not env.unwrapped.arrival_guard
     narrow = ScenarioRanges(T=(80.0, 90.0))
-    env = gym.make(RANDOM_ENV_ID, ranges=narrow, max_episode_steps=narrow.max_moves)
+    env = gym.make(RANDOM_ENV_ID, ranges=narrow)
     env.reset(seed=0)
     assert 80 <= env.unwrapped.config.T <= 90
 
@@ -381,3 +383,22 @@ def test_focus_prob_zero_leaves_the_draws_unchanged():
 def test_bad_focus_is_refused(kwargs, match):
     with pytest.raises(ValueError, match=match):
         RandomIOSUAVEnv(**kwargs)
+
+
+# --- one way to build the bounds --------------------------------------------------------------
+def test_a_fixed_scenario_is_a_family_with_equal_ends():
+    from ios_uav_env.observation import check_fits, space_bounds
+
+    config = ScenarioConfig(T=120.0, ground_node=(30.0, -40.0), surface="ris")
+    family = ScenarioRanges.from_config(config)
+    assert family.fixed_ground and family.slot_range == (config.N, config.N)
+    assert sample_scenario(0, family) == config  # its only scenario
+    env = IOSUAVEnv(config, peak_hint=True)
+    low, high = space_bounds(family, 400.0, False, peak=True)
+    assert np.array_equal(env.observation_space.low, low) and np.array_equal(env.observation_space.high, high)
+    # a family's space holds each of its scenarios, and check_fits agrees
+    random_env = RandomIOSUAVEnv()
+    for seed in range(5):
+        check_fits(sample_scenario(seed), 400.0, True, random_env.observation_space)
+    with pytest.raises(ValueError, match="does not fit"):
+        check_fits(config.replace(T=150.0), 400.0, False, IOSUAVEnv(config).observation_space)

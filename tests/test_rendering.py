@@ -16,7 +16,6 @@ from ios_uav_env import ScenarioConfig, slot_rates
 from ios_uav_env.env import IOSUAVEnv
 from ios_uav_env.rendering import (
     FrameRenderer,
-    best_rate_point,
     default_extent,
     plot_rate_map,
     plot_trajectories,
@@ -76,8 +75,6 @@ def test_rate_grid_is_the_models_rate_cached_and_read_only():
     assert rate_grid(CONFIG, extent, (41, 21))[2] is rates
     with pytest.raises(ValueError):
         rates[0, 0] = 1.0
-    x, y = best_rate_point(CONFIG)
-    assert 0.0 < x < 200.0 and abs(y) < 50.0  # on the transmitting side, near the IOS
 
 
 def test_default_extent_covers_the_scene():

@@ -12,7 +12,8 @@ import pytest
 pytest.importorskip("stable_baselines3")
 
 from agents.evaluate import MODELS_DIR, SHIPPED, Row, compare, faded_replay, main  # noqa: E402
-from agents.rollout import load_agent, rollout  # noqa: E402
+from agents.loading import load_agent  # noqa: E402
+from agents.rollout import rollout  # noqa: E402
 from ios_uav_env import ScenarioConfig, average_rate, check_trajectory  # noqa: E402
 
 DEFAULT = ScenarioConfig()

@@ -60,8 +60,9 @@ def test_numpy_policy_matches_predict(algo, normalize):
 def test_learning_curve_scores_every_checkpoint(tmp_path):
     import json
 
+    from agents.loading import checkpoints
     from agents.suite import load_suite
-    from agents.suite_curve import checkpoints, learning_curve, write_curve
+    from agents.suite.curve import learning_curve, write_curve
 
     venv = make_vec_env(ENV, n_envs=1, seed=0)
     model = PPO("MlpPolicy", venv, seed=0, device="cpu", n_steps=64, batch_size=64)
@@ -75,5 +76,6 @@ def test_learning_curve_scores_every_checkpoint(tmp_path):
     assert all(r["n"] == 2 and r["feasible"] == 2 and 0 < r["mean_pct_dp"] <= 110 for r in rows)
     csv, png = write_curve(rows, tmp_path / "out")
     assert csv.read_text().count("\n") == 3 and png.stat().st_size > 5000
+    assert checkpoints(tmp_path / "out") == []
     with pytest.raises(FileNotFoundError, match="no checkpoints"):
-        checkpoints(tmp_path / "out")
+        learning_curve(tmp_path / "out", load_suite(), n=1)

@@ -1,4 +1,4 @@
-"""agents.suite / agents.suite_report: the held-out suite file, its build (cached, resumable) and
+"""agents.suite (and its report): the held-out suite file, its build (cached, resumable) and
 the report of a policy on it (run with a heuristic policy: no training needed)."""
 
 from __future__ import annotations
@@ -18,12 +18,13 @@ from agents.suite import (
     build_suite,
     cache_key,
     load_suite,
-    main,
     suite_configs,
 )
-from agents.suite_report import GroundSeeker, evaluate_suite, run_report, suite_score, summarize
+from agents.suite.__main__ import main
+from agents.suite.report import HEURISTICS, evaluate_suite, load_policy, run_report, suite_score, summarize
 from baselines import dp
 from ios_uav_env import DEFAULT_RANGES, ScenarioRanges, average_rate, check_trajectory
+from ios_uav_env.policies import HoverAt
 
 #: A family of tiny scenarios (N <= 12, M <= 60) whose planners run in a fraction of a second.
 TINY = ScenarioRanges(
@@ -81,7 +82,9 @@ def test_build_writes_a_suite_and_resumes_from_its_cache(tmp_path, monkeypatch):
 
     calls = []
     real = suite_mod.solve_scenario
-    monkeypatch.setattr(suite_mod, "solve_scenario", lambda c, r: calls.append(c) or real(c, r))
+    monkeypatch.setattr(
+        suite_mod, "solve_scenario", lambda c, dp_resolution: calls.append(c) or real(c, dp_resolution)
+    )
     files[0].unlink()  # as if interrupted before that scenario
     again = build_suite(path, n=3, seed=1, ranges=TINY, jobs=1, cache_dir=cache, progress=False)
     assert len(calls) == 1 and json.loads(files[0].read_text())["config"] == calls[0].to_dict()
@@ -102,7 +105,7 @@ def test_show_and_bad_files(tmp_path, capsys):
 
 # --- the report ------------------------------------------------------------------------------
 def test_report_end_to_end_with_a_heuristic_policy(suite, tmp_path):
-    result = run_report(GroundSeeker(), suite, tmp_path, n=3, progress=False)
+    result = run_report(HoverAt("ground"), suite, tmp_path, n=3, progress=False)
     rows, s = result["rows"], result["summary"]
     assert [r.index for r in rows] == [0, 1, 2] and s["n"] == 3
     for r in rows:
@@ -124,8 +127,8 @@ def test_report_end_to_end_with_a_heuristic_policy(suite, tmp_path):
 
 
 def test_suite_score_and_fixed_id_policies(suite):
-    score = suite_score(GroundSeeker(), suite, n=3)
-    rows = evaluate_suite(GroundSeeker(), suite, n=3)
+    score = suite_score(HoverAt("ground"), suite, n=3)
+    rows = evaluate_suite(HoverAt("ground"), suite, n=3)
     assert score == {
         "mean_pct_dp": summarize(rows)["mean_pct_dp"],
         "p10_pct_dp": summarize(rows)["p10_pct_dp"],
@@ -134,14 +137,13 @@ def test_suite_score_and_fixed_id_policies(suite):
         "n": 3,
     }
     # a policy of a fixed id runs in that id made on each scenario: same observation prefix
-    fixed = evaluate_suite(GroundSeeker(env_id="ios_uav_env/IOSUAV-v0"), suite, n=3)
+    fixed = evaluate_suite(HoverAt("ground"), suite, n=3, env_id="ios_uav_env/IOSUAV-v0")
     assert [r.rate for r in fixed] == [r.rate for r in rows]
 
 
 def test_report_cli_and_shipped_agent(tmp_path, capsys):
     pytest.importorskip("stable_baselines3")
     from agents.evaluate import MODELS_DIR
-    from agents.suite_report import load_policy
 
     assert main(["report", "--model", "heuristic", "--n", "2", "--out", str(tmp_path)]) == 0
     assert "held-out scenarios" in capsys.readouterr().out and (tmp_path / "suite_report.csv").exists()
@@ -155,8 +157,6 @@ def test_report_cli_and_shipped_agent(tmp_path, capsys):
 
 
 def test_peak_heuristic_follows_the_hint_and_beats_flying_to_g_where_the_surface_matters(suite):
-    from agents.suite_report import HEURISTICS, load_policy
-
     assert set(HEURISTICS) == {"heuristic", "peak-heuristic"}
     peak = load_policy("peak-heuristic")
     assert peak.env_kwargs == {"peak_hint": True}
@@ -164,14 +164,13 @@ def test_peak_heuristic_follows_the_hint_and_beats_flying_to_g_where_the_surface
     cfg = suite[15].config
     assert cfg.ground_node[0] > 0 and ios_uav_env.rate_peak(cfg).x < 0
     (by_peak,) = [r for r in evaluate_suite(peak, suite, n=16) if r.index == 15]
-    (by_g,) = [r for r in evaluate_suite(GroundSeeker(), suite, n=16) if r.index == 15]
+    (by_g,) = [r for r in evaluate_suite(HoverAt("ground"), suite, n=16) if r.index == 15]
     assert by_peak.feasible and by_peak.pct_dp > 98.0 > 80.0 > by_g.pct_dp
 
 
 def test_shipped_generalist_reproduces_its_recorded_suite_rows(suite):
     pytest.importorskip("stable_baselines3")
     from agents.evaluate import MODELS_DIR
-    from agents.suite_report import load_policy
 
     folder = MODELS_DIR / "ppo_IOSUAV-Random-v0"
     with open(folder / "suite_report.csv", newline="") as fh:

@@ -13,8 +13,8 @@ import pytest
 pytest.importorskip("stable_baselines3")
 pytest.importorskip("yaml")
 
-from agents.cli import main  # noqa: E402
 from agents.hyperparams import load_hyperparams, parse_env_kwargs  # noqa: E402
+from train import main  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[2]
 # tiny but real hyperparameters, in the zoo format, so that a smoke run updates its networks
@@ -128,9 +128,11 @@ def test_resume_continues_the_step_count_in_the_same_folder(ppo_run):
         (["--algo", "ppo", "--env-kwargs", "warp:9"], "--env-kwargs", "warp"),
         (["--algo", "ppo", "--env-kwargs", "channel:rayleigh"], "--env-kwargs", "channel"),
         (["--timesteps", "10"], "--algo", "required"),
-        (["--algo", "ppo", "--env", "ios_uav_env/RISUAV-v0"], "--env", "no hyperparameters"),
+        (["--algo", "ppo", "--env", "CartPole-v1"], "--env", "no hyperparameters"),
         (["--algo", "ppo", "--hyperparams", "/nonexistent.yml"], "--hyperparams", "no such file"),
         (["--resume", "/nonexistent/run"], "--resume", "not a run folder"),
+        (["--algo", "ppo", "--eval-freq", "-1"], "--eval-freq", "integer >= 0"),
+        (["--algo", "ppo", "--out", str(ROOT)], "--out", "not empty"),
     ],
 )
 def test_bad_cli_input_names_the_argument_and_exits_non_zero(capsys, argv, argument, message):
@@ -139,6 +141,19 @@ def test_bad_cli_input_names_the_argument_and_exits_non_zero(capsys, argv, argum
     assert exc.value.code == 2
     err = capsys.readouterr().err
     assert f"argument {argument}" in err and message in err
+
+
+def test_resume_takes_the_runs_own_settings(tmp_path, capsys):
+    (tmp_path / "checkpoints").mkdir()
+    (tmp_path / "config.json").write_text(json.dumps({"algo": "ppo", "total_timesteps": 128, "args": {}}))
+    (tmp_path / "checkpoints" / "rl_model_64_steps.zip").write_bytes(b"")
+    with pytest.raises(SystemExit) as exc:
+        main(["--resume", str(tmp_path), "--seed", "1", "--env-kwargs", "T:60"])
+    assert exc.value.code == 2
+    assert (
+        "argument --resume: the run's own settings are used; drop --seed, --env-kwargs"
+        in capsys.readouterr().err
+    )
 
 
 def test_cli_errors_exit_non_zero_from_the_command_line(tmp_path):
@@ -160,7 +175,7 @@ def test_shipped_hyperparameter_files_resolve():
         hp = load_hyperparams(algo, "ios_uav_env/IOSUAV-v0")
         assert hp.n_timesteps > 0 and hp.policy == "MlpPolicy"
         assert isinstance(hp.model_kwargs["policy_kwargs"], dict) and hp.model_kwargs["gamma"] >= 0.99
-    with pytest.raises(KeyError, match="no hyperparameters"):
+    with pytest.raises(ValueError, match="no hyperparameters"):
         load_hyperparams("ppo", "CartPole-v1")
 
 

@@ -12,7 +12,7 @@ pytest.importorskip("cvxpy")
 import ios_uav_env as ie  # noqa: E402
 from baselines import sca  # noqa: E402
 from baselines.fixed import fly_hover_fly, straight_line  # noqa: E402
-from baselines.sca_problem import Surrogate  # noqa: E402
+from baselines.sca_problem import Surrogate, tiled_config  # noqa: E402
 from ios_uav_env import ScenarioConfig  # noqa: E402
 
 # T = 30 s (30 slots), q0 -> qF 300 m apart around the IOS; a 10 x 6 surface whose element gain
@@ -95,7 +95,7 @@ def test_coefficients_are_the_derivatives_of_the_slot_rate():
     q = straight_line(config).trajectory
     sur = Surrogate(config, 2, "CLARABEL")
     lin = sur.linearise(q)
-    terms = ie.surface_terms(config.replace(quadrature_nodes=2), q[1:-1]) * lin.anchor[:, None]
+    terms = ie.surface_terms(tiled_config(config, 2), q[1:-1]) * lin.anchor[:, None]
     a_d = ie.direct_amplitude(config, q[1:-1])
 
     def f(n, ds=0.0, du=None, dv=0.0):
@@ -123,7 +123,7 @@ def test_tiles_match_the_exact_element_sum(tiles, tol):
     q[:20, 0] = rng.uniform(-30, 30, 20)  # near the surface, where tiling is worst
     small_exact = ScenarioConfig(ios_shape=(10, 6), quadrature_nodes=0)
     for reference in (small_exact, ScenarioConfig()):
-        tiled = reference.replace(quadrature_nodes=tiles)
+        tiled = tiled_config(reference, tiles)
         exact = ie.surface_amplitude(reference, q)
         approx = ie.surface_terms(tiled, q).sum(axis=1)
         mask = exact > 0

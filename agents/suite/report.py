@@ -1,14 +1,15 @@
 """Score a policy on the held-out suite: % of each scenario's DP optimum, feasibility, plan time.
 
-For every suite scenario (``agents.suite``) the policy is rolled out deterministically and its
-trajectory is scored with ``ios_uav_env.average_rate`` and checked with ``check_trajectory``,
-like the planners' plans. A policy trained on ``ios_uav_env/IOSUAV-Random-v0`` runs in one
-env of that id pinned per scenario with ``reset(options={"config": cfg})``; one trained on a
-fixed id runs in that id made on the scenario (``agents.rollout.make_env``), so the shipped
-single-scenario agents can be scored too. The plan time is the wall time from the reset to
-the last step (policy inference and env steps), against SCA's time in the suite file.
-"% of DP" may exceed 100: DP is the optimum over a 2.5 m grid, and an off-grid trajectory can
-beat it (SCA does by 0.1-1.6% on the suite, most on short horizons).
+For every suite scenario (:mod:`agents.suite`) the policy is rolled out deterministically
+(``agents.rollout.ScenarioRunner``, ``ios_uav_env.rollout.run_episode``) and its trajectory
+scored with ``ios_uav_env.average_rate`` and checked with ``check_trajectory``, like the
+planners' plans. A policy trained on ``ios_uav_env/IOSUAV-Random-v0`` runs in one env of that
+id pinned per scenario; one trained on a fixed id runs in that id made on the scenario, so
+the single-scenario agents can be scored too. An SB3 agent plans with its numpy export
+(``agents.numpy_policy``), the same actions without SB3's per-call overhead. The plan time
+is the episode's wall time from the reset to the last step (inference and env steps),
+against SCA's time in the suite file. "% of DP" may exceed 100: DP is the optimum over a
+grid, and an off-grid trajectory can beat it.
 
     python -m agents.suite report --model runs/<run> [--algo ppo|sac] [--n 60] [--out out/suite]
     python -m agents.suite report --model heuristic      # fly to G, hover, arrive (guard)
@@ -25,61 +26,25 @@ from __future__ import annotations
 import csv
 import io
 import math
-import time
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
-from typing import Any, Protocol
+from typing import Any
 
-import gymnasium as gym
 import numpy as np
 
+from agents.rollout import ScenarioRunner
 from agents.suite import SUITE_PATH, Suite, SuiteEntry, load_suite
-from ios_uav_env import RANDOM_ENV_ID, ScenarioConfig, average_rate, check_trajectory
+from ios_uav_env import RANDOM_ENV_ID
 from ios_uav_env.io import atomic_write_text, save_figure
+from ios_uav_env.policies import HoverAt
+from ios_uav_env.rollout import Episode
 
-
-class Policy(Protocol):
-    """What the report needs: ``act`` (an ``agents.rollout.Agent`` has it) and the env it ran in."""
-
-    env_id: str
-    env_kwargs: dict[str, Any]
-
-    def act(self, obs: np.ndarray, deterministic: bool = True) -> np.ndarray: ...
-
-
-@dataclass
-class GroundSeeker:
-    """A heuristic policy on the observation alone: fly towards G at full speed and hover there;
-    the arrival guard brings it to qF in time. A baseline (and the tests' policy)."""
-
-    env_id: str = RANDOM_ENV_ID
-    env_kwargs: dict[str, Any] = field(default_factory=dict)
-    name: str = "fly to G and hover (heuristic)"
-    length_scale: float = 400.0  # m, the env's L
-    D: float = 25.0  # m, v_max dt of the scenarios
-    target: tuple[int, int] = (4, 6)  # the slice of the observation's (target - q) / L: G's
-
-    def act(self, obs: np.ndarray, deterministic: bool = True) -> np.ndarray:
-        move = np.asarray(obs[self.target[0] : self.target[1]], dtype=np.float64) * (
-            self.length_scale / self.D
-        )
-        norm = float(np.hypot(*move))
-        return (move / norm if norm > 1.0 else move).astype(np.float32)
-
-
-def peak_seeker() -> GroundSeeker:
-    """The same heuristic towards the reachable rate peak (``ios_uav_env.rate_peak``, the env's
-    ``peak_hint`` features): fly there, hover, let the guard bring the UAV to qF."""
-    return GroundSeeker(
-        env_kwargs={"peak_hint": True},
-        name="fly to the rate peak and hover (heuristic)",
-        target=(-3, -1),
-    )
-
-
-#: The heuristic policies ``load_policy`` knows by name.
-HEURISTICS = {"heuristic": GroundSeeker, "peak-heuristic": peak_seeker}
+#: The heuristic policies :func:`load_policy` knows by name (``ios_uav_env.policies.HoverAt``).
+HEURISTICS: dict[str, Callable[[], HoverAt]] = {
+    "heuristic": lambda: HoverAt("ground"),
+    "peak-heuristic": lambda: HoverAt("peak"),
+}
 
 
 @dataclass
@@ -102,109 +67,71 @@ class SuiteRow:
     sca_seconds: float
     trajectory: np.ndarray = field(repr=False)
 
+    @classmethod
+    def of(cls, entry: SuiteEntry, episode: Episode) -> SuiteRow:
+        """The row of ``episode``, the policy's episode on ``entry``'s scenario."""
+        c = entry.config
+        return cls(
+            entry.index, c.surface, c.T, c.M, entry.dp_rate, episode.average_rate,
+            100.0 * episode.average_rate / entry.dp_rate, episode.feasible, episode.terminal_miss,
+            episode.seconds, entry.sca["rate"], entry.sca_pct_dp, bool(entry.sca["feasible"]),
+            entry.sca["seconds"], episode.trajectory,
+        )  # fmt: skip
+
 
 def load_policy(path: str | Path, algo: str | None = None) -> Any:
-    """The policy at ``path`` (``agents.rollout.load_agent``), or a heuristic by name
-    (:data:`HEURISTICS`: ``"heuristic"`` flies to G, ``"peak-heuristic"`` to the rate peak).
-    ``algo`` checks the run's algorithm, or names a bare ``.zip``'s."""
+    """The agent at ``path`` (``agents.loading.load_agent``; a bare ``.zip`` is taken as a
+    policy of ``ios_uav_env/IOSUAV-Random-v0`` and needs ``algo``), or a heuristic by name
+    (:data:`HEURISTICS`: ``"heuristic"`` flies to G, ``"peak-heuristic"`` to the rate peak)."""
     if str(path) in HEURISTICS:
         return HEURISTICS[str(path)]()
-    from agents.rollout import Agent, load_agent
+    from agents.loading import load_agent
 
-    path = Path(path)
-    if algo is not None and path.suffix == ".zip" and not (path.parent / "config.json").exists():
-        if not path.exists():
-            raise FileNotFoundError(f"no model at {path}")
-        import torch
-        from stable_baselines3 import PPO, SAC
-
-        torch.set_num_threads(1)
-        model = {"ppo": PPO, "sac": SAC}[algo].load(path, device="cpu")
-        return Agent(model, None, RANDOM_ENV_ID, {}, path.stem)
-    agent = load_agent(path)
-    found = type(agent.model).__name__.lower()
-    if algo is not None and found != algo:
-        raise ValueError(f"{path} holds a {found.upper()} model, not {algo.upper()}")
-    return agent
+    return load_agent(path, algo, env_id=RANDOM_ENV_ID)
 
 
 def as_policy(model: Any, env_kwargs: dict[str, Any] | None = None) -> Any:
-    """A policy from an SB3 model (its VecNormalize statistics if it has them) or a policy."""
+    """A policy from an SB3 model (its VecNormalize statistics if it has them, on the
+    randomised id with ``env_kwargs``) or a policy (returned as it is)."""
     if hasattr(model, "act"):
         return model
-    from agents.rollout import Agent
+    from agents.loading import Agent
 
     get_vn = getattr(model, "get_vec_normalize_env", None)
     return Agent(model, get_vn() if get_vn else None, RANDOM_ENV_ID, dict(env_kwargs or {}), "model")
 
 
-class _Planner:
-    """Rolls a policy out on scenarios: one pinned env for the randomised id, else one per scenario."""
+def _fast(policy: Any) -> Callable[[np.ndarray], Any]:
+    """The deterministic action function of ``policy``: an SB3 agent's numpy export, else its own."""
+    if getattr(policy, "model", None) is not None:
+        from agents.numpy_policy import NumpyPolicy
 
-    def __init__(self, policy: Any) -> None:
-        self.policy = policy
-        self.act = policy.act
-        if getattr(policy, "model", None) is not None:  # an SB3 agent: plan with its numpy export
-            from agents.numpy_policy import NumpyPolicy
-
-            self.act = NumpyPolicy.from_sb3(policy.model, getattr(policy, "vecnormalize", None)).act
-        self.env_id = getattr(policy, "env_id", RANDOM_ENV_ID)
-        self.env_kwargs = dict(getattr(policy, "env_kwargs", {}) or {})
-        self.random = gym.spec(self.env_id).entry_point == "ios_uav_env.random_env:RandomIOSUAVEnv"
-        self.env = gym.make(self.env_id, **self.env_kwargs) if self.random else None
-
-    def plan(self, config: ScenarioConfig) -> tuple[np.ndarray, float]:
-        """(trajectory, seconds from the reset to the last step) of a deterministic episode."""
-        start = time.perf_counter()
-        if self.random:
-            env, options = self.env, {"config": config}
-        else:
-            from agents.rollout import make_env
-
-            env, options = make_env(self.env_id, self.env_kwargs, config), None
-        obs, _ = env.reset(seed=0, options=options)
-        done = False
-        while not done:
-            obs, _, terminated, truncated, _ = env.step(self.act(obs, True))
-            done = terminated or truncated
-        seconds = time.perf_counter() - start
-        trajectory = env.unwrapped.trajectory
-        if env is not self.env:
-            env.close()
-        return trajectory, seconds
-
-    def close(self) -> None:
-        if self.env is not None:
-            self.env.close()
+        return NumpyPolicy.from_sb3(policy.model, getattr(policy, "vecnormalize", None)).act
+    return policy.act if hasattr(policy, "act") else policy
 
 
-def evaluate_suite(policy: Any, suite: Suite, n: int | None = None, progress: bool = False) -> list[SuiteRow]:
-    """One :class:`SuiteRow` per scenario of ``suite.subset(n)``."""
-    planner = _Planner(as_policy(policy))
+def evaluate_suite(
+    policy: Any,
+    suite: Suite,
+    n: int | None = None,
+    progress: bool = False,
+    *,
+    env_id: str | None = None,
+    env_kwargs: dict[str, Any] | None = None,
+) -> list[SuiteRow]:
+    """One :class:`SuiteRow` per scenario of ``suite.subset(n)``; the policy runs in ``env_id``
+    with ``env_kwargs`` (default: its own ``env_id`` / ``env_kwargs`` attributes, else the
+    randomised id without arguments)."""
+    env_id = env_id or getattr(policy, "env_id", RANDOM_ENV_ID)
+    env_kwargs = dict(getattr(policy, "env_kwargs", {}) if env_kwargs is None else env_kwargs)
+    act = _fast(policy)
     entries = suite.subset(n)
     if progress:
         from tqdm.auto import tqdm
 
         entries = tqdm(entries, desc="suite report", unit="scenario")
-    rows = []
-    try:
-        for e in entries:
-            trajectory, seconds = planner.plan(e.config)
-            rows.append(_row(e, trajectory, seconds))
-    finally:
-        planner.close()
-    return rows
-
-
-def _row(e: SuiteEntry, trajectory: np.ndarray, seconds: float) -> SuiteRow:
-    c = e.config
-    rate = average_rate(c, trajectory)
-    report = check_trajectory(c, trajectory)
-    return SuiteRow(
-        e.index, c.surface, c.T, c.M, e.dp_rate, rate, 100.0 * rate / e.dp_rate, report.feasible,
-        report.end_error, seconds, e.sca["rate"], e.sca_pct_dp, bool(e.sca["feasible"]), e.sca["seconds"],
-        trajectory,
-    )  # fmt: skip
+    with ScenarioRunner(env_id, env_kwargs) as runner:
+        return [SuiteRow.of(e, runner.run(act, e.config, seed=0)) for e in entries]
 
 
 def summarize(rows: Sequence[SuiteRow]) -> dict[str, Any]:
@@ -231,8 +158,8 @@ def suite_score(
 ) -> dict[str, float]:
     """The suite score of ``model`` (an SB3 model, with its VecNormalize if any, or a policy):
     {"mean_pct_dp", "p10_pct_dp", "min_pct_dp", "feasible_frac", "n"} over the first ``n``
-    scenarios (all for None). ``env_kwargs``: the training env's (e.g. the guard). ~20 ms per
-    scenario; for a training callback (log e.g. ``suite/mean_pct_dp``)."""
+    scenarios (all for None). ``env_kwargs``: the training env's (e.g. the guard). For a
+    training callback (log e.g. ``suite/mean_pct_dp``)."""
     suite = load_suite(SUITE_PATH if suite is None else suite) if not isinstance(suite, Suite) else suite
     rows = evaluate_suite(as_policy(model, env_kwargs), suite, n)
     s = summarize(rows)

@@ -1,38 +1,44 @@
-"""The held-out suite of issue #6: fixed random scenarios with their planners' results, cached.
+"""The held-out suite: fixed random scenarios with their planners' results, for scoring generalists.
 
 A generalist policy is trained on ``ios_uav_env/IOSUAV-Random-v0`` (a new scenario from
 ``ios_uav_env.DEFAULT_RANGES`` at every reset; training seeds are small integers) and scored
-on scenarios it has never seen: :data:`HELDOUT_SEED` (20261122) draws :data:`DEFAULT_SIZE`
-(60) scenarios from the same ranges with ``sample_scenario(np.random.default_rng(seed))``,
-and each one's DP optimum (``baselines.dp.solve`` at 2.5 m: rate, trajectory, seconds) and
-SCA plan (``baselines.sca.solve``, the paper's algorithm with its default multi-start:
-rate, feasibility, seconds, trajectory) are precomputed into ``agents/suite/heldout.json``:
-the seed, the ranges, and one line per scenario (its full ``ScenarioConfig``, the plans).
-Rates and feasibility are those of the planners' own trajectories; the stored trajectories
-are rounded to 1e-3 m (for figures and warm starts), which keeps the file ~300 KB.
+on scenarios it has never seen: :data:`HELDOUT_SEED` draws :data:`DEFAULT_SIZE` scenarios
+from the same ranges with ``sample_scenario(np.random.default_rng(seed))``, and each one's
+DP optimum (``baselines.dp.solve`` at :data:`DP_RESOLUTION` m: rate, trajectory, seconds) and
+SCA plan (``baselines.sca.solve``, the paper's algorithm with its default multi-start: rate,
+feasibility, seconds, trajectory) are precomputed into ``agents/suite/heldout.json``: the
+seed, the ranges, and one line per scenario (its full ``ScenarioConfig``, the plans). Rates
+and feasibility are those of the planners' own trajectories; the stored trajectories are
+rounded to 10^-:data:`TRAJECTORY_DECIMALS` m (for figures and warm starts).
 
-    python -m agents.suite build [--n 60] [--seed 20261122] [--jobs 2]   # ~5-10 min, resumable
+This module is the data model (:class:`Suite`, :class:`SuiteEntry`) and its build and
+load; :mod:`agents.suite.report` scores a policy on it, :mod:`agents.suite.curve` every
+checkpoint of a run, and ``python -m agents.suite`` is the command line:
+
+    python -m agents.suite build --overwrite [--jobs 2]   # rebuild the shipped suite (resumable)
+    python -m agents.suite build --n 3           # a trial suite: out/suite_n3_seed20261122.json
     python -m agents.suite show [--table]
     python -m agents.suite report --model runs/<run> [--algo ppo|sac] [--out out/suite]
+    python -m agents.suite curve --run runs/<run> [--out out/suite_curve]
 
-``build`` solves the scenarios in parallel (spawned worker processes, a tqdm bar) and
-caches each scenario's result as one JSON file (``--cache``, default ``out/suite-cache``,
-written atomically as soon as it is solved; the key hashes the config and the planner
-settings), so an interrupted build resumes where it stopped; the suite file is written
-atomically at the end. ``report`` is :mod:`agents.suite_report`.
+``build`` solves the scenarios with ``baselines.runner.run_tasks`` (spawned worker processes,
+a progress bar) and caches each scenario's result as one JSON file (``--cache``, default
+``out/suite-cache``, written atomically as soon as it is solved; the key hashes the config
+and the planner settings), so an interrupted build resumes where it stopped (a cached
+record that cannot be read or holds a NaN is solved again); the suite file is written
+atomically at the end. An existing
+suite file (the shipped ``heldout.json`` above all) is replaced only with ``--overwrite``;
+a build of another size or seed goes to ``out/`` unless ``--out`` says otherwise.
 """
 
 from __future__ import annotations
 
-import argparse
+import functools
 import hashlib
 import json
-import multiprocessing
 import os
-import sys
 import time
 from collections.abc import Iterator, Sequence
-from concurrent.futures import ProcessPoolExecutor, as_completed
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -50,7 +56,7 @@ DEFAULT_SIZE = 60
 DP_RESOLUTION = 2.5
 #: Decimals (m) of the stored trajectories.
 TRAJECTORY_DECIMALS = 3
-SUITE_PATH = Path(__file__).resolve().parent / "suite" / "heldout.json"
+SUITE_PATH = Path(__file__).resolve().parent / "heldout.json"
 CACHE_DIR = Path("out/suite-cache")
 FORMAT = "ios_uav_env held-out suite, v1"
 
@@ -145,8 +151,9 @@ def solve_scenario(config: ScenarioConfig, dp_resolution: float = DP_RESOLUTION)
     }
 
 
-def _init_worker() -> None:
-    os.environ.setdefault("OMP_NUM_THREADS", "1")
+def solve_order(config: ScenarioConfig) -> int:
+    """Sort key of the scenarios to solve: the longest horizon (the slowest solve) first."""
+    return -config.N
 
 
 def solve_all(
@@ -158,42 +165,26 @@ def solve_all(
     progress: bool = True,
 ) -> list[dict[str, Any]]:
     """Each scenario's :func:`solve_scenario` record, from the cache or solved (in parallel over
-    ``jobs`` spawned processes; in this one for ``jobs=1``), each record cached atomically as
-    soon as it is solved."""
-    cache_dir = Path(cache_dir)
-    cache_dir.mkdir(parents=True, exist_ok=True)
-    paths = [cache_dir / f"{cache_key(c, dp_resolution)}.json" for c in configs]
-    records: dict[int, dict[str, Any]] = {}
-    for i, path in enumerate(paths):
-        if path.exists():
-            records[i] = json.loads(path.read_text())
-    missing = sorted(set(range(len(configs))) - set(records), key=lambda i: -configs[i].N)  # slowest first
-    if missing:
-        from tqdm.auto import tqdm
+    ``jobs`` spawned processes; in this one for ``jobs=1``: ``baselines.runner.run_tasks``),
+    each record cached atomically as soon as it is solved."""
+    from baselines.runner import run_tasks
 
-        bar = tqdm(
-            total=len(configs), initial=len(records), desc="suite", unit="scenario", disable=not progress
-        )
+    def describe(i: int, record: dict[str, Any]) -> str:
+        return f"#{i}: SCA {100 * record['sca']['rate'] / record['dp']['rate']:.2f}% of DP"
 
-        def done(i: int, record: dict[str, Any]) -> None:
-            records[i] = record
-            atomic_write_text(paths[i], json.dumps(record))
-            bar.set_postfix_str(f"#{i}: SCA {100 * record['sca']['rate'] / record['dp']['rate']:.2f}% of DP")
-            bar.update()
-
-        jobs = max(1, min(int(jobs), len(missing)))
-        if jobs == 1:  # in this process
-            for i in missing:
-                done(i, solve_scenario(configs[i], dp_resolution))
-        else:
-            os.environ.setdefault("OMP_NUM_THREADS", "1")
-            ctx = multiprocessing.get_context("spawn")  # fresh workers: no inherited BLAS threads
-            with ProcessPoolExecutor(max_workers=jobs, mp_context=ctx, initializer=_init_worker) as pool:
-                futures = {pool.submit(solve_scenario, configs[i], dp_resolution): i for i in missing}
-                for future in as_completed(futures):
-                    done(futures[future], future.result())
-        bar.close()
-    return [records[i] for i in range(len(configs))]
+    return run_tasks(
+        functools.partial(solve_scenario, dp_resolution=dp_resolution),
+        list(configs),
+        cache_dir,
+        key=lambda config: cache_key(config, dp_resolution),
+        jobs=jobs,
+        order=solve_order,
+        progress=progress,
+        desc="suite",
+        unit="scenario",
+        describe=describe,
+        required=("config", "dp", "sca"),
+    )
 
 
 def _rounded(trajectory: Any) -> list[list[float]]:
@@ -245,6 +236,9 @@ def build_suite(
     start = time.perf_counter()
     configs = suite_configs(n, seed, ranges)
     records = solve_all(configs, cache_dir, dp_resolution=dp_resolution, jobs=jobs, progress=progress)
+    bad = [f"#{i}: {p}" for i, r in enumerate(records) if (p := _problem({"index": i, "config": {}, **r}))]
+    if bad:
+        raise ValueError(f"solved scenarios cannot go into a suite: {'; '.join(bad)}")
     entries = [
         SuiteEntry(i, c, r["dp"], r["sca"]) for i, (c, r) in enumerate(zip(configs, records, strict=True))
     ]
@@ -261,23 +255,69 @@ def build_suite(
     return suite
 
 
+def _problem(rec: Any) -> str | None:
+    """What is wrong with one scenario record of a suite file (None if nothing)."""
+    if not isinstance(rec, dict):
+        return f"not a JSON object but a {type(rec).__name__}"
+    for key, fields in (
+        ("dp", ("rate", "trajectory")),
+        ("sca", ("rate", "feasible", "seconds", "trajectory")),
+    ):
+        if not isinstance(rec.get(key), dict):
+            return f"no {key!r} record"
+        missing = [f for f in fields if f not in rec[key]]
+        if missing:
+            return f"{key} has no {', '.join(map(repr, missing))}"
+    if "config" not in rec or "index" not in rec:
+        return "no 'config'" if "config" not in rec else "no 'index'"
+    for key in ("dp", "sca"):
+        rate = rec[key]["rate"]
+        if isinstance(rate, bool) or not isinstance(rate, int | float) or not np.isfinite(rate):
+            return f"{key} rate {rate!r} is not a finite number"
+    if rec["dp"]["rate"] <= 0:
+        return f"DP rate {rec['dp']['rate']!r} must be > 0 (the scores are % of it)"
+    return None
+
+
 def load_suite(path: str | Path = SUITE_PATH) -> Suite:
-    """Read a suite file (trajectories as (N, 2) arrays)."""
+    """Read a suite file (trajectories as (N, 2) arrays); ``ValueError`` naming the file (and the
+    scenario) if it is unreadable, has no scenarios, or a scenario lacks a key, has an invalid
+    config or a non-finite or zero DP rate."""
     path = Path(path)
     if not path.exists():
         raise FileNotFoundError(f"no suite at {path}: build it with `python -m agents.suite build`")
-    data = json.loads(path.read_text())
-    if data.get("format") != FORMAT:
-        raise ValueError(f"{path} is not a suite file ({FORMAT!r}), its format is {data.get('format')!r}")
+    try:
+        data = json.loads(path.read_text())
+    except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:
+        raise ValueError(f"{path} cannot be read: {exc}") from None
+    if not isinstance(data, dict) or data.get("format") != FORMAT:
+        found = data.get("format") if isinstance(data, dict) else None
+        raise ValueError(f"{path} is not a suite file ({FORMAT!r}), its format is {found!r}")
+    missing = [k for k in ("seed", "dp_resolution", "ranges", "scenarios") if k not in data]
+    if missing:
+        raise ValueError(f"{path}: no {', '.join(map(repr, missing))} in the suite file")
+    if not isinstance(data["scenarios"], list) or not data["scenarios"]:
+        raise ValueError(f"{path}: the suite has no scenarios")
     entries = []
-    for rec in data["scenarios"]:
-        dp = {**rec["dp"], "trajectory": np.asarray(rec["dp"]["trajectory"], dtype=float)}
-        sca = {**rec["sca"], "trajectory": np.asarray(rec["sca"]["trajectory"], dtype=float)}
-        entries.append(SuiteEntry(int(rec["index"]), ScenarioConfig(**rec["config"]), dp, sca))
-    ranges = ScenarioRanges.from_dict(data["ranges"])
-    return Suite(
-        int(data["seed"]), ranges, entries, float(data["dp_resolution"]), dict(data.get("build", {}))
-    )
+    for i, rec in enumerate(data["scenarios"]):
+        problem = _problem(rec)
+        try:
+            if problem is None:
+                dp = {**rec["dp"], "trajectory": np.asarray(rec["dp"]["trajectory"], dtype=float)}
+                sca = {**rec["sca"], "trajectory": np.asarray(rec["sca"]["trajectory"], dtype=float)}
+                entries.append(SuiteEntry(int(rec["index"]), ScenarioConfig(**rec["config"]), dp, sca))
+        except (TypeError, ValueError) as exc:
+            problem = f"{type(exc).__name__}: {exc}"
+        if problem is not None:
+            name = rec.get("index", i) if isinstance(rec, dict) else i
+            raise ValueError(f"{path}: scenario #{name}: {problem}")
+    try:
+        ranges = ScenarioRanges.from_dict(data["ranges"])
+        return Suite(
+            int(data["seed"]), ranges, entries, float(data["dp_resolution"]), dict(data.get("build", {}))
+        )
+    except (TypeError, ValueError, AttributeError) as exc:
+        raise ValueError(f"{path}: bad suite header: {type(exc).__name__}: {exc}") from None
 
 
 def summary(suite: Suite) -> dict[str, Any]:
@@ -332,78 +372,3 @@ def show_text(suite: Suite, path: Path | None = None, table: bool = False) -> st
                 f"{e.dp_rate:8.4f} {e.sca_pct_dp:8.2f} {e.sca['seconds']:6.2f}"
             )
     return "\n".join(lines)
-
-
-def build_parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(prog="python -m agents.suite", description=__doc__.splitlines()[0])
-    sub = parser.add_subparsers(dest="command", required=True)
-    b = sub.add_parser("build", help="draw the suite and precompute its DP and SCA plans (resumable)")
-    b.add_argument("--n", type=int, default=DEFAULT_SIZE, help=f"scenarios (default {DEFAULT_SIZE})")
-    b.add_argument("--seed", type=int, default=HELDOUT_SEED, help=f"suite seed (default {HELDOUT_SEED})")
-    b.add_argument("--jobs", type=int, default=2, help="worker processes (default 2)")
-    b.add_argument(
-        "--out", type=Path, default=SUITE_PATH, help="suite file (default agents/suite/heldout.json)"
-    )
-    b.add_argument("--cache", type=Path, default=CACHE_DIR, help=f"per-scenario cache (default {CACHE_DIR})")
-    b.add_argument("--no-progress", action="store_true", help="no progress bar")
-    s = sub.add_parser("show", help="print the suite's summary")
-    s.add_argument("--suite", type=Path, default=SUITE_PATH, help="suite file")
-    s.add_argument("--table", action="store_true", help="one line per scenario")
-    r = sub.add_parser("report", help="score a trained policy on the suite (see agents.suite_report)")
-    r.add_argument(
-        "--model", required=True, help="run or model folder, a model .zip, 'heuristic' or 'peak-heuristic'"
-    )
-    r.add_argument("--algo", choices=("ppo", "sac"), default=None, help="algorithm (default: the run's)")
-    r.add_argument("--suite", type=Path, default=SUITE_PATH, help="suite file")
-    r.add_argument("--n", type=int, default=None, help="only the first n scenarios")
-    r.add_argument("--out", type=Path, default=Path("out/suite"), help="folder of the table and figures")
-    c = sub.add_parser("curve", help="score every checkpoint of a training run (the learning curve)")
-    c.add_argument("--run", type=Path, required=True, help="run folder (with checkpoints/)")
-    c.add_argument("--suite", type=Path, default=SUITE_PATH, help="suite file")
-    c.add_argument("--n", type=int, default=None, help="only the first n scenarios")
-    c.add_argument("--out", type=Path, default=Path("out/suite_curve"), help="folder of the CSV and PNG")
-    return parser
-
-
-def main(argv: Sequence[str] | None = None) -> int:
-    parser = build_parser()
-    args = parser.parse_args(argv)
-    if args.command == "build":
-        if args.n < 1 or args.jobs < 1:
-            parser.error("--n and --jobs must be >= 1")
-        start = time.perf_counter()
-        suite = build_suite(args.out, args.n, args.seed, jobs=args.jobs, cache_dir=args.cache,
-                            progress=not args.no_progress)  # fmt: skip
-        print(show_text(suite, args.out))
-        print(f"wrote {args.out} in {time.perf_counter() - start:.1f} s")
-        return 0
-    try:
-        suite = load_suite(args.suite)
-    except (FileNotFoundError, ValueError) as exc:
-        parser.error(str(exc))
-    if args.command == "show":
-        print(show_text(suite, args.suite, table=args.table))
-        return 0
-    if args.n is not None and args.n < 1:
-        parser.error("--n must be >= 1")
-    if args.command == "curve":
-        from agents.suite_curve import learning_curve, write_curve
-
-        try:
-            rows = learning_curve(args.run, suite, args.n)
-        except FileNotFoundError as exc:
-            parser.error(f"argument --run: {exc}")
-        print("wrote " + ", ".join(str(p) for p in write_curve(rows, args.out)))
-        return 0
-    from agents.suite_report import load_policy, run_report
-
-    try:
-        policy = load_policy(args.model, args.algo)
-    except (FileNotFoundError, ValueError) as exc:
-        parser.error(f"argument --model: {exc}")
-    run_report(policy, suite, args.out, n=args.n)
-    return 0
-
-
-if __name__ == "__main__":
-    sys.exit(main())

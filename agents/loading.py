@@ -1,0 +1,281 @@
+"""Trained agents: the algorithms by name and the one loader of runs, shipped models and checkpoints.
+
+A run or model folder holds ``model.zip``, ``config.json`` (its ``algo``, ``env_id`` and
+``env_kwargs``), ``vecnormalize.pkl`` when training normalised observations or rewards, and
+``summary.json``; a run's ``checkpoints/`` hold ``rl_model_<steps>_steps.zip`` with the
+matching ``rl_model_vecnormalize_<steps>_steps.pkl``. The algorithm is the one its
+``config.json`` names; a bare ``.zip`` without one needs ``algo``.
+
+>>> agent = load_agent("agents/models/ppo_IOSUAV-v0")                      # doctest: +SKIP
+>>> early = load_agent("runs/<run>", checkpoint=250_000)                   # doctest: +SKIP
+>>> import gymnasium as gym                                                # doctest: +SKIP
+>>> from ios_uav_env.rollout import run_episode                            # doctest: +SKIP
+>>> run_episode(gym.make(agent.env_id, **agent.env_kwargs), agent.act)     # doctest: +SKIP
+"""
+
+from __future__ import annotations
+
+import json
+import pickle
+import re
+from collections.abc import Iterator, Mapping
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+DEFAULT_ENV_ID = "ios_uav_env/IOSUAV-v0"
+CHECKPOINT_PREFIX = "rl_model"
+
+
+class _Algorithms(Mapping[str, type]):
+    """``{"ppo": PPO, "sac": SAC}``, importing Stable-Baselines3 only when a class is looked up."""
+
+    _NAMES = {"ppo": "PPO", "sac": "SAC"}
+
+    def __getitem__(self, algo: str) -> type:
+        if algo not in self._NAMES:
+            raise KeyError(algo)
+        import stable_baselines3
+
+        return getattr(stable_baselines3, self._NAMES[algo])
+
+    def __contains__(self, algo: object) -> bool:
+        return algo in self._NAMES
+
+    def __iter__(self) -> Iterator[str]:
+        return iter(self._NAMES)
+
+    def __len__(self) -> int:
+        return len(self._NAMES)
+
+
+#: The algorithms by name: ``ALGOS["ppo"]`` is ``stable_baselines3.PPO``.
+ALGOS: Mapping[str, type] = _Algorithms()
+
+
+@dataclass
+class Agent:
+    """A trained policy: ``model.predict`` on observations normalised as in training (if they were).
+
+    An ``Agent`` is a policy for ``ios_uav_env.rollout.run_episode``: ``agent(obs)`` is
+    ``agent.act(obs)``, the deterministic action.
+    """
+
+    model: Any  # an SB3 algorithm
+    vecnormalize: Any = None  # VecNormalize with the training statistics, or None
+    env_id: str = DEFAULT_ENV_ID  # the id it was trained on
+    env_kwargs: dict[str, Any] = field(default_factory=dict)  # the env arguments it was trained with
+    name: str = "agent"
+    meta: dict[str, Any] = field(default_factory=dict)  # config.json and summary.json of its run
+
+    def act(self, obs: np.ndarray, deterministic: bool = True) -> np.ndarray:
+        if self.vecnormalize is not None:
+            obs = self.vecnormalize.normalize_obs(obs)
+        action, _ = self.model.predict(obs, deterministic=deterministic)
+        return action
+
+    def __call__(self, obs: np.ndarray) -> np.ndarray:
+        return self.act(obs)
+
+    def check_env(
+        self,
+        env: Any = None,
+        *,
+        env_id: str | None = None,
+        env_kwargs: Mapping[str, Any] | None = None,
+        source: Any = None,
+    ) -> None:
+        """``ValueError`` naming both sizes if ``env`` (default: ``env_id`` made with ``env_kwargs``,
+        default the agent's own) gives observations of another size than the model takes."""
+        expected = getattr(getattr(self.model, "observation_space", None), "shape", None)
+        if expected is None:
+            return
+        if env is None:
+            import gymnasium as gym
+
+            import ios_uav_env  # noqa: F401  (registers the ids)
+
+            env_id = env_id or self.env_id
+            env_kwargs = dict(self.env_kwargs if env_kwargs is None else env_kwargs)
+            made = gym.make(env_id, **env_kwargs)
+            shape = made.observation_space.shape
+            made.close()
+            where = f"{env_id} with {env_kwargs}"
+        else:
+            shape = env.observation_space.shape
+            where = f"the env {getattr(getattr(env, 'spec', None), 'id', type(env).__name__)}"
+        if tuple(shape) != tuple(expected):
+            raise ValueError(
+                f"{source or self.name}: the model takes observations of shape {tuple(expected)}, "
+                f"{where} gives {tuple(shape)}"
+            )
+
+
+def checkpoints(run_dir: str | Path) -> list[tuple[int, Path]]:
+    """``(steps, zip)`` of every checkpoint in ``run_dir/checkpoints``, by steps (may be empty)."""
+    found = []
+    for path in (Path(run_dir) / "checkpoints").glob(f"{CHECKPOINT_PREFIX}_*_steps.zip"):
+        match = re.fullmatch(rf"{CHECKPOINT_PREFIX}_(\d+)_steps\.zip", path.name)
+        if match:
+            found.append((int(match.group(1)), path))
+    return sorted(found)
+
+
+def checkpoint_file(run_dir: str | Path, steps: int, kind: str = "") -> Path:
+    """The checkpoint file of ``steps``: the model (``kind=""``, a .zip) or its ``"vecnormalize"``
+    / ``"replay_buffer"`` pickle."""
+    folder = Path(run_dir) / "checkpoints"
+    if not kind:
+        return folder / f"{CHECKPOINT_PREFIX}_{steps}_steps.zip"
+    return folder / f"{CHECKPOINT_PREFIX}_{kind}_{steps}_steps.pkl"
+
+
+def _read_vecnormalize(path: Path) -> Any:
+    """The VecNormalize statistics of ``path`` for inference (frozen, rewards not normalised);
+    ``ValueError`` naming the file if it cannot be read."""
+    try:
+        with path.open("rb") as fh:
+            vecnormalize = pickle.load(fh)  # what VecNormalize.load does, without an env to attach
+    except Exception as exc:  # truncated or foreign pickles fail in many ways
+        raise ValueError(
+            f"{path}: cannot read the VecNormalize statistics: {type(exc).__name__}: {exc}"
+        ) from None
+    if not hasattr(vecnormalize, "normalize_obs"):
+        raise ValueError(f"{path} holds a {type(vecnormalize).__name__}, not VecNormalize statistics")
+    vecnormalize.training, vecnormalize.norm_reward = False, False
+    return vecnormalize
+
+
+def _read_json(path: Path) -> dict[str, Any]:
+    try:
+        data = json.loads(path.read_text())
+    except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:
+        raise ValueError(f"{path} cannot be read: {exc}") from None
+    if not isinstance(data, dict):
+        raise ValueError(f"{path} must hold a JSON object, got a {type(data).__name__}")
+    return data
+
+
+def zip_algorithm(zip_path: Path) -> str | None:
+    """The algorithm an SB3 ``.zip`` was saved by (``"ppo"``, ``"sac"``; None if another), from
+    its policy class; ``ValueError`` naming the file if it is not an SB3 model file."""
+    import zipfile
+
+    try:
+        with zipfile.ZipFile(zip_path) as archive:
+            data = json.loads(archive.read("data"))
+        module = str(data["policy_class"]["__module__"])
+    except (OSError, zipfile.BadZipFile, KeyError, TypeError, ValueError) as exc:
+        raise ValueError(
+            f"{zip_path} is not a readable SB3 model file: {type(exc).__name__}: {exc}"
+        ) from None
+    for algo in ALGOS:
+        if module.startswith(f"stable_baselines3.{algo}."):
+            return algo
+    return None
+
+
+def observations_normalised(config: Mapping[str, Any]) -> bool:
+    """Whether the run of ``config`` (a run's ``config.json``) normalised its observations, as its
+    ``hyperparams.normalize`` says (``true``, or a dict / dict string with ``norm_obs`` true or unset)."""
+    import ast
+
+    normalize = config.get("hyperparams", {}).get("normalize", False)
+    if isinstance(normalize, str):
+        text = normalize.strip()
+        if text.lower() in ("true", "false"):
+            return text.lower() == "true"
+        try:
+            tree = ast.parse(text, mode="eval").body
+            if isinstance(tree, ast.Call) and getattr(tree.func, "id", "") == "dict":
+                normalize = {k.arg: ast.literal_eval(k.value) for k in tree.keywords}
+            else:
+                normalize = ast.literal_eval(text)
+        except (ValueError, SyntaxError):
+            return True  # unreadable: assume it did (refusing is safer than acting on raw observations)
+    if isinstance(normalize, dict):
+        return bool(normalize.get("norm_obs", True))
+    return bool(normalize)
+
+
+def load_agent(
+    path: str | Path,
+    algo: str | None = None,
+    *,
+    checkpoint: int | None = None,
+    env_id: str | None = None,
+    name: str | None = None,
+) -> Agent:
+    """The agent of a run or model folder, of one of a run's checkpoints, or of a bare ``.zip``.
+
+    ``path``: a folder with ``model.zip`` (and ``config.json``), or a ``.zip`` file.
+    ``algo``: checked against the run's ``config.json`` and the zip's own policy class
+    (``ValueError`` if it differs); required for a ``.zip`` without a ``config.json`` beside
+    it. ``checkpoint``: the steps of a checkpoint of the run folder ``path`` (model and
+    VecNormalize statistics of that step). ``env_id``: the id of a bare ``.zip`` (default
+    ``ios_uav_env/IOSUAV-v0``); a run's own id comes from its ``config.json``.
+
+    Raises ``FileNotFoundError`` for a missing model, or for missing VecNormalize statistics
+    of a run whose config says it normalised observations; ``ValueError`` for a file that
+    cannot be read (it names the file) or an env whose observation size is not the model's
+    (it names both).
+    """
+    path = Path(path)
+    if algo is not None and algo not in ALGOS:
+        raise ValueError(f"unknown algorithm {algo!r}; choose from {', '.join(ALGOS)}")
+    if checkpoint is not None:
+        folder, zip_path = path, checkpoint_file(path, checkpoint)
+        stats = checkpoint_file(path, checkpoint, "vecnormalize")
+    elif path.suffix == ".zip":
+        folder, zip_path, stats = path.parent, path, path.parent / "vecnormalize.pkl"
+    else:
+        folder, zip_path, stats = path, path / "model.zip", path / "vecnormalize.pkl"
+    if not zip_path.exists():
+        raise FileNotFoundError(f"no model at {zip_path}")
+    meta: dict[str, Any] = {}
+    for key in ("config", "summary"):
+        file = folder / f"{key}.json"
+        if file.exists():
+            meta[key] = _read_json(file)
+    config = meta.get("config", {})
+    found = config.get("algo")
+    if found is None and algo is None:
+        raise ValueError(
+            f"{zip_path}: no config.json beside it names its algorithm; "
+            f"pass the algorithm ({', '.join(ALGOS)})"
+        )
+    if found is not None and algo is not None and found != algo:
+        raise ValueError(f"{zip_path} holds a {found.upper()} model, not {algo.upper()}")
+    algo = found or algo
+    saved_by = zip_algorithm(zip_path)
+    if saved_by is not None and saved_by != algo:
+        raise ValueError(f"{zip_path} holds a {saved_by.upper()} model, not {algo.upper()}")
+    vecnormalize = None
+    if stats.exists():
+        vecnormalize = _read_vecnormalize(stats)
+    elif observations_normalised(config):
+        raise FileNotFoundError(
+            f"{zip_path}: its run normalised observations ({folder / 'config.json'}: normalize "
+            f"{config['hyperparams']['normalize']!r}) but the statistics {stats} are missing"
+        )
+    import torch
+
+    torch.set_num_threads(1)
+    try:
+        model = ALGOS[algo].load(zip_path, device="cpu")
+    except Exception as exc:  # a damaged zip fails in many ways (zipfile, torch, SB3 asserts)
+        raise ValueError(
+            f"{zip_path}: cannot load the {algo.upper()} model: {type(exc).__name__}: {exc}"
+        ) from None
+    agent = Agent(
+        model,
+        vecnormalize,
+        config.get("env_id", env_id or DEFAULT_ENV_ID),
+        dict(config.get("env_kwargs", {})),
+        name or (zip_path.stem if checkpoint is not None or path.suffix == ".zip" else folder.name),
+        meta,
+    )
+    agent.check_env(source=zip_path)
+    return agent

@@ -1,0 +1,450 @@
+"""``python -m agents.sweep``: a training sweep, seeds x algorithms x env ids x hyperparameter overrides.
+
+    python -m agents.sweep --algos ppo sac --seeds 0 1 2 --timesteps 200000 --out out/sweep
+    python -m agents.sweep --algos ppo --seeds 0 1 --set learning_rate=1e-4 --set learning_rate=3e-4 \\
+        --set n_epochs=5 --timesteps 100000 --out out/lr --backend ray [--address HOST:6379]
+
+Every trial is one ``train.py`` run (:func:`agents.training.train`) in its own folder
+``OUT/runs/<trial>``, named by its parameters (``IOSUAV-v0__ppo__seed0__learning_rate-0.0001``).
+``--set KEY=VALUE`` overrides a key of the algorithm's zoo-format hyperparameters (the value is
+read as YAML: ``1e-4``, ``lin_3e-4``, ``"dict(net_arch=[64, 64])"``); giving a key more than once
+makes its values a dimension of the sweep. A trial's hyperparameters are written to
+``OUT/hyperparams/<trial>.yml`` (the shipped entry with the overrides), so the run is a plain
+``train.py`` run: ``python train.py --resume OUT/runs/<trial>`` continues one by hand.
+
+Resumable: a finished trial is read back (``OUT/results/<trial>__t<timesteps>.json``, written
+atomically when it ends); an interrupted one continues from its newest checkpoint
+(:func:`agents.training.resume`); running the command again with a larger ``--timesteps``
+extends the finished runs. The backends:
+
+- ``local`` (default): a pool of ``--jobs`` worker processes (``baselines.runner.run_tasks``;
+  in this process with ``--jobs 1``);
+- ``ray``: Ray Tune, one trial per run (``tune.Tuner`` with a function trainable that runs the
+  same code and reports the final evaluation; Tune's records in ``OUT/tune``), on a local Ray
+  or the cluster at ``--address``. The run folders are the checkpoints: a trial of a new
+  Tuner resumes from its folder, so a sweep interrupted on one backend goes on on either.
+
+Either way ``OUT/sweep.csv`` has one row per trial: algorithm, env id, seed, overrides, the
+final deterministic evaluation's average rate, its % of the DP optimum (the default scenario
+of the fixed ids, from ``results/sweep.csv``; empty otherwise), feasibility, steps and wall
+time. The records and the CSV do not depend on the backend (the wall times aside).
+"""
+
+from __future__ import annotations
+
+import argparse
+import csv
+import dataclasses
+import functools
+import hashlib
+import io
+import itertools
+import json
+import re
+import sys
+import tempfile
+import time
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import yaml
+
+from baselines.ray_backend import add_backend_arguments, check_backend_arguments
+from baselines.runner import cached_records, check_writable, run_tasks
+from ios_uav_env.io import atomic_write_text
+
+ROOT = Path(__file__).resolve().parents[1]
+#: The shipped sweep of the figures (the DP optimum of each fixed id's default scenario).
+DP_RESULTS = ROOT / "results" / "sweep.csv"
+DP_SCHEME = {
+    "ios_uav_env/IOSUAV-v0": "dp-ia",
+    "ios_uav_env/RISUAV-v0": "dp-ra",
+    "ios_uav_env/UAV-v0": "dp-cuc",
+}
+CSV_COLUMNS = (
+    "trial", "algo", "env_id", "seed", "overrides", "average_rate", "pct_of_dp", "feasible", "steps",
+    "wall_time_s", "run_dir",
+)  # fmt: skip
+#: The keys of a trial's record (a cached record without one of them is run again).
+RECORD_KEYS = ("trial", "algo", "env_id", "seed", "overrides", "average_rate", "feasible", "steps")
+
+
+@dataclass(frozen=True)
+class Trial:
+    """One run of the sweep."""
+
+    algo: str
+    env_id: str
+    seed: int
+    overrides: tuple[tuple[str, Any], ...] = ()  # hyperparameter (key, value), in the order given
+
+    @property
+    def name(self) -> str:
+        """The run folder's name: env, algorithm, seed and overrides (hashed beyond 120 characters)."""
+        parts = [self.env_id.rsplit("/", 1)[-1], self.algo, f"seed{self.seed}"]
+        parts += [f"{k}-{v}" for k, v in self.overrides]
+        name = re.sub(r"[^A-Za-z0-9_.=-]+", "-", "__".join(parts))
+        if len(name) > 120:
+            digest = hashlib.sha1(json.dumps(self.to_dict(), sort_keys=True).encode()).hexdigest()[:10]
+            name = f"{name[:100]}__{digest}"
+        return name
+
+    @property
+    def overrides_text(self) -> str:
+        return ";".join(f"{k}={v}" for k, v in self.overrides)
+
+    def to_dict(self) -> dict[str, Any]:
+        return {"algo": self.algo, "env_id": self.env_id, "seed": self.seed,
+                "overrides": [[k, v] for k, v in self.overrides]}  # fmt: skip
+
+    @classmethod
+    def from_dict(cls, data: dict[str, Any]) -> Trial:
+        return cls(
+            data["algo"], data["env_id"], int(data["seed"]), tuple((k, v) for k, v in data["overrides"])
+        )
+
+
+def parse_overrides(items: Sequence[str] | None) -> dict[str, list[Any]]:
+    """``KEY=VALUE`` items (the value read as YAML) to ``{key: [values]}``; a key given more than
+    once gets all its values (a dimension of the sweep). ``ValueError`` naming a malformed item."""
+    out: dict[str, list[Any]] = {}
+    for item in items or []:
+        key, sep, text = item.partition("=")
+        key = key.strip()
+        if not sep or not key.isidentifier() or not text.strip():
+            raise ValueError(f"expected KEY=VALUE (e.g. learning_rate=1e-4), got {item!r}")
+        try:
+            value = yaml.safe_load(text)
+        except yaml.YAMLError as exc:
+            raise ValueError(f"cannot read the value of {item!r} as YAML: {exc}") from None
+        if isinstance(value, str) and re.fullmatch(r"[-+]?(\d+\.?\d*|\.\d+)[eE][-+]?\d+", value):
+            value = float(value)  # YAML 1.1 reads 1e-4 (no dot) as a string
+        if value not in out.setdefault(key, []):
+            out[key].append(value)
+    return out
+
+
+def make_trials(
+    algos: Sequence[str], env_ids: Sequence[str], seeds: Sequence[int], overrides: dict[str, list[Any]]
+) -> list[Trial]:
+    """The cartesian product of the algorithms, env ids, seeds and override values (each trial
+    once, in that order)."""
+    keys = list(overrides)
+    combos = list(itertools.product(*(overrides[k] for k in keys)))
+    trials = [
+        Trial(algo, env_id, int(seed), tuple(zip(keys, combo, strict=True)))
+        for algo, env_id, combo, seed in itertools.product(algos, env_ids, combos, seeds)
+    ]
+    return list({t.name: t for t in trials}.values())  # values may be lists: not hashable
+
+
+def trial_hyperparams(trial: Trial, out: Path) -> Path | None:
+    """``OUT/hyperparams/<trial>.yml``: the shipped entry of the trial's algorithm and env id with
+    its overrides (None without overrides: the shipped file itself)."""
+    if not trial.overrides:
+        return None
+    from agents.hyperparams import hyperparams_path
+
+    table = yaml.safe_load(hyperparams_path(trial.algo).read_text())
+    if trial.env_id not in table:
+        raise ValueError(
+            f"env_id: {hyperparams_path(trial.algo)} has no hyperparameters for {trial.env_id!r}"
+        )
+    entry = {**table[trial.env_id], **dict(trial.overrides)}
+    text = f"# {trial.name}: agents/hyperparams/{trial.algo}.yml with {trial.overrides_text}\n"
+    return atomic_write_text(
+        out / "hyperparams" / f"{trial.name}.yml", text + yaml.safe_dump({trial.env_id: entry})
+    )
+
+
+@functools.lru_cache(maxsize=1)
+def _dp_rates() -> dict[str, float]:
+    from ios_uav_env import ScenarioConfig
+
+    config = ScenarioConfig()
+    m = config.ios_shape[0] * config.ios_shape[1]
+    try:
+        rows = list(csv.DictReader(DP_RESULTS.open()))
+    except OSError:
+        return {}
+    return {
+        r["scheme"]: float(r["average_rate"])
+        for r in rows
+        if r["scheme"].startswith("dp") and float(r["T"]) == config.T and int(r["M"]) == m
+    }
+
+
+def dp_rate(env_id: str, env_kwargs: dict[str, Any]) -> float | None:
+    """The DP optimum of the env's scenario if it is known (a fixed id with its default scenario)."""
+    scenario_kwargs = {k for k in env_kwargs if k not in ("arrival_guard",)}
+    if env_id not in DP_SCHEME or scenario_kwargs:
+        return None
+    return _dp_rates().get(DP_SCHEME[env_id])
+
+
+def run_trial(
+    trial: Trial,
+    *,
+    out: str | Path,
+    timesteps: int,
+    env_kwargs: dict[str, Any] | None = None,
+    eval_freq: int = 10_000,
+    checkpoint_freq: int = 25_000,
+) -> dict[str, Any]:
+    """Run one trial to ``timesteps`` (or read it back if its run has finished them; resume it
+    from its checkpoint if interrupted) and return its record (a row of ``sweep.csv``)."""
+    from agents.training import TrainSettings, resume, train
+
+    out = Path(out).resolve()
+    env_kwargs = dict(env_kwargs or {})
+    run_dir = out / "runs" / trial.name
+    summary_path = run_dir / "summary.json"
+    summary = json.loads(summary_path.read_text()) if summary_path.exists() else None
+    if summary is not None and summary.get("steps", 0) >= timesteps:
+        pass  # finished
+    elif (run_dir / "config.json").exists():
+        summary = resume(run_dir, timesteps=timesteps, progress_bar=False).summary
+    else:
+        hp_file = trial_hyperparams(trial, out)
+        settings = TrainSettings(
+            algo=trial.algo,
+            env_id=trial.env_id,
+            timesteps=timesteps,
+            seed=trial.seed,
+            env_kwargs=env_kwargs,
+            out=str(run_dir),
+            hyperparams_file=None if hp_file is None else str(hp_file),
+            checkpoint_freq=checkpoint_freq,
+            eval_freq=eval_freq,
+            progress_bar=False,
+        )
+        summary = train(settings).summary
+    final = summary["final_eval"]
+    dp = dp_rate(trial.env_id, env_kwargs)
+    return {
+        "trial": trial.name,
+        "algo": trial.algo,
+        "env_id": trial.env_id,
+        "seed": trial.seed,
+        "overrides": trial.overrides_text,
+        "average_rate": float(final["average_rate"]),
+        "pct_of_dp": None if dp is None else 100.0 * float(final["average_rate"]) / dp,
+        "feasible": bool(final["feasible"]),
+        "steps": int(summary["steps"]),
+        "wall_time_s": float(summary["wall_time_s"]),
+        "run_dir": str(run_dir.relative_to(out)),
+    }
+
+
+def _tune_trainable(config: dict[str, Any]) -> None:
+    """Ray Tune's function trainable: one trial, its record reported once at the end."""
+    from ray import tune
+
+    tune.report(run_trial(Trial.from_dict(config["trial"]), **config["run"]))
+
+
+def _run_tune(
+    trials: list[Trial],
+    run: dict[str, Any],
+    jobs: int | None,
+    address: str | None,
+    progress: bool,
+    done: Callable[[Trial, dict[str, Any]], None],
+) -> None:
+    """Run the trials as Ray Tune trials (one CPU each, at most ``jobs`` at once) and call
+    ``done(trial, record)`` for each that finished; ``RuntimeError`` naming the others (failed,
+    or stopped by an interrupt) after that."""
+    from baselines.ray_backend import init_ray
+
+    init_ray(address)
+    from ray import tune
+
+    tuner = tune.Tuner(
+        tune.with_resources(_tune_trainable, {"cpu": 1}),
+        param_space={"trial": tune.grid_search([t.to_dict() for t in trials]), "run": run},
+        tune_config=tune.TuneConfig(num_samples=1, max_concurrent_trials=jobs),
+        run_config=tune.RunConfig(
+            name=f"sweep-{time.strftime('%Y%m%d-%H%M%S')}",
+            storage_path=str(Path(run["out"]) / "tune"),
+            failure_config=tune.FailureConfig(max_failures=0),
+            verbose=1 if progress else 0,
+        ),
+    )
+    results = tuner.fit()
+    by_name = {t.name: t for t in trials}
+    finished = set()
+    errors = [f"{Trial.from_dict(r.config['trial']).name}: {r.error}" for r in results if r.error is not None]
+    for result in results:
+        if result.error is None and result.metrics and result.metrics.get("trial") in by_name:
+            finished.add(result.metrics["trial"])
+            done(by_name[result.metrics["trial"]], {k: result.metrics[k] for k in CSV_COLUMNS})
+    unfinished = [t.name for t in trials if t.name not in finished]
+    if unfinished:
+        first = errors[0] if errors else "stopped before its end"
+        raise RuntimeError(
+            f"{len(unfinished)} of {len(trials)} Tune trials did not finish ({first}); run the command "
+            "again to resume them from their run folders"
+        )
+
+
+def record_key(timesteps: int, trial: Trial) -> str:
+    """A trial record's cache name: the trial and its total steps."""
+    return f"{trial.name}__t{timesteps}"
+
+
+def run_sweep(
+    trials: Sequence[Trial],
+    out: str | Path,
+    *,
+    timesteps: int,
+    env_kwargs: dict[str, Any] | None = None,
+    eval_freq: int = 10_000,
+    checkpoint_freq: int = 25_000,
+    jobs: int | None = None,
+    backend: str = "local",
+    address: str | None = None,
+    progress: bool = True,
+) -> list[dict[str, Any]]:
+    """Run (or read back, or resume) every trial and return their records in order; each record
+    is cached in ``OUT/results`` as soon as its trial ends (the same file on both backends)."""
+    if backend not in ("local", "ray"):
+        raise ValueError(f"backend: unknown backend {backend!r}; choose from local, ray")
+    if address is not None and backend != "ray":
+        raise ValueError(f"address: a Ray cluster's address needs backend='ray', got backend={backend!r}")
+    out = Path(out).resolve()
+    trials = list(trials)
+    run = {"out": str(out), "timesteps": timesteps, "env_kwargs": dict(env_kwargs or {}),
+           "eval_freq": eval_freq, "checkpoint_freq": checkpoint_freq}  # fmt: skip
+    key = functools.partial(record_key, timesteps)
+    cache_dir = out / "results"
+    if backend == "local":
+        return run_tasks(
+            functools.partial(run_trial, **run), trials, cache_dir, key=key, jobs=jobs, progress=progress,
+            desc="sweep", unit="trial", required=RECORD_KEYS,
+            describe=lambda i, r: f"{r['trial']}: {r['average_rate']:.3f} bps/Hz",
+        )  # fmt: skip
+    cache_dir.mkdir(parents=True, exist_ok=True)
+    records = cached_records(trials, cache_dir, key, RECORD_KEYS)
+    todo = [t for i, t in enumerate(trials) if i not in records]
+    index = {t.name: i for i, t in enumerate(trials)}
+
+    def done(trial: Trial, record: dict[str, Any]) -> None:  # the same file as run_tasks writes
+        atomic_write_text(cache_dir / f"{key(trial)}.json", json.dumps(record))
+        records[index[trial.name]] = record
+
+    if todo:
+        _run_tune(todo, run, jobs, address, progress, done)
+    return [records[i] for i in range(len(trials))]
+
+
+def write_csv(records: Sequence[dict[str, Any]], path: str | Path) -> Path:
+    """``sweep.csv``: one row per trial (:data:`CSV_COLUMNS`; % of DP empty when unknown)."""
+    buffer = io.StringIO()
+    writer = csv.writer(buffer, lineterminator="\n")
+    writer.writerow(CSV_COLUMNS)
+    for r in records:
+        pct = "" if r["pct_of_dp"] is None else f"{r['pct_of_dp']:.4f}"
+        writer.writerow([r["trial"], r["algo"], r["env_id"], r["seed"], r["overrides"],
+                         f"{r['average_rate']:.8f}", pct, int(bool(r["feasible"])), r["steps"],
+                         f"{r['wall_time_s']:.2f}", r["run_dir"]])  # fmt: skip
+    return atomic_write_text(path, buffer.getvalue())
+
+
+def _positive(text: str) -> int:
+    try:
+        value = int(text)
+    except ValueError:
+        value = 0
+    if value < 1:
+        raise argparse.ArgumentTypeError(f"must be an integer >= 1, got {text!r}")
+    return value
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(
+        prog="python -m agents.sweep",
+        description=__doc__,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
+    from agents.loading import ALGOS
+    from agents.training import DEFAULT_ENV_ID
+
+    parser.add_argument("--algos", nargs="+", choices=list(ALGOS), default=["ppo"], help="algorithms")
+    parser.add_argument("--seeds", nargs="+", type=int, default=[0], help="seeds (default 0)")
+    parser.add_argument(
+        "--env", nargs="+", default=[DEFAULT_ENV_ID], help=f"env ids (default {DEFAULT_ENV_ID})"
+    )
+    parser.add_argument("--set", action="append", default=[], metavar="KEY=VALUE", dest="overrides",
+                        help="a hyperparameter override (YAML); a key again: another value")  # fmt: skip
+    parser.add_argument("--env-kwargs", nargs="*", default=[], metavar="KEY:VALUE",
+                        help="env arguments for every trial, as train.py's")  # fmt: skip
+    parser.add_argument("--timesteps", type=_positive, required=True, help="env steps per trial")
+    parser.add_argument("--eval-freq", type=int, default=10_000, help="steps between evaluations (0: none)")
+    parser.add_argument("--checkpoint-freq", type=_positive, default=25_000, help="steps between checkpoints")
+    parser.add_argument("--out", type=Path, required=True, help="sweep folder (runs/, results/, sweep.csv)")
+    parser.add_argument("--jobs", type=_positive, default=None,
+                        help="trials at once (default: all cores, or the Ray cluster's CPUs)")  # fmt: skip
+    parser.add_argument("--no-progress", action="store_true", help="no progress bar")
+    add_backend_arguments(parser)
+    return parser
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    check_backend_arguments(parser, args)
+    from agents.hyperparams import parse_env_kwargs
+    from agents.training import check_env_id, check_env_kwargs
+
+    for env_id in args.env:
+        try:
+            check_env_id(env_id)
+        except ValueError as exc:
+            parser.error(f"argument --env: {exc}")
+    try:
+        overrides = parse_overrides(args.overrides)
+    except ValueError as exc:
+        parser.error(f"argument --set: {exc}")
+    try:
+        env_kwargs = parse_env_kwargs(args.env_kwargs)
+        for env_id in args.env:
+            check_env_kwargs(env_id, env_kwargs)
+    except ValueError as exc:
+        parser.error(f"argument --env-kwargs: {exc}")
+    try:
+        check_writable(args.out)
+    except OSError as exc:
+        parser.error(f"argument --out: {exc}")
+    trials = make_trials(args.algos, args.env, args.seeds, overrides)
+    from agents.training import check_hyperparams
+
+    with tempfile.TemporaryDirectory() as tmp:  # bad overrides fail here, before any training
+        for trial in {t.name: t for t in (dataclasses.replace(t, seed=0) for t in trials)}.values():
+            try:
+                check_hyperparams(
+                    trial.algo, trial.env_id, trial_hyperparams(trial, Path(tmp)), env_kwargs=env_kwargs
+                )
+            except ValueError as exc:
+                parser.error(f"argument --set: {exc}")
+    start = time.perf_counter()
+    try:
+        records = run_sweep(
+            trials, args.out, timesteps=args.timesteps, env_kwargs=env_kwargs, eval_freq=args.eval_freq,
+            checkpoint_freq=args.checkpoint_freq, jobs=args.jobs, backend=args.backend, address=args.address,
+            progress=not args.no_progress,
+        )  # fmt: skip
+    except KeyboardInterrupt:
+        print(f"interrupted: run the command again to resume {args.out}", file=sys.stderr)
+        return 130
+    path = write_csv(records, args.out / "sweep.csv")
+    print(path.read_text(), end="")
+    print(f"{len(records)} trials in {time.perf_counter() - start:.1f} s ({args.backend}); wrote {path}")
+    return 0
+
+
+if __name__ == "__main__":
+    from agents.sweep import main as _main  # the module's own functions: Ray pickles them by name
+
+    sys.exit(_main())

@@ -1,0 +1,171 @@
+"""Stable-Baselines3 on the natively batched env: a ``VecEnv`` over ``IOSUAVVectorEnv``.
+
+SB3's ``DummyVecEnv`` steps B Python envs one by one and deep-copies every info dict; this
+adapter steps the B episodes as one array computation (``ios_uav_env.vector_env``, same-step
+autoreset as SB3 expects: a finished row's last observation is in its info's
+``terminal_observation``) and hands SB3 an empty info dict for every row that did not just
+finish. Wrap it in ``VecMonitor`` for episode statistics and in ``VecNormalize`` as usual.
+
+>>> venv = BatchedVecEnv("ios_uav_env/IOSUAV-v0", n_envs=256, seed=0)  # doctest: +SKIP
+>>> model = PPO("MlpPolicy", VecMonitor(venv))                        # doctest: +SKIP
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Iterable, Sequence
+from typing import Any
+
+import gymnasium as gym
+import numpy as np
+from stable_baselines3.common.vec_env.base_vec_env import (
+    VecEnv,
+    VecEnvIndices,
+    VecEnvStepReturn,
+    VecEnvWrapper,
+)
+
+import ios_uav_env  # noqa: F401  (registers the ids)
+
+
+class BatchedVecEnv(VecEnv):
+    """``n_envs`` episodes of the registered id ``env_id`` (its ``vector_entry_point``) as an SB3
+    ``VecEnv``; ``env_kwargs`` are the env's arguments, ``seed`` seeds row i with ``seed + i``.
+
+    ``stagger=True`` spreads the rows over the episode at each ``reset()``: row i's first episode
+    starts ``(i * L) // n_envs`` hover moves in (zero actions from q0; L its number of steps),
+    so later episodes end at different times. Without it every row of a fixed id starts and
+    ends its episodes together, and a PPO rollout of n_steps << L steps holds one slice of
+    the episode at a time (the value and the policy are then fitted to slot 1-16, then to
+    slot 17-32, ...). The hover prefix is not returned (the monitor's first episodes are
+    shorter); the default (off) keeps the rows equal to single envs seeded ``seed + i``.
+    """
+
+    def __init__(
+        self,
+        env_id: str,
+        n_envs: int,
+        env_kwargs: dict[str, Any] | None = None,
+        seed: int | None = None,
+        stagger: bool = False,
+    ):
+        self.env_id, self.stagger = env_id, bool(stagger)
+        self.vector_env = gym.make_vec(
+            env_id,
+            num_envs=n_envs,
+            vectorization_mode="vector_entry_point",
+            autoreset_mode="same_step",
+            **dict(env_kwargs or {}),
+        )
+        vec = self.vector_env
+        super().__init__(n_envs, vec.single_observation_space, vec.single_action_space)
+        self._actions: np.ndarray | None = None
+        if seed is not None:
+            self.seed(seed)
+
+    def reset(self) -> np.ndarray:
+        seeds = [s for s in self._seeds] if any(s is not None for s in self._seeds) else None
+        obs, _ = self.vector_env.reset(seed=seeds)
+        self._reset_seeds()
+        self._reset_options()
+        return self._stagger() if self.stagger else obs
+
+    def _stagger(self) -> np.ndarray:
+        """Hover row i for (i * L_i) // n moves into its episode (see the class); the current observations."""
+        vec = self.vector_env
+        n = self.num_envs
+        lengths = np.array([round(env.config.T / env.config.dt) - 1 for env in vec.envs])
+        phase = (np.arange(n) * lengths) // n
+        last = int(phase.max())
+        hover = np.zeros((n, 2))
+        for j in range(1, last + 1):
+            vec.step(hover)
+            rows = np.flatnonzero(last - phase == j)  # these take the remaining phase[i] moves from here
+            if rows.size:
+                vec._reset_rows(rows, [None] * rows.size, None)
+        return vec._obs
+
+    def step_async(self, actions: np.ndarray) -> None:
+        self._actions = np.asarray(actions, dtype=np.float64).reshape(self.num_envs, -1)
+
+    def step_wait(self) -> VecEnvStepReturn:
+        obs, reward, terminated, truncated, info = self.vector_env.step(self._actions)
+        dones = terminated | truncated
+        infos: list[dict[str, Any]] = [{} for _ in range(self.num_envs)]
+        for i in np.flatnonzero(dones):
+            infos[i] = {
+                "terminal_observation": info["final_obs"][i],
+                "TimeLimit.truncated": bool(truncated[i] and not terminated[i]),
+                "average_rate": float(info["final_info"]["average_rate"][i]),
+                "feasible": bool(info["final_info"]["feasible"][i]),
+            }
+        return obs, reward.astype(np.float32), dones, infos
+
+    def close(self) -> None:
+        self.vector_env.close()
+
+    def get_images(self) -> Sequence[np.ndarray | None]:
+        return [None] * self.num_envs
+
+    # --- the per-env API: the rows are not separate env objects -------------------------
+    def get_attr(self, attr_name: str, indices: VecEnvIndices = None) -> list[Any]:
+        return [getattr(self.vector_env.envs[i], attr_name) for i in self._get_indices(indices)]
+
+    def set_attr(self, attr_name: str, value: Any, indices: VecEnvIndices = None) -> None:
+        raise AttributeError(f"BatchedVecEnv cannot set {attr_name!r} on its rows (they share one kernel)")
+
+    def env_method(
+        self, method_name: str, *method_args: Any, indices: VecEnvIndices = None, **method_kwargs: Any
+    ) -> list[Any]:
+        rows = self._get_indices(indices)
+        return [getattr(self.vector_env.envs[i], method_name)(*method_args, **method_kwargs) for i in rows]
+
+    def env_is_wrapped(self, wrapper_class: type[gym.Wrapper], indices: VecEnvIndices = None) -> list[bool]:
+        return [False for _ in self._get_indices(indices)]
+
+    def _get_indices(self, indices: VecEnvIndices) -> Iterable[int]:
+        if indices is None:
+            return range(self.num_envs)
+        if isinstance(indices, int):
+            return [indices]
+        return indices
+
+
+class VecShiftReward(VecEnvWrapper):
+    """``agents.wrappers.ShiftReward`` on a whole VecEnv: rewards become ``scale * (reward - offset)``
+    (the terminal observations and infos pass through unchanged)."""
+
+    def __init__(self, venv: VecEnv, offset: float = 0.0, scale: float = 1.0):
+        for name, value in (("offset", offset), ("scale", scale)):
+            if isinstance(value, bool) or not (isinstance(value, (int, float)) and math.isfinite(value)):
+                raise ValueError(f"VecShiftReward {name} must be a finite number, got {value!r}")
+        if scale <= 0:
+            raise ValueError(f"VecShiftReward scale must be > 0, got {scale!r}")
+        super().__init__(venv)
+        self.offset, self.scale = float(offset), float(scale)
+
+    def reset(self) -> np.ndarray:
+        return self.venv.reset()
+
+    def step_wait(self) -> VecEnvStepReturn:
+        obs, reward, dones, infos = self.venv.step_wait()
+        return obs, (self.scale * (reward - self.offset)).astype(np.float32), dones, infos
+
+
+#: Gymnasium wrappers of the zoo's ``env_wrapper`` key that have a VecEnv form here.
+VEC_FORMS: dict[str, type[VecEnvWrapper]] = {"agents.wrappers.ShiftReward": VecShiftReward}
+
+
+def wrap_batched(venv: VecEnv, wrappers: Sequence[tuple[Any, dict[str, Any]]]) -> VecEnv:
+    """Apply the zoo's ``env_wrapper`` list (``(class, kwargs)`` pairs, as ``agents.hyperparams``
+    resolves them) to a batched VecEnv through their VecEnv forms (:data:`VEC_FORMS`);
+    ``ValueError`` naming a wrapper that has none (its rows are not separate gym envs)."""
+    for cls, kwargs in wrappers:
+        name = f"{cls.__module__}.{cls.__qualname__}"
+        if name not in VEC_FORMS:
+            raise ValueError(
+                f"env_wrapper {name!r} cannot wrap the batched env (its rows are not separate gym envs); "
+                f"wrappers with a VecEnv form: {', '.join(VEC_FORMS)}"
+            )
+        venv = VEC_FORMS[name](venv, **kwargs)
+    return venv

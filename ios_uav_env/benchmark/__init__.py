@@ -1,0 +1,44 @@
+"""Benchmark suites: frozen held-out scenarios with reference values, and a scorer for any policy.
+
+Papers report against fixed suites (D4RL's normalised scores, Procgen's test levels); this
+package ships ours inside the wheel and scores any policy on them with numpy and Gymnasium
+alone (no planner, no deep-learning library):
+
+>>> from ios_uav_env.benchmark import evaluate
+>>> results = evaluate(lambda obs: [0.0, 0.0], n=2)   # any obs -> action callable
+>>> results.aggregate.n, results.aggregate.feasible   # the arrival guard brings it to qF
+(2, 2)
+
+- :mod:`~ios_uav_env.benchmark.suite`: the suites (:data:`SUITES`, :func:`load_suite`; a
+  file that does not match its registered hash fails to load);
+- :mod:`~ios_uav_env.benchmark.scoring`: :func:`evaluate` (a policy) and
+  :func:`score_trajectories` (one trajectory per scenario);
+- :mod:`~ios_uav_env.benchmark.results`: :class:`Results` (per scenario and aggregate; CSV,
+  JSON, markdown, figure);
+- :mod:`~ios_uav_env.benchmark.trajectories`: trajectory files (``.npz`` or CSV);
+- ``python -m ios_uav_env.benchmark {list,show,evaluate}``: the command line
+  (:mod:`~ios_uav_env.benchmark.cli`).
+"""
+
+from ios_uav_env.benchmark.results import Aggregate, Results, ScenarioResult, reference_results
+from ios_uav_env.benchmark.scoring import action_function, evaluate, score_trajectories
+from ios_uav_env.benchmark.suite import DEFAULT_SUITE, SUITES, Suite, SuiteScenario, list_suites, load_suite
+from ios_uav_env.benchmark.trajectories import read_trajectories, write_trajectories
+
+__all__ = [
+    "DEFAULT_SUITE",
+    "SUITES",
+    "Aggregate",
+    "Results",
+    "ScenarioResult",
+    "Suite",
+    "SuiteScenario",
+    "action_function",
+    "evaluate",
+    "list_suites",
+    "load_suite",
+    "read_trajectories",
+    "reference_results",
+    "score_trajectories",
+    "write_trajectories",
+]

@@ -1,0 +1,141 @@
+"""The benchmark's command line: list the suites, show their references, score a policy or a file.
+
+    python -m ios_uav_env.benchmark list
+    python -m ios_uav_env.benchmark show [--suite single-node-v1] [--reference dp|sca|hover_peak|hover_ground]
+    python -m ios_uav_env.benchmark evaluate [--suite single-node-v1] --policy PKG.MODULE:ATTR \\
+        [--batched] [--env-kwargs KEY:VALUE ...] [--n N] [--name NAME] [--out DIR]
+    python -m ios_uav_env.benchmark evaluate [--suite single-node-v1] --trajectories FILE.npz|FILE.csv \\
+        [--name NAME] [--out DIR]
+
+``--policy`` imports ``PKG.MODULE`` (the current directory is on the path) and takes ``ATTR``
+(dotted for a nested attribute): a policy, or a class (instantiated without arguments), or a
+call with literal arguments, e.g. ``"ios_uav_env.policies:HoverAt('peak')"``. ``--env-kwargs``
+values are JSON or Python literals (``peak_hint:true``), else strings. ``evaluate`` prints the
+summary line (mean / p10 / min % of DP and of SCA, feasible count, median time to plan) and
+writes ``results.csv``, ``results.json``, ``results.md`` and ``pct_dp.png`` (with matplotlib)
+to ``--out``. ``show`` prints the same line for each stored reference (DP, SCA, heuristics).
+"""
+
+from __future__ import annotations
+
+import argparse
+import ast
+import importlib
+import json
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any
+
+from ios_uav_env.benchmark.results import reference_results
+from ios_uav_env.benchmark.scoring import evaluate, score_trajectories
+from ios_uav_env.benchmark.suite import DEFAULT_SUITE, REFERENCES, SUITES, list_suites, load_suite
+from ios_uav_env.benchmark.trajectories import read_trajectories
+
+
+def load_policy(spec: str) -> Any:
+    """The policy named by ``spec``: ``pkg.module:attr``, ``pkg.module:Class`` (instantiated
+    without arguments) or ``pkg.module:factory(literal, key=literal)`` (called)."""
+    module_name, sep, expr = spec.partition(":")
+    if not sep or not module_name or not expr:
+        raise ValueError(f"--policy must be PKG.MODULE:ATTR, got {spec!r}")
+    try:
+        node = ast.parse(expr.strip(), mode="eval").body
+    except SyntaxError as err:
+        raise ValueError(f"--policy {spec!r}: {expr!r} is not an attribute or a call") from err
+    call = node if isinstance(node, ast.Call) else None
+    target = call.func if call is not None else node
+    dotted = ast.unparse(target)
+    if not all(part.isidentifier() for part in dotted.split(".")):
+        raise ValueError(f"--policy {spec!r}: {dotted!r} is not a dotted attribute name")
+    obj: Any = importlib.import_module(module_name)
+    for part in dotted.split("."):
+        obj = getattr(obj, part)
+    if call is not None:
+        try:
+            args = [ast.literal_eval(a) for a in call.args]
+            kwargs = {k.arg: ast.literal_eval(k.value) for k in call.keywords if k.arg}
+        except ValueError as err:
+            raise ValueError(f"--policy {spec!r}: the arguments must be literals") from err
+        return obj(*args, **kwargs)
+    return obj() if isinstance(obj, type) else obj
+
+
+def parse_env_kwargs(items: Sequence[str]) -> dict[str, Any]:
+    """``["key:value", ...]`` as a dict (values as JSON, else Python literals, else strings)."""
+    out: dict[str, Any] = {}
+    for item in items:
+        key, sep, text = item.partition(":")
+        if not sep or not key.isidentifier():
+            raise ValueError(f"--env-kwargs takes KEY:VALUE items, got {item!r}")
+        value: Any
+        try:
+            value = json.loads(text)
+        except json.JSONDecodeError:
+            try:
+                value = ast.literal_eval(text)
+            except (ValueError, SyntaxError):
+                value = text
+        out[key] = value
+    return out
+
+
+def _parser() -> argparse.ArgumentParser:
+    p = argparse.ArgumentParser(prog="python -m ios_uav_env.benchmark", description=__doc__.splitlines()[0])
+    sub = p.add_subparsers(dest="command", required=True)
+    sub.add_parser("list", help="the shipped suites")
+    show = sub.add_parser("show", help="the stored reference values of a suite")
+    show.add_argument("--suite", default=DEFAULT_SUITE, help=f"a suite name ({', '.join(SUITES)}) or file")
+    show.add_argument("--n", type=int, default=None, help="the first n scenarios only")
+    show.add_argument(
+        "--reference", choices=REFERENCES, default=None, help="one reference only (default: all)"
+    )
+    ev = sub.add_parser("evaluate", help="score a policy or a file of trajectories")
+    ev.add_argument("--suite", default=DEFAULT_SUITE, help=f"a suite name ({', '.join(SUITES)}) or file")
+    what = ev.add_mutually_exclusive_group(required=True)
+    what.add_argument("--policy", help="PKG.MODULE:ATTR, a policy (see above)")
+    what.add_argument("--trajectories", type=Path, help="a .npz or .csv file, one trajectory per scenario")
+    ev.add_argument("--batched", action="store_true", help="the policy maps (B, obs_dim) to (B, 2)")
+    ev.add_argument("--env-kwargs", nargs="*", default=None, metavar="KEY:VALUE",
+                    help="env arguments (default: the policy's env_kwargs attribute)")  # fmt: skip
+    ev.add_argument("--n", type=int, default=None, help="the first n scenarios only (policies)")
+    ev.add_argument("--seed", type=int, default=0, help="the reset seed of every scenario")
+    ev.add_argument("--name", default=None, help="the name in the outputs")
+    ev.add_argument("--out", type=Path, default=None, help="folder for the CSV, JSON, markdown and figure")
+    return p
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    parser = _parser()
+    args = parser.parse_args(argv)
+    try:
+        if args.command == "list":
+            for row in list_suites():
+                print(f"{row['name']}: {row['n']} scenarios of {row['env_id']}, scored as % of "
+                      f"{row['normalizer']}, sha256 {row['sha256']}")  # fmt: skip
+            return 0
+        suite = load_suite(args.suite)
+        if args.command == "show":
+            if args.reference is None:
+                head = f"{suite.name} (version {suite.version}, sha256 {suite.sha256})"
+                print(f"{head}: {len(suite)} scenarios of {suite.env_id}; the stored reference values:")
+            for reference in REFERENCES if args.reference is None else (args.reference,):
+                print(reference_results(suite, reference, args.n).summary())
+            return 0
+        if args.trajectories is not None:
+            trajectories, seconds = read_trajectories(args.trajectories)
+            results = score_trajectories(trajectories, suite, seconds=seconds,
+                                         name=args.name or args.trajectories.name)  # fmt: skip
+        else:
+            policy = load_policy(args.policy)
+            env_kwargs = None if args.env_kwargs is None else parse_env_kwargs(args.env_kwargs)
+            results = evaluate(policy, suite, env_kwargs=env_kwargs, n=args.n, batched=args.batched or None,
+                               seed=args.seed, name=args.name or args.policy)  # fmt: skip
+    except (ValueError, KeyError, FileNotFoundError, ImportError, AttributeError) as err:
+        parser.error(str(err))
+    print(results.summary())
+    if args.out is not None:
+        paths = results.save(args.out)
+        if "figure" not in paths:
+            print("no figure: matplotlib is not installed (pip install 'ios-uav-env[render]')")
+        print("wrote " + ", ".join(str(p) for p in paths.values()))
+    return 0

@@ -1,0 +1,192 @@
+"""Score any policy, or any file of trajectories, on a suite: numpy and Gymnasium only.
+
+A policy is any of:
+
+- a callable from one observation to one action (a plain function, a
+  ``ios_uav_env.policies.HoverAt``, a CleanRL/TorchRL actor wrapped in a function);
+- an object with ``predict(obs, deterministic=True) -> (action, state)`` (Stable-Baselines3;
+  a model trained with ``VecNormalize`` needs its statistics applied to the observation, as
+  ``agents.loading.load_agent`` of a checkout does);
+- a batched callable from a (B, obs_dim) array to a (B, 2) array: pass ``batched=True`` or give
+  it an attribute ``batched = True``; it then runs in the id's natively batched env (its
+  ``vector_entry_point``, made directly, so on every supported Gymnasium), a batch of one
+  row per scenario; an id without one runs the single env, the policy on a batch of one.
+
+Actions may be numpy arrays, lists or CPU tensors (anything with ``detach``). Each scenario is
+one deterministic episode in the suite's env (``suite.env_id``) pinned to the scenario with
+``reset(seed=seed, options={"config": cfg})``; the policy sees that env's observation, with
+``env_kwargs`` added (default: the policy's own ``env_kwargs`` attribute, as ``HoverAt("peak")``
+has ``{"peak_hint": True}``). The plan is scored by the one scorer: ``ios_uav_env.average_rate``
+(eq. (9)) and ``check_trajectory`` (eq. (10)) of the env's trajectory; the time to plan is the
+episode's wall time from the reset to the last step (policy and env).
+
+>>> from ios_uav_env.benchmark import evaluate
+>>> from ios_uav_env.policies import HoverAt
+>>> results = evaluate(HoverAt("peak"), n=3)
+>>> results.aggregate.feasible, round(results.aggregate.mean_pct_dp, 2)
+(3, 99.77)
+"""
+
+from __future__ import annotations
+
+import importlib
+import time
+from collections.abc import Callable, Mapping
+from typing import Any
+
+import numpy as np
+
+from ios_uav_env.benchmark.results import Aggregate, Results, ScenarioResult
+from ios_uav_env.benchmark.suite import DEFAULT_SUITE, Suite, SuiteScenario, load_suite
+from ios_uav_env.trajectory import average_rate, check_trajectory
+
+MAX_STEPS = 100_000
+
+
+def _as_array(action: Any) -> np.ndarray:
+    """An action as a numpy array (a tensor is detached and moved to the CPU first)."""
+    if hasattr(action, "detach"):
+        action = action.detach().cpu().numpy()
+    return np.asarray(action)
+
+
+def action_function(policy: Any) -> Callable[[np.ndarray], np.ndarray]:
+    """The deterministic observation -> action function of ``policy`` (see the module doc)."""
+    predict = getattr(policy, "predict", None)
+    if callable(predict):
+        return lambda obs: _as_array(predict(obs, deterministic=True)[0])
+    if callable(policy):
+        return lambda obs: _as_array(policy(obs))
+    raise TypeError(
+        f"a policy must be callable (obs -> action) or have predict(obs, deterministic=True); "
+        f"got {type(policy).__name__}"
+    )
+
+
+def policy_name(policy: Any) -> str:
+    """A display name: the policy's ``name`` attribute, else its function or class name."""
+    name = getattr(policy, "name", None)
+    if isinstance(name, str) and name:
+        return name
+    return getattr(policy, "__name__", None) or type(policy).__name__
+
+
+def suite_of(suite: Suite | str | Any) -> Suite:
+    """``suite`` itself if loaded, else :func:`~ios_uav_env.benchmark.suite.load_suite` of it."""
+    return suite if isinstance(suite, Suite) else load_suite(suite)
+
+
+def _episode(
+    env: Any, act: Callable, scenario: SuiteScenario, seed: int | None, batched: bool
+) -> ScenarioResult:
+    """One episode of ``act`` on ``scenario`` in ``env`` (a batch of one if ``batched``), scored."""
+    cfg = scenario.config
+    start = time.perf_counter()
+    obs, _ = env.reset(seed=seed, options={"config": cfg})
+    for _ in range(MAX_STEPS):
+        action = act(obs)
+        if batched and action.shape != (1, 2):
+            raise ValueError(f"a batched policy must return a (B, 2) action (B=1 here), got {action.shape}")
+        obs, _, terminated, truncated, _ = env.step(action)
+        if np.any(terminated) or np.any(truncated):
+            break
+    else:
+        raise RuntimeError(f"scenario {scenario.index}: the episode did not end in {MAX_STEPS} steps")
+    seconds = time.perf_counter() - start
+    base = env.unwrapped
+    trajectory = base.trajectories[0] if batched else base.trajectory
+    report = check_trajectory(cfg, trajectory)
+    rate = average_rate(cfg, trajectory)
+    return ScenarioResult.of(scenario, rate, report.feasible, report.worst_violation, seconds, trajectory)
+
+
+def _make_env(env_id: str, env_kwargs: Mapping[str, Any], batched: bool) -> tuple[Any, bool]:
+    """The env to run in, and whether it is batched (the id's batched env if it has one)."""
+    import gymnasium as gym
+
+    import ios_uav_env  # noqa: F401  (registers the ids)
+
+    spec = gym.spec(env_id)
+    entry = getattr(spec, "vector_entry_point", None)
+    if batched and isinstance(entry, str):  # as make_vec(vectorization_mode="vector_entry_point") does
+        module, _, attr = entry.partition(":")
+        vector_env = getattr(importlib.import_module(module), attr)
+        return vector_env(num_envs=1, **{**(spec.kwargs or {}), **env_kwargs}), True
+    return gym.make(env_id, **env_kwargs), False
+
+
+def evaluate(
+    policy: Any,
+    suite: Suite | str = DEFAULT_SUITE,
+    *,
+    env_kwargs: Mapping[str, Any] | None = None,
+    n: int | None = None,
+    batched: bool | None = None,
+    seed: int | None = 0,
+    name: str | None = None,
+) -> Results:
+    """Score ``policy`` on the first ``n`` scenarios of ``suite`` (all for None): a :class:`Results`
+    (per scenario: rate, feasibility, % of DP and of SCA, time to plan; their aggregate).
+
+    ``env_kwargs`` are added to the suite's env arguments (default: ``policy.env_kwargs`` if it
+    has them); ``batched`` (default: ``policy.batched``) runs a batched callable in the batched
+    env; ``seed`` seeds each scenario's reset.
+    """
+    suite = suite_of(suite)
+    scenarios = suite.subset(n)
+    own = getattr(policy, "env_kwargs", None) if env_kwargs is None else env_kwargs
+    kwargs = {**suite.env_kwargs, **dict(own or {})}
+    batched = bool(getattr(policy, "batched", False) if batched is None else batched)
+    act = action_function(policy)
+    env, vector = _make_env(suite.env_id, kwargs, batched)
+    if batched and not vector:  # an id without a batched env: the policy on a batch of one
+        batch_act = act
+        act = lambda obs: np.asarray(batch_act(np.asarray(obs)[None]))[0]  # noqa: E731
+    try:
+        rows = [_episode(env, act, s, seed, vector) for s in scenarios]
+    finally:
+        env.close()
+    return Results(name or policy_name(policy), suite.name, suite.sha256, suite.env_id, kwargs, tuple(rows),
+                   Aggregate.of(rows, scenarios))  # fmt: skip
+
+
+def score_trajectories(
+    trajectories: Mapping[int, Any],
+    suite: Suite | str = DEFAULT_SUITE,
+    *,
+    seconds: Mapping[int, float] | None = None,
+    name: str = "trajectories",
+) -> Results:
+    """Score one trajectory per scenario (``{index: (N, 2) way-points in m, q0 first and qF last}``)
+    with ``average_rate`` and ``check_trajectory``; ``seconds``: each plan's time, if known.
+
+    The indices must be the suite's first n (0 .. n-1, n >= 1); ``ValueError`` naming the
+    scenario for a missing or unknown index or a trajectory of the wrong shape or not finite.
+    """
+    suite = suite_of(suite)
+    indices = sorted(int(i) for i in trajectories)
+    if not indices:
+        raise ValueError("no trajectories to score")
+    unknown = [i for i in indices if not 0 <= i < len(suite)]
+    if unknown:
+        raise ValueError(f"scenarios {unknown} are not in suite {suite.name} (indices 0..{len(suite) - 1})")
+    missing = sorted(set(range(indices[-1] + 1)) - set(indices))
+    if missing:
+        raise ValueError(f"the trajectories must cover scenarios 0..n-1 of {suite.name}; missing {missing}")
+    scenarios = suite.subset(len(indices))
+    rows = []
+    for s in scenarios:
+        q = np.asarray(trajectories[s.index], dtype=np.float64)
+        if q.shape != (s.config.N, 2):
+            raise ValueError(
+                f"scenario {s.index}: the trajectory must have shape (N, 2) = ({s.config.N}, 2) "
+                f"(T = {s.config.T:g} s, dt = {s.config.dt:g} s; q0 first, qF last), got {q.shape}"
+            )
+        if not np.isfinite(q).all():
+            raise ValueError(f"scenario {s.index}: the trajectory has NaN or infinite values")
+        report = check_trajectory(s.config, q)
+        t = float("nan") if seconds is None else float(seconds.get(s.index, float("nan")))
+        rate = average_rate(s.config, q)
+        rows.append(ScenarioResult.of(s, rate, report.feasible, report.worst_violation, t, q))
+    aggregate = Aggregate.of(rows, scenarios)
+    return Results(name, suite.name, suite.sha256, suite.env_id, {}, tuple(rows), aggregate)

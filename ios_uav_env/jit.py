@@ -1,0 +1,49 @@
+"""Optional compilation of the hot loops with numba (``pip install ios-uav-env[fast]``).
+
+:func:`jit` compiles a function written in the numba-compatible subset of Python (scalars,
+``math``, numpy arrays, loops) when numba is installed and returns it unchanged otherwise, so
+every kernel has one source and runs either way. ``IOS_UAV_ENV_NO_NUMBA=1`` in the
+environment forces the plain-Python path (used by the tests to check both paths agree).
+"""
+
+from __future__ import annotations
+
+import os
+from collections.abc import Callable
+from typing import Any, TypeVar
+
+F = TypeVar("F", bound=Callable[..., Any])
+
+try:  # numba is optional: the model and the env run without it
+    if os.environ.get("IOS_UAV_ENV_NO_NUMBA", "") not in ("", "0"):
+        raise ImportError("disabled by IOS_UAV_ENV_NO_NUMBA")
+    from numba import njit as _njit
+    from numba import prange
+except ImportError:
+    _njit = None
+    prange = range
+
+#: LLVM fast-math flags of the kernels: reassociation (the node sums vectorise), fused
+#: multiply-add, reciprocals, no signed zeros; never "no NaNs / no infs" (the guards rely on them).
+FASTMATH = {"reassoc", "contract", "arcp", "nsz"}
+
+#: Whether the kernels are compiled (numba installed and not disabled).
+HAVE_NUMBA: bool = _njit is not None
+
+
+def jit(function: F | None = None, *, inline: bool = False, parallel: bool = False) -> Any:
+    """``function`` compiled by numba (no Python objects, cached on disk), or itself.
+    ``inline=True``: a small helper inlined into the compiled functions that call it;
+    ``parallel=True``: its ``prange`` loops run on all cores (``prange`` is ``range`` otherwise)."""
+
+    def compile_(f: F) -> F:
+        if _njit is None:
+            return f
+        options: dict[str, Any] = {"inline": "always"} if inline else {}
+        if parallel:
+            options["parallel"] = True
+        # error_model="numpy": a division by zero gives inf instead of raising, so the node sums
+        # have no per-element branch and vectorise (2x); the kernels never divide by zero
+        return _njit(cache=True, nogil=True, fastmath=FASTMATH, error_model="numpy", **options)(f)  # type: ignore[no-any-return]
+
+    return compile_ if function is None else compile_(function)

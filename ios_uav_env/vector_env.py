@@ -1,0 +1,235 @@
+"""Natively batched envs: B episodes stepped as one array computation, registered on every id.
+
+``gym.make_vec(id, num_envs=B, vectorization_mode="vector_entry_point")`` returns an
+:class:`IOSUAVVectorEnv` (the fixed ids) or a :class:`RandomIOSUAVVectorEnv` (the randomised
+id). They run the kernels of ``ios_uav_env.dynamics``, the ones the single env runs on a batch
+of one, on B rows: the same physics, the same arrival guard and the same reward. Row i is the
+single env reset with seed ``seed + i``: the same scenarios, and with channel "rician" the
+same fading draws, so a batch reproduces B single envs exactly (tested).
+
+Scenario choice at reset stays in Python, in one template env per row (the single env's own
+code: its ``np_random``, its scenario draws, pinned configs, the space check), and costs
+nothing per step. Autoreset follows Gymnasium's default ``NEXT_STEP`` mode: the step after
+an episode ends resets that row and returns its first observation with reward 0. With
+``autoreset_mode="same_step"`` (Gymnasium's ``SAME_STEP``, what SB3 expects) a row that ends
+is reset in the same step: its observation is the new episode's first, and
+``info["final_obs"]`` / ``info["final_info"]`` (masked by ``_final_obs`` / ``_final_info``)
+hold the episode's last observation and info.
+``info`` is a dict of arrays (``INFO_KEYS``, ``position`` of shape (B, 2)) with Gymnasium's
+``_key`` masks (all True: every row has every key). :attr:`trajectories` holds each row's
+way-points so far.
+"""
+
+from __future__ import annotations
+
+import copy
+from collections.abc import Mapping, Sequence
+from typing import Any
+
+import gymnasium as gym
+import numpy as np
+from gymnasium.vector.utils import batch_space
+
+from ios_uav_env.config import ScenarioConfig
+from ios_uav_env.dynamics import INFO, STATE, reset_rows, step_rows, step_rows_parallel
+from ios_uav_env.env import INFO_KEYS, IOSUAVEnv
+from ios_uav_env.random_env import RandomIOSUAVEnv
+
+try:  # Gymnasium >= 1.1 names the autoreset modes
+    from gymnasium.vector import AutoresetMode
+
+    _AUTORESET: Any = AutoresetMode.NEXT_STEP
+    _SAME_STEP: Any = AutoresetMode.SAME_STEP
+except ImportError:  # pragma: no cover - Gymnasium 1.0: next-step is the only mode
+    _AUTORESET, _SAME_STEP = "NextStep", None
+
+#: Batches of at least this many rows step on all cores (numba's ``prange``; the rows are
+#: independent, so the result is the same).
+PARALLEL_ROWS = 512
+
+#: Values of ``autoreset_mode`` (Gymnasium's ``AutoresetMode`` members are accepted too).
+AUTORESET_MODES = ("next_step", "same_step")
+
+
+class IOSUAVVectorEnv(gym.vector.VectorEnv):
+    """``num_envs`` episodes of :class:`~ios_uav_env.env.IOSUAVEnv` in one array computation.
+
+    Arguments are the single env's (``config``, ``EnvOptions`` and ``ScenarioConfig`` keywords)
+    plus ``num_envs``; rendering is not supported (``render_mode=None``). Observations are
+    (B, obs_dim) float32, rewards (B,) float64, ``terminated`` (B,) bool, ``truncated`` all
+    False. ``reset(seed=s)`` seeds row i with ``s + i`` (a list of B seeds works too);
+    ``options={"config": cfg}`` pins every row's episode to ``cfg``.
+    """
+
+    env_class: type[IOSUAVEnv] = IOSUAVEnv
+    metadata = {"autoreset_mode": _AUTORESET, "render_modes": []}
+
+    def __init__(
+        self,
+        num_envs: int = 1,
+        config: Any = None,
+        *,
+        autoreset_mode: Any = "next_step",
+        render_mode: None = None,
+        **kwargs: Any,
+    ):
+        if isinstance(num_envs, bool) or not isinstance(num_envs, (int, np.integer)) or num_envs < 1:
+            raise ValueError(f"num_envs must be an integer >= 1, got {num_envs!r}")
+        mode = str(getattr(autoreset_mode, "value", autoreset_mode)).lower().replace("step", "_step")
+        mode = mode.replace("__", "_")
+        if mode not in AUTORESET_MODES:
+            raise ValueError(f"autoreset_mode must be one of {AUTORESET_MODES}, got {autoreset_mode!r}")
+        self.same_step = mode == "same_step"
+        if render_mode is not None:
+            raise ValueError(f"render_mode must be None for the batched env, got {render_mode!r}")
+        self.num_envs = int(num_envs)
+        self.render_mode = None
+        if self.same_step and _SAME_STEP is not None:
+            self.metadata = {**self.metadata, "autoreset_mode": _SAME_STEP}
+        template = self.env_class(config, **kwargs)
+        self.single_observation_space = template.observation_space
+        self.single_action_space = template.action_space
+        self.observation_space = batch_space(self.single_observation_space, self.num_envs)
+        self.action_space = batch_space(self.single_action_space, self.num_envs)
+        self.envs = [copy.copy(template) for _ in range(self.num_envs)]  # scenario managers
+        for env in self.envs:
+            env._np_random = None  # each row its own generator, seeded at reset
+        b = self.num_envs
+        self._flags = template._flags
+        self._rician = template.options.channel == "rician"
+        self._state = np.zeros((b, len(STATE)))
+        self._episode = np.zeros((b, template._episode.shape[1]))
+        self._nodes = np.zeros((b, 3, template._nodes.shape[2]))
+        self._params = np.zeros((b, template._params.shape[1]))
+        self._normals = np.zeros((b, 2))
+        self._outputs()
+        self._path = np.zeros((b, template._ranges().slot_range[1], 2))
+        self._autoreset = np.zeros(b, dtype=np.bool_)
+        self._started = False
+        self._masks = {f"_{key}": np.ones(b, dtype=np.bool_) for key in INFO_KEYS}
+        for mask in self._masks.values():
+            mask.setflags(write=False)
+
+    # --- rows -----------------------------------------------------------------------
+    def _load_row(self, i: int, env: IOSUAVEnv) -> None:
+        """Copy the current scenario of ``env`` into row ``i`` (growing the node arrays if needed)."""
+        nodes = env.kernel.nodes
+        k = nodes.shape[1]
+        if k > self._nodes.shape[2]:
+            grown = np.zeros((self.num_envs, 3, k))
+            grown[:, 1, :] = 1.0
+            grown[:, :, : self._nodes.shape[2]] = self._nodes
+            self._nodes = grown
+        self._nodes[i, :, :k] = nodes
+        self._nodes[i, :, k:] = ((0.0,), (1.0,), (0.0,))  # padded nodes: zero weight
+        self._params[i] = env.kernel.params
+        self._episode[i] = env._episode[0]
+        self._state[i, 0:2] = self._path[i, 0] = env.config.q0
+        if self._rician:
+            self._normals[i] = env.np_random.standard_normal(2)
+
+    def _outputs(self) -> None:
+        """Fresh output arrays for the next call (returned to the caller, never reused)."""
+        b = self.num_envs
+        self._obs = np.empty((b, self.single_observation_space.shape[0]), dtype=np.float32)
+        self._reward = np.zeros(b)
+        self._terminated = np.zeros(b, dtype=np.bool_)
+        self._info = np.empty((b, len(INFO)))
+
+    def _reset_rows(self, rows: np.ndarray, seeds: Sequence[int | None], options: Any) -> None:
+        for i, seed in zip(rows, seeds, strict=True):
+            env = self.envs[i]
+            env._begin(seed, options)
+            self._load_row(int(i), env)
+        reset_rows(rows.astype(np.int64), self._state, self._episode, self._nodes, self._params,
+                   self._normals, self._flags, self._obs, self._info)  # fmt: skip
+
+    def _infos(self, table: np.ndarray | None = None) -> dict[str, Any]:
+        """``info`` as column views of the info array (``INFO_KEYS``; ``_key`` masks)."""
+        table = self._info if table is None else table
+        columns = table.T
+        out = {key: columns[i] for i, key in enumerate(INFO) if not key.startswith("position")}
+        out["position"] = table[:, 2:4]
+        out["slot"] = out["slot"].astype(np.int64)
+        out["feasible"] = out["feasible"] != 0.0
+        out = {key: out[key] for key in INFO_KEYS}
+        out.update(self._masks)
+        return out
+
+    # --- API ------------------------------------------------------------------------
+    def reset(
+        self, *, seed: int | Sequence[int] | None = None, options: Mapping[str, Any] | None = None
+    ) -> tuple[np.ndarray, dict[str, Any]]:
+        if seed is None:
+            seeds: list[int | None] = [None] * self.num_envs
+        elif isinstance(seed, (int, np.integer)):
+            seeds = [int(seed) + i for i in range(self.num_envs)]
+        else:
+            seeds = list(seed)
+            if len(seeds) != self.num_envs:
+                raise ValueError(
+                    f"seed must be an int or {self.num_envs} seeds (one per env), got {len(seeds)}"
+                )
+        self._outputs()
+        self._reset_rows(np.arange(self.num_envs), seeds, None if options is None else dict(options))
+        self._autoreset[:] = False
+        self._started = True
+        return self._obs, self._infos()
+
+    def step(self, actions: Any) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, dict[str, Any]]:
+        if not self._started:
+            raise RuntimeError("call reset() before step()")
+        actions = np.asarray(actions, dtype=np.float64)
+        if actions.shape != (self.num_envs, 2):
+            raise ValueError(f"actions must have shape ({self.num_envs}, 2), got {actions.shape}")
+        if not np.isfinite(actions).all():
+            rows = np.flatnonzero(~np.isfinite(actions).all(axis=1))
+            raise ValueError(f"actions must be finite (no NaN or inf); rows {rows.tolist()[:10]} are not")
+        self._outputs()
+        done = np.flatnonzero(self._autoreset)
+        if done.size:  # NEXT_STEP autoreset: these rows start a new episode instead of stepping
+            self._reset_rows(done, [None] * done.size, None)
+        active = ~self._autoreset
+        if self._rician:
+            for i in np.flatnonzero(active):
+                self._normals[i] = self.envs[i].np_random.standard_normal(2)
+        step = step_rows_parallel if self.num_envs >= PARALLEL_ROWS else step_rows
+        step(actions, self._state, self._episode, self._nodes, self._params, self._normals, self._flags,
+             self._obs, self._reward, self._terminated, self._info, self._path, active)  # fmt: skip
+        truncated = np.zeros(self.num_envs, dtype=np.bool_)
+        if not self.same_step:
+            self._autoreset = self._terminated.copy()
+            return self._obs, self._reward, self._terminated, truncated, self._infos()
+        ended = np.flatnonzero(self._terminated)
+        final_obs, final_info = self._obs.copy(), self._infos(self._info.copy())
+        if ended.size:  # SAME_STEP: the rows that ended start their next episode now
+            self._reset_rows(ended, [None] * ended.size, None)
+        info = self._infos()
+        mask = self._terminated.copy()
+        info.update(final_obs=final_obs, _final_obs=mask, final_info=final_info, _final_info=mask)
+        return self._obs, self._reward, self._terminated, truncated, info
+
+    @property
+    def trajectories(self) -> list[np.ndarray]:
+        """Each row's way-points so far, q[1] .. q[n+1] ((n + 1, 2) arrays in metres)."""
+        return [self._path[i, : int(self._state[i, 2]) + 1].copy() for i in range(self.num_envs)]
+
+    @property
+    def configs(self) -> list[ScenarioConfig]:
+        """Each row's current scenario."""
+        return [env.config for env in self.envs]
+
+    def close(self, **kwargs: Any) -> None:
+        for env in self.envs:
+            env.close()
+
+
+class RandomIOSUAVVectorEnv(IOSUAVVectorEnv):
+    """``num_envs`` episodes of :class:`~ios_uav_env.random_env.RandomIOSUAVEnv`: every row
+    draws its own scenarios (row i as the single env seeded ``seed + i``). Arguments: the
+    single env's (``ranges``, ``focus``, ...) plus ``num_envs``."""
+
+    env_class = RandomIOSUAVEnv
+
+    def __init__(self, num_envs: int = 1, ranges: Any = None, **kwargs: Any):
+        super().__init__(num_envs, ranges, **kwargs)

@@ -1,0 +1,73 @@
+"""baselines.runner.run_tasks: cached, resumable, ordered, parallel in spawned one-thread workers."""
+
+from __future__ import annotations
+
+import json
+import os
+
+import pytest
+
+from baselines.runner import BACKENDS, run_tasks
+
+
+def square(x: int) -> dict:
+    return {"x": x, "y": x * x}
+
+
+def where(x: int) -> dict:
+    return {"x": x, "pid": os.getpid(), "omp": os.environ.get("OMP_NUM_THREADS")}
+
+
+def fail_on_three(x: int) -> dict:
+    if x == 3:
+        raise RuntimeError("task 3 failed")
+    return {"x": x}
+
+
+def test_records_are_cached_by_key_and_an_interrupted_run_computes_only_the_missing(tmp_path):
+    tasks = [1, 2, 3]
+    out = run_tasks(square, tasks, tmp_path, key=lambda x: f"sq{x}", jobs=1, progress=False)
+    assert out == [square(x) for x in tasks]
+    assert sorted(p.name for p in tmp_path.glob("*.json")) == ["sq1.json", "sq2.json", "sq3.json"]
+    assert json.loads((tmp_path / "sq2.json").read_text()) == {"x": 2, "y": 4}
+    (tmp_path / "sq2.json").unlink()  # as if interrupted before task 2
+    calls = []
+    again = run_tasks(
+        lambda x: calls.append(x) or square(x),
+        tasks,
+        tmp_path,
+        key=lambda x: f"sq{x}",
+        jobs=1,
+        progress=False,
+    )
+    assert calls == [2] and again == out
+
+
+def test_order_sets_which_tasks_run_first_and_twins_run_once(tmp_path):
+    calls = []
+    out = run_tasks(lambda x: calls.append(x) or square(x), [1, 5, 3, 5], tmp_path, key=str, jobs=1,
+                    order=lambda x: -x, progress=False)  # fmt: skip
+    assert calls == [5, 3, 1] and out == [square(x) for x in (1, 5, 3, 5)]
+
+
+def test_parallel_workers_are_spawned_processes_with_one_thread(tmp_path):
+    before = os.environ.get("OMP_NUM_THREADS")
+    out = run_tasks(where, list(range(4)), tmp_path, key=str, jobs=2, progress=False)
+    assert [r["x"] for r in out] == [0, 1, 2, 3]
+    assert os.getpid() not in {r["pid"] for r in out} and {r["omp"] for r in out} == {"1"}
+    assert os.environ.get("OMP_NUM_THREADS") == before
+    assert run_tasks(where, list(range(4)), tmp_path, key=str, jobs=2, progress=False) == out  # cached
+
+
+def test_a_failing_task_raises_and_the_finished_ones_stay_cached(tmp_path):
+    with pytest.raises(RuntimeError, match="task 3 failed"):
+        run_tasks(fail_on_three, [1, 2, 3], tmp_path, key=str, jobs=1, progress=False)
+    assert sorted(p.stem for p in tmp_path.glob("*.json")) == ["1", "2"]
+
+
+def test_bad_arguments_are_refused(tmp_path):
+    assert set(BACKENDS) == {"local"}
+    with pytest.raises(ValueError, match="backend: unknown backend 'ray'"):
+        run_tasks(square, [1], tmp_path, key=str, backend="ray")
+    with pytest.raises(ValueError, match="jobs: must be a positive integer"):
+        run_tasks(square, [1], tmp_path, key=str, jobs=0)
