@@ -4,6 +4,8 @@ Examples
 --------
 ``python -m baselines --scheme ia --T 150 --M 6000``
 ``python -m baselines --scheme ia ra ia-ft cuc dp --T 100 --resolution 5 --out results/plans``
+``python -m baselines --nodes="-100,-20;150,-60;-40,90" --scheme tour ia dp`` (several ground
+nodes: max-min rates; ``dp`` also prints its certified upper bound and gap)
 
 For each scheme: ``<out>/<scheme>_T<T>_M<M>.json`` (the :class:`Plan`, written atomically)
 and ``.csv`` (x, y per slot, m); one PNG of all trajectories over the rate map of the
@@ -53,6 +55,17 @@ def _positive(text: str) -> float:
     return value
 
 
+def _nodes(text: str) -> tuple[tuple[float, float], ...]:
+    """``"x,y;x,y;..."`` -> ((x, y), ...): K >= 1 finite pairs in m."""
+    try:
+        pairs = tuple(tuple(float(v) for v in item.split(",")) for item in text.split(";") if item.strip())
+    except ValueError:
+        raise argparse.ArgumentTypeError(f'must be "x,y;x,y;..." (numbers in m), got {text!r}') from None
+    if not pairs or any(len(p) != 2 or not all(np.isfinite(p)) for p in pairs):
+        raise argparse.ArgumentTypeError(f'must be K >= 1 finite pairs "x,y;x,y;..." (m), got {text!r}')
+    return pairs  # type: ignore[return-value]
+
+
 def build_parser() -> argparse.ArgumentParser:
     """The argument parser of ``python -m baselines``."""
     p = argparse.ArgumentParser(
@@ -72,7 +85,14 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--surface", choices=SURFACES, default="ios", help="surface of scheme 'dp' and the map")
     p.add_argument("--q0", type=float, nargs=2, metavar=("X", "Y"), help="initial position (m)")
     p.add_argument("--qF", type=float, nargs=2, metavar=("X", "Y"), help="final position (m)")
-    p.add_argument("--ground", type=float, nargs=2, metavar=("X", "Y"), help="ground node G (m)")
+    nodes = p.add_mutually_exclusive_group()
+    nodes.add_argument("--ground", type=float, nargs=2, metavar=("X", "Y"), help="ground node G (m)")
+    nodes.add_argument(
+        "--nodes",
+        type=_nodes,
+        metavar='"X,Y;X,Y;..."',
+        help='several ground nodes (m), max-min TDMA; write --nodes="-100,-20;150,-60"',
+    )
     p.add_argument("--resolution", type=_positive, default=2.5, help="DP grid spacing in m (default 2.5)")
     p.add_argument("--margin", type=float, default=100.0, help="DP grid box margin in m (default 100)")
     p.add_argument("--out", type=Path, default=Path("results/plans"), help="output folder")
@@ -87,7 +107,7 @@ def _config(args: argparse.Namespace, parser: argparse.ArgumentParser) -> Scenar
         changes["ios_shape"] = (100, args.M // 100)
     elif args.ios_shape is not None:
         changes["ios_shape"] = tuple(args.ios_shape)
-    for name, field in (("q0", "q0"), ("qF", "qF"), ("ground", "ground_node")):
+    for name, field in (("q0", "q0"), ("qF", "qF"), ("ground", "ground_node"), ("nodes", "ground_nodes")):
         if getattr(args, name) is not None:
             changes[field] = tuple(getattr(args, name))
     try:
@@ -132,6 +152,17 @@ def plot_plans(path: Path, config: ScenarioConfig, plans: Sequence[Plan]) -> Pat
 
     fig = Figure(figsize=(10, 5.5), layout="constrained")
     ax = fig.add_subplot()
+    if config.K > 1:  # every node, trajectories coloured by the node served in each slot
+        from ios_uav_env.rendering_multi import plot_multinode_map, plot_served_trajectories
+
+        plot_multinode_map(ax, config)
+        labels = {f"{p.scheme}: {p.mean_rate:.3f} bps/Hz": p.trajectory for p in plans}
+        shares = {f"{p.scheme}: {p.mean_rate:.3f} bps/Hz": np.array(p.info["shares"]) for p in plans}
+        plot_served_trajectories(ax, config, labels, shares)
+        ax.set_title(
+            f"{config.surface.upper()}, K = {config.K} nodes (max-min), T = {config.T:g} s, M = {config.M}"
+        )
+        return io.save_figure(fig, path, dpi=120)
     plot_rate_map(ax, config)
     labels = {f"{p.scheme}: {p.mean_rate:.3f} bps/Hz": p.trajectory for p in plans}
     plot_trajectories(ax, config, labels)
@@ -154,7 +185,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     failed = 0
     for name in names:
         scheme = get_scheme(name)
-        kwargs: dict = {"progress": args.progress} if scheme.planner != "fixed" else {}
+        kwargs: dict = {"progress": args.progress} if scheme.planner not in ("fixed", "tour") else {}
         if scheme.planner == "dp":
             kwargs = {"resolution": args.resolution, "margin": args.margin, "progress": args.progress}
         if scheme.planner == "sca" and (reason := sca_unavailable_reason()) is not None:
@@ -169,6 +200,10 @@ def main(argv: Sequence[str] | None = None) -> int:
             failed += 1
             continue
         print(format_row(plan), flush=True)
+        if "upper_bound" in plan.info:
+            ub, gap = plan.info["upper_bound"], 100 * plan.info["gap"]
+            print(f"{name}: certified upper bound {ub:.6f} bps/Hz (no feasible trajectory beats it; gap to "
+                  f"this plan {gap:.3f}%)", flush=True)  # fmt: skip
         stem = f"{name}_T{config.T:g}_M{config.M}"
         plan.save_json(args.out / f"{stem}.json")
         save_csv(args.out / f"{stem}.csv", plan.trajectory)

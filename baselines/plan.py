@@ -9,18 +9,19 @@ from typing import Any
 
 import numpy as np
 
-from ios_uav_env import ScenarioConfig, TrajectoryReport, average_rate, check_trajectory
+from ios_uav_env import ScenarioConfig, TrajectoryReport, check_trajectory, schedule
 from ios_uav_env.io import atomic_write_text
 
 
 @dataclass
 class Plan:
-    """A planned trajectory, scored by the one model (``ios_uav_env.average_rate``)."""
+    """A planned trajectory, scored by the one model: ``ios_uav_env.maxmin_rate`` (its best TDMA
+    schedule), which is ``ios_uav_env.average_rate`` for one ground node."""
 
     scheme: str  # e.g. "ia", "ra", "ia-ft", "cuc", "dp"
     config: ScenarioConfig
     trajectory: np.ndarray  # (N, 2) m
-    mean_rate: float  # bps/Hz, eq. (9) with the exact model
+    mean_rate: float  # bps/Hz, eq. (9) with the exact model (K > 1: the max-min rate min_k R_k)
     feasible: bool  # eq. (10) within FEASIBILITY_TOL
     report: TrajectoryReport
     seconds: float  # wall time of the planner
@@ -37,19 +38,26 @@ class Plan:
         history: list[dict[str, Any]] | None = None,
         info: dict[str, Any] | None = None,
     ) -> Plan:
-        """Score ``trajectory`` with the model and check it against eq. (10)."""
+        """Score ``trajectory`` with the model and check it against eq. (10).
+
+        For K > 1 nodes the score is the certified max-min rate and ``info`` gets the best
+        schedule's ``shares`` (K x N, as lists) and per-node rates ``node_rates``."""
         q = np.asarray(trajectory, dtype=float)
         report = check_trajectory(config, q)
+        best = schedule(config, q)
+        info = dict(info or {})
+        if config.K > 1:
+            info.update(shares=best.shares.tolist(), node_rates=best.node_rates.tolist())
         return cls(
             scheme=scheme,
             config=config,
             trajectory=q,
-            mean_rate=average_rate(config, q),
+            mean_rate=best.value,
             feasible=report.feasible,
             report=report,
             seconds=float(seconds),
             history=list(history or []),
-            info=dict(info or {}),
+            info=info,
         )
 
     def to_dict(self) -> dict[str, Any]:

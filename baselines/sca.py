@@ -393,6 +393,10 @@ def solve(
         ``status``, ``seconds``, ...); ``info`` has ``tiles``, ``tiling_error``, the
         winning ``start``, per-start summaries, ``n_iters`` and ``status``.
 
+    Several ground nodes (K > 1): :func:`baselines.sca_multi.solve` (block-coordinate descent:
+    TDMA shares by LP, the trajectory by this SCA for fixed shares, multi-start from the tour
+    heuristic); ``dpp``, ``solver_options``, ``record_iterates`` and ``verbose`` do not apply.
+
     Raises
     ------
     ValueError
@@ -400,6 +404,11 @@ def solve(
     """
     t_start = time.perf_counter()
     _validate(config, tiles, max_iters, tol, solver)
+    if config.K > 1:  # several ground nodes: the same SCA inside BCD with the TDMA shares
+        from baselines import sca_multi
+
+        return sca_multi.solve(config, tiles=int(tiles), init=init, max_iters=int(max_iters), tol=float(tol),
+                               solver=solver, progress=progress)  # fmt: skip
     solver = solver.upper()
     starts = _as_starts(config, init)
     surrogate = _surrogate(config, int(tiles), solver, dpp, solver_options)

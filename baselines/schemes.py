@@ -11,7 +11,12 @@ scheme     surface  planner
 ``dp-ia``  IOS      DP
 ``dp-ra``  RIS      DP
 ``dp-cuc`` none     DP
+``tour``   config's tour heuristic (``baselines.tour``), for several ground nodes
 =========  =======  ==========================================================
+
+With several ground nodes (``ScenarioConfig.ground_nodes``) every plan is scored by the
+max-min rate (``ios_uav_env.maxmin_rate``); SCA runs block-coordinate descent and ``dp``
+returns the best DP plan with a certified upper bound in ``info["upper_bound"]``.
 
 ``baselines.sca`` (which needs cvxpy) is imported only when an SCA scheme runs, so the
 other schemes work without it.
@@ -41,7 +46,7 @@ class Scheme:
 
     name: str
     surface: str | None  # "ios", "ris", "none"; None keeps the config's surface
-    planner: str  # "sca", "dp" or "fixed"
+    planner: str  # "sca", "dp", "fixed" or "tour"
     description: str
 
 
@@ -56,6 +61,9 @@ SCHEMES: dict[str, Scheme] = {
         Scheme("dp-ia", "ios", "dp", "IOS, global optimum on a grid (DP)"),
         Scheme("dp-ra", "ris", "dp", "RIS, global optimum on a grid (DP)"),
         Scheme("dp-cuc", "none", "dp", "no surface, global optimum on a grid (DP)"),
+        Scheme(
+            "tour", None, "tour", "tour heuristic over hover points (several nodes), the config's surface"
+        ),
     )
 }
 
@@ -91,6 +99,10 @@ def _planner(kind: str) -> Callable[..., Plan]:
         from baselines.fixed import fly_hover_fly
 
         return fly_hover_fly
+    if kind == "tour":
+        from baselines.tour import solve as tour_solve
+
+        return tour_solve
     reason = sca_unavailable_reason()
     if reason is not None:
         raise ImportError(reason)
@@ -98,7 +110,7 @@ def _planner(kind: str) -> Callable[..., Plan]:
 
 
 def scheme_config(name: str, config: ScenarioConfig) -> ScenarioConfig:
-    """``config`` with the surface of scheme ``name`` (unchanged for ``"dp"``)."""
+    """``config`` with the surface of scheme ``name`` (unchanged for ``"dp"`` and ``"tour"``)."""
     scheme = get_scheme(name)
     if scheme.surface is None or scheme.surface == config.surface:
         return config

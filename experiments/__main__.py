@@ -3,6 +3,7 @@
     python -m experiments figures --overwrite             # regenerate the shipped results/
     python -m experiments figures --quick                 # a tiny sweep into out/figures-quick
     python -m experiments figures [--quick] [--jobs N] [--out DIR] [--no-agents]
+    python -m experiments multinode [--quick] [--jobs N] [--out DIR]   (see experiments.multinode)
 
 The shipped ``results/`` is replaced only with ``--overwrite`` (the full sweep's default
 ``--out`` is ``results``, ``--quick``'s is ``out/figures-quick``). Solves every point of
@@ -28,6 +29,7 @@ from baselines.runner import check_writable
 from experiments.figures import check_claims, make_figures, write_claims
 from experiments.sweep import SweepSpec, run_sweep, with_pct_of_dp, write_csv
 from ios_uav_env import ScenarioConfig
+from ios_uav_env.io import atomic_write_text
 
 QUICK = SweepSpec(Ts=(40.0, 60.0), Ms=(200, 400), M_schemes=400, dp_resolution=5.0)
 #: The shipped results (replaced only with --overwrite) and the default folder of --quick.
@@ -70,7 +72,38 @@ def build_parser() -> argparse.ArgumentParser:
     fig.add_argument("--quick", action="store_true", help="a tiny sweep: T in {40, 60} s, M in {200, 400}")
     fig.add_argument("--no-agents", action="store_true", help="do not draw the shipped RL agents")
     fig.add_argument("--no-progress", action="store_true", help="no progress bar")
+    multi = sub.add_parser("multinode", help="several ground nodes: rate vs T and vs K, bound, claims")
+    multi.add_argument(
+        "--out", type=Path, default=None, help="output folder (default: results/multinode; --quick: out/...)"
+    )
+    multi.add_argument("--overwrite", action="store_true", help="allow replacing results/multinode")
+    multi.add_argument("--jobs", type=int, default=1, help="worker processes (default 1)")
+    multi.add_argument("--quick", action="store_true", help="M = 60, T in {60, 100} s, K <= 3, one seed")
     return parser
+
+
+def multinode_main(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
+    """``python -m experiments multinode``: solve (cached), write CSV, figures and claims."""
+    from experiments import multinode
+
+    spec = multinode.QUICK if args.quick else multinode.MultiSpec()
+    out = args.out or Path("out/multinode-quick" if args.quick else "results/multinode")
+    if out.resolve() == RESULTS_DIR / "multinode" and not args.overwrite:
+        parser.error(f"argument --out: {out} holds the shipped results; pass --overwrite to replace them")
+    try:
+        check_writable(out)
+    except OSError as exc:
+        parser.error(f"argument --out: {exc}")
+    t0 = time.perf_counter()
+    records = multinode.run(spec, out / "cache", jobs=args.jobs)
+    csv = multinode.write_csv(records, out / "multinode.csv")
+    figures = multinode.make_figures(records, out)
+    text = multinode.claims(records)
+    atomic_write_text(out / "claims_multinode.md", text)
+    print(text)
+    print(f"{len(records)} points in {time.perf_counter() - t0:.1f} s; wrote {csv}, "
+          + ", ".join(str(p) for p in figures))  # fmt: skip
+    return 0 if all(r["feasible"] for r in records) else 1
 
 
 def main(argv: Sequence[str] | None = None) -> int:
@@ -78,6 +111,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     args = parser.parse_args(argv)
     if args.jobs is not None and args.jobs < 1:
         parser.error(f"argument --jobs: must be >= 1, got {args.jobs}")
+    if args.command == "multinode":
+        return multinode_main(args, parser)
     if args.out is None:
         args.out = QUICK_OUT if args.quick else Path("results")
     if args.out.resolve() == RESULTS_DIR and not args.overwrite:

@@ -30,6 +30,15 @@ from ios_uav_env.channel import (
     zeta,
 )
 from ios_uav_env.config import FEASIBILITY_TOL, SURFACES, ScenarioConfig, moves_needed, scene_box
+from ios_uav_env.multinode import (
+    Schedule,
+    best_schedule,
+    maxmin_rate,
+    maxmin_schedule,
+    node_rates,
+    schedule,
+    scheduled_rates,
+)
 from ios_uav_env.peak import Peak, rate_peak
 from ios_uav_env.scenarios import DEFAULT_RANGES, ScenarioRanges, sample_scenario
 from ios_uav_env.surface import element_positions, surface_nodes
@@ -40,13 +49,15 @@ __version__ = "0.1.0"
 __all__ = [
     "DEFAULT_RANGES",
     "FEASIBILITY_TOL",
-    "SURFACES",
     "Peak",
     "RateKernel",
+    "SURFACES",
     "ScenarioConfig",
     "ScenarioRanges",
+    "Schedule",
     "TrajectoryReport",
     "average_rate",
+    "best_schedule",
     "channel",
     "check_trajectory",
     "direct_amplitude",
@@ -54,13 +65,18 @@ __all__ = [
     "element_positions",
     "faded_rates",
     "los_channel",
+    "maxmin_rate",
+    "maxmin_schedule",
     "moves_needed",
+    "node_rates",
     "phase_shifts",
     "radiation_patterns",
     "rate_kernel",
     "rate_peak",
     "sample_scenario",
     "scene_box",
+    "schedule",
+    "scheduled_rates",
     "side_factor",
     "slot_rates",
     "surface_amplitude",

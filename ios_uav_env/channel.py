@@ -134,7 +134,8 @@ class RateKernel:
 
 @lru_cache(maxsize=64)
 def rate_kernel(config: ScenarioConfig) -> RateKernel:
-    """The (cached) :class:`RateKernel` of ``config``."""
+    """The (cached) :class:`RateKernel` of ``config`` (one ground node: ``ValueError`` if K > 1)."""
+    config.require_single_node("the single-node rate model (slot_rates, average_rate, rate_peak, the env)")
     nodes = surface_nodes(config)
     fields = dict(
         node_y=nodes.y,
@@ -205,6 +206,7 @@ def slot_rates(config: ScenarioConfig, positions: np.ndarray) -> np.ndarray:
 
 def small_scale_term(config: ScenarioConfig, positions: np.ndarray, rng: np.random.Generator) -> np.ndarray:
     """sqrt(kappa/(1+kappa)) exp(-j 2 pi d_UG / lambda) + sqrt(1/(1+kappa)) h_SS, h_SS ~ CN(0, 1)."""
+    config.require_single_node("small_scale_term")
     q = as_positions(positions)
     d_ug = np.sqrt(((q - np.asarray(config.ground_node)) ** 2).sum(axis=1) + config.uav_altitude**2)
     h_ss = (rng.standard_normal(len(q)) + 1j * rng.standard_normal(len(q))) / np.sqrt(2.0)

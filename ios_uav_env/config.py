@@ -80,6 +80,10 @@ class ScenarioConfig:
     # exact sum (slow for M = 6000); quadrature_tol = inf = exactly quadrature_nodes.
     quadrature_nodes: int = 8  # nodes per axis, at least (0: exact per-element sum)
     quadrature_tol: float = 1e-12  # relative amplitude error the compression must stay within
+    # m, several ground nodes w_k (TDMA, max-min fairness; see ios_uav_env.multinode). None:
+    # the single node ``ground_node``. When given (K >= 1 pairs), ``ground_node`` is set to
+    # ground_nodes[0] and one node collapses to None (one canonical single-node value).
+    ground_nodes: tuple[tuple[float, float], ...] | None = None
 
     def __post_init__(self) -> None:
         if self.surface not in SURFACES:
@@ -87,6 +91,7 @@ class ScenarioConfig:
         object.__setattr__(self, "q0", _pair(self.q0, "q0"))
         object.__setattr__(self, "qF", _pair(self.qF, "qF"))
         object.__setattr__(self, "ground_node", _pair(self.ground_node, "ground_node"))
+        self._canonical_nodes()
         object.__setattr__(self, "ios_center", _pair(self.ios_center, "ios_center", 3))
         shape = _pair(self.ios_shape, "ios_shape")
         if any(isinstance(v, (bool, np.bool_)) for v in self.ios_shape) or not all(
@@ -149,7 +154,54 @@ class ScenarioConfig:
                 f"v_max={self.v_max} m/s: T must be >= {t_min:g} s (N - 1 >= ceil(|qF - q0| / D) moves)"
             )
 
+    def _canonical_nodes(self) -> None:
+        """Validate ``ground_nodes``; set ``ground_node`` to its first node; K = 1 -> None."""
+        nodes = self.ground_nodes
+        if nodes is None:
+            return
+        if isinstance(nodes, (str, bytes)) or not hasattr(nodes, "__len__") or len(nodes) == 0:
+            raise ValueError(
+                f"ground_nodes must be a sequence of K >= 1 (x, y) pairs in m (None: the single "
+                f"ground_node), got {nodes!r}"
+            )
+        pairs = tuple(_pair(p, f"ground_nodes[{i}]") for i, p in enumerate(nodes))
+        default = ScenarioConfig.__dataclass_fields__["ground_node"].default
+        if self.ground_node not in (pairs[0], default):
+            raise ValueError(
+                f"ground_node={self.ground_node} conflicts with ground_nodes[0]={pairs[0]}: give only "
+                "ground_nodes (ground_node is set to its first node)"
+            )
+        object.__setattr__(self, "ground_node", pairs[0])
+        object.__setattr__(self, "ground_nodes", pairs if len(pairs) > 1 else None)
+
     # --- derived quantities -------------------------------------------------------
+    @property
+    def nodes(self) -> tuple[tuple[float, float], ...]:
+        """The K ground nodes w_k (m): ``ground_nodes``, or ``(ground_node,)`` for one node."""
+        return self.ground_nodes or (self.ground_node,)
+
+    @property
+    def K(self) -> int:
+        """Number of ground nodes K >= 1."""
+        return len(self.nodes)
+
+    def node_config(self, k: int) -> ScenarioConfig:
+        """The single-node config of node k (G = w_k, every other field unchanged): the model
+        of node k's rate r_k. ``self`` itself when K = 1."""
+        if not (isinstance(k, numbers.Integral) and 0 <= k < self.K):
+            raise ValueError(f"node index k must be an integer in [0, {self.K - 1}], got {k!r}")
+        if self.K == 1:
+            return self
+        return dataclasses.replace(self, ground_nodes=None, ground_node=self.nodes[int(k)])
+
+    def require_single_node(self, what: str) -> None:
+        """Raise ``ValueError`` when K > 1: ``what`` models one ground node only."""
+        if self.K > 1:
+            raise ValueError(
+                f"{what} models one ground node, but this config has K={self.K} ground_nodes: use "
+                "ios_uav_env.node_rates / maxmin_rate (several nodes) or config.node_config(k) (node k)"
+            )
+
     @property
     def N(self) -> int:
         """Number of slots N = T / delta_t (both end points included; N - 1 moves)."""
@@ -207,11 +259,27 @@ class ScenarioConfig:
         for name in changes:
             if name not in SCENARIO_FIELDS:
                 raise TypeError(f"ScenarioConfig.replace() got an unexpected keyword argument {name!r}")
+        if "ground_nodes" in changes:
+            if changes["ground_nodes"] is None:  # back to one node: keep the first one
+                changes.setdefault("ground_node", self.ground_node)
+            else:  # __post_init__ sets ground_node to the first new node
+                changes.setdefault("ground_node", ScenarioConfig.__dataclass_fields__["ground_node"].default)
+        elif "ground_node" in changes and self.K > 1:
+            raise ValueError(
+                f"ground_node cannot be replaced on a config with K={self.K} ground_nodes: set ground_nodes"
+            )
         return dataclasses.replace(self, **changes)
 
     def to_dict(self) -> dict[str, Any]:
-        """Plain-JSON dictionary of the fields (round-trips through ``ScenarioConfig(**d)``)."""
-        return {k: list(v) if isinstance(v, tuple) else v for k, v in dataclasses.asdict(self).items()}
+        """Plain-JSON dictionary of the fields (round-trips through ``ScenarioConfig(**d)``).
+
+        ``ground_nodes`` is omitted when None (one node), so single-node dicts are unchanged."""
+        out = {k: list(v) if isinstance(v, tuple) else v for k, v in dataclasses.asdict(self).items()}
+        if self.ground_nodes:
+            out["ground_nodes"] = [list(p) for p in self.ground_nodes]
+        else:
+            del out["ground_nodes"]
+        return out
 
 
 #: The names of the ``ScenarioConfig`` fields (the scenario's keyword arguments everywhere).
@@ -229,10 +297,10 @@ def moves_needed(distance: Any, D: float) -> Any:
 
 
 def scene_box(config: ScenarioConfig, margin: float = 0.0, *, ends: bool = True) -> tuple[float, ...]:
-    """(x_min, x_max, y_min, y_max) in m: the bounding box of G and the IOS centre (and of q0
-    and qF with ``ends``), widened by ``margin`` on every side. The planners' grids, the peak
-    search and the figures all start from this box."""
-    points = [config.ground_node, config.ios_center[:2]] + ([config.q0, config.qF] if ends else [])
+    """(x_min, x_max, y_min, y_max) in m: the bounding box of the ground nodes and the IOS
+    centre (and of q0 and qF with ``ends``), widened by ``margin`` on every side. The planners'
+    grids, the peak search and the figures all start from this box."""
+    points = [*config.nodes, config.ios_center[:2]] + ([config.q0, config.qF] if ends else [])
     pts = np.asarray(points, dtype=float)
     lo, hi = pts.min(axis=0) - margin, pts.max(axis=0) + margin
     return float(lo[0]), float(hi[0]), float(lo[1]), float(hi[1])

@@ -58,6 +58,7 @@ def _axes(config: ScenarioConfig) -> tuple[np.ndarray, np.ndarray]:
 
 def element_to_ground(config: ScenarioConfig) -> tuple[np.ndarray, np.ndarray]:
     """Per-element distance d_mG to G and |x_G - x_m| / d_mG (the departure cosine), shape (M,)."""
+    config.require_single_node("element_to_ground")
     elements = element_positions(config)
     xg, yg = config.ground_node
     diff = np.column_stack([xg - elements[:, 0], yg - elements[:, 1], -elements[:, 2]])

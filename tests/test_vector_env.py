@@ -154,12 +154,15 @@ def test_plain_python_kernels_agree_with_the_compiled_ones(tmp_path):
         "from ios_uav_env import ScenarioConfig\n"
         "from ios_uav_env.vector_env import IOSUAVVectorEnv\n"
         "assert j.HAVE_NUMBA == (j.os.environ.get('IOS_UAV_ENV_NO_NUMBA') is None)\n"
-        "vec = IOSUAVVectorEnv(3, ScenarioConfig(T=36.0), channel='rician')\n"
-        "vec.reset(seed=4)\n"
-        "acts = np.random.default_rng(0).uniform(-1.3, 1.3, (40, 3, 2))\n"
-        "out = [vec.step(a)[1] for a in acts]\n"
-        "paths = np.concatenate(vec.trajectories).ravel()\n"
-        "np.save(r'{path}', np.concatenate([np.stack(out).ravel(), paths]))\n"
+        "rng = np.random.default_rng(0)\n"
+        "out = []\n"
+        "for guard, scale in ((False, 0.95), (True, 0.0)):\n"
+        "    vec = IOSUAVVectorEnv(3, ScenarioConfig(T=36.0), channel='rician', arrival_guard=guard)\n"
+        "    vec.reset(seed=4)\n"
+        "    acts = rng.uniform(-1, 1, (40, 3, 2))\n"
+        "    acts *= scale / np.maximum(1.0, np.linalg.norm(acts, axis=2, keepdims=True))\n"
+        "    out += [vec.step(a)[1] for a in acts] + [np.concatenate(vec.trajectories).ravel()]\n"
+        "np.save(r'{path}', np.concatenate([np.ravel(o) for o in out]))\n"
     )
     results = []
     for flag in (None, "1"):
@@ -172,7 +175,10 @@ def test_plain_python_kernels_agree_with_the_compiled_ones(tmp_path):
         )
         assert run.returncode == 0, run.stderr
         results.append(np.load(path))
-    np.testing.assert_allclose(results[0], results[1], rtol=1e-12, atol=1e-12)
+    # the compiled node sums are reassociated (vectorised): equal to rounding, not bit for bit.
+    # (Random actions that put the guard's two circles near tangency amplify rounding through a
+    # square root; these episodes stay away from that: the guard only pulls hovering UAVs home.)
+    np.testing.assert_allclose(results[0], results[1], rtol=1e-11, atol=1e-11)
 
 
 def test_same_step_autoreset_returns_the_new_episode_and_the_final_one_in_info():

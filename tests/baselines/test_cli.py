@@ -109,3 +109,23 @@ def test_sca_scheme_runs_through_run_scheme() -> None:
     plan = schemes.run_scheme("cuc", config, max_iters=2)
     assert plan.scheme == "cuc" and plan.config.surface == "none" and plan.feasible
     assert plan.mean_rate == average_rate(plan.config, plan.trajectory)
+
+
+def test_cli_several_nodes_prints_the_bound_and_draws_every_node(tmp_path: Path) -> None:
+    out = tmp_path / "multi"
+    res = _cli("--nodes=-100,-20;150,-60", "--scheme", "tour", "ia-ft", "dp", *TINY, "--out", str(out))
+    assert res.returncode == 0, res.stderr
+    assert "dp: certified upper bound" in res.stdout
+    saved = json.loads((out / "tour_T40_M60.json").read_text())
+    config = ScenarioConfig(**saved["config"])
+    assert config.K == 2 and saved["feasible"] is True
+    from ios_uav_env import maxmin_rate
+
+    assert saved["mean_rate"] == pytest.approx(maxmin_rate(config, np.array(saved["trajectory"])), abs=1e-12)
+    assert (out / "plans_T40_M60_tour_ia-ft_dp.png").read_bytes()[:4] == b"\x89PNG"
+
+
+@pytest.mark.parametrize("text", ["", "1,2;3", "a,b", "1,2;nan,3"])
+def test_cli_bad_nodes(text: str) -> None:
+    res = _cli(f"--nodes={text}", "--no-plot")
+    assert res.returncode == 2 and "argument --nodes" in res.stderr

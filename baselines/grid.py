@@ -1,0 +1,174 @@
+"""The grid machinery of the DP planners: the grid, the per-cell rates, the disk maximum and
+the best grid path for a per-slot reward (``baselines.dp`` for one node, ``baselines.dp_bound``
+for several).
+
+The grid is anchored at q0 (so q[1] is a grid cell) with spacing ``resolution`` over
+:func:`grid_box`; moves are the grid offsets inside the Euclidean disk of radius D. The disk
+maximum is computed, per layer and vectorised, as the maximum over the disk's rows of 1-D
+running maxima (``scipy.ndimage.maximum_filter1d``), which equals ``maximum_filter`` with
+the disk footprint (tested). Ties are broken in the forward pass towards the shortest move,
+then the smallest (dy, dx) offset: when indifferent the UAV stays put.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from scipy.ndimage import maximum_filter1d
+
+from ios_uav_env import ScenarioConfig, scene_box, slot_rates
+
+#: Default widening (m) of the grid box around q0, qF, G and the IOS centre.
+DEFAULT_MARGIN = 100.0
+#: Largest value table (bytes) the solver will allocate: N x cells float64.
+MAX_TABLE_BYTES = 2 * 1024**3
+_RATE_CHUNK = 65536  # cells per slot_rates call (bounds the (cells, nodes) temporaries)
+
+
+def grid_box(config: ScenarioConfig, margin: float = DEFAULT_MARGIN) -> tuple[float, float, float, float]:
+    """Box (x_min, x_max, y_min, y_max) in m: ``ios_uav_env.scene_box`` (q0, qF, the nodes, IOS centre)
+    widened by ``margin``."""
+    return scene_box(config, margin)
+
+
+def grid_axes(
+    config: ScenarioConfig, resolution: float, margin: float = DEFAULT_MARGIN
+) -> tuple[np.ndarray, np.ndarray, tuple[int, int]]:
+    """Grid coordinates ``xs``, ``ys`` (m) anchored at q0, and q0's (iy, ix) index.
+
+    The grid covers :func:`grid_box` (rounded outwards to whole cells).
+    """
+    x_min, x_max, y_min, y_max = grid_box(config, margin)
+    x0, y0 = config.q0
+    kx = np.arange(math.floor((x_min - x0) / resolution), math.ceil((x_max - x0) / resolution) + 1)
+    ky = np.arange(math.floor((y_min - y0) / resolution), math.ceil((y_max - y0) / resolution) + 1)
+    return x0 + resolution * kx, y0 + resolution * ky, (int(-ky[0]), int(-kx[0]))
+
+
+def rate_map(
+    config: ScenarioConfig, resolution: float = 2.5, margin: float = DEFAULT_MARGIN
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Slot rate r(q) (bps/Hz) on the DP grid: ``xs`` (nx,), ``ys`` (ny,), ``rates`` (ny, nx)."""
+    xs, ys, _ = grid_axes(config, resolution, margin)
+    xx, yy = np.meshgrid(xs, ys)
+    cells = np.column_stack([xx.ravel(), yy.ravel()])
+    rates = np.concatenate(
+        [slot_rates(config, cells[i : i + _RATE_CHUNK]) for i in range(0, len(cells), _RATE_CHUNK)]
+    )
+    return xs, ys, rates.reshape(len(ys), len(xs))
+
+
+def disk_offsets(resolution: float, radius: float) -> np.ndarray:
+    """Grid offsets (dy, dx) with resolution * |(dy, dx)| <= radius, shape (K, 2).
+
+    Sorted by length, then dy, then dx: the forward pass's tie-breaking order.
+    """
+    r = math.floor(radius / resolution + 1e-9)
+    dy, dx = np.mgrid[-r : r + 1, -r : r + 1]
+    inside = (dy * dy + dx * dx) * resolution**2 <= radius**2 * (1 + 1e-12)
+    off = np.column_stack([dy[inside], dx[inside]])
+    order = np.lexsort((off[:, 1], off[:, 0], off[:, 0] ** 2 + off[:, 1] ** 2))
+    return off[order]
+
+
+def disk_max(values: np.ndarray, offsets: np.ndarray) -> np.ndarray:
+    """out[y, x] = max over (dy, dx) in ``offsets`` of values[y + dy, x + dx] (-inf outside).
+
+    ``offsets`` must be a disk (symmetric rows, as from :func:`disk_offsets`); computed as the
+    maximum over rows dy of a 1-D running maximum of half-width w(dy) along x.
+    """
+    ny = values.shape[0]
+    half = {}
+    for dy, dx in offsets:
+        half[int(dy)] = max(half.get(int(dy), 0), abs(int(dx)))
+    out = np.full_like(values, -np.inf)
+    rows: dict[int, np.ndarray] = {}
+    for dy, w in half.items():
+        if abs(dy) >= ny:
+            continue
+        if w not in rows:
+            rows[w] = maximum_filter1d(values, size=2 * w + 1, axis=1, mode="constant", cval=-np.inf)
+        m = rows[w]
+        if dy >= 0:
+            np.maximum(out[: ny - dy], m[dy:], out=out[: ny - dy])
+        else:
+            np.maximum(out[-dy:], m[: ny + dy], out=out[-dy:])
+    return out
+
+
+def grid_path(
+    config: ScenarioConfig,
+    rates: np.ndarray,
+    r_f: float,
+    resolution: float,
+    margin: float = DEFAULT_MARGIN,
+    progress: bool = False,
+) -> tuple[np.ndarray, float]:
+    """The best grid path for a per-slot reward: (trajectory (N, 2), objective).
+
+    ``rates`` (ny, nx) is the reward of each cell of :func:`grid_axes` (q0's cell gives slot
+    1's reward), ``r_f`` that of qF (slot N); the objective is the path's mean reward, the
+    optimum over grid paths (module docstring). ``ValueError`` when no grid path reaches qF.
+    """
+    n_slots, d_max = config.N, config.D
+    q_f = np.asarray(config.qF, dtype=float)
+    xs, ys, (iy0, ix0) = grid_axes(config, resolution, margin)
+    offsets = disk_offsets(resolution, d_max)
+    # values[k] is V at layer k + 1 (0-based slots; layer 0 is q0, layer N-1 is qF)
+    values = np.empty((n_slots - 2, len(ys), len(xs)))
+    near_f = np.hypot(xs[None, :] - q_f[0], ys[:, None] - q_f[1]) <= d_max
+    values[-1] = np.where(near_f, rates + r_f, -np.inf)
+    layers = range(n_slots - 4, -1, -1)
+    bar = _progress(len(layers), progress)
+    for k in layers:
+        values[k] = rates + disk_max(values[k + 1], offsets)
+        bar.update(1)
+    bar.close()
+
+    path = [(iy0, ix0)]
+    best_first = _best_move(values[0], (iy0, ix0), offsets)
+    if best_first is None:
+        axial = math.floor(d_max / resolution + 1e-9) * resolution
+        raise ValueError(
+            f"no grid path reaches qF={config.qF} from q0={config.q0} in N - 1 = {n_slots - 1} moves at "
+            f"resolution={resolution:g} m: grid moves are at most {axial:g} m along an axis (D={d_max:g} m) "
+            f"and shorter than D in most directions, so the horizon T={config.T:g} s (minimum "
+            f"{config.min_horizon():g} s) is too tight for this grid; use a finer resolution (one that "
+            f"divides D, e.g. {d_max / math.ceil(d_max / resolution):g} m) or a larger T"
+        )
+    total = float(rates[iy0, ix0] + values[0][best_first])
+    path.append(best_first)
+    for k in range(1, n_slots - 2):
+        path.append(_best_move(values[k], path[-1], offsets))
+    idx = np.array(path)
+    traj = np.vstack([np.column_stack([xs[idx[:, 1]], ys[idx[:, 0]]]), q_f])
+    return traj, total / n_slots
+
+
+def _best_move(layer: np.ndarray, cell: tuple[int, int], offsets: np.ndarray) -> tuple[int, int] | None:
+    """First (in ``offsets`` order) argmax of ``layer`` over the disk around ``cell``."""
+    cand = offsets + np.asarray(cell)
+    ok = (cand[:, 0] >= 0) & (cand[:, 0] < layer.shape[0]) & (cand[:, 1] >= 0) & (cand[:, 1] < layer.shape[1])
+    cand = cand[ok]
+    vals = layer[cand[:, 0], cand[:, 1]]
+    i = int(np.argmax(vals))
+    if not np.isfinite(vals[i]):
+        return None
+    return int(cand[i, 0]), int(cand[i, 1])
+
+
+class _NoBar:
+    def update(self, n: int) -> None:
+        pass
+
+    def close(self) -> None:
+        pass
+
+
+def _progress(total: int, enabled: bool):
+    if not enabled:
+        return _NoBar()
+    from tqdm.auto import tqdm
+
+    return tqdm(total=total, desc="DP backward pass", unit="slot")

@@ -1,0 +1,315 @@
+r"""A tour heuristic for several ground nodes: fly to good hover points in the best order,
+hover there as long as one LP says, and serve the nodes with the LP's shares.
+
+**Hover points** (:func:`hover_candidates`): each node's best reachable point
+(``ios_uav_env.rate_peak`` on its single-node config ``config.node_config(k)``), and
+compromise points: for each pair of nodes (and all nodes when K > 2) the reachable point of a
+``resolution`` grid that maximises min_k r_k(q) / r_k^* (r_k^* the node's best grid rate).
+
+**A route** visits an ordered list of hover points P_1..P_m: q0 -> P_1 -> ... -> P_m -> qF
+on the legs of ``baselines.fixed`` (full steps of D, the last one shorter), which take
+L - 1 moves; the H = N - L slots left are spent hovering. The route is infeasible when H < 0.
+
+**One LP per route** decides the hover slots and the shares (continuous relaxation):
+
+    max t  s.t.  (1/N) [sum_{n in legs} a_k[n] r_k(q[n]) + sum_i y_ik r_k(P_i)] >= t  (all k)
+                 sum_k a_k[n] <= 1,  sum_k y_ik <= x_i,  sum_i x_i = H,  a, x, y >= 0
+
+(x_i hover slots at P_i, y_ik of them given to node k; the L path points, P_i included
+once, are the legs). The hover slots are rounded to integers summing to H (largest
+remainders; on the best rounded route, then one-slot moves between hover points while the
+exact score improves), the trajectory is built (feasible by construction) and scored by
+``ios_uav_env.maxmin_rate``,
+which re-optimises the shares: the score of a route is that of its trajectory, whoever
+proposed it.
+
+**Orders.** For every subset of at most ``max_points`` candidates, the ``orders`` orders
+with the fewest travel moves (then the shortest length) are solved; the ``keep`` best LP
+values are rounded and scored exactly, and the best trajectory wins. A route is skipped
+without its LP when the weak-duality bound :func:`route_bound` at the best route's dual
+weights of the best routes so far is not above the ``keep``-th best LP value (it could not
+enter the best ``keep``).
+"""
+
+from __future__ import annotations
+
+import itertools
+import math
+import time
+from typing import Any
+
+import numpy as np
+
+import ios_uav_env as ie
+from baselines.fixed import _leg
+from baselines.plan import Plan
+from ios_uav_env import ScenarioConfig, moves_needed
+from ios_uav_env.peak import reachable
+
+#: Grid (m) of the node rate maps that give the compromise points.
+CANDIDATE_RESOLUTION = 5.0
+
+__all__ = ["hover_candidates", "node_rate_maps", "route_lp", "route_trajectory", "solve"]
+
+
+def node_rate_maps(
+    config: ScenarioConfig, resolution: float, margin: float | None = None
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Every node's rate on the DP grid of ``config``: xs (nx,), ys (ny,), rates (K, ny, nx)."""
+    from baselines.grid import DEFAULT_MARGIN, grid_axes
+
+    xs, ys, _ = grid_axes(config, resolution, DEFAULT_MARGIN if margin is None else margin)
+    xx, yy = np.meshgrid(xs, ys)
+    rates = ie.node_rates(config, np.column_stack([xx.ravel(), yy.ravel()]))
+    return xs, ys, rates.reshape(config.K, len(ys), len(xs))
+
+
+def hover_candidates(
+    config: ScenarioConfig, resolution: float = CANDIDATE_RESOLUTION
+) -> list[tuple[str, tuple[float, float]]]:
+    """Named hover points: each node's reachable peak and the compromise points (module doc)."""
+    out: list[tuple[str, tuple[float, float]]] = []
+    for k in range(config.K):
+        peak = ie.rate_peak(config.node_config(k))
+        out.append((f"peak{k + 1}", (peak.x, peak.y)))
+    if config.K > 1:
+        xs, ys, rates = node_rate_maps(config, resolution)
+        xx, yy = np.meshgrid(xs, ys)
+        pts = np.column_stack([xx.ravel(), yy.ravel()])
+        ok = reachable(config, pts)
+        flat = rates.reshape(config.K, -1)
+        norm = flat / np.max(np.where(ok, flat, -np.inf), axis=1, keepdims=True)
+        groups = list(itertools.combinations(range(config.K), 2))
+        if config.K > 2:
+            groups.append(tuple(range(config.K)))
+        for group in groups:
+            score = np.where(ok, norm[list(group)].min(axis=0), -np.inf)
+            i = int(np.argmax(score))
+            out.append(("mid" + "-".join(str(k + 1) for k in group), (float(pts[i, 0]), float(pts[i, 1]))))
+    unique: list[tuple[str, tuple[float, float]]] = []
+    for name, p in out:  # a point within 1 m of an earlier one adds nothing
+        if all(math.dist(p, u) > 1.0 for _, u in unique):
+            unique.append((name, p))
+    return unique
+
+
+def _legs(config: ScenarioConfig, points: np.ndarray) -> tuple[np.ndarray, list[int]] | None:
+    """The route's path without hovering (L, 2) and the index of each hover point in it;
+    None when it needs more than N - 1 moves."""
+    stops = [np.asarray(config.q0, float), *points, np.asarray(config.qF, float)]
+    path, where = [stops[0][None, :]], []
+    count = 1
+    for a, b in itertools.pairwise(stops):
+        leg = _leg(a, b, config.D, moves_needed(float(np.linalg.norm(b - a)), config.D))
+        path.append(leg)
+        count += len(leg)
+        where.append(count - 1)
+    if count > config.N:
+        return None
+    path_arr = np.vstack(path)
+    path_arr[-1] = config.qF
+    return path_arr, where[:-1]
+
+
+def route_trajectory(config: ScenarioConfig, points: np.ndarray, hover_slots: np.ndarray) -> np.ndarray:
+    """The (N, 2) trajectory of a route: its legs with ``hover_slots[i]`` extra slots at P_i.
+
+    ``hover_slots`` are integers >= 0 summing to N - L (``ValueError`` otherwise)."""
+    legs = _legs(config, np.asarray(points, float).reshape(-1, 2))
+    if legs is None:
+        raise ValueError("the route needs more than N - 1 moves")
+    path, where = legs
+    h = np.asarray(hover_slots)
+    if h.shape != (len(where),) or np.any(h < 0) or int(h.sum()) != config.N - len(path):
+        raise ValueError(f"hover_slots must be {len(where)} integers >= 0 summing to {config.N - len(path)}")
+    repeats = np.ones(len(path), dtype=int)
+    np.add.at(repeats, where, h.astype(int))  # two stops may share a way-point (a leg of 0 moves)
+    return np.repeat(path, repeats, axis=0)
+
+
+def route_lp(config: ScenarioConfig, points: np.ndarray) -> tuple[float, np.ndarray] | None:
+    """The route LP (module doc): (LP value, hover slots x (m,), continuous), or None when the
+    route is infeasible."""
+    points = np.asarray(points, float).reshape(-1, 2)
+    legs = _legs(config, points)
+    if legs is None:
+        return None
+    path, where = legs
+    solved = _solve_route(config, ie.node_rates(config, path), where)
+    return None if solved is None else solved[:2]
+
+
+def _solve_route(
+    config: ScenarioConfig, r_path: np.ndarray, where: list[int]
+) -> tuple[float, np.ndarray, np.ndarray] | None:
+    """The route LP on the path's rates (K, L): (value, hover slots x, dual weights w)."""
+    from scipy.optimize import linprog
+
+    k_nodes, n_path, m = r_path.shape[0], r_path.shape[1], len(where)
+    spare = config.N - n_path
+    r_hover = r_path[:, where]  # (K, m)
+    # variables: a (K * L, k-major), y (m * K, i-major), x (m), t
+    n_a, n_y = k_nodes * n_path, m * k_nodes
+    n_var = n_a + n_y + m + 1
+    a_ub = np.zeros((k_nodes + n_path + m, n_var))
+    for k in range(k_nodes):
+        a_ub[k, k * n_path : (k + 1) * n_path] = -r_path[k] / config.N
+        a_ub[k, n_a + np.arange(m) * k_nodes + k] = -r_hover[k] / config.N
+        a_ub[k, -1] = 1.0
+    for n in range(n_path):
+        a_ub[k_nodes + n, np.arange(k_nodes) * n_path + n] = 1.0
+    for i in range(m):
+        a_ub[k_nodes + n_path + i, n_a + i * k_nodes : n_a + (i + 1) * k_nodes] = 1.0
+        a_ub[k_nodes + n_path + i, n_a + n_y + i] = -1.0
+    b_ub = np.concatenate([np.zeros(k_nodes), np.ones(n_path), np.zeros(m)])
+    a_eq = np.zeros((1, n_var))
+    a_eq[0, n_a + n_y : n_a + n_y + m] = 1.0
+    c = np.zeros(n_var)
+    c[-1] = -1.0
+    bounds = [(0.0, 1.0)] * n_a + [(0.0, None)] * (n_y + m + 1)
+    res = linprog(c, A_ub=a_ub, b_ub=b_ub, A_eq=a_eq, b_eq=[spare], bounds=bounds, method="highs")
+    if res.status != 0:
+        return None
+    w = np.maximum(-np.asarray(res.ineqlin.marginals[:k_nodes]), 0.0)
+    w = w / w.sum() if w.sum() > 0 else np.full(k_nodes, 1.0 / k_nodes)
+    return float(-res.fun), np.maximum(res.x[n_a + n_y : n_a + n_y + m], 0.0), w
+
+
+def route_bound(config: ScenarioConfig, r_path: np.ndarray, where: list[int], weights: np.ndarray) -> float:
+    """An upper bound of the route LP: for every w in the simplex (weak duality, as in
+    ``ios_uav_env.multinode``) (1/N) [sum_n max_k w_k r_k[n] + H max_i max_k w_k r_k(P_i)]
+    bounds it (H = N - L the hover slots); the minimum over the rows w of ``weights`` (J, K).
+    Used to skip routes that cannot enter the best ``keep``."""
+    per_slot = np.max(np.asarray(weights)[:, :, None] * r_path[None], axis=1)  # (J, L)
+    values = per_slot.sum(axis=1) + (config.N - r_path.shape[1]) * per_slot[:, where].max(axis=1)
+    return float(values.min() / config.N)
+
+
+def _round(x: np.ndarray, total: int) -> np.ndarray:
+    """Integers >= 0 summing to ``total``, by largest remainders of ``x`` scaled to ``total``."""
+    x = x * (total / x.sum()) if x.sum() > 0 else np.full(len(x), total / len(x))
+    base = np.floor(x + 1e-9).astype(int)
+    for i in np.argsort(-(x - base))[: total - int(base.sum())]:
+        base[i] += 1
+    return base
+
+
+def _polish(config: ScenarioConfig, points: np.ndarray, slots: np.ndarray) -> tuple[np.ndarray, float]:
+    """One-slot moves between hover points while the exact max-min score improves."""
+    best = ie.maxmin_rate(config, route_trajectory(config, points, slots))
+    improved = True
+    while improved:
+        improved = False
+        for i, j in itertools.permutations(range(len(slots)), 2):
+            if slots[i] == 0:
+                continue
+            trial = slots.copy()
+            trial[i] -= 1
+            trial[j] += 1
+            value = ie.maxmin_rate(config, route_trajectory(config, points, trial))
+            if value > best + 1e-12:
+                slots, best, improved = trial, value, True
+    return slots, best
+
+
+def solve(
+    config: ScenarioConfig,
+    *,
+    max_points: int | None = None,
+    orders: int = 2,
+    keep: int = 5,
+    candidates: list[tuple[str, tuple[float, float]]] | None = None,
+) -> Plan:
+    """The best tour found (module doc): a feasible trajectory scored by ``maxmin_rate``.
+
+    ``max_points``: most hover points per route (default min(K + 1, 4)); ``orders``: orders
+    solved per subset (fewest moves first); ``keep``: LP winners scored exactly;
+    ``candidates``: hover points (default :func:`hover_candidates`). ``info`` holds the
+    winning ``route`` (names), its ``hover_points``, ``hover_slots`` and ``lp_value``, and
+    ``n_routes`` (LPs solved).
+    """
+    t0 = time.perf_counter()
+    if not isinstance(config, ScenarioConfig):
+        raise TypeError(f"config must be a ScenarioConfig, got {type(config).__name__}")
+    max_points = min(config.K + 1, 4) if max_points is None else max_points
+    for name, value in (("max_points", max_points), ("orders", orders), ("keep", keep)):
+        if isinstance(value, bool) or not isinstance(value, int) or value < 1:
+            raise ValueError(f"{name} must be an integer >= 1, got {value!r}")
+    cands = hover_candidates(config) if candidates is None else list(candidates)
+    if not cands:
+        raise ValueError("candidates must hold at least one (name, (x, y)) hover point")
+    results: list[tuple[float, tuple[int, ...], np.ndarray]] = []
+    n_routes = n_pruned = 0
+    pts = np.array([p for _, p in cands], dtype=float)
+    stops = [np.asarray(config.q0, float), *pts, np.asarray(config.qF, float)]  # q0 = 0, qF = -1
+    leg_rates: dict[tuple[int, int], np.ndarray] = {}
+
+    def path_rates(order: tuple[int, ...]) -> tuple[np.ndarray, list[int]]:
+        """Rates (K, L) along the route's legs (cached per leg) and the hover points' indices."""
+        seq = [0, *(i + 1 for i in order), len(stops) - 1]
+        parts, where, count = [ends_rates[:, :1]], [], 1
+        for a, b in itertools.pairwise(seq):
+            if (a, b) not in leg_rates:
+                d = float(np.linalg.norm(stops[b] - stops[a]))
+                leg = _leg(stops[a], stops[b], config.D, moves_needed(d, config.D))
+                leg_rates[a, b] = ie.node_rates(config, leg) if len(leg) else np.empty((config.K, 0))
+            parts.append(leg_rates[a, b])
+            count += leg_rates[a, b].shape[1]
+            where.append(count - 1)
+        return np.hstack(parts), where[:-1]
+
+    ends_rates = ie.node_rates(config, np.array([config.q0]))
+    hop_dist = {
+        (a, b): float(np.linalg.norm(stops[b] - stops[a]))
+        for a in range(len(stops))
+        for b in range(len(stops))
+    }
+    hop_moves = {h: moves_needed(d, config.D) for h, d in hop_dist.items()}
+    duals: list[np.ndarray] = []  # dual weights of the routes that entered the best ``keep``
+    for size in range(1, min(max_points, len(cands)) + 1):
+        for subset in itertools.combinations(range(len(cands)), size):
+            perms = []
+            for order in itertools.permutations(subset):
+                seq = [0, *(i + 1 for i in order), len(stops) - 1]
+                hops = list(itertools.pairwise(seq))
+                perms.append((sum(hop_moves[h] for h in hops), sum(hop_dist[h] for h in hops), order))
+            perms.sort()
+            for moves, _, order in perms[:orders]:
+                if moves > config.N - 1:
+                    break
+                r_path, where = path_rates(order)
+                threshold = sorted(r[0] for r in results)[-keep] if len(results) >= keep else -np.inf
+                if duals and route_bound(config, r_path, where, np.array(duals)) <= threshold:
+                    n_pruned += 1
+                    continue
+                solved = _solve_route(config, r_path, where)
+                n_routes += 1
+                if solved is not None:
+                    if solved[0] > threshold:
+                        duals = [solved[2], *duals][:32]
+                    results.append((solved[0], order, solved[1]))
+    if not results:  # cannot happen: a route through a reachable point is feasible
+        raise RuntimeError("no feasible tour: no candidate hover point is reachable")
+    results.sort(key=lambda r: -r[0])
+    best: tuple[float, tuple[int, ...], np.ndarray, float] | None = None
+    for lp_value, order, x in results[:keep]:
+        route = pts[list(order)]
+        spare = config.N - len(_legs(config, route)[0])  # type: ignore[index]
+        slots = _round(x, spare)
+        value = ie.maxmin_rate(config, route_trajectory(config, route, slots))
+        if best is None or value > best[3]:
+            best = (lp_value, order, slots, value)
+    assert best is not None
+    lp_value, order, slots, _ = best
+    slots, _ = _polish(config, pts[list(order)], slots)  # the best rounded route only
+    traj = route_trajectory(config, pts[list(order)], slots)
+    info: dict[str, Any] = {
+        "route": [cands[i][0] for i in order],
+        "hover_points": pts[list(order)].tolist(),
+        "hover_slots": [int(s) for s in slots],
+        "lp_value": lp_value,
+        "n_routes": n_routes,
+        "n_pruned": n_pruned,
+        "candidates": {name: list(p) for name, p in cands},
+    }
+    return Plan.from_trajectory("tour", config, traj, time.perf_counter() - t0, info=info)
