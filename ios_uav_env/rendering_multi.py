@@ -14,23 +14,10 @@ import numpy as np
 
 from ios_uav_env.config import ScenarioConfig
 from ios_uav_env.multinode import best_schedule, node_rates
-from ios_uav_env.rendering import Extent
+from ios_uav_env.rendering import default_extent
 
 #: One colour per node (cycled beyond 8 nodes).
 NODE_COLORS = ("#ff5a36", "#00e5ff", "#ffd700", "#ff66cc", "#9cff57", "#ffffff", "#b388ff", "#ff9100")
-
-
-def multinode_extent(config: ScenarioConfig, aspect: float = 0.5) -> Extent:
-    """A map around q0, qF, every node and the IOS, at least ``aspect`` times as tall as wide."""
-    pts = np.array([config.q0, config.qF, *config.nodes, config.ios_center[:2]])
-    lo, hi = pts.min(axis=0), pts.max(axis=0)
-    pad = 0.08 * max(float((hi - lo).max()), 4 * config.D)
-    lo, hi = lo - pad, hi + pad
-    width, height = hi - lo
-    if height < aspect * width:
-        mid = 0.5 * (lo[1] + hi[1])
-        lo[1], hi[1] = mid - 0.5 * aspect * width, mid + 0.5 * aspect * width
-    return float(lo[0]), float(hi[0]), float(lo[1]), float(hi[1])
 
 
 def served_node(
@@ -43,7 +30,7 @@ def served_node(
 
 def plot_multinode_map(ax: Any, config: ScenarioConfig, *, resolution: tuple[int, int] = (200, 100)) -> Any:
     """Draw max_k r_k (the best node's rate) as the background, the IOS, q0, qF and every node."""
-    box = multinode_extent(config)
+    box = default_extent(config)
     xs, ys = np.linspace(box[0], box[1], resolution[0]), np.linspace(box[2], box[3], resolution[1])
     xx, yy = np.meshgrid(xs, ys)
     rates = node_rates(config, np.column_stack([xx.ravel(), yy.ravel()])).max(axis=0).reshape(xx.shape)
