@@ -94,9 +94,10 @@ else:
 
 if _HAS_GYMNASIUM:
     from ios_uav_env.env import INFO_KEYS, IOSUAVEnv
+    from ios_uav_env.multinode_env import MultiNodeEnv
     from ios_uav_env.options import EnvOptions
     from ios_uav_env.random_env import RandomIOSUAVEnv
-    from ios_uav_env.registration import ENV_IDS, RANDOM_ENV_ID, register_envs
+    from ios_uav_env.registration import ENV_IDS, MULTINODE_IDS, RANDOM_ENV_ID, register_envs
 
     register_envs()
     __all__ += [
@@ -104,6 +105,8 @@ if _HAS_GYMNASIUM:
         "INFO_KEYS",
         "EnvOptions",
         "IOSUAVEnv",
+        "MULTINODE_IDS",
+        "MultiNodeEnv",
         "RANDOM_ENV_ID",
         "RandomIOSUAVEnv",
         "register_envs",

@@ -17,6 +17,12 @@ ENV_IDS: dict[str, dict[str, Any]] = {
 #: The randomised id: every reset draws a scenario from ``scenarios.DEFAULT_RANGES``.
 RANDOM_ENV_ID = "ios_uav_env/IOSUAV-Random-v0"
 
+#: Several ground nodes (``multinode_env.MultiNodeEnv``): id -> its keyword arguments.
+MULTINODE_IDS: dict[str, dict[str, Any]] = {
+    "ios_uav_env/IOSUAV-MultiNode-v0": {},  # the 3 nodes of multinode_env.DEFAULT_NODES
+    "ios_uav_env/IOSUAV-MultiNode-Random-v0": {"random_nodes": (2, 4)},  # 2 to 4 nodes per reset
+}
+
 
 def _vector(entry_point: str) -> dict[str, str]:
     """The ``vector_entry_point`` argument where Gymnasium has it (1.0 and later)."""
@@ -46,3 +52,6 @@ def register_envs() -> None:
             entry_point="ios_uav_env.random_env:RandomIOSUAVEnv",
             **_vector("ios_uav_env.vector_env:RandomIOSUAVVectorEnv"),
         )
+    for env_id, kwargs in MULTINODE_IDS.items():
+        if env_id not in gym.registry:
+            gym.register(id=env_id, entry_point="ios_uav_env.multinode_env:MultiNodeEnv", kwargs=dict(kwargs))

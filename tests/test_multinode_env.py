@@ -1,0 +1,127 @@
+"""The multi-node env (ios_uav_env/multinode_env.py): checkers, the return equals the agent's
+own max-min score, info, bounds, seeding, pinned scenarios and errors."""
+
+from __future__ import annotations
+
+import warnings
+
+import gymnasium as gym
+import numpy as np
+import pytest
+from gymnasium.utils.env_checker import check_env
+
+import ios_uav_env
+from ios_uav_env import ScenarioConfig, maxmin_rate, scheduled_rates
+from ios_uav_env.multinode_env import DEFAULT_NODES, MULTI_INFO_KEYS, NODE_FEATURES, MultiNodeEnv
+
+IDS = sorted(ios_uav_env.MULTINODE_IDS)
+SMALL = ScenarioConfig(T=60.0, ios_shape=(100, 20), ground_nodes=((-100.0, -20.0), (120.0, 40.0)))
+
+
+def rollout(env, seed: int, actions=None, options=None) -> dict:
+    obs, info = env.reset(seed=seed, options=options)
+    rng = np.random.default_rng(seed)
+    out = {"obs": [obs], "infos": [info], "rewards": []}
+    done = False
+    while not done:
+        a = rng.uniform(-1.2, 1.2, env.action_space.shape) if actions is None else actions(obs)
+        obs, reward, terminated, truncated, info = env.step(a)
+        out["obs"].append(obs)
+        out["infos"].append(info)
+        out["rewards"].append(reward)
+        done = terminated or truncated
+    return out
+
+
+@pytest.mark.parametrize("env_id", IDS)
+def test_checkers_pass_without_warnings(env_id):
+    env = gym.make(env_id)
+    assert env.spec.max_episode_steps is None
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        check_env(env.unwrapped)
+        sb3 = pytest.importorskip("stable_baselines3.common.env_checker")
+        sb3.check_env(gym.make(env_id).unwrapped, warn=True)
+
+
+@pytest.mark.parametrize("env_id", IDS)
+def test_return_is_n_times_the_agents_own_max_min_score(env_id):
+    env = gym.make(env_id).unwrapped
+    for seed in (0, 1):
+        out = rollout(env, seed)
+        cfg, last = env.config, out["infos"][-1]
+        own = scheduled_rates(cfg, env.trajectory, env.shares).min()  # the one scorer
+        assert sum(out["rewards"]) == pytest.approx(cfg.N * own, rel=1e-12)  # the guard: no penalty
+        assert last["min_rate"] == pytest.approx(own, rel=1e-12)
+        assert last["best_schedule_rate"] == pytest.approx(maxmin_rate(cfg, env.trajectory), rel=1e-12)
+        assert last["best_schedule_rate"] >= own - 1e-12 and last["feasible"]
+        np.testing.assert_allclose(env.shares.sum(axis=0), 1.0, rtol=1e-12)
+
+
+def test_info_keys_and_types_are_fixed_and_padded():
+    env = MultiNodeEnv(SMALL, max_nodes=4)
+    out = rollout(env, 3)
+    for info in out["infos"]:
+        assert tuple(info) == MULTI_INFO_KEYS
+        assert all(hasattr(v, "dtype") and np.all(np.isfinite(v)) for v in info.values())
+        assert info["shares"].shape == (4,) and info["node_rates"].shape == (4,)
+        assert np.all(info["shares"][2:] == 0) and np.all(info["node_rates"][2:] == 0)
+    assert out["infos"][0]["slot"] == 1 and out["infos"][-1]["slot"] == SMALL.N
+    assert all(i["best_schedule_rate"] == 0.0 for i in out["infos"][:-1])
+
+
+def test_observation_layout_mask_side_and_bounds():
+    env = MultiNodeEnv(max_nodes=4, random_nodes=(2, 4))
+    for seed in range(4):
+        out = rollout(env, seed)
+        k = env.config.K
+        for obs in out["obs"]:
+            assert env.observation_space.contains(obs)
+            blocks = obs[12:].reshape(4, len(NODE_FEATURES))
+            assert np.all(blocks[:k, 0] == 1.0) and np.all(blocks[k:] == 0.0)
+        sides = out["obs"][0][12:].reshape(4, -1)[:k, 3]
+        expected = [1.0 if x > env.config.ios_center[0] else -1.0 for x, _ in env.config.nodes]
+        np.testing.assert_array_equal(sides, expected)
+        served = out["obs"][-1][12:].reshape(4, -1)[:k, 4]
+        np.testing.assert_allclose(served, scheduled_rates(env.config, env.trajectory, env.shares), rtol=1e-6)
+
+
+def test_same_seed_same_episode_and_new_scenarios_per_reset():
+    a = rollout(MultiNodeEnv(random_nodes=(2, 4)), 5)
+    b = rollout(MultiNodeEnv(random_nodes=(2, 4)), 5)
+    assert a["rewards"] == b["rewards"]
+    assert all(np.array_equal(x, y) for x, y in zip(a["obs"], b["obs"], strict=True))
+    env = MultiNodeEnv(random_nodes=(2, 4))
+    env.reset(seed=0)
+    first = env.config
+    env.reset()
+    assert env.config != first
+
+
+def test_a_score_action_serves_the_chosen_node():
+    env = MultiNodeEnv(SMALL)
+    env.reset(seed=0)
+    _, _, _, _, info = env.step(np.array([0.0, 0.0, 1.0, -1.0]))
+    assert info["shares"][0] > 0.9999 and info["shares"].sum() == pytest.approx(1.0)
+
+
+def test_pinned_scenarios_and_errors():
+    env = MultiNodeEnv(max_nodes=3)
+    assert env.config.nodes == DEFAULT_NODES
+    env.reset(options={"config": ScenarioConfig(ground_nodes=DEFAULT_NODES[:2])})
+    assert env.config.K == 2
+    with pytest.raises(ValueError, match="max_nodes = 3"):
+        env.reset(options={"config": ScenarioConfig(ground_nodes=(*DEFAULT_NODES, (0.0, 50.0)))})
+    with pytest.raises(ValueError, match="does not fit"):
+        env.reset(options={"config": ScenarioConfig(ground_nodes=((-100.0, -20.0), (3000.0, 0.0)))})
+    env.reset(seed=0)
+    with pytest.raises(ValueError, match="shape"):
+        env.step(np.zeros(2))
+    with pytest.raises(ValueError, match="finite"):
+        env.step(np.array([np.nan, 0.0, 0.0, 0.0, 0.0]))
+    with pytest.raises(TypeError, match="unexpected keyword argument 'frameskip'"):
+        MultiNodeEnv(frameskip=1)
+    with pytest.raises(ValueError, match="max_nodes"):
+        MultiNodeEnv(max_nodes=2)
+    with pytest.raises(ValueError, match="channel"):
+        MultiNodeEnv(channel="rician")
