@@ -1,0 +1,68 @@
+"""docs/leaderboard.md: every row of a suite's table reproduces from the command in its row.
+
+Each command (``python -m ios_uav_env.benchmark ...``) runs in this process. The scores it prints
+(mean, 10th percentile and minimum % of DP, mean % of SCA) must equal the row's to two decimals,
+and its feasible count must equal the row's. Plan times depend on the machine and are not compared.
+Rows that load an SB3 agent need the ``rl`` extra (skipped without it, a failure under CI).
+"""
+
+from __future__ import annotations
+
+import importlib.util
+import os
+import re
+import shlex
+from pathlib import Path
+
+import pytest
+
+from ios_uav_env.benchmark.cli import main
+
+ROOT = Path(__file__).resolve().parents[2]
+PAGE = ROOT / "docs" / "leaderboard.md"
+PREFIX = ["python", "-m", "ios_uav_env.benchmark"]
+SUMMARY = re.compile(
+    r"% of DP mean (?P<mean>-?[\d.]+) \| p10 (?P<p10>-?[\d.]+) \| min (?P<min>-?[\d.]+); "
+    r"% of SCA mean (?P<sca>-?[\d.]+) \| p10 -?[\d.]+ \| min -?[\d.]+; feasible (?P<feasible>\d+/\d+)"
+)
+COLUMNS = {"mean % of DP": "mean", "p10": "p10", "min": "min", "mean % of SCA": "sca", "feasible": "feasible"}
+
+
+def _rows(suite: str = "single-node-v1") -> list[dict[str, str]]:
+    """The rows of the table in the section ``## <suite>``, by header name."""
+    section = PAGE.read_text(encoding="utf-8").split(f"\n## {suite}\n", 1)[1].split("\n## ", 1)[0]
+    lines = [line for line in section.splitlines() if line.startswith("|")]
+    header = [cell.strip() for cell in lines[0].strip("|").split("|")]
+    rows = []
+    for line in lines[2:]:
+        cells = [cell.strip() for cell in line.strip().strip("|").split("|")]
+        rows.append(dict(zip(header, cells, strict=True)))
+    return rows
+
+
+ROWS = _rows()
+
+
+def test_the_table_has_the_shipped_policies_and_the_references():
+    policies = " ".join(row["policy"] for row in ROWS)
+    for name in ("SCA", "DP optimum", "rate peak", "fly to G", "ppo_IOSUAV-Random-v0", "sac_IOSUAV-v0",
+                 "ppo_IOSUAV-v0`", "ppo_IOSUAV-v0_noguard"):  # fmt: skip
+        assert name in policies, name
+    means = [float(row["mean % of DP"]) for row in ROWS]
+    assert means == sorted(means, reverse=True), "rows must be in order of mean % of DP"
+
+
+@pytest.mark.parametrize("row", ROWS, ids=[row["#"] for row in ROWS])
+def test_a_row_reproduces_from_its_command(row, capsys):
+    command = row["command"].strip("`")
+    words = shlex.split(command)
+    assert words[:3] == PREFIX, command
+    if "agents.loading" in command and importlib.util.find_spec("stable_baselines3") is None:
+        message = "the row loads an SB3 agent: pip install -e '.[rl]'"
+        pytest.fail(message) if os.environ.get("CI") else pytest.skip(message)
+    assert main(words[3:]) == 0
+    match = SUMMARY.search(capsys.readouterr().out)
+    assert match, command
+    printed = match.groupdict()
+    table = {key: row[column] for column, key in COLUMNS.items()}
+    assert printed == table, f"{command}: the table says {table}, the command prints {printed}"
