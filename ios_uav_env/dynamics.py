@@ -19,7 +19,7 @@ import numpy as np
 from ios_uav_env.channel import RateKernel, faded_point, rate_point
 from ios_uav_env.config import FEASIBILITY_TOL, ScenarioConfig
 from ios_uav_env.guard import guarded_position
-from ios_uav_env.jit import jit, prange
+from ios_uav_env.jit import jit
 from ios_uav_env.observation import T_SCALE, instance_values
 from ios_uav_env.options import EnvOptions
 
@@ -131,55 +131,89 @@ def reset_rows(
         _info(info, i, state, episode, rate, expected, dist, ep[3], 0.0, 0.0, 0.0)
 
 
-def _step_rows(
+@jit(inline=True)
+def _move(i: int, actions: np.ndarray, state: np.ndarray, episode: np.ndarray, flags: np.ndarray,
+          path: np.ndarray) -> tuple[float, float, float]:  # fmt: skip
+    """Move row ``i`` (unit-disk projection, then the arrival guard); return (x, y, moves left)."""
+    ep, st = episode[i], state[i]
+    ax, ay = actions[i, 0], actions[i, 1]
+    norm = math.hypot(ax, ay)  # no overflow for huge actions
+    if norm > 1.0:
+        ax, ay = ax / norm, ay / norm
+    d, x0, y0 = ep[0], st[0], st[1]
+    x, y = x0 + d * ax, y0 + d * ay
+    n = st[2]
+    left = ep[3] - n - 1.0  # moves left after this one
+    if flags[0] != 0.0:
+        x, y = guarded_position((x0, y0), (x, y), (ep[1], ep[2]), d, int(left))
+    st[0], st[1], st[2] = x, y, n + 1.0
+    st[5] = max(st[5], math.hypot(x - x0, y - y0) - d)
+    path[i, int(n) + 1, 0], path[i, int(n) + 1, 1] = x, y
+    return x, y, left
+
+
+@jit(inline=True)
+def _settle(i: int, x: float, y: float, left: float, rate: float, expected: float, state: np.ndarray,
+            episode: np.ndarray, flags: np.ndarray, obs: np.ndarray, reward: np.ndarray,
+            terminated: np.ndarray, info: np.ndarray) -> None:  # fmt: skip
+    """Row ``i`` after its move: the running sums, the reward terms, the observation, the info."""
+    ep, st = episode[i], state[i]
+    d = ep[0]
+    st[3] += expected
+    st[4] += rate
+    dist = math.hypot(ep[1] - x, ep[2] - y)
+    reach = max(0.0, dist - left * d - FEASIBILITY_TOL) / d
+    r_reach = -flags[4] * reach if reach > 0.0 else 0.0
+    r_terminal = 0.0
+    done = left == 0.0
+    if done:
+        miss = max(0.0, dist - FEASIBILITY_TOL) / d
+        if miss > 0.0:
+            r_terminal = -flags[5] * (miss + math.sqrt(miss))
+    reward[i] = rate + r_reach + r_terminal
+    terminated[i] = done
+    _observe(obs, i, x, y, left, dist, expected, episode, flags)
+    _info(info, i, state, episode, rate, expected, dist, left, rate, r_reach, r_terminal)
+
+
+def _step_expected(
+    actions: np.ndarray, state: np.ndarray, episode: np.ndarray, nodes: np.ndarray, params: np.ndarray,
+    normals: np.ndarray, flags: np.ndarray, obs: np.ndarray, reward: np.ndarray, terminated: np.ndarray,
+    info: np.ndarray, path: np.ndarray, active: np.ndarray,
+) -> None:  # fmt: skip
+    """One slot of every active row, channel "expected" (see :func:`step_rows`)."""
+    for i in range(actions.shape[0]):
+        if active[i]:
+            x, y, left = _move(i, actions, state, episode, flags, path)
+            expected = rate_point(x, y, nodes[i], params[i])
+            _settle(i, x, y, left, expected, expected, state, episode, flags, obs, reward, terminated, info)
+
+
+def _step_rician(
+    actions: np.ndarray, state: np.ndarray, episode: np.ndarray, nodes: np.ndarray, params: np.ndarray,
+    normals: np.ndarray, flags: np.ndarray, obs: np.ndarray, reward: np.ndarray, terminated: np.ndarray,
+    info: np.ndarray, path: np.ndarray, active: np.ndarray,
+) -> None:  # fmt: skip
+    """One slot of every active row, channel "rician": the faded rate from ``normals`` (B, 2)."""
+    for i in range(actions.shape[0]):
+        if active[i]:
+            x, y, left = _move(i, actions, state, episode, flags, path)
+            expected = rate_point(x, y, nodes[i], params[i])
+            rate = faded_point(x, y, normals[i, 0], normals[i, 1], nodes[i], params[i])
+            _settle(i, x, y, left, rate, expected, state, episode, flags, obs, reward, terminated, info)
+
+
+_KERNELS = (jit(_step_expected), jit(_step_rician))
+
+
+def step_rows(
     actions: np.ndarray, state: np.ndarray, episode: np.ndarray, nodes: np.ndarray, params: np.ndarray,
     normals: np.ndarray, flags: np.ndarray, obs: np.ndarray, reward: np.ndarray, terminated: np.ndarray,
     info: np.ndarray, path: np.ndarray, active: np.ndarray,
 ) -> None:  # fmt: skip
     """One slot of every active row: move (unit-disk projection, then the arrival guard), rate,
-    reward. ``actions`` (B, 2) must be finite (the caller checks); ``path`` (B, N_max, 2)
-    receives the new way-point of each row (at index ``moves made``)."""
-    for i in prange(actions.shape[0]):
-        if not active[i]:
-            continue
-        ep, st = episode[i], state[i]
-        ax, ay = actions[i, 0], actions[i, 1]
-        norm = math.hypot(ax, ay)  # no overflow for huge actions
-        if norm > 1.0:
-            ax, ay = ax / norm, ay / norm
-        d, x0, y0 = ep[0], st[0], st[1]
-        x, y = x0 + d * ax, y0 + d * ay
-        n = st[2]
-        left = ep[3] - n - 1.0  # moves left after this one
-        if flags[0] != 0.0:
-            x, y = guarded_position((x0, y0), (x, y), (ep[1], ep[2]), d, int(left))
-        st[0], st[1], st[2] = x, y, n + 1.0
-        st[5] = max(st[5], math.hypot(x - x0, y - y0) - d)
-        path[i, int(n) + 1, 0], path[i, int(n) + 1, 1] = x, y
-        expected = rate_point(x, y, nodes[i], params[i])
-        rate = (
-            faded_point(x, y, normals[i, 0], normals[i, 1], nodes[i], params[i])
-            if flags[1] != 0.0
-            else expected
-        )
-        st[3] += expected
-        st[4] += rate
-        dist = math.hypot(ep[1] - x, ep[2] - y)
-        reach = max(0.0, dist - left * d - FEASIBILITY_TOL) / d
-        r_reach = -flags[4] * reach if reach > 0.0 else 0.0
-        r_terminal = 0.0
-        done = left == 0.0
-        if done:
-            miss = max(0.0, dist - FEASIBILITY_TOL) / d
-            if miss > 0.0:
-                r_terminal = -flags[5] * (miss + math.sqrt(miss))
-        reward[i] = rate + r_reach + r_terminal
-        terminated[i] = done
-        _observe(obs, i, x, y, left, dist, expected, episode, flags)
-        _info(info, i, state, episode, rate, expected, dist, left, rate, r_reach, r_terminal)
-
-
-#: :func:`_step_rows` compiled for one core (the single env, small batches) ...
-step_rows = jit(_step_rows)
-#: ... and for all cores (large batches; the rows are independent).
-step_rows_parallel = jit(_step_rows, parallel=True)
+    reward, observation and info. ``actions`` (B, 2) must be finite (the caller checks);
+    ``path`` (B, N_max, 2) receives each row's new way-point (at index ``moves made``). The
+    expected and the Rician channel are two compiled loops (no per-row channel branch)."""
+    _KERNELS[int(flags[1] != 0.0)](actions, state, episode, nodes, params, normals, flags, obs, reward,
+                                   terminated, info, path, active)  # fmt: skip

@@ -18,10 +18,8 @@ try:  # numba is optional: the model and the env run without it
     if os.environ.get("IOS_UAV_ENV_NO_NUMBA", "") not in ("", "0"):
         raise ImportError("disabled by IOS_UAV_ENV_NO_NUMBA")
     from numba import njit as _njit
-    from numba import prange
 except ImportError:
     _njit = None
-    prange = range
 
 #: LLVM fast-math flags of the kernels: reassociation (the node sums vectorise), fused
 #: multiply-add, reciprocals, no signed zeros; never "no NaNs / no infs" (the guards rely on them).
@@ -31,17 +29,14 @@ FASTMATH = {"reassoc", "contract", "arcp", "nsz"}
 HAVE_NUMBA: bool = _njit is not None
 
 
-def jit(function: F | None = None, *, inline: bool = False, parallel: bool = False) -> Any:
+def jit(function: F | None = None, *, inline: bool = False) -> Any:
     """``function`` compiled by numba (no Python objects, cached on disk), or itself.
-    ``inline=True``: a small helper inlined into the compiled functions that call it;
-    ``parallel=True``: its ``prange`` loops run on all cores (``prange`` is ``range`` otherwise)."""
+    ``inline=True``: a small helper inlined into the compiled functions that call it."""
 
     def compile_(f: F) -> F:
         if _njit is None:
             return f
         options: dict[str, Any] = {"inline": "always"} if inline else {}
-        if parallel:
-            options["parallel"] = True
         # error_model="numpy": a division by zero gives inf instead of raising, so the node sums
         # have no per-element branch and vectorise (2x); the kernels never divide by zero
         return _njit(cache=True, nogil=True, fastmath=FASTMATH, error_model="numpy", **options)(f)  # type: ignore[no-any-return]

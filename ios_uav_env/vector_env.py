@@ -31,7 +31,7 @@ import numpy as np
 from gymnasium.vector.utils import batch_space
 
 from ios_uav_env.config import ScenarioConfig
-from ios_uav_env.dynamics import INFO, STATE, reset_rows, step_rows, step_rows_parallel
+from ios_uav_env.dynamics import INFO, STATE, reset_rows, step_rows
 from ios_uav_env.env import INFO_KEYS, IOSUAVEnv
 from ios_uav_env.random_env import RandomIOSUAVEnv
 
@@ -42,10 +42,6 @@ try:  # Gymnasium >= 1.1 names the autoreset modes
     _SAME_STEP: Any = AutoresetMode.SAME_STEP
 except ImportError:  # pragma: no cover - Gymnasium 1.0: next-step is the only mode
     _AUTORESET, _SAME_STEP = "NextStep", None
-
-#: Batches of at least this many rows step on all cores (numba's ``prange``; the rows are
-#: independent, so the result is the same).
-PARALLEL_ROWS = 512
 
 #: Values of ``autoreset_mode`` (Gymnasium's ``AutoresetMode`` members are accepted too).
 AUTORESET_MODES = ("next_step", "same_step")
@@ -193,9 +189,8 @@ class IOSUAVVectorEnv(gym.vector.VectorEnv):
         if self._rician:
             for i in np.flatnonzero(active):
                 self._normals[i] = self.envs[i].np_random.standard_normal(2)
-        step = step_rows_parallel if self.num_envs >= PARALLEL_ROWS else step_rows
-        step(actions, self._state, self._episode, self._nodes, self._params, self._normals, self._flags,
-             self._obs, self._reward, self._terminated, self._info, self._path, active)  # fmt: skip
+        step_rows(actions, self._state, self._episode, self._nodes, self._params, self._normals, self._flags,
+                  self._obs, self._reward, self._terminated, self._info, self._path, active)  # fmt: skip
         truncated = np.zeros(self.num_envs, dtype=np.bool_)
         if not self.same_step:
             self._autoreset = self._terminated.copy()

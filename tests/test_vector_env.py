@@ -196,17 +196,3 @@ def test_same_step_autoreset_returns_the_new_episode_and_the_final_one_in_info()
     assert info["slot"].tolist() == [2, 2] and not info["_final_obs"].any()
     with pytest.raises(ValueError, match="autoreset_mode"):
         IOSUAVVectorEnv(2, SHORT, autoreset_mode="sometimes")
-
-
-def test_large_batches_step_on_all_cores_with_the_same_result(monkeypatch):
-    import ios_uav_env.vector_env as vector_env
-
-    actions = np.random.default_rng(3).uniform(-1.3, 1.3, (SHORT.N + 3, 6, 2))
-    results = []
-    for threshold in (10**9, 1):  # one core, then all cores
-        monkeypatch.setattr(vector_env, "PARALLEL_ROWS", threshold)
-        vec = IOSUAVVectorEnv(6, SHORT, channel="rician")
-        vec.reset(seed=1)
-        rewards = [vec.step(a)[1] for a in actions]
-        results.append(np.concatenate([np.stack(rewards).ravel(), np.concatenate(vec.trajectories).ravel()]))
-    np.testing.assert_array_equal(results[0], results[1])
