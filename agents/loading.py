@@ -25,6 +25,8 @@ from typing import Any
 
 import numpy as np
 
+import ios_uav_env  # noqa: F401  (registers the ids the agents' env_id names)
+
 DEFAULT_ENV_ID = "ios_uav_env/IOSUAV-v0"
 CHECKPOINT_PREFIX = "rl_model"
 
