@@ -122,6 +122,9 @@ class MultiNodeEnv(gym.Env):
       that many nodes at every reset.
     - ``arrival_guard``, ``reach_weight``, ``terminal_weight``, ``length_scale``: as
       ``IOSUAVEnv`` (``EnvOptions``); the channel is the expected-gain rate.
+    - ``render_mode``: None or "rgb_array" (the best node's rate map, every node, and the
+      trajectory so far coloured by the node with the largest share in each slot; needs
+      ``pip install ios-uav-env[render]``).
     - ``**kwargs``: ``ScenarioConfig`` fields applied to ``config``.
 
     ```python
@@ -139,7 +142,7 @@ class MultiNodeEnv(gym.Env):
     * v0: Initial version.
     """
 
-    metadata = {"render_modes": []}
+    metadata = {"render_modes": ["rgb_array"], "render_fps": 10}
 
     def __init__(
         self,
@@ -149,15 +152,15 @@ class MultiNodeEnv(gym.Env):
         share_sharpness: float = 5.0,
         random_nodes: tuple[int, int] | None = None,
         ranges: ScenarioRanges = MULTINODE_RANGES,
-        render_mode: None = None,
+        render_mode: str | None = None,
         **kwargs: Any,
     ) -> None:
         options, overrides = split_kwargs(kwargs, f"{type(self).__name__}.__init__")
         self.options = EnvOptions(**options)
         if self.options.channel != "expected" or self.options.instance_features or self.options.peak_hint:
             raise ValueError("MultiNodeEnv takes channel='expected' and no instance_features / peak_hint")
-        if render_mode is not None:
-            raise ValueError(f"render_mode must be None, got {render_mode!r}")
+        if render_mode not in (None, "rgb_array"):
+            raise ValueError(f"render_mode must be None or 'rgb_array', got {render_mode!r}")
         base = as_config(config if config is not None else ScenarioConfig(ground_nodes=DEFAULT_NODES))
         self._base = base.replace(**overrides) if overrides else base
         if random_nodes is not None:
@@ -180,12 +183,17 @@ class MultiNodeEnv(gym.Env):
         ):
             raise ValueError(f"share_sharpness must be a finite number > 0, got {share_sharpness!r}")
         self.share_sharpness = float(share_sharpness)
-        self.render_mode = None
+        self.render_mode = render_mode
         self.action_space = spaces.Box(-1.0, 1.0, (2 + self.max_nodes,), np.float32)
         low, high = self._bounds()
         self.observation_space = spaces.Box(low, high, dtype=np.float32)
         self.config = self._base
         self._n: int | None = None
+
+    # --- options (read-only views of self.options, as on IOSUAVEnv) -------------------------
+    channel = property(lambda self: self.options.channel)
+    arrival_guard = property(lambda self: self.options.arrival_guard)
+    length_scale = property(lambda self: self.options.length_scale)
 
     # --- spaces ---------------------------------------------------------------------------
     def _bounds(self, config: ScenarioConfig | None = None) -> tuple[np.ndarray, np.ndarray]:
@@ -344,3 +352,25 @@ class MultiNodeEnv(gym.Env):
     def shares(self) -> np.ndarray:
         """The shares so far, (K, n + 1): slot 1's equal shares, then one column per step."""
         return np.column_stack(self._shares)
+
+    def render(self) -> np.ndarray | None:
+        """The trajectory so far over the best node's rate map, an (H, W, 3) uint8 array."""
+        if self.render_mode is None:
+            gym.logger.warn('render() needs render_mode="rgb_array" at construction; returning None')
+            return None
+        from ios_uav_env.rendering import _matplotlib
+        from ios_uav_env.rendering_multi import plot_multinode_map, plot_served_trajectories
+
+        figure_cls, canvas_cls = _matplotlib()
+        fig = figure_cls(figsize=(7.2, 3.6), dpi=100)
+        canvas = canvas_cls(fig)
+        ax = fig.add_subplot()
+        plot_multinode_map(ax, self.config, resolution=(120, 60))
+        if self._n is not None:
+            plot_served_trajectories(ax, self.config, {"UAV": self.trajectory}, {"UAV": self.shares})
+            ax.set_title(
+                f"slot {self._n + 1}/{self.config.N}, min rate so far {self._min:.3f} bps/Hz", fontsize=9
+            )
+        fig.tight_layout()
+        canvas.draw()
+        return np.array(canvas.buffer_rgba())[:, :, :3]

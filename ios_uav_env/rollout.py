@@ -3,7 +3,9 @@
 A policy is any callable from an observation to an action (an SB3 agent's ``act``, a
 :class:`~ios_uav_env.policies.HoverAt`, a lambda). :func:`run_episode` resets the env, steps
 it until the episode ends and scores the trajectory (``env.unwrapped.trajectory``) with
-``average_rate`` (eq. (9)) and ``check_trajectory`` (eq. (10)), as every planner's plan is.
+``average_rate`` (eq. (9); with several ground nodes, ``scheduled_rates`` of the agent's own
+shares ``env.unwrapped.shares``, its min_k R_k) and ``check_trajectory`` (eq. (10)), as every
+planner's plan is.
 
 >>> import gymnasium as gym
 >>> import ios_uav_env
@@ -25,6 +27,7 @@ from typing import Any
 import numpy as np
 
 from ios_uav_env.config import ScenarioConfig
+from ios_uav_env.multinode import scheduled_rates
 from ios_uav_env.trajectory import average_rate, check_trajectory
 
 Policy = Callable[[np.ndarray], Any]
@@ -36,13 +39,13 @@ class Episode:
 
     config: ScenarioConfig  # the episode's scenario (env.unwrapped.config)
     trajectory: np.ndarray = field(repr=False)  # (n, 2) m, the way-points q[1..n]
-    average_rate: float  # bps/Hz, eq. (9) over the way-points (ios_uav_env.average_rate)
+    average_rate: float  # bps/Hz, the score: eq. (9) (average_rate); K > 1 nodes: the agent's own min_k R_k
     feasible: bool  # eq. (10) within FEASIBILITY_TOL
     terminal_miss: float  # m, |q[n] - qF|
     max_step: float  # m, longest move
     worst_violation: float  # m, worst breach of eq. (10)
     episode_return: float  # sum of the rewards
-    mean_faded_rate: float  # bps/Hz, mean of the per-slot rate terms (= average_rate for "expected")
+    mean_faded_rate: float  # bps/Hz, mean of the per-slot rate terms (= average_rate for "expected", K > 1)
     steps: int  # env steps taken
     seconds: float  # wall time from the reset to the last step (policy and env)
 
@@ -75,16 +78,20 @@ def run_episode(
     base = env.unwrapped
     trajectory = base.trajectory
     report = check_trajectory(base.config, trajectory)
+    if base.config.K > 1:  # several nodes: the agent's own shares (scheduled_rates), the one scorer
+        score = float(scheduled_rates(base.config, trajectory, base.shares).min())
+    else:
+        score = average_rate(base.config, trajectory)
     return Episode(
         config=base.config,
         trajectory=trajectory,
-        average_rate=average_rate(base.config, trajectory),
+        average_rate=score,
         feasible=report.feasible,
         terminal_miss=report.end_error,
         max_step=report.max_step,
         worst_violation=report.worst_violation,
         episode_return=total,
-        mean_faded_rate=float(info["mean_faded_rate"]),
+        mean_faded_rate=float(info.get("mean_faded_rate", score)),
         steps=steps,
         seconds=seconds,
     )

@@ -125,3 +125,25 @@ def test_pinned_scenarios_and_errors():
         MultiNodeEnv(max_nodes=2)
     with pytest.raises(ValueError, match="channel"):
         MultiNodeEnv(channel="rician")
+
+
+def test_rgb_array_frames_show_the_episode():
+    pytest.importorskip("matplotlib")
+    env = gym.make("ios_uav_env/IOSUAV-MultiNode-v0", render_mode="rgb_array")
+    env.reset(seed=0)
+    for _ in range(5):
+        env.step(env.action_space.sample())
+    frame = env.render()
+    assert frame.dtype == np.uint8 and frame.ndim == 3 and frame.shape[2] == 3 and frame.std() > 10
+
+
+def test_run_episode_scores_the_agents_own_shares():
+    from ios_uav_env.rollout import run_episode
+
+    env = gym.make("ios_uav_env/IOSUAV-MultiNode-v0")
+    rng = np.random.default_rng(0)
+    episode = run_episode(env, lambda obs: rng.uniform(-1, 1, 5), seed=0)
+    u = env.unwrapped
+    assert episode.average_rate == scheduled_rates(u.config, u.trajectory, u.shares).min()
+    assert episode.feasible and episode.steps == u.config.N - 1
+    assert episode.episode_return == pytest.approx(u.config.N * episode.average_rate, rel=1e-12)
