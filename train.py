@@ -24,7 +24,7 @@ from typing import Any
 
 DEFAULT_ENV_ID = "ios_uav_env/IOSUAV-v0"
 #: The arguments a resumed run takes from its own config.json.
-RUN_SETTINGS = ("algo", "env", "seed", "n_envs", "env_kwargs", "out", "hyperparams")
+RUN_SETTINGS = ("algo", "env", "seed", "n_envs", "vec_env", "env_kwargs", "out", "hyperparams")
 
 
 def _checked(check: Callable[[str], Any]) -> Callable[[str], Any]:
@@ -97,6 +97,10 @@ def build_parser() -> argparse.ArgumentParser:
         help="total env steps (default: n_timesteps of the hyperparameter file)")  # fmt: skip
     add("--seed", type=int, default=None, help="random seed (default: 0)")
     add("--n-envs", type=_checked(_count), default=None, help="parallel envs (default: the file's)")
+    add("--vec-env", choices=("dummy", "batched"), default=None,
+        help="dummy: SB3's DummyVecEnv of single envs (default); batched: the natively batched env "
+             "(agents.vec_env.BatchedVecEnv: all envs as one array computation, rows staggered over the "
+             "episode), for hundreds of envs, e.g. agents/hyperparams/ppo_fast.yml")  # fmt: skip
     add("--env-kwargs", type=_checked(_env_kwarg), nargs="*", default=None, metavar="KEY:VALUE",
         help="env arguments, zoo style: arrival_guard:False channel:rician T:100")  # fmt: skip
     add("--out", type=_checked(_new_run_dir), default=None,
@@ -143,7 +147,9 @@ def parse_args(argv: Sequence[str] | None = None) -> tuple[argparse.Namespace, A
     except ValueError as exc:
         parser.error(f"argument --env-kwargs: {exc}")
     try:
-        check_hyperparams(args.algo, env_id, args.hyperparams, env_kwargs, args.n_envs)
+        check_hyperparams(
+            args.algo, env_id, args.hyperparams, env_kwargs, args.n_envs, args.vec_env or "dummy"
+        )
     except ValueError as exc:
         parser.error(f"argument {'--hyperparams' if args.hyperparams else '--env'}: {exc}")
     if args.out is None:
@@ -157,6 +163,7 @@ def parse_args(argv: Sequence[str] | None = None) -> tuple[argparse.Namespace, A
         timesteps=args.timesteps,
         seed=0 if args.seed is None else args.seed,
         n_envs=args.n_envs,
+        vec_env=args.vec_env or "dummy",
         env_kwargs=env_kwargs,
         out=args.out,
         hyperparams_file=args.hyperparams,

@@ -77,6 +77,17 @@ def check_positive(value: Any) -> int:
     return value
 
 
+#: ``TrainSettings.vec_env``: SB3's DummyVecEnv of single envs, or the natively batched env
+#: (``agents.vec_env.BatchedVecEnv``: the same episodes, stepped as one array computation).
+VEC_ENVS = ("dummy", "batched")
+
+
+def check_vec_env(vec_env: str) -> str:
+    if vec_env not in VEC_ENVS:
+        raise ValueError(f"unknown vec env {vec_env!r}; choose from {', '.join(VEC_ENVS)}")
+    return vec_env
+
+
 def check_env_kwargs(env_id: str, env_kwargs: dict[str, Any]) -> dict[str, Any]:
     """``env_kwargs`` if ``gym.make(env_id, **env_kwargs)`` accepts them and the env resets."""
     try:
@@ -96,6 +107,7 @@ def check_hyperparams(
     path: str | Path | None = None,
     env_kwargs: dict[str, Any] | None = None,
     n_envs: int | None = None,
+    vec_env: str = "dummy",
 ) -> Hyperparams:
     """The resolved hyperparameters of ``env_id`` if the algorithm can be built with them on the
     env (``ValueError`` naming the file and the key otherwise, :func:`agents.hyperparams.check_entry`)."""
@@ -103,6 +115,16 @@ def check_hyperparams(
 
     hp = load_hyperparams(algo, env_id, path)
     where = path or f"agents/hyperparams/{algo}.yml"
+    if vec_env == "batched" and hp.env_wrappers:
+        from agents.vec_env import VEC_FORMS
+
+        for cls, _ in hp.env_wrappers:
+            name = f"{cls.__module__}.{cls.__qualname__}"
+            if name not in VEC_FORMS:
+                raise ValueError(
+                    f"{where}, {env_id}: env_wrapper {name!r} cannot wrap the batched env; "
+                    f"wrappers with a VecEnv form: {', '.join(VEC_FORMS)}"
+                )
     n = n_envs or hp.n_envs
 
     def make() -> gym.Env:
@@ -227,7 +249,8 @@ class TrainSettings:
     env_id: str = DEFAULT_ENV_ID  # a registered id
     timesteps: int | None = None  # total env steps; None = the hyperparameter file's n_timesteps
     seed: int = 0  # seeds torch, numpy, the model and the envs (env i gets seed + i)
-    n_envs: int | None = None  # parallel envs (DummyVecEnv); None = the file's n_envs
+    n_envs: int | None = None  # parallel envs; None = the file's n_envs
+    vec_env: str = "dummy"  # "dummy" (SB3's DummyVecEnv) or "batched" (agents.vec_env.BatchedVecEnv)
     env_kwargs: dict[str, Any] = field(default_factory=dict)  # IOSUAVEnv arguments
     out: str | None = None  # run folder; None = runs/<env>__<algo>__<seed>__<time>
     hyperparams_file: str | None = None  # None = agents/hyperparams/<algo>.yml
@@ -240,13 +263,19 @@ class TrainSettings:
         checks: list[tuple[str, Any, Any]] = [
             ("algo", check_algo, self.algo),
             ("env_id", check_env_id, self.env_id),
+            ("vec_env", check_vec_env, self.vec_env),
         ]
         for name in ("timesteps", "n_envs", "checkpoint_freq"):
             if getattr(self, name) is not None:  # None: the hyperparameter file's value
                 checks.append((name, check_positive, getattr(self, name)))
         checks.append(("env_kwargs", functools.partial(check_env_kwargs, self.env_id), self.env_kwargs))
         hyperparams = functools.partial(
-            check_hyperparams, self.algo, self.env_id, env_kwargs=self.env_kwargs, n_envs=self.n_envs
+            check_hyperparams,
+            self.algo,
+            self.env_id,
+            env_kwargs=self.env_kwargs,
+            n_envs=self.n_envs,
+            vec_env=self.vec_env,
         )
         checks.append(("hyperparams_file", hyperparams, self.hyperparams_file))
         for name, check, value in checks:
@@ -288,6 +317,13 @@ def _make_venv(settings: TrainSettings, hp: Hyperparams, run_dir: Path, resume_f
     from stable_baselines3.common.env_util import make_vec_env
     from stable_baselines3.common.vec_env import DummyVecEnv, VecNormalize
 
+    if settings.vec_env == "batched":
+        venv = _batched_venv(settings, hp, run_dir, resume_from)
+        if hp.normalize is None:
+            return venv
+        if resume_from is not None:
+            return VecNormalize.load(resume_from, venv)
+        return VecNormalize(venv, gamma=hp.model_kwargs.get("gamma", 0.99), **hp.normalize)
     wrap = functools.partial(apply_wrappers, wrappers=hp.env_wrappers) if hp.env_wrappers else None
     venv = make_vec_env(
         settings.env_id,
@@ -304,6 +340,28 @@ def _make_venv(settings: TrainSettings, hp: Hyperparams, run_dir: Path, resume_f
     if resume_from is not None:
         return VecNormalize.load(resume_from, venv)
     return VecNormalize(venv, gamma=hp.model_kwargs.get("gamma", 0.99), **hp.normalize)
+
+
+def _batched_venv(settings: TrainSettings, hp: Hyperparams, run_dir: Path, resume_from: str | None) -> Any:
+    """``BatchedVecEnv`` (row i seeded ``seed + i``, as ``make_vec_env`` seeds env i; rows staggered
+    over the episode, see its ``stagger``) under a ``VecMonitor`` writing
+    ``monitor/batched.monitor.csv`` (appended to on resume), then the hyperparameters'
+    ``env_wrapper`` list in its VecEnv form (``agents.vec_env.wrap_batched``)."""
+    from stable_baselines3.common.monitor import ResultsWriter
+    from stable_baselines3.common.vec_env import VecMonitor
+
+    from agents.vec_env import BatchedVecEnv, wrap_batched
+
+    batched = BatchedVecEnv(
+        settings.env_id, settings.n_envs, settings.env_kwargs, seed=settings.seed, stagger=True
+    )
+    monitor = VecMonitor(batched)
+    monitor.results_writer = ResultsWriter(
+        str(run_dir / "monitor" / "batched"),
+        header={"t_start": monitor.t_start, "env_id": settings.env_id},
+        override_existing=resume_from is None,
+    )
+    return wrap_batched(monitor, hp.env_wrappers)
 
 
 def _read_progress(run_dir: Path, steps: int) -> tuple[float, list[dict[str, Any]]]:
@@ -511,6 +569,7 @@ def write_config(run_dir: Path, settings: TrainSettings, hp: Hyperparams, total:
         "seed": settings.seed,
         "total_timesteps": total,
         "n_envs": settings.n_envs,
+        "vec_env": settings.vec_env,
         "env_kwargs": settings.env_kwargs,
         "args": dataclasses.asdict(settings),
         "hyperparams": hp.raw,
