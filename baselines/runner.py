@@ -129,8 +129,21 @@ def local_backend(
         pool.shutdown(wait=True)
 
 
+def _ray_backend(
+    fn: Callable[[Any], Record],
+    items: list[tuple[int, Any]],
+    jobs: int,
+    done: Callable[[int, Record], None],
+    **options: Any,
+) -> None:
+    """Ray tasks (:mod:`baselines.ray_backend`, imported only when used: Ray is an optional extra)."""
+    from baselines.ray_backend import ray_backend
+
+    ray_backend(fn, items, jobs, done, **options)
+
+
 #: The backends by name.
-BACKENDS: dict[str, Backend] = {"local": local_backend}
+BACKENDS: dict[str, Backend] = {"local": local_backend, "ray": _ray_backend}
 
 
 def check_writable(folder: str | Path) -> Path:
@@ -208,6 +221,7 @@ def run_tasks(
     unit: str = "task",
     describe: Callable[[int, Record], str] | None = None,
     required: Sequence[str] = (),
+    address: str | None = None,
 ) -> list[Record]:
     """``[fn(task) for task in tasks]``, each record read from the cache or computed and cached.
 
@@ -217,6 +231,9 @@ def run_tasks(
     (e.g. slowest first, so that the pool ends evenly). ``describe(index, record)`` is the
     progress bar's note on each finished task. Tasks with the same key are computed once.
     ``required``: the keys every record must have (a cached one without them is computed again).
+    ``backend="ray"`` runs the tasks as Ray tasks (:mod:`baselines.ray_backend`) on the cluster
+    at ``address`` (default: a new local Ray; ``jobs`` default: no cap, Ray schedules them on
+    its CPUs), with the same records and cache files as ``"local"``.
     On SIGINT / SIGTERM the workers are stopped, the finished records stay cached, and the
     interrupt propagates after a note on stderr.
     """
@@ -224,6 +241,12 @@ def run_tasks(
         raise ValueError(f"backend: unknown backend {backend!r}; choose from {', '.join(BACKENDS)}")
     if jobs is not None and (not isinstance(jobs, int) or jobs < 1):
         raise ValueError(f"jobs: must be a positive integer, got {jobs!r}")
+    if address is not None and backend != "ray":
+        raise ValueError(f"address: a Ray cluster's address needs backend='ray', got backend={backend!r}")
+    if backend == "ray":
+        from baselines.ray_backend import require_ray
+
+        require_ray()  # ImportError naming the extra, before any work
     cache_dir = Path(cache_dir)
     cache_dir.mkdir(parents=True, exist_ok=True)
     keys = [key(task) for task in tasks]
@@ -248,10 +271,12 @@ def run_tasks(
                 bar.set_postfix_str(describe(i, record))
             bar.update(len(twins[keys[i]]))
 
-        workers = min(jobs or os.cpu_count() or 1, len(missing))
+        default_jobs = len(missing) if backend == "ray" else os.cpu_count() or 1  # Ray: its CPUs
+        workers = min(jobs or default_jobs, len(missing))
+        options = {} if address is None else {"address": address}
         try:
             with _sigterm_raises():
-                BACKENDS[backend](fn, [(i, tasks[i]) for i in missing], workers, done)
+                BACKENDS[backend](fn, [(i, tasks[i]) for i in missing], workers, done, **options)
         except (KeyboardInterrupt, SystemExit):
             bar.close()
             print(f"interrupted: {len(records)} of {len(tasks)} records are kept in {cache_dir}; "

@@ -12,7 +12,9 @@ cached under ``OUT/cache`` so an interrupted run resumes), then writes ``OUT/swe
 (scheme, T, M, average rate, % of DP, feasible, seconds), the PNG panels and
 ``OUT/claims.md`` (the paper's qualitative claims checked with the numbers). SIGINT or
 SIGTERM stops the worker processes and keeps the finished points in the cache (exit status
-130 or 143); running the command again resumes.
+130 or 143); running the command again resumes. ``--backend ray [--address HOST:PORT]``
+solves the points as Ray tasks (a local Ray, or a cluster; the ``ray`` extra), with the same
+cache and CSV (docs/scale-out.md).
 """
 
 from __future__ import annotations
@@ -25,6 +27,7 @@ from pathlib import Path
 
 import numpy as np
 
+from baselines.ray_backend import add_backend_arguments, check_backend_arguments
 from baselines.runner import check_writable
 from experiments.figures import check_claims, make_figures, write_claims
 from experiments.sweep import SweepSpec, run_sweep, with_pct_of_dp, write_csv
@@ -72,13 +75,16 @@ def build_parser() -> argparse.ArgumentParser:
     fig.add_argument("--quick", action="store_true", help="a tiny sweep: T in {40, 60} s, M in {200, 400}")
     fig.add_argument("--no-agents", action="store_true", help="do not draw the shipped RL agents")
     fig.add_argument("--no-progress", action="store_true", help="no progress bar")
+    add_backend_arguments(fig)
     multi = sub.add_parser("multinode", help="several ground nodes: rate vs T and vs K, bound, claims")
     multi.add_argument(
         "--out", type=Path, default=None, help="output folder (default: results/multinode; --quick: out/...)"
     )
     multi.add_argument("--overwrite", action="store_true", help="allow replacing results/multinode")
-    multi.add_argument("--jobs", type=int, default=1, help="worker processes (default 1)")
+    multi.add_argument("--jobs", type=int, default=None,
+                       help="worker processes (default 1; with --backend ray: no cap)")  # fmt: skip
     multi.add_argument("--quick", action="store_true", help="M = 60, T in {60, 100} s, K <= 3, one seed")
+    add_backend_arguments(multi)
     return parser
 
 
@@ -95,7 +101,8 @@ def multinode_main(args: argparse.Namespace, parser: argparse.ArgumentParser) ->
     except OSError as exc:
         parser.error(f"argument --out: {exc}")
     t0 = time.perf_counter()
-    records = multinode.run(spec, out / "cache", jobs=args.jobs)
+    jobs = args.jobs or (None if args.backend == "ray" else 1)
+    records = multinode.run(spec, out / "cache", jobs=jobs, backend=args.backend, address=args.address)
     csv = multinode.write_csv(records, out / "multinode.csv")
     figures = multinode.make_figures(records, out)
     text = multinode.claims(records)
@@ -111,6 +118,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     args = parser.parse_args(argv)
     if args.jobs is not None and args.jobs < 1:
         parser.error(f"argument --jobs: must be >= 1, got {args.jobs}")
+    check_backend_arguments(parser, args)
     if args.command == "multinode":
         return multinode_main(args, parser)
     if args.out is None:
@@ -128,7 +136,14 @@ def main(argv: Sequence[str] | None = None) -> int:
     t0 = time.perf_counter()
     try:
         records = with_pct_of_dp(
-            run_sweep(spec, args.out / "cache", jobs=args.jobs, progress=not args.no_progress)
+            run_sweep(
+                spec,
+                args.out / "cache",
+                jobs=args.jobs,
+                progress=not args.no_progress,
+                backend=args.backend,
+                address=args.address,
+            )
         )
     except KeyboardInterrupt:
         return 130

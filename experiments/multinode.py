@@ -19,12 +19,10 @@ of the IOS, SCA >= tour, bound >= every plan). The full run writes to ``results/
 
 from __future__ import annotations
 
+import functools
 import hashlib
 import json
-import multiprocessing
-import os
 from collections.abc import Sequence
-from concurrent.futures import ProcessPoolExecutor
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -99,23 +97,24 @@ def solve_point(point: dict[str, Any], spec: MultiSpec) -> dict[str, Any]:
             "shares": plan.info.get("shares")}  # fmt: skip
 
 
-def run(spec: MultiSpec, cache_dir: Path, jobs: int = 1) -> list[dict[str, Any]]:
-    """Solve every point missing from ``cache_dir`` and return all records in point order."""
-    cache_dir.mkdir(parents=True, exist_ok=True)
-    points = spec.points()
-    paths = [cache_dir / f"{spec.key(p)}.json" for p in points]
-    missing = [(p, path) for p, path in zip(points, paths, strict=True) if not path.exists()]
-    if missing and jobs > 1:
-        os.environ.setdefault("OMP_NUM_THREADS", "1")
-        ctx = multiprocessing.get_context("spawn")
-        with ProcessPoolExecutor(max_workers=jobs, mp_context=ctx) as pool:
-            futures = [(pool.submit(solve_point, p, spec), path) for p, path in missing]
-            for future, path in futures:
-                atomic_write_text(path, json.dumps(future.result()))
-    else:
-        for p, path in missing:
-            atomic_write_text(path, json.dumps(solve_point(p, spec)))
-    return [json.loads(path.read_text()) for path in paths]
+def run(
+    spec: MultiSpec,
+    cache_dir: Path,
+    jobs: int | None = 1,
+    *,
+    backend: str = "local",
+    address: str | None = None,
+    progress: bool = False,
+) -> list[dict[str, Any]]:
+    """Solve every point missing from ``cache_dir`` and return all records in point order
+    (``baselines.runner.run_tasks``: ``jobs`` spawned processes, this one for ``jobs=1``; or Ray
+    tasks with ``backend="ray"``, on the cluster at ``address``; the same cache files)."""
+    from baselines.runner import run_tasks
+
+    return run_tasks(
+        functools.partial(solve_point, spec=spec), spec.points(), cache_dir, key=spec.key, jobs=jobs,
+        backend=backend, address=address, progress=progress, desc="multinode", unit="solve",
+    )  # fmt: skip
 
 
 def write_csv(records: Sequence[dict[str, Any]], path: Path) -> Path:

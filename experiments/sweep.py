@@ -126,10 +126,13 @@ def run_sweep(
     jobs: int | None = None,
     progress: bool = True,
     points: Iterable[Point] | None = None,
+    backend: str = "local",
+    address: str | None = None,
 ) -> list[dict[str, Any]]:
     """Solve every point not yet in ``cache_dir`` (in parallel over ``jobs`` processes, default
     all cores; ``baselines.runner.run_tasks``) and return all records, cached ones included,
-    in the order of ``spec.points()`` (or ``points``)."""
+    in the order of ``spec.points()`` (or ``points``). ``backend="ray"`` solves them as Ray
+    tasks (on the cluster at ``address``, default a local Ray): the same records and cache."""
     todo = list(spec.points() if points is None else points)
     return run_tasks(
         functools.partial(solve_point, spec=spec),
@@ -137,6 +140,8 @@ def run_sweep(
         cache_dir,
         key=spec.cache_key,
         jobs=jobs,
+        backend=backend,
+        address=address,
         order=solve_order,
         progress=progress,
         desc="sweep",

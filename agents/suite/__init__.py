@@ -163,10 +163,13 @@ def solve_all(
     dp_resolution: float = DP_RESOLUTION,
     jobs: int = 2,
     progress: bool = True,
+    backend: str = "local",
+    address: str | None = None,
 ) -> list[dict[str, Any]]:
     """Each scenario's :func:`solve_scenario` record, from the cache or solved (in parallel over
     ``jobs`` spawned processes; in this one for ``jobs=1``: ``baselines.runner.run_tasks``),
-    each record cached atomically as soon as it is solved."""
+    each record cached atomically as soon as it is solved. ``backend="ray"``: Ray tasks (on the
+    cluster at ``address``, default a local Ray), the same records and cache."""
     from baselines.runner import run_tasks
 
     def describe(i: int, record: dict[str, Any]) -> str:
@@ -178,6 +181,8 @@ def solve_all(
         cache_dir,
         key=lambda config: cache_key(config, dp_resolution),
         jobs=jobs,
+        backend=backend,
+        address=address,
         order=solve_order,
         progress=progress,
         desc="suite",
@@ -231,11 +236,14 @@ def build_suite(
     jobs: int = 2,
     cache_dir: str | Path = CACHE_DIR,
     progress: bool = True,
+    backend: str = "local",
+    address: str | None = None,
 ) -> Suite:
     """Draw the suite, solve (or read from the cache) every scenario, write ``path`` atomically."""
     start = time.perf_counter()
     configs = suite_configs(n, seed, ranges)
-    records = solve_all(configs, cache_dir, dp_resolution=dp_resolution, jobs=jobs, progress=progress)
+    records = solve_all(configs, cache_dir, dp_resolution=dp_resolution, jobs=jobs, progress=progress,
+                        backend=backend, address=address)  # fmt: skip
     bad = [f"#{i}: {p}" for i, r in enumerate(records) if (p := _problem({"index": i, "config": {}, **r}))]
     if bad:
         raise ValueError(f"solved scenarios cannot go into a suite: {'; '.join(bad)}")
@@ -245,6 +253,7 @@ def build_suite(
     meta = {
         "created": time.strftime("%Y-%m-%dT%H:%M:%S%z"),
         "jobs": int(jobs),
+        **({"backend": backend} if backend != "local" else {}),
         "build_seconds": round(time.perf_counter() - start, 1),
         "cpu_count": os.cpu_count(),
         "load_average": [round(v, 2) for v in os.getloadavg()],

@@ -19,6 +19,7 @@ from agents.suite import (
     load_suite,
     show_text,
 )
+from baselines.ray_backend import add_backend_arguments, check_backend_arguments
 from baselines.runner import check_writable
 
 
@@ -52,6 +53,7 @@ def build_parser() -> argparse.ArgumentParser:
     b.add_argument("--overwrite", action="store_true", help="replace an existing suite file")
     b.add_argument("--cache", type=Path, default=CACHE_DIR, help=f"per-scenario cache (default {CACHE_DIR})")
     b.add_argument("--no-progress", action="store_true", help="no progress bar")
+    add_backend_arguments(b)
     s = sub.add_parser("show", help="print the suite's summary")
     s.add_argument("--suite", type=Path, default=SUITE_PATH, help="suite file")
     s.add_argument("--table", action="store_true", help="one line per scenario")
@@ -75,6 +77,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser = build_parser()
     args = parser.parse_args(argv)
     if args.command == "build":
+        check_backend_arguments(parser, args)
         if args.out is None:
             default = args.n == DEFAULT_SIZE and args.seed == HELDOUT_SEED
             args.out = SUITE_PATH if default else Path(f"out/suite_n{args.n}_seed{args.seed}.json")
@@ -87,7 +90,8 @@ def main(argv: Sequence[str] | None = None) -> int:
         start = time.perf_counter()
         try:
             suite = build_suite(args.out, args.n, args.seed, jobs=args.jobs, cache_dir=args.cache,
-                                progress=not args.no_progress)  # fmt: skip
+                                progress=not args.no_progress, backend=args.backend,
+                                address=args.address)  # fmt: skip
         except KeyboardInterrupt:  # the solved scenarios are cached (baselines.runner said where)
             return 130
         print(show_text(suite, args.out))
