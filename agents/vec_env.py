@@ -68,9 +68,9 @@ class BatchedVecEnv(VecEnv):
         obs, _ = self.vector_env.reset(seed=seeds)
         self._reset_seeds()
         self._reset_options()
-        return self._stagger() if self.stagger else obs
+        return self._stagger(obs) if self.stagger else obs
 
-    def _stagger(self) -> np.ndarray:
+    def _stagger(self, obs: np.ndarray) -> np.ndarray:
         """Hover row i for (i * L_i) // n moves into its episode (see the class); the current observations."""
         vec = self.vector_env
         n = self.num_envs
@@ -79,11 +79,11 @@ class BatchedVecEnv(VecEnv):
         last = int(phase.max())
         hover = np.zeros((n, 2))
         for j in range(1, last + 1):
-            vec.step(hover)
+            obs = vec.step(hover)[0]
             rows = np.flatnonzero(last - phase == j)  # these take the remaining phase[i] moves from here
             if rows.size:
-                vec._reset_rows(rows, [None] * rows.size, None)
-        return vec._obs
+                obs = vec.restart(rows)
+        return obs
 
     def step_async(self, actions: np.ndarray) -> None:
         self._actions = np.asarray(actions, dtype=np.float64).reshape(self.num_envs, -1)

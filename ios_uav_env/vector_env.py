@@ -54,7 +54,8 @@ class IOSUAVVectorEnv(gym.vector.VectorEnv):
     plus ``num_envs``; rendering is not supported (``render_mode=None``). Observations are
     (B, obs_dim) float32, rewards (B,) float64, ``terminated`` (B,) bool, ``truncated`` all
     False. ``reset(seed=s)`` seeds row i with ``s + i`` (a list of B seeds works too);
-    ``options={"config": cfg}`` pins every row's episode to ``cfg``.
+    ``options={"config": cfg}`` pins every row's episode to ``cfg``, ``options={"configs":
+    [cfg_0, ...]}`` row i's to ``cfg_i`` (a batch of different scenarios, e.g. a held-out suite).
     """
 
     env_class: type[IOSUAVEnv] = IOSUAVEnv
@@ -132,13 +133,29 @@ class IOSUAVVectorEnv(gym.vector.VectorEnv):
         self._terminated = np.zeros(b, dtype=np.bool_)
         self._info = np.empty((b, len(INFO)))
 
-    def _reset_rows(self, rows: np.ndarray, seeds: Sequence[int | None], options: Any) -> None:
-        for i, seed in zip(rows, seeds, strict=True):
+    def _reset_rows(self, rows: np.ndarray, seeds: Sequence[int | None], options: Sequence[Any]) -> None:
+        for i, seed, row_options in zip(rows, seeds, options, strict=True):
             env = self.envs[i]
-            env._begin(seed, options)
+            env._begin(seed, row_options)
             self._load_row(int(i), env)
         reset_rows(rows.astype(np.int64), self._state, self._episode, self._nodes, self._params,
                    self._normals, self._flags, self._obs, self._info)  # fmt: skip
+
+    def _row_options(self, options: Mapping[str, Any] | None) -> list[Any]:
+        """Each row's reset options: ``{"config": cfg}`` pins every row, ``{"configs": [cfg_0,
+        ..., cfg_{B-1}]}`` one scenario per row (None for a row: its own draw)."""
+        if options is None or "configs" not in options:
+            return [None if options is None else dict(options)] * self.num_envs
+        if set(options) != {"configs"}:
+            raise ValueError(
+                f'reset takes options={{"config": cfg}} or {{"configs": [...]}}, got {sorted(options)}'
+            )
+        configs = list(options["configs"])
+        if len(configs) != self.num_envs:
+            raise ValueError(
+                f'options["configs"] must hold {self.num_envs} scenarios (one per row), got {len(configs)}'
+            )
+        return [None if c is None else {"config": c} for c in configs]
 
     def _infos(self, table: np.ndarray | None = None) -> dict[str, Any]:
         """``info`` as column views of the info array (``INFO_KEYS``; ``_key`` masks)."""
@@ -167,7 +184,7 @@ class IOSUAVVectorEnv(gym.vector.VectorEnv):
                     f"seed must be an int or {self.num_envs} seeds (one per env), got {len(seeds)}"
                 )
         self._outputs()
-        self._reset_rows(np.arange(self.num_envs), seeds, None if options is None else dict(options))
+        self._reset_rows(np.arange(self.num_envs), seeds, self._row_options(options))
         self._autoreset[:] = False
         self._started = True
         return self._obs, self._infos()
@@ -184,7 +201,7 @@ class IOSUAVVectorEnv(gym.vector.VectorEnv):
         self._outputs()
         done = np.flatnonzero(self._autoreset)
         if done.size:  # NEXT_STEP autoreset: these rows start a new episode instead of stepping
-            self._reset_rows(done, [None] * done.size, None)
+            self._reset_rows(done, [None] * done.size, [None] * done.size)
         active = ~self._autoreset
         if self._rician:
             for i in np.flatnonzero(active):
@@ -198,11 +215,22 @@ class IOSUAVVectorEnv(gym.vector.VectorEnv):
         ended = np.flatnonzero(self._terminated)
         final_obs, final_info = self._obs.copy(), self._infos(self._info.copy())
         if ended.size:  # SAME_STEP: the rows that ended start their next episode now
-            self._reset_rows(ended, [None] * ended.size, None)
+            self._reset_rows(ended, [None] * ended.size, [None] * ended.size)
         info = self._infos()
         mask = self._terminated.copy()
         info.update(final_obs=final_obs, _final_obs=mask, final_info=final_info, _final_info=mask)
         return self._obs, self._reward, self._terminated, truncated, info
+
+    def restart(self, rows: Sequence[int]) -> np.ndarray:
+        """Start new episodes on ``rows`` now (each row's next scenario, no new seed); return the
+        batch's current observations (those rows' first ones). E.g. to spread the rows over the
+        episode before training (``agents.vec_env.BatchedVecEnv(stagger=True)``)."""
+        if not self._started:
+            raise RuntimeError("call reset() before restart()")
+        rows = np.asarray(rows, dtype=np.int64)
+        self._reset_rows(rows, [None] * rows.size, [None] * rows.size)
+        self._autoreset[rows] = False
+        return self._obs
 
     @property
     def trajectories(self) -> list[np.ndarray]:

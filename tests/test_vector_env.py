@@ -196,3 +196,29 @@ def test_same_step_autoreset_returns_the_new_episode_and_the_final_one_in_info()
     assert info["slot"].tolist() == [2, 2] and not info["_final_obs"].any()
     with pytest.raises(ValueError, match="autoreset_mode"):
         IOSUAVVectorEnv(2, SHORT, autoreset_mode="sometimes")
+
+
+def test_one_scenario_per_row_matches_single_envs_pinned_to_them():
+    configs = [SHORT, SHORT.replace(T=50.0, surface="ris"), SHORT.replace(ground_node=(50.0, 30.0))]
+    vec = RandomIOSUAVVectorEnv(3)
+    obs, _ = vec.reset(seed=0, options={"configs": configs})
+    assert vec.configs == configs
+    for i, cfg in enumerate(configs):
+        single, _ = RandomIOSUAVEnv().reset(seed=i, options={"config": cfg})
+        np.testing.assert_array_equal(obs[i], single)
+    with pytest.raises(ValueError, match="3 scenarios"):
+        vec.reset(options={"configs": configs[:2]})
+    with pytest.raises(ValueError, match="configs"):
+        vec.reset(options={"configs": configs, "config": SHORT})
+
+
+def test_restart_starts_new_episodes_on_the_given_rows_only():
+    vec = IOSUAVVectorEnv(3, SHORT)
+    vec.reset(seed=0)
+    for _ in range(4):
+        vec.step(np.zeros((3, 2)))
+    obs = vec.restart([1])
+    assert [len(q) for q in vec.trajectories] == [5, 1, 5]
+    np.testing.assert_array_equal(obs[1], IOSUAVEnv(SHORT).reset(seed=1)[0])
+    _, _, _, _, info = vec.step(np.zeros((3, 2)))
+    assert info["slot"].tolist() == [6, 2, 6]
