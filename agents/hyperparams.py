@@ -278,3 +278,16 @@ def parse_env_kwarg(item: str) -> tuple[str, Any]:
 def parse_env_kwargs(items: list[str] | None) -> dict[str, Any]:
     """Parse zoo-style ``key:value`` pairs (:func:`parse_env_kwarg`); a later key wins."""
     return dict(parse_env_kwarg(item) for item in items or [])
+
+
+def positive_int(text: str) -> int:
+    """An argparse type: an integer >= 1 (the counts of the CLIs: jobs, scenarios, seeds)."""
+    import argparse
+
+    try:
+        value = int(text)
+    except ValueError:
+        value = 0
+    if value < 1:
+        raise argparse.ArgumentTypeError(f"must be an integer >= 1, got {text!r}")
+    return value

@@ -51,6 +51,7 @@ from typing import Any
 
 import yaml
 
+from agents.hyperparams import positive_int
 from baselines.ray_backend import add_backend_arguments, check_backend_arguments
 from baselines.runner import cached_records, check_writable, run_tasks
 from ios_uav_env.io import atomic_write_text
@@ -352,16 +353,6 @@ def write_csv(records: Sequence[dict[str, Any]], path: str | Path) -> Path:
     return atomic_write_text(path, buffer.getvalue())
 
 
-def _positive(text: str) -> int:
-    try:
-        value = int(text)
-    except ValueError:
-        value = 0
-    if value < 1:
-        raise argparse.ArgumentTypeError(f"must be an integer >= 1, got {text!r}")
-    return value
-
-
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
         prog="python -m agents.sweep",
@@ -380,11 +371,13 @@ def build_parser() -> argparse.ArgumentParser:
                         help="a hyperparameter override (YAML); a key again: another value")  # fmt: skip
     parser.add_argument("--env-kwargs", nargs="*", default=[], metavar="KEY:VALUE",
                         help="env arguments for every trial, as train.py's")  # fmt: skip
-    parser.add_argument("--timesteps", type=_positive, required=True, help="env steps per trial")
+    parser.add_argument("--timesteps", type=positive_int, required=True, help="env steps per trial")
     parser.add_argument("--eval-freq", type=int, default=10_000, help="steps between evaluations (0: none)")
-    parser.add_argument("--checkpoint-freq", type=_positive, default=25_000, help="steps between checkpoints")
+    parser.add_argument(
+        "--checkpoint-freq", type=positive_int, default=25_000, help="steps between checkpoints"
+    )
     parser.add_argument("--out", type=Path, required=True, help="sweep folder (runs/, results/, sweep.csv)")
-    parser.add_argument("--jobs", type=_positive, default=None,
+    parser.add_argument("--jobs", type=positive_int, default=None,
                         help="trials at once (default: all cores, or the Ray cluster's CPUs)")  # fmt: skip
     parser.add_argument("--no-progress", action="store_true", help="no progress bar")
     add_backend_arguments(parser)

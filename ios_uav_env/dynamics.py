@@ -176,44 +176,25 @@ def _settle(i: int, x: float, y: float, left: float, rate: float, expected: floa
     _info(info, i, state, episode, rate, expected, dist, left, rate, r_reach, r_terminal)
 
 
-def _step_expected(
+def _step_rows(
     actions: np.ndarray, state: np.ndarray, episode: np.ndarray, nodes: np.ndarray, params: np.ndarray,
     normals: np.ndarray, flags: np.ndarray, obs: np.ndarray, reward: np.ndarray, terminated: np.ndarray,
     info: np.ndarray, path: np.ndarray, active: np.ndarray,
 ) -> None:  # fmt: skip
-    """One slot of every active row, channel "expected" (see :func:`step_rows`)."""
+    """One slot of every active row: move (unit-disk projection, then the arrival guard), rate
+    (channel "rician": the faded rate from ``normals`` (B, 2)), reward, observation and info.
+    ``actions`` (B, 2) must be finite (the caller checks); ``path`` (B, N_max, 2) receives each
+    row's new way-point (at index ``moves made``)."""
+    rician = flags[1] != 0.0
     for i in range(actions.shape[0]):
         if active[i]:
             x, y, left = _move(i, actions, state, episode, flags, path)
             expected = rate_point(x, y, nodes[i], params[i])
-            _settle(i, x, y, left, expected, expected, state, episode, flags, obs, reward, terminated, info)
-
-
-def _step_rician(
-    actions: np.ndarray, state: np.ndarray, episode: np.ndarray, nodes: np.ndarray, params: np.ndarray,
-    normals: np.ndarray, flags: np.ndarray, obs: np.ndarray, reward: np.ndarray, terminated: np.ndarray,
-    info: np.ndarray, path: np.ndarray, active: np.ndarray,
-) -> None:  # fmt: skip
-    """One slot of every active row, channel "rician": the faded rate from ``normals`` (B, 2)."""
-    for i in range(actions.shape[0]):
-        if active[i]:
-            x, y, left = _move(i, actions, state, episode, flags, path)
-            expected = rate_point(x, y, nodes[i], params[i])
-            rate = faded_point(x, y, normals[i, 0], normals[i, 1], nodes[i], params[i])
+            rate = (
+                faded_point(x, y, normals[i, 0], normals[i, 1], nodes[i], params[i]) if rician else expected
+            )
             _settle(i, x, y, left, rate, expected, state, episode, flags, obs, reward, terminated, info)
 
 
-_KERNELS = (jit(_step_expected), jit(_step_rician))
-
-
-def step_rows(
-    actions: np.ndarray, state: np.ndarray, episode: np.ndarray, nodes: np.ndarray, params: np.ndarray,
-    normals: np.ndarray, flags: np.ndarray, obs: np.ndarray, reward: np.ndarray, terminated: np.ndarray,
-    info: np.ndarray, path: np.ndarray, active: np.ndarray,
-) -> None:  # fmt: skip
-    """One slot of every active row: move (unit-disk projection, then the arrival guard), rate,
-    reward, observation and info. ``actions`` (B, 2) must be finite (the caller checks);
-    ``path`` (B, N_max, 2) receives each row's new way-point (at index ``moves made``). The
-    expected and the Rician channel are two compiled loops (no per-row channel branch)."""
-    _KERNELS[int(flags[1] != 0.0)](actions, state, episode, nodes, params, normals, flags, obs, reward,
-                                   terminated, info, path, active)  # fmt: skip
+#: :func:`_step_rows`, compiled (numba) when it is installed.
+step_rows = jit(_step_rows)

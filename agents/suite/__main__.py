@@ -9,6 +9,7 @@ import time
 from collections.abc import Sequence
 from pathlib import Path
 
+from agents.hyperparams import positive_int
 from agents.loading import ALGOS
 from agents.suite import (
     CACHE_DIR,
@@ -23,16 +24,6 @@ from baselines.ray_backend import add_backend_arguments, check_backend_arguments
 from baselines.runner import check_writable
 
 
-def _at_least_one(text: str) -> int:
-    try:
-        value = int(text)
-    except ValueError:
-        value = 0
-    if value < 1:
-        raise argparse.ArgumentTypeError(f"must be an integer >= 1, got {text!r}")
-    return value
-
-
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
         prog="python -m agents.suite",
@@ -40,11 +31,9 @@ def build_parser() -> argparse.ArgumentParser:
     )
     sub = parser.add_subparsers(dest="command", required=True)
     b = sub.add_parser("build", help="draw the suite and precompute its DP and SCA plans (resumable)")
-    b.add_argument(
-        "--n", type=_at_least_one, default=DEFAULT_SIZE, help=f"scenarios (default {DEFAULT_SIZE})"
-    )
+    b.add_argument("--n", type=positive_int, default=DEFAULT_SIZE, help=f"scenarios (default {DEFAULT_SIZE})")
     b.add_argument("--seed", type=int, default=HELDOUT_SEED, help=f"suite seed (default {HELDOUT_SEED})")
-    b.add_argument("--jobs", type=_at_least_one, default=2, help="worker processes (default 2)")
+    b.add_argument("--jobs", type=positive_int, default=2, help="worker processes (default 2)")
     b.add_argument(
         "--out", type=Path, default=None,
         help="suite file (default: agents/suite/heldout.json for the default --n and --seed, "
@@ -63,12 +52,12 @@ def build_parser() -> argparse.ArgumentParser:
     )
     r.add_argument("--algo", choices=list(ALGOS), default=None, help="algorithm (default: the run's)")
     r.add_argument("--suite", type=Path, default=SUITE_PATH, help="suite file")
-    r.add_argument("--n", type=_at_least_one, default=None, help="only the first n scenarios")
+    r.add_argument("--n", type=positive_int, default=None, help="only the first n scenarios")
     r.add_argument("--out", type=Path, default=Path("out/suite"), help="folder of the table and figures")
     c = sub.add_parser("curve", help="score every checkpoint of a training run (the learning curve)")
     c.add_argument("--run", type=Path, required=True, help="run folder (with checkpoints/)")
     c.add_argument("--suite", type=Path, default=SUITE_PATH, help="suite file")
-    c.add_argument("--n", type=_at_least_one, default=None, help="only the first n scenarios")
+    c.add_argument("--n", type=positive_int, default=None, help="only the first n scenarios")
     c.add_argument("--out", type=Path, default=Path("out/suite_curve"), help="folder of the CSV and PNG")
     return parser
 
