@@ -21,6 +21,8 @@ try:  # numba is optional: the model and the env run without it
 except ImportError:
     _njit = None
 
+#: (numba's on-disk cache is keyed by each kernel module's source, not by these options:
+#: after changing them, delete the ``*.nbi`` / ``*.nbc`` files under ``__pycache__``.)
 #: LLVM fast-math flags of the kernels: reassociation (the node sums vectorise), fused
 #: multiply-add, reciprocals, no signed zeros; never "no NaNs / no infs" (the guards rely on them).
 FASTMATH = {"reassoc", "contract", "arcp", "nsz"}

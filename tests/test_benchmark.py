@@ -92,7 +92,13 @@ def test_the_frozen_suite_is_the_checkouts_heldout_suite(suite):
     head = {**heldout, "scenarios": heldout["scenarios"][:2]}
     content = single_node_content(head, "single-node-v1", 1)
     stored = json.loads(suite_path("single-node-v1").read_text())
-    assert content["scenarios"] == stored["scenarios"][:2]
+    # the heuristics' rates are recomputed: equal to rounding (the compiled rate kernel's node
+    # sum is reassociated, numba or not), everything else to the bit
+    for new, old in zip(content["scenarios"], stored["scenarios"][:2], strict=True):
+        for key in ("hover_peak", "hover_ground"):
+            a, b = new.pop(key), old.pop(key)
+            assert a["feasible"] == b["feasible"] and a["rate"] == pytest.approx(b["rate"], rel=1e-12)
+        assert new == old
 
 
 def test_freeze_refuses_to_change_a_suite_under_its_name(tmp_path):
@@ -120,9 +126,9 @@ def test_a_callable_a_predict_object_and_a_batched_callable_score_alike(suite):
         evaluate(batched, suite, n=3, env_kwargs={"peak_hint": True}, batched=True),
     ]
     for results in runs:
-        assert [r.rate for r in results.scenarios] == [
-            s.reference["hover_peak"]["rate"] for s in suite.subset(3)
-        ]
+        assert [r.rate for r in results.scenarios] == pytest.approx(
+            [s.reference["hover_peak"]["rate"] for s in suite.subset(3)], rel=1e-12
+        )
         assert results.aggregate.feasible == 3 and results.env_kwargs == {"peak_hint": True}
         assert all(r.seconds > 0 and r.trajectory.shape == (s.config.N, 2)
                    for r, s in zip(results.scenarios, suite, strict=False))  # fmt: skip
