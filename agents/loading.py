@@ -150,7 +150,8 @@ def _read_vecnormalize(path: Path) -> Any:
     return vecnormalize
 
 
-def _read_json(path: Path) -> dict[str, Any]:
+def read_json(path: Path) -> dict[str, Any]:
+    """The JSON object in ``path`` (``ValueError`` naming the file if unreadable or not an object)."""
     try:
         data = json.loads(path.read_text())
     except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:
@@ -240,7 +241,7 @@ def load_agent(
     for key in ("config", "summary"):
         file = folder / f"{key}.json"
         if file.exists():
-            meta[key] = _read_json(file)
+            meta[key] = read_json(file)
     config = meta.get("config", {})
     found = config.get("algo")
     if found is None and algo is None:

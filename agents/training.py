@@ -45,7 +45,7 @@ import gymnasium as gym
 
 import ios_uav_env
 from agents.hyperparams import Hyperparams, load_hyperparams
-from agents.loading import ALGOS, CHECKPOINT_PREFIX, checkpoint_file, checkpoints
+from agents.loading import ALGOS, CHECKPOINT_PREFIX, checkpoint_file, checkpoints, read_json
 from agents.wrappers import apply_wrappers
 from baselines.runner import check_writable
 from ios_uav_env.io import atomic_write_bytes, atomic_write_text
@@ -180,12 +180,7 @@ def check_resumable(run_dir: str | Path) -> Path:
 def read_config(run_dir: Path) -> dict[str, Any]:
     """A run's ``config.json`` (``ValueError`` naming it if unreadable or incomplete)."""
     path = run_dir / "config.json"
-    try:
-        config = json.loads(path.read_text())
-    except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:
-        raise ValueError(f"{path} cannot be read: {exc}") from None
-    if not isinstance(config, dict):
-        raise ValueError(f"{path} is not a run's config (not a JSON object)")
+    config = read_json(path)
     missing = [k for k in ("args", "total_timesteps", "algo") if k not in config]
     if missing:
         raise ValueError(f"{path} is not a run's config (no {', '.join(missing)})")

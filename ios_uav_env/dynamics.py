@@ -16,7 +16,7 @@ import math
 
 import numpy as np
 
-from ios_uav_env.channel import RateKernel, faded_point, rate_point
+from ios_uav_env.channel import faded_point, rate_point
 from ios_uav_env.config import FEASIBILITY_TOL, ScenarioConfig
 from ios_uav_env.guard import guarded_position
 from ios_uav_env.jit import jit
@@ -56,17 +56,6 @@ def episode_row(config: ScenarioConfig, length_scale: float, peak: tuple[float, 
            cy * inv_l, 1.0 / moves, config.dt / T_SCALE, *instance_values(config), peak[0] * inv_l,
            peak[1] * inv_l, peak[2]]  # fmt: skip
     return np.array(row, dtype=np.float64)
-
-
-def rate_arrays(kernels: list[RateKernel]) -> tuple[np.ndarray, np.ndarray]:
-    """(nodes (B, 3, K), params (B, P)) of the kernels, node arrays padded to the largest K with
-    nodes of zero weight (they add exactly 0 to zeta)."""
-    k = max(kernel.nodes.shape[1] for kernel in kernels)
-    nodes = np.zeros((len(kernels), 3, k))
-    nodes[:, 1, :] = 1.0  # a padded node's (z_U - z)^2: any positive number
-    for i, kernel in enumerate(kernels):
-        nodes[i, :, : kernel.nodes.shape[1]] = kernel.nodes
-    return nodes, np.stack([kernel.params for kernel in kernels])
 
 
 @jit(inline=True)

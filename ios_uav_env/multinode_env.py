@@ -23,9 +23,9 @@ from ios_uav_env.channel import rate_kernel
 from ios_uav_env.config import FEASIBILITY_TOL, ScenarioConfig, as_config, scenario_option
 from ios_uav_env.guard import guarded_position
 from ios_uav_env.multinode import maxmin_rate
-from ios_uav_env.observation import M_SCALE, T_SCALE, ground_free_rate_bound
+from ios_uav_env.observation import M_SCALE, T_SCALE, ground_free_rate_bound, length_bounds, pad
 from ios_uav_env.options import EnvOptions, split_kwargs
-from ios_uav_env.scenarios import ScenarioRanges
+from ios_uav_env.scenarios import ScenarioRanges, sample_scenario
 
 #: The default multi-node scenario: three nodes, two on the reflecting side of the IOS and one
 #: across it, every other parameter at the paper's defaults.
@@ -52,8 +52,6 @@ def sample_multinode(
 ) -> ScenarioConfig:
     """A scenario of ``ranges`` with K nodes, K uniform in ``nodes``, each node uniform in the
     ranges of G (draws: K, the nodes, then ``sample_scenario``'s own draws)."""
-    from ios_uav_env.scenarios import sample_scenario
-
     k = int(rng.integers(nodes[0], nodes[1], endpoint=True))
     points = tuple(
         (float(rng.uniform(*ranges.ground_x)), float(rng.uniform(*ranges.ground_y))) for _ in range(k)
@@ -200,20 +198,15 @@ class MultiNodeEnv(gym.Env):
         """(low, high) over the env's family (its ranges, or its one config), or over ``config``."""
         single = config if config is not None else None if self.random_nodes else self._base
         r = self.ranges if single is None else ScenarioRanges.from_config(single.node_config(0))
-        base, inv_l = r.base, 1.0 / self.options.length_scale
+        base, scale = r.base, self.options.length_scale
         reach = r.max_moves * base.D
         nodes = [] if single is None else list(single.nodes)
         gx = (min([r.ground_x[0], *(p[0] for p in nodes)]), max([r.ground_x[1], *(p[0] for p in nodes)]))
         gy = (min([r.ground_y[0], *(p[1] for p in nodes)]), max([r.ground_y[1], *(p[1] for p in nodes)]))
         points = [(r.end_x, r.end_y), ((base.ios_center[0],) * 2, (base.ios_center[1],) * 2), (gx, gy)]
-        q0 = (r.start_x, r.start_y)
-
-        def length(p: tuple[tuple[float, float], tuple[float, float]], i: int) -> float:
-            return (max(abs(p[i][1] - q0[i][0]), abs(p[i][0] - q0[i][1])) + reach) * inv_l * (1 + 1e-6) + 1e-6
-
-        own = [(max(abs(lo), abs(hi)) + reach) * inv_l * (1 + 1e-6) + 1e-6 for lo, hi in q0]
-        final, ios, node = ([length(p, i) for i in range(2)] for p in points)
-        rate = max(ground_free_rate_bound(c) for c in r.configs_per_surface()) * (1 + 1e-6) + 1e-6
+        lengths = [pad(v / scale) for v in length_bounds((r.start_x, r.start_y), points, reach)]
+        own, final, ios, node = lengths[0:2], lengths[2:4], lengths[4:6], lengths[6:8]
+        rate = pad(max(ground_free_rate_bound(c) for c in r.configs_per_surface()))
         elements = max(1.0, r.ios_columns * r.ios_rows[1] / M_SCALE) * (1 + 1e-6)
         horizon = max(1.0, r.slot_range[1] * base.dt / T_SCALE) * (1 + 1e-6)
         high = [*own, *final, *ios, 1.0, 1.0, elements, 1.0, 1.0, horizon]

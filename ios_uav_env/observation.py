@@ -90,8 +90,24 @@ def instance_values(config: ScenarioConfig) -> tuple[float, float, float, float,
     )
 
 
-def _pad(value: float) -> float:
+def pad(value: float) -> float:
+    """``value`` with the bounds' margin: a relative 1e-6 and an absolute 1e-6."""
     return value * (1 + 1e-6) + 1e-6
+
+
+Interval = tuple[float, float]
+
+
+def length_bounds(
+    q0: tuple[Interval, Interval], points: list[tuple[Interval, Interval]], reach: float
+) -> list[float]:
+    """Largest absolute values (m) of the UAV's x, y and of each point's offset (x, y) from the
+    UAV, when q0 and the points range over the (x, y) intervals given: the largest value at q0
+    plus ``reach`` ((N_max - 1) D: no position is farther from q0), 2 + 2 len(points) entries."""
+    lengths = [max(abs(lo), abs(hi)) + reach for lo, hi in q0]
+    for p in points:
+        lengths += [max(abs(p[i][1] - q0[i][0]), abs(p[i][0] - q0[i][1])) + reach for i in range(2)]
+    return lengths
 
 
 def space_bounds(
@@ -114,22 +130,20 @@ def space_bounds(
         (r.ground_x, r.ground_y),
         ((base.ios_center[0],) * 2, (base.ios_center[1],) * 2),
     ]
-    lengths = [max(abs(lo), abs(hi)) + reach for lo, hi in q0]
-    for p in points:
-        lengths += [max(abs(p[i][1] - q0[i][0]), abs(p[i][0] - q0[i][1])) + reach for i in range(2)]
+    lengths = length_bounds(q0, points, reach)
     bound = rate_bound if r.fixed_ground else ground_free_rate_bound
     rate_high = max(bound(c) for c in r.configs_per_surface())
-    high = [_pad(v / length_scale) for v in lengths] + [1.0, 1.0, _pad(rate_high)]
+    high = [pad(v / length_scale) for v in lengths] + [1.0, 1.0, pad(rate_high)]
     low = [-h for h in high[:8]] + [0.0, -1.0, 0.0]
     if instance:
         has_surface = set(r.surfaces) != {"none"}
         elements = r.ios_columns * r.ios_rows[1] / M_SCALE if has_surface else 0.0
-        elements, horizon = (_pad(max(1.0, v)) for v in (elements, r.slot_range[1] * base.dt / T_SCALE))
+        elements, horizon = (pad(max(1.0, v)) for v in (elements, r.slot_range[1] * base.dt / T_SCALE))
         high += [elements, 1.0, 1.0, 1.0, horizon, horizon]
         low += [0.0] * len(INSTANCE_NAMES)
     if peak:
-        offset = _pad(2.0 * reach / length_scale)
-        high += [offset, offset, _pad(rate_high)]
+        offset = pad(2.0 * reach / length_scale)
+        high += [offset, offset, pad(rate_high)]
         low += [-offset, -offset, 0.0]
     return np.array(low, dtype=np.float32), np.array(high, dtype=np.float32)
 
