@@ -277,14 +277,20 @@ class MultiNodeEnv(gym.Env):
         return np.array(obs, dtype=np.float32)
 
     def _info(self, shares: np.ndarray, dist: float, terms: tuple[float, float, float], best: float) -> dict:
-        cfg, pad = self.config, self.max_nodes - self.config.K
+        cfg = self.config
         left = cfg.N - 1 - self._n
+
+        def padded(v: np.ndarray) -> np.ndarray:
+            out = np.zeros(self.max_nodes)
+            out[: cfg.K] = v
+            return out
+
         deficit = max(0.0, dist - left * cfg.D)
         worst = max(self._excess, deficit)
         return {
             "position": np.array((self._x, self._y)), "slot": np.int64(self._n + 1),
-            "distance_to_final": np.float64(dist), "shares": np.pad(shares, (0, pad)),
-            "node_rates": np.pad(self._served / cfg.N, (0, pad)), "min_rate": np.float64(self._min),
+            "distance_to_final": np.float64(dist), "shares": padded(shares),
+            "node_rates": padded(self._served / cfg.N), "min_rate": np.float64(self._min),
             "best_schedule_rate": np.float64(best), "reward_rate": np.float64(terms[0]),
             "reward_reach": np.float64(terms[1]), "reward_terminal": np.float64(terms[2]),
             "feasible": np.bool_(worst <= FEASIBILITY_TOL), "worst_violation": np.float64(worst),
