@@ -47,6 +47,16 @@ MULTI_INFO_KEYS = (
 )  # fmt: skip
 
 
+def rate_potential(rates: np.ndarray, beta: float = 0.0) -> float:
+    """The potential of the rate term: min_k R_k for ``beta`` = 0, else the soft minimum
+    -(1/beta) log((1/K) sum_k exp(-beta R_k)), which lies in [min_k R_k, min_k R_k + log(K) /
+    beta] and equals the minimum when every R_k is the same."""
+    low = float(np.min(rates))
+    if beta == 0.0:
+        return low
+    return low - math.log(float(np.mean(np.exp(-beta * (np.asarray(rates) - low))))) / beta
+
+
 def sample_multinode(
     rng: np.random.Generator, ranges: ScenarioRanges = MULTINODE_RANGES, nodes: tuple[int, int] = (2, 4)
 ) -> ScenarioConfig:
@@ -97,6 +107,14 @@ class MultiNodeEnv(gym.Env):
     times the fixed N, plus the single env's reach and terminal penalties (0 for a feasible
     trajectory; with the guard, always 0).
 
+    With ``softmin_beta`` = beta > 0 the rate term is potential-based shaping of the same
+    return: N (Phi_n - Phi_{n-1}) with Phi_n the soft minimum of the S_k / N
+    (``rate_potential``; Phi before slot 1 = 0), and the last step adds N (m_N - Phi_N) <= 0.
+    The terms still sum to N min_k R_k exactly, but every slot's service now earns a reward
+    weighted towards the nodes served least so far (a denser signal for learning whom to serve
+    and where to fly); the last step's correction is 0 when the nodes end equally served and
+    never below -N log(K) / beta.
+
     ## Info
 
     Every step and the reset carry ``MULTI_INFO_KEYS``: ``position``, ``slot``,
@@ -116,6 +134,7 @@ class MultiNodeEnv(gym.Env):
       another scenario with at most ``max_nodes`` nodes that fits the observation space.
     - ``max_nodes`` (K of ``config``, 4 for the randomised id): K_max of the spaces.
     - ``share_sharpness`` (5.0): the softmax's inverse temperature.
+    - ``softmin_beta`` (0.0): beta of the shaped rate term (Rewards); 0 is the plain minimum.
     - ``random_nodes`` ((2, 4) for the randomised id, None otherwise): draw a new scenario with
       that many nodes at every reset.
     - ``arrival_guard``, ``reach_weight``, ``terminal_weight``, ``length_scale``: as
@@ -148,6 +167,7 @@ class MultiNodeEnv(gym.Env):
         *,
         max_nodes: int | None = None,
         share_sharpness: float = 5.0,
+        softmin_beta: float = 0.0,
         random_nodes: tuple[int, int] | None = None,
         ranges: ScenarioRanges = MULTINODE_RANGES,
         render_mode: str | None = None,
@@ -181,6 +201,9 @@ class MultiNodeEnv(gym.Env):
         ):
             raise ValueError(f"share_sharpness must be a finite number > 0, got {share_sharpness!r}")
         self.share_sharpness = float(share_sharpness)
+        if not (isinstance(softmin_beta, (int, float)) and math.isfinite(softmin_beta) and softmin_beta >= 0):
+            raise ValueError(f"softmin_beta must be a finite number >= 0, got {softmin_beta!r}")
+        self.softmin_beta = float(softmin_beta)
         self.render_mode = render_mode
         self.action_space = spaces.Box(-1.0, 1.0, (2 + self.max_nodes,), np.float32)
         low, high = self._bounds()
@@ -250,6 +273,7 @@ class MultiNodeEnv(gym.Env):
         self._served = shares * rates  # S_k
         self._shares = [shares]
         self._min = float(self._served.min()) / cfg.N
+        self._phi = 0.0  # the potential before slot 1
         obs = self._observe(rates)
         dist = math.hypot(cfg.qF[0] - self._x, cfg.qF[1] - self._y)
         return obs, self._info(shares, dist, (0.0, 0.0, 0.0), 0.0)
@@ -326,7 +350,8 @@ class MultiNodeEnv(gym.Env):
         self._excess = max(self._excess, math.hypot(x - x0, y - y0) - cfg.D)
         rates = self._rates(x, y)
         self._served = self._served + shares * rates
-        previous, self._min = self._min, float(self._served.min()) / cfg.N
+        self._min = float(self._served.min()) / cfg.N
+        previous, self._phi = self._phi, rate_potential(self._served / cfg.N, self.softmin_beta)
         dist = math.hypot(cfg.qF[0] - x, cfg.qF[1] - y)
         reach = max(0.0, dist - left * cfg.D - FEASIBILITY_TOL) / cfg.D
         r_reach = -self.options.reach_weight * reach if reach else 0.0
@@ -337,7 +362,9 @@ class MultiNodeEnv(gym.Env):
             if miss:
                 r_terminal = -self.options.terminal_weight * (miss + math.sqrt(miss))
             best = maxmin_rate(cfg, self.trajectory)
-        r_rate = cfg.N * (self._min - (previous if self._n > 1 else 0.0))
+        r_rate = cfg.N * (self._phi - previous)
+        if terminated and self.softmin_beta:
+            r_rate += cfg.N * (self._min - self._phi)
         terms = (r_rate, r_reach, r_terminal)
         info = self._info(shares, dist, terms, best)
         return self._observe(rates), float(sum(terms)), terminated, False, info

@@ -12,7 +12,13 @@ from gymnasium.utils.env_checker import check_env
 
 import ios_uav_env
 from ios_uav_env import ScenarioConfig, maxmin_rate, scheduled_rates
-from ios_uav_env.multinode_env import DEFAULT_NODES, MULTI_INFO_KEYS, NODE_FEATURES, MultiNodeEnv
+from ios_uav_env.multinode_env import (
+    DEFAULT_NODES,
+    MULTI_INFO_KEYS,
+    NODE_FEATURES,
+    MultiNodeEnv,
+    rate_potential,
+)
 
 IDS = sorted(ios_uav_env.MULTINODE_IDS)
 SMALL = ScenarioConfig(T=60.0, ios_shape=(100, 20), ground_nodes=((-100.0, -20.0), (120.0, 40.0)))
@@ -56,6 +62,25 @@ def test_return_is_n_times_the_agents_own_max_min_score(env_id):
         assert last["best_schedule_rate"] == pytest.approx(maxmin_rate(cfg, env.trajectory), rel=1e-12)
         assert last["best_schedule_rate"] >= own - 1e-12 and last["feasible"]
         np.testing.assert_allclose(env.shares.sum(axis=0), 1.0, rtol=1e-12)
+
+
+@pytest.mark.parametrize("beta", [5.0, 40.0])
+def test_softmin_shaping_keeps_the_return_and_rewards_the_least_served(beta):
+    plain, shaped = MultiNodeEnv(SMALL), MultiNodeEnv(SMALL, softmin_beta=beta)
+    a, b = rollout(plain, 3), rollout(shaped, 3)
+    np.testing.assert_array_equal(plain.trajectory, shaped.trajectory)  # the rewards differ, not the episode
+    assert sum(b["rewards"]) == pytest.approx(SMALL.N * b["infos"][-1]["min_rate"], rel=1e-12)
+    assert sum(b["rewards"]) == pytest.approx(sum(a["rewards"]), rel=1e-12)
+    assert b["rewards"][:-1] != pytest.approx(a["rewards"][:-1])  # a denser signal than the minimum's
+    rates = np.array([0.2, 0.5, 0.9])
+    assert rates.min() <= rate_potential(rates, beta) <= rates.min() + np.log(3) / beta
+    assert rate_potential(np.full(3, 0.4), beta) == pytest.approx(0.4, abs=1e-15)
+    assert rate_potential(rates, 0.0) == 0.2
+    # serving the least-served node earns more than serving the best-served one
+    assert rate_potential(rates + [0.1, 0, 0], beta) > rate_potential(rates + [0, 0, 0.1], beta)
+    for bad in (-1.0, float("nan"), float("inf")):
+        with pytest.raises(ValueError, match="softmin_beta"):
+            MultiNodeEnv(SMALL, softmin_beta=bad)
 
 
 def test_info_keys_and_types_are_fixed_and_padded():
