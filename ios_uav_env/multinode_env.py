@@ -25,6 +25,7 @@ from ios_uav_env.guard import guarded_position
 from ios_uav_env.multinode import maxmin_rate
 from ios_uav_env.observation import M_SCALE, T_SCALE, ground_free_rate_bound, length_bounds, pad
 from ios_uav_env.options import EnvOptions, split_kwargs
+from ios_uav_env.peak import rate_peak
 from ios_uav_env.scenarios import ScenarioRanges, sample_scenario
 
 #: The default multi-node scenario: three nodes, two on the reflecting side of the IOS and one
@@ -35,6 +36,9 @@ DEFAULT_NODES = ((-100.0, -20.0), (150.0, -60.0), (-40.0, 90.0))
 MULTINODE_RANGES = ScenarioRanges(T=(100.0, 200.0))
 #: Per-node observation block: mask, (w_k - q) / L, side of the IOS, served rate R_k so far, r_k(q).
 NODE_FEATURES = ("mask", "dx_node", "dy_node", "side", "served", "rate")
+#: Per-node hint appended to each node block with ``peak_hint=True``: the node's reachable rate
+#: peak P_k (``rate_peak(config.node_config(k))``) relative to the UAV, (P_k - q) / L, and r_k(P_k).
+NODE_PEAK_FEATURES = ("dx_peak", "dy_peak", "rate_peak")
 #: The scenario-level observation, before the node blocks.
 BASE_FEATURES = (
     "x", "y", "dx_final", "dy_final", "dx_ios", "dy_ios", "time_left", "slack",
@@ -97,8 +101,13 @@ class MultiNodeEnv(gym.Env):
     scenario, 0 for padding, whose other entries are 0), (w_k - q) / L, the node's side of the
     IOS plane (+1 at x > x_c, -1 otherwise), the rate served to it so far
     S_k / N with S_k = sum_{m <= n} alpha_k[m] r_k(q[m]) (bps/Hz), and its rate r_k(q) now.
+    With ``peak_hint=True`` each node block has 3 more (``NODE_PEAK_FEATURES``, 12 + 9 K_max in
+    all): the node's own reachable rate peak P_k (``rate_peak`` of ``config.node_config(k)``,
+    the single-node hint) relative to the UAV, (P_k - q) / L, and r_k(P_k). It says where each
+    node alone is best served, not the order of the visits, the hover times or the shares.
     The bounds hold for every scenario of the family (lengths: the largest value at q0 plus
-    (N_max - 1) D / L; rates: ``ground_free_rate_bound``).
+    (N_max - 1) D / L, and 2 (N_max - 1) D / L for P_k - q, both within (N_max - 1) D of q0;
+    rates: ``ground_free_rate_bound``).
 
     ## Rewards
 
@@ -137,6 +146,8 @@ class MultiNodeEnv(gym.Env):
     - ``softmin_beta`` (0.0): beta of the shaped rate term (Rewards); 0 is the plain minimum.
     - ``random_nodes`` ((2, 4) for the randomised id, None otherwise): draw a new scenario with
       that many nodes at every reset.
+    - ``peak_hint`` (False): append each node's reachable rate peak (Observation Space; it
+      costs one ``rate_peak`` per node at reset, about 10 ms, cached for the fixed scenario).
     - ``arrival_guard``, ``reach_weight``, ``terminal_weight``, ``length_scale``: as
       ``IOSUAVEnv`` (``EnvOptions``); the channel is the expected-gain rate.
     - ``render_mode``: None or "rgb_array" (the best node's rate map, every node, and the
@@ -175,8 +186,8 @@ class MultiNodeEnv(gym.Env):
     ) -> None:
         options, overrides = split_kwargs(kwargs, f"{type(self).__name__}.__init__")
         self.options = EnvOptions(**options)
-        if self.options.channel != "expected" or self.options.instance_features or self.options.peak_hint:
-            raise ValueError("MultiNodeEnv takes channel='expected' and no instance_features / peak_hint")
+        if self.options.channel != "expected" or self.options.instance_features:
+            raise ValueError("MultiNodeEnv takes channel='expected' and no instance_features")
         if render_mode not in (None, "rgb_array"):
             raise ValueError(f"render_mode must be None or 'rgb_array', got {render_mode!r}")
         base = as_config(config if config is not None else ScenarioConfig(ground_nodes=DEFAULT_NODES))
@@ -205,10 +216,12 @@ class MultiNodeEnv(gym.Env):
             raise ValueError(f"softmin_beta must be a finite number >= 0, got {softmin_beta!r}")
         self.softmin_beta = float(softmin_beta)
         self.render_mode = render_mode
+        self.node_features = NODE_FEATURES + (NODE_PEAK_FEATURES if self.options.peak_hint else ())
         self.action_space = spaces.Box(-1.0, 1.0, (2 + self.max_nodes,), np.float32)
         low, high = self._bounds()
         self.observation_space = spaces.Box(low, high, dtype=np.float32)
         self.config = self._base
+        self._base_peaks: list[tuple[float, float, float]] | None = None
         self._n: int | None = None
 
     # --- options (read-only views of self.options, as on IOSUAVEnv) -------------------------
@@ -234,9 +247,12 @@ class MultiNodeEnv(gym.Env):
         horizon = max(1.0, r.slot_range[1] * base.dt / T_SCALE) * (1 + 1e-6)
         high = [*own, *final, *ios, 1.0, 1.0, elements, 1.0, 1.0, horizon]
         low = [-h for h in high[:6]] + [0.0, -1.0, 0.0, 0.0, 0.0, 0.0]
+        hint = pad(2.0 * reach / scale)  # P_k and q are both within (N_max - 1) D of q0
         for _ in range(self.max_nodes):
-            high += [1.0, *node, 1.0, rate, rate]
-            low += [0.0, -node[0], -node[1], -1.0, 0.0, 0.0]
+            high += [1.0, *node, 1.0, rate, rate] + ([hint, hint, rate] if self.options.peak_hint else [])
+            low += [0.0, -node[0], -node[1], -1.0, 0.0, 0.0] + (
+                [-hint, -hint, 0.0] if self.options.peak_hint else []
+            )
         return np.array(low, dtype=np.float32), np.array(high, dtype=np.float32)
 
     # --- episode --------------------------------------------------------------------------
@@ -265,6 +281,7 @@ class MultiNodeEnv(gym.Env):
                 )
         self.config = cfg
         self._kernels = [rate_kernel(cfg.node_config(k)) for k in range(cfg.K)]
+        self._peaks = self._node_peaks(cfg) if self.options.peak_hint else None
         self._x, self._y = cfg.q0
         self._n, self._excess = 0, 0.0
         self._xs, self._ys = [self._x], [self._y]
@@ -277,6 +294,15 @@ class MultiNodeEnv(gym.Env):
         obs = self._observe(rates)
         dist = math.hypot(cfg.qF[0] - self._x, cfg.qF[1] - self._y)
         return obs, self._info(shares, dist, (0.0, 0.0, 0.0), 0.0)
+
+    def _node_peaks(self, cfg: ScenarioConfig) -> list[tuple[float, float, float]]:
+        """Each node's reachable rate peak (cached for the env's own fixed scenario)."""
+        if cfg == self._base and self._base_peaks is not None:
+            return self._base_peaks
+        peaks = [tuple(rate_peak(cfg.node_config(k))) for k in range(cfg.K)]
+        if cfg == self._base:
+            self._base_peaks = peaks
+        return peaks
 
     def _rates(self, x: float, y: float) -> np.ndarray:
         return np.array([k.rate(x, y) for k in self._kernels])
@@ -296,8 +322,11 @@ class MultiNodeEnv(gym.Env):
                 wx, wy = cfg.nodes[k]
                 side = 1.0 if wx > cx else -1.0
                 obs += [1.0, (wx - x) * inv_l, (wy - y) * inv_l, side, self._served[k] / cfg.N, rates[k]]
+                if self._peaks is not None:
+                    px, py, pr = self._peaks[k]
+                    obs += [(px - x) * inv_l, (py - y) * inv_l, pr]
             else:
-                obs += [0.0] * len(NODE_FEATURES)
+                obs += [0.0] * len(self.node_features)
         return np.array(obs, dtype=np.float32)
 
     def _info(self, shares: np.ndarray, dist: float, terms: tuple[float, float, float], best: float) -> dict:

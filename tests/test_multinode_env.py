@@ -11,11 +11,12 @@ import pytest
 from gymnasium.utils.env_checker import check_env
 
 import ios_uav_env
-from ios_uav_env import ScenarioConfig, maxmin_rate, scheduled_rates
+from ios_uav_env import ScenarioConfig, maxmin_rate, rate_peak, scheduled_rates
 from ios_uav_env.multinode_env import (
     DEFAULT_NODES,
     MULTI_INFO_KEYS,
     NODE_FEATURES,
+    NODE_PEAK_FEATURES,
     MultiNodeEnv,
     rate_potential,
 )
@@ -109,6 +110,23 @@ def test_observation_layout_mask_side_and_bounds():
         np.testing.assert_array_equal(sides, expected)
         served = out["obs"][-1][12:].reshape(4, -1)[:k, 4]
         np.testing.assert_allclose(served, scheduled_rates(env.config, env.trajectory, env.shares), rtol=1e-6)
+
+
+def test_peak_hint_is_each_nodes_own_peak_within_the_bounds():
+    env = MultiNodeEnv(max_nodes=4, random_nodes=(2, 4), peak_hint=True)
+    width = len(NODE_FEATURES) + len(NODE_PEAK_FEATURES)
+    assert env.observation_space.shape == (12 + 4 * width,)
+    for seed in range(3):
+        out = rollout(env, seed)
+        cfg, k = env.config, env.config.K
+        for obs, q in zip(out["obs"][::10], env.trajectory[::10], strict=True):
+            assert env.observation_space.contains(obs)
+            blocks = obs[12:].reshape(4, width)
+            for j in range(k):
+                peak = rate_peak(cfg.node_config(j))
+                np.testing.assert_allclose(blocks[j, 6:8], (np.array(peak[:2]) - q) / 400.0, atol=1e-6)
+                assert blocks[j, 8] == pytest.approx(peak.rate, rel=1e-6)
+            assert np.all(blocks[k:] == 0.0)
 
 
 def test_same_seed_same_episode_and_new_scenarios_per_reset():
