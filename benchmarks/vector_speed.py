@@ -7,6 +7,12 @@ The envs take turns and the best of ``--repeats`` runs counts, so that a busy ma
 them alike. The bars: at B = 1024 our env >= 30 x CartPole-v1 raw and >= 0.5 x
 CartPoleVectorEnv.
 
+Then the multi-node id (``--multinode-id``, "" to skip): the single ``MultiNodeEnv`` (it
+solves the best-schedule LP, ``maxmin_rate``, at every episode end) against its batched env
+at the same B, timed without the LP (``best_schedule=False``, as training runs it); the
+"+ LP" column adds the measured time of one LP per row and episode (sequential Python work,
+nothing to batch), i.e. the batched env with ``best_schedule=True``.
+
     python benchmarks/vector_speed.py [--id ios_uav_env/IOSUAV-v0] [--sizes 64 256 1024 4096]
 """
 
@@ -22,6 +28,7 @@ from gymnasium.envs.classic_control.cartpole import CartPoleVectorEnv
 
 import ios_uav_env  # noqa: F401  (registers the ids)
 from ios_uav_env.jit import HAVE_NUMBA
+from ios_uav_env.multinode import maxmin_rate
 
 
 def _timer(step: Callable[[], object], calls: int) -> Callable[[], float]:
@@ -50,10 +57,10 @@ def single_cartpole(steps: int) -> Callable[[], float]:
     return run
 
 
-def batched(env_id: str, size: int, calls: int) -> Callable[[], float]:
-    vec = gym.make_vec(env_id, num_envs=size, vectorization_mode="vector_entry_point")
+def batched(env_id: str, size: int, calls: int, **kwargs: object) -> Callable[[], float]:
+    vec = gym.make_vec(env_id, num_envs=size, vectorization_mode="vector_entry_point", **kwargs)
     vec.reset(seed=0)
-    actions = np.random.default_rng(0).uniform(-1, 1, (size, 2))
+    actions = np.random.default_rng(0).uniform(-1, 1, (size, *vec.single_action_space.shape))
     vec.step(actions)  # compile (numba) before timing
     return _timer(lambda: vec.step(actions), calls)
 
@@ -65,12 +72,60 @@ def cartpole_vector(size: int, calls: int) -> Callable[[], float]:
     return _timer(lambda: vec.step(actions), calls)
 
 
+def single_multinode(env_id: str, episodes: int) -> tuple[Callable[[], float], int, float]:
+    """A timer of ``episodes`` episodes of the single env (random actions, its LP included), their
+    steps, and the time of one best-schedule LP (s; the median of 5 on a random flight)."""
+    env = gym.make(env_id).unwrapped
+    env.reset(seed=0)
+    moves = env.config.N - 1
+    actions = np.random.default_rng(0).uniform(-1, 1, (moves, *env.action_space.shape))
+    for a in actions:
+        env.step(a)
+    lp = []
+    for _ in range(5):
+        start = time.perf_counter()
+        maxmin_rate(env.config, env.trajectory)
+        lp.append(time.perf_counter() - start)
+
+    def run() -> float:
+        start = time.perf_counter()
+        for _ in range(episodes):
+            env.reset(seed=0)
+            for a in actions:
+                env.step(a)
+        return time.perf_counter() - start
+
+    return run, episodes * moves, float(np.median(lp))
+
+
+def multinode_table(env_id: str, sizes: Sequence[int], env_steps: int, repeats: int) -> None:
+    """The multi-node id: single env vs batched env (without and with the LP), per B."""
+    single, single_steps, lp = single_multinode(env_id, 2)
+    single_rate = single_steps / min(single() for _ in range(repeats))
+    moves = single_steps // 2
+    bare = 1.0 / max(1e-12, 1.0 / single_rate - lp / moves)  # the single env's steps without the LP
+    print(f"\n{env_id} ({moves} moves per episode): single MultiNodeEnv {single_rate:,.0f} steps/s "
+          f"with its LP (LP {lp * 1e3:.1f} ms per episode; ~{bare:,.0f} steps/s without it)")  # fmt: skip
+    head = ("B", "batched, no LP", "x single", "batched + LP", "x single")
+    print(f"{head[0]:>6} {head[1]:>16} {head[2]:>10} {head[3]:>14} {head[4]:>10}")
+    for size in sizes:
+        calls = max(10, env_steps // size)
+        ours = batched(env_id, size, calls, best_schedule=False)
+        rate = calls * size / min(ours() for _ in range(repeats))
+        with_lp = 1.0 / (1.0 / rate + lp / moves)  # one LP per row and episode of `moves` steps
+        ratios = rate / single_rate, with_lp / single_rate
+        print(f"{size:>6} {rate:>16,.0f} {ratios[0]:>10.1f} {with_lp:>14,.0f} {ratios[1]:>10.1f}")
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--id", default="ios_uav_env/IOSUAV-v0", help="env id (default: %(default)s)")
     parser.add_argument("--sizes", type=int, nargs="+", default=[64, 256, 1024, 4096], help="batch sizes B")
     parser.add_argument("--env-steps", type=int, default=400_000, help="env steps per timed run and size")
     parser.add_argument("--repeats", type=int, default=5, help="timed runs per env (the best counts)")
+    parser.add_argument(
+        "--multinode-id", default="ios_uav_env/IOSUAV-MultiNode-v0", help='multi-node id ("" to skip)'
+    )
     args = parser.parse_args(argv)
     if min(args.sizes) < 1 or args.env_steps < 1 or args.repeats < 1:
         parser.error("--sizes, --env-steps and --repeats must be >= 1")
@@ -91,6 +146,8 @@ def main(argv: Sequence[str] | None = None) -> int:
             best_theirs = min(best_theirs, theirs())
         rate, ref = calls * size / best_ours, calls * size / best_theirs
         print(f"{size:>6} {rate:>16,.0f} {ref:>18,.0f} {rate / cartpole_rate:>15.1f} {rate / ref:>14.2f}")
+    if args.multinode_id:
+        multinode_table(args.multinode_id, args.sizes, args.env_steps, args.repeats)
     return 0
 
 

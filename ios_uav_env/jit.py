@@ -31,9 +31,12 @@ FASTMATH = {"reassoc", "contract", "arcp", "nsz"}
 HAVE_NUMBA: bool = _njit is not None
 
 
-def jit(function: F | None = None, *, inline: bool = False) -> Any:
+def jit(function: F | None = None, *, inline: bool = False, fastmath: bool = True) -> Any:
     """``function`` compiled by numba (no Python objects, cached on disk), or itself.
-    ``inline=True``: a small helper inlined into the compiled functions that call it."""
+    ``inline=True``: a small helper inlined into the compiled functions that call it.
+    ``fastmath=False``: IEEE arithmetic in the function's own code (no fused multiply-add, no
+    reassociation), e.g. to reproduce plain-Python arithmetic bit for bit; the compiled
+    functions it calls keep their own flags."""
 
     def compile_(f: F) -> F:
         if _njit is None:
@@ -41,6 +44,7 @@ def jit(function: F | None = None, *, inline: bool = False) -> Any:
         options: dict[str, Any] = {"inline": "always"} if inline else {}
         # error_model="numpy": a division by zero gives inf instead of raising, so the node sums
         # have no per-element branch and vectorise (2x); the kernels never divide by zero
-        return _njit(cache=True, nogil=True, fastmath=FASTMATH, error_model="numpy", **options)(f)  # type: ignore[no-any-return]
+        flags = FASTMATH if fastmath else False
+        return _njit(cache=True, nogil=True, fastmath=flags, error_model="numpy", **options)(f)  # type: ignore[no-any-return]
 
     return compile_ if function is None else compile_(function)

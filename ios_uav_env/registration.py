@@ -31,7 +31,8 @@ def _vector(entry_point: str) -> dict[str, str]:
 
 
 def register_envs() -> None:
-    """Register every id of :data:`ENV_IDS` and :data:`RANDOM_ENV_ID` not registered yet.
+    """Register every id of :data:`ENV_IDS`, :data:`RANDOM_ENV_ID` and :data:`MULTINODE_IDS` not
+    registered yet.
 
     No ``max_episode_steps``: the env ends every episode itself at slot N of its scenario
     (``terminated=True``), whatever T is, so no ``TimeLimit`` can cut a mission short. Each id
@@ -54,4 +55,9 @@ def register_envs() -> None:
         )
     for env_id, kwargs in MULTINODE_IDS.items():
         if env_id not in gym.registry:
-            gym.register(id=env_id, entry_point="ios_uav_env.multinode_env:MultiNodeEnv", kwargs=dict(kwargs))
+            gym.register(
+                id=env_id,
+                entry_point="ios_uav_env.multinode_env:MultiNodeEnv",
+                kwargs=dict(kwargs),
+                **_vector("ios_uav_env.multinode_vector:MultiNodeVectorEnv"),
+            )

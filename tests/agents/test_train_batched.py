@@ -78,3 +78,16 @@ def test_batched_refuses_a_wrapper_without_a_vec_form(tmp_path: Path) -> None:
     check_hyperparams("ppo", "ios_uav_env/IOSUAV-v0", path)  # fine with the DummyVecEnv
     with pytest.raises(ValueError, match="cannot wrap the batched env"):
         check_hyperparams("ppo", "ios_uav_env/IOSUAV-v0", path, vec_env="batched")
+
+
+def test_batched_run_on_the_multinode_id(tmp_path: Path) -> None:
+    (tmp_path / "hp.yml").write_text(TINY.replace("ios_uav_env/IOSUAV-v0", "ios_uav_env/IOSUAV-MultiNode-v0"))
+    out = tmp_path / "run"
+    settings = TrainSettings(
+        algo="ppo", env_id="ios_uav_env/IOSUAV-MultiNode-v0", vec_env="batched", env_kwargs={"T": 40},
+        hyperparams_file=str(tmp_path / "hp.yml"), out=str(out), checkpoint_freq=1024, eval_freq=0,
+        progress_bar=False,
+    )  # fmt: skip
+    result = train(settings)
+    assert result.summary["steps"] == 256 and result.summary["final_eval"]["feasible"]
+    assert {int(row.split(",")[1]) for row in _monitor_rows(out)} >= {39}  # whole 39-step episodes

@@ -143,3 +143,40 @@ def test_stagger_spreads_the_rows_over_the_episode() -> None:
     np.testing.assert_array_equal(ends, moves_left)  # each row ends when its moves run out
     plain = BatchedVecEnv(ENV_ID, n, env_kwargs=SHORT, seed=0)
     assert (plain.reset()[:, 8] == 1.0).all()  # without stagger every row starts at slot 1
+
+
+MULTI_ID = "ios_uav_env/IOSUAV-MultiNode-v0"
+
+
+def test_multinode_rows_are_the_single_envs_with_their_scores() -> None:
+    """The multi-node id: same-step rows equal single MultiNodeEnvs seeded seed + i (terminal
+    observations, rewards, the agent's own score as average_rate); no LP by default."""
+    n, seed, kwargs = 2, 3, {"T": 34}  # 33 moves per episode
+    venv = BatchedVecEnv(MULTI_ID, n, env_kwargs=kwargs, seed=seed)
+    assert venv.vector_env.best_schedule is False
+    assert BatchedVecEnv(MULTI_ID, 1, env_kwargs={**kwargs, "best_schedule": True}).vector_env.best_schedule
+    singles = [gym.make(MULTI_ID, **kwargs) for _ in range(n)]
+    obs = venv.reset()
+    np.testing.assert_array_equal(
+        obs, np.stack([env.reset(seed=seed + i)[0] for i, env in enumerate(singles)])
+    )
+    rng = np.random.default_rng(0)
+    for _ in range(33):
+        actions = rng.uniform(-1, 1, (n, 5)).astype(np.float32)
+        obs, rewards, dones, infos = venv.step(actions)
+        for i, env in enumerate(singles):
+            last, reward, terminated, _, info = env.step(actions[i])
+            assert rewards[i] == np.float32(reward) and dones[i] == terminated
+            if terminated:
+                np.testing.assert_array_equal(infos[i]["terminal_observation"], last)
+                assert infos[i]["average_rate"] == info["min_rate"] and infos[i]["feasible"]
+    assert dones.all()
+
+
+def test_ppo_trains_on_the_batched_multinode_env_with_stagger() -> None:
+    venv = VecMonitor(BatchedVecEnv(MULTI_ID, 8, env_kwargs={"T": 40}, seed=0, stagger=True))
+    obs = venv.reset()
+    assert len(set(np.round(obs[:, 6], 6))) == 8  # time_left: the rows spread over the episode
+    model = PPO("MlpPolicy", venv, n_steps=32, batch_size=64, n_epochs=1, seed=0, device="cpu")
+    model.learn(8 * 32 * 2)  # 512 steps: two rollouts, the staggered rows end episodes in both
+    assert model.num_timesteps == 512 and len(model.ep_info_buffer) >= 8
