@@ -15,7 +15,12 @@ alone (no planner, no deep-learning library):
   :func:`score_trajectories` (one trajectory per scenario);
 - :mod:`~ios_uav_env.benchmark.results`: :class:`Results` (per scenario and aggregate; CSV,
   JSON, markdown, figure);
-- :mod:`~ios_uav_env.benchmark.trajectories`: trajectory files (``.npz`` or CSV);
+- :mod:`~ios_uav_env.benchmark.multi`: multi-node suites (``multi-node-v1``): a plan's own
+  max-min rate (its shares), its best schedule, % of SCA and of the certified bound
+  (:class:`~ios_uav_env.benchmark.multi.MultiResults`); frozen by
+  :mod:`~ios_uav_env.benchmark.freeze_multi`;
+- :mod:`~ios_uav_env.benchmark.trajectories`: trajectory files (``.npz`` or CSV; multi-node
+  plans may carry their shares: :func:`read_plans`);
 - ``python -m ios_uav_env.benchmark {list,show,evaluate}``: the command line
   (:mod:`~ios_uav_env.benchmark.cli`).
 """
@@ -23,7 +28,7 @@ alone (no planner, no deep-learning library):
 from ios_uav_env.benchmark.results import Aggregate, Results, ScenarioResult, reference_results
 from ios_uav_env.benchmark.scoring import action_function, evaluate, score_trajectories
 from ios_uav_env.benchmark.suite import DEFAULT_SUITE, SUITES, Suite, SuiteScenario, list_suites, load_suite
-from ios_uav_env.benchmark.trajectories import read_trajectories, write_trajectories
+from ios_uav_env.benchmark.trajectories import read_plans, read_trajectories, write_trajectories
 
 __all__ = [
     "DEFAULT_SUITE",
@@ -37,6 +42,7 @@ __all__ = [
     "evaluate",
     "list_suites",
     "load_suite",
+    "read_plans",
     "read_trajectories",
     "reference_results",
     "score_trajectories",

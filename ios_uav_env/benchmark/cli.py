@@ -2,6 +2,7 @@
 
     python -m ios_uav_env.benchmark list
     python -m ios_uav_env.benchmark show [--suite single-node-v1] [--reference dp|sca|hover_peak|hover_ground]
+    python -m ios_uav_env.benchmark show --suite multi-node-v1 [--reference sca|tour|bound]
     python -m ios_uav_env.benchmark evaluate [--suite single-node-v1] --policy PKG.MODULE:ATTR \\
         [--batched] [--env-kwargs KEY:VALUE ...] [--n N] [--name NAME] [--out DIR]
     python -m ios_uav_env.benchmark evaluate [--suite single-node-v1] --trajectories FILE.npz|FILE.csv \\
@@ -14,6 +15,12 @@ values are JSON or Python literals (``peak_hint:true``), else strings. ``evaluat
 summary line (mean / p10 / min % of DP and of SCA, feasible count, median time to plan) and
 writes ``results.csv``, ``results.json``, ``results.md`` and ``pct_dp.png`` (with matplotlib)
 to ``--out``. ``show`` prints the same line for each stored reference (DP, SCA, heuristics).
+
+On a multi-node suite (``--suite multi-node-v1``) the line has % of SCA, % of the certified
+bound and the best schedule's % of SCA (``ios_uav_env.benchmark.multi``), the figures are
+``pct_sca.png`` and ``shares.png``, and a trajectories file may hold each plan's shares
+(``shares_<index>`` in ``.npz``, ``share_<k>`` columns in CSV); without them a plan is scored
+with its best schedule.
 """
 
 from __future__ import annotations
@@ -28,8 +35,15 @@ from typing import Any
 
 from ios_uav_env.benchmark.results import reference_results
 from ios_uav_env.benchmark.scoring import evaluate, score_trajectories
-from ios_uav_env.benchmark.suite import DEFAULT_SUITE, REFERENCES, SUITES, list_suites, load_suite
-from ios_uav_env.benchmark.trajectories import read_trajectories
+from ios_uav_env.benchmark.suite import (
+    DEFAULT_SUITE,
+    MULTI_REFERENCES,
+    REFERENCES,
+    SUITES,
+    list_suites,
+    load_suite,
+)
+from ios_uav_env.benchmark.trajectories import read_plans
 
 
 def load_policy(spec: str) -> Any:
@@ -87,7 +101,10 @@ def _parser() -> argparse.ArgumentParser:
     show.add_argument("--suite", default=DEFAULT_SUITE, help=f"a suite name ({', '.join(SUITES)}) or file")
     show.add_argument("--n", type=int, default=None, help="the first n scenarios only")
     show.add_argument(
-        "--reference", choices=REFERENCES, default=None, help="one reference only (default: all)"
+        "--reference",
+        choices=list(dict.fromkeys(REFERENCES + MULTI_REFERENCES)),
+        default=None,
+        help="one reference only (default: all of the suite's)",
     )
     ev = sub.add_parser("evaluate", help="score a policy or a file of trajectories")
     ev.add_argument("--suite", default=DEFAULT_SUITE, help=f"a suite name ({', '.join(SUITES)}) or file")
@@ -118,12 +135,12 @@ def main(argv: Sequence[str] | None = None) -> int:
             if args.reference is None:
                 head = f"{suite.name} (version {suite.version}, sha256 {suite.sha256})"
                 print(f"{head}: {len(suite)} scenarios of {suite.env_id}; the stored reference values:")
-            for reference in REFERENCES if args.reference is None else (args.reference,):
+            for reference in suite.references if args.reference is None else (args.reference,):
                 print(reference_results(suite, reference, args.n).summary())
             return 0
         if args.trajectories is not None:
-            trajectories, seconds = read_trajectories(args.trajectories)
-            results = score_trajectories(trajectories, suite, seconds=seconds,
+            trajectories, seconds, shares = read_plans(args.trajectories)
+            results = score_trajectories(trajectories, suite, seconds=seconds, shares=shares or None,
                                          name=args.name or args.trajectories.name)  # fmt: skip
         else:
             policy = load_policy(args.policy)

@@ -211,7 +211,14 @@ def _finite(value: Any) -> Any:
 
 def reference_results(suite: Suite, reference: str, n: int | None = None) -> Results:
     """A stored reference (``"dp"``, ``"sca"``, ``"hover_peak"``, ``"hover_ground"``) scored as a
-    policy from its stored rate and feasibility (DP's plans are feasible by construction)."""
+    policy from its stored rate and feasibility (DP's plans are feasible by construction).
+    Multi-node suites: ``"sca"``, ``"tour"``, ``"bound"`` (a ``MultiResults``)."""
+    if reference not in suite.references:
+        raise KeyError(f"suite {suite.name} has no reference {reference!r}; it has {list(suite.references)}")
+    if suite.multi_node:
+        from ios_uav_env.benchmark.multi import multi_reference_results
+
+        return multi_reference_results(suite, reference, n)  # type: ignore[return-value]
     scenarios = suite.subset(n)
     rows = []
     for s in scenarios:

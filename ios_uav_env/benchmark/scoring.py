@@ -25,6 +25,12 @@ episode's wall time from the reset to the last step (policy and env).
 >>> results = evaluate(HoverAt("peak"), n=3)
 >>> results.aggregate.feasible, round(results.aggregate.mean_pct_dp, 2)
 (3, 99.77)
+
+On a multi-node suite (``suite="multi-node-v1"``) the env is ``MultiNodeEnv``
+(``ios_uav_env/IOSUAV-MultiNode-Random-v0``): the action is the move and one score per node, and
+each plan is scored by :mod:`ios_uav_env.benchmark.multi` (its own min_k R_k, its best schedule,
+% of SCA and of the certified bound); the result is a ``MultiResults``. Scoring a multi-node
+suite needs scipy (the env and ``maxmin_rate`` solve the schedule LP).
 """
 
 from __future__ import annotations
@@ -32,13 +38,16 @@ from __future__ import annotations
 import importlib
 import time
 from collections.abc import Callable, Mapping
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from ios_uav_env.benchmark.results import Aggregate, Results, ScenarioResult
 from ios_uav_env.benchmark.suite import DEFAULT_SUITE, Suite, SuiteScenario, load_suite
 from ios_uav_env.trajectory import average_rate, check_trajectory
+
+if TYPE_CHECKING:
+    from ios_uav_env.benchmark.multi import MultiResults
 
 MAX_STEPS = 100_000
 
@@ -124,7 +133,7 @@ def evaluate(
     batched: bool | None = None,
     seed: int | None = 0,
     name: str | None = None,
-) -> Results:
+) -> Results | MultiResults:
     """Score ``policy`` on the first ``n`` scenarios of ``suite`` (all for None): a :class:`Results`
     (per scenario: rate, feasibility, % of DP and of SCA, time to plan; their aggregate).
 
@@ -138,6 +147,11 @@ def evaluate(
     kwargs = {**suite.env_kwargs, **dict(own or {})}
     batched = bool(getattr(policy, "batched", False) if batched is None else batched)
     act = action_function(policy)
+    if suite.multi_node:  # MultiNodeEnv has no batched env: a batched policy runs on a batch of one
+        from ios_uav_env.benchmark.multi import evaluate_multi
+
+        one = (lambda obs: np.asarray(act(np.asarray(obs)[None]))[0]) if batched else act
+        return evaluate_multi(one, suite, scenarios, kwargs, seed, name or policy_name(policy))
     env, vector = _make_env(suite.env_id, kwargs, batched)
     if batched and not vector:  # an id without a batched env: the policy on a batch of one
         batch_act = act
@@ -156,9 +170,14 @@ def score_trajectories(
     *,
     seconds: Mapping[int, float] | None = None,
     name: str = "trajectories",
-) -> Results:
+    shares: Mapping[int, Any] | None = None,
+) -> Results | MultiResults:
     """Score one trajectory per scenario (``{index: (N, 2) way-points in m, q0 first and qF last}``)
     with ``average_rate`` and ``check_trajectory``; ``seconds``: each plan's time, if known.
+
+    Multi-node suites: ``shares`` (``{index: (K, N) TDMA shares}``, for every scenario or none)
+    are the plans' own schedules, scored with ``scheduled_rates``; without them each trajectory
+    is scored with its best schedule (``maxmin_rate``). A single-node suite takes no shares.
 
     The indices must be the suite's first n (0 .. n-1, n >= 1); ``ValueError`` naming the
     scenario for a missing or unknown index or a trajectory of the wrong shape or not finite.
@@ -173,6 +192,8 @@ def score_trajectories(
     missing = sorted(set(range(indices[-1] + 1)) - set(indices))
     if missing:
         raise ValueError(f"the trajectories must cover scenarios 0..n-1 of {suite.name}; missing {missing}")
+    if shares and not suite.multi_node:
+        raise ValueError(f"shares are for multi-node suites; {suite.name} is a single-node suite")
     scenarios = suite.subset(len(indices))
     rows = []
     for s in scenarios:
@@ -184,9 +205,15 @@ def score_trajectories(
             )
         if not np.isfinite(q).all():
             raise ValueError(f"scenario {s.index}: the trajectory has NaN or infinite values")
+        if suite.multi_node:
+            continue
         report = check_trajectory(s.config, q)
         t = float("nan") if seconds is None else float(seconds.get(s.index, float("nan")))
         rate = average_rate(s.config, q)
         rows.append(ScenarioResult.of(s, rate, report.feasible, report.worst_violation, t, q))
+    if suite.multi_node:
+        from ios_uav_env.benchmark.multi import score_multi_trajectories
+
+        return score_multi_trajectories(trajectories, suite, scenarios, seconds, shares, name)
     aggregate = Aggregate.of(rows, scenarios)
     return Results(name, suite.name, suite.sha256, suite.env_id, {}, tuple(rows), aggregate)

@@ -14,6 +14,16 @@ Each scenario holds its full ``ScenarioConfig`` and its reference values, rates 
 - ``sca``: the paper's SCA plan (``rate``, ``feasible``, ``seconds``: its wall time to plan);
 - ``hover_peak`` / ``hover_ground``: ``ios_uav_env.policies.HoverAt("peak")`` /
   ``HoverAt("ground")`` rolled out in the suite's env (``rate``, ``feasible``).
+
+A multi-node suite (``"kind": "multi-node"``, e.g. ``multi-node-v1``; frozen by
+:mod:`~ios_uav_env.benchmark.freeze_multi`) holds, per scenario, max-min rates
+(``ios_uav_env.maxmin_rate``, bps/Hz) of :data:`MULTI_REFERENCES`:
+
+- ``sca``: the SCA plan inside BCD (``baselines.sca.solve``, K > 1), the normaliser
+  (``rate``, ``feasible``, ``seconds``);
+- ``tour``: the tour heuristic (``baselines.tour.solve``: ``rate``, ``feasible``, ``seconds``);
+- ``bound``: the certified upper bound (``baselines.dp_bound.solve_multinode``:
+  ``upper_bound``, ``resolution``, and the DP-bound plan's ``plan_rate``).
 """
 
 from __future__ import annotations
@@ -32,6 +42,9 @@ FORMAT = "ios_uav_env benchmark suite"
 SUITE_DIR = Path(__file__).resolve().parent / "suites"
 #: Reference values every scenario of a single-node suite holds.
 REFERENCES = ("dp", "sca", "hover_peak", "hover_ground")
+#: Reference values every scenario of a multi-node suite holds.
+MULTI_REFERENCES = ("sca", "tour", "bound")
+SINGLE_NODE, MULTI_NODE = "single-node", "multi-node"
 
 
 @dataclass(frozen=True)
@@ -47,6 +60,9 @@ SUITES: dict[str, RegisteredSuite] = {
     "single-node-v1": RegisteredSuite(
         "single-node-v1.json", "9706ed92525a331800c09efba281aa265393308eab700c62599761fd2df0ece3"
     ),
+    "multi-node-v1": RegisteredSuite(
+        "multi-node-v1.json", "7d30ec3c73ac4f8d82c7256f3e8cb274e3a3872dfba1c81c941ccaf164ab2f98"
+    ),
 }
 DEFAULT_SUITE = "single-node-v1"
 
@@ -60,8 +76,13 @@ class SuiteScenario:
     reference: Mapping[str, Mapping[str, Any]]
 
     def rate(self, reference: str) -> float:
-        """The rate (bps/Hz) of ``reference`` (one of :data:`REFERENCES`) on this scenario."""
-        return float(self.reference[reference]["rate"])
+        """The rate (bps/Hz) of ``reference`` (one of the suite's references) on this scenario;
+        for a multi-node suite's ``"bound"``, the certified upper bound."""
+        if reference not in self.reference:
+            raise KeyError(
+                f"scenario {self.index} has no reference {reference!r}; it has {sorted(self.reference)}"
+            )
+        return float(self.reference[reference]["upper_bound" if reference == "bound" else "rate"])
 
     @property
     def dp_rate(self) -> float:
@@ -85,6 +106,12 @@ class Suite:
     scenarios: tuple[SuiteScenario, ...]
     sha256: str
     path: Path
+    kind: str = SINGLE_NODE  # "single-node" (eq. (9), % of DP) or "multi-node" (max-min, % of SCA)
+    references: tuple[str, ...] = REFERENCES
+
+    @property
+    def multi_node(self) -> bool:
+        return self.kind == MULTI_NODE
 
     def __len__(self) -> int:
         return len(self.scenarios)
@@ -163,6 +190,8 @@ def load_suite(suite: str | Path = DEFAULT_SUITE) -> Suite:
         scenarios=tuple(scenarios),
         sha256=digest,
         path=path,
+        kind=str(data.get("kind", SINGLE_NODE)),
+        references=tuple(data["references"]),
     )
 
 

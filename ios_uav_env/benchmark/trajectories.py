@@ -5,6 +5,11 @@
 - ``.csv``: a header with the columns ``scenario,slot,x,y`` (slot 0 .. N-1 per scenario, in any
   row order) and optionally ``seconds`` (the scenario's time to plan, on each of its rows).
 
+Plans of a multi-node suite may carry their TDMA shares (K, N): ``shares_<index>`` arrays in
+``.npz``; columns ``share_0``, ``share_1``, ... in CSV (node k's share in the slot, empty beyond
+the scenario's K). :func:`read_plans` returns them; without them a plan is scored with its
+trajectory's best schedule.
+
 :func:`read_trajectories` checks the file's layout (clear ``ValueError`` naming the scenario or
 the line); :func:`~ios_uav_env.benchmark.scoring.score_trajectories` checks each trajectory
 against its scenario.
@@ -25,11 +30,19 @@ import numpy as np
 from ios_uav_env.io import atomic_write_bytes, atomic_write_text
 
 CSV_COLUMNS = ("scenario", "slot", "x", "y")
-_NPZ_KEY = re.compile(r"(scenario|seconds)_(\d+)")
+_NPZ_KEY = re.compile(r"(scenario|seconds|shares)_(\d+)")
+_SHARE_COLUMN = re.compile(r"share_(\d+)")
+Plans = tuple[dict[int, np.ndarray], dict[int, float], dict[int, np.ndarray]]
 
 
 def read_trajectories(path: str | Path) -> tuple[dict[int, np.ndarray], dict[int, float]]:
     """The trajectories of ``path`` by scenario index, and the plan times it gives."""
+    trajectories, seconds, _ = read_plans(path)
+    return trajectories, seconds
+
+
+def read_plans(path: str | Path) -> Plans:
+    """The trajectories, plan times and shares (multi-node plans; empty if none) of ``path``."""
     path = Path(path)
     if path.suffix == ".npz":
         return _read_npz(path)
@@ -38,17 +51,24 @@ def read_trajectories(path: str | Path) -> tuple[dict[int, np.ndarray], dict[int
     raise ValueError(f"{path}: a trajectories file must be .npz or .csv")
 
 
-def _read_npz(path: Path) -> tuple[dict[int, np.ndarray], dict[int, float]]:
+def _read_npz(path: Path) -> Plans:
     trajectories: dict[int, np.ndarray] = {}
     seconds: dict[int, float] = {}
+    shares: dict[int, np.ndarray] = {}
     with np.load(path, allow_pickle=False) as data:
         for key in data.files:
             match = _NPZ_KEY.fullmatch(key)
             if match is None:
-                expected = "scenario_<index> or seconds_<index>"
+                expected = "scenario_<index>, seconds_<index> or shares_<index>"
                 raise ValueError(f"{path}: unknown array {key!r}; expected {expected}")
             index, array = int(match.group(2)), np.asarray(data[key])
-            if match.group(1) == "seconds":
+            if match.group(1) == "shares":
+                if array.ndim != 2:
+                    raise ValueError(
+                        f"{path}: scenario {index}: {key} must have shape (K, N), got {array.shape}"
+                    )
+                shares[index] = array.astype(np.float64)
+            elif match.group(1) == "seconds":
                 if array.size != 1:
                     raise ValueError(f"{path}: {key} must be a scalar (seconds), got shape {array.shape}")
                 seconds[index] = float(array.reshape(()))
@@ -57,29 +77,36 @@ def _read_npz(path: Path) -> tuple[dict[int, np.ndarray], dict[int, float]]:
                     shape = array.shape
                     raise ValueError(f"{path}: scenario {index}: {key} must have shape (N, 2), got {shape}")
                 trajectories[index] = array.astype(np.float64)
-    return trajectories, seconds
+    return trajectories, seconds, shares
 
 
-def _read_csv(path: Path) -> tuple[dict[int, np.ndarray], dict[int, float]]:
+def _read_csv(path: Path) -> Plans:
     with path.open(newline="", encoding="utf-8") as fh:
         reader = csv.DictReader(fh)
         columns = reader.fieldnames or []
         if not set(CSV_COLUMNS) <= set(columns):
             need = ",".join(CSV_COLUMNS)
             raise ValueError(f"{path}: the header must have the columns {need}, got {columns}")
+        share_columns = sorted((c for c in columns if _SHARE_COLUMN.fullmatch(c)), key=lambda c: int(c[6:]))
+        if [int(c[6:]) for c in share_columns] != list(range(len(share_columns))):
+            raise ValueError(f"{path}: the share columns must be share_0, share_1, ...; got {share_columns}")
         points: dict[int, dict[int, tuple[float, float]]] = {}
+        slot_shares: dict[int, dict[int, list[float]]] = {}
         seconds: dict[int, float] = {}
         for line, row in enumerate(reader, start=2):
             try:
                 index, slot = int(row["scenario"]), int(row["slot"])
                 point = (float(row["x"]), float(row["y"]))
+                given = [float(row[c]) for c in share_columns if row.get(c) not in (None, "")]
             except (TypeError, ValueError) as err:
-                what = "scenario and slot must be integers, x and y numbers"
+                what = "scenario and slot must be integers, x, y and the shares numbers"
                 raise ValueError(f"{path}:{line}: {what}") from err
             slots = points.setdefault(index, {})
             if slot in slots:
                 raise ValueError(f"{path}:{line}: scenario {index}: slot {slot} appears twice")
             slots[slot] = point
+            if given:
+                slot_shares.setdefault(index, {})[slot] = given
             if row.get("seconds") not in (None, ""):
                 seconds[index] = float(row["seconds"])
     trajectories = {}
@@ -88,31 +115,50 @@ def _read_csv(path: Path) -> tuple[dict[int, np.ndarray], dict[int, float]]:
             gaps = sorted(set(range(max(slots) + 1)) - set(slots))[:5]
             raise ValueError(f"{path}: scenario {index}: slots must be 0..N-1 without gaps; missing {gaps}")
         trajectories[index] = np.array([slots[k] for k in range(len(slots))], dtype=np.float64)
-    return trajectories, seconds
+    shares = {}
+    for index, by_slot in slot_shares.items():
+        if sorted(by_slot) != sorted(points[index]) or len({len(v) for v in by_slot.values()}) != 1:
+            raise ValueError(
+                f"{path}: scenario {index}: every slot needs its K shares (share_0 .. share_<K-1>)"
+            )
+        shares[index] = np.array([by_slot[k] for k in range(len(by_slot))], dtype=np.float64).T
+    return trajectories, seconds, shares
 
 
 def write_trajectories(
-    path: str | Path, trajectories: Mapping[int, Any], seconds: Mapping[int, float] | None = None
+    path: str | Path,
+    trajectories: Mapping[int, Any],
+    seconds: Mapping[int, float] | None = None,
+    shares: Mapping[int, Any] | None = None,
+    *,
+    compressed: bool = False,
 ) -> Path:
-    """Write ``{index: (N, 2) trajectory}`` (and plan times) as ``.npz`` or ``.csv``, atomically."""
+    """Write ``{index: (N, 2) trajectory}`` (and plan times, and multi-node shares ``{index: (K, N)}``)
+    as ``.npz`` (``compressed``: ``np.savez_compressed``) or ``.csv``, atomically."""
     path = Path(path)
     seconds = dict(seconds or {})
+    shares = {int(i): np.asarray(a, dtype=np.float64) for i, a in (shares or {}).items()}
     if path.suffix == ".npz":
         arrays: dict[str, np.ndarray] = {
             f"scenario_{int(i)}": np.asarray(q, dtype=np.float64) for i, q in trajectories.items()
         }
         arrays.update({f"seconds_{int(i)}": np.asarray(float(t)) for i, t in seconds.items()})
+        arrays.update({f"shares_{i}": a for i, a in shares.items()})
         buf = io.BytesIO()
-        np.savez(buf, **arrays)
+        (np.savez_compressed if compressed else np.savez)(buf, **arrays)
         return atomic_write_bytes(path, buf.getvalue())
     if path.suffix == ".csv":
         buf_text = io.StringIO()
         writer = csv.writer(buf_text, lineterminator="\n")
-        writer.writerow([*CSV_COLUMNS, "seconds"])
+        k_max = max((a.shape[0] for a in shares.values()), default=0)
+        writer.writerow([*CSV_COLUMNS, "seconds", *(f"share_{k}" for k in range(k_max))])
         for i, q in trajectories.items():
             t = seconds.get(i, math.nan)
             text = "" if math.isnan(t) else repr(float(t))
+            a = shares.get(int(i))
             for slot, (x, y) in enumerate(np.asarray(q, dtype=np.float64)):
-                writer.writerow([int(i), slot, repr(float(x)), repr(float(y)), text])
+                cells = [] if a is None else [repr(float(v)) for v in a[:, slot]]
+                cells += [""] * (k_max - len(cells))
+                writer.writerow([int(i), slot, repr(float(x)), repr(float(y)), text, *cells])
         return atomic_write_text(path, buf_text.getvalue())
     raise ValueError(f"{path}: a trajectories file must be .npz or .csv")

@@ -1,8 +1,10 @@
 """docs/leaderboard.md: every row of a suite's table reproduces from the command in its row.
 
 Each command (``python -m ios_uav_env.benchmark ...``) runs in this process. The scores it prints
-(mean, 10th percentile and minimum % of DP, mean % of SCA) must equal the row's to two decimals,
-and its feasible count must equal the row's. Plan times depend on the machine and are not compared.
+(single-node: mean, 10th percentile and minimum % of DP, mean % of SCA; multi-node: mean, 10th
+percentile and minimum % of SCA, mean % of the bound, the best schedule's mean % of SCA) must equal
+the row's to two decimals, and its feasible count must equal the row's. Plan times depend on the
+machine and are not compared.
 Rows that load an SB3 agent need the ``rl`` extra (skipped without it, a failure under CI).
 """
 
@@ -26,6 +28,13 @@ SUMMARY = re.compile(
     r"% of SCA mean (?P<sca>-?[\d.]+) \| p10 -?[\d.]+ \| min -?[\d.]+; feasible (?P<feasible>\d+/\d+)"
 )
 COLUMNS = {"mean % of DP": "mean", "p10": "p10", "min": "min", "mean % of SCA": "sca", "feasible": "feasible"}
+MULTI_SUMMARY = re.compile(
+    r"% of SCA mean (?P<mean>-?[\d.]+) \| p10 (?P<p10>-?[\d.]+) \| min (?P<min>-?[\d.]+); "
+    r"% of bound mean (?P<bound>-?[\d.]+) \| p10 -?[\d.]+ \| min -?[\d.]+; "
+    r"best schedule % of SCA mean (?P<best>-?[\d.]+); feasible (?P<feasible>\d+/\d+)"
+)
+MULTI_COLUMNS = {"mean % of SCA": "mean", "p10": "p10", "min": "min", "mean % of bound": "bound",
+                 "best schedule % of SCA": "best", "feasible": "feasible"}  # fmt: skip
 
 
 def _rows(suite: str = "single-node-v1") -> list[dict[str, str]]:
@@ -41,6 +50,11 @@ def _rows(suite: str = "single-node-v1") -> list[dict[str, str]]:
 
 
 ROWS = _rows()
+MULTI_ROWS = _rows("multi-node-v1")
+#: Every row to run: (summary pattern, columns, row) of both suites.
+ALL_ROWS = [(SUMMARY, COLUMNS, row) for row in ROWS] + [
+    (MULTI_SUMMARY, MULTI_COLUMNS, row) for row in MULTI_ROWS
+]
 
 
 def test_the_table_has_the_shipped_policies_and_the_references():
@@ -52,8 +66,20 @@ def test_the_table_has_the_shipped_policies_and_the_references():
     assert means == sorted(means, reverse=True), "rows must be in order of mean % of DP"
 
 
-@pytest.mark.parametrize("row", ROWS, ids=[row["#"] for row in ROWS])
-def test_a_row_reproduces_from_its_command(row, capsys):
+def test_the_multi_node_table_has_the_references_and_the_baselines():
+    policies = " ".join(row["policy"] for row in MULTI_ROWS)
+    for name in ("upper bound", "SCA", "tour heuristic", "fly straight"):
+        assert name in policies, name
+    means = [float(row["mean % of SCA"]) for row in MULTI_ROWS]
+    assert means == sorted(means, reverse=True), "rows must be in order of mean % of SCA"
+    assert all("--suite multi-node-v1" in row["command"] for row in MULTI_ROWS)
+
+
+@pytest.mark.parametrize(
+    "pattern, columns, row", ALL_ROWS, ids=[f"{'multi' if c is MULTI_COLUMNS else 'single'}-{r['#']}"
+                                            for _, c, r in ALL_ROWS]
+)  # fmt: skip
+def test_a_row_reproduces_from_its_command(pattern, columns, row, capsys):
     command = row["command"].strip("`")
     words = shlex.split(command)
     assert words[:3] == PREFIX, command
@@ -61,8 +87,8 @@ def test_a_row_reproduces_from_its_command(row, capsys):
         message = "the row loads an SB3 agent: pip install -e '.[rl]'"
         pytest.fail(message) if os.environ.get("CI") else pytest.skip(message)
     assert main(words[3:]) == 0
-    match = SUMMARY.search(capsys.readouterr().out)
+    match = pattern.search(capsys.readouterr().out)
     assert match, command
     printed = match.groupdict()
-    table = {key: row[column] for column, key in COLUMNS.items()}
+    table = {key: row[column] for column, key in columns.items()}
     assert printed == table, f"{command}: the table says {table}, the command prints {printed}"

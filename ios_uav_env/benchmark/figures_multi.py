@@ -1,0 +1,95 @@
+"""Figures of a multi-node result (matplotlib, ``ios-uav-env[render]``): the histogram of % of SCA,
+and for a few scenarios the trajectory coloured by the node served (over the best-node rate map)
+above each node's share against the slot (a stacked plot).
+
+:func:`shares_panels` draws one scenario's pair of panels for any plan, so the agents' reports
+(``agents.evaluate``, ``agents.suite report``) draw the same figure.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from ios_uav_env.config import ScenarioConfig
+from ios_uav_env.io import save_figure
+
+
+def _figure(size: tuple[float, float]) -> Any:
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from matplotlib.figure import Figure
+
+    fig = Figure(figsize=size, dpi=100)
+    FigureCanvasAgg(fig)
+    return fig
+
+
+def shares_panels(
+    map_ax: Any, share_ax: Any, config: ScenarioConfig, trajectory: np.ndarray, shares: np.ndarray, title: str
+) -> None:
+    """The trajectory coloured by the served node over the best-node rate map (``map_ax``) and the
+    shares (K, N) stacked against the slot (``share_ax``)."""
+    from ios_uav_env.rendering_multi import NODE_COLORS, plot_multinode_map, plot_served_trajectories
+
+    a = np.asarray(shares, dtype=float)
+    plot_multinode_map(map_ax, config, resolution=(120, 60))
+    plot_served_trajectories(map_ax, config, {"plan": trajectory}, {"plan": a})
+    map_ax.set_title(title, fontsize=9)
+    slots = np.arange(1, a.shape[1] + 1)
+    colors = [NODE_COLORS[k % len(NODE_COLORS)] for k in range(a.shape[0])]
+    share_ax.stackplot(slots, a, colors=colors, labels=[f"G{k + 1}" for k in range(a.shape[0])],
+                       edgecolor="k", linewidth=0.2)  # fmt: skip
+    share_ax.set_xlim(1, a.shape[1])
+    share_ax.set_ylim(0, 1)
+    share_ax.set_xlabel("slot n")
+    share_ax.set_ylabel("share alpha_k[n]")
+    share_ax.legend(loc="upper right", fontsize=7, ncol=a.shape[0], framealpha=0.7)
+
+
+def save_histogram(results: Any, path: str | Path) -> Path:
+    """Histogram of % of SCA over the scenarios: the plan's own shares and its best schedule."""
+    fig = _figure((7, 4))
+    ax = fig.add_subplot()
+    own = [r.pct_sca for r in results.scenarios]
+    best = [r.best_pct_sca for r in results.scenarios]
+    bins = np.linspace(min(min(own), 90.0), max(max(best), 101.0), 30)
+    ax.hist(own, bins=bins, alpha=0.75, label="own shares")
+    ax.hist(best, bins=bins, alpha=0.5, label="best schedule of the trajectory")
+    ax.axvline(100.0, color="k", lw=0.8, ls="--")
+    ax.set_xlabel("% of SCA (max-min rate)")
+    ax.set_ylabel("scenarios")
+    ax.legend(fontsize=8)
+    ax.set_title(f"{results.name} on {results.suite}: mean {results.aggregate.mean_pct_sca:.2f}%", fontsize=9)
+    fig.tight_layout()
+    return save_figure(fig, path)
+
+
+def picks(values: Sequence[float], count: int = 3) -> list[int]:
+    """Positions of ``count`` scenarios from the worst to the best value (worst, middle, best)."""
+    order = np.argsort(values, kind="stable")
+    return [int(order[round(q * (len(order) - 1))]) for q in np.linspace(0, 1, min(count, len(order)))]
+
+
+def save_shares_figure(results: Any, path: str | Path, count: int = 3) -> Path:
+    """For ``count`` scenarios (worst, middle, best % of SCA): the served-node trajectory over the
+    rate map above each node's share against the slot (the plan's own shares, else its best schedule)."""
+    from ios_uav_env.multinode import best_schedule
+
+    rows = [r for r in results.scenarios if r.trajectory is not None and r.config is not None]
+    if not rows:
+        raise ValueError("no result holds a trajectory")
+    chosen = [rows[i] for i in dict.fromkeys(picks([r.pct_sca for r in rows], count))]
+    fig = _figure((5.2 * len(chosen), 6.2))
+    for col, r in enumerate(chosen):
+        config = r.config
+        map_ax = fig.add_subplot(2, len(chosen), col + 1)
+        share_ax = fig.add_subplot(2, len(chosen), len(chosen) + col + 1)
+        title = (f"#{r.index}, K={r.K}, {config.surface.upper()}, T={config.T:g} s: min rate {r.rate:.3f} "
+                 f"({r.pct_sca:.1f}% of SCA)")  # fmt: skip
+        shares = best_schedule(config, r.trajectory) if r.shares is None else r.shares  # best: no own shares
+        shares_panels(map_ax, share_ax, config, r.trajectory, shares, title)
+    fig.tight_layout()
+    return save_figure(fig, path)
