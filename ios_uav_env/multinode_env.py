@@ -23,6 +23,7 @@ from ios_uav_env.channel import rate_kernel
 from ios_uav_env.config import FEASIBILITY_TOL, ScenarioConfig, as_config, scenario_option
 from ios_uav_env.guard import guarded_position
 from ios_uav_env.multinode import maxmin_rate
+from ios_uav_env.multinode_kernels import soft_minimum
 from ios_uav_env.observation import M_SCALE, T_SCALE, ground_free_rate_bound, length_bounds, pad
 from ios_uav_env.options import EnvOptions, split_kwargs
 from ios_uav_env.peak import rate_peak
@@ -55,10 +56,8 @@ def rate_potential(rates: np.ndarray, beta: float = 0.0) -> float:
     """The potential of the rate term: min_k R_k for ``beta`` = 0, else the soft minimum
     -(1/beta) log((1/K) sum_k exp(-beta R_k)), which lies in [min_k R_k, min_k R_k + log(K) /
     beta] and equals the minimum when every R_k is the same."""
-    low = float(np.min(rates))
-    if beta == 0.0:
-        return low
-    return low - math.log(float(np.mean(np.exp(-beta * (np.asarray(rates) - low))))) / beta
+    values = np.asarray(rates, dtype=np.float64)
+    return soft_minimum(values, values.size, 1.0, float(beta))
 
 
 def sample_multinode(
@@ -380,7 +379,7 @@ class MultiNodeEnv(gym.Env):
         rates = self._rates(x, y)
         self._served = self._served + shares * rates
         self._min = float(self._served.min()) / cfg.N
-        previous, self._phi = self._phi, rate_potential(self._served / cfg.N, self.softmin_beta)
+        previous, self._phi = self._phi, soft_minimum(self._served, cfg.K, float(cfg.N), self.softmin_beta)
         dist = math.hypot(cfg.qF[0] - x, cfg.qF[1] - y)
         reach = max(0.0, dist - left * cfg.D - FEASIBILITY_TOL) / cfg.D
         r_reach = -self.options.reach_weight * reach if reach else 0.0

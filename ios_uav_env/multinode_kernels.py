@@ -1,8 +1,9 @@
 """The multi-node env's transition as array kernels over B rows (``MultiNodeVectorEnv``).
 
 Row i of a few arrays is episode i of ``MultiNodeEnv``: ``state`` (:data:`STATE`), ``episode``
-(:data:`EPISODE`: the scenario's constants), ``points`` (B, K_max, 3: each node's x, y and its
-side of the IOS), ``served`` (B, K_max: S_k) and, per node, the arrays of its rate kernel
+(:data:`EPISODE`: the scenario's constants), ``points`` (B, K_max, 6: each node's x, y, its
+side of the IOS and, with ``peak_hint``, its reachable rate peak x, y and rate), ``served``
+(B, K_max: S_k) and, per node, the arrays of its rate kernel
 (``ios_uav_env.channel.RateKernel`` of ``config.node_config(k)``: ``nodes`` (B, K_max, 3, Q),
 ``params`` (B, K_max, P)). :func:`reset_rows` and :func:`step_rows` write the observations,
 rewards and the ``info`` table (:func:`info_columns`) of the rows they touch, with the single
@@ -25,12 +26,14 @@ from ios_uav_env.jit import jit
 from ios_uav_env.observation import M_SCALE, T_SCALE
 
 #: Columns of a row of ``state`` (``moves_made`` at column 2, as in ``dynamics.STATE``).
-STATE = ("x", "y", "moves_made", "excess", "min_rate")
+STATE = ("x", "y", "moves_made", "excess", "min_rate", "potential")
 #: Columns of a row of ``episode``.
 EPISODE = (
     "D", "qfx", "qfy", "moves", "inv_l", "N", "cx", "cy", "K", "sharpness", "elements", "is_ios",
-    "is_ris", "horizon",
+    "is_ris", "horizon", "softmin_beta", "peak_hint",
 )  # fmt: skip
+#: Columns of a row of ``points`` (per node).
+POINT = ("x", "y", "side", "peak_x", "peak_y", "peak_rate")
 #: The scalar columns of the ``info`` table; then ``shares`` (K_max), then ``node_rates`` (K_max).
 INFO = (
     "position_x", "position_y", "slot", "distance_to_final", "min_rate", "best_schedule_rate",
@@ -45,20 +48,47 @@ def info_columns(max_nodes: int) -> int:
     return len(INFO) + 2 * max_nodes
 
 
-def episode_row(config: ScenarioConfig, length_scale: float, sharpness: float) -> np.ndarray:
+def episode_row(
+    config: ScenarioConfig,
+    length_scale: float,
+    sharpness: float,
+    softmin_beta: float = 0.0,
+    peak_hint: bool = False,
+) -> np.ndarray:
     """The ``episode`` row of ``config`` (see :data:`EPISODE`)."""
     (fx, fy), (cx, cy) = config.qF, config.ios_center[:2]
     elements = config.M / M_SCALE if config.surface != "none" else 0.0
     kind = float(config.surface == "ios"), float(config.surface == "ris")
     row = [config.D, fx, fy, config.N - 1, 1.0 / length_scale, config.N, cx, cy, config.K, sharpness,
-           elements, *kind, config.T / T_SCALE]  # fmt: skip
+           elements, *kind, config.T / T_SCALE, softmin_beta, float(peak_hint)]  # fmt: skip
     return np.array(row, dtype=np.float64)
 
 
-def node_points(config: ScenarioConfig) -> np.ndarray:
-    """The (K, 3) ``points`` of ``config``: each node's x, y and side of the IOS (+1 at x > x_c)."""
+def node_points(config: ScenarioConfig, peaks: list[tuple[float, float, float]] | None = None) -> np.ndarray:
+    """The (K, 6) ``points`` of ``config`` (:data:`POINT`): each node's x, y, side of the IOS
+    (+1 at x > x_c) and its rate peak (``peaks``, the single env's ``peak_hint``; 0 without)."""
     cx = config.ios_center[0]
-    return np.array([(wx, wy, 1.0 if wx > cx else -1.0) for wx, wy in config.nodes], dtype=np.float64)
+    peaks = peaks or [(0.0, 0.0, 0.0)] * config.K
+    rows = [
+        (wx, wy, 1.0 if wx > cx else -1.0, *peak) for (wx, wy), peak in zip(config.nodes, peaks, strict=True)
+    ]
+    return np.array(rows, dtype=np.float64)
+
+
+@jit(fastmath=False)
+def soft_minimum(served: np.ndarray, k_n: int, n_slots: float, beta: float) -> float:
+    """The potential of the rate term (``multinode_env.rate_potential``) of the served rates
+    v_k = ``served[k]`` / ``n_slots`` of the first ``k_n`` nodes: min_k v_k for ``beta`` = 0,
+    else -(1/beta) log((1/K) sum_k exp(-beta v_k)), computed from the minimum."""
+    low = math.inf
+    for k in range(k_n):
+        low = min(low, served[k] / n_slots)
+    if beta == 0.0:
+        return low
+    total = 0.0
+    for k in range(k_n):
+        total += math.exp(-beta * (served[k] / n_slots - low))
+    return low - math.log(total / k_n) / beta
 
 
 @jit(inline=True, fastmath=False)
@@ -76,6 +106,7 @@ def _observe(obs: np.ndarray, i: int, x: float, y: float, left: float, dist: flo
     """Write observation row ``i`` (the layout of ``MultiNodeEnv``'s docstring)."""
     ep, o = episode[i], obs[i]
     inv_l, n_slots, k_n = ep[4], ep[5], int(ep[8])
+    width = 9 if ep[15] != 0.0 else 6
     s = left - dist / ep[0]
     o[0], o[1], o[2], o[3] = x * inv_l, y * inv_l, (ep[1] - x) * inv_l, (ep[2] - y) * inv_l
     o[4], o[5], o[6], o[7] = (
@@ -86,12 +117,15 @@ def _observe(obs: np.ndarray, i: int, x: float, y: float, left: float, dist: flo
     )
     o[8], o[9], o[10], o[11] = ep[10], ep[11], ep[12], ep[13]
     for k in range(points.shape[1]):
-        j = 12 + 6 * k
+        j = 12 + width * k
         if k < k_n:
             o[j], o[j + 1], o[j + 2] = 1.0, (points[i, k, 0] - x) * inv_l, (points[i, k, 1] - y) * inv_l
             o[j + 3], o[j + 4], o[j + 5] = points[i, k, 2], served[i, k] / n_slots, rates[i, k]
+            if width == 9:
+                o[j + 6], o[j + 7] = (points[i, k, 3] - x) * inv_l, (points[i, k, 4] - y) * inv_l
+                o[j + 8] = points[i, k, 5]
         else:
-            for c in range(6):
+            for c in range(width):
                 o[j + c] = 0.0
 
 
@@ -131,7 +165,7 @@ def reset_rows(
             served[i, k] = shares[i, k] * rates[i, k]
             share_path[i, 0, k] = shares[i, k]
             low = min(low, served[i, k])
-        st[2], st[3], st[4] = 0.0, 0.0, low / ep[5]
+        st[2], st[3], st[4], st[5] = 0.0, 0.0, low / ep[5], 0.0  # potential before slot 1: 0
         dist = math.hypot(ep[1] - x, ep[2] - y)
         _observe(obs, i, x, y, ep[3], dist, episode, points, served, rates)
         _info(info, i, state, episode, shares, served, dist, ep[3], 0.0, 0.0, 0.0)
@@ -188,8 +222,8 @@ def _step_rows(
             served[i, k] = served[i, k] + shares[i, k] * rates[i, k]
             share_path[i, int(n) + 1, k] = shares[i, k]
             low = min(low, served[i, k])
-        previous = st[4] if n > 0.0 else 0.0
         st[4] = low / n_slots
+        previous, st[5] = st[5], soft_minimum(served[i], k_n, n_slots, ep[14])
         dist = math.hypot(ep[1] - x, ep[2] - y)
         reach = max(0.0, dist - left * d - FEASIBILITY_TOL) / d
         r_reach = -flags[4] * reach if reach > 0.0 else 0.0
@@ -199,7 +233,9 @@ def _step_rows(
             miss = max(0.0, dist - FEASIBILITY_TOL) / d
             if miss > 0.0:
                 r_terminal = -flags[5] * (miss + math.sqrt(miss))
-        r_rate = n_slots * (st[4] - previous)
+        r_rate = n_slots * (st[5] - previous)
+        if done and ep[14] != 0.0:
+            r_rate += n_slots * (st[4] - st[5])
         reward[i] = r_rate + r_reach + r_terminal
         terminated[i] = done
         _observe(obs, i, x, y, left, dist, episode, points, served, rates)

@@ -38,6 +38,7 @@ from ios_uav_env.multinode_kernels import (
     BEST,
     EPISODE,
     INFO,
+    POINT,
     STATE,
     episode_row,
     info_columns,
@@ -104,7 +105,7 @@ class MultiNodeVectorEnv(gym.vector.VectorEnv):
         self.max_nodes, self._flags = k, flags_of(template.options)
         self._length_scale, self._sharpness = template.options.length_scale, template.share_sharpness
         self._state, self._episode = np.zeros((b, len(STATE))), np.zeros((b, len(EPISODE)))
-        self._points, self._served = np.zeros((b, k, 3)), np.zeros((b, k))
+        self._points, self._served = np.zeros((b, k, len(POINT))), np.zeros((b, k))
         self._shares, self._rates = np.zeros((b, k)), np.zeros((b, k))
         self._nodes = np.zeros((b, k, 3, 1))
         self._params = np.zeros((b, k, len(PARAMS)))
@@ -145,8 +146,12 @@ class MultiNodeVectorEnv(gym.vector.VectorEnv):
                 self._nodes[i, k, :, :q] = kn.nodes
                 self._nodes[i, k, :, q:] = ((0.0,), (1.0,), (0.0,))
                 self._params[i, k] = kn.params
-            self._points[i, : cfg.K] = node_points(cfg)
-            self._episode[i] = episode_row(cfg, self._length_scale, self._sharpness)
+            env = self.envs[i]
+            peaks = env._node_peaks(cfg) if env.options.peak_hint else None
+            self._points[i, : cfg.K] = node_points(cfg, peaks)
+            self._episode[i] = episode_row(
+                cfg, self._length_scale, self._sharpness, env.softmin_beta, env.options.peak_hint
+            )
             self._loaded[i] = cfg
         self._state[i, 0:2] = self._path[i, 0] = cfg.q0
 

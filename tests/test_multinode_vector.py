@@ -31,12 +31,14 @@ def make_vec(env_id: str, num_envs: int, **kwargs) -> MultiNodeVectorEnv:
     return gym.make_vec(env_id, num_envs=num_envs, vectorization_mode="vector_entry_point", **kwargs)
 
 
-def replay_gap(env_id: str, mode: str, steps: int = 130, n: int = 3, seed: int = 7) -> float:
+def replay_gap(
+    env_id: str, mode: str, steps: int = 130, n: int = 3, seed: int = 7, extra: dict | None = None
+) -> float:
     """Step the batched env and Gymnasium's SyncVectorEnv of n single envs with the same seeds and
     random actions; return the largest difference of observations, rewards and every info
     value (final ones included). Asserts equal flags, dtypes and shapes, and the trajectories
     and shares of every finished episode."""
-    kwargs = KWARGS[env_id]
+    kwargs = {**KWARGS[env_id], **(extra or {})}
     sync_mode = AutoresetMode.SAME_STEP if mode == "same_step" else AutoresetMode.NEXT_STEP
     vec = make_vec(env_id, n, autoreset_mode=mode, **kwargs)
     ref = gym.make_vec(
@@ -107,6 +109,12 @@ def test_make_vec_gives_the_batched_env_for_both_ids(env_id):
 @pytest.mark.parametrize("env_id", [FIXED, RANDOM])
 def test_batch_equals_single_envs_across_episode_ends(env_id, mode):
     assert replay_gap(env_id, mode) <= 1e-9
+
+
+@pytest.mark.parametrize("env_id", [FIXED, RANDOM])
+def test_batch_equals_single_envs_with_shaping_and_peak_hint(env_id):
+    extra = {"softmin_beta": 20.0, "peak_hint": True}
+    assert replay_gap(env_id, "same_step", extra=extra) <= 1e-9
 
 
 def test_parity_without_numba(tmp_path):
