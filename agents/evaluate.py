@@ -9,6 +9,12 @@ the same fading draws) and the mean and standard deviation of its faded average 
 
     python -m agents.evaluate --shipped                     # shipped agents vs planners (make demo)
     python -m agents.evaluate runs/<run> agents/models/ppo_IOSUAV-v0 --scenario T:100
+    python -m agents.evaluate runs/<multi-node run>     # vs SCA, tour and the bound (agents.evaluate_multi)
+
+Models trained on a multi-node id (``ios_uav_env/IOSUAV-MultiNode-v0`` or ``-Random-v0``) are
+compared on the 3-node scenario (``--scenario`` fields applied to it) by
+:mod:`agents.evaluate_multi`: their own min rate, the best schedule of their trajectory, SCA,
+the tour heuristic and the certified bound (cached), and the shares figure.
 """
 
 from __future__ import annotations
@@ -176,6 +182,17 @@ def main(argv: Sequence[str] | None = None) -> int:
         parser.error(f"argument models: {exc}")
     if args.shipped:
         agents += shipped_agents()
+    from agents.evaluate_multi import DEFAULT_MULTI, is_multinode
+    from agents.evaluate_multi import run as run_multi
+
+    multi = [a.name for a in agents if is_multinode(a)]
+    if multi:
+        if len(multi) < len(agents):
+            parser.error(
+                f"argument models: multi-node agents {multi} cannot share a table with single-node ones"
+            )
+        run_multi(agents, DEFAULT_MULTI.replace(**parse_env_kwargs(args.scenario)), args.out)
+        return 0
     rows = compare(agents, config, args.schemes, args.rician_seeds)
     table = markdown_table(rows)
     print(table)

@@ -14,6 +14,7 @@ grid, and an off-grid trajectory can beat it.
     python -m agents.suite report --model runs/<run> [--algo ppo|sac] [--n 60] [--out out/suite]
     python -m agents.suite report --model heuristic      # fly to G, hover, arrive (guard)
     python -m agents.suite report --model peak-heuristic # fly to the reachable rate peak instead
+    python -m agents.suite report --model runs/<multi-node run>  # on multi-node-v1 (agents.suite.multi)
 
 Writes ``suite_report.csv`` (one row per scenario), ``suite_report.md`` (the table and the
 summary), ``suite_trajectories.png`` (six scenarios, policy vs DP vs SCA over the rate map,
@@ -269,7 +270,14 @@ def save_histogram(rows: Sequence[SuiteRow], path: str | Path, name: str = "poli
 def run_report(
     policy: Any, suite: Suite, out: str | Path, n: int | None = None, progress: bool = True
 ) -> dict[str, Any]:
-    """Evaluate, print the table and the summary, write the CSV, markdown and figures to ``out``."""
+    """Evaluate, print the table and the summary, write the CSV, markdown and figures to ``out``.
+    A multi-node agent is scored on the multi-node suite instead (:mod:`agents.suite.multi`)."""
+    from agents.evaluate_multi import is_multinode
+
+    if is_multinode(policy):
+        from agents.suite.multi import multi_report
+
+        return multi_report(policy, out, n)
     out = Path(out)
     name = getattr(policy, "name", "policy")
     rows = evaluate_suite(policy, suite, n, progress=progress)

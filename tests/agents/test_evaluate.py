@@ -122,3 +122,72 @@ def test_cli_rejects_bad_input(capsys, argv, message):
 def test_row_defaults_are_missing_values():
     row = Row("x", "agent", 1.0, True, 0.0, 0.1, np.zeros((2, 2)), DEFAULT)
     assert np.isnan(row.pct_dp) and np.isnan(row.faded_mean)
+
+
+# --- multi-node agents (agents.evaluate_multi) ------------------------------------------------
+MULTI_ID = "ios_uav_env/IOSUAV-MultiNode-v0"
+#: A short 3-node scenario with a small surface: its planners (SCA, tour, bound) run in seconds.
+SMALL_MULTI = ["T:40", "ios_shape:(10,6)"]
+
+
+@pytest.fixture(scope="module")
+def multi_model(tmp_path_factory):
+    """An untrained PPO of the fixed 3-node id, saved as a model folder (model.zip + config.json)."""
+    import gymnasium as gym
+    from stable_baselines3 import PPO
+
+    folder = tmp_path_factory.mktemp("models") / "ppo_tiny_MultiNode-v0"
+    folder.mkdir()
+    PPO("MlpPolicy", gym.make(MULTI_ID), seed=0, device="cpu").save(folder / "model.zip")
+    config = {"algo": "ppo", "env_id": MULTI_ID, "env_kwargs": {}}
+    (folder / "config.json").write_text(json.dumps(config))
+    return folder
+
+
+def test_a_multinode_agent_is_compared_with_sca_tour_and_the_bound(
+    tmp_path, multi_model, capsys, monkeypatch
+):
+    import gymnasium as gym
+
+    from agents.evaluate_multi import DEFAULT_MULTI, REFERENCE_CACHE, compare_multi, fast_act
+    from ios_uav_env.multinode import maxmin_rate, scheduled_rates
+
+    monkeypatch.chdir(tmp_path)  # the reference cache is out/multinode-references under the cwd
+    assert main([str(multi_model), "--scenario", *SMALL_MULTI, "--out", "cmp"]) == 0
+    out = capsys.readouterr().out
+    for scheme in (
+        "| SCA (BCD) |",
+        "| tour heuristic |",
+        "| upper bound (2.5 m) |",
+        "| ppo_tiny_MultiNode-v0 |",
+    ):
+        assert scheme in out, scheme
+    rows = {r["scheme"]: r for r in csv.DictReader((tmp_path / "cmp" / "comparison.csv").open())}
+    sca, tour, bound = rows["SCA (BCD)"], rows["tour heuristic"], rows["upper bound (2.5 m)"]
+    agent = rows["ppo_tiny_MultiNode-v0"]
+    assert float(sca["pct_sca"]) == 100.0 and float(bound["pct_bound"]) == 100.0
+    assert float(tour["rate"]) <= float(sca["rate"]) <= float(bound["rate"])
+    assert float(agent["rate"]) <= float(agent["best_schedule_rate"]) <= float(bound["rate"])
+    assert agent["feasible"] == "True"
+    assert (tmp_path / "cmp" / "comparison.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    assert len(list(REFERENCE_CACHE.glob("*.json"))) == 1  # cached: the next call reads it
+    # the agent's own score is the env's min rate at the last step, and the scorer's
+    agent_obj = load_agent(multi_model)
+    config = DEFAULT_MULTI.replace(T=40.0, ios_shape=(10, 6))
+    (*_, row) = compare_multi([agent_obj], config)
+    env = gym.make(MULTI_ID, config=config)
+    obs, _ = env.reset(seed=0)
+    done, act = False, fast_act(agent_obj)  # the numpy export the comparison plans with
+    while not done:
+        obs, _, done, _, info = env.step(act(obs))
+    q, shares = env.unwrapped.trajectory, env.unwrapped.shares
+    np.testing.assert_array_equal(row.trajectory, q)
+    assert row.rate == pytest.approx(info["min_rate"], rel=1e-12)
+    assert row.rate == scheduled_rates(config, q, shares).min()
+    assert row.best_schedule_rate == maxmin_rate(config, q) == info["best_schedule_rate"]
+
+
+def test_multinode_and_single_node_agents_do_not_share_a_table(multi_model, capsys):
+    with pytest.raises(SystemExit):
+        main([str(multi_model), str(MODELS_DIR / SHIPPED[0])])
+    assert "cannot share a table" in capsys.readouterr().err

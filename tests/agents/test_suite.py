@@ -185,3 +185,30 @@ def test_shipped_generalist_reproduces_its_recorded_suite_rows(suite):
     for row, rec in zip(rows, recorded, strict=False):
         assert row.index == int(rec["index"]) and row.feasible
         assert row.rate == pytest.approx(float(rec["rate"]), rel=1e-9)
+
+
+# --- multi-node agents: scored on the benchmark's multi-node suite (agents.suite.multi) ---------
+@pytest.mark.parametrize(
+    "env_id", ["ios_uav_env/IOSUAV-MultiNode-Random-v0", "ios_uav_env/IOSUAV-MultiNode-v0"]
+)
+def test_a_multinode_model_is_reported_on_the_multinode_suite(tmp_path, env_id, capsys):
+    import gymnasium as gym
+    from stable_baselines3 import PPO
+
+    from ios_uav_env.benchmark import load_suite as load_benchmark
+
+    folder = tmp_path / "model"
+    folder.mkdir()
+    PPO("MlpPolicy", gym.make(env_id), seed=0, device="cpu").save(folder / "model.zip")
+    (folder / "config.json").write_text(json.dumps({"algo": "ppo", "env_id": env_id, "env_kwargs": {}}))
+    out = tmp_path / "report"
+    assert main(["report", "--model", str(folder), "--n", "6", "--out", str(out)]) == 0
+    printed = capsys.readouterr().out
+    suite = load_benchmark("multi-node-v1").subset(6)
+    fits = [s.index for s in suite if env_id.endswith("Random-v0") or s.config.K <= 3]
+    assert len(fits) < 6 or env_id.endswith("Random-v0")  # the 3-node model skips the K = 4 scenarios
+    assert f"on multi-node-v1 ({len(fits)} scenarios): % of SCA mean" in printed
+    rows = list(csv.DictReader((out / "results.csv").open()))
+    assert [int(r["index"]) for r in rows] == fits
+    assert all(float(r["rate"]) <= float(r["best_schedule_rate"]) for r in rows)
+    assert {"shares.png", "pct_sca.png", "results.md", "trajectories.npz"} <= {p.name for p in out.iterdir()}

@@ -1,0 +1,270 @@
+"""Multi-node agents (trained on ``ios_uav_env/IOSUAV-MultiNode-v0`` or ``-Random-v0``) against the
+planners on one scenario: table (markdown + CSV) and the shares figure.
+
+``python -m agents.evaluate <model folders>`` comes here when the models were trained on a
+multi-node id (:data:`MULTINODE_IDS`); the scenario is the fixed id's, ``ScenarioConfig(
+ground_nodes=DEFAULT_NODES)`` (``--scenario`` fields applied to it). The references are the
+multi-node suite's (``ios_uav_env.benchmark.freeze_multi.solve_scenario``): SCA (BCD), the tour
+heuristic and the certified upper bound (``baselines.dp_bound``, 2.5 m), each scenario's record
+cached as one JSON file in :data:`REFERENCE_CACHE` (``baselines.runner.run_tasks``, written
+atomically; the key hashes the config and the settings). On the default scenario: SCA 0.471001,
+tour 0.468872, bound 0.474066 bps/Hz.
+
+Each agent runs deterministically in its own env (a fixed id made on the scenario with the
+model's ``max_nodes``; the randomised id pinned with ``reset(options={"config": cfg})``) and is
+scored like every multi-node plan (``ios_uav_env.benchmark.multi``): its own min rate (its
+shares), the best schedule of its trajectory, % of SCA and of the bound, feasibility.
+"""
+
+from __future__ import annotations
+
+import csv
+import io
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from ios_uav_env import ScenarioConfig
+from ios_uav_env.benchmark.multi import multi_episode, score_plan
+from ios_uav_env.benchmark.suite import SuiteScenario
+from ios_uav_env.io import atomic_write_text, save_figure
+from ios_uav_env.multinode_env import DEFAULT_NODES
+from ios_uav_env.registration import MULTINODE_IDS
+
+DEFAULT_MULTI = ScenarioConfig(ground_nodes=DEFAULT_NODES)
+REFERENCE_CACHE = Path("out/multinode-references")
+COLUMNS = ("scheme", "kind", "rate", "best_schedule_rate", "pct_sca", "pct_bound", "feasible", "wall_time_s")
+
+
+def is_multinode(policy: Any) -> bool:
+    """Whether ``policy`` (an ``agents.loading.Agent``) was trained on a multi-node id."""
+    return getattr(policy, "env_id", None) in MULTINODE_IDS
+
+
+def references(config: ScenarioConfig, cache: str | Path = REFERENCE_CACHE) -> dict[str, Any]:
+    """SCA, tour and bound records of ``config`` (trajectories and shares included), cached."""
+    import functools
+
+    from baselines.runner import run_tasks
+    from ios_uav_env.benchmark.freeze_multi import BOUND_RESOLUTION, solve_scenario, task_key
+
+    task = {"index": 0, "config": config.to_dict()}
+    fn = functools.partial(solve_scenario, bound_resolution=BOUND_RESOLUTION)
+    key = functools.partial(task_key, bound_resolution=BOUND_RESOLUTION)
+    (record,) = run_tasks(
+        fn, [task], cache, key=key, jobs=1, progress=False, required=("tour", "sca", "bound")
+    )
+    return record
+
+
+def reference_scenario(config: ScenarioConfig, record: dict[str, Any]) -> SuiteScenario:
+    """``config`` with its reference values, as a suite scenario (the scorer's normalisers)."""
+    reference = {
+        k: {f: v for f, v in record[k].items() if f not in ("trajectory", "shares")}
+        for k in ("sca", "tour", "bound")
+    }
+    if not reference["sca"]["rate"] or reference["bound"].get("upper_bound") is None:
+        raise RuntimeError(f"no SCA rate or no bound for {config}: {record['sca']}, {record['bound']}")
+    return SuiteScenario(0, config, reference)
+
+
+@dataclass
+class MultiRow:
+    """One line of the multi-node comparison table."""
+
+    scheme: str
+    kind: str  # "planner", "bound" or "agent"
+    rate: float  # bps/Hz, min_k R_k with the plan's own shares (the bound: its value)
+    best_schedule_rate: float  # bps/Hz, maxmin_rate of the trajectory
+    pct_sca: float
+    pct_bound: float
+    feasible: bool
+    wall_time: float  # s
+    trajectory: np.ndarray | None = field(default=None, repr=False)
+    shares: np.ndarray | None = field(default=None, repr=False)
+
+
+def planner_rows(scenario: SuiteScenario, record: dict[str, Any]) -> list[MultiRow]:
+    """SCA and the tour (their plans scored again through the scorer) and the upper bound."""
+    rows = []
+    for key, label in (("sca", "SCA (BCD)"), ("tour", "tour heuristic")):
+        rec = record[key]
+        if rec.get("trajectory") is None:
+            rows.append(MultiRow(label, "planner", 0.0, 0.0, 0.0, 0.0, False, rec["seconds"]))
+            continue
+        q, a = np.asarray(rec["trajectory"]), np.asarray(rec["shares"])
+        rate, best, feasible, _ = score_plan(scenario, q, a)
+        rows.append(
+            MultiRow(
+                label,
+                "planner",
+                rate,
+                best,
+                100 * rate / scenario.rate("sca"),
+                100 * rate / scenario.rate("bound"),
+                feasible,
+                rec["seconds"],
+                q,
+                a,
+            )
+        )
+    ub, b = scenario.rate("bound"), record["bound"]
+    rows.append(
+        MultiRow(
+            f"upper bound ({b['resolution']:g} m)",
+            "bound",
+            ub,
+            ub,
+            100 * ub / scenario.rate("sca"),
+            100.0,
+            True,
+            b["seconds"],
+        )
+    )
+    return rows
+
+
+def model_max_nodes(agent: Any, default: int = 4) -> int:
+    """K_max of the model's observation (``len(BASE_FEATURES)`` + K_max node blocks, each
+    ``NODE_FEATURES``, plus ``NODE_PEAK_FEATURES`` with ``peak_hint``); ``default`` if unknown."""
+    from ios_uav_env.multinode_env import BASE_FEATURES, NODE_FEATURES, NODE_PEAK_FEATURES
+
+    shape = getattr(getattr(getattr(agent, "model", None), "observation_space", None), "shape", None)
+    if shape is None:
+        return default
+    hint = bool(dict(getattr(agent, "env_kwargs", {}) or {}).get("peak_hint", False))
+    per_node = len(NODE_FEATURES) + (len(NODE_PEAK_FEATURES) if hint else 0)
+    k_max, extra = divmod(int(shape[0]) - len(BASE_FEATURES), per_node)
+    if extra or k_max < 1:
+        raise ValueError(
+            f"{getattr(agent, 'name', 'agent')}: observations of shape {tuple(shape)} are not "
+            f"a multi-node env's ({len(BASE_FEATURES)} + {per_node} per node)"
+        )
+    return k_max
+
+
+def agent_env(agent: Any, config: ScenarioConfig) -> Any:
+    """The env ``agent`` runs in on ``config``: its fixed id made on it with the model's
+    ``max_nodes``, or its randomised id (pinned per reset)."""
+    import gymnasium as gym
+
+    kwargs = dict(agent.env_kwargs)
+    if MULTINODE_IDS.get(agent.env_id, {}).get("random_nodes") is None:
+        kwargs.setdefault("max_nodes", model_max_nodes(agent, config.K))
+        kwargs["config"] = config
+    return gym.make(agent.env_id, **kwargs)
+
+
+def fast_act(agent: Any) -> Any:
+    """An SB3 agent's numpy export (the same actions without SB3's per-call overhead), else its act."""
+    if getattr(agent, "model", None) is not None:
+        from agents.numpy_policy import NumpyPolicy
+
+        return NumpyPolicy.from_sb3(agent.model, getattr(agent, "vecnormalize", None)).act
+    return agent.act if hasattr(agent, "act") else agent
+
+
+def agent_row(agent: Any, scenario: SuiteScenario) -> MultiRow:
+    """Roll ``agent`` out deterministically on the scenario and score its plan."""
+    env = agent_env(agent, scenario.config)
+    try:
+        r = multi_episode(env, fast_act(agent), scenario, seed=0)
+    finally:
+        env.close()
+    return MultiRow(
+        getattr(agent, "name", "agent"),
+        "agent",
+        r.rate,
+        r.best_schedule_rate,
+        r.pct_sca,
+        r.pct_bound,
+        r.feasible,
+        r.seconds,
+        r.trajectory,
+        r.shares,
+    )
+
+
+def compare_multi(
+    agents: Sequence[Any], config: ScenarioConfig = DEFAULT_MULTI, cache: str | Path = REFERENCE_CACHE
+) -> list[MultiRow]:
+    """The table's rows: SCA, the tour, the bound, then the agents, on ``config``."""
+    record = references(config, cache)
+    scenario = reference_scenario(config, record)
+    return planner_rows(scenario, record) + [agent_row(a, scenario) for a in agents]
+
+
+def markdown_table(rows: Sequence[MultiRow]) -> str:
+    lines = [
+        "| scheme | min rate (own shares) | best-schedule rate | % of SCA | % of bound | feasible "
+        "| wall time (s) |",
+        "|---|---|---|---|---|---|---|",
+    ]
+    for r in rows:
+        feasible = "-" if r.kind == "bound" else "yes" if r.feasible else "NO"
+        lines.append(
+            f"| {r.scheme} | {r.rate:.6f} | {r.best_schedule_rate:.6f} | {r.pct_sca:.2f} | "
+            f"{r.pct_bound:.2f} | {feasible} | {r.wall_time:.2f} |"
+        )
+    return "\n".join(lines)
+
+
+def save_table_csv(rows: Sequence[MultiRow], path: str | Path) -> Path:
+    buf = io.StringIO()
+    writer = csv.DictWriter(buf, fieldnames=COLUMNS, lineterminator="\n")
+    writer.writeheader()
+    for r in rows:
+        values = {
+            "scheme": r.scheme,
+            "kind": r.kind,
+            "rate": r.rate,
+            "best_schedule_rate": r.best_schedule_rate,
+            "pct_sca": r.pct_sca,
+            "pct_bound": r.pct_bound,
+            "feasible": r.feasible,
+            "wall_time_s": r.wall_time,
+        }
+        writer.writerow({k: repr(v) if isinstance(v, float) else v for k, v in values.items()})
+    return atomic_write_text(path, buf.getvalue())
+
+
+def save_shares_figure(rows: Sequence[MultiRow], config: ScenarioConfig, path: str | Path) -> Path:
+    """One column per plan (planners and agents): the trajectory coloured by the node served over
+    the best-node rate map, above each node's share against the slot."""
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from matplotlib.figure import Figure
+
+    from ios_uav_env.benchmark.figures_multi import shares_panels
+
+    plans = [r for r in rows if r.trajectory is not None and r.shares is not None]
+    fig = Figure(figsize=(5.2 * max(1, len(plans)), 6.2), dpi=100)
+    FigureCanvasAgg(fig)
+    for col, r in enumerate(plans):
+        title = f"{r.scheme}: min rate {r.rate:.4f} ({r.pct_sca:.1f}% of SCA)"
+        shares_panels(
+            fig.add_subplot(2, len(plans), col + 1),
+            fig.add_subplot(2, len(plans), len(plans) + col + 1),
+            config,
+            r.trajectory,
+            r.shares,
+            title if math.isfinite(r.rate) else r.scheme,
+        )
+    fig.tight_layout()
+    return save_figure(fig, path)
+
+
+def run(
+    agents: Sequence[Any], config: ScenarioConfig, out: str | Path, cache: str | Path = REFERENCE_CACHE
+) -> None:
+    """Compare, print the table, write ``comparison.md``, ``comparison.csv`` and ``comparison.png``."""
+    out = Path(out)
+    rows = compare_multi(agents, config, cache)
+    table = markdown_table(rows)
+    print(table)
+    atomic_write_text(out / "comparison.md", table + "\n")
+    print(f"table: {out / 'comparison.md'}, {save_table_csv(rows, out / 'comparison.csv')}")
+    print(f"figure: {save_shares_figure(rows, config, out / 'comparison.png')}")

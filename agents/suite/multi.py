@@ -1,0 +1,56 @@
+"""The suite report of a multi-node agent: ``python -m agents.suite report --model <multi-node run>``.
+
+A model trained on ``ios_uav_env/IOSUAV-MultiNode-Random-v0`` (or ``-v0``) is scored on the frozen
+multi-node suite ``multi-node-v1`` of ``ios_uav_env.benchmark`` (48 held-out scenarios, 2 to 4
+nodes) through the benchmark's own scorer (``ios_uav_env.benchmark.multi``): per scenario its own
+min rate (its shares), the best schedule of its trajectory, % of SCA and of the certified bound,
+feasibility and plan time (the SB3 model's numpy export). A model of the fixed 3-node id observes
+at most 3 nodes: it runs in the randomised id with its ``max_nodes`` and is scored on the
+scenarios with K <= max_nodes only (the report says how many). Writes the benchmark's files to
+``--out``: ``results.{md,csv,json}``, ``trajectories.npz`` (with the shares), ``pct_sca.png`` and
+``shares.png`` (the served-node trajectories and each node's share against the slot).
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any
+
+from agents.evaluate_multi import fast_act, model_max_nodes
+from ios_uav_env.registration import MULTINODE_IDS
+
+MULTI_SUITE = "multi-node-v1"
+
+
+def suite_env_kwargs(agent: Any, max_nodes: int) -> dict[str, Any]:
+    """The suite env's arguments for ``agent``: its own, with the model's ``max_nodes`` for an agent
+    of the fixed id (``random_nodes`` up to it: the randomised family's observation bounds)."""
+    kwargs = dict(getattr(agent, "env_kwargs", {}) or {})
+    if MULTINODE_IDS.get(getattr(agent, "env_id", ""), {}).get("random_nodes") is None:
+        kwargs.update(max_nodes=max_nodes, random_nodes=(min(2, max_nodes), max_nodes))
+    return kwargs
+
+
+def multi_report(
+    policy: Any, out: str | Path, n: int | None = None, suite: str = MULTI_SUITE
+) -> dict[str, Any]:
+    """Score ``policy`` on the multi-node suite, print the table, write the files to ``out``."""
+    from ios_uav_env.benchmark import load_suite
+    from ios_uav_env.benchmark.multi import evaluate_multi
+
+    loaded = load_suite(suite)
+    k_max = model_max_nodes(policy)
+    chosen = loaded.subset(n)
+    scenarios = [s for s in chosen if s.config.K <= k_max]
+    if not scenarios:
+        raise ValueError(f"no scenario of {loaded.name} has K <= {k_max} nodes (the model's max_nodes)")
+    name = getattr(policy, "name", "policy")
+    kwargs = suite_env_kwargs(policy, k_max)
+    results = evaluate_multi(fast_act(policy), loaded, scenarios, kwargs, 0, name)
+    print(results.markdown())
+    if len(scenarios) < len(chosen):
+        print(f"note: {len(chosen) - len(scenarios)} of {len(chosen)} scenarios have more than the model's "
+              f"max_nodes = {k_max} nodes and were not scored")  # fmt: skip
+    paths = results.save(out)
+    print("wrote " + ", ".join(str(p) for p in paths.values()))
+    return {"summary": results.aggregate.to_dict(), "results": results, "paths": paths}
