@@ -232,10 +232,15 @@ class MultiResults:
         return paths
 
 
-def _results(suite: Suite, rows: list[MultiScenarioResult], name: str, kwargs: Mapping[str, Any],
-                     scenarios: Sequence[SuiteScenario]) -> MultiResults:  # fmt: skip
-    return MultiResults(name, suite.name, suite.sha256, suite.env_id, dict(kwargs), tuple(rows),
-                        MultiAggregate.of(rows, scenarios))  # fmt: skip
+def _results(
+    suite: Suite,
+    rows: list[MultiScenarioResult],
+    name: str,
+    kwargs: Mapping[str, Any],
+    scenarios: Sequence[SuiteScenario],
+) -> MultiResults:
+    aggregate = MultiAggregate.of(rows, scenarios)
+    return MultiResults(name, suite.name, suite.sha256, suite.env_id, dict(kwargs), tuple(rows), aggregate)
 
 
 def multi_episode(env: Any, act: Any, scenario: SuiteScenario, seed: int | None) -> MultiScenarioResult:
@@ -261,9 +266,13 @@ def multi_episode(env: Any, act: Any, scenario: SuiteScenario, seed: int | None)
 
 
 def evaluate_multi(
-    act: Any, suite: Suite, scenarios: Sequence[SuiteScenario], kwargs: Mapping[str, Any], seed: int | None,
+    act: Any,
+    suite: Suite,
+    scenarios: Sequence[SuiteScenario],
+    kwargs: Mapping[str, Any],
+    seed: int | None,
     name: str,
-) -> MultiResults:  # fmt: skip
+) -> MultiResults:
     """Roll ``act`` (obs -> action) out on ``scenarios`` in the suite's env with ``kwargs``."""
     import gymnasium as gym
 

@@ -147,7 +147,7 @@ def evaluate(
     kwargs = {**suite.env_kwargs, **dict(own or {})}
     batched = bool(getattr(policy, "batched", False) if batched is None else batched)
     act = action_function(policy)
-    if suite.multi_node:  # MultiNodeEnv has no batched env: a batched policy runs on a batch of one
+    if suite.multi_node:  # one MultiNodeEnv pinned per scenario; a batched policy sees a batch of one
         from ios_uav_env.benchmark.multi import evaluate_multi
 
         one = (lambda obs: np.asarray(act(np.asarray(obs)[None]))[0]) if batched else act

@@ -187,3 +187,46 @@ def test_cli_show_and_evaluate(tmp_path, capsys):
     assert main(["evaluate", "--suite", "multi-node-v1", "--trajectories", str(out_dir / "trajectories.npz"),
                  "--name", spec]) == 0  # fmt: skip
     assert capsys.readouterr().out.splitlines()[0] == line  # own shares kept: the same scores and times
+
+
+def test_a_batched_policy_scores_as_the_plain_one(suite):
+    policy = StraightEqualShares()
+    plain = evaluate(policy, suite, n=2)
+    batched = evaluate(lambda obs: np.stack([policy(o) for o in obs]), suite, n=2, batched=True)
+    assert [r.to_dict() | {"seconds": 0} for r in batched.scenarios] == [
+        r.to_dict() | {"seconds": 0} for r in plain.scenarios
+    ]
+
+
+def test_the_freeze_checks_report_every_violation():
+    from ios_uav_env.benchmark.freeze_multi import _check, multinode_content
+
+    ok = {"index": 3, "config": {}, "tour": {"rate": 0.30, "feasible": True},
+          "sca": {"rate": 0.31, "feasible": True},
+          "bound": {"upper_bound": 0.32, "plan_rate": 0.30}}  # fmt: skip
+    assert _check(ok) == []
+    bad = {**ok, "sca": {"rate": 0.29, "feasible": False, "error": "SolverError: x"},
+           "bound": {"upper_bound": 0.295, "plan_rate": 0.30}}  # fmt: skip
+    notes = " ".join(_check(bad))
+    for text in ("#3: sca failed or infeasible (SolverError: x)", "#3: tour 0.300000000 > bound",
+                 "dp-bound plan", "#3: SCA 0.290000 < tour 0.300000"):  # fmt: skip
+        assert text in notes, text
+    with pytest.raises(ValueError, match="no normaliser"):
+        multinode_content([{**ok, "sca": {"rate": 0.0, "feasible": False}}], "x", 1)
+
+
+def test_scoring_a_multinode_policy_imports_no_planner_and_no_deep_learning_library():
+    import subprocess
+    import sys
+
+    code = (
+        "import sys\n"
+        "from ios_uav_env.benchmark import evaluate\n"
+        "from ios_uav_env.benchmark.multi_policies import StraightEqualShares\n"
+        "r = evaluate(StraightEqualShares(), 'multi-node-v1', n=2)\n"
+        "bad = {'cvxpy', 'torch', 'matplotlib', 'baselines', 'agents'} & set(sys.modules)\n"
+        "assert not bad, bad\n"
+        "print(r.aggregate.feasible)\n"
+    )
+    proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120, cwd="/")
+    assert proc.returncode == 0 and proc.stdout.strip() == "2", proc.stderr
