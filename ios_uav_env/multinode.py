@@ -191,3 +191,24 @@ def scheduled_rates(config: ScenarioConfig, trajectory: np.ndarray, shares: np.n
             f"shares' column sums (sum_k alpha_k[n]) must be <= 1, got {sums[n]:.6g} at slot {n}"
         )
     return np.mean(a * node_rates(config, q), axis=1)
+
+
+_WARNED_NO_SCIPY = []
+
+
+def reported_maxmin_rate(config: ScenarioConfig, trajectory: np.ndarray) -> float:
+    """:func:`maxmin_rate` for the envs' ``info["best_schedule_rate"]``: NaN, with one warning,
+    when scipy (its LP solver) is not installed, so that an env needs only numpy and Gymnasium
+    (``pip install scipy``, or the ``planners`` extra, brings the score back)."""
+    try:
+        import scipy.optimize  # noqa: F401
+    except ImportError:
+        if not _WARNED_NO_SCIPY:
+            _WARNED_NO_SCIPY.append(True)
+            import warnings
+
+            warnings.warn(
+                "scipy is not installed: info['best_schedule_rate'] is NaN (pip install scipy)", stacklevel=2
+            )
+        return float("nan")
+    return maxmin_rate(config, trajectory)

@@ -22,7 +22,7 @@ from gymnasium import spaces
 from ios_uav_env.channel import rate_kernel
 from ios_uav_env.config import FEASIBILITY_TOL, ScenarioConfig, as_config, scenario_option
 from ios_uav_env.guard import guarded_position
-from ios_uav_env.multinode import maxmin_rate
+from ios_uav_env.multinode import reported_maxmin_rate
 from ios_uav_env.multinode_kernels import soft_minimum
 from ios_uav_env.observation import M_SCALE, T_SCALE, ground_free_rate_bound, length_bounds, pad
 from ios_uav_env.options import EnvOptions, split_kwargs
@@ -128,7 +128,8 @@ class MultiNodeEnv(gym.Env):
     Every step and the reset carry ``MULTI_INFO_KEYS``: ``position``, ``slot``,
     ``distance_to_final``, ``shares`` (K_max, this slot's), ``node_rates`` (K_max, S_k / N so
     far), ``min_rate`` (m_n: at slot N the agent's own score min_k R_k), ``best_schedule_rate``
-    (at slot N ``maxmin_rate`` of the trajectory, the best shares for the same flight; 0
+    (at slot N ``maxmin_rate`` of the trajectory, the best shares for the same flight, an LP
+    of scipy's: NaN if scipy is not installed; 0
     before), the three reward terms, ``feasible``, ``worst_violation``, ``terminal_miss``.
 
     ## Episode End
@@ -389,7 +390,7 @@ class MultiNodeEnv(gym.Env):
             miss = max(0.0, dist - FEASIBILITY_TOL) / cfg.D
             if miss:
                 r_terminal = -self.options.terminal_weight * (miss + math.sqrt(miss))
-            best = maxmin_rate(cfg, self.trajectory)
+            best = reported_maxmin_rate(cfg, self.trajectory)
         r_rate = cfg.N * (self._phi - previous)
         if terminated and self.softmin_beta:
             r_rate += cfg.N * (self._min - self._phi)

@@ -32,7 +32,7 @@ from gymnasium.vector.utils import batch_space
 from ios_uav_env.channel import PARAMS, rate_kernel
 from ios_uav_env.config import ScenarioConfig
 from ios_uav_env.dynamics import flags_of
-from ios_uav_env.multinode import maxmin_rate
+from ios_uav_env.multinode import reported_maxmin_rate
 from ios_uav_env.multinode_env import MULTI_INFO_KEYS, MultiNodeEnv
 from ios_uav_env.multinode_kernels import (
     BEST,
@@ -222,7 +222,9 @@ class MultiNodeVectorEnv(gym.vector.VectorEnv):
                   self._info, self._path, self._share_path, active, move_norms(actions))  # fmt: skip
         for i in np.flatnonzero(self._terminated):  # the best schedule of the flight: an LP per episode
             cfg = self.envs[i].config
-            self._info[i, BEST] = maxmin_rate(cfg, self._path[i, : cfg.N]) if self.best_schedule else np.nan
+            self._info[i, BEST] = (
+                reported_maxmin_rate(cfg, self._path[i, : cfg.N]) if self.best_schedule else np.nan
+            )
         truncated = np.zeros(self.num_envs, dtype=np.bool_)
         if not self.same_step:
             self._autoreset = self._terminated.copy()

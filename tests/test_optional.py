@@ -40,3 +40,26 @@ def test_model_imports_without_gymnasium():
     )
     assert proc.returncode == 0, proc.stderr
     assert float(proc.stdout) > 0
+
+
+def test_multinode_env_runs_without_scipy_with_a_nan_best_schedule():
+    proc = run_blocked(
+        ["torch", "cvxpy", "matplotlib", "stable_baselines3", "scipy"],
+        """
+        import math, warnings
+        import gymnasium as gym
+        import ios_uav_env
+        env = gym.make("ios_uav_env/IOSUAV-MultiNode-v0", T=40.0)
+        env.reset(seed=0)
+        done = False
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            while not done:
+                _, _, done, _, info = env.step(env.action_space.sample())
+        assert any("scipy is not installed" in str(w.message) for w in caught)
+        assert math.isnan(info["best_schedule_rate"]) and info["min_rate"] > 0
+        print("ok")
+        """,
+    )
+    assert proc.returncode == 0, proc.stderr
+    assert proc.stdout.strip() == "ok"

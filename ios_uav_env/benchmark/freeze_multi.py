@@ -20,10 +20,11 @@ Every rate is ``ios_uav_env.maxmin_rate`` of the plan's trajectory (``Plan.mean_
 A planner that raises is recorded (``feasible`` false, rate 0, the error) rather than
 dropped; the freeze prints every sanity note (a planner failed or infeasible, SCA below the
 tour, a value above the bound) and refuses to write a suite in which a scenario has no SCA
-rate (the normaliser) or no bound, naming it. Each scenario's record (trajectories and shares included) is cached as one JSON file
-in ``--cache`` (``baselines.runner.run_tasks`` in this process: atomic writes, resumable);
-the suite file keeps the values only, and ``--plans`` writes the tour's and SCA's plans as
-trajectory files (with their shares) that the benchmark scores like any other.
+rate (the normaliser) or no bound, naming it. Each scenario's record (trajectories and shares
+included) is cached as one JSON file in ``--cache`` (``baselines.runner.run_tasks`` in this
+process: atomic writes, resumable); the suite file keeps the values only, and ``--plans``
+writes the tour's and SCA's plans as trajectory files (with their shares) that the benchmark
+scores like any other.
 """
 
 from __future__ import annotations
