@@ -18,8 +18,6 @@ shares), the best schedule of its trajectory, % of SCA and of the bound, feasibi
 
 from __future__ import annotations
 
-import csv
-import io
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass, field
@@ -29,9 +27,9 @@ from typing import Any
 import numpy as np
 
 from ios_uav_env import ScenarioConfig
-from ios_uav_env.benchmark.multi import multi_episode, score_plan
+from ios_uav_env.benchmark.multi import MultiScenarioResult, multi_episode, score_plan
 from ios_uav_env.benchmark.suite import SuiteScenario
-from ios_uav_env.io import atomic_write_text, save_figure
+from ios_uav_env.io import atomic_write_text, save_figure, save_rows_csv
 from ios_uav_env.multinode_env import DEFAULT_NODES
 from ios_uav_env.registration import MULTINODE_IDS
 
@@ -97,21 +95,9 @@ def planner_rows(scenario: SuiteScenario, record: dict[str, Any]) -> list[MultiR
             rows.append(MultiRow(label, "planner", 0.0, 0.0, 0.0, 0.0, False, rec["seconds"]))
             continue
         q, a = np.asarray(rec["trajectory"]), np.asarray(rec["shares"])
-        rate, best, feasible, _ = score_plan(scenario, q, a)
-        rows.append(
-            MultiRow(
-                label,
-                "planner",
-                rate,
-                best,
-                100 * rate / scenario.rate("sca"),
-                100 * rate / scenario.rate("bound"),
-                feasible,
-                rec["seconds"],
-                q,
-                a,
-            )
-        )
+        rate, best, feasible, worst = score_plan(scenario, q, a)
+        r = MultiScenarioResult.of(scenario, rate, best, feasible, worst, rec["seconds"], own_shares=True)
+        rows.append(_row(label, "planner", r, q, a))
     ub, b = scenario.rate("bound"), record["bound"]
     rows.append(
         MultiRow(
@@ -175,18 +161,13 @@ def agent_row(agent: Any, scenario: SuiteScenario) -> MultiRow:
         r = multi_episode(env, fast_act(agent), scenario, seed=0)
     finally:
         env.close()
-    return MultiRow(
-        getattr(agent, "name", "agent"),
-        "agent",
-        r.rate,
-        r.best_schedule_rate,
-        r.pct_sca,
-        r.pct_bound,
-        r.feasible,
-        r.seconds,
-        r.trajectory,
-        r.shares,
-    )
+    return _row(getattr(agent, "name", "agent"), "agent", r, r.trajectory, r.shares)
+
+
+def _row(scheme: str, kind: str, r: MultiScenarioResult, trajectory: Any, shares: Any) -> MultiRow:
+    """A table row from a plan's scores (% of SCA and of the bound 0 for an infeasible plan)."""
+    return MultiRow(scheme, kind, r.rate, r.best_schedule_rate, r.pct_sca, r.pct_bound, r.feasible,
+                    r.seconds, trajectory, shares)  # fmt: skip
 
 
 def compare_multi(
@@ -214,11 +195,9 @@ def markdown_table(rows: Sequence[MultiRow]) -> str:
 
 
 def save_table_csv(rows: Sequence[MultiRow], path: str | Path) -> Path:
-    buf = io.StringIO()
-    writer = csv.DictWriter(buf, fieldnames=COLUMNS, lineterminator="\n")
-    writer.writeheader()
-    for r in rows:
-        values = {
+    """Write the rows as CSV (full precision) atomically."""
+    values = (
+        {
             "scheme": r.scheme,
             "kind": r.kind,
             "rate": r.rate,
@@ -228,8 +207,9 @@ def save_table_csv(rows: Sequence[MultiRow], path: str | Path) -> Path:
             "feasible": r.feasible,
             "wall_time_s": r.wall_time,
         }
-        writer.writerow({k: repr(v) if isinstance(v, float) else v for k, v in values.items()})
-    return atomic_write_text(path, buf.getvalue())
+        for r in rows
+    )
+    return save_rows_csv(path, COLUMNS, values)
 
 
 def save_shares_figure(rows: Sequence[MultiRow], config: ScenarioConfig, path: str | Path) -> Path:

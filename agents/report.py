@@ -2,15 +2,13 @@
 
 from __future__ import annotations
 
-import csv
-import io
 import math
 from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
 from ios_uav_env import ScenarioConfig
-from ios_uav_env.io import atomic_write_text, save_figure
+from ios_uav_env.io import save_figure, save_rows_csv
 
 COLUMNS = (
     "scheme",
@@ -58,12 +56,7 @@ def markdown_table(rows: Sequence[Any]) -> str:
 
 def save_table_csv(rows: Sequence[Any], path: str | Path) -> Path:
     """Write the rows as CSV (full precision) atomically."""
-    buf = io.StringIO()
-    writer = csv.DictWriter(buf, fieldnames=COLUMNS, lineterminator="\n")
-    writer.writeheader()
-    for row in rows:
-        writer.writerow({k: repr(v) if isinstance(v, float) else v for k, v in _values(row).items()})
-    return atomic_write_text(path, buf.getvalue())
+    return save_rows_csv(path, COLUMNS, (_values(row) for row in rows))
 
 
 def save_comparison_figure(rows: Sequence[Any], config: ScenarioConfig, path: str | Path) -> Path:

@@ -142,6 +142,21 @@ def _move(i: int, actions: np.ndarray, state: np.ndarray, episode: np.ndarray, f
 
 
 @jit(inline=True)
+def penalties(dist: float, left: float, d: float, w_reach: float, w_terminal: float) -> tuple[float, float]:
+    """The reach and terminal reward terms of a UAV ``dist`` m from qF with ``left`` moves of at
+    most ``d`` m to go: -w_reach x the distance it can no longer cover (in moves), and at the
+    last slot (``left == 0``) -w_terminal x (miss + sqrt(miss)), the miss in moves."""
+    reach = max(0.0, dist - left * d - FEASIBILITY_TOL) / d
+    r_reach = -w_reach * reach if reach > 0.0 else 0.0
+    r_terminal = 0.0
+    if left == 0.0:
+        miss = max(0.0, dist - FEASIBILITY_TOL) / d
+        if miss > 0.0:
+            r_terminal = -w_terminal * (miss + math.sqrt(miss))
+    return r_reach, r_terminal
+
+
+@jit(inline=True)
 def _settle(i: int, x: float, y: float, left: float, rate: float, expected: float, state: np.ndarray,
             episode: np.ndarray, flags: np.ndarray, obs: np.ndarray, reward: np.ndarray,
             terminated: np.ndarray, info: np.ndarray) -> None:  # fmt: skip
@@ -151,14 +166,8 @@ def _settle(i: int, x: float, y: float, left: float, rate: float, expected: floa
     st[3] += expected
     st[4] += rate
     dist = math.hypot(ep[1] - x, ep[2] - y)
-    reach = max(0.0, dist - left * d - FEASIBILITY_TOL) / d
-    r_reach = -flags[4] * reach if reach > 0.0 else 0.0
-    r_terminal = 0.0
+    r_reach, r_terminal = penalties(dist, left, d, flags[4], flags[5])
     done = left == 0.0
-    if done:
-        miss = max(0.0, dist - FEASIBILITY_TOL) / d
-        if miss > 0.0:
-            r_terminal = -flags[5] * (miss + math.sqrt(miss))
     reward[i] = rate + r_reach + r_terminal
     terminated[i] = done
     _observe(obs, i, x, y, left, dist, expected, episode, flags)

@@ -4,7 +4,9 @@ from __future__ import annotations
 
 import os
 import tempfile
+from collections.abc import Iterable, Mapping, Sequence
 from pathlib import Path
+from typing import Any
 
 
 def _umask() -> int:
@@ -42,6 +44,20 @@ def save_figure(fig: object, path: str | Path, **savefig_kwargs: object) -> Path
     fmt = Path(path).suffix.lstrip(".") or "png"
     fig.savefig(buf, format=fmt, **savefig_kwargs)  # type: ignore[attr-defined]
     return atomic_write_bytes(path, buf.getvalue())
+
+
+def save_rows_csv(path: str | Path, columns: Sequence[str], rows: Iterable[Mapping[str, Any]]) -> Path:
+    """Write one CSV row per mapping (keys ``columns``; floats at full precision, as ``repr``),
+    with a header line, atomically."""
+    import csv
+    import io
+
+    buf = io.StringIO()
+    writer = csv.DictWriter(buf, fieldnames=columns, lineterminator="\n")
+    writer.writeheader()
+    for row in rows:
+        writer.writerow({k: repr(v) if isinstance(v, float) else v for k, v in row.items()})
+    return atomic_write_text(path, buf.getvalue())
 
 
 def save_csv(path: str | Path, array: object, header: str, fmt: str = "%.10g") -> Path:

@@ -21,6 +21,7 @@ import numpy as np
 
 from ios_uav_env.channel import rate_point
 from ios_uav_env.config import FEASIBILITY_TOL, ScenarioConfig
+from ios_uav_env.dynamics import penalties
 from ios_uav_env.guard import guarded_position
 from ios_uav_env.jit import jit
 from ios_uav_env.observation import M_SCALE, T_SCALE
@@ -225,14 +226,8 @@ def _step_rows(
         st[4] = low / n_slots
         previous, st[5] = st[5], soft_minimum(served[i], k_n, n_slots, ep[14])
         dist = math.hypot(ep[1] - x, ep[2] - y)
-        reach = max(0.0, dist - left * d - FEASIBILITY_TOL) / d
-        r_reach = -flags[4] * reach if reach > 0.0 else 0.0
-        r_terminal = 0.0
+        r_reach, r_terminal = penalties(dist, left, d, flags[4], flags[5])
         done = left == 0.0
-        if done:
-            miss = max(0.0, dist - FEASIBILITY_TOL) / d
-            if miss > 0.0:
-                r_terminal = -flags[5] * (miss + math.sqrt(miss))
         r_rate = n_slots * (st[5] - previous)
         if done and ep[14] != 0.0:
             r_rate += n_slots * (st[4] - st[5])

@@ -21,13 +21,11 @@ The conventions are ``IOSUAVVectorEnv``'s (``ios_uav_env.vector_env``): autorese
 
 from __future__ import annotations
 
-import copy
 from collections.abc import Sequence
 from typing import Any
 
 import gymnasium as gym
 import numpy as np
-from gymnasium.vector.utils import batch_space
 
 from ios_uav_env.channel import PARAMS, rate_kernel
 from ios_uav_env.config import ScenarioConfig
@@ -47,7 +45,7 @@ from ios_uav_env.multinode_kernels import (
     reset_rows,
     step_rows,
 )
-from ios_uav_env.vector_env import _AUTORESET, _SAME_STEP, AUTORESET_MODES, IOSUAVVectorEnv
+from ios_uav_env.vector_env import _AUTORESET, IOSUAVVectorEnv
 
 
 class MultiNodeVectorEnv(gym.vector.VectorEnv):
@@ -70,6 +68,10 @@ class MultiNodeVectorEnv(gym.vector.VectorEnv):
     trajectories = IOSUAVVectorEnv.trajectories
     configs = IOSUAVVectorEnv.configs
     close = IOSUAVVectorEnv.close
+    _begin_step = IOSUAVVectorEnv._begin_step
+    _check_batch = IOSUAVVectorEnv._check_batch
+    _copy_template = IOSUAVVectorEnv._copy_template
+    _end_step = IOSUAVVectorEnv._end_step
 
     def __init__(
         self,
@@ -81,26 +83,10 @@ class MultiNodeVectorEnv(gym.vector.VectorEnv):
         render_mode: None = None,
         **kwargs: Any,
     ):
-        if isinstance(num_envs, bool) or not isinstance(num_envs, (int, np.integer)) or num_envs < 1:
-            raise ValueError(f"num_envs must be an integer >= 1, got {num_envs!r}")
-        mode = str(getattr(autoreset_mode, "value", autoreset_mode)).lower().replace("step", "_step")
-        mode = mode.replace("__", "_")  # "NextStep", "next_step", AutoresetMode.NEXT_STEP, ...
-        if mode not in AUTORESET_MODES:
-            raise ValueError(f"autoreset_mode must be one of {AUTORESET_MODES}, got {autoreset_mode!r}")
-        self.same_step = mode == "same_step"
-        if render_mode is not None:
-            raise ValueError(f"render_mode must be None for the batched env, got {render_mode!r}")
-        self.num_envs, self.render_mode, self.best_schedule = int(num_envs), None, bool(best_schedule)
-        if self.same_step and _SAME_STEP is not None:
-            self.metadata = {**self.metadata, "autoreset_mode": _SAME_STEP}
+        self._check_batch(num_envs, autoreset_mode, render_mode)
+        self.best_schedule = bool(best_schedule)
         template = MultiNodeEnv(config, **kwargs)
-        self.single_observation_space = template.observation_space
-        self.single_action_space = template.action_space
-        self.observation_space = batch_space(self.single_observation_space, self.num_envs)
-        self.action_space = batch_space(self.single_action_space, self.num_envs)
-        self.envs = [copy.copy(template) for _ in range(self.num_envs)]  # scenario managers
-        for env in self.envs:
-            env._np_random = None  # each row its own generator, seeded at reset
+        self._copy_template(template)
         b, k = self.num_envs, template.max_nodes
         self.max_nodes, self._flags = k, flags_of(template.options)
         self._length_scale, self._sharpness = template.options.length_scale, template.share_sharpness
@@ -212,11 +198,7 @@ class MultiNodeVectorEnv(gym.vector.VectorEnv):
         if not self._started:
             raise RuntimeError("call reset() before step()")
         actions = self._check_actions(actions)
-        self._outputs()
-        done = np.flatnonzero(self._autoreset)
-        if done.size:  # NEXT_STEP autoreset: these rows start a new episode instead of stepping
-            self._reset_rows(done, [None] * done.size, [None] * done.size)
-        active = ~self._autoreset
+        active = self._begin_step()
         step_rows(actions, self._state, self._episode, self._points, self._nodes, self._params, self._served,
                   self._shares, self._rates, self._flags, self._obs, self._reward, self._terminated,
                   self._info, self._path, self._share_path, active, move_norms(actions))  # fmt: skip
@@ -225,18 +207,7 @@ class MultiNodeVectorEnv(gym.vector.VectorEnv):
             self._info[i, BEST] = (
                 reported_maxmin_rate(cfg, self._path[i, : cfg.N]) if self.best_schedule else np.nan
             )
-        truncated = np.zeros(self.num_envs, dtype=np.bool_)
-        if not self.same_step:
-            self._autoreset = self._terminated.copy()
-            return self._obs, self._reward, self._terminated, truncated, self._infos()
-        ended = np.flatnonzero(self._terminated)
-        final_obs, final_info = self._obs.copy(), self._infos(self._info.copy())
-        if ended.size:  # SAME_STEP: the rows that ended start their next episode now
-            self._reset_rows(ended, [None] * ended.size, [None] * ended.size)
-        info = self._infos()
-        mask = self._terminated.copy()
-        info.update(final_obs=final_obs, _final_obs=mask, final_info=final_info, _final_info=mask)
-        return self._obs, self._reward, self._terminated, truncated, info
+        return self._end_step()
 
     @property
     def schedules(self) -> list[np.ndarray]:

@@ -70,27 +70,9 @@ class IOSUAVVectorEnv(gym.vector.VectorEnv):
         render_mode: None = None,
         **kwargs: Any,
     ):
-        if isinstance(num_envs, bool) or not isinstance(num_envs, (int, np.integer)) or num_envs < 1:
-            raise ValueError(f"num_envs must be an integer >= 1, got {num_envs!r}")
-        mode = str(getattr(autoreset_mode, "value", autoreset_mode)).lower().replace("step", "_step")
-        mode = mode.replace("__", "_")
-        if mode not in AUTORESET_MODES:
-            raise ValueError(f"autoreset_mode must be one of {AUTORESET_MODES}, got {autoreset_mode!r}")
-        self.same_step = mode == "same_step"
-        if render_mode is not None:
-            raise ValueError(f"render_mode must be None for the batched env, got {render_mode!r}")
-        self.num_envs = int(num_envs)
-        self.render_mode = None
-        if self.same_step and _SAME_STEP is not None:
-            self.metadata = {**self.metadata, "autoreset_mode": _SAME_STEP}
+        self._check_batch(num_envs, autoreset_mode, render_mode)
         template = self.env_class(config, **kwargs)
-        self.single_observation_space = template.observation_space
-        self.single_action_space = template.action_space
-        self.observation_space = batch_space(self.single_observation_space, self.num_envs)
-        self.action_space = batch_space(self.single_action_space, self.num_envs)
-        self.envs = [copy.copy(template) for _ in range(self.num_envs)]  # scenario managers
-        for env in self.envs:
-            env._np_random = None  # each row its own generator, seeded at reset
+        self._copy_template(template)
         b = self.num_envs
         self._flags = template._flags
         self._rician = template.options.channel == "rician"
@@ -106,6 +88,33 @@ class IOSUAVVectorEnv(gym.vector.VectorEnv):
         self._masks = {f"_{key}": np.ones(b, dtype=np.bool_) for key in INFO_KEYS}
         for mask in self._masks.values():
             mask.setflags(write=False)
+
+    def _check_batch(self, num_envs: Any, autoreset_mode: Any, render_mode: Any) -> None:
+        """Check and set ``num_envs``, the autoreset mode (``same_step``) and ``render_mode`` (None)."""
+        if isinstance(num_envs, bool) or not isinstance(num_envs, (int, np.integer)) or num_envs < 1:
+            raise ValueError(f"num_envs must be an integer >= 1, got {num_envs!r}")
+        mode = str(getattr(autoreset_mode, "value", autoreset_mode)).lower().replace("step", "_step")
+        mode = mode.replace("__", "_")  # "NextStep", "next_step", AutoresetMode.NEXT_STEP, ...
+        if mode not in AUTORESET_MODES:
+            raise ValueError(f"autoreset_mode must be one of {AUTORESET_MODES}, got {autoreset_mode!r}")
+        self.same_step = mode == "same_step"
+        if render_mode is not None:
+            raise ValueError(f"render_mode must be None for the batched env, got {render_mode!r}")
+        self.num_envs = int(num_envs)
+        self.render_mode = None
+        if self.same_step and _SAME_STEP is not None:
+            self.metadata = {**self.metadata, "autoreset_mode": _SAME_STEP}
+
+    def _copy_template(self, template: gym.Env) -> None:
+        """The spaces of ``template`` (single and batched) and one copy of it per row (``envs``:
+        the rows' scenario managers, each with its own generator, seeded at reset)."""
+        self.single_observation_space = template.observation_space
+        self.single_action_space = template.action_space
+        self.observation_space = batch_space(self.single_observation_space, self.num_envs)
+        self.action_space = batch_space(self.single_action_space, self.num_envs)
+        self.envs = [copy.copy(template) for _ in range(self.num_envs)]
+        for env in self.envs:
+            env._np_random = None
 
     # --- rows -----------------------------------------------------------------------
     def _load_row(self, i: int, env: IOSUAVEnv) -> None:
@@ -198,16 +207,26 @@ class IOSUAVVectorEnv(gym.vector.VectorEnv):
         if not np.isfinite(actions).all():
             rows = np.flatnonzero(~np.isfinite(actions).all(axis=1))
             raise ValueError(f"actions must be finite (no NaN or inf); rows {rows.tolist()[:10]} are not")
-        self._outputs()
-        done = np.flatnonzero(self._autoreset)
-        if done.size:  # NEXT_STEP autoreset: these rows start a new episode instead of stepping
-            self._reset_rows(done, [None] * done.size, [None] * done.size)
-        active = ~self._autoreset
+        active = self._begin_step()
         if self._rician:
             for i in np.flatnonzero(active):
                 self._normals[i] = self.envs[i].np_random.standard_normal(2)
         step_rows(actions, self._state, self._episode, self._nodes, self._params, self._normals, self._flags,
                   self._obs, self._reward, self._terminated, self._info, self._path, active)  # fmt: skip
+        return self._end_step()
+
+    def _begin_step(self) -> np.ndarray:
+        """Fresh outputs, and the NEXT_STEP autoreset: the rows that ended at the last step start a
+        new episode instead of stepping. The mask of the rows that step."""
+        self._outputs()
+        done = np.flatnonzero(self._autoreset)
+        if done.size:  # NEXT_STEP autoreset: these rows start a new episode instead of stepping
+            self._reset_rows(done, [None] * done.size, [None] * done.size)
+        return ~self._autoreset
+
+    def _end_step(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, dict[str, Any]]:
+        """The step's return once the kernel has stepped the rows (SAME_STEP: the rows that ended
+        start their next episode now, their last observation and info under ``final_*``)."""
         truncated = np.zeros(self.num_envs, dtype=np.bool_)
         if not self.same_step:
             self._autoreset = self._terminated.copy()

@@ -117,6 +117,20 @@ def test_batch_equals_single_envs_with_shaping_and_peak_hint(env_id):
     assert replay_gap(env_id, "same_step", extra=extra) <= 1e-9
 
 
+@pytest.mark.parametrize("env_id", [FIXED, RANDOM])
+def test_batch_equals_single_envs_with_the_reach_and_terminal_penalties(env_id):
+    """Without the arrival guard random moves leave qF out of reach: the penalty terms are compared."""
+    extra = {"arrival_guard": False}
+    assert replay_gap(env_id, "next_step", extra=extra) <= 1e-9
+    vec = make_vec(env_id, 3, **KWARGS[env_id], **extra)
+    vec.reset(seed=7)
+    rng, reach, terminal = np.random.default_rng(7), 0.0, 0.0
+    for _ in range(130):
+        _, _, _, _, info = vec.step(rng.uniform(-1.3, 1.3, (3, *vec.single_action_space.shape)))
+        reach, terminal = min(reach, info["reward_reach"].min()), min(terminal, info["reward_terminal"].min())
+    assert reach < 0 and terminal < 0  # (so the replay above compared both terms)
+
+
 def test_parity_without_numba(tmp_path):
     """The plain-Python kernels (IOS_UAV_ENV_NO_NUMBA=1): the same parity, in a fresh interpreter."""
     code = (

@@ -21,9 +21,6 @@ node served in each slot over the best-node rate map, and each node's share agai
 
 from __future__ import annotations
 
-import csv
-import io
-import json
 import math
 from collections.abc import Mapping, Sequence
 from dataclasses import asdict, dataclass, field
@@ -32,9 +29,10 @@ from typing import Any
 
 import numpy as np
 
+from ios_uav_env.benchmark.results import plan_seconds, plan_time, results_dict, save_tables, spread
 from ios_uav_env.benchmark.suite import Suite, SuiteScenario
 from ios_uav_env.config import ScenarioConfig
-from ios_uav_env.io import atomic_write_text
+from ios_uav_env.io import save_rows_csv
 from ios_uav_env.trajectory import check_trajectory
 
 #: The fields of a :class:`MultiScenarioResult` in its dict and CSV row.
@@ -130,19 +128,17 @@ class MultiAggregate:
     def of(cls, rows: Sequence[MultiScenarioResult], scenarios: Sequence[SuiteScenario]) -> MultiAggregate:
         if not rows:
             raise ValueError("no scenario results to aggregate")
-        sca = np.array([r.pct_sca for r in rows])
-        bound = np.array([r.pct_bound for r in rows])
-        seconds = np.array([r.seconds for r in rows])
+        mean_sca, p10_sca, min_sca = spread([r.pct_sca for r in rows])
+        mean_bound, p10_bound, min_bound = spread([r.pct_bound for r in rows])
+        median, sca_median = plan_seconds(rows, scenarios)
         return cls(
             n=len(rows), feasible=int(sum(r.feasible for r in rows)),
-            mean_pct_sca=float(sca.mean()), p10_pct_sca=float(np.percentile(sca, 10)),
-            min_pct_sca=float(sca.min()), mean_pct_bound=float(bound.mean()),
-            p10_pct_bound=float(np.percentile(bound, 10)), min_pct_bound=float(bound.min()),
+            mean_pct_sca=mean_sca, p10_pct_sca=p10_sca, min_pct_sca=min_sca,
+            mean_pct_bound=mean_bound, p10_pct_bound=p10_bound, min_pct_bound=min_bound,
             mean_best_pct_sca=float(np.mean([r.best_pct_sca for r in rows])),
             mean_rate=float(np.mean([r.rate for r in rows])),
             mean_best_rate=float(np.mean([r.best_schedule_rate for r in rows])),
-            median_seconds=float(np.median(seconds)) if np.isfinite(seconds).all() else math.nan,
-            sca_median_seconds=float(np.median([s.reference["sca"]["seconds"] for s in scenarios])),
+            median_seconds=median, sca_median_seconds=sca_median,
         )  # fmt: skip
 
     def to_dict(self) -> dict[str, Any]:
@@ -162,16 +158,12 @@ class MultiResults:
     aggregate: MultiAggregate
 
     def to_dict(self) -> dict[str, Any]:
-        return {
-            "name": self.name, "suite": self.suite, "sha256": self.sha256, "env_id": self.env_id,
-            "env_kwargs": dict(self.env_kwargs), "aggregate": self.aggregate.to_dict(),
-            "scenarios": [r.to_dict() for r in self.scenarios],
-        }  # fmt: skip
+        return results_dict(self)
 
     def summary(self) -> str:
         """One line: mean / p10 / min % of SCA and of the bound, best schedule, feasible, plan time."""
         a = self.aggregate
-        plan = "unknown" if math.isnan(a.median_seconds) else f"{1e3 * a.median_seconds:.1f} ms"
+        plan = plan_time(a.median_seconds)
         return (
             f"{self.name} on {self.suite} ({a.n} scenarios): % of SCA mean {a.mean_pct_sca:.2f} | "
             f"p10 {a.p10_pct_sca:.2f} | min {a.min_pct_sca:.2f}; % of bound mean {a.mean_pct_bound:.2f} | "
@@ -196,27 +188,16 @@ class MultiResults:
         return "\n".join(lines) + "\n"
 
     def save_csv(self, path: str | Path) -> Path:
-        buf = io.StringIO()
-        writer = csv.DictWriter(buf, fieldnames=MULTI_COLUMNS, lineterminator="\n")
-        writer.writeheader()
-        for r in self.scenarios:
-            writer.writerow({k: repr(v) if isinstance(v, float) else v for k, v in r.to_dict().items()})
-        return atomic_write_text(path, buf.getvalue())
+        """One row per scenario (full precision), atomically."""
+        return save_rows_csv(path, MULTI_COLUMNS, (r.to_dict() for r in self.scenarios))
 
     def save(self, out: str | Path) -> dict[str, Path]:
         """``results.{csv,json,md}``, the plans as ``trajectories.npz`` (with their shares) and, with
         matplotlib, ``pct_sca.png`` and ``shares.png`` in ``out``; the paths by kind."""
-        from ios_uav_env.benchmark.results import _finite
         from ios_uav_env.benchmark.trajectories import write_trajectories
 
         out = Path(out)
-        paths = {
-            "csv": self.save_csv(out / "results.csv"),
-            "json": atomic_write_text(
-                out / "results.json", json.dumps(_finite(self.to_dict()), indent=1) + "\n"
-            ),
-            "markdown": atomic_write_text(out / "results.md", self.markdown()),
-        }
+        paths = save_tables(self, out)
         if all(r.trajectory is not None for r in self.scenarios):
             plans = {r.index: r.trajectory for r in self.scenarios}
             own = {r.index: r.shares for r in self.scenarios if r.own_shares}
@@ -226,7 +207,8 @@ class MultiResults:
             from ios_uav_env.benchmark.figures_multi import save_histogram, save_shares_figure
 
             paths["figure"] = save_histogram(self, out / "pct_sca.png")
-            paths["shares"] = save_shares_figure(self, out / "shares.png")
+            if any(r.trajectory is not None for r in self.scenarios):  # (a stored reference has none)
+                paths["shares"] = save_shares_figure(self, out / "shares.png")
         except ImportError:
             pass
         return paths
@@ -245,19 +227,9 @@ def _results(
 
 def multi_episode(env: Any, act: Any, scenario: SuiteScenario, seed: int | None) -> MultiScenarioResult:
     """One episode of ``act`` in a ``MultiNodeEnv`` pinned to ``scenario``, scored by :func:`score_plan`."""
-    import time
+    from ios_uav_env.benchmark.scoring import play
 
-    from ios_uav_env.benchmark.scoring import MAX_STEPS
-
-    start = time.perf_counter()
-    obs, _ = env.reset(seed=seed, options={"config": scenario.config})
-    for _ in range(MAX_STEPS):
-        obs, _, terminated, truncated, _ = env.step(act(obs))
-        if np.any(terminated) or np.any(truncated):
-            break
-    else:
-        raise RuntimeError(f"scenario {scenario.index}: the episode did not end in {MAX_STEPS} steps")
-    seconds = time.perf_counter() - start
+    seconds = play(env, act, scenario, seed)
     base = env.unwrapped
     trajectory, shares = base.trajectory, base.shares
     rate, best, feasible, worst = score_plan(scenario, trajectory, shares)

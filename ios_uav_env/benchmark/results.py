@@ -8,8 +8,6 @@ reported): the mission was not flown. "% of DP" may exceed 100: DP is the optimu
 
 from __future__ import annotations
 
-import csv
-import io
 import json
 import math
 from collections.abc import Sequence
@@ -20,7 +18,7 @@ from typing import Any
 import numpy as np
 
 from ios_uav_env.benchmark.suite import Suite, SuiteScenario
-from ios_uav_env.io import atomic_write_text, save_figure
+from ios_uav_env.io import atomic_write_text, save_figure, save_rows_csv
 
 
 @dataclass(frozen=True)
@@ -84,21 +82,21 @@ class Aggregate:
     def of(cls, rows: Sequence[ScenarioResult], scenarios: Sequence[SuiteScenario]) -> Aggregate:
         if not rows:
             raise ValueError("no scenario results to aggregate")
-        dp = np.array([r.pct_dp for r in rows])
-        sca = np.array([r.pct_sca for r in rows])
-        seconds = np.array([r.seconds for r in rows])
+        mean_dp, p10_dp, min_dp = spread([r.pct_dp for r in rows])
+        mean_sca, p10_sca, min_sca = spread([r.pct_sca for r in rows])
+        median, sca_median = plan_seconds(rows, scenarios)
         return cls(
             n=len(rows),
             feasible=int(sum(r.feasible for r in rows)),
-            mean_pct_dp=float(dp.mean()),
-            p10_pct_dp=float(np.percentile(dp, 10)),
-            min_pct_dp=float(dp.min()),
-            mean_pct_sca=float(sca.mean()),
-            p10_pct_sca=float(np.percentile(sca, 10)),
-            min_pct_sca=float(sca.min()),
+            mean_pct_dp=mean_dp,
+            p10_pct_dp=p10_dp,
+            min_pct_dp=min_dp,
+            mean_pct_sca=mean_sca,
+            p10_pct_sca=p10_sca,
+            min_pct_sca=min_sca,
             mean_rate=float(np.mean([r.rate for r in rows])),
-            median_seconds=float(np.median(seconds)) if np.isfinite(seconds).all() else math.nan,
-            sca_median_seconds=float(np.median([s.reference["sca"]["seconds"] for s in scenarios])),
+            median_seconds=median,
+            sca_median_seconds=sca_median,
         )
 
     def to_dict(self) -> dict[str, Any]:
@@ -118,16 +116,12 @@ class Results:
     aggregate: Aggregate
 
     def to_dict(self) -> dict[str, Any]:
-        return {
-            "name": self.name, "suite": self.suite, "sha256": self.sha256, "env_id": self.env_id,
-            "env_kwargs": dict(self.env_kwargs), "aggregate": self.aggregate.to_dict(),
-            "scenarios": [r.to_dict() for r in self.scenarios],
-        }  # fmt: skip
+        return results_dict(self)
 
     def summary(self) -> str:
         """One line: mean / p10 / min % of DP and of SCA, feasible count, median time to plan."""
         a = self.aggregate
-        plan = "unknown" if math.isnan(a.median_seconds) else f"{1e3 * a.median_seconds:.1f} ms"
+        plan = plan_time(a.median_seconds)
         return (
             f"{self.name} on {self.suite} ({a.n} scenarios): % of DP mean {a.mean_pct_dp:.2f} | "
             f"p10 {a.p10_pct_dp:.2f} | min {a.min_pct_dp:.2f}; % of SCA mean {a.mean_pct_sca:.2f} | "
@@ -151,12 +145,7 @@ class Results:
 
     def save_csv(self, path: str | Path) -> Path:
         """One row per scenario (full precision), atomically."""
-        buf = io.StringIO()
-        writer = csv.DictWriter(buf, fieldnames=COLUMNS, lineterminator="\n")
-        writer.writeheader()
-        for r in self.scenarios:
-            writer.writerow({k: repr(v) if isinstance(v, float) else v for k, v in r.to_dict().items()})
-        return atomic_write_text(path, buf.getvalue())
+        return save_rows_csv(path, COLUMNS, (r.to_dict() for r in self.scenarios))
 
     def save_figure(self, path: str | Path) -> Path:
         """Histogram of % of DP over the scenarios (needs matplotlib: ``ios-uav-env[render]``)."""
@@ -182,13 +171,7 @@ class Results:
         from ios_uav_env.benchmark.trajectories import write_trajectories
 
         out = Path(out)
-        paths = {
-            "csv": self.save_csv(out / "results.csv"),
-            "json": atomic_write_text(
-                out / "results.json", json.dumps(_finite(self.to_dict()), indent=1) + "\n"
-            ),
-            "markdown": atomic_write_text(out / "results.md", self.markdown()),
-        }
+        paths = save_tables(self, out)
         if all(r.trajectory is not None for r in self.scenarios):
             plans = {r.index: r.trajectory for r in self.scenarios}
             times = {r.index: r.seconds for r in self.scenarios if not math.isnan(r.seconds)}
@@ -198,6 +181,45 @@ class Results:
         except ImportError:
             pass
         return paths
+
+
+def spread(values: Sequence[float]) -> tuple[float, float, float]:
+    """The mean, 10th percentile and minimum of scores."""
+    a = np.asarray(values, dtype=np.float64)
+    return float(a.mean()), float(np.percentile(a, 10)), float(a.min())
+
+
+def plan_seconds(rows: Sequence[Any], scenarios: Sequence[SuiteScenario]) -> tuple[float, float]:
+    """The rows' median time to plan (NaN if any is unknown) and SCA's, from the suite file."""
+    seconds = np.array([r.seconds for r in rows])
+    median = float(np.median(seconds)) if np.isfinite(seconds).all() else math.nan
+    return median, float(np.median([s.reference["sca"]["seconds"] for s in scenarios]))
+
+
+def plan_time(median_seconds: float) -> str:
+    """A median time to plan for the summary line: ``"12.3 ms"``, or ``"unknown"``."""
+    return "unknown" if math.isnan(median_seconds) else f"{1e3 * median_seconds:.1f} ms"
+
+
+def results_dict(results: Any) -> dict[str, Any]:
+    """The dict of a :class:`Results` or a ``MultiResults``: what was run, aggregate, scenarios."""
+    return {
+        "name": results.name, "suite": results.suite, "sha256": results.sha256, "env_id": results.env_id,
+        "env_kwargs": dict(results.env_kwargs), "aggregate": results.aggregate.to_dict(),
+        "scenarios": [r.to_dict() for r in results.scenarios],
+    }  # fmt: skip
+
+
+def save_tables(results: Any, out: Path) -> dict[str, Path]:
+    """``results.csv``, ``results.json`` (strict: NaN as null) and ``results.md`` of a
+    :class:`Results` or a ``MultiResults`` in the folder ``out``, atomically; the paths by kind."""
+    return {
+        "csv": results.save_csv(out / "results.csv"),
+        "json": atomic_write_text(
+            out / "results.json", json.dumps(_finite(results.to_dict()), indent=1) + "\n"
+        ),
+        "markdown": atomic_write_text(out / "results.md", results.markdown()),
+    }
 
 
 def _finite(value: Any) -> Any:

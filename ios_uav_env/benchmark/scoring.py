@@ -85,23 +85,33 @@ def suite_of(suite: Suite | str | Any) -> Suite:
     return suite if isinstance(suite, Suite) else load_suite(suite)
 
 
+def play(env: Any, act: Callable, scenario: SuiteScenario, seed: int | None) -> float:
+    """One episode of ``act`` in ``env`` pinned to ``scenario`` (reset with ``seed``) until it
+    terminates or truncates (``RuntimeError`` after :data:`MAX_STEPS`); its wall time in seconds."""
+    start = time.perf_counter()
+    obs, _ = env.reset(seed=seed, options={"config": scenario.config})
+    for _ in range(MAX_STEPS):
+        obs, _, terminated, truncated, _ = env.step(act(obs))
+        if np.any(terminated) or np.any(truncated):
+            break
+    else:
+        raise RuntimeError(f"scenario {scenario.index}: the episode did not end in {MAX_STEPS} steps")
+    return time.perf_counter() - start
+
+
 def _episode(
     env: Any, act: Callable, scenario: SuiteScenario, seed: int | None, batched: bool
 ) -> ScenarioResult:
     """One episode of ``act`` on ``scenario`` in ``env`` (a batch of one if ``batched``), scored."""
     cfg = scenario.config
-    start = time.perf_counter()
-    obs, _ = env.reset(seed=seed, options={"config": cfg})
-    for _ in range(MAX_STEPS):
+
+    def checked(obs: np.ndarray) -> np.ndarray:
         action = act(obs)
-        if batched and action.shape != (1, 2):
+        if action.shape != (1, 2):
             raise ValueError(f"a batched policy must return a (B, 2) action (B=1 here), got {action.shape}")
-        obs, _, terminated, truncated, _ = env.step(action)
-        if np.any(terminated) or np.any(truncated):
-            break
-    else:
-        raise RuntimeError(f"scenario {scenario.index}: the episode did not end in {MAX_STEPS} steps")
-    seconds = time.perf_counter() - start
+        return action
+
+    seconds = play(env, checked if batched else act, scenario, seed)
     base = env.unwrapped
     trajectory = base.trajectories[0] if batched else base.trajectory
     report = check_trajectory(cfg, trajectory)

@@ -191,3 +191,25 @@ def test_multinode_and_single_node_agents_do_not_share_a_table(multi_model, caps
     with pytest.raises(SystemExit):
         main([str(multi_model), str(MODELS_DIR / SHIPPED[0])])
     assert "cannot share a table" in capsys.readouterr().err
+
+
+def test_an_infeasible_planner_plan_scores_zero_in_the_multinode_table():
+    """Planner rows are scored as every multi-node plan: an infeasible one gets 0 % (its rate kept)."""
+    from agents.evaluate_multi import planner_rows
+    from ios_uav_env.benchmark import load_suite
+
+    scenario = load_suite("multi-node-v1")[0]
+    cfg = scenario.config
+    stay = np.tile(cfg.q0, (cfg.N, 1)).tolist()  # never reaches qF
+    equal = np.full((cfg.K, cfg.N), 1.0 / cfg.K).tolist()
+    record = {
+        "sca": {"trajectory": stay, "shares": equal, "seconds": 1.0},
+        "tour": {"trajectory": None, "shares": None, "seconds": 2.0},
+        "bound": {"resolution": 2.5, "seconds": 3.0},
+    }
+    sca, tour, bound = planner_rows(scenario, record)
+    assert not sca.feasible and sca.rate > 0 and (sca.pct_sca, sca.pct_bound) == (0.0, 0.0)
+    assert not tour.feasible and tour.rate == 0.0
+    assert bound.pct_bound == 100.0 and bound.pct_sca == pytest.approx(
+        100 * scenario.rate("bound") / scenario.rate("sca")
+    )

@@ -230,3 +230,30 @@ def test_scoring_a_multinode_policy_imports_no_planner_and_no_deep_learning_libr
     )
     proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120, cwd="/")
     assert proc.returncode == 0 and proc.stdout.strip() == "2", proc.stderr
+
+
+def test_an_infeasible_plan_scores_zero_and_keeps_its_rates(suite):
+    """A plan that never leaves q0 (it misses qF): every % is 0, its rates are still reported."""
+    scenarios = suite.subset(2)
+    stay = {s.index: np.tile(s.config.q0, (s.config.N, 1)) for s in scenarios}
+    equal = {s.index: np.full((s.config.K, s.config.N), 1.0 / s.config.K) for s in scenarios}
+    results = score_trajectories(stay, suite, shares=equal)
+    for r, s in zip(results.scenarios, scenarios, strict=True):
+        assert not r.feasible and r.worst_violation > 0
+        assert r.rate == scheduled_rates(s.config, stay[s.index], equal[s.index]).min() > 0
+        assert r.best_schedule_rate == maxmin_rate(s.config, stay[s.index]) > 0
+        assert (r.pct_sca, r.pct_bound, r.best_pct_sca) == (0.0, 0.0, 0.0)
+    assert results.aggregate.feasible == 0 and results.aggregate.mean_pct_bound == 0.0
+
+
+def test_a_stored_reference_saves_without_plans(tmp_path, suite):
+    """A reference's results hold no trajectories: the tables and the histogram, no shares figure."""
+    paths = reference_results(suite, "sca", n=3).save(tmp_path)
+    assert {p.name for p in tmp_path.iterdir()} == {
+        "results.csv",
+        "results.json",
+        "results.md",
+        "pct_sca.png",
+    }
+    assert set(paths) == {"csv", "json", "markdown", "figure"}
+    assert json.loads((tmp_path / "results.json").read_text())["aggregate"]["mean_pct_sca"] == 100.0
