@@ -97,7 +97,8 @@ def _read_csv(path: Path) -> Plans:
             try:
                 index, slot = int(row["scenario"]), int(row["slot"])
                 point = (float(row["x"]), float(row["y"]))
-                given = [float(row[c]) for c in share_columns if row.get(c) not in (None, "")]
+                filled = [row.get(c) not in (None, "") for c in share_columns]
+                given = [float(row[c]) for c, f in zip(share_columns, filled, strict=True) if f]
             except (TypeError, ValueError) as err:
                 what = "scenario and slot must be integers, x, y and the shares numbers"
                 raise ValueError(f"{path}:{line}: {what}") from err
@@ -105,6 +106,10 @@ def _read_csv(path: Path) -> Plans:
             if slot in slots:
                 raise ValueError(f"{path}:{line}: scenario {index}: slot {slot} appears twice")
             slots[slot] = point
+            if not all(filled[: len(given)]):  # a gap would shift the later shares to other nodes
+                named = [c for c, f in zip(share_columns, filled, strict=True) if f]
+                raise ValueError(f"{path}:{line}: scenario {index}: the shares must fill share_0 .. "
+                                 f"share_<K-1> without gaps, got {named}")  # fmt: skip
             if given:
                 slot_shares.setdefault(index, {})[slot] = given
             if row.get("seconds") not in (None, ""):

@@ -257,3 +257,18 @@ def test_a_stored_reference_saves_without_plans(tmp_path, suite):
     }
     assert set(paths) == {"csv", "json", "markdown", "figure"}
     assert json.loads((tmp_path / "results.json").read_text())["aggregate"]["mean_pct_sca"] == 100.0
+
+
+def test_a_csv_plan_with_a_gap_in_its_shares_is_refused_naming_the_line(tmp_path, suite):
+    """share_0 empty but share_1 given: refused, not read as node 0's share."""
+    s = suite[0]
+    q = np.linspace(s.config.q0, s.config.qF, s.config.N)
+    a = np.full((s.config.K, s.config.N), 1.0 / s.config.K)
+    path = write_trajectories(tmp_path / "plans.csv", {0: q}, None, {0: a})
+    lines = path.read_text().splitlines()
+    cells = lines[3].split(",")
+    cells[5] = ""  # share_0 of slot 2
+    lines[3] = ",".join(cells)
+    path.write_text("\n".join(lines) + "\n")
+    with pytest.raises(ValueError, match=r"plans\.csv:4: scenario 0: the shares must fill share_0"):
+        read_plans(path)
