@@ -193,22 +193,23 @@ def scheduled_rates(config: ScenarioConfig, trajectory: np.ndarray, shares: np.n
     return np.mean(a * node_rates(config, q), axis=1)
 
 
-_WARNED_NO_SCIPY = []
+_SCIPY: list[bool] = []  # [is scipy importable], found at the first call
 
 
 def reported_maxmin_rate(config: ScenarioConfig, trajectory: np.ndarray) -> float:
     """:func:`maxmin_rate` for the envs' ``info["best_schedule_rate"]``: NaN, with one warning,
     when scipy (its LP solver) is not installed, so that an env needs only numpy and Gymnasium
     (``pip install scipy``, or the ``planners`` extra, brings the score back)."""
-    try:
-        import scipy.optimize  # noqa: F401
-    except ImportError:
-        if not _WARNED_NO_SCIPY:
-            _WARNED_NO_SCIPY.append(True)
+    if not _SCIPY:
+        try:
+            import scipy.optimize  # noqa: F401
+
+            _SCIPY.append(True)
+        except ImportError:
+            _SCIPY.append(False)
             import warnings
 
             warnings.warn(
                 "scipy is not installed: info['best_schedule_rate'] is NaN (pip install scipy)", stacklevel=2
             )
-        return float("nan")
-    return maxmin_rate(config, trajectory)
+    return maxmin_rate(config, trajectory) if _SCIPY[0] else float("nan")
