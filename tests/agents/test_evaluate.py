@@ -14,7 +14,7 @@ pytest.importorskip("stable_baselines3")
 from agents.evaluate import MODELS_DIR, SHIPPED, Row, compare, faded_replay, main  # noqa: E402
 from agents.loading import load_agent  # noqa: E402
 from agents.rollout import rollout  # noqa: E402
-from ios_uav_env import ScenarioConfig, average_rate, check_trajectory  # noqa: E402
+from ios_uav_env import ScenarioConfig, average_rate, check_trajectory, scheduled_rates  # noqa: E402
 
 DEFAULT = ScenarioConfig()
 
@@ -213,3 +213,24 @@ def test_an_infeasible_planner_plan_scores_zero_in_the_multinode_table():
     assert bound.pct_bound == 100.0 and bound.pct_sca == pytest.approx(
         100 * scenario.rate("bound") / scenario.rate("sca")
     )
+
+
+def test_shipped_multinode_agent_reproduces_its_score_feasibly():
+    # agents/models/ppo_IOSUAV-MultiNode-v0: 96.0% of SCA when shipped (issue #14's bar, 97%, is
+    # not met yet); this guards the model, its VecNormalize statistics and the env arguments
+    import gymnasium as gym
+
+    from baselines.sca import solve
+    from ios_uav_env.rollout import run_episode
+
+    folder = MODELS_DIR / "ppo_IOSUAV-MultiNode-v0"
+    agent = load_agent(folder)
+    summary = json.loads((folder / "summary.json").read_text())
+    env = gym.make(agent.env_id, **agent.env_kwargs)
+    episode = run_episode(env, agent, seed=0)
+    cfg = env.unwrapped.config
+    own = scheduled_rates(cfg, episode.trajectory, env.unwrapped.shares).min()  # the one scorer
+    assert episode.average_rate == pytest.approx(own, rel=1e-12)
+    assert episode.average_rate == pytest.approx(summary["final_eval"]["average_rate"], abs=1e-9)
+    assert episode.feasible and check_trajectory(cfg, episode.trajectory).feasible
+    assert episode.average_rate >= 0.955 * solve(cfg).mean_rate  # SCA: 0.471001
