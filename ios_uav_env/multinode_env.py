@@ -11,6 +11,7 @@ beside it. Movement, the arrival guard and the feasibility shaping are the singl
 
 from __future__ import annotations
 
+import functools
 import math
 from collections.abc import Mapping
 from typing import Any
@@ -58,6 +59,14 @@ def rate_potential(rates: np.ndarray, beta: float = 0.0) -> float:
     beta] and equals the minimum when every R_k is the same."""
     values = np.asarray(rates, dtype=np.float64)
     return soft_minimum(values, values.size, 1.0, float(beta))
+
+
+@functools.lru_cache(maxsize=256)
+def node_peaks(config: ScenarioConfig) -> tuple[tuple[float, float, float], ...]:
+    """Each node's reachable rate peak (x, y, rate): ``rate_peak`` of ``config.node_config(k)``,
+    the ``peak_hint`` features; cached, so a fixed scenario and the rows of a batch sharing one
+    compute them once."""
+    return tuple(tuple(rate_peak(config.node_config(k))) for k in range(config.K))
 
 
 def sample_multinode(
@@ -147,7 +156,7 @@ class MultiNodeEnv(gym.Env):
     - ``random_nodes`` ((2, 4) for the randomised id, None otherwise): draw a new scenario with
       that many nodes at every reset.
     - ``peak_hint`` (False): append each node's reachable rate peak (Observation Space; it
-      costs one ``rate_peak`` per node at reset, about 10 ms, cached for the fixed scenario).
+      costs one ``rate_peak`` per node at reset, about 10 ms per node, cached: ``node_peaks``).
     - ``arrival_guard``, ``reach_weight``, ``terminal_weight``, ``length_scale``: as
       ``IOSUAVEnv`` (``EnvOptions``); the channel is the expected-gain rate.
     - ``render_mode``: None or "rgb_array" (the best node's rate map, every node, and the
@@ -221,7 +230,6 @@ class MultiNodeEnv(gym.Env):
         low, high = self._bounds()
         self.observation_space = spaces.Box(low, high, dtype=np.float32)
         self.config = self._base
-        self._base_peaks: list[tuple[float, float, float]] | None = None
         self._n: int | None = None
 
     # --- options (read-only views of self.options, as on IOSUAVEnv) -------------------------
@@ -281,7 +289,7 @@ class MultiNodeEnv(gym.Env):
                 )
         self.config = cfg
         self._kernels = [rate_kernel(cfg.node_config(k)) for k in range(cfg.K)]
-        self._peaks = self._node_peaks(cfg) if self.options.peak_hint else None
+        self._peaks = node_peaks(cfg) if self.options.peak_hint else None
         self._x, self._y = cfg.q0
         self._n, self._excess = 0, 0.0
         self._xs, self._ys = [self._x], [self._y]
@@ -294,15 +302,6 @@ class MultiNodeEnv(gym.Env):
         obs = self._observe(rates)
         dist = math.hypot(cfg.qF[0] - self._x, cfg.qF[1] - self._y)
         return obs, self._info(shares, dist, (0.0, 0.0, 0.0), 0.0)
-
-    def _node_peaks(self, cfg: ScenarioConfig) -> list[tuple[float, float, float]]:
-        """Each node's reachable rate peak (cached for the env's own fixed scenario)."""
-        if cfg == self._base and self._base_peaks is not None:
-            return self._base_peaks
-        peaks = [tuple(rate_peak(cfg.node_config(k))) for k in range(cfg.K)]
-        if cfg == self._base:
-            self._base_peaks = peaks
-        return peaks
 
     def _rates(self, x: float, y: float) -> np.ndarray:
         return np.array([k.rate(x, y) for k in self._kernels])

@@ -16,6 +16,7 @@ the reward terms are the single env's. Compiled with numba when installed (``ios
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 
 import numpy as np
 
@@ -65,7 +66,9 @@ def episode_row(
     return np.array(row, dtype=np.float64)
 
 
-def node_points(config: ScenarioConfig, peaks: list[tuple[float, float, float]] | None = None) -> np.ndarray:
+def node_points(
+    config: ScenarioConfig, peaks: Sequence[tuple[float, float, float]] | None = None
+) -> np.ndarray:
     """The (K, 6) ``points`` of ``config`` (:data:`POINT`): each node's x, y, side of the IOS
     (+1 at x > x_c) and its rate peak (``peaks``, the single env's ``peak_hint``; 0 without)."""
     cx = config.ios_center[0]

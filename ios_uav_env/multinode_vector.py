@@ -31,7 +31,7 @@ from ios_uav_env.channel import PARAMS, rate_kernel
 from ios_uav_env.config import ScenarioConfig
 from ios_uav_env.dynamics import flags_of
 from ios_uav_env.multinode import reported_maxmin_rate
-from ios_uav_env.multinode_env import MULTI_INFO_KEYS, MultiNodeEnv
+from ios_uav_env.multinode_env import MULTI_INFO_KEYS, MultiNodeEnv, node_peaks
 from ios_uav_env.multinode_kernels import (
     BEST,
     EPISODE,
@@ -133,7 +133,7 @@ class MultiNodeVectorEnv(gym.vector.VectorEnv):
                 self._nodes[i, k, :, q:] = ((0.0,), (1.0,), (0.0,))
                 self._params[i, k] = kn.params
             env = self.envs[i]
-            peaks = env._node_peaks(cfg) if env.options.peak_hint else None
+            peaks = node_peaks(cfg) if env.options.peak_hint else None
             self._points[i, : cfg.K] = node_points(cfg, peaks)
             self._episode[i] = episode_row(
                 cfg, self._length_scale, self._sharpness, env.softmin_beta, env.options.peak_hint
