@@ -39,25 +39,22 @@ def register_envs() -> None:
     also names its natively batched env (``gym.make_vec(id, num_envs=B,
     vectorization_mode="vector_entry_point")``, Gymnasium >= 1.0).
     """
-    for env_id, kwargs in ENV_IDS.items():
-        if env_id not in gym.registry:
-            gym.register(
-                id=env_id,
-                entry_point="ios_uav_env.env:IOSUAVEnv",
-                kwargs=dict(kwargs),
-                **_vector("ios_uav_env.vector_env:IOSUAVVectorEnv"),
-            )
-    if RANDOM_ENV_ID not in gym.registry:
-        gym.register(
-            id=RANDOM_ENV_ID,
-            entry_point="ios_uav_env.random_env:RandomIOSUAVEnv",
-            **_vector("ios_uav_env.vector_env:RandomIOSUAVVectorEnv"),
-        )
-    for env_id, kwargs in MULTINODE_IDS.items():
-        if env_id not in gym.registry:
-            gym.register(
-                id=env_id,
-                entry_point="ios_uav_env.multinode_env:MultiNodeEnv",
-                kwargs=dict(kwargs),
-                **_vector("ios_uav_env.multinode_vector:MultiNodeVectorEnv"),
-            )
+    families = (
+        (ENV_IDS, "ios_uav_env.env:IOSUAVEnv", "ios_uav_env.vector_env:IOSUAVVectorEnv"),
+        (
+            {RANDOM_ENV_ID: {}},
+            "ios_uav_env.random_env:RandomIOSUAVEnv",
+            "ios_uav_env.vector_env:RandomIOSUAVVectorEnv",
+        ),
+        (
+            MULTINODE_IDS,
+            "ios_uav_env.multinode_env:MultiNodeEnv",
+            "ios_uav_env.multinode_vector:MultiNodeVectorEnv",
+        ),
+    )
+    for ids, entry_point, vector_entry_point in families:
+        for env_id, kwargs in ids.items():
+            if env_id not in gym.registry:
+                gym.register(
+                    id=env_id, entry_point=entry_point, kwargs=dict(kwargs), **_vector(vector_entry_point)
+                )
