@@ -28,7 +28,7 @@ from pathlib import Path
 import numpy as np
 
 from agents.loading import Agent, load_agent
-from agents.rollout import ScenarioRunner, rollout
+from agents.rollout import rollout, run_seeds
 from ios_uav_env import ScenarioConfig
 
 MODELS_DIR = Path(__file__).resolve().parent / "models"
@@ -95,27 +95,35 @@ def agent_row(agent: Agent, config: ScenarioConfig) -> Row:
     )
 
 
-def faded_replay(config: ScenarioConfig, trajectory: np.ndarray, seed: int) -> float:
-    """Mean faded rate of ``trajectory`` replayed through the env (``channel="rician"``, no guard)."""
-    moves = iter(np.diff(np.asarray(trajectory, dtype=float), axis=0) / config.D)
-    with ScenarioRunner("ios_uav_env/IOSUAV-v0", {"channel": "rician", "arrival_guard": False}) as runner:
-        return runner.run(lambda obs: next(moves), config, seed=seed).mean_faded_rate
+def faded_replay(config: ScenarioConfig, trajectory: np.ndarray, seeds: int) -> np.ndarray:
+    """Mean faded rates of ``trajectory`` replayed through the env (``channel="rician"``, no
+    guard), one per seed 0 .. seeds - 1 (all at once, in the batched env)."""
+    moves = np.diff(np.asarray(trajectory, dtype=float), axis=0) / config.D
+    slot = iter(range(len(moves)))
+
+    def replay(obs: np.ndarray) -> np.ndarray:  # every row flies the same moves
+        return np.broadcast_to(moves[next(slot)], (len(obs), 2))
+
+    replay.batched = True  # type: ignore[attr-defined]
+    kwargs = {"channel": "rician", "arrival_guard": False}
+    episodes = run_seeds(replay, config, "ios_uav_env/IOSUAV-v0", kwargs, seeds)
+    return np.array([e.mean_faded_rate for e in episodes])
 
 
 def add_rician(rows: list[Row], agents: dict[str, Agent], seeds: int) -> None:
     """Fill ``faded_mean`` / ``faded_std`` over ``seeds`` Rician episodes for every row.
 
     Agents run in their own env with ``channel="rician"``; planners' trajectories are replayed.
+    Each row's episodes run at once in the batched env (row s: seed s).
     """
     for row in rows:
         if row.kind == "agent":
             agent = agents[row.scheme]
             kwargs = {**agent.env_kwargs, "channel": "rician"}
-            samples = [
-                rollout(agent, row.config, env_kwargs=kwargs, seed=s).mean_faded_rate for s in range(seeds)
-            ]
+            episodes = run_seeds(agent, row.config, agent.env_id, kwargs, seeds)
+            samples = [e.mean_faded_rate for e in episodes]
         else:
-            samples = [faded_replay(row.config, row.trajectory, s) for s in range(seeds)]
+            samples = faded_replay(row.config, row.trajectory, seeds)
         row.faded_mean, row.faded_std = float(np.mean(samples)), float(np.std(samples))
 
 

@@ -71,6 +71,7 @@ class Agent:
     env_kwargs: dict[str, Any] = field(default_factory=dict)  # the env arguments it was trained with
     name: str = "agent"
     meta: dict[str, Any] = field(default_factory=dict)  # config.json and summary.json of its run
+    batched = True  # act takes a (B, obs_dim) batch too (ios_uav_env.rollout.batch_policy)
 
     def act(self, obs: np.ndarray, deterministic: bool = True) -> np.ndarray:
         if self.vecnormalize is not None:

@@ -55,6 +55,7 @@ class NumpyPolicy:
     obs_mean: np.ndarray | None = None  # VecNormalize statistics
     obs_std: np.ndarray | None = None
     obs_clip: float = np.inf
+    batched = True  # act takes a (B, obs_dim) batch too (ios_uav_env.rollout.batch_policy)
 
     @classmethod
     def from_sb3(cls, model: Any, vecnormalize: Any = None) -> NumpyPolicy:

@@ -13,7 +13,11 @@ at the same B, timed without the LP (``best_schedule=False``, as training runs i
 "+ LP" column adds the measured time of one LP per row and episode (sequential Python work,
 nothing to batch), i.e. the batched env with ``best_schedule=True``.
 
+Our batched env steps its rows on numba's threads (``num_threads``: all cores by default;
+``--threads 1`` for one), Gymnasium's ``CartPoleVectorEnv`` on one (numpy).
+
     python benchmarks/vector_speed.py [--id ios_uav_env/IOSUAV-v0] [--sizes 64 256 1024 4096]
+    python benchmarks/vector_speed.py --sizes 1024 --threads 1 --multinode-id ""
 """
 
 from __future__ import annotations
@@ -29,6 +33,12 @@ from gymnasium.envs.classic_control.cartpole import CartPoleVectorEnv
 import ios_uav_env  # noqa: F401  (registers the ids)
 from ios_uav_env.jit import HAVE_NUMBA
 from ios_uav_env.multinode import maxmin_rate
+
+
+def numba_threads_available() -> int:
+    import numba
+
+    return int(numba.get_num_threads())
 
 
 def _timer(step: Callable[[], object], calls: int) -> Callable[[], float]:
@@ -124,22 +134,28 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser.add_argument("--env-steps", type=int, default=400_000, help="env steps per timed run and size")
     parser.add_argument("--repeats", type=int, default=5, help="timed runs per env (the best counts)")
     parser.add_argument(
+        "--threads", type=int, default=None, help="num_threads of our batched env (default: every core)"
+    )
+    parser.add_argument(
         "--multinode-id", default="ios_uav_env/IOSUAV-MultiNode-v0", help='multi-node id ("" to skip)'
     )
     args = parser.parse_args(argv)
-    if min(args.sizes) < 1 or args.env_steps < 1 or args.repeats < 1:
-        parser.error("--sizes, --env-steps and --repeats must be >= 1")
+    counts = [*args.sizes, args.env_steps, args.repeats, 1 if args.threads is None else args.threads]
+    if min(counts) < 1:
+        parser.error("--sizes, --env-steps, --repeats and --threads must be >= 1")
 
     single = single_cartpole(20_000)
     single_best = min(single() for _ in range(args.repeats))
     cartpole_rate = 20_000 / single_best
-    print(f"numba: {'yes' if HAVE_NUMBA else 'no (plain-Python kernels)'}; env {args.id}")
+    threads = args.threads or (numba_threads_available() if HAVE_NUMBA else 1)
+    kernels = "yes" if HAVE_NUMBA else "no (plain-Python kernels)"
+    print(f"numba: {kernels}; env {args.id}; our batched env on {threads} thread(s)")
     print(f"CartPole-v1 raw (one env): {cartpole_rate:,.0f} steps/s")
     head = ("B", "ours (steps/s)", "CartPoleVectorEnv", "x CartPole raw", "x CartPoleVec")
     print(f"{head[0]:>6} {head[1]:>16} {head[2]:>18} {head[3]:>15} {head[4]:>14}")
     for size in args.sizes:
         calls = max(10, args.env_steps // size)
-        ours, theirs = batched(args.id, size, calls), cartpole_vector(size, calls)
+        ours, theirs = batched(args.id, size, calls, num_threads=args.threads), cartpole_vector(size, calls)
         best_ours = best_theirs = float("inf")
         for _ in range(args.repeats):  # take turns
             best_ours = min(best_ours, ours())

@@ -53,42 +53,64 @@ PARAMS = (
 )  # fmt: skip
 
 
+@jit(inline=True)
+def zeta_row(x: float, y: float, nodes: np.ndarray, params: np.ndarray, i: int) -> float:
+    """zeta at one position: the formula of :func:`zeta` as a loop over the surface nodes, for
+    row ``i`` of a batch of rate kernels (``nodes`` (B, 3, K): y_k, (z_U - z_k)^2, J w_k;
+    ``params`` (B, P): the scalars of :data:`PARAMS`). Inlined into the compiled kernels that
+    call it (the env's hot path) and indexed in place: no per-row array views, which cost more
+    than the sum itself."""
+    dxg, dyg = x - params[i, 4], y - params[i, 5]
+    direct = params[i, 7] * (dxg * dxg + dyg * dyg + params[i, 6]) ** params[i, 8]
+    dx = x - params[i, 0]
+    if params[i, 3] == 0.0 or dx == 0.0:
+        return direct
+    side = 1.0 if dx * params[i, 1] > 0.0 else params[i, 2]
+    dx2, total = dx * dx, 0.0
+    for k in range(nodes.shape[2]):
+        dy = y - nodes[i, 0, k]
+        d2 = dy * dy + nodes[i, 1, k] + dx2
+        total += nodes[i, 2, k] / (d2 * d2)
+    return side * abs(dx) ** 3 * total + direct
+
+
+@jit(inline=True)
+def rate_row(x: float, y: float, nodes: np.ndarray, params: np.ndarray, i: int) -> float:
+    """Expected-gain rate log2(1 + eta zeta^2) at one position, row ``i`` (see :func:`zeta_row`)."""
+    z = zeta_row(x, y, nodes, params, i)
+    return math.log2(1.0 + params[i, 9] * z * z)
+
+
+@jit(inline=True)
+def faded_row(
+    x: float, y: float, n_re: float, n_im: float, nodes: np.ndarray, params: np.ndarray, i: int
+) -> float:
+    """One faded-rate sample log2(1 + eta |h|^2) at one position, row ``i``, given the two
+    standard normal draws of h_SS (real, then imaginary part): the scalar form of :func:`faded_rates`."""
+    z = zeta_row(x, y, nodes, params, i)
+    dxg, dyg = x - params[i, 4], y - params[i, 5]
+    phase = 2.0 * math.pi * math.sqrt(dxg * dxg + dyg * dyg + params[i, 6]) / params[i, 10]
+    re = params[i, 11] * math.cos(phase) + params[i, 12] * n_re
+    im = -params[i, 11] * math.sin(phase) + params[i, 12] * n_im
+    return math.log2(1.0 + params[i, 9] * z * z * (re * re + im * im))
+
+
 @jit
 def zeta_point(x: float, y: float, nodes: np.ndarray, params: np.ndarray) -> float:
-    """zeta at one position: the formula of :func:`zeta` as a loop over the surface nodes
-    (compiled with numba when installed: the env's hot path). ``nodes`` is the (3, K) array
-    (y_k, (z_U - z_k)^2, J w_k) and ``params`` the scalars of :data:`PARAMS`."""
-    dxg, dyg = x - params[4], y - params[5]
-    direct = params[7] * (dxg * dxg + dyg * dyg + params[6]) ** params[8]
-    dx = x - params[0]
-    if params[3] == 0.0 or dx == 0.0:
-        return direct
-    side = 1.0 if dx * params[1] > 0.0 else params[2]
-    dx2, total = dx * dx, 0.0
-    for k in range(nodes.shape[1]):
-        dy = y - nodes[0, k]
-        d2 = dy * dy + nodes[1, k] + dx2
-        total += nodes[2, k] / (d2 * d2)
-    return side * abs(dx) ** 3 * total + direct
+    """zeta at one position for one rate kernel (``nodes`` (3, K), ``params`` (P,)): :func:`zeta_row`."""
+    return zeta_row(x, y, nodes[np.newaxis], params[np.newaxis], 0)
 
 
 @jit
 def rate_point(x: float, y: float, nodes: np.ndarray, params: np.ndarray) -> float:
-    """Expected-gain rate log2(1 + eta zeta^2) at one position (see :func:`zeta_point`)."""
-    z = zeta_point(x, y, nodes, params)
-    return math.log2(1.0 + params[9] * z * z)
+    """Expected-gain rate log2(1 + eta zeta^2) at one position: :func:`rate_row` of one kernel."""
+    return rate_row(x, y, nodes[np.newaxis], params[np.newaxis], 0)
 
 
 @jit
 def faded_point(x: float, y: float, n_re: float, n_im: float, nodes: np.ndarray, params: np.ndarray) -> float:
-    """One faded-rate sample log2(1 + eta |h|^2) at one position, given the two standard
-    normal draws of h_SS (real, then imaginary part): the scalar form of :func:`faded_rates`."""
-    z = zeta_point(x, y, nodes, params)
-    dxg, dyg = x - params[4], y - params[5]
-    phase = 2.0 * math.pi * math.sqrt(dxg * dxg + dyg * dyg + params[6]) / params[10]
-    re = params[11] * math.cos(phase) + params[12] * n_re
-    im = -params[11] * math.sin(phase) + params[12] * n_im
-    return math.log2(1.0 + params[9] * z * z * (re * re + im * im))
+    """One faded-rate sample at one position: :func:`faded_row` of one kernel."""
+    return faded_row(x, y, n_re, n_im, nodes[np.newaxis], params[np.newaxis], 0)
 
 
 @dataclass(frozen=True, eq=False)

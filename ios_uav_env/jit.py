@@ -18,8 +18,10 @@ try:  # numba is optional: the model and the env run without it
     if os.environ.get("IOS_UAV_ENV_NO_NUMBA", "") not in ("", "0"):
         raise ImportError("disabled by IOS_UAV_ENV_NO_NUMBA")
     from numba import njit as _njit
+    from numba import prange
 except ImportError:
     _njit = None
+    prange = range  # type: ignore[assignment]  # (plain Python: a prange loop is a range loop)
 
 #: (numba's on-disk cache is keyed by each kernel module's source, not by these options:
 #: after changing them, delete the ``*.nbi`` / ``*.nbc`` files under ``__pycache__``.)
@@ -31,9 +33,13 @@ FASTMATH = {"reassoc", "contract", "arcp", "nsz"}
 HAVE_NUMBA: bool = _njit is not None
 
 
-def jit(function: F | None = None, *, inline: bool = False, fastmath: bool = True) -> Any:
+def jit(
+    function: F | None = None, *, inline: bool = False, fastmath: bool = True, parallel: bool = False
+) -> Any:
     """``function`` compiled by numba (no Python objects, cached on disk), or itself.
     ``inline=True``: a small helper inlined into the compiled functions that call it.
+    ``parallel=True``: its ``prange`` loops run on numba's threads (``numba.set_num_threads``
+    sets how many; a ``prange`` loop is a plain loop in the other compilations).
     ``fastmath=False``: IEEE arithmetic in the function's own code (no fused multiply-add, no
     reassociation), e.g. to reproduce plain-Python arithmetic bit for bit; the compiled
     functions it calls keep their own flags."""
@@ -42,9 +48,56 @@ def jit(function: F | None = None, *, inline: bool = False, fastmath: bool = Tru
         if _njit is None:
             return f
         options: dict[str, Any] = {"inline": "always"} if inline else {}
+        if parallel:
+            options["parallel"] = True
         # error_model="numpy": a division by zero gives inf instead of raising, so the node sums
         # have no per-element branch and vectorise (2x); the kernels never divide by zero
         flags = FASTMATH if fastmath else False
         return _njit(cache=True, nogil=True, fastmath=flags, error_model="numpy", **options)(f)  # type: ignore[no-any-return]
 
     return compile_ if function is None else compile_(function)
+
+
+_launcher_pid: int | None = None  # the process that first ran a parallel kernel
+
+
+def parallel_safe() -> bool:
+    """Whether this process may run the ``parallel`` kernels on numba's threads: not in a child
+    forked from a process that already did with numba's "omp" threading layer (GNU OpenMP
+    cannot survive a fork: numba terminates the child at its first parallel launch). The
+    batched envs call their serial kernel there instead (same results, one core, slower)."""
+    global _launcher_pid
+    pid = os.getpid()
+    if _launcher_pid is None:
+        _launcher_pid = pid
+    if pid == _launcher_pid or _njit is None:
+        return True
+    import numba
+
+    try:
+        return numba.threading_layer() != "omp"
+    except ValueError:  # no parallel launch yet in the parent: nothing to inherit
+        return True
+
+
+class numba_threads:  # noqa: N801  (used as a context manager, like a function)
+    """``with numba_threads(n):`` runs the ``parallel`` kernels called inside on ``n`` of numba's
+    threads (at most ``NUMBA_NUM_THREADS``, the cores by default), then restores the setting.
+    ``n=None``, or without numba: numba's current setting, nothing changed."""
+
+    def __init__(self, n: int | None) -> None:
+        self.n, self.before = n, 0
+
+    def __enter__(self) -> None:
+        if self.n is not None and _njit is not None:
+            import numba
+
+            self.before = numba.get_num_threads()
+            numba.set_num_threads(min(self.n, numba.config.NUMBA_NUM_THREADS))
+
+    def __exit__(self, *exc: object) -> None:
+        if self.before:
+            import numba
+
+            numba.set_num_threads(self.before)
+            self.before = 0

@@ -24,7 +24,7 @@ from ios_uav_env.channel import rate_point
 from ios_uav_env.config import FEASIBILITY_TOL, ScenarioConfig
 from ios_uav_env.dynamics import penalties
 from ios_uav_env.guard import guarded_position
-from ios_uav_env.jit import jit
+from ios_uav_env.jit import jit, prange
 from ios_uav_env.observation import M_SCALE, T_SCALE
 
 #: Columns of a row of ``state`` (``moves_made`` at column 2, as in ``dynamics.STATE``).
@@ -189,7 +189,66 @@ def _softmax(i: int, actions: np.ndarray, sharpness: float, k_n: int, shares: np
         shares[i, k] /= total
 
 
-def _step_rows(
+@jit(inline=True, fastmath=False)
+def _step_row(
+    i: int, actions: np.ndarray, state: np.ndarray, episode: np.ndarray, points: np.ndarray,
+    nodes: np.ndarray, params: np.ndarray, served: np.ndarray, shares: np.ndarray, rates: np.ndarray,
+    flags: np.ndarray, obs: np.ndarray, reward: np.ndarray, terminated: np.ndarray, info: np.ndarray,
+    path: np.ndarray, share_path: np.ndarray, norms: np.ndarray,
+) -> None:  # fmt: skip
+    """One slot of row ``i`` (see :func:`step_rows`)."""
+    ep, st = episode[i], state[i]
+    d, n_slots, k_n = ep[0], ep[5], int(ep[8])
+    ax, ay = actions[i, 0], actions[i, 1]
+    norm = norms[i]
+    if norm > 1.0:
+        ax, ay = ax / norm, ay / norm
+    _softmax(i, actions, ep[9], k_n, shares)
+    x0, y0, n = st[0], st[1], st[2]
+    left = ep[3] - n - 1.0  # moves left after this one
+    x, y = x0 + d * ax, y0 + d * ay
+    if flags[0] != 0.0:
+        x, y = guarded_position((x0, y0), (x, y), (ep[1], ep[2]), d, int(left))
+    st[0], st[1], st[2] = x, y, n + 1.0
+    st[3] = max(st[3], math.hypot(x - x0, y - y0) - d)
+    path[i, int(n) + 1, 0], path[i, int(n) + 1, 1] = x, y
+    _rates(i, x, y, k_n, nodes, params, rates)
+    low = math.inf
+    for k in range(k_n):
+        served[i, k] = served[i, k] + shares[i, k] * rates[i, k]
+        share_path[i, int(n) + 1, k] = shares[i, k]
+        low = min(low, served[i, k])
+    st[4] = low / n_slots
+    previous, st[5] = st[5], soft_minimum(served[i], k_n, n_slots, ep[14])
+    dist = math.hypot(ep[1] - x, ep[2] - y)
+    r_reach, r_terminal = penalties(dist, left, d, flags[4], flags[5])
+    done = left == 0.0
+    r_rate = n_slots * (st[5] - previous)
+    if done and ep[14] != 0.0:
+        r_rate += n_slots * (st[4] - st[5])
+    reward[i] = r_rate + r_reach + r_terminal
+    terminated[i] = done
+    _observe(obs, i, x, y, left, dist, episode, points, served, rates)
+    _info(info, i, state, episode, shares, served, dist, left, r_rate, r_reach, r_terminal)
+
+
+@jit(fastmath=False)
+def step_rows(
+    actions: np.ndarray, state: np.ndarray, episode: np.ndarray, points: np.ndarray, nodes: np.ndarray,
+    params: np.ndarray, served: np.ndarray, shares: np.ndarray, rates: np.ndarray, flags: np.ndarray,
+    obs: np.ndarray, reward: np.ndarray, terminated: np.ndarray, info: np.ndarray, path: np.ndarray,
+    share_path: np.ndarray, active: np.ndarray, norms: np.ndarray,
+) -> None:  # fmt: skip
+    """:func:`step_rows_batched` one row after the other (where numba's threads cannot run:
+    ``ios_uav_env.jit.parallel_safe``)."""
+    for i in range(actions.shape[0]):
+        if active[i]:
+            _step_row(i, actions, state, episode, points, nodes, params, served, shares, rates, flags, obs,
+                      reward, terminated, info, path, share_path, norms)  # fmt: skip
+
+
+@jit(fastmath=False, parallel=True)
+def step_rows_batched(
     actions: np.ndarray, state: np.ndarray, episode: np.ndarray, points: np.ndarray, nodes: np.ndarray,
     params: np.ndarray, served: np.ndarray, shares: np.ndarray, rates: np.ndarray, flags: np.ndarray,
     obs: np.ndarray, reward: np.ndarray, terminated: np.ndarray, info: np.ndarray, path: np.ndarray,
@@ -201,56 +260,21 @@ def _step_rows(
     ``share_path`` (B, N_max, K_max) receive the new way-point and shares (at ``moves made``).
     ``norms`` (B,): |move| of each row whose move may leave the unit disk, 0 for the others
     (:func:`move_norms`: Python's ``math.hypot``, as the single env; numba's differs in the
-    last bit for ~1% of the inputs)."""
-    for i in range(actions.shape[0]):
-        if not active[i]:
-            continue
-        ep, st = episode[i], state[i]
-        d, n_slots, k_n = ep[0], ep[5], int(ep[8])
-        ax, ay = actions[i, 0], actions[i, 1]
-        norm = norms[i]
-        if norm > 1.0:
-            ax, ay = ax / norm, ay / norm
-        _softmax(i, actions, ep[9], k_n, shares)
-        x0, y0, n = st[0], st[1], st[2]
-        left = ep[3] - n - 1.0  # moves left after this one
-        x, y = x0 + d * ax, y0 + d * ay
-        if flags[0] != 0.0:
-            x, y = guarded_position((x0, y0), (x, y), (ep[1], ep[2]), d, int(left))
-        st[0], st[1], st[2] = x, y, n + 1.0
-        st[3] = max(st[3], math.hypot(x - x0, y - y0) - d)
-        path[i, int(n) + 1, 0], path[i, int(n) + 1, 1] = x, y
-        _rates(i, x, y, k_n, nodes, params, rates)
-        low = math.inf
-        for k in range(k_n):
-            served[i, k] = served[i, k] + shares[i, k] * rates[i, k]
-            share_path[i, int(n) + 1, k] = shares[i, k]
-            low = min(low, served[i, k])
-        st[4] = low / n_slots
-        previous, st[5] = st[5], soft_minimum(served[i], k_n, n_slots, ep[14])
-        dist = math.hypot(ep[1] - x, ep[2] - y)
-        r_reach, r_terminal = penalties(dist, left, d, flags[4], flags[5])
-        done = left == 0.0
-        r_rate = n_slots * (st[5] - previous)
-        if done and ep[14] != 0.0:
-            r_rate += n_slots * (st[4] - st[5])
-        reward[i] = r_rate + r_reach + r_terminal
-        terminated[i] = done
-        _observe(obs, i, x, y, left, dist, episode, points, served, rates)
-        _info(info, i, state, episode, shares, served, dist, left, r_rate, r_reach, r_terminal)
+    last bit for ~1% of the inputs). The rows run in parallel on numba's threads
+    (``MultiNodeVectorEnv(num_threads=...)``); IEEE arithmetic (no fused multiply-add) so that
+    the moves are the single env's bit for bit (the arrival guard turns a last-bit difference
+    into ~1e-7 m when it pulls the UAV home along the reach circle)."""
+    for i in prange(actions.shape[0]):  # rows are independent, on numba's threads
+        if active[i]:
+            _step_row(i, actions, state, episode, points, nodes, params, served, shares, rates, flags, obs,
+                      reward, terminated, info, path, share_path, norms)  # fmt: skip
 
 
 def move_norms(actions: np.ndarray) -> np.ndarray:
-    """The ``norms`` of :func:`step_rows`: ``math.hypot`` of the move of each row of ``actions``
+    """The ``norms`` of :func:`step_rows_batched`: ``math.hypot`` of the move of each row of ``actions``
     whose squared move exceeds 1 - 1e-6 (the rows it may project), 0 for the others."""
     norms = np.zeros(actions.shape[0])
     rows = np.flatnonzero(actions[:, 0] ** 2 + actions[:, 1] ** 2 > 1.0 - 1e-6)
     if rows.size:
         norms[rows] = [math.hypot(ax, ay) for ax, ay in actions[rows, :2].tolist()]
     return norms
-
-
-#: :func:`_step_rows`, compiled (numba) when it is installed; IEEE arithmetic (no fused
-#: multiply-add) so that the moves are the single env's bit for bit (the arrival guard turns
-#: a last-bit difference into ~1e-7 m when it pulls the UAV home along the reach circle).
-step_rows = jit(_step_rows, fastmath=False)

@@ -30,6 +30,7 @@ import numpy as np
 from ios_uav_env.channel import PARAMS, rate_kernel
 from ios_uav_env.config import ScenarioConfig
 from ios_uav_env.dynamics import flags_of
+from ios_uav_env.jit import numba_threads, parallel_safe
 from ios_uav_env.multinode import reported_maxmin_rate
 from ios_uav_env.multinode_env import MULTI_INFO_KEYS, MultiNodeEnv, node_peaks
 from ios_uav_env.multinode_kernels import (
@@ -44,8 +45,9 @@ from ios_uav_env.multinode_kernels import (
     node_points,
     reset_rows,
     step_rows,
+    step_rows_batched,
 )
-from ios_uav_env.vector_env import _AUTORESET, IOSUAVVectorEnv
+from ios_uav_env.vector_env import _AUTORESET, IOSUAVVectorEnv, check_threads
 
 
 class MultiNodeVectorEnv(gym.vector.VectorEnv):
@@ -81,9 +83,11 @@ class MultiNodeVectorEnv(gym.vector.VectorEnv):
         autoreset_mode: Any = "next_step",
         best_schedule: bool = True,
         render_mode: None = None,
+        num_threads: int | None = None,
         **kwargs: Any,
     ):
         self._check_batch(num_envs, autoreset_mode, render_mode)
+        self.num_threads = check_threads(num_threads)
         self.best_schedule = bool(best_schedule)
         template = MultiNodeEnv(config, **kwargs)
         self._copy_template(template)
@@ -162,6 +166,10 @@ class MultiNodeVectorEnv(gym.vector.VectorEnv):
                    self._params, self._served, self._shares, self._rates, self._obs, self._info,
                    self._share_path)  # fmt: skip
 
+    def _restart_rows(self, rows: np.ndarray) -> None:
+        """New episodes on ``rows`` without a seed or options (autoreset, :meth:`restart`)."""
+        self._reset_rows(rows, [None] * rows.size, [None] * rows.size)
+
     def _infos(self, table: np.ndarray | None = None) -> dict[str, Any]:
         """``info`` as views of the info table (``MULTI_INFO_KEYS``; ``_key`` masks)."""
         table = self._info if table is None else table
@@ -199,9 +207,12 @@ class MultiNodeVectorEnv(gym.vector.VectorEnv):
             raise RuntimeError("call reset() before step()")
         actions = self._check_actions(actions)
         active = self._begin_step()
-        step_rows(actions, self._state, self._episode, self._points, self._nodes, self._params, self._served,
-                  self._shares, self._rates, self._flags, self._obs, self._reward, self._terminated,
-                  self._info, self._path, self._share_path, active, move_norms(actions))  # fmt: skip
+        kernel = step_rows_batched if parallel_safe() else step_rows  # (serial in an omp fork)
+        with numba_threads(self.num_threads):
+            kernel(actions, self._state, self._episode, self._points, self._nodes, self._params,
+                      self._served, self._shares, self._rates, self._flags, self._obs, self._reward,
+                      self._terminated, self._info, self._path, self._share_path, active,
+                      move_norms(actions))  # fmt: skip
         for i in np.flatnonzero(self._terminated):  # the best schedule of the flight: an LP per episode
             cfg = self.envs[i].config
             self._info[i, BEST] = (

@@ -34,10 +34,11 @@ TARGETS: dict[str, tuple[int, int]] = {
 
 def move_toward(offset: np.ndarray, D: float) -> np.ndarray:
     """The action (a move in units of D, in the unit disk) that goes ``offset`` (m) in one step
-    if it is at most D long, else D along it: full speed towards the point, then stop on it."""
+    if it is at most D long, else D along it: full speed towards the point, then stop on it.
+    ``offset`` (2,) or a batch (B, 2)."""
     move = np.asarray(offset, dtype=np.float64) / D
-    norm = math.hypot(float(move[0]), float(move[1]))
-    return (move / norm if norm > 1.0 else move).astype(np.float32)
+    norm = np.hypot(move[..., 0], move[..., 1])[..., None]
+    return (move / np.maximum(norm, 1.0)).astype(np.float32)
 
 
 class HoverAt:
@@ -47,6 +48,9 @@ class HoverAt:
     features; make the env with :attr:`env_kwargs`) or ``"ground"`` (the ground node G).
     ``D`` (m) and ``length_scale`` (m) must be the env's D = v_max dt and L.
     """
+
+    #: It takes a batch of observations too ((B, obs_dim) -> (B, 2)).
+    batched = True
 
     def __init__(self, target: str = "peak", D: float = 25.0, length_scale: float = 400.0) -> None:
         if target not in TARGETS:
@@ -68,7 +72,7 @@ class HoverAt:
         return f"fly to {what} and hover (heuristic)"
 
     def __call__(self, obs: np.ndarray) -> np.ndarray:
-        offset = np.asarray(obs[self._slice], dtype=np.float64) * self.length_scale
+        offset = np.asarray(obs, dtype=np.float64)[..., self._slice] * self.length_scale
         return move_toward(offset, self.D)
 
     def act(self, obs: np.ndarray, deterministic: bool = True) -> np.ndarray:

@@ -76,22 +76,94 @@ def run_episode(
         done = bool(terminated or truncated)
     seconds = time.perf_counter() - start
     base = env.unwrapped
-    trajectory = base.trajectory
-    report = check_trajectory(base.config, trajectory)
-    if base.config.K > 1:  # several nodes: the agent's own shares (scheduled_rates), the one scorer
-        score = float(scheduled_rates(base.config, trajectory, base.shares).min())
+    shares = base.shares if base.config.K > 1 else None
+    mean_faded = info.get("mean_faded_rate")
+    return score_episode(base.config, base.trajectory, shares, total, mean_faded, steps, seconds)
+
+
+def score_episode(
+    config: ScenarioConfig,
+    trajectory: np.ndarray,
+    shares: np.ndarray | None,
+    episode_return: float,
+    mean_faded_rate: float | None,
+    steps: int,
+    seconds: float,
+) -> Episode:
+    """The :class:`Episode` of a finished flight, scored by the model: eq. (9) (``average_rate``;
+    several nodes: ``scheduled_rates`` of the agent's own ``shares``, its min_k R_k) and
+    eq. (10) (``check_trajectory``), as every planner's plan is."""
+    report = check_trajectory(config, trajectory)
+    if config.K > 1:  # several nodes: the agent's own shares (scheduled_rates), the one scorer
+        score = float(scheduled_rates(config, trajectory, shares).min())
     else:
-        score = average_rate(base.config, trajectory)
+        score = average_rate(config, trajectory)
     return Episode(
-        config=base.config,
+        config=config,
         trajectory=trajectory,
         average_rate=score,
         feasible=report.feasible,
         terminal_miss=report.end_error,
         max_step=report.max_step,
         worst_violation=report.worst_violation,
-        episode_return=total,
-        mean_faded_rate=float(info.get("mean_faded_rate", score)),
-        steps=steps,
-        seconds=seconds,
+        episode_return=float(episode_return),
+        mean_faded_rate=score if mean_faded_rate is None else float(mean_faded_rate),
+        steps=int(steps),
+        seconds=float(seconds),
     )
+
+
+def batch_policy(policy: Policy) -> Callable[[np.ndarray], np.ndarray]:
+    """``policy`` as a function of a (B, obs_dim) batch: itself if it (or the object of a bound
+    method) says ``batched = True`` (``HoverAt``, ``agents``' ``Agent`` and ``NumpyPolicy``),
+    else one call per row."""
+    if getattr(getattr(policy, "__self__", policy), "batched", False):
+        return policy
+
+    def per_row(obs: np.ndarray) -> np.ndarray:
+        return np.stack([np.asarray(policy(o), dtype=np.float64) for o in obs])
+
+    return per_row
+
+
+def run_episodes(
+    vec_env: Any,
+    policy: Policy,
+    *,
+    seed: int | list[int] | None = None,
+    options: Mapping[str, Any] | None = None,
+    max_steps: int = 100_000,
+) -> list[Episode]:
+    """One episode per row of a natively batched env (``gym.make_vec(id, num_envs=B,
+    vectorization_mode="vector_entry_point")``, next-step autoreset), each scored as
+    :func:`run_episode` scores it; row i's episode is the single env's reset with ``seed + i``
+    (a list: row i's seed; ``options={"configs": [...]}``: row i on scenario i). ``policy``
+    maps the (B, obs_dim) observations to (B, act_dim) actions (:func:`batch_policy` adapts a
+    one-observation policy). ``seconds`` is the batch's wall time from the reset to the end of
+    its last episode divided by B: the time per plan when B are planned at once."""
+    vec = getattr(vec_env, "unwrapped", vec_env)
+    if getattr(vec, "same_step", True):
+        raise ValueError("run_episodes needs a batched env with autoreset_mode='next_step' (the default)")
+    act = batch_policy(policy)
+    start = time.perf_counter()
+    obs, _ = vec.reset(seed=seed, options=None if options is None else dict(options))
+    b = vec.num_envs
+    running, totals, steps = np.ones(b, dtype=np.bool_), np.zeros(b), np.zeros(b, dtype=np.int64)
+    ends: dict[int, tuple[Any, ...]] = {}  # row -> (config, trajectory, shares, mean faded rate)
+    for _ in range(max_steps):
+        obs, reward, terminated, truncated, info = vec.step(act(obs))
+        totals += np.where(running, reward, 0.0)
+        steps += running
+        ended = np.flatnonzero(running & (terminated | truncated))
+        if ended.size:  # before the next step resets them (next-step autoreset)
+            configs, trajectories = vec.configs, vec.trajectories
+            schedules = vec.schedules if hasattr(vec, "schedules") else [None] * b
+            faded = info.get("mean_faded_rate", [None] * b)
+            ends.update({int(i): (configs[i], trajectories[i], schedules[i], faded[i]) for i in ended})
+            running[ended] = False
+        if not running.any():
+            break
+    else:
+        raise RuntimeError(f"the episodes did not all end within max_steps={max_steps} steps")
+    seconds = (time.perf_counter() - start) / b
+    return [score_episode(*ends[i][:3], totals[i], ends[i][3], steps[i], seconds) for i in range(b)]

@@ -31,8 +31,9 @@ import numpy as np
 from gymnasium.vector.utils import batch_space
 
 from ios_uav_env.config import ScenarioConfig
-from ios_uav_env.dynamics import INFO, STATE, reset_rows, step_rows
+from ios_uav_env.dynamics import INFO, STATE, reset_rows, step_rows, step_rows_batched
 from ios_uav_env.env import INFO_KEYS, IOSUAVEnv
+from ios_uav_env.jit import numba_threads, parallel_safe
 from ios_uav_env.random_env import RandomIOSUAVEnv
 
 try:  # Gymnasium >= 1.1 names the autoreset modes
@@ -43,8 +44,20 @@ try:  # Gymnasium >= 1.1 names the autoreset modes
 except ImportError:  # pragma: no cover - Gymnasium 1.0: next-step is the only mode
     _AUTORESET, _SAME_STEP = "NextStep", None
 
+#: ``info``'s keys in ``INFO_KEYS`` order, each with its column of the info array
+_INFO_COLUMNS = [(key, INFO.index("position_x" if key == "position" else key)) for key in INFO_KEYS]
+
 #: Values of ``autoreset_mode`` (Gymnasium's ``AutoresetMode`` members are accepted too).
 AUTORESET_MODES = ("next_step", "same_step")
+
+
+def check_threads(num_threads: Any) -> int | None:
+    """``num_threads`` checked: None (numba's setting: every core) or an integer >= 1."""
+    if num_threads is None:
+        return None
+    if isinstance(num_threads, bool) or not isinstance(num_threads, (int, np.integer)) or num_threads < 1:
+        raise ValueError(f"num_threads must be None (every core) or an integer >= 1, got {num_threads!r}")
+    return int(num_threads)
 
 
 class IOSUAVVectorEnv(gym.vector.VectorEnv):
@@ -68,9 +81,11 @@ class IOSUAVVectorEnv(gym.vector.VectorEnv):
         *,
         autoreset_mode: Any = "next_step",
         render_mode: None = None,
+        num_threads: int | None = None,
         **kwargs: Any,
     ):
         self._check_batch(num_envs, autoreset_mode, render_mode)
+        self.num_threads = check_threads(num_threads)
         template = self.env_class(config, **kwargs)
         self._copy_template(template)
         b = self.num_envs
@@ -84,6 +99,9 @@ class IOSUAVVectorEnv(gym.vector.VectorEnv):
         self._outputs()
         self._path = np.zeros((b, template._ranges().slot_range[1], 2))
         self._autoreset = np.zeros(b, dtype=np.bool_)
+        # rows whose scenario is the env's own (not pinned, not drawn): see _load_row
+        self._plain = np.zeros(b, dtype=np.bool_)
+        self._q0 = np.asarray(template._base_config.q0, dtype=np.float64)
         self._started = False
         self._masks = {f"_{key}": np.ones(b, dtype=np.bool_) for key in INFO_KEYS}
         for mask in self._masks.values():
@@ -131,6 +149,9 @@ class IOSUAVVectorEnv(gym.vector.VectorEnv):
         self._params[i] = env.kernel.params
         self._episode[i] = env._episode[0]
         self._state[i, 0:2] = self._path[i, 0] = env.config.q0
+        # the env's own scenario object (a fixed id's): a plain reset keeps it. A pinned
+        # scenario, or a random env's draw (always a new object), is another object.
+        self._plain[i] = env.config is env._base_config
         if self._rician:
             self._normals[i] = env.np_random.standard_normal(2)
 
@@ -149,6 +170,22 @@ class IOSUAVVectorEnv(gym.vector.VectorEnv):
             self._load_row(int(i), env)
         reset_rows(rows.astype(np.int64), self._state, self._episode, self._nodes, self._params,
                    self._normals, self._flags, self._obs, self._info)  # fmt: skip
+
+    def _restart_rows(self, rows: np.ndarray) -> None:
+        """New episodes on ``rows`` without a seed or options (autoreset, :meth:`restart`). A row
+        that keeps its scenario (the fixed ids' own) only goes back to q0, without the Python
+        reset of its template env: the same episode, at no per-row Python cost."""
+        plain = self._plain[rows]
+        quick, rest = rows[plain], rows[~plain]
+        if quick.size:
+            self._state[quick, 0:2] = self._path[quick, 0] = self._q0
+            if self._rician:
+                for i in quick:
+                    self._normals[i] = self.envs[i].np_random.standard_normal(2)
+            reset_rows(quick, self._state, self._episode, self._nodes, self._params, self._normals,
+                       self._flags, self._obs, self._info)  # fmt: skip
+        if rest.size:
+            self._reset_rows(rest, [None] * rest.size, [None] * rest.size)
 
     def _row_options(self, options: Mapping[str, Any] | None) -> list[Any]:
         """Each row's reset options: ``{"config": cfg}`` pins every row, ``{"configs": [cfg_0,
@@ -170,11 +207,11 @@ class IOSUAVVectorEnv(gym.vector.VectorEnv):
         """``info`` as column views of the info array (``INFO_KEYS``; ``_key`` masks)."""
         table = self._info if table is None else table
         columns = table.T
-        out = {key: columns[i] for i, key in enumerate(INFO) if not key.startswith("position")}
-        out["position"] = table[:, 2:4]
+        out: dict[str, Any] = {}
+        for key, column in _INFO_COLUMNS:
+            out[key] = table[:, 2:4] if key == "position" else columns[column]
         out["slot"] = out["slot"].astype(np.int64)
         out["feasible"] = out["feasible"] != 0.0
-        out = {key: out[key] for key in INFO_KEYS}
         out.update(self._masks)
         return out
 
@@ -204,15 +241,18 @@ class IOSUAVVectorEnv(gym.vector.VectorEnv):
         actions = np.asarray(actions, dtype=np.float64)
         if actions.shape != (self.num_envs, 2):
             raise ValueError(f"actions must have shape ({self.num_envs}, 2), got {actions.shape}")
-        if not np.isfinite(actions).all():
-            rows = np.flatnonzero(~np.isfinite(actions).all(axis=1))
-            raise ValueError(f"actions must be finite (no NaN or inf); rows {rows.tolist()[:10]} are not")
         active = self._begin_step()
         if self._rician:
             for i in np.flatnonzero(active):
                 self._normals[i] = self.envs[i].np_random.standard_normal(2)
-        step_rows(actions, self._state, self._episode, self._nodes, self._params, self._normals, self._flags,
-                  self._obs, self._reward, self._terminated, self._info, self._path, active)  # fmt: skip
+        kernel = step_rows_batched if parallel_safe() else step_rows  # (serial in an omp fork)
+        with numba_threads(self.num_threads):
+            bad = kernel(actions, self._state, self._episode, self._nodes, self._params, self._normals,
+                         self._flags, self._obs, self._reward, self._terminated, self._info, self._path,
+                         active)  # fmt: skip
+        if bad >= 0:  # nothing stepped
+            rows = np.flatnonzero(~np.isfinite(actions).all(axis=1))
+            raise ValueError(f"actions must be finite (no NaN or inf); rows {rows.tolist()[:10]} are not")
         return self._end_step()
 
     def _begin_step(self) -> np.ndarray:
@@ -221,7 +261,7 @@ class IOSUAVVectorEnv(gym.vector.VectorEnv):
         self._outputs()
         done = np.flatnonzero(self._autoreset)
         if done.size:  # NEXT_STEP autoreset: these rows start a new episode instead of stepping
-            self._reset_rows(done, [None] * done.size, [None] * done.size)
+            self._restart_rows(done)
         return ~self._autoreset
 
     def _end_step(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, dict[str, Any]]:
@@ -234,7 +274,7 @@ class IOSUAVVectorEnv(gym.vector.VectorEnv):
         ended = np.flatnonzero(self._terminated)
         final_obs, final_info = self._obs.copy(), self._infos(self._info.copy())
         if ended.size:  # SAME_STEP: the rows that ended start their next episode now
-            self._reset_rows(ended, [None] * ended.size, [None] * ended.size)
+            self._restart_rows(ended)
         info = self._infos()
         mask = self._terminated.copy()
         info.update(final_obs=final_obs, _final_obs=mask, final_info=final_info, _final_info=mask)
@@ -247,7 +287,7 @@ class IOSUAVVectorEnv(gym.vector.VectorEnv):
         if not self._started:
             raise RuntimeError("call reset() before restart()")
         rows = np.asarray(rows, dtype=np.int64)
-        self._reset_rows(rows, [None] * rows.size, [None] * rows.size)
+        self._restart_rows(rows)
         self._autoreset[rows] = False
         return self._obs
 

@@ -133,6 +133,10 @@ def test_bad_input_is_refused_with_the_reason():
     bad[1, 0] = np.nan
     with pytest.raises(ValueError, match=r"rows \[1\]"):
         vec.step(bad)
+    assert [len(q) for q in vec.trajectories] == [1, 1, 1]  # no row moved, the good ones neither
+    for threads in (0, 1.5, True):
+        with pytest.raises(ValueError, match="num_threads must be None .* or an integer >= 1"):
+            IOSUAVVectorEnv(2, SHORT, num_threads=threads)
     with pytest.raises(ValueError, match="num_envs"):
         IOSUAVVectorEnv(0)
     with pytest.raises(TypeError, match="unexpected keyword argument 'frameskip'"):
@@ -222,3 +226,72 @@ def test_restart_starts_new_episodes_on_the_given_rows_only():
     np.testing.assert_array_equal(obs[1], IOSUAVEnv(SHORT).reset(seed=1)[0])
     _, _, _, _, info = vec.step(np.zeros((3, 2)))
     assert info["slot"].tolist() == [6, 2, 6]
+
+
+def test_a_pinned_row_goes_back_to_the_env_scenario_at_autoreset():
+    # the autoreset keeps a row's scenario without the template's Python reset only when it is
+    # the env's own: a pinned row must leave its pinned scenario, as the single env does
+    ris = SHORT.replace(surface="ris")
+    vec = IOSUAVVectorEnv(2, SHORT, channel="rician")
+    vec.reset(seed=3, options={"configs": [ris, None]})
+    singles = [IOSUAVEnv(SHORT, channel="rician") for _ in range(2)]
+    singles[0].reset(seed=3, options={"config": ris})
+    singles[1].reset(seed=4)
+    zeros = np.zeros((2, 2))
+    for _ in range(2 * SHORT.N):  # two episodes and a bit: pinned, then the env's own twice
+        obs, reward, terminated, _, info = vec.step(zeros)
+        for i, env in enumerate(singles):
+            if env.trajectory.shape[0] == env.config.N:
+                o, inf = env.reset()
+            else:
+                o, _, _, _, inf = env.step(zeros[i])
+            # (to rounding: the batched kernel's rate sum may vectorise differently)
+            np.testing.assert_allclose(o, obs[i], rtol=1e-6, atol=1e-6)
+            assert inf["rate"] == pytest.approx(info["rate"][i], rel=1e-9)  # the faded draws too
+    assert vec.configs == [SHORT, SHORT]
+
+
+def test_thread_count_does_not_change_the_episodes():
+    actions = np.random.default_rng(4).uniform(-1.3, 1.3, (SHORT.N + 3, 5, 2))
+    runs = []
+    for threads in (1, 2):
+        vec = IOSUAVVectorEnv(5, SHORT, channel="rician", num_threads=threads)
+        out = [vec.reset(seed=0)[0]]
+        for a in actions:
+            obs, reward, *_ = vec.step(a)
+            out += [obs, reward]
+        runs.append(out)
+    for a, b in zip(*runs, strict=True):
+        np.testing.assert_array_equal(a, b)
+
+
+def _two_steps() -> list[np.ndarray]:
+    """A step of the single-node and of the multi-node batched env."""
+    from ios_uav_env.multinode_vector import MultiNodeVectorEnv
+
+    out = []
+    for vec in (IOSUAVVectorEnv(4, SHORT), MultiNodeVectorEnv(2, best_schedule=False)):
+        vec.reset(seed=0)
+        obs, *_ = vec.step(np.full((vec.num_envs, vec.single_action_space.shape[0]), 0.5))
+        out.append(obs)
+    return out
+
+
+def _forked_steps(queue) -> None:  # runs in a child forked after the parent used numba's threads
+    queue.put(_two_steps())
+
+
+def test_a_process_forked_after_a_batched_step_can_step_too():
+    # GNU OpenMP (numba's "omp" threading layer) does not survive a fork: numba terminates the
+    # child at its first parallel launch; the batched env runs its serial kernel there instead
+    import multiprocessing
+
+    expected = _two_steps()
+    context = multiprocessing.get_context("fork")
+    queue = context.Queue()
+    child = context.Process(target=_forked_steps, args=(queue,))
+    child.start()
+    child.join(60)
+    assert child.exitcode == 0
+    for got, want in zip(queue.get(timeout=5), expected, strict=True):
+        np.testing.assert_allclose(got, want, rtol=1e-6, atol=1e-6)

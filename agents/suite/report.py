@@ -1,15 +1,18 @@
 """Score a policy on the held-out suite: % of each scenario's DP optimum, feasibility, plan time.
 
 For every suite scenario (:mod:`agents.suite`) the policy is rolled out deterministically
-(``agents.rollout.ScenarioRunner``, ``ios_uav_env.rollout.run_episode``) and its trajectory
-scored with ``ios_uav_env.average_rate`` and checked with ``check_trajectory``, like the
-planners' plans. A policy trained on ``ios_uav_env/IOSUAV-Random-v0`` runs in one env of that
-id pinned per scenario; one trained on a fixed id runs in that id made on the scenario, so
-the single-scenario agents can be scored too. An SB3 agent plans with its numpy export
-(``agents.numpy_policy``), the same actions without SB3's per-call overhead. The plan time
-is the episode's wall time from the reset to the last step (inference and env steps),
-against SCA's time in the suite file. "% of DP" may exceed 100: DP is the optimum over a
-grid, and an off-grid trajectory can beat it.
+and its trajectory scored with ``ios_uav_env.average_rate`` and checked with
+``check_trajectory``, like the planners' plans. A policy trained on
+``ios_uav_env/IOSUAV-Random-v0`` runs every scenario at once, row i of that id's batched env
+pinned to scenario i (``agents.rollout.run_scenarios``, ``ios_uav_env.rollout.run_episodes``;
+the same episodes as one env pinned per scenario, tested); one trained on a fixed id runs in
+that id made on each scenario (``ScenarioRunner``), so the single-scenario agents can be
+scored too. An SB3 agent plans with its numpy export (``agents.numpy_policy``), the same
+actions without SB3's per-call overhead. The plan time is the wall time from the reset to
+the last step (inference and env steps): for the batched rollout, the batch's divided by the
+number of scenarios (the time per plan when the suite is planned at once). It is compared
+with SCA's time in the suite file. "% of DP" may exceed 100: DP is the optimum over a grid,
+and an off-grid trajectory can beat it.
 
     python -m agents.suite report --model runs/<run> [--algo ppo|sac] [--n 60] [--out out/suite]
     python -m agents.suite report --model heuristic      # fly to G, hover, arrive (guard)
@@ -34,9 +37,9 @@ from typing import Any
 
 import numpy as np
 
-from agents.rollout import ScenarioRunner
+from agents.rollout import ScenarioRunner, run_scenarios
 from agents.suite import SUITE_PATH, Suite, SuiteEntry, load_suite
-from ios_uav_env import RANDOM_ENV_ID
+from ios_uav_env import ENV_IDS, RANDOM_ENV_ID
 from ios_uav_env.io import atomic_write_text, save_figure
 from ios_uav_env.policies import HoverAt
 from ios_uav_env.rollout import Episode
@@ -127,6 +130,9 @@ def evaluate_suite(
     env_kwargs = dict(getattr(policy, "env_kwargs", {}) if env_kwargs is None else env_kwargs)
     act = _fast(policy)
     entries = suite.subset(n)
+    if env_id not in ENV_IDS:  # the randomised id: every scenario at once, in its batched env
+        episodes = run_scenarios(act, [e.config for e in entries], env_id, env_kwargs, seed=0)
+        return [SuiteRow.of(e, episode) for e, episode in zip(entries, episodes, strict=True)]
     if progress:
         from tqdm.auto import tqdm
 

@@ -11,6 +11,7 @@ import pytest
 
 import ios_uav_env
 from agents import suite as suite_mod
+from agents.rollout import ScenarioRunner
 from agents.suite import (
     DEFAULT_SIZE,
     HELDOUT_SEED,
@@ -23,7 +24,7 @@ from agents.suite import (
 from agents.suite.__main__ import main
 from agents.suite.report import HEURISTICS, evaluate_suite, load_policy, run_report, suite_score, summarize
 from baselines import dp
-from ios_uav_env import DEFAULT_RANGES, ScenarioRanges, average_rate, check_trajectory
+from ios_uav_env import DEFAULT_RANGES, RANDOM_ENV_ID, ScenarioRanges, average_rate, check_trajectory
 from ios_uav_env.policies import HoverAt
 
 #: A family of tiny scenarios (N <= 12, M <= 60) whose planners run in a fraction of a second.
@@ -139,6 +140,15 @@ def test_suite_score_and_fixed_id_policies(suite):
     # a policy of a fixed id runs in that id made on each scenario: same observation prefix
     fixed = evaluate_suite(HoverAt("ground"), suite, n=3, env_id="ios_uav_env/IOSUAV-v0")
     assert [r.rate for r in fixed] == [r.rate for r in rows]
+    # the randomised id runs the scenarios at once in its batched env: one env pinned per
+    # scenario gives the same episodes
+    peak = HoverAt("peak")
+    batched = evaluate_suite(peak, suite, n=4)
+    with ScenarioRunner(RANDOM_ENV_ID, peak.env_kwargs) as runner:
+        single = [runner.run(peak, e.config, seed=0) for e in suite.subset(4)]
+    for row, episode in zip(batched, single, strict=True):
+        np.testing.assert_allclose(row.trajectory, episode.trajectory, atol=1e-9)
+        assert row.rate == pytest.approx(episode.average_rate, rel=1e-12)
 
 
 def test_report_cli_and_shipped_agent(tmp_path, capsys):
