@@ -184,7 +184,7 @@ class MultiNodeVectorEnv(gym.vector.VectorEnv):
         return out
 
     def _check_actions(self, actions: Any) -> np.ndarray:
-        a = np.asarray(actions, dtype=np.float64)
+        a = np.require(actions, dtype=np.float64, requirements=["C", "W"])  # one kernel signature
         shape = (self.num_envs, *self.single_action_space.shape)
         if a.shape != shape:
             raise ValueError(

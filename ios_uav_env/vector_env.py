@@ -238,7 +238,9 @@ class IOSUAVVectorEnv(gym.vector.VectorEnv):
     def step(self, actions: Any) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, dict[str, Any]]:
         if not self._started:
             raise RuntimeError("call reset() before step()")
-        actions = np.asarray(actions, dtype=np.float64)
+        # one array type for the compiled kernel (C order, writeable float64): a view, a float32 or
+        # a read-only batch would each compile another version (~5 s each)
+        actions = np.require(actions, dtype=np.float64, requirements=["C", "W"])
         if actions.shape != (self.num_envs, 2):
             raise ValueError(f"actions must have shape ({self.num_envs}, 2), got {actions.shape}")
         active = self._begin_step()
