@@ -31,8 +31,9 @@ def require(*modules: str) -> None:
 
 @pytest.fixture
 def run_example() -> Callable[..., str]:
-    def run(script: str, *args: str, timeout: float = 300) -> str:
+    def run(script: str, *args: str, timeout: float = 300, env_vars: dict[str, str] | None = None) -> str:
         env = {**os.environ, "OMP_NUM_THREADS": "1", "MPLBACKEND": "Agg", "PYTHONWARNINGS": "ignore"}
+        env.update(env_vars or {})
         proc = subprocess.run(
             [sys.executable, str(EXAMPLES / script), *args],
             cwd=ROOT, env=env, capture_output=True, text=True, timeout=timeout,
