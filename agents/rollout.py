@@ -91,13 +91,7 @@ def run_scenarios(
     if env_id in ENV_IDS or not configs:
         with ScenarioRunner(env_id, env_kwargs) as runner:
             return [runner.run(policy, c, seed=seed) for c in configs]
-    vec = gym.make_vec(env_id, num_envs=len(configs), vectorization_mode="vector_entry_point",
-                       **dict(env_kwargs or {}))  # fmt: skip
-    try:
-        _check_policy_env(policy, vec.unwrapped.envs[0])
-        return run_episodes(vec, policy, seed=[seed] * len(configs), options={"configs": configs})
-    finally:
-        vec.close()
+    return _batched(policy, env_id, env_kwargs, len(configs), [seed] * len(configs), {"configs": configs})
 
 
 def run_seeds(
@@ -117,10 +111,23 @@ def run_seeds(
         env_id, kwargs = surface_id(config), {**kwargs, "config": config}
     elif config is not None:
         options = {"configs": [config] * seeds}
-    vec = gym.make_vec(env_id, num_envs=seeds, vectorization_mode="vector_entry_point", **kwargs)
+    return _batched(policy, env_id, kwargs, seeds, 0, options)
+
+
+def _batched(
+    policy: Policy,
+    env_id: str,
+    env_kwargs: Mapping[str, Any] | None,
+    num_envs: int,
+    seed: int | list[int | None] | None,
+    options: Mapping[str, Any] | None,
+) -> list[Episode]:
+    """``run_episodes`` of ``policy`` in ``env_id``'s batched env of ``num_envs`` rows (closed after)."""
+    vec = gym.make_vec(env_id, num_envs=num_envs, vectorization_mode="vector_entry_point",
+                       **dict(env_kwargs or {}))  # fmt: skip
     try:
         _check_policy_env(policy, vec.unwrapped.envs[0])
-        return run_episodes(vec, policy, seed=0, options=options)
+        return run_episodes(vec, policy, seed=seed, options=options)
     finally:
         vec.close()
 

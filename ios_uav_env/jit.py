@@ -80,24 +80,21 @@ def parallel_safe() -> bool:
         return True
 
 
-class numba_threads:  # noqa: N801  (used as a context manager, like a function)
-    """``with numba_threads(n):`` runs the ``parallel`` kernels called inside on ``n`` of numba's
-    threads (at most ``NUMBA_NUM_THREADS``, the cores by default), then restores the setting.
-    ``n=None``, or without numba: numba's current setting, nothing changed."""
+def run_batched(parallel: Callable[..., Any], serial: Callable[..., Any], num_threads: int | None,
+                *args: Any) -> Any:  # fmt: skip
+    """``parallel(*args)`` (a ``jit(parallel=True)`` kernel) on ``num_threads`` of numba's threads
+    (at most ``NUMBA_NUM_THREADS``, the cores by default; None: numba's current setting, which
+    is restored afterwards), or ``serial(*args)``, the same kernel one row after the other, in
+    a process where numba's threads cannot run (:func:`parallel_safe`)."""
+    if not parallel_safe():
+        return serial(*args)
+    if num_threads is None or _njit is None:
+        return parallel(*args)
+    import numba
 
-    def __init__(self, n: int | None) -> None:
-        self.n, self.before = n, 0
-
-    def __enter__(self) -> None:
-        if self.n is not None and _njit is not None:
-            import numba
-
-            self.before = numba.get_num_threads()
-            numba.set_num_threads(min(self.n, numba.config.NUMBA_NUM_THREADS))
-
-    def __exit__(self, *exc: object) -> None:
-        if self.before:
-            import numba
-
-            numba.set_num_threads(self.before)
-            self.before = 0
+    before = numba.get_num_threads()
+    numba.set_num_threads(min(num_threads, numba.config.NUMBA_NUM_THREADS))
+    try:
+        return parallel(*args)
+    finally:
+        numba.set_num_threads(before)

@@ -30,7 +30,7 @@ import numpy as np
 from ios_uav_env.channel import PARAMS, rate_kernel
 from ios_uav_env.config import ScenarioConfig
 from ios_uav_env.dynamics import flags_of
-from ios_uav_env.jit import numba_threads, parallel_safe
+from ios_uav_env.jit import run_batched
 from ios_uav_env.multinode import reported_maxmin_rate
 from ios_uav_env.multinode_env import MULTI_INFO_KEYS, MultiNodeEnv, node_peaks
 from ios_uav_env.multinode_kernels import (
@@ -207,12 +207,10 @@ class MultiNodeVectorEnv(gym.vector.VectorEnv):
             raise RuntimeError("call reset() before step()")
         actions = self._check_actions(actions)
         active = self._begin_step()
-        kernel = step_rows_batched if parallel_safe() else step_rows  # (serial in an omp fork)
-        with numba_threads(self.num_threads):
-            kernel(actions, self._state, self._episode, self._points, self._nodes, self._params,
-                      self._served, self._shares, self._rates, self._flags, self._obs, self._reward,
-                      self._terminated, self._info, self._path, self._share_path, active,
-                      move_norms(actions))  # fmt: skip
+        run_batched(step_rows_batched, step_rows, self.num_threads, actions, self._state, self._episode,
+                    self._points, self._nodes, self._params, self._served, self._shares, self._rates,
+                    self._flags, self._obs, self._reward, self._terminated, self._info, self._path,
+                    self._share_path, active, move_norms(actions))  # fmt: skip
         for i in np.flatnonzero(self._terminated):  # the best schedule of the flight: an LP per episode
             cfg = self.envs[i].config
             self._info[i, BEST] = (

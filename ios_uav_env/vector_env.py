@@ -33,7 +33,7 @@ from gymnasium.vector.utils import batch_space
 from ios_uav_env.config import ScenarioConfig
 from ios_uav_env.dynamics import INFO, STATE, reset_rows, step_rows, step_rows_batched
 from ios_uav_env.env import INFO_KEYS, IOSUAVEnv
-from ios_uav_env.jit import numba_threads, parallel_safe
+from ios_uav_env.jit import run_batched
 from ios_uav_env.random_env import RandomIOSUAVEnv
 
 try:  # Gymnasium >= 1.1 names the autoreset modes
@@ -247,11 +247,9 @@ class IOSUAVVectorEnv(gym.vector.VectorEnv):
         if self._rician:
             for i in np.flatnonzero(active):
                 self._normals[i] = self.envs[i].np_random.standard_normal(2)
-        kernel = step_rows_batched if parallel_safe() else step_rows  # (serial in an omp fork)
-        with numba_threads(self.num_threads):
-            bad = kernel(actions, self._state, self._episode, self._nodes, self._params, self._normals,
-                         self._flags, self._obs, self._reward, self._terminated, self._info, self._path,
-                         active)  # fmt: skip
+        bad = run_batched(step_rows_batched, step_rows, self.num_threads, actions, self._state, self._episode,
+                          self._nodes, self._params, self._normals, self._flags, self._obs, self._reward,
+                          self._terminated, self._info, self._path, active)  # fmt: skip
         if bad >= 0:  # nothing stepped
             rows = np.flatnonzero(~np.isfinite(actions).all(axis=1))
             raise ValueError(f"actions must be finite (no NaN or inf); rows {rows.tolist()[:10]} are not")
