@@ -146,9 +146,18 @@ class RateEvalCallback(BaseCallback):
     """Every ``eval_freq`` env steps: a deterministic episode on the training scenario, scored by the
     model (``eval/average_rate``, ``eval/terminal_miss``, ``eval/feasible`` in TensorBoard)."""
 
-    def __init__(self, eval_freq: int, env_id: str, env_kwargs: dict[str, Any], clock: Clock, history: list):
+    def __init__(
+        self,
+        eval_freq: int,
+        env_id: str,
+        env_kwargs: dict[str, Any],
+        clock: Clock,
+        history: list,
+        repeat: int = 1,
+    ):
         super().__init__()
         self.eval_freq, self.env_id, self.env_kwargs = eval_freq, env_id, dict(env_kwargs)
+        self.repeat = repeat  # the training's ActionRepeat: the agent holds each action this many slots
         self.clock, self.history = clock, history
         self._last = -1
 
@@ -162,7 +171,8 @@ class RateEvalCallback(BaseCallback):
         from agents.loading import Agent
         from ios_uav_env.rollout import run_episode
 
-        agent = Agent(self.model, self.model.get_vec_normalize_env(), self.env_id, self.env_kwargs)
+        agent = Agent(self.model, self.model.get_vec_normalize_env(), self.env_id, self.env_kwargs,
+                      repeat=self.repeat)  # fmt: skip
         env = gym.make(self.env_id, **self.env_kwargs)
         try:
             result = run_episode(env, agent.act, seed=0)
@@ -249,4 +259,59 @@ class TargetEntropySchedule(BaseCallback):
 
     def _on_step(self) -> bool:
         self._update()
+        return True
+
+
+def exploring_starts(env: Any) -> list[Any]:
+    """The exploring-starts wrappers of a training env: the ``VecExploringStarts`` in a VecEnv's
+    wrapper chain, or the ``ExploringStarts`` in each env of a ``DummyVecEnv``."""
+    import gymnasium as gym
+
+    from agents.vec_env import VecExploringStarts
+    from agents.wrappers import ExploringStarts
+
+    found = []
+    while env is not None:
+        if isinstance(env, VecExploringStarts):
+            found.append(env)
+        for single in vars(env).get("envs", []):  # a DummyVecEnv's own envs (not forwarded by wrappers)
+            while isinstance(single, gym.Wrapper):
+                if isinstance(single, ExploringStarts):
+                    found.append(single)
+                single = single.env
+        env = vars(env).get("venv")
+    return found
+
+
+class ExploringStartsSchedule(BaseCallback):
+    """Wind the exploring starts down: their ``prob`` stays as configured for the first ``hold`` of
+    the run, then falls linearly to ``end`` at its end, so the last part of training is spent
+    on the episodes the agent will be judged on (all from q0). ``ValueError`` at the start if
+    the training env has no ``agents.wrappers.ExploringStarts``."""
+
+    def __init__(self, hold: float = 0.5, end: float = 0.0):
+        super().__init__()
+        if not (0.0 <= hold <= 1.0 and 0.0 <= end <= 1.0):
+            raise ValueError(f"ExploringStartsSchedule hold and end must be in [0, 1], got {hold!r}, {end!r}")
+        self.hold, self.end = float(hold), float(end)
+        self._wrappers: list[Any] = []
+        self._start = 0.0
+
+    def _on_training_start(self) -> None:
+        self._wrappers = exploring_starts(self.training_env)
+        if not self._wrappers:
+            raise ValueError("ExploringStartsSchedule needs agents.wrappers.ExploringStarts in env_wrapper")
+        self._start = self._wrappers[0].prob
+        self._update()
+
+    def _update(self) -> None:
+        frac = min(1.0, self.model.num_timesteps / max(1, self.model._total_timesteps))
+        late = max(0.0, frac - self.hold) / (1.0 - self.hold) if self.hold < 1.0 else 0.0
+        for wrapper in self._wrappers:
+            wrapper.prob = self._start + late * (self.end - self._start)
+
+    def _on_rollout_start(self) -> None:
+        self._update()
+
+    def _on_step(self) -> bool:
         return True

@@ -146,11 +146,13 @@ def agent_env(agent: Any, config: ScenarioConfig) -> Any:
 
 
 def fast_act(agent: Any) -> Any:
-    """An SB3 agent's numpy export (the same actions without SB3's per-call overhead), else its act."""
+    """An SB3 agent's numpy export (the same actions without SB3's per-call overhead, and its
+    ``repeat``), else its act."""
     if getattr(agent, "model", None) is not None:
         from agents.numpy_policy import NumpyPolicy
 
-        return NumpyPolicy.from_sb3(agent.model, getattr(agent, "vecnormalize", None)).act
+        repeat = getattr(agent, "repeat", 1)
+        return NumpyPolicy.from_sb3(agent.model, getattr(agent, "vecnormalize", None), repeat).act
     return agent.act if hasattr(agent, "act") else agent
 
 

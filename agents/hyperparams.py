@@ -40,6 +40,13 @@ class Hyperparams:
     callbacks: list[Any] = field(default_factory=list)  # instances from the zoo's ``callback`` key
     env_wrappers: list[tuple[Any, dict[str, Any]]] = field(default_factory=list)  # (class, kwargs)
 
+    @property
+    def repeat(self) -> int:
+        """The slots each action is held (``agents.wrappers.ActionRepeat`` among the wrappers; else 1)."""
+        from agents.wrappers import action_repeat
+
+        return action_repeat(self.raw.get("env_wrapper"))
+
 
 def hyperparams_path(algo: str) -> Path:
     """The shipped file of ``algo`` (``agents/hyperparams/<algo>.yml``)."""

@@ -71,6 +71,7 @@ class Agent:
     env_kwargs: dict[str, Any] = field(default_factory=dict)  # the env arguments it was trained with
     name: str = "agent"
     meta: dict[str, Any] = field(default_factory=dict)  # config.json and summary.json of its run
+    repeat: int = 1  # slots each action is held (agents.wrappers.ActionRepeat in its training)
     batched = True  # act takes a (B, obs_dim) batch too (ios_uav_env.rollout.batch_policy)
 
     def act(self, obs: np.ndarray, deterministic: bool = True) -> np.ndarray:
@@ -266,6 +267,8 @@ def load_agent(
         )
     import torch
 
+    from agents.wrappers import action_repeat
+
     torch.set_num_threads(1)
     try:
         model = ALGOS[algo].load(zip_path, device="cpu")
@@ -280,6 +283,7 @@ def load_agent(
         dict(config.get("env_kwargs", {})),
         name or (zip_path.stem if checkpoint is not None or path.suffix == ".zip" else folder.name),
         meta,
+        action_repeat(config.get("hyperparams", {}).get("env_wrapper")),
     )
     agent.check_env(source=zip_path)
     return agent

@@ -55,11 +55,13 @@ class NumpyPolicy:
     obs_mean: np.ndarray | None = None  # VecNormalize statistics
     obs_std: np.ndarray | None = None
     obs_clip: float = np.inf
+    repeat: int = 1  # slots each action is held (an agent trained with agents.wrappers.ActionRepeat)
     batched = True  # act takes a (B, obs_dim) batch too (ios_uav_env.rollout.batch_policy)
 
     @classmethod
-    def from_sb3(cls, model: Any, vecnormalize: Any = None) -> NumpyPolicy:
-        """Export ``model`` (PPO or SAC with an MLP policy) and its VecNormalize statistics."""
+    def from_sb3(cls, model: Any, vecnormalize: Any = None, repeat: int = 1) -> NumpyPolicy:
+        """Export ``model`` (PPO or SAC with an MLP policy) and its VecNormalize statistics;
+        ``repeat``: the agent's (``agents.loading.Agent.repeat``)."""
         policy = model.policy
         space = model.action_space
         if hasattr(policy, "actor") and hasattr(policy.actor, "mu"):  # SAC
@@ -80,7 +82,7 @@ class NumpyPolicy:
             clip = float(vecnormalize.clip_obs)
         low = np.asarray(space.low, dtype=np.float64)
         high = np.asarray(space.high, dtype=np.float64)
-        return cls(steps, squash, low, high, mean, std, clip)
+        return cls(steps, squash, low, high, mean, std, clip, repeat)
 
     def act(self, obs: np.ndarray, deterministic: bool = True) -> np.ndarray:
         """The deterministic action for one observation (``deterministic`` must be True)."""

@@ -346,17 +346,20 @@ def _batched_venv(settings: TrainSettings, hp: Hyperparams, run_dir: Path, resum
     from stable_baselines3.common.vec_env import VecMonitor
 
     from agents.vec_env import BatchedVecEnv, wrap_batched
+    from agents.wrappers import ActionRepeat
 
     batched = BatchedVecEnv(
         settings.env_id, settings.n_envs, settings.env_kwargs, seed=settings.seed, stagger=True
     )
-    monitor = VecMonitor(batched)
+    # the action repeat steps the batched env's rows itself (its advance), under the monitor
+    inner = [w for w in hp.env_wrappers if issubclass(w[0], ActionRepeat)]
+    monitor = VecMonitor(wrap_batched(batched, inner))
     monitor.results_writer = ResultsWriter(
         str(run_dir / "monitor" / "batched"),
         header={"t_start": monitor.t_start, "env_id": settings.env_id},
         override_existing=resume_from is None,
     )
-    return wrap_batched(monitor, hp.env_wrappers)
+    return wrap_batched(monitor, [w for w in hp.env_wrappers if w not in inner])
 
 
 def _read_progress(run_dir: Path, steps: int) -> tuple[float, list[dict[str, Any]]]:
@@ -500,7 +503,9 @@ def _train(settings: TrainSettings, stop: StopFlag, _resume: bool) -> TrainResul
         save_replay_buffer=settings.algo == "sac",
         save_vecnormalize=hp.normalize is not None,
     )
-    evaluation = RateEvalCallback(settings.eval_freq, settings.env_id, settings.env_kwargs, clock, history)
+    evaluation = RateEvalCallback(
+        settings.eval_freq, settings.env_id, settings.env_kwargs, clock, history, repeat=hp.repeat
+    )
     print(f"training {run_dir}: step {start_steps} of {total}", file=sys.stderr, flush=True)
     model.learn(
         total_timesteps=max(0, total - start_steps),

@@ -27,6 +27,7 @@ from stable_baselines3.common.vec_env.base_vec_env import (
 )
 
 import ios_uav_env  # registers the ids
+from agents.wrappers import EXPLORE_BOX, check_exploring, check_repeat, draw_targets
 
 
 class BatchedVecEnv(VecEnv):
@@ -99,7 +100,12 @@ class BatchedVecEnv(VecEnv):
         self._actions = np.asarray(actions, dtype=np.float64).reshape(self.num_envs, -1)
 
     def step_wait(self) -> VecEnvStepReturn:
-        obs, reward, terminated, truncated, info = self.vector_env.step(self._actions)
+        return self.advance(self._actions)
+
+    def advance(self, actions: np.ndarray, rows: np.ndarray | None = None) -> VecEnvStepReturn:
+        """Step the rows of the mask ``rows`` only (None: all), SB3's step return; the others keep
+        their last observation, reward 0, not done (the batched env's ``advance``)."""
+        obs, reward, terminated, truncated, info = self.vector_env.advance(actions, rows)
         dones = terminated | truncated
         infos: list[dict[str, Any]] = [{} for _ in range(self.num_envs)]
         final = info.get("final_info", {})
@@ -164,8 +170,98 @@ class VecShiftReward(VecEnvWrapper):
         return obs, (self.scale * (reward - self.offset)).astype(np.float32), dones, infos
 
 
+class VecActionRepeat(VecEnvWrapper):
+    """``agents.wrappers.ActionRepeat`` on a :class:`BatchedVecEnv`: each action is held for
+    ``repeat`` slots, the rewards summed; a row whose episode ends within the repeat stops there
+    (its info and ``terminal_observation`` are that slot's, its observation the next episode's
+    first), while the other rows finish the repeat (``BatchedVecEnv.advance``)."""
+
+    def __init__(self, venv: VecEnv, repeat: int = 1):
+        if not isinstance(venv, BatchedVecEnv):
+            raise ValueError(
+                "VecActionRepeat wraps a BatchedVecEnv directly (list ActionRepeat first), "
+                f"got {type(venv).__name__}"
+            )
+        super().__init__(venv)
+        self.repeat = check_repeat(repeat)
+        self._actions: np.ndarray | None = None
+
+    def reset(self) -> np.ndarray:
+        return self.venv.reset()
+
+    def step_async(self, actions: np.ndarray) -> None:
+        self._actions = np.asarray(actions, dtype=np.float64).reshape(self.num_envs, -1)
+
+    def step_wait(self) -> VecEnvStepReturn:
+        n = self.num_envs
+        rows, total = np.ones(n, dtype=np.bool_), np.zeros(n, dtype=np.float32)
+        dones, infos = np.zeros(n, dtype=np.bool_), [{} for _ in range(n)]
+        for _ in range(self.repeat):
+            obs, reward, done, info = self.venv.advance(self._actions, rows)
+            total += reward
+            for i in np.flatnonzero(done):
+                infos[i] = info[i]
+            dones |= done
+            rows &= ~done
+            if not rows.any():
+                break
+        return obs, total, dones, infos
+
+
+class VecExploringStarts(VecEnvWrapper):
+    """``agents.wrappers.ExploringStarts`` on a batched env: each row's next episode (after an
+    episode end, not the first), with probability ``prob``, starts after the hidden prefix of
+    the single form (m ~ U{1..max_moves} full-speed moves towards a point of ``box``, equal
+    shares), stepped on the rows of the ``BatchedVecEnv`` under ``venv`` (its ``advance``), below
+    any wrapper in between: the monitor counts the episode from the agent's first move. The
+    generator is seeded from the seed of the batched env's next reset (``venv.seed(s)``)."""
+
+    def __init__(
+        self,
+        venv: VecEnv,
+        prob: float = 0.5,
+        max_moves: int = 110,
+        box: Any = EXPLORE_BOX,
+        peak_prob: float = 0.0,
+        peak_noise: float = 25.0,
+    ):
+        base = venv.unwrapped
+        if not isinstance(base, BatchedVecEnv):
+            raise ValueError(f"VecExploringStarts needs a BatchedVecEnv under it, got {type(base).__name__}")
+        super().__init__(venv)
+        checked = check_exploring(prob, max_moves, box, peak_prob, peak_noise)
+        self.prob, self.max_moves, self.box, self.peak_prob, self.peak_noise = checked
+        self._base, self._rng = base, np.random.default_rng()
+
+    def reset(self) -> np.ndarray:
+        seed = self._base._seeds[0] if self._base._seeds else None
+        if seed is not None:
+            self._rng = np.random.default_rng(seed)
+        return self.venv.reset()
+
+    def step_wait(self) -> VecEnvStepReturn:
+        obs, reward, dones, infos = self.venv.step_wait()
+        rows = np.flatnonzero(dones)
+        rows = rows[self._rng.random(rows.size) < self.prob]
+        if not rows.size:
+            return obs, reward, dones, infos
+        vec = self._base.vector_env
+        configs = [vec.envs[i].config for i in rows]
+        moves = np.minimum(
+            self._rng.integers(1, self.max_moves, rows.size, endpoint=True), [c.N - 3 for c in configs]
+        )
+        targets = draw_targets(self._rng, configs, self.box, self.peak_prob, self.peak_noise)
+        obs = obs.copy()
+        obs[rows] = vec.fly(rows, targets, np.maximum(moves, 0))[rows]
+        return obs, reward, dones, infos
+
+
 #: Gymnasium wrappers of the zoo's ``env_wrapper`` key that have a VecEnv form here.
-VEC_FORMS: dict[str, type[VecEnvWrapper]] = {"agents.wrappers.ShiftReward": VecShiftReward}
+VEC_FORMS: dict[str, type[VecEnvWrapper]] = {
+    "agents.wrappers.ShiftReward": VecShiftReward,
+    "agents.wrappers.ActionRepeat": VecActionRepeat,
+    "agents.wrappers.ExploringStarts": VecExploringStarts,
+}
 
 
 def wrap_batched(venv: VecEnv, wrappers: Sequence[tuple[Any, dict[str, Any]]]) -> VecEnv:

@@ -270,6 +270,33 @@ def step_rows_batched(
                       reward, terminated, info, path, share_path, norms)  # fmt: skip
 
 
+@jit(fastmath=False)
+def fly_rows(
+    rows: np.ndarray, targets: np.ndarray, moves: np.ndarray, actions: np.ndarray, state: np.ndarray,
+    episode: np.ndarray, points: np.ndarray, nodes: np.ndarray, params: np.ndarray, served: np.ndarray,
+    shares: np.ndarray, rates: np.ndarray, flags: np.ndarray, obs: np.ndarray, reward: np.ndarray,
+    terminated: np.ndarray, info: np.ndarray, path: np.ndarray, share_path: np.ndarray, norms: np.ndarray,
+) -> None:  # fmt: skip
+    """``moves[r]`` slots of row ``rows[r]``, each a full-speed move towards ``targets[r]`` (the rest
+    of the way once within D; the arrival guard as always) with equal shares: the steps of
+    :func:`step_rows` with those actions (``actions`` and ``norms`` are scratch, (B, 2 + K_max)
+    and (B,))."""
+    for r in range(rows.size):
+        i = rows[r]
+        for k in range(actions.shape[1]):
+            actions[i, k] = 0.0  # node scores 0: equal shares
+        norms[i] = 0.0  # the move below is on the unit disk already
+        for _ in range(moves[r]):
+            d = episode[i, 0]
+            mx, my = (targets[r, 0] - state[i, 0]) / d, (targets[r, 1] - state[i, 1]) / d
+            length = math.hypot(mx, my)
+            if length > 1.0:
+                mx, my = mx / length, my / length
+            actions[i, 0], actions[i, 1] = mx, my
+            _step_row(i, actions, state, episode, points, nodes, params, served, shares, rates, flags, obs,
+                      reward, terminated, info, path, share_path, norms)  # fmt: skip
+
+
 def move_norms(actions: np.ndarray) -> np.ndarray:
     """The ``norms`` of :func:`step_rows_batched`: ``math.hypot`` of the move of each row of ``actions``
     whose squared move exceeds 1 - 1e-6 (the rows it may project), 0 for the others."""

@@ -40,6 +40,7 @@ from ios_uav_env.multinode_kernels import (
     POINT,
     STATE,
     episode_row,
+    fly_rows,
     info_columns,
     move_norms,
     node_points,
@@ -68,12 +69,14 @@ class MultiNodeVectorEnv(gym.vector.VectorEnv):
     restart = IOSUAVVectorEnv.restart
     _row_options = IOSUAVVectorEnv._row_options
     trajectories = IOSUAVVectorEnv.trajectories
+    positions = IOSUAVVectorEnv.positions
     configs = IOSUAVVectorEnv.configs
     close = IOSUAVVectorEnv.close
     _begin_step = IOSUAVVectorEnv._begin_step
     _check_batch = IOSUAVVectorEnv._check_batch
     _copy_template = IOSUAVVectorEnv._copy_template
     _end_step = IOSUAVVectorEnv._end_step
+    _fly_args = IOSUAVVectorEnv._fly_args
 
     def __init__(
         self,
@@ -203,10 +206,16 @@ class MultiNodeVectorEnv(gym.vector.VectorEnv):
 
     # --- API ------------------------------------------------------------------------
     def step(self, actions: Any) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, dict[str, Any]]:
+        return self.advance(actions)
+
+    def advance(
+        self, actions: Any, rows: Any = None
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, dict[str, Any]]:
+        """:meth:`step` for the rows of the mask ``rows`` only (``IOSUAVVectorEnv.advance``)."""
         if not self._started:
             raise RuntimeError("call reset() before step()")
         actions = self._check_actions(actions)
-        active = self._begin_step()
+        active = self._begin_step(rows)
         run_batched(step_rows_batched, step_rows, self.num_threads, actions, self._state, self._episode,
                     self._points, self._nodes, self._params, self._served, self._shares, self._rates,
                     self._flags, self._obs, self._reward, self._terminated, self._info, self._path,
@@ -217,6 +226,19 @@ class MultiNodeVectorEnv(gym.vector.VectorEnv):
                 reported_maxmin_rate(cfg, self._path[i, : cfg.N]) if self.best_schedule else np.nan
             )
         return self._end_step()
+
+    def fly(self, rows: Any, targets: Any, moves: Any) -> np.ndarray:
+        """Hidden steps (``IOSUAVVectorEnv.fly``) in one compiled call: row ``rows[r]`` flies
+        ``moves[r]`` slots towards ``targets[r]`` at full speed with equal shares."""
+        rows, targets, moves = self._fly_args(rows, targets, moves)
+        b, width = self.num_envs, self.single_action_space.shape[0]
+        obs, info = self._obs.copy(), self._info.copy()  # fresh: the arrays returned last stay as they were
+        fly_rows(rows, targets, moves, np.zeros((b, width)), self._state, self._episode, self._points,
+                 self._nodes, self._params, self._served, self._shares, self._rates, self._flags, obs,
+                 np.zeros(b), np.zeros(b, dtype=np.bool_), info, self._path, self._share_path,
+                 np.zeros(b))  # fmt: skip
+        self._obs, self._info = obs, info
+        return obs
 
     @property
     def schedules(self) -> list[np.ndarray]:

@@ -64,13 +64,16 @@ def run_episode(
     against an env that never does (``RuntimeError``). The trajectory must be complete
     (N way-points) to be scored: a truncated episode raises ``ValueError`` from the scorer.
     """
+    repeat = decision_interval(policy)
     start = time.perf_counter()
     obs, info = env.reset(seed=seed, options=None if options is None else dict(options))
     total, steps, done = 0.0, 0, False
     while not done:
         if steps >= max_steps:
             raise RuntimeError(f"the episode did not end within max_steps={max_steps} steps")
-        obs, reward, terminated, truncated, info = env.step(policy(obs))
+        if steps % repeat == 0:
+            action = policy(obs)
+        obs, reward, terminated, truncated, info = env.step(action)
         total += float(reward)
         steps += 1
         done = bool(terminated or truncated)
@@ -113,6 +116,16 @@ def score_episode(
     )
 
 
+def decision_interval(policy: Policy) -> int:
+    """How many slots ``policy`` holds each action: its (or its bound method's object's)
+    ``repeat`` attribute, 1 if it has none (an agent trained with
+    ``agents.wrappers.ActionRepeat`` decides every ``repeat`` slots)."""
+    repeat = getattr(getattr(policy, "__self__", policy), "repeat", 1)
+    if isinstance(repeat, bool) or not isinstance(repeat, (int, np.integer)) or repeat < 1:
+        raise ValueError(f"a policy's repeat must be an integer >= 1, got {repeat!r}")
+    return int(repeat)
+
+
 def batch_policy(policy: Policy) -> Callable[[np.ndarray], np.ndarray]:
     """``policy`` as a function of a (B, obs_dim) batch: itself if it (or the object of a bound
     method) says ``batched = True`` (``HoverAt``, ``agents``' ``Agent`` and ``NumpyPolicy``),
@@ -144,14 +157,16 @@ def run_episodes(
     vec = getattr(vec_env, "unwrapped", vec_env)
     if getattr(vec, "same_step", True):
         raise ValueError("run_episodes needs a batched env with autoreset_mode='next_step' (the default)")
-    act = batch_policy(policy)
+    act, repeat = batch_policy(policy), decision_interval(policy)
     start = time.perf_counter()
     obs, _ = vec.reset(seed=seed, options=None if options is None else dict(options))
     b = vec.num_envs
     running, totals, steps = np.ones(b, dtype=np.bool_), np.zeros(b), np.zeros(b, dtype=np.int64)
     ends: dict[int, tuple[Any, ...]] = {}  # row -> (config, trajectory, shares, mean faded rate)
-    for _ in range(max_steps):
-        obs, reward, terminated, truncated, info = vec.step(act(obs))
+    for t in range(max_steps):
+        if t % repeat == 0:  # every row started at t = 0: their decisions fall together
+            actions = act(obs)
+        obs, reward, terminated, truncated, info = vec.step(actions)
         totals += np.where(running, reward, 0.0)
         steps += running
         ended = np.flatnonzero(running & (terminated | truncated))

@@ -236,6 +236,16 @@ class IOSUAVVectorEnv(gym.vector.VectorEnv):
         return self._obs, self._infos()
 
     def step(self, actions: Any) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, dict[str, Any]]:
+        return self.advance(actions)
+
+    def advance(
+        self, actions: Any, rows: Any = None
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, dict[str, Any]]:
+        """:meth:`step` for the rows where the mask ``rows`` ((B,) bool; None: every row) is True.
+        The other rows do not move: their state, observation and info are those returned last,
+        their reward 0 and ``terminated`` False (a NEXT_STEP autoreset waits for their next
+        step). E.g. an action repeat over rows whose episodes end at different slots
+        (``agents.vec_env.VecActionRepeat``)."""
         if not self._started:
             raise RuntimeError("call reset() before step()")
         # one array type for the compiled kernel (C order, writeable float64): a view, a float32 or
@@ -243,7 +253,7 @@ class IOSUAVVectorEnv(gym.vector.VectorEnv):
         actions = np.require(actions, dtype=np.float64, requirements=["C", "W"])
         if actions.shape != (self.num_envs, 2):
             raise ValueError(f"actions must have shape ({self.num_envs}, 2), got {actions.shape}")
-        active = self._begin_step()
+        active = self._begin_step(rows)
         if self._rician:
             for i in np.flatnonzero(active):
                 self._normals[i] = self.envs[i].np_random.standard_normal(2)
@@ -255,21 +265,34 @@ class IOSUAVVectorEnv(gym.vector.VectorEnv):
             raise ValueError(f"actions must be finite (no NaN or inf); rows {rows.tolist()[:10]} are not")
         return self._end_step()
 
-    def _begin_step(self) -> np.ndarray:
+    def _begin_step(self, rows: Any = None) -> np.ndarray:
         """Fresh outputs, and the NEXT_STEP autoreset: the rows that ended at the last step start a
-        new episode instead of stepping. The mask of the rows that step."""
+        new episode instead of stepping. ``rows``: the mask of :meth:`advance` (the other rows
+        keep their last observation and info). The mask of the rows that step."""
+        previous = (self._obs, self._info)
+        if rows is not None:
+            rows = np.asarray(rows)
+            if rows.shape != (self.num_envs,) or rows.dtype != np.bool_:
+                raise ValueError(f"rows must be a boolean mask of shape ({self.num_envs},), got {rows!r}")
+        self._held = None if rows is None else ~rows
         self._outputs()
-        done = np.flatnonzero(self._autoreset)
+        pending = self._autoreset if rows is None else self._autoreset & rows
+        done = np.flatnonzero(pending)
         if done.size:  # NEXT_STEP autoreset: these rows start a new episode instead of stepping
             self._restart_rows(done)
-        return ~self._autoreset
+        if rows is None:
+            return ~self._autoreset
+        held = np.flatnonzero(self._held)
+        self._obs[held], self._info[held] = previous[0][held], previous[1][held]
+        return rows & ~self._autoreset
 
     def _end_step(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, dict[str, Any]]:
         """The step's return once the kernel has stepped the rows (SAME_STEP: the rows that ended
         start their next episode now, their last observation and info under ``final_*``)."""
         truncated = np.zeros(self.num_envs, dtype=np.bool_)
-        if not self.same_step:
-            self._autoreset = self._terminated.copy()
+        if not self.same_step:  # held rows (advance) still wait for their autoreset
+            held = self._autoreset & self._held if self._held is not None else False
+            self._autoreset = self._terminated | held
             return self._obs, self._reward, self._terminated, truncated, self._infos()
         ended = np.flatnonzero(self._terminated)
         final_obs, final_info = self._obs.copy(), self._infos(self._info.copy())
@@ -279,6 +302,48 @@ class IOSUAVVectorEnv(gym.vector.VectorEnv):
         mask = self._terminated.copy()
         info.update(final_obs=final_obs, _final_obs=mask, final_info=final_info, _final_info=mask)
         return self._obs, self._reward, self._terminated, truncated, info
+
+    def fly(self, rows: Any, targets: Any, moves: Any) -> np.ndarray:
+        """Hidden steps on ``rows``: row ``rows[r]`` flies ``moves[r]`` slots towards ``targets[r]``
+        ((n, 2) m) at full speed, hovering once there (the arrival guard as always; the
+        multi-node env serves every node equally), as :meth:`advance` would step it, and none of
+        these steps is returned. ``moves[r]`` must leave the row's episode unfinished. Returns
+        the batch's current observations (those rows' after the flight). E.g. to start episodes
+        part-way (``agents.vec_env.VecExploringStarts``)."""
+        rows, targets, moves = self._fly_args(rows, targets, moves)
+        obs = self._obs
+        width = self.single_action_space.shape[0]
+        for j in range(int(moves.max(initial=0))):
+            live = moves > j
+            mask = np.zeros(self.num_envs, dtype=np.bool_)
+            mask[rows[live]] = True
+            here = self._state[rows[live], 0:2]
+            step = np.array([self.envs[i].config.D for i in rows[live]])
+            move = (targets[live] - here) / step[:, None]
+            actions = np.zeros((self.num_envs, width))
+            actions[rows[live], :2] = move / np.maximum(np.hypot(move[:, 0], move[:, 1]), 1.0)[:, None]
+            obs = self.advance(actions, mask)[0]
+        return obs
+
+    def _fly_args(self, rows: Any, targets: Any, moves: Any) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """:meth:`fly`'s arguments checked (``ValueError`` naming the field)."""
+        if not self._started:
+            raise RuntimeError("call reset() before fly()")
+        rows = np.asarray(rows, dtype=np.int64).reshape(-1)
+        targets = np.require(np.asarray(targets, dtype=np.float64).reshape(-1, 2), requirements=["C"])
+        moves = np.asarray(moves, dtype=np.int64).reshape(-1)
+        if not (rows.size == len(targets) == moves.size) or np.any((rows < 0) | (rows >= self.num_envs)):
+            raise ValueError(
+                f"fly needs one target (x, y) and one move count per row of 0..{self.num_envs - 1}"
+            )
+        if not np.all(np.isfinite(targets)):
+            raise ValueError("fly targets must be finite (m)")
+        left = np.array([self.envs[i].config.N - 1 for i in rows]) - self._state[rows, 2]
+        if np.any(moves < 0) or np.any(moves >= left) or np.any(self._autoreset[rows]):
+            raise ValueError(
+                f"fly moves must be >= 0 and leave each row's episode unfinished (< {left.tolist()})"
+            )
+        return rows, targets, moves
 
     def restart(self, rows: Sequence[int]) -> np.ndarray:
         """Start new episodes on ``rows`` now (each row's next scenario, no new seed); return the
@@ -290,6 +355,11 @@ class IOSUAVVectorEnv(gym.vector.VectorEnv):
         self._restart_rows(rows)
         self._autoreset[rows] = False
         return self._obs
+
+    @property
+    def positions(self) -> np.ndarray:
+        """Each row's UAV position now, (B, 2) m (a copy)."""
+        return self._state[:, 0:2].copy()
 
     @property
     def trajectories(self) -> list[np.ndarray]:

@@ -275,3 +275,64 @@ def test_rows_grow_for_a_finer_surface_and_a_longer_horizon():
             np.testing.assert_allclose(obs[i], o, rtol=0, atol=1e-9)
             assert abs(reward[i] - r) <= 1e-9 and np.array_equal(info["position"][i], inf["position"])
     np.testing.assert_array_equal(vec.trajectories[0], singles[0].trajectory)  # all 60 way-points
+
+
+@pytest.mark.parametrize("mode", ["next_step", "same_step"])
+def test_advance_steps_the_masked_rows_only(mode):
+    """advance(actions, rows): the masked rows step as in step(); the others keep their state,
+    observation and info (reward 0, not terminated); a held row waits for its NEXT_STEP autoreset."""
+    n, moves = 3, SMALL.N - 1
+    vec, ref = (MultiNodeVectorEnv(n, SMALL, autoreset_mode=mode) for _ in range(2))
+    obs, info = vec.reset(seed=0)
+    ref.reset(seed=0)
+    actions = np.random.default_rng(1).uniform(-1, 1, (moves + 2, n, 4))
+    rows = np.array([True, False, True])
+    for t in range(moves):
+        held_obs, held_info = obs.copy(), {k: np.copy(v) for k, v in info.items()}
+        obs, reward, terminated, _, info = vec.advance(actions[t], rows)
+        ref_obs, ref_reward, ref_terminated, _, _ = ref.step(actions[t])
+        np.testing.assert_array_equal(obs[rows], ref_obs[rows])
+        np.testing.assert_array_equal(reward[rows], ref_reward[rows])
+        np.testing.assert_array_equal(obs[1], held_obs[1])
+        assert reward[1] == 0.0 and not terminated[1]
+        for key in MULTI_INFO_KEYS:
+            np.testing.assert_array_equal(info[key][1], held_info[key][1])
+    assert terminated[rows].all() and [len(q) for q in vec.trajectories] in ([SMALL.N, 1, SMALL.N], [1, 1, 1])
+    # the held row now steps its whole episode alone; rows 0 and 2 wait
+    if mode == "next_step":
+        before = obs.copy()
+        obs, reward, terminated, _, _ = vec.advance(actions[0], ~rows)
+        np.testing.assert_array_equal(obs[rows], before[rows])  # their autoreset waits for their next step
+        assert [len(q) for q in vec.trajectories] == [SMALL.N, 2, SMALL.N]
+        obs, *_ = vec.advance(actions[0], rows)
+        np.testing.assert_array_equal(obs[0], MultiNodeEnv(SMALL).reset(seed=0)[0])  # reset now
+    with pytest.raises(ValueError, match="boolean mask of shape"):
+        vec.advance(actions[0], np.array([1, 0, 1]))
+
+
+def test_fly_is_the_steps_it_hides_in_one_call():
+    """fly(rows, targets, moves): the compiled flight equals advance() steps of full-speed moves
+    with equal shares (the generic IOSUAVVectorEnv.fly), leaves the other rows and the arrays
+    returned last alone, and refuses a flight that would end an episode."""
+    from ios_uav_env.vector_env import IOSUAVVectorEnv
+
+    fast, slow = (MultiNodeVectorEnv(3, SMALL) for _ in range(2))
+    first = fast.reset(seed=0)[0]
+    slow.reset(seed=0)
+    rows, targets, moves = np.array([0, 2]), np.array([[100.0, 0.0], [-40.0, 90.0]]), np.array([5, 12])
+    obs = fast.fly(rows, targets, moves)
+    ref = IOSUAVVectorEnv.fly(slow, rows, targets, moves)
+    np.testing.assert_allclose(obs, ref, atol=1e-6)
+    np.testing.assert_array_equal(obs[1], first[1])
+    np.testing.assert_array_equal(first[0], MultiNodeEnv(SMALL).reset(seed=0)[0])  # returned arrays kept
+    paths = fast.trajectories
+    assert [len(p) for p in paths] == [6, 1, 13]
+    np.testing.assert_allclose(paths[2], slow.trajectories[2], atol=1e-9)
+    np.testing.assert_allclose(np.hypot(*np.diff(paths[2], axis=0).T), SMALL.D)  # full speed
+    np.testing.assert_allclose(fast.schedules[2][:, 1:], 1 / SMALL.K)  # equal shares
+    hover = np.zeros((3, 4))  # and the episodes go on from there alike
+    np.testing.assert_allclose(fast.step(hover)[0], slow.step(hover)[0], atol=1e-6)
+    with pytest.raises(ValueError, match="leave each row's episode unfinished"):
+        fast.fly([1], [[0.0, 0.0]], [SMALL.N - 1])
+    with pytest.raises(ValueError, match="one target"):
+        fast.fly([1, 2], [[0.0, 0.0]], [1, 1])

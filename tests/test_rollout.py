@@ -69,3 +69,41 @@ def test_one_observation_policies_are_run_per_row_and_bad_envs_refused():
     assert batch_policy(hover) is hover  # batched = True: called on the batch
     with pytest.raises(ValueError, match="next_step"):
         run_episodes(make_vec("ios_uav_env/IOSUAV-v0", 2, autoreset_mode="same_step"), hover)
+
+
+class _Repeating:
+    """A batched policy that decides every ``repeat`` slots: each call returns fresh random actions."""
+
+    batched = True
+
+    def __init__(self, repeat: int, act_dim: int, seed: int = 0):
+        self.repeat, self.act_dim, self.rng, self.calls = repeat, act_dim, np.random.default_rng(seed), 0
+
+    def __call__(self, obs: np.ndarray) -> np.ndarray:
+        self.calls += 1
+        return self.rng.uniform(-1, 1, (*np.shape(obs)[:-1], self.act_dim))
+
+
+def test_a_policy_with_repeat_holds_each_action_for_that_many_slots():
+    env = gym.make(MULTINODE_ENV_ID, T=60)  # 59 moves: 12 decisions at repeat 5, the last of 4 slots
+    dim = env.action_space.shape[0]
+    policy = _Repeating(5, dim)
+    episode = run_episode(env, policy, seed=0)
+    assert policy.calls == 12 and episode.steps == 59
+    shares = env.unwrapped.shares[:, 1:]  # slot 1 is shared equally before any action
+    for start in range(0, 59, 5):  # each decision's shares are held for its slots
+        block = shares[:, start : start + 5]
+        np.testing.assert_array_equal(block, np.repeat(block[:, :1], block.shape[1], axis=1))
+    assert not np.array_equal(shares[:, 0], shares[:, 5])
+    # the batched loop holds them alike: row i is the single episode of the same held actions
+    batched = _Repeating(5, dim)
+    rows = run_episodes(make_vec(MULTINODE_ENV_ID, 2, T=60, best_schedule=False), batched, seed=0)
+    assert batched.calls == 12
+    actions = _Repeating(5, dim).rng.uniform(-1, 1, (12, 2, dim))
+    held = iter(np.repeat(actions[:, 1], 5, axis=0))
+    single = run_episode(env, lambda obs: next(held), seed=1)
+    np.testing.assert_allclose(rows[1].trajectory, single.trajectory, atol=1e-9)
+    assert rows[1].average_rate == pytest.approx(single.average_rate, rel=1e-9)
+    policy.repeat = 0
+    with pytest.raises(ValueError, match="repeat must be an integer >= 1"):
+        run_episode(env, policy, seed=0)

@@ -37,6 +37,7 @@ from typing import Any
 
 import numpy as np
 
+from agents.evaluate_multi import fast_act
 from agents.rollout import ScenarioRunner, run_scenarios
 from agents.suite import SUITE_PATH, Suite, SuiteEntry, load_suite
 from ios_uav_env import ENV_IDS, RANDOM_ENV_ID
@@ -105,15 +106,6 @@ def as_policy(model: Any, env_kwargs: dict[str, Any] | None = None) -> Any:
     return Agent(model, get_vn() if get_vn else None, RANDOM_ENV_ID, dict(env_kwargs or {}), "model")
 
 
-def _fast(policy: Any) -> Callable[[np.ndarray], Any]:
-    """The deterministic action function of ``policy``: an SB3 agent's numpy export, else its own."""
-    if getattr(policy, "model", None) is not None:
-        from agents.numpy_policy import NumpyPolicy
-
-        return NumpyPolicy.from_sb3(policy.model, getattr(policy, "vecnormalize", None)).act
-    return policy.act if hasattr(policy, "act") else policy
-
-
 def evaluate_suite(
     policy: Any,
     suite: Suite,
@@ -128,7 +120,7 @@ def evaluate_suite(
     randomised id without arguments)."""
     env_id = env_id or getattr(policy, "env_id", RANDOM_ENV_ID)
     env_kwargs = dict(getattr(policy, "env_kwargs", {}) if env_kwargs is None else env_kwargs)
-    act = _fast(policy)
+    act = fast_act(policy)
     entries = suite.subset(n)
     if env_id not in ENV_IDS:  # the randomised id: every scenario at once, in its batched env
         episodes = run_scenarios(act, [e.config for e in entries], env_id, env_kwargs, seed=0)

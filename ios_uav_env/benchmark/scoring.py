@@ -44,6 +44,7 @@ import numpy as np
 
 from ios_uav_env.benchmark.results import Aggregate, Results, ScenarioResult
 from ios_uav_env.benchmark.suite import DEFAULT_SUITE, Suite, SuiteScenario, load_suite
+from ios_uav_env.rollout import decision_interval
 from ios_uav_env.trajectory import average_rate, check_trajectory
 
 if TYPE_CHECKING:
@@ -85,13 +86,19 @@ def suite_of(suite: Suite | str | Any) -> Suite:
     return suite if isinstance(suite, Suite) else load_suite(suite)
 
 
-def play(env: Any, act: Callable, scenario: SuiteScenario, seed: int | None) -> float:
+def play(
+    env: Any, act: Callable, scenario: SuiteScenario, seed: int | None, repeat: int | None = None
+) -> float:
     """One episode of ``act`` in ``env`` pinned to ``scenario`` (reset with ``seed``) until it
-    terminates or truncates (``RuntimeError`` after :data:`MAX_STEPS`); its wall time in seconds."""
+    terminates or truncates (``RuntimeError`` after :data:`MAX_STEPS`); its wall time in seconds.
+    ``act`` is asked every ``repeat`` slots (default: its own, ``rollout.decision_interval``)."""
+    repeat = decision_interval(act) if repeat is None else repeat
     start = time.perf_counter()
     obs, _ = env.reset(seed=seed, options={"config": scenario.config})
-    for _ in range(MAX_STEPS):
-        obs, _, terminated, truncated, _ = env.step(act(obs))
+    for t in range(MAX_STEPS):
+        if t % repeat == 0:
+            action = act(obs)
+        obs, _, terminated, truncated, _ = env.step(action)
         if np.any(terminated) or np.any(truncated):
             break
     else:
@@ -111,7 +118,7 @@ def _episode(
             raise ValueError(f"a batched policy must return a (B, 2) action (B=1 here), got {action.shape}")
         return action
 
-    seconds = play(env, checked if batched else act, scenario, seed)
+    seconds = play(env, checked if batched else act, scenario, seed, decision_interval(act))
     base = env.unwrapped
     trajectory = base.trajectories[0] if batched else base.trajectory
     report = check_trajectory(cfg, trajectory)

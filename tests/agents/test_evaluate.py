@@ -222,9 +222,9 @@ def test_an_infeasible_planner_plan_scores_zero_in_the_multinode_table():
 
 
 def test_shipped_multinode_agent_reproduces_its_score_feasibly():
-    # agents/models/ppo_IOSUAV-MultiNode-v0: 96.0% of SCA, 96.4% of the tour when shipped (issue
-    # #14's bar, 97% of SCA, is not met yet); this guards the model, its VecNormalize statistics
-    # and the env arguments
+    # agents/models/ppo_IOSUAV-MultiNode-v0: 97.13% of SCA, 97.57% of the tour when shipped (issue
+    # #14's bar: 97% of SCA); this guards the model, its VecNormalize statistics, the env
+    # arguments and the score
     import gymnasium as gym
 
     from baselines.tour import solve
@@ -240,4 +240,5 @@ def test_shipped_multinode_agent_reproduces_its_score_feasibly():
     assert episode.average_rate == pytest.approx(own, rel=1e-12)
     assert episode.average_rate == pytest.approx(summary["final_eval"]["average_rate"], abs=1e-9)
     assert episode.feasible and check_trajectory(cfg, episode.trajectory).feasible
-    assert episode.average_rate >= 0.96 * solve(cfg).mean_rate  # the tour: 0.468872 (SCA 0.471001)
+    assert episode.average_rate >= 0.975 * solve(cfg).mean_rate  # the tour: 0.468872
+    assert episode.average_rate >= 0.97 * 0.471001  # SCA's value (python -m agents.evaluate <model>)

@@ -201,6 +201,42 @@ def test_log_std_schedule_anneals_the_exploration_noise():
     assert not model.policy.log_std.requires_grad and np.all(seen[-1] == seen[-1][0])
 
 
+@pytest.mark.parametrize("batched", [True, False])
+def test_exploring_starts_schedule_winds_the_starts_down(batched: bool):
+    """ExploringStartsSchedule finds the exploring starts (the batched VecEnv form or the wrappers
+    of a DummyVecEnv's envs) and holds, then lowers, their probability; no starts: refused."""
+    import gymnasium as gym
+    import torch
+    from stable_baselines3 import PPO
+    from stable_baselines3.common.vec_env import DummyVecEnv, VecNormalize
+
+    from agents.callbacks import ExploringStartsSchedule, exploring_starts
+    from agents.vec_env import BatchedVecEnv, VecExploringStarts
+    from agents.wrappers import ExploringStarts
+
+    torch.set_num_threads(1)
+    if batched:
+        venv = VecExploringStarts(BatchedVecEnv("ios_uav_env/IOSUAV-v0", 2, {"T": 40}), prob=0.8)
+    else:
+        venv = DummyVecEnv([lambda: ExploringStarts(gym.make("ios_uav_env/IOSUAV-v0", T=40), prob=0.8)] * 2)
+    venv = VecNormalize(venv)
+    assert len(exploring_starts(venv)) == (1 if batched else 2)
+    model = PPO("MlpPolicy", venv, n_steps=32, batch_size=64, n_epochs=1, policy_kwargs={"net_arch": [8]},
+                seed=0, device="cpu")  # fmt: skip
+    seen = []
+
+    class Spy(ExploringStartsSchedule):
+        def _on_rollout_start(self) -> None:
+            super()._on_rollout_start()
+            seen.append([w.prob for w in exploring_starts(self.training_env)])
+
+    model.learn(256, callback=Spy(hold=0.5, end=0.0))  # rollouts start at 0, 64, 128, 192 steps
+    assert [s[0] for s in seen] == pytest.approx([0.8, 0.8, 0.8, 0.4]) and all(len(set(s)) == 1 for s in seen)
+    plain = PPO("MlpPolicy", gym.make("ios_uav_env/IOSUAV-v0", T=40), n_steps=32, batch_size=32, device="cpu")
+    with pytest.raises(ValueError, match="needs agents.wrappers.ExploringStarts"):
+        plain.learn(32, callback=ExploringStartsSchedule())
+
+
 def test_target_entropy_schedule_anneals_sac_noise_and_refuses_ppo():
     import gymnasium as gym
     import torch

@@ -5,7 +5,9 @@ from __future__ import annotations
 
 import json
 from pathlib import Path
+from typing import Any
 
+import numpy as np
 import pytest
 
 pytest.importorskip("stable_baselines3")
@@ -80,14 +82,52 @@ def test_batched_refuses_a_wrapper_without_a_vec_form(tmp_path: Path) -> None:
         check_hyperparams("ppo", "ios_uav_env/IOSUAV-v0", path, vec_env="batched")
 
 
-def test_batched_run_on_the_multinode_id(tmp_path: Path) -> None:
-    (tmp_path / "hp.yml").write_text(TINY.replace("ios_uav_env/IOSUAV-v0", "ios_uav_env/IOSUAV-MultiNode-v0"))
+def _multinode_run(tmp_path: Path, hyperparams: str) -> tuple[Any, Path]:
+    """A tiny batched run of ``hyperparams`` (TINY's text) on the multi-node id, T = 40 s."""
+    text = hyperparams.replace("ios_uav_env/IOSUAV-v0", "ios_uav_env/IOSUAV-MultiNode-v0")
+    (tmp_path / "hp.yml").write_text(text)
     out = tmp_path / "run"
     settings = TrainSettings(
         algo="ppo", env_id="ios_uav_env/IOSUAV-MultiNode-v0", vec_env="batched", env_kwargs={"T": 40},
         hyperparams_file=str(tmp_path / "hp.yml"), out=str(out), checkpoint_freq=1024, eval_freq=0,
         progress_bar=False,
     )  # fmt: skip
-    result = train(settings)
+    return train(settings), out
+
+
+def test_batched_run_on_the_multinode_id(tmp_path: Path) -> None:
+    result, out = _multinode_run(tmp_path, TINY)
     assert result.summary["steps"] == 256 and result.summary["final_eval"]["feasible"]
     assert {int(row.split(",")[1]) for row in _monitor_rows(out)} >= {39}  # whole 39-step episodes
+
+
+def test_action_repeat_run_and_its_agent_hold_the_action(tmp_path: Path) -> None:
+    """ActionRepeat (with ExploringStarts) in the hyperparameters: the batched run decides every 3
+    slots (13 decisions per 39-slot episode in the monitor), and the loaded agent holds its
+    actions alike (Agent.repeat)."""
+    from agents.loading import load_agent
+    from ios_uav_env.rollout import run_episode
+
+    wrappers = "ActionRepeat:\n        repeat: 3\n    - agents.wrappers.ExploringStarts:\n        prob: 0.5"
+    result, out = _multinode_run(tmp_path, TINY.replace("ShiftReward:\n        offset: 0.5", wrappers))
+    lengths = {int(row.split(",")[1]) for row in _monitor_rows(out)}
+    assert 13 in lengths and min(lengths) < 13  # ceil(39 / 3) decisions; shorter after a prefix
+    agent = load_agent(out)
+    assert agent.repeat == 3
+    import gymnasium as gym
+
+    env = gym.make("ios_uav_env/IOSUAV-MultiNode-v0", T=40)
+    episode = run_episode(env, agent, seed=0)
+    shares = env.unwrapped.shares[:, 1:]
+    np.testing.assert_array_equal(shares[:, 0:3], np.repeat(shares[:, 0:1], 3, axis=1))
+    assert result.summary["final_eval"]["average_rate"] == pytest.approx(episode.average_rate, rel=1e-12)
+    # the numpy export of the suite and the benchmark's episode loop hold the action too
+    from types import SimpleNamespace
+
+    from agents.evaluate_multi import fast_act
+    from ios_uav_env.benchmark.scoring import play
+
+    play(env, fast_act(agent), SimpleNamespace(config=env.unwrapped.config, index=0), seed=0)
+    np.testing.assert_allclose(env.unwrapped.trajectory, episode.trajectory, atol=1e-5)  # float32 export
+    held = env.unwrapped.shares[:, 1:]
+    np.testing.assert_array_equal(held[:, 3:6], np.repeat(held[:, 3:4], 3, axis=1))

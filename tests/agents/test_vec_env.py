@@ -180,3 +180,86 @@ def test_ppo_trains_on_the_batched_multinode_env_with_stagger() -> None:
     model = PPO("MlpPolicy", venv, n_steps=32, batch_size=64, n_epochs=1, seed=0, device="cpu")
     model.learn(8 * 32 * 2)  # 512 steps: two rollouts, the staggered rows end episodes in both
     assert model.num_timesteps == 512 and len(model.ep_info_buffer) >= 8
+
+
+def test_action_repeat_on_the_batched_env_is_the_wrapper_on_single_envs() -> None:
+    """VecActionRepeat over staggered rows (episodes ending at different slots, some within a
+    repeat) gives each row what agents.wrappers.ActionRepeat gives a single env."""
+    from agents.vec_env import VecActionRepeat, wrap_batched
+    from agents.wrappers import ActionRepeat
+
+    n, moves, repeat, seed = 4, 39, 4, 2
+    base = BatchedVecEnv(ENV_ID, n, env_kwargs=SHORT, seed=seed, stagger=True)
+    venv = wrap_batched(base, [(ActionRepeat, {"repeat": repeat})])
+    assert isinstance(venv, VecActionRepeat)
+    obs = venv.reset()
+    singles = [ActionRepeat(gym.make(ENV_ID, **SHORT), repeat) for _ in range(n)]
+    for i, env in enumerate(singles):
+        env.reset(seed=seed + i)
+        for _ in range((i * moves) // n):  # the row's stagger: hover moves from q0
+            env.unwrapped.step(np.zeros(2))
+    rng = np.random.default_rng(0)
+    lengths = []
+    for _ in range(25):  # 100 slots: every row ends an episode, some within a repeat
+        actions = rng.uniform(-1, 1, (n, 2)).astype(np.float32)
+        obs, rewards, dones, infos = venv.step(actions)
+        for i, env in enumerate(singles):
+            last, reward, terminated, _, info = env.step(actions[i])
+            assert rewards[i] == pytest.approx(reward, rel=1e-5, abs=1e-5) and dones[i] == terminated
+            if terminated:
+                np.testing.assert_array_equal(infos[i]["terminal_observation"], last)
+                assert infos[i]["average_rate"] == pytest.approx(info["average_rate"], rel=1e-12)
+                lengths.append(len(env.unwrapped.trajectory))
+                last = env.reset()[0]
+            np.testing.assert_array_equal(obs[i], last)
+    assert lengths and set(lengths) == {moves + 1}  # whole episodes: the repeat never overran an end
+    with pytest.raises(ValueError, match="wraps a BatchedVecEnv directly"):
+        VecActionRepeat(VecMonitor(BatchedVecEnv(ENV_ID, 1, env_kwargs=SHORT)), repeat)
+    with pytest.raises(ValueError, match="repeat must be an integer >= 1"):
+        ActionRepeat(gym.make(ENV_ID), 0)
+
+
+def test_exploring_starts_on_the_batched_env() -> None:
+    """VecExploringStarts (under a monitor, over the action repeat): episodes after the first start
+    part-way along a feasible flight; the seed fixes the prefixes."""
+    from agents.vec_env import VecExploringStarts, wrap_batched
+    from agents.wrappers import ActionRepeat, ExploringStarts
+
+    def make(seed: int) -> VecEnv:
+        base = BatchedVecEnv(MULTI_ID, 4, env_kwargs={"T": 60}, seed=seed)
+        inner = VecMonitor(wrap_batched(base, [(ActionRepeat, {"repeat": 2})]))
+        return wrap_batched(inner, [(ExploringStarts, {"prob": 1.0, "max_moves": 30})])
+
+    runs = []
+    for seed in (0, 0, 1):
+        venv = make(seed)
+        assert isinstance(venv, VecExploringStarts)
+        obs = venv.reset()
+        assert (obs[:, 6] == 1.0).all()  # the first episodes start at q0
+        firsts = []
+        for _ in range(75):  # 150 slots: the first episodes (59 slots) and at least one more each
+            obs, _, dones, infos = venv.step(np.zeros((4, 5), dtype=np.float32))
+            for i in np.flatnonzero(dones):
+                assert infos[i]["feasible"]
+                firsts.append(obs[i].copy())
+        runs.append(np.array(firsts))
+    assert len(runs[0]) >= 8 and (runs[0][:, 6] < 1.0).all()  # every later episode began part-way
+    np.testing.assert_array_equal(runs[0], runs[1])
+    assert not np.array_equal(runs[0], runs[2])
+    with pytest.raises(ValueError, match="needs a BatchedVecEnv under it"):
+        VecExploringStarts(DummyVecEnv([lambda: gym.make(MULTI_ID)]))
+
+
+def test_exploring_starts_on_the_single_node_batched_env() -> None:
+    """The single-node batched env flies the prefix through its generic fly (advance steps)."""
+    from agents.vec_env import VecExploringStarts
+
+    venv = VecExploringStarts(BatchedVecEnv(ENV_ID, 2, env_kwargs=SHORT, seed=0), prob=1.0, max_moves=20)
+    venv.reset()
+    starts = []
+    for _ in range(39 + 20):
+        obs, _, dones, infos = venv.step(np.zeros((2, 2), dtype=np.float32))
+        for i in np.flatnonzero(dones):
+            assert infos[i]["feasible"]
+            starts.append(obs[i, 8])  # time_left of the next episode's first observation
+    assert len(starts) >= 2 and all(0.45 <= s < 1.0 for s in starts)  # 1-20 of 39 moves gone
