@@ -212,7 +212,7 @@ class VecExploringStarts(VecEnvWrapper):
     """``agents.wrappers.ExploringStarts`` on a batched env: each row's next episode (after an
     episode end, not the first), with probability ``prob``, starts after the hidden prefix of
     the single form (m ~ U{1..max_moves} full-speed moves towards a point of ``box``, equal
-    shares), stepped on the rows of the ``BatchedVecEnv`` under ``venv`` (its ``advance``), below
+    shares), flown on the rows of the ``BatchedVecEnv`` under ``venv`` (its batched env's ``fly``), below
     any wrapper in between: the monitor counts the episode from the agent's first move. The
     generator is seeded from the seed of the batched env's next reset (``venv.seed(s)``)."""
 

@@ -12,6 +12,8 @@ from typing import Any, SupportsFloat
 import gymnasium as gym
 import numpy as np
 
+from ios_uav_env.policies import move_toward
+
 
 class ShiftReward(gym.RewardWrapper):
     """Reward ``scale * (reward - offset)``.
@@ -120,13 +122,6 @@ def draw_targets(
     return targets
 
 
-def toward(position: np.ndarray, target: np.ndarray, step: np.ndarray) -> np.ndarray:
-    """The moves (in units of the slot's step D, on the unit disk) from ``position`` (B, 2) towards
-    ``target`` (B, 2): full speed, or the rest of the way once within D."""
-    move = (np.asarray(target) - np.asarray(position)) / np.reshape(step, (-1, 1))
-    return move / np.maximum(np.hypot(move[:, 0], move[:, 1]), 1.0)[:, None]
-
-
 class ExploringStarts(gym.Wrapper):
     """Begin an episode, with probability ``prob``, part-way through: after m ~ U{1..max_moves}
     hidden moves at full speed towards a point drawn uniformly in ``box`` (and hovering there),
@@ -167,10 +162,10 @@ class ExploringStarts(gym.Wrapper):
         base = self.env.unwrapped
         cfg = base.config
         moves = min(int(self._rng.integers(1, self.max_moves, endpoint=True)), cfg.N - 3)
-        target = draw_targets(self._rng, [cfg], self.box, self.peak_prob, self.peak_noise)
+        target = draw_targets(self._rng, [cfg], self.box, self.peak_prob, self.peak_noise)[0]
         action = np.zeros(self.action_space.shape, dtype=np.float32)  # node scores 0: equal shares
         for _ in range(max(moves, 0)):
-            action[:2] = toward(base.trajectory[-1:], target, np.array([cfg.D]))[0]
+            action[:2] = move_toward(target - info["position"], cfg.D)
             obs, _, _, _, info = self.env.step(action)
         return obs, info
 

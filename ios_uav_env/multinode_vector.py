@@ -69,7 +69,6 @@ class MultiNodeVectorEnv(gym.vector.VectorEnv):
     restart = IOSUAVVectorEnv.restart
     _row_options = IOSUAVVectorEnv._row_options
     trajectories = IOSUAVVectorEnv.trajectories
-    positions = IOSUAVVectorEnv.positions
     configs = IOSUAVVectorEnv.configs
     close = IOSUAVVectorEnv.close
     _begin_step = IOSUAVVectorEnv._begin_step

@@ -32,13 +32,18 @@ TARGETS: dict[str, tuple[int, int]] = {
 }
 
 
-def move_toward(offset: np.ndarray, D: float) -> np.ndarray:
-    """The action (a move in units of D, in the unit disk) that goes ``offset`` (m) in one step
-    if it is at most D long, else D along it: full speed towards the point, then stop on it.
-    ``offset`` (2,) or a batch (B, 2)."""
+def full_speed_move(offset: np.ndarray, D: Any) -> np.ndarray:
+    """The move in units of D (in the unit disk, float64) that goes ``offset`` (m) in one step if
+    it is at most D long, else D along it: full speed towards the point, then stop on it.
+    ``offset`` (2,) or a batch (B, 2); ``D`` a number or one per row, (B, 1)."""
     move = np.asarray(offset, dtype=np.float64) / D
     norm = np.hypot(move[..., 0], move[..., 1])[..., None]
-    return (move / np.maximum(norm, 1.0)).astype(np.float32)
+    return move / np.maximum(norm, 1.0)
+
+
+def move_toward(offset: np.ndarray, D: float) -> np.ndarray:
+    """:func:`full_speed_move` as an action of the envs' float32 action space."""
+    return full_speed_move(offset, D).astype(np.float32)
 
 
 class HoverAt:

@@ -34,6 +34,7 @@ from ios_uav_env.config import ScenarioConfig
 from ios_uav_env.dynamics import INFO, STATE, reset_rows, step_rows, step_rows_batched
 from ios_uav_env.env import INFO_KEYS, IOSUAVEnv
 from ios_uav_env.jit import run_batched
+from ios_uav_env.policies import full_speed_move
 from ios_uav_env.random_env import RandomIOSUAVEnv
 
 try:  # Gymnasium >= 1.1 names the autoreset modes
@@ -317,11 +318,9 @@ class IOSUAVVectorEnv(gym.vector.VectorEnv):
             live = moves > j
             mask = np.zeros(self.num_envs, dtype=np.bool_)
             mask[rows[live]] = True
-            here = self._state[rows[live], 0:2]
-            step = np.array([self.envs[i].config.D for i in rows[live]])
-            move = (targets[live] - here) / step[:, None]
+            step = np.array([[self.envs[i].config.D] for i in rows[live]])
             actions = np.zeros((self.num_envs, width))
-            actions[rows[live], :2] = move / np.maximum(np.hypot(move[:, 0], move[:, 1]), 1.0)[:, None]
+            actions[rows[live], :2] = full_speed_move(targets[live] - self._state[rows[live], 0:2], step)
             obs = self.advance(actions, mask)[0]
         return obs
 
@@ -355,11 +354,6 @@ class IOSUAVVectorEnv(gym.vector.VectorEnv):
         self._restart_rows(rows)
         self._autoreset[rows] = False
         return self._obs
-
-    @property
-    def positions(self) -> np.ndarray:
-        """Each row's UAV position now, (B, 2) m (a copy)."""
-        return self._state[:, 0:2].copy()
 
     @property
     def trajectories(self) -> list[np.ndarray]:

@@ -8,7 +8,8 @@ import numpy as np
 import pytest
 
 import ios_uav_env  # noqa: F401
-from agents.wrappers import ActionRepeat, ExploringStarts, toward
+from agents.wrappers import ActionRepeat, ExploringStarts
+from ios_uav_env.policies import full_speed_move
 from ios_uav_env.trajectory import check_trajectory
 
 MULTI_ID = "ios_uav_env/IOSUAV-MultiNode-v0"
@@ -50,9 +51,9 @@ def test_exploring_starts_begin_part_way_along_a_feasible_flight() -> None:
     np.testing.assert_array_equal(never.reset(seed=3)[0], gym.make(MULTI_ID, T=60).reset(seed=3)[0])
 
 
-def test_toward_flies_at_full_speed_then_lands_on_the_target() -> None:
+def test_full_speed_move_flies_at_full_speed_then_lands_on_the_target() -> None:
     start, targets = np.zeros((2, 2)), np.array([[100.0, 0.0], [0.0, 10.0]])
-    moves = toward(start, targets, np.array([25.0, 25.0]))
+    moves = full_speed_move(targets - start, np.array([[25.0], [25.0]]))  # one D per row
     np.testing.assert_allclose(moves, [[1.0, 0.0], [0.0, 0.4]])
 
 
