@@ -108,6 +108,17 @@ def rate_point(x: float, y: float, nodes: np.ndarray, params: np.ndarray) -> flo
 
 
 @jit
+def rates_at(points: np.ndarray, nodes: np.ndarray, params: np.ndarray) -> np.ndarray:
+    """:func:`rate_point` at each of the (n, 2) ``points`` (one compiled loop): the
+    expected-gain rates of :func:`slot_rates` for the kernel's config, without its (n, nodes)
+    numpy temporaries."""
+    out = np.empty(points.shape[0])
+    for i in range(points.shape[0]):
+        out[i] = rate_point(points[i, 0], points[i, 1], nodes, params)
+    return out
+
+
+@jit
 def faded_point(x: float, y: float, n_re: float, n_im: float, nodes: np.ndarray, params: np.ndarray) -> float:
     """One faded-rate sample at one position: :func:`faded_row` of one kernel."""
     return faded_row(x, y, n_re, n_im, nodes[np.newaxis], params[np.newaxis], 0)
@@ -146,6 +157,10 @@ class RateKernel:
     def rate(self, x: float, y: float) -> float:
         """Expected-gain rate log2(1 + eta zeta^2) at one position (x, y)."""
         return rate_point(float(x), float(y), self.nodes, self.params)
+
+    def rates(self, points: np.ndarray) -> np.ndarray:
+        """Expected-gain rates at the (n, 2) ``points``: :func:`rates_at` (equal to :func:`slot_rates`)."""
+        return rates_at(np.ascontiguousarray(points, dtype=np.float64), self.nodes, self.params)
 
     def faded_rate(self, x: float, y: float, rng: np.random.Generator) -> float:
         """One faded-rate sample log2(1 + eta |h|^2) at (x, y): :func:`faded_point` with h_SS

@@ -23,6 +23,7 @@ from gymnasium import spaces
 from ios_uav_env.channel import rate_kernel
 from ios_uav_env.config import FEASIBILITY_TOL, ScenarioConfig, as_config, scenario_option
 from ios_uav_env.guard import guarded_position
+from ios_uav_env.jit import HAVE_NUMBA
 from ios_uav_env.multinode import reported_maxmin_rate
 from ios_uav_env.multinode_kernels import soft_minimum
 from ios_uav_env.observation import M_SCALE, T_SCALE, ground_free_rate_bound, length_bounds, pad
@@ -61,12 +62,25 @@ def rate_potential(rates: np.ndarray, beta: float = 0.0) -> float:
     return soft_minimum(values, values.size, 1.0, float(beta))
 
 
+def share_scores(shares: np.ndarray, sharpness: float = 5.0) -> np.ndarray:
+    """Node scores in [-1, 1] whose softmax (x ``sharpness``, the env's share map) gives
+    ``shares`` (K,) or (K, B): 1 for the largest share, 1 + log(alpha_k / alpha_max) /
+    sharpness for the others, so exact for ratios alpha_k / alpha_max >= exp(-2 sharpness);
+    smaller ones (a 0 share too) become -1. The inverse of the action's share entries."""
+    alpha = np.asarray(shares, dtype=np.float64)
+    bad = alpha.ndim not in (1, 2) or not np.all(np.isfinite(alpha)) or np.any(alpha < 0)
+    if bad or np.any(alpha.max(axis=0) <= 0):
+        raise ValueError(f"shares must be finite, >= 0 and not all 0 ((K,) or (K, B)), got {alpha!r}")
+    ratio = np.maximum(alpha / alpha.max(axis=0), np.exp(-2.0 * sharpness))
+    return np.clip(1.0 + np.log(ratio) / sharpness, -1.0, 1.0)
+
+
 @functools.lru_cache(maxsize=256)
 def node_peaks(config: ScenarioConfig) -> tuple[tuple[float, float, float], ...]:
-    """Each node's reachable rate peak (x, y, rate): ``rate_peak`` of ``config.node_config(k)``,
-    the ``peak_hint`` features; cached, so a fixed scenario and the rows of a batch sharing one
-    compute them once."""
-    return tuple(tuple(rate_peak(config.node_config(k))) for k in range(config.K))
+    """Each node's reachable rate peak (x, y, rate): ``rate_peak`` of ``config.node_config(k)``
+    (on the compiled kernel when numba is installed: ``compiled=HAVE_NUMBA``), the ``peak_hint``
+    features; cached, so a fixed scenario and the rows of a batch sharing one compute them once."""
+    return tuple(tuple(rate_peak(config.node_config(k), compiled=HAVE_NUMBA)) for k in range(config.K))
 
 
 def sample_multinode(
@@ -156,7 +170,7 @@ class MultiNodeEnv(gym.Env):
     - ``random_nodes`` ((2, 4) for the randomised id, None otherwise): draw a new scenario with
       that many nodes at every reset.
     - ``peak_hint`` (False): append each node's reachable rate peak (Observation Space; it
-      costs one ``rate_peak`` per node at reset, about 10 ms per node, cached: ``node_peaks``).
+      costs one compiled ``rate_peak`` per node at reset, 1-2 ms per node, cached: ``node_peaks``).
     - ``arrival_guard``, ``reach_weight``, ``terminal_weight``, ``length_scale``: as
       ``IOSUAVEnv`` (``EnvOptions``); the channel is the expected-gain rate.
     - ``render_mode``: None or "rgb_array" (the best node's rate map, every node, and the
@@ -288,6 +302,7 @@ class MultiNodeEnv(gym.Env):
                     f"the scenario {cfg} does not fit this env's observation space; make an env on it instead"
                 )
         self.config = cfg
+        self._nkd = (cfg.N, cfg.K, cfg.D)  # N, K, D: read every step (properties of the config)
         self._kernels = [rate_kernel(cfg.node_config(k)) for k in range(cfg.K)]
         self._peaks = node_peaks(cfg) if self.options.peak_hint else None
         self._x, self._y = cfg.q0
@@ -308,19 +323,20 @@ class MultiNodeEnv(gym.Env):
 
     def _observe(self, rates: np.ndarray) -> np.ndarray:
         cfg, inv_l = self.config, 1.0 / self.options.length_scale
-        x, y, left = self._x, self._y, cfg.N - 1 - self._n
+        N, K, D = self._nkd
+        x, y, left = self._x, self._y, N - 1 - self._n
         dist = math.hypot(cfg.qF[0] - x, cfg.qF[1] - y)
-        s = left - dist / cfg.D
+        s = left - dist / D
         cx, cy = cfg.ios_center[0], cfg.ios_center[1]
         obs = [x * inv_l, y * inv_l, (cfg.qF[0] - x) * inv_l, (cfg.qF[1] - y) * inv_l, (cx - x) * inv_l,
-               (cy - y) * inv_l, left / (cfg.N - 1), s / (1.0 + abs(s)),
+               (cy - y) * inv_l, left / (N - 1), s / (1.0 + abs(s)),
                cfg.M / M_SCALE if cfg.surface != "none" else 0.0, float(cfg.surface == "ios"),
                float(cfg.surface == "ris"), cfg.T / T_SCALE]  # fmt: skip
         for k in range(self.max_nodes):
-            if k < cfg.K:
+            if k < K:
                 wx, wy = cfg.nodes[k]
                 side = 1.0 if wx > cx else -1.0
-                obs += [1.0, (wx - x) * inv_l, (wy - y) * inv_l, side, self._served[k] / cfg.N, rates[k]]
+                obs += [1.0, (wx - x) * inv_l, (wy - y) * inv_l, side, self._served[k] / N, rates[k]]
                 if self._peaks is not None:
                     px, py, pr = self._peaks[k]
                     obs += [(px - x) * inv_l, (py - y) * inv_l, pr]
@@ -329,20 +345,20 @@ class MultiNodeEnv(gym.Env):
         return np.array(obs, dtype=np.float32)
 
     def _info(self, shares: np.ndarray, dist: float, terms: tuple[float, float, float], best: float) -> dict:
-        cfg = self.config
-        left = cfg.N - 1 - self._n
+        N, K, D = self._nkd
+        left = N - 1 - self._n
 
         def padded(v: np.ndarray) -> np.ndarray:
             out = np.zeros(self.max_nodes)
-            out[: cfg.K] = v
+            out[:K] = v
             return out
 
-        deficit = max(0.0, dist - left * cfg.D)
+        deficit = max(0.0, dist - left * D)
         worst = max(self._excess, deficit)
         return {
             "position": np.array((self._x, self._y)), "slot": np.int64(self._n + 1),
             "distance_to_final": np.float64(dist), "shares": padded(shares),
-            "node_rates": padded(self._served / cfg.N), "min_rate": np.float64(self._min),
+            "node_rates": padded(self._served / N), "min_rate": np.float64(self._min),
             "best_schedule_rate": np.float64(best), "reward_rate": np.float64(terms[0]),
             "reward_reach": np.float64(terms[1]), "reward_terminal": np.float64(terms[2]),
             "feasible": np.bool_(worst <= FEASIBILITY_TOL), "worst_violation": np.float64(worst),
@@ -352,47 +368,47 @@ class MultiNodeEnv(gym.Env):
     def step(self, action: Any) -> tuple[np.ndarray, float, bool, bool, dict]:
         if self._n is None:
             raise RuntimeError("call reset() before step()")
-        cfg = self.config
-        if self._n >= cfg.N - 1:
-            raise RuntimeError(f"the episode ended at slot N = {cfg.N}; call reset()")
+        cfg, (N, K, D) = self.config, self._nkd
+        if self._n >= N - 1:
+            raise RuntimeError(f"the episode ended at slot N = {N}; call reset()")
         a = np.asarray(action, dtype=np.float64)
         if a.shape != self.action_space.shape:
             raise ValueError(f"action must have shape {self.action_space.shape}, got {a.shape}")
-        if not np.all(np.isfinite(a)):
+        if not np.isfinite(a).all():
             raise ValueError(f"action must be finite (no NaN or inf), got {action!r}")
         ax, ay = float(a[0]), float(a[1])
         norm = math.hypot(ax, ay)
         if norm > 1.0:
             ax, ay = ax / norm, ay / norm
-        scores = self.share_sharpness * a[2 : 2 + cfg.K]
+        scores = self.share_sharpness * a[2 : 2 + K]
         shares = np.exp(scores - scores.max())
         shares /= shares.sum()
-        x0, y0, left = self._x, self._y, cfg.N - 2 - self._n
-        x, y = x0 + cfg.D * ax, y0 + cfg.D * ay
+        x0, y0, left = self._x, self._y, N - 2 - self._n
+        x, y = x0 + D * ax, y0 + D * ay
         if self.options.arrival_guard:
-            x, y = guarded_position((x0, y0), (x, y), cfg.qF, cfg.D, left)
+            x, y = guarded_position((x0, y0), (x, y), cfg.qF, D, left)
         self._x, self._y, self._n = x, y, self._n + 1
         self._xs.append(x)
         self._ys.append(y)
         self._shares.append(shares)
-        self._excess = max(self._excess, math.hypot(x - x0, y - y0) - cfg.D)
+        self._excess = max(self._excess, math.hypot(x - x0, y - y0) - D)
         rates = self._rates(x, y)
         self._served = self._served + shares * rates
-        self._min = float(self._served.min()) / cfg.N
-        previous, self._phi = self._phi, soft_minimum(self._served, cfg.K, float(cfg.N), self.softmin_beta)
+        self._min = float(self._served.min()) / N
+        previous, self._phi = self._phi, soft_minimum(self._served, K, float(N), self.softmin_beta)
         dist = math.hypot(cfg.qF[0] - x, cfg.qF[1] - y)
-        reach = max(0.0, dist - left * cfg.D - FEASIBILITY_TOL) / cfg.D
+        reach = max(0.0, dist - left * D - FEASIBILITY_TOL) / D
         r_reach = -self.options.reach_weight * reach if reach else 0.0
         terminated = left == 0
         r_terminal, best = 0.0, 0.0
         if terminated:
-            miss = max(0.0, dist - FEASIBILITY_TOL) / cfg.D
+            miss = max(0.0, dist - FEASIBILITY_TOL) / D
             if miss:
                 r_terminal = -self.options.terminal_weight * (miss + math.sqrt(miss))
             best = reported_maxmin_rate(cfg, self.trajectory)
-        r_rate = cfg.N * (self._phi - previous)
+        r_rate = N * (self._phi - previous)
         if terminated and self.softmin_beta:
-            r_rate += cfg.N * (self._min - self._phi)
+            r_rate += N * (self._min - self._phi)
         terms = (r_rate, r_reach, r_terminal)
         info = self._info(shares, dist, terms, best)
         return self._observe(rates), float(sum(terms)), terminated, False, info

@@ -19,6 +19,7 @@ from ios_uav_env.multinode_env import (
     NODE_PEAK_FEATURES,
     MultiNodeEnv,
     rate_potential,
+    share_scores,
 )
 
 IDS = sorted(ios_uav_env.MULTINODE_IDS)
@@ -146,6 +147,28 @@ def test_a_score_action_serves_the_chosen_node():
     env.reset(seed=0)
     _, _, _, _, info = env.step(np.array([0.0, 0.0, 1.0, -1.0]))
     assert info["shares"][0] > 0.9999 and info["shares"].sum() == pytest.approx(1.0)
+
+
+def test_share_scores_invert_the_envs_share_map():
+    rng = np.random.default_rng(0)
+    env = MultiNodeEnv(
+        ScenarioConfig(T=60.0, ios_shape=(100, 20), ground_nodes=((-100.0, 0.0), (50.0, 9.0), (9.0, 80.0)))
+    )
+    env.reset(seed=0)
+    for _ in range(5):
+        shares = rng.dirichlet(np.ones(3)) + 1e-3  # every ratio within exp(-2 sharpness)
+        shares /= shares.sum()
+        scores = share_scores(shares, env.share_sharpness)
+        assert scores.max() == 1.0 and np.all(scores >= -1.0)
+        _, _, _, _, info = env.step(np.concatenate([[0.0, 0.0], scores]))
+        np.testing.assert_allclose(info["shares"], shares, rtol=1e-9)
+    # a zero share reads as the smallest score; columns are slots
+    np.testing.assert_array_equal(
+        share_scores(np.array([[1.0, 0.0], [0.0, 0.5]]), 5.0), [[1.0, -1.0], [-1.0, 1.0]]
+    )
+    for bad in ([0.5, -0.1], [np.nan, 1.0], [0.0, 0.0], [[[1.0]]]):
+        with pytest.raises(ValueError, match="shares must be"):
+            share_scores(np.array(bad), 5.0)
 
 
 def test_pinned_scenarios_and_errors():

@@ -133,3 +133,18 @@ def test_random_env_with_peak_hint_passes_the_checker_and_follows_each_scenario(
 def test_bad_peak_hint_is_refused():
     with pytest.raises(ValueError, match="peak_hint"):
         gym.make("ios_uav_env/IOSUAV-v0", peak_hint="yes")
+
+
+def test_the_compiled_search_finds_the_same_peaks():
+    from ios_uav_env.channel import rate_kernel
+
+    rng = np.random.default_rng(3)
+    for _ in range(8):
+        cfg = sample_scenario(rng)
+        pts = random_reachable(cfg, 200, 0)
+        np.testing.assert_allclose(rate_kernel(cfg).rates(pts), slot_rates(cfg, pts), rtol=1e-12)
+        for side in (None, "front", "behind"):
+            a, b = rate_peak(cfg, side=side), rate_peak(cfg, side=side, compiled=True)
+            assert (a is None) == (b is None)
+            if a is not None:
+                assert (a.x, a.y) == (b.x, b.y) and a.rate == pytest.approx(b.rate, rel=1e-12)

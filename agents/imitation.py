@@ -1,0 +1,437 @@
+"""A multi-node generalist trained from the tour heuristic (DAgger), from a checkout.
+
+    python -m agents.imitation --out runs/dagger                         # the shipped recipe
+    python -m agents.suite report --model runs/dagger                    # scored on multi-node-v1
+
+Pure PPO on ``ios_uav_env/IOSUAV-MultiNode-Random-v0`` reached 31% of SCA on the held-out suite in
+12M steps (``agents/TUNING.md``): the tour, the hover times and the shares of 2 to 4 random nodes
+are hard to find by exploration. Here the tour heuristic (``baselines.tour``, 99.5% of SCA on
+the suite, 0.4 s a scenario) teaches the same SB3 PPO policy network by imitation:
+
+- **Expert.** ``baselines.tour.solve`` plans each training scenario (scenario i is
+  ``sample_multinode(np.random.default_rng(first_seed + i))``, disjoint from the suite's
+  seed sequence); the plans are cached one JSON file each (``baselines.runner.run_tasks``:
+  parallel, resumable, a progress bar). From any state the expert tracks its plan
+  (:meth:`ExpertPlan.action`): at step n, full speed towards the plan's q[n+1]
+  (``policies.full_speed_move``), with the plan's shares of that slot
+  (``multinode_env.share_scores``), so it also labels states off the plan.
+- **Rounds.** Round 0 plays the expert's own episodes, clean and with N(0, ``noise``^2) added to
+  every executed move (so the data show how to come back to the plan); round r >= 1 plays the
+  policy of round r - 1 and labels what it visits (DAgger). Each round fits the policy's action
+  mean to every label so far (``epochs`` passes, Adam, one-cycle learning rate): the squared
+  error of the move and of the node scores (:func:`imitation_loss`).
+- **Output.** A run folder that ``agents.loading.load_agent``, ``agents.evaluate`` and
+  ``agents.suite report`` read (``model.zip``, ``vecnormalize.pkl`` with the observation
+  statistics of round 0, ``config.json``, ``summary.json``), plus ``plans/``, ``data/round_<r>.npz``
+  and ``rounds/<r>/``: an interrupted run resumes after its last finished round.
+
+The policy imitates a heuristic: it cannot beat the tour, and the report puts both side by side.
+Its value is speed (one forward pass a slot instead of the tour's LPs) and a network that PPO can
+go on training.
+"""
+
+from __future__ import annotations
+
+import json
+import time
+from dataclasses import asdict, dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from ios_uav_env.config import ScenarioConfig
+from ios_uav_env.io import atomic_write_text
+from ios_uav_env.multinode_env import BASE_FEATURES, MULTINODE_RANGES, sample_multinode, share_scores
+from ios_uav_env.policies import full_speed_move
+
+RANDOM_ID = "ios_uav_env/IOSUAV-MultiNode-Random-v0"
+#: Scenario seeds of the training plans start here (the suite draws from its own SeedSequence).
+FIRST_SEED = 1_000_000
+PLAN_KEYS = ("trajectory", "shares", "rate")
+
+
+@dataclass(frozen=True)
+class ExpertPlan:
+    """A tour plan of one scenario, tracked from any state: ``trajectory`` (N, 2) m, ``shares`` (K, N)."""
+
+    config: ScenarioConfig
+    trajectory: np.ndarray
+    shares: np.ndarray
+    rate: float  # the plan's max-min rate (its best schedule), bps/Hz
+
+    def action(self, step: int, position: np.ndarray, k_max: int, sharpness: float) -> np.ndarray:
+        """The expert's action at ``step`` (moves made so far) from ``position``: full speed towards
+        the plan's position after the move, the plan's shares of that slot as scores (padded)."""
+        n = min(int(step) + 1, len(self.trajectory) - 1)
+        action = np.zeros(2 + k_max, dtype=np.float32)
+        action[:2] = full_speed_move(self.trajectory[n] - np.asarray(position, float), self.config.D)
+        action[2 : 2 + self.config.K] = share_scores(self.shares[:, n], sharpness)
+        return action
+
+
+def tour_record(task: dict[str, Any]) -> dict[str, Any]:
+    """``run_tasks`` worker: the tour plan of the scenario of ``task["seed"]`` (JSON record)."""
+    from baselines import tour
+
+    cfg = sample_multinode(np.random.default_rng(task["seed"]), MULTINODE_RANGES, tuple(task["nodes"]))
+    plan = tour.solve(cfg)
+    return {"seed": task["seed"], "config": cfg.to_dict(), "trajectory": plan.trajectory.tolist(),
+            "shares": plan.info["shares"], "rate": plan.mean_rate, "seconds": plan.seconds}  # fmt: skip
+
+
+def tour_plans(
+    n: int,
+    cache: str | Path,
+    first_seed: int = FIRST_SEED,
+    nodes: tuple[int, int] = (2, 4),
+    jobs: int | None = None,
+    progress: bool = True,
+) -> list[ExpertPlan]:
+    """The tour plans of training scenarios ``first_seed`` .. ``first_seed + n - 1`` (cached)."""
+    from baselines.runner import run_tasks
+    from ios_uav_env.config import as_config
+
+    tasks = [{"seed": first_seed + i, "nodes": list(nodes)} for i in range(n)]
+    records = run_tasks(tour_record, tasks, cache, key=_plan_key, jobs=jobs, progress=progress,
+                        desc="tour plans", unit="scenario", required=PLAN_KEYS)  # fmt: skip
+    return [
+        ExpertPlan(
+            as_config(r["config"]),
+            np.array(r["trajectory"]),
+            np.array(r["shares"]),
+            float(r["rate"]),
+        )  # fmt: skip
+        for r in records
+    ]
+
+
+def _plan_key(task: dict[str, Any]) -> str:
+    return f"tour_{task['seed']}_{task['nodes'][0]}-{task['nodes'][1]}"
+
+
+@dataclass
+class Dataset:
+    """Labelled states: ``obs`` (S, obs_dim), expert ``labels`` (S, act_dim), ``episode`` (S,), and per
+    episode the min rate reached with the executed actions over the plan's (``ratio``)."""
+
+    obs: np.ndarray
+    labels: np.ndarray
+    episode: np.ndarray
+    ratio: np.ndarray = field(default_factory=lambda: np.zeros(0))
+
+    @classmethod
+    def concat(cls, parts: list[Dataset]) -> Dataset:
+        fields = ("obs", "labels", "episode", "ratio")
+        return cls(*(np.concatenate([getattr(p, f) for p in parts]) for f in fields))
+
+    def save(self, path: str | Path) -> Path:
+        """Write atomically (a temporary file renamed over ``path``)."""
+        path = Path(path)
+        path.parent.mkdir(parents=True, exist_ok=True)
+        tmp = path.with_name(path.name + ".tmp.npz")
+        np.savez(tmp, obs=self.obs, labels=self.labels, episode=self.episode, ratio=self.ratio)
+        tmp.replace(path)
+        return path
+
+    @classmethod
+    def load(cls, path: str | Path) -> Dataset:
+        with np.load(path) as d:
+            return cls(d["obs"], d["labels"], d["episode"], d["ratio"])
+
+
+def rollouts(
+    plans: list[ExpertPlan],
+    env_kwargs: dict[str, Any],
+    policy: Any = None,
+    noise: float = 0.0,
+    seed: int = 0,
+    env_id: str = RANDOM_ID,
+) -> Dataset:
+    """One episode per plan in ``env_id`` pinned to its scenario, all in lockstep: the executed action
+    is ``policy(obs batch)`` (None: the expert's) plus N(0, ``noise``^2) on the move; every
+    visited state is labelled with the expert's action. ``ratio``: each episode's own min rate
+    over its plan's rate."""
+    import gymnasium as gym
+
+    if not (np.isfinite(noise) and noise >= 0):
+        raise ValueError(f"noise must be a finite number >= 0 (units of D), got {noise!r}")
+    rng = np.random.default_rng(seed)
+    envs = [gym.make(env_id, **env_kwargs).unwrapped for _ in plans]
+    first = [env.reset(options={"config": p.config}) for env, p in zip(envs, plans, strict=True)]
+    obs = [o for o, _ in first]
+    pos = [i["position"] for _, i in first]
+    k_max, sharpness = envs[0].max_nodes, envs[0].share_sharpness
+    ratio = np.zeros(len(plans))
+    parts: list[tuple[np.ndarray, np.ndarray, np.ndarray]] = []
+    alive, step = list(range(len(plans))), 0
+    while alive:
+        batch = np.array([obs[i] for i in alive])
+        labels = np.array([plans[i].action(step, pos[i], k_max, sharpness) for i in alive])
+        acts = labels.copy() if policy is None else np.asarray(policy(batch), dtype=np.float32).copy()
+        if noise:
+            acts[:, :2] += rng.normal(0.0, noise, (len(alive), 2))
+        parts.append((batch, labels, np.array(alive)))
+        still = []
+        for j, i in enumerate(alive):
+            obs[i], _, terminated, _, info = envs[i].step(np.clip(acts[j], -1.0, 1.0))
+            pos[i] = info["position"]
+            if terminated:
+                ratio[i] = info["min_rate"] / plans[i].rate
+            else:
+                still.append(i)
+        alive, step = still, step + 1
+    return Dataset(*(np.concatenate(x) for x in zip(*parts, strict=True)), ratio=ratio)
+
+
+def node_mask(obs: np.ndarray, k_max: int, node_width: int) -> np.ndarray:
+    """The node mask columns (1 for a node of the scenario) of raw multi-node observations (S, k_max)."""
+    base = len(BASE_FEATURES)
+    return obs[:, base : base + k_max * node_width : node_width] > 0.5
+
+
+#: Weight of the move's squared error against a node score's: the trajectory is what the rates
+#: depend on most, and a drift while hovering adds up over the slots.
+MOVE_WEIGHT = 4.0
+
+
+def imitation_loss(mean: Any, labels: Any, mask: Any) -> tuple[Any, Any]:
+    """(move loss, share loss) of a batch of policy action means against expert labels (torch):
+    ``MOVE_WEIGHT`` x the squared error of the move (x and y) and the squared error of the
+    scenario's node scores (``mask``; padding entries are ignored, as the env ignores them),
+    each summed per state, divided by the action's size and averaged over the batch."""
+    error = (mean.clamp(-1.5, 1.5) - labels) ** 2
+    size = labels.shape[1]
+    move = MOVE_WEIGHT * error[:, :2].sum(1).mean() / size
+    share = (error[:, 2:] * mask.float()).sum(1).mean() / size
+    return move, share
+
+
+def fit(
+    model: Any,
+    vecnormalize: Any,
+    data: Dataset,
+    mask: np.ndarray,
+    epochs: int,
+    batch_size: int,
+    learning_rate: float,
+    seed: int = 0,
+    progress: bool = True,
+) -> dict[str, float]:
+    """Fit ``model``'s (SB3 PPO) action mean to ``data``'s labels on observations normalised by
+    ``vecnormalize`` (:func:`imitation_loss`, Adam with a one-cycle rate peaking at
+    ``learning_rate``); the last epoch's mean losses."""
+    import torch as th
+    from tqdm.auto import tqdm
+
+    policy = model.policy
+    gen = th.Generator().manual_seed(seed)
+    x = th.as_tensor(vecnormalize.normalize_obs(data.obs), dtype=th.float32)
+    y = th.as_tensor(data.labels, dtype=th.float32)
+    m = th.as_tensor(mask)
+    params = [*policy.mlp_extractor.policy_net.parameters(), *policy.action_net.parameters()]
+    opt = th.optim.Adam(params, lr=learning_rate)
+    per_epoch = -(-len(x) // batch_size)
+    sched = th.optim.lr_scheduler.OneCycleLR(opt, learning_rate, epochs * per_epoch, pct_start=0.05)
+    losses = {"move": float("nan"), "share": float("nan")}
+    policy.set_training_mode(True)
+    for _ in tqdm(range(epochs), desc="fit", unit="epoch", disable=not progress):
+        order = th.randperm(len(x), generator=gen)
+        total_move = total_share = 0.0
+        for start in range(0, len(x), batch_size):
+            idx = order[start : start + batch_size]
+            features = policy.extract_features(x[idx], policy.pi_features_extractor)
+            latent = policy.mlp_extractor.forward_actor(features)
+            move, share = imitation_loss(policy.action_net(latent), y[idx], m[idx])
+            opt.zero_grad()
+            (move + share).backward()
+            opt.step()
+            sched.step()
+            total_move += move.item() * len(idx)
+            total_share += share.item() * len(idx)
+        losses = {"move": total_move / len(x), "share": total_share / len(x)}
+    policy.set_training_mode(False)
+    return losses
+
+
+@dataclass(frozen=True)
+class ImitationSettings:
+    """Everything a run needs; the fields are the CLI's arguments."""
+
+    out: str  # run folder
+    scenarios: int = 6000  # training scenarios (tour plans)
+    rounds: int = 5  # round 0 (the expert's episodes) and rounds - 1 DAgger rounds
+    noise: float = 0.3  # std of the move noise of round 0's second pass (units of D)
+    epochs: int = 12  # passes over all the labels so far, each round
+    batch_size: int = 2048
+    learning_rate: float = 1e-3
+    net_arch: tuple[int, ...] = (256, 256)
+    log_std_init: float = -2.0  # the Gaussian's log std, for PPO fine-tuning
+    env_kwargs: dict[str, Any] = field(default_factory=lambda: {"softmin_beta": 20, "peak_hint": True})
+    first_seed: int = FIRST_SEED
+    seed: int = 0  # torch, the noise and the batch order
+    jobs: int | None = None  # planner processes (default: all cores)
+    plans: str | None = None  # cache folder of the tour plans (default out/plans)
+    progress: bool = True
+
+    def validate(self) -> None:
+        """``ValueError`` naming the first bad field."""
+        for name in ("scenarios", "rounds", "epochs", "batch_size"):
+            value = getattr(self, name)
+            if isinstance(value, bool) or not isinstance(value, int) or value < 1:
+                raise ValueError(f"{name}: must be an integer >= 1, got {value!r}")
+        if not (isinstance(self.noise, (int, float)) and np.isfinite(self.noise) and self.noise >= 0):
+            raise ValueError(f"noise: must be a finite number >= 0 (units of D), got {self.noise!r}")
+        if not (isinstance(self.learning_rate, (int, float)) and 0 < self.learning_rate < 1):
+            raise ValueError(f"learning_rate: must be in (0, 1), got {self.learning_rate!r}")
+        if not self.net_arch or any(not isinstance(w, int) or w < 1 for w in self.net_arch):
+            raise ValueError(f"net_arch: must be layer widths >= 1, got {self.net_arch!r}")
+        if "max_nodes" in self.env_kwargs or "random_nodes" in self.env_kwargs:
+            raise ValueError("env_kwargs: max_nodes and random_nodes are the random id's own (2 to 4 nodes)")
+
+
+def _new_model(settings: ImitationSettings, env: Any, obs: np.ndarray) -> tuple[Any, Any]:
+    """A PPO (MlpPolicy) on a one-env VecNormalize whose observation statistics are ``obs``'s."""
+    from stable_baselines3 import PPO
+    from stable_baselines3.common.vec_env import DummyVecEnv, VecNormalize
+
+    venv = VecNormalize(DummyVecEnv([lambda: env]), gamma=1.0, norm_obs=True, norm_reward=True)
+    venv.obs_rms.mean = obs.mean(0).astype(np.float64)
+    venv.obs_rms.var = obs.var(0).astype(np.float64)
+    venv.obs_rms.count = float(len(obs))
+    arch = list(settings.net_arch)
+    kwargs = dict(net_arch=dict(pi=arch, vf=arch), log_std_init=settings.log_std_init)
+    model = PPO("MlpPolicy", venv, gamma=1.0, policy_kwargs=kwargs, seed=settings.seed, device="cpu")
+    return model, venv
+
+
+def _save(folder: Path, model: Any, venv: Any) -> None:
+    folder.mkdir(parents=True, exist_ok=True)
+    model.save(folder / "model.zip")
+    venv.save(str(folder / "vecnormalize.pkl"))
+
+
+def run(settings: ImitationSettings) -> dict[str, Any]:
+    """The rounds of the module docstring; resumes after the last round found in ``out/rounds``.
+    Returns the summary written to ``out/summary.json``."""
+    import gymnasium as gym
+    import torch as th
+    from stable_baselines3 import PPO
+    from stable_baselines3.common.vec_env import DummyVecEnv, VecNormalize
+
+    from agents.numpy_policy import NumpyPolicy
+
+    settings.validate()
+    out = Path(settings.out)
+    out.mkdir(parents=True, exist_ok=True)
+    th.manual_seed(settings.seed)
+    t0 = time.perf_counter()
+    plans = tour_plans(settings.scenarios, settings.plans or out / "plans", settings.first_seed,
+                       jobs=settings.jobs, progress=settings.progress)  # fmt: skip
+    env = gym.make(RANDOM_ID, **settings.env_kwargs).unwrapped
+    k_max, width = env.max_nodes, len(env.node_features)
+    summary_path = out / "summary.json"
+    summary = json.loads(summary_path.read_text()) if summary_path.exists() else {"rounds": []}
+    summary["rounds"] = [e for e in summary["rounds"] if e["round"] < settings.rounds]
+    logged = {e["round"] for e in summary["rounds"]}
+    parts, model, venv = [], None, None
+    for r in range(settings.rounds):
+        data_path, folder = out / "data" / f"round_{r}.npz", out / "rounds" / str(r)
+        if r in logged and (folder / "model.zip").exists() and data_path.exists():  # resume after it
+            parts.append(Dataset.load(data_path))
+            venv = VecNormalize.load(str(folder / "vecnormalize.pkl"), DummyVecEnv([lambda: env]))
+            model = PPO.load(folder / "model.zip", env=venv, device="cpu")
+            continue
+        start = time.perf_counter()
+        if r == 0:
+            clean = rollouts(plans, settings.env_kwargs, seed=settings.seed)
+            noisy = rollouts(plans, settings.env_kwargs, noise=settings.noise, seed=settings.seed + 1)
+            data = Dataset.concat([clean, noisy])
+        else:
+            act = NumpyPolicy.from_sb3(model, venv).act
+            data = rollouts(plans, settings.env_kwargs, policy=act, seed=settings.seed + 1 + r)
+        data.save(data_path)
+        parts.append(data)
+        if model is None:
+            model, venv = _new_model(settings, env, data.obs)
+        every = Dataset.concat(parts)
+        mask = node_mask(every.obs, k_max, width)
+        losses = fit(model, venv, every, mask, settings.epochs, settings.batch_size,
+                     settings.learning_rate, settings.seed + r, settings.progress)  # fmt: skip
+        _save(folder, model, venv)
+        ratio = data.ratio[: len(plans)]  # round 0: the clean pass
+        summary["rounds"].append({
+            "round": r, "labels": int(len(every.obs)), "played": "expert" if r == 0 else "policy",
+            "ratio_mean": float(ratio.mean()), "ratio_p10": float(np.percentile(ratio, 10)),
+            **losses, "seconds": round(time.perf_counter() - start, 1),
+        })  # fmt: skip
+        atomic_write_text(summary_path, json.dumps(summary, indent=1))
+        print(f"round {r}: {len(every.obs)} labels, played min rate / tour mean {ratio.mean():.4f}, "
+              f"loss move {losses['move']:.4f} share {losses['share']:.4f}", flush=True)  # fmt: skip
+    assert model is not None and venv is not None
+    _save(out, model, venv)
+    config = {"algo": "ppo", "env_id": RANDOM_ID, "seed": settings.seed, "env_kwargs": settings.env_kwargs,
+              "trained_by": "agents.imitation", "imitation": asdict(settings)}  # fmt: skip
+    atomic_write_text(out / "config.json", json.dumps(config, indent=1))
+    summary.update(wall_time_s=round(time.perf_counter() - t0, 1), scenarios=settings.scenarios)
+    atomic_write_text(summary_path, json.dumps(summary, indent=1))
+    return summary
+
+
+def build_parser() -> Any:
+    import argparse
+
+    from agents.hyperparams import positive_int
+
+    d = ImitationSettings(out="")
+    p = argparse.ArgumentParser(prog="python -m agents.imitation", description=__doc__.split("\n\n")[0])
+    p.add_argument("--out", required=True, help="run folder (resumes a run that stopped there)")
+    p.add_argument(
+        "--scenarios", type=positive_int, default=d.scenarios, help=f"training scenarios ({d.scenarios})"
+    )
+    p.add_argument(
+        "--rounds", type=positive_int, default=d.rounds, help=f"rounds, DAgger after the first ({d.rounds})"
+    )
+    p.add_argument(
+        "--noise", type=float, default=d.noise, help=f"move noise of round 0, units of D ({d.noise})"
+    )
+    p.add_argument("--epochs", type=positive_int, default=d.epochs, help=f"passes per round ({d.epochs})")
+    p.add_argument("--batch-size", type=positive_int, default=d.batch_size)
+    p.add_argument("--learning-rate", type=float, default=d.learning_rate)
+    p.add_argument("--net-arch", type=positive_int, nargs="+", default=list(d.net_arch))
+    p.add_argument(
+        "--env-kwargs",
+        nargs="*",
+        default=None,
+        help="key:value env arguments (default softmin_beta:20 peak_hint:True)",
+    )
+    p.add_argument("--seed", type=int, default=d.seed)
+    p.add_argument("--jobs", type=positive_int, default=None, help="planner processes (default: all cores)")
+    p.add_argument("--plans", default=None, help="cache folder of the tour plans (default <out>/plans)")
+    p.add_argument("--no-progress", action="store_true")
+    return p
+
+
+def main(argv: list[str] | None = None) -> int:
+    from agents.hyperparams import parse_env_kwargs
+
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    try:
+        extra = {} if args.env_kwargs is None else {"env_kwargs": parse_env_kwargs(args.env_kwargs)}
+        settings = ImitationSettings(
+            out=args.out, scenarios=args.scenarios, rounds=args.rounds, noise=args.noise, epochs=args.epochs,
+            batch_size=args.batch_size, learning_rate=args.learning_rate, net_arch=tuple(args.net_arch),
+            seed=args.seed, jobs=args.jobs, plans=args.plans, progress=not args.no_progress, **extra,
+        )  # fmt: skip
+        settings.validate()
+    except ValueError as exc:
+        parser.error(str(exc))
+    summary = run(settings)
+    print(json.dumps(summary["rounds"][-1]))
+    print(f"wrote {settings.out}: score it with python -m agents.suite report --model {settings.out}")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

@@ -1,0 +1,158 @@
+"""agents.imitation: the tour expert, its labels, the imitation loss, the fit and a resumable run."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+
+pytest.importorskip("stable_baselines3")
+pytest.importorskip("cvxpy")
+
+import torch as th  # noqa: E402
+
+from agents.imitation import (  # noqa: E402
+    Dataset,
+    ImitationSettings,
+    fit,
+    imitation_loss,
+    main,
+    node_mask,
+    rollouts,
+    run,
+    tour_plans,
+)
+from ios_uav_env import maxmin_rate  # noqa: E402
+
+KW = {"softmin_beta": 20, "peak_hint": True}
+SEEDS = (1_000_003, 1_000_001)  # a 2-node and a 3-node scenario of the random family
+
+
+@pytest.fixture(scope="module")
+def plan_cache(tmp_path_factory):
+    return tmp_path_factory.mktemp("plans")
+
+
+@pytest.fixture(scope="module")
+def plans(plan_cache):
+    out = [p for seed in SEEDS for p in tour_plans(1, plan_cache, first_seed=seed, jobs=1, progress=False)]
+    assert [p.config.K for p in out] == [2, 3]
+    return out
+
+
+def test_the_expert_replays_its_plan_and_scores_like_it(plans):
+    data = rollouts(plans, KW)
+    for i, plan in enumerate(plans):
+        assert plan.rate == pytest.approx(maxmin_rate(plan.config, plan.trajectory))
+        # slot 1 is shared equally by the env, the plan's own slot 1 may differ: within a slot's worth
+        assert data.ratio[i] == pytest.approx(1.0, abs=1.5 / plan.config.N)
+    assert len(data.obs) == len(data.labels) == sum(p.config.N - 1 for p in plans)
+    assert data.obs.shape[1] == 12 + 9 * 4 and data.labels.shape[1] == 2 + 4
+    mask = node_mask(data.obs, 4, 9)
+    assert mask[data.episode == 0].sum(1).tolist() == [2] * (plans[0].config.N - 1)
+    assert np.all(np.abs(data.labels) <= 1.0 + 1e-6)
+    assert np.all(data.labels[data.episode == 0, 4:] == 0.0)  # K = 2: the padding scores are 0
+
+
+def test_the_expert_steers_back_to_its_plan(plans):
+    plan = plans[0]
+    n = 40
+    off = plan.trajectory[n] + np.array([60.0, -45.0])
+    action = plan.action(n, off, 4, 5.0)
+    after = off + plan.config.D * action[:2]
+    assert np.linalg.norm(after - plan.trajectory[n + 1]) < np.linalg.norm(off - plan.trajectory[n + 1])
+    assert np.hypot(*action[:2]) == pytest.approx(1.0)  # far off: full speed
+    on = plan.action(n, plan.trajectory[n], 4, 5.0)
+    np.testing.assert_allclose(plan.trajectory[n] + plan.config.D * on[:2], plan.trajectory[n + 1], atol=1e-4)
+    assert np.all(on[2 + plan.config.K :] == 0.0)  # padding
+
+
+def test_noisy_episodes_leave_the_plan_and_are_labelled_by_the_expert(plans):
+    clean, noisy = rollouts(plans, KW), rollouts(plans, KW, noise=0.5, seed=1)
+    assert not np.allclose(clean.obs[:, :2], noisy.obs[:, :2])
+    assert np.all(noisy.ratio < clean.ratio + 1e-9)
+    # every label is the expert's action from the state it labels: replay one episode
+    sel = noisy.episode == 1
+    position = noisy.obs[sel, :2] * 400.0
+    expected = np.array([plans[1].action(n, q, 4, 5.0) for n, q in enumerate(position)])
+    np.testing.assert_allclose(noisy.labels[sel], expected, atol=1e-4)
+    with pytest.raises(ValueError, match="noise must be"):
+        rollouts(plans, KW, noise=-1.0)
+
+
+def test_imitation_loss_is_zero_at_the_labels_and_ignores_padding():
+    labels = th.tensor([[0.5, -0.5, 1.0, -0.2, 0.0, 0.0], [0.0, 0.0, -1.0, 1.0, 0.3, 0.0]])
+    mask = th.tensor([[1, 1, 0, 0], [1, 1, 1, 0]], dtype=th.bool)
+    move, share = imitation_loss(labels.clone(), labels, mask)
+    assert move.item() == 0.0 and share.item() == 0.0
+    padded = labels.clone()
+    padded[0, 4:] = 1.0  # padding entries: the env ignores them, so must the loss
+    padded[1, 5] = 1.0
+    assert imitation_loss(padded, labels, mask)[1].item() == 0.0
+    wrong = labels.clone()
+    wrong[0, 2:4] = th.tensor([-0.2, 1.0])  # the other node served: 2 x 1.2^2 / 6 / 2 states
+    wrong[1, :2] = 0.3  # 4 x 2 x 0.3^2 / 6 / 2 states
+    move, share = imitation_loss(wrong, labels, mask)
+    assert move.item() == pytest.approx(4 * 2 * 0.09 / 6 / 2) and share.item() == pytest.approx(
+        2 * 1.44 / 6 / 2
+    )
+
+
+def test_a_run_fits_the_labels_resumes_and_loads(plans, plan_cache, tmp_path):
+    from agents.loading import load_agent
+
+    out = tmp_path / "run"
+    kw = dict(out=str(out), scenarios=1, first_seed=SEEDS[0], epochs=30, net_arch=(32, 32), batch_size=64,
+              learning_rate=3e-3, plans=str(plan_cache), progress=False, jobs=1)  # fmt: skip
+    summary = run(ImitationSettings(rounds=1, **kw))
+    first = summary["rounds"][0]
+    assert first["played"] == "expert" and first["ratio_mean"] == pytest.approx(1.0, abs=0.02)
+    agent = load_agent(out)
+    data = Dataset.load(out / "data" / "round_0.npz")
+    clean = data.episode[: len(data.episode) // 2] == 0
+    error = np.abs(agent.act(data.obs[: len(clean)])[:, :2] - data.labels[: len(clean), :2]).mean()
+    untrained = np.abs(data.labels[: len(clean), :2]).mean()
+    assert error < 0.5 * untrained  # it learnt the moves
+    stamp = (out / "data" / "round_0.npz").stat().st_mtime_ns
+    summary = run(ImitationSettings(rounds=2, **kw))  # resumes: round 0 is read back, round 1 is new
+    assert [r["round"] for r in summary["rounds"]] == [0, 1] and summary["rounds"][1]["played"] == "policy"
+    assert (out / "data" / "round_0.npz").stat().st_mtime_ns == stamp
+    config = json.loads((out / "config.json").read_text())
+    assert config["trained_by"] == "agents.imitation" and config["env_id"].endswith("MultiNode-Random-v0")
+
+
+@pytest.mark.parametrize(
+    "field, value",
+    [
+        ("scenarios", 0),
+        ("rounds", 1.5),
+        ("noise", -0.1),
+        ("learning_rate", 2.0),
+        ("net_arch", ()),
+        ("env_kwargs", {"max_nodes": 3}),
+    ],  # fmt: skip
+)
+def test_bad_settings_name_the_field(field, value, tmp_path):
+    with pytest.raises(ValueError, match=field):
+        ImitationSettings(out=str(tmp_path), **{field: value}).validate()
+
+
+def test_the_cli_rejects_bad_arguments(tmp_path, capsys):
+    with pytest.raises(SystemExit) as exc:
+        main(["--out", str(tmp_path), "--noise", "-1"])
+    assert exc.value.code == 2 and "noise" in capsys.readouterr().err
+
+
+def test_fit_lowers_the_loss_on_a_tiny_dataset(plans):
+    import gymnasium as gym
+
+    from agents.imitation import RANDOM_ID, ImitationSettings, _new_model
+
+    data = rollouts(plans[:1], KW)
+    env = gym.make(RANDOM_ID, **KW).unwrapped
+    model, venv = _new_model(ImitationSettings(out="x", net_arch=(32,)), env, data.obs)
+    mask = node_mask(data.obs, 4, 9)
+    before = fit(model, venv, data, mask, 1, 64, 1e-9, progress=False)
+    after = fit(model, venv, data, mask, 20, 64, 3e-3, progress=False)
+    assert after["move"] < 0.5 * before["move"] and after["share"] < before["share"]
