@@ -23,11 +23,12 @@ the suite, 0.4 s a scenario) teaches the same SB3 PPO policy network by imitatio
 - **Output.** A run folder that ``agents.loading.load_agent``, ``agents.evaluate`` and
   ``agents.suite report`` read (``model.zip``, ``vecnormalize.pkl`` with the observation
   statistics of round 0, ``config.json``, ``summary.json``), plus ``plans/``, ``data/round_<r>.npz``
-  and ``rounds/<r>/``: an interrupted run resumes after its last finished round.
+  and ``rounds/<r>/``: an interrupted run resumes after its last finished round, and a larger
+  ``rounds`` goes on from there; other changed settings are refused (``settings.json``).
 
 The policy imitates a heuristic: it cannot beat the tour, and the report puts both side by side.
-Its value is speed (one forward pass a slot instead of the tour's LPs) and a network that PPO can
-go on training.
+Its value is speed (one forward pass a slot instead of the tour's LPs), and it is an SB3 PPO
+model that PPO could go on training (``train.py`` cannot start from a model yet).
 """
 
 from __future__ import annotations
@@ -290,6 +291,25 @@ class ImitationSettings:
             raise ValueError("env_kwargs: max_nodes and random_nodes are the random id's own (2 to 4 nodes)")
 
 
+#: Settings a resumed run may change: they do not change what a finished round holds.
+RESUMABLE = ("out", "rounds", "jobs", "plans", "progress")
+
+
+def check_resume(settings: ImitationSettings) -> None:
+    """Record the run's settings in ``out/settings.json``, or check them against the recorded ones:
+    ``ValueError`` naming every field that differs (other than :data:`RESUMABLE`)."""
+    path = Path(settings.out) / "settings.json"
+    now = json.loads(json.dumps(asdict(settings)))  # tuples as lists, as recorded
+    if path.exists():
+        before = json.loads(path.read_text())
+        changed = sorted(k for k in now if k not in RESUMABLE and before.get(k) != now[k])
+        if changed:
+            diff = ", ".join(f"{k}: {before.get(k)!r} -> {now[k]!r}" for k in changed)
+            where = settings.out
+            raise ValueError(f"out: {where} holds a run with other settings ({diff}); use a new --out")
+    atomic_write_text(path, json.dumps(now, indent=1))
+
+
 def _new_model(settings: ImitationSettings, env: Any, obs: np.ndarray) -> tuple[Any, Any]:
     """A PPO (MlpPolicy) on a one-env VecNormalize whose observation statistics are ``obs``'s."""
     from stable_baselines3 import PPO
@@ -324,6 +344,7 @@ def run(settings: ImitationSettings) -> dict[str, Any]:
     settings.validate()
     out = Path(settings.out)
     out.mkdir(parents=True, exist_ok=True)
+    check_resume(settings)
     th.manual_seed(settings.seed)
     t0 = time.perf_counter()
     plans = tour_plans(settings.scenarios, settings.plans or out / "plans", settings.first_seed,
@@ -425,7 +446,9 @@ def main(argv: list[str] | None = None) -> int:
             seed=args.seed, jobs=args.jobs, plans=args.plans, progress=not args.no_progress, **extra,
         )  # fmt: skip
         settings.validate()
-    except ValueError as exc:
+        Path(settings.out).mkdir(parents=True, exist_ok=True)
+        check_resume(settings)
+    except (ValueError, OSError) as exc:
         parser.error(str(exc))
     summary = run(settings)
     print(json.dumps(summary["rounds"][-1]))

@@ -120,6 +120,9 @@ def test_a_run_fits_the_labels_resumes_and_loads(plans, plan_cache, tmp_path):
     assert (out / "data" / "round_0.npz").stat().st_mtime_ns == stamp
     config = json.loads((out / "config.json").read_text())
     assert config["trained_by"] == "agents.imitation" and config["env_id"].endswith("MultiNode-Random-v0")
+    with pytest.raises(ValueError, match=r"other settings \(epochs: 30 -> 5, noise: 0.3 -> 0.1\)"):
+        run(ImitationSettings(rounds=3, **{**kw, "epochs": 5}, noise=0.1))  # would mix two recipes' data
+    assert not (out / "data" / "round_2.npz").exists()
 
 
 @pytest.mark.parametrize(
