@@ -8,13 +8,11 @@ Pure PPO on ``ios_uav_env/IOSUAV-MultiNode-Random-v0`` reached 31% of SCA on the
 are hard to find by exploration. Here the tour heuristic (``baselines.tour``, 99.5% of SCA on
 the suite, 0.4 s a scenario) teaches the same SB3 PPO policy network by imitation:
 
-- **Expert.** ``baselines.tour.solve`` plans each training scenario (scenario i is
-  ``sample_multinode(np.random.default_rng(first_seed + i))``, disjoint from the suite's
-  seed sequence); the plans are cached one JSON file each (``baselines.runner.run_tasks``:
-  parallel, resumable, a progress bar). From any state the expert tracks its plan
-  (:meth:`ExpertPlan.action`): at step n, full speed towards the plan's q[n+1]
-  (``policies.full_speed_move``), with the plan's shares of that slot
-  (``multinode_env.share_scores``), so it also labels states off the plan.
+- **Expert** (:mod:`agents.expert`). ``baselines.tour.solve`` plans each training scenario
+  (scenario i is ``sample_multinode(np.random.default_rng(first_seed + i))``, disjoint from
+  the suite's seed sequence; cached one JSON file each). From any state the expert tracks its
+  plan: at step n, full speed towards the plan's q[n+1], with the plan's shares of that slot,
+  so it also labels states off the plan.
 - **Rounds.** Round 0 plays the expert's own episodes, clean and with N(0, ``noise``^2) added to
   every executed move (so the data show how to come back to the plan); round r >= 1 plays the
   policy of round r - 1 and labels what it visits (DAgger). Each round fits the policy's action
@@ -41,155 +39,8 @@ from typing import Any
 
 import numpy as np
 
-from ios_uav_env.config import ScenarioConfig
+from agents.expert import FIRST_SEED, RANDOM_ID, Dataset, node_mask, rollouts, tour_plans
 from ios_uav_env.io import atomic_write_text
-from ios_uav_env.multinode_env import BASE_FEATURES, MULTINODE_RANGES, sample_multinode, share_scores
-from ios_uav_env.policies import full_speed_move
-
-RANDOM_ID = "ios_uav_env/IOSUAV-MultiNode-Random-v0"
-#: Scenario seeds of the training plans start here (the suite draws from its own SeedSequence).
-FIRST_SEED = 1_000_000
-PLAN_KEYS = ("trajectory", "shares", "rate")
-
-
-@dataclass(frozen=True)
-class ExpertPlan:
-    """A tour plan of one scenario, tracked from any state: ``trajectory`` (N, 2) m, ``shares`` (K, N)."""
-
-    config: ScenarioConfig
-    trajectory: np.ndarray
-    shares: np.ndarray
-    rate: float  # the plan's max-min rate (its best schedule), bps/Hz
-
-    def action(self, step: int, position: np.ndarray, k_max: int, sharpness: float) -> np.ndarray:
-        """The expert's action at ``step`` (moves made so far) from ``position``: full speed towards
-        the plan's position after the move, the plan's shares of that slot as scores (padded)."""
-        n = min(int(step) + 1, len(self.trajectory) - 1)
-        action = np.zeros(2 + k_max, dtype=np.float32)
-        action[:2] = full_speed_move(self.trajectory[n] - np.asarray(position, float), self.config.D)
-        action[2 : 2 + self.config.K] = share_scores(self.shares[:, n], sharpness)
-        return action
-
-
-def tour_record(task: dict[str, Any]) -> dict[str, Any]:
-    """``run_tasks`` worker: the tour plan of the scenario of ``task["seed"]`` (JSON record)."""
-    from baselines import tour
-
-    cfg = sample_multinode(np.random.default_rng(task["seed"]), MULTINODE_RANGES, tuple(task["nodes"]))
-    plan = tour.solve(cfg)
-    return {"seed": task["seed"], "config": cfg.to_dict(), "trajectory": plan.trajectory.tolist(),
-            "shares": plan.info["shares"], "rate": plan.mean_rate, "seconds": plan.seconds}  # fmt: skip
-
-
-def tour_plans(
-    n: int,
-    cache: str | Path,
-    first_seed: int = FIRST_SEED,
-    nodes: tuple[int, int] = (2, 4),
-    jobs: int | None = None,
-    progress: bool = True,
-) -> list[ExpertPlan]:
-    """The tour plans of training scenarios ``first_seed`` .. ``first_seed + n - 1`` (cached)."""
-    from baselines.runner import run_tasks
-    from ios_uav_env.config import as_config
-
-    tasks = [{"seed": first_seed + i, "nodes": list(nodes)} for i in range(n)]
-    records = run_tasks(tour_record, tasks, cache, key=_plan_key, jobs=jobs, progress=progress,
-                        desc="tour plans", unit="scenario", required=PLAN_KEYS)  # fmt: skip
-    return [
-        ExpertPlan(
-            as_config(r["config"]),
-            np.array(r["trajectory"]),
-            np.array(r["shares"]),
-            float(r["rate"]),
-        )  # fmt: skip
-        for r in records
-    ]
-
-
-def _plan_key(task: dict[str, Any]) -> str:
-    return f"tour_{task['seed']}_{task['nodes'][0]}-{task['nodes'][1]}"
-
-
-@dataclass
-class Dataset:
-    """Labelled states: ``obs`` (S, obs_dim), expert ``labels`` (S, act_dim), ``episode`` (S,), and per
-    episode the min rate reached with the executed actions over the plan's (``ratio``)."""
-
-    obs: np.ndarray
-    labels: np.ndarray
-    episode: np.ndarray
-    ratio: np.ndarray = field(default_factory=lambda: np.zeros(0))
-
-    @classmethod
-    def concat(cls, parts: list[Dataset]) -> Dataset:
-        fields = ("obs", "labels", "episode", "ratio")
-        return cls(*(np.concatenate([getattr(p, f) for p in parts]) for f in fields))
-
-    def save(self, path: str | Path) -> Path:
-        """Write atomically (a temporary file renamed over ``path``)."""
-        path = Path(path)
-        path.parent.mkdir(parents=True, exist_ok=True)
-        tmp = path.with_name(path.name + ".tmp.npz")
-        np.savez(tmp, obs=self.obs, labels=self.labels, episode=self.episode, ratio=self.ratio)
-        tmp.replace(path)
-        return path
-
-    @classmethod
-    def load(cls, path: str | Path) -> Dataset:
-        with np.load(path) as d:
-            return cls(d["obs"], d["labels"], d["episode"], d["ratio"])
-
-
-def rollouts(
-    plans: list[ExpertPlan],
-    env_kwargs: dict[str, Any],
-    policy: Any = None,
-    noise: float = 0.0,
-    seed: int = 0,
-    env_id: str = RANDOM_ID,
-) -> Dataset:
-    """One episode per plan in ``env_id`` pinned to its scenario, all in lockstep: the executed action
-    is ``policy(obs batch)`` (None: the expert's) plus N(0, ``noise``^2) on the move; every
-    visited state is labelled with the expert's action. ``ratio``: each episode's own min rate
-    over its plan's rate."""
-    import gymnasium as gym
-
-    if not (np.isfinite(noise) and noise >= 0):
-        raise ValueError(f"noise must be a finite number >= 0 (units of D), got {noise!r}")
-    rng = np.random.default_rng(seed)
-    envs = [gym.make(env_id, **env_kwargs).unwrapped for _ in plans]
-    first = [env.reset(options={"config": p.config}) for env, p in zip(envs, plans, strict=True)]
-    obs = [o for o, _ in first]
-    pos = [i["position"] for _, i in first]
-    k_max, sharpness = envs[0].max_nodes, envs[0].share_sharpness
-    ratio = np.zeros(len(plans))
-    parts: list[tuple[np.ndarray, np.ndarray, np.ndarray]] = []
-    alive, step = list(range(len(plans))), 0
-    while alive:
-        batch = np.array([obs[i] for i in alive])
-        labels = np.array([plans[i].action(step, pos[i], k_max, sharpness) for i in alive])
-        acts = labels.copy() if policy is None else np.asarray(policy(batch), dtype=np.float32).copy()
-        if noise:
-            acts[:, :2] += rng.normal(0.0, noise, (len(alive), 2))
-        parts.append((batch, labels, np.array(alive)))
-        still = []
-        for j, i in enumerate(alive):
-            obs[i], _, terminated, _, info = envs[i].step(np.clip(acts[j], -1.0, 1.0))
-            pos[i] = info["position"]
-            if terminated:
-                ratio[i] = info["min_rate"] / plans[i].rate
-            else:
-                still.append(i)
-        alive, step = still, step + 1
-    return Dataset(*(np.concatenate(x) for x in zip(*parts, strict=True)), ratio=ratio)
-
-
-def node_mask(obs: np.ndarray, k_max: int, node_width: int) -> np.ndarray:
-    """The node mask columns (1 for a node of the scenario) of raw multi-node observations (S, k_max)."""
-    base = len(BASE_FEATURES)
-    return obs[:, base : base + k_max * node_width : node_width] > 0.5
-
 
 #: Weight of the move's squared error against a node score's: the trajectory is what the rates
 #: depend on most, and a drift while hovering adds up over the slots.

@@ -1,4 +1,5 @@
-"""agents.imitation: the tour expert, its labels, the imitation loss, the fit and a resumable run."""
+"""agents.expert (the tour expert and its labelled episodes) and agents.imitation (the imitation
+loss, the fit and a resumable run)."""
 
 from __future__ import annotations
 
@@ -12,17 +13,8 @@ pytest.importorskip("cvxpy")
 
 import torch as th  # noqa: E402
 
-from agents.imitation import (  # noqa: E402
-    Dataset,
-    ImitationSettings,
-    fit,
-    imitation_loss,
-    main,
-    node_mask,
-    rollouts,
-    run,
-    tour_plans,
-)
+from agents.expert import Dataset, node_mask, rollouts, tour_plans  # noqa: E402
+from agents.imitation import ImitationSettings, fit, imitation_loss, main, run  # noqa: E402
 from ios_uav_env import maxmin_rate  # noqa: E402
 
 KW = {"softmin_beta": 20, "peak_hint": True}
@@ -150,7 +142,8 @@ def test_the_cli_rejects_bad_arguments(tmp_path, capsys):
 def test_fit_lowers_the_loss_on_a_tiny_dataset(plans):
     import gymnasium as gym
 
-    from agents.imitation import RANDOM_ID, ImitationSettings, _new_model
+    from agents.expert import RANDOM_ID
+    from agents.imitation import _new_model
 
     data = rollouts(plans[:1], KW)
     env = gym.make(RANDOM_ID, **KW).unwrapped
