@@ -14,6 +14,7 @@ scenarios, the action that tracks a plan from any state, and labelled episodes.
 
 from __future__ import annotations
 
+import io
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -21,6 +22,7 @@ from typing import Any
 import numpy as np
 
 from ios_uav_env.config import ScenarioConfig
+from ios_uav_env.io import atomic_write_bytes
 from ios_uav_env.multinode_env import BASE_FEATURES, MULTINODE_RANGES, sample_multinode, share_scores
 from ios_uav_env.policies import full_speed_move
 
@@ -105,13 +107,10 @@ class Dataset:
         return cls(*(np.concatenate([getattr(p, f) for p in parts]) for f in fields))
 
     def save(self, path: str | Path) -> Path:
-        """Write atomically (a temporary file renamed over ``path``)."""
-        path = Path(path)
-        path.parent.mkdir(parents=True, exist_ok=True)
-        tmp = path.with_name(path.name + ".tmp.npz")
-        np.savez(tmp, obs=self.obs, labels=self.labels, episode=self.episode, ratio=self.ratio)
-        tmp.replace(path)
-        return path
+        """Write the ``.npz`` atomically (``ios_uav_env.io.atomic_write_bytes``)."""
+        buf = io.BytesIO()
+        np.savez(buf, obs=self.obs, labels=self.labels, episode=self.episode, ratio=self.ratio)
+        return atomic_write_bytes(path, buf.getvalue())
 
     @classmethod
     def load(cls, path: str | Path) -> Dataset:
