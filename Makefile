@@ -45,7 +45,7 @@ demo: $(VENV)/.installed
 test: $(VENV)/.installed docs
 	$(VENV)/bin/ruff check .
 	$(VENV)/bin/ruff format --check .
-	$(PY) -m pytest -q --durations=15
+	$(PY) -m pytest -q -n 2 --durations=15
 	$(MAKE) test-oldest
 
 # the oldest end of the supported range (the main venv is the newest)

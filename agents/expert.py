@@ -10,6 +10,11 @@ scenarios, the action that tracks a plan from any state, and labelled episodes.
   (``multinode_env.share_scores``), so it labels states off the plan too.
 - :func:`rollouts`: one episode per plan in the env pinned to its scenario, all in lockstep,
   played by the expert (with optional move noise) or a policy, every state labelled by the expert.
+- :func:`hindsight_shares`: share labels that answer the state: at slot n, the shares of the best
+  continuation of the episode's own trajectory given what its executed shares served before
+  (``multinode.maxmin_schedule`` with ``fixed``). The plan's shares say whom the tour serves at
+  step n; off the plan (late, early, another hover point) they can starve a node, and a policy
+  that sees them only learns the step count, not the balance of what was served.
 """
 
 from __future__ import annotations
@@ -23,6 +28,7 @@ import numpy as np
 
 from ios_uav_env.config import ScenarioConfig
 from ios_uav_env.io import atomic_write_bytes
+from ios_uav_env.multinode import maxmin_schedule, node_rates
 from ios_uav_env.multinode_env import BASE_FEATURES, MULTINODE_RANGES, sample_multinode, share_scores
 from ios_uav_env.policies import full_speed_move
 
@@ -118,6 +124,28 @@ class Dataset:
             return cls(d["obs"], d["labels"], d["episode"], d["ratio"])
 
 
+def hindsight_shares(rates: np.ndarray, executed: np.ndarray, block: int = 5) -> np.ndarray:
+    """Share labels (K, N) of an episode with node rates ``rates`` (K, N) along its trajectory and
+    ``executed`` shares (K, N): for the slots n0 .. n0 + ``block`` - 1 (n0 = 1, 1 + block, ...), the
+    shares of the best continuation from n0 (``maxmin_schedule(rates, executed[:, :n0])``), the
+    max-min schedule of the rest of the flight given what was served. Slot 0 (q0, shared
+    equally by the env) keeps its executed shares. ``block`` = 1 re-solves at every slot."""
+    r, done = np.asarray(rates, dtype=float), np.asarray(executed, dtype=float)
+    if r.ndim != 2 or done.shape != r.shape:
+        raise ValueError(f"rates and executed must be (K, N) arrays of one shape: {r.shape}, {done.shape}")
+    if isinstance(block, bool) or not isinstance(block, int) or block < 1:
+        raise ValueError(f"block: must be an integer >= 1 (slots between re-solves), got {block!r}")
+    labels = done.copy()
+    for n0 in range(1, r.shape[1], block):
+        labels[:, n0 : n0 + block] = maxmin_schedule(r, done[:, :n0]).shares[:, n0 : n0 + block]
+    return labels
+
+
+def _hindsight_job(args: tuple[ScenarioConfig, np.ndarray, np.ndarray, int]) -> np.ndarray:
+    config, trajectory, executed, block = args
+    return hindsight_shares(node_rates(config, trajectory), executed, block)
+
+
 def rollouts(
     plans: list[ExpertPlan],
     env_kwargs: dict[str, Any],
@@ -125,11 +153,14 @@ def rollouts(
     noise: float = 0.0,
     seed: int = 0,
     env_id: str = RANDOM_ID,
+    hindsight_block: int | None = None,
+    jobs: int | None = None,
 ) -> Dataset:
     """One episode per plan in ``env_id`` pinned to its scenario, all in lockstep: the executed action
     is ``policy(obs batch)`` (None: the expert's) plus N(0, ``noise``^2) on the move; every
-    visited state is labelled with the expert's action. ``ratio``: each episode's own min rate
-    over its plan's rate."""
+    visited state is labelled with the expert's action, its shares replaced by
+    :func:`hindsight_shares` (``hindsight_block``; ``jobs`` processes) when that is given.
+    ``ratio``: each episode's own min rate over its plan's rate."""
     import gymnasium as gym
 
     if not (np.isfinite(noise) and noise >= 0):
@@ -159,7 +190,30 @@ def rollouts(
             else:
                 still.append(i)
         alive, step = still, step + 1
-    return Dataset(*(np.concatenate(x) for x in zip(*parts, strict=True)), ratio=ratio)
+    data = Dataset(*(np.concatenate(x) for x in zip(*parts, strict=True)), ratio=ratio)
+    if hindsight_block is not None:
+        _relabel_shares(data, [len(p[2]) for p in parts], plans, envs, hindsight_block, sharpness, jobs)
+    return data
+
+
+def _relabel_shares(
+    data: Dataset, alive: list[int], plans: list[ExpertPlan], envs: list[Any], block: int, sharpness: float,
+    jobs: int | None,
+) -> None:  # fmt: skip
+    """Replace ``data``'s share labels by :func:`hindsight_shares` of each finished episode."""
+    from concurrent.futures import ProcessPoolExecutor
+
+    tasks = [(p.config, env.trajectory, env.shares, block) for p, env in zip(plans, envs, strict=True)]
+    if jobs == 1:
+        labels = [_hindsight_job(t) for t in tasks]
+    else:
+        with ProcessPoolExecutor(jobs) as pool:
+            labels = list(pool.map(_hindsight_job, tasks, chunksize=max(1, len(tasks) // 64)))
+    step = np.repeat(np.arange(len(alive)), alive)  # a row's step: rows are in lockstep order
+    for i, shares in enumerate(labels):
+        rows = np.flatnonzero(data.episode == i)
+        k = shares.shape[0]
+        data.labels[rows, 2 : 2 + k] = share_scores(shares[:, step[rows] + 1], sharpness).T
 
 
 def node_mask(obs: np.ndarray, k_max: int, node_width: int) -> np.ndarray:

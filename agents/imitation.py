@@ -1,6 +1,6 @@
 """A multi-node generalist trained from the tour heuristic (DAgger), from a checkout.
 
-    python -m agents.imitation --out runs/dagger                         # the shipped recipe
+    python -m agents.imitation --out runs/dagger --rounds 8 --hindsight-from 5   # the shipped recipe
     python -m agents.suite report --model runs/dagger                    # scored on multi-node-v1
 
 Pure PPO on ``ios_uav_env/IOSUAV-MultiNode-Random-v0`` reached 31% of SCA on the held-out suite in
@@ -18,6 +18,10 @@ the suite, 0.4 s a scenario) teaches the same SB3 PPO policy network by imitatio
   policy of round r - 1 and labels what it visits (DAgger). Each round fits the policy's action
   mean to every label so far (``epochs`` passes, Adam, one-cycle learning rate): the squared
   error of the move and of the node scores (:func:`imitation_loss`).
+- **Hindsight shares** (rounds >= ``hindsight_from``): the policy's episodes get the share labels
+  of :func:`agents.expert.hindsight_shares`, the best continuation of the flight flown given what
+  was served, and from then on the share loss keeps only labels that are a best schedule of
+  the trajectory flown (:func:`share_rows`).
 - **Output.** A run folder that ``agents.loading.load_agent``, ``agents.evaluate`` and
   ``agents.suite report`` read (``model.zip``, ``vecnormalize.pkl`` with the observation
   statistics of round 0, ``config.json``, ``summary.json``), plus ``plans/``, ``data/round_<r>.npz``
@@ -125,10 +129,12 @@ class ImitationSettings:
     jobs: int | None = None  # planner processes (default: all cores)
     plans: str | None = None  # cache folder of the tour plans (default out/plans)
     progress: bool = True
+    hindsight_from: int | None = None  # first round labelled by hindsight shares (None: never)
+    hindsight_block: int = 5  # slots between the re-solves of the hindsight labels
 
     def validate(self) -> None:
         """``ValueError`` naming the first bad field."""
-        for name in ("scenarios", "rounds", "epochs", "batch_size"):
+        for name in ("scenarios", "rounds", "epochs", "batch_size", "hindsight_block"):
             value = getattr(self, name)
             if isinstance(value, bool) or not isinstance(value, int) or value < 1:
                 raise ValueError(f"{name}: must be an integer >= 1, got {value!r}")
@@ -138,22 +144,33 @@ class ImitationSettings:
             raise ValueError(f"learning_rate: must be in (0, 1), got {self.learning_rate!r}")
         if not self.net_arch or any(not isinstance(w, int) or w < 1 for w in self.net_arch):
             raise ValueError(f"net_arch: must be layer widths >= 1, got {self.net_arch!r}")
+        h = self.hindsight_from
+        if h is not None and (isinstance(h, bool) or not isinstance(h, int) or h < 1):
+            raise ValueError(f"hindsight_from: must be None or a round >= 1 (a policy's round), got {h!r}")
         if "max_nodes" in self.env_kwargs or "random_nodes" in self.env_kwargs:
             raise ValueError("env_kwargs: max_nodes and random_nodes are the random id's own (2 to 4 nodes)")
 
 
 #: Settings a resumed run may change: they do not change what a finished round holds.
 RESUMABLE = ("out", "rounds", "jobs", "plans", "progress")
+#: Settings a resumed run may change while no finished round is at or after ``hindsight_from``.
+LATE = ("hindsight_from", "hindsight_block")
 
 
 def check_resume(settings: ImitationSettings) -> None:
     """Record the run's settings in ``out/settings.json``, or check them against the recorded ones:
-    ``ValueError`` naming every field that differs (other than :data:`RESUMABLE`)."""
+    ``ValueError`` naming every field that differs (other than :data:`RESUMABLE`, and :data:`LATE`
+    while the hindsight rounds, before and now, all come after the finished rounds)."""
     path = Path(settings.out) / "settings.json"
     now = json.loads(json.dumps(asdict(settings)))  # tuples as lists, as recorded
     if path.exists():
         before = json.loads(path.read_text())
-        changed = sorted(k for k in now if k not in RESUMABLE and before.get(k) != now[k])
+        before.setdefault("hindsight_block", now["hindsight_block"])  # runs recorded before the field
+        summary = Path(settings.out) / "summary.json"
+        finished = len(json.loads(summary.read_text())["rounds"]) if summary.exists() else 0
+        starts = [h for h in (before.get("hindsight_from"), now["hindsight_from"]) if h is not None]
+        free = RESUMABLE + (LATE if all(h >= finished for h in starts) else ())
+        changed = sorted(k for k in now if k not in free and before.get(k) != now[k])
         if changed:
             diff = ", ".join(f"{k}: {before.get(k)!r} -> {now[k]!r}" for k in changed)
             where = settings.out
@@ -174,6 +191,24 @@ def _new_model(settings: ImitationSettings, env: Any, obs: np.ndarray) -> tuple[
     kwargs = dict(net_arch=dict(pi=arch, vf=arch), log_std_init=settings.log_std_init)
     model = PPO("MlpPolicy", venv, gamma=1.0, policy_kwargs=kwargs, seed=settings.seed, device="cpu")
     return model, venv
+
+
+def _hindsight(settings: ImitationSettings, r: int) -> bool:
+    return settings.hindsight_from is not None and r >= settings.hindsight_from
+
+
+def share_rows(settings: ImitationSettings, r: int, parts: list[Dataset], plans: list[Any]) -> np.ndarray:
+    """Which rows of rounds 0 .. r (``parts``) the share loss of round r's fit uses: all of them in
+    a run without hindsight labels; from round ``hindsight_from`` on, only the rows whose labels
+    are a best schedule of the trajectory flown: round 0's clean pass (the expert's own episodes)
+    and the hindsight rounds, not the plan's shares on states off the plan (round 0's noisy pass,
+    the earlier policy rounds)."""
+    if not _hindsight(settings, r):
+        return np.ones(sum(len(p.obs) for p in parts), dtype=bool)
+    clean = sum(len(p.trajectory) - 1 for p in plans)  # round 0's clean pass comes first
+    keep = [np.arange(len(parts[0].obs)) < clean]
+    keep += [np.full(len(p.obs), _hindsight(settings, i)) for i, p in enumerate(parts[1:], start=1)]
+    return np.concatenate(keep)
 
 
 def _save(folder: Path, model: Any, venv: Any) -> None:
@@ -221,13 +256,15 @@ def run(settings: ImitationSettings) -> dict[str, Any]:
             data = Dataset.concat([clean, noisy])
         else:
             act = NumpyPolicy.from_sb3(model, venv).act
-            data = rollouts(plans, settings.env_kwargs, policy=act, seed=settings.seed + 1 + r)
+            block = settings.hindsight_block if _hindsight(settings, r) else None
+            data = rollouts(plans, settings.env_kwargs, policy=act, seed=settings.seed + 1 + r,
+                            hindsight_block=block, jobs=settings.jobs)  # fmt: skip
         data.save(data_path)
         parts.append(data)
         if model is None:
             model, venv = _new_model(settings, env, data.obs)
         every = Dataset.concat(parts)
-        mask = node_mask(every.obs, k_max, width)
+        mask = node_mask(every.obs, k_max, width) & share_rows(settings, r, parts, plans)[:, None]
         losses = fit(model, venv, every, mask, settings.epochs, settings.batch_size,
                      settings.learning_rate, settings.seed + r, settings.progress)  # fmt: skip
         _save(folder, model, venv)
@@ -280,6 +317,12 @@ def build_parser() -> Any:
     p.add_argument("--seed", type=int, default=d.seed)
     p.add_argument("--jobs", type=positive_int, default=None, help="planner processes (default: all cores)")
     p.add_argument("--plans", default=None, help="cache folder of the tour plans (default <out>/plans)")
+    p.add_argument(
+        "--hindsight-from", type=positive_int, default=None,
+        help="first round whose share labels are the hindsight best continuation (default: never)",
+    )  # fmt: skip
+    p.add_argument("--hindsight-block", type=positive_int, default=d.hindsight_block,
+                   help=f"slots between hindsight re-solves ({d.hindsight_block})")  # fmt: skip
     p.add_argument("--no-progress", action="store_true")
     return p
 
@@ -294,7 +337,8 @@ def main(argv: list[str] | None = None) -> int:
         settings = ImitationSettings(
             out=args.out, scenarios=args.scenarios, rounds=args.rounds, noise=args.noise, epochs=args.epochs,
             batch_size=args.batch_size, learning_rate=args.learning_rate, net_arch=tuple(args.net_arch),
-            seed=args.seed, jobs=args.jobs, plans=args.plans, progress=not args.no_progress, **extra,
+            seed=args.seed, jobs=args.jobs, plans=args.plans, progress=not args.no_progress,
+            hindsight_from=args.hindsight_from, hindsight_block=args.hindsight_block, **extra,
         )  # fmt: skip
         settings.validate()
         Path(settings.out).mkdir(parents=True, exist_ok=True)

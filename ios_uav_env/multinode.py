@@ -23,6 +23,12 @@ value min_k R_k of those shares exactly; it takes the dual weights w of the K ra
 are independent computations and must agree to ``CERTIFY_TOL`` (else ``RuntimeError``).
 The value returned is the primal one (achieved by the returned shares).
 
+**Continuation.** ``maxmin_schedule(rates, fixed)`` keeps the shares ``fixed`` (K, n0) of the
+first n0 slots (already served) and chooses the rest: the same LP with the fixed slots' rates
+P_k = (1/N) sum_{n < n0} alpha_k[n] r_k[n] on the right-hand side, certified by
+g(w) = sum_k w_k P_k + (1/N) sum_{n >= n0} max_k w_k r_k[n] (``dual_value(rates, w, fixed)``).
+The imitation expert labels shares with it (``agents.expert.hindsight_shares``).
+
 For K = 1 nothing is solved: the shares are all ones and the score is
 :func:`ios_uav_env.average_rate` (no scipy needed). scipy (``linprog``) is imported only
 for K > 1.
@@ -78,16 +84,36 @@ def node_rates(config: ScenarioConfig, positions: np.ndarray) -> np.ndarray:
     return np.stack([slot_rates(config.node_config(k), q) for k in range(config.K)])
 
 
-def dual_value(rates: np.ndarray, weights: np.ndarray) -> float:
+def dual_value(rates: np.ndarray, weights: np.ndarray, fixed: np.ndarray | None = None) -> float:
     """g(w) = (1/N) sum_n max_k w_k r_k[n] for a (K, N) rate matrix: >= V for every w in the
-    simplex (weak duality; see the module docstring). ``weights`` must be >= 0 and sum to 1."""
+    simplex (weak duality; see the module docstring). ``weights`` must be >= 0 and sum to 1.
+    With ``fixed`` shares (K, n0) of the first n0 slots those slots add (1/N) sum_k w_k alpha_k[n]
+    r_k[n] instead of the max: the bound of :func:`maxmin_schedule` with ``fixed``."""
     r = np.asarray(rates, dtype=float)
     w = np.asarray(weights, dtype=float)
     if r.ndim != 2 or w.shape != (r.shape[0],):
         raise ValueError(f"weights must have shape (K,) = ({r.shape[0]},), got {w.shape}")
     if not (np.all(np.isfinite(w)) and np.all(w >= 0) and abs(w.sum() - 1.0) <= 1e-12):
         raise ValueError(f"weights must be >= 0 and sum to 1 (the simplex), got {w!r}")
-    return float(np.mean(np.max(w[:, None] * r, axis=0)))
+    a = _check_fixed(r, fixed)
+    n0 = a.shape[1]
+    past = np.sum(w[:, None] * a * r[:, :n0])
+    return float((past + np.sum(np.max(w[:, None] * r[:, n0:], axis=0))) / r.shape[1])
+
+
+def _check_fixed(r: np.ndarray, fixed: np.ndarray | None) -> np.ndarray:
+    """``fixed`` shares as a (K, n0) array, n0 < N (``ValueError`` naming what is wrong)."""
+    if fixed is None:
+        return np.zeros((r.shape[0], 0))
+    a = np.asarray(fixed, dtype=float)
+    if a.ndim != 2 or a.shape[0] != r.shape[0] or a.shape[1] >= r.shape[1]:
+        raise ValueError(
+            f"fixed must be the shares (K, n0) of the first n0 < N slots (K = {r.shape[0]}, "
+            f"N = {r.shape[1]}), got shape {a.shape}"
+        )
+    if not (np.all(np.isfinite(a)) and np.all(a >= 0) and np.all(a.sum(axis=0) <= 1.0 + SHARE_TOL)):
+        raise ValueError("fixed shares must be finite, >= 0, with column sums <= 1")
+    return a
 
 
 def _check_rates(rates: np.ndarray) -> np.ndarray:
@@ -99,38 +125,47 @@ def _check_rates(rates: np.ndarray) -> np.ndarray:
     return r
 
 
-def maxmin_schedule(rates: np.ndarray) -> Schedule:
+def maxmin_schedule(rates: np.ndarray, fixed: np.ndarray | None = None) -> Schedule:
     """The best schedule (P) of a (K, N) rate matrix, certified by its dual (D).
+
+    With ``fixed`` (K, n0) the first n0 slots keep those shares (already served) and only the
+    later ones are chosen: the best continuation, max min_k R_k over the whole horizon, with
+    the bound :func:`dual_value` (``fixed``) as its certificate; ``shares`` holds both parts.
 
     Raises ``RuntimeError`` when the LP fails or its primal and dual values differ by more
     than ``CERTIFY_TOL`` (times max(1, value)).
     """
     r = _check_rates(rates)
+    a = _check_fixed(r, fixed)
     k_nodes, n = r.shape
+    n0 = a.shape[1]
     if k_nodes == 1:
         shares = np.ones_like(r)
-        value = float(np.mean(r[0]))
+        shares[:, :n0] = a
+        value = float(np.mean(shares[0] * r[0]))
         return Schedule(shares, np.ones(1), value, value, np.array([value]))
     from scipy.optimize import linprog
     from scipy.sparse import csr_matrix, hstack, vstack
 
-    # variables: alpha (k-major, K * N) then t; minimise -t
-    rows = np.repeat(np.arange(k_nodes), n)
-    rate_rows = csr_matrix((-r.ravel() / n, (rows, np.arange(k_nodes * n))), shape=(k_nodes, k_nodes * n))
-    slot_rows = csr_matrix((np.ones(k_nodes * n), (np.tile(np.arange(n), k_nodes), np.arange(k_nodes * n))))
+    # variables: alpha of the free slots (k-major, K * m) then t; minimise -t
+    free, m = r[:, n0:], n - n0
+    past = np.sum(a * r[:, :n0], axis=1) / n  # (K,) served in the fixed slots
+    rows = np.repeat(np.arange(k_nodes), m)
+    rate_rows = csr_matrix((-free.ravel() / n, (rows, np.arange(k_nodes * m))), shape=(k_nodes, k_nodes * m))
+    slot_rows = csr_matrix((np.ones(k_nodes * m), (np.tile(np.arange(m), k_nodes), np.arange(k_nodes * m))))
     a_ub = vstack(
-        [hstack([rate_rows, csr_matrix(np.ones((k_nodes, 1)))]), hstack([slot_rows, csr_matrix((n, 1))])]
+        [hstack([rate_rows, csr_matrix(np.ones((k_nodes, 1)))]), hstack([slot_rows, csr_matrix((m, 1))])]
     ).tocsr()
-    b_ub = np.concatenate([np.zeros(k_nodes), np.ones(n)])
-    c = np.zeros(k_nodes * n + 1)
+    b_ub = np.concatenate([past, np.ones(m)])
+    c = np.zeros(k_nodes * m + 1)
     c[-1] = -1.0
-    bounds = [(0.0, 1.0)] * (k_nodes * n) + [(0.0, None)]
+    bounds = [(0.0, 1.0)] * (k_nodes * m) + [(0.0, None)]
     tols = {"primal_feasibility_tolerance": 1e-10, "dual_feasibility_tolerance": 1e-10}
     res = linprog(c, A_ub=a_ub, b_ub=b_ub, bounds=bounds, method="highs-ds", options=tols)
     if res.status != 0 or res.x is None:
         raise RuntimeError(f"max-min schedule LP failed: {res.message}")
-    shares = np.clip(res.x[:-1].reshape(k_nodes, n), 0.0, 1.0)
-    shares /= np.maximum(shares.sum(axis=0), 1.0)
+    chosen = np.clip(res.x[:-1].reshape(k_nodes, m), 0.0, 1.0)
+    shares = np.concatenate([a, chosen / np.maximum(chosen.sum(axis=0), 1.0)], axis=1)
     per_node = np.mean(shares * r, axis=1)
     value = float(per_node.min())
     w = np.maximum(-np.asarray(res.ineqlin.marginals[:k_nodes], dtype=float), 0.0)
@@ -139,7 +174,7 @@ def maxmin_schedule(rates: np.ndarray) -> Schedule:
             f"max-min schedule LP returned no dual weights ({res.ineqlin.marginals[:k_nodes]})"
         )
     w /= w.sum()
-    dual = dual_value(r, w)
+    dual = dual_value(r, w, fixed)
     if abs(dual - value) > CERTIFY_TOL * max(1.0, abs(value)):
         raise RuntimeError(
             f"max-min schedule not certified: primal {value!r} vs dual {dual!r} (gap {dual - value:.3g})"

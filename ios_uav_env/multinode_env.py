@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import functools
 import math
+import time
 from collections.abc import Mapping
 from typing import Any
 
@@ -154,6 +155,8 @@ class MultiNodeEnv(gym.Env):
     (at slot N ``maxmin_rate`` of the trajectory, the best shares for the same flight, an LP
     of scipy's: NaN if scipy is not installed; 0
     before), the three reward terms, ``feasible``, ``worst_violation``, ``terminal_miss``.
+    The LP's wall time is kept in ``score_seconds`` (0 before slot N): it scores the flight, so
+    the benchmark leaves it out of a policy's plan time.
 
     ## Episode End
 
@@ -238,6 +241,7 @@ class MultiNodeEnv(gym.Env):
         if not (isinstance(softmin_beta, (int, float)) and math.isfinite(softmin_beta) and softmin_beta >= 0):
             raise ValueError(f"softmin_beta must be a finite number >= 0, got {softmin_beta!r}")
         self.softmin_beta = float(softmin_beta)
+        self.score_seconds = 0.0  # see reset()
         self.render_mode = render_mode
         self.node_features = NODE_FEATURES + (NODE_PEAK_FEATURES if self.options.peak_hint else ())
         self.action_space = spaces.Box(-1.0, 1.0, (2 + self.max_nodes,), np.float32)
@@ -308,6 +312,7 @@ class MultiNodeEnv(gym.Env):
         self._x, self._y = cfg.q0
         self._n, self._excess = 0, 0.0
         self._xs, self._ys = [self._x], [self._y]
+        self.score_seconds = 0.0  # wall time of the episode's best-schedule LP (scoring, not planning)
         rates = self._rates(self._x, self._y)
         shares = np.full(cfg.K, 1.0 / cfg.K)
         self._served = shares * rates  # S_k
@@ -405,7 +410,9 @@ class MultiNodeEnv(gym.Env):
             miss = max(0.0, dist - FEASIBILITY_TOL) / D
             if miss:
                 r_terminal = -self.options.terminal_weight * (miss + math.sqrt(miss))
+            start = time.perf_counter()
             best = reported_maxmin_rate(cfg, self.trajectory)
+            self.score_seconds = time.perf_counter() - start
         r_rate = N * (self._phi - previous)
         if terminated and self.softmin_beta:
             r_rate += N * (self._min - self._phi)

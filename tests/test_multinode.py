@@ -153,6 +153,39 @@ def test_lp_matches_an_independent_bisection_for_two_nodes():
         assert maxmin_schedule(r).value == pytest.approx(g(0.5 * (lo + hi)), abs=1e-9)
 
 
+def test_fixed_slots_give_the_best_continuation():
+    """``fixed``: the first slots keep their shares, the rest is the best continuation, certified by
+    dual_value with the same ``fixed`` (an independent golden-section search for K = 2)."""
+    rng = np.random.default_rng(11)
+    r = rng.uniform(0.0, 3.0, size=(2, 30))
+    best = maxmin_schedule(r)
+    again = maxmin_schedule(r, best.shares[:, :12])  # the optimum's own start: same value
+    assert again.value == pytest.approx(best.value, abs=1e-12)
+    fixed = np.zeros((2, 12))
+    fixed[0] = 1.0  # node 0 served first: node 1 must be made up for later
+    cont = maxmin_schedule(r, fixed)
+    np.testing.assert_array_equal(cont.shares[:, :12], fixed)
+    assert cont.value == pytest.approx(np.mean(cont.shares * r, axis=1).min(), abs=1e-15)
+    assert cont.value <= best.value + 1e-12 and cont.gap <= 1e-9
+
+    def g(a):
+        return dual_value(r, np.array([a, 1.0 - a]), fixed)
+
+    lo, hi, phi = 0.0, 1.0, (math.sqrt(5) - 1) / 2
+    for _ in range(200):
+        m1, m2 = hi - phi * (hi - lo), lo + phi * (hi - lo)
+        lo, hi = (lo, m2) if g(m1) <= g(m2) else (m1, hi)
+    assert cont.value == pytest.approx(g(0.5 * (lo + hi)), abs=1e-9)
+    # equal rates, the first half all to node 0: the whole second half goes to node 1
+    flat = maxmin_schedule(np.ones((2, 10)), np.tile([[1.0], [0.0]], 5))
+    np.testing.assert_allclose(flat.shares[:, 5:], np.tile([[0.0], [1.0]], 5), atol=1e-12)
+    assert flat.value == pytest.approx(0.5)
+    with pytest.raises(ValueError, match=r"fixed must be the shares \(K, n0\) of the first n0 < N"):
+        maxmin_schedule(r, np.zeros((2, 30)))
+    with pytest.raises(ValueError, match="fixed shares must be finite, >= 0"):
+        maxmin_schedule(r, np.full((2, 3), 0.6))
+
+
 def test_known_schedule_value():
     """Two nodes, two slots, each node good in one slot: V = min(a, b)/2 -> each gets its slot;
     with a dominant node, the best schedule shares the slot to equalise."""

@@ -226,11 +226,14 @@ def _results(
 
 
 def multi_episode(env: Any, act: Any, scenario: SuiteScenario, seed: int | None) -> MultiScenarioResult:
-    """One episode of ``act`` in a ``MultiNodeEnv`` pinned to ``scenario``, scored by :func:`score_plan`."""
+    """One episode of ``act`` in a ``MultiNodeEnv`` pinned to ``scenario``, scored by :func:`score_plan`.
+    Its plan time stops before the scoring, as the planners' (``Plan.seconds``, taken before
+    ``Plan.from_trajectory`` scores the plan): the env's own best-schedule LP of the last step
+    (``score_seconds``, for ``info["best_schedule_rate"]``) is not counted."""
     from ios_uav_env.benchmark.scoring import play
 
-    seconds = play(env, act, scenario, seed)
     base = env.unwrapped
+    seconds = play(env, act, scenario, seed) - base.score_seconds
     trajectory, shares = base.trajectory, base.shares
     rate, best, feasible, worst = score_plan(scenario, trajectory, shares)
     return MultiScenarioResult.of(scenario, rate, best, feasible, worst, seconds, own_shares=True,

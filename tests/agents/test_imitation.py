@@ -13,9 +13,11 @@ pytest.importorskip("cvxpy")
 
 import torch as th  # noqa: E402
 
-from agents.expert import Dataset, node_mask, rollouts, tour_plans  # noqa: E402
-from agents.imitation import ImitationSettings, fit, imitation_loss, main, run  # noqa: E402
+from agents.expert import Dataset, hindsight_shares, node_mask, rollouts, tour_plans  # noqa: E402
+from agents.imitation import ImitationSettings, fit, imitation_loss, main, run, share_rows  # noqa: E402
 from ios_uav_env import maxmin_rate  # noqa: E402
+from ios_uav_env.multinode import maxmin_schedule, node_rates  # noqa: E402
+from ios_uav_env.multinode_env import share_scores  # noqa: E402
 
 KW = {"softmin_beta": 20, "peak_hint": True}
 SEEDS = (1_000_003, 1_000_001)  # a 2-node and a 3-node scenario of the random family
@@ -73,6 +75,47 @@ def test_noisy_episodes_leave_the_plan_and_are_labelled_by_the_expert(plans):
         rollouts(plans, KW, noise=-1.0)
 
 
+def test_hindsight_shares_make_up_for_what_was_served():
+    r = np.ones((2, 11))  # the same rate everywhere: only the balance served so far matters
+    executed = np.zeros((2, 11))
+    executed[:, 0] = 0.5
+    executed[0, 1:6] = 1.0  # node 0 served in slots 1..5, node 1 starved
+    labels = hindsight_shares(r, executed, 1)
+    np.testing.assert_array_equal(labels[:, 0], [0.5, 0.5])  # slot 0 is the env's
+    np.testing.assert_allclose(labels[:, 6:], np.tile([[0.0], [1.0]], 5), atol=1e-12)  # node 1 catches up
+    one = hindsight_shares(r, executed, 20)  # a single solve at slot 1: the best schedule from there
+    assert np.mean(one * r, axis=1).min() == pytest.approx(maxmin_schedule(r, executed[:, :1]).value)
+    np.testing.assert_array_equal(hindsight_shares(r, executed, 3)[:, 1:4], one[:, 1:4])
+    with pytest.raises(ValueError, match="block: must be an integer >= 1"):
+        hindsight_shares(r, executed, 0)
+
+
+def test_hindsight_rollouts_relabel_each_state_with_its_episodes_continuation(plans):
+    plain = rollouts(plans, KW, noise=0.5, seed=3)
+    data = rollouts(plans, KW, noise=0.5, seed=3, hindsight_block=4, jobs=1)
+    np.testing.assert_array_equal(data.obs, plain.obs)  # the same episodes, the moves' labels unchanged
+    np.testing.assert_array_equal(data.labels[:, :2], plain.labels[:, :2])
+    assert not np.allclose(data.labels[:, 2:], plain.labels[:, 2:])
+    import gymnasium as gym
+
+    from agents.expert import RANDOM_ID
+
+    for i, plan in enumerate(plans):  # replay episode i's executed actions to get its shares
+        env = gym.make(RANDOM_ID, **KW).unwrapped
+        env.reset(options={"config": plan.config})
+        rng, sel = np.random.default_rng(3), plain.episode == i
+        for step in range(plan.config.N - 1):  # the noise draws of the lockstep batch
+            noise = rng.normal(0.0, 0.5, (sum(step < p.config.N - 1 for p in plans), 2))
+            act = plain.labels[sel][step].copy()
+            act[:2] += noise[[j for j, p in enumerate(plans) if step < p.config.N - 1].index(i)]
+            env.step(np.clip(act, -1.0, 1.0))
+        expected = hindsight_shares(node_rates(plan.config, env.trajectory), env.shares, 4)
+        k = plan.config.K
+        np.testing.assert_allclose(
+            data.labels[sel, 2 : 2 + k], share_scores(expected[:, 1:], 5.0).T, atol=1e-6
+        )
+
+
 def test_imitation_loss_is_zero_at_the_labels_and_ignores_padding():
     labels = th.tensor([[0.5, -0.5, 1.0, -0.2, 0.0, 0.0], [0.0, 0.0, -1.0, 1.0, 0.3, 0.0]])
     mask = th.tensor([[1, 1, 0, 0], [1, 1, 1, 0]], dtype=th.bool)
@@ -115,6 +158,43 @@ def test_a_run_fits_the_labels_resumes_and_loads(plans, plan_cache, tmp_path):
     with pytest.raises(ValueError, match=r"other settings \(epochs: 30 -> 5, noise: 0.3 -> 0.1\)"):
         run(ImitationSettings(rounds=3, **{**kw, "epochs": 5}, noise=0.1))  # would mix two recipes' data
     assert not (out / "data" / "round_2.npz").exists()
+    # hindsight labels may start at a round not played yet, and not earlier
+    summary = run(ImitationSettings(rounds=3, hindsight_from=2, hindsight_block=3, **kw))
+    assert [r["round"] for r in summary["rounds"]] == [0, 1, 2]
+    with pytest.raises(ValueError, match=r"other settings \(hindsight_from: 2 -> 1\)"):
+        run(ImitationSettings(rounds=4, hindsight_from=1, hindsight_block=3, **kw))
+    played = Dataset.load(out / "data" / "round_2.npz")
+    replay = rollouts(plans[:1], KW, policy=_round_policy(out / "rounds" / "1"))
+    np.testing.assert_allclose(played.obs, replay.obs, atol=1e-5)  # the round-1 policy's episode ...
+    assert not np.allclose(played.labels[:, 2:4], replay.labels[:, 2:4])  # ... with hindsight shares
+
+
+def _round_policy(folder):
+    """The numpy actor of a round's model, as ``run`` plays it."""
+    import gymnasium as gym
+    from stable_baselines3 import PPO
+    from stable_baselines3.common.vec_env import DummyVecEnv, VecNormalize
+
+    from agents.expert import RANDOM_ID
+    from agents.numpy_policy import NumpyPolicy
+
+    venv = VecNormalize.load(
+        str(folder / "vecnormalize.pkl"), DummyVecEnv([lambda: gym.make(RANDOM_ID, **KW)])
+    )
+    return NumpyPolicy.from_sb3(PPO.load(folder / "model.zip", device="cpu"), venv).act
+
+
+def test_share_rows_keep_the_labels_of_best_schedules_only(plans):
+    rows = [p.config.N - 1 for p in plans]
+    part = Dataset(np.zeros((sum(rows), 1)), np.zeros((sum(rows), 1)), np.zeros(sum(rows)))
+    parts = [Dataset.concat([part, part]), part, part]  # round 0 (clean, noisy), rounds 1 and 2
+    plain = ImitationSettings(out="x")
+    assert share_rows(plain, 2, parts, plans).all()  # no hindsight: every label, as before
+    keep = share_rows(ImitationSettings(out="x", hindsight_from=2), 2, parts, plans)
+    n = sum(rows)
+    expected = np.concatenate([np.ones(n), np.zeros(n), np.zeros(n), np.ones(n)]).astype(bool)
+    np.testing.assert_array_equal(keep, expected)
+    assert share_rows(ImitationSettings(out="x", hindsight_from=2), 1, parts[:2], plans).all()
 
 
 @pytest.mark.parametrize(

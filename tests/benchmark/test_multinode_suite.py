@@ -125,6 +125,29 @@ def test_a_policy_is_scored_by_its_own_shares_and_the_env_agrees(suite):
     assert [r.rate for r in again.scenarios] == [r.rate for r in results.scenarios]
 
 
+def test_a_policys_plan_time_leaves_out_the_envs_scoring_lp(suite, monkeypatch):
+    """As a planner's time stops before ``Plan.from_trajectory`` scores its plan, a policy's stops
+    before the env's best-schedule LP of the last step (``score_seconds``)."""
+    import time
+
+    from ios_uav_env import multinode_env
+
+    real = multinode_env.reported_maxmin_rate
+
+    def slow(config, trajectory):
+        time.sleep(0.3)
+        return real(config, trajectory)
+
+    monkeypatch.setattr(multinode_env, "reported_maxmin_rate", slow)
+    start = time.perf_counter()
+    results = evaluate(StraightEqualShares(), suite, n=1)
+    assert time.perf_counter() - start > 0.3  # the LP ran
+    assert 0.0 < results.scenarios[0].seconds < 0.2
+    assert results.scenarios[0].best_schedule_rate == maxmin_rate(
+        suite[0].config, results.scenarios[0].trajectory
+    )
+
+
 @pytest.mark.parametrize("suffix", [".npz", ".csv"])
 def test_plan_files_with_and_without_shares(tmp_path, suite, suffix):
     results = evaluate(StraightEqualShares(), suite, n=3)
