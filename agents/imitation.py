@@ -17,7 +17,7 @@ the suite, 0.4 s a scenario) teaches the same SB3 PPO policy network by imitatio
   every executed move (so the data show how to come back to the plan); round r >= 1 plays the
   policy of round r - 1 and labels what it visits (DAgger). Each round fits the policy's action
   mean to every label so far (``epochs`` passes, Adam, one-cycle learning rate): the squared
-  error of the move and of the node scores (:func:`imitation_loss`).
+  error of the move and of the node scores (``agents.fitting.imitation_loss``).
 - **Hindsight shares** (rounds >= ``hindsight_from``): the policy's episodes get the share labels
   of :func:`agents.expert.hindsight_shares`, the best continuation of the flight flown given what
   was served, and from then on the share loss keeps only labels that are a best schedule of
@@ -44,70 +44,8 @@ from typing import Any
 import numpy as np
 
 from agents.expert import FIRST_SEED, RANDOM_ID, Dataset, node_mask, rollouts, tour_plans
+from agents.fitting import fit
 from ios_uav_env.io import atomic_write_text
-
-#: Weight of the move's squared error against a node score's: the trajectory is what the rates
-#: depend on most, and a drift while hovering adds up over the slots.
-MOVE_WEIGHT = 4.0
-
-
-def imitation_loss(mean: Any, labels: Any, mask: Any) -> tuple[Any, Any]:
-    """(move loss, share loss) of a batch of policy action means against expert labels (torch):
-    ``MOVE_WEIGHT`` x the squared error of the move (x and y) and the squared error of the
-    scenario's node scores (``mask``; padding entries are ignored, as the env ignores them),
-    each summed per state, divided by the action's size and averaged over the batch."""
-    error = (mean.clamp(-1.5, 1.5) - labels) ** 2
-    size = labels.shape[1]
-    move = MOVE_WEIGHT * error[:, :2].sum(1).mean() / size
-    share = (error[:, 2:] * mask.float()).sum(1).mean() / size
-    return move, share
-
-
-def fit(
-    model: Any,
-    vecnormalize: Any,
-    data: Dataset,
-    mask: np.ndarray,
-    epochs: int,
-    batch_size: int,
-    learning_rate: float,
-    seed: int = 0,
-    progress: bool = True,
-) -> dict[str, float]:
-    """Fit ``model``'s (SB3 PPO) action mean to ``data``'s labels on observations normalised by
-    ``vecnormalize`` (:func:`imitation_loss`, Adam with a one-cycle rate peaking at
-    ``learning_rate``); the last epoch's mean losses."""
-    import torch as th
-    from tqdm.auto import tqdm
-
-    policy = model.policy
-    gen = th.Generator().manual_seed(seed)
-    x = th.as_tensor(vecnormalize.normalize_obs(data.obs), dtype=th.float32)
-    y = th.as_tensor(data.labels, dtype=th.float32)
-    m = th.as_tensor(mask)
-    params = [*policy.mlp_extractor.policy_net.parameters(), *policy.action_net.parameters()]
-    opt = th.optim.Adam(params, lr=learning_rate)
-    per_epoch = -(-len(x) // batch_size)
-    sched = th.optim.lr_scheduler.OneCycleLR(opt, learning_rate, epochs * per_epoch, pct_start=0.05)
-    losses = {"move": float("nan"), "share": float("nan")}
-    policy.set_training_mode(True)
-    for _ in tqdm(range(epochs), desc="fit", unit="epoch", disable=not progress):
-        order = th.randperm(len(x), generator=gen)
-        total_move = total_share = 0.0
-        for start in range(0, len(x), batch_size):
-            idx = order[start : start + batch_size]
-            features = policy.extract_features(x[idx], policy.pi_features_extractor)
-            latent = policy.mlp_extractor.forward_actor(features)
-            move, share = imitation_loss(policy.action_net(latent), y[idx], m[idx])
-            opt.zero_grad()
-            (move + share).backward()
-            opt.step()
-            sched.step()
-            total_move += move.item() * len(idx)
-            total_share += share.item() * len(idx)
-        losses = {"move": total_move / len(x), "share": total_share / len(x)}
-    policy.set_training_mode(False)
-    return losses
 
 
 @dataclass(frozen=True)
@@ -131,6 +69,8 @@ class ImitationSettings:
     progress: bool = True
     hindsight_from: int | None = None  # first round labelled by hindsight shares (None: never)
     hindsight_block: int = 5  # slots between the re-solves of the hindsight labels
+    polish_epochs: int = 0  # after the last round: passes with the nodes in random order (0: none)
+    polish_learning_rate: float = 5e-4
 
     def validate(self) -> None:
         """``ValueError`` naming the first bad field."""
@@ -144,6 +84,14 @@ class ImitationSettings:
             raise ValueError(f"learning_rate: must be in (0, 1), got {self.learning_rate!r}")
         if not self.net_arch or any(not isinstance(w, int) or w < 1 for w in self.net_arch):
             raise ValueError(f"net_arch: must be layer widths >= 1, got {self.net_arch!r}")
+        if (
+            isinstance(self.polish_epochs, bool)
+            or not isinstance(self.polish_epochs, int)
+            or self.polish_epochs < 0
+        ):
+            raise ValueError(f"polish_epochs: must be an integer >= 0, got {self.polish_epochs!r}")
+        if not (isinstance(self.polish_learning_rate, (int, float)) and 0 < self.polish_learning_rate < 1):
+            raise ValueError(f"polish_learning_rate: must be in (0, 1), got {self.polish_learning_rate!r}")
         h = self.hindsight_from
         if h is not None and (isinstance(h, bool) or not isinstance(h, int) or h < 1):
             raise ValueError(f"hindsight_from: must be None or a round >= 1 (a policy's round), got {h!r}")
@@ -152,7 +100,7 @@ class ImitationSettings:
 
 
 #: Settings a resumed run may change: they do not change what a finished round holds.
-RESUMABLE = ("out", "rounds", "jobs", "plans", "progress")
+RESUMABLE = ("out", "rounds", "jobs", "plans", "progress", "polish_epochs", "polish_learning_rate")
 #: Settings a resumed run may change while no finished round is at or after ``hindsight_from``.
 LATE = ("hindsight_from", "hindsight_block")
 
@@ -278,6 +226,17 @@ def run(settings: ImitationSettings) -> dict[str, Any]:
         print(f"round {r}: {len(every.obs)} labels, played min rate / tour mean {ratio.mean():.4f}, "
               f"loss move {losses['move']:.4f} share {losses['share']:.4f}", flush=True)  # fmt: skip
     assert model is not None and venv is not None
+    summary.pop("polish", None)
+    if settings.polish_epochs:  # the last round's model, its nodes seen in every order
+        start, last = time.perf_counter(), settings.rounds - 1
+        every = Dataset.concat(parts)
+        mask = node_mask(every.obs, k_max, width) & share_rows(settings, last, parts, plans)[:, None]
+        losses = fit(model, venv, every, mask, settings.polish_epochs, settings.batch_size,
+                     settings.polish_learning_rate, settings.seed + settings.rounds, settings.progress,
+                     permute=True)  # fmt: skip
+        summary["polish"] = {"after_round": last, "epochs": settings.polish_epochs, **losses,
+                             "seconds": round(time.perf_counter() - start, 1)}  # fmt: skip
+        print(f"polish: loss move {losses['move']:.4f} share {losses['share']:.4f}", flush=True)
     _save(out, model, venv)
     config = {"algo": "ppo", "env_id": RANDOM_ID, "seed": settings.seed, "env_kwargs": settings.env_kwargs,
               "trained_by": "agents.imitation", "imitation": asdict(settings)}  # fmt: skip
@@ -323,6 +282,9 @@ def build_parser() -> Any:
     )  # fmt: skip
     p.add_argument("--hindsight-block", type=positive_int, default=d.hindsight_block,
                    help=f"slots between hindsight re-solves ({d.hindsight_block})")  # fmt: skip
+    p.add_argument("--polish-epochs", type=int, default=d.polish_epochs,
+                   help="after the last round: passes with the nodes in random order (0)")  # fmt: skip
+    p.add_argument("--polish-learning-rate", type=float, default=d.polish_learning_rate)
     p.add_argument("--no-progress", action="store_true")
     return p
 
@@ -338,7 +300,8 @@ def main(argv: list[str] | None = None) -> int:
             out=args.out, scenarios=args.scenarios, rounds=args.rounds, noise=args.noise, epochs=args.epochs,
             batch_size=args.batch_size, learning_rate=args.learning_rate, net_arch=tuple(args.net_arch),
             seed=args.seed, jobs=args.jobs, plans=args.plans, progress=not args.no_progress,
-            hindsight_from=args.hindsight_from, hindsight_block=args.hindsight_block, **extra,
+            hindsight_from=args.hindsight_from, hindsight_block=args.hindsight_block,
+            polish_epochs=args.polish_epochs, polish_learning_rate=args.polish_learning_rate, **extra,
         )  # fmt: skip
         settings.validate()
         Path(settings.out).mkdir(parents=True, exist_ok=True)

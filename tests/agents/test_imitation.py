@@ -14,7 +14,8 @@ pytest.importorskip("cvxpy")
 import torch as th  # noqa: E402
 
 from agents.expert import Dataset, hindsight_shares, node_mask, rollouts, tour_plans  # noqa: E402
-from agents.imitation import ImitationSettings, fit, imitation_loss, main, run, share_rows  # noqa: E402
+from agents.fitting import fit, imitation_loss, permute_nodes  # noqa: E402
+from agents.imitation import ImitationSettings, main, run, share_rows  # noqa: E402
 from ios_uav_env import maxmin_rate  # noqa: E402
 from ios_uav_env.multinode import maxmin_schedule, node_rates  # noqa: E402
 from ios_uav_env.multinode_env import share_scores  # noqa: E402
@@ -116,6 +117,52 @@ def test_hindsight_rollouts_relabel_each_state_with_its_episodes_continuation(pl
         )
 
 
+def test_permute_nodes_reorders_each_rows_real_nodes_and_their_labels_alike():
+    k_max, width, rows = 4, 9, 60
+    ks = np.tile([2, 3, 4], rows // 3)
+    obs = np.zeros((rows, 12 + k_max * width), dtype=np.float32)
+    obs[:, :12] = np.arange(12)
+    labels = np.zeros((rows, 2 + k_max), dtype=np.float32)
+    labels[:, :2] = [0.25, -0.5]
+    for i, k in enumerate(ks):
+        for j in range(k):
+            obs[i, 12 + j * width : 12 + (j + 1) * width] = [1.0] + [10 * j + f for f in range(1, width)]
+            labels[i, 2 + j] = 10 * j  # node j's score names node j
+    valid = th.as_tensor(node_mask(obs, k_max, width))
+    x, y, m = permute_nodes(th.as_tensor(obs), th.as_tensor(labels), valid.clone(), valid, k_max, width,
+                            th.Generator().manual_seed(0))  # fmt: skip
+    x, y, m = x.numpy(), y.numpy(), m.numpy()
+    np.testing.assert_array_equal(x[:, :12], obs[:, :12])
+    np.testing.assert_array_equal(y[:, :2], labels[:, :2])
+    blocks = x[:, 12:].reshape(rows, k_max, width)
+    for i, k in enumerate(ks):
+        ids = blocks[i, :k, 1] // 10  # which node each slot now holds
+        assert sorted(ids.tolist()) == list(range(k))  # the same nodes, in some order
+        np.testing.assert_array_equal(y[i, 2 : 2 + k], 10 * ids)  # each with its own label
+        assert np.all(blocks[i, k:] == 0) and np.all(y[i, 2 + k :] == 0) and m[i].sum() == k
+    assert np.any(blocks[:, 0, 1] != 0)  # not the identity
+
+
+def test_fit_permutes_the_nodes_only_when_asked(plans, monkeypatch):
+    import gymnasium as gym
+
+    import agents.fitting
+    from agents.expert import RANDOM_ID
+    from agents.imitation import _new_model
+
+    data = rollouts(plans[:1], KW)
+    model, venv = _new_model(
+        ImitationSettings(out="x", net_arch=(16,)), gym.make(RANDOM_ID, **KW).unwrapped, data.obs
+    )
+    calls = []
+    monkeypatch.setattr(agents.fitting, "permute_nodes", lambda *a: calls.append(1) or permute_nodes(*a))
+    mask = node_mask(data.obs, 4, 9)
+    fit(model, venv, data, mask, 1, 64, 1e-3, progress=False)
+    assert not calls
+    fit(model, venv, data, mask, 1, 64, 1e-3, progress=False, permute=True)
+    assert len(calls) == -(-len(data.obs) // 64)
+
+
 def test_imitation_loss_is_zero_at_the_labels_and_ignores_padding():
     labels = th.tensor([[0.5, -0.5, 1.0, -0.2, 0.0, 0.0], [0.0, 0.0, -1.0, 1.0, 0.3, 0.0]])
     mask = th.tensor([[1, 1, 0, 0], [1, 1, 1, 0]], dtype=th.bool)
@@ -163,6 +210,14 @@ def test_a_run_fits_the_labels_resumes_and_loads(plans, plan_cache, tmp_path):
     assert [r["round"] for r in summary["rounds"]] == [0, 1, 2]
     with pytest.raises(ValueError, match=r"other settings \(hindsight_from: 2 -> 1\)"):
         run(ImitationSettings(rounds=4, hindsight_from=1, hindsight_block=3, **kw))
+    # the polish: the last round's model, fitted again with the nodes in random order
+    polished = run(ImitationSettings(rounds=3, hindsight_from=2, hindsight_block=3, polish_epochs=2, **kw))
+    assert polished["polish"]["after_round"] == 2 and polished["polish"]["epochs"] == 2
+    final, last = _round_policy(out), _round_policy(out / "rounds" / "2")
+    obs = Dataset.load(out / "data" / "round_2.npz").obs[:20]
+    assert not np.allclose(final(obs), last(obs))
+    assert "polish" not in run(ImitationSettings(rounds=3, hindsight_from=2, hindsight_block=3, **kw))
+    np.testing.assert_allclose(_round_policy(out)(obs), last(obs))  # without it, the last round's model
     played = Dataset.load(out / "data" / "round_2.npz")
     replay = rollouts(plans[:1], KW, policy=_round_policy(out / "rounds" / "1"))
     np.testing.assert_allclose(played.obs, replay.obs, atol=1e-5)  # the round-1 policy's episode ...
