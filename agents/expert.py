@@ -210,8 +210,9 @@ def _relabel_shares(
         with ProcessPoolExecutor(jobs) as pool:
             labels = list(pool.map(_hindsight_job, tasks, chunksize=max(1, len(tasks) // 64)))
     step = np.repeat(np.arange(len(alive)), alive)  # a row's step: rows are in lockstep order
-    for i, shares in enumerate(labels):
-        rows = np.flatnonzero(data.episode == i)
+    by_episode = np.argsort(data.episode, kind="stable")  # each episode's rows, in step order
+    ends = np.cumsum(np.bincount(data.episode, minlength=len(labels)))
+    for shares, rows in zip(labels, np.split(by_episode, ends[:-1]), strict=True):
         k = shares.shape[0]
         data.labels[rows, 2 : 2 + k] = share_scores(shares[:, step[rows] + 1], sharpness).T
 

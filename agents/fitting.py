@@ -74,10 +74,6 @@ def fit(
     k_max = m.shape[1]
     width = (x.shape[1] - len(BASE_FEATURES)) // k_max
     valid = th.as_tensor(node_mask(data.obs, k_max, width)) if permute else None
-    rms = vecnormalize.obs_rms
-    mean = th.as_tensor(rms.mean, dtype=th.float32)
-    std = th.sqrt(th.as_tensor(rms.var, dtype=th.float32) + vecnormalize.epsilon)
-    clip = float(vecnormalize.clip_obs)
     params = [*policy.mlp_extractor.policy_net.parameters(), *policy.action_net.parameters()]
     opt = th.optim.Adam(params, lr=learning_rate)
     per_epoch = -(-len(x) // batch_size)
@@ -92,7 +88,7 @@ def fit(
             xb, yb, mb = x[idx], y[idx], m[idx]
             if valid is not None:
                 xb, yb, mb = permute_nodes(xb, yb, mb, valid[idx], k_max, width, gen)
-            xb = ((xb - mean) / std).clamp(-clip, clip)  # VecNormalize.normalize_obs
+            xb = th.as_tensor(vecnormalize.normalize_obs(xb.numpy()), dtype=th.float32)  # after permuting
             features = policy.extract_features(xb, policy.pi_features_extractor)
             latent = policy.mlp_extractor.forward_actor(features)
             move, share = imitation_loss(policy.action_net(latent), yb, mb)

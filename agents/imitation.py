@@ -159,6 +159,14 @@ def share_rows(settings: ImitationSettings, r: int, parts: list[Dataset], plans:
     return np.concatenate(keep)
 
 
+def _fit_data(
+    settings: ImitationSettings, r: int, parts: list[Dataset], plans: list[Any], k_max: int, width: int
+) -> tuple[Dataset, np.ndarray]:
+    """The labels of rounds 0 .. r and the fit's loss mask: the node mask, and :func:`share_rows`."""
+    every = Dataset.concat(parts)
+    return every, node_mask(every.obs, k_max, width) & share_rows(settings, r, parts, plans)[:, None]
+
+
 def _save(folder: Path, model: Any, venv: Any) -> None:
     folder.mkdir(parents=True, exist_ok=True)
     model.save(folder / "model.zip")
@@ -190,6 +198,7 @@ def run(settings: ImitationSettings) -> dict[str, Any]:
     summary["rounds"] = [e for e in summary["rounds"] if e["round"] < settings.rounds]
     logged = {e["round"] for e in summary["rounds"]}
     parts, model, venv = [], None, None
+    every, mask = None, None  # the last fit's labels and loss mask (all rounds so far)
     for r in range(settings.rounds):
         data_path, folder = out / "data" / f"round_{r}.npz", out / "rounds" / str(r)
         if r in logged and (folder / "model.zip").exists() and data_path.exists():  # resume after it
@@ -211,8 +220,7 @@ def run(settings: ImitationSettings) -> dict[str, Any]:
         parts.append(data)
         if model is None:
             model, venv = _new_model(settings, env, data.obs)
-        every = Dataset.concat(parts)
-        mask = node_mask(every.obs, k_max, width) & share_rows(settings, r, parts, plans)[:, None]
+        every, mask = _fit_data(settings, r, parts, plans, k_max, width)
         losses = fit(model, venv, every, mask, settings.epochs, settings.batch_size,
                      settings.learning_rate, settings.seed + r, settings.progress)  # fmt: skip
         _save(folder, model, venv)
@@ -229,8 +237,8 @@ def run(settings: ImitationSettings) -> dict[str, Any]:
     summary.pop("polish", None)
     if settings.polish_epochs:  # the last round's model, its nodes seen in every order
         start, last = time.perf_counter(), settings.rounds - 1
-        every = Dataset.concat(parts)
-        mask = node_mask(every.obs, k_max, width) & share_rows(settings, last, parts, plans)[:, None]
+        if every is None:  # every round was read back: no fit ran this call
+            every, mask = _fit_data(settings, last, parts, plans, k_max, width)
         losses = fit(model, venv, every, mask, settings.polish_epochs, settings.batch_size,
                      settings.polish_learning_rate, settings.seed + settings.rounds, settings.progress,
                      permute=True)  # fmt: skip
