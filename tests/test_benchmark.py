@@ -25,6 +25,7 @@ from ios_uav_env.benchmark.cli import load_policy, main, parse_env_kwargs
 from ios_uav_env.benchmark.freeze import freeze, heuristic_reference, single_node_content
 from ios_uav_env.benchmark.suite import content_hash, suite_path
 from ios_uav_env.policies import HoverAt
+from tests.tolerances import PLANNER_REL, SOLVER_REL
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -69,10 +70,10 @@ def test_stored_planner_values_reproduce_from_the_planners(suite):
     shortest = sorted(suite, key=lambda s: s.config.T)[:2]
     for s in shortest:
         plan = dp.solve(s.config, resolution=s.reference["dp"]["resolution"])
-        assert plan.mean_rate == pytest.approx(s.dp_rate, rel=1e-9), s.index
+        assert plan.mean_rate == pytest.approx(s.dp_rate, rel=PLANNER_REL), s.index
     plan = sca.solve(shortest[0].config)
     assert plan.feasible == shortest[0].reference["sca"]["feasible"]
-    assert plan.mean_rate == pytest.approx(shortest[0].sca_rate, rel=1e-6)
+    assert plan.mean_rate == pytest.approx(shortest[0].sca_rate, rel=SOLVER_REL)
 
 
 def test_stored_heuristic_values_reproduce(suite):
@@ -80,7 +81,7 @@ def test_stored_heuristic_values_reproduce(suite):
         for key, target in (("hover_peak", "peak"), ("hover_ground", "ground")):
             ref = heuristic_reference(s.config, target)
             assert ref["feasible"] == s.reference[key]["feasible"]
-            assert ref["rate"] == pytest.approx(s.reference[key]["rate"], rel=1e-9), (s.index, key)
+            assert ref["rate"] == pytest.approx(s.reference[key]["rate"], rel=PLANNER_REL), (s.index, key)
 
 
 def test_the_frozen_suite_is_the_checkouts_heldout_suite(suite):

@@ -18,6 +18,7 @@ from ios_uav_env.benchmark.multi_policies import StraightEqualShares
 from ios_uav_env.benchmark.suite import content_hash, suite_path
 from ios_uav_env.benchmark.trajectories import read_plans, write_trajectories
 from ios_uav_env.multinode import maxmin_rate, scheduled_rates
+from tests.tolerances import PLANNER_REL, SOLVER_REL
 
 ROOT = Path(__file__).resolve().parents[2]
 PLANS = ROOT / "results" / "benchmark" / "multi-node-v1"
@@ -67,15 +68,15 @@ def test_a_sample_of_stored_values_reproduces_from_the_planners(suite):
     cheap = sorted(suite, key=lambda s: s.reference["tour"]["seconds"])[:2]
     for s in cheap:
         plan = tour.solve(s.config)
-        assert plan.mean_rate == pytest.approx(s.rate("tour"), rel=1e-9) and plan.feasible, s.index
+        assert plan.mean_rate == pytest.approx(s.rate("tour"), rel=PLANNER_REL) and plan.feasible, s.index
     s = min(suite, key=lambda s: s.reference["sca"]["seconds"])
     plan = sca.solve(s.config)
-    assert plan.feasible and plan.mean_rate == pytest.approx(s.rate("sca"), rel=1e-6), s.index
+    assert plan.feasible and plan.mean_rate == pytest.approx(s.rate("sca"), rel=SOLVER_REL), s.index
     s = min(suite, key=lambda s: s.reference["bound"]["seconds"])
     res = s.reference["bound"]["resolution"]
     plan = solve_multinode(s.config, resolution=res, bound_resolution=res)
-    assert plan.info["upper_bound"] == pytest.approx(s.rate("bound"), rel=1e-9), s.index
-    assert plan.mean_rate == pytest.approx(s.reference["bound"]["plan_rate"], rel=1e-9)
+    assert plan.info["upper_bound"] == pytest.approx(s.rate("bound"), rel=PLANNER_REL), s.index
+    assert plan.mean_rate == pytest.approx(s.reference["bound"]["plan_rate"], rel=PLANNER_REL)
 
 
 @pytest.mark.parametrize("reference", ["tour", "sca"])
