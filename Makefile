@@ -15,9 +15,9 @@ CONSTRAINTS ?= .ci/constraints.txt
 # Gymnasium 0.29, 2.3.0 being yanked), tested in a venv of their own.
 OLDEST_VENV ?= .venv-oldest
 OLDEST_PINS ?= numpy==1.24.4 gymnasium==0.29.1 stable-baselines3==2.3.2 pytest
-OLDEST_TESTS ?= tests/test_env.py tests/test_registration.py tests/test_random_env.py \
-	tests/test_config.py tests/test_channel.py tests/test_policies.py tests/test_trajectory.py \
-	tests/test_peak.py tests/test_rendering.py tests/test_optional.py \
+OLDEST_TESTS ?= tests/envs/test_single.py tests/envs/test_registration.py tests/envs/test_random_env.py \
+	tests/model/test_config.py tests/model/test_channel.py tests/envs/test_policies.py tests/model/test_trajectory.py \
+	tests/model/test_peak.py tests/envs/test_rendering.py tests/test_optional.py \
 	tests/examples/test_example_sb3.py tests/examples/test_example_cleanrl.py
 
 .PHONY: demo test test-oldest docs lint format bench clean

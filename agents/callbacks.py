@@ -169,7 +169,7 @@ class RateEvalCallback(BaseCallback):
         import gymnasium as gym
 
         from agents.loading import Agent
-        from ios_uav_env.rollout import run_episode
+        from ios_uav_env.envs.rollout import run_episode
 
         agent = Agent(self.model, self.model.get_vec_normalize_env(), self.env_id, self.env_kwargs,
                       repeat=self.repeat)  # fmt: skip

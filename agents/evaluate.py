@@ -1,6 +1,6 @@
 """Evaluate trained agents against the planners on one scenario: table (markdown + CSV) and figure.
 
-Each agent is rolled out deterministically (``agents.rollout``, ``ios_uav_env.rollout.run_episode``):
+Each agent is rolled out deterministically (``agents.rollout``, ``ios_uav_env.envs.rollout.run_episode``):
 its trajectory is checked with ``check_trajectory`` and scored with ``average_rate``, exactly
 like the planners' plans (SCA "ia", DP, "ia-ft", "cuc") on the same
 ``ScenarioConfig``. Under the Rician channel every trajectory, agent's or planner's, is replayed

@@ -29,9 +29,9 @@ import numpy as np
 from ios_uav_env import ScenarioConfig
 from ios_uav_env.benchmark.multi import MultiScenarioResult, multi_episode, score_plan
 from ios_uav_env.benchmark.suite import SuiteScenario
+from ios_uav_env.envs.multi import DEFAULT_NODES
+from ios_uav_env.envs.registration import MULTINODE_IDS
 from ios_uav_env.io import atomic_write_text, save_figure, save_rows_csv
-from ios_uav_env.multinode_env import DEFAULT_NODES
-from ios_uav_env.registration import MULTINODE_IDS
 
 DEFAULT_MULTI = ScenarioConfig(ground_nodes=DEFAULT_NODES)
 REFERENCE_CACHE = Path("out/multinode-references")
@@ -117,7 +117,7 @@ def planner_rows(scenario: SuiteScenario, record: dict[str, Any]) -> list[MultiR
 def model_max_nodes(agent: Any, default: int = 4) -> int:
     """K_max of the model's observation (``len(BASE_FEATURES)`` + K_max node blocks, each
     ``NODE_FEATURES``, plus ``NODE_PEAK_FEATURES`` with ``peak_hint``); ``default`` if unknown."""
-    from ios_uav_env.multinode_env import BASE_FEATURES, NODE_FEATURES, NODE_PEAK_FEATURES
+    from ios_uav_env.envs.multi import BASE_FEATURES, NODE_FEATURES, NODE_PEAK_FEATURES
 
     shape = getattr(getattr(getattr(agent, "model", None), "observation_space", None), "shape", None)
     if shape is None:

@@ -26,11 +26,11 @@ from typing import Any
 
 import numpy as np
 
-from ios_uav_env.config import ScenarioConfig
+from ios_uav_env.envs.multi import BASE_FEATURES, MULTINODE_RANGES, sample_multinode, share_scores
+from ios_uav_env.envs.policies import full_speed_move
 from ios_uav_env.io import atomic_write_bytes
-from ios_uav_env.multinode import maxmin_schedule, node_rates
-from ios_uav_env.multinode_env import BASE_FEATURES, MULTINODE_RANGES, sample_multinode, share_scores
-from ios_uav_env.policies import full_speed_move
+from ios_uav_env.model.config import ScenarioConfig
+from ios_uav_env.model.schedule import maxmin_schedule, node_rates
 
 RANDOM_ID = "ios_uav_env/IOSUAV-MultiNode-Random-v0"
 #: Scenario seeds of the training plans start here (the suite draws from its own SeedSequence).
@@ -77,7 +77,7 @@ def tour_plans(
 ) -> list[ExpertPlan]:
     """The tour plans of training scenarios ``first_seed`` .. ``first_seed + n - 1`` (cached)."""
     from baselines.runner import run_tasks
-    from ios_uav_env.config import as_config
+    from ios_uav_env.model.config import as_config
 
     tasks = [{"seed": first_seed + i, "nodes": list(nodes)} for i in range(n)]
     records = run_tasks(tour_record, tasks, cache, key=_plan_key, jobs=jobs, progress=progress,

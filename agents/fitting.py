@@ -9,7 +9,7 @@ from typing import Any
 import numpy as np
 
 from agents.expert import Dataset, node_mask
-from ios_uav_env.multinode_env import BASE_FEATURES
+from ios_uav_env.envs.multi import BASE_FEATURES
 
 #: Weight of the move's squared error against a node score's: the trajectory is what the rates
 #: depend on most, and a drift while hovering adds up over the slots.

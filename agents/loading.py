@@ -9,7 +9,7 @@ matching ``rl_model_vecnormalize_<steps>_steps.pkl``. The algorithm is the one i
 >>> agent = load_agent("agents/models/ppo_IOSUAV-v0")                      # doctest: +SKIP
 >>> early = load_agent("runs/<run>", checkpoint=250_000)                   # doctest: +SKIP
 >>> import gymnasium as gym                                                # doctest: +SKIP
->>> from ios_uav_env.rollout import run_episode                            # doctest: +SKIP
+>>> from ios_uav_env.envs.rollout import run_episode                            # doctest: +SKIP
 >>> run_episode(gym.make(agent.env_id, **agent.env_kwargs), agent.act)     # doctest: +SKIP
 """
 
@@ -61,7 +61,7 @@ ALGOS: Mapping[str, type] = _Algorithms()
 class Agent:
     """A trained policy: ``model.predict`` on observations normalised as in training (if they were).
 
-    An ``Agent`` is a policy for ``ios_uav_env.rollout.run_episode``: ``agent(obs)`` is
+    An ``Agent`` is a policy for ``ios_uav_env.envs.rollout.run_episode``: ``agent(obs)`` is
     ``agent.act(obs)``, the deterministic action.
     """
 
@@ -72,7 +72,7 @@ class Agent:
     name: str = "agent"
     meta: dict[str, Any] = field(default_factory=dict)  # config.json and summary.json of its run
     repeat: int = 1  # slots each action is held (agents.wrappers.ActionRepeat in its training)
-    batched = True  # act takes a (B, obs_dim) batch too (ios_uav_env.rollout.batch_policy)
+    batched = True  # act takes a (B, obs_dim) batch too (ios_uav_env.envs.rollout.batch_policy)
 
     def act(self, obs: np.ndarray, deterministic: bool = True) -> np.ndarray:
         if self.vecnormalize is not None:

@@ -56,7 +56,7 @@ class NumpyPolicy:
     obs_std: np.ndarray | None = None
     obs_clip: float = np.inf
     repeat: int = 1  # slots each action is held (an agent trained with agents.wrappers.ActionRepeat)
-    batched = True  # act takes a (B, obs_dim) batch too (ios_uav_env.rollout.batch_policy)
+    batched = True  # act takes a (B, obs_dim) batch too (ios_uav_env.envs.rollout.batch_policy)
 
     @classmethod
     def from_sb3(cls, model: Any, vecnormalize: Any = None, repeat: int = 1) -> NumpyPolicy:

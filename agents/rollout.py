@@ -1,5 +1,5 @@
 """Policies on given scenarios, each in the env it was trained in; the episode loop is
-``ios_uav_env.rollout.run_episode`` and the result its ``Episode``.
+``ios_uav_env.envs.rollout.run_episode`` and the result its ``Episode``.
 
 A fixed id (``ios_uav_env.ENV_IDS``) sets the surface, so a scenario runs in the id of its
 surface made on it (``gym.make(id, config=cfg, **env_kwargs)``); any other id (the randomised
@@ -21,7 +21,7 @@ import gymnasium as gym
 import numpy as np
 
 from ios_uav_env import ENV_IDS, ScenarioConfig
-from ios_uav_env.rollout import Episode, run_episode, run_episodes
+from ios_uav_env.envs.rollout import Episode, run_episode, run_episodes
 
 Policy = Callable[[np.ndarray], Any]
 
@@ -84,7 +84,7 @@ def run_scenarios(
 ) -> list[Episode]:
     """One deterministic episode of ``policy`` per scenario of ``configs``, each reset with
     ``seed``. On a randomised id: all of them at once, row i of the id's batched env pinned to
-    ``configs[i]`` (``ios_uav_env.rollout.run_episodes``; the same episodes as one env pinned per
+    ``configs[i]`` (``ios_uav_env.envs.rollout.run_episodes``; the same episodes as one env pinned per
     scenario, to 1e-9, in about the time of one); on a fixed id: one env per scenario
     (:class:`ScenarioRunner`), since its observation space is the scenario's own."""
     configs = list(configs)

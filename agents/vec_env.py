@@ -1,8 +1,8 @@
 """Stable-Baselines3 on the natively batched env: a ``VecEnv`` over ``IOSUAVVectorEnv``.
 
 SB3's ``DummyVecEnv`` steps B Python envs one by one and deep-copies every info dict; this
-adapter steps the B episodes as one array computation (``ios_uav_env.vector_env``, or
-``ios_uav_env.multinode_vector`` for the multi-node ids; same-step autoreset as SB3 expects: a
+adapter steps the B episodes as one array computation (``ios_uav_env.envs.single_vector``, or
+``ios_uav_env.envs.multi_vector`` for the multi-node ids; same-step autoreset as SB3 expects: a
 finished row's last observation is in its info's ``terminal_observation``) and hands SB3 an
 empty info dict for every row that did not just finish. Wrap it in ``VecMonitor`` for episode
 statistics and in ``VecNormalize`` as usual.
@@ -45,7 +45,7 @@ class BatchedVecEnv(VecEnv):
     The multi-node ids skip the LP of ``best_schedule_rate`` at episode ends (18 ms per episode
     at N = 150, far more than the steps; training needs the reward only) unless ``env_kwargs``
     sets ``best_schedule=True``. A finished row's info has ``average_rate`` (for the multi-node
-    ids the agent's own score ``min_rate``, as ``ios_uav_env.rollout`` reports it) and
+    ids the agent's own score ``min_rate``, as ``ios_uav_env.envs.rollout`` reports it) and
     ``feasible``.
     """
 

@@ -12,7 +12,7 @@ from typing import Any, SupportsFloat
 import gymnasium as gym
 import numpy as np
 
-from ios_uav_env.policies import move_toward
+from ios_uav_env.envs.policies import move_toward
 
 
 class ShiftReward(gym.RewardWrapper):
@@ -112,7 +112,7 @@ def draw_targets(
     """One prefix target per scenario of ``configs`` ((n, 2) m): with probability ``peak_prob`` the
     reachable rate peak of one of its nodes drawn uniformly (``node_peaks``, the ``peak_hint``
     points) plus Gaussian noise of ``peak_noise`` m per axis, else a point uniform in ``box``."""
-    from ios_uav_env.multinode_env import node_peaks
+    from ios_uav_env.envs.multi import node_peaks
 
     targets = rng.uniform(box[:, 0], box[:, 1], (len(configs), 2))
     near = rng.random(len(configs)) < peak_prob

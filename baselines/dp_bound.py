@@ -1,7 +1,7 @@
 r"""Several ground nodes: a certified upper bound on the max-min rate, and DP plans below it.
 
 **The bound.** For any w in the simplex and any trajectory q, by weak duality
-(``ios_uav_env.multinode``)
+(``ios_uav_env.model.schedule``)
 
     V(q) <= (1/N) sum_n f_w(q[n]),   f_w(q) = max_k w_k r_k(q),
 
@@ -27,11 +27,11 @@ relaxed optimum is >= UB(w). The DP is the single-node machinery (``disk_max`` o
 relaxed offsets) with the extra state O.
 
 **Rate bound over a rectangle** [x_lo, x_hi] x [y_lo, y_hi] (bounds may be infinite), for
-zeta = direct + surface (``ios_uav_env.channel``): the direct amplitude
+zeta = direct + surface (``ios_uav_env.model.channel``): the direct amplitude
 K (d^2 + z_U^2)^(-alpha/4) is largest at the rectangle's point nearest to w_k (exact). The
 surface amplitude is s sum_j c_j phi(|dx|, rho_j), phi(d, rho) = d^3 / (d^2 + rho^2)^2,
 rho_j^2 = (y - y_j)^2 + (z_U - z_j)^2, over the weighted nodes (y_j, z_j, c_j) of
-``ios_uav_env.surface_nodes`` (the scorer's model). For fixed rho, phi increases in d up to
+``ios_uav_env.model.surface.surface_nodes`` (the scorer's model). For fixed rho, phi increases in d up to
 d = sqrt(3) rho and decreases after; it decreases in rho. So over the rectangle
 sup phi = phi(clamp(sqrt(3) rho_min, d_lo, d_hi), rho_min) for c_j > 0 and, for c_j < 0
 (the compression may make some weights negative), the term is bounded by c_j times

@@ -1,8 +1,8 @@
 r"""The paper's algorithm (Section III): alternating optimisation with SCA for the trajectory.
 
 **Alternation.** Given a trajectory, the optimal phases are closed form, eq. (13)
-(``ios_uav_env.phase_shifts``); they align every path, so the expected gain of slot n is
-zeta(q[n])^2 with the phase-aligned amplitude of the model (``ios_uav_env.zeta``). The phase
+(``ios_uav_env.model.channel.phase_shifts``); they align every path, so the expected gain of slot n is
+zeta(q[n])^2 with the phase-aligned amplitude of the model (``ios_uav_env.model.channel.zeta``). The phase
 step is therefore implicit in zeta, and each outer iteration is one SCA step on the
 trajectory, problem (25):
 
@@ -10,7 +10,7 @@ trajectory, problem (25):
     zeta(q) = sum_k c_k(q) |x - x_c|^3 / d_k(q)^4 + K d_UG(q)^(-alpha/2),
 
 with c_k = J s(q) w_k, s(q) the side factor (1 reflection, epsilon / 0 transmission),
-(y_k, z_k, w_k) the weighted nodes ("tiles") of ``ios_uav_env.surface_nodes`` and
+(y_k, z_k, w_k) the weighted nodes ("tiles") of ``ios_uav_env.model.surface.surface_nodes`` and
 d_k^2 = (x - x_c)^2 + (y - y_k)^2 + (z_U - z_k)^2, K = sqrt(G_tx G_rx). With
 the default compression the nodes reproduce the element sum to ``config.quadrature_tol``; SCA
 uses ``tiles`` x ``tiles`` nodes (default 2, 4 tiles) and the exact model scores every iterate.
@@ -137,7 +137,8 @@ import ios_uav_env as ie
 from baselines.plan import Plan
 from baselines.sca_problem import PLANE_TOL, STEP_MARGIN, Surrogate, tiled_config
 from ios_uav_env import ScenarioConfig
-from ios_uav_env.peak import rate_peak
+from ios_uav_env.model import channel as ch
+from ios_uav_env.model.peak import rate_peak
 
 #: Default tiles per axis (2 x 2 = 4 nodes; see the module docstring).
 DEFAULT_TILES = 2
@@ -243,7 +244,7 @@ def tiling_error(config: ScenarioConfig, trajectory: np.ndarray, tiles: int) -> 
     max_n |zeta_tiled - zeta| / zeta, ``rate_abs`` / ``rate_rel`` = error of the mean rate.
     """
     tiled = tiled_config(config, tiles)
-    z_exact, z_tiled = ie.zeta(config, trajectory), ie.zeta(tiled, trajectory)
+    z_exact, z_tiled = ch.zeta(config, trajectory), ch.zeta(tiled, trajectory)
     r_exact, r_tiled = ie.average_rate(config, trajectory), ie.average_rate(tiled, trajectory)
     return {
         "zeta_max_rel": float(np.max(np.abs(z_tiled - z_exact) / z_exact)),

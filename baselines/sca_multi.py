@@ -1,7 +1,7 @@
 r"""The paper's SCA for several ground nodes, inside block-coordinate descent (BCD).
 
 Problem: max over (Q, alpha) of min_k R_k, R_k = (1/N) sum_n alpha_k[n] r_k(q[n])
-(``ios_uav_env.multinode``). Two blocks, alternated:
+(``ios_uav_env.model.schedule``). Two blocks, alternated:
 
 1. **Shares** for a fixed trajectory: the LP ``ios_uav_env.best_schedule`` (exact optimum).
 2. **Trajectory** for fixed shares: one SCA step of the paper (``baselines.sca``) on
@@ -56,6 +56,7 @@ from baselines.sca_problem import (
     Surrogate,
 )
 from ios_uav_env import ScenarioConfig
+from ios_uav_env.model import channel as ch
 
 #: An exact-score decrease beyond this (relative) stops a start with ``"decrease"``.
 DECREASE_TOL = 1e-9
@@ -156,7 +157,7 @@ class MultiSurrogate:
             p[f"cd_{k}"].value = a * lin.values["cd"]
             # per-slot value of the surrogate at q^l: the exact rate where the surface term is
             # modelled (anchoring), the direct-link rate where it is dropped
-            direct = ie.direct_amplitude(cfg.node_config(k), qi)
+            direct = ch.direct_amplitude(cfg.node_config(k), qi)
             exact = ie.slot_rates(cfg.node_config(k), qi)
             value = np.where(lin.active, exact, np.log2(1.0 + cfg.eta * direct * direct))
             p[f"c0_{k}"].value = float((a @ value + shares[k, [0, -1]] @ ends[k]) / cfg.N)

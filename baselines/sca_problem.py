@@ -2,7 +2,7 @@
 
 See :mod:`baselines.sca` for the derivation. This module holds the numerics: the
 linearisation of problem (15) at an iterate (:meth:`Surrogate.linearise`, numpy, using the
-model's :func:`ios_uav_env.surface_terms` on the tiled config) and the cvxpy problem
+model's :func:`ios_uav_env.model.channel.surface_terms` on the tiled config) and the cvxpy problem
 (:meth:`Surrogate.solve`). With ``dpp=True`` (default) every linearisation point and
 coefficient is a :class:`cvxpy.Parameter`: the problem is canonicalised once and each
 iteration only rewrites the parameter values; ``dpp=False`` rebuilds the problem with
@@ -28,6 +28,8 @@ import numpy as np
 
 import ios_uav_env as ie
 from ios_uav_env import ScenarioConfig
+from ios_uav_env.model import channel as ch
+from ios_uav_env.model import surface as surf
 
 #: Length unit (m) of the solver's variables.
 LENGTH_SCALE = 100.0
@@ -77,7 +79,7 @@ class Surrogate:
         self.warm_start = False  # see solve(): cvxpy's in-place Clarabel update can fail
         self.solver_options = dict(solver_options or {})
         self.has_surface = config.surface != "none"
-        nodes = ie.surface_nodes(self.tiled)
+        nodes = surf.surface_nodes(self.tiled)
         if self.has_surface and not np.all(nodes.weight > 0):
             # c_k > 0 is what makes (15a) a convex (log-sum-exp) function of (s, u, v)
             raise ValueError(f"tiles={tiles} gives non-positive node weights; use another tile count")
@@ -165,7 +167,7 @@ class Surrogate:
         """
         cfg, scale = self.config, LENGTH_SCALE
         qi = q[1:-1]
-        a_d = ie.direct_amplitude(cfg, qi)
+        a_d = ch.direct_amplitude(cfg, qi)
         dx = qi[:, 0] - cfg.ios_center[0]
         gl2 = (((qi - np.asarray(cfg.ground_node)) ** 2).sum(axis=1) + cfg.uav_altitude**2) / scale**2
         # (10b) with an inward margin, loosened to the current step where that is longer (a
@@ -173,10 +175,10 @@ class Surrogate:
         steps = np.minimum(np.linalg.norm(np.diff(q, axis=0), axis=1), cfg.D)
         values: dict[str, np.ndarray] = {"gl2": gl2, "dmax": np.maximum(cfg.D - STEP_MARGIN, steps) / scale}
         if self.has_surface:
-            terms = ie.surface_terms(self.tiled, qi)  # (m, K): J s(q) |dx|^3 w_k / d_k^4
+            terms = ch.surface_terms(self.tiled, qi)  # (m, K): J s(q) |dx|^3 w_k / d_k^4
             tiled = terms.sum(axis=1)
             active = (np.abs(dx) >= PLANE_TOL) & (tiled > 0)
-            exact = ie.surface_amplitude(cfg, qi)
+            exact = ch.surface_amplitude(cfg, qi)
             anchor = np.where(active, exact / np.where(active, tiled, 1.0), 1.0)
             t = np.where(active[:, None], terms * anchor[:, None], 0.0)
         else:

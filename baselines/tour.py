@@ -44,7 +44,7 @@ import ios_uav_env as ie
 from baselines.fixed import _leg
 from baselines.plan import Plan
 from ios_uav_env import ScenarioConfig, moves_needed
-from ios_uav_env.peak import reachable
+from ios_uav_env.model.peak import reachable
 
 #: Grid (m) of the node rate maps that give the compromise points.
 CANDIDATE_RESOLUTION = 5.0
@@ -177,7 +177,7 @@ def _solve_route(
 
 def route_bound(config: ScenarioConfig, r_path: np.ndarray, where: list[int], weights: np.ndarray) -> float:
     """An upper bound of the route LP: for every w in the simplex (weak duality, as in
-    ``ios_uav_env.multinode``) (1/N) [sum_n max_k w_k r_k[n] + H max_i max_k w_k r_k(P_i)]
+    ``ios_uav_env.model.schedule``) (1/N) [sum_n max_k w_k r_k[n] + H max_i max_k w_k r_k(P_i)]
     bounds it (H = N - L the hover slots); the minimum over the rows w of ``weights`` (J, K).
     Used to skip routes that cannot enter the best ``keep``."""
     per_slot = np.max(np.asarray(weights)[:, :, None] * r_path[None], axis=1)  # (J, L)

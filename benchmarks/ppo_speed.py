@@ -4,7 +4,7 @@ Trains SB3 PPO with a zoo-format entry (default ``agents/hyperparams/ppo_fast.ym
 natively batched env (``agents.vec_env.BatchedVecEnv``, wrapped in ``VecNormalize`` as the
 recipe says), checkpoints nothing, and every ``--eval-every`` seconds of wall time rolls the
 deterministic policy out for one episode of ``IOSUAVEnv()`` (the default scenario, arrival
-guard on) with ``ios_uav_env.rollout.run_episode``. It prints the elapsed time, the steps,
+guard on) with ``ios_uav_env.envs.rollout.run_episode``. It prints the elapsed time, the steps,
 the steps/s and the % of DP (2.404068 bps/Hz, ``baselines.dp.solve(ScenarioConfig())``),
 and stops at the bar (default 99.5 % of DP) or at ``--time-cap`` seconds. The clock starts
 after the imports: it includes building the env and the model, the numba kernels' loading,
@@ -42,8 +42,8 @@ from stable_baselines3.common.vec_env import VecEnvWrapper, VecMonitor, VecNorma
 from agents.hyperparams import Hyperparams, check_entry, resolve  # noqa: E402
 from agents.loading import Agent  # noqa: E402
 from agents.vec_env import BatchedVecEnv, wrap_batched  # noqa: E402
-from ios_uav_env.env import IOSUAVEnv  # noqa: E402
-from ios_uav_env.rollout import run_episode  # noqa: E402
+from ios_uav_env.envs.rollout import run_episode  # noqa: E402
+from ios_uav_env.envs.single import IOSUAVEnv  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
 DEFAULT_FILE = ROOT / "agents" / "hyperparams" / "ppo_fast.yml"

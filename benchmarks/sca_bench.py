@@ -35,11 +35,11 @@ import numpy as np
 if __package__ in (None, ""):  # run as a script: make the repository importable
     sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-import ios_uav_env as ie  # noqa: E402
 from baselines import dp, sca  # noqa: E402
 from baselines.fixed import fly_hover_fly  # noqa: E402
 from baselines.sca_problem import tiled_config  # noqa: E402
 from ios_uav_env import ScenarioConfig  # noqa: E402
+from ios_uav_env.model import channel as ch
 
 NAMES = {"ios": "IA", "ris": "RA", "none": "CUC"}
 
@@ -99,7 +99,7 @@ def transmissive_hover(out: dict[str, Any]) -> None:
     init = fly_hover_fly(config, point)
     plan = sca.solve(config, init=init)
     hover = _hover_points(plan.trajectory)
-    sides = ie.side_factor(config, hover[:, 0])
+    sides = ch.side_factor(config, hover[:, 0])
     res = {
         "init_hover": list(point), "init_rate": init.mean_rate, "rate": plan.mean_rate,
         "n_hover_slots": len(hover), "hover_mean": hover.mean(axis=0).tolist(),
@@ -120,16 +120,16 @@ def tiling(out: dict[str, Any]) -> None:
     init = fly_hover_fly(config, sca.best_hover_points(config)["behind"])
     xs, ys = np.meshgrid(np.arange(-400, 401, 5.0), np.arange(-200, 201, 5.0))
     grid = np.column_stack([xs.ravel(), ys.ravel()])
-    z_exact = ie.zeta(config, grid)
-    z_elements = ie.zeta(config.replace(quadrature_nodes=0), init.trajectory)
+    z_exact = ch.zeta(config, grid)
+    z_elements = ch.zeta(config.replace(quadrature_nodes=0), init.trajectory)
     print(f"(the config's own model, 8 x 8 nodes, vs the 6000 elements on the start: "
-          f"{np.max(np.abs(ie.zeta(config, init.trajectory) - z_elements) / z_elements):.1e})")  # fmt: skip
+          f"{np.max(np.abs(ch.zeta(config, init.trajectory) - z_elements) / z_elements):.1e})")  # fmt: skip
     print(f"{'tiles':>5} {'map zeta err':>12} {'traj zeta err':>13} {'traj rate err':>13} {'SCA rate':>10} "
           f"{'iters':>5} {'s/iter':>7} {'compile s':>9}")  # fmt: skip
     rows = []
     for tiles in (1, 2, 3, 4):
         plan, _ = _cold_solve(config, init=init, tiles=tiles)
-        map_err = float(np.max(np.abs(ie.zeta(tiled_config(config, tiles), grid) - z_exact) / z_exact))
+        map_err = float(np.max(np.abs(ch.zeta(tiled_config(config, tiles), grid) - z_exact) / z_exact))
         err = plan.info["tiling_error"]
         per_iter = float(np.median([h["seconds"] for h in plan.history if h["iteration"] > 1] or [np.nan]))
         row = {"tiles": tiles, "map_zeta_max_rel": map_err, **err, "rate": plan.mean_rate,

@@ -32,7 +32,7 @@ from gymnasium.envs.classic_control.cartpole import CartPoleVectorEnv
 
 import ios_uav_env  # noqa: F401  (registers the ids)
 from ios_uav_env.jit import HAVE_NUMBA
-from ios_uav_env.multinode import maxmin_rate
+from ios_uav_env.model.schedule import maxmin_rate
 
 
 def numba_threads_available() -> int:

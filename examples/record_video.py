@@ -2,7 +2,7 @@
 
 Run:  python examples/record_video.py --out videos [--frames 40] [--env ID [ID ...]]
 Makes the id with ``render_mode="rgb_array"``, flies the fly-to-G-and-hover heuristic
-(``ios_uav_env.policies.HoverAt``; the env's arrival guard brings it back to qF) and checks the mp4.
+(``ios_uav_env.envs.policies.HoverAt``; the env's arrival guard brings it back to qF) and checks the mp4.
 """
 
 from __future__ import annotations
@@ -15,7 +15,7 @@ import gymnasium as gym
 from gymnasium.wrappers import RecordVideo
 
 import ios_uav_env  # noqa: F401  (registers the ids)
-from ios_uav_env.policies import HoverAt
+from ios_uav_env.envs.policies import HoverAt
 
 
 def record(env_id: str, out: Path, frames: int, seed: int) -> Path:

@@ -63,7 +63,7 @@ def trajectory_panel(
 ) -> Path:
     """Trajectories over the rate map of ``config``, y stretched (the paths run along x), with
     each trajectory's hover points (moves < HOVER_FRACTION x D) as large dots."""
-    from ios_uav_env.rendering import default_extent, plot_rate_map
+    from ios_uav_env.envs.rendering import default_extent, plot_rate_map
 
     x0, x1, _, _ = default_extent(config)
     ys = np.concatenate([np.asarray(q)[:, 1] for q in trajectories.values()] + [[config.ground_node[1]]])

@@ -9,28 +9,17 @@ Communications via Intelligent Omni-Surface", IEEE WCL 11(9), 2022 (the model:
 >>> env = gym.make("ios_uav_env/IOSUAV-v0")
 >>> generalist_env = gym.make("ios_uav_env/IOSUAV-Random-v0")  # a new scenario at every reset
 
-The system model (``config``, ``surface``, ``channel``, ``trajectory``, ``scenarios``) needs
-only numpy; the env needs Gymnasium; rendering imports matplotlib lazily.
+The system model (``ios_uav_env.model``: the scenario, the channel, the scorer, the K-node schedule)
+needs only numpy; the envs (``ios_uav_env.envs``) need Gymnasium; the benchmark
+(``ios_uav_env.benchmark``) scores any policy or plan on frozen suites; rendering imports
+matplotlib lazily.
 """
 
-from ios_uav_env.channel import (
-    RateKernel,
-    channel,
-    direct_amplitude,
-    element_amplitudes,
-    faded_rates,
-    los_channel,
-    phase_shifts,
-    radiation_patterns,
-    rate_kernel,
-    side_factor,
-    slot_rates,
-    surface_amplitude,
-    surface_terms,
-    zeta,
-)
-from ios_uav_env.config import FEASIBILITY_TOL, SURFACES, ScenarioConfig, moves_needed, scene_box
-from ios_uav_env.multinode import (
+from ios_uav_env.model.channel import RateKernel, faded_rates, rate_kernel, slot_rates
+from ios_uav_env.model.config import FEASIBILITY_TOL, SURFACES, ScenarioConfig, moves_needed, scene_box
+from ios_uav_env.model.peak import Peak, rate_peak
+from ios_uav_env.model.scenarios import DEFAULT_RANGES, ScenarioRanges, sample_scenario
+from ios_uav_env.model.schedule import (
     Schedule,
     best_schedule,
     maxmin_rate,
@@ -39,10 +28,7 @@ from ios_uav_env.multinode import (
     schedule,
     scheduled_rates,
 )
-from ios_uav_env.peak import Peak, rate_peak
-from ios_uav_env.scenarios import DEFAULT_RANGES, ScenarioRanges, sample_scenario
-from ios_uav_env.surface import element_positions, surface_nodes
-from ios_uav_env.trajectory import TrajectoryReport, average_rate, check_trajectory
+from ios_uav_env.model.trajectory import TrajectoryReport, average_rate, check_trajectory
 
 __version__ = "0.1.0"
 
@@ -58,31 +44,19 @@ __all__ = [
     "TrajectoryReport",
     "average_rate",
     "best_schedule",
-    "channel",
     "check_trajectory",
-    "direct_amplitude",
-    "element_amplitudes",
-    "element_positions",
     "faded_rates",
-    "los_channel",
     "maxmin_rate",
     "maxmin_schedule",
     "moves_needed",
     "node_rates",
-    "phase_shifts",
-    "radiation_patterns",
     "rate_kernel",
     "rate_peak",
     "sample_scenario",
     "scene_box",
     "schedule",
     "scheduled_rates",
-    "side_factor",
     "slot_rates",
-    "surface_amplitude",
-    "surface_nodes",
-    "surface_terms",
-    "zeta",
 ]
 
 try:  # the env needs Gymnasium; the model does not
@@ -93,11 +67,11 @@ else:
     _HAS_GYMNASIUM = True
 
 if _HAS_GYMNASIUM:
-    from ios_uav_env.env import INFO_KEYS, IOSUAVEnv
-    from ios_uav_env.multinode_env import MultiNodeEnv
-    from ios_uav_env.options import EnvOptions
-    from ios_uav_env.random_env import RandomIOSUAVEnv
-    from ios_uav_env.registration import ENV_IDS, MULTINODE_IDS, RANDOM_ENV_ID, register_envs
+    from ios_uav_env.envs.multi import MultiNodeEnv
+    from ios_uav_env.envs.options import EnvOptions
+    from ios_uav_env.envs.random_env import RandomIOSUAVEnv
+    from ios_uav_env.envs.registration import ENV_IDS, MULTINODE_IDS, RANDOM_ENV_ID, register_envs
+    from ios_uav_env.envs.single import INFO_KEYS, IOSUAVEnv
 
     register_envs()
     __all__ += [

@@ -18,12 +18,12 @@ import gymnasium as gym
 import numpy as np
 
 import ios_uav_env  # noqa: F401  (registers the ids)
-from ios_uav_env.config import SURFACES, ScenarioConfig
-from ios_uav_env.policies import HoverAt
-from ios_uav_env.registration import ENV_IDS
-from ios_uav_env.rendering import save_png
-from ios_uav_env.rollout import Episode, run_episode
-from ios_uav_env.trajectory import average_rate, check_trajectory
+from ios_uav_env.envs.policies import HoverAt
+from ios_uav_env.envs.registration import ENV_IDS
+from ios_uav_env.envs.rendering import save_png
+from ios_uav_env.envs.rollout import Episode, run_episode
+from ios_uav_env.model.config import SURFACES, ScenarioConfig
+from ios_uav_env.model.trajectory import average_rate, check_trajectory
 
 ID_OF_SURFACE = {kwargs["surface"]: env_id for env_id, kwargs in ENV_IDS.items()}
 DOCS_FRAME = Path("docs/demo_frame.png")

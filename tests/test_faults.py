@@ -13,10 +13,11 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from ios_uav_env import ScenarioConfig, surface_amplitude
-from ios_uav_env.env import IOSUAVEnv
-from ios_uav_env.options import EnvOptions
-from ios_uav_env.surface import node_count, quadrature_error_bound
+from ios_uav_env import ScenarioConfig
+from ios_uav_env.envs.options import EnvOptions
+from ios_uav_env.envs.single import IOSUAVEnv
+from ios_uav_env.model.channel import surface_amplitude
+from ios_uav_env.model.surface import node_count, quadrature_error_bound
 
 
 def _near_surface_points(config: ScenarioConfig) -> np.ndarray:

@@ -17,7 +17,7 @@ from pathlib import Path
 from typing import Any
 
 from agents.evaluate_multi import fast_act, model_max_nodes
-from ios_uav_env.registration import MULTINODE_IDS
+from ios_uav_env.envs.registration import MULTINODE_IDS
 
 MULTI_SUITE = "multi-node-v1"
 

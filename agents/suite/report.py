@@ -4,7 +4,7 @@ For every suite scenario (:mod:`agents.suite`) the policy is rolled out determin
 and its trajectory scored with ``ios_uav_env.average_rate`` and checked with
 ``check_trajectory``, like the planners' plans. A policy trained on
 ``ios_uav_env/IOSUAV-Random-v0`` runs every scenario at once, row i of that id's batched env
-pinned to scenario i (``agents.rollout.run_scenarios``, ``ios_uav_env.rollout.run_episodes``;
+pinned to scenario i (``agents.rollout.run_scenarios``, ``ios_uav_env.envs.rollout.run_episodes``;
 the same episodes as one env pinned per scenario, tested); one trained on a fixed id runs in
 that id made on each scenario (``ScenarioRunner``), so the single-scenario agents can be
 scored too. An SB3 agent plans with its numpy export (``agents.numpy_policy``), the same
@@ -41,11 +41,11 @@ from agents.evaluate_multi import fast_act
 from agents.rollout import ScenarioRunner, run_scenarios
 from agents.suite import SUITE_PATH, Suite, SuiteEntry, load_suite
 from ios_uav_env import ENV_IDS, RANDOM_ENV_ID
+from ios_uav_env.envs.policies import HoverAt
+from ios_uav_env.envs.rollout import Episode
 from ios_uav_env.io import atomic_write_text, save_figure
-from ios_uav_env.policies import HoverAt
-from ios_uav_env.rollout import Episode
 
-#: The heuristic policies :func:`load_policy` knows by name (``ios_uav_env.policies.HoverAt``).
+#: The heuristic policies :func:`load_policy` knows by name (``ios_uav_env.envs.policies.HoverAt``).
 HEURISTICS: dict[str, Callable[[], HoverAt]] = {
     "heuristic": lambda: HoverAt("ground"),
     "peak-heuristic": lambda: HoverAt("peak"),
@@ -229,7 +229,7 @@ def save_trajectories_figure(
     rows: Sequence[SuiteRow], suite: Suite, path: str | Path, name: str = "policy"
 ) -> Path:
     """2 x 3 small multiples: six scenarios from the worst to the best % of DP (policy, DP, SCA)."""
-    from ios_uav_env.rendering import plot_rate_map, plot_trajectories
+    from ios_uav_env.envs.rendering import plot_rate_map, plot_trajectories
 
     by_index = {e.index: e for e in suite}
     ranked = sorted(rows, key=lambda r: r.pct_dp)

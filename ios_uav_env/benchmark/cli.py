@@ -10,7 +10,7 @@
 
 ``--policy`` imports ``PKG.MODULE`` (the current directory is on the path) and takes ``ATTR``
 (dotted for a nested attribute): a policy, or a class (instantiated without arguments), or a
-call with literal arguments, e.g. ``"ios_uav_env.policies:HoverAt('peak')"``. ``--env-kwargs``
+call with literal arguments, e.g. ``"ios_uav_env.envs.policies:HoverAt('peak')"``. ``--env-kwargs``
 values are JSON or Python literals (``peak_hint:true``), else strings. ``evaluate`` prints the
 summary line (mean / p10 / min % of DP and of SCA, feasible count, median time to plan) and
 writes ``results.csv``, ``results.json``, ``results.md`` and ``pct_dp.png`` (with matplotlib)

@@ -14,8 +14,8 @@ from typing import Any
 
 import numpy as np
 
-from ios_uav_env.config import ScenarioConfig
 from ios_uav_env.io import save_figure
+from ios_uav_env.model.config import ScenarioConfig
 
 
 def _figure(size: tuple[float, float]) -> Any:
@@ -32,7 +32,7 @@ def shares_panels(
 ) -> None:
     """The trajectory coloured by the served node over the best-node rate map (``map_ax``) and the
     shares (K, N) stacked against the slot (``share_ax``)."""
-    from ios_uav_env.rendering_multi import NODE_COLORS, plot_multinode_map, plot_served_trajectories
+    from ios_uav_env.envs.rendering_multi import NODE_COLORS, plot_multinode_map, plot_served_trajectories
 
     a = np.asarray(shares, dtype=float)
     plot_multinode_map(map_ax, config, resolution=(120, 60))
@@ -76,7 +76,7 @@ def picks(values: Sequence[float], count: int = 3) -> list[int]:
 def save_shares_figure(results: Any, path: str | Path, count: int = 3) -> Path:
     """For ``count`` scenarios (worst, middle, best % of SCA): the served-node trajectory over the
     rate map above each node's share against the slot (the plan's own shares, else its best schedule)."""
-    from ios_uav_env.multinode import best_schedule
+    from ios_uav_env.model.schedule import best_schedule
 
     rows = [r for r in results.scenarios if r.trajectory is not None and r.config is not None]
     if not rows:

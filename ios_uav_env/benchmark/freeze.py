@@ -21,9 +21,9 @@ from pathlib import Path
 from typing import Any
 
 from ios_uav_env.benchmark.suite import FORMAT, REFERENCES, SUITE_DIR, content_hash, suite_text
-from ios_uav_env.config import ScenarioConfig
+from ios_uav_env.envs.registration import RANDOM_ENV_ID
 from ios_uav_env.io import atomic_write_text
-from ios_uav_env.registration import RANDOM_ENV_ID
+from ios_uav_env.model.config import ScenarioConfig
 
 HEURISTICS = {"hover_peak": "peak", "hover_ground": "ground"}
 
@@ -32,8 +32,8 @@ def heuristic_reference(config: ScenarioConfig, target: str, env_id: str = RANDO
     """Rate and feasibility of ``HoverAt(target)`` on ``config`` (its env arguments, reset seed 0)."""
     import gymnasium as gym
 
-    from ios_uav_env.policies import HoverAt
-    from ios_uav_env.rollout import run_episode
+    from ios_uav_env.envs.policies import HoverAt
+    from ios_uav_env.envs.rollout import run_episode
 
     policy = HoverAt(target)
     env = gym.make(env_id, **policy.env_kwargs)
@@ -76,7 +76,7 @@ def single_node_content(heldout: Mapping[str, Any], name: str, version: int) -> 
             "ScenarioConfig; dp: the DP optimum's rate on a resolution-m grid (baselines.dp.solve); sca: "
             "the SCA plan's rate, feasibility and wall time in seconds (baselines.sca.solve, defaults, "
             "one of two worker processes on a 2-core machine); hover_peak / hover_ground: the rate and "
-            "feasibility of ios_uav_env.policies.HoverAt('peak') (env with peak_hint=True) / "
+            "feasibility of ios_uav_env.envs.policies.HoverAt('peak') (env with peak_hint=True) / "
             "HoverAt('ground') in the env, reset with seed 0. Rates: eq. (9), bps/Hz."
         ),
         "source": {

@@ -3,7 +3,7 @@
     python -m ios_uav_env.benchmark.freeze_multi [--name multi-node-v1] [--n 48] [--cache out/multi-node-v1]
 
 The scenarios are :func:`scenarios`: ``n`` draws in turn of
-``ios_uav_env.multinode_env.sample_multinode(rng)`` (the distribution of
+``ios_uav_env.envs.multi.sample_multinode(rng)`` (the distribution of
 ``ios_uav_env/IOSUAV-MultiNode-Random-v0``: 2 to 4 nodes, ``MULTINODE_RANGES``) from the
 held-out generator ``np.random.default_rng(np.random.SeedSequence(entropy=20261130,
 spawn_key=(17,)))``. A spawned key gives a stream independent of every
@@ -41,7 +41,7 @@ from typing import Any
 
 import numpy as np
 
-from ios_uav_env.config import ScenarioConfig
+from ios_uav_env.model.config import ScenarioConfig
 
 #: The held-out generator's seed sequence: entropy and spawn key (documented in the suite).
 ENTROPY = 2026_1130
@@ -60,7 +60,7 @@ def heldout_rng() -> np.random.Generator:
 
 def scenarios(n: int = 48) -> list[ScenarioConfig]:
     """The first ``n`` held-out scenarios: ``sample_multinode`` drawn in turn from :func:`heldout_rng`."""
-    from ios_uav_env.multinode_env import sample_multinode
+    from ios_uav_env.envs.multi import sample_multinode
 
     rng = heldout_rng()
     return [sample_multinode(rng) for _ in range(int(n))]
@@ -166,7 +166,7 @@ def _check(rec: Mapping[str, Any]) -> list[str]:
 def multinode_content(records: Sequence[Mapping[str, Any]], name: str, version: int) -> dict[str, Any]:
     """The content of a multi-node suite from the per-scenario records of :func:`compute`."""
     from ios_uav_env.benchmark.suite import FORMAT, MULTI_NODE
-    from ios_uav_env.multinode_env import MULTINODE_RANGES
+    from ios_uav_env.envs.multi import MULTINODE_RANGES
 
     bad = [f"#{r['index']}: {k}" for r in records for k in ("sca", "bound")
            if (r[k].get("rate") if k == "sca" else r[k].get("upper_bound")) in (None, 0.0)]  # fmt: skip
@@ -210,7 +210,7 @@ def multinode_content(records: Sequence[Mapping[str, Any]], name: str, version: 
         "source": {
             "entropy": ENTROPY,
             "spawn_key": list(SPAWN_KEY),
-            "sampler": "ios_uav_env.multinode_env.sample_multinode",
+            "sampler": "ios_uav_env.envs.multi.sample_multinode",
             "nodes": [2, 4],
             "ranges": MULTINODE_RANGES.to_dict(),
             "module": "ios_uav_env.benchmark.freeze_multi",

@@ -1,7 +1,7 @@
 """Multi-node suites: score a plan (trajectory and TDMA shares) against SCA and the certified bound.
 
 A plan on a multi-node scenario is a trajectory (N, 2) and, optionally, its shares alpha (K, N)
-(>= 0, column sums <= 1). Its scores, by the one scorer of ``ios_uav_env.multinode``:
+(>= 0, column sums <= 1). Its scores, by the one scorer of ``ios_uav_env.model.schedule``:
 
 - ``rate``: the plan's own score min_k R_k = ``scheduled_rates(config, q, shares).min()`` (for a
   policy in ``MultiNodeEnv``: the shares it chose, ``info["min_rate"]`` at the last step). A plan
@@ -31,9 +31,9 @@ import numpy as np
 
 from ios_uav_env.benchmark.results import plan_seconds, plan_time, results_dict, save_tables, spread
 from ios_uav_env.benchmark.suite import Suite, SuiteScenario
-from ios_uav_env.config import ScenarioConfig
 from ios_uav_env.io import save_rows_csv
-from ios_uav_env.trajectory import check_trajectory
+from ios_uav_env.model.config import ScenarioConfig
+from ios_uav_env.model.trajectory import check_trajectory
 
 #: The fields of a :class:`MultiScenarioResult` in its dict and CSV row.
 MULTI_COLUMNS = ("index", "K", "rate", "best_schedule_rate", "feasible", "worst_violation", "pct_sca",
@@ -45,7 +45,7 @@ def score_plan(
 ) -> tuple[float, float, bool, float]:
     """(own score, best-schedule score, feasible, worst violation) of a plan on ``scenario``;
     ``ValueError`` naming the scenario for shares of the wrong shape or not a schedule."""
-    from ios_uav_env.multinode import maxmin_rate, scheduled_rates
+    from ios_uav_env.model.schedule import maxmin_rate, scheduled_rates
 
     cfg = scenario.config
     q = np.asarray(trajectory, dtype=np.float64)

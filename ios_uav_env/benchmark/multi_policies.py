@@ -20,7 +20,7 @@ import math
 
 import numpy as np
 
-from ios_uav_env.policies import move_toward
+from ios_uav_env.envs.policies import move_toward
 
 #: Components of the multi-node observation before the node blocks, and per node block.
 BASE, PER_NODE = 12, 6

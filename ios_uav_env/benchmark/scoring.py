@@ -3,7 +3,7 @@
 A policy is any of:
 
 - a callable from one observation to one action (a plain function, a
-  ``ios_uav_env.policies.HoverAt``, a CleanRL/TorchRL actor wrapped in a function);
+  ``ios_uav_env.envs.policies.HoverAt``, a CleanRL/TorchRL actor wrapped in a function);
 - an object with ``predict(obs, deterministic=True) -> (action, state)`` (Stable-Baselines3;
   a model trained with ``VecNormalize`` needs its statistics applied to the observation, as
   ``agents.loading.load_agent`` of a checkout does);
@@ -21,7 +21,7 @@ has ``{"peak_hint": True}``). The plan is scored by the one scorer: ``ios_uav_en
 episode's wall time from the reset to the last step (policy and env).
 
 >>> from ios_uav_env.benchmark import evaluate
->>> from ios_uav_env.policies import HoverAt
+>>> from ios_uav_env.envs.policies import HoverAt
 >>> results = evaluate(HoverAt("peak"), n=3)
 >>> results.aggregate.feasible, round(results.aggregate.mean_pct_dp, 2)
 (3, 99.77)
@@ -44,8 +44,8 @@ import numpy as np
 
 from ios_uav_env.benchmark.results import Aggregate, Results, ScenarioResult
 from ios_uav_env.benchmark.suite import DEFAULT_SUITE, Suite, SuiteScenario, load_suite
-from ios_uav_env.rollout import decision_interval
-from ios_uav_env.trajectory import average_rate, check_trajectory
+from ios_uav_env.envs.rollout import decision_interval
+from ios_uav_env.model.trajectory import average_rate, check_trajectory
 
 if TYPE_CHECKING:
     from ios_uav_env.benchmark.multi import MultiResults

@@ -12,7 +12,7 @@ Each scenario holds its full ``ScenarioConfig`` and its reference values, rates 
 - ``dp``: the DP optimum over a grid (``rate``, ``resolution`` in m; ``baselines.dp`` in a
   checkout), the normaliser of the score (:attr:`Suite.normalizer`);
 - ``sca``: the paper's SCA plan (``rate``, ``feasible``, ``seconds``: its wall time to plan);
-- ``hover_peak`` / ``hover_ground``: ``ios_uav_env.policies.HoverAt("peak")`` /
+- ``hover_peak`` / ``hover_ground``: ``ios_uav_env.envs.policies.HoverAt("peak")`` /
   ``HoverAt("ground")`` rolled out in the suite's env (``rate``, ``feasible``).
 
 A multi-node suite (``"kind": "multi-node"``, e.g. ``multi-node-v1``; frozen by
@@ -35,7 +35,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from ios_uav_env.config import ScenarioConfig
+from ios_uav_env.model.config import ScenarioConfig
 
 FORMAT = "ios_uav_env benchmark suite"
 #: Folder of the shipped suite files (package data).

@@ -180,7 +180,7 @@ def test_a_run_folder_without_checkpoint_is_no_dead_end(tmp_path, capsys):
 
 
 def _registered_env_failing_at_reset() -> str:
-    from ios_uav_env.env import IOSUAVEnv
+    from ios_uav_env.envs.single import IOSUAVEnv
 
     class FailsAtReset(IOSUAVEnv):
         def reset(self, *, seed=None, options=None):

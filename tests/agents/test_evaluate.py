@@ -183,7 +183,7 @@ def test_a_multinode_agent_is_compared_with_sca_tour_and_the_bound(
     import gymnasium as gym
 
     from agents.evaluate_multi import DEFAULT_MULTI, REFERENCE_CACHE, compare_multi, fast_act
-    from ios_uav_env.multinode import maxmin_rate, scheduled_rates
+    from ios_uav_env.model.schedule import maxmin_rate, scheduled_rates
 
     monkeypatch.chdir(tmp_path)  # the reference cache is out/multinode-references under the cwd
     assert main([str(multi_model), "--scenario", *SMALL_MULTI, "--out", "cmp"]) == 0
@@ -255,7 +255,7 @@ def test_shipped_multinode_agent_reproduces_its_score_feasibly():
     import gymnasium as gym
 
     from baselines.tour import solve
-    from ios_uav_env.rollout import run_episode
+    from ios_uav_env.envs.rollout import run_episode
 
     folder = MODELS_DIR / "ppo_IOSUAV-MultiNode-v0"
     agent = load_agent(folder)

@@ -17,8 +17,8 @@ from agents.expert import Dataset, hindsight_shares, node_mask, rollouts, tour_p
 from agents.fitting import fit, imitation_loss, permute_nodes  # noqa: E402
 from agents.imitation import ImitationSettings, main, run, share_rows  # noqa: E402
 from ios_uav_env import maxmin_rate  # noqa: E402
-from ios_uav_env.multinode import maxmin_schedule, node_rates  # noqa: E402
-from ios_uav_env.multinode_env import share_scores  # noqa: E402
+from ios_uav_env.envs.multi import share_scores  # noqa: E402
+from ios_uav_env.model.schedule import maxmin_schedule, node_rates  # noqa: E402
 
 KW = {"softmin_beta": 20, "peak_hint": True}
 SEEDS = (1_000_003, 1_000_001)  # a 2-node and a 3-node scenario of the random family

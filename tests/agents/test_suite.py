@@ -25,7 +25,7 @@ from agents.suite.__main__ import main
 from agents.suite.report import HEURISTICS, evaluate_suite, load_policy, run_report, suite_score, summarize
 from baselines import dp
 from ios_uav_env import DEFAULT_RANGES, RANDOM_ENV_ID, ScenarioRanges, average_rate, check_trajectory
-from ios_uav_env.policies import HoverAt
+from ios_uav_env.envs.policies import HoverAt
 from tests.tolerances import PLANNER_REL, RATE_REL
 
 #: A family of tiny scenarios (N <= 12, M <= 60) whose planners run in a fraction of a second.

@@ -106,7 +106,7 @@ def test_action_repeat_run_and_its_agent_hold_the_action(tmp_path: Path) -> None
     slots (13 decisions per 39-slot episode in the monitor), and the loaded agent holds its
     actions alike (Agent.repeat)."""
     from agents.loading import load_agent
-    from ios_uav_env.rollout import run_episode
+    from ios_uav_env.envs.rollout import run_episode
 
     wrappers = "ActionRepeat:\n        repeat: 3\n    - agents.wrappers.ExploringStarts:\n        prob: 0.5"
     result, out = _multinode_run(tmp_path, TINY.replace("ShiftReward:\n        offset: 0.5", wrappers))

@@ -1,5 +1,5 @@
 """python -m agents.sweep on the local backend: trials, overrides, resume (the Ray side is in
-tests/test_ray_backend.py)."""
+tests/baselines/test_ray_backend.py)."""
 
 from __future__ import annotations
 

@@ -9,8 +9,8 @@ import pytest
 
 import ios_uav_env  # noqa: F401
 from agents.wrappers import ActionRepeat, ExploringStarts
-from ios_uav_env.policies import full_speed_move
-from ios_uav_env.trajectory import check_trajectory
+from ios_uav_env.envs.policies import full_speed_move
+from ios_uav_env.model.trajectory import check_trajectory
 
 MULTI_ID = "ios_uav_env/IOSUAV-MultiNode-v0"
 
@@ -67,7 +67,7 @@ def test_exploring_starts_refuse_bad_arguments(kwargs: dict, field: str) -> None
 
 
 def test_exploring_starts_can_head_for_the_node_peaks() -> None:
-    from ios_uav_env.multinode_env import node_peaks
+    from ios_uav_env.envs.multi import node_peaks
 
     env = ExploringStarts(gym.make(MULTI_ID), prob=1.0, max_moves=60, peak_prob=1.0, peak_noise=0.0)
     cfg = env.unwrapped.config

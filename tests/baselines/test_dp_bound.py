@@ -8,7 +8,7 @@ from baselines import dp, tour
 from baselines.dp_bound import RelaxedDP, region_rate_bound, relaxed_offsets
 from baselines.fixed import fly_hover_fly, straight_line_path
 from ios_uav_env import ScenarioConfig
-from ios_uav_env.multinode import dual_value
+from ios_uav_env.model.schedule import dual_value
 
 NODES = ((-100.0, -20.0), (150.0, -60.0), (-40.0, 90.0))
 SMALL = {"ios_shape": (10, 6), "quadrature_nodes": 4}

@@ -14,6 +14,7 @@ from baselines import sca  # noqa: E402
 from baselines.fixed import fly_hover_fly, straight_line  # noqa: E402
 from baselines.sca_problem import Surrogate, tiled_config  # noqa: E402
 from ios_uav_env import ScenarioConfig  # noqa: E402
+from ios_uav_env.model import channel as ch
 
 # T = 30 s (30 slots), q0 -> qF 300 m apart around the IOS; a 10 x 6 surface whose element gain
 # (10^4 = (6000 / 60)^2) gives it the amplitude of the default 6000 elements, so the surface matters.
@@ -95,8 +96,8 @@ def test_coefficients_are_the_derivatives_of_the_slot_rate():
     q = straight_line(config).trajectory
     sur = Surrogate(config, 2, "CLARABEL")
     lin = sur.linearise(q)
-    terms = ie.surface_terms(tiled_config(config, 2), q[1:-1]) * lin.anchor[:, None]
-    a_d = ie.direct_amplitude(config, q[1:-1])
+    terms = ch.surface_terms(tiled_config(config, 2), q[1:-1]) * lin.anchor[:, None]
+    a_d = ch.direct_amplitude(config, q[1:-1])
 
     def f(n, ds=0.0, du=None, dv=0.0):
         du = np.zeros(terms.shape[1]) if du is None else du
@@ -124,14 +125,14 @@ def test_tiles_match_the_exact_element_sum(tiles, tol):
     small_exact = ScenarioConfig(ios_shape=(10, 6), quadrature_nodes=0)
     for reference in (small_exact, ScenarioConfig()):
         tiled = tiled_config(reference, tiles)
-        exact = ie.surface_amplitude(reference, q)
-        approx = ie.surface_terms(tiled, q).sum(axis=1)
+        exact = ch.surface_amplitude(reference, q)
+        approx = ch.surface_terms(tiled, q).sum(axis=1)
         mask = exact > 0
         err = np.max(np.abs(approx[mask] - exact[mask]) / exact[mask])
         assert err <= tol, (reference.ios_shape, tiles, err)
     # the helper is the model's own decomposition: rows sum to surface_amplitude
     np.testing.assert_allclose(
-        ie.surface_terms(ScenarioConfig(), q).sum(axis=1), ie.surface_amplitude(ScenarioConfig(), q)
+        ch.surface_terms(ScenarioConfig(), q).sum(axis=1), ch.surface_amplitude(ScenarioConfig(), q)
     )
 
 
@@ -160,7 +161,7 @@ def test_ia_keeps_hovering_on_the_transmissive_side():
     hover = _hover_points(plan.trajectory)
     assert len(hover) >= 10
     assert np.all(hover[:, 0] > 50.0)  # transmissive side (G is at x = -100)
-    assert np.all(ie.side_factor(SMALL, hover[:, 0]) == SMALL.epsilon)
+    assert np.all(ch.side_factor(SMALL, hover[:, 0]) == SMALL.epsilon)
     assert plan.mean_rate > init.mean_rate
     # with a RIS the same start cannot stay there: nothing is transmitted behind the surface
     ra = sca.solve(SMALL.replace(surface="ris"), init=init)

@@ -17,7 +17,7 @@ from ios_uav_env.benchmark.freeze_multi import ENTROPY, SPAWN_KEY, heldout_rng, 
 from ios_uav_env.benchmark.multi_policies import StraightEqualShares
 from ios_uav_env.benchmark.suite import content_hash, suite_path
 from ios_uav_env.benchmark.trajectories import read_plans, write_trajectories
-from ios_uav_env.multinode import maxmin_rate, scheduled_rates
+from ios_uav_env.model.schedule import maxmin_rate, scheduled_rates
 from tests.tolerances import PLANNER_REL, SOLVER_REL
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -131,7 +131,7 @@ def test_a_policys_plan_time_leaves_out_the_envs_scoring_lp(suite, monkeypatch):
     before the env's best-schedule LP of the last step (``score_seconds``)."""
     import time
 
-    from ios_uav_env import multinode_env
+    from ios_uav_env.envs import multi as multinode_env
 
     real = multinode_env.reported_maxmin_rate
 

@@ -11,7 +11,7 @@ def test_tianshou_collect_fixed_and_random_ids(run_example):
     require("tianshou", "torch")
     # Tianshou compiles its buffer and return functions with numba on every run (not cached:
     # ~15 s); the example is about Tianshou's API, so numba is off here (the env's kernels run as
-    # plain Python, tested equal to the compiled ones in tests/test_vector_env.py)
+    # plain Python, tested equal to the compiled ones in tests/envs/test_single_vector.py)
     no_jit = {"NUMBA_DISABLE_JIT": "1"}
     out = run_example("tianshou_collect.py", "--env", *IDS, "--episodes", "2", env_vars=no_jit)
     for env_id in IDS:

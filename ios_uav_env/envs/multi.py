@@ -1,0 +1,453 @@
+"""Several ground nodes: an env where the agent flies the UAV and schedules the nodes (TDMA).
+
+``MultiNodeEnv`` (ids ``ios_uav_env/IOSUAV-MultiNode-v0`` and ``-Random-v0``) follows the
+model of ``ios_uav_env.model.schedule``: node k's rate in slot n is the single-node expected-gain
+rate r_k(q[n]) (``config.node_config(k)``), slot n is shared by TDMA shares alpha_k[n] and
+the objective is min_k R_k, R_k = (1/N) sum_n alpha_k[n] r_k(q[n]). The agent chooses the
+shares itself; the episode's score is its own ``min_k R_k`` (``scheduled_rates``), never
+above the trajectory's best-schedule score (``maxmin_rate``), which the last step reports
+beside it. Movement, the arrival guard and the feasibility shaping are the single env's.
+"""
+
+from __future__ import annotations
+
+import functools
+import math
+import time
+from collections.abc import Mapping
+from typing import Any
+
+import gymnasium as gym
+import numpy as np
+from gymnasium import spaces
+
+from ios_uav_env.envs.guard import guarded_position
+from ios_uav_env.envs.multi_kernels import soft_minimum
+from ios_uav_env.envs.observation import M_SCALE, T_SCALE, ground_free_rate_bound, length_bounds, pad
+from ios_uav_env.envs.options import EnvOptions, split_kwargs
+from ios_uav_env.jit import HAVE_NUMBA
+from ios_uav_env.model.channel import rate_kernel
+from ios_uav_env.model.config import FEASIBILITY_TOL, ScenarioConfig, as_config, scenario_option
+from ios_uav_env.model.peak import rate_peak
+from ios_uav_env.model.scenarios import ScenarioRanges, sample_scenario
+from ios_uav_env.model.schedule import reported_maxmin_rate
+
+#: The default multi-node scenario: three nodes, two on the reflecting side of the IOS and one
+#: across it, every other parameter at the paper's defaults.
+DEFAULT_NODES = ((-100.0, -20.0), (150.0, -60.0), (-40.0, 90.0))
+#: The ranges of the randomised id: G's ranges of the single-node family for every node,
+#: T in [100, 200] s, IOS or RIS, q0 and qF as in the single-node family.
+MULTINODE_RANGES = ScenarioRanges(T=(100.0, 200.0))
+#: Per-node observation block: mask, (w_k - q) / L, side of the IOS, served rate R_k so far, r_k(q).
+NODE_FEATURES = ("mask", "dx_node", "dy_node", "side", "served", "rate")
+#: Per-node hint appended to each node block with ``peak_hint=True``: the node's reachable rate
+#: peak P_k (``rate_peak(config.node_config(k))``) relative to the UAV, (P_k - q) / L, and r_k(P_k).
+NODE_PEAK_FEATURES = ("dx_peak", "dy_peak", "rate_peak")
+#: The scenario-level observation, before the node blocks.
+BASE_FEATURES = (
+    "x", "y", "dx_final", "dy_final", "dx_ios", "dy_ios", "time_left", "slack",
+    "elements", "is_ios", "is_ris", "horizon",
+)  # fmt: skip
+#: ``info`` keys (the same on every step and at reset).
+MULTI_INFO_KEYS = (
+    "position", "slot", "distance_to_final", "shares", "node_rates", "min_rate", "best_schedule_rate",
+    "reward_rate", "reward_reach", "reward_terminal", "feasible", "worst_violation", "terminal_miss",
+)  # fmt: skip
+
+
+def rate_potential(rates: np.ndarray, beta: float = 0.0) -> float:
+    """The potential of the rate term: min_k R_k for ``beta`` = 0, else the soft minimum
+    -(1/beta) log((1/K) sum_k exp(-beta R_k)), which lies in [min_k R_k, min_k R_k + log(K) /
+    beta] and equals the minimum when every R_k is the same."""
+    values = np.asarray(rates, dtype=np.float64)
+    return soft_minimum(values, values.size, 1.0, float(beta))
+
+
+def share_scores(shares: np.ndarray, sharpness: float = 5.0) -> np.ndarray:
+    """Node scores in [-1, 1] whose softmax (x ``sharpness``, the env's share map) gives
+    ``shares`` (K,) or (K, B): 1 for the largest share, 1 + log(alpha_k / alpha_max) /
+    sharpness for the others, so exact for ratios alpha_k / alpha_max >= exp(-2 sharpness);
+    smaller ones (a 0 share too) become -1. The inverse of the action's share entries."""
+    alpha = np.asarray(shares, dtype=np.float64)
+    bad = alpha.ndim not in (1, 2) or not np.all(np.isfinite(alpha)) or np.any(alpha < 0)
+    if bad or np.any(alpha.max(axis=0) <= 0):
+        raise ValueError(f"shares must be finite, >= 0 and not all 0 ((K,) or (K, B)), got {alpha!r}")
+    ratio = np.maximum(alpha / alpha.max(axis=0), np.exp(-2.0 * sharpness))
+    return np.clip(1.0 + np.log(ratio) / sharpness, -1.0, 1.0)
+
+
+@functools.lru_cache(maxsize=256)
+def node_peaks(config: ScenarioConfig) -> tuple[tuple[float, float, float], ...]:
+    """Each node's reachable rate peak (x, y, rate): ``rate_peak`` of ``config.node_config(k)``
+    (on the compiled kernel when numba is installed: ``compiled=HAVE_NUMBA``), the ``peak_hint``
+    features; cached, so a fixed scenario and the rows of a batch sharing one compute them once."""
+    return tuple(tuple(rate_peak(config.node_config(k), compiled=HAVE_NUMBA)) for k in range(config.K))
+
+
+def sample_multinode(
+    rng: np.random.Generator, ranges: ScenarioRanges = MULTINODE_RANGES, nodes: tuple[int, int] = (2, 4)
+) -> ScenarioConfig:
+    """A scenario of ``ranges`` with K nodes, K uniform in ``nodes``, each node uniform in the
+    ranges of G (draws: K, the nodes, then ``sample_scenario``'s own draws)."""
+    k = int(rng.integers(nodes[0], nodes[1], endpoint=True))
+    points = tuple(
+        (float(rng.uniform(*ranges.ground_x)), float(rng.uniform(*ranges.ground_y))) for _ in range(k)
+    )
+    return sample_scenario(rng, ranges).replace(ground_nodes=points)
+
+
+class MultiNodeEnv(gym.Env):
+    r"""A UAV flies from ``q0`` to ``qF`` and shares every slot between K ground nodes (TDMA).
+
+    ## Description
+
+    K ground nodes around an IOS; the UAV must serve every one of them: the objective is the
+    minimum over nodes of the average rate each node receives, with time-division shares
+    chosen per slot (max-min fairness; the model of ``ios_uav_env.model.schedule``). The agent
+    decides where to fly and whom to serve when. Ids: ``ios_uav_env/IOSUAV-MultiNode-v0``
+    (the 3 nodes of ``DEFAULT_NODES``) and ``ios_uav_env/IOSUAV-MultiNode-Random-v0`` (2 to 4
+    nodes drawn at every reset: ``sample_multinode`` over ``MULTINODE_RANGES``).
+
+    ## Action Space
+
+    ``Box(-1, 1, (2 + K_max,), float32)``: the move of the slot in units of D (projected onto
+    the unit disk, then by the arrival guard, as in ``IOSUAVEnv``), then one score per node;
+    the shares of the new slot are the softmax of ``share_sharpness`` x the scores of the
+    scenario's K nodes (padding entries are ignored), so they are >= 0 and sum to 1. Slot 1
+    (q0, before any action) is shared equally.
+
+    ## Observation Space
+
+    A float32 array of 12 + 6 K_max components: ``BASE_FEATURES`` (the UAV q / L, qF and the
+    IOS centre relative to it, the time left, the slack to still reach qF, M / 6000, IOS and
+    RIS flags, T / 200 s), then per node slot k ``NODE_FEATURES``: mask (1 for a node of the
+    scenario, 0 for padding, whose other entries are 0), (w_k - q) / L, the node's side of the
+    IOS plane (+1 at x > x_c, -1 otherwise), the rate served to it so far
+    S_k / N with S_k = sum_{m <= n} alpha_k[m] r_k(q[m]) (bps/Hz), and its rate r_k(q) now.
+    With ``peak_hint=True`` each node block has 3 more (``NODE_PEAK_FEATURES``, 12 + 9 K_max in
+    all): the node's own reachable rate peak P_k (``rate_peak`` of ``config.node_config(k)``,
+    the single-node hint) relative to the UAV, (P_k - q) / L, and r_k(P_k). It says where each
+    node alone is best served, not the order of the visits, the hover times or the shares.
+    The bounds hold for every scenario of the family (lengths: the largest value at q0 plus
+    (N_max - 1) D / L, and 2 (N_max - 1) D / L for P_k - q, both within (N_max - 1) D of q0;
+    rates: ``ground_free_rate_bound``).
+
+    ## Rewards
+
+    With m_n = min_k S_k / N after slot n (m before slot 1 = 0) the rate term of the step that
+    ends at slot n is N (m_n - m_{n-1}), so the return is N min_k R_k: the agent's own score
+    times the fixed N, plus the single env's reach and terminal penalties (0 for a feasible
+    trajectory; with the guard, always 0).
+
+    With ``softmin_beta`` = beta > 0 the rate term is potential-based shaping of the same
+    return: N (Phi_n - Phi_{n-1}) with Phi_n the soft minimum of the S_k / N
+    (``rate_potential``; Phi before slot 1 = 0), and the last step adds N (m_N - Phi_N) <= 0.
+    The terms still sum to N min_k R_k exactly, but every slot's service now earns a reward
+    weighted towards the nodes served least so far (a denser signal for learning whom to serve
+    and where to fly); the last step's correction is 0 when the nodes end equally served and
+    never below -N log(K) / beta.
+
+    ## Info
+
+    Every step and the reset carry ``MULTI_INFO_KEYS``: ``position``, ``slot``,
+    ``distance_to_final``, ``shares`` (K_max, this slot's), ``node_rates`` (K_max, S_k / N so
+    far), ``min_rate`` (m_n: at slot N the agent's own score min_k R_k), ``best_schedule_rate``
+    (at slot N ``maxmin_rate`` of the trajectory, the best shares for the same flight, an LP
+    of scipy's: NaN if scipy is not installed; 0
+    before), the three reward terms, ``feasible``, ``worst_violation``, ``terminal_miss``.
+    The LP's wall time is kept in ``score_seconds`` (0 before slot N): it scores the flight, so
+    the benchmark leaves it out of a policy's plan time.
+
+    ## Episode End
+
+    ``terminated=True`` at slot N (after N - 1 steps); no ``TimeLimit`` is registered.
+
+    ## Arguments
+
+    - ``config``: the scenario (``ground_nodes`` with K <= ``max_nodes``); default the 3
+      nodes of ``DEFAULT_NODES``. ``reset(options={"config": cfg})`` runs one episode on
+      another scenario with at most ``max_nodes`` nodes that fits the observation space.
+    - ``max_nodes`` (K of ``config``, 4 for the randomised id): K_max of the spaces.
+    - ``share_sharpness`` (5.0): the softmax's inverse temperature.
+    - ``softmin_beta`` (0.0): beta of the shaped rate term (Rewards); 0 is the plain minimum.
+    - ``random_nodes`` ((2, 4) for the randomised id, None otherwise): draw a new scenario with
+      that many nodes at every reset.
+    - ``peak_hint`` (False): append each node's reachable rate peak (Observation Space; it
+      costs one compiled ``rate_peak`` per node at reset, 1-2 ms per node, cached: ``node_peaks``).
+    - ``arrival_guard``, ``reach_weight``, ``terminal_weight``, ``length_scale``: as
+      ``IOSUAVEnv`` (``EnvOptions``); the channel is the expected-gain rate.
+    - ``render_mode``: None or "rgb_array" (the best node's rate map, every node, and the
+      trajectory so far coloured by the node with the largest share in each slot; needs
+      ``pip install ios-uav-env[render]``).
+    - ``**kwargs``: ``ScenarioConfig`` fields applied to ``config``.
+
+    ```python
+    >>> import gymnasium as gym
+    >>> import ios_uav_env
+    >>> env = gym.make("ios_uav_env/IOSUAV-MultiNode-v0")
+    >>> obs, info = env.reset(seed=0)
+    >>> obs.shape, env.action_space.shape, info["shares"].round(3).tolist()
+    ((30,), (5,), [0.333, 0.333, 0.333])
+
+    ```
+
+    ## Version History
+
+    * v0: Initial version.
+    """
+
+    metadata = {"render_modes": ["rgb_array"], "render_fps": 10}
+
+    def __init__(
+        self,
+        config: ScenarioConfig | Mapping[str, Any] | None = None,
+        *,
+        max_nodes: int | None = None,
+        share_sharpness: float = 5.0,
+        softmin_beta: float = 0.0,
+        random_nodes: tuple[int, int] | None = None,
+        ranges: ScenarioRanges = MULTINODE_RANGES,
+        render_mode: str | None = None,
+        **kwargs: Any,
+    ) -> None:
+        options, overrides = split_kwargs(kwargs, f"{type(self).__name__}.__init__")
+        self.options = EnvOptions(**options)
+        if self.options.channel != "expected" or self.options.instance_features:
+            raise ValueError("MultiNodeEnv takes channel='expected' and no instance_features")
+        if render_mode not in (None, "rgb_array"):
+            raise ValueError(f"render_mode must be None or 'rgb_array', got {render_mode!r}")
+        base = as_config(config if config is not None else ScenarioConfig(ground_nodes=DEFAULT_NODES))
+        self._base = base.replace(**overrides) if overrides else base
+        if random_nodes is not None:
+            lo, hi = (int(v) for v in random_nodes)
+            if not 1 <= lo <= hi:
+                raise ValueError(
+                    f"random_nodes must be (low, high) with 1 <= low <= high, got {random_nodes!r}"
+                )
+            random_nodes = (lo, hi)
+        self.random_nodes = random_nodes
+        self.ranges = ranges
+        k_default = random_nodes[1] if random_nodes else self._base.K
+        self.max_nodes = int(k_default if max_nodes is None else max_nodes)
+        if self.max_nodes < max(self._base.K, random_nodes[1] if random_nodes else 1):
+            raise ValueError(f"max_nodes must be >= the scenario's K = {self._base.K}, got {self.max_nodes}")
+        if not (
+            isinstance(share_sharpness, (int, float))
+            and math.isfinite(share_sharpness)
+            and share_sharpness > 0
+        ):
+            raise ValueError(f"share_sharpness must be a finite number > 0, got {share_sharpness!r}")
+        self.share_sharpness = float(share_sharpness)
+        if not (isinstance(softmin_beta, (int, float)) and math.isfinite(softmin_beta) and softmin_beta >= 0):
+            raise ValueError(f"softmin_beta must be a finite number >= 0, got {softmin_beta!r}")
+        self.softmin_beta = float(softmin_beta)
+        self.score_seconds = 0.0  # see reset()
+        self.render_mode = render_mode
+        self.node_features = NODE_FEATURES + (NODE_PEAK_FEATURES if self.options.peak_hint else ())
+        self.action_space = spaces.Box(-1.0, 1.0, (2 + self.max_nodes,), np.float32)
+        low, high = self._bounds()
+        self.observation_space = spaces.Box(low, high, dtype=np.float32)
+        self.config = self._base
+        self._n: int | None = None
+
+    # --- options (read-only views of self.options, as on IOSUAVEnv) -------------------------
+    channel = property(lambda self: self.options.channel)
+    arrival_guard = property(lambda self: self.options.arrival_guard)
+    length_scale = property(lambda self: self.options.length_scale)
+
+    # --- spaces ---------------------------------------------------------------------------
+    def _bounds(self, config: ScenarioConfig | None = None) -> tuple[np.ndarray, np.ndarray]:
+        """(low, high) over the env's family (its ranges, or its one config), or over ``config``."""
+        single = config if config is not None else None if self.random_nodes else self._base
+        r = self.ranges if single is None else ScenarioRanges.from_config(single.node_config(0))
+        base, scale = r.base, self.options.length_scale
+        reach = r.max_moves * base.D
+        nodes = [] if single is None else list(single.nodes)
+        gx = (min([r.ground_x[0], *(p[0] for p in nodes)]), max([r.ground_x[1], *(p[0] for p in nodes)]))
+        gy = (min([r.ground_y[0], *(p[1] for p in nodes)]), max([r.ground_y[1], *(p[1] for p in nodes)]))
+        points = [(r.end_x, r.end_y), ((base.ios_center[0],) * 2, (base.ios_center[1],) * 2), (gx, gy)]
+        lengths = [pad(v / scale) for v in length_bounds((r.start_x, r.start_y), points, reach)]
+        own, final, ios, node = lengths[0:2], lengths[2:4], lengths[4:6], lengths[6:8]
+        rate = pad(max(ground_free_rate_bound(c) for c in r.configs_per_surface()))
+        elements = max(1.0, r.ios_columns * r.ios_rows[1] / M_SCALE) * (1 + 1e-6)
+        horizon = max(1.0, r.slot_range[1] * base.dt / T_SCALE) * (1 + 1e-6)
+        high = [*own, *final, *ios, 1.0, 1.0, elements, 1.0, 1.0, horizon]
+        low = [-h for h in high[:6]] + [0.0, -1.0, 0.0, 0.0, 0.0, 0.0]
+        hint = pad(2.0 * reach / scale)  # P_k and q are both within (N_max - 1) D of q0
+        for _ in range(self.max_nodes):
+            high += [1.0, *node, 1.0, rate, rate] + ([hint, hint, rate] if self.options.peak_hint else [])
+            low += [0.0, -node[0], -node[1], -1.0, 0.0, 0.0] + (
+                [-hint, -hint, 0.0] if self.options.peak_hint else []
+            )
+        return np.array(low, dtype=np.float32), np.array(high, dtype=np.float32)
+
+    # --- episode --------------------------------------------------------------------------
+    def _episode_config(self, pinned: ScenarioConfig | None) -> ScenarioConfig:
+        if pinned is not None:
+            return pinned
+        if self.random_nodes:
+            return sample_multinode(self.np_random, self.ranges, self.random_nodes)
+        return self._base
+
+    def reset(
+        self, *, seed: int | None = None, options: dict[str, Any] | None = None
+    ) -> tuple[np.ndarray, dict]:
+        super().reset(seed=seed)
+        pinned = scenario_option(options)
+        cfg = self._episode_config(pinned)
+        if cfg.K > self.max_nodes:
+            raise ValueError(
+                f"the scenario has K = {cfg.K} nodes; this env observes at most max_nodes = {self.max_nodes}"
+            )
+        if pinned is not None and pinned != self._base:  # could its observations leave the space?
+            low, high = self._bounds(cfg)
+            if np.any(low < self.observation_space.low) or np.any(high > self.observation_space.high):
+                raise ValueError(
+                    f"the scenario {cfg} does not fit this env's observation space; make an env on it instead"
+                )
+        self.config = cfg
+        self._nkd = (cfg.N, cfg.K, cfg.D)  # N, K, D: read every step (properties of the config)
+        self._kernels = [rate_kernel(cfg.node_config(k)) for k in range(cfg.K)]
+        self._peaks = node_peaks(cfg) if self.options.peak_hint else None
+        self._x, self._y = cfg.q0
+        self._n, self._excess = 0, 0.0
+        self._xs, self._ys = [self._x], [self._y]
+        self.score_seconds = 0.0  # wall time of the episode's best-schedule LP (scoring, not planning)
+        rates = self._rates(self._x, self._y)
+        shares = np.full(cfg.K, 1.0 / cfg.K)
+        self._served = shares * rates  # S_k
+        self._shares = [shares]
+        self._min = float(self._served.min()) / cfg.N
+        self._phi = 0.0  # the potential before slot 1
+        obs = self._observe(rates)
+        dist = math.hypot(cfg.qF[0] - self._x, cfg.qF[1] - self._y)
+        return obs, self._info(shares, dist, (0.0, 0.0, 0.0), 0.0)
+
+    def _rates(self, x: float, y: float) -> np.ndarray:
+        return np.array([k.rate(x, y) for k in self._kernels])
+
+    def _observe(self, rates: np.ndarray) -> np.ndarray:
+        cfg, inv_l = self.config, 1.0 / self.options.length_scale
+        N, K, D = self._nkd
+        x, y, left = self._x, self._y, N - 1 - self._n
+        dist = math.hypot(cfg.qF[0] - x, cfg.qF[1] - y)
+        s = left - dist / D
+        cx, cy = cfg.ios_center[0], cfg.ios_center[1]
+        obs = [x * inv_l, y * inv_l, (cfg.qF[0] - x) * inv_l, (cfg.qF[1] - y) * inv_l, (cx - x) * inv_l,
+               (cy - y) * inv_l, left / (N - 1), s / (1.0 + abs(s)),
+               cfg.M / M_SCALE if cfg.surface != "none" else 0.0, float(cfg.surface == "ios"),
+               float(cfg.surface == "ris"), cfg.T / T_SCALE]  # fmt: skip
+        for k in range(self.max_nodes):
+            if k < K:
+                wx, wy = cfg.nodes[k]
+                side = 1.0 if wx > cx else -1.0
+                obs += [1.0, (wx - x) * inv_l, (wy - y) * inv_l, side, self._served[k] / N, rates[k]]
+                if self._peaks is not None:
+                    px, py, pr = self._peaks[k]
+                    obs += [(px - x) * inv_l, (py - y) * inv_l, pr]
+            else:
+                obs += [0.0] * len(self.node_features)
+        return np.array(obs, dtype=np.float32)
+
+    def _info(self, shares: np.ndarray, dist: float, terms: tuple[float, float, float], best: float) -> dict:
+        N, K, D = self._nkd
+        left = N - 1 - self._n
+
+        def padded(v: np.ndarray) -> np.ndarray:
+            out = np.zeros(self.max_nodes)
+            out[:K] = v
+            return out
+
+        deficit = max(0.0, dist - left * D)
+        worst = max(self._excess, deficit)
+        return {
+            "position": np.array((self._x, self._y)), "slot": np.int64(self._n + 1),
+            "distance_to_final": np.float64(dist), "shares": padded(shares),
+            "node_rates": padded(self._served / N), "min_rate": np.float64(self._min),
+            "best_schedule_rate": np.float64(best), "reward_rate": np.float64(terms[0]),
+            "reward_reach": np.float64(terms[1]), "reward_terminal": np.float64(terms[2]),
+            "feasible": np.bool_(worst <= FEASIBILITY_TOL), "worst_violation": np.float64(worst),
+            "terminal_miss": np.float64(deficit),
+        }  # fmt: skip
+
+    def step(self, action: Any) -> tuple[np.ndarray, float, bool, bool, dict]:
+        if self._n is None:
+            raise RuntimeError("call reset() before step()")
+        cfg, (N, K, D) = self.config, self._nkd
+        if self._n >= N - 1:
+            raise RuntimeError(f"the episode ended at slot N = {N}; call reset()")
+        a = np.asarray(action, dtype=np.float64)
+        if a.shape != self.action_space.shape:
+            raise ValueError(f"action must have shape {self.action_space.shape}, got {a.shape}")
+        if not np.isfinite(a).all():
+            raise ValueError(f"action must be finite (no NaN or inf), got {action!r}")
+        ax, ay = float(a[0]), float(a[1])
+        norm = math.hypot(ax, ay)
+        if norm > 1.0:
+            ax, ay = ax / norm, ay / norm
+        scores = self.share_sharpness * a[2 : 2 + K]
+        shares = np.exp(scores - scores.max())
+        shares /= shares.sum()
+        x0, y0, left = self._x, self._y, N - 2 - self._n
+        x, y = x0 + D * ax, y0 + D * ay
+        if self.options.arrival_guard:
+            x, y = guarded_position((x0, y0), (x, y), cfg.qF, D, left)
+        self._x, self._y, self._n = x, y, self._n + 1
+        self._xs.append(x)
+        self._ys.append(y)
+        self._shares.append(shares)
+        self._excess = max(self._excess, math.hypot(x - x0, y - y0) - D)
+        rates = self._rates(x, y)
+        self._served = self._served + shares * rates
+        self._min = float(self._served.min()) / N
+        previous, self._phi = self._phi, soft_minimum(self._served, K, float(N), self.softmin_beta)
+        dist = math.hypot(cfg.qF[0] - x, cfg.qF[1] - y)
+        reach = max(0.0, dist - left * D - FEASIBILITY_TOL) / D
+        r_reach = -self.options.reach_weight * reach if reach else 0.0
+        terminated = left == 0
+        r_terminal, best = 0.0, 0.0
+        if terminated:
+            miss = max(0.0, dist - FEASIBILITY_TOL) / D
+            if miss:
+                r_terminal = -self.options.terminal_weight * (miss + math.sqrt(miss))
+            start = time.perf_counter()
+            best = reported_maxmin_rate(cfg, self.trajectory)
+            self.score_seconds = time.perf_counter() - start
+        r_rate = N * (self._phi - previous)
+        if terminated and self.softmin_beta:
+            r_rate += N * (self._min - self._phi)
+        terms = (r_rate, r_reach, r_terminal)
+        info = self._info(shares, dist, terms, best)
+        return self._observe(rates), float(sum(terms)), terminated, False, info
+
+    @property
+    def trajectory(self) -> np.ndarray:
+        """The way-points so far, (n + 1, 2) m."""
+        return np.column_stack([self._xs, self._ys]) if self._n is not None else np.zeros((0, 2))
+
+    @property
+    def shares(self) -> np.ndarray:
+        """The shares so far, (K, n + 1): slot 1's equal shares, then one column per step."""
+        return np.column_stack(self._shares)
+
+    def render(self) -> np.ndarray | None:
+        """The trajectory so far over the best node's rate map, an (H, W, 3) uint8 array."""
+        if self.render_mode is None:
+            gym.logger.warn('render() needs render_mode="rgb_array" at construction; returning None')
+            return None
+        from ios_uav_env.envs.rendering import _matplotlib
+        from ios_uav_env.envs.rendering_multi import plot_multinode_map, plot_served_trajectories
+
+        figure_cls, canvas_cls = _matplotlib()
+        fig = figure_cls(figsize=(7.2, 3.6), dpi=100)
+        canvas = canvas_cls(fig)
+        ax = fig.add_subplot()
+        plot_multinode_map(ax, self.config, resolution=(120, 60))
+        if self._n is not None:
+            plot_served_trajectories(ax, self.config, {"UAV": self.trajectory}, {"UAV": self.shares})
+            ax.set_title(
+                f"slot {self._n + 1}/{self.config.N}, min rate so far {self._min:.3f} bps/Hz", fontsize=9
+            )
+        fig.tight_layout()
+        canvas.draw()
+        return np.array(canvas.buffer_rgba())[:, :, :3]

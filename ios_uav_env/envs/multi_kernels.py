@@ -1,0 +1,307 @@
+"""The multi-node env's transition as array kernels over B rows (``MultiNodeVectorEnv``).
+
+Row i of a few arrays is episode i of ``MultiNodeEnv``: ``state`` (:data:`STATE`), ``episode``
+(:data:`EPISODE`: the scenario's constants), ``points`` (B, K_max, 6: each node's x, y, its
+side of the IOS and, with ``peak_hint``, its reachable rate peak x, y and rate), ``served``
+(B, K_max: S_k) and, per node, the arrays of its rate kernel
+(``ios_uav_env.model.channel.RateKernel`` of ``config.node_config(k)``: ``nodes`` (B, K_max, 3, Q),
+``params`` (B, K_max, P)). :func:`reset_rows` and :func:`step_rows` write the observations,
+rewards and the ``info`` table (:func:`info_columns`) of the rows they touch, with the single
+env's formulas in its order of operations: node k's rate is ``channel.rate_point`` (the
+single env's ``RateKernel.rate``), the move goes through ``guard.guarded_position``, the
+shares are the softmax of ``share_sharpness`` x the scores of the scenario's K nodes, and
+the reward terms are the single env's. Compiled with numba when installed (``ios_uav_env.jit``).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+
+import numpy as np
+
+from ios_uav_env.envs.guard import guarded_position
+from ios_uav_env.envs.observation import M_SCALE, T_SCALE
+from ios_uav_env.envs.single_kernels import penalties
+from ios_uav_env.jit import jit, prange
+from ios_uav_env.model.channel import rate_point
+from ios_uav_env.model.config import FEASIBILITY_TOL, ScenarioConfig
+
+#: Columns of a row of ``state`` (``moves_made`` at column 2, as in ``dynamics.STATE``).
+STATE = ("x", "y", "moves_made", "excess", "min_rate", "potential")
+#: Columns of a row of ``episode``.
+EPISODE = (
+    "D", "qfx", "qfy", "moves", "inv_l", "N", "cx", "cy", "K", "sharpness", "elements", "is_ios",
+    "is_ris", "horizon", "softmin_beta", "peak_hint",
+)  # fmt: skip
+#: Columns of a row of ``points`` (per node).
+POINT = ("x", "y", "side", "peak_x", "peak_y", "peak_rate")
+#: The scalar columns of the ``info`` table; then ``shares`` (K_max), then ``node_rates`` (K_max).
+INFO = (
+    "position_x", "position_y", "slot", "distance_to_final", "min_rate", "best_schedule_rate",
+    "reward_rate", "reward_reach", "reward_terminal", "feasible", "worst_violation", "terminal_miss",
+)  # fmt: skip
+#: Column of ``best_schedule_rate`` (filled in by the caller: an LP, at episode end only).
+BEST = INFO.index("best_schedule_rate")
+
+
+def info_columns(max_nodes: int) -> int:
+    """Width of the ``info`` table for ``max_nodes`` nodes."""
+    return len(INFO) + 2 * max_nodes
+
+
+def episode_row(
+    config: ScenarioConfig,
+    length_scale: float,
+    sharpness: float,
+    softmin_beta: float = 0.0,
+    peak_hint: bool = False,
+) -> np.ndarray:
+    """The ``episode`` row of ``config`` (see :data:`EPISODE`)."""
+    (fx, fy), (cx, cy) = config.qF, config.ios_center[:2]
+    elements = config.M / M_SCALE if config.surface != "none" else 0.0
+    kind = float(config.surface == "ios"), float(config.surface == "ris")
+    row = [config.D, fx, fy, config.N - 1, 1.0 / length_scale, config.N, cx, cy, config.K, sharpness,
+           elements, *kind, config.T / T_SCALE, softmin_beta, float(peak_hint)]  # fmt: skip
+    return np.array(row, dtype=np.float64)
+
+
+def node_points(
+    config: ScenarioConfig, peaks: Sequence[tuple[float, float, float]] | None = None
+) -> np.ndarray:
+    """The (K, 6) ``points`` of ``config`` (:data:`POINT`): each node's x, y, side of the IOS
+    (+1 at x > x_c) and its rate peak (``peaks``, the single env's ``peak_hint``; 0 without)."""
+    cx = config.ios_center[0]
+    peaks = peaks or [(0.0, 0.0, 0.0)] * config.K
+    rows = [
+        (wx, wy, 1.0 if wx > cx else -1.0, *peak) for (wx, wy), peak in zip(config.nodes, peaks, strict=True)
+    ]
+    return np.array(rows, dtype=np.float64)
+
+
+@jit(fastmath=False)
+def soft_minimum(served: np.ndarray, k_n: int, n_slots: float, beta: float) -> float:
+    """The potential of the rate term (``multinode_env.rate_potential``) of the served rates
+    v_k = ``served[k]`` / ``n_slots`` of the first ``k_n`` nodes: min_k v_k for ``beta`` = 0,
+    else -(1/beta) log((1/K) sum_k exp(-beta v_k)), computed from the minimum."""
+    low = math.inf
+    for k in range(k_n):
+        low = min(low, served[k] / n_slots)
+    if beta == 0.0:
+        return low
+    total = 0.0
+    for k in range(k_n):
+        total += math.exp(-beta * (served[k] / n_slots - low))
+    return low - math.log(total / k_n) / beta
+
+
+@jit(inline=True, fastmath=False)
+def _rates(
+    i: int, x: float, y: float, k_n: int, nodes: np.ndarray, params: np.ndarray, rates: np.ndarray
+) -> None:
+    """r_k(x, y) of row ``i``'s K nodes into ``rates[i]``."""
+    for k in range(k_n):
+        rates[i, k] = rate_point(x, y, nodes[i, k], params[i, k])
+
+
+@jit(inline=True, fastmath=False)
+def _observe(obs: np.ndarray, i: int, x: float, y: float, left: float, dist: float, episode: np.ndarray,
+             points: np.ndarray, served: np.ndarray, rates: np.ndarray) -> None:  # fmt: skip
+    """Write observation row ``i`` (the layout of ``MultiNodeEnv``'s docstring)."""
+    ep, o = episode[i], obs[i]
+    inv_l, n_slots, k_n = ep[4], ep[5], int(ep[8])
+    width = 9 if ep[15] != 0.0 else 6
+    s = left - dist / ep[0]
+    o[0], o[1], o[2], o[3] = x * inv_l, y * inv_l, (ep[1] - x) * inv_l, (ep[2] - y) * inv_l
+    o[4], o[5], o[6], o[7] = (
+        (ep[6] - x) * inv_l,
+        (ep[7] - y) * inv_l,
+        left / (n_slots - 1.0),
+        s / (1.0 + abs(s)),
+    )
+    o[8], o[9], o[10], o[11] = ep[10], ep[11], ep[12], ep[13]
+    for k in range(points.shape[1]):
+        j = 12 + width * k
+        if k < k_n:
+            o[j], o[j + 1], o[j + 2] = 1.0, (points[i, k, 0] - x) * inv_l, (points[i, k, 1] - y) * inv_l
+            o[j + 3], o[j + 4], o[j + 5] = points[i, k, 2], served[i, k] / n_slots, rates[i, k]
+            if width == 9:
+                o[j + 6], o[j + 7] = (points[i, k, 3] - x) * inv_l, (points[i, k, 4] - y) * inv_l
+                o[j + 8] = points[i, k, 5]
+        else:
+            for c in range(width):
+                o[j + c] = 0.0
+
+
+@jit(inline=True, fastmath=False)
+def _info(info: np.ndarray, i: int, state: np.ndarray, episode: np.ndarray, shares: np.ndarray,
+          served: np.ndarray, dist: float, left: float, r_rate: float, r_reach: float,
+          r_terminal: float) -> None:  # fmt: skip
+    """Write ``info`` row ``i`` (``best_schedule_rate`` 0: the caller's, at episode end)."""
+    st, ep, row = state[i], episode[i], info[i]
+    k_max = served.shape[1]
+    k_n, n_slots = int(ep[8]), ep[5]
+    deficit = max(0.0, dist - left * ep[0])
+    worst = max(st[3], deficit)
+    row[0], row[1], row[2], row[3], row[4], row[5] = st[0], st[1], st[2] + 1.0, dist, st[4], 0.0
+    row[6], row[7], row[8] = r_rate, r_reach, r_terminal
+    row[9], row[10], row[11] = 1.0 if worst <= FEASIBILITY_TOL else 0.0, worst, deficit
+    for k in range(k_max):
+        row[12 + k] = shares[i, k] if k < k_n else 0.0
+        row[12 + k_max + k] = served[i, k] / n_slots if k < k_n else 0.0
+
+
+@jit(fastmath=False)
+def reset_rows(
+    rows: np.ndarray, state: np.ndarray, episode: np.ndarray, points: np.ndarray, nodes: np.ndarray,
+    params: np.ndarray, served: np.ndarray, shares: np.ndarray, rates: np.ndarray, obs: np.ndarray,
+    info: np.ndarray, share_path: np.ndarray,
+) -> None:  # fmt: skip
+    """Start the episodes of ``rows`` at the position already in ``state[:, 0:2]`` (q0): slot 1
+    shared equally (``shares`` (B, K_max) holds each row's current shares)."""
+    for i in rows:
+        ep, st = episode[i], state[i]
+        x, y, k_n = st[0], st[1], int(ep[8])
+        _rates(i, x, y, k_n, nodes, params, rates)
+        low = math.inf
+        for k in range(k_n):
+            shares[i, k] = 1.0 / k_n
+            served[i, k] = shares[i, k] * rates[i, k]
+            share_path[i, 0, k] = shares[i, k]
+            low = min(low, served[i, k])
+        st[2], st[3], st[4], st[5] = 0.0, 0.0, low / ep[5], 0.0  # potential before slot 1: 0
+        dist = math.hypot(ep[1] - x, ep[2] - y)
+        _observe(obs, i, x, y, ep[3], dist, episode, points, served, rates)
+        _info(info, i, state, episode, shares, served, dist, ep[3], 0.0, 0.0, 0.0)
+
+
+@jit(inline=True, fastmath=False)
+def _softmax(i: int, actions: np.ndarray, sharpness: float, k_n: int, shares: np.ndarray) -> None:
+    """Row ``i``'s shares: the softmax of ``sharpness`` x its K node scores (``actions[i, 2:2+K]``)."""
+    top = -math.inf
+    for k in range(k_n):
+        top = max(top, sharpness * actions[i, 2 + k])
+    total = 0.0
+    for k in range(k_n):
+        shares[i, k] = math.exp(sharpness * actions[i, 2 + k] - top)
+        total += shares[i, k]
+    for k in range(k_n):
+        shares[i, k] /= total
+
+
+@jit(inline=True, fastmath=False)
+def _step_row(
+    i: int, actions: np.ndarray, state: np.ndarray, episode: np.ndarray, points: np.ndarray,
+    nodes: np.ndarray, params: np.ndarray, served: np.ndarray, shares: np.ndarray, rates: np.ndarray,
+    flags: np.ndarray, obs: np.ndarray, reward: np.ndarray, terminated: np.ndarray, info: np.ndarray,
+    path: np.ndarray, share_path: np.ndarray, norms: np.ndarray,
+) -> None:  # fmt: skip
+    """One slot of row ``i`` (see :func:`step_rows`)."""
+    ep, st = episode[i], state[i]
+    d, n_slots, k_n = ep[0], ep[5], int(ep[8])
+    ax, ay = actions[i, 0], actions[i, 1]
+    norm = norms[i]
+    if norm > 1.0:
+        ax, ay = ax / norm, ay / norm
+    _softmax(i, actions, ep[9], k_n, shares)
+    x0, y0, n = st[0], st[1], st[2]
+    left = ep[3] - n - 1.0  # moves left after this one
+    x, y = x0 + d * ax, y0 + d * ay
+    if flags[0] != 0.0:
+        x, y = guarded_position((x0, y0), (x, y), (ep[1], ep[2]), d, int(left))
+    st[0], st[1], st[2] = x, y, n + 1.0
+    st[3] = max(st[3], math.hypot(x - x0, y - y0) - d)
+    path[i, int(n) + 1, 0], path[i, int(n) + 1, 1] = x, y
+    _rates(i, x, y, k_n, nodes, params, rates)
+    low = math.inf
+    for k in range(k_n):
+        served[i, k] = served[i, k] + shares[i, k] * rates[i, k]
+        share_path[i, int(n) + 1, k] = shares[i, k]
+        low = min(low, served[i, k])
+    st[4] = low / n_slots
+    previous, st[5] = st[5], soft_minimum(served[i], k_n, n_slots, ep[14])
+    dist = math.hypot(ep[1] - x, ep[2] - y)
+    r_reach, r_terminal = penalties(dist, left, d, flags[4], flags[5])
+    done = left == 0.0
+    r_rate = n_slots * (st[5] - previous)
+    if done and ep[14] != 0.0:
+        r_rate += n_slots * (st[4] - st[5])
+    reward[i] = r_rate + r_reach + r_terminal
+    terminated[i] = done
+    _observe(obs, i, x, y, left, dist, episode, points, served, rates)
+    _info(info, i, state, episode, shares, served, dist, left, r_rate, r_reach, r_terminal)
+
+
+@jit(fastmath=False)
+def step_rows(
+    actions: np.ndarray, state: np.ndarray, episode: np.ndarray, points: np.ndarray, nodes: np.ndarray,
+    params: np.ndarray, served: np.ndarray, shares: np.ndarray, rates: np.ndarray, flags: np.ndarray,
+    obs: np.ndarray, reward: np.ndarray, terminated: np.ndarray, info: np.ndarray, path: np.ndarray,
+    share_path: np.ndarray, active: np.ndarray, norms: np.ndarray,
+) -> None:  # fmt: skip
+    """:func:`step_rows_batched` one row after the other (where numba's threads cannot run:
+    ``ios_uav_env.jit.parallel_safe``)."""
+    for i in range(actions.shape[0]):
+        if active[i]:
+            _step_row(i, actions, state, episode, points, nodes, params, served, shares, rates, flags, obs,
+                      reward, terminated, info, path, share_path, norms)  # fmt: skip
+
+
+@jit(fastmath=False, parallel=True)
+def step_rows_batched(
+    actions: np.ndarray, state: np.ndarray, episode: np.ndarray, points: np.ndarray, nodes: np.ndarray,
+    params: np.ndarray, served: np.ndarray, shares: np.ndarray, rates: np.ndarray, flags: np.ndarray,
+    obs: np.ndarray, reward: np.ndarray, terminated: np.ndarray, info: np.ndarray, path: np.ndarray,
+    share_path: np.ndarray, active: np.ndarray, norms: np.ndarray,
+) -> None:  # fmt: skip
+    """One slot of every active row: move (unit-disk projection, then the arrival guard), shares,
+    node rates, served rates, reward, observation and info. ``actions`` (B, 2 + K_max) must be
+    finite (the caller checks); ``flags`` as ``dynamics.flags_of``; ``path`` (B, N_max, 2) and
+    ``share_path`` (B, N_max, K_max) receive the new way-point and shares (at ``moves made``).
+    ``norms`` (B,): |move| of each row whose move may leave the unit disk, 0 for the others
+    (:func:`move_norms`: Python's ``math.hypot``, as the single env; numba's differs in the
+    last bit for ~1% of the inputs). The rows run in parallel on numba's threads
+    (``MultiNodeVectorEnv(num_threads=...)``); IEEE arithmetic (no fused multiply-add) so that
+    the moves are the single env's bit for bit (the arrival guard turns a last-bit difference
+    into ~1e-7 m when it pulls the UAV home along the reach circle)."""
+    for i in prange(actions.shape[0]):  # rows are independent, on numba's threads
+        if active[i]:
+            _step_row(i, actions, state, episode, points, nodes, params, served, shares, rates, flags, obs,
+                      reward, terminated, info, path, share_path, norms)  # fmt: skip
+
+
+@jit(fastmath=False)
+def fly_rows(
+    rows: np.ndarray, targets: np.ndarray, moves: np.ndarray, actions: np.ndarray, state: np.ndarray,
+    episode: np.ndarray, points: np.ndarray, nodes: np.ndarray, params: np.ndarray, served: np.ndarray,
+    shares: np.ndarray, rates: np.ndarray, flags: np.ndarray, obs: np.ndarray, reward: np.ndarray,
+    terminated: np.ndarray, info: np.ndarray, path: np.ndarray, share_path: np.ndarray, norms: np.ndarray,
+) -> None:  # fmt: skip
+    """``moves[r]`` slots of row ``rows[r]``, each a full-speed move towards ``targets[r]`` (the rest
+    of the way once within D; the arrival guard as always) with equal shares: the steps of
+    :func:`step_rows` with those actions (``actions`` and ``norms`` are scratch, (B, 2 + K_max)
+    and (B,))."""
+    for r in range(rows.size):
+        i = rows[r]
+        for k in range(actions.shape[1]):
+            actions[i, k] = 0.0  # node scores 0: equal shares
+        norms[i] = 0.0  # the move below is on the unit disk already
+        for _ in range(moves[r]):
+            d = episode[i, 0]
+            mx, my = (targets[r, 0] - state[i, 0]) / d, (targets[r, 1] - state[i, 1]) / d
+            length = math.hypot(mx, my)
+            if length > 1.0:
+                mx, my = mx / length, my / length
+            actions[i, 0], actions[i, 1] = mx, my
+            _step_row(i, actions, state, episode, points, nodes, params, served, shares, rates, flags, obs,
+                      reward, terminated, info, path, share_path, norms)  # fmt: skip
+
+
+def move_norms(actions: np.ndarray) -> np.ndarray:
+    """The ``norms`` of :func:`step_rows_batched`: ``math.hypot`` of the move of each row of ``actions``
+    whose squared move exceeds 1 - 1e-6 (the rows it may project), 0 for the others."""
+    norms = np.zeros(actions.shape[0])
+    rows = np.flatnonzero(actions[:, 0] ** 2 + actions[:, 1] ** 2 > 1.0 - 1e-6)
+    if rows.size:
+        norms[rows] = [math.hypot(ax, ay) for ax, ay in actions[rows, :2].tolist()]
+    return norms

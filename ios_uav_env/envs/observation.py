@@ -1,0 +1,168 @@
+"""The env's observation: component names, the instance features and the bounds of the space.
+
+Pure functions (no Gymnasium): every env derives its observation space from a family of
+scenarios with :func:`space_bounds` (``IOSUAVEnv`` from the family of its one construction
+config, ``RandomIOSUAVEnv`` from its ranges) and checks with :func:`check_fits` that a
+scenario pinned at reset (``options={"config": cfg}``) keeps every observation inside it.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+import numpy as np
+
+from ios_uav_env.model.channel import RateKernel, rate_kernel
+from ios_uav_env.model.config import ScenarioConfig
+from ios_uav_env.model.scenarios import ScenarioRanges
+from ios_uav_env.model.surface import _axes
+
+#: Names of the observation components, in order (see ``IOSUAVEnv``'s docstring for the units).
+OBS_NAMES: tuple[str, ...] = (
+    "x", "y", "dx_final", "dy_final", "dx_ground", "dy_ground", "dx_ios", "dy_ios",
+    "time_left", "slack", "rate",
+)  # fmt: skip
+
+#: Names of the instance features appended with ``instance_features=True``, in order.
+INSTANCE_NAMES: tuple[str, ...] = ("elements", "is_ios", "is_ris", "transmit", "horizon", "seconds_left")
+
+#: Names of the peak hint appended (after the instance features, if any) with ``peak_hint=True``:
+#: the reachable rate peak P relative to the UAV, (P - q) / L, and its rate (bps/Hz).
+PEAK_NAMES: tuple[str, ...] = ("dx_peak", "dy_peak", "rate_peak")
+
+#: Element count of the paper's surface (M = 6000): the ``elements`` feature is M / M_SCALE.
+M_SCALE = 6000.0
+#: Seconds (the longest horizon of the default ranges): ``horizon`` is T / T_SCALE and
+#: ``seconds_left`` is (moves left) dt / T_SCALE.
+T_SCALE = 200.0
+_C = 3.0 * math.sqrt(3.0) / 16.0  # max over t > 0 of t^3 / (t^2 + c^2)^2, times c
+
+
+def rate_upper_bound(kernel: RateKernel) -> float:
+    """An upper bound of the expected-gain rate anywhere at the UAV altitude (bps/Hz).
+
+    Uses d_UG >= z_U and, per node, |dx|^3 / (dx^2 + h^2)^2 <= 3 sqrt(3) / (16 h) with h the
+    smallest vertical UAV-node gap; it bounds the observation's ``rate`` component.
+    """
+    zeta = kernel.k_direct * kernel.z_u2**kernel.d_exp
+    if kernel.has_surface:
+        h = math.sqrt(float(np.min(kernel.dz2)))
+        zeta += max(1.0, kernel.t_factor) * float(np.abs(kernel.jw).sum()) * _C / h
+    return math.log2(1.0 + kernel.eta * zeta * zeta)
+
+
+def ground_free_rate_bound(config: ScenarioConfig) -> float:
+    """An upper bound of the expected-gain rate of ``config`` that holds wherever G is (bps/Hz).
+
+    Element m at height z_m contributes J s |dx|^3 / d_Um^4 * |x_G - x_c|^3 / d_mG^4, and each
+    factor is at most 3 sqrt(3) / (16 c) with c = z_U - z_m (the UAV side) or z_m (the G
+    side), whatever the UAV and G positions: so one bound serves every ground position (the
+    randomised env's ranges). O(M_z): the elements of a row share z_m.
+    """
+    zeta = math.sqrt(config.g_tx * config.g_rx) * config.uav_altitude ** (-config.alpha / 2.0)
+    if config.surface != "none":
+        ys, zs = _axes(config)
+        rows = float(np.sum(1.0 / (zs * (config.uav_altitude - zs))))
+        zeta += max(1.0, config.transmit_factor) * config.J * _C * _C * ys.size * rows
+    return math.log2(1.0 + config.eta * zeta * zeta)
+
+
+def rate_bound(config: ScenarioConfig) -> float:
+    """The tighter of :func:`rate_upper_bound` and :func:`ground_free_rate_bound` (bps/Hz)."""
+    return min(rate_upper_bound(rate_kernel(config)), ground_free_rate_bound(config))
+
+
+def instance_values(config: ScenarioConfig) -> tuple[float, float, float, float, float]:
+    """The constant instance features of ``config``: (elements, is_ios, is_ris, transmit, horizon).
+
+    elements = M / 6000 (0 without a surface); is_ios, is_ris in {0, 1}; transmit = t / (1 + t)
+    with t the transmissive factor (epsilon for the IOS, 0 otherwise); horizon = T / 200 s.
+    """
+    elements = config.M / M_SCALE if config.surface != "none" else 0.0
+    t = config.transmit_factor
+    return (
+        elements,
+        float(config.surface == "ios"),
+        float(config.surface == "ris"),
+        t / (1.0 + t),
+        config.T / T_SCALE,
+    )
+
+
+def pad(value: float) -> float:
+    """``value`` with the bounds' margin: a relative 1e-6 and an absolute 1e-6."""
+    return value * (1 + 1e-6) + 1e-6
+
+
+Interval = tuple[float, float]
+
+
+def length_bounds(
+    q0: tuple[Interval, Interval], points: list[tuple[Interval, Interval]], reach: float
+) -> list[float]:
+    """Largest absolute values (m) of the UAV's x, y and of each point's offset (x, y) from the
+    UAV, when q0 and the points range over the (x, y) intervals given: the largest value at q0
+    plus ``reach`` ((N_max - 1) D: no position is farther from q0), 2 + 2 len(points) entries."""
+    lengths = [max(abs(lo), abs(hi)) + reach for lo, hi in q0]
+    for p in points:
+        lengths += [max(abs(p[i][1] - q0[i][0]), abs(p[i][0] - q0[i][1])) + reach for i in range(2)]
+    return lengths
+
+
+def space_bounds(
+    ranges: ScenarioRanges, length_scale: float, instance: bool, peak: bool = False
+) -> tuple[np.ndarray, np.ndarray]:
+    """(low, high) float32 arrays that hold every observation of every episode of ``ranges``
+    (a fixed scenario is the family ``ScenarioRanges.from_config(config)``).
+
+    Lengths: the largest absolute value at q0 over the ranges plus (N_max - 1) D / L (no
+    position is farther from q0, guard or not). Rate: :func:`rate_bound` where G is fixed,
+    else :func:`ground_free_rate_bound`, over the family's surfaces and sizes. Instance
+    features: their largest values (at least 1). Peak hint: the peak and the UAV are both
+    within (N_max - 1) D of q0, so |P - q| / L <= 2 (N_max - 1) D / L. Margins of 1e-6.
+    """
+    r, base = ranges, ranges.base
+    reach = r.max_moves * base.D
+    q0 = (r.start_x, r.start_y)
+    points = [
+        (r.end_x, r.end_y),
+        (r.ground_x, r.ground_y),
+        ((base.ios_center[0],) * 2, (base.ios_center[1],) * 2),
+    ]
+    lengths = length_bounds(q0, points, reach)
+    bound = rate_bound if r.fixed_ground else ground_free_rate_bound
+    rate_high = max(bound(c) for c in r.configs_per_surface())
+    high = [pad(v / length_scale) for v in lengths] + [1.0, 1.0, pad(rate_high)]
+    low = [-h for h in high[:8]] + [0.0, -1.0, 0.0]
+    if instance:
+        has_surface = set(r.surfaces) != {"none"}
+        elements = r.ios_columns * r.ios_rows[1] / M_SCALE if has_surface else 0.0
+        elements, horizon = (pad(max(1.0, v)) for v in (elements, r.slot_range[1] * base.dt / T_SCALE))
+        high += [elements, 1.0, 1.0, 1.0, horizon, horizon]
+        low += [0.0] * len(INSTANCE_NAMES)
+    if peak:
+        offset = pad(2.0 * reach / length_scale)
+        high += [offset, offset, pad(rate_high)]
+        low += [-offset, -offset, 0.0]
+    return np.array(low, dtype=np.float32), np.array(high, dtype=np.float32)
+
+
+def observation_names(instance: bool, peak: bool = False) -> tuple[str, ...]:
+    """The names of the observation's components, in order."""
+    return OBS_NAMES + (INSTANCE_NAMES if instance else ()) + (PEAK_NAMES if peak else ())
+
+
+def check_fits(
+    config: ScenarioConfig, length_scale: float, instance: bool, space: Any, peak: bool = False
+) -> None:
+    """Raise ``ValueError`` if an episode on ``config`` could leave the Box ``space``."""
+    low, high = space_bounds(ScenarioRanges.from_config(config), length_scale, instance, peak)
+    names = observation_names(instance, peak)
+    for i in np.flatnonzero((high > space.high) | (low < space.low))[:1]:
+        raise ValueError(
+            f"the scenario {config} does not fit this env's observation space: component {i} "
+            f"({names[i]}) can reach [{low[i]:.6g}, {high[i]:.6g}], outside the space's "
+            f"[{space.low[i]:.6g}, {space.high[i]:.6g}]; make an env on it instead "
+            "(gym.make(id, config=cfg))"
+        )

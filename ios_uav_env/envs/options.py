@@ -1,0 +1,81 @@
+"""The env's own options (how it steps and observes), kept apart from the scenario (what it simulates).
+
+An env is made from a scenario (``ScenarioConfig``: the physics, the paper's parameters) and
+:class:`EnvOptions` (the channel sample, the arrival guard, the reward weights, the
+observation's scale and extra features). Both can be given as keywords to ``gym.make``;
+:func:`split_kwargs` sorts them by name, so the two namespaces never mix, and refuses any
+other keyword with Python's own ``TypeError`` wording (which libraries such as TorchRL
+rely on to retry without their own keywords).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+import numbers
+from collections.abc import Mapping
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from ios_uav_env.model.config import SCENARIO_FIELDS
+
+#: Values of the ``channel`` option: the expected-gain rate (the paper's objective) or a
+#: Rician faded-rate sample per slot.
+CHANNELS: tuple[str, ...] = ("expected", "rician")
+
+
+def _flag(value: Any, name: str) -> bool:
+    if not isinstance(value, (bool, np.bool_)):
+        raise ValueError(f"{name} must be True or False, got {value!r}")
+    return bool(value)
+
+
+def _number(value: Any, name: str, *, positive: bool) -> float:
+    ok = isinstance(value, numbers.Real) and not isinstance(value, bool) and math.isfinite(value)
+    if not ok or (value <= 0 if positive else value < 0):
+        raise ValueError(f"{name} must be a finite number {'> 0' if positive else '>= 0'}, got {value!r}")
+    return float(value)
+
+
+@dataclass(frozen=True)
+class EnvOptions:
+    """How the env steps and what it observes (the scenario is a ``ScenarioConfig``)."""
+
+    channel: str = "expected"  # "expected" (deterministic) or "rician" (one faded sample per slot)
+    arrival_guard: bool = True  # project every move onto the set that still reaches qF in time
+    reach_weight: float = 1.0  # weight of the reach penalty (moves out of reach of qF)
+    terminal_weight: float = 2.0  # weight of the terminal penalty (final miss, in moves)
+    length_scale: float = 400.0  # m, L: lengths in the observation are divided by it
+    instance_features: bool = False  # append the 6 features of the instance
+    peak_hint: bool = False  # append the 3 features of the reachable rate peak
+
+    def __post_init__(self) -> None:
+        if self.channel not in CHANNELS:
+            raise ValueError(f"channel must be one of {CHANNELS}, got {self.channel!r}")
+        for name in ("arrival_guard", "instance_features", "peak_hint"):
+            object.__setattr__(self, name, _flag(getattr(self, name), name))
+        for name in ("reach_weight", "terminal_weight"):
+            object.__setattr__(self, name, _number(getattr(self, name), name, positive=False))
+        object.__setattr__(
+            self, "length_scale", _number(self.length_scale, "length_scale (m)", positive=True)
+        )
+
+
+#: The names of the ``EnvOptions`` fields.
+OPTION_FIELDS: frozenset[str] = frozenset(f.name for f in dataclasses.fields(EnvOptions))
+
+
+def split_kwargs(kwargs: Mapping[str, Any], owner: str) -> tuple[dict[str, Any], dict[str, Any]]:
+    """(options, scenario fields) of ``kwargs``; any other name raises ``TypeError`` as Python
+    would for ``owner`` (e.g. ``"IOSUAVEnv.__init__"``)."""
+    options, scenario = {}, {}
+    for name, value in kwargs.items():
+        if name in OPTION_FIELDS:
+            options[name] = value
+        elif name in SCENARIO_FIELDS:
+            scenario[name] = value
+        else:
+            raise TypeError(f"{owner}() got an unexpected keyword argument {name!r}")
+    return options, scenario

@@ -1,0 +1,187 @@
+"""Randomised scenarios: one policy for every instance of a family, drawn at each reset.
+
+``RandomIOSUAVEnv`` (registered as ``ios_uav_env/IOSUAV-Random-v0``) draws a new scenario
+at every reset from a family ``ios_uav_env.model.scenarios.ScenarioRanges`` with its
+``np_random``, observing the instance through the 6 instance features of ``IOSUAVEnv``.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from collections.abc import Mapping
+from typing import Any
+
+from ios_uav_env.envs.observation import check_fits
+from ios_uav_env.envs.single import IOSUAVEnv
+from ios_uav_env.model.config import SCENARIO_FIELDS, ScenarioConfig, as_config
+from ios_uav_env.model.scenarios import (
+    DEFAULT_RANGES,
+    RANGED_FIELDS,
+    ScenarioRanges,
+    _as_ranges,
+    sample_scenario,
+)
+
+__all__ = ["DEFAULT_RANGES", "RANGED_FIELDS", "RandomIOSUAVEnv", "ScenarioRanges", "sample_scenario"]
+
+
+class RandomIOSUAVEnv(IOSUAVEnv):
+    r"""``IOSUAVEnv`` on a new scenario at every reset, drawn from documented ranges.
+
+    ## Description
+
+    On the paper's single scenario a planner solves the problem in seconds and an agent only
+    memorises one trajectory; here every episode is a new instance of the family
+    ``ranges`` (a :class:`ScenarioRanges`, default :data:`DEFAULT_RANGES`), so a policy has
+    to plan for scenarios it has never seen. Default ranges (uniform): G at x in
+    [-250, 250] m, y in [-150, 150] m; T in [60, 200] s (whole slots); M_z in [20, 60] IOS
+    rows of M_y = 100 columns (M = 2000 ... 6000); surface "ios" or "ris"; q0 = (-400, y0),
+    qF = (400, yF) with y0, yF in [-100, 100] m; every other field at the paper's default.
+    Everything else (the model, the arrival guard, the rewards, ``info``, the trajectory
+    checks) is ``IOSUAVEnv``'s, on the episode's scenario ``env.unwrapped.config``.
+
+    ## Action Space
+
+    As ``IOSUAVEnv``: ``Box(-1, 1, (2,), float32)``, the displacement of the slot in units
+    of D = v_max dt (projected onto the unit disk, then by the arrival guard).
+
+    ## Observation Space
+
+    A float32 ``ndarray`` of shape (17,): ``IOSUAVEnv``'s 11 components (names in
+    ``OBS_NAMES``) and, with ``instance_features=True`` (the default here), the 6 instance
+    features (names in ``INSTANCE_NAMES``). L = ``length_scale`` (400 m), q the UAV
+    position, m the moves left, d_F = |qF - q|, N the episode's slot count.
+
+    | Num | Observation                                            | Min | Max   |
+    |-----|--------------------------------------------------------|-----|-------|
+    | 0-1 | UAV position q / L                                     | -B  | B     |
+    | 2-3 | final point, (qF - q) / L                              | -B  | B     |
+    | 4-5 | ground node, (w_G - q) / L                             | -B  | B     |
+    | 6-7 | IOS centre, (x_c - x, y_c - y) / L                     | -B  | B     |
+    | 8   | time left, m / (N - 1)                                 | 0   | 1     |
+    | 9   | slack s / (1 + abs(s)), s = m - d_F / D                | -1  | 1     |
+    | 10  | expected-gain rate r(q) (bps/Hz)                       | 0   | r_max |
+    | 11  | elements, M / 6000 (0 without a surface)               | 0   | 1     |
+    | 12  | surface is the IOS (0 or 1)                            | 0   | 1     |
+    | 13  | surface is a RIS (0 or 1)                              | 0   | 1     |
+    | 14  | transmissive factor t / (1 + t) (IOS: epsilon, else 0) | 0   | 1     |
+    | 15  | horizon, T / 200 s                                     | 0   | 1     |
+    | 16  | seconds left, m dt / 200 s                             | 0   | 1     |
+
+    Every point is relative to the UAV, so the values are O(1) on every scenario (with the
+    guard the UAV stays within its reach of q0 and qF). The bounds hold for every scenario
+    of the ranges: B is the largest value at q0 over the ranges plus (N_max - 1) D / L (no
+    UAV gets farther, guard or not); r_max bounds the rate for any G
+    (:func:`~ios_uav_env.envs.observation.ground_free_rate_bound`, over the ranges' surfaces and
+    sizes); the maxima of 11, 15, 16 are those of the ranges, at least 1 (with margins of
+    1e-6). Both env checkers pass; the observation's shape does not depend on the scenario.
+
+    ## Rewards
+
+    As ``IOSUAVEnv``: the rate at the new position, minus the reach and terminal penalties
+    (0 with the guard). The return is N R - r(q0); N varies per episode, so compare
+    episodes by ``info["average_rate"]`` (eq. (9)).
+
+    ## Starting State
+
+    A scenario drawn by :func:`sample_scenario` from ``np_random`` (so ``reset(seed=s)``
+    fixes it; the same seed gives the same scenarios), the UAV at its q0, slot 1.
+    ``reset(options={"config": cfg})`` pins that episode to ``cfg`` instead (a
+    ``ScenarioConfig`` or a dict of its fields; no other key); a ``cfg`` whose observations
+    could leave the space (e.g. T > 200 s, G far outside the ranges) is refused with
+    ``ValueError``. ``config=cfg`` at construction pins every episode (still observed in
+    the ranges' space: a trained generalist evaluated on ``cfg``). Before the first reset
+    ``config`` is ``ranges.base``.
+
+    ## Episode End
+
+    ``terminated=True`` at slot N of the episode's scenario (60 to 200 slots by default):
+    after N - 1 steps, 59 to 199. The id registers no ``TimeLimit``.
+
+    ## Arguments
+
+    - ``ranges``: a :class:`ScenarioRanges` or a dict of its fields (default: the above).
+    - ``config``: None (draw at every reset) or a scenario that every episode runs on.
+    - ``focus`` (None) and ``focus_prob`` (0): narrower ranges inside ``ranges`` (a dict of
+      the fields that differ, e.g. ``{"ground_x": (-150, 150), "ground_y": (-60, 60)}``),
+      drawn instead with probability ``focus_prob``: a training distribution that visits
+      more often the scenarios where the surface changes the best plan. The observation
+      space stays that of ``ranges``; with ``focus_prob = 0`` the draws are unchanged.
+    - ``instance_features`` (True), ``peak_hint`` (False: with True, 3 more components,
+      the reachable rate peak; see ``IOSUAVEnv``), ``channel``, ``arrival_guard``, ``reach_weight``,
+      ``terminal_weight``, ``length_scale``, ``render_mode``: as ``IOSUAVEnv``.
+    - ``**overrides``: ``ScenarioConfig`` fields that the ranges do not draw (e.g.
+      ``v_max``, ``alpha``), applied to ``ranges.base``; a drawn field (``T``,
+      ``ground_node``, ``q0``, ``qF``, ``ios_shape``, ``surface``) raises ``ValueError``:
+      change ``ranges`` instead.
+
+    ```python
+    >>> import gymnasium as gym
+    >>> import ios_uav_env
+    >>> env = gym.make("ios_uav_env/IOSUAV-Random-v0")
+    >>> obs, info = env.reset(seed=0)
+    >>> obs.shape, env.unwrapped.config.N >= 60
+    ((17,), True)
+    >>> cfg = ios_uav_env.ScenarioConfig(T=100)
+    >>> obs, info = env.reset(options={"config": cfg})
+    >>> env.unwrapped.config == cfg
+    True
+
+    ```
+
+    ## Version History
+
+    * v0: Initial version.
+    """
+
+    def __init__(
+        self,
+        ranges: ScenarioRanges | Mapping[str, Any] | None = None,
+        *,
+        config: ScenarioConfig | Mapping[str, Any] | None = None,
+        instance_features: bool = True,
+        focus: ScenarioRanges | Mapping[str, Any] | None = None,
+        focus_prob: float = 0.0,
+        **kwargs: Any,
+    ) -> None:
+        ranges = _as_ranges(DEFAULT_RANGES if ranges is None else ranges, "ranges")
+        overrides = {k: kwargs.pop(k) for k in list(kwargs) if k in SCENARIO_FIELDS}
+        drawn = sorted(set(overrides) & RANGED_FIELDS)
+        if drawn:
+            raise ValueError(
+                f"{drawn} are drawn from the ranges at every reset: pass ranges=ScenarioRanges(...) "
+                "to change them, config=... to pin every episode, or reset(options={'config': ...})"
+            )
+        if overrides:
+            ranges = dataclasses.replace(ranges, base=ranges.base.replace(**overrides))
+        self.ranges: ScenarioRanges = ranges
+        if not (isinstance(focus_prob, (int, float)) and 0.0 <= focus_prob <= 1.0):
+            raise ValueError(f"focus_prob must be a probability in [0, 1], got {focus_prob!r}")
+        self.focus: ScenarioRanges | None = None
+        if focus is not None:
+            # narrower ranges (filled in from ``ranges``), drawn with probability focus_prob:
+            # a training distribution that visits the scenarios where the decision matters
+            fields = focus if isinstance(focus, Mapping) else focus.to_dict()
+            self.focus = _as_ranges({**ranges.to_dict(), **dict(fields)}, "focus")
+            if not ranges.contains(self.focus):
+                raise ValueError(f"focus must lie inside ranges, got {dict(fields)!r}")
+        self.focus_prob = float(focus_prob) if self.focus is not None else 0.0
+        self.pinned: ScenarioConfig | None = None if config is None else as_config(config)
+        super().__init__(self.pinned or ranges.base, instance_features=instance_features, **kwargs)
+        if self.pinned is not None:
+            check_fits(
+                self.pinned, self.length_scale, self.instance_features, self.observation_space, self.peak_hint
+            )
+
+    def _ranges(self) -> ScenarioRanges:
+        """The observation space holds every scenario of the ranges (focus lies inside them)."""
+        return self.ranges
+
+    def _episode_config(self, pinned: ScenarioConfig | None) -> ScenarioConfig:
+        if pinned is not None:
+            return pinned
+        if self.pinned is not None:
+            return self.pinned
+        if self.focus_prob > 0.0 and self.np_random.random() < self.focus_prob:
+            return sample_scenario(self.np_random, self.focus)
+        return sample_scenario(self.np_random, self.ranges)

@@ -1,0 +1,60 @@
+"""Registration of the namespaced, versioned env ids (idempotent; called on import)."""
+
+from __future__ import annotations
+
+import inspect
+from typing import Any
+
+import gymnasium as gym
+
+#: id -> keyword arguments of ``IOSUAVEnv`` for that id.
+ENV_IDS: dict[str, dict[str, Any]] = {
+    "ios_uav_env/IOSUAV-v0": {"surface": "ios"},  # the paper's scenario (IA)
+    "ios_uav_env/RISUAV-v0": {"surface": "ris"},  # the IOS replaced by a reflect-only RIS (RA)
+    "ios_uav_env/UAV-v0": {"surface": "none"},  # no surface: direct link only (CUC)
+}
+
+#: The randomised id: every reset draws a scenario from ``scenarios.DEFAULT_RANGES``.
+RANDOM_ENV_ID = "ios_uav_env/IOSUAV-Random-v0"
+
+#: Several ground nodes (``multinode_env.MultiNodeEnv``): id -> its keyword arguments.
+MULTINODE_IDS: dict[str, dict[str, Any]] = {
+    "ios_uav_env/IOSUAV-MultiNode-v0": {},  # the 3 nodes of multinode_env.DEFAULT_NODES
+    "ios_uav_env/IOSUAV-MultiNode-Random-v0": {"random_nodes": (2, 4)},  # 2 to 4 nodes per reset
+}
+
+
+def _vector(entry_point: str) -> dict[str, str]:
+    """The ``vector_entry_point`` argument where Gymnasium has it (1.0 and later)."""
+    has_vector = "vector_entry_point" in inspect.signature(gym.register).parameters
+    return {"vector_entry_point": entry_point} if has_vector else {}
+
+
+def register_envs() -> None:
+    """Register every id of :data:`ENV_IDS`, :data:`RANDOM_ENV_ID` and :data:`MULTINODE_IDS` not
+    registered yet.
+
+    No ``max_episode_steps``: the env ends every episode itself at slot N of its scenario
+    (``terminated=True``), whatever T is, so no ``TimeLimit`` can cut a mission short. Each id
+    also names its natively batched env (``gym.make_vec(id, num_envs=B,
+    vectorization_mode="vector_entry_point")``, Gymnasium >= 1.0).
+    """
+    families = (
+        (ENV_IDS, "ios_uav_env.envs.single:IOSUAVEnv", "ios_uav_env.envs.single_vector:IOSUAVVectorEnv"),
+        (
+            {RANDOM_ENV_ID: {}},
+            "ios_uav_env.envs.random_env:RandomIOSUAVEnv",
+            "ios_uav_env.envs.single_vector:RandomIOSUAVVectorEnv",
+        ),
+        (
+            MULTINODE_IDS,
+            "ios_uav_env.envs.multi:MultiNodeEnv",
+            "ios_uav_env.envs.multi_vector:MultiNodeVectorEnv",
+        ),
+    )
+    for ids, entry_point, vector_entry_point in families:
+        for env_id, kwargs in ids.items():
+            if env_id not in gym.registry:
+                gym.register(
+                    id=env_id, entry_point=entry_point, kwargs=dict(kwargs), **_vector(vector_entry_point)
+                )

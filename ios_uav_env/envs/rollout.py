@@ -1,0 +1,184 @@
+"""One episode of a policy in an env, scored by the one model: the episode loop of every report.
+
+A policy is any callable from an observation to an action (an SB3 agent's ``act``, a
+:class:`~ios_uav_env.envs.policies.HoverAt`, a lambda). :func:`run_episode` resets the env, steps
+it until the episode ends and scores the trajectory (``env.unwrapped.trajectory``) with
+``average_rate`` (eq. (9); with several ground nodes, ``scheduled_rates`` of the agent's own
+shares ``env.unwrapped.shares``, its min_k R_k) and ``check_trajectory`` (eq. (10)), as every
+planner's plan is.
+
+>>> import gymnasium as gym
+>>> import ios_uav_env
+>>> from ios_uav_env.envs.policies import HoverAt
+>>> env = gym.make("ios_uav_env/IOSUAV-v0", T=60, peak_hint=True)
+>>> episode = run_episode(env, HoverAt("peak"), seed=0)
+>>> episode.steps, episode.feasible
+(59, True)
+
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from ios_uav_env.model.config import ScenarioConfig
+from ios_uav_env.model.schedule import scheduled_rates
+from ios_uav_env.model.trajectory import average_rate, check_trajectory
+
+Policy = Callable[[np.ndarray], Any]
+
+
+@dataclass(frozen=True)
+class Episode:
+    """One finished episode, scored by the model."""
+
+    config: ScenarioConfig  # the episode's scenario (env.unwrapped.config)
+    trajectory: np.ndarray = field(repr=False)  # (n, 2) m, the way-points q[1..n]
+    average_rate: float  # bps/Hz, the score: eq. (9) (average_rate); K > 1 nodes: the agent's own min_k R_k
+    feasible: bool  # eq. (10) within FEASIBILITY_TOL
+    terminal_miss: float  # m, |q[n] - qF|
+    max_step: float  # m, longest move
+    worst_violation: float  # m, worst breach of eq. (10)
+    episode_return: float  # sum of the rewards
+    mean_faded_rate: float  # bps/Hz, mean of the per-slot rate terms (= average_rate for "expected", K > 1)
+    steps: int  # env steps taken
+    seconds: float  # wall time from the reset to the last step (policy and env)
+
+
+def run_episode(
+    env: Any,
+    policy: Policy,
+    *,
+    seed: int | None = None,
+    options: Mapping[str, Any] | None = None,
+    max_steps: int = 100_000,
+) -> Episode:
+    """Roll ``policy`` out for one episode of ``env`` (reset with ``seed`` and ``options``).
+
+    The episode ends when the env says so (terminated or truncated); ``max_steps`` guards
+    against an env that never does (``RuntimeError``). The trajectory must be complete
+    (N way-points) to be scored: a truncated episode raises ``ValueError`` from the scorer.
+    """
+    repeat = decision_interval(policy)
+    start = time.perf_counter()
+    obs, info = env.reset(seed=seed, options=None if options is None else dict(options))
+    total, steps, done = 0.0, 0, False
+    while not done:
+        if steps >= max_steps:
+            raise RuntimeError(f"the episode did not end within max_steps={max_steps} steps")
+        if steps % repeat == 0:
+            action = policy(obs)
+        obs, reward, terminated, truncated, info = env.step(action)
+        total += float(reward)
+        steps += 1
+        done = bool(terminated or truncated)
+    seconds = time.perf_counter() - start
+    base = env.unwrapped
+    shares = base.shares if base.config.K > 1 else None
+    mean_faded = info.get("mean_faded_rate")
+    return score_episode(base.config, base.trajectory, shares, total, mean_faded, steps, seconds)
+
+
+def score_episode(
+    config: ScenarioConfig,
+    trajectory: np.ndarray,
+    shares: np.ndarray | None,
+    episode_return: float,
+    mean_faded_rate: float | None,
+    steps: int,
+    seconds: float,
+) -> Episode:
+    """The :class:`Episode` of a finished flight, scored by the model: eq. (9) (``average_rate``;
+    several nodes: ``scheduled_rates`` of the agent's own ``shares``, its min_k R_k) and
+    eq. (10) (``check_trajectory``), as every planner's plan is."""
+    report = check_trajectory(config, trajectory)
+    if config.K > 1:  # several nodes: the agent's own shares (scheduled_rates), the one scorer
+        score = float(scheduled_rates(config, trajectory, shares).min())
+    else:
+        score = average_rate(config, trajectory)
+    return Episode(
+        config=config,
+        trajectory=trajectory,
+        average_rate=score,
+        feasible=report.feasible,
+        terminal_miss=report.end_error,
+        max_step=report.max_step,
+        worst_violation=report.worst_violation,
+        episode_return=float(episode_return),
+        mean_faded_rate=score if mean_faded_rate is None else float(mean_faded_rate),
+        steps=int(steps),
+        seconds=float(seconds),
+    )
+
+
+def decision_interval(policy: Policy) -> int:
+    """How many slots ``policy`` holds each action: its (or its bound method's object's)
+    ``repeat`` attribute, 1 if it has none (an agent trained with
+    ``agents.wrappers.ActionRepeat`` decides every ``repeat`` slots)."""
+    repeat = getattr(getattr(policy, "__self__", policy), "repeat", 1)
+    if isinstance(repeat, bool) or not isinstance(repeat, (int, np.integer)) or repeat < 1:
+        raise ValueError(f"a policy's repeat must be an integer >= 1, got {repeat!r}")
+    return int(repeat)
+
+
+def batch_policy(policy: Policy) -> Callable[[np.ndarray], np.ndarray]:
+    """``policy`` as a function of a (B, obs_dim) batch: itself if it (or the object of a bound
+    method) says ``batched = True`` (``HoverAt``, ``agents``' ``Agent`` and ``NumpyPolicy``),
+    else one call per row."""
+    if getattr(getattr(policy, "__self__", policy), "batched", False):
+        return policy
+
+    def per_row(obs: np.ndarray) -> np.ndarray:
+        return np.stack([np.asarray(policy(o), dtype=np.float64) for o in obs])
+
+    return per_row
+
+
+def run_episodes(
+    vec_env: Any,
+    policy: Policy,
+    *,
+    seed: int | list[int] | None = None,
+    options: Mapping[str, Any] | None = None,
+    max_steps: int = 100_000,
+) -> list[Episode]:
+    """One episode per row of a natively batched env (``gym.make_vec(id, num_envs=B,
+    vectorization_mode="vector_entry_point")``, next-step autoreset), each scored as
+    :func:`run_episode` scores it; row i's episode is the single env's reset with ``seed + i``
+    (a list: row i's seed; ``options={"configs": [...]}``: row i on scenario i). ``policy``
+    maps the (B, obs_dim) observations to (B, act_dim) actions (:func:`batch_policy` adapts a
+    one-observation policy). ``seconds`` is the batch's wall time from the reset to the end of
+    its last episode divided by B: the time per plan when B are planned at once."""
+    vec = getattr(vec_env, "unwrapped", vec_env)
+    if getattr(vec, "same_step", True):
+        raise ValueError("run_episodes needs a batched env with autoreset_mode='next_step' (the default)")
+    act, repeat = batch_policy(policy), decision_interval(policy)
+    start = time.perf_counter()
+    obs, _ = vec.reset(seed=seed, options=None if options is None else dict(options))
+    b = vec.num_envs
+    running, totals, steps = np.ones(b, dtype=np.bool_), np.zeros(b), np.zeros(b, dtype=np.int64)
+    ends: dict[int, tuple[Any, ...]] = {}  # row -> (config, trajectory, shares, mean faded rate)
+    for t in range(max_steps):
+        if t % repeat == 0:  # every row started at t = 0: their decisions fall together
+            actions = act(obs)
+        obs, reward, terminated, truncated, info = vec.step(actions)
+        totals += np.where(running, reward, 0.0)
+        steps += running
+        ended = np.flatnonzero(running & (terminated | truncated))
+        if ended.size:  # before the next step resets them (next-step autoreset)
+            configs, trajectories = vec.configs, vec.trajectories
+            schedules = vec.schedules if hasattr(vec, "schedules") else [None] * b
+            faded = info.get("mean_faded_rate", [None] * b)
+            ends.update({int(i): (configs[i], trajectories[i], schedules[i], faded[i]) for i in ended})
+            running[ended] = False
+        if not running.any():
+            break
+    else:
+        raise RuntimeError(f"the episodes did not all end within max_steps={max_steps} steps")
+    seconds = (time.perf_counter() - start) / b
+    return [score_episode(*ends[i][:3], totals[i], ends[i][3], steps[i], seconds) for i in range(b)]

@@ -1,0 +1,231 @@
+"""The env's transition as array kernels: one implementation for the single and the batched env.
+
+A batch of B episodes is a few arrays (row i = episode i): ``state`` (:data:`STATE`: the UAV
+position, moves made, the running sums), ``episode`` (:data:`EPISODE`: the constants of the
+episode's scenario and of its observation), and the rate kernel's ``nodes`` / ``params``
+(``ios_uav_env.model.channel.RateKernel``; node arrays padded with zero weights). :func:`reset_rows`
+and :func:`step_rows` write the observations, rewards and ``info`` columns (:data:`INFO`) of
+the rows they touch. ``IOSUAVEnv`` runs them on a batch of one, ``IOSUAVVectorEnv`` on B rows:
+the same physics (``channel.rate_row``, ``faded_row``), the same arrival guard
+(``guard.guarded_position``) and the same reward, compiled with numba when it is installed.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from ios_uav_env.envs.guard import guarded_position
+from ios_uav_env.envs.observation import T_SCALE, instance_values
+from ios_uav_env.envs.options import EnvOptions
+from ios_uav_env.jit import jit, prange
+from ios_uav_env.model.channel import faded_row, rate_row
+from ios_uav_env.model.config import FEASIBILITY_TOL, ScenarioConfig
+
+#: Columns of a row of ``state``.
+STATE = ("x", "y", "moves_made", "sum_expected", "sum_rate", "excess")
+#: Columns of a row of ``episode``: the scenario's constants, then the observation's.
+EPISODE = (
+    "D", "qfx", "qfy", "moves", "inv_l", "fx_l", "fy_l", "gx_l", "gy_l", "cx_l", "cy_l", "inv_moves",
+    "left_scale", "elements", "is_ios", "is_ris", "transmit", "horizon", "peak_x_l", "peak_y_l", "peak_rate",
+)  # fmt: skip
+#: Columns of a row of ``info`` (``INFO_KEYS`` with ``position`` as x and y).
+INFO = (
+    "rate", "expected_rate", "position_x", "position_y", "distance_to_final", "slot", "reward_rate",
+    "reward_reach", "reward_terminal", "average_rate", "mean_faded_rate", "feasible", "worst_violation",
+    "terminal_miss",
+)  # fmt: skip
+#: Entries of the ``flags`` array: the env options the kernels need.
+FLAGS = ("arrival_guard", "rician", "instance_features", "peak_hint", "reach_weight", "terminal_weight")
+
+
+def flags_of(options: EnvOptions) -> np.ndarray:
+    """The ``flags`` array of ``options`` (see :data:`FLAGS`)."""
+    return np.array(
+        [options.arrival_guard, options.channel == "rician", options.instance_features, options.peak_hint,
+         options.reach_weight, options.terminal_weight], dtype=np.float64,
+    )  # fmt: skip
+
+
+def episode_row(config: ScenarioConfig, length_scale: float, peak: tuple[float, float, float]) -> np.ndarray:
+    """The ``episode`` row of ``config`` (see :data:`EPISODE`); ``peak``: the peak hint (x, y, rate)."""
+    inv_l, moves = 1.0 / length_scale, config.N - 1
+    (fx, fy), (gx, gy), (cx, cy) = config.qF, config.ground_node, config.ios_center[:2]
+    row = [config.D, fx, fy, moves, inv_l, fx * inv_l, fy * inv_l, gx * inv_l, gy * inv_l, cx * inv_l,
+           cy * inv_l, 1.0 / moves, config.dt / T_SCALE, *instance_values(config), peak[0] * inv_l,
+           peak[1] * inv_l, peak[2]]  # fmt: skip
+    return np.array(row, dtype=np.float64)
+
+
+# The kernels index the 2-D arrays in place (``episode[i, 4]``), never through row views
+# (``episode[i]``): in compiled code every view costs a reference count, more than the row's
+# arithmetic.
+
+
+@jit(inline=True)
+def _observe(obs: np.ndarray, i: int, x: float, y: float, left: float, dist: float, rate: float,
+             ep: np.ndarray, flags: np.ndarray) -> None:  # fmt: skip
+    """Write observation row ``i`` (the layout of ``IOSUAVEnv``'s docstring); ``ep``: ``episode``."""
+    inv_l = ep[i, 4]
+    xl, yl = x * inv_l, y * inv_l
+    s = left - dist / ep[i, 0]
+    obs[i, 0], obs[i, 1] = xl, yl
+    obs[i, 2], obs[i, 3], obs[i, 4], obs[i, 5] = ep[i, 5] - xl, ep[i, 6] - yl, ep[i, 7] - xl, ep[i, 8] - yl
+    obs[i, 6], obs[i, 7] = ep[i, 9] - xl, ep[i, 10] - yl
+    obs[i, 8], obs[i, 9], obs[i, 10] = left * ep[i, 11], s / (1.0 + abs(s)), rate
+    k = 11
+    if flags[2] != 0.0:
+        for j in range(5):
+            obs[i, k + j] = ep[i, 13 + j]
+        obs[i, k + 5] = left * ep[i, 12]
+        k += 6
+    if flags[3] != 0.0:
+        obs[i, k], obs[i, k + 1], obs[i, k + 2] = ep[i, 18] - xl, ep[i, 19] - yl, ep[i, 20]
+
+
+@jit(inline=True)
+def _info(info: np.ndarray, i: int, st: np.ndarray, ep: np.ndarray, rate: float, expected: float,
+          dist: float, left: float, r_rate: float, r_reach: float, r_terminal: float) -> None:  # fmt: skip
+    """Write ``info`` row ``i``: the step's terms and the running eq. (9) score and eq. (10)
+    check (``st``: ``state``, ``ep``: ``episode``)."""
+    points = st[i, 2] + 1.0  # way-points so far
+    deficit = max(0.0, dist - left * ep[i, 0])  # how far qF is out of reach (m)
+    worst = max(st[i, 5], deficit)
+    info[i, 0], info[i, 1], info[i, 2], info[i, 3], info[i, 4] = rate, expected, st[i, 0], st[i, 1], dist
+    info[i, 5], info[i, 6], info[i, 7], info[i, 8] = points, r_rate, r_reach, r_terminal
+    info[i, 9], info[i, 10] = st[i, 3] / points, st[i, 4] / points
+    info[i, 11] = 1.0 if worst <= FEASIBILITY_TOL else 0.0
+    info[i, 12], info[i, 13] = worst, deficit
+
+
+@jit
+def reset_rows(
+    rows: np.ndarray, state: np.ndarray, episode: np.ndarray, nodes: np.ndarray, params: np.ndarray,
+    normals: np.ndarray, flags: np.ndarray, obs: np.ndarray, info: np.ndarray,
+) -> None:  # fmt: skip
+    """Start the episodes of ``rows`` at the position already in ``state[:, 0:2]`` (q0)."""
+    for i in rows:
+        x, y = state[i, 0], state[i, 1]
+        expected = rate_row(x, y, nodes, params, i)
+        rate = expected
+        if flags[1] != 0.0:
+            rate = faded_row(x, y, normals[i, 0], normals[i, 1], nodes, params, i)
+        state[i, 2], state[i, 3], state[i, 4], state[i, 5] = 0.0, expected, rate, 0.0
+        dist = math.hypot(episode[i, 1] - x, episode[i, 2] - y)
+        _observe(obs, i, x, y, episode[i, 3], dist, expected, episode, flags)
+        _info(info, i, state, episode, rate, expected, dist, episode[i, 3], 0.0, 0.0, 0.0)
+
+
+@jit(inline=True)
+def _move(i: int, actions: np.ndarray, st: np.ndarray, ep: np.ndarray, flags: np.ndarray,
+          path: np.ndarray) -> tuple[float, float, float]:  # fmt: skip
+    """Move row ``i`` (unit-disk projection, then the arrival guard); return (x, y, moves left)."""
+    ax, ay = actions[i, 0], actions[i, 1]
+    norm = math.hypot(ax, ay)  # no overflow for huge actions
+    if norm > 1.0:
+        ax, ay = ax / norm, ay / norm
+    d, x0, y0 = ep[i, 0], st[i, 0], st[i, 1]
+    x, y = x0 + d * ax, y0 + d * ay
+    n = st[i, 2]
+    left = ep[i, 3] - n - 1.0  # moves left after this one
+    if flags[0] != 0.0:
+        x, y = guarded_position((x0, y0), (x, y), (ep[i, 1], ep[i, 2]), d, int(left))
+    st[i, 0], st[i, 1], st[i, 2] = x, y, n + 1.0
+    st[i, 5] = max(st[i, 5], math.hypot(x - x0, y - y0) - d)
+    path[i, int(n) + 1, 0], path[i, int(n) + 1, 1] = x, y
+    return x, y, left
+
+
+@jit(inline=True)
+def penalties(dist: float, left: float, d: float, w_reach: float, w_terminal: float) -> tuple[float, float]:
+    """The reach and terminal reward terms of a UAV ``dist`` m from qF with ``left`` moves of at
+    most ``d`` m to go: -w_reach x the distance it can no longer cover (in moves), and at the
+    last slot (``left == 0``) -w_terminal x (miss + sqrt(miss)), the miss in moves."""
+    reach = max(0.0, dist - left * d - FEASIBILITY_TOL) / d
+    r_reach = -w_reach * reach if reach > 0.0 else 0.0
+    r_terminal = 0.0
+    if left == 0.0:
+        miss = max(0.0, dist - FEASIBILITY_TOL) / d
+        if miss > 0.0:
+            r_terminal = -w_terminal * (miss + math.sqrt(miss))
+    return r_reach, r_terminal
+
+
+@jit(inline=True)
+def _settle(i: int, x: float, y: float, left: float, rate: float, expected: float, st: np.ndarray,
+            ep: np.ndarray, flags: np.ndarray, obs: np.ndarray, reward: np.ndarray,
+            terminated: np.ndarray, info: np.ndarray) -> None:  # fmt: skip
+    """Row ``i`` after its move: the running sums, the reward terms, the observation, the info."""
+    st[i, 3] += expected
+    st[i, 4] += rate
+    dist = math.hypot(ep[i, 1] - x, ep[i, 2] - y)
+    r_reach, r_terminal = penalties(dist, left, ep[i, 0], flags[4], flags[5])
+    reward[i] = rate + r_reach + r_terminal
+    terminated[i] = left == 0.0
+    _observe(obs, i, x, y, left, dist, expected, ep, flags)
+    _info(info, i, st, ep, rate, expected, dist, left, rate, r_reach, r_terminal)
+
+
+@jit(inline=True)
+def _finite_actions(actions: np.ndarray, active: np.ndarray) -> int:
+    """-1 if every active row's action is finite, else the first row whose action is not."""
+    for i in range(actions.shape[0]):
+        if active[i] and not (math.isfinite(actions[i, 0]) and math.isfinite(actions[i, 1])):
+            return i
+    return -1
+
+
+@jit(inline=True)
+def _step_row(
+    i: int, actions: np.ndarray, state: np.ndarray, episode: np.ndarray, nodes: np.ndarray,
+    params: np.ndarray, normals: np.ndarray, flags: np.ndarray, obs: np.ndarray, reward: np.ndarray,
+    terminated: np.ndarray, info: np.ndarray, path: np.ndarray,
+) -> None:  # fmt: skip
+    """One slot of row ``i``: move (unit-disk projection, then the arrival guard), rate (channel
+    "rician": the faded rate from ``normals`` (B, 2)), reward, observation and info. ``path``
+    (B, N_max, 2) receives the new way-point (at index ``moves made``)."""
+    x, y, left = _move(i, actions, state, episode, flags, path)
+    expected = rate_row(x, y, nodes, params, i)
+    rate = expected
+    if flags[1] != 0.0:
+        rate = faded_row(x, y, normals[i, 0], normals[i, 1], nodes, params, i)
+    _settle(i, x, y, left, rate, expected, state, episode, flags, obs, reward, terminated, info)
+
+
+@jit
+def step_rows(
+    actions: np.ndarray, state: np.ndarray, episode: np.ndarray, nodes: np.ndarray, params: np.ndarray,
+    normals: np.ndarray, flags: np.ndarray, obs: np.ndarray, reward: np.ndarray, terminated: np.ndarray,
+    info: np.ndarray, path: np.ndarray, active: np.ndarray,
+) -> int:  # fmt: skip
+    """One slot of every active row (:func:`_step_row`), one after the other: the single env's
+    step (one row). Returns -1, or, stepping nothing, the first active row whose action is not
+    finite."""
+    bad = _finite_actions(actions, active)
+    if bad < 0:
+        for i in range(actions.shape[0]):
+            if active[i]:
+                _step_row(i, actions, state, episode, nodes, params, normals, flags, obs, reward, terminated,
+                          info, path)  # fmt: skip
+    return bad
+
+
+@jit(parallel=True)
+def step_rows_batched(
+    actions: np.ndarray, state: np.ndarray, episode: np.ndarray, nodes: np.ndarray, params: np.ndarray,
+    normals: np.ndarray, flags: np.ndarray, obs: np.ndarray, reward: np.ndarray, terminated: np.ndarray,
+    info: np.ndarray, path: np.ndarray, active: np.ndarray,
+) -> int:  # fmt: skip
+    """:func:`step_rows` for batches: the rows in parallel on numba's threads
+    (``IOSUAVVectorEnv(num_threads=...)``). The loop body is compiled apart, without the
+    reference counting that the inlined helpers cost in :func:`step_rows` (half its time at
+    B = 1024), so it is faster on one thread too. (Two functions, not one compiled twice:
+    numba's disk cache keys a function by its name, not by its options.)"""
+    bad = _finite_actions(actions, active)
+    if bad < 0:
+        for i in prange(actions.shape[0]):  # rows are independent
+            if active[i]:
+                _step_row(i, actions, state, episode, nodes, params, normals, flags, obs, reward, terminated,
+                          info, path)  # fmt: skip
+    return bad

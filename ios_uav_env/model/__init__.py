@@ -1,0 +1,11 @@
+"""The system model: pure functions of a :class:`~ios_uav_env.model.config.ScenarioConfig` and
+a trajectory, on numpy arrays, knowing nothing of Gymnasium.
+
+- ``config``: the frozen, validated scenario (units and the paper's symbols);
+- ``surface``: the IOS element layout; ``channel``: the cascaded channel and the slot rate;
+- ``trajectory``: the one scorer of a flight (average rate, feasibility);
+- ``schedule``: K >= 1 ground nodes, the TDMA shares and the max-min rate;
+- ``peak``: the rate peak; ``scenarios``: random scenarios.
+
+Users import these names from ``ios_uav_env`` itself.
+"""

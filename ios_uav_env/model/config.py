@@ -1,0 +1,329 @@
+"""Scenario configuration: every parameter of the system model, with the paper's defaults.
+
+The model is that of Liu et al., IEEE WCL 11(9), 2022 (``docs/model.md``). Each field
+comment gives the unit and the paper's symbol. Choices the paper leaves open are marked
+*(assumption)* and are fields, never hidden constants. Derived quantities (N, D, eta, M)
+are properties. Variants are made with :func:`dataclasses.replace`, which re-validates.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+import numbers
+from collections.abc import Mapping
+from dataclasses import dataclass
+from typing import Any, Literal
+
+import numpy as np
+
+Surface = Literal["ios", "ris", "none"]
+SURFACES: tuple[str, ...] = ("ios", "ris", "none")
+
+#: Tolerance (m) within which a trajectory constraint of eq. (10) counts as met.
+FEASIBILITY_TOL = 1e-6
+
+
+def _pair(value: Any, name: str, length: int = 2) -> tuple[float, ...]:
+    if isinstance(value, (str, bytes)):
+        raise ValueError(f"{name} must be a sequence of {length} numbers, got {value!r}")
+    try:
+        out = tuple(float(v) for v in value)
+    except (TypeError, ValueError) as exc:
+        raise ValueError(f"{name} must be a sequence of {length} numbers, got {value!r}") from exc
+    if len(out) != length:
+        raise ValueError(f"{name} must have {length} entries, got {len(out)}: {value!r}")
+    if not all(math.isfinite(v) for v in out):
+        raise ValueError(f"{name} must be finite, got {value!r}")
+    return out
+
+
+def _is_real(value: Any) -> bool:
+    return isinstance(value, numbers.Real) and not isinstance(value, bool)
+
+
+def _is_int(value: Any) -> bool:
+    return isinstance(value, numbers.Integral) and not isinstance(value, bool)
+
+
+@dataclass(frozen=True)
+class ScenarioConfig:
+    """One instance of the IOS-aided UAV downlink of the paper (defaults: its Section IV)."""
+
+    surface: Surface = "ios"  # "ios" (reflect + transmit), "ris" (reflect only), "none" (direct link)
+    T: float = 150.0  # s, mission duration T = N * delta_t
+    dt: float = 1.0  # s, slot length delta_t
+    v_max: float = 25.0  # m/s, maximum UAV speed v_max
+    q0: tuple[float, float] = (-400.0, 20.0)  # m, initial horizontal position q_0 = q[1]
+    qF: tuple[float, float] = (400.0, 20.0)  # m, final horizontal position q_F = q[N]
+    ground_node: tuple[float, float] = (-100.0, -20.0)  # m, ground node G, w_G = (x_G, y_G), z = 0
+    uav_altitude: float = 100.0  # m, fixed UAV altitude z_U (assumption: not given in the paper)
+    ios_center: tuple[float, float, float] = (0.0, 0.0, 40.0)  # m, IOS centre; plane x = x_c
+    ios_shape: tuple[int, int] = (100, 60)  # (M_y, M_z): columns along y, rows along z (assumption)
+    epsilon: float = 3.55  # transmissive power-pattern factor epsilon, eq. (2)
+    kappa: float = 3.0  # Rician factor kappa, eqs. (4)-(5)
+    alpha: float = 5.0  # direct-link path-loss exponent alpha
+    power_w: float = 0.1  # W, UAV transmit power P
+    noise_dbm: float = -80.0  # dBm, noise power sigma^2
+    wavelength: float = 0.05  # m, carrier wavelength lambda
+    g_tx: float = 1.0  # UAV antenna gain G^tx
+    g_rx: float = 1.0  # ground-node antenna gain G^rx
+    g_element: float = 1.0  # element gain G_m (assumption)
+    gamma: float = 1.0  # element amplitude ratio |gamma_m| (assumption)
+    element_spacing_wl: float = 0.5  # wavelengths, element pitch on the grid (assumption: lambda/2)
+    element_size_wl: float = 0.5  # wavelengths, element size delta_y = delta_z (assumption: lambda/2)
+    # Chebyshev compression of the element sum (see ios_uav_env.model.surface): the exact per-element
+    # sum is replaced by an equivalent one over n x n weighted nodes, exact for polynomials of
+    # degree < n along each axis. n is at least quadrature_nodes, raised where the geometry needs
+    # it (a UAV close above a large surface) until an a-priori bound of the relative amplitude
+    # error is <= quadrature_tol; the exact sum once n reaches the grid size. 0 = always the
+    # exact sum (slow for M = 6000); quadrature_tol = inf = exactly quadrature_nodes.
+    quadrature_nodes: int = 8  # nodes per axis, at least (0: exact per-element sum)
+    quadrature_tol: float = 1e-12  # relative amplitude error the compression must stay within
+    # m, several ground nodes w_k (TDMA, max-min fairness; see ios_uav_env.model.schedule). None:
+    # the single node ``ground_node``. When given (K >= 1 pairs), ``ground_node`` is set to
+    # ground_nodes[0] and one node collapses to None (one canonical single-node value).
+    ground_nodes: tuple[tuple[float, float], ...] | None = None
+
+    def __post_init__(self) -> None:
+        if self.surface not in SURFACES:
+            raise ValueError(f"surface must be one of {SURFACES}, got {self.surface!r}")
+        object.__setattr__(self, "q0", _pair(self.q0, "q0"))
+        object.__setattr__(self, "qF", _pair(self.qF, "qF"))
+        object.__setattr__(self, "ground_node", _pair(self.ground_node, "ground_node"))
+        self._canonical_nodes()
+        object.__setattr__(self, "ios_center", _pair(self.ios_center, "ios_center", 3))
+        shape = _pair(self.ios_shape, "ios_shape")
+        if any(isinstance(v, (bool, np.bool_)) for v in self.ios_shape) or not all(
+            s == int(s) and s >= 1 for s in shape
+        ):
+            raise ValueError(f"ios_shape must be two integers >= 1 (M_y, M_z; M > 0), got {self.ios_shape!r}")
+        object.__setattr__(self, "ios_shape", (int(shape[0]), int(shape[1])))
+        positive = {
+            "T": self.T, "dt": self.dt, "v_max": self.v_max, "uav_altitude": self.uav_altitude,
+            "power_w": self.power_w, "wavelength": self.wavelength, "alpha": self.alpha,
+            "g_tx": self.g_tx, "g_rx": self.g_rx, "g_element": self.g_element,
+            "element_spacing_wl": self.element_spacing_wl, "element_size_wl": self.element_size_wl,
+        }  # fmt: skip
+        for name, value in positive.items():
+            if not (_is_real(value) and math.isfinite(value) and value > 0):
+                raise ValueError(f"{name} must be a finite number > 0, got {value!r}")
+        nonneg = {"epsilon": self.epsilon, "kappa": self.kappa, "gamma": self.gamma}
+        for name, value in nonneg.items():
+            if not (_is_real(value) and math.isfinite(value) and value >= 0):
+                raise ValueError(f"{name} must be a finite number >= 0, got {value!r}")
+        if not (_is_real(self.noise_dbm) and math.isfinite(self.noise_dbm)):
+            raise ValueError(f"noise_dbm must be finite, got {self.noise_dbm!r}")
+        if not (_is_int(self.quadrature_nodes) and 0 <= self.quadrature_nodes <= 64):
+            raise ValueError(f"quadrature_nodes must be an integer in [0, 64], got {self.quadrature_nodes!r}")
+        if not (_is_real(self.quadrature_tol) and self.quadrature_tol > 0):
+            raise ValueError(f"quadrature_tol must be a number > 0 (inf: none), got {self.quadrature_tol!r}")
+        # plain Python numbers (numpy scalars accepted): stable hashing, equality and JSON
+        for name in (*positive, *nonneg, "noise_dbm", "quadrature_tol"):
+            object.__setattr__(self, name, float(getattr(self, name)))
+        # derived powers must be finite numbers too: eta = P / sigma^2 enters every rate
+        for name in ("noise_w", "eta"):
+            try:
+                value = getattr(self, name)
+            except OverflowError:
+                value = math.inf
+            if not (math.isfinite(value) and 1e-150 < value < 1e150):
+                raise ValueError(
+                    f"power_w={self.power_w!r} W and noise_dbm={self.noise_dbm!r} dBm give {name} = "
+                    f"{value!r}: it must be a finite number in (1e-150, 1e150) "
+                    "(e.g. noise_dbm in [-250, 250] dBm)"
+                )
+        object.__setattr__(self, "quadrature_nodes", int(self.quadrature_nodes))
+        ratio = self.T / self.dt
+        if abs(ratio - round(ratio)) > 1e-9 * max(1.0, ratio):
+            raise ValueError(f"T must be a whole number of slots dt={self.dt} s, got T={self.T} s")
+        if self.N < 2:
+            raise ValueError(f"T must give at least N = 2 slots (T >= {2 * self.dt} s), got T={self.T} s")
+        half_height = 0.5 * (self.ios_shape[1] - 1) * self.element_spacing + 0.5 * self.element_size
+        top, bottom = self.ios_center[2] + half_height, self.ios_center[2] - half_height
+        if self.uav_altitude <= top:
+            raise ValueError(f"uav_altitude must be > the IOS top edge {top:g} m, got {self.uav_altitude!r}")
+        if bottom <= 0:
+            raise ValueError(
+                f"ios_center[2] must put the IOS bottom edge above ground (> 0 m), got {bottom:g} m"
+            )
+        t_min = self.min_horizon()
+        if self.N < round(t_min / self.dt):
+            raise ValueError(
+                f"T={self.T} s is too short to fly from q0={self.q0} to qF={self.qF} at "
+                f"v_max={self.v_max} m/s: T must be >= {t_min:g} s (N - 1 >= ceil(|qF - q0| / D) moves)"
+            )
+
+    def _canonical_nodes(self) -> None:
+        """Validate ``ground_nodes``; set ``ground_node`` to its first node; K = 1 -> None."""
+        nodes = self.ground_nodes
+        if nodes is None:
+            return
+        if isinstance(nodes, (str, bytes)) or not hasattr(nodes, "__len__") or len(nodes) == 0:
+            raise ValueError(
+                f"ground_nodes must be a sequence of K >= 1 (x, y) pairs in m (None: the single "
+                f"ground_node), got {nodes!r}"
+            )
+        pairs = tuple(_pair(p, f"ground_nodes[{i}]") for i, p in enumerate(nodes))
+        default = ScenarioConfig.__dataclass_fields__["ground_node"].default
+        if self.ground_node not in (pairs[0], default):
+            raise ValueError(
+                f"ground_node={self.ground_node} conflicts with ground_nodes[0]={pairs[0]}: give only "
+                "ground_nodes (ground_node is set to its first node)"
+            )
+        object.__setattr__(self, "ground_node", pairs[0])
+        object.__setattr__(self, "ground_nodes", pairs if len(pairs) > 1 else None)
+
+    # --- derived quantities -------------------------------------------------------
+    @property
+    def nodes(self) -> tuple[tuple[float, float], ...]:
+        """The K ground nodes w_k (m): ``ground_nodes``, or ``(ground_node,)`` for one node."""
+        return self.ground_nodes or (self.ground_node,)
+
+    @property
+    def K(self) -> int:
+        """Number of ground nodes K >= 1."""
+        return len(self.nodes)
+
+    def node_config(self, k: int) -> ScenarioConfig:
+        """The single-node config of node k (G = w_k, every other field unchanged): the model
+        of node k's rate r_k. ``self`` itself when K = 1."""
+        if not (isinstance(k, numbers.Integral) and 0 <= k < self.K):
+            raise ValueError(f"node index k must be an integer in [0, {self.K - 1}], got {k!r}")
+        if self.K == 1:
+            return self
+        return dataclasses.replace(self, ground_nodes=None, ground_node=self.nodes[int(k)])
+
+    def require_single_node(self, what: str) -> None:
+        """Raise ``ValueError`` when K > 1: ``what`` models one ground node only."""
+        if self.K > 1:
+            raise ValueError(
+                f"{what} models one ground node, but this config has K={self.K} ground_nodes: use "
+                "ios_uav_env.node_rates / maxmin_rate (several nodes) or config.node_config(k) (node k)"
+            )
+
+    @property
+    def N(self) -> int:
+        """Number of slots N = T / delta_t (both end points included; N - 1 moves)."""
+        return int(round(self.T / self.dt))
+
+    @property
+    def D(self) -> float:
+        """Maximum horizontal move per slot D = v_max * delta_t (m)."""
+        return self.v_max * self.dt
+
+    @property
+    def noise_w(self) -> float:
+        """Noise power sigma^2 in W."""
+        return 10.0 ** (self.noise_dbm / 10.0) * 1e-3
+
+    @property
+    def eta(self) -> float:
+        """Transmit SNR eta = P / sigma^2 (inf when sigma^2 underflows to 0)."""
+        noise = self.noise_w
+        return self.power_w / noise if noise > 0 else math.inf
+
+    @property
+    def M(self) -> int:
+        """Number of IOS elements M = M_y * M_z."""
+        return self.ios_shape[0] * self.ios_shape[1]
+
+    @property
+    def element_spacing(self) -> float:
+        """Element pitch in metres."""
+        return self.element_spacing_wl * self.wavelength
+
+    @property
+    def element_size(self) -> float:
+        """Element size delta_y = delta_z in metres."""
+        return self.element_size_wl * self.wavelength
+
+    @property
+    def J(self) -> float:
+        """J = lambda sqrt(G_tx G_rx G_m delta_y delta_z |gamma|^2) / (4 pi)^(3/2)."""
+        root = math.sqrt(self.g_tx * self.g_rx * self.g_element * self.element_size**2 * self.gamma**2)
+        return self.wavelength * root / (4.0 * math.pi) ** 1.5
+
+    @property
+    def transmit_factor(self) -> float:
+        """Factor of the transmissive power pattern: epsilon (IOS), 0 (RIS and no surface)."""
+        return self.epsilon if self.surface == "ios" else 0.0
+
+    def min_horizon(self) -> float:
+        """Shortest T (s) that still lets the UAV reach qF from q0 at v_max."""
+        return (int(moves_needed(math.dist(self.q0, self.qF), self.D)) + 1) * self.dt
+
+    def replace(self, **changes: Any) -> ScenarioConfig:
+        """A copy with ``changes`` applied (an unknown field raises ``TypeError`` worded as
+        Python's own); re-validated."""
+        for name in changes:
+            if name not in SCENARIO_FIELDS:
+                raise TypeError(f"ScenarioConfig.replace() got an unexpected keyword argument {name!r}")
+        if "ground_nodes" in changes:
+            if changes["ground_nodes"] is None:  # back to one node: keep the first one
+                changes.setdefault("ground_node", self.ground_node)
+            else:  # __post_init__ sets ground_node to the first new node
+                changes.setdefault("ground_node", ScenarioConfig.__dataclass_fields__["ground_node"].default)
+        elif "ground_node" in changes and self.K > 1:
+            raise ValueError(
+                f"ground_node cannot be replaced on a config with K={self.K} ground_nodes: set ground_nodes"
+            )
+        return dataclasses.replace(self, **changes)
+
+    def to_dict(self) -> dict[str, Any]:
+        """Plain-JSON dictionary of the fields (round-trips through ``ScenarioConfig(**d)``).
+
+        ``ground_nodes`` is omitted when None (one node), so single-node dicts are unchanged."""
+        out = {k: list(v) if isinstance(v, tuple) else v for k, v in dataclasses.asdict(self).items()}
+        if self.ground_nodes:
+            out["ground_nodes"] = [list(p) for p in self.ground_nodes]
+        else:
+            del out["ground_nodes"]
+        return out
+
+
+#: The names of the ``ScenarioConfig`` fields (the scenario's keyword arguments everywhere).
+SCENARIO_FIELDS: frozenset[str] = frozenset(f.name for f in dataclasses.fields(ScenarioConfig))
+
+
+def moves_needed(distance: Any, D: float) -> Any:
+    """Moves of at most D needed to cover ``distance`` (m): ceil(distance / D), 0 for 0.
+
+    A distance of exactly k D takes k moves (a relative slack of 1e-9 absorbs rounding).
+    Vectorised: an array of distances gives an array of counts (floats), a number an int.
+    """
+    moves = np.maximum(np.ceil(np.asarray(distance, dtype=float) / D - 1e-9), 0.0)
+    return int(moves) if moves.ndim == 0 else moves
+
+
+def scene_box(config: ScenarioConfig, margin: float = 0.0, *, ends: bool = True) -> tuple[float, ...]:
+    """(x_min, x_max, y_min, y_max) in m: the bounding box of the ground nodes and the IOS
+    centre (and of q0 and qF with ``ends``), widened by ``margin`` on every side. The planners'
+    grids, the peak search and the figures all start from this box."""
+    points = [*config.nodes, config.ios_center[:2]] + ([config.q0, config.qF] if ends else [])
+    pts = np.asarray(points, dtype=float)
+    lo, hi = pts.min(axis=0) - margin, pts.max(axis=0) + margin
+    return float(lo[0]), float(hi[0]), float(lo[1]), float(hi[1])
+
+
+def as_config(value: Any, name: str = "config") -> ScenarioConfig:
+    """``value`` as a ``ScenarioConfig``: itself, the fields of a dict, or the defaults for None."""
+    if value is None:
+        return ScenarioConfig()
+    if isinstance(value, ScenarioConfig):
+        return value
+    if isinstance(value, Mapping):
+        return ScenarioConfig(**value)
+    raise TypeError(f"{name} must be a ScenarioConfig, a dict of its fields or None, got {value!r}")
+
+
+def scenario_option(options: Mapping[str, Any] | None) -> ScenarioConfig | None:
+    """The scenario pinned by ``reset(options=...)``: ``options["config"]`` (a ``ScenarioConfig``
+    or a dict of its fields) or None; any other key raises ``ValueError``."""
+    if not isinstance(options, (Mapping, type(None))) or set(options or ()) - {"config"}:
+        raise ValueError(
+            'reset accepts only options={"config": ScenarioConfig(...)} (the episode\'s scenario) or '
+            f"None, got options={options!r}"
+        )
+    config = (options or {}).get("config")
+    return None if config is None else as_config(config, 'options["config"]')

@@ -1,0 +1,135 @@
+"""The reachable rate peak: the best point to hover at, found on a grid of the one rate model.
+
+A fly-hover-fly trajectory through a point P exists iff the UAV can fly from q0 to P and on
+to qF in the N - 1 moves of D: ``moves_needed(|P - q0|) + moves_needed(|qF - P|) <= N - 1``
+(:func:`reachable`). :func:`rate_peak` is the point of highest expected-gain rate
+(``channel.slot_rates``) among those, searched on an absolute grid of ``resolution`` metres
+around G and the IOS and along the straight line q0 -> qF (always reachable), then refined
+on a ``refine`` metre grid around the best point; ``side`` restricts it to G's side of the
+surface plane or the other one. Rate peaks lie near G and the IOS: the direct link peaks
+above G, and each element's UAV-side factor |dx|^3 / d^4 peaks at |dx| = sqrt(3) h, h the
+UAV's height above the element; the default ``margin`` is max(200 m, 2 sqrt(3) h_max), h_max
+above the lowest element (210 m at the paper's 100 m altitude), and the box is clipped to
+the bounding box of the reachable ellipse |P - q0| + |qF - P| <= (N - 1) D (so a far-away
+G does not blow the grid up). It is the hover point of the planners' starts, of the
+heuristic baselines and of the env's ``peak_hint`` features.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import NamedTuple
+
+import numpy as np
+
+from ios_uav_env.model.channel import rate_kernel, slot_rates
+from ios_uav_env.model.config import ScenarioConfig, moves_needed, scene_box
+from ios_uav_env.model.surface import _axes
+
+#: Least metres searched around G and the IOS centre (see :func:`search_margin`).
+PEAK_MARGIN = 200.0
+
+
+class Peak(NamedTuple):
+    """A hover point (m) and its expected-gain rate (bps/Hz)."""
+
+    x: float
+    y: float
+    rate: float
+
+
+def reachable(config: ScenarioConfig, points: np.ndarray) -> np.ndarray:
+    """Mask of the (n, 2) ``points`` that a fly-hover-fly trajectory of ``config`` can visit."""
+    q0, qf = np.asarray(config.q0, float), np.asarray(config.qF, float)
+    out = moves_needed(np.linalg.norm(points - q0, axis=1), config.D)
+    back = moves_needed(np.linalg.norm(qf - points, axis=1), config.D)
+    return out + back <= config.N - 1
+
+
+def search_margin(config: ScenarioConfig) -> float:
+    """The default margin (m) of the search box: max(200 m, 2 sqrt(3) h_max), with h_max the
+    UAV's height above the lowest surface element (twice where an element's link peaks)."""
+    if config.surface == "none":
+        return PEAK_MARGIN
+    _, zs = _axes(config)
+    return max(PEAK_MARGIN, 2.0 * math.sqrt(3.0) * (config.uav_altitude - float(np.min(zs))))
+
+
+def _ellipse_box(config: ScenarioConfig) -> tuple[np.ndarray, np.ndarray]:
+    """(lo, hi) corners of the bounding box of the reachable ellipse (plus one move)."""
+    q0, qf = np.asarray(config.q0, float), np.asarray(config.qF, float)
+    a = 0.5 * (config.N - 1) * config.D + config.D  # semi-major axis, one move of slack
+    c = 0.5 * float(np.linalg.norm(qf - q0))
+    b = math.sqrt(max(a * a - c * c, 0.0))
+    u = (qf - q0) / (2.0 * c) if c > 0 else np.array([1.0, 0.0])
+    half = np.sqrt((a * u) ** 2 + (b * u[::-1]) ** 2)
+    centre = 0.5 * (q0 + qf)
+    return centre - half, centre + half
+
+
+def _axis(lo: float, hi: float, step: float) -> np.ndarray:
+    return np.arange(math.floor(lo / step), math.ceil(hi / step) + 1) * step
+
+
+#: Values of ``rate_peak``'s ``side``: anywhere, G's side of the surface plane, the other side.
+SIDES = (None, "front", "behind")
+
+
+def _on_side(config: ScenarioConfig, points: np.ndarray, side: str | None) -> np.ndarray:
+    if side is None:
+        return np.ones(len(points), dtype=bool)
+    x_c = config.ios_center[0]
+    facing = np.sign(points[:, 0] - x_c) * np.sign(config.ground_node[0] - x_c)
+    return facing > 0 if side == "front" else facing < 0
+
+
+def _best(config: ScenarioConfig, points: np.ndarray, side: str | None, compiled: bool) -> Peak | None:
+    points = points[reachable(config, points) & _on_side(config, points, side)]
+    if len(points) == 0:
+        return None
+    rates = rate_kernel(config).rates(points) if compiled else slot_rates(config, points)
+    i = int(np.argmax(rates))
+    return Peak(float(points[i, 0]), float(points[i, 1]), float(rates[i]))
+
+
+def rate_peak(
+    config: ScenarioConfig,
+    resolution: float = 10.0,
+    refine: float = 1.0,
+    margin: float | None = None,
+    side: str | None = None,
+    compiled: bool = False,
+) -> Peak | None:
+    """The reachable point of highest expected-gain rate (see the module docstring).
+
+    ``resolution`` (m): the coarse grid; ``refine`` (m): the fine grid within one coarse
+    step of the coarse optimum (0: none); ``margin`` (m): the search box around G and the
+    IOS centre (default :func:`search_margin`); ``side``: None (anywhere; never returns
+    None), ``"front"`` (G's side of the surface plane) or ``"behind"`` (the other side; None
+    if no reachable point of the grid lies there); ``compiled``: evaluate the grids with the
+    compiled rate kernel (``RateKernel.rates``, several times faster with numba; the rates
+    agree with ``slot_rates`` to rounding, so only an exact tie between two grid points could
+    pick the other one). Deterministic.
+    """
+    if side not in SIDES:
+        raise ValueError(f"side must be one of {SIDES}, got {side!r}")
+    margin = search_margin(config) if margin is None else margin
+    for name, value in (("resolution", resolution), ("margin", margin)):
+        if not (isinstance(value, (int, float)) and math.isfinite(value) and value > 0):
+            raise ValueError(f"{name} must be a finite number > 0 (m), got {value!r}")
+    if not (isinstance(refine, (int, float)) and math.isfinite(refine) and 0 <= refine < resolution):
+        raise ValueError(f"refine must be a number in [0, resolution) (m), got {refine!r}")
+    x0, x1, y0, y1 = scene_box(config, margin, ends=False)
+    box_lo, box_hi = _ellipse_box(config)
+    lo = np.maximum((x0, y0), box_lo)
+    hi = np.minimum((x1, y1), box_hi)
+    xx, yy = np.meshgrid(_axis(lo[0], hi[0], resolution), _axis(lo[1], hi[1], resolution))
+    line = np.linspace(config.q0, config.qF, config.N)  # a straight flight: every point reachable
+    best = _best(config, np.vstack([np.column_stack([xx.ravel(), yy.ravel()]), line]), side, compiled)
+    if best is not None and refine > 0:
+        offsets = np.arange(-math.floor(resolution / refine), math.floor(resolution / refine) + 1) * refine
+        fx, fy = np.meshgrid(best.x + offsets, best.y + offsets)
+        fine = _best(config, np.column_stack([fx.ravel(), fy.ravel()]), side, compiled)
+        if fine is not None and fine.rate > best.rate:
+            best = fine
+    return best
