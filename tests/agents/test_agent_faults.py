@@ -63,7 +63,7 @@ def signal_at(monkeypatch, steps: int, signum: int = signal.SIGINT) -> None:
     ``callback`` slipped into the hyperparameters)."""
     from stable_baselines3.common.callbacks import BaseCallback
 
-    import agents.training as training
+    import agents.training.run as run  # where the training loop looks load_hyperparams up
 
     class Kill(BaseCallback):
         def _on_step(self) -> bool:
@@ -71,14 +71,14 @@ def signal_at(monkeypatch, steps: int, signum: int = signal.SIGINT) -> None:
                 os.kill(os.getpid(), signum)
             return True
 
-    load = training.load_hyperparams
+    load = run.load_hyperparams
 
     def with_kill(*args, **kwargs):
         hp = load(*args, **kwargs)
         hp.callbacks = [*hp.callbacks, Kill()]
         return hp
 
-    monkeypatch.setattr(training, "load_hyperparams", with_kill)
+    monkeypatch.setattr(run, "load_hyperparams", with_kill)
 
 
 # --- 1. training interrupted -------------------------------------------------------------

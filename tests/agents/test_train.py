@@ -268,14 +268,15 @@ def test_target_entropy_schedule_anneals_sac_noise_and_refuses_ppo():
 
 def test_env_wrapper_key_wraps_the_training_envs_and_the_monitor_keeps_raw_rewards(tmp_path):
     from agents.hyperparams import resolve
-    from agents.training import TrainSettings, _make_venv
+    from agents.training import TrainSettings
+    from agents.training.envs import make_venv
     from agents.wrappers import ShiftReward
 
     hp = resolve(
         {"n_envs": 1, "env_wrapper": [{"agents.wrappers.ShiftReward": {"offset": 2.0, "scale": 3.0}}]}
     )
     assert hp.env_wrappers == [(ShiftReward, {"offset": 2.0, "scale": 3.0})]
-    venv = _make_venv(TrainSettings("sac", n_envs=1, seed=0), hp, tmp_path, None)
+    venv = make_venv(TrainSettings("sac", n_envs=1, seed=0), hp, tmp_path, None)
     venv.reset()
     shifted, raw = [], []
     for _ in range(148):
