@@ -12,7 +12,7 @@ tour 0.468872, bound 0.474066 bps/Hz.
 
 Each agent runs deterministically in its own env (a fixed id made on the scenario with the
 model's ``max_nodes``; the randomised id pinned with ``reset(options={"config": cfg})``) and is
-scored like every multi-node plan (``ios_uav_env.benchmark.multi``): its own min rate (its
+scored like every multi-node plan (``ios_uav_env.benchmark``): its own min rate (its
 shares), the best schedule of its trajectory, % of SCA and of the bound, feasibility.
 """
 
@@ -27,11 +27,13 @@ from typing import Any
 import numpy as np
 
 from ios_uav_env import ScenarioConfig
-from ios_uav_env.benchmark.multi import MultiScenarioResult, multi_episode, score_plan
-from ios_uav_env.benchmark.suite import SuiteScenario
+from ios_uav_env.benchmark.results import METRICS, ScenarioResult
+from ios_uav_env.benchmark.scoring import episode
+from ios_uav_env.benchmark.suite import MULTI_NODE, SuiteScenario
 from ios_uav_env.envs.multi import DEFAULT_NODES
 from ios_uav_env.envs.registration import MULTINODE_IDS
 from ios_uav_env.io import atomic_write_text, save_figure, save_rows_csv
+from ios_uav_env.model.score import score_plan
 
 DEFAULT_MULTI = ScenarioConfig(ground_nodes=DEFAULT_NODES)
 REFERENCE_CACHE = Path("out/multinode-references")
@@ -95,8 +97,9 @@ def planner_rows(scenario: SuiteScenario, record: dict[str, Any]) -> list[MultiR
             rows.append(MultiRow(label, "planner", 0.0, 0.0, 0.0, 0.0, False, rec["seconds"]))
             continue
         q, a = np.asarray(rec["trajectory"]), np.asarray(rec["shares"])
-        rate, best, feasible, worst = score_plan(scenario, q, a)
-        r = MultiScenarioResult.of(scenario, rate, best, feasible, worst, rec["seconds"], own_shares=True)
+        r = ScenarioResult.of(
+            scenario, METRICS[MULTI_NODE], score_plan(scenario.config, q, a), rec["seconds"]
+        )
         rows.append(_row(label, "planner", r, q, a))
     ub, b = scenario.rate("bound"), record["bound"]
     rows.append(
@@ -160,13 +163,13 @@ def agent_row(agent: Any, scenario: SuiteScenario) -> MultiRow:
     """Roll ``agent`` out deterministically on the scenario and score its plan."""
     env = agent_env(agent, scenario.config)
     try:
-        r = multi_episode(env, fast_act(agent), scenario, seed=0)
+        r = episode(env, fast_act(agent), scenario, 0, False, METRICS[MULTI_NODE])
     finally:
         env.close()
     return _row(getattr(agent, "name", "agent"), "agent", r, r.trajectory, r.shares)
 
 
-def _row(scheme: str, kind: str, r: MultiScenarioResult, trajectory: Any, shares: Any) -> MultiRow:
+def _row(scheme: str, kind: str, r: ScenarioResult, trajectory: Any, shares: Any) -> MultiRow:
     """A table row from a plan's scores (% of SCA and of the bound 0 for an infeasible plan)."""
     return MultiRow(scheme, kind, r.rate, r.best_schedule_rate, r.pct_sca, r.pct_bound, r.feasible,
                     r.seconds, trajectory, shares)  # fmt: skip
@@ -220,7 +223,7 @@ def save_shares_figure(rows: Sequence[MultiRow], config: ScenarioConfig, path: s
     from matplotlib.backends.backend_agg import FigureCanvasAgg
     from matplotlib.figure import Figure
 
-    from ios_uav_env.benchmark.figures_multi import shares_panels
+    from ios_uav_env.benchmark.figures import shares_panels
 
     plans = [r for r in rows if r.trajectory is not None and r.shares is not None]
     fig = Figure(figsize=(5.2 * max(1, len(plans)), 6.2), dpi=100)

@@ -9,7 +9,7 @@ from typing import Any
 
 import numpy as np
 
-from ios_uav_env import ScenarioConfig, TrajectoryReport, check_trajectory, schedule
+from ios_uav_env import ScenarioConfig, TrajectoryReport, score_plan
 from ios_uav_env.io import atomic_write_text
 
 
@@ -43,18 +43,17 @@ class Plan:
         For K > 1 nodes the score is the certified max-min rate and ``info`` gets the best
         schedule's ``shares`` (K x N, as lists) and per-node rates ``node_rates``."""
         q = np.asarray(trajectory, dtype=float)
-        report = check_trajectory(config, q)
-        best = schedule(config, q)
+        scored = score_plan(config, q)  # the one scorer: its best schedule
         info = dict(info or {})
-        if config.K > 1:
-            info.update(shares=best.shares.tolist(), node_rates=best.node_rates.tolist())
+        if scored.best is not None:
+            info.update(shares=scored.best.shares.tolist(), node_rates=scored.best.node_rates.tolist())
         return cls(
             scheme=scheme,
             config=config,
             trajectory=q,
-            mean_rate=best.value,
-            feasible=report.feasible,
-            report=report,
+            mean_rate=scored.rate,
+            feasible=scored.feasible,
+            report=scored.report,
             seconds=float(seconds),
             history=list(history or []),
             info=info,

@@ -28,6 +28,7 @@ from ios_uav_env.model.schedule import (
     schedule,
     scheduled_rates,
 )
+from ios_uav_env.model.score import PlanScore, score_plan
 from ios_uav_env.model.trajectory import TrajectoryReport, average_rate, check_trajectory
 
 __version__ = "0.1.0"
@@ -36,6 +37,7 @@ __all__ = [
     "DEFAULT_RANGES",
     "FEASIBILITY_TOL",
     "Peak",
+    "PlanScore",
     "RateKernel",
     "SURFACES",
     "ScenarioConfig",
@@ -56,6 +58,7 @@ __all__ = [
     "scene_box",
     "schedule",
     "scheduled_rates",
+    "score_plan",
     "slot_rates",
 ]
 

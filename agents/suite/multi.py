@@ -2,7 +2,7 @@
 
 A model trained on ``ios_uav_env/IOSUAV-MultiNode-Random-v0`` (or ``-v0``) is scored on the frozen
 multi-node suite ``multi-node-v1`` of ``ios_uav_env.benchmark`` (48 held-out scenarios, 2 to 4
-nodes) through the benchmark's own scorer (``ios_uav_env.benchmark.multi``): per scenario its own
+nodes) through the benchmark's own scorer (``ios_uav_env.benchmark``): per scenario its own
 min rate (its shares), the best schedule of its trajectory, % of SCA and of the certified bound,
 feasibility and plan time (the SB3 model's numpy export). A model of the fixed 3-node id observes
 at most 3 nodes: it runs in the randomised id with its ``max_nodes`` and is scored on the
@@ -36,7 +36,7 @@ def multi_report(
 ) -> dict[str, Any]:
     """Score ``policy`` on the multi-node suite, print the table, write the files to ``out``."""
     from ios_uav_env.benchmark import load_suite
-    from ios_uav_env.benchmark.multi import evaluate_multi
+    from ios_uav_env.benchmark.scoring import evaluate_scenarios
 
     loaded = load_suite(suite)
     k_max = model_max_nodes(policy)
@@ -46,7 +46,7 @@ def multi_report(
         raise ValueError(f"no scenario of {loaded.name} has K <= {k_max} nodes (the model's max_nodes)")
     name = getattr(policy, "name", "policy")
     kwargs = suite_env_kwargs(policy, k_max)
-    results = evaluate_multi(fast_act(policy), loaded, scenarios, kwargs, 0, name)
+    results = evaluate_scenarios(fast_act(policy), loaded, scenarios, kwargs, 0, name)
     print(results.markdown())
     if len(scenarios) < len(chosen):
         print(f"note: {len(chosen) - len(scenarios)} of {len(chosen)} scenarios have more than the model's "

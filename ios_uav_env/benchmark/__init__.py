@@ -12,34 +12,43 @@ alone (no planner, no deep-learning library):
 - :mod:`~ios_uav_env.benchmark.suite`: the suites (:data:`SUITES`, :func:`load_suite`; a
   file that does not match its registered hash fails to load);
 - :mod:`~ios_uav_env.benchmark.scoring`: :func:`evaluate` (a policy) and
-  :func:`score_trajectories` (one trajectory per scenario);
+  :func:`score_trajectories` (one trajectory, and for K > 1 its shares, per scenario), for
+  every suite, each plan scored by :func:`ios_uav_env.score_plan`;
 - :mod:`~ios_uav_env.benchmark.results`: :class:`Results` (per scenario and aggregate; CSV,
-  JSON, markdown, figure);
-- :mod:`~ios_uav_env.benchmark.multi`: multi-node suites (``multi-node-v1``): a plan's own
-  max-min rate (its shares), its best schedule, % of SCA and of the certified bound
-  (:class:`~ios_uav_env.benchmark.multi.MultiResults`); frozen by
-  :mod:`~ios_uav_env.benchmark.freeze_multi`;
+  JSON, markdown, figures) for any K, with the suite kind's :class:`Metrics` (single-node:
+  % of DP and of SCA; multi-node: the plan's own max-min rate as % of SCA and of the
+  certified bound, and its best schedule's % of SCA);
 - :mod:`~ios_uav_env.benchmark.trajectories`: trajectory files (``.npz`` or CSV; multi-node
   plans may carry their shares: :func:`read_plans`);
 - ``python -m ios_uav_env.benchmark {list,show,evaluate}``: the command line
   (:mod:`~ios_uav_env.benchmark.cli`).
 """
 
-from ios_uav_env.benchmark.results import Aggregate, Results, ScenarioResult, reference_results
-from ios_uav_env.benchmark.scoring import action_function, evaluate, score_trajectories
+from ios_uav_env.benchmark.results import (
+    METRICS,
+    Aggregate,
+    Metrics,
+    Results,
+    ScenarioResult,
+    reference_results,
+)
+from ios_uav_env.benchmark.scoring import action_function, evaluate, evaluate_scenarios, score_trajectories
 from ios_uav_env.benchmark.suite import DEFAULT_SUITE, SUITES, Suite, SuiteScenario, list_suites, load_suite
 from ios_uav_env.benchmark.trajectories import read_plans, read_trajectories, write_trajectories
 
 __all__ = [
     "DEFAULT_SUITE",
     "SUITES",
+    "METRICS",
     "Aggregate",
+    "Metrics",
     "Results",
     "ScenarioResult",
     "Suite",
     "SuiteScenario",
     "action_function",
     "evaluate",
+    "evaluate_scenarios",
     "list_suites",
     "load_suite",
     "read_plans",

@@ -17,7 +17,7 @@ writes ``results.csv``, ``results.json``, ``results.md`` and ``pct_dp.png`` (wit
 to ``--out``. ``show`` prints the same line for each stored reference (DP, SCA, heuristics).
 
 On a multi-node suite (``--suite multi-node-v1``) the line has % of SCA, % of the certified
-bound and the best schedule's % of SCA (``ios_uav_env.benchmark.multi``), the figures are
+bound and the best schedule's % of SCA (``ios_uav_env.benchmark.results``), the figures are
 ``pct_sca.png`` and ``shares.png``, and a trajectories file may hold each plan's shares
 (``shares_<index>`` in ``.npz``, ``share_<k>`` columns in CSV); without them a plan is scored
 with its best schedule.

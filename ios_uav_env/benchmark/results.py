@@ -1,80 +1,142 @@
-"""Benchmark results: one row per scenario, the aggregate, and their CSV, JSON, markdown and figure.
+"""Benchmark results for any number of ground nodes: one row per scenario, the aggregate, and
+their CSV, JSON, markdown and figures.
 
-The score of a scenario is the policy's rate as a percentage of the suite's reference values:
-``pct_dp`` = 100 x rate / DP rate and ``pct_sca`` = 100 x rate / SCA rate. An infeasible plan
-(eq. (10): it misses q0 or qF or moves faster than v_max) scores 0 on both (its rate is still
-reported): the mission was not flown. "% of DP" may exceed 100: DP is the optimum over a grid.
+Every plan is scored by :func:`ios_uav_env.score_plan` (its own rate, its best schedule's rate,
+eq. (10)). What a suite reports is its :class:`Metrics`, named by the suite's kind:
+
+- ``single-node``: the rate of eq. (9) as % of the DP optimum (the normaliser) and of SCA;
+- ``multi-node``: the max-min rate min_k R_k with the plan's own shares as % of SCA (the
+  normaliser) and of the certified upper bound, and the best schedule's % of SCA.
+
+``pct_<reference>`` = 100 x rate / the reference's rate on the scenario. **An infeasible plan
+(eq. (10): it misses q0 or qF or moves faster than v_max) scores 0** (its rate is still
+reported): the mission was not flown. "% of DP" and "% of SCA" may exceed 100 (DP is the optimum
+on a grid, SCA a local optimum); "% of bound" never does for a feasible plan.
 """
 
 from __future__ import annotations
 
-import json
 import math
-from collections.abc import Sequence
-from dataclasses import asdict, dataclass, field
+from collections.abc import Iterator, Mapping, Sequence
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from ios_uav_env.benchmark.suite import Suite, SuiteScenario
-from ios_uav_env.io import atomic_write_text, save_figure, save_rows_csv
+from ios_uav_env.benchmark.suite import MULTI_NODE, SINGLE_NODE, Suite, SuiteScenario
+from ios_uav_env.io import atomic_write_text, save_rows_csv
+from ios_uav_env.model.config import ScenarioConfig
+from ios_uav_env.model.score import PlanScore
+
+#: How a reference is named in summaries and tables.
+LABELS = {"dp": "DP", "sca": "SCA", "bound": "bound"}
+
+
+@dataclass(frozen=True)
+class Metrics:
+    """What a suite reports: the references its scores are percentages of (the normaliser
+    first) and whether plans carry TDMA shares (K > 1: the best schedule is reported too)."""
+
+    scores: tuple[str, ...]  # e.g. ("dp", "sca"): pct_dp, pct_sca
+    schedules: bool  # K > 1 nodes: own shares, the best schedule, K per row
+
+    @property
+    def normaliser(self) -> str:
+        return self.scores[0]
+
+    def columns(self) -> tuple[str, ...]:
+        """The fields of a row's dict and CSV, in order."""
+        multi = ("K",) if self.schedules else ()
+        best = ("best_schedule_rate",) if self.schedules else ()
+        tail = (f"best_pct_{self.normaliser}",) if self.schedules else ()
+        own = ("own_shares",) if self.schedules else ()
+        pct = tuple(f"pct_{r}" for r in self.scores)
+        return ("index", *multi, "rate", *best, "feasible", "worst_violation", *pct, *tail, "seconds", *own)
+
+
+#: The metrics of each suite kind.
+METRICS = {SINGLE_NODE: Metrics(("dp", "sca"), False), MULTI_NODE: Metrics(("sca", "bound"), True)}
+
+
+def metrics_of(suite: Suite) -> Metrics:
+    """The :class:`Metrics` of ``suite`` (its kind's, normalised by the suite's normaliser)."""
+    metrics = METRICS[suite.kind]
+    if metrics.normaliser != suite.normalizer:
+        raise ValueError(
+            f"suite {suite.name}: normaliser {suite.normalizer!r}, its kind's is {metrics.normaliser!r}"
+        )
+    return metrics
 
 
 @dataclass(frozen=True)
 class ScenarioResult:
-    """A policy's plan on one scenario of a suite."""
+    """A plan on one scenario of a suite (any K)."""
 
     index: int
-    rate: float  # bps/Hz, eq. (9) of the plan (ios_uav_env.average_rate)
-    feasible: bool  # eq. (10) within FEASIBILITY_TOL (ios_uav_env.check_trajectory)
-    worst_violation: float  # m, worst breach of eq. (10)
-    pct_dp: float  # 100 x rate / the DP optimum's rate; 0 if infeasible
-    pct_sca: float  # 100 x rate / the SCA plan's rate; 0 if infeasible
-    seconds: float  # wall time to plan (reset to last step); NaN if unknown (a trajectory file)
-    trajectory: np.ndarray | None = field(default=None, repr=False, compare=False)  # (N, 2) m, the plan
+    K: int
+    rate: float  # bps/Hz, the plan's own score (ios_uav_env.score_plan)
+    best_schedule_rate: float  # bps/Hz, with the best shares of its trajectory (= rate for K = 1)
+    feasible: bool  # eq. (10) within FEASIBILITY_TOL
+    worst_violation: float  # m, worst breach of eq. (10); NaN for a stored reference
+    pct: Mapping[str, float]  # by reference: 100 x rate / the reference's rate; 0 if infeasible
+    best_pct: float  # 100 x best_schedule_rate / the normaliser's rate; 0 if infeasible
+    seconds: float  # wall time to plan; NaN if unknown (a trajectory file)
+    own_shares: bool  # rate scored with the plan's own shares (always for K = 1)
+    metrics: Metrics = field(repr=False, compare=False)
+    trajectory: np.ndarray | None = field(default=None, repr=False, compare=False)  # (N, 2) m
+    shares: np.ndarray | None = field(default=None, repr=False, compare=False)  # (K, N), own shares
+    config: ScenarioConfig | None = field(default=None, repr=False, compare=False)
 
     @classmethod
     def of(
         cls,
         scenario: SuiteScenario,
-        rate: float,
-        feasible: bool,
-        worst_violation: float,
+        metrics: Metrics,
+        score: PlanScore | tuple[float, float, bool, float, bool],
         seconds: float,
         trajectory: np.ndarray | None = None,
+        shares: np.ndarray | None = None,
     ) -> ScenarioResult:
-        """The result of a plan of ``rate`` and ``feasible`` on ``scenario``."""
-        ok = bool(feasible)
-        return cls(
-            scenario.index, float(rate), ok, float(worst_violation),
-            100.0 * rate / scenario.dp_rate if ok else 0.0,
-            100.0 * rate / scenario.sca_rate if ok else 0.0,
-            float(seconds), trajectory,
-        )  # fmt: skip
+        """The result of a plan's ``score`` (a :class:`PlanScore`, or stored values as
+        ``(rate, best_schedule_rate, feasible, worst_violation, own_shares)``) on ``scenario``."""
+        if isinstance(score, PlanScore):
+            values = (score.rate, score.best_schedule_rate, score.feasible,
+                      score.report.worst_violation, score.own_shares)  # fmt: skip
+        else:
+            values = score
+        rate, best, feasible, worst, own = (
+            float(values[0]),
+            float(values[1]),
+            bool(values[2]),
+            values[3],
+            values[4],
+        )
+        pct = {r: 100.0 * rate / scenario.rate(r) if feasible else 0.0 for r in metrics.scores}
+        best_pct = 100.0 * best / scenario.rate(metrics.normaliser) if feasible else 0.0
+        return cls(scenario.index, scenario.config.K, rate, best, feasible, float(worst), pct, best_pct,
+                   float(seconds), bool(own), metrics, trajectory, shares, scenario.config)  # fmt: skip
+
+    def __getattr__(self, name: str) -> float:
+        """``pct_<reference>`` and ``best_pct_<normaliser>`` by name (e.g. ``pct_dp``)."""
+        if name.startswith("pct_") and name[4:] in self.__dict__.get("pct", {}):
+            return float(self.pct[name[4:]])
+        if "metrics" in self.__dict__ and name == f"best_pct_{self.metrics.normaliser}":
+            return self.best_pct
+        raise AttributeError(f"{type(self).__name__} has no attribute {name!r}")
 
     def to_dict(self) -> dict[str, Any]:
-        """The fields but the trajectory."""
-        return {k: getattr(self, k) for k in COLUMNS}
-
-
-#: The fields of a :class:`ScenarioResult` in its dict and CSV row.
-COLUMNS = ("index", "rate", "feasible", "worst_violation", "pct_dp", "pct_sca", "seconds")
+        """The fields of :meth:`Metrics.columns` (not the trajectory, shares or config)."""
+        return {k: getattr(self, k) for k in self.metrics.columns()}
 
 
 @dataclass(frozen=True)
 class Aggregate:
-    """Mean, 10th percentile and minimum of the scores over the scenarios; counts and times."""
+    """Mean, 10th percentile and minimum of each score over the scenarios; counts and times."""
 
     n: int
     feasible: int
-    mean_pct_dp: float
-    p10_pct_dp: float
-    min_pct_dp: float
-    mean_pct_sca: float
-    p10_pct_sca: float
-    min_pct_sca: float
-    mean_rate: float  # bps/Hz
+    stats: Mapping[str, float]  # mean_pct_<r>, p10_pct_<r>, min_pct_<r>, ..., mean_rate, ...
     median_seconds: float  # the policy's median time to plan (NaN if unknown)
     sca_median_seconds: float  # SCA's, from the suite file, on the same scenarios
 
@@ -82,25 +144,28 @@ class Aggregate:
     def of(cls, rows: Sequence[ScenarioResult], scenarios: Sequence[SuiteScenario]) -> Aggregate:
         if not rows:
             raise ValueError("no scenario results to aggregate")
-        mean_dp, p10_dp, min_dp = spread([r.pct_dp for r in rows])
-        mean_sca, p10_sca, min_sca = spread([r.pct_sca for r in rows])
+        metrics = rows[0].metrics
+        stats: dict[str, float] = {}
+        for ref in metrics.scores:
+            mean, p10, low = spread([r.pct[ref] for r in rows])
+            stats.update({f"mean_pct_{ref}": mean, f"p10_pct_{ref}": p10, f"min_pct_{ref}": low})
+        if metrics.schedules:
+            stats[f"mean_best_pct_{metrics.normaliser}"] = float(np.mean([r.best_pct for r in rows]))
+        stats["mean_rate"] = float(np.mean([r.rate for r in rows]))
+        if metrics.schedules:
+            stats["mean_best_rate"] = float(np.mean([r.best_schedule_rate for r in rows]))
         median, sca_median = plan_seconds(rows, scenarios)
-        return cls(
-            n=len(rows),
-            feasible=int(sum(r.feasible for r in rows)),
-            mean_pct_dp=mean_dp,
-            p10_pct_dp=p10_dp,
-            min_pct_dp=min_dp,
-            mean_pct_sca=mean_sca,
-            p10_pct_sca=p10_sca,
-            min_pct_sca=min_sca,
-            mean_rate=float(np.mean([r.rate for r in rows])),
-            median_seconds=median,
-            sca_median_seconds=sca_median,
-        )
+        return cls(len(rows), int(sum(r.feasible for r in rows)), stats, median, sca_median)
+
+    def __getattr__(self, name: str) -> float:
+        stats = self.__dict__.get("stats", {})
+        if name in stats:
+            return float(stats[name])
+        raise AttributeError(f"{type(self).__name__} has no attribute {name!r}")
 
     def to_dict(self) -> dict[str, Any]:
-        return asdict(self)
+        return {"n": self.n, "feasible": self.feasible, **self.stats, "median_seconds": self.median_seconds,
+                "sca_median_seconds": self.sca_median_seconds}  # fmt: skip
 
 
 @dataclass(frozen=True)
@@ -114,70 +179,95 @@ class Results:
     env_kwargs: dict[str, Any]
     scenarios: tuple[ScenarioResult, ...] = field(repr=False)
     aggregate: Aggregate
+    metrics: Metrics = field(repr=False)
+
+    @classmethod
+    def of(cls, suite: Suite, name: str, kwargs: Mapping[str, Any], rows: Sequence[ScenarioResult],
+           scenarios: Sequence[SuiteScenario]) -> Results:  # fmt: skip
+        return cls(name, suite.name, suite.sha256, suite.env_id, dict(kwargs), tuple(rows),
+                   Aggregate.of(rows, scenarios), metrics_of(suite))  # fmt: skip
+
+    def __iter__(self) -> Iterator[ScenarioResult]:
+        return iter(self.scenarios)
 
     def to_dict(self) -> dict[str, Any]:
-        return results_dict(self)
+        return {
+            "name": self.name, "suite": self.suite, "sha256": self.sha256, "env_id": self.env_id,
+            "env_kwargs": dict(self.env_kwargs), "aggregate": self.aggregate.to_dict(),
+            "scenarios": [r.to_dict() for r in self.scenarios],
+        }  # fmt: skip
 
     def summary(self) -> str:
-        """One line: mean / p10 / min % of DP and of SCA, feasible count, median time to plan."""
-        a = self.aggregate
-        plan = plan_time(a.median_seconds)
-        return (
-            f"{self.name} on {self.suite} ({a.n} scenarios): % of DP mean {a.mean_pct_dp:.2f} | "
-            f"p10 {a.p10_pct_dp:.2f} | min {a.min_pct_dp:.2f}; % of SCA mean {a.mean_pct_sca:.2f} | "
-            f"p10 {a.p10_pct_sca:.2f} | min {a.min_pct_sca:.2f}; feasible {a.feasible}/{a.n}; "
-            f"median plan {plan} (SCA {a.sca_median_seconds:.2f} s)"
-        )
+        """One line: mean / p10 / min of each score, the best schedule (K > 1), the feasible count
+        and the median time to plan."""
+        a, m = self.aggregate, self.metrics
+        st = a.stats
+        parts = [f"% of {LABELS[r]} mean {st[f'mean_pct_{r}']:.2f} | p10 {st[f'p10_pct_{r}']:.2f} | "
+                 f"min {st[f'min_pct_{r}']:.2f}" for r in m.scores]  # fmt: skip
+        if m.schedules:
+            parts.append(f"best schedule % of {LABELS[m.normaliser]} mean "
+                         f"{a.stats[f'mean_best_pct_{m.normaliser}']:.2f}")  # fmt: skip
+        parts.append(f"feasible {a.feasible}/{a.n}")
+        plan = f"median plan {plan_time(a.median_seconds)} (SCA {a.sca_median_seconds:.2f} s)"
+        return f"{self.name} on {self.suite} ({a.n} scenarios): " + "; ".join([*parts, plan])
 
     def markdown(self) -> str:
         """The summary and one table row per scenario, as markdown."""
-        lines = [
-            f"# {self.name} on {self.suite}", "", self.summary(), "",
-            "| # | rate (bps/Hz) | feasible | % of DP | % of SCA | plan (ms) |",
-            "|---|---|---|---|---|---|",
-        ]  # fmt: skip
+        m = self.metrics
+        rates = ["K", "min rate (bps/Hz)", "shares", "best schedule"] if m.schedules else ["rate (bps/Hz)"]
+        head = ["#", *rates,
+                "feasible", *(f"% of {LABELS[r]}" for r in m.scores),
+                *([f"best % of {LABELS[m.normaliser]}"] if m.schedules else []), "plan (ms)"]  # fmt: skip
+        lines = [f"# {self.name} on {self.suite}", "", self.summary(), "", "| " + " | ".join(head) + " |",
+                 "|" + "---|" * len(head)]  # fmt: skip
         for r in self.scenarios:
-            lines.append(
-                f"| {r.index} | {r.rate:.4f} | {'yes' if r.feasible else 'NO'} | {r.pct_dp:.2f} | "
-                f"{r.pct_sca:.2f} | {1e3 * r.seconds:.1f} |"
-            )
+            cells = [str(r.index)]
+            if m.schedules:
+                cells += [
+                    str(r.K),
+                    f"{r.rate:.4f}",
+                    "own" if r.own_shares else "best",
+                    f"{r.best_schedule_rate:.4f}",
+                ]
+            else:
+                cells.append(f"{r.rate:.4f}")
+            cells += ["yes" if r.feasible else "NO", *(f"{r.pct[ref]:.2f}" for ref in m.scores)]
+            cells += [f"{r.best_pct:.2f}"] if m.schedules else []
+            lines.append("| " + " | ".join([*cells, f"{1e3 * r.seconds:.1f}"]) + " |")
         return "\n".join(lines) + "\n"
 
     def save_csv(self, path: str | Path) -> Path:
         """One row per scenario (full precision), atomically."""
-        return save_rows_csv(path, COLUMNS, (r.to_dict() for r in self.scenarios))
-
-    def save_figure(self, path: str | Path) -> Path:
-        """Histogram of % of DP over the scenarios (needs matplotlib: ``ios-uav-env[render]``)."""
-        from matplotlib.backends.backend_agg import FigureCanvasAgg
-        from matplotlib.figure import Figure
-
-        fig = Figure(figsize=(7, 4), dpi=100)
-        FigureCanvasAgg(fig)
-        ax = fig.add_subplot()
-        pct = [r.pct_dp for r in self.scenarios]
-        ax.hist(pct, bins=np.linspace(min(min(pct), 95.0), max(max(pct), 101.0), 30), alpha=0.8)
-        ax.axvline(100.0, color="k", lw=0.8, ls="--")
-        ax.set_xlabel("% of the DP optimum")
-        ax.set_ylabel("scenarios")
-        ax.set_title(f"{self.name} on {self.suite}: mean {self.aggregate.mean_pct_dp:.2f}%", fontsize=9)
-        fig.tight_layout()
-        return save_figure(fig, path)
+        return save_rows_csv(path, self.metrics.columns(), (r.to_dict() for r in self.scenarios))
 
     def save(self, out: str | Path) -> dict[str, Path]:
-        """Write ``results.csv``, ``results.json``, ``results.md``, the plans as ``trajectories.npz``
-        (if every result has its trajectory: a file ``score_trajectories`` scores alike) and, with
-        matplotlib, ``pct_dp.png`` to the folder ``out``; the paths written by kind."""
+        """Write ``results.csv``, ``results.json`` (strict: NaN as null), ``results.md``, the plans
+        as ``trajectories.npz`` (with their own shares; if every result has its trajectory: a file
+        ``score_trajectories`` scores alike) and, with matplotlib, ``pct_<normaliser>.png`` and,
+        K > 1, ``shares.png`` to the folder ``out``; the paths written by kind."""
+        import json
+
         from ios_uav_env.benchmark.trajectories import write_trajectories
 
         out = Path(out)
-        paths = save_tables(self, out)
+        paths = {
+            "csv": self.save_csv(out / "results.csv"),
+            "json": atomic_write_text(
+                out / "results.json", json.dumps(_finite(self.to_dict()), indent=1) + "\n"
+            ),
+            "markdown": atomic_write_text(out / "results.md", self.markdown()),
+        }
         if all(r.trajectory is not None for r in self.scenarios):
             plans = {r.index: r.trajectory for r in self.scenarios}
+            own = {r.index: r.shares for r in self.scenarios if r.own_shares and r.shares is not None}
             times = {r.index: r.seconds for r in self.scenarios if not math.isnan(r.seconds)}
-            paths["trajectories"] = write_trajectories(out / "trajectories.npz", plans, times)
+            paths["trajectories"] = write_trajectories(out / "trajectories.npz", plans, times, own or None)
         try:
-            paths["figure"] = self.save_figure(out / "pct_dp.png")
+            from ios_uav_env.benchmark.figures import save_histogram, save_shares_figure
+
+            paths["figure"] = save_histogram(self, out / f"pct_{self.metrics.normaliser}.png")
+            if self.metrics.schedules and any(r.trajectory is not None for r in self.scenarios):
+                paths["shares"] = save_shares_figure(self, out / "shares.png")
         except ImportError:
             pass
         return paths
@@ -201,27 +291,6 @@ def plan_time(median_seconds: float) -> str:
     return "unknown" if math.isnan(median_seconds) else f"{1e3 * median_seconds:.1f} ms"
 
 
-def results_dict(results: Any) -> dict[str, Any]:
-    """The dict of a :class:`Results` or a ``MultiResults``: what was run, aggregate, scenarios."""
-    return {
-        "name": results.name, "suite": results.suite, "sha256": results.sha256, "env_id": results.env_id,
-        "env_kwargs": dict(results.env_kwargs), "aggregate": results.aggregate.to_dict(),
-        "scenarios": [r.to_dict() for r in results.scenarios],
-    }  # fmt: skip
-
-
-def save_tables(results: Any, out: Path) -> dict[str, Path]:
-    """``results.csv``, ``results.json`` (strict: NaN as null) and ``results.md`` of a
-    :class:`Results` or a ``MultiResults`` in the folder ``out``, atomically; the paths by kind."""
-    return {
-        "csv": results.save_csv(out / "results.csv"),
-        "json": atomic_write_text(
-            out / "results.json", json.dumps(_finite(results.to_dict()), indent=1) + "\n"
-        ),
-        "markdown": atomic_write_text(out / "results.md", results.markdown()),
-    }
-
-
 def _finite(value: Any) -> Any:
     """``value`` with every NaN float replaced by None (strict JSON)."""
     if isinstance(value, dict):
@@ -232,21 +301,16 @@ def _finite(value: Any) -> Any:
 
 
 def reference_results(suite: Suite, reference: str, n: int | None = None) -> Results:
-    """A stored reference (``"dp"``, ``"sca"``, ``"hover_peak"``, ``"hover_ground"``) scored as a
-    policy from its stored rate and feasibility (DP's plans are feasible by construction).
-    Multi-node suites: ``"sca"``, ``"tour"``, ``"bound"`` (a ``MultiResults``)."""
+    """A stored reference scored as a policy from its stored rate and feasibility (single-node:
+    ``"dp"``, ``"sca"``, ``"hover_peak"``, ``"hover_ground"``; multi-node: ``"sca"``, ``"tour"``,
+    ``"bound"``, the upper bound as if it were a plan's rate; DP's plans are feasible by
+    construction)."""
     if reference not in suite.references:
         raise KeyError(f"suite {suite.name} has no reference {reference!r}; it has {list(suite.references)}")
-    if suite.multi_node:
-        from ios_uav_env.benchmark.multi import multi_reference_results
-
-        return multi_reference_results(suite, reference, n)  # type: ignore[return-value]
-    scenarios = suite.subset(n)
+    metrics, scenarios = metrics_of(suite), suite.subset(n)
     rows = []
     for s in scenarios:
-        ref = s.reference[reference]
-        seconds = float(ref.get("seconds", math.nan))
-        feasible = bool(ref.get("feasible", True))
-        rows.append(ScenarioResult.of(s, float(ref["rate"]), feasible, math.nan, seconds))
-    return Results(reference, suite.name, suite.sha256, suite.env_id, dict(suite.env_kwargs), tuple(rows),
-                   Aggregate.of(rows, scenarios))  # fmt: skip
+        ref, rate = s.reference[reference], s.rate(reference)
+        values = (rate, rate, bool(ref.get("feasible", True)), math.nan, True)
+        rows.append(ScenarioResult.of(s, metrics, values, float(ref.get("seconds", math.nan))))
+    return Results.of(suite, reference, suite.env_kwargs, rows, scenarios)

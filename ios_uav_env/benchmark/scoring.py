@@ -27,28 +27,29 @@ episode's wall time from the reset to the last step (policy and env).
 (3, 99.77)
 
 On a multi-node suite (``suite="multi-node-v1"``) the env is ``MultiNodeEnv``
-(``ios_uav_env/IOSUAV-MultiNode-Random-v0``): the action is the move and one score per node, and
-each plan is scored by :mod:`ios_uav_env.benchmark.multi` (its own min_k R_k, its best schedule,
-% of SCA and of the certified bound); the result is a ``MultiResults``. Scoring a multi-node
-suite needs scipy (the env and ``maxmin_rate`` solve the schedule LP).
+(``ios_uav_env/IOSUAV-MultiNode-Random-v0``), one env pinned per scenario (a batched policy sees
+a batch of one): the action is the move and one score per node, and each plan is scored by the
+same ``score_plan`` with the shares the policy chose (its own min_k R_k, and its best schedule);
+the :class:`~ios_uav_env.benchmark.results.Results` then report % of SCA and of the certified
+bound. Scoring a multi-node suite needs scipy (the best schedule is an LP). A policy's plan time
+stops before the scoring, as the planners' (``Plan.seconds``, taken before
+``Plan.from_trajectory`` scores the plan): the env's own best-schedule LP of the last step
+(``score_seconds``, for ``info["best_schedule_rate"]``) is not counted.
 """
 
 from __future__ import annotations
 
 import importlib
 import time
-from collections.abc import Callable, Mapping
-from typing import TYPE_CHECKING, Any
+from collections.abc import Callable, Mapping, Sequence
+from typing import Any
 
 import numpy as np
 
-from ios_uav_env.benchmark.results import Aggregate, Results, ScenarioResult
+from ios_uav_env.benchmark.results import Metrics, Results, ScenarioResult, metrics_of
 from ios_uav_env.benchmark.suite import DEFAULT_SUITE, Suite, SuiteScenario, load_suite
 from ios_uav_env.envs.rollout import decision_interval
-from ios_uav_env.model.trajectory import average_rate, check_trajectory
-
-if TYPE_CHECKING:
-    from ios_uav_env.benchmark.multi import MultiResults
+from ios_uav_env.model.score import score_plan
 
 MAX_STEPS = 100_000
 
@@ -106,10 +107,11 @@ def play(
     return time.perf_counter() - start
 
 
-def _episode(
-    env: Any, act: Callable, scenario: SuiteScenario, seed: int | None, batched: bool
+def episode(
+    env: Any, act: Callable, scenario: SuiteScenario, seed: int | None, batched: bool, metrics: Metrics
 ) -> ScenarioResult:
-    """One episode of ``act`` on ``scenario`` in ``env`` (a batch of one if ``batched``), scored."""
+    """One episode of ``act`` on ``scenario`` in ``env`` (a batch of one if ``batched``), scored by
+    ``score_plan`` of its trajectory (and, K > 1 nodes, the shares the policy chose)."""
     cfg = scenario.config
 
     def checked(obs: np.ndarray) -> np.ndarray:
@@ -120,10 +122,14 @@ def _episode(
 
     seconds = play(env, checked if batched else act, scenario, seed, decision_interval(act))
     base = env.unwrapped
+    seconds -= getattr(base, "score_seconds", 0.0)  # the env's scoring LP is not the plan's time
     trajectory = base.trajectories[0] if batched else base.trajectory
-    report = check_trajectory(cfg, trajectory)
-    rate = average_rate(cfg, trajectory)
-    return ScenarioResult.of(scenario, rate, report.feasible, report.worst_violation, seconds, trajectory)
+    shares = base.shares if cfg.K > 1 else None  # (a multi-node suite runs the single env)
+    try:
+        score = score_plan(cfg, trajectory, shares)
+    except ValueError as err:
+        raise ValueError(f"scenario {scenario.index}: {err}") from None
+    return ScenarioResult.of(scenario, metrics, score, seconds, trajectory, shares)
 
 
 def _make_env(env_id: str, env_kwargs: Mapping[str, Any], batched: bool) -> tuple[Any, bool]:
@@ -150,7 +156,7 @@ def evaluate(
     batched: bool | None = None,
     seed: int | None = 0,
     name: str | None = None,
-) -> Results | MultiResults:
+) -> Results:
     """Score ``policy`` on the first ``n`` scenarios of ``suite`` (all for None): a :class:`Results`
     (per scenario: rate, feasibility, % of DP and of SCA, time to plan; their aggregate).
 
@@ -159,26 +165,44 @@ def evaluate(
     env; ``seed`` seeds each scenario's reset.
     """
     suite = suite_of(suite)
-    scenarios = suite.subset(n)
     own = getattr(policy, "env_kwargs", None) if env_kwargs is None else env_kwargs
-    kwargs = {**suite.env_kwargs, **dict(own or {})}
     batched = bool(getattr(policy, "batched", False) if batched is None else batched)
-    act = action_function(policy)
-    if suite.multi_node:  # one MultiNodeEnv pinned per scenario; a batched policy sees a batch of one
-        from ios_uav_env.benchmark.multi import evaluate_multi
+    name = name or policy_name(policy)
+    return evaluate_scenarios(
+        action_function(policy), suite, suite.subset(n), own, seed, name, batched=batched
+    )
 
-        one = (lambda obs: np.asarray(act(np.asarray(obs)[None]))[0]) if batched else act
-        return evaluate_multi(one, suite, scenarios, kwargs, seed, name or policy_name(policy))
-    env, vector = _make_env(suite.env_id, kwargs, batched)
-    if batched and not vector:  # an id without a batched env: the policy on a batch of one
+
+def evaluate_scenarios(
+    act: Callable,
+    suite: Suite,
+    scenarios: Sequence[SuiteScenario],
+    env_kwargs: Mapping[str, Any] | None,
+    seed: int | None,
+    name: str,
+    *,
+    batched: bool = False,
+) -> Results:
+    """Roll ``act`` (an action function, :func:`action_function`) out on ``scenarios`` of
+    ``suite`` in the suite's env with ``env_kwargs`` added to the suite's, and score each plan."""
+    metrics = metrics_of(suite)
+    kwargs = {**suite.env_kwargs, **dict(env_kwargs or {})}
+    env, vector = _make_env(suite.env_id, kwargs, batched and not suite.multi_node)
+    if batched and not vector:  # no batched env (or a multi-node suite): the policy on a batch of one
         batch_act = act
         act = lambda obs: np.asarray(batch_act(np.asarray(obs)[None]))[0]  # noqa: E731
     try:
-        rows = [_episode(env, act, s, seed, vector) for s in scenarios]
+        max_nodes = getattr(env.unwrapped, "max_nodes", 1)
+        too_many = [s.index for s in scenarios if s.config.K > max_nodes]
+        if too_many:
+            raise ValueError(
+                f"scenarios {too_many} have more nodes than the env's max_nodes = {max_nodes} "
+                f"(env_kwargs {kwargs})"
+            )
+        rows = [episode(env, act, s, seed, vector, metrics) for s in scenarios]
     finally:
         env.close()
-    return Results(name or policy_name(policy), suite.name, suite.sha256, suite.env_id, kwargs, tuple(rows),
-                   Aggregate.of(rows, scenarios))  # fmt: skip
+    return Results.of(suite, name, kwargs, rows, scenarios)
 
 
 def score_trajectories(
@@ -188,7 +212,7 @@ def score_trajectories(
     seconds: Mapping[int, float] | None = None,
     name: str = "trajectories",
     shares: Mapping[int, Any] | None = None,
-) -> Results | MultiResults:
+) -> Results:
     """Score one trajectory per scenario (``{index: (N, 2) way-points in m, q0 first and qF last}``)
     with ``average_rate`` and ``check_trajectory``; ``seconds``: each plan's time, if known.
 
@@ -211,7 +235,12 @@ def score_trajectories(
         raise ValueError(f"the trajectories must cover scenarios 0..n-1 of {suite.name}; missing {missing}")
     if shares and not suite.multi_node:
         raise ValueError(f"shares are for multi-node suites; {suite.name} is a single-node suite")
-    scenarios = suite.subset(len(indices))
+    scenarios, metrics = suite.subset(len(indices)), metrics_of(suite)
+    shares = dict(shares or {})
+    missing = [s.index for s in scenarios if s.index not in shares]
+    if shares and missing:
+        raise ValueError(f"shares are given for some scenarios but not for {missing}: give them for all "
+                         "or none (without shares a plan is scored with its best schedule)")  # fmt: skip
     rows = []
     for s in scenarios:
         q = np.asarray(trajectories[s.index], dtype=np.float64)
@@ -222,15 +251,11 @@ def score_trajectories(
             )
         if not np.isfinite(q).all():
             raise ValueError(f"scenario {s.index}: the trajectory has NaN or infinite values")
-        if suite.multi_node:
-            continue
-        report = check_trajectory(s.config, q)
+        a = None if s.index not in shares else np.asarray(shares[s.index], dtype=np.float64)
+        try:
+            score = score_plan(s.config, q, a)
+        except ValueError as err:
+            raise ValueError(f"scenario {s.index}: {err}") from None
         t = float("nan") if seconds is None else float(seconds.get(s.index, float("nan")))
-        rate = average_rate(s.config, q)
-        rows.append(ScenarioResult.of(s, rate, report.feasible, report.worst_violation, t, q))
-    if suite.multi_node:
-        from ios_uav_env.benchmark.multi import score_multi_trajectories
-
-        return score_multi_trajectories(trajectories, suite, scenarios, seconds, shares, name)
-    aggregate = Aggregate.of(rows, scenarios)
-    return Results(name, suite.name, suite.sha256, suite.env_id, {}, tuple(rows), aggregate)
+        rows.append(ScenarioResult.of(s, metrics, score, t, q, a))
+    return Results.of(suite, name, {}, rows, scenarios)

@@ -27,8 +27,7 @@ from typing import Any
 import numpy as np
 
 from ios_uav_env.model.config import ScenarioConfig
-from ios_uav_env.model.schedule import scheduled_rates
-from ios_uav_env.model.trajectory import average_rate, check_trajectory
+from ios_uav_env.model.score import score_plan
 
 Policy = Callable[[np.ndarray], Any]
 
@@ -96,11 +95,8 @@ def score_episode(
     """The :class:`Episode` of a finished flight, scored by the model: eq. (9) (``average_rate``;
     several nodes: ``scheduled_rates`` of the agent's own ``shares``, its min_k R_k) and
     eq. (10) (``check_trajectory``), as every planner's plan is."""
-    report = check_trajectory(config, trajectory)
-    if config.K > 1:  # several nodes: the agent's own shares (scheduled_rates), the one scorer
-        score = float(scheduled_rates(config, trajectory, shares).min())
-    else:
-        score = average_rate(config, trajectory)
+    scored = score_plan(config, trajectory, shares if config.K > 1 else None, best_schedule=False)
+    report, score = scored.report, scored.rate
     return Episode(
         config=config,
         trajectory=trajectory,

@@ -233,8 +233,8 @@ def test_shipped_multinode_generalist_reproduces_its_recorded_suite_rows():
     from agents.evaluate_multi import fast_act
     from agents.suite.multi import suite_env_kwargs
     from ios_uav_env.benchmark import load_suite as load_benchmark
-    from ios_uav_env.benchmark.multi import evaluate_multi
     from ios_uav_env.benchmark.results import spread
+    from ios_uav_env.benchmark.scoring import evaluate_scenarios
 
     folder = MODELS_DIR / "dagger_IOSUAV-MultiNode-Random-v0"
     recorded = list(csv.DictReader((folder / "suite_report.csv").open()))
@@ -250,7 +250,9 @@ def test_shipped_multinode_generalist_reproduces_its_recorded_suite_rows():
     agent = load_policy(folder)
     assert agent.env_kwargs["peak_hint"] is True and agent.meta["config"]["trained_by"] == "agents.imitation"
     chosen = suite.subset(8)
-    rows = evaluate_multi(fast_act(agent), suite, chosen, suite_env_kwargs(agent, 4), 0, "dagger").scenarios
+    rows = evaluate_scenarios(
+        fast_act(agent), suite, chosen, suite_env_kwargs(agent, 4), 0, "dagger"
+    ).scenarios
     for row, rec in zip(rows, recorded, strict=False):
         assert row.index == int(rec["index"]) and row.feasible
         assert row.rate == pytest.approx(float(rec["rate"]), rel=RATE_REL)

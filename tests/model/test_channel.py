@@ -3,9 +3,10 @@
 import numpy as np
 import pytest
 
-import ios_uav_env as m
 from ios_uav_env import ScenarioConfig
+from ios_uav_env.model import channel as m
 from ios_uav_env.model.channel import small_scale_term
+from ios_uav_env.model.surface import surface_nodes
 
 DEFAULT = ScenarioConfig()
 EXACT = DEFAULT.replace(quadrature_nodes=0)  # sum over all 6000 elements
@@ -43,8 +44,8 @@ def test_node_compression_matches_every_element(surface):
     exact = m.zeta(EXACT.replace(surface=surface), q)
     fast = m.zeta(DEFAULT.replace(surface=surface), q)
     np.testing.assert_allclose(fast, exact, rtol=1e-10)
-    assert not m.surface_nodes(DEFAULT).exact and m.surface_nodes(EXACT).exact
-    assert len(m.surface_nodes(DEFAULT).weight) == 64 and len(m.surface_nodes(EXACT).weight) == 6000
+    assert not surface_nodes(DEFAULT).exact and surface_nodes(EXACT).exact
+    assert len(surface_nodes(DEFAULT).weight) == 64 and len(surface_nodes(EXACT).weight) == 6000
 
 
 def test_zeta_is_the_sum_of_the_per_element_amplitudes():

@@ -1,6 +1,6 @@
-"""Figures of a multi-node result (matplotlib, ``ios-uav-env[render]``): the histogram of % of SCA,
-and for a few scenarios the trajectory coloured by the node served (over the best-node rate map)
-above each node's share against the slot (a stacked plot).
+"""Figures of a benchmark result (matplotlib, ``ios-uav-env[render]``): the histogram of % of the
+normaliser (DP or SCA) and, for K > 1 nodes, for a few scenarios the trajectory coloured by the
+node served (over the best-node rate map) above each node's share against the slot (a stacked plot).
 
 :func:`shares_panels` draws one scenario's pair of panels for any plan, so the agents' reports
 (``agents.evaluate``, ``agents.suite report``) draw the same figure.
@@ -50,19 +50,27 @@ def shares_panels(
 
 
 def save_histogram(results: Any, path: str | Path) -> Path:
-    """Histogram of % of SCA over the scenarios: the plan's own shares and its best schedule."""
+    """Histogram of % of the suite's normaliser over the scenarios; K > 1 nodes: the plan's own
+    shares and the best schedule of its trajectory."""
+    norm = results.metrics.normaliser
+    label = {"dp": "DP", "sca": "SCA"}.get(norm, norm)
     fig = _figure((7, 4))
     ax = fig.add_subplot()
-    own = [r.pct_sca for r in results.scenarios]
-    best = [r.best_pct_sca for r in results.scenarios]
-    bins = np.linspace(min(min(own), 90.0), max(max(best), 101.0), 30)
-    ax.hist(own, bins=bins, alpha=0.75, label="own shares")
-    ax.hist(best, bins=bins, alpha=0.5, label="best schedule of the trajectory")
+    own = [r.pct[norm] for r in results.scenarios]
+    if results.metrics.schedules:
+        best = [r.best_pct for r in results.scenarios]
+        bins = np.linspace(min(min(own), 90.0), max(max(best), 101.0), 30)
+        ax.hist(own, bins=bins, alpha=0.75, label="own shares")
+        ax.hist(best, bins=bins, alpha=0.5, label="best schedule of the trajectory")
+        ax.set_xlabel(f"% of {label} (max-min rate)")
+        ax.legend(fontsize=8)
+    else:
+        ax.hist(own, bins=np.linspace(min(min(own), 95.0), max(max(own), 101.0), 30), alpha=0.8)
+        ax.set_xlabel(f"% of the {label} optimum" if norm == "dp" else f"% of {label}")
     ax.axvline(100.0, color="k", lw=0.8, ls="--")
-    ax.set_xlabel("% of SCA (max-min rate)")
     ax.set_ylabel("scenarios")
-    ax.legend(fontsize=8)
-    ax.set_title(f"{results.name} on {results.suite}: mean {results.aggregate.mean_pct_sca:.2f}%", fontsize=9)
+    mean = results.aggregate.stats[f"mean_pct_{norm}"]
+    ax.set_title(f"{results.name} on {results.suite}: mean {mean:.2f}%", fontsize=9)
     fig.tight_layout()
     return save_figure(fig, path)
 
@@ -81,7 +89,7 @@ def save_shares_figure(results: Any, path: str | Path, count: int = 3) -> Path:
     rows = [r for r in results.scenarios if r.trajectory is not None and r.config is not None]
     if not rows:
         raise ValueError("no result holds a trajectory")
-    chosen = [rows[i] for i in dict.fromkeys(picks([r.pct_sca for r in rows], count))]
+    chosen = [rows[i] for i in dict.fromkeys(picks([r.pct["sca"] for r in rows], count))]
     fig = _figure((5.2 * len(chosen), 6.2))
     for col, r in enumerate(chosen):
         config = r.config
