@@ -3,10 +3,11 @@
     python -m agents.imitation --out runs/dagger --rounds 8 --hindsight-from 5   # the shipped recipe
     python -m agents.suite report --model runs/dagger                    # scored on multi-node-v1
 
-Pure PPO on ``ios_uav_env/IOSUAV-MultiNode-Random-v0`` reached 31% of SCA on the held-out suite in
-12M steps (``agents/TUNING.md``): the tour, the hover times and the shares of 2 to 4 random nodes
-are hard to find by exploration. Here the tour heuristic (``baselines.tour``, 99.5% of SCA on
-the suite, 0.4 s a scenario) teaches the same SB3 PPO policy network by imitation:
+Pure PPO on ``ios_uav_env/IOSUAV-MultiNode-Random-v0`` stays far below the bars on the held-out
+suite (31% of SCA after 12M steps; the runs: ``results/log.md``): the tour, the hover times and
+the shares of 2 to 4 random nodes are hard to find by exploration. Here the tour heuristic
+(``baselines.tour``, 99.5% of SCA on the suite) teaches the same SB3 PPO policy network by
+imitation:
 
 - **Expert** (:mod:`agents.expert`). ``baselines.tour.solve`` plans each training scenario
   (scenario i is ``sample_multinode(np.random.default_rng(first_seed + i))``, disjoint from

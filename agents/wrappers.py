@@ -132,8 +132,8 @@ class ExploringStarts(gym.Wrapper):
     policy is shown anyway; they say where a node alone is served best, not the route).
 
     The agent then starts from states its own policy rarely reaches yet (another hover point,
-    late in the episode with some node under-served): on the multi-node id this found routes
-    that plain starts did not (``agents/TUNING.md``). A training wrapper: the episode's return
+    late in the episode with some node under-served), so it can learn routes that plain starts
+    rarely lead to (the multi-node runs: ``results/log.md``). A training wrapper: the episode's return
     and its scorer are the env's, the learner sees only the part after the prefix, and
     evaluation runs on the plain env. The draws come from the wrapper's own generator, seeded
     by ``reset(seed=...)``. The batched env's form is ``agents.vec_env.VecExploringStarts``.

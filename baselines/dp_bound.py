@@ -59,7 +59,7 @@ D + sqrt(2) h apart, so the relaxed path travels up to ~h/D faster per slot and 
 longer); it shrinks about linearly with h; (ii) the duality gap of the non-convex problem
 (min_w max_q >= max_q min_w): min_w max_q is the best point of the convex hull of the
 per-node rate vectors single trajectories achieve, so it mixes hovering near different
-nodes without paying the flight between them (measured in ``benchmarks/README.md``).
+nodes without paying the flight between them (the measured gaps: ``results/log.md``).
 """
 
 from __future__ import annotations

@@ -1,127 +1,33 @@
-r"""The paper's algorithm (Section III): alternating optimisation with SCA for the trajectory.
+"""The paper's algorithm (Section III): alternating optimisation with SCA for the trajectory.
 
-**Alternation.** Given a trajectory, the optimal phases are closed form, eq. (13)
-(``ios_uav_env.model.channel.phase_shifts``); they align every path, so the expected gain of slot n is
-zeta(q[n])^2 with the phase-aligned amplitude of the model (``ios_uav_env.model.channel.zeta``). The phase
-step is therefore implicit in zeta, and each outer iteration is one SCA step on the
-trajectory, problem (25):
+:func:`solve` maximises the expected-gain average rate (eq. (9)) over the trajectories that
+meet eq. (10), for one ground node or several (then through :mod:`baselines.sca_multi`). The
+phases are closed form (eq. (13)), so each outer iteration is one convex step on the
+trajectory around the current iterate: problem (20), built by :mod:`baselines.sca_problem`
+(tiled and anchored surrogate, DPP parameters) and solved by Clarabel through cvxpy. The
+derivation (problems (15)-(20), the bound (16), the inner approximations (17)-(19), why every
+iterate improves, the side of the plane, the tiles, the solver's box) is in
+``docs/planners.md``, section "How SCA works".
 
-    max_Q (1/N) sum_n log2(1 + eta zeta(q[n])^2)   s.t. (10b)-(10c),
-    zeta(q) = sum_k c_k(q) |x - x_c|^3 / d_k(q)^4 + K d_UG(q)^(-alpha/2),
+The contract:
 
-with c_k = J s(q) w_k, s(q) the side factor (1 reflection, epsilon / 0 transmission),
-(y_k, z_k, w_k) the weighted nodes ("tiles") of ``ios_uav_env.model.surface.surface_nodes`` and
-d_k^2 = (x - x_c)^2 + (y - y_k)^2 + (z_U - z_k)^2, K = sqrt(G_tx G_rx). With
-the default compression the nodes reproduce the element sum to ``config.quadrature_tol``; SCA
-uses ``tiles`` x ``tiles`` nodes (default 2, 4 tiles) and the exact model scores every iterate.
-
-**Problem (15)** (per slot; one u_k per tile, not per element):
-
-    max (1/N) sum_n f(s, u, v),  f = log2(1 + eta (sum_k c_k e^{s - u_k} + K e^v)^2)
-    s.t. e^s <= |x - x_c|^3,  e^{u_k} >= d_k^4,  e^v <= d_UG^(-alpha/2),  (10b)-(10c).
-
-At the optimum every slack constraint is tight (f increases in s and v, decreases in u_k),
-so (15) is (25). f is convex in (s, u, v): log zeta is a log-sum-exp, and
-f = softplus(2 log zeta + ln eta) / ln 2 with softplus convex and increasing.
-
-**Derivation of (16).** Write t_k = c_k e^{s - u_k} (tile k's amplitude), S = sum_k t_k,
-zeta = S + K e^v, A = 1 + eta zeta^2. Then d zeta/ds = S, d zeta/du_k = -t_k,
-d zeta/dv = K e^v and, with f = log2 A,
-
-    B   = dA/ds   = 2 eta zeta S,
-    C_k = dA/du_k = -2 eta zeta t_k,
-    D   = dA/dv   = 2 eta zeta K e^v,
-
-all at the linearisation point (s^l, u^l, v^l) = (3 ln|x^l - x_c|, 4 ln d_k(q^l),
--(alpha/2) ln d_UG(q^l)). Since f is convex its tangent is a global under-estimator:
-
-    f >= log2 A^l + [B^l (s - s^l) + sum_k C_k^l (u_k - u_k^l) + D^l (v - v^l)] / (A^l ln 2).  (16)
-
-Expanding zeta^2 = S^2 + 2 S K e^v + K^2 e^{2v} gives the paper's printed A, B, C_m, D
-term by term, so those agree with this derivation once zeta is read as (15a)'s sum. The
-paper's inconsistencies are elsewhere: (24) states E|h|^2 = zeta (it is zeta^2, as (25)
-uses); (17) and (25) write |x|^3 for |x - x_m|^3 (x_m = 0 there); the proof of Prop. 2
-says e^v replaces d_UG^4 (it replaces d_UG^(-alpha/2), as (15d) says); (20) applies 1/N to
-the first term only and drops the constants of (16), which are needed for (16) to be a
-bound; (14) keeps the random h_SS (and its phase lacks 2 pi) although the algorithm
-optimises the expectation (25).
-
-**Inner approximations (17)-(19)** (replace each non-convex constraint by a convex
-restriction: the tangent of a convex function lies below it):
-
-    (17) e^s <= |x^l|^3 + 3 x^l |x^l| (x - x^l)                 (|x|^3 convex on each side;
-         here x is x - x_c and the right side is > 0 only for x / x^l > 2/3: x stays on
-         its side of the plane within an iteration)
-    (18) d_k^2 <= e^{u_k^l / 2} (1 + (u_k - u_k^l) / 2)           (e^{u/2} convex; d_k^2 is
-         a convex quadratic of (x, y))
-    (19) d_UG^2 <= e^{-4 v^l / alpha} (1 - (4 / alpha)(v - v^l))   (e^{-4v/alpha} convex)
-
-Problem (20) maximises the right side of (16) over (Q, s, u, v) subject to (17)-(19) and
-(10b)-(10c): one exponential cone per slot (17), second-order cones for (18), (19) and the
-steps. In the solver the slacks are offsets from their linearisation values (s' = s - s^l,
-...): (17) becomes s' <= log(3 (x - x_c)/(x^l - x_c) - 2), (18) d_k^2 <= d_k(q^l)^2 (1 +
-u'_k/2), (19) d_UG^2 <= d_UG(q^l)^2 (1 - 4 v'/alpha); lengths are in 100 m and the objective
-coefficients are B/(A ln 2)/N etc. (dimensionless, <= 2/ln 2 per slot). Every squared
-distance is affine in (x, y, X2, Y2) with epigraph variables X2 >= (x - x_c)^2,
-Y2 >= (y - y_c)^2 (exact, as distances only appear on the small side of <=), so there are
-two second-order cones per slot whatever the number of tiles. See :mod:`baselines.sca_problem`.
-
-**Why every iterate improves.** q^l with zero offsets is feasible for (20) and its value
-there is the rate at q^l; the optimum q^(l+1) satisfies the original slack constraints, so
-exact(q^(l+1)) >= (16) at the optimum >= (16) at q^l = exact(q^l). Two approximations are
-controlled: (i) tiling: the tiled per-node terms are *anchored* per slot (multiplied by
-exact / tiled surface amplitude at q^l), so the surrogate equals the exact rate at q^l and
-only its curvature uses the tiles (the bound then holds to the change of exact / tiled
-between q^l and q^(l+1)); (ii) the step constraint has an inward margin of 1e-6 m; (iii) a
-slot within 0.1 m of the plane drops its surface term (below 1e-7 of zeta there).
-Every iterate is scored by ``ios_uav_env.average_rate`` and checked by
-``ios_uav_env.check_trajectory``; the history records the exact rate of every solve
-(accepted or not), and an iterate that lowers the exact rate is not accepted (the run
-stops there, flagged ``"decrease"`` when beyond 1e-9 relative).
-
-**Reflection vs transmission.** A slot's side is fixed by the current iterate: (17) keeps
-x - x_c on the sign of x^l - x_c (it may shrink by at most 1/3 of its distance to the
-plane per iteration), so the surrogate's side factor stays right. Slots with
-|x^l - x_c| < ``PLANE_TOL`` (0.1 m), and slots whose surface term is 0 (RIS on the
-transmissive side, or no surface), drop the surface term in that iteration: their surrogate
-is the tangent of the direct-link rate, a valid lower bound on either side (the surface
-term is >= 0), so those slots may cross the plane. A consequence: on the IOS a slot never
-crosses the plane, so the slot at which the UAV crosses is set by the initial trajectory;
-the multi-start covers this. Hovering on the transmissive side is kept: from a fly-hover-fly
-to a point behind the IOS (x > 0, G at x = -100) SCA keeps hovering there (this is the
-IA optimum of the default scenario, at (100.0, -0.2) m; see the tests and the benchmark).
-
-**Multi-start (SCA is local).** Default starts (:func:`default_starts`): the straight
-line; fly-hover-fly (``baselines.fixed.fly_hover_fly``) above G; fly-hover-fly to the reachable
-rate peak (``ios_uav_env.rate_peak``) on G's side of the plane ("front") and on the other
-side ("behind"), each skipped when within D of an
-earlier hover point; and "DP + SCA polish", a coarse ``baselines.dp.solve`` at 5 m (at 10 m
-the grid's moves are slower than v_max and, the crossing slot being fixed, the polish ends
-lower). The best plan by the exact objective wins.
-
-**Tiles.** Default 2 x 2: thanks to the anchoring the tile count changes the curvature of
-the surrogate only, not its value at q^l (measurements: ``benchmarks/README.md``).
-
-**Solver.** Clarabel (interior point, native exponential and second-order cones). Each
-solve builds a fresh Clarabel instance (``warm_start=False``): cvxpy's in-place data update of
-the cached instance can fail spuriously. The slack offsets are boxed (s', v' >= -10,
-u' <= 10; q^l stays feasible, so the guarantees hold; it acts as a loose trust region, d_k at
-most 2.4x and d_UG at most 3x their values at q^l per iteration), which keeps the solver's
-conditioning sane on long horizons.
-
-**DPP.** Every linearisation point and coefficient is a ``cvxpy.Parameter``: the problem is
-canonicalised once (cached across ``solve`` calls for the same config, tiles and solver) and
-each iteration only rewrites the parameter values.
-
-**Failures.** A solver exception or a status other than optimal / optimal_inaccurate stops
-that start with ``"solver_error: ..."`` in the history and keeps its last feasible iterate;
-so does an iterate that fails ``check_trajectory`` (``"infeasible_iterate ..."``).
-``info["status"]`` is then ``"partial_failure"`` or ``"failed"`` (a stop on an exact decrease
-counts too), and a ``RuntimeWarning`` says so when the winning start hit a solver error or an
-infeasible iterate. A losing start's stop is only recorded: it did not produce the plan
-(though it might have won had it run on).
-A solver name cvxpy does not know raises ``ValueError``; a known one that is not installed or
-cannot take exponential cones (e.g. "OSQP") fails at the first solve and falls back.
+- Every iterate is scored by the exact model (``ios_uav_env.average_rate``) and checked by
+  ``ios_uav_env.check_trajectory``; the history records the exact rate of every solve. An
+  iterate that lowers the exact rate is not accepted: the start stops there, flagged
+  ``"decrease"`` beyond ``DECREASE_TOL`` relative.
+- SCA is local, so :func:`solve` runs a multi-start (:func:`default_starts`): the straight
+  line, fly-hover-fly above G, fly-hover-fly to the reachable rate peak on each side of the
+  surface plane (each skipped within D of an earlier hover point), and a coarse DP plan at
+  ``DP_START_RESOLUTION`` m polished by SCA. The best plan by the exact objective wins.
+- On the IOS a slot keeps its side of the plane (the start sets the crossing slot); slots
+  within ``PLANE_TOL`` of it, or without a surface term, may cross.
+- A solver exception, a status other than optimal / optimal_inaccurate, or an iterate that
+  fails ``check_trajectory`` stops that start (``"solver_error: ..."``,
+  ``"infeasible_iterate ..."`` in the history) and keeps its last feasible iterate;
+  ``info["status"]`` is then ``"partial_failure"`` or ``"failed"`` (a stop on an exact
+  decrease counts too), with a ``RuntimeWarning`` when the winning start was affected. A
+  solver name cvxpy does not know raises ``ValueError``; a known one that is not installed or
+  cannot take exponential cones (e.g. "OSQP") fails at the first solve and falls back.
 """
 
 from __future__ import annotations
@@ -140,7 +46,7 @@ from ios_uav_env import ScenarioConfig
 from ios_uav_env.model import channel as ch
 from ios_uav_env.model.peak import rate_peak
 
-#: Default tiles per axis (2 x 2 = 4 nodes; see the module docstring).
+#: Default tiles per axis (2 x 2 = 4 nodes; docs/planners.md, "How SCA works").
 DEFAULT_TILES = 2
 #: Default cap on SCA iterations per start.
 DEFAULT_MAX_ITERS = 50
@@ -189,7 +95,7 @@ def best_hover_points(config: ScenarioConfig) -> dict[str, tuple[float, float]]:
 
 
 def default_starts(config: ScenarioConfig, dp_start: bool = True) -> list[tuple[str, np.ndarray]]:
-    """The default multi-start set: ``[(name, trajectory), ...]`` (see the module docstring)."""
+    """The default multi-start set: ``[(name, trajectory), ...]`` (the module docstring lists them)."""
     from baselines.fixed import fly_hover_fly, straight_line
 
     starts = [("line", straight_line(config).trajectory)]

@@ -1,6 +1,6 @@
 """The convex surrogate (20) of SCA, built once per scenario with cvxpy and re-solved.
 
-See :mod:`baselines.sca` for the derivation. This module holds the numerics: the
+The derivation is in docs/planners.md ("How SCA works"). This module holds the numerics: the
 linearisation of problem (15) at an iterate (:meth:`Surrogate.linearise`, numpy, using the
 model's :func:`ios_uav_env.model.channel.surface_terms` on the tiled config) and the cvxpy problem
 (:meth:`Surrogate.solve`). With ``dpp=True`` (default) every linearisation point and

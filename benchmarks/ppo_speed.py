@@ -1,4 +1,4 @@
-"""PPO on IOSUAV-v0 against the clock: time to 99.5 % of DP with the fast recipe (issue #15).
+"""PPO on IOSUAV-v0 against the clock: time to 99.5 % of DP with the fast recipe.
 
 Trains SB3 PPO with a zoo-format entry (default ``agents/hyperparams/ppo_fast.yml``) on the
 natively batched env (``agents.vec_env.BatchedVecEnv``, wrapped in ``VecNormalize`` as the

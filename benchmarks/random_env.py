@@ -6,7 +6,7 @@ so a reset costs more than a fixed env's; steps cost the same (same kernel size,
 observation code plus 6 constants). Measured on the bare envs (``.unwrapped``): the reset
 time per distinct scenario (median and 95th percentile), and the step throughput without
 and with the resets (pre-sampled actions, the two envs taking turns).
-The issue's bars: a reset < 5 ms, steps at the fixed env's speed. ``--peak-hint`` times the
+The bars: a reset < 5 ms, steps at the fixed env's speed. ``--peak-hint`` times the
 env with ``peak_hint=True`` too: its reset adds the grid search of ``ios_uav_env.rate_peak``.
 
     python benchmarks/random_env.py [--resets 500] [--steps 5000] [--repeats 5] [--peak-hint]

@@ -17,7 +17,7 @@ Sections
    rate, seconds per iteration.
 4. Solvers (Clarabel vs SCS) and DPP (compile once) vs rebuilding the problem every iteration.
 5. The sweep over T (N = T / dt): DP vs SCA rates and times.
-Timings are wall-clock on a shared 2-core machine: expect noise of tens of per cent.
+Timings are wall-clock: on a shared machine expect noise of tens of per cent (results/log.md).
 """
 
 from __future__ import annotations

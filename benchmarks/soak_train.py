@@ -1,4 +1,4 @@
-"""Soak test of interrupted training (issue #12): a short ``train.py`` run is interrupted at random
+"""Soak test of interrupted training: a short ``train.py`` run is interrupted at random
 moments by SIGINT and SIGTERM in turn, several times, and resumed each time; this prints, for every
 interruption, the steps at the signal, the steps of the checkpoint it saved, the step the
 next session resumed from and the steps lost (the unfinished rollout at most: n_steps x
@@ -7,7 +7,7 @@ n_envs for PPO, none for SAC), and checks that the run ends at its target step c
     python benchmarks/soak_train.py                         # PPO, 4 interruptions, seed 0
     python benchmarks/soak_train.py --algo sac --interrupts 5 --seed 3
 
-A benchmark, not a test (each session starts a Python with torch: ~5-20 s); exit status 0 if
+A benchmark, not a test (each session starts a Python with torch); exit status 0 if
 every interruption lost no more than the bound and the run reached its target, 1 otherwise.
 """
 

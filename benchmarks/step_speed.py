@@ -4,7 +4,7 @@ Both envs run the same loop: actions pre-sampled from the action space, reset on
 (counted in the time), a warm-up, then the best of several timed repeats, the two envs taking
 turns so that a busy machine slows both alike. "raw" is the bare env
 (``gym.make(...).unwrapped``), "wrapped" the ``gym.make`` stack (TimeLimit, checkers). The
-issue's bar: raw IOSUAV throughput >= 0.5 x raw CartPole's on the same machine.
+bar: raw IOSUAV throughput >= 0.5 x raw CartPole's on the same machine.
 
     python benchmarks/step_speed.py [--steps 5000] [--repeats 10]
 """
@@ -74,7 +74,7 @@ def main(argv: Sequence[str] | None = None) -> int:
               f"   ({1e6 / ref:.1f} vs {1e6 / ours:.1f} us/step)")  # fmt: skip
     ratio = results["raw"][OURS] / results["raw"][REFERENCE]
     verdict = "meets" if ratio >= 0.5 else "MISSES"
-    print(f"raw ratio {ratio:.2f}: {verdict} the issue's bar (>= 0.5 x CartPole-v1)")
+    print(f"raw ratio {ratio:.2f}: {verdict} the bar (>= 0.5 x CartPole-v1)")
     return 0
 
 

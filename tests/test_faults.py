@@ -1,4 +1,4 @@
-"""Fault injection (issue "Nothing lost"): bad numbers, broken solvers and extreme inputs.
+"""Fault injection (nothing lost): bad numbers, broken solvers and extreme inputs.
 
 Each test injects one fault and checks that it is refused with a clear error or handled
 right; each fails on the code before the fix (see the comment on each)."""
@@ -120,7 +120,7 @@ def test_a_solver_returning_nan_is_a_solver_failure_not_an_abort(monkeypatch):
     assert any("non-finite trajectory" in h["status"] for h in plan.history)
 
 
-# ============ issue #12, items 2, 4, 6, 8: default outputs, damaged caches, interrupted sweeps ============
+# ============ default outputs, damaged caches, interrupted sweeps ============
 # (training, agents and the suite: tests/agents/test_agent_faults.py)
 def _square(x: int) -> dict:
     return {"x": x, "y": float(x * x)}

@@ -1,6 +1,6 @@
-"""Fault injection for training and agents (issue #12, items 1, 3, 7, 8): interrupts, damaged
-checkpoints and statistics, bad settings. Each test injects the fault for real (a signal, a
-truncated or missing file, a bad YAML) and fails on the code before the fix (see each comment).
+"""Fault injection for training and agents: interrupts, damaged checkpoints and statistics, bad
+settings. Each test injects the fault for real (a signal, a truncated or missing file, a bad
+YAML) and fails on the code before the fix (see each comment).
 The planners', the sweep's and the runner's cases are in ``tests/test_faults.py``."""
 
 from __future__ import annotations
@@ -322,7 +322,7 @@ def test_resume_with_fewer_timesteps_than_done_is_refused_and_the_config_kept(tm
 
 
 def test_a_sac_folder_without_config_is_not_loaded_as_ppo(tmp_path):
-    # before (issue #12): loaded as PPO; now the algorithm is asked for and checked against the zip
+    # before: loaded as PPO; now the algorithm is asked for and checked against the zip
     folder = tmp_path / "sac"
     folder.mkdir()
     shutil.copy(MODELS_DIR / "sac_IOSUAV-v0" / "model.zip", folder / "model.zip")

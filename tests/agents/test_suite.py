@@ -10,7 +10,6 @@ import numpy as np
 import pytest
 
 import ios_uav_env
-from agents import suite as suite_mod
 from agents.rollout import ScenarioRunner
 from agents.suite import (
     DEFAULT_SIZE,
@@ -24,6 +23,7 @@ from agents.suite import (
 from agents.suite.__main__ import main
 from agents.suite.report import HEURISTICS, evaluate_suite, load_policy, run_report, suite_score, summarize
 from baselines import dp
+from baselines.references import solve as solve_module
 from ios_uav_env import DEFAULT_RANGES, RANDOM_ENV_ID, ScenarioRanges, average_rate, check_trajectory
 from ios_uav_env.envs.policies import HoverAt
 from tests.tolerances import PLANNER_REL, RATE_REL
@@ -83,13 +83,13 @@ def test_build_writes_a_suite_and_resumes_from_its_cache(tmp_path, monkeypatch):
     assert [f.stem for f in files] == sorted(cache_key(c, 2.5) for c in built.configs())
 
     calls = []
-    real = suite_mod.solve_scenario
+    real = solve_module.solve_scenario
     monkeypatch.setattr(
-        suite_mod, "solve_scenario", lambda c, dp_resolution: calls.append(c) or real(c, dp_resolution)
+        solve_module, "solve_scenario", lambda task, **kw: calls.append(task) or real(task, **kw)
     )
     files[0].unlink()  # as if interrupted before that scenario
     again = build_suite(path, n=3, seed=1, ranges=TINY, jobs=1, cache_dir=cache, progress=False)
-    assert len(calls) == 1 and json.loads(files[0].read_text())["config"] == calls[0].to_dict()
+    assert len(calls) == 1 and json.loads(files[0].read_text())["config"] == calls[0]["config"]
     assert [e.dp_rate for e in again] == [e.dp_rate for e in built]
 
 
@@ -246,7 +246,7 @@ def test_shipped_multinode_generalist_reproduces_its_recorded_suite_rows():
     assert spread(pct)[:2] == pytest.approx(
         (summary["suite"]["mean_pct_sca"], summary["suite"]["p10_pct_sca"])
     )
-    assert summary["suite"]["mean_pct_sca"] > 90.0  # 31% for pure PPO in 12M steps (agents/TUNING.md)
+    assert summary["suite"]["mean_pct_sca"] > 90.0  # 31% for pure PPO in 12M steps (results/log.md)
     agent = load_policy(folder)
     assert agent.env_kwargs["peak_hint"] is True and agent.meta["config"]["trained_by"] == "agents.imitation"
     chosen = suite.subset(8)

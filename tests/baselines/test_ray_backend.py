@@ -1,4 +1,4 @@
-"""The Ray backend (issue #16): a real local Ray of 2 CPUs, shared by the module's tests.
+"""The Ray backend: a real local Ray of 2 CPUs, shared by the module's tests.
 
 The same planner sweep and the same training sweep on the local backend and on Ray give the
 same records and the same cache files (rates to 1e-9, wall times aside). Ray is the optional
