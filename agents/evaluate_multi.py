@@ -4,7 +4,7 @@ planners on one scenario: table (markdown + CSV) and the shares figure.
 ``python -m agents.evaluate <model folders>`` comes here when the models were trained on a
 multi-node id (:data:`MULTINODE_IDS`); the scenario is the fixed id's, ``ScenarioConfig(
 ground_nodes=DEFAULT_NODES)`` (``--scenario`` fields applied to it). The references are the
-multi-node suite's (``ios_uav_env.benchmark.freeze_multi.solve_scenario``): SCA (BCD), the tour
+multi-node suite's (``baselines.references.solve_scenario``): SCA (BCD), the tour
 heuristic and the certified upper bound (``baselines.dp_bound``, 2.5 m), each scenario's record
 cached as one JSON file in :data:`REFERENCE_CACHE` (``baselines.runner.run_tasks``, written
 atomically; the key hashes the config and the settings). On the default scenario: SCA 0.471001,
@@ -47,17 +47,9 @@ def is_multinode(policy: Any) -> bool:
 
 def references(config: ScenarioConfig, cache: str | Path = REFERENCE_CACHE) -> dict[str, Any]:
     """SCA, tour and bound records of ``config`` (trajectories and shares included), cached."""
-    import functools
+    from baselines.references import solve_all
 
-    from baselines.runner import run_tasks
-    from ios_uav_env.benchmark.freeze_multi import BOUND_RESOLUTION, solve_scenario, task_key
-
-    task = {"index": 0, "config": config.to_dict()}
-    fn = functools.partial(solve_scenario, bound_resolution=BOUND_RESOLUTION)
-    key = functools.partial(task_key, bound_resolution=BOUND_RESOLUTION)
-    (record,) = run_tasks(
-        fn, [task], cache, key=key, jobs=1, progress=False, required=("tour", "sca", "bound")
-    )
+    (record,) = solve_all([config], cache, jobs=1, progress=False)
     return record
 
 

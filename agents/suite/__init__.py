@@ -33,27 +33,21 @@ a build of another size or seed goes to ``out/`` unless ``--out`` says otherwise
 
 from __future__ import annotations
 
-import functools
-import hashlib
 import json
 import os
 import time
-from collections.abc import Iterator, Sequence
+from collections.abc import Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from ios_uav_env import DEFAULT_RANGES, ScenarioConfig, ScenarioRanges, sample_scenario
+from baselines.references import DP_RESOLUTION, solve_all, suite_configs, task_key
+from baselines.references.draws import DEFAULT_SIZE, HELDOUT_SEED
+from ios_uav_env import DEFAULT_RANGES, ScenarioConfig, ScenarioRanges
 from ios_uav_env.io import atomic_write_text
 
-#: The seed of the held-out suite: never a training seed (those are small integers).
-HELDOUT_SEED = 20261122
-#: Scenarios in the suite.
-DEFAULT_SIZE = 60
-#: Grid (m) of the DP optimum of each scenario.
-DP_RESOLUTION = 2.5
 #: Decimals (m) of the stored trajectories.
 TRAJECTORY_DECIMALS = 3
 SUITE_PATH = Path(__file__).resolve().parent / "heldout.json"
@@ -106,90 +100,9 @@ class Suite:
         return list(self.entries if n is None else self.entries[: max(0, int(n))])
 
 
-def suite_configs(
-    n: int = DEFAULT_SIZE, seed: int = HELDOUT_SEED, ranges: ScenarioRanges = DEFAULT_RANGES
-) -> list[ScenarioConfig]:
-    """The suite's scenarios: ``n`` draws of ``sample_scenario`` from ``default_rng(seed)``."""
-    rng = np.random.default_rng(seed)
-    return [sample_scenario(rng, ranges) for _ in range(n)]
-
-
 def cache_key(config: ScenarioConfig, dp_resolution: float) -> str:
-    """The cache file stem of one scenario: a hash of its config and the planner settings."""
-    blob = json.dumps([config.to_dict(), dp_resolution, "sca:defaults"], sort_keys=True)
-    return hashlib.sha1(blob.encode()).hexdigest()[:16]
-
-
-def solve_scenario(config: ScenarioConfig, dp_resolution: float = DP_RESOLUTION) -> dict[str, Any]:
-    """DP optimum and SCA plan of ``config`` (run in a worker), full precision."""
-    import warnings
-
-    from baselines import dp, sca
-
-    dp_plan = dp.solve(config, resolution=dp_resolution)
-    with warnings.catch_warnings():  # an SCA start that stopped early is recorded in "status"
-        warnings.simplefilter("ignore", RuntimeWarning)
-        sca_plan = sca.solve(config)
-    return {
-        "config": config.to_dict(),
-        "dp": {
-            "rate": dp_plan.mean_rate,
-            "seconds": dp_plan.seconds,
-            "resolution": float(dp_resolution),
-            "feasible": dp_plan.feasible,
-            "trajectory": dp_plan.trajectory.tolist(),
-        },
-        "sca": {
-            "rate": sca_plan.mean_rate,
-            "feasible": sca_plan.feasible,
-            "worst_violation": sca_plan.report.worst_violation,
-            "seconds": sca_plan.seconds,
-            "status": sca_plan.info.get("status", "ok"),
-            "start": sca_plan.info.get("start"),
-            "trajectory": sca_plan.trajectory.tolist(),
-        },
-    }
-
-
-def solve_order(config: ScenarioConfig) -> int:
-    """Sort key of the scenarios to solve: the longest horizon (the slowest solve) first."""
-    return -config.N
-
-
-def solve_all(
-    configs: Sequence[ScenarioConfig],
-    cache_dir: str | Path = CACHE_DIR,
-    *,
-    dp_resolution: float = DP_RESOLUTION,
-    jobs: int = 2,
-    progress: bool = True,
-    backend: str = "local",
-    address: str | None = None,
-) -> list[dict[str, Any]]:
-    """Each scenario's :func:`solve_scenario` record, from the cache or solved (in parallel over
-    ``jobs`` spawned processes; in this one for ``jobs=1``: ``baselines.runner.run_tasks``),
-    each record cached atomically as soon as it is solved. ``backend="ray"``: Ray tasks (on the
-    cluster at ``address``, default a local Ray), the same records and cache."""
-    from baselines.runner import run_tasks
-
-    def describe(i: int, record: dict[str, Any]) -> str:
-        return f"#{i}: SCA {100 * record['sca']['rate'] / record['dp']['rate']:.2f}% of DP"
-
-    return run_tasks(
-        functools.partial(solve_scenario, dp_resolution=dp_resolution),
-        list(configs),
-        cache_dir,
-        key=lambda config: cache_key(config, dp_resolution),
-        jobs=jobs,
-        backend=backend,
-        address=address,
-        order=solve_order,
-        progress=progress,
-        desc="suite",
-        unit="scenario",
-        describe=describe,
-        required=("config", "dp", "sca"),
-    )
+    """The cache file stem of one scenario (``baselines.references.task_key``)."""
+    return task_key({"index": 0, "config": config.to_dict()}, dp_resolution=dp_resolution)
 
 
 def _rounded(trajectory: Any) -> list[list[float]]:
@@ -243,7 +156,7 @@ def build_suite(
     start = time.perf_counter()
     configs = suite_configs(n, seed, ranges)
     records = solve_all(configs, cache_dir, dp_resolution=dp_resolution, jobs=jobs, progress=progress,
-                        backend=backend, address=address)  # fmt: skip
+                        backend=backend, address=address, desc="suite")  # fmt: skip
     bad = [f"#{i}: {p}" for i, r in enumerate(records) if (p := _problem({"index": i, "config": {}, **r}))]
     if bad:
         raise ValueError(f"solved scenarios cannot go into a suite: {'; '.join(bad)}")

@@ -16,7 +16,7 @@ Each scenario holds its full ``ScenarioConfig`` and its reference values, rates 
   ``HoverAt("ground")`` rolled out in the suite's env (``rate``, ``feasible``).
 
 A multi-node suite (``"kind": "multi-node"``, e.g. ``multi-node-v1``; frozen by
-:mod:`~ios_uav_env.benchmark.freeze_multi`) holds, per scenario, max-min rates
+``python -m baselines.references`` in a checkout) holds, per scenario, max-min rates
 (``ios_uav_env.maxmin_rate``, bps/Hz) of :data:`MULTI_REFERENCES`:
 
 - ``sca``: the SCA plan inside BCD (``baselines.sca.solve``, K > 1), the normaliser

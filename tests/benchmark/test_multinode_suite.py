@@ -11,9 +11,9 @@ import gymnasium as gym
 import numpy as np
 import pytest
 
+from baselines.references.draws import ENTROPY, SPAWN_KEY, heldout_rng, multinode_configs
 from ios_uav_env.benchmark import SUITES, evaluate, load_suite, reference_results, score_trajectories
 from ios_uav_env.benchmark.cli import main
-from ios_uav_env.benchmark.freeze_multi import ENTROPY, SPAWN_KEY, heldout_rng, scenarios
 from ios_uav_env.benchmark.multi_policies import StraightEqualShares
 from ios_uav_env.benchmark.suite import content_hash, suite_path
 from ios_uav_env.benchmark.trajectories import read_plans, write_trajectories
@@ -34,7 +34,7 @@ def test_the_suite_is_the_documented_held_out_draw(suite):
     assert suite.sha256 == SUITES["multi-node-v1"].sha256 == content_hash(json.loads(path.read_text()))
     assert len(suite) == 48 and suite.kind == "multi-node" and suite.normalizer == "sca"
     assert suite.env_id == "ios_uav_env/IOSUAV-MultiNode-Random-v0" and path.stat().st_size < 100_000
-    assert [s.config for s in suite] == scenarios(48)
+    assert [s.config for s in suite] == multinode_configs(48)
     assert {s.config.K for s in suite} == {2, 3, 4} and {s.config.surface for s in suite} == {"ios", "ris"}
     # a spawned seed sequence: never the stream of a reset seed (those have no spawn key)
     assert (ENTROPY, SPAWN_KEY) == (20261130, (17,))
@@ -223,7 +223,8 @@ def test_a_batched_policy_scores_as_the_plain_one(suite):
 
 
 def test_the_freeze_checks_report_every_violation():
-    from ios_uav_env.benchmark.freeze_multi import _check, multinode_content
+    from baselines.references import check_record as _check
+    from baselines.references import multinode_content
 
     ok = {"index": 3, "config": {}, "tour": {"rate": 0.30, "feasible": True},
           "sca": {"rate": 0.31, "feasible": True},

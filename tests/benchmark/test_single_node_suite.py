@@ -12,6 +12,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from baselines.references import freeze, heuristic_reference, single_node_content
 from ios_uav_env.benchmark import (
     SUITES,
     evaluate,
@@ -22,7 +23,6 @@ from ios_uav_env.benchmark import (
     write_trajectories,
 )
 from ios_uav_env.benchmark.cli import load_policy, main, parse_env_kwargs
-from ios_uav_env.benchmark.freeze import freeze, heuristic_reference, single_node_content
 from ios_uav_env.benchmark.suite import content_hash, suite_path
 from ios_uav_env.envs.policies import HoverAt
 from tests.tolerances import PLANNER_REL, SOLVER_REL

@@ -1,0 +1,47 @@
+"""The reference pipeline: solve the held-out scenarios with the planners and freeze the suites.
+
+The wheel (``ios_uav_env.benchmark``) only loads and scores suites; everything that plans lives
+here, in a checkout:
+
+- :mod:`~baselines.references.draws`: the held-out scenarios of each suite;
+- :mod:`~baselines.references.solve`: one solve for any K (one node: DP and SCA; K > 1: the tour,
+  SCA and the certified bound), cached per scenario and resumable (:func:`solve_all`);
+- :mod:`~baselines.references.content`: a suite's content from the solved records, its checks,
+  its plans, and :func:`freeze`, which never changes a suite under its name;
+- ``python -m baselines.references``: the command line.
+
+    python -m baselines.references single-node [--heldout agents/suite/heldout.json]
+    python -m baselines.references multi-node [--n 48] [--cache out/multi-node-v1] [--plans DIR]
+
+The single-node suite is frozen from its held-out plan file (``python -m agents.suite build``
+solves it through :func:`solve_all`); the multi-node one from the records :func:`solve_all`
+caches. Each prints the content hash to register in ``ios_uav_env.benchmark.suite.SUITES``.
+"""
+
+from baselines.references.content import (
+    check_record,
+    freeze,
+    heuristic_reference,
+    multinode_content,
+    single_node_content,
+    write_plans,
+)
+from baselines.references.draws import heldout_rng, multinode_configs, suite_configs
+from baselines.references.solve import BOUND_RESOLUTION, DP_RESOLUTION, solve_all, solve_scenario, task_key
+
+__all__ = [
+    "BOUND_RESOLUTION",
+    "DP_RESOLUTION",
+    "check_record",
+    "freeze",
+    "heldout_rng",
+    "heuristic_reference",
+    "multinode_configs",
+    "multinode_content",
+    "single_node_content",
+    "solve_all",
+    "solve_scenario",
+    "suite_configs",
+    "task_key",
+    "write_plans",
+]

@@ -1,0 +1,182 @@
+"""Solve a scenario's references, for any K, cached and resumable: the one solve of the pipeline.
+
+One ground node (``config.K == 1``, the single-node suites): the DP optimum
+(``baselines.dp.solve`` at ``dp_resolution`` m: rate, trajectory, seconds) and the paper's SCA
+plan (``baselines.sca.solve``, its default multi-start: rate, feasibility, worst violation,
+seconds, status, trajectory).
+
+K > 1 nodes (the multi-node suites): the tour heuristic (``baselines.tour.solve``), SCA inside
+BCD (``baselines.sca.solve``, ``baselines.sca_multi``), each with its trajectory and LP shares,
+and the certified upper bound (``baselines.dp_bound.solve_multinode`` at ``bound_resolution``
+m: ``upper_bound``, and the DP-bound plan's own rate). A planner that raises is recorded
+(``feasible`` false, rate 0, the error) rather than dropped.
+
+Every rate is ``ios_uav_env.score_plan`` of the planner's trajectory (``Plan.mean_rate``).
+:func:`solve_all` runs the tasks through ``baselines.runner.run_tasks`` (spawned workers or
+Ray, a progress bar, one JSON record per scenario written atomically, resumable); the cache
+file of a task is :func:`task_key`, which hashes the config and every planner setting.
+"""
+
+from __future__ import annotations
+
+import functools
+import hashlib
+import json
+import time
+import traceback
+import warnings
+from collections.abc import Mapping, Sequence
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from ios_uav_env import ScenarioConfig
+
+#: Grid (m) of each single-node scenario's DP optimum.
+DP_RESOLUTION = 2.5
+#: Cell side (m) of the certified bound (the relaxed DP) and of the DP-bound plans' grid.
+BOUND_RESOLUTION = 2.5
+#: The records' keys, by kind: a cached record without them is solved again.
+REQUIRED = {"single-node": ("config", "dp", "sca"), "multi-node": ("tour", "sca", "bound")}
+
+
+def _plan_record(plan: Any) -> dict[str, Any]:
+    return {
+        "rate": float(plan.mean_rate),
+        "feasible": bool(plan.feasible),
+        "seconds": float(plan.seconds),
+        "trajectory": np.asarray(plan.trajectory, dtype=float).tolist(),
+        "shares": plan.info.get("shares"),
+    }
+
+
+def _failed(err: BaseException, seconds: float) -> dict[str, Any]:
+    return {"rate": 0.0, "feasible": False, "seconds": seconds, "trajectory": None, "shares": None,
+            "error": "".join(traceback.format_exception_only(err)).strip()}  # fmt: skip
+
+
+def _single(config: ScenarioConfig, dp_resolution: float) -> dict[str, Any]:
+    from baselines import dp, sca
+
+    dp_plan = dp.solve(config, resolution=dp_resolution)
+    with warnings.catch_warnings():  # an SCA start that stopped early is recorded in "status"
+        warnings.simplefilter("ignore", RuntimeWarning)
+        sca_plan = sca.solve(config)
+    return {
+        "config": config.to_dict(),
+        "dp": {"rate": dp_plan.mean_rate, "seconds": dp_plan.seconds, "resolution": float(dp_resolution),
+               "feasible": dp_plan.feasible, "trajectory": dp_plan.trajectory.tolist()},
+        "sca": {"rate": sca_plan.mean_rate, "feasible": sca_plan.feasible,
+                "worst_violation": sca_plan.report.worst_violation, "seconds": sca_plan.seconds,
+                "status": sca_plan.info.get("status", "ok"), "start": sca_plan.info.get("start"),
+                "trajectory": sca_plan.trajectory.tolist()},
+    }  # fmt: skip
+
+
+def _multi(config: ScenarioConfig, bound_resolution: float) -> dict[str, Any]:
+    from baselines import sca, tour
+    from baselines.dp_bound import solve_multinode
+
+    record: dict[str, Any] = {"config": config.to_dict()}
+    for name, solve in (("tour", tour.solve), ("sca", sca.solve)):
+        t0 = time.perf_counter()
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always", RuntimeWarning)
+            try:
+                plan = solve(config)
+                record[name] = _plan_record(plan)
+                if name == "sca":
+                    record[name]["status"] = plan.info.get("status")
+            except Exception as err:  # recorded, never dropped
+                record[name] = _failed(err, time.perf_counter() - t0)
+        record[name]["warnings"] = [str(w.message) for w in caught]
+    t0 = time.perf_counter()
+    try:
+        plan = solve_multinode(config, resolution=bound_resolution, bound_resolution=bound_resolution)
+        record["bound"] = {
+            "upper_bound": float(plan.info["upper_bound"]),
+            "resolution": float(plan.info["bound_resolution"]),
+            "plan_rate": float(plan.mean_rate),
+            "plan_feasible": bool(plan.feasible),
+            "plan_source": plan.info.get("plan_source"),
+            "seconds": float(plan.seconds),
+        }
+    except Exception as err:
+        record["bound"] = {"upper_bound": None, "resolution": float(bound_resolution),
+                           "error": "".join(traceback.format_exception_only(err)).strip(),
+                           "seconds": time.perf_counter() - t0}  # fmt: skip
+    return record
+
+
+def solve_scenario(
+    task: Mapping[str, Any],
+    *,
+    dp_resolution: float = DP_RESOLUTION,
+    bound_resolution: float = BOUND_RESOLUTION,
+) -> dict[str, Any]:
+    """The reference record of one task ``{"index", "config"}`` (a config dict), by its K."""
+    config = ScenarioConfig(**task["config"])
+    if config.K == 1:
+        record = _single(config, dp_resolution)
+    else:
+        record = _multi(config, bound_resolution)
+    return {"index": int(task["index"]), **record}
+
+
+def task_key(
+    task: Mapping[str, Any],
+    *,
+    dp_resolution: float = DP_RESOLUTION,
+    bound_resolution: float = BOUND_RESOLUTION,
+) -> str:
+    """The cache file stem of a task: a hash of its config and its kind's planner settings (one
+    node: DP's grid and SCA's defaults; K > 1: the bound's grid, and the scenario's index first)."""
+    config = ScenarioConfig(**task["config"])
+    if config.K == 1:
+        blob = json.dumps([config.to_dict(), dp_resolution, "sca:defaults"], sort_keys=True)
+        return hashlib.sha1(blob.encode()).hexdigest()[:16]
+    blob = json.dumps([task["config"], bound_resolution, "v1"], sort_keys=True)
+    return f"scenario{int(task['index']):02d}_{hashlib.sha1(blob.encode()).hexdigest()[:10]}"
+
+
+def tasks_of(configs: Sequence[ScenarioConfig]) -> list[dict[str, Any]]:
+    """The tasks of ``configs``: ``{"index": i, "config": config.to_dict()}``."""
+    return [{"index": i, "config": c.to_dict()} for i, c in enumerate(configs)]
+
+
+def _describe(i: int, rec: dict[str, Any]) -> str:
+    if "dp" in rec:
+        return f"#{i}: SCA {100 * rec['sca']['rate'] / rec['dp']['rate']:.2f}% of DP"
+    ub = rec["bound"].get("upper_bound")
+    return f"#{i} K={len(rec['config'].get('ground_nodes') or [0])} tour {rec['tour']['rate']:.4f} " + (
+        f"sca {rec['sca']['rate']:.4f} bound {ub:.4f}" if ub is not None else "bound failed"
+    )
+
+
+def solve_all(
+    configs: Sequence[ScenarioConfig],
+    cache_dir: str | Path,
+    *,
+    dp_resolution: float = DP_RESOLUTION,
+    bound_resolution: float = BOUND_RESOLUTION,
+    jobs: int = 2,
+    progress: bool = True,
+    backend: str = "local",
+    address: str | None = None,
+    desc: str = "references",
+) -> list[dict[str, Any]]:
+    """Each scenario's :func:`solve_scenario` record, from the cache or solved (the longest
+    horizon first, over ``jobs`` spawned processes, in this one for ``jobs=1``; ``backend="ray"``:
+    Ray tasks on the cluster at ``address``), each cached atomically as soon as it is solved."""
+    from baselines.runner import run_tasks
+
+    kinds = {"single-node" if c.K == 1 else "multi-node" for c in configs}
+    settings = {"dp_resolution": dp_resolution, "bound_resolution": bound_resolution}
+    required = sorted({k for kind in kinds for k in REQUIRED[kind]})
+    return run_tasks(
+        functools.partial(solve_scenario, **settings), tasks_of(configs), cache_dir,
+        key=functools.partial(task_key, **settings), jobs=jobs, backend=backend, address=address,
+        order=lambda task: -ScenarioConfig(**task["config"]).N, progress=progress, desc=desc,
+        unit="scenario", describe=_describe, required=required,
+    )  # fmt: skip
