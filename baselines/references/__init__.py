@@ -10,6 +10,8 @@ here, in a checkout:
   its plans, and :func:`freeze`, which never changes a suite under its name;
 - ``python -m baselines.references``: the command line.
 
+The command line freezes one suite at a time:
+
     python -m baselines.references single-node [--heldout agents/suite/heldout.json]
     python -m baselines.references multi-node [--n 48] [--cache out/multi-node-v1] [--plans DIR]
 
