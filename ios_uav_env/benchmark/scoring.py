@@ -132,8 +132,11 @@ def episode(
     return ScenarioResult.of(scenario, metrics, score, seconds, trajectory, shares)
 
 
-def _make_env(env_id: str, env_kwargs: Mapping[str, Any], batched: bool) -> tuple[Any, bool]:
-    """The env to run in, and whether it is batched (the id's batched env if it has one)."""
+def _make_env(
+    env_id: str, env_kwargs: Mapping[str, Any], batched: bool, num_envs: int = 1
+) -> tuple[Any, bool]:
+    """The env to run in, and whether it is batched (the id's batched env of ``num_envs`` rows,
+    if it has one)."""
     import gymnasium as gym
 
     import ios_uav_env  # noqa: F401  (registers the ids)
@@ -143,7 +146,7 @@ def _make_env(env_id: str, env_kwargs: Mapping[str, Any], batched: bool) -> tupl
     if batched and isinstance(entry, str):  # as make_vec(vectorization_mode="vector_entry_point") does
         module, _, attr = entry.partition(":")
         vector_env = getattr(importlib.import_module(module), attr)
-        return vector_env(num_envs=1, **{**(spec.kwargs or {}), **env_kwargs}), True
+        return vector_env(num_envs=num_envs, **{**(spec.kwargs or {}), **env_kwargs}), True
     return gym.make(env_id, **env_kwargs), False
 
 
@@ -156,21 +159,32 @@ def evaluate(
     batched: bool | None = None,
     seed: int | None = 0,
     name: str | None = None,
+    at_once: bool = False,
 ) -> Results:
     """Score ``policy`` on the first ``n`` scenarios of ``suite`` (all for None): a :class:`Results`
     (per scenario: rate, feasibility, % of DP and of SCA, time to plan; their aggregate).
 
     ``env_kwargs`` are added to the suite's env arguments (default: ``policy.env_kwargs`` if it
     has them); ``batched`` (default: ``policy.batched``) runs a batched callable in the batched
-    env; ``seed`` seeds each scenario's reset.
+    env; ``seed`` seeds each scenario's reset; ``at_once``: every scenario at once in the batched env
+    (:func:`evaluate_scenarios`).
     """
     suite = suite_of(suite)
     own = getattr(policy, "env_kwargs", None) if env_kwargs is None else env_kwargs
     batched = bool(getattr(policy, "batched", False) if batched is None else batched)
     name = name or policy_name(policy)
-    return evaluate_scenarios(
-        action_function(policy), suite, suite.subset(n), own, seed, name, batched=batched
-    )
+    act = action_function(policy)
+    if at_once and batched:  # run_episodes hands the batch to a function that says it takes one
+        act = _takes_a_batch(act)
+    return evaluate_scenarios(act, suite, suite.subset(n), own, seed, name, batched=batched, at_once=at_once)
+
+
+def _takes_a_batch(act: Callable) -> Callable:
+    def batch(obs: np.ndarray) -> np.ndarray:
+        return act(obs)
+
+    batch.batched = True  # type: ignore[attr-defined]
+    return batch
 
 
 def evaluate_scenarios(
@@ -182,11 +196,20 @@ def evaluate_scenarios(
     name: str,
     *,
     batched: bool = False,
+    at_once: bool = False,
 ) -> Results:
     """Roll ``act`` (an action function, :func:`action_function`) out on ``scenarios`` of
-    ``suite`` in the suite's env with ``env_kwargs`` added to the suite's, and score each plan."""
+    ``suite`` in the suite's env with ``env_kwargs`` added to the suite's, and score each plan.
+
+    ``at_once`` (single-node suites): every scenario at once, row i of the id's batched env
+    pinned to scenario i (``ios_uav_env.envs.rollout.run_episodes``: the same episodes as one
+    env pinned per scenario); ``act`` sees the (B, obs_dim) batch (one call per row unless it
+    says ``batched = True``), and a plan's time is the batch's divided by B: the time per plan
+    when the suite is planned at once."""
     metrics = metrics_of(suite)
     kwargs = {**suite.env_kwargs, **dict(env_kwargs or {})}
+    if at_once:
+        return _at_once(act, suite, scenarios, kwargs, seed, name)
     env, vector = _make_env(suite.env_id, kwargs, batched and not suite.multi_node)
     if batched and not vector:  # no batched env (or a multi-node suite): the policy on a batch of one
         batch_act = act
@@ -202,6 +225,33 @@ def evaluate_scenarios(
         rows = [episode(env, act, s, seed, vector, metrics) for s in scenarios]
     finally:
         env.close()
+    return Results.of(suite, name, kwargs, rows, scenarios)
+
+
+def _at_once(
+    act: Callable, suite: Suite, scenarios: Sequence[SuiteScenario], kwargs: dict[str, Any],
+    seed: int | None, name: str,
+) -> Results:  # fmt: skip
+    """:func:`evaluate_scenarios` with ``at_once``."""
+    from ios_uav_env.envs.rollout import run_episodes
+
+    if suite.multi_node:
+        raise ValueError(f"at_once is for single-node suites; {suite.name} is a multi-node suite")
+    if not scenarios:
+        raise ValueError("no scenarios to evaluate")
+    vec, vector = _make_env(suite.env_id, kwargs, True, len(scenarios))
+    try:
+        if not vector:
+            raise ValueError(
+                f"{suite.env_id} has no batched env here (Gymnasium >= 1.0): evaluate without at_once"
+            )
+        seeds = None if seed is None else [seed] * len(scenarios)
+        episodes = run_episodes(vec, act, seed=seeds, options={"configs": [s.config for s in scenarios]})
+    finally:
+        vec.close()
+    metrics = metrics_of(suite)
+    rows = [ScenarioResult.of(s, metrics, score_plan(s.config, e.trajectory), e.seconds, e.trajectory)
+            for s, e in zip(scenarios, episodes, strict=True)]  # fmt: skip
     return Results.of(suite, name, kwargs, rows, scenarios)
 
 

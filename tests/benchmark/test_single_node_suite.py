@@ -245,3 +245,21 @@ def test_scoring_imports_no_planner_and_no_deep_learning_library():
     )
     proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120, cwd="/")
     assert proc.returncode == 0 and proc.stdout.strip() == "2", proc.stderr
+
+
+@pytest.mark.parametrize("batched", [False, True])
+def test_at_once_scores_the_same_episodes_as_one_env_per_scenario(batched):
+    # every scenario as a row of one batched env: the same plans and scores (the env's step is
+    # the same kernel on each row), one plan time per batch
+    from ios_uav_env.envs.policies import HoverAt
+
+    policy = HoverAt("peak")
+    one = evaluate(policy, n=4, batched=batched)
+    together = evaluate(policy, n=4, batched=batched, at_once=True)
+    for a, b in zip(one.scenarios, together.scenarios, strict=True):
+        assert a.index == b.index and a.feasible == b.feasible
+        assert b.rate == pytest.approx(a.rate, rel=1e-9)
+        np.testing.assert_allclose(b.trajectory, a.trajectory, atol=1e-9)
+    assert len({r.seconds for r in together.scenarios}) == 1  # the batch's time / B
+    with pytest.raises(ValueError, match="single-node suites"):
+        evaluate(policy, "multi-node-v1", n=1, at_once=True)
