@@ -22,6 +22,10 @@ from agents.suite import (
 )
 from baselines.ray_backend import add_backend_arguments, check_backend_arguments
 from baselines.runner import check_writable
+from ios_uav_env.benchmark import DEFAULT_SUITE
+from ios_uav_env.benchmark import load_suite as load_benchmark
+
+SUITE_HELP = f"benchmark suite, a name or a file (default {DEFAULT_SUITE})"
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -51,12 +55,16 @@ def build_parser() -> argparse.ArgumentParser:
         "--model", required=True, help="run or model folder, a model .zip, 'heuristic' or 'peak-heuristic'"
     )
     r.add_argument("--algo", choices=list(ALGOS), default=None, help="algorithm (default: the run's)")
-    r.add_argument("--suite", type=Path, default=SUITE_PATH, help="suite file")
+    r.add_argument(
+        "--suite", default=DEFAULT_SUITE, help=f"benchmark suite, a name or a file (default {DEFAULT_SUITE})"
+    )
     r.add_argument("--n", type=positive_int, default=None, help="only the first n scenarios")
     r.add_argument("--out", type=Path, default=Path("out/suite"), help="folder of the table and figures")
     c = sub.add_parser("curve", help="score every checkpoint of a training run (the learning curve)")
     c.add_argument("--run", type=Path, required=True, help="run folder (with checkpoints/)")
-    c.add_argument("--suite", type=Path, default=SUITE_PATH, help="suite file")
+    c.add_argument(
+        "--suite", default=DEFAULT_SUITE, help=f"benchmark suite, a name or a file (default {DEFAULT_SUITE})"
+    )
     c.add_argument("--n", type=positive_int, default=None, help="only the first n scenarios")
     c.add_argument("--out", type=Path, default=Path("out/suite_curve"), help="folder of the CSV and PNG")
     return parser
@@ -86,13 +94,20 @@ def main(argv: Sequence[str] | None = None) -> int:
         print(show_text(suite, args.out))
         print(f"wrote {args.out} in {time.perf_counter() - start:.1f} s")
         return 0
-    try:
-        suite = load_suite(args.suite)
-    except (FileNotFoundError, ValueError) as exc:
-        parser.error(f"argument --suite: {exc}")
     if args.command == "show":
-        print(show_text(suite, args.suite, table=args.table))
+        try:
+            plans = load_suite(args.suite)
+        except (FileNotFoundError, ValueError) as exc:
+            parser.error(f"argument --suite: {exc}")
+        print(show_text(plans, args.suite, table=args.table))
         return 0
+    try:
+        suite = load_benchmark(args.suite)
+    except (FileNotFoundError, KeyError, ValueError) as exc:
+        parser.error(f"argument --suite: {exc}")
+    if suite.multi_node:
+        parser.error(f"argument --suite: {suite.name} is a multi-node suite (a multi-node --model is scored "
+                     "on multi-node-v1 by itself)")  # fmt: skip
     if args.command == "curve":
         from agents.suite.curve import learning_curve, write_curve
 
@@ -115,7 +130,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         policy = load_policy(args.model, args.algo)
     except (FileNotFoundError, ValueError) as exc:
         parser.error(f"argument --model: {exc}")
-    run_report(policy, suite, args.out, n=args.n)
+    run_report(policy, args.out, n=args.n, suite=suite)
     return 0
 
 

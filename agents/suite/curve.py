@@ -17,17 +17,17 @@ from pathlib import Path
 from typing import Any
 
 from agents.loading import checkpoints, load_agent
-from agents.suite import Suite
 from agents.suite.report import evaluate_suite, summarize
 from ios_uav_env import RANDOM_ENV_ID
 from ios_uav_env.io import atomic_write_text, save_figure
 
 
 def learning_curve(
-    run: str | Path, suite: Suite, n: int | None = None, out: str | Path | None = None
+    run: str | Path, suite: Any = None, n: int | None = None, out: str | Path | None = None
 ) -> list[dict[str, Any]]:
-    """One summary row per checkpoint that loads: steps, minutes since the first checkpoint (file
-    times), suite score; with ``out``, the CSV there is rewritten after each one.
+    """One summary row per checkpoint that loads on ``suite`` (a benchmark suite, its name or
+    file; default ``single-node-v1``): steps, minutes since the first checkpoint (file times),
+    suite score; with ``out``, the CSV there is rewritten after each one.
     ``FileNotFoundError`` if the run has no checkpoint."""
     points = checkpoints(run)
     if not points:

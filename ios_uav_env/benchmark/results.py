@@ -190,6 +190,9 @@ class Results:
     def __iter__(self) -> Iterator[ScenarioResult]:
         return iter(self.scenarios)
 
+    def __len__(self) -> int:
+        return len(self.scenarios)
+
     def to_dict(self) -> dict[str, Any]:
         return {
             "name": self.name, "suite": self.suite, "sha256": self.sha256, "env_id": self.env_id,

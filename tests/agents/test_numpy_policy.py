@@ -61,7 +61,6 @@ def test_learning_curve_scores_every_checkpoint(tmp_path):
     import json
 
     from agents.loading import checkpoints
-    from agents.suite import load_suite
     from agents.suite.curve import learning_curve, write_curve
 
     venv = make_vec_env(ENV, n_envs=1, seed=0)
@@ -71,11 +70,11 @@ def test_learning_curve_scores_every_checkpoint(tmp_path):
         model.save(tmp_path / "checkpoints" / f"rl_model_{steps}_steps.zip")
     (tmp_path / "config.json").write_text(json.dumps({"algo": "ppo", "env_id": ENV, "env_kwargs": {}}))
     assert [s for s, _ in checkpoints(tmp_path)] == [100, 200]
-    rows = learning_curve(tmp_path, load_suite(), n=2)
+    rows = learning_curve(tmp_path, "single-node-v1", n=2)
     assert [r["steps"] for r in rows] == [100, 200]
     assert all(r["n"] == 2 and r["feasible"] == 2 and 0 < r["mean_pct_dp"] <= 110 for r in rows)
     csv, png = write_curve(rows, tmp_path / "out")
     assert csv.read_text().count("\n") == 3 and png.stat().st_size > 5000
     assert checkpoints(tmp_path / "out") == []
     with pytest.raises(FileNotFoundError, match="no checkpoints"):
-        learning_curve(tmp_path / "out", load_suite(), n=1)
+        learning_curve(tmp_path / "out", n=1)

@@ -25,6 +25,7 @@ from agents.suite.report import HEURISTICS, evaluate_suite, load_policy, run_rep
 from baselines import dp
 from baselines.references import solve as solve_module
 from ios_uav_env import DEFAULT_RANGES, RANDOM_ENV_ID, ScenarioRanges, average_rate, check_trajectory
+from ios_uav_env.benchmark import load_suite as load_benchmark
 from ios_uav_env.envs.policies import HoverAt
 from tests.tolerances import PLANNER_REL, RATE_REL
 
@@ -37,7 +38,12 @@ TINY = ScenarioRanges(
 
 @pytest.fixture(scope="module")
 def suite():
-    return load_suite()
+    return load_suite()  # the held-out plan file (DP and SCA plans with their trajectories)
+
+
+@pytest.fixture(scope="module")
+def bench():
+    return load_benchmark("single-node-v1")  # the frozen suite of the same draw, which reports score on
 
 
 # --- the shipped suite -----------------------------------------------------------------------
@@ -106,31 +112,35 @@ def test_show_and_bad_files(tmp_path, capsys):
 
 
 # --- the report ------------------------------------------------------------------------------
-def test_report_end_to_end_with_a_heuristic_policy(suite, tmp_path):
-    result = run_report(HoverAt("ground"), suite, tmp_path, n=3, progress=False)
-    rows, s = result["rows"], result["summary"]
-    assert [r.index for r in rows] == [0, 1, 2] and s["n"] == 3
+def test_report_end_to_end_with_a_heuristic_policy(bench, tmp_path):
+    result = run_report(HoverAt("ground"), tmp_path, n=3, progress=False)
+    results, s = result["results"], result["summary"]
+    rows = results.scenarios
+    assert results.suite == "single-node-v1" and [r.index for r in rows] == [0, 1, 2] and s["n"] == 3
     for r in rows:
-        cfg = suite[r.index].config
+        cfg = bench[r.index].config
         assert r.rate == average_rate(cfg, r.trajectory) and r.feasible  # the guard
-        assert r.pct_dp == pytest.approx(100 * r.rate / suite[r.index].dp_rate)
-        assert 0 < r.pct_dp < 102.0 and 0 < r.seconds < r.sca_seconds
+        assert r.pct_dp == pytest.approx(100 * r.rate / bench[r.index].dp_rate)
+        assert 0 < r.pct_dp < 102.0 and 0 < r.seconds < bench[r.index].reference["sca"]["seconds"]
         assert np.array_equal(r.trajectory[0], cfg.q0) and np.allclose(r.trajectory[-1], cfg.qF, atol=1e-6)
     pct = [r.pct_dp for r in rows]
     assert s["mean_pct_dp"] == pytest.approx(np.mean(pct)) and s["min_pct_dp"] == min(pct)
     assert s["feasible"] == 3 and s["speedup"] > 1
+    assert s["sca_mean_pct_dp"] == pytest.approx(
+        np.mean([100 * b.sca_rate / b.dp_rate for b in bench.subset(3)])
+    )
     with open(result["paths"]["csv"], newline="") as fh:
         table = list(csv.DictReader(fh))
     assert [int(t["index"]) for t in table] == [0, 1, 2] and float(table[0]["rate"]) == rows[0].rate
-    text = (tmp_path / "suite_report.md").read_text()
-    assert text.count("\n| ") == 4 and "% of DP on average" in text
-    for name in ("suite_trajectories.png", "suite_pct_dp.png"):
+    text = (tmp_path / "results.md").read_text()
+    assert text.count("\n| ") == 4 and "% of DP mean" in text
+    for name in ("suite_trajectories.png", "pct_dp.png"):
         assert (tmp_path / name).read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
 
 
-def test_suite_score_and_fixed_id_policies(suite):
-    score = suite_score(HoverAt("ground"), suite, n=3)
-    rows = evaluate_suite(HoverAt("ground"), suite, n=3)
+def test_suite_score_and_fixed_id_policies(bench):
+    score = suite_score(HoverAt("ground"), bench, n=3)
+    rows = evaluate_suite(HoverAt("ground"), bench, n=3)
     assert score == {
         "mean_pct_dp": summarize(rows)["mean_pct_dp"],
         "p10_pct_dp": summarize(rows)["p10_pct_dp"],
@@ -139,14 +149,14 @@ def test_suite_score_and_fixed_id_policies(suite):
         "n": 3,
     }
     # a policy of a fixed id runs in that id made on each scenario: same observation prefix
-    fixed = evaluate_suite(HoverAt("ground"), suite, n=3, env_id="ios_uav_env/IOSUAV-v0")
+    fixed = evaluate_suite(HoverAt("ground"), bench, n=3, env_id="ios_uav_env/IOSUAV-v0")
     assert [r.rate for r in fixed] == [r.rate for r in rows]
     # the randomised id runs the scenarios at once in its batched env: one env pinned per
     # scenario gives the same episodes
     peak = HoverAt("peak")
-    batched = evaluate_suite(peak, suite, n=4)
+    batched = evaluate_suite(peak, bench, n=4)
     with ScenarioRunner(RANDOM_ENV_ID, peak.env_kwargs) as runner:
-        single = [runner.run(peak, e.config, seed=0) for e in suite.subset(4)]
+        single = [runner.run(peak, e.config, seed=0) for e in bench.subset(4)]
     for row, episode in zip(batched, single, strict=True):
         np.testing.assert_allclose(row.trajectory, episode.trajectory, atol=1e-9)
         assert row.rate == pytest.approx(episode.average_rate, rel=1e-12)
@@ -157,42 +167,42 @@ def test_report_cli_and_shipped_agent(tmp_path, capsys):
     from agents.evaluate import MODELS_DIR
 
     assert main(["report", "--model", "heuristic", "--n", "2", "--out", str(tmp_path)]) == 0
-    assert "held-out scenarios" in capsys.readouterr().out and (tmp_path / "suite_report.csv").exists()
+    assert "held-out scenarios" in capsys.readouterr().out and (tmp_path / "results.csv").exists()
     with pytest.raises(SystemExit):
         main(["report", "--model", str(tmp_path / "nothing"), "--n", "1"])
     shipped = MODELS_DIR / "ppo_IOSUAV-v0"
     with pytest.raises(ValueError, match="PPO model, not SAC"):
         load_policy(shipped, "sac")
-    rows = evaluate_suite(load_policy(shipped, "ppo"), load_suite(), n=2)  # an 11-feature agent
+    rows = evaluate_suite(load_policy(shipped, "ppo"), n=2)  # an 11-feature agent, on single-node-v1
     assert len(rows) == 2 and all(r.rate > 0 for r in rows)
 
 
-def test_peak_heuristic_follows_the_hint_and_beats_flying_to_g_where_the_surface_matters(suite):
+def test_peak_heuristic_follows_the_hint_and_beats_flying_to_g_where_the_surface_matters(bench):
     assert set(HEURISTICS) == {"heuristic", "peak-heuristic"}
     peak = load_policy("peak-heuristic")
     assert peak.env_kwargs == {"peak_hint": True}
     # scenario 15: G at (49, -30), 50 m in front of the IOS; the best hover point is across it
-    cfg = suite[15].config
+    cfg = bench[15].config
     assert cfg.ground_node[0] > 0 and ios_uav_env.rate_peak(cfg).x < 0
-    (by_peak,) = [r for r in evaluate_suite(peak, suite, n=16) if r.index == 15]
-    (by_g,) = [r for r in evaluate_suite(HoverAt("ground"), suite, n=16) if r.index == 15]
+    (by_peak,) = [r for r in evaluate_suite(peak, bench, n=16) if r.index == 15]
+    (by_g,) = [r for r in evaluate_suite(HoverAt("ground"), bench, n=16) if r.index == 15]
     assert by_peak.feasible and by_peak.pct_dp > 98.0 > 80.0 > by_g.pct_dp
 
 
-def test_shipped_generalist_reproduces_its_recorded_suite_rows(suite):
+def test_shipped_generalist_reproduces_its_recorded_suite_rows(bench):
     pytest.importorskip("stable_baselines3")
     from agents.evaluate import MODELS_DIR
 
     folder = MODELS_DIR / "ppo_IOSUAV-Random-v0"
     with open(folder / "suite_report.csv", newline="") as fh:
         recorded = list(csv.DictReader(fh))
-    assert len(recorded) == len(suite) == 60
+    assert len(recorded) == len(bench) == 60
     pct = [float(r["pct_dp"]) for r in recorded]
     # the bars, on the recorded table
     assert np.mean(pct) >= 97.0 and min(pct) >= 90.0 and all(r["feasible"] == "True" for r in recorded)
     agent = load_policy(folder)
     assert agent.env_kwargs["peak_hint"] is True
-    rows = evaluate_suite(agent, suite, n=8)
+    rows = evaluate_suite(agent, bench, n=8)
     for row, rec in zip(rows, recorded, strict=False):
         assert row.index == int(rec["index"]) and row.feasible
         assert row.rate == pytest.approx(float(rec["rate"]), rel=RATE_REL)
