@@ -3,6 +3,7 @@
 - ``single`` / ``random_env``: one ground node, a fixed or a random scenario; ``single_vector``
   their batched form; ``single_kernels`` the step they share (compiled with numba if installed);
 - ``multi`` / ``multi_vector`` / ``multi_kernels``: the same for K >= 1 ground nodes;
+- ``batched``: ``BatchedEnv``, the base of both batched envs (rows, seeding, autoreset, info);
 - ``observation``, ``options``, ``guard``: the observation layout, the env options and the
   arrival guard; ``registration``: the ids, registered on ``import ios_uav_env``;
 - ``rollout`` runs a policy for one episode; ``policies`` holds reference policies;

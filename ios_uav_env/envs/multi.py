@@ -6,12 +6,13 @@ rate r_k(q[n]) (``config.node_config(k)``), slot n is shared by TDMA shares alph
 the objective is min_k R_k, R_k = (1/N) sum_n alpha_k[n] r_k(q[n]). The agent chooses the
 shares itself; the episode's score is its own ``min_k R_k`` (``scheduled_rates``), never
 above the trajectory's best-schedule score (``maxmin_rate``), which the last step reports
-beside it. Movement, the arrival guard and the feasibility shaping are the single env's.
+beside it. Movement, the arrival guard and the feasibility shaping are the single env's. The
+transition is the kernel of ``ios_uav_env.envs.multi_kernels`` on a batch of one, the one that
+``MultiNodeVectorEnv`` runs on B rows.
 """
 
 from __future__ import annotations
 
-import functools
 import math
 import time
 from collections.abc import Mapping
@@ -21,16 +22,25 @@ import gymnasium as gym
 import numpy as np
 from gymnasium import spaces
 
-from ios_uav_env.envs.guard import guarded_position
-from ios_uav_env.envs.multi_kernels import soft_minimum
+from ios_uav_env.envs.multi_kernels import (
+    BEST,
+    MULTI_INFO_KEYS,
+    NodeRows,
+    info_arrays,
+    info_columns,
+    node_peaks,
+    soft_minimum,
+)
 from ios_uav_env.envs.observation import M_SCALE, T_SCALE, ground_free_rate_bound, length_bounds, pad
 from ios_uav_env.envs.options import EnvOptions, split_kwargs
-from ios_uav_env.jit import HAVE_NUMBA
-from ios_uav_env.model.channel import rate_kernel
-from ios_uav_env.model.config import FEASIBILITY_TOL, ScenarioConfig, as_config, scenario_option
-from ios_uav_env.model.peak import rate_peak
+from ios_uav_env.model.config import ScenarioConfig, as_config, scenario_option
 from ios_uav_env.model.scenarios import ScenarioRanges, sample_scenario
 from ios_uav_env.model.schedule import reported_maxmin_rate
+
+__all__ = [
+    "BASE_FEATURES", "DEFAULT_NODES", "MULTINODE_RANGES", "MULTI_INFO_KEYS", "NODE_FEATURES",
+    "NODE_PEAK_FEATURES", "MultiNodeEnv", "node_peaks", "rate_potential", "sample_multinode", "share_scores",
+]  # fmt: skip
 
 #: The default multi-node scenario: three nodes, two on the reflecting side of the IOS and one
 #: across it, every other parameter at the paper's defaults.
@@ -47,11 +57,6 @@ NODE_PEAK_FEATURES = ("dx_peak", "dy_peak", "rate_peak")
 BASE_FEATURES = (
     "x", "y", "dx_final", "dy_final", "dx_ios", "dy_ios", "time_left", "slack",
     "elements", "is_ios", "is_ris", "horizon",
-)  # fmt: skip
-#: ``info`` keys (the same on every step and at reset).
-MULTI_INFO_KEYS = (
-    "position", "slot", "distance_to_final", "shares", "node_rates", "min_rate", "best_schedule_rate",
-    "reward_rate", "reward_reach", "reward_terminal", "feasible", "worst_violation", "terminal_miss",
 )  # fmt: skip
 
 
@@ -74,14 +79,6 @@ def share_scores(shares: np.ndarray, sharpness: float = 5.0) -> np.ndarray:
         raise ValueError(f"shares must be finite, >= 0 and not all 0 ((K,) or (K, B)), got {alpha!r}")
     ratio = np.maximum(alpha / alpha.max(axis=0), np.exp(-2.0 * sharpness))
     return np.clip(1.0 + np.log(ratio) / sharpness, -1.0, 1.0)
-
-
-@functools.lru_cache(maxsize=256)
-def node_peaks(config: ScenarioConfig) -> tuple[tuple[float, float, float], ...]:
-    """Each node's reachable rate peak (x, y, rate): ``rate_peak`` of ``config.node_config(k)``
-    (on the compiled kernel when numba is installed: ``compiled=HAVE_NUMBA``), the ``peak_hint``
-    features; cached, so a fixed scenario and the rows of a batch sharing one compute them once."""
-    return tuple(tuple(rate_peak(config.node_config(k), compiled=HAVE_NUMBA)) for k in range(config.K))
 
 
 def sample_multinode(
@@ -172,8 +169,8 @@ class MultiNodeEnv(gym.Env):
     - ``softmin_beta`` (0.0): beta of the shaped rate term (Rewards); 0 is the plain minimum.
     - ``random_nodes`` ((2, 4) for the randomised id, None otherwise): draw a new scenario with
       that many nodes at every reset.
-    - ``peak_hint`` (False): append each node's reachable rate peak (Observation Space; it
-      costs one compiled ``rate_peak`` per node at reset, 1-2 ms per node, cached: ``node_peaks``).
+    - ``peak_hint`` (False): append each node's reachable rate peak (Observation Space; one
+      ``rate_peak`` per node and scenario, cached: ``node_peaks``).
     - ``arrival_guard``, ``reach_weight``, ``terminal_weight``, ``length_scale``: as
       ``IOSUAVEnv`` (``EnvOptions``); the channel is the expected-gain rate.
     - ``render_mode``: None or "rgb_array" (the best node's rate map, every node, and the
@@ -248,7 +245,14 @@ class MultiNodeEnv(gym.Env):
         low, high = self._bounds()
         self.observation_space = spaces.Box(low, high, dtype=np.float32)
         self.config = self._base
-        self._n: int | None = None
+        # a batch of one episode for the kernels of ios_uav_env.envs.multi_kernels
+        self._rows = NodeRows(1, self.max_nodes, self.options, self.share_sharpness, self.softmin_beta)
+        self._one, self._active = np.zeros(1, dtype=np.int64), np.ones(1, dtype=np.bool_)
+        self._action, self._norm = np.zeros((1, 2 + self.max_nodes)), np.zeros(1)
+        self._obs = np.zeros((1, low.size), dtype=np.float32)
+        self._reward, self._terminated = np.zeros(1), np.zeros(1, dtype=np.bool_)
+        self._table = np.zeros((1, info_columns(self.max_nodes)))
+        self._started = False
 
     # --- options (read-only views of self.options, as on IOSUAVEnv) -------------------------
     channel = property(lambda self: self.options.channel)
@@ -289,9 +293,10 @@ class MultiNodeEnv(gym.Env):
             return sample_multinode(self.np_random, self.ranges, self.random_nodes)
         return self._base
 
-    def reset(
-        self, *, seed: int | None = None, options: dict[str, Any] | None = None
-    ) -> tuple[np.ndarray, dict]:
+    def _begin(self, seed: int | None, options: dict[str, Any] | None) -> ScenarioConfig:
+        """The scenario part of ``reset`` (``MultiNodeVectorEnv`` runs it on each row's env): seed
+        ``np_random``, choose the episode's scenario (pinned, drawn or the env's own), check that
+        it fits the spaces, make it current."""
         super().reset(seed=seed)
         pinned = scenario_option(options)
         cfg = self._episode_config(pinned)
@@ -306,129 +311,55 @@ class MultiNodeEnv(gym.Env):
                     f"the scenario {cfg} does not fit this env's observation space; make an env on it instead"
                 )
         self.config = cfg
-        self._nkd = (cfg.N, cfg.K, cfg.D)  # N, K, D: read every step (properties of the config)
-        self._kernels = [rate_kernel(cfg.node_config(k)) for k in range(cfg.K)]
-        self._peaks = node_peaks(cfg) if self.options.peak_hint else None
-        self._x, self._y = cfg.q0
-        self._n, self._excess = 0, 0.0
-        self._xs, self._ys = [self._x], [self._y]
+        return cfg
+
+    def reset(
+        self, *, seed: int | None = None, options: dict[str, Any] | None = None
+    ) -> tuple[np.ndarray, dict]:
+        self._rows.load(0, self._begin(seed, options))
         self.score_seconds = 0.0  # wall time of the episode's best-schedule LP (scoring, not planning)
-        rates = self._rates(self._x, self._y)
-        shares = np.full(cfg.K, 1.0 / cfg.K)
-        self._served = shares * rates  # S_k
-        self._shares = [shares]
-        self._min = float(self._served.min()) / cfg.N
-        self._phi = 0.0  # the potential before slot 1
-        obs = self._observe(rates)
-        dist = math.hypot(cfg.qF[0] - self._x, cfg.qF[1] - self._y)
-        return obs, self._info(shares, dist, (0.0, 0.0, 0.0), 0.0)
+        self._rows.start(self._one, self._obs, self._table)
+        self._started = True
+        return self._obs[0].copy(), self._info()
 
-    def _rates(self, x: float, y: float) -> np.ndarray:
-        return np.array([k.rate(x, y) for k in self._kernels])
-
-    def _observe(self, rates: np.ndarray) -> np.ndarray:
-        cfg, inv_l = self.config, 1.0 / self.options.length_scale
-        N, K, D = self._nkd
-        x, y, left = self._x, self._y, N - 1 - self._n
-        dist = math.hypot(cfg.qF[0] - x, cfg.qF[1] - y)
-        s = left - dist / D
-        cx, cy = cfg.ios_center[0], cfg.ios_center[1]
-        obs = [x * inv_l, y * inv_l, (cfg.qF[0] - x) * inv_l, (cfg.qF[1] - y) * inv_l, (cx - x) * inv_l,
-               (cy - y) * inv_l, left / (N - 1), s / (1.0 + abs(s)),
-               cfg.M / M_SCALE if cfg.surface != "none" else 0.0, float(cfg.surface == "ios"),
-               float(cfg.surface == "ris"), cfg.T / T_SCALE]  # fmt: skip
-        for k in range(self.max_nodes):
-            if k < K:
-                wx, wy = cfg.nodes[k]
-                side = 1.0 if wx > cx else -1.0
-                obs += [1.0, (wx - x) * inv_l, (wy - y) * inv_l, side, self._served[k] / N, rates[k]]
-                if self._peaks is not None:
-                    px, py, pr = self._peaks[k]
-                    obs += [(px - x) * inv_l, (py - y) * inv_l, pr]
-            else:
-                obs += [0.0] * len(self.node_features)
-        return np.array(obs, dtype=np.float32)
-
-    def _info(self, shares: np.ndarray, dist: float, terms: tuple[float, float, float], best: float) -> dict:
-        N, K, D = self._nkd
-        left = N - 1 - self._n
-
-        def padded(v: np.ndarray) -> np.ndarray:
-            out = np.zeros(self.max_nodes)
-            out[:K] = v
-            return out
-
-        deficit = max(0.0, dist - left * D)
-        worst = max(self._excess, deficit)
-        return {
-            "position": np.array((self._x, self._y)), "slot": np.int64(self._n + 1),
-            "distance_to_final": np.float64(dist), "shares": padded(shares),
-            "node_rates": padded(self._served / N), "min_rate": np.float64(self._min),
-            "best_schedule_rate": np.float64(best), "reward_rate": np.float64(terms[0]),
-            "reward_reach": np.float64(terms[1]), "reward_terminal": np.float64(terms[2]),
-            "feasible": np.bool_(worst <= FEASIBILITY_TOL), "worst_violation": np.float64(worst),
-            "terminal_miss": np.float64(deficit),
-        }  # fmt: skip
+    def _info(self) -> dict[str, Any]:
+        """The ``info`` dict (``MULTI_INFO_KEYS``) of the info table: numpy scalars and arrays."""
+        return {key: value[0] for key, value in info_arrays(self._table.copy(), self.max_nodes).items()}
 
     def step(self, action: Any) -> tuple[np.ndarray, float, bool, bool, dict]:
-        if self._n is None:
+        if not self._started:
             raise RuntimeError("call reset() before step()")
-        cfg, (N, K, D) = self.config, self._nkd
-        if self._n >= N - 1:
-            raise RuntimeError(f"the episode ended at slot N = {N}; call reset()")
+        if self._rows.state[0, 2] >= self._rows.episode[0, 3]:
+            raise RuntimeError(f"the episode ended at slot N = {self.config.N}; call reset()")
         a = np.asarray(action, dtype=np.float64)
         if a.shape != self.action_space.shape:
             raise ValueError(f"action must have shape {self.action_space.shape}, got {a.shape}")
         if not np.isfinite(a).all():
             raise ValueError(f"action must be finite (no NaN or inf), got {action!r}")
-        ax, ay = float(a[0]), float(a[1])
-        norm = math.hypot(ax, ay)
-        if norm > 1.0:
-            ax, ay = ax / norm, ay / norm
-        scores = self.share_sharpness * a[2 : 2 + K]
-        shares = np.exp(scores - scores.max())
-        shares /= shares.sum()
-        x0, y0, left = self._x, self._y, N - 2 - self._n
-        x, y = x0 + D * ax, y0 + D * ay
-        if self.options.arrival_guard:
-            x, y = guarded_position((x0, y0), (x, y), cfg.qF, D, left)
-        self._x, self._y, self._n = x, y, self._n + 1
-        self._xs.append(x)
-        self._ys.append(y)
-        self._shares.append(shares)
-        self._excess = max(self._excess, math.hypot(x - x0, y - y0) - D)
-        rates = self._rates(x, y)
-        self._served = self._served + shares * rates
-        self._min = float(self._served.min()) / N
-        previous, self._phi = self._phi, soft_minimum(self._served, K, float(N), self.softmin_beta)
-        dist = math.hypot(cfg.qF[0] - x, cfg.qF[1] - y)
-        reach = max(0.0, dist - left * D - FEASIBILITY_TOL) / D
-        r_reach = -self.options.reach_weight * reach if reach else 0.0
-        terminated = left == 0
-        r_terminal, best = 0.0, 0.0
+        self._action[0] = a
+        self._norm[0] = math.hypot(a[0], a[1])  # (Python's hypot: see multi_kernels.move_norms)
+        outputs = (self._obs, self._reward, self._terminated, self._table)
+        self._rows.step(self._action, self._active, outputs, self._norm, serial=True)
+        terminated = bool(self._terminated[0])
         if terminated:
-            miss = max(0.0, dist - FEASIBILITY_TOL) / D
-            if miss:
-                r_terminal = -self.options.terminal_weight * (miss + math.sqrt(miss))
             start = time.perf_counter()
-            best = reported_maxmin_rate(cfg, self.trajectory)
+            self._table[0, BEST] = reported_maxmin_rate(self.config, self.trajectory)
             self.score_seconds = time.perf_counter() - start
-        r_rate = N * (self._phi - previous)
-        if terminated and self.softmin_beta:
-            r_rate += N * (self._min - self._phi)
-        terms = (r_rate, r_reach, r_terminal)
-        info = self._info(shares, dist, terms, best)
-        return self._observe(rates), float(sum(terms)), terminated, False, info
+        return self._obs[0].copy(), float(self._reward[0]), terminated, False, self._info()
 
     @property
     def trajectory(self) -> np.ndarray:
         """The way-points so far, (n + 1, 2) m."""
-        return np.column_stack([self._xs, self._ys]) if self._n is not None else np.zeros((0, 2))
+        if not self._started:
+            return np.zeros((0, 2))
+        return self._rows.path[0, : int(self._rows.state[0, 2]) + 1].copy()
 
     @property
     def shares(self) -> np.ndarray:
         """The shares so far, (K, n + 1): slot 1's equal shares, then one column per step."""
-        return np.column_stack(self._shares)
+        if not self._started:
+            return np.zeros((self.config.K, 0))
+        return self._rows.schedule(0, self.config.K)
 
     def render(self) -> np.ndarray | None:
         """The trajectory so far over the best node's rate map, an (H, W, 3) uint8 array."""
@@ -443,11 +374,10 @@ class MultiNodeEnv(gym.Env):
         canvas = canvas_cls(fig)
         ax = fig.add_subplot()
         plot_multinode_map(ax, self.config, resolution=(120, 60))
-        if self._n is not None:
+        if self._started:
             plot_served_trajectories(ax, self.config, {"UAV": self.trajectory}, {"UAV": self.shares})
-            ax.set_title(
-                f"slot {self._n + 1}/{self.config.N}, min rate so far {self._min:.3f} bps/Hz", fontsize=9
-            )
+            slot, low = len(self.trajectory), self._rows.state[0, 4]  # (min_rate so far)
+            ax.set_title(f"slot {slot}/{self.config.N}, min rate so far {low:.3f} bps/Hz", fontsize=9)
         fig.tight_layout()
         canvas.draw()
         return np.array(canvas.buffer_rgba())[:, :, :3]

@@ -1,33 +1,38 @@
-"""The multi-node env's transition as array kernels over B rows (``MultiNodeVectorEnv``).
+"""The multi-node env's transition as array kernels over B rows: one implementation for
+``MultiNodeEnv`` (a batch of one) and ``MultiNodeVectorEnv`` (B rows).
 
-Row i of a few arrays is episode i of ``MultiNodeEnv``: ``state`` (:data:`STATE`), ``episode``
-(:data:`EPISODE`: the scenario's constants), ``points`` (B, K_max, 6: each node's x, y, its
-side of the IOS and, with ``peak_hint``, its reachable rate peak x, y and rate), ``served``
-(B, K_max: S_k) and, per node, the arrays of its rate kernel
+Row i of a few arrays is episode i (:class:`NodeRows` holds them): ``state`` (:data:`STATE`),
+``episode`` (:data:`EPISODE`: the scenario's constants), ``points`` (B, K_max, 6: each node's
+x, y, its side of the IOS and, with ``peak_hint``, its reachable rate peak x, y and rate),
+``served`` (B, K_max: S_k) and, per node, the arrays of its rate kernel
 (``ios_uav_env.model.channel.RateKernel`` of ``config.node_config(k)``: ``nodes`` (B, K_max, 3, Q),
 ``params`` (B, K_max, P)). :func:`reset_rows` and :func:`step_rows` write the observations,
-rewards and the ``info`` table (:func:`info_columns`) of the rows they touch, with the single
-env's formulas in its order of operations: node k's rate is ``channel.rate_point`` (the
-single env's ``RateKernel.rate``), the move goes through ``guard.guarded_position``, the
-shares are the softmax of ``share_sharpness`` x the scores of the scenario's K nodes, and
-the reward terms are the single env's. Compiled with numba when installed (``ios_uav_env.jit``).
+rewards and the ``info`` table (:func:`info_columns`, read by :func:`info_arrays`) of the
+rows they touch: node k's rate is ``channel.rate_point``, the move goes through
+``guard.guarded_position``, the shares are the softmax of ``share_sharpness`` x the scores of
+the scenario's K nodes, and the reward terms are those of ``MultiNodeEnv``'s docstring.
+Compiled with numba when installed (``ios_uav_env.jit``).
 """
 
 from __future__ import annotations
 
+import functools
 import math
 from collections.abc import Sequence
+from typing import Any
 
 import numpy as np
 
 from ios_uav_env.envs.guard import guarded_position
 from ios_uav_env.envs.observation import M_SCALE, T_SCALE
-from ios_uav_env.envs.single_kernels import penalties
-from ios_uav_env.jit import jit, prange
-from ios_uav_env.model.channel import rate_point
+from ios_uav_env.envs.options import EnvOptions
+from ios_uav_env.envs.single_kernels import flags_of, penalties
+from ios_uav_env.jit import HAVE_NUMBA, jit, prange, run_batched
+from ios_uav_env.model.channel import PARAMS, rate_kernel, rate_point
 from ios_uav_env.model.config import FEASIBILITY_TOL, ScenarioConfig
+from ios_uav_env.model.peak import rate_peak
 
-#: Columns of a row of ``state`` (``moves_made`` at column 2, as in ``dynamics.STATE``).
+#: Columns of a row of ``state`` (``moves_made`` at column 2, as in ``single_kernels.STATE``).
 STATE = ("x", "y", "moves_made", "excess", "min_rate", "potential")
 #: Columns of a row of ``episode``.
 EPISODE = (
@@ -43,6 +48,11 @@ INFO = (
 )  # fmt: skip
 #: Column of ``best_schedule_rate`` (filled in by the caller: an LP, at episode end only).
 BEST = INFO.index("best_schedule_rate")
+#: The keys of ``info`` (the same on every step and at reset): :func:`info_arrays`.
+MULTI_INFO_KEYS = (
+    "position", "slot", "distance_to_final", "shares", "node_rates", "min_rate", "best_schedule_rate",
+    "reward_rate", "reward_reach", "reward_terminal", "feasible", "worst_violation", "terminal_miss",
+)  # fmt: skip
 
 
 def info_columns(max_nodes: int) -> int:
@@ -50,13 +60,28 @@ def info_columns(max_nodes: int) -> int:
     return len(INFO) + 2 * max_nodes
 
 
-def episode_row(
-    config: ScenarioConfig,
-    length_scale: float,
-    sharpness: float,
-    softmin_beta: float = 0.0,
-    peak_hint: bool = False,
-) -> np.ndarray:
+def info_arrays(table: np.ndarray, max_nodes: int) -> dict[str, np.ndarray]:
+    """``info`` (:data:`MULTI_INFO_KEYS`) as views of the rows of the info ``table``: ``position``
+    (B, 2), ``shares`` and ``node_rates`` (B, K_max), ``slot`` int64, ``feasible`` bool."""
+    columns, end = table.T, len(INFO)
+    out = {key: columns[i] for i, key in enumerate(INFO) if not key.startswith("position")}
+    out["position"] = table[:, 0:2]
+    out["slot"] = out["slot"].astype(np.int64)
+    out["feasible"] = out["feasible"] != 0.0
+    out["shares"], out["node_rates"] = table[:, end : end + max_nodes], table[:, end + max_nodes :]
+    return {key: out[key] for key in MULTI_INFO_KEYS}
+
+
+@functools.lru_cache(maxsize=256)
+def node_peaks(config: ScenarioConfig) -> tuple[tuple[float, float, float], ...]:
+    """Each node's reachable rate peak (x, y, rate): ``rate_peak`` of ``config.node_config(k)``
+    (on the compiled kernel when numba is installed: ``compiled=HAVE_NUMBA``), the ``peak_hint``
+    features; cached, so a fixed scenario and the rows of a batch sharing one compute them once."""
+    return tuple(tuple(rate_peak(config.node_config(k), compiled=HAVE_NUMBA)) for k in range(config.K))
+
+
+def episode_row(config: ScenarioConfig, length_scale: float, sharpness: float, softmin_beta: float = 0.0,
+                peak_hint: bool = False) -> np.ndarray:  # fmt: skip
     """The ``episode`` row of ``config`` (see :data:`EPISODE`)."""
     (fx, fy), (cx, cy) = config.qF, config.ios_center[:2]
     elements = config.M / M_SCALE if config.surface != "none" else 0.0
@@ -81,7 +106,7 @@ def node_points(
 
 @jit(fastmath=False)
 def soft_minimum(served: np.ndarray, k_n: int, n_slots: float, beta: float) -> float:
-    """The potential of the rate term (``multinode_env.rate_potential``) of the served rates
+    """The potential of the rate term (``multi.rate_potential``) of the served rates
     v_k = ``served[k]`` / ``n_slots`` of the first ``k_n`` nodes: min_k v_k for ``beta`` = 0,
     else -(1/beta) log((1/K) sum_k exp(-beta v_k)), computed from the minimum."""
     low = math.inf
@@ -113,12 +138,8 @@ def _observe(obs: np.ndarray, i: int, x: float, y: float, left: float, dist: flo
     width = 9 if ep[15] != 0.0 else 6
     s = left - dist / ep[0]
     o[0], o[1], o[2], o[3] = x * inv_l, y * inv_l, (ep[1] - x) * inv_l, (ep[2] - y) * inv_l
-    o[4], o[5], o[6], o[7] = (
-        (ep[6] - x) * inv_l,
-        (ep[7] - y) * inv_l,
-        left / (n_slots - 1.0),
-        s / (1.0 + abs(s)),
-    )
+    o[4], o[5] = (ep[6] - x) * inv_l, (ep[7] - y) * inv_l
+    o[6], o[7] = left / (n_slots - 1.0), s / (1.0 + abs(s))
     o[8], o[9], o[10], o[11] = ep[10], ep[11], ep[12], ep[13]
     for k in range(points.shape[1]):
         j = 12 + width * k
@@ -256,14 +277,14 @@ def step_rows_batched(
 ) -> None:  # fmt: skip
     """One slot of every active row: move (unit-disk projection, then the arrival guard), shares,
     node rates, served rates, reward, observation and info. ``actions`` (B, 2 + K_max) must be
-    finite (the caller checks); ``flags`` as ``dynamics.flags_of``; ``path`` (B, N_max, 2) and
-    ``share_path`` (B, N_max, K_max) receive the new way-point and shares (at ``moves made``).
-    ``norms`` (B,): |move| of each row whose move may leave the unit disk, 0 for the others
-    (:func:`move_norms`: Python's ``math.hypot``, as the single env; numba's differs in the
-    last bit for ~1% of the inputs). The rows run in parallel on numba's threads
-    (``MultiNodeVectorEnv(num_threads=...)``); IEEE arithmetic (no fused multiply-add) so that
-    the moves are the single env's bit for bit (the arrival guard turns a last-bit difference
-    into ~1e-7 m when it pulls the UAV home along the reach circle)."""
+    finite (the caller checks); ``flags`` as ``single_kernels.flags_of``; ``path`` (B, N_max, 2)
+    and ``share_path`` (B, N_max, K_max) receive the new way-point and shares (at ``moves
+    made``). ``norms`` (B,): |move| of each row whose move may leave the unit disk, 0 for the
+    others (:func:`move_norms`: Python's ``math.hypot``, which the compiled one does not match
+    bit for bit). The rows run in parallel on numba's threads
+    (``MultiNodeVectorEnv(num_threads=...)``). IEEE arithmetic (no fused multiply-add) in the
+    kernel's own code, rounded as plain Python rounds it: the arrival guard amplifies a
+    last-bit difference when it pulls the UAV home along the reach circle."""
     for i in prange(actions.shape[0]):  # rows are independent, on numba's threads
         if active[i]:
             _step_row(i, actions, state, episode, points, nodes, params, served, shares, rates, flags, obs,
@@ -299,9 +320,96 @@ def fly_rows(
 
 def move_norms(actions: np.ndarray) -> np.ndarray:
     """The ``norms`` of :func:`step_rows_batched`: ``math.hypot`` of the move of each row of ``actions``
-    whose squared move exceeds 1 - 1e-6 (the rows it may project), 0 for the others."""
+    whose squared move exceeds 1 - 1e-6 (the rows it may project), 0 for the others (whose
+    norm is below 1: the kernel does not read it)."""
     norms = np.zeros(actions.shape[0])
     rows = np.flatnonzero(actions[:, 0] ** 2 + actions[:, 1] ** 2 > 1.0 - 1e-6)
     if rows.size:
         norms[rows] = [math.hypot(ax, ay) for ax, ay in actions[rows, :2].tolist()]
     return norms
+
+
+class NodeRows:
+    """The arrays of B multi-node episodes (row i = episode i; the layout of the module's
+    docstring), the scenario loaded in each row, and the kernel calls on them. ``options``,
+    ``sharpness`` and ``softmin_beta`` are the env's (``EnvOptions``, ``share_sharpness``,
+    ``softmin_beta``). ``path`` and ``share_path`` hold each row's way-points and shares."""
+
+    def __init__(
+        self, num_rows: int, max_nodes: int, options: EnvOptions, sharpness: float, softmin_beta: float
+    ) -> None:
+        b, k = num_rows, max_nodes
+        self.flags = flags_of(options)
+        self.settings = (options.length_scale, sharpness, softmin_beta, options.peak_hint)
+        self.state, self.episode = np.zeros((b, len(STATE))), np.zeros((b, len(EPISODE)))
+        self.points, self.served = np.zeros((b, k, len(POINT))), np.zeros((b, k))
+        self.shares, self.rates = np.zeros((b, k)), np.zeros((b, k))
+        self.nodes, self.params = np.zeros((b, k, 3, 1)), np.zeros((b, k, len(PARAMS)))
+        self.path, self.share_path = np.zeros((b, 1, 2)), np.zeros((b, 1, k))
+        self.loaded: list[ScenarioConfig | None] = [None] * b
+
+    def _grow(self, name: str, axis: int, size: int, fill: tuple[float, ...] = (0.0,)) -> None:
+        """Grow array ``self.<name>`` along ``axis`` to ``size``; new entries 0, or ``fill`` over the
+        array's second-to-last axis (``nodes``: padded surface nodes (0, 1, 0) have zero weight)."""
+        old = getattr(self, name)
+        shape = list(old.shape)
+        shape[axis] = size
+        grown = np.zeros(shape)
+        if len(fill) > 1:
+            grown[...] = np.asarray(fill).reshape(-1, 1)
+        grown[tuple(slice(0, n) for n in old.shape)] = old
+        setattr(self, name, grown)
+
+    def load(self, i: int, cfg: ScenarioConfig) -> None:
+        """Copy the scenario ``cfg`` into row ``i`` (unless it is already there) and put the UAV at q0."""
+        if self.loaded[i] is not cfg:
+            kernels = [rate_kernel(cfg.node_config(k)) for k in range(cfg.K)]
+            width = max(kn.nodes.shape[1] for kn in kernels)
+            if width > self.nodes.shape[3]:
+                self._grow("nodes", 3, width, fill=(0.0, 1.0, 0.0))  # padded nodes: zero weight
+            if cfg.N > self.path.shape[1]:
+                self._grow("path", 1, cfg.N)
+                self._grow("share_path", 1, cfg.N)
+            for k, kn in enumerate(kernels):
+                q = kn.nodes.shape[1]
+                self.nodes[i, k, :, :q] = kn.nodes
+                self.nodes[i, k, :, q:] = ((0.0,), (1.0,), (0.0,))
+                self.params[i, k] = kn.params
+            length_scale, sharpness, softmin_beta, peak_hint = self.settings
+            self.points[i, : cfg.K] = node_points(cfg, node_peaks(cfg) if peak_hint else None)
+            self.episode[i] = episode_row(cfg, length_scale, sharpness, softmin_beta, peak_hint)
+            self.loaded[i] = cfg
+        self.state[i, 0:2] = self.path[i, 0] = cfg.q0
+
+    def start(self, rows: np.ndarray, obs: np.ndarray, info: np.ndarray) -> None:
+        """:func:`reset_rows` on ``rows`` (int64), writing ``obs`` and the ``info`` table."""
+        reset_rows(rows, self.state, self.episode, self.points, self.nodes, self.params, self.served,
+                   self.shares, self.rates, obs, info, self.share_path)  # fmt: skip
+
+    def step(self, actions: np.ndarray, active: np.ndarray, outputs: tuple[np.ndarray, ...],
+             norms: np.ndarray, num_threads: int | None = None, serial: bool = False) -> None:  # fmt: skip
+        """One slot of the ``active`` rows: :func:`step_rows_batched` (``run_batched`` on
+        ``num_threads``), or with ``serial`` :func:`step_rows`. ``outputs``: the arrays it writes,
+        (obs, reward, terminated, info); ``norms``: the moves' ``math.hypot`` where it may exceed 1
+        (:func:`move_norms`)."""
+        obs, reward, terminated, info = outputs
+        args: tuple[Any, ...] = (actions, self.state, self.episode, self.points, self.nodes, self.params,
+                                 self.served, self.shares, self.rates, self.flags, obs, reward, terminated,
+                                 info, self.path, self.share_path, active, norms)  # fmt: skip
+        if serial:
+            step_rows(*args)
+        else:
+            run_batched(step_rows_batched, step_rows, num_threads, *args)
+
+    def fly(self, rows: np.ndarray, targets: np.ndarray, moves: np.ndarray, obs: np.ndarray,
+            info: np.ndarray) -> None:  # fmt: skip
+        """:func:`fly_rows` (checked arguments), writing ``obs`` and the ``info`` table."""
+        b, width = self.state.shape[0], 2 + self.shares.shape[1]
+        fly_rows(rows, targets, moves, np.zeros((b, width)), self.state, self.episode, self.points,
+                 self.nodes, self.params, self.served, self.shares, self.rates, self.flags, obs,
+                 np.zeros(b), np.zeros(b, dtype=np.bool_), info, self.path, self.share_path,
+                 np.zeros(b))  # fmt: skip
+
+    def schedule(self, i: int, k: int) -> np.ndarray:
+        """Row ``i``'s shares of its ``k`` nodes so far, (k, n + 1): slot 1's, then one column per step."""
+        return self.share_path[i, : int(self.state[i, 2]) + 1, :k].T.copy()

@@ -219,9 +219,8 @@ def step_rows_batched(
 ) -> int:  # fmt: skip
     """:func:`step_rows` for batches: the rows in parallel on numba's threads
     (``IOSUAVVectorEnv(num_threads=...)``). The loop body is compiled apart, without the
-    reference counting that the inlined helpers cost in :func:`step_rows` (half its time at
-    B = 1024), so it is faster on one thread too. (Two functions, not one compiled twice:
-    numba's disk cache keys a function by its name, not by its options.)"""
+    reference counting that the inlined helpers cost in :func:`step_rows`. (Two functions, not
+    one compiled twice: numba's disk cache keys a function by its name, not by its options.)"""
     bad = _finite_actions(actions, active)
     if bad < 0:
         for i in prange(actions.shape[0]):  # rows are independent

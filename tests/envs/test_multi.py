@@ -1,5 +1,6 @@
 """The multi-node env (ios_uav_env/envs/multi.py): checkers, the return equals the agent's
-own max-min score, info, bounds, seeding, pinned scenarios and errors."""
+own max-min score, info, bounds, seeding, pinned scenarios, errors, and its step is the
+kernel of the batched env on one row."""
 
 from __future__ import annotations
 
@@ -12,6 +13,7 @@ from gymnasium.utils.env_checker import check_env
 
 import ios_uav_env
 from ios_uav_env import ScenarioConfig, maxmin_rate, rate_peak, scheduled_rates
+from ios_uav_env.envs import multi_kernels
 from ios_uav_env.envs.multi import (
     DEFAULT_NODES,
     MULTI_INFO_KEYS,
@@ -21,6 +23,7 @@ from ios_uav_env.envs.multi import (
     rate_potential,
     share_scores,
 )
+from ios_uav_env.model.scenarios import ScenarioRanges
 
 IDS = sorted(ios_uav_env.MULTINODE_IDS)
 SMALL = ScenarioConfig(T=60.0, ios_shape=(100, 20), ground_nodes=((-100.0, -20.0), (120.0, 40.0)))
@@ -213,3 +216,54 @@ def test_run_episode_scores_the_agents_own_shares():
     assert episode.average_rate == scheduled_rates(u.config, u.trajectory, u.shares).min()
     assert episode.feasible and episode.steps == u.config.N - 1
     assert episode.episode_return == pytest.approx(u.config.N * episode.average_rate, rel=1e-12)
+
+
+@pytest.mark.parametrize("guard", [True, False])
+def test_the_single_env_steps_through_the_kernel_on_one_row(guard, monkeypatch):
+    """One implementation of the step: each reset and step of MultiNodeEnv is one call of the
+    kernels of multi_kernels (the batched env's, tests/envs/test_multi_vector.py) on its one
+    row, and what it returns is what they wrote."""
+    calls = []
+
+    def spy(name):
+        kernel = getattr(multi_kernels, name)
+
+        def call(*args):
+            kernel(*args)
+            calls.append((name, args))
+
+        return call
+
+    for name in ("reset_rows", "step_rows", "step_rows_batched"):
+        monkeypatch.setattr(multi_kernels, name, spy(name))
+    kwargs = {"random_nodes": (2, 4), "ranges": ScenarioRanges(T=(40.0, 60.0)), "softmin_beta": 10.0,
+              "peak_hint": True, "arrival_guard": guard}  # fmt: skip
+    env, rng = MultiNodeEnv(**kwargs), np.random.default_rng(3)
+    obs, info = env.reset(seed=0)
+    (name, args), *_ = calls
+    assert len(calls) == 1 and name == "reset_rows" and args[0].tolist() == [0]
+    np.testing.assert_array_equal(obs, args[9][0])  # reset_rows(rows, ..., obs, info, share_path)
+    assert info["min_rate"] == args[10][0, 4] and info["slot"] == 1
+    for n in range(1, env.config.N):
+        obs, reward, terminated, _, info = env.step(rng.uniform(-1.3, 1.3, env.action_space.shape))
+        name, args = calls[-1]
+        assert len(calls) == n + 1 and name == "step_rows" and args[0].shape[0] == 1
+        np.testing.assert_array_equal(obs, args[10][0])  # step_rows(actions, ..., obs, reward, ...)
+        assert reward == args[11][0] and terminated == args[12][0] == (n == env.config.N - 1)
+        np.testing.assert_array_equal(info["position"], args[1][0, 0:2])  # state: x, y
+    assert info["best_schedule_rate"] == maxmin_rate(env.config, env.trajectory) > 0
+
+
+def test_a_step_needs_a_running_episode():
+    env = MultiNodeEnv(SMALL)
+    assert env.trajectory.shape == (0, 2) and env.shares.shape == (2, 0)
+    with pytest.raises(RuntimeError, match="reset"):
+        env.step(np.zeros(4))
+    env.reset(seed=0)
+    for _ in range(SMALL.N - 1):
+        env.step(np.zeros(4))
+    assert env.trajectory.shape == (SMALL.N, 2) and env.shares.shape == (2, SMALL.N)
+    with pytest.raises(RuntimeError, match=f"ended at slot N = {SMALL.N}"):
+        env.step(np.zeros(4))
+    env.reset()
+    assert env.trajectory.shape == (1, 2) and env.shares.shape == (2, 1)

@@ -1,0 +1,332 @@
+"""What the batched envs share: B episodes as rows of arrays, stepped by one kernel call.
+
+:class:`BatchedEnv` is the base of ``single_vector.IOSUAVVectorEnv`` (one ground node) and
+``multi_vector.MultiNodeVectorEnv`` (K nodes). It holds one template env per row (the single
+env's own code chooses each row's scenario at reset: its ``np_random``, its draws, pinned
+configs and their checks), the seeding, the reset and step skeleton, both autoreset modes,
+``info`` as a dict of arrays with Gymnasium's ``_key`` masks, and the batch-level calls
+:meth:`~BatchedEnv.advance`, :meth:`~BatchedEnv.fly` and :meth:`~BatchedEnv.restart`. A
+subclass holds its rows' arrays and its kernels, and supplies:
+
+- ``env_class``: the single env (its ``_begin(seed, options)`` is the scenario part of its
+  reset) and ``info_keys``: the keys of ``info``;
+- ``_init_rows(template)``: the row arrays (with ``_state``: (B, S), the UAV's x, y and moves
+  made in columns 0-2, and ``_path``: (B, N_max, 2), each row's way-points) and
+  ``_info_width``, the columns of the info table;
+- ``_load_row(i, env)``: copy the scenario of row ``i``'s env into the row arrays;
+  ``_start_rows(rows)``: the kernel that starts those rows' episodes;
+- ``_check_actions(actions)`` and ``_step_kernel(actions, active)``: the kernel of one slot;
+- ``_info_arrays(table)``: ``info`` (``info_keys``) as views of the info table.
+
+Autoreset follows Gymnasium's default ``NEXT_STEP`` mode: the step after an episode ends
+resets that row and returns its first observation with reward 0. With
+``autoreset_mode="same_step"`` (Gymnasium's ``SAME_STEP``, what SB3 expects) a row that ends
+is reset in the same step: its observation is the new episode's first, and
+``info["final_obs"]`` / ``info["final_info"]`` (masked by ``_final_obs`` / ``_final_info``)
+hold the episode's last observation and info.
+"""
+
+from __future__ import annotations
+
+import copy
+from collections.abc import Mapping, Sequence
+from typing import Any
+
+import gymnasium as gym
+import numpy as np
+from gymnasium.vector.utils import batch_space
+
+from ios_uav_env.envs.policies import full_speed_move
+from ios_uav_env.model.config import ScenarioConfig
+
+try:  # Gymnasium >= 1.1 names the autoreset modes
+    from gymnasium.vector import AutoresetMode
+
+    _AUTORESET: Any = AutoresetMode.NEXT_STEP
+    _SAME_STEP: Any = AutoresetMode.SAME_STEP
+except ImportError:  # pragma: no cover - Gymnasium 1.0: next-step is the only mode
+    _AUTORESET, _SAME_STEP = "NextStep", None
+
+#: Values of ``autoreset_mode`` (Gymnasium's ``AutoresetMode`` members are accepted too).
+AUTORESET_MODES = ("next_step", "same_step")
+
+#: What :meth:`BatchedEnv.step` returns: observations, rewards, terminated, truncated, info.
+StepResult = tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, dict[str, Any]]
+
+
+def check_threads(num_threads: Any) -> int | None:
+    """``num_threads`` checked: None (numba's setting: every core) or an integer >= 1."""
+    if num_threads is None:
+        return None
+    if isinstance(num_threads, bool) or not isinstance(num_threads, (int, np.integer)) or num_threads < 1:
+        raise ValueError(f"num_threads must be None (every core) or an integer >= 1, got {num_threads!r}")
+    return int(num_threads)
+
+
+class BatchedEnv(gym.vector.VectorEnv):
+    """``num_envs`` episodes of ``env_class`` as rows of arrays (see the module's docstring).
+
+    Arguments: the single env's (``config`` and its keywords) plus ``num_envs``,
+    ``autoreset_mode`` ("next_step" or "same_step") and ``num_threads`` (numba's threads for
+    the batched kernel; None: every core). Rendering is not supported (``render_mode=None``).
+    ``reset(seed=s)`` seeds row i with ``s + i`` (a list of B seeds works too);
+    ``options={"config": cfg}`` pins every row's episode to ``cfg``, ``options={"configs":
+    [cfg_0, ...]}`` row i's to ``cfg_i``.
+    """
+
+    env_class: type[gym.Env]
+    info_keys: tuple[str, ...] = ()
+    metadata = {"autoreset_mode": _AUTORESET, "render_modes": []}
+    _state: np.ndarray
+    _path: np.ndarray
+    _info_width: int
+
+    def __init__(
+        self,
+        num_envs: int = 1,
+        config: Any = None,
+        *,
+        autoreset_mode: Any = "next_step",
+        render_mode: None = None,
+        num_threads: int | None = None,
+        **kwargs: Any,
+    ):
+        self._check_batch(num_envs, autoreset_mode, render_mode)
+        self.num_threads = check_threads(num_threads)
+        template = self.env_class(config, **kwargs)
+        self._copy_template(template)
+        self._init_rows(template)
+        self._outputs()
+        self._autoreset = np.zeros(self.num_envs, dtype=np.bool_)
+        self._started = False
+        self._masks = {f"_{key}": np.ones(self.num_envs, dtype=np.bool_) for key in self.info_keys}
+        for mask in self._masks.values():
+            mask.setflags(write=False)
+
+    def _check_batch(self, num_envs: Any, autoreset_mode: Any, render_mode: Any) -> None:
+        """Check and set ``num_envs``, the autoreset mode (``same_step``) and ``render_mode`` (None)."""
+        if isinstance(num_envs, bool) or not isinstance(num_envs, (int, np.integer)) or num_envs < 1:
+            raise ValueError(f"num_envs must be an integer >= 1, got {num_envs!r}")
+        mode = str(getattr(autoreset_mode, "value", autoreset_mode)).lower().replace("step", "_step")
+        mode = mode.replace("__", "_")  # "NextStep", "next_step", AutoresetMode.NEXT_STEP, ...
+        if mode not in AUTORESET_MODES:
+            raise ValueError(f"autoreset_mode must be one of {AUTORESET_MODES}, got {autoreset_mode!r}")
+        self.same_step = mode == "same_step"
+        if render_mode is not None:
+            raise ValueError(f"render_mode must be None for the batched env, got {render_mode!r}")
+        self.num_envs = int(num_envs)
+        self.render_mode = None
+        if self.same_step and _SAME_STEP is not None:
+            self.metadata = {**self.metadata, "autoreset_mode": _SAME_STEP}
+
+    def _copy_template(self, template: gym.Env) -> None:
+        """The spaces of ``template`` (single and batched) and one copy of it per row (``envs``:
+        the rows' scenario managers, each with its own generator, seeded at reset)."""
+        self.single_observation_space = template.observation_space
+        self.single_action_space = template.action_space
+        self.observation_space = batch_space(self.single_observation_space, self.num_envs)
+        self.action_space = batch_space(self.single_action_space, self.num_envs)
+        self.envs = [copy.copy(template) for _ in range(self.num_envs)]
+        for env in self.envs:
+            env._np_random = None
+
+    # --- the subclass's rows and kernels --------------------------------------------
+    def _init_rows(self, template: gym.Env) -> None:
+        raise NotImplementedError
+
+    def _load_row(self, i: int, env: Any) -> None:
+        raise NotImplementedError
+
+    def _start_rows(self, rows: np.ndarray) -> None:
+        raise NotImplementedError
+
+    def _check_actions(self, actions: Any) -> np.ndarray:
+        raise NotImplementedError
+
+    def _step_kernel(self, actions: np.ndarray, active: np.ndarray) -> None:
+        raise NotImplementedError
+
+    def _info_arrays(self, table: np.ndarray) -> dict[str, Any]:
+        raise NotImplementedError
+
+    # --- rows -----------------------------------------------------------------------
+    def _outputs(self) -> None:
+        """Fresh output arrays for the next call (returned to the caller, never reused)."""
+        b = self.num_envs
+        self._obs = np.empty((b, self.single_observation_space.shape[0]), dtype=np.float32)
+        self._reward = np.zeros(b)
+        self._terminated = np.zeros(b, dtype=np.bool_)
+        self._info = np.zeros((b, self._info_width))
+
+    def _reset_rows(self, rows: np.ndarray, seeds: Sequence[int | None], options: Sequence[Any]) -> None:
+        """New episodes on ``rows``: each row's env chooses its scenario (with its seed and options)."""
+        for i, seed, row_options in zip(rows, seeds, options, strict=True):
+            env = self.envs[i]
+            env._begin(seed, row_options)
+            self._load_row(int(i), env)
+        self._start_rows(rows.astype(np.int64))
+
+    def _restart_rows(self, rows: np.ndarray) -> None:
+        """New episodes on ``rows`` without a seed or options (autoreset, :meth:`restart`)."""
+        self._reset_rows(rows, [None] * rows.size, [None] * rows.size)
+
+    def _row_options(self, options: Mapping[str, Any] | None) -> list[Any]:
+        """Each row's reset options: ``{"config": cfg}`` pins every row, ``{"configs": [cfg_0,
+        ..., cfg_{B-1}]}`` one scenario per row (None for a row: its own draw)."""
+        if options is None or "configs" not in options:
+            return [None if options is None else dict(options)] * self.num_envs
+        if set(options) != {"configs"}:
+            raise ValueError(
+                f'reset takes options={{"config": cfg}} or {{"configs": [...]}}, got {sorted(options)}'
+            )
+        configs = list(options["configs"])
+        if len(configs) != self.num_envs:
+            raise ValueError(
+                f'options["configs"] must hold {self.num_envs} scenarios (one per row), got {len(configs)}'
+            )
+        return [None if c is None else {"config": c} for c in configs]
+
+    def _infos(self, table: np.ndarray | None = None) -> dict[str, Any]:
+        """``info``: views of the info table (``info_keys``), then the ``_key`` masks."""
+        out = self._info_arrays(self._info if table is None else table)
+        out.update(self._masks)
+        return out
+
+    # --- API ------------------------------------------------------------------------
+    def reset(
+        self, *, seed: int | Sequence[int] | None = None, options: Mapping[str, Any] | None = None
+    ) -> tuple[np.ndarray, dict[str, Any]]:
+        if seed is None:
+            seeds: list[int | None] = [None] * self.num_envs
+        elif isinstance(seed, (int, np.integer)):
+            seeds = [int(seed) + i for i in range(self.num_envs)]
+        else:
+            seeds = list(seed)
+            if len(seeds) != self.num_envs:
+                raise ValueError(
+                    f"seed must be an int or {self.num_envs} seeds (one per env), got {len(seeds)}"
+                )
+        self._outputs()
+        self._reset_rows(np.arange(self.num_envs), seeds, self._row_options(options))
+        self._autoreset[:] = False
+        self._started = True
+        return self._obs, self._infos()
+
+    def step(self, actions: Any) -> StepResult:
+        return self.advance(actions)
+
+    def advance(self, actions: Any, rows: Any = None) -> StepResult:
+        """:meth:`step` for the rows where the mask ``rows`` ((B,) bool; None: every row) is True.
+        The other rows do not move: their state, observation and info are those returned last,
+        their reward 0 and ``terminated`` False (a NEXT_STEP autoreset waits for their next
+        step). E.g. an action repeat over rows whose episodes end at different slots
+        (``agents.vec_env.VecActionRepeat``)."""
+        if not self._started:
+            raise RuntimeError("call reset() before step()")
+        actions = self._check_actions(actions)
+        active = self._begin_step(rows)
+        self._step_kernel(actions, active)
+        return self._end_step()
+
+    def _begin_step(self, rows: Any = None) -> np.ndarray:
+        """Fresh outputs, and the NEXT_STEP autoreset: the rows that ended at the last step start a
+        new episode instead of stepping. ``rows``: the mask of :meth:`advance` (the other rows
+        keep their last observation and info). The mask of the rows that step."""
+        previous = (self._obs, self._info)
+        if rows is not None:
+            rows = np.asarray(rows)
+            if rows.shape != (self.num_envs,) or rows.dtype != np.bool_:
+                raise ValueError(f"rows must be a boolean mask of shape ({self.num_envs},), got {rows!r}")
+        self._held = None if rows is None else ~rows
+        self._outputs()
+        pending = self._autoreset if rows is None else self._autoreset & rows
+        done = np.flatnonzero(pending)
+        if done.size:  # NEXT_STEP autoreset: these rows start a new episode instead of stepping
+            self._restart_rows(done)
+        if rows is None:
+            return ~self._autoreset
+        held = np.flatnonzero(self._held)
+        self._obs[held], self._info[held] = previous[0][held], previous[1][held]
+        return rows & ~self._autoreset
+
+    def _end_step(self) -> StepResult:
+        """The step's return once the kernel has stepped the rows (SAME_STEP: the rows that ended
+        start their next episode now, their last observation and info under ``final_*``)."""
+        truncated = np.zeros(self.num_envs, dtype=np.bool_)
+        if not self.same_step:  # held rows (advance) still wait for their autoreset
+            held = self._autoreset & self._held if self._held is not None else False
+            self._autoreset = self._terminated | held
+            return self._obs, self._reward, self._terminated, truncated, self._infos()
+        ended = np.flatnonzero(self._terminated)
+        final_obs, final_info = self._obs.copy(), self._infos(self._info.copy())
+        if ended.size:  # SAME_STEP: the rows that ended start their next episode now
+            self._restart_rows(ended)
+        info = self._infos()
+        mask = self._terminated.copy()
+        info.update(final_obs=final_obs, _final_obs=mask, final_info=final_info, _final_info=mask)
+        return self._obs, self._reward, self._terminated, truncated, info
+
+    def fly(self, rows: Any, targets: Any, moves: Any) -> np.ndarray:
+        """Hidden steps on ``rows``: row ``rows[r]`` flies ``moves[r]`` slots towards ``targets[r]``
+        ((n, 2) m) at full speed, hovering once there (the arrival guard as always; the other
+        action entries 0: the multi-node env serves every node equally), as :meth:`advance`
+        would step it, and none of these steps is returned. ``moves[r]`` must leave the row's
+        episode unfinished. Returns the batch's current observations (those rows' after the
+        flight). E.g. to start episodes part-way (``agents.vec_env.VecExploringStarts``)."""
+        rows, targets, moves = self._fly_args(rows, targets, moves)
+        obs = self._obs
+        width = self.single_action_space.shape[0]
+        for j in range(int(moves.max(initial=0))):
+            live = moves > j
+            mask = np.zeros(self.num_envs, dtype=np.bool_)
+            mask[rows[live]] = True
+            step = np.array([[self.envs[i].config.D] for i in rows[live]])
+            actions = np.zeros((self.num_envs, width))
+            actions[rows[live], :2] = full_speed_move(targets[live] - self._state[rows[live], 0:2], step)
+            obs = self.advance(actions, mask)[0]
+        return obs
+
+    def _fly_args(self, rows: Any, targets: Any, moves: Any) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """:meth:`fly`'s arguments checked (``ValueError`` naming the field)."""
+        if not self._started:
+            raise RuntimeError("call reset() before fly()")
+        rows = np.asarray(rows, dtype=np.int64).reshape(-1)
+        targets = np.require(np.asarray(targets, dtype=np.float64).reshape(-1, 2), requirements=["C"])
+        moves = np.asarray(moves, dtype=np.int64).reshape(-1)
+        if not (rows.size == len(targets) == moves.size) or np.any((rows < 0) | (rows >= self.num_envs)):
+            raise ValueError(
+                f"fly needs one target (x, y) and one move count per row of 0..{self.num_envs - 1}"
+            )
+        if not np.all(np.isfinite(targets)):
+            raise ValueError("fly targets must be finite (m)")
+        left = np.array([self.envs[i].config.N - 1 for i in rows]) - self._state[rows, 2]
+        if np.any(moves < 0) or np.any(moves >= left) or np.any(self._autoreset[rows]):
+            raise ValueError(
+                f"fly moves must be >= 0 and leave each row's episode unfinished (< {left.tolist()})"
+            )
+        return rows, targets, moves
+
+    def restart(self, rows: Sequence[int]) -> np.ndarray:
+        """Start new episodes on ``rows`` now (each row's next scenario, no new seed); return the
+        batch's current observations (those rows' first ones). E.g. to spread the rows over the
+        episode before training (``agents.vec_env.BatchedVecEnv(stagger=True)``)."""
+        if not self._started:
+            raise RuntimeError("call reset() before restart()")
+        rows = np.asarray(rows, dtype=np.int64)
+        self._restart_rows(rows)
+        self._autoreset[rows] = False
+        return self._obs
+
+    @property
+    def trajectories(self) -> list[np.ndarray]:
+        """Each row's way-points so far, q[1] .. q[n+1] ((n + 1, 2) arrays in metres)."""
+        return [self._path[i, : int(self._state[i, 2]) + 1].copy() for i in range(self.num_envs)]
+
+    @property
+    def configs(self) -> list[ScenarioConfig]:
+        """Each row's current scenario."""
+        return [env.config for env in self.envs]
+
+    def close(self, **kwargs: Any) -> None:
+        for env in self.envs:
+            env.close()
