@@ -13,12 +13,14 @@ agent's terminal miss moved by 1.3e-5 m), not to the 1e-15 of a replay on the sa
 The tolerances below are set from what a perturbation of that kind does, every action multiplied
 by ``1 + u``, ``u`` uniform within +-4 float32 ulps, redrawn each call: the rate moves by at most
 5e-8 relative (the multi-node generalist, over 8 suite scenarios) and the terminal miss by at most
-6e-5 m. ``RATE_REL`` leaves a factor 20 over that, ``MISS_ABS`` a factor 16.
+6e-5 m. ``RATE_REL`` leaves a factor 20 over that, ``MISS_ABS`` a factor 33; both still hold
+under +-64 ulps, sixteen times more noise (``python benchmarks/replay_tolerance.py`` prints these
+numbers).
 
 They still break on a real regression: an observation scaled by ``1 + 1e-3`` (a changed
 normalisation) moves every shipped agent's rate by 3.6e-6 relative or more and the unguarded
-agent's miss by 9e-3 m (``test_evaluate.py`` checks this for each shipped agent); another
-checkpoint or a changed reward moves them by orders of magnitude more. Two replays on the same
+agent's miss by 9e-3 m, 4.5 times ``MISS_ABS`` (``test_evaluate.py`` checks this for each
+shipped agent); another checkpoint or a changed reward moves them by orders of magnitude more. Two replays on the same
 machine are compared bit for bit elsewhere (seeded determinism, parity tests).
 
 ## Planners re-run (``PLANNER_REL``)
@@ -35,7 +37,7 @@ from __future__ import annotations
 #: Relative tolerance of a replayed episode's rate (bps/Hz) against its record.
 RATE_REL = 1e-6
 #: Absolute tolerance of a replayed episode's terminal miss |q[N] - qF| (m) against its record.
-MISS_ABS = 1e-3
+MISS_ABS = 2e-3
 #: The observation scaling that stands for a changed normalisation in the test of the tolerances.
 NORMALISATION_CHANGE = 1e-3
 #: Relative tolerance of a float64 planner's re-run value against its stored reference.

@@ -1,0 +1,82 @@
+"""How far a shipped model's replayed episode moves under float32 noise of the size another CPU
+makes, against how far a real regression moves it: the measurement behind ``tests/tolerances.py``.
+
+    python benchmarks/replay_tolerance.py [--ulps 4 64] [--seeds 6]
+
+For each shipped agent every action is multiplied by 1 + u, u uniform within +-U float32 ulps
+and redrawn each call (what different float32 kernels do to the same weights), and the episode
+is compared with the rate and terminal miss recorded when the model shipped (``summary.json``);
+then every observation is scaled by 1 + 1e-3 (a changed normalisation). Prints the worst relative
+rate deviation and the worst miss deviation (m) of each, and whether the tolerances of
+``tests/tolerances.py`` hold the noise and break on the regression.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # agents/ and tests/ from a checkout
+
+from agents.evaluate import MODELS_DIR, SHIPPED  # noqa: E402
+from agents.loading import load_agent  # noqa: E402
+from agents.rollout import rollout  # noqa: E402
+from tests.tolerances import MISS_ABS, NORMALISATION_CHANGE, RATE_REL  # noqa: E402
+
+AGENTS = (*SHIPPED, "ppo_IOSUAV-MultiNode-v0")
+
+
+class _Perturbed:
+    """``agent`` with its actions jittered by ``ulps`` float32 ulps, or its observations scaled."""
+
+    def __init__(self, agent: Any, *, ulps: float = 0.0, scale: float = 0.0, seed: int = 0) -> None:
+        self.agent, self.ulps, self.scale = agent, ulps, scale
+        self.rng = np.random.default_rng(seed)
+        self.env_id, self.env_kwargs = agent.env_id, agent.env_kwargs
+
+    def act(self, obs: np.ndarray) -> np.ndarray:
+        a = np.asarray(self.agent.act(obs * (1.0 + self.scale)), dtype=np.float32)
+        noise = 1.0 + self.ulps * float(np.finfo(np.float32).eps) * self.rng.uniform(-1, 1, a.shape)
+        return (a * noise).astype(np.float32)
+
+
+def deviation(agent: Any, record: dict[str, float], **perturbation: Any) -> tuple[float, float]:
+    """(relative rate deviation, miss deviation in m) of one perturbed episode from the record."""
+    episode = rollout(_Perturbed(agent, **perturbation))
+    rate = abs(episode.average_rate / record["average_rate"] - 1.0)
+    return rate, abs(episode.terminal_miss - record["terminal_miss"])
+
+
+def main(argv: list[str] | None = None) -> int:
+    p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    p.add_argument("--ulps", type=float, nargs="+", default=[4.0, 64.0], help="jitter sizes (float32 ulps)")
+    p.add_argument("--seeds", type=int, default=6, help="jitter draws per size (default 6)")
+    args = p.parse_args(argv)
+    if args.seeds < 1 or any(u <= 0 for u in args.ulps):
+        p.error("--seeds must be >= 1 and every --ulps > 0")
+    print(f"tolerances: rate {RATE_REL:g} relative, terminal miss {MISS_ABS:g} m")
+    for name in AGENTS:
+        agent = load_agent(MODELS_DIR / name)
+        record = json.loads((MODELS_DIR / name / "summary.json").read_text())["final_eval"]
+        cells = []
+        for ulps in args.ulps:
+            worst = np.max([deviation(agent, record, ulps=ulps, seed=s) for s in range(args.seeds)], axis=0)
+            held = worst[0] <= RATE_REL and worst[1] <= MISS_ABS
+            cells.append(
+                f"{ulps:g} ulps: rate {worst[0]:.1e}, miss {worst[1]:.1e} ({'held' if held else 'NOT held'})"
+            )
+        rate, miss = deviation(agent, record, scale=NORMALISATION_CHANGE)
+        caught = rate > RATE_REL or miss > MISS_ABS
+        cells.append(f"obs x (1 + {NORMALISATION_CHANGE:g}): rate {rate:.1e}, miss {miss:.1e} "
+                     f"({'caught' if caught else 'NOT caught'})")  # fmt: skip
+        print(f"{name}: " + "; ".join(cells))
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
