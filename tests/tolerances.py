@@ -20,8 +20,9 @@ numbers).
 They still break on a real regression: an observation scaled by ``1 + 1e-3`` (a changed
 normalisation) moves every shipped agent's rate by 3.6e-6 relative or more and the unguarded
 agent's miss by 9e-3 m, 4.5 times ``MISS_ABS`` (``test_evaluate.py`` checks this for each
-shipped agent); another checkpoint or a changed reward moves them by orders of magnitude more. Two replays on the same
-machine are compared bit for bit elsewhere (seeded determinism, parity tests).
+shipped agent); another checkpoint or a changed reward moves them by orders of magnitude more.
+Two replays on the same machine are compared bit for bit elsewhere (seeded determinism, parity
+tests).
 
 ## Planners re-run (``PLANNER_REL``)
 The planners (DP, the tour, the DP bound, the hover heuristics) compute in float64 with no
