@@ -22,12 +22,12 @@ from __future__ import annotations
 import argparse
 import sys
 from collections.abc import Sequence
-from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
 from agents.loading import Agent, load_agent
+from agents.report import Row
 from agents.rollout import rollout, run_seeds
 from ios_uav_env import ScenarioConfig
 
@@ -36,23 +36,6 @@ MODELS_DIR = Path(__file__).resolve().parent / "models"
 SHIPPED: tuple[str, ...] = ("ppo_IOSUAV-v0", "sac_IOSUAV-v0", "ppo_IOSUAV-v0_noguard")
 PLANNERS: tuple[str, ...] = ("dp", "ia", "ia-ft", "cuc")
 PLANNER_LABELS = {"dp": "DP (2.5 m grid)", "ia": "SCA (IA)", "ia-ft": "IA-FT", "cuc": "CUC (SCA)"}
-
-
-@dataclass
-class Row:
-    """One line of the comparison table."""
-
-    scheme: str
-    kind: str  # "planner" or "agent"
-    average_rate: float  # bps/Hz, eq. (9)
-    feasible: bool
-    terminal_miss: float  # m
-    wall_time: float  # s: planning time, or the agent's episode from reset to the last step
-    trajectory: np.ndarray
-    config: ScenarioConfig  # the scenario the trajectory was scored on (CUC: surface "none")
-    pct_dp: float = float("nan")  # 100 x average_rate / DP's
-    faded_mean: float = float("nan")  # bps/Hz, over the Rician seeds
-    faded_std: float = float("nan")
 
 
 def planner_rows(config: ScenarioConfig, schemes: Sequence[str] = PLANNERS) -> list[Row]:
@@ -66,33 +49,18 @@ def planner_rows(config: ScenarioConfig, schemes: Sequence[str] = PLANNERS) -> l
             continue
         plan = run_scheme(name, config)
         rows.append(
-            Row(
-                PLANNER_LABELS.get(name, name),
-                "planner",
-                plan.mean_rate,
-                plan.feasible,
-                plan.report.end_error,
-                plan.seconds,
-                plan.trajectory,
-                plan.config,
-            )
-        )
+            Row(PLANNER_LABELS.get(name, name), "planner", plan.mean_rate, plan.feasible, plan.seconds,
+                plan.trajectory, plan.config, terminal_miss=plan.report.end_error)
+        )  # fmt: skip
     return rows
 
 
 def agent_row(agent: Agent, config: ScenarioConfig) -> Row:
     """Roll ``agent`` out deterministically on ``config`` (its own env kwargs, e.g. the guard)."""
     episode = rollout(agent, config)
-    return Row(
-        agent.name,
-        "agent",
-        episode.average_rate,
-        episode.feasible,
-        episode.terminal_miss,
-        episode.seconds,
-        episode.trajectory,
-        config,
-    )
+    e = episode
+    return Row(agent.name, "agent", e.average_rate, e.feasible, e.seconds, e.trajectory, config,
+               terminal_miss=e.terminal_miss)  # fmt: skip
 
 
 def faded_replay(config: ScenarioConfig, trajectory: np.ndarray, seeds: int) -> np.ndarray:
@@ -140,7 +108,7 @@ def compare(
     dp = next((r.average_rate for r in rows if r.scheme == PLANNER_LABELS["dp"]), None)
     for row in rows:
         if dp:
-            row.pct_dp = 100.0 * row.average_rate / dp
+            row.pct["dp"] = 100.0 * row.rate / dp
     if rician_seeds > 0:
         add_rician(rows, {a.name: a for a in agents}, rician_seeds)
     return rows

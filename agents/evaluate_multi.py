@@ -20,12 +20,12 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
-from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
+from agents.report import Row
 from ios_uav_env import ScenarioConfig
 from ios_uav_env.benchmark.results import METRICS, ScenarioResult
 from ios_uav_env.benchmark.scoring import episode
@@ -64,29 +64,14 @@ def reference_scenario(config: ScenarioConfig, record: dict[str, Any]) -> SuiteS
     return SuiteScenario(0, config, reference)
 
 
-@dataclass
-class MultiRow:
-    """One line of the multi-node comparison table."""
-
-    scheme: str
-    kind: str  # "planner", "bound" or "agent"
-    rate: float  # bps/Hz, min_k R_k with the plan's own shares (the bound: its value)
-    best_schedule_rate: float  # bps/Hz, maxmin_rate of the trajectory
-    pct_sca: float
-    pct_bound: float
-    feasible: bool
-    wall_time: float  # s
-    trajectory: np.ndarray | None = field(default=None, repr=False)
-    shares: np.ndarray | None = field(default=None, repr=False)
-
-
-def planner_rows(scenario: SuiteScenario, record: dict[str, Any]) -> list[MultiRow]:
+def planner_rows(scenario: SuiteScenario, record: dict[str, Any]) -> list[Row]:
     """SCA and the tour (their plans scored again through the scorer) and the upper bound."""
     rows = []
     for key, label in (("sca", "SCA (BCD)"), ("tour", "tour heuristic")):
         rec = record[key]
         if rec.get("trajectory") is None:
-            rows.append(MultiRow(label, "planner", 0.0, 0.0, 0.0, 0.0, False, rec["seconds"]))
+            rows.append(Row(label, "planner", 0.0, False, rec["seconds"], config=scenario.config,
+                            best_schedule_rate=0.0, pct={"sca": 0.0, "bound": 0.0}))  # fmt: skip
             continue
         q, a = np.asarray(rec["trajectory"]), np.asarray(rec["shares"])
         r = ScenarioResult.of(
@@ -94,18 +79,9 @@ def planner_rows(scenario: SuiteScenario, record: dict[str, Any]) -> list[MultiR
         )
         rows.append(_row(label, "planner", r, q, a))
     ub, b = scenario.rate("bound"), record["bound"]
-    rows.append(
-        MultiRow(
-            f"upper bound ({b['resolution']:g} m)",
-            "bound",
-            ub,
-            ub,
-            100 * ub / scenario.rate("sca"),
-            100.0,
-            True,
-            b["seconds"],
-        )
-    )
+    pct = {"sca": 100 * ub / scenario.rate("sca"), "bound": 100.0}
+    rows.append(Row(f"upper bound ({b['resolution']:g} m)", "bound", ub, True, b["seconds"],
+                    config=scenario.config, best_schedule_rate=ub, pct=pct))  # fmt: skip
     return rows
 
 
@@ -151,7 +127,7 @@ def fast_act(agent: Any) -> Any:
     return agent.act if hasattr(agent, "act") else agent
 
 
-def agent_row(agent: Any, scenario: SuiteScenario) -> MultiRow:
+def agent_row(agent: Any, scenario: SuiteScenario) -> Row:
     """Roll ``agent`` out deterministically on the scenario and score its plan."""
     env = agent_env(agent, scenario.config)
     try:
@@ -161,22 +137,22 @@ def agent_row(agent: Any, scenario: SuiteScenario) -> MultiRow:
     return _row(getattr(agent, "name", "agent"), "agent", r, r.trajectory, r.shares)
 
 
-def _row(scheme: str, kind: str, r: ScenarioResult, trajectory: Any, shares: Any) -> MultiRow:
+def _row(scheme: str, kind: str, r: ScenarioResult, trajectory: Any, shares: Any) -> Row:
     """A table row from a plan's scores (% of SCA and of the bound 0 for an infeasible plan)."""
-    return MultiRow(scheme, kind, r.rate, r.best_schedule_rate, r.pct_sca, r.pct_bound, r.feasible,
-                    r.seconds, trajectory, shares)  # fmt: skip
+    return Row(scheme, kind, r.rate, r.feasible, r.seconds, trajectory, r.config,
+               best_schedule_rate=r.best_schedule_rate, shares=shares, pct=dict(r.pct))  # fmt: skip
 
 
 def compare_multi(
     agents: Sequence[Any], config: ScenarioConfig = DEFAULT_MULTI, cache: str | Path = REFERENCE_CACHE
-) -> list[MultiRow]:
+) -> list[Row]:
     """The table's rows: SCA, the tour, the bound, then the agents, on ``config``."""
     record = references(config, cache)
     scenario = reference_scenario(config, record)
     return planner_rows(scenario, record) + [agent_row(a, scenario) for a in agents]
 
 
-def markdown_table(rows: Sequence[MultiRow]) -> str:
+def markdown_table(rows: Sequence[Row]) -> str:
     lines = [
         "| scheme | min rate (own shares) | best-schedule rate | % of SCA | % of bound | feasible "
         "| wall time (s) |",
@@ -191,7 +167,7 @@ def markdown_table(rows: Sequence[MultiRow]) -> str:
     return "\n".join(lines)
 
 
-def save_table_csv(rows: Sequence[MultiRow], path: str | Path) -> Path:
+def save_table_csv(rows: Sequence[Row], path: str | Path) -> Path:
     """Write the rows as CSV (full precision) atomically."""
     values = (
         {
@@ -209,7 +185,7 @@ def save_table_csv(rows: Sequence[MultiRow], path: str | Path) -> Path:
     return save_rows_csv(path, COLUMNS, values)
 
 
-def save_shares_figure(rows: Sequence[MultiRow], config: ScenarioConfig, path: str | Path) -> Path:
+def save_shares_figure(rows: Sequence[Row], config: ScenarioConfig, path: str | Path) -> Path:
     """One column per plan (planners and agents): the trajectory coloured by the node served over
     the best-node rate map, above each node's share against the slot."""
     from matplotlib.backends.backend_agg import FigureCanvasAgg

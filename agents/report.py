@@ -1,14 +1,56 @@
-"""The comparison table (markdown and CSV) and figure (all trajectories over the rate map)."""
+"""A comparison of plans on one scenario, for any K: its :class:`Row` (a plan's scores by
+``ios_uav_env.score_plan``), the one-node table (markdown and CSV) and figure (all trajectories
+over the rate map); ``agents.evaluate_multi`` draws the K > 1 table from the same rows."""
 
 from __future__ import annotations
 
 import math
 from collections.abc import Sequence
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+import numpy as np
+
 from ios_uav_env import ScenarioConfig
 from ios_uav_env.io import save_figure, save_rows_csv
+
+
+@dataclass
+class Row:
+    """One line of a comparison table, for any K: a plan's scores by ``ios_uav_env.score_plan``."""
+
+    scheme: str
+    kind: str  # "planner", "bound" (a certified upper bound, not a plan) or "agent"
+    rate: float  # bps/Hz, the plan's own score: eq. (9); K > 1: min_k R_k with its own shares
+    feasible: bool  # eq. (10)
+    wall_time: float  # s: planning time, or the agent's episode from reset to the last step
+    trajectory: np.ndarray | None = field(default=None, repr=False)
+    config: ScenarioConfig | None = field(default=None, repr=False)  # the scenario scored (CUC: no surface)
+    terminal_miss: float = float("nan")  # m
+    best_schedule_rate: float = float("nan")  # bps/Hz, K > 1: the best shares of the trajectory
+    shares: np.ndarray | None = field(default=None, repr=False)  # (K, N), K > 1: the plan's own
+    pct: dict[str, float] = field(default_factory=dict)  # by reference: "dp" (one node); "sca", "bound"
+    faded_mean: float = float("nan")  # bps/Hz, over the Rician seeds
+    faded_std: float = float("nan")
+
+    @property
+    def average_rate(self) -> float:
+        """The one-node name of :attr:`rate` (eq. (9))."""
+        return self.rate
+
+    @property
+    def pct_dp(self) -> float:
+        return self.pct.get("dp", float("nan"))
+
+    @property
+    def pct_sca(self) -> float:
+        return self.pct.get("sca", float("nan"))
+
+    @property
+    def pct_bound(self) -> float:
+        return self.pct.get("bound", float("nan"))
+
 
 COLUMNS = (
     "scheme",

@@ -154,8 +154,9 @@ def test_cli_rejects_bad_input(capsys, argv, message):
 
 
 def test_row_defaults_are_missing_values():
-    row = Row("x", "agent", 1.0, True, 0.0, 0.1, np.zeros((2, 2)), DEFAULT)
-    assert np.isnan(row.pct_dp) and np.isnan(row.faded_mean)
+    row = Row("x", "agent", 1.0, True, 0.1, np.zeros((2, 2)), DEFAULT)
+    assert np.isnan(row.pct_dp) and np.isnan(row.faded_mean) and np.isnan(row.terminal_miss)
+    assert np.isnan(row.pct_sca) and np.isnan(row.best_schedule_rate) and row.average_rate == row.rate == 1.0
 
 
 # --- multi-node agents (agents.evaluate_multi) ------------------------------------------------
