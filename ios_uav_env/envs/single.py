@@ -244,6 +244,27 @@ class IOSUAVEnv(gym.Env):
     instance_features = property(lambda self: self.options.instance_features)
     peak_hint = property(lambda self: self.options.peak_hint)
 
+    # --- the env as one row of the step kernel (what the batched env copies) -------------------
+    @property
+    def flags(self) -> np.ndarray:
+        """The kernel's option flags of this env (``single_kernels.flags_of(options)``)."""
+        return self._flags
+
+    @property
+    def episode_row(self) -> np.ndarray:
+        """The current scenario's episode constants, one kernel row (``single_kernels.EPISODE``)."""
+        return self._episode[0]
+
+    @property
+    def max_slots(self) -> int:
+        """The most slots N of any scenario this env's observation space holds."""
+        return int(self._ranges().slot_range[1])
+
+    @property
+    def base_config(self) -> ScenarioConfig:
+        """The scenario the env was made with (a plain reset of a fixed id keeps it)."""
+        return self._base_config
+
     # --- scenario and spaces --------------------------------------------------------------
     def _ranges(self) -> ScenarioRanges:
         """The family of scenarios the observation space holds: here the construction config."""

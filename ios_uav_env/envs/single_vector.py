@@ -49,18 +49,18 @@ class IOSUAVVectorEnv(BatchedEnv):
 
     def _init_rows(self, template: IOSUAVEnv) -> None:
         b = self.num_envs
-        self._flags = template._flags
+        self._flags = template.flags
         self._rician = template.options.channel == "rician"
         self._state = np.zeros((b, len(STATE)))
-        self._episode = np.zeros((b, template._episode.shape[1]))
-        self._nodes = np.zeros((b, 3, template._nodes.shape[2]))
-        self._params = np.zeros((b, template._params.shape[1]))
+        self._episode = np.zeros((b, template.episode_row.size))
+        self._nodes = np.zeros((b, 3, template.kernel.nodes.shape[1]))
+        self._params = np.zeros((b, template.kernel.params.size))
         self._normals = np.zeros((b, 2))
         self._info_width = len(INFO)
-        self._path = np.zeros((b, template._ranges().slot_range[1], 2))
+        self._path = np.zeros((b, template.max_slots, 2))
         # rows whose scenario is the env's own (not pinned, not drawn): see _load_row
         self._plain = np.zeros(b, dtype=np.bool_)
-        self._q0 = np.asarray(template._base_config.q0, dtype=np.float64)
+        self._q0 = np.asarray(template.base_config.q0, dtype=np.float64)
 
     # --- rows -----------------------------------------------------------------------
     def _load_row(self, i: int, env: IOSUAVEnv) -> None:
@@ -75,11 +75,11 @@ class IOSUAVVectorEnv(BatchedEnv):
         self._nodes[i, :, :k] = nodes
         self._nodes[i, :, k:] = ((0.0,), (1.0,), (0.0,))  # padded nodes: zero weight
         self._params[i] = env.kernel.params
-        self._episode[i] = env._episode[0]
+        self._episode[i] = env.episode_row
         self._state[i, 0:2] = self._path[i, 0] = env.config.q0
         # the env's own scenario object (a fixed id's): a plain reset keeps it. A pinned
         # scenario, or a random env's draw (always a new object), is another object.
-        self._plain[i] = env.config is env._base_config
+        self._plain[i] = env.config is env.base_config
         if self._rician:
             self._normals[i] = env.np_random.standard_normal(2)
 
