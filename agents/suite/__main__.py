@@ -11,7 +11,8 @@ from pathlib import Path
 
 from agents.hyperparams import positive_int
 from agents.loading import ALGOS
-from agents.suite import (
+from baselines.ray_backend import add_backend_arguments, check_backend_arguments
+from baselines.references.heldout import (
     CACHE_DIR,
     DEFAULT_SIZE,
     HELDOUT_SEED,
@@ -20,7 +21,6 @@ from agents.suite import (
     load_suite,
     show_text,
 )
-from baselines.ray_backend import add_backend_arguments, check_backend_arguments
 from baselines.runner import check_writable
 from ios_uav_env.benchmark import DEFAULT_SUITE
 from ios_uav_env.benchmark import load_suite as load_benchmark

@@ -36,8 +36,8 @@ import numpy as np
 
 from agents.evaluate_multi import fast_act
 from agents.rollout import ScenarioRunner
-from agents.suite import SUITE_PATH
-from agents.suite import load_suite as load_plans
+from baselines.references.heldout import SUITE_PATH
+from baselines.references.heldout import load_suite as load_plans
 from ios_uav_env import ENV_IDS, RANDOM_ENV_ID, score_plan
 from ios_uav_env.benchmark import DEFAULT_SUITE, Results, ScenarioResult, Suite, evaluate_scenarios
 from ios_uav_env.benchmark import load_suite as load_benchmark

@@ -6,6 +6,9 @@ here, in a checkout:
 - :mod:`~baselines.references.draws`: the held-out scenarios of each suite;
 - :mod:`~baselines.references.solve`: one solve for any K (one node: DP and SCA; K > 1: the tour,
   SCA and the certified bound), cached per scenario and resumable (:func:`solve_all`);
+- :mod:`~baselines.references.heldout`: the single-node suite's plan file
+  (``agents/suite/heldout.json``: each scenario's DP and SCA plans), built by ``python -m
+  agents.suite build``;
 - :mod:`~baselines.references.content`: a suite's content from the solved records, its checks,
   its plans, and :func:`freeze`, which never changes a suite under its name;
 - ``python -m baselines.references``: the command line.
@@ -15,9 +18,8 @@ The command line freezes one suite at a time:
     python -m baselines.references single-node [--heldout agents/suite/heldout.json]
     python -m baselines.references multi-node [--n 48] [--cache out/multi-node-v1] [--plans DIR]
 
-The single-node suite is frozen from its held-out plan file (``python -m agents.suite build``
-solves it through :func:`solve_all`); the multi-node one from the records :func:`solve_all`
-caches. Each prints the content hash to register in ``ios_uav_env.benchmark.suite.SUITES``.
+The single-node suite is frozen from its plan file; the multi-node one from the records
+:func:`solve_all` caches. Each prints the content hash to register in ``ios_uav_env.benchmark.suite.SUITES``.
 """
 
 from baselines.references.content import (

@@ -337,7 +337,7 @@ def test_a_sac_folder_without_config_is_not_loaded_as_ppo(tmp_path):
 def test_a_trial_suite_build_does_not_replace_the_shipped_suite(tmp_path, monkeypatch, capsys):
     # before: `python -m agents.suite build --n 1` replaced the 60-scenario heldout.json
     import agents.suite.__main__ as cli
-    from agents.suite import SUITE_PATH
+    from baselines.references.heldout import SUITE_PATH
 
     class Built(Exception):
         pass
@@ -359,7 +359,7 @@ def test_a_trial_suite_build_does_not_replace_the_shipped_suite(tmp_path, monkey
 
 
 def _suite_with(tmp_path: Path, change) -> Path:
-    from agents.suite import SUITE_PATH
+    from baselines.references.heldout import SUITE_PATH
 
     data = json.loads(SUITE_PATH.read_text())
     change(data)
@@ -381,7 +381,7 @@ def _suite_with(tmp_path: Path, change) -> Path:
 )
 def test_a_damaged_suite_file_names_the_file_and_the_scenario(tmp_path, change, message):
     # before: KeyError / ZeroDivisionError / an empty report, without the file or the scenario
-    from agents.suite import load_suite
+    from baselines.references.heldout import load_suite
 
     path = _suite_with(tmp_path, change)
     with pytest.raises(ValueError, match=re.escape(f"{path}: ") + ".*" + re.escape(message)):

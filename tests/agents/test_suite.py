@@ -11,7 +11,11 @@ import pytest
 
 import ios_uav_env
 from agents.rollout import ScenarioRunner
-from agents.suite import (
+from agents.suite.__main__ import main
+from agents.suite.report import HEURISTICS, evaluate_suite, load_policy, run_report, suite_score, summarize
+from baselines import dp
+from baselines.references import solve as solve_module
+from baselines.references.heldout import (
     DEFAULT_SIZE,
     HELDOUT_SEED,
     SUITE_PATH,
@@ -20,10 +24,6 @@ from agents.suite import (
     load_suite,
     suite_configs,
 )
-from agents.suite.__main__ import main
-from agents.suite.report import HEURISTICS, evaluate_suite, load_policy, run_report, suite_score, summarize
-from baselines import dp
-from baselines.references import solve as solve_module
 from ios_uav_env import DEFAULT_RANGES, RANDOM_ENV_ID, ScenarioRanges, average_rate, check_trajectory
 from ios_uav_env.benchmark import load_suite as load_benchmark
 from ios_uav_env.envs.policies import HoverAt
