@@ -200,15 +200,21 @@ def _relabel_shares(
     data: Dataset, alive: list[int], plans: list[ExpertPlan], envs: list[Any], block: int, sharpness: float,
     jobs: int | None,
 ) -> None:  # fmt: skip
-    """Replace ``data``'s share labels by :func:`hindsight_shares` of each finished episode."""
-    from concurrent.futures import ProcessPoolExecutor
+    """Replace ``data``'s share labels by :func:`hindsight_shares` of each finished episode, in
+    ``jobs`` processes (``baselines.runner.local_backend``: Ctrl-C is the parent's alone, and an
+    interrupt stops every worker)."""
+    import os
+
+    from baselines.runner import local_backend
 
     tasks = [(p.config, env.trajectory, env.shares, block) for p, env in zip(plans, envs, strict=True)]
-    if jobs == 1:
-        labels = [_hindsight_job(t) for t in tasks]
-    else:
-        with ProcessPoolExecutor(jobs) as pool:
-            labels = list(pool.map(_hindsight_job, tasks, chunksize=max(1, len(tasks) // 64)))
+    labels: list[Any] = [None] * len(tasks)
+
+    def done(i: int, shares: np.ndarray) -> None:
+        labels[i] = shares
+
+    workers = max(1, min(jobs or os.cpu_count() or 1, len(tasks)))
+    local_backend(_hindsight_job, list(enumerate(tasks)), workers, done)
     step = np.repeat(np.arange(len(alive)), alive)  # a row's step: rows are in lockstep order
     by_episode = np.argsort(data.episode, kind="stable")  # each episode's rows, in step order
     ends = np.cumsum(np.bincount(data.episode, minlength=len(labels)))

@@ -27,7 +27,13 @@ imitation:
   ``agents.suite report`` read (``model.zip``, ``vecnormalize.pkl`` with the observation
   statistics of round 0, ``config.json``, ``summary.json``), plus ``plans/``, ``data/round_<r>.npz``
   and ``rounds/<r>/``: an interrupted run resumes after its last finished round, and a larger
-  ``rounds`` goes on from there; other changed settings are refused (``settings.json``).
+  ``rounds`` goes on from there; a smaller ``rounds`` than the rounds finished, and other changed
+  settings, are refused (``settings.json``). Every file is written atomically (a temporary file,
+  then a rename): a failed write leaves the folder's previous files whole.
+  ``config.json`` records the observation normalisation (``hyperparams.normalize``), so that
+  ``load_agent`` refuses the folder without its ``vecnormalize.pkl``.
+- **Interrupts.** SIGINT or SIGTERM stops the command with one line on stderr (exit 130 or 143);
+  the same command resumes after the last finished round.
 
 The policy imitates a heuristic: it cannot beat the tour, and the report puts both side by side.
 Its value is speed (one forward pass a slot instead of the tour's LPs), and it is an SB3 PPO
@@ -37,7 +43,14 @@ model that PPO could go on training (``train.py`` cannot start from a model yet)
 from __future__ import annotations
 
 import json
+import os
+import pickle
+import signal
+import sys
+import threading
 import time
+from collections.abc import Iterator
+from contextlib import contextmanager
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import Any
@@ -46,7 +59,12 @@ import numpy as np
 
 from agents.expert import FIRST_SEED, RANDOM_ID, Dataset, node_mask, rollouts, tour_plans
 from agents.fitting import fit
-from ios_uav_env.io import atomic_write_text
+from ios_uav_env.io import atomic_write_bytes, atomic_write_text
+
+#: The largest seed: the model's seed goes to ``np.random.seed``, which takes 32 bits.
+MAX_SEED = 2**32 - 1
+#: How the observations (and rewards) of every imitation model are normalised: its VecNormalize.
+NORMALIZE = {"norm_obs": True, "norm_reward": True}
 
 
 @dataclass(frozen=True)
@@ -74,7 +92,11 @@ class ImitationSettings:
     polish_learning_rate: float = 5e-4
 
     def validate(self) -> None:
-        """``ValueError`` naming the first bad field."""
+        """``ValueError`` naming the first bad field (``OSError`` subclasses for an ``out`` or
+        ``plans`` folder that cannot be written): every field is checked, the env made with
+        ``env_kwargs`` and reset, before a run computes or writes anything."""
+        if not isinstance(self.out, str) or not self.out:
+            raise ValueError(f"out: must be a folder path, got {self.out!r}")
         for name in ("scenarios", "rounds", "epochs", "batch_size", "hindsight_block"):
             value = getattr(self, name)
             if isinstance(value, bool) or not isinstance(value, int) or value < 1:
@@ -96,8 +118,48 @@ class ImitationSettings:
         h = self.hindsight_from
         if h is not None and (isinstance(h, bool) or not isinstance(h, int) or h < 1):
             raise ValueError(f"hindsight_from: must be None or a round >= 1 (a policy's round), got {h!r}")
+        for name, high in (("seed", MAX_SEED), ("first_seed", None)):
+            value = getattr(self, name)
+            if isinstance(value, bool) or not isinstance(value, int) or not 0 <= value <= (high or value):
+                allowed = f"in [0, {high}]" if high else ">= 0"
+                raise ValueError(f"{name}: must be an integer {allowed}, got {value!r}")
+        j = self.jobs
+        if j is not None and (isinstance(j, bool) or not isinstance(j, int) or j < 1):
+            raise ValueError(f"jobs: must be None (all cores) or an integer >= 1, got {j!r}")
+        if not (isinstance(self.log_std_init, (int, float)) and np.isfinite(self.log_std_init)):
+            raise ValueError(f"log_std_init: must be a finite number, got {self.log_std_init!r}")
+        if not isinstance(self.env_kwargs, dict) or not all(isinstance(k, str) for k in self.env_kwargs):
+            raise ValueError(f"env_kwargs: must be a dict of env arguments by name, got {self.env_kwargs!r}")
         if "max_nodes" in self.env_kwargs or "random_nodes" in self.env_kwargs:
             raise ValueError("env_kwargs: max_nodes and random_nodes are the random id's own (2 to 4 nodes)")
+        try:
+            json.dumps(self.env_kwargs)
+        except (TypeError, ValueError) as exc:
+            raise ValueError(f"env_kwargs: must be JSON values (settings.json records them): {exc}") from None
+        self._check_folders()
+        from agents.training.settings import check_env_kwargs
+
+        try:
+            check_env_kwargs(RANDOM_ID, self.env_kwargs)
+        except ValueError as exc:
+            raise ValueError(f"env_kwargs: {exc}") from None
+
+    def _check_folders(self) -> None:
+        """``out`` and the plan cache can be written (and the cache, if it exists, read)."""
+        from baselines.runner import check_writable
+
+        for name, folder in (("out", self.out), ("plans", self.plans)):
+            if folder is None:
+                continue
+            if not isinstance(folder, str) or not folder:
+                raise ValueError(f"{name}: must be a folder path, got {folder!r}")
+            path = Path(folder)
+            try:
+                check_writable(path)
+            except OSError as exc:
+                raise type(exc)(f"{name}: {exc}") from None
+            if path.exists() and not os.access(path, os.R_OK | os.W_OK | os.X_OK):
+                raise PermissionError(f"{name}: {path} cannot be read and written")
 
 
 #: Settings a resumed run may change: they do not change what a finished round holds.
@@ -106,17 +168,38 @@ RESUMABLE = ("out", "rounds", "jobs", "plans", "progress", "polish_epochs", "pol
 LATE = ("hindsight_from", "hindsight_block")
 
 
+def finished_rounds(out: str | Path) -> int:
+    """How many rounds the run in ``out`` has finished (its ``summary.json``; 0 without one);
+    ``ValueError`` naming the file if it cannot be read."""
+    from agents.loading import read_json
+
+    path = Path(out) / "summary.json"
+    if not path.exists():
+        return 0
+    rounds = read_json(path).get("rounds")
+    if not isinstance(rounds, list) or not all(isinstance(e, dict) and "round" in e for e in rounds):
+        raise ValueError(f"{path}: rounds: must be a list of the finished rounds, got {rounds!r}")
+    return len(rounds)
+
+
 def check_resume(settings: ImitationSettings) -> None:
     """Record the run's settings in ``out/settings.json``, or check them against the recorded ones:
     ``ValueError`` naming every field that differs (other than :data:`RESUMABLE`, and :data:`LATE`
-    while the hindsight rounds, before and now, all come after the finished rounds)."""
+    while the hindsight rounds, before and now, all come after the finished rounds), or naming
+    ``rounds`` if it is below the rounds already finished (a finished round is never dropped)."""
+    from agents.loading import read_json
+
     path = Path(settings.out) / "settings.json"
     now = json.loads(json.dumps(asdict(settings)))  # tuples as lists, as recorded
     if path.exists():
-        before = json.loads(path.read_text())
+        before = read_json(path)
         before.setdefault("hindsight_block", now["hindsight_block"])  # runs recorded before the field
-        summary = Path(settings.out) / "summary.json"
-        finished = len(json.loads(summary.read_text())["rounds"]) if summary.exists() else 0
+        finished = finished_rounds(settings.out)
+        if settings.rounds < finished:
+            raise ValueError(
+                f"rounds: {settings.out} has finished {finished} rounds already (its total is "
+                f"{before.get('rounds')!r}); the new total must be at least {finished}, got {settings.rounds}"
+            )
         starts = [h for h in (before.get("hindsight_from"), now["hindsight_from"]) if h is not None]
         free = RESUMABLE + (LATE if all(h >= finished for h in starts) else ())
         changed = sorted(k for k in now if k not in free and before.get(k) != now[k])
@@ -124,7 +207,20 @@ def check_resume(settings: ImitationSettings) -> None:
             diff = ", ".join(f"{k}: {before.get(k)!r} -> {now[k]!r}" for k in changed)
             where = settings.out
             raise ValueError(f"out: {where} holds a run with other settings ({diff}); use a new --out")
-    atomic_write_text(path, json.dumps(now, indent=1))
+    with naming(path):
+        atomic_write_text(path, json.dumps(now, indent=1))
+
+
+@contextmanager
+def naming(path: Path) -> Iterator[None]:
+    """An ``OSError`` of a write without a file name (a full disk: ``File too large``, ``No space
+    left on device``) names ``path``, the file being written."""
+    try:
+        yield
+    except OSError as exc:
+        if exc.filename is not None:
+            raise
+        raise OSError(exc.errno, exc.strerror or str(exc), str(path)) from exc
 
 
 def _new_model(settings: ImitationSettings, env: Any, obs: np.ndarray) -> tuple[Any, Any]:
@@ -168,10 +264,28 @@ def _fit_data(
     return every, node_mask(every.obs, k_max, width) & share_rows(settings, r, parts, plans)[:, None]
 
 
-def _save(folder: Path, model: Any, venv: Any) -> None:
+def model_config(settings: ImitationSettings, **extra: Any) -> dict[str, Any]:
+    """The ``config.json`` of a model of the run: what ``agents.loading.load_agent`` reads (the
+    algorithm, env id and arguments, the normalisation as ``hyperparams.normalize``) and the
+    run's settings."""
+    hyperparams = {"policy": "MlpPolicy", "gamma": 1.0, "normalize": dict(NORMALIZE)}
+    return {"algo": "ppo", "env_id": RANDOM_ID, "seed": settings.seed, "env_kwargs": settings.env_kwargs,
+            "hyperparams": hyperparams, "trained_by": "agents.imitation", "imitation": asdict(settings),
+            **extra}  # fmt: skip
+
+
+def _save(folder: Path, model: Any, venv: Any, config: dict[str, Any]) -> None:
+    """``vecnormalize.pkl``, ``model.zip`` and ``config.json`` of ``folder``, each written atomically
+    (a failed write leaves the previous file whole); the statistics before the model."""
+    from agents.callbacks import replace_into
+
     folder.mkdir(parents=True, exist_ok=True)
-    model.save(folder / "model.zip")
-    venv.save(str(folder / "vecnormalize.pkl"))
+    with naming(folder / "vecnormalize.pkl"):
+        atomic_write_bytes(folder / "vecnormalize.pkl", pickle.dumps(venv))  # what venv.save writes
+    with naming(folder / "model.zip"):
+        replace_into(folder / "model.zip", model.save)
+    with naming(folder / "config.json"):
+        atomic_write_text(folder / "config.json", json.dumps(config, indent=1))
 
 
 def run(settings: ImitationSettings) -> dict[str, Any]:
@@ -217,21 +331,23 @@ def run(settings: ImitationSettings) -> dict[str, Any]:
             block = settings.hindsight_block if _hindsight(settings, r) else None
             data = rollouts(plans, settings.env_kwargs, policy=act, seed=settings.seed + 1 + r,
                             hindsight_block=block, jobs=settings.jobs)  # fmt: skip
-        data.save(data_path)
+        with naming(data_path):
+            data.save(data_path)
         parts.append(data)
         if model is None:
             model, venv = _new_model(settings, env, data.obs)
         every, mask = _fit_data(settings, r, parts, plans, k_max, width)
         losses = fit(model, venv, every, mask, settings.epochs, settings.batch_size,
                      settings.learning_rate, settings.seed + r, settings.progress)  # fmt: skip
-        _save(folder, model, venv)
+        _save(folder, model, venv, model_config(settings, round=r))
         ratio = data.ratio[: len(plans)]  # round 0: the clean pass
         summary["rounds"].append({
             "round": r, "labels": int(len(every.obs)), "played": "expert" if r == 0 else "policy",
             "ratio_mean": float(ratio.mean()), "ratio_p10": float(np.percentile(ratio, 10)),
             **losses, "seconds": round(time.perf_counter() - start, 1),
         })  # fmt: skip
-        atomic_write_text(summary_path, json.dumps(summary, indent=1))
+        with naming(summary_path):
+            atomic_write_text(summary_path, json.dumps(summary, indent=1))
         print(f"round {r}: {len(every.obs)} labels, played min rate / tour mean {ratio.mean():.4f}, "
               f"loss move {losses['move']:.4f} share {losses['share']:.4f}", flush=True)  # fmt: skip
     assert model is not None and venv is not None
@@ -246,12 +362,10 @@ def run(settings: ImitationSettings) -> dict[str, Any]:
         summary["polish"] = {"after_round": last, "epochs": settings.polish_epochs, **losses,
                              "seconds": round(time.perf_counter() - start, 1)}  # fmt: skip
         print(f"polish: loss move {losses['move']:.4f} share {losses['share']:.4f}", flush=True)
-    _save(out, model, venv)
-    config = {"algo": "ppo", "env_id": RANDOM_ID, "seed": settings.seed, "env_kwargs": settings.env_kwargs,
-              "trained_by": "agents.imitation", "imitation": asdict(settings)}  # fmt: skip
-    atomic_write_text(out / "config.json", json.dumps(config, indent=1))
+    _save(out, model, venv, model_config(settings))
     summary.update(wall_time_s=round(time.perf_counter() - t0, 1), scenarios=settings.scenarios)
-    atomic_write_text(summary_path, json.dumps(summary, indent=1))
+    with naming(summary_path):
+        atomic_write_text(summary_path, json.dumps(summary, indent=1))
     return summary
 
 
@@ -282,7 +396,9 @@ def build_parser() -> Any:
         default=None,
         help="key:value env arguments (default softmin_beta:20 peak_hint:True)",
     )
-    p.add_argument("--seed", type=int, default=d.seed)
+    p.add_argument(
+        "--seed", type=int, default=d.seed, help=f"torch, the noise and the batch order, 0 to {MAX_SEED}"
+    )
     p.add_argument("--jobs", type=positive_int, default=None, help="planner processes (default: all cores)")
     p.add_argument("--plans", default=None, help="cache folder of the tour plans (default <out>/plans)")
     p.add_argument(
@@ -299,10 +415,38 @@ def build_parser() -> Any:
 
 
 def main(argv: list[str] | None = None) -> int:
-    from agents.hyperparams import parse_env_kwargs
-
     parser = build_parser()
     args = parser.parse_args(argv)
+    settings = None
+    try:
+        with _sigterm_raises():
+            settings = _checked_settings(parser, args)
+            summary = run(settings)
+    except (KeyboardInterrupt, SystemExit) as exc:
+        if isinstance(exc, SystemExit) and exc.code != 128 + signal.SIGTERM:
+            raise  # argparse's exit
+        signum = signal.SIGINT if isinstance(exc, KeyboardInterrupt) else signal.SIGTERM
+        if settings is None:
+            name = signal.Signals(signum).name
+            note = f"interrupted by {name} while checking the arguments; nothing was computed"
+            print(f"{parser.prog}: {note}", file=sys.stderr)
+        elif not _noted_by_runner(exc):  # the plans' map says itself what it kept and how to go on
+            print(f"{parser.prog}: {interrupted_note(settings, signum)}", file=sys.stderr)
+        return 128 + signum
+    except OSError as exc:  # a full disk, a folder gone: every file written before is whole
+        print(f"{parser.prog}: error: {exc}; the run's other files are whole: run the same command again "
+              "to resume", file=sys.stderr)  # fmt: skip
+        return 1
+    print(json.dumps(summary["rounds"][-1]))
+    print(f"wrote {settings.out}: score it with python -m agents.suite report --model {settings.out}")
+    return 0
+
+
+def _checked_settings(parser: Any, args: Any) -> ImitationSettings:
+    """The settings of ``args``, validated and recorded (:func:`check_resume`); a bad one is the
+    parser's error (exit 2), naming the field, before anything is computed or written."""
+    from agents.hyperparams import parse_env_kwargs
+
     try:
         extra = {} if args.env_kwargs is None else {"env_kwargs": parse_env_kwargs(args.env_kwargs)}
         settings = ImitationSettings(
@@ -317,10 +461,44 @@ def main(argv: list[str] | None = None) -> int:
         check_resume(settings)
     except (ValueError, OSError) as exc:
         parser.error(str(exc))
-    summary = run(settings)
-    print(json.dumps(summary["rounds"][-1]))
-    print(f"wrote {settings.out}: score it with python -m agents.suite report --model {settings.out}")
-    return 0
+    return settings
+
+
+def interrupted_note(settings: ImitationSettings, signum: int) -> str:
+    """The line an interrupted run ends with: the signal, the rounds kept, how to resume."""
+    try:
+        done = finished_rounds(settings.out)
+    except ValueError:
+        done = 0
+    return (f"interrupted by {signal.Signals(signum).name}: {done} of {settings.rounds} rounds are finished "
+            f"and kept in {settings.out}; run the same command to resume")  # fmt: skip
+
+
+def _noted_by_runner(exc: BaseException) -> bool:
+    """Whether ``exc`` came out of ``baselines.runner.run_tasks``, which notes an interrupt itself."""
+    import traceback
+
+    from baselines.runner import run_tasks
+
+    return any(frame.f_code is run_tasks.__code__ for frame, _ in traceback.walk_tb(exc.__traceback__))
+
+
+@contextmanager
+def _sigterm_raises() -> Iterator[None]:
+    """SIGTERM raises ``SystemExit(143)`` in the main thread, as SIGINT raises ``KeyboardInterrupt``
+    (``finally`` blocks run, worker processes are stopped); elsewhere nothing changes."""
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+
+    def handler(signum: int, frame: Any) -> None:
+        raise SystemExit(128 + signum)
+
+    old = signal.signal(signal.SIGTERM, handler)
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGTERM, old)
 
 
 if __name__ == "__main__":

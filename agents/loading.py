@@ -182,12 +182,76 @@ def zip_algorithm(zip_path: Path) -> str | None:
     return None
 
 
+def check_config(config: Mapping[str, Any], path: Path) -> None:
+    """``ValueError`` naming ``path`` (a run's ``config.json``) and the field if a field the loader
+    reads is malformed: ``algo`` (one of :data:`ALGOS`), ``env_id`` (a registered id),
+    ``env_kwargs`` (an object of arguments the env accepts), ``hyperparams`` (an object), its
+    ``normalize`` (a bool, a zoo string or an object) and its ``env_wrapper`` (a valid repeat)."""
+    import gymnasium as gym
+
+    from agents.wrappers import action_repeat
+
+    def bad(name: str, must: str) -> ValueError:
+        value = config
+        for key in name.split("."):
+            value = value[key]
+        return ValueError(f"{path}: {name}: must be {must}, got {value!r}")
+
+    if "algo" in config and not (isinstance(config["algo"], str) and config["algo"] in ALGOS):
+        raise bad("algo", f"one of {', '.join(ALGOS)}")
+    if "env_id" in config and not (isinstance(config["env_id"], str) and config["env_id"] in gym.registry):
+        raise bad("env_id", "a registered env id")
+    kwargs = config.get("env_kwargs", {})
+    if not isinstance(kwargs, dict):
+        raise bad("env_kwargs", "an object of env arguments")
+    hyperparams = config.get("hyperparams", {})
+    if not isinstance(hyperparams, dict):
+        raise bad("hyperparams", "an object (the zoo-format entry)")
+    normalize = hyperparams.get("normalize")
+    if normalize is not None and not isinstance(normalize, (bool, str, dict)):
+        raise bad("hyperparams.normalize", "true, false, a zoo string or an object of VecNormalize arguments")
+    try:
+        action_repeat(hyperparams.get("env_wrapper"))
+    except (ValueError, TypeError, AttributeError, StopIteration) as exc:
+        raise ValueError(f"{path}: hyperparams.env_wrapper: {exc}") from None
+    env_id = config.get("env_id", DEFAULT_ENV_ID)
+    try:
+        gym.make(env_id, **kwargs).close()
+    except Exception as exc:  # the env's own checks raise TypeError, ValueError and more
+        raise ValueError(f"{path}: env_kwargs: {kwargs!r} rejected by {env_id}: {exc}") from None
+
+
+def check_statistics(vecnormalize: Any, model: Any, stats: Path, zip_path: Path) -> None:
+    """``ValueError`` naming ``stats`` and both shapes if its observation statistics are not of
+    the observations ``model`` (the one of ``zip_path``) takes: another model's file."""
+    found = vars(vecnormalize)  # not getattr: a VecEnvWrapper without its venv recurses on a missing one
+    rms, space = found.get("obs_rms"), found.get("observation_space")  # no obs_rms: norm_obs was off
+    shape = getattr(rms, "mean", None) if rms is not None else None
+    shape = np.shape(shape) if shape is not None else getattr(space, "shape", None)
+    expected = getattr(getattr(model, "observation_space", None), "shape", None)
+    if shape is None or expected is None:
+        return
+    if tuple(shape) != tuple(expected):
+        raise ValueError(
+            f"{stats}: VecNormalize statistics of observations of shape {tuple(shape)}, but "
+            f"{zip_path} takes observations of shape {tuple(expected)} (statistics of another model?)"
+        )
+
+
+#: ``config.json``'s ``trained_by`` of runs that always normalise observations, recorded or not.
+ALWAYS_NORMALISED = ("agents.imitation",)
+
+
 def observations_normalised(config: Mapping[str, Any]) -> bool:
     """Whether the run of ``config`` (a run's ``config.json``) normalised its observations, as its
-    ``hyperparams.normalize`` says (``true``, or a dict / dict string with ``norm_obs`` true or unset)."""
+    ``hyperparams.normalize`` says (``true``, or a dict / dict string with ``norm_obs`` true or unset);
+    without that field, true for a run whose ``trained_by`` is one of :data:`ALWAYS_NORMALISED`."""
     import ast
 
-    normalize = config.get("hyperparams", {}).get("normalize", False)
+    hyperparams = config.get("hyperparams", {})
+    if "normalize" not in hyperparams and config.get("trained_by") in ALWAYS_NORMALISED:
+        return True
+    normalize = hyperparams.get("normalize", False)
     if isinstance(normalize, str):
         text = normalize.strip()
         if text.lower() in ("true", "false"):
@@ -224,8 +288,10 @@ def load_agent(
 
     Raises ``FileNotFoundError`` for a missing model, or for missing VecNormalize statistics
     of a run whose config says it normalised observations; ``ValueError`` for a file that
-    cannot be read (it names the file) or an env whose observation size is not the model's
-    (it names both).
+    cannot be read (it names the file), a malformed ``config.json`` field (it names the file
+    and the field, :func:`check_config`), VecNormalize statistics of observations of another
+    size than the model's (it names the file and both, :func:`check_statistics`), or an env
+    whose observation size is not the model's (it names both).
     """
     path = Path(path)
     if algo is not None and algo not in ALGOS:
@@ -245,6 +311,8 @@ def load_agent(
         if file.exists():
             meta[key] = read_json(file)
     config = meta.get("config", {})
+    if "config" in meta:
+        check_config(config, folder / "config.json")
     found = config.get("algo")
     if found is None and algo is None:
         raise ValueError(
@@ -261,9 +329,15 @@ def load_agent(
     if stats.exists():
         vecnormalize = _read_vecnormalize(stats)
     elif observations_normalised(config):
+        hyperparams = config.get("hyperparams", {})
+        record = (
+            f"normalize {hyperparams['normalize']!r}"
+            if "normalize" in hyperparams
+            else f"trained_by {config.get('trained_by')!r}"
+        )
         raise FileNotFoundError(
-            f"{zip_path}: its run normalised observations ({folder / 'config.json'}: normalize "
-            f"{config['hyperparams']['normalize']!r}) but the statistics {stats} are missing"
+            f"{zip_path}: its run normalised observations ({folder / 'config.json'}: {record}) "
+            f"but the statistics {stats} are missing"
         )
     import torch
 
@@ -276,6 +350,8 @@ def load_agent(
         raise ValueError(
             f"{zip_path}: cannot load the {algo.upper()} model: {type(exc).__name__}: {exc}"
         ) from None
+    if vecnormalize is not None:
+        check_statistics(vecnormalize, model, stats, zip_path)
     agent = Agent(
         model,
         vecnormalize,
