@@ -19,7 +19,9 @@ disk's rows of 1-D running maxima (``scipy.ndimage.maximum_filter1d``), which eq
 ``maximum_filter`` with the disk footprint (tested) and is much faster.
 
 **Grid box.** The axis-aligned bounding box of q0, qF, G and the IOS centre, widened by
-``margin`` (m, default 100) on every side. Rate peaks lie near G and near the IOS, so the
+``margin`` (m, default 100) on every side and clipped to the bounding box of the points the UAV
+can reach in N - 1 moves widened by ``margin`` (``baselines.grid.grid_box``: a far-away node
+does not blow the grid up). Rate peaks lie near G and near the IOS, so the
 box holds them with room; paths that leave the box are not considered (raise ``margin``
 to check). As ``resolution`` -> 0 and ``margin`` grows the value converges to the optimum
 of problem (10).
@@ -33,7 +35,6 @@ DP's own optimum is in ``plan.info["dp_objective"]`` and is checked equal to it 
 
 from __future__ import annotations
 
-import math
 import time
 
 import numpy as np
@@ -41,12 +42,14 @@ import numpy as np
 from baselines.grid import (
     DEFAULT_MARGIN,
     MAX_TABLE_BYTES,
+    check_grid_bytes,
     disk_max,
     disk_offsets,
     grid_axes,
     grid_box,
     grid_path,
     rate_map,
+    validate_grid_args,
 )
 from baselines.plan import Plan
 from ios_uav_env import ScenarioConfig, slot_rates
@@ -55,17 +58,6 @@ __all__ = [
     "DEFAULT_MARGIN", "MAX_TABLE_BYTES", "disk_max", "disk_offsets", "grid_axes", "grid_box", "grid_path",
     "rate_map", "solve",
 ]  # fmt: skip
-
-
-def _validate(config: ScenarioConfig, resolution: float, margin: float) -> None:
-    if not isinstance(config, ScenarioConfig):
-        raise TypeError(f"config must be a ScenarioConfig, got {type(config).__name__}")
-    if not (isinstance(resolution, (int, float)) and math.isfinite(resolution)):
-        raise ValueError(f"resolution must be a finite number in (0, D={config.D:g}] m, got {resolution!r}")
-    if not 0 < resolution <= config.D:
-        raise ValueError(f"resolution must be in (0, D={config.D:g}] m, got {resolution!r}")
-    if not (isinstance(margin, (int, float)) and math.isfinite(margin) and margin >= 0):
-        raise ValueError(f"margin must be a finite number >= 0 (m), got {margin!r}")
 
 
 def solve(
@@ -106,7 +98,7 @@ def solve(
         path reaches qF in N - 1 moves (horizon too tight for this grid: refine it).
     """
     t0 = time.perf_counter()
-    _validate(config, resolution, margin)
+    validate_grid_args(config, resolution, margin)
     if config.K > 1:  # several ground nodes: best plan found + certified upper bound
         from baselines.dp_bound import solve_multinode
 
@@ -119,14 +111,10 @@ def solve(
         info.update(dp_objective=float(slot_rates(config, traj).sum() / n_slots), grid_shape=[0, 0])
         return _finish(config, traj, info, t0)
 
-    xs, ys, (iy0, ix0) = grid_axes(config, resolution, margin)
-    table_bytes = (n_slots - 2) * len(xs) * len(ys) * 8
-    if table_bytes > MAX_TABLE_BYTES:
-        raise ValueError(
-            f"resolution={resolution} m with margin={margin} m needs a {table_bytes / 2**30:.1f} GiB value "
-            f"table (N x cells), above MAX_TABLE_BYTES={MAX_TABLE_BYTES / 2**30:.0f} GiB: use a coarser "
-            "resolution or a smaller margin"
-        )
+    check_grid_bytes(
+        config, resolution, margin, 8 * (n_slots - 2), "value table (N - 2 float64 layers)", largest=d_max
+    )
+    xs, ys, _ = grid_axes(config, resolution, margin)
     _, _, rates = rate_map(config, resolution, margin)
     r_f = float(slot_rates(config, q_f)[0])
     info.update(grid_shape=[len(ys), len(xs)], n_offsets=len(disk_offsets(resolution, d_max)))

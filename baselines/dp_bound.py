@@ -11,9 +11,12 @@ functions of w), so it is minimised by Kelley's cutting planes (below).
 
 **Accounting for the grid** (so that UB(w) bounds the continuous problem, not only grid
 paths). The plane is cut into the square cells of side h of ``baselines.grid.grid_axes``
-(centred on the grid points; their union is the box B) plus one state O, "outside B". A
-feasible trajectory is mapped slot by slot to the cell holding q[n] (or O); q[1] = q0 and
-q[N] = qF keep their exact rewards. The relaxed DP maximises over sequences of states with
+(centred on the grid points; their union is the box B) plus one state O, "outside B": the
+half-planes beyond the sides of B that come from the scene's box. No feasible trajectory goes
+beyond a side that the reach box clipped (``baselines.grid.grid_box``), so those sides are
+closed to O (and a box clipped on all four sides has no state O). A feasible trajectory is
+mapped slot by slot to the cell holding q[n] (or O); q[1] = q0 and q[N] = qF keep their exact
+rewards. The relaxed DP maximises over sequences of states with
 
 1. reward per state: an upper bound of f_w over the whole cell (or over the complement of
    B), max_k w_k Rbar_k, with Rbar_k >= sup of r_k over the region (:func:`region_rate_bound`);
@@ -71,9 +74,18 @@ from typing import Any
 import numpy as np
 
 import ios_uav_env as ie
-from baselines.grid import DEFAULT_MARGIN, _best_move, disk_max, grid_axes, grid_path
+from baselines.grid import (
+    DEFAULT_MARGIN,
+    _best_move,
+    check_grid_bytes,
+    disk_max,
+    grid_axes,
+    grid_box,
+    grid_path,
+    validate_grid_args,
+)
 from baselines.plan import Plan
-from ios_uav_env import ScenarioConfig
+from ios_uav_env import ScenarioConfig, scene_box
 
 #: Relative slack on the amplitude bound (floating-point rounding of the model's sums).
 ZETA_SLACK = 1e-9
@@ -132,10 +144,32 @@ def relaxed_offsets(h: float, d_max: float) -> np.ndarray:
     return np.column_stack([dy[inside], dx[inside]])
 
 
+def check_relaxed_grid(config: ScenarioConfig, resolution: float, margin: float = DEFAULT_MARGIN) -> None:
+    """``ValueError`` when :class:`RelaxedDP`'s arrays at cell side ``resolution`` would exceed
+    ``baselines.grid.MAX_TABLE_BYTES``: the float32 table of N - 2 layers, the K cell bounds and
+    the per-cell geometry."""
+    per_cell = 4 * max(config.N - 2, 0) + 8 * (config.K + 8)
+    check_grid_bytes(
+        config, resolution, margin, per_cell, "relaxed DP (N - 2 float32 layers)", "bound_resolution"
+    )
+
+
+def check_plain_grid(config: ScenarioConfig, resolution: float, margin: float = DEFAULT_MARGIN) -> None:
+    """``ValueError`` when the plain grid DP's arrays (``baselines.grid.grid_path``'s float64
+    table of N - 2 layers and the K node rate maps) would exceed ``MAX_TABLE_BYTES``."""
+    per_cell = 8 * max(config.N - 2, 0) + 8 * (config.K + 4)
+    check_grid_bytes(
+        config, resolution, margin, per_cell, "plain DP (N - 2 float64 layers)", largest=config.D
+    )
+
+
 class RelaxedDP:
     """The relaxed DP of the module docstring for one config and cell size: :meth:`value`."""
 
     def __init__(self, config: ScenarioConfig, resolution: float, margin: float = DEFAULT_MARGIN):
+        if not (isinstance(resolution, (int, float)) and math.isfinite(resolution) and resolution > 0):
+            raise ValueError(f"resolution must be a finite number > 0 (m), got {resolution!r}")
+        check_relaxed_grid(config, resolution, margin)
         self.config, self.h = config, float(resolution)
         xs, ys, _ = grid_axes(config, self.h, margin)
         self.xs, self.ys = xs, ys
@@ -144,15 +178,22 @@ class RelaxedDP:
         nodes = [config.node_config(k) for k in range(config.K)]
         self.cell_bound = np.stack([region_rate_bound(c, xx - h2, xx + h2, yy - h2, yy + h2) for c in nodes])
         bx0, bx1, by0, by1 = xs[0] - h2, xs[-1] + h2, ys[0] - h2, ys[-1] + h2
+        # O is the part of the plane outside B the UAV can reach: nothing beyond a side of B
+        # that the reach box clipped (baselines.grid.grid_box), so only the other sides open
+        self.open_sides = np.array(grid_box(config, margin)) == np.array(scene_box(config, margin))
         inf = np.inf
         halves = np.array([[-inf, bx0, -inf, inf], [bx1, inf, -inf, inf], [-inf, inf, -inf, by0],
-                           [-inf, inf, by1, inf]])  # fmt: skip
-        self.out_bound = np.array([region_rate_bound(c, *halves.T).max() for c in nodes])
+                           [-inf, inf, by1, inf]])[self.open_sides]  # fmt: skip
+        if len(halves):
+            self.out_bound = np.array([region_rate_bound(c, *halves.T).max() for c in nodes])
+        else:  # O is never allowed (o0 = of = inf below); any finite reward keeps the DP's arithmetic
+            self.out_bound = np.zeros(config.K)
         ends = np.array([config.q0, config.qF], dtype=float)
         self.end_rates = ie.node_rates(config, ends)  # (K, 2): exact rewards of slots 1 and N
         ny, nx = xx.shape
         iy, ix = np.mgrid[0:ny, 0:nx]
-        self.band = np.minimum(np.minimum(ix, nx - 1 - ix), np.minimum(iy, ny - 1 - iy)) * self.h <= config.D
+        to_side = np.stack([ix, nx - 1 - ix, iy, ny - 1 - iy])[self.open_sides]  # cells to each open side
+        self.band = (to_side.min(axis=0) * self.h <= config.D) if len(to_side) else np.zeros(xx.shape, bool)
         self.offsets = relaxed_offsets(self.h, config.D)
         self.d0 = np.hypot(
             np.maximum(0, np.abs(xx - ends[0, 0]) - h2), np.maximum(0, np.abs(yy - ends[0, 1]) - h2)
@@ -160,8 +201,8 @@ class RelaxedDP:
         self.df = np.hypot(
             np.maximum(0, np.abs(xx - ends[1, 0]) - h2), np.maximum(0, np.abs(yy - ends[1, 1]) - h2)
         )
-        self.o0 = min(ends[0, 0] - bx0, bx1 - ends[0, 0], ends[0, 1] - by0, by1 - ends[0, 1])
-        self.of = min(ends[1, 0] - bx0, bx1 - ends[1, 0], ends[1, 1] - by0, by1 - ends[1, 1])
+        gaps = np.array([[e[0] - bx0, bx1 - e[0], e[1] - by0, by1 - e[1]] for e in ends])[:, self.open_sides]
+        self.o0, self.of = (float(g.min()) if g.size else inf for g in gaps)
 
     def _allowed(self, n: int) -> tuple[np.ndarray, bool]:
         """Cells and O allowed at slot n (1-based): the time windows."""
@@ -235,6 +276,7 @@ def weighted_dp_path(
     """The plain grid DP's best path for the per-slot reward f_w = max_k w_k r_k (moves <= D
     between grid points; ``baselines.grid.grid_path``): a feasible trajectory, or None when no
     grid path reaches qF in time."""
+    check_plain_grid(config, resolution, margin)
     w = np.asarray(weights, dtype=float)
     xs, ys, _ = grid_axes(config, resolution, margin)
     xx, yy = np.meshgrid(xs, ys)
@@ -294,10 +336,11 @@ def solve_multinode(
     relative stopping gap; ``start_weights``: the first w (default: the tour's dual weights).
     ``info``: ``upper_bound`` (>= every feasible trajectory's max-min rate), ``weights`` (its
     w), ``kelley_lower`` (no w gives a bound below it on this grid), ``gap`` (upper_bound /
-    mean_rate - 1), ``cuts`` (per iteration: w, UB(w), plan score), ``resolution``,
-    ``bound_resolution``.
+    mean_rate - 1; inf when the plan scores 0 below a positive bound), ``cuts`` (per iteration:
+    w, UB(w), plan score), ``resolution``, ``bound_resolution``.
     """
     t0 = time.perf_counter()
+    validate_grid_args(config, resolution, margin)
     if config.K < 2:
         raise ValueError(f"solve_multinode needs K >= 2 ground nodes, got K={config.K}")
     if not (isinstance(max_cuts, int) and max_cuts >= 1):
@@ -306,6 +349,11 @@ def solve_multinode(
     if not (isinstance(h, (int, float)) and math.isfinite(h) and h > 0):
         raise ValueError(f"bound_resolution must be a finite number > 0 (m), got {h!r}")
     from baselines import tour
+
+    # every grid is sized before anything is computed: the plain DPs', the relaxed DP's, the tour's
+    check_plain_grid(config, resolution, margin)
+    check_relaxed_grid(config, h, margin)
+    tour.check_candidate_grid(config)
 
     tour_plan = tour.solve(config)
     if start_weights is None:
@@ -366,5 +414,8 @@ def solve_multinode(
         "plan_source": best_plan[2],
     }
     plan = Plan.from_trajectory("dp", config, best_plan[1], time.perf_counter() - t0, info=info)
-    plan.info["gap"] = best_ub / plan.mean_rate - 1.0
+    if plan.mean_rate > 0:
+        plan.info["gap"] = best_ub / plan.mean_rate - 1.0
+    else:  # a node no reachable point serves: the plan scores 0
+        plan.info["gap"] = 0.0 if best_ub <= 0 else math.inf
     return plan

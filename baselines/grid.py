@@ -3,7 +3,10 @@ the best grid path for a per-slot reward (``baselines.dp`` for one node, ``basel
 for several).
 
 The grid is anchored at q0 (so q[1] is a grid cell) with spacing ``resolution`` over
-:func:`grid_box`; moves are the grid offsets inside the Euclidean disk of radius D. The disk
+:func:`grid_box`: the scene's box (q0, qF, the nodes, the IOS centre) clipped to the region the
+UAV can reach (:func:`reach_box`), so a far-away node never blows the grid up, and every grid
+of a planner is checked against ``MAX_TABLE_BYTES`` (:func:`check_grid_bytes`) before it is
+allocated. Moves are the grid offsets inside the Euclidean disk of radius D. The disk
 maximum is computed, per layer and vectorised, as the maximum over the disk's rows of 1-D
 running maxima (``scipy.ndimage.maximum_filter1d``), which equals ``maximum_filter`` with
 the disk footprint (tested). Ties are broken in the forward pass towards the shortest move,
@@ -26,10 +29,94 @@ MAX_TABLE_BYTES = 2 * 1024**3
 _RATE_CHUNK = 65536  # cells per slot_rates call (bounds the (cells, nodes) temporaries)
 
 
+def reach_box(config: ScenarioConfig) -> tuple[float, float, float, float]:
+    """Box (x_min, x_max, y_min, y_max) in m holding every point a feasible trajectory visits.
+
+    Slot n's way-point is within (n - 1) D of q0 and (N - n) D of qF, so every way-point lies
+    in the ellipse |q - q0| + |qF - q| <= (N - 1) D; this is its bounding box widened by one
+    move D (rounding slack).
+    """
+    q0, qf = np.asarray(config.q0, float), np.asarray(config.qF, float)
+    a = 0.5 * (config.N - 1) * config.D  # semi-major axis
+    c = 0.5 * float(np.linalg.norm(qf - q0))  # half the focal distance (<= a: config validated)
+    b = math.sqrt(max(a * a - c * c, 0.0))
+    u = (qf - q0) / (2.0 * c) if c > 0 else np.array([1.0, 0.0])
+    half = np.sqrt((a * u) ** 2 + (b * u[::-1]) ** 2) + config.D
+    centre = 0.5 * (q0 + qf)
+    lo, hi = centre - half, centre + half
+    return float(lo[0]), float(hi[0]), float(lo[1]), float(hi[1])
+
+
 def grid_box(config: ScenarioConfig, margin: float = DEFAULT_MARGIN) -> tuple[float, float, float, float]:
-    """Box (x_min, x_max, y_min, y_max) in m: ``ios_uav_env.scene_box`` (q0, qF, the nodes, IOS centre)
-    widened by ``margin``."""
-    return scene_box(config, margin)
+    """Box (x_min, x_max, y_min, y_max) in m: ``ios_uav_env.scene_box`` (q0, qF, the nodes, IOS
+    centre) widened by ``margin``, clipped to :func:`reach_box` widened by ``margin`` (no
+    feasible trajectory leaves that box, so the clip removes no point a plan can visit)."""
+    x_lo, x_hi, y_lo, y_hi = scene_box(config, margin)
+    r_x_lo, r_x_hi, r_y_lo, r_y_hi = reach_box(config)
+    return (
+        max(x_lo, r_x_lo - margin),
+        min(x_hi, r_x_hi + margin),
+        max(y_lo, r_y_lo - margin),
+        min(y_hi, r_y_hi + margin),
+    )
+
+
+def _index_range(lo: float, hi: float, origin: float, resolution: float) -> tuple[int, int]:
+    """First and last grid index k (coordinate origin + k resolution) covering [lo, hi]."""
+    return math.floor((lo - origin) / resolution), math.ceil((hi - origin) / resolution)
+
+
+def grid_shape(config: ScenarioConfig, resolution: float, margin: float = DEFAULT_MARGIN) -> tuple[int, int]:
+    """(ny, nx) of :func:`grid_axes`, computed without building the axes."""
+    x_min, x_max, y_min, y_max = grid_box(config, margin)
+    kx0, kx1 = _index_range(x_min, x_max, config.q0[0], resolution)
+    ky0, ky1 = _index_range(y_min, y_max, config.q0[1], resolution)
+    return ky1 - ky0 + 1, kx1 - kx0 + 1
+
+
+def _is_number(value: object) -> bool:
+    return isinstance(value, (int, float)) and not isinstance(value, bool) and math.isfinite(value)
+
+
+def validate_grid_args(config: ScenarioConfig, resolution: float, margin: float) -> None:
+    """``TypeError``/``ValueError`` naming the argument unless ``config`` is a ScenarioConfig,
+    ``resolution`` a finite number in (0, D] m and ``margin`` a finite number >= 0 m."""
+    if not isinstance(config, ScenarioConfig):
+        raise TypeError(f"config must be a ScenarioConfig, got {type(config).__name__}")
+    if not (_is_number(resolution) and 0 < resolution <= config.D):
+        raise ValueError(f"resolution must be a finite number in (0, D={config.D:g}] m, got {resolution!r}")
+    if not (_is_number(margin) and margin >= 0):
+        raise ValueError(f"margin must be a finite number >= 0 (m), got {margin!r}")
+
+
+def check_grid_bytes(
+    config: ScenarioConfig,
+    resolution: float,
+    margin: float,
+    per_cell: float,
+    what: str,
+    argument: str = "resolution",
+    largest: float | None = None,
+) -> None:
+    """``ValueError`` when the arrays ``what``, ``per_cell`` bytes for each cell of the
+    ``resolution`` grid, would exceed ``MAX_TABLE_BYTES``; nothing is allocated. The message
+    names ``argument``, the limit and about the smallest spacing that fits (or says that none
+    up to ``largest`` m, the argument's own upper limit, does)."""
+    ny, nx = grid_shape(config, resolution, margin)
+    needed = per_cell * ny * nx
+    if needed <= MAX_TABLE_BYTES:
+        return
+    coarser = resolution * math.sqrt(needed / MAX_TABLE_BYTES)
+    if largest is not None and coarser > largest:
+        fix = f"no {argument} in its range (0, {largest:g}] m fits: use a shorter T"
+    else:
+        fix = (
+            f"{argument} must be at least about {coarser:.3g} m here (or use a smaller margin or a shorter T)"
+        )
+    raise ValueError(
+        f"{argument}={resolution:g} m with margin={margin:g} m gives a {ny} x {nx} grid whose {what} "
+        f"needs {needed / 2**30:.1f} GiB, above MAX_TABLE_BYTES={MAX_TABLE_BYTES / 2**30:g} GiB: {fix}"
+    )
 
 
 def grid_axes(
@@ -41,8 +128,9 @@ def grid_axes(
     """
     x_min, x_max, y_min, y_max = grid_box(config, margin)
     x0, y0 = config.q0
-    kx = np.arange(math.floor((x_min - x0) / resolution), math.ceil((x_max - x0) / resolution) + 1)
-    ky = np.arange(math.floor((y_min - y0) / resolution), math.ceil((y_max - y0) / resolution) + 1)
+    kx0, kx1 = _index_range(x_min, x_max, x0, resolution)
+    ky0, ky1 = _index_range(y_min, y_max, y0, resolution)
+    kx, ky = np.arange(kx0, kx1 + 1), np.arange(ky0, ky1 + 1)
     return x0 + resolution * kx, y0 + resolution * ky, (int(-ky[0]), int(-kx[0]))
 
 
@@ -113,6 +201,9 @@ def grid_path(
     """
     n_slots, d_max = config.N, config.D
     q_f = np.asarray(config.qF, dtype=float)
+    check_grid_bytes(
+        config, resolution, margin, 8 * (n_slots - 2), "value table (N - 2 float64 layers)", largest=d_max
+    )
     xs, ys, (iy0, ix0) = grid_axes(config, resolution, margin)
     offsets = disk_offsets(resolution, d_max)
     # values[k] is V at layer k + 1 (0-based slots; layer 0 is q0, layer N-1 is qF)

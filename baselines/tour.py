@@ -4,7 +4,10 @@ hover there as long as one LP says, and serve the nodes with the LP's shares.
 **Hover points** (:func:`hover_candidates`): each node's best reachable point
 (``ios_uav_env.rate_peak`` on its single-node config ``config.node_config(k)``), and
 compromise points: for each pair of nodes (and all nodes when K > 2) the reachable point of a
-``resolution`` grid that maximises min_k r_k(q) / r_k^* (r_k^* the node's best grid rate).
+``resolution`` grid that maximises min_k r_k(q) / r_k^* (r_k^* the node's best grid rate; the
+ratio is 1 for a node with r_k^* = 0, which no reachable point serves). The grid is that of
+``baselines.grid.grid_box``, clipped to what the UAV can reach, and is sized before it is built
+(:func:`check_candidate_grid`).
 
 **A route** visits an ordered list of hover points P_1..P_m: q0 -> P_1 -> ... -> P_m -> qF
 on the legs of ``baselines.fixed`` (full steps of D, the last one shorter), which take
@@ -49,7 +52,35 @@ from ios_uav_env.model.peak import reachable
 #: Grid (m) of the node rate maps that give the compromise points.
 CANDIDATE_RESOLUTION = 5.0
 
-__all__ = ["hover_candidates", "node_rate_maps", "route_lp", "route_trajectory", "solve"]
+__all__ = [
+    "check_candidate_grid",
+    "hover_candidates",
+    "node_rate_maps",
+    "route_lp",
+    "route_trajectory",
+    "solve",
+]
+
+
+def check_candidate_grid(
+    config: ScenarioConfig, resolution: float = CANDIDATE_RESOLUTION, margin: float | None = None
+) -> None:
+    """``ValueError`` (naming ``resolution`` and ``baselines.grid.MAX_TABLE_BYTES``) when the K
+    node rate maps of :func:`node_rate_maps` and their per-cell temporaries would not fit;
+    nothing is allocated. The grid is clipped to what the UAV can reach
+    (``baselines.grid.grid_box``), so only a very long horizon can trip it."""
+    from baselines.grid import DEFAULT_MARGIN, check_grid_bytes
+
+    if not (isinstance(resolution, (int, float)) and math.isfinite(resolution) and resolution > 0):
+        raise ValueError(f"resolution must be a finite number > 0 (m), got {resolution!r}")
+    margin = DEFAULT_MARGIN if margin is None else margin
+    check_grid_bytes(
+        config,
+        resolution,
+        margin,
+        8 * (2 * config.K + 8),
+        "K node rate maps (which tour.solve skips when given candidates)",
+    )
 
 
 def node_rate_maps(
@@ -58,6 +89,7 @@ def node_rate_maps(
     """Every node's rate on the DP grid of ``config``: xs (nx,), ys (ny,), rates (K, ny, nx)."""
     from baselines.grid import DEFAULT_MARGIN, grid_axes
 
+    check_candidate_grid(config, resolution, margin)
     xs, ys, _ = grid_axes(config, resolution, DEFAULT_MARGIN if margin is None else margin)
     xx, yy = np.meshgrid(xs, ys)
     rates = ie.node_rates(config, np.column_stack([xx.ravel(), yy.ravel()]))
@@ -68,6 +100,8 @@ def hover_candidates(
     config: ScenarioConfig, resolution: float = CANDIDATE_RESOLUTION
 ) -> list[tuple[str, tuple[float, float]]]:
     """Named hover points: each node's reachable peak and the compromise points (module doc)."""
+    if config.K > 1:
+        check_candidate_grid(config, resolution)  # before any rate is computed
     out: list[tuple[str, tuple[float, float]]] = []
     for k in range(config.K):
         peak = ie.rate_peak(config.node_config(k))
@@ -78,7 +112,9 @@ def hover_candidates(
         pts = np.column_stack([xx.ravel(), yy.ravel()])
         ok = reachable(config, pts)
         flat = rates.reshape(config.K, -1)
-        norm = flat / np.max(np.where(ok, flat, -np.inf), axis=1, keepdims=True)
+        best = np.max(np.where(ok, flat, -np.inf), axis=1, keepdims=True)
+        # a node no reachable grid point serves (r_k^* = 0) has no preference: 1 everywhere
+        norm = np.divide(flat, best, out=np.ones_like(flat), where=best > 0)
         groups = list(itertools.combinations(range(config.K), 2))
         if config.K > 2:
             groups.append(tuple(range(config.K)))
