@@ -158,7 +158,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         parser.error(f"argument models: {exc}")
     if args.shipped:
         agents += shipped_agents()
-    from agents.evaluate_multi import DEFAULT_MULTI, is_multinode
+    from agents.evaluate_multi import DEFAULT_MULTI, check_agents, is_multinode
     from agents.evaluate_multi import run as run_multi
 
     multi = [a.name for a in agents if is_multinode(a)]
@@ -167,7 +167,12 @@ def main(argv: Sequence[str] | None = None) -> int:
             parser.error(
                 f"argument models: multi-node agents {multi} cannot share a table with single-node ones"
             )
-        run_multi(agents, DEFAULT_MULTI.replace(**parse_env_kwargs(args.scenario)), args.out)
+        try:  # the scenario and the agents' max_nodes, before any reference is solved
+            multi_config = DEFAULT_MULTI.replace(**parse_env_kwargs(args.scenario))
+            check_agents(agents, multi_config)
+        except (TypeError, ValueError) as exc:
+            parser.error(f"argument --scenario: {exc}")
+        run_multi(agents, multi_config, args.out)
         return 0
     rows = compare(agents, config, args.schemes, args.rician_seeds)
     table = markdown_table(rows)

@@ -6,9 +6,13 @@ multi-node id (:data:`MULTINODE_IDS`); the scenario is the fixed id's, ``Scenari
 ground_nodes=DEFAULT_NODES)`` (``--scenario`` fields applied to it). The references are the
 multi-node suite's (``baselines.references.solve_scenario``): SCA (BCD), the tour
 heuristic and the certified upper bound (``baselines.dp_bound``, 2.5 m), each scenario's record
-cached as one JSON file in :data:`REFERENCE_CACHE` (``baselines.runner.run_tasks``, written
-atomically; the key hashes the config and the settings). On the default scenario: SCA 0.471001,
-tour 0.468872, bound 0.474066 bps/Hz.
+cached as one JSON file in :data:`REFERENCE_CACHE` (``baselines.references.task_key``, written
+atomically; the key hashes the config and the settings) when every planner succeeded: a failed
+solve raises and is never cached, so the next run solves again. On the default scenario: SCA
+0.471001, tour 0.468872, bound 0.474066 bps/Hz.
+
+The scenario must have K >= 2 nodes and at most each agent's ``max_nodes``
+(:func:`check_agents`); both are checked before any reference is solved.
 
 Each agent runs deterministically in its own env (a fixed id made on the scenario with the
 model's ``max_nodes``; the randomised id pinned with ``reset(options={"config": cfg})``) and is
@@ -18,6 +22,7 @@ shares), the best schedule of its trajectory, % of SCA and of the bound, feasibi
 
 from __future__ import annotations
 
+import json
 import math
 from collections.abc import Sequence
 from pathlib import Path
@@ -46,11 +51,39 @@ def is_multinode(policy: Any) -> bool:
 
 
 def references(config: ScenarioConfig, cache: str | Path = REFERENCE_CACHE) -> dict[str, Any]:
-    """SCA, tour and bound records of ``config`` (trajectories and shares included), cached."""
-    from baselines.references import solve_all
+    """SCA, tour and bound records of ``config`` (trajectories and shares included), read from
+    ``cache`` or solved; a solved record is cached only if every planner succeeded
+    (``RuntimeError`` naming the failures otherwise, nothing written)."""
+    from baselines.references import solve as reference_solve
+    from baselines.runner import cached_records
 
-    (record,) = solve_all([config], cache, jobs=1, progress=False)
+    (task,) = reference_solve.tasks_of([config])
+    required = reference_solve.REQUIRED["multi-node"]
+    cached = cached_records([task], cache, reference_solve.task_key, required)
+    if 0 in cached and not reference_failures(cached[0]):
+        return cached[0]
+    record = reference_solve.solve_scenario(task)
+    failures = reference_failures(record)
+    if failures:
+        raise RuntimeError(f"the references of {config} failed (not cached): " + "; ".join(failures))
+    atomic_write_text(Path(cache) / f"{reference_solve.task_key(task)}.json", json.dumps(record))
     return record
+
+
+def reference_failures(record: dict[str, Any]) -> list[str]:
+    """What failed in a reference record: a planner that raised (its error), an SCA rate that is
+    not > 0 (the normaliser), a bound that is missing."""
+    parts = {k: record.get(k) for k in ("tour", "sca", "bound")}
+    missing = [k for k, part in parts.items() if not isinstance(part, dict)]
+    failures = [
+        f"{k}: {part['error']}" for k, part in parts.items() if k not in missing and part.get("error")
+    ]
+    failures += [f"{k}: no record" for k in missing]
+    if not missing and not (record["sca"].get("rate") or 0.0) > 0.0:
+        failures.append(f"sca: rate {record['sca'].get('rate')!r} is not > 0")
+    if not missing and record["bound"].get("upper_bound") is None:
+        failures.append("bound: no upper bound")
+    return list(dict.fromkeys(failures))
 
 
 def reference_scenario(config: ScenarioConfig, record: dict[str, Any]) -> SuiteScenario:
@@ -104,6 +137,31 @@ def model_max_nodes(agent: Any, default: int = 4) -> int:
     return k_max
 
 
+def agent_max_nodes(agent: Any) -> int | None:
+    """The most nodes ``agent`` can act on: its model's observation's K_max
+    (:func:`model_max_nodes`), else its env_kwargs' ``max_nodes``; None if neither is known."""
+    if getattr(getattr(getattr(agent, "model", None), "observation_space", None), "shape", None) is not None:
+        return model_max_nodes(agent)
+    given = dict(getattr(agent, "env_kwargs", {}) or {}).get("max_nodes")
+    return None if given is None else int(given)
+
+
+def check_agents(agents: Sequence[Any], config: ScenarioConfig) -> None:
+    """``ValueError`` naming the agent if ``config`` cannot be compared on: fewer than 2 nodes (the
+    multi-node references), or more nodes than an agent's :func:`agent_max_nodes`."""
+    if config.K < 2:
+        raise ValueError(
+            f"the multi-node comparison needs a scenario of K >= 2 ground_nodes, got K = {config.K}"
+        )
+    for agent in agents:
+        k_max = agent_max_nodes(agent)
+        if k_max is not None and config.K > k_max:
+            raise ValueError(
+                f"the scenario has K = {config.K} ground_nodes, but {getattr(agent, 'name', 'the agent')} "
+                f"observes at most max_nodes = {k_max}: give at most {k_max} nodes"
+            )
+
+
 def agent_env(agent: Any, config: ScenarioConfig) -> Any:
     """The env ``agent`` runs in on ``config``: its fixed id made on it with the model's
     ``max_nodes``, or its randomised id (pinned per reset)."""
@@ -146,7 +204,9 @@ def _row(scheme: str, kind: str, r: ScenarioResult, trajectory: Any, shares: Any
 def compare_multi(
     agents: Sequence[Any], config: ScenarioConfig = DEFAULT_MULTI, cache: str | Path = REFERENCE_CACHE
 ) -> list[Row]:
-    """The table's rows: SCA, the tour, the bound, then the agents, on ``config``."""
+    """The table's rows: SCA, the tour, the bound, then the agents, on ``config`` (checked by
+    :func:`check_agents` first)."""
+    check_agents(agents, config)
     record = references(config, cache)
     scenario = reference_scenario(config, record)
     return planner_rows(scenario, record) + [agent_row(a, scenario) for a in agents]

@@ -29,12 +29,13 @@ import argparse
 import ast
 import importlib
 import json
+import tempfile
 from collections.abc import Sequence
 from pathlib import Path
-from typing import Any
+from typing import Any, NoReturn
 
 from ios_uav_env.benchmark.results import reference_results
-from ios_uav_env.benchmark.scoring import evaluate, score_trajectories
+from ios_uav_env.benchmark.scoring import action_function, check_env_kwargs, evaluate, score_trajectories
 from ios_uav_env.benchmark.suite import (
     DEFAULT_SUITE,
     MULTI_REFERENCES,
@@ -48,30 +49,48 @@ from ios_uav_env.benchmark.trajectories import read_plans
 
 def load_policy(spec: str) -> Any:
     """The policy named by ``spec``: ``pkg.module:attr``, ``pkg.module:Class`` (instantiated
-    without arguments) or ``pkg.module:factory(literal, key=literal)`` (called)."""
+    without arguments) or ``pkg.module:factory(literal, key=literal)`` (called); ``ValueError``
+    naming ``spec`` for any failure (a bad spec, an import or attribute that fails, a call that
+    raises)."""
     module_name, sep, expr = spec.partition(":")
     if not sep or not module_name or not expr:
-        raise ValueError(f"--policy must be PKG.MODULE:ATTR, got {spec!r}")
+        raise ValueError(f"a policy must be PKG.MODULE:ATTR, got {spec!r}")
     try:
         node = ast.parse(expr.strip(), mode="eval").body
     except SyntaxError as err:
-        raise ValueError(f"--policy {spec!r}: {expr!r} is not an attribute or a call") from err
+        raise ValueError(f"{spec!r}: {expr!r} is not an attribute or a call") from err
     call = node if isinstance(node, ast.Call) else None
     target = call.func if call is not None else node
     dotted = ast.unparse(target)
     if not all(part.isidentifier() for part in dotted.split(".")):
-        raise ValueError(f"--policy {spec!r}: {dotted!r} is not a dotted attribute name")
-    obj: Any = importlib.import_module(module_name)
+        raise ValueError(f"{spec!r}: {dotted!r} is not a dotted attribute name")
+    try:
+        obj: Any = importlib.import_module(module_name)
+    except Exception as err:  # any error of the import (a missing module, a broken one)
+        raise ValueError(f"{spec!r}: cannot import {module_name!r}: {type(err).__name__}: {err}") from None
     for part in dotted.split("."):
+        if not hasattr(obj, part):
+            raise ValueError(f"{spec!r}: {module_name}.{dotted} does not exist (no attribute {part!r})")
         obj = getattr(obj, part)
     if call is not None:
+        if any(k.arg is None for k in call.keywords) or any(isinstance(a, ast.Starred) for a in call.args):
+            raise ValueError(f"{spec!r}: the arguments must be literals (no * or **)")
         try:
             args = [ast.literal_eval(a) for a in call.args]
             kwargs = {k.arg: ast.literal_eval(k.value) for k in call.keywords if k.arg}
-        except ValueError as err:
-            raise ValueError(f"--policy {spec!r}: the arguments must be literals") from err
-        return obj(*args, **kwargs)
-    return obj() if isinstance(obj, type) else obj
+        except (ValueError, TypeError, SyntaxError, MemoryError, RecursionError) as err:
+            raise ValueError(f"{spec!r}: the arguments must be literals") from err
+        return _called(spec, obj, args, kwargs)
+    return _called(spec, obj, [], {}) if isinstance(obj, type) else obj
+
+
+def _called(spec: str, factory: Any, args: list[Any], kwargs: dict[str, Any]) -> Any:
+    if not callable(factory):
+        raise ValueError(f"{spec!r}: {type(factory).__name__} object is not callable")
+    try:
+        return factory(*args, **kwargs)
+    except Exception as err:  # the user's factory: any error is a bad --policy
+        raise ValueError(f"{spec!r}: the call raised {type(err).__name__}: {err}") from None
 
 
 def parse_env_kwargs(items: Sequence[str]) -> dict[str, Any]:
@@ -80,7 +99,7 @@ def parse_env_kwargs(items: Sequence[str]) -> dict[str, Any]:
     for item in items:
         key, sep, text = item.partition(":")
         if not sep or not key.isidentifier():
-            raise ValueError(f"--env-kwargs takes KEY:VALUE items, got {item!r}")
+            raise ValueError(f"env arguments are KEY:VALUE items (KEY a Python name), got {item!r}")
         value: Any
         try:
             value = json.loads(text)
@@ -93,13 +112,48 @@ def parse_env_kwargs(items: Sequence[str]) -> dict[str, Any]:
     return out
 
 
+def _count(text: str) -> int:
+    """An ``--n``: an integer >= 1."""
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"must be an integer >= 1, got {text!r}") from None
+    if value < 1:
+        raise argparse.ArgumentTypeError(f"must be an integer >= 1, got {value}")
+    return value
+
+
+def _seed(text: str) -> int:
+    """A ``--seed``: an integer >= 0 (a Gymnasium reset seed)."""
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"must be an integer >= 0, got {text!r}") from None
+    if value < 0:
+        raise argparse.ArgumentTypeError(f"must be an integer >= 0 (a reset seed), got {value}")
+    return value
+
+
+def check_out(out: Path) -> None:
+    """``ValueError`` unless ``out`` is (or can be made) a folder this process can write in: it
+    is made, and a temporary file written in it and removed."""
+    if out.exists() and not out.is_dir():
+        raise ValueError(f"{out} is a file, not a folder")
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+        with tempfile.TemporaryFile(dir=out):
+            pass
+    except OSError as err:
+        raise ValueError(f"{out} is not a folder this process can write in ({err.strerror or err})") from None
+
+
 def _parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(prog="python -m ios_uav_env.benchmark", description=__doc__.splitlines()[0])
     sub = p.add_subparsers(dest="command", required=True)
     sub.add_parser("list", help="the shipped suites")
     show = sub.add_parser("show", help="the stored reference values of a suite")
     show.add_argument("--suite", default=DEFAULT_SUITE, help=f"a suite name ({', '.join(SUITES)}) or file")
-    show.add_argument("--n", type=int, default=None, help="the first n scenarios only")
+    show.add_argument("--n", type=_count, default=None, help="the first n scenarios only")
     show.add_argument(
         "--reference",
         choices=list(dict.fromkeys(REFERENCES + MULTI_REFERENCES)),
@@ -114,40 +168,70 @@ def _parser() -> argparse.ArgumentParser:
     ev.add_argument("--batched", action="store_true", help="the policy maps (B, obs_dim) to (B, 2)")
     ev.add_argument("--env-kwargs", nargs="*", default=None, metavar="KEY:VALUE",
                     help="env arguments (default: the policy's env_kwargs attribute)")  # fmt: skip
-    ev.add_argument("--n", type=int, default=None, help="the first n scenarios only (policies)")
-    ev.add_argument("--seed", type=int, default=0, help="the reset seed of every scenario")
+    ev.add_argument("--n", type=_count, default=None, help="the first n scenarios only (policies)")
+    ev.add_argument("--seed", type=_seed, default=0, help="the reset seed of every scenario (>= 0)")
     ev.add_argument("--name", default=None, help="the name in the outputs")
     ev.add_argument("--out", type=Path, default=None, help="folder for the CSV, JSON, markdown and figure")
     return p
 
 
 def main(argv: Sequence[str] | None = None) -> int:
+    """Run the command line; a bad argument or input is one ``error:`` line naming the argument
+    and exit status 2, found before any scenario runs (``--out`` first)."""
     parser = _parser()
     args = parser.parse_args(argv)
+
+    def refuse(argument: str, err: BaseException) -> NoReturn:
+        message = err.args[0] if isinstance(err, KeyError) and err.args else err
+        parser.error(f"argument {argument}: {message}")
+
+    if args.command == "list":
+        for row in list_suites():
+            print(f"{row['name']}: {row['n']} scenarios of {row['env_id']}, scored as % of "
+                  f"{row['normalizer']}, sha256 {row['sha256']}")  # fmt: skip
+        return 0
+    if args.command == "evaluate" and args.out is not None:
+        try:
+            check_out(args.out)
+        except ValueError as err:
+            refuse("--out", err)
     try:
-        if args.command == "list":
-            for row in list_suites():
-                print(f"{row['name']}: {row['n']} scenarios of {row['env_id']}, scored as % of "
-                      f"{row['normalizer']}, sha256 {row['sha256']}")  # fmt: skip
-            return 0
         suite = load_suite(args.suite)
-        if args.command == "show":
-            if args.reference is None:
-                head = f"{suite.name} (version {suite.version}, sha256 {suite.sha256})"
-                print(f"{head}: {len(suite)} scenarios of {suite.env_id}; the stored reference values:")
-            for reference in suite.references if args.reference is None else (args.reference,):
-                print(reference_results(suite, reference, args.n).summary())
-            return 0
+    except (ValueError, KeyError, OSError) as err:
+        refuse("--suite", err)
+    if args.command == "show":
+        if args.reference is not None and args.reference not in suite.references:
+            refuse("--reference", ValueError(f"suite {suite.name} has no reference {args.reference!r}; "
+                                             f"it has {list(suite.references)}"))  # fmt: skip
+        if args.reference is None:
+            head = f"{suite.name} (version {suite.version}, sha256 {suite.sha256})"
+            print(f"{head}: {len(suite)} scenarios of {suite.env_id}; the stored reference values:")
+        for reference in suite.references if args.reference is None else (args.reference,):
+            print(reference_results(suite, reference, args.n).summary())
+        return 0
+    try:
         if args.trajectories is not None:
-            trajectories, seconds, shares = read_plans(args.trajectories)
-            results = score_trajectories(trajectories, suite, seconds=seconds, shares=shares or None,
-                                         name=args.name or args.trajectories.name)  # fmt: skip
+            try:
+                trajectories, seconds, shares = read_plans(args.trajectories)
+                results = score_trajectories(trajectories, suite, seconds=seconds, shares=shares or None,
+                                             name=args.name or args.trajectories.name)  # fmt: skip
+            except (ValueError, OSError) as err:
+                refuse("--trajectories", err)
         else:
-            policy = load_policy(args.policy)
-            env_kwargs = None if args.env_kwargs is None else parse_env_kwargs(args.env_kwargs)
+            try:
+                policy = load_policy(args.policy)
+                action_function(policy)
+            except (ValueError, TypeError) as err:
+                refuse("--policy", err)
+            try:
+                env_kwargs = None if args.env_kwargs is None else parse_env_kwargs(args.env_kwargs)
+                own = getattr(policy, "env_kwargs", None) if env_kwargs is None else env_kwargs
+                check_env_kwargs(suite, dict(own or {}))
+            except (ValueError, TypeError) as err:
+                refuse("--env-kwargs" if args.env_kwargs is not None else "--policy", err)
             results = evaluate(policy, suite, env_kwargs=env_kwargs, n=args.n, batched=args.batched or None,
                                seed=args.seed, name=args.name or args.policy)  # fmt: skip
-    except (ValueError, KeyError, FileNotFoundError, ImportError, AttributeError) as err:
+    except (ValueError, KeyError, ImportError) as err:
         parser.error(str(err))
     print(results.summary())
     if args.out is not None:

@@ -24,7 +24,7 @@ from typing import Any
 
 import numpy as np
 
-from ios_uav_env.benchmark.suite import MULTI_NODE, SINGLE_NODE, Suite, SuiteScenario
+from ios_uav_env.benchmark.suite import MULTI_NODE, SCORED, SINGLE_NODE, Suite, SuiteScenario
 from ios_uav_env.io import atomic_write_text, save_rows_csv
 from ios_uav_env.model.config import ScenarioConfig
 from ios_uav_env.model.score import PlanScore
@@ -56,7 +56,7 @@ class Metrics:
 
 
 #: The metrics of each suite kind.
-METRICS = {SINGLE_NODE: Metrics(("dp", "sca"), False), MULTI_NODE: Metrics(("sca", "bound"), True)}
+METRICS = {SINGLE_NODE: Metrics(SCORED[SINGLE_NODE], False), MULTI_NODE: Metrics(SCORED[MULTI_NODE], True)}
 
 
 def metrics_of(suite: Suite) -> Metrics:

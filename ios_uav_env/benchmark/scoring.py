@@ -48,6 +48,7 @@ import numpy as np
 
 from ios_uav_env.benchmark.results import Metrics, Results, ScenarioResult, metrics_of
 from ios_uav_env.benchmark.suite import DEFAULT_SUITE, Suite, SuiteScenario, load_suite
+from ios_uav_env.benchmark.trajectories import check_plan_time
 from ios_uav_env.envs.rollout import decision_interval
 from ios_uav_env.model.score import score_plan
 
@@ -150,6 +151,23 @@ def _make_env(
     return gym.make(env_id, **env_kwargs), False
 
 
+def check_env_kwargs(suite: Suite, env_kwargs: Mapping[str, Any]) -> None:
+    """``ValueError`` if the suite's env does not take ``env_kwargs`` (added to the suite's): the
+    env is made once with them, and closed, before any scenario runs."""
+    kwargs = {**suite.env_kwargs, **dict(env_kwargs)}
+    try:
+        env, _ = _make_env(suite.env_id, kwargs, False)
+    except (TypeError, ValueError) as err:
+        raise ValueError(f"{suite.env_id} does not take the env_kwargs {dict(env_kwargs)}: {err}") from None
+    env.close()
+
+
+def check_seed(seed: Any) -> None:
+    """``ValueError`` unless ``seed`` is None or an integer >= 0 (a Gymnasium reset seed)."""
+    if seed is not None and (isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0):
+        raise ValueError(f"seed must be an integer >= 0 or None, got {seed!r}")
+
+
 def evaluate(
     policy: Any,
     suite: Suite | str = DEFAULT_SUITE,
@@ -166,8 +184,8 @@ def evaluate(
 
     ``env_kwargs`` are added to the suite's env arguments (default: ``policy.env_kwargs`` if it
     has them); ``batched`` (default: ``policy.batched``) runs a batched callable in the batched
-    env; ``seed`` seeds each scenario's reset; ``at_once``: every scenario at once in the batched env
-    (:func:`evaluate_scenarios`).
+    env; ``seed`` (None or an integer >= 0) seeds each scenario's reset; ``at_once``: every
+    scenario at once in the batched env (:func:`evaluate_scenarios`).
     """
     suite = suite_of(suite)
     own = getattr(policy, "env_kwargs", None) if env_kwargs is None else env_kwargs
@@ -206,6 +224,7 @@ def evaluate_scenarios(
     env pinned per scenario); ``act`` sees the (B, obs_dim) batch (one call per row unless it
     says ``batched = True``), and a plan's time is the batch's divided by B: the time per plan
     when the suite is planned at once."""
+    check_seed(seed)
     metrics = metrics_of(suite)
     kwargs = {**suite.env_kwargs, **dict(env_kwargs or {})}
     if at_once:
@@ -271,7 +290,8 @@ def score_trajectories(
     is scored with its best schedule (``maxmin_rate``). A single-node suite takes no shares.
 
     The indices must be the suite's first n (0 .. n-1, n >= 1); ``ValueError`` naming the
-    scenario for a missing or unknown index or a trajectory of the wrong shape or not finite.
+    scenario for a missing or unknown index, a trajectory of the wrong shape or not finite, or
+    a time to plan that is not a finite number of seconds >= 0 (NaN: unknown).
     """
     suite = suite_of(suite)
     indices = sorted(int(i) for i in trajectories)
@@ -286,6 +306,9 @@ def score_trajectories(
     if shares and not suite.multi_node:
         raise ValueError(f"shares are for multi-node suites; {suite.name} is a single-node suite")
     scenarios, metrics = suite.subset(len(indices)), metrics_of(suite)
+    times = {
+        int(i): check_plan_time(t, f"scenario {int(i)}", unknown=True) for i, t in (seconds or {}).items()
+    }
     shares = dict(shares or {})
     missing = [s.index for s in scenarios if s.index not in shares]
     if shares and missing:
@@ -306,6 +329,6 @@ def score_trajectories(
             score = score_plan(s.config, q, a)
         except ValueError as err:
             raise ValueError(f"scenario {s.index}: {err}") from None
-        t = float("nan") if seconds is None else float(seconds.get(s.index, float("nan")))
+        t = times.get(s.index, float("nan"))
         rows.append(ScenarioResult.of(s, metrics, score, t, q, a))
     return Results.of(suite, name, {}, rows, scenarios)

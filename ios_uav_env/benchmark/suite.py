@@ -30,6 +30,7 @@ from __future__ import annotations
 
 import hashlib
 import json
+import math
 from collections.abc import Iterator, Mapping
 from dataclasses import dataclass
 from pathlib import Path
@@ -45,6 +46,10 @@ REFERENCES = ("dp", "sca", "hover_peak", "hover_ground")
 #: Reference values every scenario of a multi-node suite holds.
 MULTI_REFERENCES = ("sca", "tour", "bound")
 SINGLE_NODE, MULTI_NODE = "single-node", "multi-node"
+#: By suite kind: the references it may hold, and those its scores are percentages of (the
+#: normaliser first), whose rates must be > 0 on every scenario.
+KIND_REFERENCES = {SINGLE_NODE: REFERENCES, MULTI_NODE: MULTI_REFERENCES}
+SCORED = {SINGLE_NODE: ("dp", "sca"), MULTI_NODE: ("sca", "bound")}
 
 
 @dataclass(frozen=True)
@@ -157,13 +162,21 @@ def load_suite(suite: str | Path = DEFAULT_SUITE) -> Suite:
 
     A file whose ``name`` is registered must hash to the registered value, wherever it lies
     (``ValueError`` otherwise: the file was modified); a file with an unregistered name (a
-    suite being built) loads with its own hash.
+    suite being built) loads with its own hash. Every file is checked (``ValueError`` naming
+    the file, the field and, for a scenario, its index): a non-empty ``name``, a ``version``
+    >= 1, a ``kind`` of :data:`KIND_REFERENCES`, an ``env_id`` of this package for that kind,
+    the kind's ``normalizer`` and references (:data:`KIND_REFERENCES`, :data:`SCORED`), and per
+    scenario a valid config (one node for a single-node suite) and finite reference values
+    (rates >= 0, the scored references' > 0, times >= 0); JSON's NaN and Infinity are refused.
     """
     path = Path(suite) if isinstance(suite, Path) or str(suite).endswith(".json") else suite_path(str(suite))
-    data = json.loads(path.read_text(encoding="utf-8"))
+    data = _read_json(path)
     if not isinstance(data, dict) or data.get("format") != FORMAT:
         raise ValueError(f"{path} is not a benchmark suite file (format {FORMAT!r})")
-    name, digest = str(data["name"]), content_hash(data)
+    name = data.get("name")
+    if not isinstance(name, str) or not name.strip():
+        raise ValueError(f"{path}: name must be a non-empty string (the suite's name), got {name!r}")
+    digest = content_hash(data)
     registered = SUITES.get(name)
     if registered is not None and digest != registered.sha256:
         raise ValueError(
@@ -171,13 +184,11 @@ def load_suite(suite: str | Path = DEFAULT_SUITE) -> Suite:
             "the file was modified. A suite never changes under its name; a change is a new version "
             "(a new name and a new entry in ios_uav_env.benchmark.SUITES)."
         )
-    scenarios = []
-    for rec in data["scenarios"]:
-        missing = [r for r in data["references"] if r not in rec]
-        if missing:
-            raise ValueError(f"{path}: scenario {rec.get('index')} lacks the reference values {missing}")
-        reference = {r: dict(rec[r]) for r in data["references"]}
-        scenarios.append(SuiteScenario(int(rec["index"]), ScenarioConfig(**rec["config"]), reference))
+    kind, references = _check_header(path, data)
+    records = data.get("scenarios")
+    if not isinstance(records, list) or not records:
+        raise ValueError(f"{path}: scenarios must be a non-empty list of scenario objects")
+    scenarios = [_scenario(path, kind, references, i, rec) for i, rec in enumerate(records)]
     if [s.index for s in scenarios] != list(range(len(scenarios))):
         raise ValueError(f"{path}: scenario indices must be 0 .. n-1 in order")
     return Suite(
@@ -190,9 +201,115 @@ def load_suite(suite: str | Path = DEFAULT_SUITE) -> Suite:
         scenarios=tuple(scenarios),
         sha256=digest,
         path=path,
-        kind=str(data.get("kind", SINGLE_NODE)),
-        references=tuple(data["references"]),
+        kind=kind,
+        references=references,
     )
+
+
+def _read_json(path: Path) -> Any:
+    """The JSON content of ``path`` (``ValueError`` naming it if it is not JSON of finite numbers)."""
+
+    def constant(word: str) -> Any:
+        raise ValueError(f"{path}: {word} is not a number a suite may hold (finite numbers only)")
+
+    try:
+        text = path.read_text(encoding="utf-8")
+    except UnicodeDecodeError as err:
+        raise ValueError(f"{path} is not a benchmark suite file (not UTF-8 text: {err})") from None
+    try:
+        return json.loads(text, parse_constant=constant)
+    except json.JSONDecodeError as err:
+        raise ValueError(f"{path} is not a benchmark suite file (not JSON: {err})") from None
+
+
+def _check_header(path: Path, data: Mapping[str, Any]) -> tuple[str, tuple[str, ...]]:
+    """Check a suite file's fields other than its scenarios; its kind and references."""
+    from ios_uav_env.envs.registration import ENV_IDS, MULTINODE_IDS, RANDOM_ENV_ID
+
+    version = data.get("version")
+    if isinstance(version, bool) or not isinstance(version, int) or version < 1:
+        raise ValueError(f"{path}: version must be an integer >= 1, got {version!r}")
+    kind = data.get("kind", SINGLE_NODE)
+    if kind not in KIND_REFERENCES:
+        raise ValueError(f"{path}: kind must be one of {list(KIND_REFERENCES)}, got {kind!r}")
+    env_ids = list(MULTINODE_IDS) if kind == MULTI_NODE else [*ENV_IDS, RANDOM_ENV_ID]
+    if data.get("env_id") not in env_ids:
+        raise ValueError(
+            f"{path}: env_id of a {kind} suite must be one of {env_ids}, got {data.get('env_id')!r}"
+        )
+    if not isinstance(data.get("env_kwargs", {}), dict):
+        raise ValueError(f"{path}: env_kwargs must be an object of env arguments, got {data['env_kwargs']!r}")
+    scored = SCORED[kind]
+    if data.get("normalizer") != scored[0]:
+        raise ValueError(
+            f"{path}: normalizer of a {kind} suite must be {scored[0]!r}, got {data.get('normalizer')!r}"
+        )
+    references = data.get("references")
+    allowed = KIND_REFERENCES[kind]
+    if (
+        not isinstance(references, list)
+        or len(set(map(str, references))) != len(references)
+        or not set(scored) <= set(references) <= set(allowed)
+    ):
+        raise ValueError(
+            f"{path}: references of a {kind} suite must be distinct names of {list(allowed)} including "
+            f"{list(scored)}, got {references!r}"
+        )
+    return str(kind), tuple(references)
+
+
+def _scenario(path: Path, kind: str, references: tuple[str, ...], position: int, rec: Any) -> SuiteScenario:
+    """Scenario ``position`` of a suite file, checked (``ValueError`` naming it and the field)."""
+    where = f"{path}: scenario {position}"
+    if not isinstance(rec, dict):
+        raise ValueError(f"{where} must be an object (index, config and reference values), got {rec!r}")
+    index = rec.get("index")
+    if isinstance(index, bool) or not isinstance(index, int):
+        raise ValueError(f"{where}: index must be an integer, got {index!r}")
+    missing = [r for r in references if r not in rec]
+    if missing or not isinstance(rec.get("config"), dict):
+        lacks = (
+            f"the reference values {missing}"
+            if missing
+            else "its config (an object of ScenarioConfig fields)"
+        )
+        raise ValueError(f"{path}: scenario {index} lacks {lacks}")
+    try:
+        config = ScenarioConfig(**rec["config"])
+    except (TypeError, ValueError) as err:
+        raise ValueError(f"{path}: scenario {index}: config: {err}") from None
+    if kind == SINGLE_NODE and config.K != 1:
+        raise ValueError(
+            f"{path}: scenario {index}: a single-node suite's config has one node, got K = {config.K}"
+        )
+    reference = {}
+    for r in references:
+        values = rec[r]
+        if not isinstance(values, dict):
+            raise ValueError(
+                f"{path}: scenario {index}: {r} must be an object of reference values, got {values!r}"
+            )
+        key = "upper_bound" if r == "bound" else "rate"
+        low = 0.0 if r in SCORED[kind] else None  # a score is a percentage of it: > 0
+        _number(values.get(key), f"{path}: scenario {index}: {r}.{key} (bps/Hz)", low)
+        for field in ("seconds", "plan_rate", "resolution"):
+            if field in values:
+                _number(values[field], f"{path}: scenario {index}: {r}.{field}", None)
+        for field in ("feasible", "plan_feasible"):
+            if field in values and not isinstance(values[field], bool):
+                raise ValueError(
+                    f"{path}: scenario {index}: {r}.{field} must be true or false, got {values[field]!r}"
+                )
+        reference[r] = dict(values)
+    return SuiteScenario(index, config, reference)
+
+
+def _number(value: Any, where: str, above: float | None) -> None:
+    """``value`` must be a finite number >= 0 (> ``above`` when given)."""
+    ok = isinstance(value, (int, float)) and not isinstance(value, bool) and math.isfinite(value)
+    if not ok or value < 0 or (above is not None and value <= above):
+        bound = f"> {above:g}" if above is not None else ">= 0"
+        raise ValueError(f"{where} must be a finite number {bound}, got {value!r}")
 
 
 def list_suites() -> list[dict[str, Any]]:

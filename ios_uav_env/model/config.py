@@ -58,7 +58,7 @@ class ScenarioConfig:
     qF: tuple[float, float] = (400.0, 20.0)  # m, final horizontal position q_F = q[N]
     ground_node: tuple[float, float] = (-100.0, -20.0)  # m, ground node G, w_G = (x_G, y_G), z = 0
     uav_altitude: float = 100.0  # m, fixed UAV altitude z_U (assumption: not given in the paper)
-    ios_center: tuple[float, float, float] = (0.0, 0.0, 40.0)  # m, IOS centre; plane x = x_c
+    ios_center: tuple[float, float, float] = (0.0, 0.0, 40.0)  # m, IOS centre; plane x = x_c (no node on it)
     ios_shape: tuple[int, int] = (100, 60)  # (M_y, M_z): columns along y, rows along z (assumption)
     epsilon: float = 3.55  # transmissive power-pattern factor epsilon, eq. (2)
     kappa: float = 3.0  # Rician factor kappa, eqs. (4)-(5)
@@ -93,6 +93,7 @@ class ScenarioConfig:
         object.__setattr__(self, "ground_node", _pair(self.ground_node, "ground_node"))
         self._canonical_nodes()
         object.__setattr__(self, "ios_center", _pair(self.ios_center, "ios_center", 3))
+        self._nodes_off_the_plane()
         shape = _pair(self.ios_shape, "ios_shape")
         if any(isinstance(v, (bool, np.bool_)) for v in self.ios_shape) or not all(
             s == int(s) and s >= 1 for s in shape
@@ -173,6 +174,22 @@ class ScenarioConfig:
             )
         object.__setattr__(self, "ground_node", pairs[0])
         object.__setattr__(self, "ground_nodes", pairs if len(pairs) > 1 else None)
+
+    def _nodes_off_the_plane(self) -> None:
+        """With a surface, no ground node may lie on its plane x = x_c: which side the node is on
+        (reflection or transmission) is what the surface's channel depends on, and on the plane
+        it is undefined."""
+        if self.surface == "none":
+            return
+        plane = self.ios_center[0]
+        for i, node in enumerate(self.nodes):
+            if node[0] == plane:
+                name = "ground_node" if self.K == 1 else f"ground_nodes[{i}]"
+                raise ValueError(
+                    f"{name}={node} lies on the IOS plane x = ios_center[0] = {plane:g} m, where its "
+                    f"side of the surface (reflect or transmit, surface={self.surface!r}) is undefined: "
+                    f"move the node off the plane (x != {plane:g} m) or use surface='none'"
+                )
 
     # --- derived quantities -------------------------------------------------------
     @property
