@@ -37,7 +37,7 @@ import numpy as np
 from gymnasium.vector.utils import batch_space
 
 from ios_uav_env.envs.policies import full_speed_move
-from ios_uav_env.model.config import ScenarioConfig
+from ios_uav_env.model.config import ScenarioConfig, as_config
 
 try:  # Gymnasium >= 1.1 names the autoreset modes
     from gymnasium.vector import AutoresetMode
@@ -61,6 +61,32 @@ def check_threads(num_threads: Any) -> int | None:
     if isinstance(num_threads, bool) or not isinstance(num_threads, (int, np.integer)) or num_threads < 1:
         raise ValueError(f"num_threads must be None (every core) or an integer >= 1, got {num_threads!r}")
     return int(num_threads)
+
+
+def _is_integer(value: Any) -> bool:
+    """Whether ``value`` is an integer (Python's or numpy's; a bool is not one)."""
+    return isinstance(value, (int, np.integer)) and not isinstance(value, (bool, np.bool_))
+
+
+def _whole_numbers(values: Any, name: str) -> np.ndarray:
+    """``values`` as a flat int64 array (``ValueError`` naming ``name`` unless each is a whole number)."""
+    array = np.asarray(values).reshape(-1)
+    floats = np.issubdtype(array.dtype, np.floating)
+    whole = floats and bool(np.all(np.abs(array) < 2**53) and np.all(array % 1 == 0))
+    if array.dtype == np.bool_ or not (np.issubdtype(array.dtype, np.integer) or whole or array.size == 0):
+        raise ValueError(f"{name} must be whole numbers, got {values!r}")
+    return array.astype(np.int64)
+
+
+def _occurrences(rows: np.ndarray) -> list[np.ndarray]:
+    """The entries of ``rows`` by occurrence: the indices of each row's first entry, then of each
+    row's second, ... (each group holds distinct rows)."""
+    count: dict[int, int] = {}
+    order = np.zeros(rows.size, dtype=np.int64)
+    for r, i in enumerate(rows.tolist()):
+        order[r] = count.get(i, 0)
+        count[i] = int(order[r]) + 1
+    return [np.flatnonzero(order == k) for k in range(int(order.max(initial=-1)) + 1)]
 
 
 class BatchedEnv(gym.vector.VectorEnv):
@@ -172,19 +198,71 @@ class BatchedEnv(gym.vector.VectorEnv):
 
     def _row_options(self, options: Mapping[str, Any] | None) -> list[Any]:
         """Each row's reset options: ``{"config": cfg}`` pins every row, ``{"configs": [cfg_0,
-        ..., cfg_{B-1}]}`` one scenario per row (None for a row: its own draw)."""
-        if options is None or "configs" not in options:
-            return [None if options is None else dict(options)] * self.num_envs
+        ..., cfg_{B-1}]}`` one scenario per row (None for a row: its own draw). Every pinned
+        scenario is checked here (``ValueError`` / ``TypeError`` naming it), before any row resets."""
+        if options is None or not isinstance(options, Mapping) or "configs" not in options:
+            only_config = isinstance(options, Mapping) and set(options) == {"config"}
+            pinned = options.get("config") if only_config else None
+            if pinned is None:  # (any other key or type: the row env's reset refuses it)
+                return [options] * self.num_envs
+            return [{"config": self._pinned(0, pinned, 'options["config"]')}] * self.num_envs
         if set(options) != {"configs"}:
             raise ValueError(
                 f'reset takes options={{"config": cfg}} or {{"configs": [...]}}, got {sorted(options)}'
             )
-        configs = list(options["configs"])
+        configs = options["configs"]
+        if isinstance(configs, (ScenarioConfig, Mapping, str, bytes)) or not isinstance(
+            configs, (Sequence, np.ndarray)
+        ):
+            raise TypeError(
+                f'options["configs"] must be a list of {self.num_envs} scenarios (one per row: a '
+                "ScenarioConfig, a dict of its fields, or None for the row's own), got "
+                f'{type(configs).__name__}; options={{"config": cfg}} pins every row to one scenario'
+            )
+        configs = list(configs)
         if len(configs) != self.num_envs:
             raise ValueError(
                 f'options["configs"] must hold {self.num_envs} scenarios (one per row), got {len(configs)}'
             )
-        return [None if c is None else {"config": c} for c in configs]
+        rows: list[Any] = []
+        checked: dict[int, Any] = {}  # id of a config given for several rows -> it checked once
+        for i, config in enumerate(configs):
+            if config is not None and id(config) not in checked:
+                checked[id(config)] = self._pinned(i, config, f'options["configs"][{i}]')
+            rows.append(None if config is None else {"config": checked[id(config)]})
+        return rows
+
+    def _pinned(self, i: int, config: Any, field: str) -> Any:
+        """Row ``i``'s pinned scenario ``config`` checked by the row env's ``_check_scenario`` when it
+        has one (the package's envs: a ``ScenarioConfig`` or a dict of its fields, which must fit
+        the env; ``ValueError`` / ``TypeError`` naming ``field``); other envs take it as given."""
+        check = getattr(self.envs[i], "_check_scenario", None)
+        if check is None:
+            return config
+        cfg = as_config(config, field)
+        check(cfg, field)
+        return cfg
+
+    def _seeds(self, seed: Any) -> list[int | None]:
+        """Each row's reset seed: None, ``seed + i`` for an integer ``seed``, or the i-th of a list
+        of ``num_envs`` seeds (``ValueError`` naming the entry unless each is None or an integer >= 0)."""
+        b = self.num_envs
+        allowed = f"None, an integer >= 0 (row i is seeded with seed + i) or a list of {b} integers >= 0"
+        if seed is None:
+            return [None] * b
+        if _is_integer(seed):
+            if seed < 0:
+                raise ValueError(f"seed must be {allowed}, got {seed!r}")
+            return [int(seed) + i for i in range(b)]
+        if isinstance(seed, (str, bytes, Mapping)) or not isinstance(seed, (Sequence, np.ndarray)):
+            raise ValueError(f"seed must be {allowed}, got {seed!r}")
+        seeds = list(seed)
+        if len(seeds) != b:
+            raise ValueError(f"seed must be an int or {b} seeds (one per env), got {len(seeds)}")
+        for i, value in enumerate(seeds):
+            if not (value is None or (_is_integer(value) and value >= 0)):
+                raise ValueError(f"seed[{i}] must be None or an integer >= 0, got {value!r}")
+        return [None if value is None else int(value) for value in seeds]
 
     def _infos(self, table: np.ndarray | None = None) -> dict[str, Any]:
         """``info``: views of the info table (``info_keys``), then the ``_key`` masks."""
@@ -196,18 +274,13 @@ class BatchedEnv(gym.vector.VectorEnv):
     def reset(
         self, *, seed: int | Sequence[int] | None = None, options: Mapping[str, Any] | None = None
     ) -> tuple[np.ndarray, dict[str, Any]]:
-        if seed is None:
-            seeds: list[int | None] = [None] * self.num_envs
-        elif isinstance(seed, (int, np.integer)):
-            seeds = [int(seed) + i for i in range(self.num_envs)]
-        else:
-            seeds = list(seed)
-            if len(seeds) != self.num_envs:
-                raise ValueError(
-                    f"seed must be an int or {self.num_envs} seeds (one per env), got {len(seeds)}"
-                )
+        seeds, row_options = self._seeds(seed), self._row_options(options)  # checked before any row resets
         self._outputs()
-        self._reset_rows(np.arange(self.num_envs), seeds, self._row_options(options))
+        try:
+            self._reset_rows(np.arange(self.num_envs), seeds, row_options)
+        except Exception:
+            self._started = False  # no half-reset batch to step: the next call must be reset()
+            raise
         self._autoreset[:] = False
         self._started = True
         return self._obs, self._infos()
@@ -270,10 +343,18 @@ class BatchedEnv(gym.vector.VectorEnv):
         """Hidden steps on ``rows``: row ``rows[r]`` flies ``moves[r]`` slots towards ``targets[r]``
         ((n, 2) m) at full speed, hovering once there (the arrival guard as always; the other
         action entries 0: the multi-node env serves every node equally), as :meth:`advance`
-        would step it, and none of these steps is returned. ``moves[r]`` must leave the row's
+        would step it, and none of these steps is returned. A row given more than once flies
+        its entries in order. The moves of a row, summed over its entries, must leave its
         episode unfinished. Returns the batch's current observations (those rows' after the
         flight). E.g. to start episodes part-way (``agents.vec_env.VecExploringStarts``)."""
         rows, targets, moves = self._fly_args(rows, targets, moves)
+        obs = self._obs
+        for entries in _occurrences(rows):  # a row's first entry, then its second, ...
+            obs = self._fly_once(rows[entries], targets[entries], moves[entries])
+        return obs
+
+    def _fly_once(self, rows: np.ndarray, targets: np.ndarray, moves: np.ndarray) -> np.ndarray:
+        """:meth:`fly` of distinct ``rows`` (checked arguments) through :meth:`advance`."""
         obs = self._obs
         width = self.single_action_space.shape[0]
         for j in range(int(moves.max(initial=0))):
@@ -287,23 +368,34 @@ class BatchedEnv(gym.vector.VectorEnv):
         return obs
 
     def _fly_args(self, rows: Any, targets: Any, moves: Any) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """:meth:`fly`'s arguments checked (``ValueError`` naming the field)."""
+        """:meth:`fly`'s arguments checked (``ValueError`` naming the field and its limit)."""
         if not self._started:
             raise RuntimeError("call reset() before fly()")
-        rows = np.asarray(rows, dtype=np.int64).reshape(-1)
+        rows = _whole_numbers(rows, "fly rows")
         targets = np.require(np.asarray(targets, dtype=np.float64).reshape(-1, 2), requirements=["C"])
-        moves = np.asarray(moves, dtype=np.int64).reshape(-1)
+        moves = _whole_numbers(moves, "fly moves")
         if not (rows.size == len(targets) == moves.size) or np.any((rows < 0) | (rows >= self.num_envs)):
             raise ValueError(
                 f"fly needs one target (x, y) and one move count per row of 0..{self.num_envs - 1}"
             )
         if not np.all(np.isfinite(targets)):
             raise ValueError("fly targets must be finite (m)")
-        left = np.array([self.envs[i].config.N - 1 for i in rows]) - self._state[rows, 2]
-        if np.any(moves < 0) or np.any(moves >= left) or np.any(self._autoreset[rows]):
-            raise ValueError(
-                f"fly moves must be >= 0 and leave each row's episode unfinished (< {left.tolist()})"
-            )
+        if np.any(moves < 0):
+            raise ValueError(f"fly moves must be >= 0, got {moves.tolist()}")
+        total = np.zeros(self.num_envs, dtype=np.int64)
+        np.add.at(total, rows, moves)  # a row given twice flies both entries
+        for i in np.unique(rows).tolist():
+            if self._autoreset[i]:
+                raise ValueError(
+                    f"fly moves must leave each row's episode unfinished: row {i}'s episode has ended "
+                    "(it restarts at its next step)"
+                )
+            left = self.envs[i].config.N - 1 - int(self._state[i, 2])
+            if total[i] >= left:
+                raise ValueError(
+                    f"fly moves must leave each row's episode unfinished: row {i} is given {total[i]} "
+                    f"moves (summed over its entries), at most {left - 1} (it has {left} moves left)"
+                )
         return rows, targets, moves
 
     def restart(self, rows: Sequence[int]) -> np.ndarray:
@@ -312,7 +404,11 @@ class BatchedEnv(gym.vector.VectorEnv):
         episode before training (``agents.vec_env.BatchedVecEnv(stagger=True)``)."""
         if not self._started:
             raise RuntimeError("call reset() before restart()")
-        rows = np.asarray(rows, dtype=np.int64)
+        rows = _whole_numbers(rows, "restart rows")
+        if np.any((rows < 0) | (rows >= self.num_envs)):
+            raise ValueError(
+                f"restart rows must be row indices in 0..{self.num_envs - 1}, got {rows.tolist()}"
+            )
         self._restart_rows(rows)
         self._autoreset[rows] = False
         return self._obs

@@ -110,8 +110,9 @@ class MultiNodeEnv(gym.Env):
     ``Box(-1, 1, (2 + K_max,), float32)``: the move of the slot in units of D (projected onto
     the unit disk, then by the arrival guard, as in ``IOSUAVEnv``), then one score per node;
     the shares of the new slot are the softmax of ``share_sharpness`` x the scores of the
-    scenario's K nodes (padding entries are ignored), so they are >= 0 and sum to 1. Slot 1
-    (q0, before any action) is shared equally.
+    scenario's K nodes, each clipped to the space's [-1, 1] (padding entries are ignored), so
+    they are >= 0 and sum to 1 for any finite action. Slot 1 (q0, before any action) is
+    shared equally.
 
     ## Observation Space
 
@@ -224,10 +225,15 @@ class MultiNodeEnv(gym.Env):
             random_nodes = (lo, hi)
         self.random_nodes = random_nodes
         self.ranges = ranges
-        k_default = random_nodes[1] if random_nodes else self._base.K
-        self.max_nodes = int(k_default if max_nodes is None else max_nodes)
-        if self.max_nodes < max(self._base.K, random_nodes[1] if random_nodes else 1):
-            raise ValueError(f"max_nodes must be >= the scenario's K = {self._base.K}, got {self.max_nodes}")
+        # the most nodes an episode can have: random_nodes' high when every reset draws (the
+        # config is then not an episode's scenario), else the config's K
+        needed = random_nodes[1] if random_nodes else self._base.K
+        what = f"random_nodes' high = {needed}" if random_nodes else f"the scenario's K = {needed}"
+        if max_nodes is not None and (
+            isinstance(max_nodes, bool) or not isinstance(max_nodes, (int, np.integer)) or max_nodes < needed
+        ):
+            raise ValueError(f"max_nodes must be an integer >= {what}, got {max_nodes!r}")
+        self.max_nodes = int(needed if max_nodes is None else max_nodes)
         if not (
             isinstance(share_sharpness, (int, float))
             and math.isfinite(share_sharpness)
@@ -300,18 +306,27 @@ class MultiNodeEnv(gym.Env):
         super().reset(seed=seed)
         pinned = scenario_option(options)
         cfg = self._episode_config(pinned)
+        if pinned is not None:
+            self._check_scenario(cfg)
+        self.config = cfg
+        return cfg
+
+    def _check_scenario(self, cfg: ScenarioConfig, field: str = 'options["config"]') -> None:
+        """Raise ``ValueError`` naming ``field`` unless the pinned scenario ``cfg`` can be an episode
+        of this env: at most ``max_nodes`` nodes and observations inside the space (the batched
+        env checks every row's pinned scenario with it before it resets any row)."""
         if cfg.K > self.max_nodes:
             raise ValueError(
-                f"the scenario has K = {cfg.K} nodes; this env observes at most max_nodes = {self.max_nodes}"
+                f"{field}: the scenario has K = {cfg.K} nodes; this env observes at most max_nodes = "
+                f"{self.max_nodes}"
             )
-        if pinned is not None and pinned != self._base:  # could its observations leave the space?
+        if cfg != self._base:  # could its observations leave the space?
             low, high = self._bounds(cfg)
             if np.any(low < self.observation_space.low) or np.any(high > self.observation_space.high):
                 raise ValueError(
-                    f"the scenario {cfg} does not fit this env's observation space; make an env on it instead"
+                    f"{field}: the scenario {cfg} does not fit this env's observation space; make an env "
+                    "on it instead"
                 )
-        self.config = cfg
-        return cfg
 
     def reset(
         self, *, seed: int | None = None, options: dict[str, Any] | None = None

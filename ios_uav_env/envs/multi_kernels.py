@@ -198,13 +198,14 @@ def reset_rows(
 
 @jit(inline=True, fastmath=False)
 def _softmax(i: int, actions: np.ndarray, sharpness: float, k_n: int, shares: np.ndarray) -> None:
-    """Row ``i``'s shares: the softmax of ``sharpness`` x its K node scores (``actions[i, 2:2+K]``)."""
+    """Row ``i``'s shares: the softmax of ``sharpness`` x its K node scores (``actions[i, 2:2+K]``),
+    each clipped to the action space's [-1, 1] first (so any finite score gives finite shares)."""
     top = -math.inf
     for k in range(k_n):
-        top = max(top, sharpness * actions[i, 2 + k])
+        top = max(top, sharpness * min(1.0, max(-1.0, actions[i, 2 + k])))
     total = 0.0
     for k in range(k_n):
-        shares[i, k] = math.exp(sharpness * actions[i, 2 + k] - top)
+        shares[i, k] = math.exp(sharpness * min(1.0, max(-1.0, actions[i, 2 + k])) - top)
         total += shares[i, k]
     for k in range(k_n):
         shares[i, k] /= total
@@ -217,8 +218,11 @@ def _step_row(
     flags: np.ndarray, obs: np.ndarray, reward: np.ndarray, terminated: np.ndarray, info: np.ndarray,
     path: np.ndarray, share_path: np.ndarray, norms: np.ndarray,
 ) -> None:  # fmt: skip
-    """One slot of row ``i`` (see :func:`step_rows`)."""
+    """One slot of row ``i`` (see :func:`step_rows`); a row whose episode is over (or whose
+    ``path`` is full) is left as it is: nothing is written past its slot N."""
     ep, st = episode[i], state[i]
+    if st[2] >= ep[3] or st[2] + 1.0 >= min(path.shape[1], share_path.shape[1]):
+        return  # (the envs never step such a row: they check first)
     d, n_slots, k_n = ep[0], ep[5], int(ep[8])
     ax, ay = actions[i, 0], actions[i, 1]
     norm = norms[i]
@@ -297,11 +301,25 @@ def fly_rows(
     episode: np.ndarray, points: np.ndarray, nodes: np.ndarray, params: np.ndarray, served: np.ndarray,
     shares: np.ndarray, rates: np.ndarray, flags: np.ndarray, obs: np.ndarray, reward: np.ndarray,
     terminated: np.ndarray, info: np.ndarray, path: np.ndarray, share_path: np.ndarray, norms: np.ndarray,
-) -> None:  # fmt: skip
+) -> int:  # fmt: skip
     """``moves[r]`` slots of row ``rows[r]``, each a full-speed move towards ``targets[r]`` (the rest
     of the way once within D; the arrival guard as always) with equal shares: the steps of
     :func:`step_rows` with those actions (``actions`` and ``norms`` are scratch, (B, 2 + K_max)
-    and (B,))."""
+    and (B,)); a row given more than once flies its entries in order. Returns -1, or, flying
+    nothing, the first entry ``r`` that is out of range: a row outside 0..B-1, a move count
+    < 0, or a row whose moves (summed over its entries) would finish its episode or pass the
+    end of ``path``."""
+    if targets.shape[0] < rows.size or moves.size < rows.size:
+        return 0
+    planned = np.zeros(state.shape[0])
+    for r in range(rows.size):
+        i = rows[r]
+        if i < 0 or i >= state.shape[0] or moves[r] < 0:
+            return r
+        planned[i] += moves[r]
+        end = state[i, 2] + planned[i]  # moves made after this entry
+        if end >= episode[i, 3] or end >= min(path.shape[1], share_path.shape[1]):
+            return r
     for r in range(rows.size):
         i = rows[r]
         for k in range(actions.shape[1]):
@@ -316,6 +334,7 @@ def fly_rows(
             actions[i, 0], actions[i, 1] = mx, my
             _step_row(i, actions, state, episode, points, nodes, params, served, shares, rates, flags, obs,
                       reward, terminated, info, path, share_path, norms)  # fmt: skip
+    return -1
 
 
 def move_norms(actions: np.ndarray) -> np.ndarray:
@@ -403,12 +422,18 @@ class NodeRows:
 
     def fly(self, rows: np.ndarray, targets: np.ndarray, moves: np.ndarray, obs: np.ndarray,
             info: np.ndarray) -> None:  # fmt: skip
-        """:func:`fly_rows` (checked arguments), writing ``obs`` and the ``info`` table."""
+        """:func:`fly_rows` (checked arguments: ``ValueError`` if the kernel still refuses an
+        entry, having flown nothing), writing ``obs`` and the ``info`` table."""
         b, width = self.state.shape[0], 2 + self.shares.shape[1]
-        fly_rows(rows, targets, moves, np.zeros((b, width)), self.state, self.episode, self.points,
-                 self.nodes, self.params, self.served, self.shares, self.rates, self.flags, obs,
-                 np.zeros(b), np.zeros(b, dtype=np.bool_), info, self.path, self.share_path,
-                 np.zeros(b))  # fmt: skip
+        bad = fly_rows(rows, targets, moves, np.zeros((b, width)), self.state, self.episode, self.points,
+                       self.nodes, self.params, self.served, self.shares, self.rates, self.flags, obs,
+                       np.zeros(b), np.zeros(b, dtype=np.bool_), info, self.path, self.share_path,
+                       np.zeros(b))  # fmt: skip
+        if bad >= 0:
+            raise ValueError(
+                f"fly entry {bad} (row {rows[bad] if bad < rows.size else '?'}) is out of range: rows must "
+                f"be 0..{b - 1}, moves >= 0 and, summed per row, leave each row's episode unfinished"
+            )
 
     def schedule(self, i: int, k: int) -> np.ndarray:
         """Row ``i``'s shares of its ``k`` nodes so far, (k, n + 1): slot 1's, then one column per step."""

@@ -291,12 +291,23 @@ class IOSUAVEnv(gym.Env):
         pinned = scenario_option(options)
         cfg = self._episode_config(pinned)
         if cfg is not self._base_config and cfg != self.config:  # may it leave the space?
-            check_fits(
-                cfg, self.options.length_scale, self.options.instance_features, self.observation_space,
-                self.options.peak_hint,
-            )  # fmt: skip
+            self._check_scenario(cfg, 'options["config"]' if pinned is not None else "the drawn scenario")
         self._set_config(cfg)
         return cfg
+
+    def _check_scenario(self, cfg: ScenarioConfig, field: str = 'options["config"]') -> None:
+        """Raise ``ValueError`` naming ``field`` unless ``cfg`` can be an episode of this env: one
+        ground node (K = 1) and observations inside the space (the batched env checks every
+        row's pinned scenario with it before it resets any row)."""
+        if cfg.K != 1:
+            raise ValueError(
+                f"{field} has K = {cfg.K} ground_nodes; this env serves one node (K = 1): use "
+                "ios_uav_env/IOSUAV-MultiNode-v0 (MultiNodeEnv) for several"
+            )
+        check_fits(
+            cfg, self.options.length_scale, self.options.instance_features, self.observation_space,
+            self.options.peak_hint,
+        )  # fmt: skip
 
     def _draw_normals(self) -> None:
         if self._rician:  # h_SS of the slot: real, then imaginary part

@@ -177,6 +177,15 @@ def _finite_actions(actions: np.ndarray, active: np.ndarray) -> int:
 
 
 @jit(inline=True)
+def _ended_row(active: np.ndarray, state: np.ndarray, episode: np.ndarray, path: np.ndarray) -> int:
+    """-1 if every active row has a move left (and room in ``path``), else the first that has not."""
+    for i in range(active.shape[0]):
+        if active[i] and (state[i, 2] >= episode[i, 3] or state[i, 2] + 1.0 >= path.shape[1]):
+            return i
+    return -1
+
+
+@jit(inline=True)
 def _step_row(
     i: int, actions: np.ndarray, state: np.ndarray, episode: np.ndarray, nodes: np.ndarray,
     params: np.ndarray, normals: np.ndarray, flags: np.ndarray, obs: np.ndarray, reward: np.ndarray,
@@ -201,8 +210,12 @@ def step_rows(
 ) -> int:  # fmt: skip
     """One slot of every active row (:func:`_step_row`), one after the other: the single env's
     step (one row). Returns -1, or, stepping nothing, the first active row whose action is not
-    finite."""
+    finite, or else ``B`` + the first active row whose episode is over (nothing is ever written
+    past a row's slot N: the envs check first)."""
     bad = _finite_actions(actions, active)
+    if bad < 0:
+        ended = _ended_row(active, state, episode, path)
+        bad = -1 if ended < 0 else actions.shape[0] + ended
     if bad < 0:
         for i in range(actions.shape[0]):
             if active[i]:
@@ -222,6 +235,9 @@ def step_rows_batched(
     reference counting that the inlined helpers cost in :func:`step_rows`. (Two functions, not
     one compiled twice: numba's disk cache keys a function by its name, not by its options.)"""
     bad = _finite_actions(actions, active)
+    if bad < 0:
+        ended = _ended_row(active, state, episode, path)
+        bad = -1 if ended < 0 else actions.shape[0] + ended
     if bad < 0:
         for i in prange(actions.shape[0]):  # rows are independent
             if active[i]:

@@ -129,6 +129,8 @@ class IOSUAVVectorEnv(BatchedEnv):
         bad = run_batched(step_rows_batched, step_rows, self.num_threads, actions, self._state, self._episode,
                           self._nodes, self._params, self._normals, self._flags, self._obs, self._reward,
                           self._terminated, self._info, self._path, active)  # fmt: skip
+        if bad >= self.num_envs:  # nothing stepped (the autoreset restarts ended rows first)
+            raise RuntimeError(f"row {bad - self.num_envs}'s episode is over: it cannot step")
         if bad >= 0:  # nothing stepped
             rows = np.flatnonzero(~np.isfinite(actions).all(axis=1))
             raise ValueError(f"actions must be finite (no NaN or inf); rows {rows.tolist()[:10]} are not")

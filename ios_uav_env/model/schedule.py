@@ -23,6 +23,21 @@ value min_k R_k of those shares exactly; it takes the dual weights w of the K ra
 are independent computations and must agree to ``CERTIFY_TOL`` (else ``RuntimeError``).
 The value returned is the primal one (achieved by the returned shares).
 
+**Any scale.** HiGHS's tolerances are absolute and it drops matrix entries below 1e-9, so
+far nodes (rates of 1e-10 bps/Hz and less) need care; every step below is relative to
+B = min_k B_k, B_k = R_k with every free slot given to node k (V <= B <= K V):
+
+- B = 0: some node can never be served, V = 0 (certified by w on that node, g(w) = 0).
+- B < ``SCALE_BELOW``: the LP is solved on the rates divided by the power of two that brings
+  B into [1/2, 1) (an exact scaling), and certified in those units: the tolerance is
+  ``CERTIFY_TOL`` x max(scale, value) (scale 1 above ``SCALE_BELOW``: the rates as given).
+- A node with B < ``FREE_RATIO`` x B_k is served outside the LP: the same share of every free
+  slot, just enough for R_k >= B >= V (at most ``FREE_RATIO`` of the slot; the LP shares the
+  rest), which costs the others at most a fraction ``FREE_RATIO`` per such node.
+- A node left with less than ``SMALL_SHARE`` of the free time, whose LP shares are at the
+  level of the solver's tolerances, is topped up to the smallest R_k of the other nodes
+  (its shares scaled, the slots' columns scaled back to sum <= 1) when that raises the value.
+
 **Continuation.** ``maxmin_schedule(rates, fixed)`` keeps the shares ``fixed`` (K, n0) of the
 first n0 slots (already served) and chooses the rest: the same LP with the fixed slots' rates
 P_k = (1/N) sum_{n < n0} alpha_k[n] r_k[n] on the right-hand side, certified by
@@ -36,6 +51,7 @@ for K > 1.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -44,13 +60,23 @@ from ios_uav_env.model.channel import as_positions, slot_rates
 from ios_uav_env.model.config import ScenarioConfig
 from ios_uav_env.model.trajectory import as_trajectory, average_rate
 
-#: Largest |primal - dual| (absolute, bps/Hz, scaled by max(1, value)) a certified score may have.
+#: Largest |primal - dual| a certified score may have, in units of max(scale, value) (bps/Hz;
+#: scale: 1, or the power of two of a rate matrix scaled below ``SCALE_BELOW``).
 CERTIFY_TOL = 1e-9
+#: Below this bound B (bps/Hz) the LP is solved on the rates scaled by a power of two.
+SCALE_BELOW = 2.0**-16
+#: A node whose bound B_k is above B / ``FREE_RATIO`` is served outside the LP.
+FREE_RATIO = 1e-12
+#: A node with less than this fraction of the free time has its LP shares topped up.
+SMALL_SHARE = 1e-6
 #: Column sums of given shares may exceed 1 by this much (rounding).
 SHARE_TOL = 1e-9
 
 __all__ = [
     "CERTIFY_TOL",
+    "FREE_RATIO",
+    "SCALE_BELOW",
+    "SMALL_SHARE",
     "Schedule",
     "best_schedule",
     "dual_value",
@@ -133,7 +159,7 @@ def maxmin_schedule(rates: np.ndarray, fixed: np.ndarray | None = None) -> Sched
     the bound :func:`dual_value` (``fixed``) as its certificate; ``shares`` holds both parts.
 
     Raises ``RuntimeError`` when the LP fails or its primal and dual values differ by more
-    than ``CERTIFY_TOL`` (times max(1, value)).
+    than ``CERTIFY_TOL`` (times max(scale, value): the module docstring, "Any scale").
     """
     r = _check_rates(rates)
     a = _check_fixed(r, fixed)
@@ -147,39 +173,90 @@ def maxmin_schedule(rates: np.ndarray, fixed: np.ndarray | None = None) -> Sched
     from scipy.optimize import linprog
     from scipy.sparse import csr_matrix, hstack, vstack
 
-    # variables: alpha of the free slots (k-major, K * m) then t; minimise -t
     free, m = r[:, n0:], n - n0
     past = np.sum(a * r[:, :n0], axis=1) / n  # (K,) served in the fixed slots
-    rows = np.repeat(np.arange(k_nodes), m)
-    rate_rows = csr_matrix((-free.ravel() / n, (rows, np.arange(k_nodes * m))), shape=(k_nodes, k_nodes * m))
-    slot_rows = csr_matrix((np.ones(k_nodes * m), (np.tile(np.arange(m), k_nodes), np.arange(k_nodes * m))))
+    later = np.sum(free, axis=1) / n  # (K,) R_k - past_k with every free slot given to node k
+    reach = past + later  # (K,) B_k >= R_k of any schedule
+    low = int(np.argmin(reach))
+    bound = float(reach[low])  # B: V <= B <= K V
+    if bound == 0.0:  # node `low` can never be served: V = 0, and g(e_low) = B = 0
+        shares = np.concatenate([a, np.full((k_nodes, m), 1.0 / k_nodes)], axis=1)
+        w = np.zeros(k_nodes)
+        w[low] = 1.0
+        per_node = np.mean(shares * r, axis=1)
+        return Schedule(shares, w, float(per_node.min()), dual_value(r, w, fixed), per_node)
+    # nodes served outside the LP: theta_k of every free slot gives R_k >= B
+    cheap = bound < FREE_RATIO * reach
+    theta = np.zeros(k_nodes)
+    need = cheap & (past < bound)
+    theta[need] = (bound - past[need]) / later[need]
+    cap = 1.0 - float(theta.sum())  # what the LP may share of each free slot
+    lp = np.flatnonzero(~cheap)
+    k_lp = lp.size
+    scale = 2.0 ** math.frexp(bound)[1] if bound < SCALE_BELOW else 1.0  # exact: a power of two
+
+    # variables: alpha of the LP's nodes in the free slots (k-major, k_lp * m) then t / scale;
+    # minimise -t / scale
+    rows = np.repeat(np.arange(k_lp), m)
+    scaled = (free[lp] / scale).ravel() / n
+    rate_rows = csr_matrix((-scaled, (rows, np.arange(k_lp * m))), shape=(k_lp, k_lp * m))
+    slot_rows = csr_matrix((np.ones(k_lp * m), (np.tile(np.arange(m), k_lp), np.arange(k_lp * m))))
     a_ub = vstack(
-        [hstack([rate_rows, csr_matrix(np.ones((k_nodes, 1)))]), hstack([slot_rows, csr_matrix((m, 1))])]
+        [hstack([rate_rows, csr_matrix(np.ones((k_lp, 1)))]), hstack([slot_rows, csr_matrix((m, 1))])]
     ).tocsr()
-    b_ub = np.concatenate([past, np.ones(m)])
-    c = np.zeros(k_nodes * m + 1)
+    b_ub = np.concatenate([past[lp] / scale, np.full(m, cap)])
+    c = np.zeros(k_lp * m + 1)
     c[-1] = -1.0
-    bounds = [(0.0, 1.0)] * (k_nodes * m) + [(0.0, None)]
+    bounds = [(0.0, 1.0)] * (k_lp * m) + [(0.0, None)]
     tols = {"primal_feasibility_tolerance": 1e-10, "dual_feasibility_tolerance": 1e-10}
     res = linprog(c, A_ub=a_ub, b_ub=b_ub, bounds=bounds, method="highs-ds", options=tols)
     if res.status != 0 or res.x is None:
         raise RuntimeError(f"max-min schedule LP failed: {res.message}")
-    chosen = np.clip(res.x[:-1].reshape(k_nodes, m), 0.0, 1.0)
-    shares = np.concatenate([a, chosen / np.maximum(chosen.sum(axis=0), 1.0)], axis=1)
+    chosen = np.clip(res.x[:-1].reshape(k_lp, m), 0.0, 1.0)
+    shares = np.zeros((k_nodes, n))
+    shares[:, :n0] = a
+    shares[lp, n0:] = chosen / np.maximum(chosen.sum(axis=0) / cap, 1.0)
+    shares[cheap, n0:] = theta[cheap, None]
     per_node = np.mean(shares * r, axis=1)
+    shares, per_node = _top_up(shares, per_node, r, n0, past, later)
     value = float(per_node.min())
-    w = np.maximum(-np.asarray(res.ineqlin.marginals[:k_nodes], dtype=float), 0.0)
+    w = np.zeros(k_nodes)
+    w[lp] = np.maximum(-np.asarray(res.ineqlin.marginals[:k_lp], dtype=float), 0.0)
     if not w.sum() > 0:
-        raise RuntimeError(
-            f"max-min schedule LP returned no dual weights ({res.ineqlin.marginals[:k_nodes]})"
-        )
+        raise RuntimeError(f"max-min schedule LP returned no dual weights ({res.ineqlin.marginals[:k_lp]})")
     w /= w.sum()
     dual = dual_value(r, w, fixed)
-    if abs(dual - value) > CERTIFY_TOL * max(1.0, abs(value)):
+    if abs(dual - value) > CERTIFY_TOL * max(scale, abs(value)):
         raise RuntimeError(
             f"max-min schedule not certified: primal {value!r} vs dual {dual!r} (gap {dual - value:.3g})"
         )
     return Schedule(shares, w, value, dual, per_node)
+
+
+def _top_up(
+    shares: np.ndarray, per_node: np.ndarray, r: np.ndarray, n0: int, past: np.ndarray, later: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
+    """The shares (and R_k) with every node of less than ``SMALL_SHARE`` of the free time raised
+    to the smallest R_k of the other nodes (its free shares scaled, or a uniform share if the LP
+    gave it none; then each free slot's column scaled back to sum <= 1), if that raises min_k
+    R_k; else ``shares`` and ``per_node`` as given."""
+    small = shares[:, n0:].mean(axis=1) < SMALL_SHARE
+    if small.all() or not small.any():
+        return shares, per_node
+    target = float(per_node[~small].min())
+    short = np.flatnonzero(small & (per_node < target))
+    if not short.size:
+        return shares, per_node
+    out = shares.copy()
+    for k in short:
+        got = per_node[k] - past[k]
+        if got > 0:
+            out[k, n0:] = np.minimum(out[k, n0:] * ((target - past[k]) / got), 1.0)
+        elif later[k] > 0:
+            out[k, n0:] = min((target - past[k]) / later[k], 1.0)
+    out[:, n0:] /= np.maximum(out[:, n0:].sum(axis=0), 1.0)
+    raised = np.mean(out * r, axis=1)
+    return (out, raised) if raised.min() > per_node.min() else (shares, per_node)
 
 
 def schedule(config: ScenarioConfig, trajectory: np.ndarray) -> Schedule:
