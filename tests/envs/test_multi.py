@@ -180,7 +180,7 @@ def test_pinned_scenarios_and_errors():
     env.reset(options={"config": ScenarioConfig(ground_nodes=DEFAULT_NODES[:2])})
     assert env.config.K == 2
     with pytest.raises(ValueError, match="max_nodes = 3"):
-        env.reset(options={"config": ScenarioConfig(ground_nodes=(*DEFAULT_NODES, (0.0, 50.0)))})
+        env.reset(options={"config": ScenarioConfig(ground_nodes=(*DEFAULT_NODES, (10.0, 50.0)))})
     with pytest.raises(ValueError, match="does not fit"):
         env.reset(options={"config": ScenarioConfig(ground_nodes=((-100.0, -20.0), (3000.0, 0.0)))})
     env.reset(seed=0)

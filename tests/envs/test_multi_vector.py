@@ -202,7 +202,7 @@ def test_pinned_scenarios_for_every_row_and_one_per_row():
         np.testing.assert_array_equal(info["shares"][i], single_info["shares"])
     with pytest.raises(ValueError, match="3 scenarios"):
         vec.reset(options={"configs": configs[:2]})
-    too_many = SMALL.replace(ground_nodes=(*DEFAULT_NODES, (0.0, 50.0)))
+    too_many = SMALL.replace(ground_nodes=(*DEFAULT_NODES, (10.0, 50.0)))
     with pytest.raises(ValueError, match="max_nodes = 3"):
         make_vec(FIXED, 2).reset(options={"config": too_many})
 
