@@ -7,7 +7,9 @@
 
 Every argument is checked as it is parsed, before the run folder is made: the env kwargs by
 making the env and resetting it, the hyperparameters by building the algorithm with them, the
-output folder by its permissions (an error names the argument and exits with status 2).
+output folder by its permissions and its lock (an error names the argument and exits with
+status 2). A run holds its folder's lock (``RUN_DIR/.lock``) while it runs: a second
+``train.py`` on the same folder, a new run or ``--resume``, is refused with the holder's pid.
 SIGINT (Ctrl-C) or SIGTERM saves a checkpoint of that moment and exits with status 130 or
 143; ``--resume`` then goes on from it. The library is :mod:`agents.training`
 (``TrainSettings``, ``train``, ``resume``).
@@ -180,8 +182,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     except KeyboardInterrupt:  # before the run started: nothing to save
         print("train.py: interrupted while checking the arguments; nothing was written", file=sys.stderr)
         return 130
-    from agents.training import TrainingInterrupted, resume, train
+    from agents.training import RunFolderInUse, TrainingInterrupted, resume, train
 
+    argument = "--resume" if settings is None else "--out"
     try:
         if settings is None:
             try:
@@ -191,6 +194,9 @@ def main(argv: Sequence[str] | None = None) -> int:
                 return 2
         else:
             result = train(settings)
+    except RunFolderInUse as exc:  # another process took the folder after the arguments were checked
+        print(f"train.py: error: argument {argument}: {exc}", file=sys.stderr)
+        return 2
     except TrainingInterrupted as stop:
         print(f"train.py: {stop}", file=sys.stderr)
         return stop.exit_status

@@ -12,13 +12,19 @@ makes its values a dimension of the sweep. A trial's hyperparameters are written
 ``OUT/hyperparams/<trial>.yml`` (the shipped entry with the overrides), so the run is a plain
 ``train.py`` run: ``python train.py --resume OUT/runs/<trial>`` continues one by hand.
 
-Resumable: a finished trial is read back (``OUT/results/<trial>__t<timesteps>.json``, written
-atomically when it ends); an interrupted one continues from its newest checkpoint
+Resumable: a finished trial is read back (``OUT/results/<trial>__t<timesteps>__<digest>.json``,
+written atomically when it ends; the digest covers every setting of the trial: its algorithm,
+env id, seed and overrides, the hyperparameters they resolve to, the env kwargs, the steps and
+the evaluation and checkpoint periods); an interrupted one continues from its newest checkpoint
 (:func:`agents.training.resume`); running the command again with a larger ``--timesteps``
-extends the finished runs. The backends:
+extends the finished runs. A run folder trained with other settings (say other ``--env-kwargs``)
+is never read back nor continued: the command refuses it, naming the settings that differ (use
+another ``--out``). A run folder another process is writing (its lock,
+:func:`agents.training.lock_run_dir`) is refused too. The backends:
 
 - ``local`` (default): a pool of ``--jobs`` worker processes (``baselines.runner.run_tasks``;
-  in this process with ``--jobs 1``);
+  in this process with ``--jobs 1``); a worker whose parent dies (killed, even by SIGKILL)
+  checkpoints its training, as on SIGTERM, and exits;
 - ``ray``: Ray Tune, one trial per run (``tune.Tuner`` with a function trainable that runs the
   same code and reports the final evaluation; Tune's records in ``OUT/tune``), on a local Ray
   or the cluster at ``--address``. The run folders are the checkpoints: a trial of a new
@@ -28,6 +34,9 @@ Either way ``OUT/sweep.csv`` has one row per trial: algorithm, env id, seed, ove
 final deterministic evaluation's average rate, its % of the DP optimum (the default scenario
 of the fixed ids, from ``results/sweep.csv``; empty otherwise), feasibility, steps and wall
 time. The records and the CSV do not depend on the backend (the wall times aside).
+
+SIGINT or SIGTERM checkpoints the trainings in progress and ends the command with status 130
+or 143 and a note on stderr saying how to resume, no traceback (one line with ``--jobs 1``).
 """
 
 from __future__ import annotations
@@ -40,9 +49,13 @@ import hashlib
 import io
 import itertools
 import json
+import multiprocessing
+import os
 import re
+import signal
 import sys
 import tempfile
+import threading
 import time
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
@@ -70,6 +83,16 @@ CSV_COLUMNS = (
 )  # fmt: skip
 #: The keys of a trial's record (a cached record without one of them is run again).
 RECORD_KEYS = ("trial", "algo", "env_id", "seed", "overrides", "average_rate", "feasible", "steps")
+#: The settings of a run folder that must match the sweep's for the folder to be read back or
+#: continued, with the command-line argument of each.
+RUN_FIELDS = {
+    "algo": "--algos", "env_id": "--env", "seed": "--seeds", "vec_env": None, "env_kwargs": "--env-kwargs",
+    "hyperparams": "--set", "eval_freq": "--eval-freq", "checkpoint_freq": "--checkpoint-freq",
+}  # fmt: skip
+#: A worker process looks whether its parent is alive this often (s); once it is gone, a training
+#: in progress gets this long to checkpoint before the worker exits anyway (s).
+PARENT_POLL_S = 0.5
+ORPHAN_GRACE_S = 30.0
 
 
 @dataclass(frozen=True)
@@ -141,11 +164,9 @@ def make_trials(
     return list({t.name: t for t in trials}.values())  # values may be lists: not hashable
 
 
-def trial_hyperparams(trial: Trial, out: Path) -> Path | None:
-    """``OUT/hyperparams/<trial>.yml``: the shipped entry of the trial's algorithm and env id with
-    its overrides (None without overrides: the shipped file itself)."""
-    if not trial.overrides:
-        return None
+def trial_entry(trial: Trial) -> dict[str, Any]:
+    """The trial's hyperparameters as written: the shipped entry of its algorithm and env id with
+    its overrides (``ValueError`` naming the file if it has no entry for the env id)."""
     from agents.hyperparams import hyperparams_path
 
     table = yaml.safe_load(hyperparams_path(trial.algo).read_text())
@@ -153,7 +174,15 @@ def trial_hyperparams(trial: Trial, out: Path) -> Path | None:
         raise ValueError(
             f"env_id: {hyperparams_path(trial.algo)} has no hyperparameters for {trial.env_id!r}"
         )
-    entry = {**table[trial.env_id], **dict(trial.overrides)}
+    return {**table[trial.env_id], **dict(trial.overrides)}
+
+
+def trial_hyperparams(trial: Trial, out: Path) -> Path | None:
+    """``OUT/hyperparams/<trial>.yml``: the shipped entry of the trial's algorithm and env id with
+    its overrides (None without overrides: the shipped file itself)."""
+    if not trial.overrides:
+        return None
+    entry = trial_entry(trial)
     text = f"# {trial.name}: agents/hyperparams/{trial.algo}.yml with {trial.overrides_text}\n"
     return atomic_write_text(
         out / "hyperparams" / f"{trial.name}.yml", text + yaml.safe_dump({trial.env_id: entry})
@@ -185,6 +214,85 @@ def dp_rate(env_id: str, env_kwargs: dict[str, Any]) -> float | None:
     return _dp_rates().get(DP_SCHEME[env_id])
 
 
+def _plain(value: Any) -> Any:
+    """``value`` as JSON reads it back (tuples as lists, other objects as their text)."""
+    return json.loads(json.dumps(value, default=str))
+
+
+def trial_settings(
+    trial: Trial,
+    *,
+    timesteps: int,
+    env_kwargs: dict[str, Any] | None = None,
+    eval_freq: int = 10_000,
+    checkpoint_freq: int = 25_000,
+) -> dict[str, Any]:
+    """Every setting that decides a trial's record (as JSON reads it back): the settings of its run
+    folder (:data:`RUN_FIELDS`, the hyperparameters resolved from the shipped file and the
+    overrides) and its total steps."""
+    return _plain({
+        "algo": trial.algo, "env_id": trial.env_id, "seed": trial.seed, "vec_env": "dummy",
+        "env_kwargs": dict(env_kwargs or {}), "hyperparams": trial_entry(trial), "eval_freq": eval_freq,
+        "checkpoint_freq": checkpoint_freq, "timesteps": timesteps,
+    })  # fmt: skip
+
+
+def check_run_folder(trial: Trial, out: str | Path, **settings: Any) -> Path:
+    """``OUT/runs/<trial>`` if a sweep of these settings (:func:`trial_settings`'s keyword
+    arguments) may read it back or continue it: it holds no run yet, or a run of the same
+    settings (its total steps aside), and no other process is writing it. ``ValueError`` naming
+    each setting that differs, with the run's value and the sweep's;
+    :class:`agents.training.RunFolderInUse` naming the process that writes it."""
+    from agents.training import check_unlocked, read_config
+
+    run_dir = Path(out).resolve() / "runs" / trial.name
+    check_unlocked(run_dir)
+    if not (run_dir / "config.json").exists():
+        return run_dir
+    config = read_config(run_dir)
+    have = {**config["args"], "hyperparams": config.get("hyperparams")}
+    have.setdefault("vec_env", "dummy")
+    wanted = trial_settings(trial, **settings)
+    changed = [k for k in RUN_FIELDS if _plain(have.get(k)) != wanted[k]]
+    if changed:
+        listing = "; ".join(
+            f"{k}{'' if RUN_FIELDS[k] is None else f' ({RUN_FIELDS[k]})'}: the run's {have.get(k)!r}, "
+            f"this sweep's {wanted[k]!r}"
+            for k in changed
+        )
+        raise ValueError(
+            f"run folder {run_dir} holds a run of other settings ({listing}); its results are not this "
+            "sweep's: use another --out (or remove the folder to train it again)"
+        )
+    return run_dir
+
+
+_orphaned = threading.Event()  # set in a worker process once its parent has died
+_watching = threading.Lock()
+
+
+def exit_with_parent() -> None:
+    """In a worker process (started by ``multiprocessing``; nothing elsewhere): a daemon thread
+    that, once the parent has died, sends this process SIGTERM (a training in progress saves a
+    checkpoint and stops, as under ``train.py``) and ends it after :data:`ORPHAN_GRACE_S` at
+    the latest, so that no orphaned worker trains on, writes the sweep's folders or waits for
+    its dead parent. Started once per process."""
+    parent = multiprocessing.parent_process()
+    if parent is None or not _watching.acquire(blocking=False):
+        return
+    ppid = os.getppid()
+
+    def watch() -> None:
+        while os.getppid() == ppid and parent.is_alive():
+            time.sleep(PARENT_POLL_S)
+        _orphaned.set()
+        os.kill(os.getpid(), signal.SIGTERM)
+        time.sleep(ORPHAN_GRACE_S)
+        os._exit(128 + signal.SIGTERM)
+
+    threading.Thread(target=watch, name="exit-with-parent", daemon=True).start()
+
+
 def run_trial(
     trial: Trial,
     *,
@@ -195,12 +303,29 @@ def run_trial(
     checkpoint_freq: int = 25_000,
 ) -> dict[str, Any]:
     """Run one trial to ``timesteps`` (or read it back if its run has finished them; resume it
-    from its checkpoint if interrupted) and return its record (a row of ``sweep.csv``)."""
+    from its checkpoint if interrupted) and return its record (a row of ``sweep.csv``).
+    ``ValueError`` if its run folder holds a run of other settings (:func:`check_run_folder`).
+    In a worker process, the worker exits once its parent has died (:func:`exit_with_parent`)."""
+    exit_with_parent()
+    try:
+        return _run_trial(trial, out=out, timesteps=timesteps, env_kwargs=env_kwargs, eval_freq=eval_freq,
+                          checkpoint_freq=checkpoint_freq)  # fmt: skip
+    except BaseException:
+        if _orphaned.is_set():  # the checkpoint is saved; nobody waits for the outcome
+            os._exit(128 + signal.SIGTERM)
+        raise
+
+
+def _run_trial(
+    trial: Trial, *, out: str | Path, timesteps: int, env_kwargs: dict[str, Any] | None, eval_freq: int,
+    checkpoint_freq: int,
+) -> dict[str, Any]:  # fmt: skip
     from agents.training import TrainSettings, resume, train
 
     out = Path(out).resolve()
     env_kwargs = dict(env_kwargs or {})
-    run_dir = out / "runs" / trial.name
+    run_dir = check_run_folder(trial, out, timesteps=timesteps, env_kwargs=env_kwargs, eval_freq=eval_freq,
+                               checkpoint_freq=checkpoint_freq)  # fmt: skip
     summary_path = run_dir / "summary.json"
     summary = json.loads(summary_path.read_text()) if summary_path.exists() else None
     if summary is not None and summary.get("steps", 0) >= timesteps:
@@ -290,9 +415,12 @@ def _run_tune(
         )
 
 
-def record_key(timesteps: int, trial: Trial) -> str:
-    """A trial record's cache name: the trial and its total steps."""
-    return f"{trial.name}__t{timesteps}"
+def record_key(settings: dict[str, Any], trial: Trial) -> str:
+    """A trial record's cache name: the trial, its total steps and a digest of every setting of
+    it (:func:`trial_settings` of the trial with the sweep's ``settings``), so that a record is
+    read back only by a sweep of the same settings."""
+    text = json.dumps(trial_settings(trial, **settings), sort_keys=True)
+    return f"{trial.name}__t{settings['timesteps']}__{hashlib.sha1(text.encode()).hexdigest()[:12]}"
 
 
 def run_sweep(
@@ -309,7 +437,9 @@ def run_sweep(
     progress: bool = True,
 ) -> list[dict[str, Any]]:
     """Run (or read back, or resume) every trial and return their records in order; each record
-    is cached in ``OUT/results`` as soon as its trial ends (the same file on both backends)."""
+    is cached in ``OUT/results`` as soon as its trial ends (the same file on both backends), under
+    a name that covers every setting of the trial (:func:`record_key`). ``ValueError`` if a run
+    folder holds a run of other settings (:func:`check_run_folder`)."""
     if backend not in ("local", "ray"):
         raise ValueError(f"backend: unknown backend {backend!r}; choose from local, ray")
     if address is not None and backend != "ray":
@@ -318,7 +448,7 @@ def run_sweep(
     trials = list(trials)
     run = {"out": str(out), "timesteps": timesteps, "env_kwargs": dict(env_kwargs or {}),
            "eval_freq": eval_freq, "checkpoint_freq": checkpoint_freq}  # fmt: skip
-    key = functools.partial(record_key, timesteps)
+    key = functools.partial(record_key, {k: v for k, v in run.items() if k != "out"})
     cache_dir = out / "results"
     if backend == "local":
         return run_tasks(
@@ -411,7 +541,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     except OSError as exc:
         parser.error(f"argument --out: {exc}")
     trials = make_trials(args.algos, args.env, args.seeds, overrides)
-    from agents.training import check_hyperparams
+    from agents.training import RunFolderInUse, TrainingInterrupted, check_hyperparams
 
     with tempfile.TemporaryDirectory() as tmp:  # bad overrides fail here, before any training
         for trial in {t.name: t for t in (dataclasses.replace(t, seed=0) for t in trials)}.values():
@@ -421,6 +551,12 @@ def main(argv: Sequence[str] | None = None) -> int:
                 )
             except ValueError as exc:
                 parser.error(f"argument --set: {exc}")
+    for trial in trials:  # a folder of other settings, or one another process writes: before any training
+        try:
+            check_run_folder(trial, args.out, timesteps=args.timesteps, env_kwargs=env_kwargs,
+                             eval_freq=args.eval_freq, checkpoint_freq=args.checkpoint_freq)  # fmt: skip
+        except (ValueError, OSError) as exc:
+            parser.error(f"argument --out: {exc}")
     start = time.perf_counter()
     try:
         records = run_sweep(
@@ -431,6 +567,14 @@ def main(argv: Sequence[str] | None = None) -> int:
     except KeyboardInterrupt:
         print(f"interrupted: run the command again to resume {args.out}", file=sys.stderr)
         return 130
+    except TrainingInterrupted as stop:  # a trial trained in this process (--jobs 1) checkpointed
+        print(f"interrupted: {signal.Signals(stop.signum).name} at step {stop.steps_at_signal} of "
+              f"{stop.run_dir.name} (checkpoint of {stop.steps} steps saved); run the command again to "
+              f"resume {args.out}", file=sys.stderr)  # fmt: skip
+        return stop.exit_status
+    except RunFolderInUse as exc:  # another process took a run folder after the check above
+        print(f"python -m agents.sweep: error: argument --out: {exc}", file=sys.stderr)
+        return 2
     path = write_csv(records, args.out / "sweep.csv")
     print(path.read_text(), end="")
     print(f"{len(records)} trials in {time.perf_counter() - start:.1f} s ({args.backend}); wrote {path}")

@@ -3,14 +3,19 @@
 A run folder (``runs/<env>__<algo>__<seed>__<unix time>`` unless named) holds:
 
 - ``config.json``: the resolved configuration (arguments, hyperparameters as written in the
-  zoo-format file, env kwargs, scenario, library versions), written before training starts;
+  zoo-format file, whether VecNormalize normalises the observations and the rewards
+  (``"normalize": {"obs": ..., "reward": ...}``), env kwargs, scenario, library versions),
+  written before training starts;
 - ``model.zip`` (+ ``vecnormalize.pkl`` when the hyperparameters normalise) and
   ``summary.json`` (steps, wall time, steps/s, the final deterministic evaluation and the
   evaluation history), written at the end;
 - ``checkpoints/`` (model, SAC replay buffer, VecNormalize statistics and the steps, wall
   time and evaluations of each checkpoint, every file written atomically and the ``.zip``
   last, so a checkpoint with its ``.zip`` is whole), ``monitor/`` (episode logs), ``tb/``
-  (TensorBoard).
+  (TensorBoard);
+- ``.lock``: the lock the process writing the folder holds (an exclusive ``flock``, released
+  when the run ends or its process dies); a second run or resume of the folder meanwhile is
+  refused (:class:`~agents.training.folder.RunFolderInUse`, naming the holder's pid).
 
 SIGINT or SIGTERM during :func:`train` stops at the next env step and saves a checkpoint of
 that moment (PPO: of its last update; the unfinished rollout is redone on resume), then
@@ -24,7 +29,8 @@ stopped. A run folder without a checkpoint (a run stopped before its first) is n
 The modules, by concern:
 
 - :mod:`agents.training.settings`: :class:`TrainSettings` and the checks of each setting;
-- :mod:`agents.training.folder`: the run folder (its name, new or resumable, ``config.json``);
+- :mod:`agents.training.folder`: the run folder (its name, new or resumable, its lock,
+  ``config.json``);
 - :mod:`agents.training.envs`: the training envs and their wrappers;
 - :mod:`agents.training.interrupt`: SIGINT / SIGTERM and :class:`TrainingInterrupted`;
 - :mod:`agents.training.resuming`: continuing a run from its newest checkpoint that loads;
@@ -32,10 +38,14 @@ The modules, by concern:
 """
 
 from agents.training.folder import (
+    LOCK_FILE,
     RUNS_DIR,
     UNSTARTED_RUN,
+    RunFolderInUse,
     check_new_run_dir,
     check_resumable,
+    check_unlocked,
+    lock_run_dir,
     read_config,
     run_name,
     versions,
@@ -59,9 +69,11 @@ from baselines.runner import check_writable
 
 __all__ = [
     "DEFAULT_ENV_ID",
+    "LOCK_FILE",
     "RUNS_DIR",
     "UNSTARTED_RUN",
     "VEC_ENVS",
+    "RunFolderInUse",
     "StopFlag",
     "TrainResult",
     "TrainSettings",
@@ -73,9 +85,11 @@ __all__ = [
     "check_new_run_dir",
     "check_positive",
     "check_resumable",
+    "check_unlocked",
     "check_vec_env",
     "check_writable",
     "load_checkpoint",
+    "lock_run_dir",
     "read_config",
     "record_resume",
     "resume",

@@ -1,15 +1,20 @@
 """A run's folder: its name, whether a new run may start there or an old one be resumed, what a
-run stopped before its first checkpoint left, and the resolved configuration ``config.json``."""
+run stopped before its first checkpoint left, the lock a process holds while it writes the
+folder, and the resolved configuration ``config.json``."""
 
 from __future__ import annotations
 
 import dataclasses
 import json
+import os
 import platform
 import re
 import shutil
+import socket
 import sys
 import time
+from collections.abc import Iterator
+from contextlib import contextmanager
 from pathlib import Path
 from typing import Any
 
@@ -24,8 +29,106 @@ from ios_uav_env.io import atomic_write_text
 
 RUNS_DIR = Path("runs")
 
+#: The lock file of a run folder: held (an exclusive ``flock``) by the process writing the folder.
+LOCK_FILE = ".lock"
 #: What a run leaves in its folder before its first checkpoint: such a folder can be reused.
 UNSTARTED_RUN = ("config.json", "monitor", "tb", "checkpoints")
+
+#: The run folders whose lock this process holds (resolved paths).
+_HELD: set[Path] = set()
+
+
+class RunFolderInUse(OSError):
+    """Another process holds the run folder's lock: it is writing the folder (``pid`` and ``host``:
+    the holder's, as it wrote them in the lock; None if unknown)."""
+
+    def __init__(self, run_dir: Path, pid: int | None, host: str | None = None) -> None:
+        self.run_dir, self.pid, self.host = run_dir, pid, host
+        holder = "another process" if pid is None else f"process {pid}"
+        if host is not None and host != socket.gethostname():
+            holder += f" on {host}"
+        super().__init__(
+            f"run folder {run_dir} is in use by {holder} (it holds {run_dir / LOCK_FILE}); wait for it "
+            "to end or stop it, then run again"
+        )
+
+    def __reduce__(self) -> tuple[Any, ...]:  # raised in a worker process, re-raised in its parent
+        return type(self), (self.run_dir, self.pid, self.host)
+
+
+def _try_lock(fd: int) -> bool:
+    """Take the exclusive lock of the open file ``fd`` without waiting; False if another holds it."""
+    try:
+        import fcntl
+    except ImportError:  # Windows: a lock on the file's first byte
+        import msvcrt
+
+        try:
+            msvcrt.locking(fd, msvcrt.LK_NBLCK, 1)
+        except OSError:
+            return False
+        return True
+    try:
+        fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+    except BlockingIOError:
+        return False
+    return True
+
+
+def _holder(lock: Path) -> tuple[int | None, str | None]:
+    """The pid and host the lock's holder wrote into it (None if unknown)."""
+    try:
+        words = lock.read_text().split()
+        return int(words[0]), words[1] if len(words) > 1 else None
+    except (OSError, ValueError, IndexError):
+        return None, None
+
+
+def check_unlocked(run_dir: str | Path) -> Path:
+    """``run_dir`` unless another process holds its lock (:class:`RunFolderInUse` naming the folder
+    and the holder's pid); writes nothing (a folder this process holds passes)."""
+    run_dir = Path(run_dir)
+    lock = run_dir / LOCK_FILE
+    if run_dir.resolve() in _HELD or not lock.is_file():
+        return run_dir
+    fd = os.open(lock, os.O_RDONLY)
+    try:
+        if not _try_lock(fd):
+            raise RunFolderInUse(run_dir, *_holder(lock))
+    finally:
+        os.close(fd)  # closing the file releases the lock just taken
+    return run_dir
+
+
+@contextmanager
+def lock_run_dir(run_dir: str | Path) -> Iterator[Path]:
+    """Hold ``run_dir``'s lock (``<run_dir>/.lock``, created with the folder if missing, with this
+    process's pid and host in it) while the block runs; the system releases it when the process
+    ends, killed or crashed included. :class:`RunFolderInUse` naming the folder and the holder's
+    pid if another process holds it."""
+    run_dir = Path(run_dir)
+    resolved = run_dir.resolve()
+    if resolved in _HELD:
+        raise RunFolderInUse(run_dir, os.getpid())
+    run_dir.mkdir(parents=True, exist_ok=True)
+    lock = run_dir / LOCK_FILE
+    fd = os.open(lock, os.O_RDWR | os.O_CREAT, 0o644)
+    try:
+        for attempt in range(5):  # a check_unlocked elsewhere holds it for an instant only
+            if _try_lock(fd):
+                break
+            if attempt == 4:
+                raise RunFolderInUse(run_dir, *_holder(lock))
+            time.sleep(0.05)
+        os.ftruncate(fd, 0)
+        os.write(fd, f"{os.getpid()} {socket.gethostname()}\n".encode())
+        _HELD.add(resolved)
+        try:
+            yield run_dir
+        finally:
+            _HELD.discard(resolved)
+    finally:
+        os.close(fd)
 
 
 def run_name(settings: TrainSettings) -> str:
@@ -36,16 +139,18 @@ def run_name(settings: TrainSettings) -> str:
 
 def _unstarted(run_dir: Path) -> bool:
     """A run folder holding only what a run writes before its first checkpoint."""
-    names = {p.name for p in run_dir.iterdir()}
+    names = {p.name for p in run_dir.iterdir()} - {LOCK_FILE}
     return names <= set(UNSTARTED_RUN) and not checkpoints(run_dir)
 
 
 def check_new_run_dir(run_dir: str | Path) -> Path:
     """``run_dir`` if a new run can start there: missing, empty, or the leftovers of a run stopped
-    before its first checkpoint (:data:`UNSTARTED_RUN`, replaced by the new run), and writable."""
+    before its first checkpoint (:data:`UNSTARTED_RUN`, replaced by the new run), writable, and
+    not in use by another process (:func:`check_unlocked`)."""
     run_dir = Path(run_dir)
     if run_dir.exists() and not run_dir.is_dir():
         raise FileExistsError(f"run folder {run_dir} is a file")
+    check_unlocked(run_dir)
     if run_dir.exists() and any(run_dir.iterdir()) and not _unstarted(run_dir):
         raise FileExistsError(f"run folder {run_dir} exists and is not empty (resume it instead)")
     return check_writable(run_dir)
@@ -65,12 +170,14 @@ def clear_unstarted(run_dir: Path) -> None:
 
 
 def check_resumable(run_dir: str | Path) -> Path:
-    """``run_dir`` if it is a run folder (a readable ``config.json``) that can be written to."""
+    """``run_dir`` if it is a run folder (a readable ``config.json``) that can be written to and
+    that no other process is writing (:func:`check_unlocked`)."""
     run_dir = Path(run_dir)
     config = run_dir / "config.json"
     if not config.exists():
         raise FileNotFoundError(f"{run_dir} is not a run folder (no config.json)")
     read_config(run_dir)
+    check_unlocked(run_dir)
     return check_writable(run_dir)
 
 
@@ -99,6 +206,15 @@ def versions() -> dict[str, str]:
     }
 
 
+def normalized(hp: Hyperparams) -> dict[str, bool]:
+    """Whether the run's VecNormalize normalises the observations and the rewards (both False
+    without VecNormalize; its defaults are True)."""
+    kwargs = hp.normalize
+    if kwargs is None:
+        return {"obs": False, "reward": False}
+    return {"obs": bool(kwargs.get("norm_obs", True)), "reward": bool(kwargs.get("norm_reward", True))}
+
+
 def write_config(run_dir: Path, settings: TrainSettings, hp: Hyperparams, total: int) -> Path:
     """Write the resolved configuration ``config.json`` atomically."""
     env = gym.make(settings.env_id, **settings.env_kwargs)
@@ -114,6 +230,7 @@ def write_config(run_dir: Path, settings: TrainSettings, hp: Hyperparams, total:
         "args": dataclasses.asdict(settings),
         "hyperparams": hp.raw,
         "hyperparams_file": str(settings.hyperparams_file or f"agents/hyperparams/{settings.algo}.yml"),
+        "normalize": normalized(hp),
         "scenario": base.config.to_dict(),
         "arrival_guard": base.arrival_guard,
         "channel": base.channel,

@@ -24,6 +24,9 @@ class TrainingInterrupted(Exception):
             f"({steps} steps); continue with: python train.py --resume {run_dir}"
         )
 
+    def __reduce__(self) -> tuple[Any, ...]:  # raised in a worker process, re-raised in its parent
+        return type(self), (self.signum, self.run_dir, self.steps_at_signal, self.checkpoint, self.steps)
+
     @property
     def exit_status(self) -> int:
         return 128 + self.signum

@@ -13,7 +13,14 @@ from typing import Any
 from agents.hyperparams import Hyperparams, load_hyperparams
 from agents.loading import ALGOS, CHECKPOINT_PREFIX
 from agents.training.envs import make_venv
-from agents.training.folder import RUNS_DIR, clear_unstarted, run_name, write_config
+from agents.training.folder import (
+    RUNS_DIR,
+    check_new_run_dir,
+    clear_unstarted,
+    lock_run_dir,
+    run_name,
+    write_config,
+)
 from agents.training.interrupt import StopFlag, TrainingInterrupted, stop_on_signals
 from agents.training.resuming import RunStart, continue_run, resume_settings
 from agents.training.settings import TrainSettings
@@ -30,6 +37,8 @@ class TrainResult:
 def train(settings: TrainSettings, *, _resume: bool = False) -> TrainResult:
     """Train (or, through :func:`resume`, continue) a run; return its folder, model and summary.
 
+    The run holds its folder's lock while it runs (:func:`agents.training.folder.lock_run_dir`):
+    :class:`agents.training.folder.RunFolderInUse` if another process is writing the folder.
     Raises :class:`TrainingInterrupted` after saving a checkpoint if SIGINT or SIGTERM arrives
     (in the main thread)."""
     with stop_on_signals() as stop:
@@ -45,6 +54,15 @@ def resume(run_dir: str | Path, *, timesteps: int | None = None, progress_bar: b
 
 def _train(settings: TrainSettings, stop: StopFlag, _resume: bool) -> TrainResult:
     hp, total, run_dir = _resolve(settings)
+    if not _resume:
+        check_new_run_dir(run_dir)  # before the lock makes the folder
+    with lock_run_dir(run_dir):  # a second process on this folder is refused until the run ends
+        return _train_locked(settings, stop, _resume, hp, total, run_dir)
+
+
+def _train_locked(
+    settings: TrainSettings, stop: StopFlag, _resume: bool, hp: Hyperparams, total: int, run_dir: Path
+) -> TrainResult:
     start = continue_run(run_dir, settings, hp, total) if _resume else None
     resumed = start is not None
     if start is None:

@@ -72,7 +72,13 @@ def check_hyperparams(
     vec_env: str = "dummy",
 ) -> Hyperparams:
     """The resolved hyperparameters of ``env_id`` if the algorithm can be built with them on the
-    env (``ValueError`` naming the file and the key otherwise, :func:`agents.hyperparams.check_entry`)."""
+    env (``ValueError`` naming the file and the key otherwise, :func:`agents.hyperparams.check_entry`).
+
+    The trial build has at most two envs and a small replay buffer: what it warns about (e.g.
+    SB3's mini-batch size against ``n_steps * n_envs``) is its own size, not the run's, so its
+    warnings are dropped; the run's own build warns about the run's settings."""
+    import warnings
+
     from stable_baselines3.common.vec_env import DummyVecEnv
 
     hp = load_hyperparams(algo, env_id, path)
@@ -87,7 +93,9 @@ def check_hyperparams(
 
     venv = DummyVecEnv([make] * min(n, 2))
     try:
-        ALGOS[algo](hp.policy, venv, device="cpu", **{**hp.model_kwargs, **_small_buffer(hp)})
+        with warnings.catch_warnings(record=True):  # the trial build's size, not the run's
+            warnings.simplefilter("always")
+            ALGOS[algo](hp.policy, venv, device="cpu", **{**hp.model_kwargs, **_small_buffer(hp)})
     except (TypeError, ValueError, AssertionError, KeyError) as exc:
         raise ValueError(f"{where}, {env_id}: {algo.upper()} refuses these hyperparameters: {exc}") from None
     finally:
