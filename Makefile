@@ -1,8 +1,10 @@
 # Two entry points on a fresh machine (see README):
 #   make demo   - create .venv, install everything, run the main job (planners vs shipped agents)
 #   make test   - create .venv, install everything, lint and run the test suite (examples/
-#                 included, tests/examples), then `make test-oldest`
+#                 included, tests/examples), then `make test-oldest` and `make test-versions`
+#                 side by side
 #   make test-oldest - the env and SB3 tests in .venv-oldest, on the oldest supported releases
+#   make test-versions - the wheel's own tests on the oldest and the newest supported Python
 PYTHON ?= python3.11
 VENV ?= .venv
 PY := $(VENV)/bin/python
@@ -19,8 +21,26 @@ OLDEST_TESTS ?= tests/envs/test_single.py tests/envs/test_registration.py tests/
 	tests/model/test_config.py tests/model/test_channel.py tests/envs/test_policies.py tests/model/test_trajectory.py \
 	tests/model/test_peak.py tests/envs/test_rendering.py tests/test_optional.py \
 	tests/examples/test_example_sb3.py tests/examples/test_example_cleanrl.py
+# The wheel's own tests (model, envs, benchmark: numpy, Gymnasium and scipy's LP) on the oldest
+# Python minor of pyproject's requires-python and the newest one tested, each in .venv-py<minor>
+# (.venv-py310 ...) with the newest releases that minor gets. No torch, no numba, no matplotlib:
+# Gymnasium's checker, which renders a frame, and the compiled peak search are left out (-k).
+# A minor's interpreter is pyenv's build of it, else python<minor> on the PATH if it runs; with
+# neither, the minor is skipped with a note (under CI, CI set, that is an error). pip compiles no
+# bytecode there (--no-compile): the tests import a small part of what it installs.
+TEST_PYTHONS ?= 3.10 3.13
+PYENV_ROOT ?= $(HOME)/.pyenv
+VERSION_PINS ?= pytest scipy
+VERSION_TESTS ?= tests/model tests/envs/test_single.py tests/envs/test_registration.py \
+	tests/envs/test_policies.py tests/envs/test_rollout.py tests/envs/test_multi.py \
+	tests/benchmark/test_results.py -k "not check_env and not checker and not compiled_search"
+# the interpreter of Python $(1) (e.g. 3.10), empty if this machine has none that runs
+python_of = $(firstword $(foreach c,$(wildcard $(PYENV_ROOT)/versions/$(1).*/bin/python$(1)) \
+	$(shell command -v python$(1) 2>/dev/null),$(if $(shell $(c) -c 'print(1)' 2>/dev/null),$(c))))
+# the minor of a venv's or a target's stem (310 -> 3.10)
+minor_of = 3.$(patsubst 3%,%,$(1))
 
-.PHONY: demo test test-oldest docs lint format bench clean
+.PHONY: demo test test-oldest test-versions docs lint format bench clean
 
 $(VENV)/.installed: pyproject.toml Makefile $(CONSTRAINTS)
 	@command -v $(PYTHON) >/dev/null 2>&1 || { echo "need $(PYTHON) (set PYTHON=...)"; exit 1; }
@@ -38,6 +58,13 @@ $(OLDEST_VENV)/.installed: pyproject.toml Makefile $(CONSTRAINTS)
 	$(OLDEST_VENV)/bin/python -m pip install -q -c $(CONSTRAINTS) -e . $(OLDEST_PINS)
 	touch $@
 
+.PRECIOUS: .venv-py%/.installed
+.venv-py%/.installed: pyproject.toml Makefile $(CONSTRAINTS)
+	@test -n "$(call python_of,$(call minor_of,$*))" || { echo "no Python $(call minor_of,$*) here"; exit 1; }
+	test -x .venv-py$*/bin/python || $(call python_of,$(call minor_of,$*)) -m venv .venv-py$*
+	.venv-py$*/bin/python -m pip install -q --no-compile -c $(CONSTRAINTS) -e . $(VERSION_PINS)
+	touch $@
+
 demo: $(VENV)/.installed
 	$(PY) -m ios_uav_env --out out/demo.png
 	$(PY) -m agents.evaluate --shipped --out out/compare
@@ -46,13 +73,28 @@ test: $(VENV)/.installed docs
 	$(VENV)/bin/ruff check .
 	$(VENV)/bin/ruff format --check .
 	$(PY) -m pytest -q -n 2 --durations=15
-	$(MAKE) test-oldest
+	$(MAKE) -j3 --output-sync=target test-oldest test-versions
 
 # the oldest end of the supported range (the main venv is the newest)
 test-oldest: $(OLDEST_VENV)/.installed
 	$(OLDEST_VENV)/bin/python -c "import gymnasium, numpy, stable_baselines3 as sb3; \
 		print('oldest: gymnasium', gymnasium.__version__, 'numpy', numpy.__version__, 'SB3', sb3.__version__)"
 	$(OLDEST_VENV)/bin/python -m pytest -q -p no:cacheprovider $(OLDEST_TESTS)
+
+# every minor of TEST_PYTHONS (test-py310 ...); a minor's venv is a prerequisite only where its
+# Python is found
+test-versions: $(foreach v,$(TEST_PYTHONS),test-py$(subst .,,$(v)))
+
+.SECONDEXPANSION:
+test-py%: $$(if $$(call python_of,$$(call minor_of,$$*)),.venv-py$$*/.installed)
+	@if [ -z "$(call python_of,$(call minor_of,$*))" ]; then \
+		where="no $(PYENV_ROOT)/versions/$(call minor_of,$*).*/bin/python$(call minor_of,$*), no python$(call minor_of,$*) that runs on the PATH"; \
+		if [ -n "$$CI" ]; then echo "Python $(call minor_of,$*): not found ($$where); CI tests every minor of TEST_PYTHONS" >&2; exit 1; fi; \
+		echo "Python $(call minor_of,$*): not found ($$where): skipped"; exit 0; \
+	fi; \
+	.venv-py$*/bin/python -c "import sys, gymnasium, numpy, scipy; print('Python', sys.version.split()[0], \
+		'gymnasium', gymnasium.__version__, 'numpy', numpy.__version__, 'scipy', scipy.__version__)" && \
+	.venv-py$*/bin/python -m pytest -q -p no:cacheprovider $(VERSION_TESTS)
 
 lint: $(VENV)/.installed
 	$(VENV)/bin/ruff check . && $(VENV)/bin/ruff format --check .
@@ -67,4 +109,4 @@ bench: $(VENV)/.installed
 	$(PY) benchmarks/step_speed.py
 
 clean:
-	rm -rf $(VENV) $(OLDEST_VENV) .pytest_cache .ruff_cache build *.egg-info
+	rm -rf $(VENV) $(OLDEST_VENV) .venv-py3* .pytest_cache .ruff_cache build *.egg-info

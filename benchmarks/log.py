@@ -59,6 +59,7 @@ REGISTRY: dict[str, Measurement] = {
         ("ppo_speed", "ppo_speed.py", (), "PPO (ppo_fast.yml), batched env: time to 99.5% of DP"),
         ("multinode", "multinode.py", (), "several nodes: tour, SCA, the DP's plan and bound"),
         ("soak_train", "soak_train.py", (), "interrupted and resumed training: steps lost"),
+        ("soak_faults", "soak_faults.py", (), "imitation and sweep, SIGKILL and full disk: work lost"),
         ("replay_tolerance", "replay_tolerance.py", (), "shipped models' replays under float32 noise"),
     ]
 }
