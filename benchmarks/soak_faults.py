@@ -219,7 +219,7 @@ def error_line(session: Session) -> str | None:
     if not found:
         return None
     traceback = any(line.startswith("Traceback") for line in session.lines)
-    return found[-1][:150] + (" (after a traceback)" if traceback else " (one line)")
+    return f"{'after a traceback' if traceback else 'one line'}: {found[-1][:140]}"
 
 
 def spans(numbers: Sequence[int]) -> str:
