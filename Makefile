@@ -40,7 +40,7 @@ python_of = $(firstword $(foreach c,$(wildcard $(PYENV_ROOT)/versions/$(1).*/bin
 # the minor of a venv's or a target's stem (310 -> 3.10)
 minor_of = 3.$(patsubst 3%,%,$(1))
 
-.PHONY: demo test test-oldest test-versions docs lint format bench clean
+.PHONY: demo test test-main side-venvs test-oldest test-versions docs lint format bench clean
 
 $(VENV)/.installed: pyproject.toml Makefile $(CONSTRAINTS)
 	@command -v $(PYTHON) >/dev/null 2>&1 || { echo "need $(PYTHON) (set PYTHON=...)"; exit 1; }
@@ -69,11 +69,21 @@ demo: $(VENV)/.installed
 	$(PY) -m ios_uav_env --out out/demo.png
 	$(PY) -m agents.evaluate --shipped --out out/compare
 
+# The side venvs (oldest releases, other Pythons) install while the main suite runs, at the
+# lowest CPU priority: the installs mostly wait on the disk and the network, the tests on the
+# cores. Then their tests run side by side.
 test: $(VENV)/.installed docs
 	$(VENV)/bin/ruff check .
 	$(VENV)/bin/ruff format --check .
-	$(PY) -m pytest -q -n 2 --durations=15
+	$(MAKE) -j2 --output-sync=target test-main side-venvs
 	$(MAKE) -j3 --output-sync=target test-oldest test-versions
+
+test-main: $(VENV)/.installed
+	$(PY) -m pytest -q -n 2 --durations=15
+
+side-venvs:
+	nice -n 19 $(MAKE) -j3 $(OLDEST_VENV)/.installed \
+		$(foreach v,$(TEST_PYTHONS),$(if $(call python_of,$(v)),.venv-py$(subst .,,$(v))/.installed))
 
 # the oldest end of the supported range (the main venv is the newest)
 test-oldest: $(OLDEST_VENV)/.installed
