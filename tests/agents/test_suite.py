@@ -198,7 +198,7 @@ def test_shipped_generalist_reproduces_its_recorded_suite_rows(bench):
         recorded = list(csv.DictReader(fh))
     assert len(recorded) == len(bench) == 60
     pct = [float(r["pct_dp"]) for r in recorded]
-    # the issue's bars, on the recorded table
+    # the bars (mean >= 97%, min >= 90% of DP, every plan feasible), on the recorded table
     assert np.mean(pct) >= 97.0 and min(pct) >= 90.0 and all(r["feasible"] == "True" for r in recorded)
     agent = load_policy(folder)
     assert agent.env_kwargs["peak_hint"] is True
@@ -236,7 +236,7 @@ def test_a_multinode_model_is_reported_on_the_multinode_suite(tmp_path, env_id, 
 
 
 def test_shipped_multinode_generalist_reproduces_its_recorded_suite_rows():
-    # agents/models/dagger_IOSUAV-MultiNode-Random-v0 (agents.imitation, issue #14): its recorded
+    # agents/models/dagger_IOSUAV-MultiNode-Random-v0 (agents.imitation): its recorded
     # suite table, the numbers the README states, and 8 of its rows replayed from the model
     pytest.importorskip("stable_baselines3")
     from agents.evaluate import MODELS_DIR
