@@ -47,7 +47,6 @@ import os
 import pickle
 import signal
 import sys
-import threading
 import time
 from collections.abc import Iterator
 from contextlib import contextmanager
@@ -415,11 +414,13 @@ def build_parser() -> Any:
 
 
 def main(argv: list[str] | None = None) -> int:
+    from baselines.runner import sigterm_raises
+
     parser = build_parser()
     args = parser.parse_args(argv)
     settings = None
     try:
-        with _sigterm_raises():
+        with sigterm_raises():
             settings = _checked_settings(parser, args)
             summary = run(settings)
     except (KeyboardInterrupt, SystemExit) as exc:
@@ -481,24 +482,6 @@ def _noted_by_runner(exc: BaseException) -> bool:
     from baselines.runner import run_tasks
 
     return any(frame.f_code is run_tasks.__code__ for frame, _ in traceback.walk_tb(exc.__traceback__))
-
-
-@contextmanager
-def _sigterm_raises() -> Iterator[None]:
-    """SIGTERM raises ``SystemExit(143)`` in the main thread, as SIGINT raises ``KeyboardInterrupt``
-    (``finally`` blocks run, worker processes are stopped); elsewhere nothing changes."""
-    if threading.current_thread() is not threading.main_thread():
-        yield
-        return
-
-    def handler(signum: int, frame: Any) -> None:
-        raise SystemExit(128 + signum)
-
-    old = signal.signal(signal.SIGTERM, handler)
-    try:
-        yield
-    finally:
-        signal.signal(signal.SIGTERM, old)
 
 
 if __name__ == "__main__":

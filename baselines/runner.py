@@ -55,9 +55,10 @@ def _init_worker() -> None:
 
 
 @contextmanager
-def _sigterm_raises() -> Iterator[None]:
-    """SIGTERM raises ``SystemExit(143)`` in the main thread (so that ``finally`` blocks run and
-    the pool is shut down) instead of killing this process and orphaning its workers."""
+def sigterm_raises() -> Iterator[None]:
+    """SIGTERM raises ``SystemExit(143)`` in the main thread, as SIGINT raises ``KeyboardInterrupt``
+    (so that ``finally`` blocks run and worker pools are shut down) instead of killing this process
+    and orphaning its workers; elsewhere nothing changes."""
     if threading.current_thread() is not threading.main_thread():
         yield
         return
@@ -275,7 +276,7 @@ def run_tasks(
         workers = min(jobs or default_jobs, len(missing))
         options = {} if address is None else {"address": address}
         try:
-            with _sigterm_raises():
+            with sigterm_raises():
                 BACKENDS[backend](fn, [(i, tasks[i]) for i in missing], workers, done, **options)
         except (KeyboardInterrupt, SystemExit):
             bar.close()
