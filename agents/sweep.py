@@ -575,6 +575,10 @@ def main(argv: Sequence[str] | None = None) -> int:
     except RunFolderInUse as exc:  # another process took a run folder after the check above
         print(f"python -m agents.sweep: error: argument --out: {exc}", file=sys.stderr)
         return 2
+    except OSError as exc:  # a write that failed (e.g. a full disk): every file written is whole
+        print(f"python -m agents.sweep: error: {exc}; the finished trials and the checkpoints are kept: "
+              f"run the same command again to resume {args.out}", file=sys.stderr)  # fmt: skip
+        return 1
     path = write_csv(records, args.out / "sweep.csv")
     print(path.read_text(), end="")
     print(f"{len(records)} trials in {time.perf_counter() - start:.1f} s ({args.backend}); wrote {path}")

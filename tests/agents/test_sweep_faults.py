@@ -209,3 +209,18 @@ def test_a_signal_to_a_one_job_sweep_ends_in_one_line(tmp_path, signum):
     assert checkpoints(run_dir)
     config = json.loads((run_dir / "config.json").read_text())
     assert config["env_kwargs"] == {"T": 40}
+
+
+# --- a write that fails -----------------------------------------------------------------------
+def test_a_failed_write_ends_in_one_line_naming_the_file(tmp_path, monkeypatch, capsys):
+    # a full disk used to end the sweep with a traceback; what was written is kept and resumes
+    out = tmp_path / "s"
+
+    def full_disk(*args, **kwargs):
+        raise OSError(27, "File too large", str(out / "runs" / "x" / "model.zip"))
+
+    monkeypatch.setattr(sweep, "run_sweep", full_disk)
+    status = sweep.main(["--timesteps", "64", "--out", str(out), "--no-progress", "--jobs", "1", *TINY_ARGS])
+    err = capsys.readouterr().err.strip()
+    assert status == 1 and len(err.splitlines()) == 1, err
+    assert "File too large" in err and "model.zip" in err and f"resume {out}" in err
