@@ -20,19 +20,12 @@ pytest.importorskip("stable_baselines3")
 
 from agents import sweep  # noqa: E402
 from agents.loading import checkpoints  # noqa: E402
+from tests.processes import alive, children, cmdline, wait_for  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[2]
 TINY = {"n_envs": [2], "n_steps": [32], "batch_size": [64], "n_epochs": [1]}
 TINY_ARGS = ["--set", "n_envs=2", "--set", "n_steps=32", "--set", "batch_size=64", "--set", "n_epochs=1"]
 ENV = {"PYTHONPATH": str(ROOT), "PATH": "/usr/bin:/bin", "OMP_NUM_THREADS": "1"}
-
-
-def wait_for(condition, seconds: float, what: str) -> None:
-    deadline = time.monotonic() + seconds
-    while not condition():
-        if time.monotonic() > deadline:
-            pytest.fail(f"gave up waiting for {what}")
-        time.sleep(0.1)
 
 
 def trials() -> list[sweep.Trial]:
@@ -111,33 +104,6 @@ def test_an_edited_hyperparameter_file_is_a_changed_setting(tmp_path, monkeypatc
 
 
 # --- a killed parent ----------------------------------------------------------------------------
-def _children(pid: int) -> list[int]:
-    kids = []
-    for stat in Path("/proc").glob("[0-9]*/stat"):
-        try:
-            fields = stat.read_text().rsplit(")", 1)[1].split()
-        except OSError:
-            continue
-        if int(fields[1]) == pid:
-            kids.append(int(stat.parent.name))
-    return kids
-
-
-def _alive(pid: int) -> bool:
-    try:
-        state = Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()[0]
-    except OSError:
-        return False
-    return state != "Z"
-
-
-def _cmdline(pid: int) -> str:
-    try:
-        return Path(f"/proc/{pid}/cmdline").read_text()
-    except OSError:
-        return ""
-
-
 def _sweep_cmd(out: Path, *args: str) -> list[str]:
     return [sys.executable, "-m", "agents.sweep", "--timesteps", "100000000", "--env-kwargs", "T:40",
             "--eval-freq", "0", "--checkpoint-freq", "100000000", "--no-progress", "--out", str(out),
@@ -158,7 +124,7 @@ def test_workers_exit_when_the_sweep_is_killed(tmp_path):
         nonlocal workers
         if proc.poll() is not None:
             return True
-        workers = [p for p in _children(proc.pid) if "spawn_main" in _cmdline(p)]
+        workers = [p for p in children(proc.pid) if "spawn_main" in cmdline(p)]
         started = {path.parents[1] for path in (out / "runs").glob("*/monitor/*.csv")}  # its run folder
         return len(workers) == 2 and len(started) == 2
 
@@ -168,12 +134,12 @@ def test_workers_exit_when_the_sweep_is_killed(tmp_path):
         proc.kill()
         proc.wait(timeout=30)
         deadline = time.monotonic() + 20
-        while [p for p in workers if _alive(p)] and time.monotonic() < deadline:
+        while [p for p in workers if alive(p)] and time.monotonic() < deadline:
             time.sleep(0.2)
-        assert not [p for p in workers if _alive(p)], "the workers outlived their parent"
+        assert not [p for p in workers if alive(p)], "the workers outlived their parent"
     finally:
         for pid in workers:  # the workers this test started, if the check above failed
-            if _alive(pid):
+            if alive(pid):
                 os.kill(pid, signal.SIGKILL)
     from agents.training import check_unlocked
 

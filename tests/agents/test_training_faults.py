@@ -9,7 +9,6 @@ import os
 import socket
 import subprocess
 import sys
-import time
 from pathlib import Path
 
 import pytest
@@ -19,6 +18,7 @@ pytest.importorskip("yaml")
 
 from agents.hyperparams import load_hyperparams  # noqa: E402
 from agents.training import TrainSettings, check_resumable, train  # noqa: E402
+from tests.processes import wait_for  # noqa: E402
 from train import main  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -41,14 +41,6 @@ def write_hp(path: Path, n_envs: int = 2, n_steps: int = 32, batch_size: int = 6
     path.write_text(TINY_PPO.format(n_envs=n_envs, n_steps=n_steps, batch_size=batch_size,
                                     n_timesteps=n_timesteps, normalize=normalize))  # fmt: skip
     return path
-
-
-def wait_for(condition, seconds: float, what: str) -> None:
-    deadline = time.monotonic() + seconds
-    while not condition():
-        if time.monotonic() > deadline:
-            pytest.fail(f"gave up waiting for {what}")
-        time.sleep(0.1)
 
 
 # --- two processes on one run folder -----------------------------------------------------
