@@ -228,7 +228,7 @@ def evaluate_scenarios(
     metrics = metrics_of(suite)
     kwargs = {**suite.env_kwargs, **dict(env_kwargs or {})}
     if at_once:
-        return _at_once(act, suite, scenarios, kwargs, seed, name)
+        return _at_once(act, suite, scenarios, kwargs, seed, name, metrics)
     env, vector = _make_env(suite.env_id, kwargs, batched and not suite.multi_node)
     if batched and not vector:  # no batched env (or a multi-node suite): the policy on a batch of one
         batch_act = act
@@ -249,9 +249,9 @@ def evaluate_scenarios(
 
 def _at_once(
     act: Callable, suite: Suite, scenarios: Sequence[SuiteScenario], kwargs: dict[str, Any],
-    seed: int | None, name: str,
+    seed: int | None, name: str, metrics: Metrics,
 ) -> Results:  # fmt: skip
-    """:func:`evaluate_scenarios` with ``at_once``."""
+    """:func:`evaluate_scenarios` with ``at_once`` (``metrics``: the suite's)."""
     from ios_uav_env.envs.rollout import run_episodes
 
     if suite.multi_node:
@@ -268,7 +268,6 @@ def _at_once(
         episodes = run_episodes(vec, act, seed=seeds, options={"configs": [s.config for s in scenarios]})
     finally:
         vec.close()
-    metrics = metrics_of(suite)
     rows = [ScenarioResult.of(s, metrics, score_plan(s.config, e.trajectory), e.seconds, e.trajectory)
             for s, e in zip(scenarios, episodes, strict=True)]  # fmt: skip
     return Results.of(suite, name, kwargs, rows, scenarios)
