@@ -15,15 +15,19 @@ from ios_uav_env.io import atomic_write_text
 
 @dataclass
 class Plan:
-    """A planned trajectory, scored by the one model: ``ios_uav_env.maxmin_rate`` (its best TDMA
-    schedule), which is ``ios_uav_env.average_rate`` for one ground node."""
+    """A planned trajectory, scored by the one model (``ios_uav_env.score_plan``): its rate is
+    ``ios_uav_env.maxmin_rate`` (its best TDMA schedule), which is ``ios_uav_env.average_rate``
+    for one ground node; its energy and energy efficiency are the score's too."""
 
     scheme: str  # e.g. "ia", "ra", "ia-ft", "cuc", "dp"
     config: ScenarioConfig
     trajectory: np.ndarray  # (N, 2) m
     mean_rate: float  # bps/Hz, eq. (9) with the exact model (K > 1: the max-min rate min_k R_k)
-    feasible: bool  # eq. (10) within FEASIBILITY_TOL
+    feasible: bool  # eq. (10) within FEASIBILITY_TOL (and the energy budget, if the config sets one)
     report: TrajectoryReport
+    energy: float  # J, propulsion energy of the flight
+    energy_efficiency: float  # bits/J, B T mean_rate / energy
+    objective_value: float  # the score of config.objective: mean_rate or energy_efficiency
     seconds: float  # wall time of the planner
     history: list[dict[str, Any]] = field(default_factory=list)  # per-iteration records (SCA)
     info: dict[str, Any] = field(default_factory=dict)  # planner-specific extras
@@ -54,6 +58,9 @@ class Plan:
             mean_rate=scored.rate,
             feasible=scored.feasible,
             report=scored.report,
+            energy=scored.energy,
+            energy_efficiency=scored.energy_efficiency,
+            objective_value=scored.objective_value,
             seconds=float(seconds),
             history=list(history or []),
             info=info,
@@ -65,6 +72,9 @@ class Plan:
             "config": self.config.to_dict(),
             "mean_rate": self.mean_rate,
             "feasible": self.feasible,
+            "energy": self.energy,
+            "energy_efficiency": self.energy_efficiency,
+            "objective_value": self.objective_value,
             "report": self.report.to_dict(),
             "seconds": self.seconds,
             "trajectory": self.trajectory.tolist(),

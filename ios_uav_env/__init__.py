@@ -16,8 +16,17 @@ matplotlib lazily.
 """
 
 from ios_uav_env.model.channel import RateKernel, faded_rates, rate_kernel, slot_rates
-from ios_uav_env.model.config import FEASIBILITY_TOL, SURFACES, ScenarioConfig, moves_needed, scene_box
+from ios_uav_env.model.config import (
+    ENERGY_RTOL,
+    FEASIBILITY_TOL,
+    OBJECTIVES,
+    SURFACES,
+    ScenarioConfig,
+    moves_needed,
+    scene_box,
+)
 from ios_uav_env.model.peak import Peak, rate_peak
+from ios_uav_env.model.propulsion import PropulsionModel, max_range_speed, min_power_speed, propulsion_power
 from ios_uav_env.model.scenarios import DEFAULT_RANGES, ScenarioRanges, sample_scenario
 from ios_uav_env.model.schedule import (
     Schedule,
@@ -28,16 +37,19 @@ from ios_uav_env.model.schedule import (
     schedule,
     scheduled_rates,
 )
-from ios_uav_env.model.score import PlanScore, score_plan
-from ios_uav_env.model.trajectory import TrajectoryReport, average_rate, check_trajectory
+from ios_uav_env.model.score import PlanScore, energy_efficiency, score_plan
+from ios_uav_env.model.trajectory import TrajectoryReport, average_rate, check_trajectory, energy
 
 __version__ = "0.1.0"
 
 __all__ = [
     "DEFAULT_RANGES",
+    "ENERGY_RTOL",
     "FEASIBILITY_TOL",
+    "OBJECTIVES",
     "Peak",
     "PlanScore",
+    "PropulsionModel",
     "RateKernel",
     "SURFACES",
     "ScenarioConfig",
@@ -47,11 +59,16 @@ __all__ = [
     "average_rate",
     "best_schedule",
     "check_trajectory",
+    "energy",
+    "energy_efficiency",
     "faded_rates",
+    "max_range_speed",
     "maxmin_rate",
     "maxmin_schedule",
+    "min_power_speed",
     "moves_needed",
     "node_rates",
+    "propulsion_power",
     "rate_kernel",
     "rate_peak",
     "sample_scenario",

@@ -17,11 +17,20 @@ from typing import Any, Literal
 
 import numpy as np
 
+from ios_uav_env.model.propulsion import PropulsionModel, least_energy_speed, propulsion_power
+
 Surface = Literal["ios", "ris", "none"]
 SURFACES: tuple[str, ...] = ("ios", "ris", "none")
 
 #: Tolerance (m) within which a trajectory constraint of eq. (10) counts as met.
 FEASIBILITY_TOL = 1e-6
+#: Relative tolerance of the energy budget: a plan of energy E meets ``energy_budget_j`` when
+#: E <= energy_budget_j * (1 + ENERGY_RTOL) (rounding of the sum over N - 1 moves).
+ENERGY_RTOL = 1e-9
+#: What a plan's score is (``ScenarioConfig.objective``): the average rate of eq. (9) (max-min
+#: for K > 1 nodes), or the energy efficiency B T R / E (bits/J). The average rate under an
+#: energy budget is ``"rate"`` with ``energy_budget_j`` set.
+OBJECTIVES: tuple[str, ...] = ("rate", "energy_efficiency")
 
 
 def _pair(value: Any, name: str, length: int = 2) -> tuple[float, ...]:
@@ -84,6 +93,12 @@ class ScenarioConfig:
     # the single node ``ground_node``. When given (K >= 1 pairs), ``ground_node`` is set to
     # ground_nodes[0] and one node collapses to None (one canonical single-node value).
     ground_nodes: tuple[tuple[float, float], ...] | None = None
+    # The objective and its parameters (``docs/model.md``, "Energy"); each is left out of
+    # ``to_dict()`` at its default, so the rate scenarios' dicts (suite hashes, cache keys) hold.
+    propulsion: PropulsionModel = PropulsionModel()  # rotary-wing power model P(V) (a dict of it is accepted)
+    bandwidth_hz: float = 1e6  # Hz, bandwidth B (bits = B x bps/Hz x s)
+    objective: str = "rate"  # one of OBJECTIVES: "rate" (eq. (9)) or "energy_efficiency" (bits/J)
+    energy_budget_j: float | None = None  # J, energy budget E_max of the flight (None: no budget)
 
     def __post_init__(self) -> None:
         if self.surface not in SURFACES:
@@ -153,6 +168,42 @@ class ScenarioConfig:
             raise ValueError(
                 f"T={self.T} s is too short to fly from q0={self.q0} to qF={self.qF} at "
                 f"v_max={self.v_max} m/s: T must be >= {t_min:g} s (N - 1 >= ceil(|qF - q0| / D) moves)"
+            )
+        self._check_objective()
+
+    def _check_objective(self) -> None:
+        """Validate the objective's fields (``propulsion`` given as a dict becomes the model)."""
+        model = self.propulsion
+        if isinstance(model, Mapping):
+            unknown = set(model) - {f.name for f in dataclasses.fields(PropulsionModel)}
+            if unknown:
+                raise ValueError(
+                    f"propulsion has unknown constants {sorted(unknown)}; allowed: "
+                    f"{[f.name for f in dataclasses.fields(PropulsionModel)]}"
+                )
+            object.__setattr__(self, "propulsion", PropulsionModel(**model))
+        elif not isinstance(model, PropulsionModel):
+            raise ValueError(
+                f"propulsion must be a PropulsionModel (or a dict of its constants), got {model!r}"
+            )
+        b = self.bandwidth_hz
+        if not (_is_real(b) and math.isfinite(b) and b > 0):
+            raise ValueError(f"bandwidth_hz must be a finite number > 0 (Hz), got {b!r}")
+        object.__setattr__(self, "bandwidth_hz", float(b))
+        if self.objective not in OBJECTIVES:
+            raise ValueError(f"objective must be one of {OBJECTIVES}, got {self.objective!r}")
+        budget = self.energy_budget_j
+        if budget is None:
+            return
+        if not (_is_real(budget) and math.isfinite(budget) and budget > 0):
+            raise ValueError(f"energy_budget_j must be None or a finite number > 0 (J), got {budget!r}")
+        object.__setattr__(self, "energy_budget_j", float(budget))
+        least = self.least_energy()
+        if budget < least:
+            raise ValueError(
+                f"energy_budget_j={budget!r} J is below the least energy of any feasible flight of "
+                f"this scenario, {least:.10g} J (N - 1 = {self.N - 1} moves from q0 to qF at "
+                f"{self.least_energy_speed():.4g} m/s): it must be None or a number >= {least:.10g} J"
             )
 
     def _canonical_nodes(self) -> None:
@@ -270,6 +321,28 @@ class ScenarioConfig:
         """Shortest T (s) that still lets the UAV reach qF from q0 at v_max."""
         return (int(moves_needed(math.dist(self.q0, self.qF), self.D)) + 1) * self.dt
 
+    def least_energy_speed(self) -> float:
+        """The speed (m/s) of :meth:`least_energy`: clip(V_mp, |qF - q0| / ((N - 1) dt), v_max)."""
+        distance = math.dist(self.q0, self.qF)
+        return least_energy_speed(distance, self.N - 1, self.dt, self.v_max, self.propulsion)
+
+    def least_energy(self) -> float:
+        """A lower bound (J) on the energy of every feasible flight, exact for the straight one.
+
+        A feasible flight makes N - 1 moves of one slot each, at speeds v_n in [0, v_max] whose
+        distances add up to at least L = |qF - q0| (the triangle inequality): sum_n v_n dt >= L.
+        Among flights at one constant speed c the energy (N - 1) dt P(c) is least at the c in
+        [L / ((N - 1) dt), v_max] nearest to the minimum-power speed V_mp, P being unimodal
+        with its minimum at V_mp: c* = clip(V_mp, L / ((N - 1) dt), v_max). Below V_mp a
+        slower move costs more power and covers less, so no flight gains by one; above V_mp,
+        where P is convex (it is for the Table I constants from about 4 m/s on; tested),
+        Jensen's inequality gives sum_n P(v_n) >= (N - 1) P(mean v_n) >= (N - 1) P(c*). So
+        E >= (N - 1) dt P(c*), with equality for the straight line flown at c* when
+        c* = L / ((N - 1) dt), and for a path of N - 1 equal moves of c* dt (a detour) otherwise.
+        A budget below this is refused (``energy_budget_j``).
+        """
+        return (self.N - 1) * self.dt * float(propulsion_power(self.least_energy_speed(), self.propulsion))
+
     def replace(self, **changes: Any) -> ScenarioConfig:
         """A copy with ``changes`` applied (an unknown field raises ``TypeError`` worded as
         Python's own); re-validated."""
@@ -288,19 +361,35 @@ class ScenarioConfig:
         return dataclasses.replace(self, **changes)
 
     def to_dict(self) -> dict[str, Any]:
-        """Plain-JSON dictionary of the fields (round-trips through ``ScenarioConfig(**d)``).
+        """Plain-JSON dictionary of the fields (round-trips through :meth:`from_dict`, i.e.
+        ``ScenarioConfig(**d)``).
 
-        ``ground_nodes`` is omitted when None (one node), so single-node dicts are unchanged."""
+        ``ground_nodes`` is omitted when None (one node), and each objective field
+        (``propulsion``, ``bandwidth_hz``, ``objective``, ``energy_budget_j``) at its default,
+        so the dicts of the rate scenarios are unchanged."""
         out = {k: list(v) if isinstance(v, tuple) else v for k, v in dataclasses.asdict(self).items()}
         if self.ground_nodes:
             out["ground_nodes"] = [list(p) for p in self.ground_nodes]
         else:
             del out["ground_nodes"]
+        for name in _OMITTED_AT_DEFAULT:
+            if getattr(self, name) == _DEFAULTS[name]:
+                del out[name]
+        if "propulsion" in out:
+            out["propulsion"] = self.propulsion.to_dict()
         return out
+
+    @classmethod
+    def from_dict(cls, data: Mapping[str, Any]) -> ScenarioConfig:
+        """The config of a :meth:`to_dict` dictionary (``ScenarioConfig(**data)``)."""
+        return cls(**data)
 
 
 #: The names of the ``ScenarioConfig`` fields (the scenario's keyword arguments everywhere).
 SCENARIO_FIELDS: frozenset[str] = frozenset(f.name for f in dataclasses.fields(ScenarioConfig))
+#: The objective's fields, left out of ``to_dict()`` at their defaults.
+_OMITTED_AT_DEFAULT = ("propulsion", "bandwidth_hz", "objective", "energy_budget_j")
+_DEFAULTS = {f.name: f.default for f in dataclasses.fields(ScenarioConfig) if f.name in _OMITTED_AT_DEFAULT}
 
 
 def moves_needed(distance: Any, D: float) -> Any:

@@ -10,11 +10,19 @@ A plan is a trajectory q (N, 2) and, for K > 1 nodes, optionally its own TDMA sh
   without shares, with the best schedule of its trajectory (``own_shares`` false);
 - ``best_schedule_rate``: :func:`~ios_uav_env.model.schedule.maxmin_rate`, the best shares for
   the same flight (``rate`` itself for one node);
-- ``report``: eq. (10), :func:`~ios_uav_env.model.trajectory.check_trajectory`.
+- ``report``: eq. (10), :func:`~ios_uav_env.model.trajectory.check_trajectory`, with the
+  flight's propulsion energy E (J) and, when the scenario sets ``energy_budget_j``, the
+  budget E <= E_max (``feasible`` then asks for both);
+- ``energy_efficiency``: bits per joule, EE = B T R / E with R = ``rate``, B the bandwidth
+  ``config.bandwidth_hz`` and T = N dt the mission time. For one node B T R = B dt sum_n r(q[n])
+  (eq. (9): R is the mean of the N slot rates), the bits delivered; for K > 1 nodes R is
+  min_k R_k, so EE is the worst node's bits per joule;
+- ``objective_value``: the score of the scenario's ``objective``: ``rate`` for ``"rate"``
+  (with or without a budget, which enters ``feasible``), ``energy_efficiency`` for
+  ``"energy_efficiency"``.
 
-The objective is the rate of the paper (the average rate, max-min for K > 1); a new objective
-extends this function and :class:`PlanScore` (``docs/development.md``), so that every caller
-scores it alike.
+A new objective extends this function and :class:`PlanScore` (``docs/development.md``), so
+that every caller (planners, envs, the benchmark) scores it alike.
 """
 
 from __future__ import annotations
@@ -35,12 +43,38 @@ class PlanScore:
     rate: float  # bps/Hz, the plan's own score
     best_schedule_rate: float  # bps/Hz, with the best shares of its trajectory (= rate for K = 1)
     own_shares: bool  # rate scored with the plan's own shares (always true for K = 1)
-    report: TrajectoryReport  # eq. (10)
+    report: TrajectoryReport  # eq. (10), the energy and the energy budget
     best: Schedule | None  # the certified best schedule (None when it was not needed: K = 1)
+    energy_efficiency: float  # bits/J, B T rate / E
+    objective_value: float  # the score of config.objective: rate (bps/Hz) or energy_efficiency (bits/J)
 
     @property
     def feasible(self) -> bool:
+        """Eq. (10) holds (within ``report.tol``) and, with a budget, E <= E_max."""
         return bool(self.report.feasible)
+
+    @property
+    def energy(self) -> float:
+        """Propulsion energy E of the flight (J): ``report.energy``."""
+        return self.report.energy
+
+
+def bits_per_joule(config: ScenarioConfig, rate: float, energy: float) -> float:
+    """EE = B T R / E (bits/J) of a plan of rate R (bps/Hz) and energy E (J) on ``config``."""
+    return config.bandwidth_hz * config.T * rate / energy
+
+
+def _score(
+    config: ScenarioConfig,
+    rate: float,
+    best_rate: float,
+    own: bool,
+    report: TrajectoryReport,
+    best: Schedule | None,
+) -> PlanScore:
+    ee = bits_per_joule(config, rate, report.energy)
+    value = ee if config.objective == "energy_efficiency" else rate
+    return PlanScore(rate, best_rate, own, report, best, ee, value)
 
 
 def score_plan(
@@ -62,12 +96,21 @@ def score_plan(
         if shares is not None:
             raise ValueError("shares are for K > 1 ground nodes; this scenario has one")
         best = schedule(config, q)  # K = 1: average_rate exactly, no LP
-        return PlanScore(best.value, best.value, True, report, None)
+        return _score(config, best.value, best.value, True, report, None)
     if shares is None:
         best = schedule(config, q)
-        return PlanScore(best.value, best.value, False, report, best)
+        return _score(config, best.value, best.value, False, report, best)
     own = float(scheduled_rates(config, q, np.asarray(shares, dtype=np.float64)).min())
     if not best_schedule:
-        return PlanScore(own, float("nan"), True, report, None)
+        return _score(config, own, float("nan"), True, report, None)
     best = schedule(config, q)
-    return PlanScore(own, best.value, True, report, best)
+    return _score(config, own, best.value, True, report, best)
+
+
+def energy_efficiency(
+    config: ScenarioConfig, trajectory: np.ndarray, shares: np.ndarray | None = None
+) -> float:
+    """Energy efficiency (bits/J) of a plan: ``score_plan(config, trajectory, shares)``'s
+    ``energy_efficiency``, B T R / E (module docstring). One node: B dt sum_n r(q[n]) / E; K > 1
+    nodes: B T min_k R_k / E with the plan's ``shares``, or its best schedule without them."""
+    return score_plan(config, trajectory, shares, best_schedule=False).energy_efficiency
