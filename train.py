@@ -26,7 +26,18 @@ from typing import Any
 
 DEFAULT_ENV_ID = "ios_uav_env/IOSUAV-v0"
 #: The arguments a resumed run takes from its own config.json.
-RUN_SETTINGS = ("algo", "env", "seed", "n_envs", "vec_env", "env_kwargs", "out", "hyperparams")
+RUN_SETTINGS = (
+    "algo",
+    "env",
+    "seed",
+    "n_envs",
+    "vec_env",
+    "env_kwargs",
+    "out",
+    "hyperparams",
+    "trainer",
+    "threads",
+)
 
 
 def _checked(check: Callable[[str], Any]) -> Callable[[str], Any]:
@@ -110,6 +121,11 @@ def build_parser() -> argparse.ArgumentParser:
              "are replaced) (default: runs/<env>__<algo>__<seed>__<time>)")  # fmt: skip
     add("--hyperparams", type=_checked(_existing_file), default=None,
         help="zoo-format YAML (default: agents/hyperparams/<algo>.yml)")  # fmt: skip
+    add("--trainer", choices=("sb3", "fast"), default=None,
+        help="sb3: Stable-Baselines3's own loop (default); fast: PPO on the batched env's arrays "
+             "(agents.fast, docs/fast-training.md; --algo ppo; agents/hyperparams/fast_ppo.yml)")  # fmt: skip
+    add("--threads", type=_checked(_count), default=None,
+        help="torch threads of the fast trainer (default: every core)")  # fmt: skip
     add("--checkpoint-freq", type=_checked(_count), default=25_000, help="steps between checkpoints")
     add("--eval-freq", type=_checked(lambda text: _count(text, 0)), default=10_000,
         help="steps between evaluations (0: none)")  # fmt: skip
@@ -150,8 +166,9 @@ def parse_args(argv: Sequence[str] | None = None) -> tuple[argparse.Namespace, A
         parser.error(f"argument --env-kwargs: {exc}")
     try:
         check_hyperparams(
-            args.algo, env_id, args.hyperparams, env_kwargs, args.n_envs, args.vec_env or "dummy"
-        )
+            args.algo, env_id, args.hyperparams, env_kwargs, args.n_envs, args.vec_env or "dummy",
+            args.trainer or "sb3",
+        )  # fmt: skip
     except ValueError as exc:
         parser.error(f"argument {'--hyperparams' if args.hyperparams else '--env'}: {exc}")
     if args.out is None:
@@ -172,7 +189,11 @@ def parse_args(argv: Sequence[str] | None = None) -> tuple[argparse.Namespace, A
         checkpoint_freq=args.checkpoint_freq,
         eval_freq=args.eval_freq,
         progress_bar=not args.no_progress,
+        trainer=args.trainer or "sb3",
+        threads=args.threads,
     )
+    if args.threads is not None and settings.trainer != "fast":
+        parser.error("argument --threads: only the fast trainer takes it (add --trainer fast)")
     return args, settings
 
 

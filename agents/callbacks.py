@@ -45,6 +45,47 @@ def replace_into(path: str | Path, write: Callable[[Path], Any]) -> Path:
     return path
 
 
+def save_checkpoint(
+    run_dir: str | Path,
+    model: Any,
+    clock: Clock,
+    history: list,
+    vecnormalize: Any = None,
+    replay_buffer: Any = None,
+    extra: dict[str, Any] | None = None,
+) -> Path:
+    """Write the checkpoint of ``model`` at its step count into ``run_dir/checkpoints``: the steps,
+    wall time and evaluation history (``rl_model_progress_<steps>_steps.json``), the
+    VecNormalize statistics and SAC's replay buffer when given, each ``extra`` object as the
+    pickle ``rl_model_<name>_<steps>_steps.pkl``, then the model's ``.zip`` (last: a checkpoint
+    whose ``.zip`` exists has all its files) and the run's latest ``progress.json``. Every file is
+    written atomically. Returns the ``.zip``'s path."""
+    import pickle
+
+    from agents.loading import checkpoint_file
+
+    steps = int(model.num_timesteps)
+    folder = Path(run_dir) / "checkpoints"
+    folder.mkdir(parents=True, exist_ok=True)
+    record = {"steps": steps, "wall_time_s": clock.seconds(), "eval_history": history}
+    text = json.dumps(record, indent=1)
+    atomic_write_text(checkpoint_file(run_dir, steps, "progress").with_suffix(".json"), text)
+    if vecnormalize is not None:
+        atomic_write_bytes(checkpoint_file(run_dir, steps, "vecnormalize"), pickle.dumps(vecnormalize))
+    for name, obj in (extra or {}).items():
+        atomic_write_bytes(checkpoint_file(run_dir, steps, name), pickle.dumps(obj))
+    if replay_buffer is not None:
+
+        def dump(tmp: Path) -> None:
+            with tmp.open("wb") as fh:
+                pickle.dump(replay_buffer, fh, protocol=pickle.HIGHEST_PROTOCOL)
+
+        replace_into(checkpoint_file(run_dir, steps, "replay_buffer"), dump)
+    path = replace_into(checkpoint_file(run_dir, steps), model.save)  # last: it marks a whole checkpoint
+    atomic_write_text(folder / PROGRESS_FILE, text)
+    return path
+
+
 class TimedCheckpointCallback(CheckpointCallback):
     """SB3's ``CheckpointCallback`` (model, replay buffer, VecNormalize stats) that also writes
     the steps, wall time and evaluation history of each checkpoint (``rl_model_progress_<steps>_steps.json``
@@ -88,30 +129,11 @@ class TimedCheckpointCallback(CheckpointCallback):
     def save(self) -> Path:
         """Checkpoint now (progress, VecNormalize statistics, replay buffer, then the model); return
         the model's path."""
-        import pickle
-
-        Path(self.save_path).mkdir(parents=True, exist_ok=True)
-        record = {
-            "steps": int(self.model.num_timesteps),
-            "wall_time_s": self.clock.seconds(),
-            "eval_history": self.history,
-        }
-        text = json.dumps(record, indent=1)
-        atomic_write_text(self.file("progress", "json"), text)
-        vecnormalize = self.model.get_vec_normalize_env()
-        if self.save_vecnormalize and vecnormalize is not None:
-            atomic_write_bytes(self.file("vecnormalize"), pickle.dumps(vecnormalize))  # as VecNormalize.save
-        if self.save_replay_buffer and getattr(self.model, "replay_buffer", None) is not None:
-            replay_buffer = self.model.replay_buffer
-
-            def dump(tmp: Path) -> None:
-                with tmp.open("wb") as fh:
-                    pickle.dump(replay_buffer, fh, protocol=pickle.HIGHEST_PROTOCOL)
-
-            replace_into(self.file("replay_buffer"), dump)
-        model = replace_into(self.file(extension="zip"), self.model.save)  # last: it marks a whole checkpoint
-        atomic_write_text(Path(self.save_path) / PROGRESS_FILE, text)
-        return model
+        vecnormalize = self.model.get_vec_normalize_env() if self.save_vecnormalize else None
+        replay = getattr(self.model, "replay_buffer", None) if self.save_replay_buffer else None
+        return save_checkpoint(
+            Path(self.save_path).parent, self.model, self.clock, self.history, vecnormalize, replay
+        )
 
     def _on_rollout_start(self) -> None:
         self.rollout_start = self.model.num_timesteps
@@ -142,6 +164,28 @@ class TimedCheckpointCallback(CheckpointCallback):
         return True
 
 
+def evaluate_agent(agent: Any, steps: int, seconds: float) -> dict[str, Any]:
+    """The record of one deterministic episode (seed 0) of ``agent`` on its own env (``env_id``
+    with ``env_kwargs``) at ``steps`` env steps and ``seconds`` of wall time: its score
+    (``average_rate``: the multi-node ids' own max-min rate), feasibility and terminal miss."""
+    import gymnasium as gym
+
+    from ios_uav_env.envs.rollout import run_episode
+
+    env = gym.make(agent.env_id, **agent.env_kwargs)
+    try:
+        result = run_episode(env, agent.act, seed=0)
+    finally:
+        env.close()
+    return {
+        "steps": int(steps),
+        "wall_time_s": round(seconds, 2),
+        "average_rate": result.average_rate,
+        "feasible": result.feasible,
+        "terminal_miss": result.terminal_miss,
+    }
+
+
 class RateEvalCallback(BaseCallback):
     """Every ``eval_freq`` env steps: a deterministic episode on the training scenario, scored by the
     model (``eval/average_rate``, ``eval/terminal_miss``, ``eval/feasible`` in TensorBoard)."""
@@ -166,29 +210,14 @@ class RateEvalCallback(BaseCallback):
 
     def evaluate(self) -> dict[str, Any]:
         """One deterministic episode (seed 0) of the model now; recorded, logged and returned."""
-        import gymnasium as gym
-
         from agents.loading import Agent
-        from ios_uav_env.envs.rollout import run_episode
 
         agent = Agent(self.model, self.model.get_vec_normalize_env(), self.env_id, self.env_kwargs,
                       repeat=self.repeat)  # fmt: skip
-        env = gym.make(self.env_id, **self.env_kwargs)
-        try:
-            result = run_episode(env, agent.act, seed=0)
-        finally:
-            env.close()
-        record = {
-            "steps": int(self.num_timesteps),
-            "wall_time_s": round(self.clock.seconds(), 2),
-            "average_rate": result.average_rate,
-            "feasible": result.feasible,
-            "terminal_miss": result.terminal_miss,
-        }
+        record = evaluate_agent(agent, int(self.num_timesteps), self.clock.seconds())
         self.history.append(record)
-        self.logger.record("eval/average_rate", result.average_rate)
-        self.logger.record("eval/terminal_miss", result.terminal_miss)
-        self.logger.record("eval/feasible", float(result.feasible))
+        for key in ("average_rate", "terminal_miss", "feasible"):
+            self.logger.record(f"eval/{key}", float(record[key]))
         return record
 
     def _on_step(self) -> bool:

@@ -241,19 +241,29 @@ class VecExploringStarts(VecEnvWrapper):
 
     def step_wait(self) -> VecEnvStepReturn:
         obs, reward, dones, infos = self.venv.step_wait()
-        rows = np.flatnonzero(dones)
-        rows = rows[self._rng.random(rows.size) < self.prob]
-        if not rows.size:
-            return obs, reward, dones, infos
-        vec = self._base.vector_env
-        configs = [vec.envs[i].config for i in rows]
-        moves = np.minimum(
-            self._rng.integers(1, self.max_moves, rows.size, endpoint=True), [c.N - 3 for c in configs]
-        )
-        targets = draw_targets(self._rng, configs, self.box, self.peak_prob, self.peak_noise)
-        obs = obs.copy()
-        obs[rows] = vec.fly(rows, targets, np.maximum(moves, 0))[rows]
+        obs = explore_rows(self._base.vector_env, self._rng, dones, obs, self)
         return obs, reward, dones, infos
+
+
+def explore_rows(
+    vec: Any, rng: np.random.Generator, dones: np.ndarray, obs: np.ndarray, starts: Any
+) -> np.ndarray:
+    """The exploring starts of one step of the batched env ``vec``: each row that just finished
+    (``dones``), with probability ``starts.prob``, flies the hidden prefix of
+    ``agents.wrappers.ExploringStarts`` (``starts``: its ``prob``, ``max_moves``, ``box``,
+    ``peak_prob`` and ``peak_noise``); ``obs`` with those rows' observations after the prefix
+    (a copy if any row changed)."""
+    rows = np.flatnonzero(dones)
+    rows = rows[rng.random(rows.size) < starts.prob]
+    if not rows.size:
+        return obs
+    configs = [vec.envs[i].config for i in rows]
+    drawn = rng.integers(1, starts.max_moves, rows.size, endpoint=True)
+    moves = np.minimum(drawn, [c.N - 3 for c in configs])
+    targets = draw_targets(rng, configs, starts.box, starts.peak_prob, starts.peak_noise)
+    obs = obs.copy()
+    obs[rows] = vec.fly(rows, targets, np.maximum(moves, 0))[rows]
+    return obs
 
 
 #: Gymnasium wrappers of the zoo's ``env_wrapper`` key that have a VecEnv form here.

@@ -215,6 +215,15 @@ def normalized(hp: Hyperparams) -> dict[str, bool]:
     return {"obs": bool(kwargs.get("norm_obs", True)), "reward": bool(kwargs.get("norm_reward", True))}
 
 
+def _relative(path: Path) -> Path:
+    """``path`` relative to the repository (``agents/hyperparams/...``) when it is inside it."""
+    root = Path(__file__).resolve().parents[2]
+    try:
+        return path.resolve().relative_to(root)
+    except ValueError:
+        return path
+
+
 def write_config(run_dir: Path, settings: TrainSettings, hp: Hyperparams, total: int) -> Path:
     """Write the resolved configuration ``config.json`` atomically."""
     env = gym.make(settings.env_id, **settings.env_kwargs)
@@ -229,7 +238,7 @@ def write_config(run_dir: Path, settings: TrainSettings, hp: Hyperparams, total:
         "env_kwargs": settings.env_kwargs,
         "args": dataclasses.asdict(settings),
         "hyperparams": hp.raw,
-        "hyperparams_file": str(settings.hyperparams_file or f"agents/hyperparams/{settings.algo}.yml"),
+        "hyperparams_file": str(settings.hyperparams_file or _relative(settings.hyperparams_path())),
         "normalize": normalized(hp),
         "scenario": base.config.to_dict(),
         "arrival_guard": base.arrival_guard,

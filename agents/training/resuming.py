@@ -52,13 +52,16 @@ def resume_settings(run_dir: str | Path, timesteps: int | None, progress_bar: bo
     return TrainSettings(**args)
 
 
-def continue_run(run_dir: Path, settings: TrainSettings, hp: Hyperparams, total: int) -> RunStart | None:
+def continue_run(
+    run_dir: Path, settings: TrainSettings, hp: Hyperparams, total: int, loader: Any = None
+) -> RunStart | None:
     """The start of training from the newest checkpoint of ``run_dir`` that loads, noted in its
     ``config.json`` (:func:`record_resume`), or None if it has none; ``ValueError`` if that
-    checkpoint is past ``total`` steps already."""
+    checkpoint is past ``total`` steps already. ``loader``: as for :func:`load_checkpoint` (what
+    it returns beside the model is the start's ``venv``)."""
     from agents.callbacks import Clock
 
-    loaded = load_checkpoint(run_dir, settings, hp)
+    loaded = load_checkpoint(run_dir, settings, hp, loader)
     if loaded is None:
         return None
     steps, model, venv = loaded
@@ -73,7 +76,7 @@ def continue_run(run_dir: Path, settings: TrainSettings, hp: Hyperparams, total:
     return RunStart(model, venv, steps, clock, history)
 
 
-class _Unloadable(Exception):
+class Unloadable(Exception):
     """A checkpoint's file that does not load, and why."""
 
     def __init__(self, path: Path, reason: str) -> None:
@@ -81,17 +84,20 @@ class _Unloadable(Exception):
         super().__init__(f"{path}: {reason}")
 
 
-def load_checkpoint(run_dir: Path, settings: TrainSettings, hp: Hyperparams) -> tuple[int, Any, Any] | None:
+def load_checkpoint(
+    run_dir: Path, settings: TrainSettings, hp: Hyperparams, loader: Any = None
+) -> tuple[int, Any, Any] | None:
     """``(steps, model, venv)`` of the newest checkpoint of ``run_dir`` that loads whole (model,
     VecNormalize statistics, SAC's replay buffer), or None if the run has none. A newer one that
     does not load is renamed ``*.unreadable`` with a warning naming the file and the reason;
-    ``ValueError`` naming them all if none loads."""
+    ``ValueError`` naming them all if none loads. ``loader(run_dir, steps, zip, settings, hp)``
+    loads one checkpoint (default SB3's: ``(model, venv)``) or raises :class:`Unloadable`."""
     failures: list[tuple[Path, str]] = []
     found = checkpoints(run_dir)
     for steps, ckpt in reversed(found):
         try:
-            model, venv = _load(run_dir, steps, ckpt, settings, hp)
-        except _Unloadable as bad:
+            model, venv = (loader or _load)(run_dir, steps, ckpt, settings, hp)
+        except Unloadable as bad:
             failures.append((bad.path, bad.reason))
             warnings.warn(f"checkpoint file {bad.path} cannot be loaded ({bad.reason}); trying an older one",
                           RuntimeWarning, stacklevel=2)  # fmt: skip
@@ -107,7 +113,7 @@ def load_checkpoint(run_dir: Path, settings: TrainSettings, hp: Hyperparams) -> 
 
 
 def _load(run_dir: Path, steps: int, ckpt: Path, settings: TrainSettings, hp: Hyperparams) -> tuple[Any, Any]:
-    """``(model, venv)`` of the checkpoint ``ckpt`` of ``steps``; :class:`_Unloadable` naming the
+    """``(model, venv)`` of the checkpoint ``ckpt`` of ``steps``; :class:`Unloadable` naming the
     first of its files that is missing or does not load."""
     venv, current = None, ckpt
     try:
@@ -128,7 +134,7 @@ def _load(run_dir: Path, steps: int, ckpt: Path, settings: TrainSettings, hp: Hy
         if venv is not None:
             venv.close()
         reason = f"{type(exc).__name__}: {exc}" if str(exc) else type(exc).__name__
-        raise _Unloadable(current, reason) from exc
+        raise Unloadable(current, reason) from exc
     return model, venv
 
 

@@ -57,6 +57,10 @@ def _train(settings: TrainSettings, stop: StopFlag, _resume: bool) -> TrainResul
     if not _resume:
         check_new_run_dir(run_dir)  # before the lock makes the folder
     with lock_run_dir(run_dir):  # a second process on this folder is refused until the run ends
+        if settings.trainer == "fast":
+            from agents.fast.run import train_fast
+
+            return train_fast(settings, stop, _resume, hp, total, run_dir)
         return _train_locked(settings, stop, _resume, hp, total, run_dir)
 
 
@@ -85,7 +89,7 @@ def _resolve(settings: TrainSettings) -> tuple[Hyperparams, int, Path]:
 
     settings.validate()
     torch.set_num_threads(1)
-    hp = load_hyperparams(settings.algo, settings.env_id, settings.hyperparams_file)
+    hp = load_hyperparams(settings.algo, settings.env_id, settings.hyperparams_path())
     settings.n_envs = settings.n_envs or hp.n_envs
     total = settings.timesteps or hp.n_timesteps
     run_dir = Path(settings.out) if settings.out else RUNS_DIR / run_name(settings)

@@ -24,6 +24,28 @@ DEFAULT_ENV_ID = "ios_uav_env/IOSUAV-v0"
 #: (``agents.vec_env.BatchedVecEnv``: the same episodes, stepped as one array computation).
 VEC_ENVS = ("dummy", "batched")
 
+#: ``TrainSettings.trainer``: Stable-Baselines3's own loop (the library path, the default) or the
+#: fast PPO on the batched env's arrays (``agents.fast``; PPO only, always on the batched env).
+TRAINERS = ("sb3", "fast")
+
+#: The recipe file of the fast trainer (``agents.fast``) when none is given.
+FAST_HYPERPARAMS = Path(__file__).resolve().parents[1] / "hyperparams" / "fast_ppo.yml"
+
+
+def check_trainer(trainer: str) -> str:
+    if trainer not in TRAINERS:
+        raise ValueError(f"unknown trainer {trainer!r}; choose from {', '.join(TRAINERS)}")
+    return trainer
+
+
+def check_threads(threads: Any) -> int | None:
+    """``threads`` (torch threads of the fast trainer) checked: None (every core) or an integer >= 1."""
+    if threads is None:
+        return None
+    if isinstance(threads, bool) or not isinstance(threads, int) or threads < 1:
+        raise ValueError(f"must be None (every core) or an integer >= 1, got {threads!r}")
+    return threads
+
 
 def check_algo(algo: str) -> str:
     if algo not in ALGOS:
@@ -70,9 +92,12 @@ def check_hyperparams(
     env_kwargs: dict[str, Any] | None = None,
     n_envs: int | None = None,
     vec_env: str = "dummy",
+    trainer: str = "sb3",
 ) -> Hyperparams:
     """The resolved hyperparameters of ``env_id`` if the algorithm can be built with them on the
-    env (``ValueError`` naming the file and the key otherwise, :func:`agents.hyperparams.check_entry`).
+    env (``ValueError`` naming the file and the key otherwise, :func:`agents.hyperparams.check_entry`);
+    for ``trainer="fast"`` also read as its recipe (``agents.fast.FastRecipe``), default file
+    :data:`FAST_HYPERPARAMS`.
 
     The trial build has at most two envs and a small replay buffer: what it warns about (e.g.
     SB3's mini-batch size against ``n_steps * n_envs``) is its own size, not the run's, so its
@@ -81,8 +106,20 @@ def check_hyperparams(
 
     from stable_baselines3.common.vec_env import DummyVecEnv
 
+    if trainer == "fast":
+        if algo != "ppo":
+            raise ValueError(f"the fast trainer trains PPO only, got algo {algo!r}")
+        path = path or FAST_HYPERPARAMS
     hp = load_hyperparams(algo, env_id, path)
     where = path or f"agents/hyperparams/{algo}.yml"
+    if trainer == "fast":
+        from agents.fast.recipe import FastRecipe
+
+        try:
+            FastRecipe.from_hyperparams(hp, n_envs)
+        except ValueError as exc:
+            raise ValueError(f"{where}, {env_id}: {exc}") from None
+        vec_env = "batched"
     if vec_env == "batched" and hp.env_wrappers:
         _check_batchable(hp, where, env_id)
     n = n_envs or hp.n_envs
@@ -137,6 +174,19 @@ class TrainSettings:
     checkpoint_freq: int = 25_000  # env steps between checkpoints
     eval_freq: int = 10_000  # env steps between deterministic evaluations (0: none)
     progress_bar: bool = True
+    trainer: str = "sb3"  # "sb3" (SB3's loop) or "fast" (agents.fast: PPO on the batched env's arrays)
+    threads: int | None = None  # torch threads of the fast trainer; None = every core (SB3's: 1)
+
+    def hyperparams_path(self) -> Path:
+        """The recipe file the run reads: ``hyperparams_file``, else the trainer's default
+        (``agents/hyperparams/<algo>.yml``, or :data:`FAST_HYPERPARAMS` for the fast trainer)."""
+        if self.hyperparams_file is not None:
+            return Path(self.hyperparams_file)
+        return (
+            FAST_HYPERPARAMS
+            if self.trainer == "fast"
+            else Path(__file__).resolve().parents[1] / (f"hyperparams/{self.algo}.yml")
+        )
 
     def validate(self) -> None:
         """Raise ``ValueError`` naming the first bad field."""
@@ -152,6 +202,8 @@ class TrainSettings:
             ("algo", check_algo, self.algo),
             ("env_id", check_env_id, self.env_id),
             ("vec_env", check_vec_env, self.vec_env),
+            ("trainer", check_trainer, self.trainer),
+            ("threads", check_threads, self.threads),
         ]
         for name in ("timesteps", "n_envs", "checkpoint_freq"):
             if getattr(self, name) is not None:  # None: the hyperparameter file's value
@@ -164,6 +216,7 @@ class TrainSettings:
             env_kwargs=self.env_kwargs,
             n_envs=self.n_envs,
             vec_env=self.vec_env,
+            trainer=self.trainer,
         )
         checks.append(("hyperparams_file", hyperparams, self.hyperparams_file))
         return checks

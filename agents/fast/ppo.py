@@ -1,0 +1,321 @@
+"""PPO on the batched env's arrays: the rollout and the update of the fast trainer.
+
+The batched env (``ios_uav_env.envs.single_vector`` / ``multi_vector``, same-step autoreset)
+hands over a (B, obs) array per slot; :class:`FastPPO` keeps the whole rollout as (T, B, ...)
+tensors, with no per-row dict or Python loop over rows, computes GAE on them
+(:func:`agents.fast.gae.gae`) and updates in large minibatches. What a step does is SB3's PPO
+with ``VecNormalize``, row for row:
+
+- the network is SB3's own ``ActorCriticPolicy`` (``policy_kwargs`` as for SB3), so the model
+  saves as an SB3 PPO ``.zip``, loads with ``agents.loading.load_agent`` and exports to
+  ``agents.numpy_policy.NumpyPolicy``; actions are sampled from its diagonal Gaussian and
+  clipped to the action space for the env, the unclipped sample kept for the loss;
+- observations and rewards are normalised with a ``VecNormalize``'s statistics and rules
+  (running mean and variance of the observations, of the discounted return for the rewards,
+  the same clips and epsilon), saved as its pickle;
+- the loss is SB3's: the clipped surrogate with advantages normalised per minibatch, the
+  value's squared error (``vf_coef``), the entropy (``ent_coef``), the gradient clipped to
+  ``max_grad_norm``, Adam on SB3's optimizer; ``learning_rate`` and ``clip_range`` follow the
+  progress of the run as SB3's schedules do, the log-std schedule and the exploring starts'
+  schedule as ``agents.callbacks`` defines them.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from collections.abc import Mapping
+from typing import Any
+
+import gymnasium as gym
+import numpy as np
+import torch
+
+import ios_uav_env
+from agents.fast.gae import gae
+from agents.fast.recipe import FastRecipe
+from agents.wrappers import check_exploring
+
+#: Keys of the episode scores in the batched envs' ``final_info``: one node, several nodes.
+SCORE_KEYS = ("average_rate", "min_rate")
+
+
+class _Starts:
+    """The exploring starts' settings (``agents.wrappers.ExploringStarts``' fields), ``prob`` scheduled."""
+
+    def __init__(self, kwargs: Mapping[str, Any]) -> None:
+        full = {"prob": 0.5, "max_moves": 110, "peak_prob": 0.0, "peak_noise": 25.0, **kwargs}
+        from agents.wrappers import EXPLORE_BOX
+
+        checked = check_exploring(full["prob"], full["max_moves"], full.get("box", EXPLORE_BOX),
+                                  full["peak_prob"], full["peak_noise"])  # fmt: skip
+        self.prob, self.max_moves, self.box, self.peak_prob, self.peak_noise = checked
+        self.initial = self.prob
+
+
+class FastPPO:
+    """PPO of ``recipe`` on ``n_envs`` rows of ``env_id`` (its batched form), for ``total`` env steps.
+
+    ``model``: an SB3 PPO to go on training (its policy and Adam state, e.g. a checkpoint's),
+    default a new one seeded ``seed``; ``vecnormalize``: its statistics (a ``VecNormalize``),
+    default new ones if the recipe normalises. ``steps``: the env steps done so far (the
+    schedules' progress). Row i of the env is seeded ``seed + i`` and the rows are staggered
+    over the episode (``agents.vec_env.BatchedVecEnv(stagger=True)``)."""
+
+    def __init__(
+        self,
+        env_id: str,
+        recipe: FastRecipe,
+        total: int,
+        *,
+        env_kwargs: Mapping[str, Any] | None = None,
+        seed: int = 0,
+        model: Any = None,
+        vecnormalize: Any = None,
+        steps: int = 0,
+        env_threads: int | None = None,
+    ) -> None:
+        from stable_baselines3.common.vec_env import DummyVecEnv
+
+        from agents.vec_env import BatchedVecEnv
+
+        if env_id not in ios_uav_env.ENV_IDS:
+            raise ValueError(f"env_id must be an id of this package with a batched form, got {env_id!r}")
+        self.env_id, self.recipe, self.total, self.seed = env_id, recipe, int(total), int(seed)
+        self.env_kwargs = dict(env_kwargs or {})
+        self.steps, self.updates = int(steps), 0
+        vector_kwargs = dict(self.env_kwargs)
+        if env_threads is not None:
+            vector_kwargs["num_threads"] = env_threads
+        self.base = BatchedVecEnv(env_id, recipe.n_envs, vector_kwargs, stagger=True)
+        self.vec = self.base.vector_env
+        template = DummyVecEnv([lambda: gym.make(env_id, **self.env_kwargs)])
+        self.model = model if model is not None else self._new_model(template)
+        self.vecnormalize = vecnormalize
+        if vecnormalize is not None and getattr(vecnormalize, "venv", None) is None:
+            vecnormalize.set_venv(template)  # unpickled statistics: attach them to envs of their spaces
+        if self.vecnormalize is None and recipe.normalize is not None:
+            from stable_baselines3.common.vec_env import VecNormalize
+
+            self.vecnormalize = VecNormalize(template, gamma=recipe.gamma, **recipe.normalize)
+        policy = self.model.policy
+        if recipe.log_std is not None:
+            policy.log_std.requires_grad_(False)
+        self.policy, self.optimizer = policy, policy.optimizer
+        self.starts = _Starts(recipe.exploring) if recipe.exploring is not None else None
+        self._rng = np.random.default_rng(self.seed)
+        space = self.vec.single_action_space
+        self._low, self._high = space.low.astype(np.float32), space.high.astype(np.float32)
+        self._returns = np.zeros(recipe.n_envs)
+        self._obs: np.ndarray | None = None
+        self.cut_steps = 0  # env steps of the rollout a stop cut short (dropped)
+        self.timing = {"env": 0.0, "forward": 0.0, "update": 0.0, "other": 0.0}
+        self.scores: list[float] = []  # the finished episodes' own scores since the last read
+        t, b = recipe.n_steps, recipe.n_envs
+        obs_dim, act_dim = self.vec.single_observation_space.shape[0], space.shape[0]
+        self._buf = {
+            "obs": torch.zeros(t, b, obs_dim), "actions": torch.zeros(t, b, act_dim),
+            "logp": torch.zeros(t, b), "values": torch.zeros(t, b), "rewards": torch.zeros(t, b),
+            "dones": torch.zeros(t, b),
+        }  # fmt: skip
+
+    def _new_model(self, template: Any) -> Any:
+        from stable_baselines3 import PPO
+
+        r = self.recipe
+        return PPO(
+            "MlpPolicy",
+            template,
+            learning_rate=r.learning_rate.initial,
+            n_steps=r.batch_size,  # SB3's own buffer is not used; this size keeps its checks quiet
+            batch_size=r.batch_size,
+            n_epochs=r.n_epochs,
+            gamma=r.gamma,
+            gae_lambda=r.gae_lambda,
+            ent_coef=r.ent_coef,
+            vf_coef=r.vf_coef,
+            max_grad_norm=r.max_grad_norm,
+            policy_kwargs=r.policy_kwargs,
+            seed=self.seed,
+            device="cpu",
+        )
+
+    # --- the parts of one iteration ------------------------------------------------------
+    @property
+    def progress_remaining(self) -> float:
+        """SB3's ``_current_progress_remaining``: 1 at the start, 0 at ``total`` steps."""
+        return max(0.0, 1.0 - self.steps / max(1, self.total))
+
+    def reset(self, seed: int | None = None) -> None:
+        """Start every row's episode (row i seeded ``seed + i``; default the run's seed, shifted by
+        the steps done so that a resumed run meets new episodes)."""
+        base = self.seed if seed is None else seed
+        self.base.seed(base + (self.steps // max(1, self.recipe.rollout_size)) * self.recipe.n_envs)
+        obs = self.base.reset()
+        if self.vecnormalize is not None and self.vecnormalize.norm_obs:
+            self.vecnormalize.obs_rms.update(obs)
+        self._returns[:] = 0.0
+        self._obs = obs
+        self._rng = np.random.default_rng([self.seed, self.steps])
+
+    def _normalized_obs(self, obs: np.ndarray) -> np.ndarray:
+        vn = self.vecnormalize
+        return vn.normalize_obs(obs) if vn is not None and vn.norm_obs else obs
+
+    def _forward(self, obs: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
+        """The Gaussian's mean and the value of ``obs`` (normalised observations)."""
+        extractor = self.policy.mlp_extractor
+        mean = self.policy.action_net(extractor.forward_actor(obs))
+        value = self.policy.value_net(extractor.forward_critic(obs)).squeeze(-1)
+        return mean, value
+
+    def _log_prob(self, actions: torch.Tensor, mean: torch.Tensor) -> torch.Tensor:
+        log_std = self.policy.log_std
+        z = (actions - mean) * torch.exp(-log_std)
+        return (-0.5 * z * z - log_std - 0.5 * math.log(2.0 * math.pi)).sum(-1)
+
+    def _apply_schedules(self) -> None:
+        r, done = self.recipe, 1.0 - self.progress_remaining
+        if r.log_std is not None:
+            with torch.no_grad():
+                self.policy.log_std.fill_(r.log_std[0] + done * (r.log_std[1] - r.log_std[0]))
+        if self.starts is not None and r.exploring_schedule is not None:
+            hold, end = r.exploring_schedule
+            late = max(0.0, done - hold) / (1.0 - hold) if hold < 1.0 else 0.0
+            self.starts.prob = self.starts.initial + late * (end - self.starts.initial)
+        for group in self.optimizer.param_groups:
+            group["lr"] = r.learning_rate(self.progress_remaining)
+
+    def collect(self, stop: Any = None) -> bool:
+        """One rollout of ``n_steps`` slots on every row into the buffers; False if ``stop()``
+        became true (the rollout is then unfinished and must not be used)."""
+        from agents.vec_env import explore_rows
+
+        if self._obs is None:
+            self.reset()
+        self._apply_schedules()
+        r, buf, vn = self.recipe, self._buf, self.vecnormalize
+        obs, timing = self._obs, self.timing
+        std = torch.exp(self.policy.log_std.detach())
+        for t in range(r.n_steps):
+            if stop is not None and stop():
+                self.cut_steps = t * r.n_envs
+                return False
+            t0 = time.perf_counter()
+            x = torch.from_numpy(np.asarray(self._normalized_obs(obs), dtype=np.float32))
+            with torch.no_grad():
+                mean, value = self._forward(x)
+                actions = mean + std * torch.randn_like(mean)
+                logp = self._log_prob(actions, mean)
+            buf["obs"][t], buf["actions"][t], buf["logp"][t], buf["values"][t] = x, actions, logp, value
+            t1 = time.perf_counter()
+            clipped = np.clip(actions.numpy(), self._low, self._high)
+            obs, reward, terminated, truncated, info = self.vec.step(clipped)
+            t2 = time.perf_counter()
+            dones = terminated | truncated
+            reward = np.asarray(reward, dtype=np.float64)
+            if dones.any():
+                reward = self._episode_ends(reward, terminated, truncated, info)
+                if self.starts is not None:
+                    obs = explore_rows(self.vec, self._rng, dones, obs, self.starts)
+            if r.reward_shift is not None:
+                reward = r.reward_shift[1] * (reward - r.reward_shift[0])
+            if vn is not None:
+                if vn.norm_obs:
+                    vn.obs_rms.update(obs)
+                if vn.norm_reward:
+                    self._returns = self._returns * vn.gamma + reward
+                    vn.ret_rms.update(self._returns)
+                reward = vn.normalize_reward(reward)
+                self._returns[dones] = 0.0
+            buf["rewards"][t] = torch.from_numpy(np.asarray(reward, dtype=np.float32))
+            buf["dones"][t] = torch.from_numpy(dones.astype(np.float32))
+            t3 = time.perf_counter()
+            timing["forward"] += t1 - t0
+            timing["env"] += t2 - t1
+            timing["other"] += t3 - t2
+        self._obs = obs
+        return True
+
+    def _episode_ends(
+        self, reward: np.ndarray, terminated: np.ndarray, truncated: np.ndarray, info: Mapping[str, Any]
+    ) -> np.ndarray:
+        """Record the finished episodes' scores; bootstrap the rows cut by a time limit (SB3's
+        ``r += gamma V(final observation)``, with the value of the normalised final observation)."""
+        final = info.get("final_info", {})
+        mask = info.get("_final_info", terminated | truncated)
+        for key in SCORE_KEYS:
+            if key in final:
+                self.scores.extend(np.asarray(final[key])[mask].tolist())
+                break
+        cut = truncated & ~terminated
+        if cut.any():
+            last = np.asarray(info["final_obs"])[cut]
+            x = torch.from_numpy(np.asarray(self._normalized_obs(last), dtype=np.float32))
+            with torch.no_grad():
+                reward = reward.copy()
+                reward[cut] += self.recipe.gamma * self._forward(x)[1].numpy()
+        return reward
+
+    def update(self) -> dict[str, float]:
+        """The PPO update on the collected rollout; its losses, the KL and the clip fraction."""
+        t0 = time.perf_counter()
+        r, buf = self.recipe, self._buf
+        x = torch.from_numpy(np.asarray(self._normalized_obs(self._obs), dtype=np.float32))
+        with torch.no_grad():
+            last_values = self._forward(x)[1]
+        rewards, values, dones = buf["rewards"], buf["values"], buf["dones"]
+        advantages, returns = gae(rewards, values, dones, last_values, r.gamma, r.gae_lambda)
+        n = r.rollout_size
+        obs, actions = buf["obs"].reshape(n, -1), buf["actions"].reshape(n, -1)
+        old_logp, advantages, returns = buf["logp"].reshape(n), advantages.reshape(n), returns.reshape(n)
+        clip = r.clip_range(self.progress_remaining)
+        params = [p for p in self.policy.parameters() if p.requires_grad]
+        stats = {"policy_loss": 0.0, "value_loss": 0.0, "approx_kl": 0.0, "clip_fraction": 0.0}
+        count, stopped = 0, False
+        for _ in range(r.n_epochs):
+            order = torch.randperm(n)
+            for start in range(0, n, r.batch_size):
+                idx = order[start : start + r.batch_size]
+                mean, value = self._forward(obs[idx])
+                logp = self._log_prob(actions[idx], mean)
+                log_ratio = logp - old_logp[idx]
+                ratio = torch.exp(log_ratio)
+                adv = advantages[idx]
+                if r.normalize_advantage and adv.numel() > 1:
+                    adv = (adv - adv.mean()) / (adv.std() + 1e-8)
+                policy_loss = -torch.min(adv * ratio, adv * torch.clamp(ratio, 1.0 - clip, 1.0 + clip)).mean()
+                value_loss = torch.mean((returns[idx] - value) ** 2)
+                entropy = (self.policy.log_std + 0.5 * math.log(2.0 * math.pi * math.e)).sum()
+                loss = policy_loss + r.vf_coef * value_loss - r.ent_coef * entropy
+                with torch.no_grad():
+                    kl = float(torch.mean(ratio - 1.0 - log_ratio))
+                if r.target_kl is not None and kl > 1.5 * r.target_kl:
+                    stopped = True
+                    break
+                self.optimizer.zero_grad(set_to_none=True)
+                loss.backward()
+                torch.nn.utils.clip_grad_norm_(params, r.max_grad_norm)
+                self.optimizer.step()
+                stats["policy_loss"] += float(policy_loss.detach())
+                stats["value_loss"] += float(value_loss.detach())
+                stats["approx_kl"] += kl
+                stats["clip_fraction"] += float(torch.mean((torch.abs(ratio - 1.0) > clip).float()))
+                count += 1
+            if stopped:
+                break
+        self.steps += n
+        self.updates += 1
+        self.model.num_timesteps, self.model._total_timesteps = self.steps, self.total
+        self.timing["update"] += time.perf_counter() - t0
+        out = {key: value / max(count, 1) for key, value in stats.items()}
+        out.update(learning_rate=float(self.optimizer.param_groups[0]["lr"]), clip_range=clip)
+        return out
+
+    def take_scores(self) -> list[float]:
+        """The scores of the episodes finished since the last call (and forget them)."""
+        scores, self.scores = self.scores, []
+        return scores
+
+    def close(self) -> None:
+        self.base.close()

@@ -1,0 +1,171 @@
+"""A fast-trainer recipe: one zoo-format entry (the keys of ``agents/hyperparams/*.yml``) read as
+the settings of :class:`agents.fast.ppo.FastPPO`.
+
+The fast trainer reads the same file format as ``train.py``'s SB3 path, so a recipe is checked by
+the same code (``agents.hyperparams.load_hyperparams`` with ``algo="ppo"``) and its keys mean what
+they mean for SB3's PPO: ``n_envs`` rows of the batched env, ``n_steps`` slots per rollout,
+minibatches of ``batch_size``, ``n_epochs`` passes, ``gamma``, ``gae_lambda``, ``learning_rate``
+and ``clip_range`` (a number or ``lin_<number>``), ``ent_coef``, ``vf_coef``,
+``max_grad_norm``, ``target_kl``, ``normalize_advantage``, ``policy_kwargs`` (the SB3 policy is
+the network), ``normalize`` (VecNormalize's statistics and rules). Of the zoo's ``callback`` and
+``env_wrapper`` keys the trainer honours the ones whose effect it reproduces on arrays
+(:data:`CALLBACKS`, :data:`WRAPPERS`) and refuses any other by name.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import Any
+
+from agents.hyperparams import Hyperparams
+
+#: PPO keyword arguments the fast trainer reads (every other PPO argument is refused by name).
+PPO_KEYS = (
+    "n_steps", "batch_size", "n_epochs", "gamma", "gae_lambda", "learning_rate", "clip_range",
+    "ent_coef", "vf_coef", "max_grad_norm", "target_kl", "normalize_advantage", "policy_kwargs",
+)  # fmt: skip
+#: Callbacks of the zoo's ``callback`` key the trainer applies itself (by their parameters).
+CALLBACKS = ("agents.callbacks.LogStdSchedule", "agents.callbacks.ExploringStartsSchedule")
+#: Wrappers of the zoo's ``env_wrapper`` key the trainer applies on the batched env's arrays.
+WRAPPERS = ("agents.wrappers.ExploringStarts", "agents.wrappers.ShiftReward")
+
+
+def _name(obj: Any) -> str:
+    cls = obj if isinstance(obj, type) else type(obj)
+    return f"{cls.__module__}.{cls.__qualname__}"
+
+
+@dataclass(frozen=True)
+class Schedule:
+    """A value over the run: ``initial``, linearly down to 0 at the end if ``linear`` (SB3's
+    ``lin_`` schedules: ``value(progress_remaining) = progress_remaining * initial``)."""
+
+    initial: float
+    linear: bool = False
+
+    def __call__(self, progress_remaining: float) -> float:
+        return self.initial * progress_remaining if self.linear else self.initial
+
+    @classmethod
+    def of(cls, value: Any, name: str) -> Schedule:
+        """The schedule of a resolved hyperparameter (a number or SB3's linear schedule function)."""
+        if callable(value):  # agents.hyperparams' lin_ schedule: value(1) is the initial value
+            return cls(float(value(1.0)), linear=math.isclose(value(0.5), 0.5 * value(1.0)))
+        if isinstance(value, bool) or not isinstance(value, (int, float)) or not value > 0:
+            raise ValueError(f"hyperparameter {name} must be > 0, got {value!r}")
+        return cls(float(value))
+
+
+@dataclass(frozen=True)
+class FastRecipe:
+    """The resolved settings of one fast-trainer run (see the module docstring)."""
+
+    n_envs: int  # B, rows of the batched env
+    n_steps: int  # slots per rollout: a rollout is n_envs * n_steps env steps
+    batch_size: int  # minibatch size (samples)
+    n_epochs: int  # passes over each rollout
+    gamma: float  # discount
+    gae_lambda: float  # GAE lambda
+    learning_rate: Schedule  # Adam's step size
+    clip_range: Schedule  # PPO's ratio clip
+    ent_coef: float = 0.0
+    vf_coef: float = 0.5
+    max_grad_norm: float = 0.5
+    target_kl: float | None = None  # stop an update's epochs once the KL passes 1.5 x this
+    normalize_advantage: bool = True  # per minibatch, as SB3
+    policy_kwargs: dict[str, Any] = field(default_factory=dict)
+    normalize: dict[str, Any] | None = None  # VecNormalize's arguments (None: raw observations and rewards)
+    log_std: tuple[float, float] | None = None  # LogStdSchedule (start, end): log std set, not learned
+    exploring: dict[str, Any] | None = None  # ExploringStarts' arguments
+    exploring_schedule: tuple[float, float] | None = None  # ExploringStartsSchedule (hold, end)
+    reward_shift: tuple[float, float] | None = None  # ShiftReward (offset, scale)
+
+    @property
+    def rollout_size(self) -> int:
+        return self.n_envs * self.n_steps
+
+    @classmethod
+    def from_hyperparams(cls, hp: Hyperparams, n_envs: int | None = None) -> FastRecipe:
+        """The recipe of a resolved zoo entry (``agents.hyperparams.load_hyperparams("ppo", ...)``);
+        ``ValueError`` naming the key the fast trainer cannot honour."""
+        kwargs = dict(hp.model_kwargs)
+        unknown = sorted(set(kwargs) - set(PPO_KEYS))
+        if unknown:
+            raise ValueError(
+                f"hyperparameter {unknown[0]!r} is not read by the fast trainer "
+                f"(it reads {', '.join(PPO_KEYS)})"
+            )
+        if hp.policy != "MlpPolicy":
+            raise ValueError(
+                f"hyperparameter policy must be 'MlpPolicy' for the fast trainer, got {hp.policy!r}"
+            )
+        log_std = exploring_schedule = exploring = shift = None
+        for callback in hp.callbacks:
+            name = _name(callback)
+            if name == CALLBACKS[0]:
+                log_std = (callback.start, callback.end)
+            elif name == CALLBACKS[1]:
+                exploring_schedule = (callback.hold, callback.end)
+            else:
+                raise ValueError(
+                    f"hyperparameter callback {name!r} is not applied by the fast trainer (it applies "
+                    f"{', '.join(CALLBACKS)})"
+                )
+        for wrapper, wrapper_kwargs in hp.env_wrappers:
+            name = _name(wrapper)
+            if name == WRAPPERS[0]:
+                exploring = dict(wrapper_kwargs)
+            elif name == WRAPPERS[1]:
+                shift = (float(wrapper_kwargs.get("offset", 0.0)), float(wrapper_kwargs.get("scale", 1.0)))
+            else:
+                raise ValueError(
+                    f"hyperparameter env_wrapper {name!r} has no array form in the fast trainer (it has "
+                    f"{', '.join(WRAPPERS)})"
+                )
+        if exploring_schedule is not None and exploring is None:
+            raise ValueError(f"hyperparameter callback {CALLBACKS[1]!r} needs {WRAPPERS[0]!r} in env_wrapper")
+        recipe = cls(
+            n_envs=int(n_envs or hp.n_envs),
+            n_steps=int(kwargs.get("n_steps", 16)),
+            batch_size=int(kwargs.get("batch_size", 4096)),
+            n_epochs=int(kwargs.get("n_epochs", 4)),
+            gamma=float(kwargs.get("gamma", 0.99)),
+            gae_lambda=float(kwargs.get("gae_lambda", 0.95)),
+            learning_rate=Schedule.of(kwargs.get("learning_rate", 3e-4), "learning_rate"),
+            clip_range=Schedule.of(kwargs.get("clip_range", 0.2), "clip_range"),
+            ent_coef=float(kwargs.get("ent_coef", 0.0)),
+            vf_coef=float(kwargs.get("vf_coef", 0.5)),
+            max_grad_norm=float(kwargs.get("max_grad_norm", 0.5)),
+            target_kl=None if kwargs.get("target_kl") is None else float(kwargs["target_kl"]),
+            normalize_advantage=bool(kwargs.get("normalize_advantage", True)),
+            policy_kwargs=dict(kwargs.get("policy_kwargs") or {}),
+            normalize=None if hp.normalize is None else dict(hp.normalize),
+            log_std=log_std,
+            exploring=exploring,
+            exploring_schedule=exploring_schedule,
+            reward_shift=shift,
+        )
+        recipe.validate()
+        return recipe
+
+    def validate(self) -> None:
+        """``ValueError`` naming the first field out of its range."""
+        if self.n_envs < 1 or self.n_steps < 1 or self.n_epochs < 1:
+            raise ValueError(
+                f"n_envs, n_steps and n_epochs must be >= 1, "
+                f"got {self.n_envs}, {self.n_steps}, {self.n_epochs}"
+            )
+        if not 2 <= self.batch_size <= self.rollout_size:
+            raise ValueError(
+                f"batch_size must be in [2, n_envs * n_steps = {self.rollout_size}], got {self.batch_size}"
+            )
+        for name in ("gamma", "gae_lambda"):
+            if not 0.0 <= getattr(self, name) <= 1.0:
+                raise ValueError(f"{name} must be in [0, 1], got {getattr(self, name)}")
+        for name in ("ent_coef", "vf_coef", "max_grad_norm"):
+            value = getattr(self, name)
+            if not (math.isfinite(value) and value >= 0):
+                raise ValueError(f"{name} must be a finite number >= 0, got {value}")
+        if self.target_kl is not None and not self.target_kl > 0:
+            raise ValueError(f"target_kl must be > 0 or unset, got {self.target_kl}")

@@ -1,0 +1,214 @@
+"""A fast-trainer run: the run folder, checkpoints, resume and interrupts of ``train.py``, around
+:class:`agents.fast.ppo.FastPPO`.
+
+``agents.training.train`` calls :func:`train_fast` for ``TrainSettings(trainer="fast")`` once it
+holds the run folder's lock. The folder is the SB3 path's (``agents.training``): ``config.json``
+(with ``"trainer": "fast"`` in its ``args``), ``model.zip`` (an SB3 PPO file: the policy and its
+Adam state) and ``vecnormalize.pkl`` (a ``VecNormalize``'s statistics), ``summary.json``, and
+``checkpoints/`` with the same files per checkpoint plus ``rl_model_trainer_<steps>_steps.pkl``
+(the trainer's own state: its update count and random generators), all written atomically with
+the ``.zip`` last (``agents.callbacks.save_checkpoint``). So ``agents.loading.load_agent`` loads
+its models and checkpoints, ``agents.numpy_policy.NumpyPolicy`` exports them and
+``ios_uav_env.benchmark`` scores them like any other.
+
+A checkpoint is taken after the update that crosses each multiple of ``checkpoint_freq`` steps,
+and at the end. SIGINT / SIGTERM stops the rollout under way (its steps are dropped: no update
+used them) and saves a checkpoint of the last update; ``--resume`` continues from the newest
+checkpoint that loads with the same Adam state, statistics, step count (hence the schedules)
+and random generators; its rows start new episodes (seeded from the run's seed and the update
+count), as an SB3 run's resume does.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import pickle
+import sys
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+from agents.fast.ppo import FastPPO
+from agents.fast.recipe import FastRecipe
+from agents.hyperparams import Hyperparams
+from agents.training.folder import clear_unstarted, write_config
+from agents.training.interrupt import StopFlag, TrainingInterrupted
+from agents.training.resuming import RunStart, Unloadable, continue_run
+from agents.training.settings import TrainSettings
+from ios_uav_env.io import atomic_write_bytes, atomic_write_text
+
+#: The checkpoint pickle of the trainer's own state (``rl_model_trainer_<steps>_steps.pkl``).
+STATE_KIND = "trainer"
+
+
+@dataclass
+class _Loaded:
+    """What a checkpoint holds beside the model: the statistics and the trainer's state."""
+
+    vecnormalize: Any
+    state: dict[str, Any]
+
+    def close(self) -> None:  # a RunStart's venv is closed when a resume is refused
+        return None
+
+
+def torch_threads(threads: int | None) -> int:
+    """The torch threads of a fast run: ``threads``, default every core this process may use."""
+    if threads is not None:
+        return threads
+    try:
+        return len(os.sched_getaffinity(0))
+    except AttributeError:  # pragma: no cover - macOS, Windows
+        return os.cpu_count() or 1
+
+
+def _load(run_dir: Path, steps: int, ckpt: Path, settings: TrainSettings, hp: Hyperparams) -> tuple[Any, Any]:
+    """The model and :class:`_Loaded` of one checkpoint; :class:`Unloadable` naming the file that fails."""
+    from stable_baselines3 import PPO
+
+    from agents.loading import checkpoint_file
+
+    current = checkpoint_file(run_dir, steps, STATE_KIND)
+    try:
+        with current.open("rb") as fh:
+            state = pickle.load(fh)
+        vecnormalize = None
+        if hp.normalize is not None:
+            current = checkpoint_file(run_dir, steps, "vecnormalize")
+            with current.open("rb") as fh:
+                vecnormalize = pickle.load(fh)
+        current = ckpt
+        model = PPO.load(ckpt, device="cpu")
+    except Exception as exc:  # a damaged file fails in many ways (zipfile, pickle, torch, SB3 asserts)
+        reason = f"{type(exc).__name__}: {exc}" if str(exc) else type(exc).__name__
+        raise Unloadable(current, reason) from exc
+    return model, _Loaded(vecnormalize, state)
+
+
+def _state(algo: FastPPO) -> dict[str, Any]:
+    import torch
+
+    return {"steps": algo.steps, "updates": algo.updates, "torch_rng": torch.get_rng_state(),
+            "rng": algo._rng.bit_generator.state}  # fmt: skip
+
+
+def _save(run_dir: Path, algo: FastPPO, start: RunStart) -> Path:
+    from agents.callbacks import save_checkpoint
+
+    return save_checkpoint(run_dir, algo.model, start.clock, start.history, algo.vecnormalize,
+                           extra={STATE_KIND: _state(algo)})  # fmt: skip
+
+
+def train_fast(
+    settings: TrainSettings, stop: StopFlag, resume: bool, hp: Hyperparams, total: int, run_dir: Path
+) -> Any:
+    """Train (or continue) the fast run of ``settings`` in ``run_dir`` (its lock held) to ``total``
+    steps; ``agents.training.TrainResult``. Raises ``TrainingInterrupted`` after saving a
+    checkpoint if ``stop`` is set."""
+    import numpy as np
+    import torch
+    from stable_baselines3.common.utils import set_random_seed
+
+    from agents.callbacks import Clock
+
+    recipe = FastRecipe.from_hyperparams(hp, settings.n_envs)
+    torch.set_num_threads(torch_threads(settings.threads))
+    start = continue_run(run_dir, settings, hp, total, loader=_load) if resume else None
+    if start is None:
+        if resume:
+            print(f"{run_dir} holds no checkpoint: starting it again from step 0 with its own settings",
+                  file=sys.stderr)  # fmt: skip
+        clear_unstarted(run_dir)
+        run_dir.mkdir(parents=True, exist_ok=True)
+        set_random_seed(settings.seed)
+        algo = FastPPO(settings.env_id, recipe, total, env_kwargs=settings.env_kwargs, seed=settings.seed)
+        write_config(run_dir, settings, hp, total)
+        start = RunStart(algo.model, None, 0, Clock(), [])
+    else:
+        loaded: _Loaded = start.venv
+        algo = FastPPO(settings.env_id, recipe, total, env_kwargs=settings.env_kwargs, seed=settings.seed,
+                       model=start.model, vecnormalize=loaded.vecnormalize, steps=start.steps)  # fmt: skip
+        algo.updates = int(loaded.state["updates"])
+        torch.set_rng_state(loaded.state["torch_rng"])
+        algo.reset()
+        algo._rng.bit_generator.state = loaded.state["rng"]
+    start.venv = algo
+    try:
+        return _loop(settings, hp, run_dir, algo, start, total, stop, np)
+    finally:
+        algo.close()
+
+
+def _loop(
+    settings: TrainSettings, hp: Hyperparams, run_dir: Path, algo: FastPPO, start: RunStart, total: int,
+    stop: StopFlag, np: Any,
+) -> Any:  # fmt: skip
+    from tqdm.auto import tqdm
+
+    from agents.callbacks import evaluate_agent
+    from agents.loading import Agent
+    from agents.training.run import TrainResult
+
+    def evaluate() -> dict[str, Any]:
+        agent = Agent(algo.model, algo.vecnormalize, settings.env_id, settings.env_kwargs)
+        record = evaluate_agent(agent, algo.steps, start.clock.seconds())
+        start.history.append(record)
+        return record
+
+    start.clock.start()
+    print(f"training {run_dir} (fast PPO): step {algo.steps} of {total}", file=sys.stderr, flush=True)
+    bar = tqdm(
+        total=total, initial=algo.steps, unit="step", unit_scale=True, disable=not settings.progress_bar
+    )
+    log = (run_dir / "progress.csv").open("a", encoding="utf-8")
+    try:
+        while algo.steps < total:
+            if not algo.collect(stop):
+                steps_at_signal = algo.steps + algo.cut_steps
+                path = _save(run_dir, algo, start)
+                assert stop.signum is not None
+                raise TrainingInterrupted(stop.signum, run_dir, steps_at_signal, path, algo.steps)
+            before = algo.steps
+            stats = algo.update()
+            bar.update(algo.steps - before)
+            scores = algo.take_scores()
+            stats["episode_score"] = float(np.mean(scores)) if scores else float("nan")
+            log.write(
+                json.dumps({"steps": algo.steps, "wall_time_s": round(start.clock.seconds(), 3), **stats})
+                + "\n"
+            )
+            if settings.eval_freq and algo.steps // settings.eval_freq > before // settings.eval_freq:
+                record = evaluate()
+                bar.set_postfix(score=f"{record['average_rate']:.4f}")
+            if algo.steps // settings.checkpoint_freq > before // settings.checkpoint_freq:
+                _save(run_dir, algo, start)
+    finally:
+        bar.close()
+        log.close()
+    _save(run_dir, algo, start)  # the final state too, so that --resume can extend a finished run
+    seconds = start.clock.seconds()
+    model_path = _save_model(run_dir, algo)
+    final = evaluate()
+    start.history.pop()
+    summary = {
+        "steps": int(algo.steps),
+        "wall_time_s": round(seconds, 2),
+        "steps_per_s": round((algo.steps - start.steps) / max(seconds - start.clock.prior, 1e-9), 1),
+        "trainer": "fast",
+        "timing_s": {key: round(value, 3) for key, value in algo.timing.items()},
+        "final_eval": final,
+        "eval_history": start.history,
+    }
+    atomic_write_text(run_dir / "summary.json", json.dumps(summary, indent=1))
+    return TrainResult(run_dir, model_path, summary)
+
+
+def _save_model(run_dir: Path, algo: FastPPO) -> Path:
+    """``model.zip`` (and ``vecnormalize.pkl`` when the recipe normalises), written atomically."""
+    from agents.callbacks import replace_into
+
+    model_path = replace_into(run_dir / "model.zip", algo.model.save)
+    if algo.vecnormalize is not None:
+        atomic_write_bytes(run_dir / "vecnormalize.pkl", pickle.dumps(algo.vecnormalize))
+    return model_path
