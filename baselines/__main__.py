@@ -6,6 +6,10 @@ Examples
 ``python -m baselines --scheme ia ra ia-ft cuc dp --T 100 --resolution 5 --out results/plans``
 ``python -m baselines --nodes="-100,-20;150,-60;-40,90" --scheme tour ia dp`` (several ground
 nodes: max-min rates; ``dp`` also prints its certified upper bound and gap)
+``python -m baselines --objective energy_efficiency`` (the energy planners of
+:data:`ENERGY_SCHEMES`: ``dp-ee``, ``sca-ee``, ``loiter``, ``hover``; each row gives the energy
+efficiency in bits/J, the energy, the average rate and the time, and the certified EE bound of
+``baselines.energy_bound`` with each plan's % of it, when that module can run)
 
 For each scheme: ``<out>/<scheme>_T<T>_M<M>.json`` (the :class:`Plan`, written atomically)
 and ``.csv`` (x, y per slot, m); one PNG of all trajectories over the rate map of the
@@ -17,6 +21,8 @@ bad arguments.
 from __future__ import annotations
 
 import argparse
+import dataclasses
+import importlib
 import sys
 import time
 from collections.abc import Sequence
@@ -27,10 +33,21 @@ import numpy as np
 from baselines.plan import Plan
 from baselines.runner import check_writable
 from baselines.schemes import SCHEMES, get_scheme, run_scheme, sca_unavailable_reason
-from ios_uav_env import SURFACES, ScenarioConfig, io
+from ios_uav_env import OBJECTIVES, SURFACES, ScenarioConfig, io
 
 _HEADER = ("scheme", "T (s)", "M", "rate (bps/Hz)", "feasible", "worst viol. (m)", "seconds")
 _WIDTHS = (8, 7, 6, 14, 9, 16, 8)
+_ENERGY_HEADER = ("scheme", "T (s)", "M", "EE (bits/J)", "energy (J)", "rate (bps/Hz)", "feasible", "seconds")
+_ENERGY_WIDTHS = (8, 7, 6, 12, 11, 14, 9, 8)
+
+#: The planners of ``--objective energy_efficiency``: name -> (module, description). Each module's
+#: ``solve(config, **kwargs)`` returns a Plan; ``sca-ee`` (cvxpy) runs when it can be imported.
+ENERGY_SCHEMES: dict[str, tuple[str, str]] = {
+    "dp-ee": ("baselines.dp_energy", "best EE on the DP grid (Dinkelbach)"),
+    "sca-ee": ("baselines.sca_energy", "SCA with the propulsion term inside Dinkelbach"),
+    "loiter": ("baselines.loiter", "fly at V_mr to the rate peak, circle it at V_mp, back to qF"),
+    "hover": ("baselines.loiter", "fly to the rate peak at v_max and hover there"),
+}
 
 
 def _elements(text: str) -> int:
@@ -73,8 +90,13 @@ def build_parser() -> argparse.ArgumentParser:
         description="Plan UAV trajectories with the paper's benchmark schemes and the DP optimum.",
     )
     p.add_argument(
-        "--scheme", nargs="+", default=["ia"], choices=list(SCHEMES), metavar="SCHEME",
-        help=f"scheme(s) to run: {', '.join(SCHEMES)} (default: ia)",
+        "--scheme", nargs="+", default=None, choices=[*SCHEMES, *ENERGY_SCHEMES], metavar="SCHEME",
+        help=f"scheme(s) to run: {', '.join(SCHEMES)} (default: ia); with --objective energy_efficiency: "
+        f"{', '.join(ENERGY_SCHEMES)} (default: all)",
+    )  # fmt: skip
+    p.add_argument(
+        "--objective", choices=OBJECTIVES, default="rate",
+        help="what a plan is scored by: the average rate (default) or the energy efficiency (bits/J)",
     )  # fmt: skip
     p.add_argument("--T", type=_positive, default=150.0, help="mission duration T in s (default 150)")
     shape = p.add_mutually_exclusive_group()
@@ -98,11 +120,14 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--out", type=Path, default=Path("results/plans"), help="output folder")
     p.add_argument("--no-plot", action="store_true", help="do not write the PNG figure")
     p.add_argument("--progress", action="store_true", help="show the planners' progress (DP, SCA)")
+    p.add_argument(
+        "--no-bound", action="store_true", help="--objective energy_efficiency: skip the certified EE bound"
+    )
     return p
 
 
 def _config(args: argparse.Namespace, parser: argparse.ArgumentParser) -> ScenarioConfig:
-    changes: dict = {"T": args.T, "surface": args.surface}
+    changes: dict = {"T": args.T, "surface": args.surface, "objective": args.objective}
     if args.M is not None:
         changes["ios_shape"] = (100, args.M // 100)
     elif args.ios_shape is not None:
@@ -121,8 +146,8 @@ def _config(args: argparse.Namespace, parser: argparse.ArgumentParser) -> Scenar
     return config
 
 
-def _row(cells: Sequence[str]) -> str:
-    return "  ".join(str(c).rjust(w) for c, w in zip(cells, _WIDTHS, strict=True))
+def _row(cells: Sequence[str], widths: Sequence[int] = _WIDTHS) -> str:
+    return "  ".join(str(c).rjust(w) for c, w in zip(cells, widths, strict=True))
 
 
 def format_row(plan: Plan) -> str:
@@ -164,10 +189,105 @@ def plot_plans(path: Path, config: ScenarioConfig, plans: Sequence[Plan]) -> Pat
         )
         return io.save_figure(fig, path, dpi=120)
     plot_rate_map(ax, config)
-    labels = {f"{p.scheme}: {p.mean_rate:.3f} bps/Hz": p.trajectory for p in plans}
+    if config.objective == "energy_efficiency":
+        labels = {f"{p.scheme}: {p.energy_efficiency:.0f} bits/J": p.trajectory for p in plans}
+    else:
+        labels = {f"{p.scheme}: {p.mean_rate:.3f} bps/Hz": p.trajectory for p in plans}
     plot_trajectories(ax, config, labels)
     ax.set_title(f"{config.surface.upper()} rate map, T = {config.T:g} s, M = {config.M}")
     return io.save_figure(fig, path, dpi=120)
+
+
+def format_energy_row(plan: Plan) -> str:
+    """One row of the energy table: scheme, T, M, EE, energy, average rate, feasible, seconds."""
+    c = plan.config
+    return _row(
+        (
+            plan.scheme, f"{c.T:g}", c.M, f"{plan.energy_efficiency:.2f}", f"{plan.energy:.1f}",
+            f"{plan.mean_rate:.6f}", "yes" if plan.feasible else "NO", f"{plan.seconds:.2f}",
+        ),
+        _ENERGY_WIDTHS,
+    )  # fmt: skip
+
+
+def run_energy_scheme(name: str, config: ScenarioConfig, resolution: float, margin: float) -> Plan:
+    """Run energy planner ``name`` of :data:`ENERGY_SCHEMES` on ``config`` (``ImportError`` if its
+    module cannot be imported, e.g. ``sca-ee`` without cvxpy)."""
+    module = importlib.import_module(ENERGY_SCHEMES[name][0])
+    if name == "dp-ee":
+        plan = module.solve_ee(config, resolution=resolution, margin=margin)
+    elif name == "hover":
+        plan = module.hover(config)
+    else:
+        plan = module.solve(config)
+    return dataclasses.replace(plan, scheme=name)
+
+
+def energy_bound(plans: Sequence[Plan], config: ScenarioConfig) -> float | None:
+    """The certified EE upper bound (bits/J) of ``baselines.energy_bound`` with the best plan as
+    its reference, or None (printed why) when it cannot run."""
+    try:
+        bound = importlib.import_module("baselines.energy_bound")
+    except ImportError as exc:
+        print(f"bound: skipped: baselines.energy_bound cannot be imported ({exc})", file=sys.stderr)
+        return None
+    best = max(plans, key=lambda p: p.energy_efficiency)
+    try:
+        return float(bound.solve(config, reference=best).upper_bound)
+    except (ValueError, RuntimeError) as exc:
+        print(f"bound: failed: {exc}", file=sys.stderr)
+        return None
+
+
+def _main_energy(args: argparse.Namespace, parser: argparse.ArgumentParser, config: ScenarioConfig) -> int:
+    names = list(dict.fromkeys(args.scheme or ENERGY_SCHEMES))
+    if bad := [n for n in names if n not in ENERGY_SCHEMES]:
+        parser.error(
+            f"argument --scheme: {', '.join(bad)} score the rate; with --objective energy_efficiency "
+            f"choose from {', '.join(ENERGY_SCHEMES)}"
+        )
+    if config.K > 1:
+        parser.error("--objective energy_efficiency: the energy planners model one ground node (no --nodes)")
+    print(_row(_ENERGY_HEADER, _ENERGY_WIDTHS))
+    plans: list[Plan] = []
+    failed = 0
+    for name in names:
+        t0 = time.perf_counter()
+        try:
+            plan = run_energy_scheme(name, config, args.resolution, args.margin)
+        except ImportError as exc:
+            print(f"{name}: skipped: {exc}", file=sys.stderr)
+            failed += 1
+            continue
+        except (ValueError, RuntimeError) as exc:
+            print(f"{name}: failed after {time.perf_counter() - t0:.1f} s: {exc}", file=sys.stderr)
+            failed += 1
+            continue
+        print(format_energy_row(plan), flush=True)
+        _save(args, config, plan)
+        plans.append(plan)
+    if plans and not args.no_bound:
+        ub = energy_bound(plans, config)
+        if ub is not None:
+            shares = ", ".join(f"{p.scheme} {100 * p.energy_efficiency / ub:.2f}%" for p in plans)
+            print(
+                f"bound: certified EE upper bound {ub:.2f} bits/J (no feasible trajectory beats it); {shares}"
+            )
+    _plot(args, config, plans)
+    return 1 if failed else 0
+
+
+def _save(args: argparse.Namespace, config: ScenarioConfig, plan: Plan) -> None:
+    stem = f"{plan.scheme}_T{config.T:g}_M{config.M}"
+    plan.save_json(args.out / f"{stem}.json")
+    save_csv(args.out / f"{stem}.csv", plan.trajectory)
+
+
+def _plot(args: argparse.Namespace, config: ScenarioConfig, plans: Sequence[Plan]) -> None:
+    if plans and not args.no_plot:
+        figure = args.out / f"plans_T{config.T:g}_M{config.M}_{'_'.join(p.scheme for p in plans)}.png"
+        plot_plans(figure, config, plans)
+        print(f"wrote {len(plans)} plan(s) (.json, .csv) and {figure}")
 
 
 def main(argv: Sequence[str] | None = None) -> int:
@@ -179,7 +299,11 @@ def main(argv: Sequence[str] | None = None) -> int:
         check_writable(args.out)
     except OSError as exc:
         parser.error(f"argument --out: {exc}")
-    names = list(dict.fromkeys(args.scheme))  # keep order, drop repeats
+    if args.objective == "energy_efficiency":
+        return _main_energy(args, parser, config)
+    names = list(dict.fromkeys(args.scheme or ["ia"]))  # keep order, drop repeats
+    if bad := [n for n in names if n not in SCHEMES]:
+        parser.error(f"argument --scheme: {', '.join(bad)} need --objective energy_efficiency")
     print(_row(_HEADER))
     plans: list[Plan] = []
     failed = 0
@@ -204,14 +328,9 @@ def main(argv: Sequence[str] | None = None) -> int:
             ub, gap = plan.info["upper_bound"], 100 * plan.info["gap"]
             print(f"{name}: certified upper bound {ub:.6f} bps/Hz (no feasible trajectory beats it; gap to "
                   f"this plan {gap:.3f}%)", flush=True)  # fmt: skip
-        stem = f"{name}_T{config.T:g}_M{config.M}"
-        plan.save_json(args.out / f"{stem}.json")
-        save_csv(args.out / f"{stem}.csv", plan.trajectory)
+        _save(args, config, plan)
         plans.append(plan)
-    if plans and not args.no_plot:
-        figure = args.out / f"plans_T{config.T:g}_M{config.M}_{'_'.join(p.scheme for p in plans)}.png"
-        plot_plans(figure, config, plans)
-        print(f"wrote {len(plans)} plan(s) (.json, .csv) and {figure}")
+    _plot(args, config, plans)
     return 1 if failed else 0
 
 
