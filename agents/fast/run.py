@@ -34,7 +34,7 @@ from agents.fast.recipe import FastRecipe
 from agents.hyperparams import Hyperparams
 from agents.training.folder import clear_unstarted, write_config
 from agents.training.interrupt import StopFlag, TrainingInterrupted
-from agents.training.resuming import RunStart, Unloadable, continue_run
+from agents.training.resuming import RunStart, TrainResult, Unloadable, continue_run
 from agents.training.settings import TrainSettings
 from ios_uav_env.io import atomic_write_bytes, atomic_write_text
 
@@ -148,7 +148,6 @@ def _loop(
 
     from agents.callbacks import evaluate_agent
     from agents.loading import Agent
-    from agents.training.run import TrainResult
 
     def evaluate() -> dict[str, Any]:
         agent = Agent(algo.model, algo.vecnormalize, settings.env_id, settings.env_kwargs)

@@ -35,6 +35,15 @@ class RunStart:
     history: list[dict[str, Any]]
 
 
+@dataclass
+class TrainResult:
+    """A finished run: its folder, its model's file and its ``summary.json``."""
+
+    run_dir: Path
+    model_path: Path
+    summary: dict[str, Any]
+
+
 def resume_settings(run_dir: str | Path, timesteps: int | None, progress_bar: bool) -> TrainSettings:
     """The settings of the run in ``run_dir`` (its folder as ``out``); ``timesteps`` changes its total
     (default: the run's own) and must not be below the steps of its newest checkpoint (``ValueError``)."""

@@ -6,7 +6,6 @@ from __future__ import annotations
 
 import json
 import sys
-from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -22,16 +21,9 @@ from agents.training.folder import (
     write_config,
 )
 from agents.training.interrupt import StopFlag, TrainingInterrupted, stop_on_signals
-from agents.training.resuming import RunStart, continue_run, resume_settings
+from agents.training.resuming import RunStart, TrainResult, continue_run, resume_settings
 from agents.training.settings import TrainSettings
 from ios_uav_env.io import atomic_write_bytes, atomic_write_text
-
-
-@dataclass
-class TrainResult:
-    run_dir: Path
-    model_path: Path
-    summary: dict[str, Any]
 
 
 def train(settings: TrainSettings, *, _resume: bool = False) -> TrainResult:
