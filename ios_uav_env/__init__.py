@@ -25,8 +25,11 @@ from ios_uav_env.model.config import (
     moves_needed,
     scene_box,
 )
+from ios_uav_env.model.kalman import NodeFilter
+from ios_uav_env.model.motion import GaussMarkov, node_paths
 from ios_uav_env.model.peak import Peak, rate_peak
 from ios_uav_env.model.propulsion import PropulsionModel, max_range_speed, min_power_speed, propulsion_power
+from ios_uav_env.model.reports import measured_rates, position_reports
 from ios_uav_env.model.scenarios import DEFAULT_RANGES, ScenarioRanges, sample_scenario
 from ios_uav_env.model.schedule import (
     Schedule,
@@ -46,6 +49,8 @@ __all__ = [
     "DEFAULT_RANGES",
     "ENERGY_RTOL",
     "FEASIBILITY_TOL",
+    "GaussMarkov",
+    "NodeFilter",
     "OBJECTIVES",
     "Peak",
     "PlanScore",
@@ -65,9 +70,12 @@ __all__ = [
     "max_range_speed",
     "maxmin_rate",
     "maxmin_schedule",
+    "measured_rates",
     "min_power_speed",
     "moves_needed",
+    "node_paths",
     "node_rates",
+    "position_reports",
     "propulsion_power",
     "rate_kernel",
     "rate_peak",

@@ -17,6 +17,7 @@ from typing import Any, Literal
 
 import numpy as np
 
+from ios_uav_env.model.mobility import GaussMarkov, as_motion, rectangles
 from ios_uav_env.model.propulsion import PropulsionModel, least_energy_speed, propulsion_power
 
 Surface = Literal["ios", "ris", "none"]
@@ -99,6 +100,10 @@ class ScenarioConfig:
     bandwidth_hz: float = 1e6  # Hz, bandwidth B (bits = B x bps/Hz x s)
     objective: str = "rate"  # one of OBJECTIVES: "rate" (eq. (9)) or "energy_efficiency" (bits/J)
     energy_budget_j: float | None = None  # J, energy budget E_max of the flight (None: no budget)
+    # Node motion (``ios_uav_env.model.motion``, ``docs/model.md``, "Node motion"): None, the
+    # paper's static nodes, or a GaussMarkov model (a dict of it is accepted); left out of
+    # ``to_dict()`` when None. The configured nodes are the positions of slot 1.
+    motion: GaussMarkov | None = None
 
     def __post_init__(self) -> None:
         if self.surface not in SURFACES:
@@ -170,6 +175,14 @@ class ScenarioConfig:
                 f"v_max={self.v_max} m/s: T must be >= {t_min:g} s (N - 1 >= ceil(|qF - q0| / D) moves)"
             )
         self._check_objective()
+        self._check_motion()
+
+    def _check_motion(self) -> None:
+        """Validate ``motion`` (a dict becomes the model): every node inside its motion rectangle
+        (``ios_uav_env.model.mobility.rectangles``: the box, off the IOS plane's strip)."""
+        object.__setattr__(self, "motion", as_motion(self.motion))
+        if self.motion is not None:
+            rectangles(self.motion, np.asarray(self.nodes, dtype=float), self.ios_center, self.surface)
 
     def _check_objective(self) -> None:
         """Validate the objective's fields (``propulsion`` given as a dict becomes the model)."""
@@ -365,8 +378,8 @@ class ScenarioConfig:
         ``ScenarioConfig(**d)``).
 
         ``ground_nodes`` is omitted when None (one node), and each objective field
-        (``propulsion``, ``bandwidth_hz``, ``objective``, ``energy_budget_j``) at its default,
-        so the dicts of the rate scenarios are unchanged."""
+        (``propulsion``, ``bandwidth_hz``, ``objective``, ``energy_budget_j``) and ``motion`` at
+        its default, so the dicts of the static rate scenarios are unchanged."""
         out = {k: list(v) if isinstance(v, tuple) else v for k, v in dataclasses.asdict(self).items()}
         if self.ground_nodes:
             out["ground_nodes"] = [list(p) for p in self.ground_nodes]
@@ -377,6 +390,8 @@ class ScenarioConfig:
                 del out[name]
         if "propulsion" in out:
             out["propulsion"] = self.propulsion.to_dict()
+        if "motion" in out:
+            out["motion"] = self.motion.to_dict()
         return out
 
     @classmethod
@@ -387,8 +402,8 @@ class ScenarioConfig:
 
 #: The names of the ``ScenarioConfig`` fields (the scenario's keyword arguments everywhere).
 SCENARIO_FIELDS: frozenset[str] = frozenset(f.name for f in dataclasses.fields(ScenarioConfig))
-#: The objective's fields, left out of ``to_dict()`` at their defaults.
-_OMITTED_AT_DEFAULT = ("propulsion", "bandwidth_hz", "objective", "energy_budget_j")
+#: The objective's fields and ``motion``, left out of ``to_dict()`` at their defaults.
+_OMITTED_AT_DEFAULT = ("propulsion", "bandwidth_hz", "objective", "energy_budget_j", "motion")
 _DEFAULTS = {f.name: f.default for f in dataclasses.fields(ScenarioConfig) if f.name in _OMITTED_AT_DEFAULT}
 
 

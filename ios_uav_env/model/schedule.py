@@ -58,6 +58,7 @@ import numpy as np
 
 from ios_uav_env.model.channel import as_positions, slot_rates
 from ios_uav_env.model.config import ScenarioConfig
+from ios_uav_env.model.motion import check_paths, is_static, node_config_at
 from ios_uav_env.model.trajectory import as_trajectory, average_rate
 
 #: Largest |primal - dual| a certified score may have, in units of max(scale, value) (bps/Hz;
@@ -104,10 +105,32 @@ class Schedule:
         return self.dual_value - self.value
 
 
-def node_rates(config: ScenarioConfig, positions: np.ndarray) -> np.ndarray:
-    """r_k(q) (bps/Hz) of every node k at every position, shape (K, n) (``slot_rates`` per node)."""
+def node_rates(config: ScenarioConfig, positions: np.ndarray, paths: np.ndarray | None = None) -> np.ndarray:
+    """r_k(q) (bps/Hz) of every node k at every position, shape (K, n) (``slot_rates`` per node).
+
+    With ``paths`` (n, K, 2) m (moving nodes, ``ios_uav_env.model.motion``) position i is slot i
+    and node k's rate there is r_k(q[i]; w_k[i]), the single-node model with G = w_k[i]
+    (``motion.node_config_at``). Paths with every node at its configured position (the static
+    model) give the arrays of ``paths=None`` bit for bit.
+    """
     q = as_positions(positions)
+    if paths is not None:
+        w = check_paths(config, paths, len(q))
+        if not is_static(config, w):
+            return _moving_rates(config, q, w)
     return np.stack([slot_rates(config.node_config(k), q) for k in range(config.K)])
+
+
+def _moving_rates(config: ScenarioConfig, q: np.ndarray, w: np.ndarray) -> np.ndarray:
+    """(K, n): r_k(q[i]; w_k[i]), one single-node model per distinct position of each node."""
+    out = np.empty((config.K, len(q)))
+    for k in range(config.K):
+        where, index = np.unique(w[:, k], axis=0, return_inverse=True)
+        index = np.asarray(index).reshape(-1)
+        for j, position in enumerate(where):
+            slots = np.flatnonzero(index == j)
+            out[k, slots] = slot_rates(node_config_at(config, k, position), q[slots])
+    return out
 
 
 def dual_value(rates: np.ndarray, weights: np.ndarray, fixed: np.ndarray | None = None) -> float:
@@ -259,32 +282,48 @@ def _top_up(
     return (out, raised) if raised.min() > per_node.min() else (shares, per_node)
 
 
-def schedule(config: ScenarioConfig, trajectory: np.ndarray) -> Schedule:
-    """The certified best schedule of ``trajectory`` (see :func:`maxmin_schedule`)."""
+def _moving(config: ScenarioConfig, paths: np.ndarray | None) -> np.ndarray | None:
+    """``paths`` checked as (N, K, 2), or None when absent or static (today's computation)."""
+    if paths is None:
+        return None
+    w = check_paths(config, paths)
+    return None if is_static(config, w) else w
+
+
+def schedule(config: ScenarioConfig, trajectory: np.ndarray, paths: np.ndarray | None = None) -> Schedule:
+    """The certified best schedule of ``trajectory`` (see :func:`maxmin_schedule`), on the node
+    ``paths`` (N, K, 2) when given (:func:`node_rates`)."""
     q = as_trajectory(config, trajectory)
-    if config.K == 1:  # the single-node score, exactly: average_rate
-        value = average_rate(config, q)
+    w = _moving(config, paths)
+    if config.K == 1:  # the single-node score, exactly: average_rate (static nodes)
+        value = average_rate(config, q) if w is None else float(np.mean(node_rates(config, q, w)[0]))
         return Schedule(np.ones((1, len(q))), np.ones(1), value, value, np.array([value]))
-    return maxmin_schedule(node_rates(config, q))
+    return maxmin_schedule(node_rates(config, q, w))
 
 
-def best_schedule(config: ScenarioConfig, trajectory: np.ndarray) -> np.ndarray:
+def best_schedule(
+    config: ScenarioConfig, trajectory: np.ndarray, paths: np.ndarray | None = None
+) -> np.ndarray:
     """The shares alpha (K, N) of the best schedule of ``trajectory`` (all ones for K = 1)."""
-    return schedule(config, trajectory).shares
+    return schedule(config, trajectory, paths).shares
 
 
-def maxmin_rate(config: ScenarioConfig, trajectory: np.ndarray) -> float:
-    """Score V(q) = max_alpha min_k R_k (bps/Hz) of a trajectory with its best schedule.
+def maxmin_rate(config: ScenarioConfig, trajectory: np.ndarray, paths: np.ndarray | None = None) -> float:
+    """Score V(q) = max_alpha min_k R_k (bps/Hz) of a trajectory with its best schedule (on the
+    node ``paths`` (N, K, 2) when given).
 
-    For K = 1 this is :func:`ios_uav_env.average_rate` exactly. For K > 1 the value is
-    certified by the LP's dual to ``CERTIFY_TOL`` (module docstring).
+    For K = 1 this is :func:`ios_uav_env.average_rate` exactly (static nodes). For K > 1 the
+    value is certified by the LP's dual to ``CERTIFY_TOL`` (module docstring).
     """
-    return schedule(config, trajectory).value
+    return schedule(config, trajectory, paths).value
 
 
-def scheduled_rates(config: ScenarioConfig, trajectory: np.ndarray, shares: np.ndarray) -> np.ndarray:
+def scheduled_rates(
+    config: ScenarioConfig, trajectory: np.ndarray, shares: np.ndarray, paths: np.ndarray | None = None
+) -> np.ndarray:
     """R_k = (1/N) sum_n alpha_k[n] r_k(q[n]) for given shares, shape (K,); ``min`` of it is
-    the score of an agent that schedules itself (never above :func:`maxmin_rate`).
+    the score of an agent that schedules itself (never above :func:`maxmin_rate`). With node
+    ``paths`` (N, K, 2), r_k(q[n]; w_k[n]).
 
     ``shares`` must be a finite (K, N) array, >= 0, with column sums <= 1 (+ ``SHARE_TOL``).
     """
@@ -302,7 +341,7 @@ def scheduled_rates(config: ScenarioConfig, trajectory: np.ndarray, shares: np.n
         raise ValueError(
             f"shares' column sums (sum_k alpha_k[n]) must be <= 1, got {sums[n]:.6g} at slot {n}"
         )
-    return np.mean(a * node_rates(config, q), axis=1)
+    return np.mean(a * node_rates(config, q, _moving(config, paths)), axis=1)
 
 
 _SCIPY: list[bool] = []  # [is scipy importable], found at the first call

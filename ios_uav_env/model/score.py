@@ -21,6 +21,9 @@ A plan is a trajectory q (N, 2) and, for K > 1 nodes, optionally its own TDMA sh
   (with or without a budget, which enters ``feasible``), ``energy_efficiency`` for
   ``"energy_efficiency"``.
 
+Moving nodes: ``score_plan(config, q, shares, paths)`` scores the plan on the true node paths
+(N, K, 2) (``docs/model.md``, "Node motion"), whatever the planner or agent knew of them.
+
 A new objective extends this function and :class:`PlanScore` (``docs/development.md``), so
 that every caller (planners, envs, the benchmark) scores it alike.
 """
@@ -81,10 +84,15 @@ def score_plan(
     config: ScenarioConfig,
     trajectory: np.ndarray,
     shares: np.ndarray | None = None,
+    paths: np.ndarray | None = None,
     *,
     best_schedule: bool = True,
 ) -> PlanScore:
     """Score ``trajectory`` (and ``shares``, K > 1 only) on ``config`` (module docstring).
+
+    ``paths`` (N, K, 2) m: the true node positions of every slot (moving nodes,
+    ``ios_uav_env.model.motion``); every rate is then r_k(q[n]; w_k[n]). None: the configured
+    positions (static paths give the same scores bit for bit).
 
     ``best_schedule=False`` skips the best-schedule LP when the plan has its own shares
     (``best_schedule_rate`` is then NaN): for callers that report only the plan's own score.
@@ -95,15 +103,15 @@ def score_plan(
     if config.K == 1:
         if shares is not None:
             raise ValueError("shares are for K > 1 ground nodes; this scenario has one")
-        best = schedule(config, q)  # K = 1: average_rate exactly, no LP
+        best = schedule(config, q, paths)  # K = 1: average_rate exactly (static), no LP
         return _score(config, best.value, best.value, True, report, None)
     if shares is None:
-        best = schedule(config, q)
+        best = schedule(config, q, paths)
         return _score(config, best.value, best.value, False, report, best)
-    own = float(scheduled_rates(config, q, np.asarray(shares, dtype=np.float64)).min())
+    own = float(scheduled_rates(config, q, np.asarray(shares, dtype=np.float64), paths).min())
     if not best_schedule:
         return _score(config, own, float("nan"), True, report, None)
-    best = schedule(config, q)
+    best = schedule(config, q, paths)
     return _score(config, own, best.value, True, report, best)
 
 

@@ -1,0 +1,127 @@
+r"""Node motion: where the ground nodes are at slot n (``docs/model.md``, "Node motion").
+
+The static model (``ScenarioConfig.motion = None``, the default) is the paper: every node stays
+at its configured position w_k. :class:`GaussMarkov` is the Gauss-Markov mobility model of
+Liang and Haas (INFOCOM 1999), per node k and per slot n (dt the slot length):
+
+    v[n+1] = a v[n] + (1 - a) m_k + sqrt(1 - a^2) sigma u[n],   u[n] ~ N(0, I_2)
+    w[n+1] = w[n] + v[n] dt
+
+with memory a in [0, 1), stationary standard deviation sigma (m/s) of each velocity component
+about the node's mean velocity m_k = s (cos theta_k, sin theta_k): the mean speed s and a mean
+heading theta_k, either one given heading for every node or drawn uniformly in [0, 2 pi) per
+node. The first velocity is drawn from the stationary law of the recursion given m_k,
+v[0] ~ N(m_k, sigma^2 I_2) (the fixed point of Var v = a^2 Var v + (1 - a^2) sigma^2), so the
+speed process is stationary from the first slot; w[0] is the configured position.
+
+**The box and the IOS plane.** Each node stays in a rectangle: the motion's ``box`` (default:
+the scene box of the nodes and the IOS centre, :func:`~ios_uav_env.model.config.scene_box`
+with ``ends=False``, widened by ``BOX_MARGIN``), cut, when there is a surface, to the node's own
+side of the IOS plane x = x_c at least ``plane_margin`` from it. The config refuses a node on
+the plane, where its side of the surface (reflection or transmission) is undefined; a node
+that kept its side along its whole path keeps that channel model, so the plane is treated as
+a wall. A step that leaves the rectangle is reflected: the position is mirrored at the edge
+(folded as often as needed), and the velocity and the mean velocity components normal to that
+edge are negated (so a node walks away from the wall instead of pressing against it, as the
+edge rule of Liang and Haas intends).
+
+**Draws.** :func:`node_paths` draws from the given numpy ``Generator`` in this order: the K mean
+headings (when ``heading`` is None), the (K, 2) initial velocities, then (K, 2) normals per
+slot; one generator state gives one set of paths, bit for bit.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from typing import Any
+
+import numpy as np
+
+from ios_uav_env.model.config import ScenarioConfig
+from ios_uav_env.model.mobility import BOX_MARGIN, GaussMarkov, as_motion, rectangles, reflect
+
+__all__ = [
+    "BOX_MARGIN",
+    "GaussMarkov",
+    "as_motion",
+    "check_paths",
+    "is_static",
+    "node_bounds",
+    "node_config_at",
+    "node_paths",
+    "reflect",
+    "static_paths",
+]
+
+
+def node_bounds(config: ScenarioConfig) -> tuple[np.ndarray, np.ndarray]:
+    """(lo, hi), each (K, 2) m: the rectangle each node moves in (the box, cut to the node's side
+    of the IOS plane ``plane_margin`` away from it; :func:`~ios_uav_env.model.mobility.rectangles`)."""
+    if config.motion is None:
+        raise ValueError("node_bounds needs a motion model (config.motion is None: the nodes are static)")
+    return rectangles(config.motion, np.asarray(config.nodes, dtype=float), config.ios_center, config.surface)
+
+
+def static_paths(config: ScenarioConfig) -> np.ndarray:
+    """(N, K, 2) m: every node at its configured position in every slot (the static model)."""
+    nodes = np.asarray(config.nodes, dtype=float)
+    return np.repeat(nodes[None], config.N, axis=0)
+
+
+def node_paths(config: ScenarioConfig, rng: np.random.Generator) -> np.ndarray:
+    """(N, K, 2) m: the node positions w_k[n] of every slot, drawn from ``rng`` (module docstring;
+    the static model returns :func:`static_paths` and draws nothing)."""
+    motion = config.motion
+    if motion is None:
+        return static_paths(config)
+    if not isinstance(rng, np.random.Generator):
+        raise TypeError(f"rng must be a numpy Generator (np.random.default_rng(seed)), got {rng!r}")
+    lo, hi = node_bounds(config)
+    k_nodes, a, sigma = config.K, motion.memory, motion.sigma
+    if motion.heading is None:
+        theta = rng.uniform(0.0, 2.0 * math.pi, k_nodes)
+    else:
+        theta = np.full(k_nodes, motion.heading)
+    mean = motion.speed * np.column_stack([np.cos(theta), np.sin(theta)])
+    v = mean + sigma * rng.standard_normal((k_nodes, 2))
+    w = np.asarray(config.nodes, dtype=float)
+    out = np.empty((config.N, k_nodes, 2))
+    out[0] = w
+    gain = math.sqrt(1.0 - a * a) * sigma
+    for n in range(config.N - 1):
+        step = w + v * config.dt
+        v = a * v + (1.0 - a) * mean + gain * rng.standard_normal((k_nodes, 2))
+        w, flip = reflect(step, lo, hi)
+        v = np.where(flip, -v, v)
+        mean = np.where(flip, -mean, mean)
+        out[n + 1] = w
+    return out
+
+
+def check_paths(config: ScenarioConfig, paths: Any, n_slots: int | None = None) -> np.ndarray:
+    """``paths`` as a finite float (n, K, 2) array, n = ``n_slots`` (default N); ``ValueError``
+    naming the expected shape otherwise."""
+    n = config.N if n_slots is None else n_slots
+    arr = np.asarray(paths, dtype=float)
+    if arr.shape != (n, config.K, 2):
+        raise ValueError(f"paths must have shape (N, K, 2) = ({n}, {config.K}, 2) (m), got {arr.shape}")
+    if not np.all(np.isfinite(arr)):
+        raise ValueError("paths must be finite (no NaN or inf)")
+    return arr
+
+
+def is_static(config: ScenarioConfig, paths: np.ndarray) -> bool:
+    """Every node at its configured position in every slot of ``paths`` (n, K, 2)."""
+    return bool(np.array_equal(paths, np.broadcast_to(np.asarray(config.nodes, dtype=float), paths.shape)))
+
+
+def node_config_at(config: ScenarioConfig, k: int, position: Any) -> ScenarioConfig:
+    """The static single-node config of node k at ``position`` (m): ``config.node_config(k)``
+    when that is where node k is configured, else the same with G = ``position`` and no motion
+    (the model of r_k(q; w_k[n]))."""
+    base = config.node_config(k)
+    p = (float(position[0]), float(position[1]))
+    if p == base.ground_node and base.motion is None:
+        return base
+    return dataclasses.replace(base, ground_node=p, motion=None)
