@@ -56,6 +56,21 @@ point serves all nodes, so the longest hovers of those paths, with the nodes' pe
 also given to the tour heuristic (routes mixing them), and the tour's own plan competes:
 the plan returned is the best of all, ``info["plan_source"]`` says which.
 
+**Moving nodes** (``paths`` (N, K, 2), the nodes' true paths known in advance: the
+clairvoyant bound). Weak duality holds for any rate matrix, so with r_k[n] = r_k(q[n]; w_k[n])
+V(q) <= (1/N) sum_n f_w^n(q[n]), f_w^n(q) = max_k w_k r_k(q; w_k[n]): the reward is a function
+of the slot too. The relaxed DP is unchanged but for its rewards, which become per slot: the
+cell bound of slot n is max_k w_k Rbar_k^n, Rbar_k^n >= sup of r_k(.; w_k[n]) over the cell
+(:func:`region_rate_bound` on node k's single-node config at w_k[n], ``node_config_at``), the
+same for O, and slots 1 and N keep their exact rates at w_k[1] and w_k[N]. Each step of the
+argument above holds slot by slot (the image of a feasible trajectory is an allowed sequence
+whose reward in slot n is no smaller than f_w^n(q[n])), so the relaxed optimum still bounds
+every feasible trajectory's score on these paths, and no online policy, which knows less,
+can exceed it; Kelley's cuts are built from the same per-slot rewards. Static paths give
+the static tables exactly. The plans below the bound come from the clairvoyant tour
+(``baselines.tour.solve(config, paths=...)``); the plain grid DP, whose rewards are one map
+for all slots, is not run on moving nodes.
+
 **Which side is loose.** Two things separate UB from the best plan: (i) the grid
 relaxation, chiefly the move rule (two squares at most D apart may have centres up to
 D + sqrt(2) h apart, so the relaxed path travels up to ~h/D faster per slot and hovers
@@ -86,6 +101,7 @@ from baselines.grid import (
 )
 from baselines.plan import Plan
 from ios_uav_env import ScenarioConfig, scene_box
+from ios_uav_env.model.motion import check_paths, node_config_at
 
 #: Relative slack on the amplitude bound (floating-point rounding of the model's sums).
 ZETA_SLACK = 1e-9
@@ -93,7 +109,7 @@ ZETA_SLACK = 1e-9
 MAX_CUTS = 25
 CUT_TOL = 1e-4
 
-__all__ = ["RelaxedDP", "region_rate_bound", "solve_multinode"]
+__all__ = ["RelaxedDP", "clairvoyant_bound", "region_rate_bound", "solve_multinode"]
 
 
 def _phi(d: np.ndarray, rho: np.ndarray) -> np.ndarray:
@@ -144,11 +160,13 @@ def relaxed_offsets(h: float, d_max: float) -> np.ndarray:
     return np.column_stack([dy[inside], dx[inside]])
 
 
-def check_relaxed_grid(config: ScenarioConfig, resolution: float, margin: float = DEFAULT_MARGIN) -> None:
+def check_relaxed_grid(
+    config: ScenarioConfig, resolution: float, margin: float = DEFAULT_MARGIN, moving: bool = False
+) -> None:
     """``ValueError`` when :class:`RelaxedDP`'s arrays at cell side ``resolution`` would exceed
-    ``baselines.grid.MAX_TABLE_BYTES``: the float32 table of N - 2 layers, the K cell bounds and
-    the per-cell geometry."""
-    per_cell = 4 * max(config.N - 2, 0) + 8 * (config.K + 8)
+    ``baselines.grid.MAX_TABLE_BYTES``: the float32 table of N - 2 layers, the K cell bounds (per
+    slot with ``moving`` nodes) and the per-cell geometry."""
+    per_cell = 4 * max(config.N - 2, 0) + 8 * (config.K * (config.N if moving else 1) + 8)
     check_grid_bytes(
         config, resolution, margin, per_cell, "relaxed DP (N - 2 float32 layers)", "bound_resolution"
     )
@@ -164,19 +182,38 @@ def check_plain_grid(config: ScenarioConfig, resolution: float, margin: float = 
 
 
 class RelaxedDP:
-    """The relaxed DP of the module docstring for one config and cell size: :meth:`value`."""
+    """The relaxed DP of the module docstring for one config and cell size: :meth:`value`.
 
-    def __init__(self, config: ScenarioConfig, resolution: float, margin: float = DEFAULT_MARGIN):
+    ``paths`` (N, K, 2) m: the nodes' true paths (module docstring, "Moving nodes"); the cell
+    bounds are then per slot, ``cell_bounds`` (N, K, ny, nx) and ``out_bounds`` (N, K), else
+    (1, K, ny, nx) and (1, K)."""
+
+    def __init__(
+        self,
+        config: ScenarioConfig,
+        resolution: float,
+        margin: float = DEFAULT_MARGIN,
+        paths: np.ndarray | None = None,
+    ):
+        from baselines.tour import moving_paths
+
         if not (isinstance(resolution, (int, float)) and math.isfinite(resolution) and resolution > 0):
             raise ValueError(f"resolution must be a finite number > 0 (m), got {resolution!r}")
-        check_relaxed_grid(config, resolution, margin)
-        self.config, self.h = config, float(resolution)
+        moving = moving_paths(config, paths)
+        check_relaxed_grid(config, resolution, margin, moving is not None)
+        self.config, self.h, self.paths = config, float(resolution), moving
         xs, ys, _ = grid_axes(config, self.h, margin)
         self.xs, self.ys = xs, ys
         h2 = 0.5 * self.h
         xx, yy = np.meshgrid(xs, ys)
-        nodes = [config.node_config(k) for k in range(config.K)]
-        self.cell_bound = np.stack([region_rate_bound(c, xx - h2, xx + h2, yy - h2, yy + h2) for c in nodes])
+        # the single-node configs of each slot (one slot for static nodes), shared where a node stays
+        slots = [[config.node_config(k) for k in range(config.K)]] if moving is None else [
+            [node_config_at(config, k, moving[n, k]) for k in range(config.K)] for n in range(config.N)
+        ]  # fmt: skip
+        cache: dict[ScenarioConfig, np.ndarray] = {}
+        for c in {c for row in slots for c in row}:
+            cache[c] = region_rate_bound(c, xx - h2, xx + h2, yy - h2, yy + h2)
+        self.cell_bounds = np.stack([np.stack([cache[c] for c in row]) for row in slots])
         bx0, bx1, by0, by1 = xs[0] - h2, xs[-1] + h2, ys[0] - h2, ys[-1] + h2
         # O is the part of the plane outside B the UAV can reach: nothing beyond a side of B
         # that the reach box clipped (baselines.grid.grid_box), so only the other sides open
@@ -185,11 +222,13 @@ class RelaxedDP:
         halves = np.array([[-inf, bx0, -inf, inf], [bx1, inf, -inf, inf], [-inf, inf, -inf, by0],
                            [-inf, inf, by1, inf]])[self.open_sides]  # fmt: skip
         if len(halves):
-            self.out_bound = np.array([region_rate_bound(c, *halves.T).max() for c in nodes])
+            out = {c: region_rate_bound(c, *halves.T).max() for c in cache}
+            self.out_bounds = np.array([[out[c] for c in row] for row in slots])
         else:  # O is never allowed (o0 = of = inf below); any finite reward keeps the DP's arithmetic
-            self.out_bound = np.zeros(config.K)
+            self.out_bounds = np.zeros((len(slots), config.K))
         ends = np.array([config.q0, config.qF], dtype=float)
-        self.end_rates = ie.node_rates(config, ends)  # (K, 2): exact rewards of slots 1 and N
+        end_paths = None if moving is None else moving[[0, -1]]
+        self.end_rates = ie.node_rates(config, ends, end_paths)  # (K, 2): exact rewards of slots 1 and N
         ny, nx = xx.shape
         iy, ix = np.mgrid[0:ny, 0:nx]
         to_side = np.stack([ix, nx - 1 - ix, iy, ny - 1 - iy])[self.open_sides]  # cells to each open side
@@ -214,20 +253,27 @@ class RelaxedDP:
         """(UB(w) >= every feasible trajectory's score, the cut G with UB(w') >= G . w')."""
         c = self.config
         w = np.asarray(w, dtype=float)
-        reward = np.max(w[:, None, None] * self.cell_bound, axis=0)
-        r_out = float(np.max(w * self.out_bound))
+        rewards = np.max(w[None, :, None, None] * self.cell_bounds, axis=1)  # (1 or N, ny, nx)
+        r_outs = np.max(w * self.out_bounds, axis=1)  # (1 or N,)
+
+        def at(n: int) -> tuple[np.ndarray, float]:  # the rewards of 0-based slot n
+            j = 0 if self.paths is None else n
+            return rewards[j], float(r_outs[j])
+
         f0, ff = np.max(w[:, None] * self.end_rates, axis=0)
         if c.N == 2:
             return (f0 + ff) / 2, self._cut(w, [])
         n_layers = c.N - 2  # slots 2..N-1
-        table = np.empty((n_layers, *reward.shape), dtype=np.float32)
+        table = np.empty((n_layers, *rewards.shape[1:]), dtype=np.float32)
         outside = np.full(n_layers, -np.inf)
         cells, o_ok = self._allowed(c.N - 1)
+        reward, r_out = at(c.N - 2)
         v = np.where(cells, reward + ff, -np.inf)
         vo = r_out + ff if o_ok else -np.inf
         table[-1], outside[-1] = v, vo
         for i in range(n_layers - 2, -1, -1):
             cells, o_ok = self._allowed(i + 2)
+            reward, r_out = at(i + 1)
             best_next = disk_max(v, self.offsets)
             best_next = np.where(self.band, np.maximum(best_next, vo), best_next)
             band_max = float(np.max(np.where(self.band, v, -np.inf)))
@@ -263,7 +309,9 @@ class RelaxedDP:
         """G with G . w' = (1/N) sum_n w'_{k_n} Rbar_{k_n}(s_n) (k_n best at w) <= UB(w')."""
         g = np.zeros(self.config.K)
         rewards = [self.end_rates[:, 0], self.end_rates[:, 1]]
-        rewards += [self.out_bound if s is None else self.cell_bound[:, s[0], s[1]] for s in path]
+        for i, s in enumerate(path):  # layer i is 0-based slot i + 1
+            j = 0 if self.paths is None else i + 1
+            rewards.append(self.out_bounds[j] if s is None else self.cell_bounds[j][:, s[0], s[1]])
         for r in rewards:
             k = int(np.argmax(w * r))
             g[k] += r[k]
@@ -328,8 +376,12 @@ def solve_multinode(
     tol: float = CUT_TOL,
     start_weights: np.ndarray | None = None,
     progress: bool = False,
+    paths: np.ndarray | None = None,
 ) -> Plan:
     """K > 1: the best DP plan found and the certified upper bound (module docstring).
+
+    ``paths`` (N, K, 2) m: the nodes' true paths, known in advance (module docstring, "Moving
+    nodes"): the clairvoyant bound, with the clairvoyant tour as the plan (scored on the paths).
 
     ``resolution``: grid of the plain DPs (the plans); ``bound_resolution``: cell side of
     the relaxed DP (default ``resolution``); ``max_cuts``, ``tol``: Kelley's iterations and
@@ -350,18 +402,19 @@ def solve_multinode(
         raise ValueError(f"bound_resolution must be a finite number > 0 (m), got {h!r}")
     from baselines import tour
 
+    moving = tour.moving_paths(config, paths)
     # every grid is sized before anything is computed: the plain DPs', the relaxed DP's, the tour's
     check_plain_grid(config, resolution, margin)
-    check_relaxed_grid(config, h, margin)
+    check_relaxed_grid(config, h, margin, moving is not None)
     tour.check_candidate_grid(config)
 
-    tour_plan = tour.solve(config)
+    tour_plan = tour.solve(config, paths=moving)
     if start_weights is None:
-        start_weights = ie.schedule(config, tour_plan.trajectory).weights
+        start_weights = ie.schedule(config, tour_plan.trajectory, moving).weights
     w = np.asarray(start_weights, dtype=float)
     if w.shape != (config.K,) or not (np.all(w >= 0) and abs(w.sum() - 1) < 1e-9):
         raise ValueError(f"start_weights must be K={config.K} numbers >= 0 summing to 1, got {w!r}")
-    relaxed = RelaxedDP(config, h, margin)
+    relaxed = RelaxedDP(config, h, margin, moving)
     xs, ys, _ = grid_axes(config, resolution, margin)
     xx, yy = np.meshgrid(xs, ys)
     centre_rates = ie.node_rates(config, np.column_stack([xx.ravel(), yy.ravel()]))
@@ -377,12 +430,13 @@ def solve_multinode(
         cuts.append(g)
         if ub < best_ub:
             best_ub, best_w = ub, w
-        score = None
-        try:
-            reward = np.max(w[:, None, None] * centre_rates, axis=0)
-            traj, _ = grid_path(config, reward, float(np.max(w * rf)), resolution, margin)
-        except ValueError:  # no grid path in time on this grid: the bound still holds
-            traj = None
+        score, traj = None, None
+        if moving is None:  # the plain DP has one reward map for all slots: static nodes only
+            try:
+                reward = np.max(w[:, None, None] * centre_rates, axis=0)
+                traj, _ = grid_path(config, reward, float(np.max(w * rf)), resolution, margin)
+            except ValueError:  # no grid path in time on this grid: the bound still holds
+                traj = None
         if traj is not None:
             dp_paths.append(traj)
             score = ie.maxmin_rate(config, traj)
@@ -394,13 +448,19 @@ def solve_multinode(
             print(f"[dp-bound] it {it:2d}: UB(w) {ub:.6f}  best UB {best_ub:.6f}  Kelley lower {lower:.6f}")
         if best_ub - lower <= tol * best_ub:
             break
-    if best_plan is None:
+    if best_plan is None and moving is None:
         raise ValueError(f"no grid path reaches qF in time at resolution={resolution:g} m: use a finer grid")
     # the DP paths hover where some f_w peaks: routes through those points (and the nodes'
     # peaks) mix them; the tour heuristic's own plan competes too
-    peaks = [(n, p) for n, p in tour_plan.info["candidates"].items() if n.startswith("peak")]
-    routed = tour.solve(config, candidates=peaks + hover_points(dp_paths, config.K))
-    for source, plan in (("tour", tour_plan), ("tour-dp-hovers", routed)):
+    rivals = [("tour", tour_plan)]
+    if moving is None:
+        peaks = [(n, p) for n, p in tour_plan.info["candidates"].items() if n.startswith("peak")]
+        rivals.append(
+            ("tour-dp-hovers", tour.solve(config, candidates=peaks + hover_points(dp_paths, config.K)))
+        )
+    if best_plan is None:
+        best_plan = (tour_plan.mean_rate, tour_plan.trajectory, "tour")
+    for source, plan in rivals:
         if plan.mean_rate > best_plan[0]:
             best_plan = (plan.mean_rate, plan.trajectory, source)
     info = {
@@ -413,9 +473,32 @@ def solve_multinode(
         "margin": float(margin),
         "plan_source": best_plan[2],
     }
-    plan = Plan.from_trajectory("dp", config, best_plan[1], time.perf_counter() - t0, info=info)
+    plan = tour.plan_on_paths("dp", config, best_plan[1], time.perf_counter() - t0, moving, info)
     if plan.mean_rate > 0:
         plan.info["gap"] = best_ub / plan.mean_rate - 1.0
     else:  # a node no reachable point serves: the plan scores 0
         plan.info["gap"] = 0.0 if best_ub <= 0 else math.inf
     return plan
+
+
+def clairvoyant_bound(
+    config: ScenarioConfig,
+    paths: np.ndarray | None,
+    *,
+    resolution: float = 2.5,
+    margin: float = DEFAULT_MARGIN,
+    **kwargs: Any,
+) -> float:
+    """The certified upper bound (bps/Hz) of the frame's score given the nodes' ``paths``
+    (N, K, 2) m in advance (None: the configured positions): no flight, and so no online
+    policy, scores more on those paths. K = 1: the relaxed DP at w = (1,) (the single node's
+    average rate; module docstring, "Moving nodes"); K > 1: :func:`solve_multinode`'s
+    ``upper_bound`` (``kwargs`` go to it)."""
+    validate_grid_args(config, resolution, margin)
+    if config.K == 1:
+        if paths is not None:
+            check_paths(config, paths)
+        return RelaxedDP(config, resolution, margin, paths).value(np.ones(1))[0]
+    return solve_multinode(config, resolution=resolution, margin=margin, paths=paths, **kwargs).info[
+        "upper_bound"
+    ]

@@ -32,6 +32,13 @@ values are rounded and scored exactly, and the best trajectory wins. A route is 
 without its LP when the weak-duality bound :func:`route_bound` at the best route's dual
 weights of the best routes so far is not above the ``keep``-th best LP value (it could not
 enter the best ``keep``).
+
+**On node paths** (``solve(config, paths=...)``, moving nodes known in advance: the
+clairvoyant tour). The route LP needs one rate per hover point, which a moving node does not
+have, so the candidates and the LPs are those of the *proxy* scenario with every node at the
+mean of its path; every rounded route, the polish and the plan are scored exactly on the
+paths (``ios_uav_env.maxmin_rate(config, q, paths)``). A heuristic, as the static tour is;
+the bound is ``baselines.dp_bound``'s. Static paths give the static tour exactly.
 """
 
 from __future__ import annotations
@@ -47,6 +54,7 @@ import ios_uav_env as ie
 from baselines.fixed import _leg
 from baselines.plan import Plan
 from ios_uav_env import ScenarioConfig, moves_needed
+from ios_uav_env.model.motion import check_paths, is_static
 from ios_uav_env.model.peak import reachable
 
 #: Grid (m) of the node rate maps that give the compromise points.
@@ -56,6 +64,8 @@ __all__ = [
     "check_candidate_grid",
     "hover_candidates",
     "node_rate_maps",
+    "plan_on_paths",
+    "proxy_config",
     "route_lp",
     "route_trajectory",
     "solve",
@@ -230,9 +240,53 @@ def _round(x: np.ndarray, total: int) -> np.ndarray:
     return base
 
 
-def _polish(config: ScenarioConfig, points: np.ndarray, slots: np.ndarray) -> tuple[np.ndarray, float]:
-    """One-slot moves between hover points while the exact max-min score improves."""
-    best = ie.maxmin_rate(config, route_trajectory(config, points, slots))
+def moving_paths(config: ScenarioConfig, paths: np.ndarray | None) -> np.ndarray | None:
+    """``paths`` checked as (N, K, 2) m, or None when absent or static (the static planner)."""
+    if paths is None:
+        return None
+    w = check_paths(config, paths)
+    return None if is_static(config, w) else w
+
+
+def proxy_config(config: ScenarioConfig, paths: np.ndarray) -> ScenarioConfig:
+    """The static scenario with every node at the mean of its path (module doc, "On node paths")."""
+    mean = [tuple(float(v) for v in p) for p in np.asarray(paths, dtype=float).mean(axis=0)]
+    if config.K == 1:
+        return config.replace(ground_node=mean[0], motion=None)
+    return config.replace(ground_nodes=mean, motion=None)
+
+
+def plan_on_paths(
+    scheme: str,
+    config: ScenarioConfig,
+    trajectory: np.ndarray,
+    seconds: float,
+    paths: np.ndarray | None,
+    info: dict[str, Any] | None = None,
+) -> Plan:
+    """``Plan.from_trajectory`` scored on the node ``paths`` (N, K, 2) by the one scorer
+    (``ios_uav_env.score_plan(config, q, paths=paths)``); ``Plan.from_trajectory`` itself for
+    None. ``info`` gets the best schedule's ``shares`` and ``node_rates`` (K > 1) and
+    ``clairvoyant`` (true: scored on the given paths)."""
+    if paths is None:
+        return Plan.from_trajectory(scheme, config, trajectory, seconds, info=info)
+    q = np.asarray(trajectory, dtype=float)
+    scored = ie.score_plan(config, q, paths=paths)
+    out = dict(info or {}, clairvoyant=True)
+    if scored.best is not None:
+        out.update(shares=scored.best.shares.tolist(), node_rates=scored.best.node_rates.tolist())
+    return Plan(
+        scheme=scheme, config=config, trajectory=q, mean_rate=scored.rate, feasible=scored.feasible,
+        report=scored.report, energy=scored.energy, energy_efficiency=scored.energy_efficiency,
+        objective_value=scored.objective_value, seconds=float(seconds), info=out,
+    )  # fmt: skip
+
+
+def _polish(
+    config: ScenarioConfig, points: np.ndarray, slots: np.ndarray, paths: np.ndarray | None = None
+) -> tuple[np.ndarray, float]:
+    """One-slot moves between hover points while the exact max-min score (on ``paths``) improves."""
+    best = ie.maxmin_rate(config, route_trajectory(config, points, slots), paths)
     improved = True
     while improved:
         improved = False
@@ -242,7 +296,7 @@ def _polish(config: ScenarioConfig, points: np.ndarray, slots: np.ndarray) -> tu
             trial = slots.copy()
             trial[i] -= 1
             trial[j] += 1
-            value = ie.maxmin_rate(config, route_trajectory(config, points, trial))
+            value = ie.maxmin_rate(config, route_trajectory(config, points, trial), paths)
             if value > best + 1e-12:
                 slots, best, improved = trial, value, True
     return slots, best
@@ -255,8 +309,12 @@ def solve(
     orders: int = 2,
     keep: int = 5,
     candidates: list[tuple[str, tuple[float, float]]] | None = None,
+    paths: np.ndarray | None = None,
 ) -> Plan:
     """The best tour found (module doc): a feasible trajectory scored by ``maxmin_rate``.
+
+    ``paths`` (N, K, 2) m: the nodes' true paths, known in advance (module doc, "On node
+    paths"); the plan is scored on them.
 
     ``max_points``: most hover points per route (default min(K + 1, 4)); ``orders``: orders
     solved per subset (fewest moves first); ``keep``: LP winners scored exactly;
@@ -271,6 +329,9 @@ def solve(
     for name, value in (("max_points", max_points), ("orders", orders), ("keep", keep)):
         if isinstance(value, bool) or not isinstance(value, int) or value < 1:
             raise ValueError(f"{name} must be an integer >= 1, got {value!r}")
+    truth, moving = config, moving_paths(config, paths)
+    if moving is not None:  # routes chosen on the proxy, scored on the paths
+        config = proxy_config(truth, moving)
     cands = hover_candidates(config) if candidates is None else list(candidates)
     if not cands:
         raise ValueError("candidates must hold at least one (name, (x, y)) hover point")
@@ -332,12 +393,12 @@ def solve(
         route = pts[list(order)]
         spare = config.N - len(_legs(config, route)[0])  # type: ignore[index]
         slots = _round(x, spare)
-        value = ie.maxmin_rate(config, route_trajectory(config, route, slots))
+        value = ie.maxmin_rate(truth, route_trajectory(config, route, slots), moving)
         if best is None or value > best[3]:
             best = (lp_value, order, slots, value)
     assert best is not None
     lp_value, order, slots, _ = best
-    slots, _ = _polish(config, pts[list(order)], slots)  # the best rounded route only
+    slots, _ = _polish(truth, pts[list(order)], slots, moving)  # the best rounded route only
     traj = route_trajectory(config, pts[list(order)], slots)
     info: dict[str, Any] = {
         "route": [cands[i][0] for i in order],
@@ -348,4 +409,4 @@ def solve(
         "n_pruned": n_pruned,
         "candidates": {name: list(p) for name, p in cands},
     }
-    return Plan.from_trajectory("tour", config, traj, time.perf_counter() - t0, info=info)
+    return plan_on_paths("tour", truth, traj, time.perf_counter() - t0, moving, info)

@@ -1,0 +1,97 @@
+"""The clairvoyant bound and planner: the certified bound and the tour given the true node paths."""
+
+import numpy as np
+import pytest
+
+import ios_uav_env as ie
+from baselines import tour
+from baselines.dp_bound import RelaxedDP, clairvoyant_bound, region_rate_bound, solve_multinode
+from baselines.fixed import fly_hover_fly, straight_line_path
+from ios_uav_env import ScenarioConfig
+from ios_uav_env.model.motion import GaussMarkov, node_config_at, node_paths, static_paths
+from ios_uav_env.model.schedule import dual_value
+
+NODES = ((-100.0, -20.0), (150.0, -60.0))
+SMALL = {"ios_shape": (10, 6), "quadrature_nodes": 4, "T": 30.0, "q0": (-200.0, 20.0), "qF": (200.0, 20.0)}
+H = 10.0  # m, the relaxed DP's cells
+
+
+@pytest.fixture(scope="module")
+def mobile():
+    """Two fast walkers (6 m/s), so that the paths matter for the rates."""
+    config = ScenarioConfig(ground_nodes=NODES, motion=GaussMarkov(speed=6.0, sigma=2.0), **SMALL)
+    paths = node_paths(config, np.random.default_rng(0))
+    return config, paths, solve_multinode(config, resolution=H, paths=paths)
+
+
+def _trajectories(config, rng, count=4):
+    out = [straight_line_path(config)]
+    for _ in range(count):  # feasible fly-hover-fly flights through random points
+        out.append(fly_hover_fly(config, rng.uniform([-150, -100], [150, 100])).trajectory)
+    return out
+
+
+def test_static_paths_give_todays_bound_and_tour():
+    config = ScenarioConfig(ground_nodes=NODES, **SMALL)
+    still = static_paths(config)
+    a, b = RelaxedDP(config, H), RelaxedDP(config, H, paths=still)
+    for w in (np.array([0.5, 0.5]), np.array([0.8, 0.2])):
+        (ua, ga), (ub, gb) = a.value(w), b.value(w)
+        assert ua == ub and np.array_equal(ga, gb)
+    t0, t1 = tour.solve(config), tour.solve(config, paths=still)
+    assert np.array_equal(t0.trajectory, t1.trajectory) and t0.mean_rate == t1.mean_rate
+    assert "clairvoyant" not in t1.info
+
+
+def test_clairvoyant_bound_is_above_every_flight_on_the_paths(mobile):
+    """UB(w) >= (1/N) sum_n max_k w_k r_k(q[n]; w_k[n]) for feasible flights, the cut is a
+    minorant, and the certified bound is above every flight's max-min rate on the paths."""
+    config, paths, plan = mobile
+    relaxed = RelaxedDP(config, H, paths=paths)
+    # slot n's cell bounds are those of the nodes where they are in slot n
+    xx, yy = np.meshgrid(relaxed.xs, relaxed.ys)
+    assert relaxed.cell_bounds.shape == (config.N, 2, *xx.shape)
+    for n in (1, config.N // 2, config.N - 2):
+        for k in range(2):
+            here = node_config_at(config, k, paths[n, k])
+            cells = region_rate_bound(here, xx - H / 2, xx + H / 2, yy - H / 2, yy + H / 2)
+            assert np.array_equal(relaxed.cell_bounds[n, k], cells)
+    assert not np.array_equal(relaxed.cell_bounds[1], relaxed.cell_bounds[-2])
+    rng = np.random.default_rng(4)
+    rates = [ie.node_rates(config, q, paths) for q in _trajectories(config, rng)]
+    for w in (np.array([0.5, 0.5]), rng.dirichlet(np.ones(2))):
+        ub, g = relaxed.value(w)
+        for r in rates:
+            assert ub >= dual_value(r, w) - 1e-12
+        w2 = rng.dirichlet(np.ones(2))
+        assert relaxed.value(w2)[0] >= g @ w2 - 1e-12
+    bound = plan.info["upper_bound"]
+    for r in [*rates, ie.node_rates(config, plan.trajectory, paths)]:
+        assert ie.maxmin_schedule(r).value <= bound
+    assert plan.info["kelley_lower"] <= bound + 1e-12
+
+
+def test_clairvoyant_plan_is_scored_on_the_paths(mobile):
+    config, paths, plan = mobile
+    assert plan.feasible and plan.info["clairvoyant"] and plan.info["plan_source"].startswith("tour")
+    assert plan.mean_rate == ie.maxmin_rate(config, plan.trajectory, paths)
+    assert plan.mean_rate <= plan.info["upper_bound"]
+    assert plan.info["gap"] == pytest.approx(plan.info["upper_bound"] / plan.mean_rate - 1, rel=1e-12)
+    # the paths matter: the static positions give other rates for the same flight, and the plan
+    # on the paths beats the static tour's flight scored on the paths
+    static_tour = tour.solve(config.replace(motion=None))
+    assert ie.maxmin_rate(config, plan.trajectory) != plan.mean_rate
+    assert plan.mean_rate >= ie.maxmin_rate(config, static_tour.trajectory, paths)
+
+
+def test_one_moving_node():
+    """K = 1: the bound is the relaxed DP at w = 1, above the tour on the path and every flight."""
+    config = ScenarioConfig(ground_node=NODES[0], motion=GaussMarkov(speed=6.0, sigma=2.0), **SMALL)
+    paths = node_paths(config, np.random.default_rng(1))
+    bound = clairvoyant_bound(config, paths, resolution=H)
+    plan = tour.solve(config, paths=paths)
+    assert plan.mean_rate == ie.score_plan(config, plan.trajectory, paths=paths).rate <= bound
+    for q in _trajectories(config, np.random.default_rng(2), 3):
+        assert ie.score_plan(config, q, paths=paths).rate <= bound
+    with pytest.raises(ValueError, match="paths must have shape"):
+        clairvoyant_bound(config, paths[:, :, :1], resolution=H)
