@@ -98,11 +98,22 @@ if _HAS_GYMNASIUM:
     from ios_uav_env.envs.multi import MultiNodeEnv
     from ios_uav_env.envs.options import EnvOptions
     from ios_uav_env.envs.random_env import RandomIOSUAVEnv
-    from ios_uav_env.envs.registration import ENV_IDS, MULTINODE_IDS, RANDOM_ENV_ID, register_envs
+    from ios_uav_env.envs.registration import (
+        ENERGY_ID,
+        ENERGY_IDS,
+        ENERGY_RANDOM_ID,
+        ENV_IDS,
+        MULTINODE_IDS,
+        RANDOM_ENV_ID,
+        register_envs,
+    )
     from ios_uav_env.envs.single import INFO_KEYS, IOSUAVEnv
 
     register_envs()
     __all__ += [
+        "ENERGY_ID",
+        "ENERGY_IDS",
+        "ENERGY_RANDOM_ID",
         "ENV_IDS",
         "INFO_KEYS",
         "EnvOptions",

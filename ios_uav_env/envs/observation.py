@@ -15,6 +15,8 @@ import numpy as np
 
 from ios_uav_env.model.channel import RateKernel, rate_kernel
 from ios_uav_env.model.config import ScenarioConfig
+from ios_uav_env.model.peak import rate_peak
+from ios_uav_env.model.propulsion import min_power_speed, propulsion_power
 from ios_uav_env.model.scenarios import ScenarioRanges
 from ios_uav_env.model.surface import _axes
 
@@ -30,6 +32,12 @@ INSTANCE_NAMES: tuple[str, ...] = ("elements", "is_ios", "is_ris", "transmit", "
 #: Names of the peak hint appended (after the instance features, if any) with ``peak_hint=True``:
 #: the reachable rate peak P relative to the UAV, (P - q) / L, and its rate (bps/Hz).
 PEAK_NAMES: tuple[str, ...] = ("dx_peak", "dy_peak", "rate_peak")
+
+#: Names of the energy features appended (after the instance features, before the peak hint,
+#: which stays last) when the scenario's objective is ``"energy_efficiency"``: the last move
+#: (q[n] - q[n-1]) / D (0 at the start), the energy weight w = lambda_ref P(0) / B of the
+#: reward (bps/Hz; see :func:`reference_efficiency`) and the minimum-power move V_mp dt / D.
+ENERGY_NAMES: tuple[str, ...] = ("move_x", "move_y", "energy_weight", "min_power_move")
 
 #: Element count of the paper's surface (M = 6000): the ``elements`` feature is M / M_SCALE.
 M_SCALE = 6000.0
@@ -90,6 +98,28 @@ def instance_values(config: ScenarioConfig) -> tuple[float, float, float, float,
     )
 
 
+def reference_efficiency(config: ScenarioConfig, peak_rate: float | None = None) -> float:
+    """lambda_ref (bits/J), the reference energy efficiency of the energy reward: the EE of a
+    plan that would sit at the reachable rate peak P for all N slots while flying every one of
+    its N - 1 moves at the minimum-power speed V_mp,
+
+        lambda_ref = B N r(P) / ((N - 1) P(V_mp)).
+
+    Every feasible plan has r(q[n]) <= r(P) (its way-points are reachable points, where
+    ``rate_peak`` searches; up to that search's grid) and E >= (N - 1) dt P(V_mp), so
+    lambda_ref >= EE* (the best EE): an optimistic reference. ``peak_rate``: r(P) if known
+    (bps/Hz), else ``rate_peak(config)``'s.
+    """
+    rate = rate_peak(config).rate if peak_rate is None else float(peak_rate)
+    p_min = float(propulsion_power(min_power_speed(config.propulsion), config.propulsion))
+    return config.bandwidth_hz * config.N * rate / ((config.N - 1) * p_min)
+
+
+def min_power_move(config: ScenarioConfig) -> float:
+    """The minimum-power move V_mp dt / D = V_mp / v_max (the ``min_power_move`` feature)."""
+    return min_power_speed(config.propulsion) / config.v_max
+
+
 def pad(value: float) -> float:
     """``value`` with the bounds' margin: a relative 1e-6 and an absolute 1e-6."""
     return value * (1 + 1e-6) + 1e-6
@@ -111,7 +141,12 @@ def length_bounds(
 
 
 def space_bounds(
-    ranges: ScenarioRanges, length_scale: float, instance: bool, peak: bool = False
+    ranges: ScenarioRanges,
+    length_scale: float,
+    instance: bool,
+    peak: bool = False,
+    energy: bool = False,
+    reference: float | None = None,
 ) -> tuple[np.ndarray, np.ndarray]:
     """(low, high) float32 arrays that hold every observation of every episode of ``ranges``
     (a fixed scenario is the family ``ScenarioRanges.from_config(config)``).
@@ -120,7 +155,11 @@ def space_bounds(
     position is farther from q0, guard or not). Rate: :func:`rate_bound` where G is fixed,
     else :func:`ground_free_rate_bound`, over the family's surfaces and sizes. Instance
     features: their largest values (at least 1). Peak hint: the peak and the UAV are both
-    within (N_max - 1) D of q0, so |P - q| / L <= 2 (N_max - 1) D / L. Margins of 1e-6.
+    within (N_max - 1) D of q0, so |P - q| / L <= 2 (N_max - 1) D / L. Energy features
+    (``energy``; ``reference``: a fixed lambda_ref in bits/J, None: :func:`reference_efficiency`
+    per scenario): a move is at most D; w = lambda_ref P(0) / B <= 2 r_max P(0) / P(V_mp)
+    with r_max the rate bound (r(P) <= r_max), or the fixed reference's value;
+    V_mp dt / D of the family's base (propulsion and v_max are not drawn). Margins of 1e-6.
     """
     r, base = ranges, ranges.base
     reach = r.max_moves * base.D
@@ -141,6 +180,16 @@ def space_bounds(
         elements, horizon = (pad(max(1.0, v)) for v in (elements, r.slot_range[1] * base.dt / T_SCALE))
         high += [elements, 1.0, 1.0, 1.0, horizon, horizon]
         low += [0.0] * len(INSTANCE_NAMES)
+    if energy:
+        model = base.propulsion
+        hover = model.hover_power
+        if reference is None:  # N / (N - 1) <= 2
+            p_min = float(propulsion_power(min_power_speed(model), model))
+            weight = 2.0 * rate_high * hover / p_min
+        else:
+            weight = reference * hover / base.bandwidth_hz
+        high += [pad(1.0), pad(1.0), pad(weight), pad(min_power_move(base))]
+        low += [-pad(1.0), -pad(1.0), 0.0, 0.0]
     if peak:
         offset = pad(2.0 * reach / length_scale)
         high += [offset, offset, pad(rate_high)]
@@ -148,17 +197,25 @@ def space_bounds(
     return np.array(low, dtype=np.float32), np.array(high, dtype=np.float32)
 
 
-def observation_names(instance: bool, peak: bool = False) -> tuple[str, ...]:
+def observation_names(instance: bool, peak: bool = False, energy: bool = False) -> tuple[str, ...]:
     """The names of the observation's components, in order."""
-    return OBS_NAMES + (INSTANCE_NAMES if instance else ()) + (PEAK_NAMES if peak else ())
+    extra = (INSTANCE_NAMES if instance else ()) + (ENERGY_NAMES if energy else ())
+    return OBS_NAMES + extra + (PEAK_NAMES if peak else ())
 
 
 def check_fits(
-    config: ScenarioConfig, length_scale: float, instance: bool, space: Any, peak: bool = False
+    config: ScenarioConfig,
+    length_scale: float,
+    instance: bool,
+    space: Any,
+    peak: bool = False,
+    energy: bool = False,
+    reference: float | None = None,
 ) -> None:
     """Raise ``ValueError`` if an episode on ``config`` could leave the Box ``space``."""
-    low, high = space_bounds(ScenarioRanges.from_config(config), length_scale, instance, peak)
-    names = observation_names(instance, peak)
+    ranges = ScenarioRanges.from_config(config)
+    low, high = space_bounds(ranges, length_scale, instance, peak, energy, reference)
+    names = observation_names(instance, peak, energy)
     for i in np.flatnonzero((high > space.high) | (low < space.low))[:1]:
         raise ValueError(
             f"the scenario {config} does not fit this env's observation space: component {i} "

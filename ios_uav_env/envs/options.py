@@ -50,6 +50,9 @@ class EnvOptions:
     length_scale: float = 400.0  # m, L: lengths in the observation are divided by it
     instance_features: bool = False  # append the 6 features of the instance
     peak_hint: bool = False  # append the 3 features of the reachable rate peak
+    # bits/J, lambda_ref of the energy reward (objective "energy_efficiency" only); None: the
+    # scenario's own optimistic reference (observation.reference_efficiency), set at each reset
+    energy_reference: float | None = None
 
     def __post_init__(self) -> None:
         if self.channel not in CHANNELS:
@@ -61,6 +64,9 @@ class EnvOptions:
         object.__setattr__(
             self, "length_scale", _number(self.length_scale, "length_scale (m)", positive=True)
         )
+        if self.energy_reference is not None:
+            reference = _number(self.energy_reference, "energy_reference (bits/J)", positive=True)
+            object.__setattr__(self, "energy_reference", reference)
 
 
 #: The names of the ``EnvOptions`` fields.

@@ -3,6 +3,9 @@
 ``RandomIOSUAVEnv`` (registered as ``ios_uav_env/IOSUAV-Random-v0``) draws a new scenario
 at every reset from a family ``ios_uav_env.model.scenarios.ScenarioRanges`` with its
 ``np_random``, observing the instance through the 6 instance features of ``IOSUAVEnv``.
+``ios_uav_env/IOSUAV-Energy-Random-v0`` is the same family with the objective
+``"energy_efficiency"`` (``objective`` applied to ``ranges.base``): the energy features, reward
+and score of ``IOSUAVEnv``'s "Energy", with lambda_ref the reference of each drawn scenario.
 """
 
 from __future__ import annotations
@@ -11,7 +14,6 @@ import dataclasses
 from collections.abc import Mapping
 from typing import Any
 
-from ios_uav_env.envs.observation import check_fits
 from ios_uav_env.envs.single import IOSUAVEnv
 from ios_uav_env.model.config import SCENARIO_FIELDS, ScenarioConfig, as_config
 from ios_uav_env.model.scenarios import (
@@ -80,7 +82,11 @@ class RandomIOSUAVEnv(IOSUAVEnv):
 
     As ``IOSUAVEnv``: the rate at the new position, minus the reach and terminal penalties
     (0 with the guard). The return is N R - r(q0); N varies per episode, so compare
-    episodes by ``info["average_rate"]`` (eq. (9)).
+    episodes by ``info["average_rate"]`` (eq. (9)). With the objective ``"energy_efficiency"``
+    (the energy id) the energy term of ``IOSUAVEnv``'s "Energy" joins it, lambda_ref being each
+    scenario's own reference (or ``energy_reference``), and episodes compare by
+    ``info["energy_efficiency"]``; the observation then has 4 energy features after the 6
+    instance features (shape (21,)).
 
     ## Starting State
 
@@ -169,9 +175,7 @@ class RandomIOSUAVEnv(IOSUAVEnv):
         self.pinned: ScenarioConfig | None = None if config is None else as_config(config)
         super().__init__(self.pinned or ranges.base, instance_features=instance_features, **kwargs)
         if self.pinned is not None:
-            check_fits(
-                self.pinned, self.length_scale, self.instance_features, self.observation_space, self.peak_hint
-            )
+            self._check_scenario(self.pinned, "config")
 
     def _ranges(self) -> ScenarioRanges:
         """The observation space holds every scenario of the ranges (focus lies inside them)."""

@@ -23,6 +23,17 @@ MULTINODE_IDS: dict[str, dict[str, Any]] = {
     "ios_uav_env/IOSUAV-MultiNode-Random-v0": {"random_nodes": (2, 4)},  # 2 to 4 nodes per reset
 }
 
+#: The energy-efficiency ids (objective "energy_efficiency": the reward, observation and score of
+#: ``IOSUAVEnv``'s "Energy"): the paper's scenario, and scenarios drawn as the randomised id's.
+ENERGY_ID = "ios_uav_env/IOSUAV-Energy-v0"
+ENERGY_RANDOM_ID = "ios_uav_env/IOSUAV-Energy-Random-v0"
+#: id -> keyword arguments of the energy ids (``ENERGY_ID``: ``IOSUAVEnv``; ``ENERGY_RANDOM_ID``:
+#: ``RandomIOSUAVEnv``).
+ENERGY_IDS: dict[str, dict[str, Any]] = {
+    ENERGY_ID: {"surface": "ios", "objective": "energy_efficiency"},
+    ENERGY_RANDOM_ID: {"objective": "energy_efficiency"},
+}
+
 
 def _vector(entry_point: str) -> dict[str, str]:
     """The ``vector_entry_point`` argument where Gymnasium has it (1.0 and later)."""
@@ -31,8 +42,8 @@ def _vector(entry_point: str) -> dict[str, str]:
 
 
 def register_envs() -> None:
-    """Register every id of :data:`ENV_IDS`, :data:`RANDOM_ENV_ID` and :data:`MULTINODE_IDS` not
-    registered yet.
+    """Register every id of :data:`ENV_IDS`, :data:`RANDOM_ENV_ID`, :data:`MULTINODE_IDS` and
+    :data:`ENERGY_IDS` not registered yet.
 
     No ``max_episode_steps``: the env ends every episode itself at slot N of its scenario
     (``terminated=True``), whatever T is, so no ``TimeLimit`` can cut a mission short. Each id
@@ -43,6 +54,16 @@ def register_envs() -> None:
         (ENV_IDS, "ios_uav_env.envs.single:IOSUAVEnv", "ios_uav_env.envs.single_vector:IOSUAVVectorEnv"),
         (
             {RANDOM_ENV_ID: {}},
+            "ios_uav_env.envs.random_env:RandomIOSUAVEnv",
+            "ios_uav_env.envs.single_vector:RandomIOSUAVVectorEnv",
+        ),
+        (
+            {ENERGY_ID: ENERGY_IDS[ENERGY_ID]},
+            "ios_uav_env.envs.single:IOSUAVEnv",
+            "ios_uav_env.envs.single_vector:IOSUAVVectorEnv",
+        ),
+        (
+            {ENERGY_RANDOM_ID: ENERGY_IDS[ENERGY_RANDOM_ID]},
             "ios_uav_env.envs.random_env:RandomIOSUAVEnv",
             "ios_uav_env.envs.single_vector:RandomIOSUAVVectorEnv",
         ),

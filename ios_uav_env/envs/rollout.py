@@ -5,7 +5,9 @@ A policy is any callable from an observation to an action (an SB3 agent's ``act`
 it until the episode ends and scores the trajectory (``env.unwrapped.trajectory``) with
 ``average_rate`` (eq. (9); with several ground nodes, ``scheduled_rates`` of the agent's own
 shares ``env.unwrapped.shares``, its min_k R_k) and ``check_trajectory`` (eq. (10)), as every
-planner's plan is.
+planner's plan is: ``score_plan``, whose energy (J), energy efficiency (bits/J) and value of
+the scenario's objective the :class:`Episode` carries too (``Episode.score``: EE on the energy
+ids, the average rate on the others).
 
 >>> import gymnasium as gym
 >>> import ios_uav_env
@@ -47,6 +49,14 @@ class Episode:
     mean_faded_rate: float  # bps/Hz, mean of the per-slot rate terms (= average_rate for "expected", K > 1)
     steps: int  # env steps taken
     seconds: float  # wall time from the reset to the last step (policy and env)
+    energy: float = float("nan")  # J, propulsion energy E of the flight (PlanScore.energy)
+    energy_efficiency: float = float("nan")  # bits/J, B T R / E (PlanScore.energy_efficiency)
+    objective_value: float = float("nan")  # the score of config.objective: average_rate or energy_efficiency
+
+    @property
+    def score(self) -> float:
+        """The episode's score: the value of its scenario's objective (``objective_value``)."""
+        return self.objective_value
 
 
 def run_episode(
@@ -109,6 +119,9 @@ def score_episode(
         mean_faded_rate=score if mean_faded_rate is None else float(mean_faded_rate),
         steps=int(steps),
         seconds=float(seconds),
+        energy=float(scored.energy),
+        energy_efficiency=float(scored.energy_efficiency),
+        objective_value=float(scored.objective_value),
     )
 
 

@@ -16,7 +16,15 @@ import gymnasium as gym
 import numpy as np
 from gymnasium import spaces
 
-from ios_uav_env.envs.observation import INSTANCE_NAMES, OBS_NAMES, PEAK_NAMES, check_fits, space_bounds
+from ios_uav_env.envs.observation import (
+    ENERGY_NAMES,
+    INSTANCE_NAMES,
+    OBS_NAMES,
+    PEAK_NAMES,
+    check_fits,
+    reference_efficiency,
+    space_bounds,
+)
 from ios_uav_env.envs.options import CHANNELS, EnvOptions, split_kwargs
 from ios_uav_env.envs.single_kernels import INFO, STATE, episode_row, flags_of, reset_rows, step_rows
 from ios_uav_env.model.channel import RateKernel, rate_kernel, slot_rates
@@ -29,9 +37,10 @@ from ios_uav_env.model.scenarios import ScenarioRanges
 INFO_KEYS: tuple[str, ...] = (
     "rate", "expected_rate", "position", "distance_to_final", "slot", "reward_rate", "reward_reach",
     "reward_terminal", "average_rate", "mean_faded_rate", "feasible", "worst_violation", "terminal_miss",
+    "power", "energy", "energy_efficiency", "reward_energy",
 )  # fmt: skip
 
-__all__ = ["CHANNELS", "INFO_KEYS", "INSTANCE_NAMES", "OBS_NAMES", "PEAK_NAMES", "IOSUAVEnv"]
+__all__ = ["CHANNELS", "ENERGY_NAMES", "INFO_KEYS", "INSTANCE_NAMES", "OBS_NAMES", "PEAK_NAMES", "IOSUAVEnv"]
 
 
 class IOSUAVEnv(gym.Env):
@@ -49,8 +58,9 @@ class IOSUAVEnv(gym.Env):
     ``q[1] = q0``), and the paper's objective is the average rate of eq. (9) subject to
     eq. (10): arrive at ``qF`` at slot N with at most D = v_max dt per move. Ids:
     ``ios_uav_env/IOSUAV-v0`` (IOS), ``ios_uav_env/RISUAV-v0`` (reflect-only RIS) and
-    ``ios_uav_env/UAV-v0`` (no surface). ``env.unwrapped.trajectory`` is the (n, 2) array
-    of the way-points so far (m).
+    ``ios_uav_env/UAV-v0`` (no surface); ``ios_uav_env/IOSUAV-Energy-v0`` is the IOS scenario
+    with the objective ``"energy_efficiency"`` (bits per joule of propulsion energy; see
+    "Energy"). ``env.unwrapped.trajectory`` is the (n, 2) array of the way-points so far (m).
 
     ## Action Space
 
@@ -100,6 +110,13 @@ class IOSUAVEnv(gym.Env):
     trajectory can visit) relative to the UAV, (P - q) / L, and its rate r(P) (bps/Hz). It
     is derived from the instance (no new information) and computed once per scenario.
 
+    With the objective ``"energy_efficiency"`` (the energy ids; ``config.objective``) 4 energy
+    features (names in ``ENERGY_NAMES``) come after the instance features and before the peak
+    hint (which stays last): the last move (q[n] - q[n-1]) / D (two components in [-1, 1], 0
+    at the start; its length times v_max is the last speed), the energy weight w = lambda_ref
+    P(0) / B of the reward below (bps/Hz, per scenario) and the minimum-power move V_mp dt / D.
+    The rate objective's layouts above are unchanged.
+
     ## Rewards
 
     Step n moves the UAV to q' = q[n+1] with m = moves_left after the move:
@@ -114,9 +131,42 @@ class IOSUAVEnv(gym.Env):
     so lingering too long costs more at every step; ``terminal`` is the final miss, steep
     near zero so that even a tiny miss never pays. Both are 0 for a trajectory that meets
     eq. (10), so with the guard the reward is the rate alone and the return is N R - r(q0)
-    with R of eq. (9). ``info`` holds the three weighted terms, which sum to the reward:
+    with R of eq. (9). ``info`` holds the weighted terms, which sum to the reward:
     ``reward_rate`` (rate), ``reward_reach`` (-w_reach reach), ``reward_terminal``
-    (-w_terminal terminal).
+    (-w_terminal terminal) and ``reward_energy`` (0 but for the energy objective).
+
+    ## Energy
+
+    Each move is flown at one constant speed over its slot, V_n = |q[n+1] - q[n]| / dt, at the
+    propulsion power P(V_n) of ``config.propulsion`` (``ios_uav_env.propulsion_power``), so the
+    flight's energy is E = dt sum_n P(V_n) and its energy efficiency EE = B dt sum_{n=1}^{N}
+    r(q[n]) / E (bits/J, ``ios_uav_env.score_plan``'s; B = ``config.bandwidth_hz``). With the
+    objective ``"energy_efficiency"`` the reward gains the term
+
+        reward_energy = -(lambda_ref / B) P(V_n)   (bps/Hz; = -w P(V_n) / P(0))
+
+    so that, with the guard (no penalties), the return is Dinkelbach's parametric objective
+    scaled: return = (bits(q) - lambda_ref E(q)) / (B dt) - r(q0), bits(q) = B dt sum_n r(q[n]),
+    an increasing affine function of G(q) = bits(q) - lambda_ref E(q). EE is a ratio, not a sum;
+    the return ranks plans as G does, and G relates to EE as follows (lambda* = max EE, q* its
+    plan, q^ a plan of the largest return):
+
+    - lambda_ref = lambda*: G(q) = E(q) (EE(q) - lambda*) <= 0, with equality iff EE(q) =
+      lambda*, so the return's maximisers are exactly the EE-optimal plans.
+    - any lambda_ref: G(q^) >= G(q*) gives EE(q^) >= lambda_ref + (lambda* - lambda_ref)
+      E(q*) / E(q^). For lambda_ref <= lambda*: EE(q^) >= lambda_ref and lambda* - EE(q^) <=
+      (lambda* - lambda_ref) (1 - E(q*) / E(q^)). For lambda_ref >= lambda*: lambda* - EE(q^) <=
+      (lambda_ref - lambda*) (E(q*) / E(q^) - 1) <= (lambda_ref - lambda*) (P_max / P(V_mp) - 1),
+      as every flight's E lies in [(N - 1) dt P(V_mp), (N - 1) dt P_max], P_max = max(P(0),
+      P(v_max)). The loss vanishes linearly as lambda_ref -> lambda*.
+
+    lambda_ref is ``energy_reference`` when given (bits/J, e.g. a planner's EE*), else the
+    scenario's own optimistic reference ``observation.reference_efficiency``, B N r(P) / ((N - 1)
+    P(V_mp)) with r(P) the reachable rate peak: no plan does better (its way-points are
+    reachable, its moves cost at least P(V_mp)), so lambda_ref >= lambda*, the last case above.
+    It is computed at each new scenario (one ``rate_peak`` search, shared with the peak hint)
+    and held in ``env.unwrapped.reference_efficiency``. The episode's score is its EE
+    (``info["energy_efficiency"]`` at slot N, ``envs.rollout.Episode.energy_efficiency``).
 
     ## Info
 
@@ -130,8 +180,11 @@ class IOSUAVEnv(gym.Env):
     terms; equal to ``average_rate`` for channel "expected"), ``terminal_miss`` (m by which qF
     is out of reach in the moves left; at slot N, |q[N] - qF|), ``worst_violation`` (m, the
     worst breach of eq. (10) so far) and ``feasible`` (``worst_violation`` <= 1e-6 m; at slot
-    N, eq. (10)). The full report: ``check_trajectory(env.unwrapped.config,
-    env.unwrapped.trajectory)``.
+    N, eq. (10)), and the flight's energy so far: ``power`` (W, P(V) of the step's move; 0 at
+    reset), ``energy`` (J, dt times the sum of the powers so far) and ``energy_efficiency``
+    (bits/J so far, B dt sum r(q[n]) / energy; 0 at reset; at slot N, ``score_plan``'s EE), on
+    every id (the rate ids report them too, with the scenario's propulsion model). The full
+    report: ``check_trajectory(env.unwrapped.config, env.unwrapped.trajectory)``.
 
     ## Starting State
 
@@ -172,6 +225,8 @@ class IOSUAVEnv(gym.Env):
     - ``length_scale`` (400.0 m): L of the observation.
     - ``instance_features`` (False): append the 6 instance features to the observation.
     - ``peak_hint`` (False): append the 3 features of the reachable rate peak.
+    - ``energy_reference`` (None): lambda_ref (bits/J) of the energy reward (objective
+      ``"energy_efficiency"``; see "Energy"); None: the scenario's optimistic reference.
     - ``render_mode``: None or "rgb_array" (the trajectory over the rate map; needs
       ``pip install ios-uav-env[render]``).
     - ``**kwargs``: ``EnvOptions`` fields (the options above) and ``ScenarioConfig`` fields,
@@ -192,7 +247,10 @@ class IOSUAVEnv(gym.Env):
 
     * v0: Initial version; later, without changing v0's episodes or observations:
       ``reset(options={"config": cfg})``, ``instance_features`` and ``peak_hint``; then a flat
-      ``info`` with fixed keys (``INFO_KEYS``) and registration without a ``TimeLimit``.
+      ``info`` with fixed keys (``INFO_KEYS``) and registration without a ``TimeLimit``; then
+      ``info``'s ``power``, ``energy``, ``energy_efficiency`` and ``reward_energy`` (0 here),
+      and the energy objective (ids ``ios_uav_env/IOSUAV-Energy-v0`` and
+      ``ios_uav_env/IOSUAV-Energy-Random-v0``: the energy features, the energy reward).
     """
 
     metadata = {"render_modes": ["rgb_array"], "render_fps": 10}
@@ -218,12 +276,16 @@ class IOSUAVEnv(gym.Env):
         self.config: ScenarioConfig | None = None  # the current episode's scenario
         self.kernel: RateKernel  # the rate kernel of self.config
         self.action_space = spaces.Box(-1.0, 1.0, (2,), np.float32)
+        # the objective of the construction scenario fixes the observation's layout and the reward
+        self.energy_objective: bool = self._ranges().base.objective == "energy_efficiency"
+        self.reference_efficiency: float = 0.0  # bits/J, lambda_ref of the episode (energy objective)
         low, high = space_bounds(
-            self._ranges(), self.options.length_scale, self.options.instance_features, self.options.peak_hint
-        )
+            self._ranges(), self.options.length_scale, self.options.instance_features, self.options.peak_hint,
+            self.energy_objective, self.options.energy_reference,
+        )  # fmt: skip
         self.observation_space = spaces.Box(low, high, dtype=np.float32)
         # a batch of one episode for the kernels of ios_uav_env.envs.single_kernels (rows of length 1)
-        self._flags = flags_of(self.options)
+        self._flags = flags_of(self.options, self.energy_objective)
         self._rows = np.zeros(1, dtype=np.int64)
         self._active = np.ones(1, dtype=np.bool_)
         self._state = np.zeros((1, len(STATE)))
@@ -276,8 +338,15 @@ class IOSUAVEnv(gym.Env):
             return
         self.config = cfg
         self.kernel = rate_kernel(cfg)
-        peak = rate_peak(cfg) if self.options.peak_hint else (0.0, 0.0, 0.0)
-        self._episode = episode_row(cfg, self.options.length_scale, peak[:3])[None, :]
+        peak = rate_peak(cfg) if self.options.peak_hint else None
+        reference = 0.0
+        if self.energy_objective:
+            reference = self.options.energy_reference or reference_efficiency(
+                cfg, None if peak is None else peak.rate
+            )
+        self.reference_efficiency = reference
+        hint = (0.0, 0.0, 0.0) if peak is None else peak[:3]
+        self._episode = episode_row(cfg, self.options.length_scale, hint, reference)[None, :]
         self._nodes, self._params = self.kernel.nodes[None], self.kernel.params[None]
         self.close()  # the renderer's rate map is the previous scenario's
 
@@ -304,9 +373,15 @@ class IOSUAVEnv(gym.Env):
                 f"{field} has K = {cfg.K} ground_nodes; this env serves one node (K = 1): use "
                 "ios_uav_env/IOSUAV-MultiNode-v0 (MultiNodeEnv) for several"
             )
+        if (cfg.objective == "energy_efficiency") != self.energy_objective:
+            allowed = "'energy_efficiency'" if self.energy_objective else "'rate'"
+            raise ValueError(
+                f"{field} has objective={cfg.objective!r}; this env's observation and reward are those "
+                f"of objective {allowed} (make an env on the scenario instead: gym.make(id, config=cfg))"
+            )
         check_fits(
             cfg, self.options.length_scale, self.options.instance_features, self.observation_space,
-            self.options.peak_hint,
+            self.options.peak_hint, self.energy_objective, self.options.energy_reference,
         )  # fmt: skip
 
     def _draw_normals(self) -> None:
@@ -320,7 +395,8 @@ class IOSUAVEnv(gym.Env):
         return {"rate": r[0], "expected_rate": r[1], "position": r[2:4], "distance_to_final": r[4],
                 "slot": np.int64(r[5]), "reward_rate": r[6], "reward_reach": r[7], "reward_terminal": r[8],
                 "average_rate": r[9], "mean_faded_rate": r[10], "feasible": r[11] != 0.0,
-                "worst_violation": r[12], "terminal_miss": r[13]}  # fmt: skip
+                "worst_violation": r[12], "terminal_miss": r[13], "power": r[14], "energy": r[15],
+                "energy_efficiency": r[16], "reward_energy": r[17]}  # fmt: skip
 
     # --- API ----------------------------------------------------------------------
     def reset(

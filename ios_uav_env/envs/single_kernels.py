@@ -8,6 +8,13 @@ and :func:`step_rows` write the observations, rewards and ``info`` columns (:dat
 the rows they touch. ``IOSUAVEnv`` runs them on a batch of one, ``IOSUAVVectorEnv`` on B rows:
 the same physics (``channel.rate_row``, ``faded_row``), the same arrival guard
 (``guard.guarded_position``) and the same reward, compiled with numba when it is installed.
+
+Every step also flies its move at one constant speed over the slot and books its propulsion
+power P(|move| / dt) (:func:`move_power`: eq. (12) of the propulsion model, inlined from the
+``episode`` row's constants in the cancellation-free form of ``model.propulsion``), the energy
+so far and the bits per joule so far (``info``'s ``power``, ``energy``, ``energy_efficiency``);
+the reward's energy term -(lambda_ref / B) P and the energy features of the observation are
+added only for the objective ``"energy_efficiency"`` (flag ``energy``).
 """
 
 from __future__ import annotations
@@ -17,44 +24,63 @@ import math
 import numpy as np
 
 from ios_uav_env.envs.guard import guarded_position
-from ios_uav_env.envs.observation import T_SCALE, instance_values
+from ios_uav_env.envs.observation import T_SCALE, instance_values, min_power_move
 from ios_uav_env.envs.options import EnvOptions
 from ios_uav_env.jit import jit, prange
 from ios_uav_env.model.channel import faded_row, rate_row
 from ios_uav_env.model.config import FEASIBILITY_TOL, ScenarioConfig
 
 #: Columns of a row of ``state``.
-STATE = ("x", "y", "moves_made", "sum_expected", "sum_rate", "excess")
+STATE = ("x", "y", "moves_made", "sum_expected", "sum_rate", "excess", "energy", "move_x", "move_y")
 #: Columns of a row of ``episode``: the scenario's constants, then the observation's.
 EPISODE = (
     "D", "qfx", "qfy", "moves", "inv_l", "fx_l", "fy_l", "gx_l", "gy_l", "cx_l", "cy_l", "inv_moves",
     "left_scale", "elements", "is_ios", "is_ris", "transmit", "horizon", "peak_x_l", "peak_y_l", "peak_rate",
+    "dt", "p_blade", "blade_k", "p_induced", "induced_k", "drag", "bits_scale", "energy_cost",
+    "energy_weight", "min_power_move",
 )  # fmt: skip
 #: Columns of a row of ``info`` (``INFO_KEYS`` with ``position`` as x and y).
 INFO = (
     "rate", "expected_rate", "position_x", "position_y", "distance_to_final", "slot", "reward_rate",
     "reward_reach", "reward_terminal", "average_rate", "mean_faded_rate", "feasible", "worst_violation",
-    "terminal_miss",
+    "terminal_miss", "power", "energy", "energy_efficiency", "reward_energy",
 )  # fmt: skip
-#: Entries of the ``flags`` array: the env options the kernels need.
-FLAGS = ("arrival_guard", "rician", "instance_features", "peak_hint", "reach_weight", "terminal_weight")
+#: Entries of the ``flags`` array: the env options the kernels need (``energy``: the objective
+#: is the energy efficiency; its reward term and observation features are on).
+FLAGS = (
+    "arrival_guard",
+    "rician",
+    "instance_features",
+    "peak_hint",
+    "reach_weight",
+    "terminal_weight",
+    "energy",
+)
 
 
-def flags_of(options: EnvOptions) -> np.ndarray:
-    """The ``flags`` array of ``options`` (see :data:`FLAGS`)."""
+def flags_of(options: EnvOptions, energy: bool = False) -> np.ndarray:
+    """The ``flags`` array of ``options`` (see :data:`FLAGS`); ``energy``: the scenario's objective
+    is ``"energy_efficiency"``."""
     return np.array(
         [options.arrival_guard, options.channel == "rician", options.instance_features, options.peak_hint,
-         options.reach_weight, options.terminal_weight], dtype=np.float64,
+         options.reach_weight, options.terminal_weight, energy], dtype=np.float64,
     )  # fmt: skip
 
 
-def episode_row(config: ScenarioConfig, length_scale: float, peak: tuple[float, float, float]) -> np.ndarray:
-    """The ``episode`` row of ``config`` (see :data:`EPISODE`); ``peak``: the peak hint (x, y, rate)."""
+def episode_row(
+    config: ScenarioConfig, length_scale: float, peak: tuple[float, float, float], reference: float = 0.0
+) -> np.ndarray:
+    """The ``episode`` row of ``config`` (see :data:`EPISODE`); ``peak``: the peak hint (x, y, rate);
+    ``reference``: lambda_ref (bits/J) of the energy reward (0 for the rate objective)."""
     inv_l, moves = 1.0 / length_scale, config.N - 1
     (fx, fy), (gx, gy), (cx, cy) = config.qF, config.ground_node, config.ios_center[:2]
+    m = config.propulsion
+    cost = reference / config.bandwidth_hz  # bps/Hz per W
     row = [config.D, fx, fy, moves, inv_l, fx * inv_l, fy * inv_l, gx * inv_l, gy * inv_l, cx * inv_l,
            cy * inv_l, 1.0 / moves, config.dt / T_SCALE, *instance_values(config), peak[0] * inv_l,
-           peak[1] * inv_l, peak[2]]  # fmt: skip
+           peak[1] * inv_l, peak[2], config.dt, m.P0, 3.0 / m.U_tip**2, m.P_i, 1.0 / (2.0 * m.v0**2),
+           m.drag_coefficient, config.bandwidth_hz * config.dt, cost, cost * m.hover_power,
+           min_power_move(config)]  # fmt: skip
     return np.array(row, dtype=np.float64)
 
 
@@ -65,8 +91,9 @@ def episode_row(config: ScenarioConfig, length_scale: float, peak: tuple[float, 
 
 @jit(inline=True)
 def _observe(obs: np.ndarray, i: int, x: float, y: float, left: float, dist: float, rate: float,
-             ep: np.ndarray, flags: np.ndarray) -> None:  # fmt: skip
-    """Write observation row ``i`` (the layout of ``IOSUAVEnv``'s docstring); ``ep``: ``episode``."""
+             ep: np.ndarray, flags: np.ndarray, mx: float, my: float) -> None:  # fmt: skip
+    """Write observation row ``i`` (the layout of ``IOSUAVEnv``'s docstring); ``ep``: ``episode``,
+    (``mx``, ``my``): the last move / D."""
     inv_l = ep[i, 4]
     xl, yl = x * inv_l, y * inv_l
     s = left - dist / ep[i, 0]
@@ -80,15 +107,20 @@ def _observe(obs: np.ndarray, i: int, x: float, y: float, left: float, dist: flo
             obs[i, k + j] = ep[i, 13 + j]
         obs[i, k + 5] = left * ep[i, 12]
         k += 6
+    if flags[6] != 0.0:
+        obs[i, k], obs[i, k + 1], obs[i, k + 2], obs[i, k + 3] = mx, my, ep[i, 29], ep[i, 30]
+        k += 4
     if flags[3] != 0.0:
         obs[i, k], obs[i, k + 1], obs[i, k + 2] = ep[i, 18] - xl, ep[i, 19] - yl, ep[i, 20]
 
 
 @jit(inline=True)
 def _info(info: np.ndarray, i: int, st: np.ndarray, ep: np.ndarray, rate: float, expected: float,
-          dist: float, left: float, r_rate: float, r_reach: float, r_terminal: float) -> None:  # fmt: skip
+          dist: float, left: float, r_rate: float, r_reach: float, r_terminal: float, power: float,
+          r_energy: float) -> None:  # fmt: skip
     """Write ``info`` row ``i``: the step's terms and the running eq. (9) score and eq. (10)
-    check (``st``: ``state``, ``ep``: ``episode``)."""
+    check (``st``: ``state``, ``ep``: ``episode``), the move's power, the energy so far and the
+    bits per joule so far, B dt sum_n r(q[n]) / E (0 before the first move)."""
     points = st[i, 2] + 1.0  # way-points so far
     deficit = max(0.0, dist - left * ep[i, 0])  # how far qF is out of reach (m)
     worst = max(st[i, 5], deficit)
@@ -97,6 +129,9 @@ def _info(info: np.ndarray, i: int, st: np.ndarray, ep: np.ndarray, rate: float,
     info[i, 9], info[i, 10] = st[i, 3] / points, st[i, 4] / points
     info[i, 11] = 1.0 if worst <= FEASIBILITY_TOL else 0.0
     info[i, 12], info[i, 13] = worst, deficit
+    energy = st[i, 6]
+    info[i, 14], info[i, 15], info[i, 17] = power, energy, r_energy
+    info[i, 16] = ep[i, 27] * st[i, 3] / energy if energy > 0.0 else 0.0
 
 
 @jit
@@ -112,15 +147,31 @@ def reset_rows(
         if flags[1] != 0.0:
             rate = faded_row(x, y, normals[i, 0], normals[i, 1], nodes, params, i)
         state[i, 2], state[i, 3], state[i, 4], state[i, 5] = 0.0, expected, rate, 0.0
+        state[i, 6], state[i, 7], state[i, 8] = 0.0, 0.0, 0.0
         dist = math.hypot(episode[i, 1] - x, episode[i, 2] - y)
-        _observe(obs, i, x, y, episode[i, 3], dist, expected, episode, flags)
-        _info(info, i, state, episode, rate, expected, dist, episode[i, 3], 0.0, 0.0, 0.0)
+        _observe(obs, i, x, y, episode[i, 3], dist, expected, episode, flags, 0.0, 0.0)
+        _info(info, i, state, episode, rate, expected, dist, episode[i, 3], 0.0, 0.0, 0.0, 0.0, 0.0)
+
+
+@jit(inline=True)
+def move_power(length: float, ep: np.ndarray, i: int) -> float:
+    """P(V) (W) of a move of ``length`` m flown over one slot, V = length / dt: eq. (12) with row
+    ``i``'s constants (``ios_uav_env.propulsion_power``, inlined)."""
+    v = length / ep[i, 21]
+    v2 = v * v
+    x = v2 * ep[i, 25]
+    return (
+        ep[i, 22] * (1.0 + ep[i, 23] * v2)
+        + ep[i, 24] / math.sqrt(math.sqrt(1.0 + x * x) + x)
+        + ep[i, 26] * v2 * v
+    )
 
 
 @jit(inline=True)
 def _move(i: int, actions: np.ndarray, st: np.ndarray, ep: np.ndarray, flags: np.ndarray,
-          path: np.ndarray) -> tuple[float, float, float]:  # fmt: skip
-    """Move row ``i`` (unit-disk projection, then the arrival guard); return (x, y, moves left)."""
+          path: np.ndarray) -> tuple[float, float, float, float]:  # fmt: skip
+    """Move row ``i`` (unit-disk projection, then the arrival guard) and book the move's energy;
+    return (x, y, moves left, the move's power P in W)."""
     ax, ay = actions[i, 0], actions[i, 1]
     norm = math.hypot(ax, ay)  # no overflow for huge actions
     if norm > 1.0:
@@ -132,9 +183,13 @@ def _move(i: int, actions: np.ndarray, st: np.ndarray, ep: np.ndarray, flags: np
     if flags[0] != 0.0:
         x, y = guarded_position((x0, y0), (x, y), (ep[i, 1], ep[i, 2]), d, int(left))
     st[i, 0], st[i, 1], st[i, 2] = x, y, n + 1.0
-    st[i, 5] = max(st[i, 5], math.hypot(x - x0, y - y0) - d)
+    length = math.hypot(x - x0, y - y0)
+    st[i, 5] = max(st[i, 5], length - d)
+    power = move_power(length, ep, i)
+    st[i, 6] += ep[i, 21] * power
+    st[i, 7], st[i, 8] = (x - x0) / d, (y - y0) / d
     path[i, int(n) + 1, 0], path[i, int(n) + 1, 1] = x, y
-    return x, y, left
+    return x, y, left, power
 
 
 @jit(inline=True)
@@ -153,18 +208,24 @@ def penalties(dist: float, left: float, d: float, w_reach: float, w_terminal: fl
 
 
 @jit(inline=True)
-def _settle(i: int, x: float, y: float, left: float, rate: float, expected: float, st: np.ndarray,
-            ep: np.ndarray, flags: np.ndarray, obs: np.ndarray, reward: np.ndarray,
+def _settle(i: int, x: float, y: float, left: float, rate: float, expected: float, power: float,
+            st: np.ndarray, ep: np.ndarray, flags: np.ndarray, obs: np.ndarray, reward: np.ndarray,
             terminated: np.ndarray, info: np.ndarray) -> None:  # fmt: skip
-    """Row ``i`` after its move: the running sums, the reward terms, the observation, the info."""
+    """Row ``i`` after its move (of ``power`` W): the running sums, the reward terms, the
+    observation, the info."""
     st[i, 3] += expected
     st[i, 4] += rate
     dist = math.hypot(ep[i, 1] - x, ep[i, 2] - y)
     r_reach, r_terminal = penalties(dist, left, ep[i, 0], flags[4], flags[5])
-    reward[i] = rate + r_reach + r_terminal
+    r_energy = 0.0
+    if flags[6] != 0.0:
+        r_energy = -ep[i, 28] * power
+        reward[i] = rate + r_energy + r_reach + r_terminal
+    else:
+        reward[i] = rate + r_reach + r_terminal
     terminated[i] = left == 0.0
-    _observe(obs, i, x, y, left, dist, expected, ep, flags)
-    _info(info, i, st, ep, rate, expected, dist, left, rate, r_reach, r_terminal)
+    _observe(obs, i, x, y, left, dist, expected, ep, flags, st[i, 7], st[i, 8])
+    _info(info, i, st, ep, rate, expected, dist, left, rate, r_reach, r_terminal, power, r_energy)
 
 
 @jit(inline=True)
@@ -194,12 +255,12 @@ def _step_row(
     """One slot of row ``i``: move (unit-disk projection, then the arrival guard), rate (channel
     "rician": the faded rate from ``normals`` (B, 2)), reward, observation and info. ``path``
     (B, N_max, 2) receives the new way-point (at index ``moves made``)."""
-    x, y, left = _move(i, actions, state, episode, flags, path)
+    x, y, left, power = _move(i, actions, state, episode, flags, path)
     expected = rate_row(x, y, nodes, params, i)
     rate = expected
     if flags[1] != 0.0:
         rate = faded_row(x, y, normals[i, 0], normals[i, 1], nodes, params, i)
-    _settle(i, x, y, left, rate, expected, state, episode, flags, obs, reward, terminated, info)
+    _settle(i, x, y, left, rate, expected, power, state, episode, flags, obs, reward, terminated, info)
 
 
 @jit

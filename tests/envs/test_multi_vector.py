@@ -236,7 +236,12 @@ def test_bad_actions_are_refused_naming_the_field():
 
 
 def test_every_id_of_the_package_has_a_batched_env():
-    ids = [*ios_uav_env.ENV_IDS, ios_uav_env.RANDOM_ENV_ID, *ios_uav_env.MULTINODE_IDS]
+    ids = [
+        *ios_uav_env.ENV_IDS,
+        ios_uav_env.RANDOM_ENV_ID,
+        *ios_uav_env.MULTINODE_IDS,
+        *ios_uav_env.ENERGY_IDS,
+    ]
     assert all(gym.spec(env_id).vector_entry_point for env_id in ids)
 
 
