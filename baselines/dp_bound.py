@@ -67,9 +67,9 @@ argument above holds slot by slot (the image of a feasible trajectory is an allo
 whose reward in slot n is no smaller than f_w^n(q[n])), so the relaxed optimum still bounds
 every feasible trajectory's score on these paths, and no online policy, which knows less,
 can exceed it; Kelley's cuts are built from the same per-slot rewards. Static paths give
-the static tables exactly. The plans below the bound come from the clairvoyant tour
-(``baselines.tour.solve(config, paths=...)``); the plain grid DP, whose rewards are one map
-for all slots, is not run on moving nodes.
+the static tables exactly. The plans below the bound are the plain grid DP's with the
+per-slot rewards f_w^n at the grid points (:func:`moving_dp_path`) at every w, and the
+clairvoyant tour (``baselines.tour.solve(config, paths=...)``), all scored on the paths.
 
 **Which side is loose.** Two things separate UB from the best plan: (i) the grid
 relaxation, chiefly the move rule (two squares at most D apart may have centres up to
@@ -94,6 +94,7 @@ from baselines.grid import (
     _best_move,
     check_grid_bytes,
     disk_max,
+    disk_offsets,
     grid_axes,
     grid_box,
     grid_path,
@@ -172,10 +173,13 @@ def check_relaxed_grid(
     )
 
 
-def check_plain_grid(config: ScenarioConfig, resolution: float, margin: float = DEFAULT_MARGIN) -> None:
+def check_plain_grid(
+    config: ScenarioConfig, resolution: float, margin: float = DEFAULT_MARGIN, moving: bool = False
+) -> None:
     """``ValueError`` when the plain grid DP's arrays (``baselines.grid.grid_path``'s float64
-    table of N - 2 layers and the K node rate maps) would exceed ``MAX_TABLE_BYTES``."""
-    per_cell = 8 * max(config.N - 2, 0) + 8 * (config.K + 4)
+    table of N - 2 layers and the K node rate maps, per slot with ``moving`` nodes) would exceed
+    ``MAX_TABLE_BYTES``."""
+    per_cell = 8 * max(config.N - 2, 0) + 8 * (config.K * (config.N if moving else 1) + 4)
     check_grid_bytes(
         config, resolution, margin, per_cell, "plain DP (N - 2 float64 layers)", largest=config.D
     )
@@ -336,6 +340,55 @@ def weighted_dp_path(
         return None
 
 
+def moving_rate_maps(config: ScenarioConfig, paths: np.ndarray, xs: np.ndarray, ys: np.ndarray) -> np.ndarray:
+    """(N, K, ny, nx) bps/Hz: r_k(grid point; w_k[n]) for every slot n (one map per distinct
+    node position, ``node_config_at``)."""
+    xx, yy = np.meshgrid(xs, ys)
+    points = np.column_stack([xx.ravel(), yy.ravel()])
+    out = np.empty((config.N, config.K, *xx.shape))
+    maps: dict[ScenarioConfig, np.ndarray] = {}
+    for n in range(config.N):
+        for k in range(config.K):
+            c = node_config_at(config, k, paths[n, k])
+            if c not in maps:
+                maps[c] = ie.slot_rates(c, points).reshape(xx.shape)
+            out[n, k] = maps[c]
+    return out
+
+
+def moving_dp_path(
+    config: ScenarioConfig, rewards: np.ndarray, resolution: float, margin: float = DEFAULT_MARGIN
+) -> np.ndarray | None:
+    """The best grid path for a reward map per slot, ``rewards`` (N, ny, nx) on the grid of
+    ``baselines.grid.grid_axes`` (slot 1 at q0, slot N at qF; their rewards are fixed): the DP
+    of ``baselines.grid.grid_path`` with layer n's reward taken from slot n. A feasible
+    trajectory (N, 2) (moves <= D between grid points, the last one onto qF), or None when no
+    grid path reaches qF in time."""
+    n_slots, d_max = config.N, config.D
+    xs, ys, (iy0, ix0) = grid_axes(config, resolution, margin)
+    if rewards.shape != (n_slots, len(ys), len(xs)):
+        raise ValueError(
+            f"rewards must have shape (N, ny, nx) = {(n_slots, len(ys), len(xs))}, got {rewards.shape}"
+        )
+    q_f = np.asarray(config.qF, dtype=float)
+    if n_slots == 2:
+        return np.vstack([np.asarray(config.q0, dtype=float), q_f])
+    offsets = disk_offsets(resolution, d_max)
+    values = np.empty((n_slots - 2, len(ys), len(xs)))  # values[j]: layer of 0-based slot j + 1
+    near_f = np.hypot(xs[None, :] - q_f[0], ys[:, None] - q_f[1]) <= d_max
+    values[-1] = np.where(near_f, rewards[n_slots - 2], -np.inf)
+    for j in range(n_slots - 4, -1, -1):
+        values[j] = rewards[j + 1] + disk_max(values[j + 1], offsets)
+    first = _best_move(values[0], (iy0, ix0), offsets)
+    if first is None:
+        return None
+    path = [(iy0, ix0), first]
+    for j in range(1, n_slots - 2):
+        path.append(_best_move(values[j], path[-1], offsets))
+    idx = np.array(path)
+    return np.vstack([np.column_stack([xs[idx[:, 1]], ys[idx[:, 0]]]), q_f])
+
+
 def hover_points(paths: list[np.ndarray], limit: int) -> list[tuple[str, tuple[float, float]]]:
     """The ``limit`` longest hovers (way-points repeated in consecutive slots) of the paths."""
     stays: dict[tuple[float, float], int] = {}
@@ -404,7 +457,7 @@ def solve_multinode(
 
     moving = tour.moving_paths(config, paths)
     # every grid is sized before anything is computed: the plain DPs', the relaxed DP's, the tour's
-    check_plain_grid(config, resolution, margin)
+    check_plain_grid(config, resolution, margin, moving is not None)
     check_relaxed_grid(config, h, margin, moving is not None)
     tour.check_candidate_grid(config)
 
@@ -417,8 +470,11 @@ def solve_multinode(
     relaxed = RelaxedDP(config, h, margin, moving)
     xs, ys, _ = grid_axes(config, resolution, margin)
     xx, yy = np.meshgrid(xs, ys)
-    centre_rates = ie.node_rates(config, np.column_stack([xx.ravel(), yy.ravel()]))
-    centre_rates = centre_rates.reshape(config.K, *xx.shape)
+    if moving is None:
+        centre_rates = ie.node_rates(config, np.column_stack([xx.ravel(), yy.ravel()]))
+        centre_rates = centre_rates.reshape(config.K, *xx.shape)
+    else:  # (N, K, ny, nx): the grid's rate maps of every slot
+        centre_rates = moving_rate_maps(config, moving, xs, ys)
     rf = ie.node_rates(config, np.array([config.qF]))[:, 0]
     cuts: list[np.ndarray] = []
     records: list[dict[str, Any]] = []
@@ -431,15 +487,19 @@ def solve_multinode(
         if ub < best_ub:
             best_ub, best_w = ub, w
         score, traj = None, None
-        if moving is None:  # the plain DP has one reward map for all slots: static nodes only
+        if moving is None:
             try:
                 reward = np.max(w[:, None, None] * centre_rates, axis=0)
                 traj, _ = grid_path(config, reward, float(np.max(w * rf)), resolution, margin)
             except ValueError:  # no grid path in time on this grid: the bound still holds
                 traj = None
+        else:  # the per-slot rewards f_w^n
+            traj = moving_dp_path(
+                config, np.max(w[None, :, None, None] * centre_rates, axis=1), resolution, margin
+            )
         if traj is not None:
             dp_paths.append(traj)
-            score = ie.maxmin_rate(config, traj)
+            score = ie.maxmin_rate(config, traj, moving)
             if best_plan is None or score > best_plan[0]:
                 best_plan = (score, traj, f"dp{it}")
         records.append({"iteration": it, "weights": w.tolist(), "upper_bound": ub, "plan_score": score})
@@ -448,19 +508,15 @@ def solve_multinode(
             print(f"[dp-bound] it {it:2d}: UB(w) {ub:.6f}  best UB {best_ub:.6f}  Kelley lower {lower:.6f}")
         if best_ub - lower <= tol * best_ub:
             break
-    if best_plan is None and moving is None:
+    if best_plan is None and moving is None:  # (with moving nodes the tour's plan stands in)
         raise ValueError(f"no grid path reaches qF in time at resolution={resolution:g} m: use a finer grid")
     # the DP paths hover where some f_w peaks: routes through those points (and the nodes'
     # peaks) mix them; the tour heuristic's own plan competes too
-    rivals = [("tour", tour_plan)]
-    if moving is None:
-        peaks = [(n, p) for n, p in tour_plan.info["candidates"].items() if n.startswith("peak")]
-        rivals.append(
-            ("tour-dp-hovers", tour.solve(config, candidates=peaks + hover_points(dp_paths, config.K)))
-        )
-    if best_plan is None:
-        best_plan = (tour_plan.mean_rate, tour_plan.trajectory, "tour")
-    for source, plan in rivals:
+    peaks = [(n, p) for n, p in tour_plan.info["candidates"].items() if n.startswith("peak")]
+    routed = tour.solve(config, candidates=peaks + hover_points(dp_paths, config.K), paths=moving)
+    if best_plan is None:  # moving nodes with no grid path in time: the tours' plans
+        best_plan = (-math.inf, tour_plan.trajectory, "tour")
+    for source, plan in (("tour", tour_plan), ("tour-dp-hovers", routed)):
         if plan.mean_rate > best_plan[0]:
             best_plan = (plan.mean_rate, plan.trajectory, source)
     info = {

@@ -34,6 +34,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+from functools import lru_cache
 from typing import Any
 
 import numpy as np
@@ -119,9 +120,14 @@ def is_static(config: ScenarioConfig, paths: np.ndarray) -> bool:
 def node_config_at(config: ScenarioConfig, k: int, position: Any) -> ScenarioConfig:
     """The static single-node config of node k at ``position`` (m): ``config.node_config(k)``
     when that is where node k is configured, else the same with G = ``position`` and no motion
-    (the model of r_k(q; w_k[n]))."""
+    (the model of r_k(q; w_k[n])). Cached: a path's configs are built once, and the same
+    position gives the same object (so the model's per-config caches find it)."""
+    return _node_config_at(config, int(k), float(position[0]), float(position[1]))
+
+
+@lru_cache(maxsize=16384)
+def _node_config_at(config: ScenarioConfig, k: int, x: float, y: float) -> ScenarioConfig:
     base = config.node_config(k)
-    p = (float(position[0]), float(position[1]))
-    if p == base.ground_node and base.motion is None:
+    if (x, y) == base.ground_node and base.motion is None:
         return base
-    return dataclasses.replace(base, ground_node=p, motion=None)
+    return dataclasses.replace(base, ground_node=(x, y), motion=None)

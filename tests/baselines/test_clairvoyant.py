@@ -5,8 +5,16 @@ import pytest
 
 import ios_uav_env as ie
 from baselines import tour
-from baselines.dp_bound import RelaxedDP, clairvoyant_bound, region_rate_bound, solve_multinode
+from baselines.dp_bound import (
+    RelaxedDP,
+    clairvoyant_bound,
+    moving_dp_path,
+    moving_rate_maps,
+    region_rate_bound,
+    solve_multinode,
+)
 from baselines.fixed import fly_hover_fly, straight_line_path
+from baselines.grid import grid_axes, grid_path
 from ios_uav_env import ScenarioConfig
 from ios_uav_env.model.motion import GaussMarkov, node_config_at, node_paths, static_paths
 from ios_uav_env.model.schedule import dual_value
@@ -73,7 +81,8 @@ def test_clairvoyant_bound_is_above_every_flight_on_the_paths(mobile):
 
 def test_clairvoyant_plan_is_scored_on_the_paths(mobile):
     config, paths, plan = mobile
-    assert plan.feasible and plan.info["clairvoyant"] and plan.info["plan_source"].startswith("tour")
+    assert plan.feasible and plan.info["clairvoyant"]
+    assert plan.info["plan_source"].startswith(("dp", "tour"))
     assert plan.mean_rate == ie.maxmin_rate(config, plan.trajectory, paths)
     assert plan.mean_rate <= plan.info["upper_bound"]
     assert plan.info["gap"] == pytest.approx(plan.info["upper_bound"] / plan.mean_rate - 1, rel=1e-12)
@@ -82,6 +91,19 @@ def test_clairvoyant_plan_is_scored_on_the_paths(mobile):
     static_tour = tour.solve(config.replace(motion=None))
     assert ie.maxmin_rate(config, plan.trajectory) != plan.mean_rate
     assert plan.mean_rate >= ie.maxmin_rate(config, static_tour.trajectory, paths)
+
+
+def test_moving_dp_is_the_grid_dp_when_the_rewards_stand_still():
+    """One reward map repeated in every slot: the per-slot DP flies the plain grid DP's path."""
+    config = ScenarioConfig(ground_nodes=NODES, **SMALL)
+    xs, ys, _ = grid_axes(config, H)
+    xx, yy = np.meshgrid(xs, ys)
+    rates = ie.node_rates(config, np.column_stack([xx.ravel(), yy.ravel()])).reshape(2, *xx.shape)
+    reward = np.max(np.array([0.3, 0.7])[:, None, None] * rates, axis=0)
+    q = moving_dp_path(config, np.repeat(reward[None], config.N, axis=0), H)
+    assert np.array_equal(q, grid_path(config, reward, 0.0, H)[0]) and ie.check_trajectory(config, q).feasible
+    maps = moving_rate_maps(config, static_paths(config), xs, ys)
+    assert np.array_equal(maps, np.broadcast_to(rates, maps.shape))
 
 
 def test_one_moving_node():
