@@ -31,7 +31,7 @@ import gymnasium as gym
 import numpy as np
 import torch
 
-import ios_uav_env
+import ios_uav_env  # noqa: F401  (registers the ids)
 from agents.fast.gae import gae
 from agents.fast.recipe import FastRecipe
 from agents.wrappers import check_exploring
@@ -79,8 +79,15 @@ class FastPPO:
 
         from agents.vec_env import BatchedVecEnv
 
-        if env_id not in ios_uav_env.ENV_IDS:
-            raise ValueError(f"env_id must be an id of this package with a batched form, got {env_id!r}")
+        spec = gym.registry.get(env_id)
+        if spec is None or not env_id.startswith("ios_uav_env/") or spec.vector_entry_point is None:
+            batched = sorted(
+                i for i, s in gym.registry.items() if i.startswith("ios_uav_env/") and s.vector_entry_point
+            )
+            raise ValueError(
+                f"env_id must be an id of this package with a batched form ({', '.join(batched)}), "
+                f"got {env_id!r}"
+            )
         self.env_id, self.recipe, self.total, self.seed = env_id, recipe, int(total), int(seed)
         self.env_kwargs = dict(env_kwargs or {})
         self.steps, self.updates = int(steps), 0

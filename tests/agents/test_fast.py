@@ -286,3 +286,36 @@ def test_train_py_takes_the_fast_trainer_and_refuses_what_it_does_not_train(tmp_
     _, settings = train.parse_args(["--algo", "ppo", "--trainer", "fast", "--threads", "1"])
     assert settings.trainer == "fast" and settings.threads == 1
     assert settings.hyperparams_path().name == "fast_ppo.yml"
+
+
+def test_gae_equals_torchrls_generalized_advantage_estimate():
+    """TorchRL's GAE (time on dim -2) on the same rollout: the same advantages."""
+    functional = pytest.importorskip("torchrl.objectives.value.functional")
+    gen = torch.Generator().manual_seed(1)
+    t, b = 7, 5
+    r, v, last = (
+        torch.randn(t, b, generator=gen),
+        torch.randn(t, b, generator=gen),
+        torch.randn(b, generator=gen),
+    )
+    d = (torch.rand(t, b, generator=gen) < 0.3).float()
+    nv = torch.cat([v[1:], last[None]], 0)
+    ours, _ = gae(r, v, d, last, 0.95, 0.9)
+    as_trl = [x.T.unsqueeze(-1).contiguous() for x in (v, nv, r, d)]
+    done = as_trl[3].bool()
+    theirs, _ = functional.generalized_advantage_estimate(0.95, 0.9, *as_trl[:3], done, done)
+    torch.testing.assert_close(ours, theirs.squeeze(-1).T)
+
+
+def test_every_shipped_fast_recipe_is_read_whole():
+    """Each entry of agents/hyperparams/fast_ppo.yml passes the zoo checks and the fast reader."""
+    import yaml
+
+    from agents.hyperparams import load_hyperparams
+    from agents.training.settings import FAST_HYPERPARAMS
+
+    ids = list(yaml.safe_load(FAST_HYPERPARAMS.read_text()))
+    assert "ios_uav_env/IOSUAV-v0" in ids and MULTI in ids
+    for env_id in ids:
+        recipe = FastRecipe.from_hyperparams(load_hyperparams("ppo", env_id, FAST_HYPERPARAMS))
+        assert recipe.rollout_size % recipe.batch_size == 0, env_id  # whole minibatches
