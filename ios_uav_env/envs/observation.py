@@ -13,11 +13,13 @@ from typing import Any
 
 import numpy as np
 
+from ios_uav_env.envs.guard import guarded_position
 from ios_uav_env.model.channel import RateKernel, rate_kernel
 from ios_uav_env.model.config import ScenarioConfig
-from ios_uav_env.model.peak import rate_peak
+from ios_uav_env.model.peak import Peak, rate_peak
 from ios_uav_env.model.propulsion import min_power_speed, propulsion_power
 from ios_uav_env.model.scenarios import ScenarioRanges
+from ios_uav_env.model.score import score_plan
 from ios_uav_env.model.surface import _axes
 
 #: Names of the observation components, in order (see ``IOSUAVEnv``'s docstring for the units).
@@ -98,17 +100,41 @@ def instance_values(config: ScenarioConfig) -> tuple[float, float, float, float,
     )
 
 
-def reference_efficiency(config: ScenarioConfig, peak_rate: float | None = None) -> float:
-    """lambda_ref (bits/J), the reference energy efficiency of the energy reward: the EE of a
-    plan that would sit at the reachable rate peak P for all N slots while flying every one of
-    its N - 1 moves at the minimum-power speed V_mp,
+def hover_flight(config: ScenarioConfig, peak: Peak | None = None) -> np.ndarray:
+    """The (N, 2) flight (m) of "fly to the reachable rate peak P at full speed and hover there"
+    through the env's arrival guard (``guard.guarded_position``), which brings it to qF at slot
+    N: the flight of ``policies.HoverAt("peak")`` in the env, feasible for every scenario.
+    ``peak``: P if known, else ``rate_peak(config)``."""
+    p = rate_peak(config) if peak is None else peak
+    d, final = config.D, (float(config.qF[0]), float(config.qF[1]))
+    x, y = float(config.q0[0]), float(config.q0[1])
+    path = np.empty((config.N, 2))
+    path[0] = x, y
+    for n in range(1, config.N):
+        dx, dy = p.x - x, p.y - y
+        norm = math.hypot(dx, dy)
+        if norm > d:  # full speed towards P, then stop on it
+            dx, dy = dx * d / norm, dy * d / norm
+        x, y = guarded_position((x, y), (x + dx, y + dy), final, d, config.N - 1 - n)
+        path[n] = x, y
+    return path
 
-        lambda_ref = B N r(P) / ((N - 1) P(V_mp)).
 
-    Every feasible plan has r(q[n]) <= r(P) (its way-points are reachable points, where
-    ``rate_peak`` searches; up to that search's grid) and E >= (N - 1) dt P(V_mp), so
-    lambda_ref >= EE* (the best EE): an optimistic reference. ``peak_rate``: r(P) if known
-    (bps/Hz), else ``rate_peak(config)``'s.
+def reference_efficiency(config: ScenarioConfig, peak: Peak | None = None) -> float:
+    """lambda_ref (bits/J), the default reference energy efficiency of the energy reward: the EE
+    (``score_plan``) of :func:`hover_flight`, the rate objective's "fly to the peak and hover"
+    plan. A feasible plan, so lambda_ref <= EE* (the best EE), and a plan that maximises the
+    energy reward's return has an EE of at least lambda_ref (``IOSUAVEnv``, "Energy").
+    ``peak``: the reachable rate peak if known, else ``rate_peak(config)``'s."""
+    return float(score_plan(config, hover_flight(config, peak)).energy_efficiency)
+
+
+def optimistic_efficiency(config: ScenarioConfig, peak_rate: float | None = None) -> float:
+    """B N r(P) / ((N - 1) P(V_mp)) (bits/J): the EE of a plan that would sit at the reachable
+    rate peak P for all N slots while flying every one of its N - 1 moves at the minimum-power
+    speed V_mp. Every feasible plan has r(q[n]) <= r(P) (its way-points are reachable points,
+    where ``rate_peak`` searches; up to that search's grid) and E >= (N - 1) dt P(V_mp), so it
+    bounds EE* from above. ``peak_rate``: r(P) if known (bps/Hz), else ``rate_peak(config)``'s.
     """
     rate = rate_peak(config).rate if peak_rate is None else float(peak_rate)
     p_min = float(propulsion_power(min_power_speed(config.propulsion), config.propulsion))
@@ -157,7 +183,8 @@ def space_bounds(
     features: their largest values (at least 1). Peak hint: the peak and the UAV are both
     within (N_max - 1) D of q0, so |P - q| / L <= 2 (N_max - 1) D / L. Energy features
     (``energy``; ``reference``: a fixed lambda_ref in bits/J, None: :func:`reference_efficiency`
-    per scenario): a move is at most D; w = lambda_ref P(0) / B <= 2 r_max P(0) / P(V_mp)
+    per scenario): a move is at most D; w = lambda_ref P(0) / B with lambda_ref <= EE* <=
+    :func:`optimistic_efficiency`, so w <= 2 r_max P(0) / P(V_mp)
     with r_max the rate bound (r(P) <= r_max), or the fixed reference's value;
     V_mp dt / D of the family's base (propulsion and v_max are not drawn). Margins of 1e-6.
     """

@@ -51,7 +51,7 @@ class EnvOptions:
     instance_features: bool = False  # append the 6 features of the instance
     peak_hint: bool = False  # append the 3 features of the reachable rate peak
     # bits/J, lambda_ref of the energy reward (objective "energy_efficiency" only); None: the
-    # scenario's own optimistic reference (observation.reference_efficiency), set at each reset
+    # scenario's own reference, the EE of its hover plan (observation.reference_efficiency)
     energy_reference: float | None = None
 
     def __post_init__(self) -> None:

@@ -161,11 +161,15 @@ class IOSUAVEnv(gym.Env):
       P(v_max)). The loss vanishes linearly as lambda_ref -> lambda*.
 
     lambda_ref is ``energy_reference`` when given (bits/J, e.g. a planner's EE*), else the
-    scenario's own optimistic reference ``observation.reference_efficiency``, B N r(P) / ((N - 1)
-    P(V_mp)) with r(P) the reachable rate peak: no plan does better (its way-points are
-    reachable, its moves cost at least P(V_mp)), so lambda_ref >= lambda*, the last case above.
-    It is computed at each new scenario (one ``rate_peak`` search, shared with the peak hint)
-    and held in ``env.unwrapped.reference_efficiency``. The episode's score is its EE
+    scenario's own reference ``observation.reference_efficiency``: the EE of the rate
+    objective's plan "fly to the reachable rate peak P and hover" (``policies.HoverAt("peak")``
+    through the guard, ``observation.hover_flight``). It is feasible, so lambda_ref <= lambda*
+    (the second case: the return's maximiser does at least as well as hovering) without
+    needing lambda*. (An upper reference such as ``observation.optimistic_efficiency``,
+    B N r(P) / ((N - 1) P(V_mp)), is >= lambda* but far above it on short missions, where most
+    of the energy goes into the transit.) It is computed at each new scenario (one
+    ``rate_peak`` search, shared with the peak hint, and one scoring) and held in
+    ``env.unwrapped.reference_efficiency``. The episode's score is its EE
     (``info["energy_efficiency"]`` at slot N, ``envs.rollout.Episode.energy_efficiency``).
 
     ## Info
@@ -278,6 +282,11 @@ class IOSUAVEnv(gym.Env):
         self.action_space = spaces.Box(-1.0, 1.0, (2,), np.float32)
         # the objective of the construction scenario fixes the observation's layout and the reward
         self.energy_objective: bool = self._ranges().base.objective == "energy_efficiency"
+        if self.options.energy_reference is not None and not self.energy_objective:
+            raise ValueError(
+                "energy_reference is the reference EE of the energy reward: it needs the objective "
+                f"'energy_efficiency', got objective={self._ranges().base.objective!r}"
+            )
         self.reference_efficiency: float = 0.0  # bits/J, lambda_ref of the episode (energy objective)
         low, high = space_bounds(
             self._ranges(), self.options.length_scale, self.options.instance_features, self.options.peak_hint,
@@ -341,9 +350,7 @@ class IOSUAVEnv(gym.Env):
         peak = rate_peak(cfg) if self.options.peak_hint else None
         reference = 0.0
         if self.energy_objective:
-            reference = self.options.energy_reference or reference_efficiency(
-                cfg, None if peak is None else peak.rate
-            )
+            reference = self.options.energy_reference or reference_efficiency(cfg, peak)
         self.reference_efficiency = reference
         hint = (0.0, 0.0, 0.0) if peak is None else peak[:3]
         self._episode = episode_row(cfg, self.options.length_scale, hint, reference)[None, :]

@@ -13,7 +13,13 @@ from gymnasium.utils.env_checker import check_env
 
 import ios_uav_env
 from ios_uav_env import ENERGY_ID, ENERGY_IDS, ENERGY_RANDOM_ID, ScenarioConfig, propulsion_power, score_plan
-from ios_uav_env.envs.observation import ENERGY_NAMES, min_power_move, reference_efficiency
+from ios_uav_env.envs.observation import (
+    ENERGY_NAMES,
+    hover_flight,
+    min_power_move,
+    optimistic_efficiency,
+    reference_efficiency,
+)
 from ios_uav_env.envs.policies import HoverAt
 from ios_uav_env.envs.random_env import RandomIOSUAVEnv
 from ios_uav_env.envs.rollout import run_episode
@@ -98,19 +104,25 @@ def test_return_is_dinkelbachs_parametric_objective():
     assert sum(out["rewards"]) == pytest.approx(expected, rel=1e-12)
 
 
-def test_reference_is_the_optimistic_loiter_ee_and_bounds_every_plan():
-    lam = IOSUAVEnv(SHORT).reference_efficiency
-    model = SHORT.propulsion
-    p_min = propulsion_power(ios_uav_env.min_power_speed(model), model)
-    r_peak = rate_peak(SHORT).rate
-    assert lam == pytest.approx(SHORT.bandwidth_hz * SHORT.N * r_peak / ((SHORT.N - 1) * p_min), rel=RTOL)
-    assert reference_efficiency(SHORT) == lam
-    env = IOSUAVEnv(SHORT, peak_hint=True)
-    for seed in range(4):  # any feasible plan's EE is below it
-        out = play(env, np.random.default_rng(seed).uniform(-1, 1, (SHORT.N - 1, 2)))
-        assert out["infos"][-1]["feasible"] and out["infos"][-1]["energy_efficiency"] < lam
-    out = play(env, [np.zeros(2)])
-    assert out["infos"][-1]["energy_efficiency"] < lam
+def test_reference_is_the_hover_plans_ee_below_the_best_and_the_optimistic_bound():
+    dp_energy = pytest.importorskip("baselines.dp_energy")
+    for config in (SHORT, SHORT.replace(surface="ris", T=50.0)):
+        env = gym.make(ENERGY_ID, config=config, surface=config.surface, peak_hint=True)
+        env.reset(seed=0)
+        lam = env.unwrapped.reference_efficiency
+        # the env's own hover plan (HoverAt reads P from the float32 observation: ~1e-5 m)
+        episode = run_episode(env, HoverAt("peak"), seed=0)
+        np.testing.assert_allclose(hover_flight(config), episode.trajectory, rtol=0, atol=1e-4)
+        assert (
+            lam == reference_efficiency(config) == score_plan(config, hover_flight(config)).energy_efficiency
+        )
+        assert lam == pytest.approx(episode.energy_efficiency, rel=1e-6) and episode.feasible
+        best = dp_energy.solve_ee(config, resolution=5.0).info["lambda"]  # EE* on the DP grid
+        model = config.propulsion
+        p_min = propulsion_power(ios_uav_env.min_power_speed(model), model)
+        upper = config.bandwidth_hz * config.N * rate_peak(config).rate / ((config.N - 1) * p_min)
+        assert optimistic_efficiency(config) == pytest.approx(upper, rel=RTOL)
+        assert lam < best < upper
     fixed = IOSUAVEnv(SHORT, energy_reference=1234.5)
     assert fixed.reference_efficiency == 1234.5
 
@@ -145,7 +157,9 @@ def test_return_ranks_plans_as_ee_at_the_best_ee():
     ee = np.array([score_plan(config, q).energy_efficiency for q in flights])
     assert len(set(ee.round(6))) == len(flights)  # distinct plans
     best = int(np.argmax(ee))
-    for lam in (ee[best], 0.9 * ee[best], 0.5 * ee[best]):
+    default = IOSUAVEnv(config).reference_efficiency  # the hover plan's EE, one of the plans
+    assert default == pytest.approx(ee[1], rel=1e-6)  # HoverAt reads P in float32
+    for lam in (ee[best], 0.9 * ee[best], 0.5 * ee[best], default):
         env = IOSUAVEnv(config, arrival_guard=False, energy_reference=float(lam))
         returns = []
         for q in flights:
@@ -233,6 +247,8 @@ def test_objective_mismatch_and_bad_reference_are_refused():
         IOSUAVEnv(SHORT.replace(objective="rate")).reset(options={"config": SHORT})
     with pytest.raises(ValueError, match="energy_reference"):
         IOSUAVEnv(SHORT, energy_reference=-1.0)
+    with pytest.raises(ValueError, match="energy_reference.*objective='rate'"):
+        gym.make("ios_uav_env/IOSUAV-v0", energy_reference=1e4)
     with pytest.raises(ValueError, match="objective"):
         RandomIOSUAVEnv(objective="energy_efficiency", config=ScenarioConfig(T=60.0))
 
