@@ -4,6 +4,7 @@ the batched form row for row, the checkers."""
 
 from __future__ import annotations
 
+import pickle
 import warnings
 
 import gymnasium as gym
@@ -311,3 +312,33 @@ def test_batch_matches_single_envs_row_for_row():
             for key in ("power", "energy", "energy_efficiency", "reward_energy"):
                 assert inf[key] == pytest.approx(info[key][i], rel=1e-9, abs=1e-9), key
         ended = terminated.copy()
+
+
+def test_fixed_batch_restarts_with_the_energy_reset_and_pickles():
+    """Two episodes per row on the fixed scenario (the batched env's quick restart of its own
+    scenario): each row's energy and EE equal the single env's; a pickled env steps alike."""
+    actions = np.random.default_rng(4).uniform(-1.2, 1.2, (2 * (SHORT.N - 1) + 1, 2, 2))
+    vec = IOSUAVVectorEnv(2, SHORT)
+    vec.reset(seed=0)
+    singles = [IOSUAVEnv(SHORT) for _ in range(2)]
+    for i, env in enumerate(singles):
+        env.reset(seed=i)
+    for t, action in enumerate(actions):
+        obs, reward, terminated, _, info = vec.step(action)
+        for i, env in enumerate(singles):
+            if t == SHORT.N - 1:  # the reset step of the next-step autoreset
+                one, inf = env.reset()
+                assert info["energy"][i] == inf["energy"] == 0.0
+            else:
+                one, r, _, _, inf = env.step(action[i])
+                assert r == pytest.approx(reward[i], rel=1e-9, abs=1e-12)
+            np.testing.assert_allclose(obs[i], one, rtol=1e-6, atol=1e-6)
+            for key in ("power", "energy", "energy_efficiency"):
+                assert inf[key] == pytest.approx(info[key][i], rel=1e-9, abs=1e-12), key
+    env = IOSUAVEnv(SHORT)
+    env.reset(seed=0)
+    env.step(np.array([0.3, 0.4]))
+    twin = pickle.loads(pickle.dumps(env))
+    a, b = env.step(np.array([0.5, -0.2])), twin.step(np.array([0.5, -0.2]))
+    np.testing.assert_array_equal(a[0], b[0])
+    assert a[1] == b[1] and a[4]["energy"] == b[4]["energy"]
