@@ -34,6 +34,17 @@ it SCA needed the whole iteration budget and ended below the tour.)
 
 A slot's side of the surface is kept within an iteration (constraint (17), as in the
 single-node code), so the slot at which the UAV crosses the plane comes from the start.
+
+**On node paths** (``solve(config, paths=...)``: moving nodes known in advance, the
+clairvoyant SCA). Node k's rate in slot n is that of its single-node config at w_k[n]
+(``node_config_at``), so the per-node, per-slot pieces of the surrogate are those of that
+config: the direct link's centre in (19) becomes a parameter per slot (g_k[n], with its
+constant |g_k[n]|^2 + z_U^2), and the coefficients of (16) and (19) at slot n come from the
+linearisation of the surrogate of node k at w_k[n] (one per distinct position). The tile
+geometry (the Chebyshev nodes on the surface) does not depend on the node, so (17)-(18) are
+unchanged. Every exact score (the acceptance test, block 1, the plan) is on the paths; the
+starts are the clairvoyant tour's plan (``baselines.tour.solve(config, paths=...)``) and the
+fly-hover-fly flights over its compromise points. Static paths give the static SCA exactly.
 """
 
 from __future__ import annotations
@@ -57,6 +68,7 @@ from baselines.sca_problem import (
 )
 from ios_uav_env import ScenarioConfig
 from ios_uav_env.model import channel as ch
+from ios_uav_env.model.motion import node_config_at
 
 #: An exact-score decrease beyond this (relative) stops a start with ``"decrease"``.
 DECREASE_TOL = 1e-9
@@ -67,9 +79,12 @@ __all__ = ["MultiSurrogate", "solve"]
 class MultiSurrogate:
     """The trajectory block for K nodes: linearise every node's surrogate at q^l, solve."""
 
-    def __init__(self, config: ScenarioConfig, tiles: int, solver: str = "CLARABEL"):
-        self.config, self.solver = config, solver
+    def __init__(
+        self, config: ScenarioConfig, tiles: int, solver: str = "CLARABEL", paths: np.ndarray | None = None
+    ):
+        self.config, self.solver, self.tiles, self.paths = config, solver, tiles, paths
         self.nodes = [Surrogate(config.node_config(k), tiles, solver, dpp=False) for k in range(config.K)]
+        self._at: dict[ScenarioConfig, Surrogate] = {}  # moving nodes: the surrogate at each position
         self.has_surface = config.surface != "none"
         self.n_tiles = self.nodes[0].n_tiles
         self.m = config.N - 2
@@ -82,6 +97,10 @@ class MultiSurrogate:
         if self.has_surface:
             p.update(sg=cp.Parameter(m, name="sg"), sh=cp.Parameter(m, name="sh"), dl2=cp.Parameter((m, j)))
         for k in range(self.config.K):
+            if self.paths is not None:  # node k's position in each interior slot (scaled units)
+                p[f"gx_{k}"] = cp.Parameter(m, name=f"gx_{k}")
+                p[f"gy_{k}"] = cp.Parameter(m, name=f"gy_{k}")
+                p[f"g0_{k}"] = cp.Parameter(m, name=f"g0_{k}")
             p[f"gl2_{k}"] = cp.Parameter(m, name=f"gl2_{k}")
             p[f"cd_{k}"] = cp.Parameter(m, name=f"cd_{k}")
             p[f"c0_{k}"] = cp.Parameter(name=f"c0_{k}")
@@ -127,8 +146,17 @@ class MultiSurrogate:
                 u <= U_BOUND,
             ]  # (18)
         for k, (gx, gy) in enumerate(cfg.nodes):
-            xg, yg = (gx - xc) / scale, (gy - yc) / scale
-            d_ug2 = x2 - 2 * xg * xi + y2 - 2 * yg * psi + (xg**2 + yg**2 + zu**2)
+            if self.paths is None:
+                xg, yg = (gx - xc) / scale, (gy - yc) / scale
+                d_ug2 = x2 - 2 * xg * xi + y2 - 2 * yg * psi + (xg**2 + yg**2 + zu**2)
+            else:  # the node's centre moves with the slot
+                d_ug2 = (
+                    x2
+                    - 2 * cp.multiply(p[f"gx_{k}"], xi)
+                    + y2
+                    - 2 * cp.multiply(p[f"gy_{k}"], psi)
+                    + p[f"g0_{k}"]
+                )
             gl2 = p[f"gl2_{k}"]
             cons.append(d_ug2 <= gl2 - (4.0 / cfg.alpha) * cp.multiply(gl2, v[:, k]))  # (19) for node k
             rate = p[f"c0_{k}"] + p[f"cd_{k}"] @ v[:, k]
@@ -137,10 +165,48 @@ class MultiSurrogate:
             cons.append(rate >= t)
         return cp.Problem(cp.Maximize(t), cons), {"xi": xi, "psi": psi, "t": t}
 
+    def _linearise(self, k: int, q: np.ndarray) -> tuple[dict[str, np.ndarray], np.ndarray]:
+        """Node k's per-slot surrogate values at q (its ``linearise``), and ``active``; with
+        moving nodes each interior slot's columns from the surrogate at w_k[n] (module doc)."""
+        if self.paths is None:
+            lin = self.nodes[k].linearise(q)
+            return lin.values, lin.active
+        inner = self.paths[1:-1, k]
+        values: dict[str, np.ndarray] = {}
+        active = np.zeros(self.m, dtype=bool)
+        where, index = np.unique(inner, axis=0, return_inverse=True)
+        index = np.asarray(index).reshape(-1)
+        for j, position in enumerate(where):
+            c = node_config_at(self.config, k, position)
+            if c not in self._at:
+                self._at[c] = Surrogate(c, self.tiles, self.solver, dpp=False)
+            lin = self._at[c].linearise(q)
+            slots = np.flatnonzero(index == j)
+            for name, value in lin.values.items():
+                if name not in values:
+                    values[name] = np.array(value, dtype=float, copy=True)
+                if name != "dmax":  # per interior slot (dmax, per move, does not depend on the node)
+                    values[name][slots] = value[slots]
+            active[slots] = lin.active[slots]
+        return values, active
+
+    def _node_rates(self, k: int, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """(exact rate, direct-link amplitude) of node k at each of the positions ``q`` of the
+        interior slots."""
+        if self.paths is None:
+            node = self.config.node_config(k)
+            return ie.slot_rates(node, q), ch.direct_amplitude(node, q)
+        exact, direct = np.empty(len(q)), np.empty(len(q))
+        for n in range(len(q)):
+            node = node_config_at(self.config, k, self.paths[n + 1, k])
+            exact[n] = ie.slot_rates(node, q[n : n + 1])[0]
+            direct[n] = ch.direct_amplitude(node, q[n : n + 1])[0]
+        return exact, direct
+
     def set_point(self, q: np.ndarray, shares: np.ndarray) -> None:
         """Parameter values of the problem at q^l with the shares alpha (K, N)."""
         cfg, scale = self.config, LENGTH_SCALE
-        lins = [node.linearise(q) for node in self.nodes]
+        lins = [_Lin(*self._linearise(k, q)) for k in range(cfg.K)]
         p = self._params
         p["dmax"].value = lins[0].values["dmax"]
         qi = q[1:-1]
@@ -150,15 +216,18 @@ class MultiSurrogate:
             p["sg"].value = np.where(active, 3.0 / np.where(active, x_l, 1.0), 0.0)
             p["sh"].value = np.where(active, -2.0, 1.0)
             p["dl2"].value = lins[0].values["dl2"]
-        ends = ie.node_rates(cfg, q[[0, -1]])
+        ends = ie.node_rates(cfg, q[[0, -1]], None if self.paths is None else self.paths[[0, -1]])
         for k, lin in enumerate(lins):
             a = shares[k, 1:-1]
+            if self.paths is not None:
+                g = (self.paths[1:-1, k] - np.asarray(cfg.ios_center[:2])) / scale
+                p[f"gx_{k}"].value, p[f"gy_{k}"].value = g[:, 0], g[:, 1]
+                p[f"g0_{k}"].value = (g * g).sum(axis=1) + (cfg.uav_altitude / scale) ** 2
             p[f"gl2_{k}"].value = lin.values["gl2"]
             p[f"cd_{k}"].value = a * lin.values["cd"]
             # per-slot value of the surrogate at q^l: the exact rate where the surface term is
             # modelled (anchoring), the direct-link rate where it is dropped
-            direct = ch.direct_amplitude(cfg.node_config(k), qi)
-            exact = ie.slot_rates(cfg.node_config(k), qi)
+            exact, direct = self._node_rates(k, qi)
             value = np.where(lin.active, exact, np.log2(1.0 + cfg.eta * direct * direct))
             p[f"c0_{k}"].value = float((a @ value + shares[k, [0, -1]] @ ends[k]) / cfg.N)
             if self.has_surface:
@@ -180,6 +249,13 @@ class MultiSurrogate:
         return q, float(self._problem.value), status
 
 
+class _Lin:
+    """A node's surrogate values and active slots at q^l (``Surrogate.linearise``'s fields)."""
+
+    def __init__(self, values: dict[str, np.ndarray], active: np.ndarray):
+        self.values, self.active = values, active
+
+
 def _step(
     surrogate: MultiSurrogate, q: np.ndarray, shares: np.ndarray
 ) -> tuple[np.ndarray | None, float, str]:
@@ -192,8 +268,8 @@ def _run(
     surrogate: MultiSurrogate, q: np.ndarray, start: str, max_iters: int, tol: float, history: list[dict]
 ) -> tuple[np.ndarray, float, np.ndarray, int, str]:
     """BCD from one start: (best trajectory, its score, its shares, solves, stop reason)."""
-    config = surrogate.config
-    best = ie.schedule(config, q)
+    config, paths = surrogate.config, surrogate.paths
+    best = ie.schedule(config, q, paths)
     history.append({"start": start, "iteration": 0, "score": best.value, "surrogate": None,
                     "status": "init", "accepted": True})  # fmt: skip
     stop, n = "max_iters", 0
@@ -213,7 +289,7 @@ def _run(
             record["status"] = f"infeasible_iterate ({status})"
             stop = "infeasible_iterate"
             break
-        new = ie.schedule(config, q_new)  # block 1: the best shares of the new trajectory
+        new = ie.schedule(config, q_new, paths)  # block 1: the best shares of the new trajectory
         record["score"] = new.value
         rel = (new.value - best.value) / max(abs(best.value), 1e-300)
         if rel < 0:  # the monotonicity check: never accept a lower exact score
@@ -227,17 +303,20 @@ def _run(
     return q, best.value, best.shares, n, stop
 
 
-def default_starts(config: ScenarioConfig) -> list[tuple[str, np.ndarray]]:
+def default_starts(config: ScenarioConfig, paths: np.ndarray | None = None) -> list[tuple[str, np.ndarray]]:
     """The tour's plan; a DP-derived plan (the tour through the hover points of the grid DP's
     path for f_w at the tour's dual weights, and the nodes' peaks); fly-hover-fly over the
-    tour's all-node compromise point(s). Starts equal to an earlier one are dropped."""
+    tour's all-node compromise point(s). Starts equal to an earlier one are dropped. With
+    moving nodes' ``paths``: the clairvoyant tour and the fly-hover-fly flights (module doc)."""
     from baselines.dp_bound import hover_points, weighted_dp_path
     from baselines.fixed import fly_hover_fly
     from baselines.tour import solve as tour_solve
 
-    plan = tour_solve(config)
+    plan = tour_solve(config, paths=paths)
     starts = [("tour", plan.trajectory)]
-    path = weighted_dp_path(config, ie.schedule(config, plan.trajectory).weights)
+    path = (
+        None if paths is not None else weighted_dp_path(config, ie.schedule(config, plan.trajectory).weights)
+    )
     if path is not None:
         peaks = [(n, p) for n, p in plan.info["candidates"].items() if n.startswith("peak")]
         routed = tour_solve(config, candidates=peaks + hover_points([path], config.K)).trajectory
@@ -260,8 +339,12 @@ def solve(
     tol: float = 1e-4,
     solver: str = "CLARABEL",
     progress: bool = False,
+    paths: np.ndarray | None = None,
 ) -> Plan:
     """Max-min trajectory and shares for K >= 2 nodes by BCD with the paper's SCA (module doc).
+
+    ``paths`` (N, K, 2) m: the nodes' true paths, known in advance (module doc, "On node
+    paths"); every score, and the plan's, is on them.
 
     ``init``: extra feasible (N, 2) trajectories or Plans to start from (added to
     :func:`default_starts`). Returns a :class:`Plan` (scheme "ia"/"ra"/"cuc" by surface) with
@@ -287,14 +370,17 @@ def solve(
         if q.shape != (config.N, 2) or not ie.check_trajectory(config, q).feasible:
             raise ValueError(f"init[{i}] must be a feasible (N={config.N}, 2) trajectory")
         given.append((f"init{i}", q))
-    starts = default_starts(config) + given
-    surrogate = MultiSurrogate(config, tiles, solver.upper())
+    from baselines.tour import moving_paths, plan_on_paths
+
+    moving = moving_paths(config, paths)
+    starts = (default_starts(config) if moving is None else default_starts(config, moving)) + given
+    surrogate = MultiSurrogate(config, tiles, solver.upper(), moving)
     history: list[dict[str, Any]] = []
     summaries = []
     best: tuple[float, np.ndarray, np.ndarray, str] | None = None
     for name, q0 in starts:
         t0 = time.perf_counter()
-        init_score = ie.maxmin_rate(config, q0)
+        init_score = ie.maxmin_rate(config, q0, moving)
         q, score, shares, n, stop = _run(surrogate, q0, name, max_iters, tol, history)
         summaries.append({"start": name, "init_score": init_score, "score": score, "iters": n, "stop": stop,
                           "seconds": time.perf_counter() - t0})  # fmt: skip
@@ -305,6 +391,10 @@ def solve(
     assert best is not None
     info = {"start": best[3], "starts": summaries, "tiles": tiles, "solver": solver.upper()}
     scheme = {"ios": "ia", "ris": "ra", "none": "cuc"}[config.surface]
-    return Plan.from_trajectory(
-        scheme, config, best[1], time.perf_counter() - t_start, history=history, info=info
-    )
+    if moving is None:
+        return Plan.from_trajectory(
+            scheme, config, best[1], time.perf_counter() - t_start, history=history, info=info
+        )
+    plan = plan_on_paths(scheme, config, best[1], time.perf_counter() - t_start, moving, info)
+    plan.history = history
+    return plan

@@ -117,3 +117,28 @@ def test_one_moving_node():
         assert ie.score_plan(config, q, paths=paths).rate <= bound
     with pytest.raises(ValueError, match="paths must have shape"):
         clairvoyant_bound(config, paths[:, :, :1], resolution=H)
+
+
+def test_clairvoyant_sca_climbs_from_the_clairvoyant_tour(mobile):
+    """SCA on the paths: every score on the paths, never below its best start (the clairvoyant
+    tour), never above the bound; accepted scores never decrease."""
+    from baselines import sca_multi
+
+    config, paths, bound_plan = mobile
+    plan = sca_multi.solve(config, max_iters=2, paths=paths)
+    assert plan.feasible and plan.info["clairvoyant"]
+    assert plan.mean_rate == ie.maxmin_rate(config, plan.trajectory, paths)
+    assert plan.mean_rate <= bound_plan.info["upper_bound"]
+    tour_start = next(s for s in plan.info["starts"] if s["start"] == "tour")
+    assert tour_start["init_score"] < tour_start["score"] <= plan.mean_rate  # SCA climbs from the tour
+    accepted = [h["score"] for h in plan.history if h["start"] == "tour" and h["accepted"]]
+    assert accepted == sorted(accepted)
+
+
+def test_static_paths_give_todays_sca():
+    from baselines import sca_multi
+
+    config = ScenarioConfig(ground_nodes=NODES, **SMALL)
+    a = sca_multi.solve(config, max_iters=1)
+    b = sca_multi.solve(config, max_iters=1, paths=static_paths(config))
+    assert np.array_equal(a.trajectory, b.trajectory) and a.mean_rate == b.mean_rate
