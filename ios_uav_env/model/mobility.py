@@ -40,16 +40,19 @@ class GaussMarkov:
     # m, ((x_min, x_max), (y_min, y_max)) where the nodes reflect; None: the scene box of the nodes
     # and the IOS centre widened by BOX_MARGIN
     box: tuple[tuple[float, float], tuple[float, float]] | None = None
-    plane_margin: float = 1.0  # m, half-width of the strip about the IOS plane that no node enters
+    plane_margin: float = 1.0  # m, > 0: half-width of the strip about the IOS plane that no node enters
 
     def __post_init__(self) -> None:
         a = self.memory
         if not (_real(a) and 0.0 <= a < 1.0):
             raise ValueError(f"GaussMarkov.memory must be a number in [0, 1), got {a!r}")
-        for name in ("speed", "sigma", "plane_margin"):
+        for name in ("speed", "sigma"):
             value = getattr(self, name)
             if not (_real(value) and value >= 0):
                 raise ValueError(f"GaussMarkov.{name} must be a finite number >= 0, got {value!r}")
+        if not (_real(self.plane_margin) and self.plane_margin > 0):  # a node on the plane is refused
+            margin = self.plane_margin
+            raise ValueError(f"GaussMarkov.plane_margin must be a finite number > 0 (m), got {margin!r}")
         if self.heading is not None and not _real(self.heading):
             raise ValueError(
                 f"GaussMarkov.heading must be None or a finite number (rad), got {self.heading!r}"

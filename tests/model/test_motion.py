@@ -70,6 +70,7 @@ def test_motion_round_trips_through_json():
         ({"heading": "north"}, "heading"),
         ({"box": ((10, -10), (0, 1))}, "box must be"),
         ({"plane_margin": -1.0}, "plane_margin"),
+        ({"plane_margin": 0.0}, "plane_margin must be a finite number > 0"),
     ],
 )
 def test_bad_motion_fields_are_refused(fields, message):
