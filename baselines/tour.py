@@ -35,10 +35,12 @@ enter the best ``keep``).
 
 **On node paths** (``solve(config, paths=...)``, moving nodes known in advance: the
 clairvoyant tour). The route LP needs one rate per hover point, which a moving node does not
-have, so the candidates and the LPs are those of the *proxy* scenario with every node at the
-mean of its path; every rounded route, the polish and the plan are scored exactly on the
-paths (``ios_uav_env.maxmin_rate(config, q, paths)``). A heuristic, as the static tour is;
-the bound is ``baselines.dp_bound``'s. Static paths give the static tour exactly.
+have, so the candidates and the LPs are those of a static *proxy* scenario: every node at
+the mean of its path, and, as a second proxy, every node at its first position (the
+configured one); every rounded route, the polish and the plan are scored exactly on the paths
+(``ios_uav_env.maxmin_rate(config, q, paths)``), and the better proxy's plan is returned
+(``info["proxy"]``). A heuristic, as the static tour is; the bound is ``baselines.dp_bound``'s.
+Static paths give the static tour exactly.
 """
 
 from __future__ import annotations
@@ -330,8 +332,32 @@ def solve(
         if isinstance(value, bool) or not isinstance(value, int) or value < 1:
             raise ValueError(f"{name} must be an integer >= 1, got {value!r}")
     truth, moving = config, moving_paths(config, paths)
-    if moving is not None:  # routes chosen on the proxy, scored on the paths
-        config = proxy_config(truth, moving)
+    if moving is None:
+        traj, info = _route(truth, truth, None, max_points, orders, keep, candidates)
+    else:  # routes chosen on two static proxies, scored on the paths (module doc)
+        best: tuple[float, np.ndarray, dict[str, Any]] | None = None
+        for name, proxy in (("mean", proxy_config(truth, moving)), ("start", truth.replace(motion=None))):
+            q, found = _route(truth, proxy, moving, max_points, orders, keep, candidates)
+            score = ie.maxmin_rate(truth, q, moving)
+            if best is None or score > best[0]:
+                best = (score, q, dict(found, proxy=name))
+        assert best is not None
+        _, traj, info = best
+    return plan_on_paths("tour", truth, traj, time.perf_counter() - t0, moving, info)
+
+
+def _route(
+    truth: ScenarioConfig,
+    config: ScenarioConfig,
+    moving: np.ndarray | None,
+    max_points: int,
+    orders: int,
+    keep: int,
+    candidates: list[tuple[str, tuple[float, float]]] | None,
+) -> tuple[np.ndarray, dict[str, Any]]:
+    """The body of :func:`solve`: routes and their LPs on the static ``config`` (``truth``
+    itself, or a proxy of it with moving nodes), every rounded route scored exactly on
+    ``truth`` (and the node paths ``moving``); (trajectory, info)."""
     cands = hover_candidates(config) if candidates is None else list(candidates)
     if not cands:
         raise ValueError("candidates must hold at least one (name, (x, y)) hover point")
@@ -409,4 +435,4 @@ def solve(
         "n_pruned": n_pruned,
         "candidates": {name: list(p) for name, p in cands},
     }
-    return plan_on_paths("tour", truth, traj, time.perf_counter() - t0, moving, info)
+    return traj, info
