@@ -212,6 +212,11 @@ class MultiNodeEnv(gym.Env):
         self.options = EnvOptions(**options)
         if self.options.channel != "expected" or self.options.instance_features:
             raise ValueError("MultiNodeEnv takes channel='expected' and no instance_features")
+        if self.options.energy_reference is not None:
+            raise ValueError(
+                "MultiNodeEnv has no energy reward: energy_reference is for the single-node energy ids, "
+                f"got energy_reference={self.options.energy_reference!r}"
+            )
         if render_mode not in (None, "rgb_array"):
             raise ValueError(f"render_mode must be None or 'rgb_array', got {render_mode!r}")
         base = as_config(config if config is not None else ScenarioConfig(ground_nodes=DEFAULT_NODES))

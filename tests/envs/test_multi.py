@@ -194,6 +194,8 @@ def test_pinned_scenarios_and_errors():
         MultiNodeEnv(max_nodes=2)
     with pytest.raises(ValueError, match="channel"):
         MultiNodeEnv(channel="rician")
+    with pytest.raises(ValueError, match="no energy reward: energy_reference"):
+        MultiNodeEnv(energy_reference=1e4)
 
 
 def test_rgb_array_frames_show_the_episode():
