@@ -28,6 +28,9 @@ from stable_baselines3.common.vec_env.base_vec_env import (
 
 import ios_uav_env  # registers the ids
 from agents.wrappers import EXPLORE_BOX, check_exploring, check_repeat, draw_targets
+from ios_uav_env.jit import prefer_passive_threads
+
+prefer_passive_threads()  # numba's threads must not spin while torch trains (see the function)
 
 
 class BatchedVecEnv(VecEnv):

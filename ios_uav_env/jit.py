@@ -80,6 +80,17 @@ def parallel_safe() -> bool:
         return True
 
 
+def prefer_passive_threads() -> None:
+    """Let numba's OpenMP threads sleep between the batched envs' kernels instead of spinning:
+    ``OMP_WAIT_POLICY=PASSIVE`` unless the environment sets it. GNU OpenMP reads it when numba
+    first launches its threads, so call this before the process's first batched step.
+
+    A trainer alternates the env's kernels with torch's work: threads that spin after each
+    kernel hold the cores the update needs (on 2 cores the update ran several times slower;
+    ``results/log.md``). The env's own step pays a wake-up per kernel instead."""
+    os.environ.setdefault("OMP_WAIT_POLICY", "PASSIVE")
+
+
 def run_batched(parallel: Callable[..., Any], serial: Callable[..., Any], num_threads: int | None,
                 *args: Any) -> Any:  # fmt: skip
     """``parallel(*args)`` (a ``jit(parallel=True)`` kernel) on ``num_threads`` of numba's threads

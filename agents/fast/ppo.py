@@ -35,6 +35,9 @@ import ios_uav_env  # noqa: F401  (registers the ids)
 from agents.fast.gae import gae
 from agents.fast.recipe import FastRecipe
 from agents.wrappers import check_exploring
+from ios_uav_env.jit import prefer_passive_threads
+
+prefer_passive_threads()  # numba's threads must not spin while torch trains (see the function)
 
 #: Keys of the episode scores in the batched envs' ``final_info``: one node, several nodes.
 SCORE_KEYS = ("average_rate", "min_rate")

@@ -319,3 +319,21 @@ def test_every_shipped_fast_recipe_is_read_whole():
     for env_id in ids:
         recipe = FastRecipe.from_hyperparams(load_hyperparams("ppo", env_id, FAST_HYPERPARAMS))
         assert recipe.rollout_size % recipe.batch_size == 0, env_id  # whole minibatches
+
+
+def test_the_trainers_let_numbas_threads_sleep_between_kernels():
+    """agents.fast and agents.vec_env set OMP_WAIT_POLICY=PASSIVE on import (before the first
+    batched step launches numba's OpenMP threads), and leave a value the user set alone."""
+    import os
+    import subprocess
+    import sys
+
+    code = "import os, agents.fast, agents.vec_env; print(os.environ.get('OMP_WAIT_POLICY'))"
+    root = Path(__file__).resolve().parents[2]
+    env = {k: v for k, v in os.environ.items() if k != "OMP_WAIT_POLICY"}
+    env["PYTHONPATH"] = str(root)
+    out = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True, check=True)
+    assert out.stdout.split() == ["PASSIVE"]
+    env["OMP_WAIT_POLICY"] = "ACTIVE"
+    out = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True, check=True)
+    assert out.stdout.split() == ["ACTIVE"]
