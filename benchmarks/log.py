@@ -75,6 +75,12 @@ REGISTRY: dict[str, Measurement] = {
         ("soak_faults", "soak_faults.py", (), "imitation and sweep, SIGKILL and full disk: work lost"),
         ("replay_tolerance", "replay_tolerance.py", (), "shipped models' replays under float32 noise"),
         ("energy", "energy.py", ("--budgets", "0.8", "0.9"), "energy planners: EE, % of the bound"),
+        (
+            "mobile",
+            "mobile.py",
+            ("--quick",),
+            "moving nodes (M = 60): bound, clairvoyant tour, MPC, plan once",
+        ),
     ]
 }
 

@@ -1,0 +1,226 @@
+r"""Online baselines for moving, roughly known nodes: MPC(k) and plan once.
+
+**What the UAV knows** (``docs/model.md``, "Moving nodes"): the infrastructure, q0, qF, T and
+the motion model's parameters (``config`` with its ``motion``), not the node paths. In slot n
+(n = 0..N-1, the UAV at q[n]) it receives every node's position report z_k[n]
+(``ios_uav_env.model.reports.position_reports``, std ``report_sigma``), serves the nodes with
+its shares alpha[:, n] and then measures the rate of each node it served
+(``measured_rates``). The planner's decisions at slot n (the shares of slot n, the position
+q[n+1]) use the reports of slots 0..n and the measured rates of slots 0..n-1 only.
+
+**MPC(k)** re-plans at slots n = 0, k, 2k, ...:
+
+1. the :class:`~ios_uav_env.model.kalman.NodeFilter` folds in the reports so far; its estimate
+   of slot n (clipped to each node's motion rectangle) and ``predict_paths(N - 1 - n)`` give the
+   predicted paths of slots n..N-1;
+2. the tour planner (``baselines.tour.solve(paths=...)``) plans the rest of the flight on a
+   scenario with q0 = q[n] and T = (N - n) dt (the remaining horizon, N - n slots, qF reachable
+   by construction: the flown prefix is a prefix of a feasible plan, as the arrival guard's
+   induction in ``ios_uav_env.envs.guard`` keeps it), the nodes at their estimates;
+3. the rest of the frame is scheduled by ``maxmin_schedule(rates, fixed=past shares)`` on a
+   rate matrix whose past columns are the *credited* rates of the slots flown and whose future
+   columns are the predicted rates r_k(q[m]; ŵ_k[m]) of the plan; the new plan is kept only
+   when this predicted frame value beats that of the incumbent (the previous plan's rest,
+   rescheduled the same way), so the predicted value never decreases from one re-plan to the
+   next (with exact knowledge MPC scores at least what its first plan, the offline tour, scores);
+4. the next k slots are flown: positions q[n+1..n+k] and shares alpha[:, n..n+k-1].
+
+Credited rates (``credit``): ``"model"`` (default), r_k(q[i]; ŵ_k[i]) at the filter's estimate of
+slot i made at slot i (the expected-gain rate the score counts); ``"measured"``: the measured
+faded rate of each node served in slot i (0 where it was not served, where it does not count).
+The tour chooses its route on the remaining horizon alone; the past enters through the shares
+and the incumbent test.
+
+**Plan once** (``MPC(k=None)``): the plan made at slot 0 (the filter after the first reports),
+flown to the end with its shares, never re-planned.
+
+**Exact reports** (``report_sigma = 0``): the filter runs at ``EXACT_SIGMA`` (its gain is then
+1 to rounding, so the estimate is the report); for static nodes the predicted paths are the
+true ones.
+
+**Draws** (:func:`run_online`): one numpy Generator ``np.random.default_rng(seed)``: the true
+paths (``node_paths``, unless given), then per slot the K reports and, after serving, one
+faded sample per served node in node order; one seed gives one episode, bit for bit.
+
+**Score**: ``ios_uav_env.score_plan`` on the true paths with the planner's own shares.
+``seconds`` is the wall time spent planning (filter, tour, schedules), not drawing or scoring.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass
+from typing import Any, Literal
+
+import numpy as np
+
+import ios_uav_env as ie
+from baselines import tour
+from ios_uav_env import ScenarioConfig
+from ios_uav_env.model.kalman import NodeFilter
+from ios_uav_env.model.motion import check_paths, node_bounds, node_paths
+from ios_uav_env.model.reports import REPORT_SIGMA, measured_rates, position_reports
+from ios_uav_env.model.score import PlanScore
+
+#: m, the filter's report std when the reports are exact (``report_sigma = 0``).
+EXACT_SIGMA = 1e-6
+#: Shares below this are treated as "not served" (no rate measured).
+SERVED_SHARE = 1e-9
+
+__all__ = ["EXACT_SIGMA", "MPC", "OnlineResult", "run_online"]
+
+
+@dataclass(frozen=True)
+class MPC:
+    """An online planner (module docstring): re-plan every ``k`` slots, or once (``k=None``)."""
+
+    k: int | None = 1  # slots between re-plans (>= 1); None: plan once at slot 0
+    credit: Literal["model", "measured"] = "model"  # rates credited to the past slots
+    max_points: int | None = None  # tour: most hover points per route (None: its default)
+    orders: int = 2  # tour: orders solved per subset
+    keep: int = 5  # tour: LP winners scored exactly
+
+    def __post_init__(self) -> None:
+        k = self.k
+        if k is not None and (isinstance(k, bool) or not isinstance(k, (int, np.integer)) or k < 1):
+            raise ValueError(f"MPC.k must be None (plan once) or an integer >= 1 (slots), got {k!r}")
+        if self.credit not in ("model", "measured"):
+            raise ValueError(f"MPC.credit must be 'model' or 'measured', got {self.credit!r}")
+
+    @property
+    def name(self) -> str:
+        """``"plan-once"`` or ``"mpc-k<k>"``."""
+        return "plan-once" if self.k is None else f"mpc-k{self.k}"
+
+
+@dataclass(frozen=True)
+class OnlineResult:
+    """One online episode: what was flown, its score on the true paths, the planning time."""
+
+    scheme: str  # the planner's name
+    trajectory: np.ndarray  # (N, 2) m, the flown q[n]
+    shares: np.ndarray  # (K, N) alpha_k[n] used
+    score: PlanScore  # score_plan(config, trajectory, shares (K > 1), paths=true paths)
+    seconds: float  # s, wall time spent planning
+    n_plans: int  # tour plans made
+    n_kept: int  # re-plans that replaced the incumbent (the first plan included)
+    paths: np.ndarray  # (N, K, 2) m, the true node paths
+    reports: np.ndarray  # (N, K, 2) m, the position reports
+    measured: np.ndarray  # (K, N) bps/Hz, measured rates (NaN where a node was not served)
+
+    @property
+    def rate(self) -> float:
+        """bps/Hz, the max-min (K = 1: average) rate with the planner's own shares."""
+        return float(self.score.rate)
+
+    @property
+    def feasible(self) -> bool:
+        """Eq. (10) holds for the flown trajectory."""
+        return bool(self.score.feasible)
+
+
+def _rest_config(config: ScenarioConfig, q: np.ndarray, n: int, nodes: np.ndarray) -> ScenarioConfig:
+    """The static scenario of slots n..N-1: q0 = q, N - n slots, nodes at ``nodes`` (K, 2)."""
+    pts = [tuple(float(v) for v in p) for p in nodes]
+    where = {"ground_node": pts[0]} if config.K == 1 else {"ground_nodes": pts}
+    rest_t = (config.N - n) * config.dt
+    return config.replace(q0=(float(q[0]), float(q[1])), T=rest_t, motion=None, **where)
+
+
+def _frame(
+    config: ScenarioConfig, past: tuple[np.ndarray, np.ndarray], rest_q: np.ndarray, pred: np.ndarray
+) -> tuple[float, np.ndarray]:
+    """(predicted frame value, shares (K, N)): the best continuation of the past slots' shares
+    ``past[1]`` (K, n0) at their credited rates ``past[0]`` (K, n0), the rest of the flight
+    ``rest_q`` (N - n0, 2) on the predicted paths ``pred`` (N - n0, K, 2)."""
+    credited, fixed = past
+    rates = np.concatenate([credited, ie.node_rates(config, rest_q, pred)], axis=1)
+    sched = ie.maxmin_schedule(rates, fixed if fixed.shape[1] else None)
+    return float(sched.value), sched.shares
+
+
+def _check_seed(seed: Any) -> int:
+    if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0:
+        raise ValueError(f"seed must be an integer >= 0, got {seed!r}")
+    return int(seed)
+
+
+def run_online(
+    config: ScenarioConfig,
+    planner: MPC,
+    seed: int,
+    *,
+    report_sigma: float = REPORT_SIGMA,
+    paths: np.ndarray | None = None,
+) -> OnlineResult:
+    """One online episode of ``planner`` on ``config`` (module docstring, "Draws").
+
+    ``paths`` (N, K, 2) m: the true node paths (default: drawn by ``node_paths`` from the
+    episode's generator first); ``report_sigma`` (m): the reports' error std (0: exact).
+    """
+    if not isinstance(config, ScenarioConfig):
+        raise TypeError(f"config must be a ScenarioConfig, got {type(config).__name__}")
+    if not isinstance(planner, MPC):
+        raise TypeError(f"planner must be an MPC (MPC(k=...) or MPC(k=None)), got {type(planner).__name__}")
+    rng = np.random.default_rng(_check_seed(seed))
+    truth = node_paths(config, rng) if paths is None else check_paths(config, paths)
+    if not (isinstance(report_sigma, (int, float)) and math.isfinite(report_sigma) and report_sigma >= 0):
+        raise ValueError(f"report_sigma must be a finite number >= 0 (m), got {report_sigma!r}")
+    n_slots, k_nodes = config.N, config.K
+    lo, hi = node_bounds(config) if config.motion is not None else (None, None)
+    q = np.empty((n_slots, 2))
+    q[0] = config.q0
+    shares = np.zeros((k_nodes, n_slots))
+    credited = np.zeros((k_nodes, n_slots))
+    reports = np.empty((n_slots, k_nodes, 2))
+    measured = np.full((k_nodes, n_slots), np.nan)
+    plan_q: np.ndarray | None = None  # the incumbent's positions of every slot (N, 2)
+    plan_a: np.ndarray | None = None  # the incumbent's shares (K, N)
+    seconds, n_plans, n_kept = 0.0, 0, 0
+    filt: NodeFilter | None = None
+    for n in range(n_slots):
+        reports[n] = position_reports(truth[n], rng, report_sigma)
+        t0 = time.perf_counter()
+        if filt is None:
+            filt = NodeFilter.start(config, reports[n], max(float(report_sigma), EXACT_SIGMA))
+        else:
+            filt.step(reports[n])
+        estimate = filt.position if lo is None else np.clip(filt.position, lo, hi)
+        replan = plan_q is None or (planner.k is not None and n % planner.k == 0 and n < n_slots - 1)
+        if replan:
+            pred = np.concatenate([estimate[None], filt.predict_paths(n_slots - 1 - n)])
+            if lo is not None:
+                pred = np.clip(pred, lo, hi)
+            past = (credited[:, :n], shares[:, :n])
+            rest = _rest_config(config, q[n], n, estimate)
+            new_q = tour.solve(
+                rest, paths=pred, max_points=planner.max_points, orders=planner.orders, keep=planner.keep
+            ).trajectory
+            n_plans += 1
+            new_value, new_a = _frame(config, past, new_q, pred)
+            old = None if plan_q is None else _frame(config, past, plan_q[n:], pred)
+            if old is None or new_value > old[0]:
+                plan_q = np.concatenate([q[:n], new_q])
+                plan_a, n_kept = new_a, n_kept + 1
+            else:
+                plan_a = old[1]
+        assert plan_q is not None and plan_a is not None
+        shares[:, n] = plan_a[:, n]
+        if n + 1 < n_slots:
+            q[n + 1] = plan_q[n + 1]
+        here = ie.node_rates(config, q[n : n + 1], estimate[None])[:, 0]
+        seconds += time.perf_counter() - t0
+        served = [k for k in range(k_nodes) if shares[k, n] > SERVED_SHARE]
+        if served:
+            sample = measured_rates(
+                config, np.repeat(q[n : n + 1], len(served), axis=0),
+                np.repeat(truth[n : n + 1], len(served), axis=0), np.array(served), rng,
+            )  # fmt: skip
+            measured[served, n] = sample
+        credited[:, n] = here if planner.credit == "model" else np.nan_to_num(measured[:, n])
+    score = ie.score_plan(config, q, shares if k_nodes > 1 else None, paths=truth, best_schedule=False)
+    return OnlineResult(
+        scheme=planner.name, trajectory=q, shares=shares, score=score, seconds=seconds,
+        n_plans=n_plans, n_kept=n_kept, paths=truth, reports=reports, measured=measured,
+    )  # fmt: skip
