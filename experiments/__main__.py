@@ -4,6 +4,7 @@
     python -m experiments figures --quick                 # a tiny sweep into out/figures-quick
     python -m experiments figures [--quick] [--jobs N] [--out DIR] [--no-agents]
     python -m experiments multinode [--quick] [--jobs N] [--out DIR]   (see experiments.multinode)
+    python -m experiments energy [--quick] [--jobs N] [--out DIR] [--overwrite]   (experiments.energy)
 
 The shipped ``results/`` is replaced only with ``--overwrite`` (the full sweep's default
 ``--out`` is ``results``, ``--quick``'s is ``out/figures-quick``). Solves every point of
@@ -85,6 +86,20 @@ def build_parser() -> argparse.ArgumentParser:
                        help="worker processes (default 1; with --backend ray: no cap)")  # fmt: skip
     multi.add_argument("--quick", action="store_true", help="M = 60, T in {60, 100} s, K <= 3, one seed")
     add_backend_arguments(multi)
+    en = sub.add_parser("energy", help="energy efficiency: EE vs T, trajectories, rate-energy trade-off")
+    en.add_argument(
+        "--out",
+        type=Path,
+        default=None,
+        help="output folder (default: results/energy; --quick: out/energy-quick)",
+    )
+    en.add_argument("--overwrite", action="store_true", help="allow replacing results/energy")
+    en.add_argument("--jobs", type=int, default=None, help="worker processes (default 1)")
+    en.add_argument(
+        "--quick", action="store_true", help="M = 60, T in {40, 50} s, 5 m grid, no SCA, 3 budgets"
+    )
+    en.add_argument("--no-progress", action="store_true", help="no progress bar")
+    add_backend_arguments(en)
     return parser
 
 
@@ -113,6 +128,35 @@ def multinode_main(args: argparse.Namespace, parser: argparse.ArgumentParser) ->
     return 0 if all(r["feasible"] for r in records) else 1
 
 
+def energy_main(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
+    """``python -m experiments energy``: solve (cached), write the CSV and the figures."""
+    from experiments import energy
+
+    spec = energy.QUICK if args.quick else energy.EnergySpec()
+    out = args.out or (Path("out/energy-quick") if args.quick else RESULTS_DIR / "energy")
+    if out.resolve() == RESULTS_DIR / "energy" and not args.overwrite:
+        parser.error(f"argument --out: {out} holds the shipped results; pass --overwrite to replace them")
+    try:
+        check_writable(out)
+    except OSError as exc:
+        parser.error(f"argument --out: {exc}")
+    t0 = time.perf_counter()
+    jobs = args.jobs or (None if args.backend == "ray" else 1)
+    try:
+        records = energy.run(spec, out / "cache", jobs=jobs, backend=args.backend, address=args.address,
+                             progress=not args.no_progress)  # fmt: skip
+    except KeyboardInterrupt:
+        return 130
+    csv = energy.write_csv(records, out / "energy.csv")
+    figures = energy.make_figures(records, spec, out)
+    text = energy.summary(records)
+    print(text)
+    print(f"{len(records)} points in {time.perf_counter() - t0:.1f} s; wrote {csv}, "
+          + ", ".join(str(p) for p in figures))  # fmt: skip
+    feasible = all(r["feasible"] for r in energy.rows(records))
+    return 0 if feasible and "NO" not in text else 1
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     parser = build_parser()
     args = parser.parse_args(argv)
@@ -121,6 +165,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     check_backend_arguments(parser, args)
     if args.command == "multinode":
         return multinode_main(args, parser)
+    if args.command == "energy":
+        return energy_main(args, parser)
     if args.out is None:
         args.out = QUICK_OUT if args.quick else Path("results")
     if args.out.resolve() == RESULTS_DIR and not args.overwrite:
