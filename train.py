@@ -125,7 +125,7 @@ def build_parser() -> argparse.ArgumentParser:
         help="sb3: Stable-Baselines3's own loop (default); fast: PPO on the batched env's arrays "
              "(agents.fast, docs/fast-training.md; --algo ppo; agents/hyperparams/fast_ppo.yml)")  # fmt: skip
     add("--threads", type=_checked(_count), default=None,
-        help="torch threads of the fast trainer (default: every core)")  # fmt: skip
+        help="torch threads of the fast trainer (default: 1; more pay on idle cores only)")  # fmt: skip
     add("--checkpoint-freq", type=_checked(_count), default=25_000, help="steps between checkpoints")
     add("--eval-freq", type=_checked(lambda text: _count(text, 0)), default=10_000,
         help="steps between evaluations (0: none)")  # fmt: skip

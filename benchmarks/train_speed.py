@@ -193,7 +193,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     )
     tp.add_argument("--seconds", type=float, default=30.0, help="wall time of each trainer's measurement")
     tp.add_argument(
-        "--threads", type=int, default=None, help="torch threads of the fast trainer (default: all)"
+        "--threads", type=int, default=None, help="torch threads of the fast trainer (default: 1)"
     )
     tp.add_argument("--no-sb3", action="store_true", help="measure the fast trainer only")
     rp = sub.add_parser("race", help="the fast trainer's wall time to the bar")

@@ -22,7 +22,6 @@ count), as an SB3 run's resume does.
 from __future__ import annotations
 
 import json
-import os
 import pickle
 import sys
 from dataclasses import dataclass
@@ -54,13 +53,10 @@ class _Loaded:
 
 
 def torch_threads(threads: int | None) -> int:
-    """The torch threads of a fast run: ``threads``, default every core this process may use."""
-    if threads is not None:
-        return threads
-    try:
-        return len(os.sched_getaffinity(0))
-    except AttributeError:  # pragma: no cover - macOS, Windows
-        return os.cpu_count() or 1
+    """The torch threads of a fast run: ``threads``, default 1. More threads pay only on cores
+    nothing else uses: torch's threads wait for each other at every operation, and one that
+    another process holds stalls them all (the measurements: ``results/log.md``)."""
+    return 1 if threads is None else threads
 
 
 def _load(run_dir: Path, steps: int, ckpt: Path, settings: TrainSettings, hp: Hyperparams) -> tuple[Any, Any]:

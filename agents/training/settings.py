@@ -39,11 +39,11 @@ def check_trainer(trainer: str) -> str:
 
 
 def check_threads(threads: Any) -> int | None:
-    """``threads`` (torch threads of the fast trainer) checked: None (every core) or an integer >= 1."""
+    """``threads`` (torch threads of the fast trainer) checked: None (the default, 1) or an integer >= 1."""
     if threads is None:
         return None
     if isinstance(threads, bool) or not isinstance(threads, int) or threads < 1:
-        raise ValueError(f"must be None (every core) or an integer >= 1, got {threads!r}")
+        raise ValueError(f"must be None (the default, 1) or an integer >= 1, got {threads!r}")
     return threads
 
 
@@ -175,7 +175,7 @@ class TrainSettings:
     eval_freq: int = 10_000  # env steps between deterministic evaluations (0: none)
     progress_bar: bool = True
     trainer: str = "sb3"  # "sb3" (SB3's loop) or "fast" (agents.fast: PPO on the batched env's arrays)
-    threads: int | None = None  # torch threads of the fast trainer; None = every core (SB3's: 1)
+    threads: int | None = None  # torch threads of the fast trainer; None = 1
 
     def hyperparams_path(self) -> Path:
         """The recipe file the run reads: ``hyperparams_file``, else the trainer's default

@@ -20,6 +20,15 @@ ENV = "ios_uav_env/IOSUAV-v0"
 MULTI = "ios_uav_env/IOSUAV-MultiNode-v0"
 
 
+@pytest.fixture(autouse=True)
+def one_torch_thread():
+    """The trainer's default (train_fast sets it; FastPPO used directly here does not)."""
+    before = torch.get_num_threads()
+    torch.set_num_threads(1)
+    yield
+    torch.set_num_threads(before)
+
+
 def entry(**overrides):
     base = {
         "n_envs": 32, "n_timesteps": 2048, "policy": "MlpPolicy", "n_steps": 8, "batch_size": 128,
