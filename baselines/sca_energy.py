@@ -9,7 +9,7 @@ of the rotary-wing model (``ios_uav_env.propulsion_power``) and R[n] the slot ra
 a ratio of a rate sum and an energy, both non-concave in q.
 
 **Dinkelbach (outside).** For lambda >= 0 let F(lambda) = max_q G_lambda(q) with
-G_lambda(q) = B dt sum_n R[n](q) - lambda E(q). E > 0, so F(lambda) > 0 iff some plan has
+G_lambda(q) = B dt sum_n R_n(q) - lambda E(q). E > 0, so F(lambda) > 0 iff some plan has
 EE > lambda. From a plan q_k with lambda_k = EE(q_k), G_{lambda_k}(q_k) = 0; any q with
 G_{lambda_k}(q) > 0 has EE(q) > lambda_k, since G_{lambda_k}(q) = E(q) (EE(q) - lambda_k).
 So each outer step raises G_{lambda_k} by SCA from q_k (below), then sets
