@@ -61,8 +61,8 @@ def split(timing: dict[str, float], total: float, steps: int) -> str:
     return "\n".join(rows)
 
 
-def fast_throughput(env_id: str, n_envs: int | None, seconds: float, threads: int) -> float:
-    hp = load_hyperparams("ppo", env_id, FAST_HYPERPARAMS)
+def fast_throughput(env_id: str, n_envs: int | None, seconds: float, threads: int, path: Path) -> float:
+    hp = load_hyperparams("ppo", env_id, path)
     recipe = FastRecipe.from_hyperparams(hp, n_envs)
     torch.set_num_threads(threads)
     algo = FastPPO(env_id, recipe, hp.n_timesteps, env_kwargs=ENV_KWARGS.get(env_id, {}), seed=0)
@@ -78,7 +78,7 @@ def fast_throughput(env_id: str, n_envs: int | None, seconds: float, threads: in
     timing = dict(algo.timing)
     timing["other"] += wall - sum(timing.values())
     rate = steps / wall
-    print(f"fast  ({FAST_HYPERPARAMS.name}, B = {recipe.n_envs}, n_steps {recipe.n_steps}, batch "
+    print(f"fast  ({path.name}, B = {recipe.n_envs}, n_steps {recipe.n_steps}, batch "
           f"{recipe.batch_size}, {recipe.n_epochs} epochs, torch threads {threads}): {steps} steps in "
           f"{wall:.1f} s = {rate:,.0f} steps/s")  # fmt: skip
     print(split(timing, wall, steps))
@@ -146,7 +146,9 @@ def sb3_throughput(env_id: str, seconds: float) -> float:
     return rate
 
 
-def race(env_id: str, seed: int, threads: int, eval_every: int, time_cap: float, n_envs: int | None) -> bool:
+def race(
+    env_id: str, seed: int, threads: int, eval_every: int, time_cap: float, n_envs: int | None, path: Path
+) -> bool:
     import gymnasium as gym
 
     from agents.loading import Agent
@@ -155,7 +157,7 @@ def race(env_id: str, seed: int, threads: int, eval_every: int, time_cap: float,
     start = time.perf_counter()
     torch.set_num_threads(threads)
     torch.manual_seed(seed)
-    hp = load_hyperparams("ppo", env_id, FAST_HYPERPARAMS)
+    hp = load_hyperparams("ppo", env_id, path)
     recipe = FastRecipe.from_hyperparams(hp, n_envs)
     kwargs = ENV_KWARGS.get(env_id, {})
     algo = FastPPO(env_id, recipe, hp.n_timesteps, env_kwargs=kwargs, seed=seed)
@@ -196,7 +198,13 @@ def main(argv: Sequence[str] | None = None) -> int:
         "--threads", type=int, default=None, help="torch threads of the fast trainer (default: 1)"
     )
     tp.add_argument("--no-sb3", action="store_true", help="measure the fast trainer only")
+    tp.add_argument(
+        "--hyperparams", type=Path, default=FAST_HYPERPARAMS, help="the fast trainer's recipe file"
+    )
     rp = sub.add_parser("race", help="the fast trainer's wall time to the bar")
+    rp.add_argument(
+        "--hyperparams", type=Path, default=FAST_HYPERPARAMS, help="the fast trainer's recipe file"
+    )
     rp.add_argument("--env", default=MULTI_ID, choices=list(REFERENCES))
     rp.add_argument("--seeds", type=int, nargs="+", default=[0])
     rp.add_argument("--n-envs", type=int, default=None)
@@ -209,7 +217,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     threads = torch_threads(args.threads)
     print(f"load average {loadavg()}; {os.cpu_count()} cpus; torch {torch.__version__}", flush=True)
     if args.command == "throughput":
-        fast = fast_throughput(args.env, args.n_envs, args.seconds, threads)
+        fast = fast_throughput(args.env, args.n_envs, args.seconds, threads, args.hyperparams)
         if not args.no_sb3:
             sb3 = sb3_throughput(args.env, args.seconds)
             print(f"fast / SB3: {fast / sb3:.1f}x")
@@ -217,7 +225,9 @@ def main(argv: Sequence[str] | None = None) -> int:
               if args.env == MULTI_ID else "")  # fmt: skip
         return 0
     cap = args.time_cap or (5.0 if args.env == SINGLE_ID else 180.0)
-    made = sum(race(args.env, s, threads, args.eval_every, cap, args.n_envs) for s in args.seeds)
+    made = sum(
+        race(args.env, s, threads, args.eval_every, cap, args.n_envs, args.hyperparams) for s in args.seeds
+    )
     print(f"{made} of {len(args.seeds)} seeds reached the bar within {cap:g} s; load {loadavg()}")
     return 0 if made == len(args.seeds) else 1
 
