@@ -62,7 +62,7 @@ REGISTRY: dict[str, Measurement] = {
         (
             "fast_race",
             "train_speed.py",
-            ("race", "--env", "ios_uav_env/IOSUAV-v0", "--seeds", "0", "1", "2"),
+            ("race", "--env", "ios_uav_env/IOSUAV-v0", "--seeds", "0", "1", "2", "--time-cap", "60"),
             "fast trainer, IOSUAV-v0: wall time to 99.5% of DP",
         ),
         (
