@@ -5,7 +5,8 @@ here, in a checkout:
 
 - :mod:`~baselines.references.draws`: the held-out scenarios of each suite;
 - :mod:`~baselines.references.solve`: one solve for any K (one node: DP and SCA; K > 1: the tour,
-  SCA and the certified bound), cached per scenario and resumable (:func:`solve_all`);
+  SCA and the certified bound; an energy scenario: DP-EE, SCA-EE, loiter, hover and the EE
+  bound), cached per scenario and resumable (:func:`solve_all`);
 - :mod:`~baselines.references.heldout`: the single-node suite's plan file
   (``agents/suite/heldout.json``: each scenario's DP and SCA plans), built by ``python -m
   agents.suite build``;
@@ -17,26 +18,41 @@ The command line freezes one suite at a time:
 
     python -m baselines.references single-node [--heldout agents/suite/heldout.json]
     python -m baselines.references multi-node [--n 48] [--cache out/multi-node-v1] [--plans DIR]
+    python -m baselines.references energy [--n 40] [--cache out/energy-v1] [--jobs 2] [--quick]
 
-The single-node suite is frozen from its plan file; the multi-node one from the records
-:func:`solve_all` caches. Each prints the content hash to register in ``ios_uav_env.benchmark.suite.SUITES``.
+The single-node suite is frozen from its plan file; the multi-node and energy ones from the
+records :func:`solve_all` caches (``energy --quick``: a tiny check suite in ``out/energy-quick``).
+Each prints the content hash to register in ``ios_uav_env.benchmark.suite.SUITES``.
 """
 
 from baselines.references.content import (
+    check_energy_record,
     check_record,
+    energy_content,
     freeze,
     heuristic_reference,
     multinode_content,
     single_node_content,
     write_plans,
 )
-from baselines.references.draws import heldout_rng, multinode_configs, suite_configs
-from baselines.references.solve import BOUND_RESOLUTION, DP_RESOLUTION, solve_all, solve_scenario, task_key
+from baselines.references.draws import energy_configs, heldout_rng, multinode_configs, suite_configs
+from baselines.references.solve import (
+    BOUND_RESOLUTION,
+    DP_RESOLUTION,
+    ENERGY_BOUND_RESOLUTION,
+    solve_all,
+    solve_scenario,
+    task_key,
+)
 
 __all__ = [
     "BOUND_RESOLUTION",
     "DP_RESOLUTION",
+    "ENERGY_BOUND_RESOLUTION",
+    "check_energy_record",
     "check_record",
+    "energy_configs",
+    "energy_content",
     "freeze",
     "heldout_rng",
     "heuristic_reference",

@@ -1,5 +1,5 @@
-"""``python -m baselines.references {single-node,multi-node}``: freeze a suite (module docstring of
-:mod:`baselines.references`)."""
+"""``python -m baselines.references {single-node,multi-node,energy}``: freeze a suite (module
+docstring of :mod:`baselines.references`)."""
 
 from __future__ import annotations
 
@@ -9,18 +9,26 @@ from collections.abc import Sequence
 from pathlib import Path
 
 from baselines.references.content import (
+    check_energy_record,
     check_record,
+    energy_content,
     freeze,
     multinode_content,
     single_node_content,
     write_plans,
 )
-from baselines.references.draws import multinode_configs
-from baselines.references.solve import solve_all
+from baselines.references.draws import ENERGY_RANGES, ENERGY_SIZE, ENTROPY, energy_configs, multinode_configs
+from baselines.references.solve import DP_RESOLUTION, ENERGY_BOUND_RESOLUTION, solve_all
 from ios_uav_env.benchmark.suite import SUITE_DIR
 
 HELDOUT = Path("agents/suite/heldout.json")
 MULTI_CACHE = Path("out/multi-node-v1")
+ENERGY_CACHE = Path("out/energy-v1")
+#: ``energy --quick``: a tiny suite for checks, not a benchmark: 2 scenarios of 40 to 45 s (the
+#: shortest horizon that reaches every end point of the ranges is about 34 s), the DP on a 5 m
+#: grid and the bound on 12.5 m cells, named energy-quick-v1, cached and written under out/.
+QUICK = {"n": 2, "T": (40.0, 45.0), "dp_resolution": 5.0, "bound_resolution": 12.5}
+QUICK_DIR = Path("out/energy-quick")
 
 
 def _parser() -> argparse.ArgumentParser:
@@ -36,18 +44,33 @@ def _parser() -> argparse.ArgumentParser:
     multi.add_argument("--jobs", type=int, default=1, help="parallel solves (default 1: this process)")
     multi.add_argument("--plans", type=Path, default=None, help="also write the tour's and SCA's plans here")
     multi.add_argument("--compute-only", action="store_true", help="fill the cache, write no suite")
-    for sub in (single, multi):
+    energy = kinds.add_parser("energy", help="solve the energy held-out scenarios and freeze them")
+    energy.add_argument("--n", type=int, default=None, help=f"scenarios (default {ENERGY_SIZE}; --quick: 2)")
+    energy.add_argument("--seed", type=int, default=ENTROPY, help=f"the draws' entropy (default {ENTROPY})")
+    energy.add_argument("--cache", type=Path, default=None, help=f"per-scenario records ({ENERGY_CACHE})")
+    energy.add_argument("--jobs", type=int, default=1, help="parallel solves (default 1: this process)")
+    energy.add_argument("--compute-only", action="store_true", help="fill the cache, write no suite")
+    energy.add_argument(
+        "--quick",
+        action="store_true",
+        help="a tiny check suite: 2 short scenarios, coarse grids, energy-quick-v1 in out/energy-quick",
+    )
+    for sub in (single, multi, energy):
         sub.add_argument("--name", default=None, help="suite name (default <kind>-v1)")
         sub.add_argument("--version", type=int, default=1)
-        sub.add_argument("--dir", type=Path, default=SUITE_DIR, help="folder of the suite file")
+        sub.add_argument("--dir", type=Path, default=None, help="folder of the suite file (the package's)")
     return p
 
 
 def main(argv: Sequence[str] | None = None) -> int:
     args = _parser().parse_args(argv)
-    name = args.name or f"{args.kind}-v1"
+    quick = args.kind == "energy" and args.quick
+    name = args.name or ("energy-quick-v1" if quick else f"{args.kind}-v1")
+    directory = args.dir or (QUICK_DIR if quick else SUITE_DIR)
     if args.version < 1:
         raise SystemExit(f"--version must be >= 1, got {args.version}")
+    if args.kind == "energy":
+        return _energy(args, name, directory)
     if args.kind == "single-node":
         if not args.heldout.is_file():
             raise SystemExit(
@@ -65,9 +88,46 @@ def main(argv: Sequence[str] | None = None) -> int:
         content = multinode_content(records, name, args.version)
         if args.plans is not None:
             print("plans: " + ", ".join(str(p) for p in write_plans(records, args.plans)))
-    path, digest = freeze(content, args.dir)
+    return _freeze(content, directory)
+
+
+def _freeze(content: dict, directory: Path) -> int:
+    try:
+        path, digest = freeze(content, directory)
+    except ValueError as err:
+        raise SystemExit(str(err)) from None
     print(f"{path} ({path.stat().st_size / 1024:.0f} KB), sha256 {digest}")
     return 0
+
+
+def _energy(args: argparse.Namespace, name: str, directory: Path) -> int:
+    """``energy``: draw, solve (cached, resumable), check and freeze the energy suite."""
+    import dataclasses
+
+    n = args.n if args.n is not None else (QUICK["n"] if args.quick else ENERGY_SIZE)
+    if n < 1 or args.jobs < 1:
+        raise SystemExit(f"--n and --jobs must be >= 1, got {n} and {args.jobs}")
+    if args.seed < 0:
+        raise SystemExit(f"--seed must be an integer >= 0 (a seed sequence's entropy), got {args.seed}")
+    ranges = dataclasses.replace(ENERGY_RANGES, T=QUICK["T"]) if args.quick else ENERGY_RANGES
+    dp_res, bound_res = (
+        (QUICK["dp_resolution"], QUICK["bound_resolution"])
+        if args.quick
+        else (DP_RESOLUTION, ENERGY_BOUND_RESOLUTION)
+    )
+    cache = args.cache or (QUICK_DIR / "cache" if args.quick else ENERGY_CACHE)
+    configs = energy_configs(n, args.seed, ranges)
+    records = solve_all(configs, cache, dp_resolution=dp_res, energy_bound_resolution=bound_res,
+                        jobs=args.jobs, progress=not args.quick, desc=name)  # fmt: skip
+    notes = [note for r in records for note in check_energy_record(r)]
+    print("\n".join(notes) if notes else "checks: every plan feasible, SCA-EE >= DP-EE and every EE <= bound")
+    if args.compute_only:
+        return 0
+    try:
+        content = energy_content(records, name, args.version, seed=args.seed, ranges=ranges)
+    except ValueError as err:
+        raise SystemExit(str(err)) from None
+    return _freeze(content, directory)
 
 
 if __name__ == "__main__":

@@ -8,9 +8,14 @@ its plans, and the writer that never changes a suite under its name.
   :func:`~baselines.references.solve.solve_all` (refused, naming the scenario, where one has no
   SCA rate, the normaliser, or no bound); :func:`check_record` lists every sanity note (a planner
   failed or infeasible, SCA below the tour, a value above the bound);
+- :func:`energy_content`: an energy suite from the records of an energy draw (refused, naming
+  the scenario, where a reference's EE is not > 0 or exceeds the bound); :func:`check_energy_record`
+  lists its sanity notes (a plan failed or infeasible, SCA-EE below its DP start, a value above
+  the bound);
 - :func:`freeze` writes ``<dir>/<name>.json`` (``ios_uav_env.benchmark.suite.suite_text``)
-  atomically and refuses other content under an existing name; :func:`write_plans` writes the
-  planners' plans as trajectory files that the benchmark scores like any other.
+  atomically and refuses other content under an existing file or a registered name;
+  :func:`write_plans` writes the planners' plans as trajectory files that the benchmark scores
+  like any other.
 """
 
 from __future__ import annotations
@@ -22,18 +27,22 @@ from typing import Any
 
 import numpy as np
 
-from baselines.references.draws import ENTROPY, MULTI_ENV_ID, SPAWN_KEY
-from ios_uav_env import ScenarioConfig
+from baselines.references.draws import ENERGY_RANGES, ENERGY_SPAWN_KEY, ENTROPY, MULTI_ENV_ID, SPAWN_KEY
+from ios_uav_env import ScenarioConfig, ScenarioRanges
 from ios_uav_env.benchmark.suite import (
+    BOUND_REL,
+    ENERGY,
+    ENERGY_REFERENCES,
     FORMAT,
     MULTI_NODE,
     MULTI_REFERENCES,
     REFERENCES,
     SUITE_DIR,
+    SUITES,
     content_hash,
     suite_text,
 )
-from ios_uav_env.envs.registration import RANDOM_ENV_ID
+from ios_uav_env.envs.registration import ENERGY_RANDOM_ID, RANDOM_ENV_ID
 from ios_uav_env.io import atomic_write_text
 
 HEURISTICS = {"hover_peak": "peak", "hover_ground": "ground"}
@@ -103,10 +112,17 @@ def single_node_content(heldout: Mapping[str, Any], name: str, version: int) -> 
 def freeze(content: Mapping[str, Any], directory: str | Path = SUITE_DIR) -> tuple[Path, str]:
     """Write ``content`` to ``<directory>/<name>.json`` (atomically); its path and hash.
 
-    ``ValueError`` if a file of that name exists with different content.
+    ``ValueError`` if a file of that name exists with different content, or if the name is a
+    registered suite's (``ios_uav_env.benchmark.suite.SUITES``) and the content is not its.
     """
     path = Path(directory) / f"{content['name']}.json"
     digest = content_hash(content)
+    registered = SUITES.get(str(content["name"]))
+    if registered is not None and registered.sha256 != digest:
+        raise ValueError(
+            f"{content['name']!r} is a registered suite (sha256 {registered.sha256}): other content "
+            "needs a new name"
+        )
     if path.exists() and content_hash(json.loads(path.read_text(encoding="utf-8"))) != digest:
         raise ValueError(f"{path} exists with different content: a changed suite needs a new name")
     atomic_write_text(path, suite_text(content))
@@ -202,3 +218,87 @@ def write_plans(records: Sequence[Mapping[str, Any]], directory: str | Path) -> 
             compressed=True,
         ))  # fmt: skip
     return paths
+
+
+#: The plan references of an energy suite, and their stored fields.
+ENERGY_PLANS = tuple(r for r in ENERGY_REFERENCES if r != "bound")
+_PLAN_FIELDS = ("energy_efficiency", "rate", "energy", "feasible")
+
+
+def check_energy_record(rec: Mapping[str, Any]) -> list[str]:
+    """The sanity notes of one energy record: a plan failed or infeasible, SCA-EE below the DP plan
+    it starts from, a plan's EE above the bound."""
+    i, notes = rec["index"], []
+    ub = float(rec["bound"]["upper_bound"])
+    for name in ENERGY_PLANS:
+        if "error" in rec[name] or not rec[name]["feasible"]:
+            notes.append(f"#{i}: {name} failed or infeasible ({rec[name].get('error', 'infeasible')})")
+        elif rec[name]["energy_efficiency"] > ub * (1.0 + BOUND_REL):
+            notes.append(f"#{i}: {name} {rec[name]['energy_efficiency']:.9g} > bound {ub:.9g} bits/J")
+    if rec["sca"]["energy_efficiency"] < rec["dp"]["energy_efficiency"] * (1.0 - 1e-12):
+        notes.append(f"#{i}: SCA-EE {rec['sca']['energy_efficiency']:.6g} < its DP-EE start "
+                     f"{rec['dp']['energy_efficiency']:.6g} bits/J")  # fmt: skip
+    return notes
+
+
+def energy_content(
+    records: Sequence[Mapping[str, Any]],
+    name: str,
+    version: int,
+    *,
+    seed: int = ENTROPY,
+    ranges: ScenarioRanges = ENERGY_RANGES,
+) -> dict[str, Any]:
+    """The content of an energy suite from the records of ``solve_all`` on ``energy_configs(n,
+    seed, ranges)`` (``ValueError`` naming the scenario where a reference's EE is not > 0 or a
+    plan's exceeds the bound: :func:`~ios_uav_env.benchmark.suite.load_suite` would refuse it)."""
+    scenarios = []
+    for rec in records:
+        i = int(rec["index"])
+        ub = rec["bound"].get("upper_bound")
+        values = {r: rec[r].get("energy_efficiency") for r in ENERGY_PLANS}
+        bad = [f"{r} {v!r}" for r, v in {**values, "bound": ub}.items() if not (v is not None and v > 0)]
+        if bad:
+            raise ValueError(f"scenario {i}: every reference's EE must be > 0 bits/J, got {', '.join(bad)}")
+        above = [f"{r} {v!r}" for r, v in values.items() if v > ub * (1.0 + BOUND_REL)]
+        if above:
+            raise ValueError(f"scenario {i}: the bound {ub!r} bits/J is below {', '.join(above)}")
+        entry: dict[str, Any] = {"index": i, "config": ScenarioConfig(**rec["config"]).to_dict()}
+        for r in ENERGY_PLANS:
+            entry[r] = {k: (bool(rec[r][k]) if k == "feasible" else float(rec[r][k])) for k in _PLAN_FIELDS}
+            entry[r]["seconds"] = round(float(rec[r]["seconds"]), 3)
+        entry["dp"]["resolution"] = float(rec["dp"]["resolution"])
+        b = rec["bound"]
+        entry["bound"] = {"upper_bound": float(ub), "resolution": float(b["resolution"]),
+                          "seconds": round(float(b["seconds"]), 3)}  # fmt: skip
+        scenarios.append({k: entry[k] for k in ("index", "config", *ENERGY_REFERENCES)})
+    return {
+        "format": FORMAT,
+        "name": name,
+        "version": int(version),
+        "kind": ENERGY,
+        "env_id": ENERGY_RANDOM_ID,
+        "env_kwargs": {},
+        "normalizer": "dp",
+        "references": list(ENERGY_REFERENCES),
+        "description": (
+            f"{len(scenarios)} held-out scenarios of {ENERGY_RANDOM_ID}: sample_scenario(rng, ranges) (the "
+            f"random id's ranges, IOS and RIS, objective energy_efficiency) drawn in turn from default_rng("
+            f"SeedSequence(entropy={int(seed)}, spawn_key={ENERGY_SPAWN_KEY})), a stream no reset seed "
+            "reproduces. Per scenario: its ScenarioConfig; values are energy efficiencies EE = B T R / E "
+            "(bits/J, ios_uav_env.score_plan(...).energy_efficiency of the planner's trajectory), each "
+            "with the plan's rate (bps/Hz, eq. (9)), energy (J), feasibility and wall time in seconds (one "
+            "process on a busy 2-core machine). dp: baselines.dp_energy.solve_ee on a resolution-m grid, "
+            "the normaliser; sca: baselines.sca_energy.solve started from the dp plan; loiter / hover: "
+            "baselines.loiter.loiter / hover; bound: baselines.energy_bound.solve at resolution m with "
+            "the best of those plans as its reference, the certified upper_bound on the EE of every "
+            "feasible plan."
+        ),
+        "source": {
+            "entropy": int(seed),
+            "spawn_key": list(ENERGY_SPAWN_KEY),
+            "sampler": "ios_uav_env.sample_scenario",
+            "ranges": ranges.to_dict(),
+        },
+        "scenarios": scenarios,
+    }

@@ -11,6 +11,15 @@ and the certified upper bound (``baselines.dp_bound.solve_multinode`` at ``bound
 m: ``upper_bound``, and the DP-bound plan's own rate). A planner that raises is recorded
 (``feasible`` false, rate 0, the error) rather than dropped.
 
+An energy scenario (one node, ``objective == "energy_efficiency"``, the energy suites): the
+energy DP (``baselines.dp_energy.solve_ee`` at ``dp_resolution`` m), SCA-EE started from the DP
+plan (``baselines.sca_energy.solve(config, init=dp_plan)``), the loiter and hover heuristics
+(``baselines.loiter``) and the certified EE bound (``baselines.energy_bound.solve`` at
+``energy_bound_resolution`` m, its reference the most efficient of those plans), each with
+``energy_efficiency`` (bits/J), ``rate`` (bps/Hz), ``energy`` (J), ``feasible``, ``seconds``
+and its trajectory. A plan that raises is recorded as above (EE 0); the DP and the bound are
+the suite's normaliser and ceiling, so their failure fails the task.
+
 Every rate is ``ios_uav_env.score_plan`` of the planner's trajectory (``Plan.mean_rate``).
 :func:`solve_all` runs the tasks through ``baselines.runner.run_tasks`` (spawned workers or
 Ray, a progress bar, one JSON record per scenario written atomically, resumable); the cache
@@ -37,8 +46,14 @@ from ios_uav_env import ScenarioConfig
 DP_RESOLUTION = 2.5
 #: Cell side (m) of the certified bound (the relaxed DP) and of the DP-bound plans' grid.
 BOUND_RESOLUTION = 2.5
+#: Fine cell side (m) of the certified energy-efficiency bound of an energy scenario.
+ENERGY_BOUND_RESOLUTION = 5.0
 #: The records' keys, by kind: a cached record without them is solved again.
-REQUIRED = {"single-node": ("config", "dp", "sca"), "multi-node": ("tour", "sca", "bound")}
+REQUIRED = {
+    "single-node": ("config", "dp", "sca"),
+    "multi-node": ("tour", "sca", "bound"),
+    "energy": ("config", "dp", "sca", "bound", "loiter", "hover"),
+}
 
 
 def _plan_record(plan: Any) -> dict[str, Any]:
@@ -109,15 +124,72 @@ def _multi(config: ScenarioConfig, bound_resolution: float) -> dict[str, Any]:
     return record
 
 
+def _energy_plan(plan: Any) -> dict[str, Any]:
+    return {
+        "energy_efficiency": float(plan.energy_efficiency),
+        "rate": float(plan.mean_rate),
+        "energy": float(plan.energy),
+        "feasible": bool(plan.feasible),
+        "seconds": float(plan.seconds),
+        "trajectory": np.asarray(plan.trajectory, dtype=float).tolist(),
+    }
+
+
+def _energy(config: ScenarioConfig, dp_resolution: float, bound_resolution: float) -> dict[str, Any]:
+    from baselines import dp_energy, energy_bound, loiter, sca_energy
+
+    dp_plan = dp_energy.solve_ee(config, resolution=dp_resolution)
+    record: dict[str, Any] = {"config": config.to_dict(), "dp": _energy_plan(dp_plan)}
+    record["dp"].update(resolution=float(dp_resolution), ee_gap=dp_plan.info.get("ee_gap"))
+    plans = [dp_plan]
+    solvers = (
+        ("sca", lambda: sca_energy.solve(config, init=dp_plan)),
+        ("loiter", lambda: loiter.loiter(config)),
+        ("hover", lambda: loiter.hover(config)),
+    )
+    for name, solve in solvers:
+        t0 = time.perf_counter()
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always", RuntimeWarning)
+            try:
+                plan = solve()
+                record[name] = _energy_plan(plan)
+                plans.append(plan)
+                if name == "sca":
+                    record[name]["status"] = plan.info.get("status")
+            except Exception as err:  # recorded, never dropped
+                record[name] = {**_failed(err, time.perf_counter() - t0), "energy_efficiency": 0.0}
+        record[name]["warnings"] = [str(w.message) for w in caught]
+    best = max((p for p in plans if p.feasible), key=lambda p: p.energy_efficiency)
+    bound = energy_bound.solve(config, resolution=bound_resolution, reference=best)
+    record["bound"] = {
+        "upper_bound": float(bound.upper_bound),
+        "resolution": float(bound.resolution),
+        "plain_bound": float(bound.plain_bound),
+        "reference": best.scheme,
+        "seconds": float(bound.seconds),
+    }
+    return record
+
+
+def is_energy(config: ScenarioConfig) -> bool:
+    """An energy scenario (one node, the objective ``"energy_efficiency"``): an energy suite's."""
+    return config.K == 1 and config.objective == "energy_efficiency"
+
+
 def solve_scenario(
     task: Mapping[str, Any],
     *,
     dp_resolution: float = DP_RESOLUTION,
     bound_resolution: float = BOUND_RESOLUTION,
+    energy_bound_resolution: float = ENERGY_BOUND_RESOLUTION,
 ) -> dict[str, Any]:
-    """The reference record of one task ``{"index", "config"}`` (a config dict), by its K."""
+    """The reference record of one task ``{"index", "config"}`` (a config dict), by its K and
+    objective (module docstring)."""
     config = ScenarioConfig(**task["config"])
-    if config.K == 1:
+    if is_energy(config):
+        record = _energy(config, dp_resolution, energy_bound_resolution)
+    elif config.K == 1:
         record = _single(config, dp_resolution)
     else:
         record = _multi(config, bound_resolution)
@@ -129,10 +201,17 @@ def task_key(
     *,
     dp_resolution: float = DP_RESOLUTION,
     bound_resolution: float = BOUND_RESOLUTION,
+    energy_bound_resolution: float = ENERGY_BOUND_RESOLUTION,
 ) -> str:
     """The cache file stem of a task: a hash of its config and its kind's planner settings (one
-    node: DP's grid and SCA's defaults; K > 1: the bound's grid, and the scenario's index first)."""
+    node: DP's grid and SCA's defaults; K > 1: the bound's grid, and the scenario's index first;
+    an energy scenario: ``energy_`` first, the DP's grid and the EE bound's)."""
     config = ScenarioConfig(**task["config"])
+    if is_energy(config):
+        blob = json.dumps(
+            [config.to_dict(), dp_resolution, energy_bound_resolution, "energy:v1"], sort_keys=True
+        )
+        return f"energy_{hashlib.sha1(blob.encode()).hexdigest()[:16]}"
     if config.K == 1:
         blob = json.dumps([config.to_dict(), dp_resolution, "sca:defaults"], sort_keys=True)
         return hashlib.sha1(blob.encode()).hexdigest()[:16]
@@ -146,6 +225,10 @@ def tasks_of(configs: Sequence[ScenarioConfig]) -> list[dict[str, Any]]:
 
 
 def _describe(i: int, rec: dict[str, Any]) -> str:
+    if "loiter" in rec:
+        dp, ub = rec["dp"]["energy_efficiency"], rec["bound"]["upper_bound"]
+        sca = 100 * rec["sca"]["energy_efficiency"] / dp
+        return f"#{i}: DP-EE {dp:.1f} bits/J ({100 * dp / ub:.2f}% of bound), SCA-EE {sca:.2f}% of DP"
     if "dp" in rec:
         return f"#{i}: SCA {100 * rec['sca']['rate'] / rec['dp']['rate']:.2f}% of DP"
     ub = rec["bound"].get("upper_bound")
@@ -160,6 +243,7 @@ def solve_all(
     *,
     dp_resolution: float = DP_RESOLUTION,
     bound_resolution: float = BOUND_RESOLUTION,
+    energy_bound_resolution: float = ENERGY_BOUND_RESOLUTION,
     jobs: int = 2,
     progress: bool = True,
     backend: str = "local",
@@ -171,8 +255,9 @@ def solve_all(
     Ray tasks on the cluster at ``address``), each cached atomically as soon as it is solved."""
     from baselines.runner import run_tasks
 
-    kinds = {"single-node" if c.K == 1 else "multi-node" for c in configs}
-    settings = {"dp_resolution": dp_resolution, "bound_resolution": bound_resolution}
+    kinds = {"energy" if is_energy(c) else "single-node" if c.K == 1 else "multi-node" for c in configs}
+    settings = {"dp_resolution": dp_resolution, "bound_resolution": bound_resolution,
+                "energy_bound_resolution": energy_bound_resolution}  # fmt: skip
     required = sorted({k for kind in kinds for k in REQUIRED[kind]})
     return run_tasks(
         functools.partial(solve_scenario, **settings), tasks_of(configs), cache_dir,

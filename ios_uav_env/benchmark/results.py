@@ -6,9 +6,14 @@ eq. (10)). What a suite reports is its :class:`Metrics`, named by the suite's ki
 
 - ``single-node``: the rate of eq. (9) as % of the DP optimum (the normaliser) and of SCA;
 - ``multi-node``: the max-min rate min_k R_k with the plan's own shares as % of SCA (the
-  normaliser) and of the certified upper bound, and the best schedule's % of SCA.
+  normaliser) and of the certified upper bound, and the best schedule's % of SCA;
+- ``energy``: the energy efficiency EE = B T R / E (bits/J, ``score_plan``'s
+  ``objective_value`` on the suite's ``"energy_efficiency"`` scenarios) as % of the energy DP's
+  (the normaliser) and of the certified EE bound; each row also holds the plan's rate, its
+  energy (J) and its EE.
 
-``pct_<reference>`` = 100 x rate / the reference's rate on the scenario. **An infeasible plan
+``pct_<reference>`` = 100 x rate / the reference's rate on the scenario (energy: 100 x EE / the
+reference's EE). **An infeasible plan
 (eq. (10): it misses q0 or qF or moves faster than v_max) scores 0** (its rate is still
 reported): the mission was not flown. "% of DP" and "% of SCA" may exceed 100 (DP is the optimum
 on a grid, SCA a local optimum); "% of bound" never does for a feasible plan.
@@ -24,7 +29,7 @@ from typing import Any
 
 import numpy as np
 
-from ios_uav_env.benchmark.suite import MULTI_NODE, SCORED, SINGLE_NODE, Suite, SuiteScenario
+from ios_uav_env.benchmark.suite import ENERGY, MULTI_NODE, SCORED, SINGLE_NODE, Suite, SuiteScenario
 from ios_uav_env.io import atomic_write_text, save_rows_csv
 from ios_uav_env.model.config import ScenarioConfig
 from ios_uav_env.model.score import PlanScore
@@ -40,6 +45,7 @@ class Metrics:
 
     scores: tuple[str, ...]  # e.g. ("dp", "sca"): pct_dp, pct_sca
     schedules: bool  # K > 1 nodes: own shares, the best schedule, K per row
+    energy: bool = False  # scores of the energy efficiency (bits/J); rows hold energy and EE
 
     @property
     def normaliser(self) -> str:
@@ -52,11 +58,17 @@ class Metrics:
         tail = (f"best_pct_{self.normaliser}",) if self.schedules else ()
         own = ("own_shares",) if self.schedules else ()
         pct = tuple(f"pct_{r}" for r in self.scores)
-        return ("index", *multi, "rate", *best, "feasible", "worst_violation", *pct, *tail, "seconds", *own)
+        energy = ("energy", "energy_efficiency") if self.energy else ()
+        rates = ("rate", *best, *energy)
+        return ("index", *multi, *rates, "feasible", "worst_violation", *pct, *tail, "seconds", *own)
 
 
 #: The metrics of each suite kind.
-METRICS = {SINGLE_NODE: Metrics(SCORED[SINGLE_NODE], False), MULTI_NODE: Metrics(SCORED[MULTI_NODE], True)}
+METRICS = {
+    SINGLE_NODE: Metrics(SCORED[SINGLE_NODE], False),
+    MULTI_NODE: Metrics(SCORED[MULTI_NODE], True),
+    ENERGY: Metrics(SCORED[ENERGY], False, energy=True),
+}
 
 
 def metrics_of(suite: Suite) -> Metrics:
@@ -87,6 +99,8 @@ class ScenarioResult:
     trajectory: np.ndarray | None = field(default=None, repr=False, compare=False)  # (N, 2) m
     shares: np.ndarray | None = field(default=None, repr=False, compare=False)  # (K, N), own shares
     config: ScenarioConfig | None = field(default=None, repr=False, compare=False)
+    energy: float = math.nan  # J, propulsion energy E of the flight (PlanScore.energy)
+    energy_efficiency: float = math.nan  # bits/J, B T rate / E: an energy suite's score
 
     @classmethod
     def of(
@@ -97,14 +111,22 @@ class ScenarioResult:
         seconds: float,
         trajectory: np.ndarray | None = None,
         shares: np.ndarray | None = None,
+        energy: tuple[float, float] | None = None,
     ) -> ScenarioResult:
         """The result of a plan's ``score`` (a :class:`PlanScore`, or stored values as
-        ``(rate, best_schedule_rate, feasible, worst_violation, own_shares)``) on ``scenario``."""
+        ``(rate, best_schedule_rate, feasible, worst_violation, own_shares)`` and, for an energy
+        suite, ``energy`` = (E in J, EE in bits/J)) on ``scenario``. An energy suite's scores
+        are of the EE (a :class:`PlanScore`'s ``objective_value`` on its scenarios)."""
         if isinstance(score, PlanScore):
             values = (score.rate, score.best_schedule_rate, score.feasible,
                       score.report.worst_violation, score.own_shares)  # fmt: skip
+            energy = (score.energy, score.objective_value if metrics.energy else score.energy_efficiency)
         else:
             values = score
+        if metrics.energy and energy is None:
+            raise ValueError(
+                f"scenario {scenario.index}: an energy suite's result needs the plan's energy and EE"
+            )
         rate, best, feasible, worst, own = (
             float(values[0]),
             float(values[1]),
@@ -112,10 +134,13 @@ class ScenarioResult:
             values[3],
             values[4],
         )
-        pct = {r: 100.0 * rate / scenario.rate(r) if feasible else 0.0 for r in metrics.scores}
-        best_pct = 100.0 * best / scenario.rate(metrics.normaliser) if feasible else 0.0
+        e, ee = (math.nan, math.nan) if energy is None else (float(energy[0]), float(energy[1]))
+        value, best_value = (ee, ee) if metrics.energy else (rate, best)
+        pct = {r: 100.0 * value / scenario.value(r) if feasible else 0.0 for r in metrics.scores}
+        best_pct = 100.0 * best_value / scenario.value(metrics.normaliser) if feasible else 0.0
         return cls(scenario.index, scenario.config.K, rate, best, feasible, float(worst), pct, best_pct,
-                   float(seconds), bool(own), metrics, trajectory, shares, scenario.config)  # fmt: skip
+                   float(seconds), bool(own), metrics, trajectory, shares, scenario.config,
+                   e, ee)  # fmt: skip
 
     def __getattr__(self, name: str) -> float:
         """``pct_<reference>`` and ``best_pct_<normaliser>`` by name (e.g. ``pct_dp``)."""
@@ -152,6 +177,8 @@ class Aggregate:
         if metrics.schedules:
             stats[f"mean_best_pct_{metrics.normaliser}"] = float(np.mean([r.best_pct for r in rows]))
         stats["mean_rate"] = float(np.mean([r.rate for r in rows]))
+        if metrics.energy:
+            stats["mean_energy_efficiency"] = float(np.mean([r.energy_efficiency for r in rows]))
         if metrics.schedules:
             stats["mean_best_rate"] = float(np.mean([r.best_schedule_rate for r in rows]))
         median, sca_median = plan_seconds(rows, scenarios)
@@ -218,6 +245,7 @@ class Results:
         """The summary and one table row per scenario, as markdown."""
         m = self.metrics
         rates = ["K", "min rate (bps/Hz)", "shares", "best schedule"] if m.schedules else ["rate (bps/Hz)"]
+        rates += ["energy (J)", "EE (bits/J)"] if m.energy else []
         head = ["#", *rates,
                 "feasible", *(f"% of {LABELS[r]}" for r in m.scores),
                 *([f"best % of {LABELS[m.normaliser]}"] if m.schedules else []), "plan (ms)"]  # fmt: skip
@@ -234,6 +262,8 @@ class Results:
                 ]
             else:
                 cells.append(f"{r.rate:.4f}")
+            if m.energy:
+                cells += [f"{r.energy:.1f}", f"{r.energy_efficiency:.1f}"]
             cells += ["yes" if r.feasible else "NO", *(f"{r.pct[ref]:.2f}" for ref in m.scores)]
             cells += [f"{r.best_pct:.2f}"] if m.schedules else []
             lines.append("| " + " | ".join([*cells, f"{1e3 * r.seconds:.1f}"]) + " |")
@@ -307,13 +337,18 @@ def reference_results(suite: Suite, reference: str, n: int | None = None) -> Res
     """A stored reference scored as a policy from its stored rate and feasibility (single-node:
     ``"dp"``, ``"sca"``, ``"hover_peak"``, ``"hover_ground"``; multi-node: ``"sca"``, ``"tour"``,
     ``"bound"``, the upper bound as if it were a plan's rate; DP's plans are feasible by
-    construction)."""
+    construction; energy: its stored EE, energy and rate, the bound's EE as if it were a plan's)."""
     if reference not in suite.references:
         raise KeyError(f"suite {suite.name} has no reference {reference!r}; it has {list(suite.references)}")
     metrics, scenarios = metrics_of(suite), suite.subset(n)
     rows = []
     for s in scenarios:
-        ref, rate = s.reference[reference], s.rate(reference)
+        ref = s.reference[reference]
+        if metrics.energy:
+            rate = float(ref.get("rate", math.nan))
+            energy = (float(ref.get("energy", math.nan)), s.value(reference))
+        else:
+            rate, energy = s.rate(reference), None
         values = (rate, rate, bool(ref.get("feasible", True)), math.nan, True)
-        rows.append(ScenarioResult.of(s, metrics, values, float(ref.get("seconds", math.nan))))
+        rows.append(ScenarioResult.of(s, metrics, values, float(ref.get("seconds", math.nan)), energy=energy))
     return Results.of(suite, reference, suite.env_kwargs, rows, scenarios)

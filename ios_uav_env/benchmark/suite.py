@@ -24,6 +24,22 @@ A multi-node suite (``"kind": "multi-node"``, e.g. ``multi-node-v1``; frozen by
 - ``tour``: the tour heuristic (``baselines.tour.solve``: ``rate``, ``feasible``, ``seconds``);
 - ``bound``: the certified upper bound (``baselines.dp_bound.solve_multinode``:
   ``upper_bound``, ``resolution``, and the DP-bound plan's ``plan_rate``).
+
+An energy suite (``"kind": "energy"``, e.g. ``energy-v1``; frozen by ``python -m
+baselines.references energy``) runs in an energy id (``ios_uav_env.envs.registration.ENERGY_IDS``)
+and holds, per scenario (objective ``"energy_efficiency"``), energy efficiencies EE = B T R / E
+(bits/J, ``ios_uav_env.score_plan(...).energy_efficiency``) of :data:`ENERGY_REFERENCES`:
+
+- ``dp``: the energy DP's plan (``baselines.dp_energy.solve_ee``: ``energy_efficiency``,
+  ``rate``, ``energy``, ``resolution``, ``seconds``), the normaliser;
+- ``sca``: SCA-EE started from that plan (``baselines.sca_energy.solve``: the same fields and
+  ``feasible``);
+- ``bound``: the certified upper bound on the EE of every feasible plan
+  (``baselines.energy_bound.solve``: ``upper_bound``, ``resolution``, ``seconds``);
+- ``loiter`` / ``hover``: the loiter and fly-to-the-peak-and-hover heuristics
+  (``baselines.loiter``), as ``dp``.
+
+Every EE is > 0 and none exceeds the bound (:func:`load_suite` refuses the file otherwise).
 """
 
 from __future__ import annotations
@@ -45,11 +61,19 @@ SUITE_DIR = Path(__file__).resolve().parent / "suites"
 REFERENCES = ("dp", "sca", "hover_peak", "hover_ground")
 #: Reference values every scenario of a multi-node suite holds.
 MULTI_REFERENCES = ("sca", "tour", "bound")
-SINGLE_NODE, MULTI_NODE = "single-node", "multi-node"
+#: Reference values every scenario of an energy suite holds.
+ENERGY_REFERENCES = ("dp", "sca", "bound", "loiter", "hover")
+SINGLE_NODE, MULTI_NODE, ENERGY = "single-node", "multi-node", "energy"
 #: By suite kind: the references it may hold, and those its scores are percentages of (the
 #: normaliser first), whose rates must be > 0 on every scenario.
-KIND_REFERENCES = {SINGLE_NODE: REFERENCES, MULTI_NODE: MULTI_REFERENCES}
-SCORED = {SINGLE_NODE: ("dp", "sca"), MULTI_NODE: ("sca", "bound")}
+KIND_REFERENCES = {SINGLE_NODE: REFERENCES, MULTI_NODE: MULTI_REFERENCES, ENERGY: ENERGY_REFERENCES}
+SCORED = {SINGLE_NODE: ("dp", "sca"), MULTI_NODE: ("sca", "bound"), ENERGY: ("dp", "bound")}
+#: By suite kind: the key of a plan reference's value (a bound's is ``"upper_bound"``) and its unit.
+VALUE_KEY = {SINGLE_NODE: "rate", MULTI_NODE: "rate", ENERGY: "energy_efficiency"}
+UNIT = {SINGLE_NODE: "bps/Hz", MULTI_NODE: "bps/Hz", ENERGY: "bits/J"}
+#: Relative slack of the energy suite's check that no reference's EE exceeds the bound (float
+#: rounding of two float64 computations of the same kind of sum; a real excess is far larger).
+BOUND_REL = 1e-9
 
 
 @dataclass(frozen=True)
@@ -79,15 +103,31 @@ class SuiteScenario:
     index: int
     config: ScenarioConfig
     reference: Mapping[str, Mapping[str, Any]]
+    kind: str = SINGLE_NODE  # the suite's kind: what value() reads (VALUE_KEY)
 
     def rate(self, reference: str) -> float:
         """The rate (bps/Hz) of ``reference`` (one of the suite's references) on this scenario;
-        for a multi-node suite's ``"bound"``, the certified upper bound."""
+        for a multi-node suite's ``"bound"``, the certified upper bound. An energy suite's
+        plan references hold their rate too; its bound is on EE (``KeyError`` for it here)."""
         if reference not in self.reference:
             raise KeyError(
                 f"scenario {self.index} has no reference {reference!r}; it has {sorted(self.reference)}"
             )
+        if self.kind == ENERGY and reference == "bound":
+            raise KeyError(f"scenario {self.index}: an energy suite's bound is on EE: use value('bound')")
         return float(self.reference[reference]["upper_bound" if reference == "bound" else "rate"])
+
+    def value(self, reference: str) -> float:
+        """The value of ``reference`` that scores are percentages of: the rate (bps/Hz) on a
+        rate suite, the energy efficiency (bits/J) on an energy suite; a ``"bound"``'s
+        ``upper_bound``."""
+        if reference not in self.reference:
+            raise KeyError(
+                f"scenario {self.index} has no reference {reference!r}; it has {sorted(self.reference)}"
+            )
+        return float(
+            self.reference[reference]["upper_bound" if reference == "bound" else VALUE_KEY[self.kind]]
+        )
 
     @property
     def dp_rate(self) -> float:
@@ -111,12 +151,17 @@ class Suite:
     scenarios: tuple[SuiteScenario, ...]
     sha256: str
     path: Path
-    kind: str = SINGLE_NODE  # "single-node" (eq. (9), % of DP) or "multi-node" (max-min, % of SCA)
+    kind: str = SINGLE_NODE  # "single-node" (eq. (9), % of DP), "multi-node" (max-min, % of SCA), "energy"
     references: tuple[str, ...] = REFERENCES
 
     @property
     def multi_node(self) -> bool:
         return self.kind == MULTI_NODE
+
+    @property
+    def energy(self) -> bool:
+        """Scores are of the energy efficiency (bits/J), not of the rate."""
+        return self.kind == ENERGY
 
     def __len__(self) -> int:
         return len(self.scenarios)
@@ -168,6 +213,8 @@ def load_suite(suite: str | Path = DEFAULT_SUITE) -> Suite:
     the kind's ``normalizer`` and references (:data:`KIND_REFERENCES`, :data:`SCORED`), and per
     scenario a valid config (one node for a single-node suite) and finite reference values
     (rates >= 0, the scored references' > 0, times >= 0); JSON's NaN and Infinity are refused.
+    An energy suite's scenarios have one node and the objective ``"energy_efficiency"``, every
+    reference's EE (bits/J) > 0, and none above the bound (by more than :data:`BOUND_REL`).
     """
     path = Path(suite) if isinstance(suite, Path) or str(suite).endswith(".json") else suite_path(str(suite))
     data = _read_json(path)
@@ -224,7 +271,7 @@ def _read_json(path: Path) -> Any:
 
 def _check_header(path: Path, data: Mapping[str, Any]) -> tuple[str, tuple[str, ...]]:
     """Check a suite file's fields other than its scenarios; its kind and references."""
-    from ios_uav_env.envs.registration import ENV_IDS, MULTINODE_IDS, RANDOM_ENV_ID
+    from ios_uav_env.envs.registration import ENERGY_IDS, ENV_IDS, MULTINODE_IDS, RANDOM_ENV_ID
 
     version = data.get("version")
     if isinstance(version, bool) or not isinstance(version, int) or version < 1:
@@ -232,7 +279,7 @@ def _check_header(path: Path, data: Mapping[str, Any]) -> tuple[str, tuple[str, 
     kind = data.get("kind", SINGLE_NODE)
     if kind not in KIND_REFERENCES:
         raise ValueError(f"{path}: kind must be one of {list(KIND_REFERENCES)}, got {kind!r}")
-    env_ids = list(MULTINODE_IDS) if kind == MULTI_NODE else [*ENV_IDS, RANDOM_ENV_ID]
+    env_ids = {MULTI_NODE: list(MULTINODE_IDS), ENERGY: list(ENERGY_IDS)}.get(kind, [*ENV_IDS, RANDOM_ENV_ID])
     if data.get("env_id") not in env_ids:
         raise ValueError(
             f"{path}: env_id of a {kind} suite must be one of {env_ids}, got {data.get('env_id')!r}"
@@ -278,9 +325,14 @@ def _scenario(path: Path, kind: str, references: tuple[str, ...], position: int,
         config = ScenarioConfig(**rec["config"])
     except (TypeError, ValueError) as err:
         raise ValueError(f"{path}: scenario {index}: config: {err}") from None
-    if kind == SINGLE_NODE and config.K != 1:
+    if kind in (SINGLE_NODE, ENERGY) and config.K != 1:
         raise ValueError(
-            f"{path}: scenario {index}: a single-node suite's config has one node, got K = {config.K}"
+            f"{path}: scenario {index}: a {kind} suite's config has one node, got K = {config.K}"
+        )
+    if kind == ENERGY and config.objective != "energy_efficiency":
+        raise ValueError(
+            f"{path}: scenario {index}: an energy suite's config has the objective 'energy_efficiency', "
+            f"got {config.objective!r}"
         )
     reference = {}
     for r in references:
@@ -289,10 +341,10 @@ def _scenario(path: Path, kind: str, references: tuple[str, ...], position: int,
             raise ValueError(
                 f"{path}: scenario {index}: {r} must be an object of reference values, got {values!r}"
             )
-        key = "upper_bound" if r == "bound" else "rate"
-        low = 0.0 if r in SCORED[kind] else None  # a score is a percentage of it: > 0
-        _number(values.get(key), f"{path}: scenario {index}: {r}.{key} (bps/Hz)", low)
-        for field in ("seconds", "plan_rate", "resolution"):
+        key = "upper_bound" if r == "bound" else VALUE_KEY[kind]
+        low = 0.0 if r in SCORED[kind] or kind == ENERGY else None  # a score is a percentage of it: > 0
+        _number(values.get(key), f"{path}: scenario {index}: {r}.{key} ({UNIT[kind]})", low)
+        for field in ("seconds", "plan_rate", "resolution", *(("rate", "energy") if kind == ENERGY else ())):
             if field in values:
                 _number(values[field], f"{path}: scenario {index}: {r}.{field}", None)
         for field in ("feasible", "plan_feasible"):
@@ -301,7 +353,16 @@ def _scenario(path: Path, kind: str, references: tuple[str, ...], position: int,
                     f"{path}: scenario {index}: {r}.{field} must be true or false, got {values[field]!r}"
                 )
         reference[r] = dict(values)
-    return SuiteScenario(index, config, reference)
+    if kind == ENERGY and "bound" in reference:
+        bound = float(reference["bound"]["upper_bound"])
+        above = [f"{r} {reference[r][VALUE_KEY[kind]]!r}" for r in references if r != "bound"
+                 and float(reference[r][VALUE_KEY[kind]]) > bound * (1.0 + BOUND_REL)]  # fmt: skip
+        if above:
+            raise ValueError(
+                f"{path}: scenario {index}: the certified bound.upper_bound {bound!r} bits/J is below "
+                f"{', '.join(above)}: no plan's EE may exceed it"
+            )
+    return SuiteScenario(index, config, reference, kind)
 
 
 def _number(value: Any, where: str, above: float | None) -> None:
