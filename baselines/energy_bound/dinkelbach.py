@@ -31,6 +31,11 @@ BOUND_SLACK = 1e-9
 MAX_ITERS = 50
 
 
+class NonPositiveEnergy(ValueError):
+    """A relaxed path's energy bound L is <= 0 (multipliers b too large for the cells): the
+    ratio sum Rbar / L, and with it Dinkelbach's iteration on this relaxation, is undefined."""
+
+
 class EnergyRelaxation(CellRelaxation):
     """U(mu) of the package docstring for one config, cell side and multipliers b.
 
@@ -54,7 +59,7 @@ class EnergyRelaxation(CellRelaxation):
         for _ in range(int(max_iters)):
             u, rates, cost = self.value(mu)
             if not cost > 0:
-                raise ValueError(
+                raise NonPositiveEnergy(
                     f"a relaxed path has an energy bound L = {cost!r} J <= 0: the multipliers are too "
                     f"large for resolution={self.h!r} m (use a smaller resolution or no reference)"
                 )
@@ -203,6 +208,8 @@ class EnergyBound:
     plain_bound: float  # bits/J, the bound with b = 0 (= upper_bound when no reference is given)
     seconds: float  # wall time
     iterations: list[dict[str, float]] = field(default_factory=list)  # per DP: b, lambda, U, path ratio
+    # the variants left out: a relaxed path of theirs had an energy bound L <= 0 (NonPositiveEnergy)
+    skipped: tuple[tuple[float, int], ...] = ()
 
 
 def solve(
@@ -232,7 +239,9 @@ def solve(
     variants : sequence of (scale, window)
         With a reference, one bound per variant, b = scale x :func:`multipliers` with that
         window (scale in (0, 1], window even >= 2), and the bound with b = 0: every b is
-        valid, and the smallest is returned. Which is tightest depends on how closely the
+        valid, and the smallest is returned. A variant whose relaxation has a path with an
+        energy bound L <= 0 (b too large for the cells) gives no ratio: it is left out and
+        named in ``skipped`` (the bound with b = 0 always stands). Which is tightest depends on how closely the
         relaxed optimum follows the reference: a relaxed path that hovers where b is large
         saves about |b| h per move, which a smaller scale limits.
     start : float, optional
@@ -281,9 +290,15 @@ def solve(
     results: dict[Any, tuple[float, float, float, list[dict[str, Any]]]] = {
         None: plain.dinkelbach(lam0, max_iters, "0", progress)
     }
-    for variant, b in tilts.items():
+    skipped = []
+    for variant, b in tilts.items():  # tightenings of the plain bound: one that breaks is left out
         relaxation = EnergyRelaxation(config, resolution, margin, b)
-        results[variant] = relaxation.dinkelbach(lam0, max_iters, f"{variant[0]:g}x{variant[1]}", progress)
+        try:
+            results[variant] = relaxation.dinkelbach(
+                lam0, max_iters, f"{variant[0]:g}x{variant[1]}", progress
+            )
+        except NonPositiveEnergy:
+            skipped.append(variant)
     label = min(results, key=lambda name: results[name][0])
     lam, ratio, u, _ = results[label]
     return EnergyBound(
@@ -296,4 +311,5 @@ def solve(
         plain_bound=results[None][0],
         seconds=time.perf_counter() - t0,
         iterations=[r for name in results for r in results[name][3]],
+        skipped=tuple(skipped),
     )

@@ -210,3 +210,19 @@ def test_inputs_are_checked(plans):
     with pytest.raises(RuntimeError, match="max_iters"):  # U(0) > 0: no certificate in one DP
         energy_bound.solve(SMALL, resolution=COARSE, margin=MARGIN, start=0.0, max_iters=1)
     assert math.isfinite(energy_bound.solve(SMALL, resolution=COARSE, margin=MARGIN).upper_bound)
+
+
+def test_a_variant_whose_relaxed_energy_is_not_positive_is_left_out(plans, monkeypatch):
+    """Multipliers far too large for the cells make a relaxed path's energy bound L <= 0: that
+    variant gives no ratio, so solve leaves it out (named in ``skipped``) and the plain bound,
+    certified whatever b does, stands; the relaxation itself refuses to iterate on it."""
+    from baselines.energy_bound import dinkelbach
+
+    huge = lambda config, reference, window: np.full((config.N - 1, 2), 1e6)  # noqa: E731
+    monkeypatch.setattr(dinkelbach, "multipliers", huge)
+    ref = plans["dp-ee"]
+    bound = energy_bound.solve(SMALL, resolution=FINE, margin=MARGIN, reference=ref, variants=((1.0, 12),))
+    assert bound.skipped == ((1.0, 12),) and bound.variant is None
+    assert bound.upper_bound == bound.plain_bound >= ref.energy_efficiency
+    with pytest.raises(dinkelbach.NonPositiveEnergy, match="energy bound L"):
+        EnergyRelaxation(SMALL, FINE, MARGIN, huge(SMALL, ref, 12)).dinkelbach()
