@@ -92,6 +92,9 @@ SUITES: dict[str, RegisteredSuite] = {
     "multi-node-v1": RegisteredSuite(
         "multi-node-v1.json", "7d30ec3c73ac4f8d82c7256f3e8cb274e3a3872dfba1c81c941ccaf164ab2f98"
     ),
+    "energy-v1": RegisteredSuite(
+        "energy-v1.json", "08cba48a6aecf24dc29debc83c5beb6dc3ce29eeb3a2552e054c7decb6c6dec7"
+    ),
 }
 DEFAULT_SUITE = "single-node-v1"
 
