@@ -15,7 +15,14 @@ needs only numpy; the envs (``ios_uav_env.envs``) need Gymnasium; the benchmark
 matplotlib lazily.
 """
 
-from ios_uav_env.model.channel import RateKernel, faded_rates, rate_kernel, slot_rates
+from ios_uav_env.model.channel import (
+    RateKernel,
+    faded_rates,
+    path_kernels,
+    rate_kernel,
+    rates_of_rows,
+    slot_rates,
+)
 from ios_uav_env.model.config import (
     ENERGY_RTOL,
     FEASIBILITY_TOL,
@@ -77,7 +84,9 @@ __all__ = [
     "node_rates",
     "position_reports",
     "propulsion_power",
+    "path_kernels",
     "rate_kernel",
+    "rates_of_rows",
     "rate_peak",
     "sample_scenario",
     "scene_box",
@@ -103,6 +112,8 @@ if _HAS_GYMNASIUM:
         ENERGY_IDS,
         ENERGY_RANDOM_ID,
         ENV_IDS,
+        MOBILE_ID,
+        MOBILE_IDS,
         MULTINODE_IDS,
         RANDOM_ENV_ID,
         register_envs,
@@ -118,6 +129,8 @@ if _HAS_GYMNASIUM:
         "INFO_KEYS",
         "EnvOptions",
         "IOSUAVEnv",
+        "MOBILE_ID",
+        "MOBILE_IDS",
         "MULTINODE_IDS",
         "MultiNodeEnv",
         "RANDOM_ENV_ID",

@@ -20,7 +20,7 @@ import numpy as np
 
 from ios_uav_env.jit import jit
 from ios_uav_env.model.config import ScenarioConfig
-from ios_uav_env.model.surface import element_positions, element_to_ground, surface_nodes
+from ios_uav_env.model.surface import element_positions, element_to_ground, ground_weights, surface_nodes
 
 
 def as_positions(positions: np.ndarray, name: str = "positions") -> np.ndarray:
@@ -196,6 +196,33 @@ def rate_kernel(config: ScenarioConfig) -> RateKernel:
     packed = np.vstack([fields["node_y"], fields["dz2"], fields["jw"]])
     params = np.array([float(fields[name]) for name in PARAMS])
     return RateKernel(**fields, nodes=packed, params=params)
+
+
+def path_kernels(config: ScenarioConfig, grounds: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The rate kernels of one ground node at each of the (P, 2) ``grounds`` (m): ``nodes``
+    (P, 3, n) and ``params`` (P, len(PARAMS)), row p equal bit for bit to
+    ``rate_kernel(config.replace(ground_node=grounds[p]))``'s ``nodes`` and ``params``. A
+    moving node's kernel per slot (``ios_uav_env.model.motion``) without a config per slot:
+    only the surface weights and G's coordinates and side depend on G
+    (:func:`~ios_uav_env.model.surface.ground_weights`). ``config`` has one node (K = 1)."""
+    points = as_positions(grounds, "grounds")
+    base = rate_kernel(config)
+    nodes = np.repeat(base.nodes[None], len(points), axis=0)
+    nodes[:, 2] = config.J * ground_weights(config, points)
+    params = np.repeat(base.params[None], len(points), axis=0)
+    params[:, PARAMS.index("g_side")] = np.sign(points[:, 0] - config.ios_center[0])
+    params[:, PARAMS.index("gx")], params[:, PARAMS.index("gy")] = points[:, 0], points[:, 1]
+    return nodes, params
+
+
+@jit
+def rates_of_rows(points: np.ndarray, nodes: np.ndarray, params: np.ndarray) -> np.ndarray:
+    """Expected-gain rate at each of the (n, 2) ``points``, point i under kernel row i
+    (:func:`rate_row`; ``nodes`` (n, 3, K), ``params`` (n, P), e.g. :func:`path_kernels`)."""
+    out = np.empty(points.shape[0])
+    for i in range(points.shape[0]):
+        out[i] = rate_row(points[i, 0], points[i, 1], nodes, params, i)
+    return out
 
 
 def surface_terms(config: ScenarioConfig, positions: np.ndarray) -> np.ndarray:

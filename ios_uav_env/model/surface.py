@@ -117,22 +117,69 @@ def node_count(config: ScenarioConfig) -> int:
     return 0 if n >= largest else n
 
 
+@dataclass(frozen=True, eq=False)
+class _Projection:
+    """The ground-free part of the compression: node coordinates and the Lagrange projections
+    (``ly`` (ny, M_y), ``lz`` (nz, M_z); None when the nodes are the elements themselves)."""
+
+    y: np.ndarray
+    z: np.ndarray
+    ly: np.ndarray | None
+    lz: np.ndarray | None
+
+
 @lru_cache(maxsize=64)
-def surface_nodes(config: ScenarioConfig) -> SurfaceNodes:
-    """Weighted nodes of the element sum for ``config`` (cached per config)."""
+def _projection(config: ScenarioConfig) -> _Projection:
     ys, zs = _axes(config)
-    d_mg, _ = element_to_ground(config)
-    x_g = abs(config.ground_node[0] - config.ios_center[0])
-    beta = (x_g**3 / d_mg**4).reshape(ys.size, zs.size)
     n = node_count(config)
     if n == 0 or (n >= ys.size and n >= zs.size):
         yy, zz = np.meshgrid(ys, zs, indexing="ij")
-        return SurfaceNodes(yy.ravel(), zz.ravel(), beta.ravel(), exact=True)
+        return _Projection(yy.ravel(), zz.ravel(), None, None)
     ny, nz = min(n, ys.size), min(n, zs.size)
     node_y = ys if ny == ys.size else _chebyshev(ys[0], ys[-1], ny)
     node_z = zs if nz == zs.size else _chebyshev(zs[0], zs[-1], nz)
     ly = np.eye(ny) if ny == ys.size else _lagrange_matrix(node_y, ys)
     lz = np.eye(nz) if nz == zs.size else _lagrange_matrix(node_z, zs)
-    weight = ly @ beta @ lz.T  # (ny, nz)
     yy, zz = np.meshgrid(node_y, node_z, indexing="ij")
-    return SurfaceNodes(yy.ravel(), zz.ravel(), weight.ravel(), exact=False)
+    return _Projection(yy.ravel(), zz.ravel(), ly, lz)
+
+
+def _weights(projection: _Projection, beta: np.ndarray) -> np.ndarray:
+    """The node weights of the (M_y, M_z) element weights ``beta``: ly beta lz^T, flattened."""
+    if projection.ly is None:
+        return beta.ravel()
+    return (projection.ly @ beta @ projection.lz.T).ravel()
+
+
+def _betas(config: ScenarioConfig, grounds: np.ndarray) -> np.ndarray:
+    """(P, M_y, M_z) element weights beta_m = |x_G - x_c|^3 / d_mG^4 of a ground node at each of
+    the (P, 2) ``grounds``. Every element lies in the plane x = x_c, so d_mG^2 = (x_G - x_c)^2
+    + (y_G - y_m)^2 + z_m^2 is a sum of a y-column term and a z-row term (one outer sum per G)."""
+    ys, zs = _axes(config)
+    dx2 = (grounds[:, 0] - config.ios_center[0]) ** 2
+    dy2 = (grounds[:, 1, None] - ys[None, :]) ** 2  # (P, M_y)
+    d2 = dx2[:, None, None] + dy2[:, :, None] + (zs * zs)[None, None, :]
+    return (dx2**1.5)[:, None, None] / (d2 * d2)
+
+
+@lru_cache(maxsize=64)
+def surface_nodes(config: ScenarioConfig) -> SurfaceNodes:
+    """Weighted nodes of the element sum for ``config`` (cached per config)."""
+    config.require_single_node("surface_nodes")
+    projection = _projection(config)
+    weight = _weights(projection, _betas(config, np.array([config.ground_node], dtype=float))[0])
+    return SurfaceNodes(projection.y, projection.z, weight, exact=projection.ly is None)
+
+
+def ground_weights(config: ScenarioConfig, grounds: np.ndarray) -> np.ndarray:
+    """(P, n) node weights of :func:`surface_nodes` for a ground node at each of the (P, 2)
+    ``grounds`` (m), every other field of ``config`` (one node) kept: the nodes' coordinates do
+    not depend on G, so a moving node's per-slot surfaces share one projection. Row p equals
+    ``surface_nodes(config.replace(ground_node=grounds[p])).weight`` bit for bit (the same
+    arithmetic on each slice)."""
+    config.require_single_node("ground_weights")
+    projection = _projection(config)
+    points = np.asarray(grounds, dtype=float)
+    if points.ndim != 2 or points.shape[1] != 2:
+        raise ValueError(f"grounds must have shape (P, 2) (m), got {points.shape}")
+    return np.stack([_weights(projection, beta) for beta in _betas(config, points)])

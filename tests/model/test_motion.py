@@ -207,6 +207,36 @@ def test_rates_on_paths_use_each_slots_position():
     assert own.best_schedule_rate >= own.rate
 
 
+@pytest.mark.parametrize(
+    "fields",
+    [
+        {"surface": "ios"},
+        {"surface": "ris"},
+        {"surface": "none"},
+        {"quadrature_nodes": 0},
+        {"ios_shape": (40, 30)},
+    ],
+)
+def test_path_kernels_are_each_slots_rate_kernel_bit_for_bit(fields):
+    """One projection for every slot (only the surface weights and G's coordinates and side
+    depend on G): the same arrays as a config per position, compressed or exact, any surface."""
+    config = _moving().replace(**fields)
+    path = node_paths(config, np.random.default_rng(4))[:, 1]
+    nodes, params = ie.path_kernels(config.node_config(1), path)
+    for n in range(config.N):
+        kernel = ie.rate_kernel(node_config_at(config, 1, path[n]))
+        np.testing.assert_array_equal(nodes[n], kernel.nodes)
+        np.testing.assert_array_equal(params[n], kernel.params)
+    rates = ie.rates_of_rows(_line(config), nodes, params)
+    np.testing.assert_allclose(
+        rates,
+        ie.node_rates(config, _line(config), node_paths(config, np.random.default_rng(4)))[1],
+        rtol=1e-12,
+    )  # compiled vs numpy sums
+    with pytest.raises(ValueError, match="grounds"):
+        ie.path_kernels(config.node_config(1), np.zeros((3, 3)))
+
+
 def test_bad_paths_are_refused():
     config = _moving()
     q = _line(config)
