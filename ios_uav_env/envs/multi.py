@@ -217,10 +217,20 @@ class MultiNodeEnv(gym.Env):
                 "MultiNodeEnv has no energy reward: energy_reference is for the single-node energy ids, "
                 f"got energy_reference={self.options.energy_reference!r}"
             )
+        if self.options.knowledge != "exact":
+            raise ValueError(
+                "MultiNodeEnv observes its nodes exactly: knowledge must be 'exact' (reports and measured "
+                f"rates are the single-node ids'), got knowledge={self.options.knowledge!r}"
+            )
         if render_mode not in (None, "rgb_array"):
             raise ValueError(f"render_mode must be None or 'rgb_array', got {render_mode!r}")
         base = as_config(config if config is not None else ScenarioConfig(ground_nodes=DEFAULT_NODES))
         self._base = base.replace(**overrides) if overrides else base
+        if self._base.motion is not None:
+            raise ValueError(
+                "MultiNodeEnv's nodes are static: motion must be None (moving nodes: the single-node "
+                "ios_uav_env/IOSUAV-Mobile-v0)"
+            )
         if random_nodes is not None:
             lo, hi = (int(v) for v in random_nodes)
             if not 1 <= lo <= hi:
@@ -320,6 +330,8 @@ class MultiNodeEnv(gym.Env):
         """Raise ``ValueError`` naming ``field`` unless the pinned scenario ``cfg`` can be an episode
         of this env: at most ``max_nodes`` nodes and observations inside the space (the batched
         env checks every row's pinned scenario with it before it resets any row)."""
+        if cfg.motion is not None:
+            raise ValueError(f"{field} has a motion model; MultiNodeEnv's nodes are static (motion=None)")
         if cfg.K > self.max_nodes:
             raise ValueError(
                 f"{field}: the scenario has K = {cfg.K} nodes; this env observes at most max_nodes = "

@@ -20,10 +20,15 @@ from typing import Any
 import numpy as np
 
 from ios_uav_env.model.config import SCENARIO_FIELDS
+from ios_uav_env.model.reports import REPORT_SIGMA
 
 #: Values of the ``channel`` option: the expected-gain rate (the paper's objective) or a
 #: Rician faded-rate sample per slot.
 CHANNELS: tuple[str, ...] = ("expected", "rician")
+#: Values of the ``knowledge`` option: what the UAV is told of the ground node each slot (its
+#: true position, a noisy position report and the measured rate, or the measured rate only;
+#: ``ios_uav_env.envs.knowledge``).
+KNOWLEDGE: tuple[str, ...] = ("exact", "reports", "rates")
 
 
 def _flag(value: Any, name: str) -> bool:
@@ -53,10 +58,18 @@ class EnvOptions:
     # bits/J, lambda_ref of the energy reward (objective "energy_efficiency" only); None: the
     # scenario's own reference, the EE of its hover plan (observation.reference_efficiency)
     energy_reference: float | None = None
+    # what the UAV is told of the node each slot (KNOWLEDGE; "exact": its true position)
+    knowledge: str = "exact"
+    report_sigma: float = REPORT_SIGMA  # m, s: std of each component of a position report's error
 
     def __post_init__(self) -> None:
         if self.channel not in CHANNELS:
             raise ValueError(f"channel must be one of {CHANNELS}, got {self.channel!r}")
+        if self.knowledge not in KNOWLEDGE:
+            raise ValueError(f"knowledge must be one of {KNOWLEDGE}, got {self.knowledge!r}")
+        object.__setattr__(
+            self, "report_sigma", _number(self.report_sigma, "report_sigma (m)", positive=False)
+        )
         for name in ("arrival_guard", "instance_features", "peak_hint"):
             object.__setattr__(self, name, _flag(getattr(self, name), name))
         for name in ("reach_weight", "terminal_weight"):

@@ -6,6 +6,9 @@ at every reset from a family ``ios_uav_env.model.scenarios.ScenarioRanges`` with
 ``ios_uav_env/IOSUAV-Energy-Random-v0`` is the same family with the objective
 ``"energy_efficiency"`` (``objective`` applied to ``ranges.base``): the energy features, reward
 and score of ``IOSUAVEnv``'s "Energy", with lambda_ref the reference of each drawn scenario.
+``ios_uav_env/IOSUAV-Mobile-v0`` is the same family with a walking node (``motion`` applied to
+``ranges.base``) known through noisy reports (``knowledge="reports"``): ``IOSUAVEnv``'s "Moving
+nodes".
 """
 
 from __future__ import annotations

@@ -34,6 +34,15 @@ ENERGY_IDS: dict[str, dict[str, Any]] = {
     ENERGY_RANDOM_ID: {"objective": "energy_efficiency"},
 }
 
+#: The moving-node id: scenarios drawn as the randomised id's, the node walking a Gauss-Markov
+#: path (pedestrian defaults of ``ios_uav_env.model.mobility.GaussMarkov``) and known to the UAV
+#: through noisy position reports and measured rates (``ios_uav_env.envs.knowledge``).
+MOBILE_ID = "ios_uav_env/IOSUAV-Mobile-v0"
+#: id -> keyword arguments of the moving-node ids (``RandomIOSUAVEnv``).
+MOBILE_IDS: dict[str, dict[str, Any]] = {
+    MOBILE_ID: {"motion": {"kind": "gauss_markov"}, "knowledge": "reports"},
+}
+
 
 def _vector(entry_point: str) -> dict[str, str]:
     """The ``vector_entry_point`` argument where Gymnasium has it (1.0 and later)."""
@@ -42,8 +51,8 @@ def _vector(entry_point: str) -> dict[str, str]:
 
 
 def register_envs() -> None:
-    """Register every id of :data:`ENV_IDS`, :data:`RANDOM_ENV_ID`, :data:`MULTINODE_IDS` and
-    :data:`ENERGY_IDS` not registered yet.
+    """Register every id of :data:`ENV_IDS`, :data:`RANDOM_ENV_ID`, :data:`MULTINODE_IDS`,
+    :data:`ENERGY_IDS` and :data:`MOBILE_IDS` not registered yet.
 
     No ``max_episode_steps``: the env ends every episode itself at slot N of its scenario
     (``terminated=True``), whatever T is, so no ``TimeLimit`` can cut a mission short. Each id
@@ -64,6 +73,11 @@ def register_envs() -> None:
         ),
         (
             {ENERGY_RANDOM_ID: ENERGY_IDS[ENERGY_RANDOM_ID]},
+            "ios_uav_env.envs.random_env:RandomIOSUAVEnv",
+            "ios_uav_env.envs.single_vector:RandomIOSUAVVectorEnv",
+        ),
+        (
+            MOBILE_IDS,
             "ios_uav_env.envs.random_env:RandomIOSUAVEnv",
             "ios_uav_env.envs.single_vector:RandomIOSUAVVectorEnv",
         ),

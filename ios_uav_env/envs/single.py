@@ -16,6 +16,7 @@ import gymnasium as gym
 import numpy as np
 from gymnasium import spaces
 
+from ios_uav_env.envs.knowledge import NodeTrack, mobile_bounds, observe_slot, start_track
 from ios_uav_env.envs.observation import (
     ENERGY_NAMES,
     INSTANCE_NAMES,
@@ -172,6 +173,21 @@ class IOSUAVEnv(gym.Env):
     ``env.unwrapped.reference_efficiency``. The episode's score is its EE
     (``info["energy_efficiency"]`` at slot N, ``envs.rollout.Episode.energy_efficiency``).
 
+    ## Moving nodes
+
+    With a motion model in the scenario (``config.motion``, e.g. ``motion=GaussMarkov()``; the id
+    ``ios_uav_env/IOSUAV-Mobile-v0``) or ``knowledge`` other than ``"exact"`` the env is
+    *mobile* (``ios_uav_env.envs.knowledge``): each reset draws the node's path w[1..N] from
+    ``np_random`` (``env.unwrapped.paths``, the truth the episode is scored on), the rate of
+    slot n is r(q[n]; w[n]) (reward and ``info`` as above, on the true path), and features 4-5
+    and 10 are what the UAV is told: the true position and rate (``"exact"``), a position
+    report with N(0, report_sigma^2) error per component and the slot's measured (faded) rate
+    (``"reports"``), or only the measured rate (``"rates"``; features 4-5 are 0). Reports and
+    measured rates are clipped to the space (``knowledge``'s docstring); their bounds cover
+    every motion rectangle of the family. ``env.unwrapped.reports`` and ``.measured_rates``
+    hold the slots so far. The peak hint and the energy objective need a static, exactly
+    known node (``ValueError`` otherwise).
+
     ## Info
 
     The same keys on every step and at reset (``INFO_KEYS``), all numpy numbers (float64;
@@ -231,6 +247,8 @@ class IOSUAVEnv(gym.Env):
     - ``peak_hint`` (False): append the 3 features of the reachable rate peak.
     - ``energy_reference`` (None): lambda_ref (bits/J) of the energy reward (objective
       ``"energy_efficiency"``; see "Energy"); None: the scenario's optimistic reference.
+    - ``knowledge`` ("exact") and ``report_sigma`` (10 m): what the UAV is told of the node
+      each slot, see "Moving nodes".
     - ``render_mode``: None or "rgb_array" (the trajectory over the rate map; needs
       ``pip install ios-uav-env[render]``).
     - ``**kwargs``: ``EnvOptions`` fields (the options above) and ``ScenarioConfig`` fields,
@@ -254,7 +272,9 @@ class IOSUAVEnv(gym.Env):
       ``info`` with fixed keys (``INFO_KEYS``) and registration without a ``TimeLimit``; then
       ``info``'s ``power``, ``energy``, ``energy_efficiency`` and ``reward_energy`` (0 here),
       and the energy objective (ids ``ios_uav_env/IOSUAV-Energy-v0`` and
-      ``ios_uav_env/IOSUAV-Energy-Random-v0``: the energy features, the energy reward).
+      ``ios_uav_env/IOSUAV-Energy-Random-v0``: the energy features, the energy reward); then
+      moving, roughly known nodes (``knowledge``, ``report_sigma``, ``config.motion``; id
+      ``ios_uav_env/IOSUAV-Mobile-v0``).
     """
 
     metadata = {"render_modes": ["rgb_array"], "render_fps": 10}
@@ -292,6 +312,14 @@ class IOSUAVEnv(gym.Env):
             self._ranges(), self.options.length_scale, self.options.instance_features, self.options.peak_hint,
             self.energy_objective, self.options.energy_reference,
         )  # fmt: skip
+        # moving or roughly known node (ios_uav_env.envs.knowledge): a path and kernels per episode
+        base = self._ranges().base
+        self.mobile: bool = base.motion is not None or self.options.knowledge != "exact"
+        self._track: NodeTrack | None = None
+        self._rate_clip = math.inf
+        if self.mobile:
+            self._check_mobile()
+            low, high, self._rate_clip = mobile_bounds(self._ranges(), self.options, low, high)
         self.observation_space = spaces.Box(low, high, dtype=np.float32)
         # a batch of one episode for the kernels of ios_uav_env.envs.single_kernels (rows of length 1)
         self._flags = flags_of(self.options, self.energy_objective)
@@ -307,6 +335,19 @@ class IOSUAVEnv(gym.Env):
         self._set_config(self._base_config)
         self._path = np.zeros((1, self.config.N, 2))
         self._started = False
+
+    def _check_mobile(self) -> None:
+        """Refuse what a moving or roughly known node does not support (yet), naming the field."""
+        if self.options.peak_hint:
+            raise ValueError(
+                "peak_hint is the static node's rate peak: it needs a static, exactly known node "
+                "(motion=None and knowledge='exact')"
+            )
+        if self.energy_objective:
+            raise ValueError(
+                "the objective 'energy_efficiency' needs a static, exactly known node (motion=None and "
+                "knowledge='exact'): its reference efficiency is a static plan's"
+            )
 
     # --- options (read-only views of self.options) ---------------------------------------
     channel = property(lambda self: self.options.channel)
@@ -380,6 +421,11 @@ class IOSUAVEnv(gym.Env):
                 f"{field} has K = {cfg.K} ground_nodes; this env serves one node (K = 1): use "
                 "ios_uav_env/IOSUAV-MultiNode-v0 (MultiNodeEnv) for several"
             )
+        if cfg.motion is not None and not self.mobile:
+            raise ValueError(
+                f"{field} has a motion model; this env's nodes are static and exactly known (make an "
+                "env on the scenario instead: gym.make(id, config=cfg), or use ios_uav_env/IOSUAV-Mobile-v0)"
+            )
         if (cfg.objective == "energy_efficiency") != self.energy_objective:
             allowed = "'energy_efficiency'" if self.energy_objective else "'rate'"
             raise ValueError(
@@ -390,6 +436,17 @@ class IOSUAVEnv(gym.Env):
             cfg, self.options.length_scale, self.options.instance_features, self.observation_space,
             self.options.peak_hint, self.energy_objective, self.options.energy_reference,
         )  # fmt: skip
+        if self.mobile:  # where the node can be told to be, and the rate feature's bound
+            low, high, _ = mobile_bounds(ScenarioRanges.from_config(cfg), self.options, *self._space())
+            if np.any(high > self.observation_space.high) or np.any(low < self.observation_space.low):
+                raise ValueError(
+                    f"{field}: its node's motion rectangle (or reports) could take the node features "
+                    "out of this env's observation space; make an env on the scenario instead"
+                )
+
+    def _space(self) -> tuple[np.ndarray, np.ndarray]:
+        """The observation space's (low, high) as float64 arrays."""
+        return self.observation_space.low.astype(np.float64), self.observation_space.high.astype(np.float64)
 
     def _draw_normals(self) -> None:
         if self._rician:  # h_SS of the slot: real, then imaginary part
@@ -413,9 +470,14 @@ class IOSUAVEnv(gym.Env):
         if self._path.shape[1] != cfg.N:
             self._path = np.zeros((1, cfg.N, 2))
         self._path[0, 0] = self._state[0, 0:2] = cfg.q0
+        if self.mobile:  # the episode's node path, and its slot-1 kernel in the row
+            self._start_track(cfg)
+            self._nodes, self._params = self._track.nodes[0:1].copy(), self._track.params[0:1].copy()
         self._draw_normals()
         reset_rows(self._rows, self._state, self._episode, self._nodes, self._params, self._normals,
                    self._flags, self._obs, self._info_row)  # fmt: skip
+        if self.mobile:
+            self._observe(0, self._state[0, 0:2], self._obs[0])
         self._started = True
         return self._obs[0].copy(), self._info()
 
@@ -431,11 +493,55 @@ class IOSUAVEnv(gym.Env):
         if not (math.isfinite(ax) and math.isfinite(ay)):
             raise ValueError(f"action must be finite (no NaN or inf), got {action!r}")
         self._action[0, 0], self._action[0, 1] = ax, ay
+        slot = int(self._state[0, 2]) + 1  # 0-based index of the way-point this step flies to
+        if self.mobile:
+            self._nodes[0], self._params[0] = self._track.nodes[slot], self._track.params[slot]
         self._draw_normals()
         step_rows(self._action, self._state, self._episode, self._nodes, self._params, self._normals,
                   self._flags, self._obs, self._reward, self._terminated, self._info_row, self._path,
                   self._active)  # fmt: skip
+        if self.mobile:
+            self._observe(slot, self._state[0, 0:2], self._obs[0])
         return self._obs[0].copy(), float(self._reward[0]), bool(self._terminated[0]), False, self._info()
+
+    def _start_track(self, cfg: ScenarioConfig) -> None:
+        """Draw the episode's node path on ``cfg`` from ``np_random`` (``knowledge.start_track``;
+        after the scenario's draws, before the first slot's)."""
+        self._track = start_track(cfg, self.np_random, self.options.report_sigma)
+
+    def _observe(self, slot: int, q: np.ndarray, obs: np.ndarray) -> None:
+        """Write what the UAV at ``q`` is told of the node in ``slot`` into the observation row
+        ``obs`` (the node features 4-5 and, unless knowledge is exact, the rate feature 10:
+        ``knowledge.observe_slot``; the batched env calls it on each row's template env)."""
+        position, rate = observe_slot(
+            self._track, slot, q, self.options.knowledge, self.options.report_sigma, self._rate_clip,
+            self.np_random,
+        )  # fmt: skip
+        obs[4:6] = 0.0 if position is None else (position - q) / self.options.length_scale
+        if rate is not None:
+            obs[10] = rate
+
+    @property
+    def paths(self) -> np.ndarray:
+        """(N, 1, 2) m: the node's true position w[n] in every slot of the episode (drawn at reset;
+        the truth an evaluator scores on, ``score_plan(config, trajectory, paths=paths)``, not an
+        observation). Static nodes: the configured position in every slot."""
+        if self._track is None:
+            return np.repeat(np.asarray(self.config.nodes, dtype=float)[None], self.config.N, axis=0)
+        return self._track.paths.copy()
+
+    @property
+    def reports(self) -> np.ndarray:
+        """(n, 1, 2) m: the position reports of the slots so far (knowledge "reports"; else NaN)."""
+        n = len(self.trajectory)
+        return np.full((n, 1, 2), np.nan) if self._track is None else self._track.reports[:n].copy()
+
+    @property
+    def measured_rates(self) -> np.ndarray:
+        """(n,) bps/Hz: the measured rates of the slots so far, unclipped (knowledge "reports" or
+        "rates"; else NaN)."""
+        n = len(self.trajectory)
+        return np.full(n, np.nan) if self._track is None else self._track.measured[:n].copy()
 
     def _parse_action(self, action: Any) -> tuple[float, float]:
         try:

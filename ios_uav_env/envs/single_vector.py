@@ -61,6 +61,9 @@ class IOSUAVVectorEnv(BatchedEnv):
         # rows whose scenario is the env's own (not pinned, not drawn): see _load_row
         self._plain = np.zeros(b, dtype=np.bool_)
         self._q0 = np.asarray(template.base_config.q0, dtype=np.float64)
+        # a moving or roughly known node: per-row kernels per slot and observations by the
+        # rows' template envs (Python per row and slot: ios_uav_env.envs.knowledge)
+        self._mobile = template.mobile
 
     # --- rows -----------------------------------------------------------------------
     def _load_row(self, i: int, env: IOSUAVEnv) -> None:
@@ -75,17 +78,24 @@ class IOSUAVVectorEnv(BatchedEnv):
         self._nodes[i, :, :k] = nodes
         self._nodes[i, :, k:] = ((0.0,), (1.0,), (0.0,))  # padded nodes: zero weight
         self._params[i] = env.kernel.params
+        if self._mobile:  # the row's node path (drawn as the single env's reset does), slot 1's kernel
+            env._start_track(env.config)
+            self._nodes[i, :, :k], self._params[i] = env._track.nodes[0], env._track.params[0]
         self._episode[i] = env.episode_row
         self._state[i, 0:2] = self._path[i, 0] = env.config.q0
         # the env's own scenario object (a fixed id's): a plain reset keeps it. A pinned
-        # scenario, or a random env's draw (always a new object), is another object.
-        self._plain[i] = env.config is env.base_config
+        # scenario, or a random env's draw (always a new object), is another object. A mobile
+        # row draws a new path at every episode: never plain.
+        self._plain[i] = env.config is env.base_config and not self._mobile
         if self._rician:
             self._normals[i] = env.np_random.standard_normal(2)
 
     def _start_rows(self, rows: np.ndarray) -> None:
         reset_rows(rows, self._state, self._episode, self._nodes, self._params, self._normals, self._flags,
                    self._obs, self._info)  # fmt: skip
+        if self._mobile:
+            for i in rows:
+                self.envs[i]._observe(0, self._state[i, 0:2], self._obs[i])
 
     def _restart_rows(self, rows: np.ndarray) -> None:
         """New episodes on ``rows`` without a seed or options (autoreset, :meth:`restart`). A row
@@ -123,8 +133,15 @@ class IOSUAVVectorEnv(BatchedEnv):
 
     def _step_kernel(self, actions: np.ndarray, active: np.ndarray) -> None:
         """One slot of the ``active`` rows (the kernel checks that their actions are finite)."""
+        stepping = np.flatnonzero(active)
+        if self._mobile:  # each row's kernel of the slot it flies to
+            for i in stepping:
+                track, slot = self.envs[i]._track, int(self._state[i, 2]) + 1
+                if slot < len(track.params):  # (a row at its end is refused by the kernel below)
+                    k = track.nodes.shape[2]
+                    self._nodes[i, :, :k], self._params[i] = track.nodes[slot], track.params[slot]
         if self._rician:
-            for i in np.flatnonzero(active):
+            for i in stepping:
                 self._normals[i] = self.envs[i].np_random.standard_normal(2)
         bad = run_batched(step_rows_batched, step_rows, self.num_threads, actions, self._state, self._episode,
                           self._nodes, self._params, self._normals, self._flags, self._obs, self._reward,
@@ -134,6 +151,9 @@ class IOSUAVVectorEnv(BatchedEnv):
         if bad >= 0:  # nothing stepped
             rows = np.flatnonzero(~np.isfinite(actions).all(axis=1))
             raise ValueError(f"actions must be finite (no NaN or inf); rows {rows.tolist()[:10]} are not")
+        if self._mobile:
+            for i in stepping:
+                self.envs[i]._observe(int(self._state[i, 2]), self._state[i, 0:2], self._obs[i])
 
 
 class RandomIOSUAVVectorEnv(IOSUAVVectorEnv):

@@ -241,6 +241,7 @@ def test_every_id_of_the_package_has_a_batched_env():
         ios_uav_env.RANDOM_ENV_ID,
         *ios_uav_env.MULTINODE_IDS,
         *ios_uav_env.ENERGY_IDS,
+        *ios_uav_env.MOBILE_IDS,
     ]
     assert all(gym.spec(env_id).vector_entry_point for env_id in ids)
 

@@ -1,0 +1,151 @@
+r"""Moving, roughly known nodes in the single-node env: the truth and what the UAV observes of it.
+
+An env is *mobile* when its scenario has a motion model (``ScenarioConfig.motion``) or its
+``knowledge`` option is not ``"exact"``. Per episode (:func:`start_track`, at reset, from the
+env's ``np_random``) the node's path w[1..N] is drawn (``ios_uav_env.model.motion.node_paths``)
+and its rate kernel per slot built (``ios_uav_env.model.channel.path_kernels``): slot n's rate
+is r(q[n]; w[n]), the single-node model with G = w[n], the one the scorer uses
+(``score_plan(config, q, paths=...)``). What the UAV is told of slot n (:func:`observe_slot`):
+
+- ``"exact"``: the node's true position w[n] (the rate feature: r(q[n]; w[n]));
+- ``"reports"``: a position report z[n] = w[n] + e[n], e[n] ~ N(0, s^2 I_2)
+  (``ios_uav_env.model.reports.position_reports``, s = ``report_sigma``), and the rate it
+  measures in the slot, one faded sample log2(1 + eta |h|^2) of the Rician channel at its true
+  position (the draws of ``reports.measured_rates``);
+- ``"rates"``: the measured rate only (the node features are 0).
+
+**Clipping.** So that every observation lies in the space, a report is clipped to the node's
+motion rectangle (``motion.node_bounds``; the configured position for static nodes) widened by
+``REPORT_CLIP`` s, and a measured rate to the space's rate bound (the expected-gain bound plus
+``FADE_MARGIN``): a fix that far off is an outlier a receiver discards; under Rayleigh fading
+the rate clip binds with probability below exp(-9) per slot, and only where the expected
+rate is near the bound.
+
+**Draws** (after the scenario's and the paths' at reset, after the channel's normals at every
+slot): the report's two normals (``"reports"``), then the measured rate's two (``"reports"``
+and ``"rates"``).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from ios_uav_env.envs.observation import ground_free_rate_bound, length_bounds, pad
+from ios_uav_env.envs.options import KNOWLEDGE, EnvOptions
+from ios_uav_env.model.channel import faded_row, path_kernels
+from ios_uav_env.model.config import ScenarioConfig
+from ios_uav_env.model.mobility import BOX_MARGIN
+from ios_uav_env.model.motion import node_bounds, node_paths
+from ios_uav_env.model.reports import position_reports
+from ios_uav_env.model.scenarios import ScenarioRanges
+
+#: Report clip: the motion rectangle widened by this many ``report_sigma``.
+REPORT_CLIP = 4.0
+#: bps/Hz above the expected-gain rate bound where a measured rate is clipped (a factor 16 in SNR).
+FADE_MARGIN = 4.0
+
+__all__ = [
+    "FADE_MARGIN",
+    "KNOWLEDGE",
+    "REPORT_CLIP",
+    "NodeTrack",
+    "mobile_bounds",
+    "node_extent",
+    "observe_slot",
+    "start_track",
+]
+
+
+@dataclass(eq=False)
+class NodeTrack:
+    """One episode's node: its true path, its kernel per slot, and what was observed so far."""
+
+    paths: np.ndarray  # (N, 1, 2) m, the true positions w[n]
+    nodes: np.ndarray  # (N, 3, n), slot n's rate kernel (channel.path_kernels)
+    params: np.ndarray  # (N, P)
+    lo: np.ndarray  # (2,) m, the report clip's lower corner
+    hi: np.ndarray  # (2,) m, its upper corner
+    reports: np.ndarray  # (N, 1, 2) m, the reports of the slots so far (NaN: not yet)
+    measured: np.ndarray  # (N,) bps/Hz, the measured rates of the slots so far (NaN: not yet)
+
+
+def _rectangle(config: ScenarioConfig) -> tuple[np.ndarray, np.ndarray]:
+    """(lo, hi), (2,) m: where the node can be (its motion rectangle, or its position if static)."""
+    if config.motion is None:
+        w = np.asarray(config.ground_node, dtype=float)
+        return w, w
+    lo, hi = node_bounds(config)
+    return lo[0], hi[0]
+
+
+def start_track(config: ScenarioConfig, rng: np.random.Generator, sigma: float) -> NodeTrack:
+    """Draw the episode's node path from ``rng`` and build its kernel per slot (module docstring)."""
+    paths = node_paths(config, rng)
+    nodes, params = path_kernels(config.node_config(0), paths[:, 0])
+    lo, hi = _rectangle(config)
+    margin = REPORT_CLIP * sigma
+    full = np.full((config.N, 1, 2), np.nan)
+    return NodeTrack(paths, nodes, params, lo - margin, hi + margin, full, np.full(config.N, np.nan))
+
+
+def observe_slot(
+    track: NodeTrack,
+    slot: int,
+    q: np.ndarray,
+    knowledge: str,
+    sigma: float,
+    rate_high: float,
+    rng: np.random.Generator,
+) -> tuple[np.ndarray, float | None]:
+    """What the UAV at ``q`` learns in ``slot`` (0-based), drawn from ``rng``: the node position
+    it is told ((2,) m: the truth, the clipped report, or None for ``"rates"``) and the measured
+    rate (None for ``"exact"``: the env's own expected rate stays)."""
+    truth = track.paths[slot, 0]
+    position: np.ndarray | None = truth
+    if knowledge == "reports":
+        report = position_reports(truth[None], rng, sigma)[0]
+        position = track.reports[slot, 0] = np.clip(report, track.lo, track.hi)
+    if knowledge == "exact":
+        return position, None
+    n_re, n_im = rng.standard_normal(2)
+    rate = faded_row(float(q[0]), float(q[1]), float(n_re), float(n_im), track.nodes, track.params, slot)
+    track.measured[slot] = rate
+    return (None if knowledge == "rates" else position), min(rate, rate_high)
+
+
+def node_extent(ranges: ScenarioRanges, sigma: float) -> tuple[tuple[float, float], tuple[float, float]]:
+    """((x_lo, x_hi), (y_lo, y_hi)) m: where a told node position can be over the family
+    ``ranges``: the rectangles of every drawn node (the motion's box, or the scene box of the
+    node's range and the IOS centre widened by ``BOX_MARGIN``) widened by the report clip."""
+    base = ranges.base
+    margin = REPORT_CLIP * sigma
+    if base.motion is None:
+        (x0, x1), (y0, y1) = ranges.ground_x, ranges.ground_y
+    elif base.motion.box is not None:
+        (x0, x1), (y0, y1) = base.motion.box
+    else:
+        xc, yc = base.ios_center[0], base.ios_center[1]
+        x0, x1 = min(ranges.ground_x[0], xc) - BOX_MARGIN, max(ranges.ground_x[1], xc) + BOX_MARGIN
+        y0, y1 = min(ranges.ground_y[0], yc) - BOX_MARGIN, max(ranges.ground_y[1], yc) + BOX_MARGIN
+    return (x0 - margin, x1 + margin), (y0 - margin, y1 + margin)
+
+
+def mobile_bounds(
+    ranges: ScenarioRanges, options: EnvOptions, low: np.ndarray, high: np.ndarray
+) -> tuple[np.ndarray, np.ndarray, float]:
+    """The space of a mobile env over the family ``ranges``: ``low`` and ``high`` (the static
+    env's) with the node features (4-5) over :func:`node_extent` and the rate feature (10) over
+    the ground-free rate bound, plus ``FADE_MARGIN`` where it is a measured rate; and that rate
+    bound (bps/Hz, where a measured rate is clipped)."""
+    sigma = options.report_sigma if options.knowledge == "reports" else 0.0
+    reach = ranges.max_moves * ranges.base.D
+    lengths = length_bounds((ranges.start_x, ranges.start_y), [node_extent(ranges, sigma)], reach)
+    rate = max(ground_free_rate_bound(c) for c in ranges.configs_per_surface())
+    rate += 0.0 if options.knowledge == "exact" else FADE_MARGIN
+    low, high = low.copy(), high.copy()
+    high[4:6] = [pad(v / options.length_scale) for v in lengths[2:4]]
+    low[4:6] = -high[4:6]
+    high[10] = pad(rate)
+    return low, high, rate
