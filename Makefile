@@ -1,8 +1,8 @@
 # Two entry points on a fresh machine (see README):
 #   make demo   - create .venv, install everything, run the main job (planners vs shipped agents)
-#   make test   - create .venv, install everything, lint and run the test suite (examples/
-#                 included, tests/examples), then `make test-oldest` and `make test-versions`
-#                 side by side
+#   make test   - create .venv, install everything, lint and run the test suite (examples/ and
+#                 the docs' strict build included: tests/examples, tests/test_docs.py); beside it
+#                 the side venvs install, then `make test-oldest` and `make test-versions` run
 #   make test-oldest - the env and SB3 tests in .venv-oldest, on the oldest supported releases
 #   make test-versions - the wheel's own tests on the oldest and the newest supported Python
 PYTHON ?= python3.11
@@ -40,7 +40,7 @@ python_of = $(firstword $(foreach c,$(wildcard $(PYENV_ROOT)/versions/$(1).*/bin
 # the minor of a venv's or a target's stem (310 -> 3.10)
 minor_of = 3.$(patsubst 3%,%,$(1))
 
-.PHONY: demo test test-main side-venvs test-oldest test-versions docs lint format bench clean
+.PHONY: demo test test-main side side-venvs test-oldest test-versions docs lint format bench clean
 
 $(VENV)/.installed: pyproject.toml Makefile $(CONSTRAINTS)
 	@command -v $(PYTHON) >/dev/null 2>&1 || { echo "need $(PYTHON) (set PYTHON=...)"; exit 1; }
@@ -69,17 +69,23 @@ demo: $(VENV)/.installed
 	$(PY) -m ios_uav_env --out out/demo.png
 	$(PY) -m agents.evaluate --shipped --out out/compare
 
-# The side venvs (oldest releases, other Pythons) install while the main suite runs, at the
-# lowest CPU priority: the installs mostly wait on the disk and the network, the tests on the
-# cores. Then their tests run side by side.
-test: $(VENV)/.installed docs
-	$(VENV)/bin/ruff check .
-	$(VENV)/bin/ruff format --check .
-	$(MAKE) -j2 --output-sync=target test-main side-venvs
-	$(MAKE) -j3 --output-sync=target test-oldest test-versions
+# Two chains side by side from the start: the main one (install .venv, lint, the suite on two
+# workers) and the side one (install the side venvs, oldest releases and other Pythons, then run
+# their tests). The side installs run at the lowest CPU priority while the main venv installs
+# (pip mostly waits on the disk there: a core is free), their tests at a low one while the main
+# suite runs, in the time its workers wait on processes, Ray and signals; nice 10, not 19, so
+# that their subprocesses still get a share of a busy core within their timeouts. The docs'
+# strict build is a test of the suite (tests/test_docs.py), not a step of its own.
+test:
+	$(MAKE) -j2 --output-sync=target test-main side
 
 test-main: $(VENV)/.installed
+	$(VENV)/bin/ruff check .
+	$(VENV)/bin/ruff format --check .
 	$(PY) -m pytest -q -n 2 --durations=15
+
+side: side-venvs
+	nice -n 10 $(MAKE) -j3 --output-sync=target test-oldest test-versions
 
 side-venvs:
 	nice -n 19 $(MAKE) -j3 $(OLDEST_VENV)/.installed \
