@@ -241,8 +241,8 @@ def solve(
         window (scale in (0, 1], window even >= 2), and the bound with b = 0: every b is
         valid, and the smallest is returned. A variant whose relaxation has a path with an
         energy bound L <= 0 (b too large for the cells) gives no ratio: it is left out and
-        named in ``skipped`` (the bound with b = 0 always stands). Which is tightest depends on how closely the
-        relaxed optimum follows the reference: a relaxed path that hovers where b is large
+        named in ``skipped`` (the bound with b = 0 always stands). Which is tightest depends
+        on how closely the relaxed optimum follows the reference: a relaxed path that hovers where b is large
         saves about |b| h per move, which a smaller scale limits.
     start : float, optional
         A first lambda (bits/J, >= 0); default: the reference's EE, else 0.
