@@ -92,3 +92,25 @@ def test_bad_seed_and_sigma_are_refused() -> None:
         run_online(STATIC, MPC(k=None), -1)
     with pytest.raises(ValueError, match="report_sigma"):
         run_online(STATIC, MPC(k=None), 0, report_sigma=-1.0)
+
+
+def test_the_mobile_env_and_run_online_share_the_episodes_draws() -> None:
+    """One node, a pinned scenario and the same seed: the env's generator draws what
+    run_online's does, in the same order (the path, then per slot a report and a measured
+    rate), so an agent on the env and the planner face the same truth and the same noise.
+    Flying the planner's trajectory, the env reports, measures and scores what it did."""
+    from ios_uav_env.envs.single import IOSUAVEnv
+
+    config = STATIC.replace(ground_nodes=((-60.0, -20.0),), motion=GaussMarkov())
+    run = run_online(config, MPC(k=10), 4)
+    env = IOSUAVEnv(config, knowledge="reports")
+    env.reset(seed=4, options={"config": config})
+    np.testing.assert_array_equal(env.paths, run.paths)
+    q = run.trajectory
+    for n in range(1, config.N):
+        move = (q[n] - q[n - 1]) / config.D
+        env.step(move / max(1.0, float(np.hypot(*move))))
+    np.testing.assert_allclose(env.trajectory, q, atol=1e-9)  # the guard keeps a feasible move
+    np.testing.assert_array_equal(env.reports, run.reports)
+    np.testing.assert_allclose(env.measured_rates, run.measured[0], rtol=1e-9)  # ulp of the LoS phase
+    assert env._info()["average_rate"] == pytest.approx(run.score.rate, rel=1e-9) and run.score.rate > 0

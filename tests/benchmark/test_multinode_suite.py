@@ -136,14 +136,15 @@ def test_a_policys_plan_time_leaves_out_the_envs_scoring_lp(suite, monkeypatch):
     real = multinode_env.reported_maxmin_rate
 
     def slow(config, trajectory):
-        time.sleep(0.3)
+        time.sleep(1.0)
         return real(config, trajectory)
 
+    evaluate(StraightEqualShares(), suite, n=1)  # compiled first: the timed episode is warm
     monkeypatch.setattr(multinode_env, "reported_maxmin_rate", slow)
     start = time.perf_counter()
     results = evaluate(StraightEqualShares(), suite, n=1)
-    assert time.perf_counter() - start > 0.3  # the LP ran
-    assert 0.0 < results.scenarios[0].seconds < 0.2
+    assert time.perf_counter() - start > 1.0  # the LP ran
+    assert 0.0 < results.scenarios[0].seconds < 1.0  # a warm straight-line episode: milliseconds
     assert results.scenarios[0].best_schedule_rate == maxmin_rate(
         suite[0].config, results.scenarios[0].trajectory
     )
