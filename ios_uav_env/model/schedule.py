@@ -56,9 +56,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ios_uav_env.model.channel import as_positions, slot_rates
+from ios_uav_env.model.channel import as_positions, path_kernels, rates_of_rows, slot_rates
 from ios_uav_env.model.config import ScenarioConfig
-from ios_uav_env.model.motion import check_paths, is_static, node_config_at
+from ios_uav_env.model.motion import check_paths, is_static
 from ios_uav_env.model.trajectory import as_trajectory, average_rate
 
 #: Largest |primal - dual| a certified score may have, in units of max(scale, value) (bps/Hz;
@@ -122,14 +122,14 @@ def node_rates(config: ScenarioConfig, positions: np.ndarray, paths: np.ndarray 
 
 
 def _moving_rates(config: ScenarioConfig, q: np.ndarray, w: np.ndarray) -> np.ndarray:
-    """(K, n): r_k(q[i]; w_k[i]), one single-node model per distinct position of each node."""
+    """(K, n): r_k(q[i]; w_k[i]), slot i under node k's kernel at w_k[i] (``path_kernels``: one
+    surface projection for every slot, no config per position; the compiled sum of
+    ``rates_of_rows``, equal to ``slot_rates`` of ``node_config_at`` to rounding)."""
     out = np.empty((config.K, len(q)))
+    points = np.ascontiguousarray(q, dtype=np.float64)
     for k in range(config.K):
-        where, index = np.unique(w[:, k], axis=0, return_inverse=True)
-        index = np.asarray(index).reshape(-1)
-        for j, position in enumerate(where):
-            slots = np.flatnonzero(index == j)
-            out[k, slots] = slot_rates(node_config_at(config, k, position), q[slots])
+        nodes, params = path_kernels(config.node_config(k), w[:, k])
+        out[k] = rates_of_rows(points, nodes, params)
     return out
 
 
