@@ -81,6 +81,12 @@ REGISTRY: dict[str, Measurement] = {
             ("--quick",),
             "moving nodes (M = 60): bound, clairvoyant tour, MPC, plan once",
         ),
+        (
+            "mobile_single",
+            "mobile.py",
+            ("--single", "--scenarios", "3", "--T", "100"),
+            "one moving node (the mobile id): MPC, plan once, tracking on reports and exact",
+        ),
     ]
 }
 

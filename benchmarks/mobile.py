@@ -1,6 +1,6 @@
 """Moving, roughly known nodes: the clairvoyant bound and planner against MPC(k) and plan once.
 
-    python benchmarks/mobile.py [--scenarios 3] [--seed 5] [--T 60] [--quick]
+    python benchmarks/mobile.py [--scenarios 3] [--seed 5] [--T 60] [--quick] [--single]
 
 Scenarios: ``--scenarios`` seeded ones, K = 2..4 nodes uniform in [-150, 150] x [-100, 100] m,
 pedestrian Gauss-Markov motion (``GaussMarkov()`` defaults), q0 = (-150, 20), qF = (150, 20) m,
@@ -10,6 +10,13 @@ the clairvoyant bound (``dp_bound.clairvoyant_bound``), the clairvoyant tour
 (``tour.solve(paths=...)``), MPC k = 1, MPC k = 10 and plan once: the max-min rate, % of the
 bound and the planning seconds per episode. ``--quick``: M = 60 (ios_shape 10 x 6), 2
 scenarios, T = 30 s.
+
+``--single``: one node, scenarios of the mobile id ``ios_uav_env/IOSUAV-Mobile-v0`` (its ranges
+drawn from ``--seed``, T = ``--T``; ``--quick``: T = 40 s), and two more rows played in that
+env with the episode's seed: the env draws the same path, reports and measured-rate noise as
+``run_online`` (tested), so every row faces the same truth and the same noise.
+``hover at G (reports)`` flies ``HoverAt("ground")`` on the reported position, ``hover at G
+(exact)`` on the true one.
 """
 
 from __future__ import annotations
@@ -47,6 +54,40 @@ def scenarios(count: int, seed: int, horizon: float) -> list[tuple[str, int, Sce
     return out
 
 
+def single_scenarios(count: int, seed: int, horizon: float) -> list[tuple[str, int, ScenarioConfig]]:
+    """``count`` one-node scenarios of the mobile id's family with T = ``horizon`` (name, seed, config)."""
+    from ios_uav_env import MOBILE_ID, MOBILE_IDS
+    from ios_uav_env.envs.random_env import RandomIOSUAVEnv
+    from ios_uav_env.model.scenarios import sample_scenario
+
+    options = {k: v for k, v in MOBILE_IDS[MOBILE_ID].items() if k != "knowledge"}
+    ranges = RandomIOSUAVEnv(**options).ranges
+    rng = np.random.default_rng(seed)
+    return [(f"one{i}", seed + i, sample_scenario(rng, ranges).replace(T=horizon)) for i in range(count)]
+
+
+def env_rows(config: ScenarioConfig, seed: int) -> list[tuple[str, float, float]]:
+    """HoverAt("ground") in the single-node env pinned to ``config``, reset with ``seed``, on the
+    reports and on exact knowledge: (row, rate on the true path, seconds per episode)."""
+    from ios_uav_env import score_plan
+    from ios_uav_env.envs.policies import HoverAt
+    from ios_uav_env.envs.single import IOSUAVEnv
+
+    rows = []
+    for knowledge in ("reports", "exact"):
+        env = IOSUAVEnv(config, knowledge=knowledge)
+        policy = HoverAt("ground", D=config.D)
+        t0 = time.perf_counter()
+        obs, _ = env.reset(seed=seed, options={"config": config})
+        done = False
+        while not done:
+            obs, _, done, _, _ = env.step(policy(obs))
+        secs = time.perf_counter() - t0
+        rate = score_plan(config, env.trajectory, paths=env.paths).rate
+        rows.append((f"hover at G ({knowledge})", rate, secs))
+    return rows
+
+
 def main() -> None:
     p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("--scenarios", type=int, default=3)
@@ -54,8 +95,11 @@ def main() -> None:
     p.add_argument("--T", type=float, default=60.0, help="mission duration (s)")
     p.add_argument("--bound-resolution", type=float, default=5.0, help="relaxed DP cell side (m)")
     p.add_argument("--quick", action="store_true", help="M = 60, 2 scenarios, T = 30 s")
+    p.add_argument("--single", action="store_true", help="one node: the mobile id's scenarios and env rows")
     args = p.parse_args()
-    cases = scenarios(2 if args.quick else args.scenarios, args.seed, 30.0 if args.quick else args.T)
+    draw = single_scenarios if args.single else scenarios
+    quick_t = 40.0 if args.single else 30.0  # (the mobile id's q0 and qF are 800 m apart: T >= 34 s)
+    cases = draw(2 if args.quick else args.scenarios, args.seed, quick_t if args.quick else args.T)
     if args.quick:
         cases = [(n, s, c.replace(ios_shape=(10, 6))) for n, s, c in cases]
     planners = (MPC(k=1), MPC(k=10), MPC(k=None))
@@ -70,6 +114,9 @@ def main() -> None:
         clair = tour.solve(config, paths=truth)
         rows = [("bound", bound, t_bound), ("clairvoyant tour", clair.mean_rate, clair.seconds)]
         rows += [(run.scheme, run.rate, run.seconds) for run in runs]
+        if args.single:
+            assert all(np.array_equal(run.paths, truth) for run in runs)  # one seed, one truth
+            rows += env_rows(config, seed)
         for row, rate, secs in rows:
             pct = 100.0 * rate / bound if bound > 0 else float("nan")
             shares.setdefault(row, []).append(pct)

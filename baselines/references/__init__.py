@@ -6,7 +6,10 @@ here, in a checkout:
 - :mod:`~baselines.references.draws`: the held-out scenarios of each suite;
 - :mod:`~baselines.references.solve`: one solve for any K (one node: DP and SCA; K > 1: the tour,
   SCA and the certified bound; an energy scenario: DP-EE, SCA-EE, loiter, hover and the EE
-  bound), cached per scenario and resumable (:func:`solve_all`);
+  bound; a mobile one: :mod:`~baselines.references.mobile`), cached per scenario and resumable
+  (:func:`solve_all`);
+- :mod:`~baselines.references.mobile`: the mobile suite's draws (scenarios with episode seeds),
+  its references (the clairvoyant bound and tour, MPC, plan once, tracking) and its content;
 - :mod:`~baselines.references.heldout`: the single-node suite's plan file
   (``agents/suite/heldout.json``: each scenario's DP and SCA plans), built by ``python -m
   agents.suite build``;
@@ -19,6 +22,7 @@ The command line freezes one suite at a time:
     python -m baselines.references single-node [--heldout agents/suite/heldout.json]
     python -m baselines.references multi-node [--n 48] [--cache out/multi-node-v1] [--plans DIR]
     python -m baselines.references energy [--n 40] [--cache out/energy-v1] [--jobs 2] [--quick]
+    python -m baselines.references mobile [--n 40] [--cache out/mobile-v1] [--jobs 2] [--quick]
 
 The single-node suite is frozen from its plan file; the multi-node and energy ones from the
 records :func:`solve_all` caches (``energy --quick``: a tiny check suite in ``out/energy-quick``).

@@ -1,5 +1,5 @@
-"""``python -m baselines.references {single-node,multi-node,energy}``: freeze a suite (module
-docstring of :mod:`baselines.references`)."""
+"""``python -m baselines.references {single-node,multi-node,energy,mobile}``: freeze a suite
+(module docstring of :mod:`baselines.references`)."""
 
 from __future__ import annotations
 
@@ -18,7 +18,14 @@ from baselines.references.content import (
     write_plans,
 )
 from baselines.references.draws import ENERGY_RANGES, ENERGY_SIZE, ENTROPY, energy_configs, multinode_configs
-from baselines.references.solve import DP_RESOLUTION, ENERGY_BOUND_RESOLUTION, solve_all
+from baselines.references.mobile import (
+    MOBILE_RANGES,
+    MOBILE_SIZE,
+    check_mobile_record,
+    mobile_content,
+    mobile_tasks,
+)
+from baselines.references.solve import BOUND_RESOLUTION, DP_RESOLUTION, ENERGY_BOUND_RESOLUTION, solve_all
 from ios_uav_env.benchmark.suite import SUITE_DIR
 
 HELDOUT = Path("agents/suite/heldout.json")
@@ -29,6 +36,11 @@ ENERGY_CACHE = Path("out/energy-v1")
 #: grid and the bound on 12.5 m cells, named energy-quick-v1, cached and written under out/.
 QUICK = {"n": 2, "T": (40.0, 45.0), "dp_resolution": 5.0, "bound_resolution": 12.5}
 QUICK_DIR = Path("out/energy-quick")
+MOBILE_CACHE = Path("out/mobile-v1")
+#: ``mobile --quick``: 2 scenarios of 40 to 45 s, the bound on 12.5 m cells, named
+#: mobile-quick-v1, cached and written under out/mobile-quick.
+MOBILE_QUICK = {"n": 2, "T": (40.0, 45.0), "bound_resolution": 12.5}
+MOBILE_QUICK_DIR = Path("out/mobile-quick")
 
 
 def _parser() -> argparse.ArgumentParser:
@@ -55,7 +67,18 @@ def _parser() -> argparse.ArgumentParser:
         action="store_true",
         help="a tiny check suite: 2 short scenarios, coarse grids, energy-quick-v1 in out/energy-quick",
     )
-    for sub in (single, multi, energy):
+    mobile = kinds.add_parser("mobile", help="solve the mobile held-out scenarios online and freeze them")
+    mobile.add_argument("--n", type=int, default=None, help=f"scenarios (default {MOBILE_SIZE}; --quick: 2)")
+    mobile.add_argument("--seed", type=int, default=ENTROPY, help=f"the draws' entropy (default {ENTROPY})")
+    mobile.add_argument("--cache", type=Path, default=None, help=f"per-scenario records ({MOBILE_CACHE})")
+    mobile.add_argument("--jobs", type=int, default=1, help="parallel solves (default 1: this process)")
+    mobile.add_argument("--compute-only", action="store_true", help="fill the cache, write no suite")
+    mobile.add_argument(
+        "--quick",
+        action="store_true",
+        help="a tiny check suite: 2 short scenarios, a coarse bound, mobile-quick-v1 in out/mobile-quick",
+    )
+    for sub in (single, multi, energy, mobile):
         sub.add_argument("--name", default=None, help="suite name (default <kind>-v1)")
         sub.add_argument("--version", type=int, default=1)
         sub.add_argument("--dir", type=Path, default=None, help="folder of the suite file (the package's)")
@@ -64,13 +87,16 @@ def _parser() -> argparse.ArgumentParser:
 
 def main(argv: Sequence[str] | None = None) -> int:
     args = _parser().parse_args(argv)
-    quick = args.kind == "energy" and args.quick
-    name = args.name or ("energy-quick-v1" if quick else f"{args.kind}-v1")
-    directory = args.dir or (QUICK_DIR if quick else SUITE_DIR)
+    quick = args.kind in ("energy", "mobile") and args.quick
+    name = args.name or (f"{args.kind}-quick-v1" if quick else f"{args.kind}-v1")
+    quick_dir = MOBILE_QUICK_DIR if args.kind == "mobile" else QUICK_DIR
+    directory = args.dir or (quick_dir if quick else SUITE_DIR)
     if args.version < 1:
         raise SystemExit(f"--version must be >= 1, got {args.version}")
     if args.kind == "energy":
         return _energy(args, name, directory)
+    if args.kind == "mobile":
+        return _mobile(args, name, directory)
     if args.kind == "single-node":
         if not args.heldout.is_file():
             raise SystemExit(
@@ -125,6 +151,37 @@ def _energy(args: argparse.Namespace, name: str, directory: Path) -> int:
         return 0
     try:
         content = energy_content(records, name, args.version, seed=args.seed, ranges=ranges)
+    except ValueError as err:
+        raise SystemExit(str(err)) from None
+    return _freeze(content, directory)
+
+
+def _mobile(args: argparse.Namespace, name: str, directory: Path) -> int:
+    """``mobile``: draw, solve (cached, resumable), check and freeze the mobile suite."""
+    import dataclasses
+
+    from ios_uav_env import ScenarioConfig
+
+    n = args.n if args.n is not None else (MOBILE_QUICK["n"] if args.quick else MOBILE_SIZE)
+    if n < 1 or args.jobs < 1:
+        raise SystemExit(f"--n and --jobs must be >= 1, got {n} and {args.jobs}")
+    if args.seed < 0:
+        raise SystemExit(f"--seed must be an integer >= 0 (a seed sequence's entropy), got {args.seed}")
+    ranges = dataclasses.replace(MOBILE_RANGES, T=MOBILE_QUICK["T"]) if args.quick else MOBILE_RANGES
+    bound_res = MOBILE_QUICK["bound_resolution"] if args.quick else BOUND_RESOLUTION
+    cache = args.cache or (MOBILE_QUICK_DIR / "cache" if args.quick else MOBILE_CACHE)
+    tasks = mobile_tasks(n, args.seed, ranges)
+    configs = [ScenarioConfig(**t["config"]) for t in tasks]
+    records = solve_all(configs, cache, bound_resolution=bound_res, jobs=args.jobs, progress=not args.quick,
+                        desc=name, seeds=[t["seed"] for t in tasks])  # fmt: skip
+    notes = [note for r in records for note in check_mobile_record(r)]
+    print(
+        "\n".join(notes) if notes else "checks: every plan feasible and every rate <= the clairvoyant bound"
+    )
+    if args.compute_only:
+        return 0
+    try:
+        content = mobile_content(records, name, args.version, seed=args.seed, ranges=ranges)
     except ValueError as err:
         raise SystemExit(str(err)) from None
     return _freeze(content, directory)

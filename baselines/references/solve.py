@@ -53,7 +53,9 @@ REQUIRED = {
     "single-node": ("config", "dp", "sca"),
     "multi-node": ("tour", "sca", "bound"),
     "energy": ("config", "dp", "sca", "bound", "loiter", "hover"),
-}
+    "mobile": ("config", "seed", "bound", "clairvoyant", "mpc_k1", "mpc_k10", "plan_once", "track_exact",
+               "track_reports"),
+}  # fmt: skip
 
 
 def _plan_record(plan: Any) -> dict[str, Any]:
@@ -184,10 +186,14 @@ def solve_scenario(
     bound_resolution: float = BOUND_RESOLUTION,
     energy_bound_resolution: float = ENERGY_BOUND_RESOLUTION,
 ) -> dict[str, Any]:
-    """The reference record of one task ``{"index", "config"}`` (a config dict), by its K and
-    objective (module docstring)."""
+    """The reference record of one task ``{"index", "config"}`` (a config dict; a mobile task
+    also its episode ``"seed"``), by its K, objective and motion (module docstring)."""
+    from baselines.references.mobile import is_mobile, solve_mobile
+
     config = ScenarioConfig(**task["config"])
-    if is_energy(config):
+    if is_mobile(config):
+        record = solve_mobile(config, int(task["seed"]), bound_resolution)
+    elif is_energy(config):
         record = _energy(config, dp_resolution, energy_bound_resolution)
     elif config.K == 1:
         record = _single(config, dp_resolution)
@@ -205,8 +211,16 @@ def task_key(
 ) -> str:
     """The cache file stem of a task: a hash of its config and its kind's planner settings (one
     node: DP's grid and SCA's defaults; K > 1: the bound's grid, and the scenario's index first;
-    an energy scenario: ``energy_`` first, the DP's grid and the EE bound's)."""
+    an energy scenario: ``energy_`` first, the DP's grid and the EE bound's; a mobile one:
+    ``mobile_`` first, its episode seed and the bound's grid)."""
+    from baselines.references.mobile import is_mobile
+
     config = ScenarioConfig(**task["config"])
+    if is_mobile(config):
+        blob = json.dumps(
+            [config.to_dict(), int(task["seed"]), bound_resolution, "mobile:v1"], sort_keys=True
+        )
+        return f"mobile_{hashlib.sha1(blob.encode()).hexdigest()[:16]}"
     if is_energy(config):
         blob = json.dumps(
             [config.to_dict(), dp_resolution, energy_bound_resolution, "energy:v1"], sort_keys=True
@@ -219,12 +233,20 @@ def task_key(
     return f"scenario{int(task['index']):02d}_{hashlib.sha1(blob.encode()).hexdigest()[:10]}"
 
 
-def tasks_of(configs: Sequence[ScenarioConfig]) -> list[dict[str, Any]]:
-    """The tasks of ``configs``: ``{"index": i, "config": config.to_dict()}``."""
-    return [{"index": i, "config": c.to_dict()} for i, c in enumerate(configs)]
+def tasks_of(configs: Sequence[ScenarioConfig], seeds: Sequence[int] | None = None) -> list[dict[str, Any]]:
+    """The tasks of ``configs``: ``{"index": i, "config": config.to_dict()}`` (and ``"seed"``: the
+    episode seeds of mobile scenarios)."""
+    tasks = [{"index": i, "config": c.to_dict()} for i, c in enumerate(configs)]
+    for task, seed in zip(tasks, seeds or [], strict=False):
+        task["seed"] = int(seed)
+    return tasks
 
 
 def _describe(i: int, rec: dict[str, Any]) -> str:
+    if "mpc_k1" in rec:
+        ub = rec["bound"]["upper_bound"]
+        mpc, track = (100 * rec[r]["rate"] / ub for r in ("mpc_k1", "track_reports"))
+        return f"#{i}: MPC(k=1) {mpc:.2f}% of bound, tracking the reports {track:.2f}%"
     if "loiter" in rec:
         dp, ub = rec["dp"]["energy_efficiency"], rec["bound"]["upper_bound"]
         sca = 100 * rec["sca"]["energy_efficiency"] / dp
@@ -249,18 +271,32 @@ def solve_all(
     backend: str = "local",
     address: str | None = None,
     desc: str = "references",
+    seeds: Sequence[int] | None = None,
 ) -> list[dict[str, Any]]:
     """Each scenario's :func:`solve_scenario` record, from the cache or solved (the longest
     horizon first, over ``jobs`` spawned processes, in this one for ``jobs=1``; ``backend="ray"``:
-    Ray tasks on the cluster at ``address``), each cached atomically as soon as it is solved."""
+    Ray tasks on the cluster at ``address``), each cached atomically as soon as it is solved.
+    ``seeds``: the episode seeds of mobile scenarios, one per config."""
+    from baselines.references.mobile import is_mobile
     from baselines.runner import run_tasks
 
-    kinds = {"energy" if is_energy(c) else "single-node" if c.K == 1 else "multi-node" for c in configs}
+    def kind(c: ScenarioConfig) -> str:
+        return (
+            "mobile"
+            if is_mobile(c)
+            else "energy"
+            if is_energy(c)
+            else "single-node"
+            if c.K == 1
+            else "multi-node"
+        )
+
+    kinds = {kind(c) for c in configs}
     settings = {"dp_resolution": dp_resolution, "bound_resolution": bound_resolution,
                 "energy_bound_resolution": energy_bound_resolution}  # fmt: skip
     required = sorted({k for kind in kinds for k in REQUIRED[kind]})
     return run_tasks(
-        functools.partial(solve_scenario, **settings), tasks_of(configs), cache_dir,
+        functools.partial(solve_scenario, **settings), tasks_of(configs, seeds), cache_dir,
         key=functools.partial(task_key, **settings), jobs=jobs, backend=backend, address=address,
         order=lambda task: -ScenarioConfig(**task["config"]).N, progress=progress, desc=desc,
         unit="scenario", describe=_describe, required=required,

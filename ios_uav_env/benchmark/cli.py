@@ -38,8 +38,7 @@ from ios_uav_env.benchmark.results import reference_results
 from ios_uav_env.benchmark.scoring import action_function, check_env_kwargs, evaluate, score_trajectories
 from ios_uav_env.benchmark.suite import (
     DEFAULT_SUITE,
-    MULTI_REFERENCES,
-    REFERENCES,
+    KIND_REFERENCES,
     SUITES,
     list_suites,
     load_suite,
@@ -156,7 +155,7 @@ def _parser() -> argparse.ArgumentParser:
     show.add_argument("--n", type=_count, default=None, help="the first n scenarios only")
     show.add_argument(
         "--reference",
-        choices=list(dict.fromkeys(REFERENCES + MULTI_REFERENCES)),
+        choices=list(dict.fromkeys(r for refs in KIND_REFERENCES.values() for r in refs)),
         default=None,
         help="one reference only (default: all of the suite's)",
     )

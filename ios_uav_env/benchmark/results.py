@@ -10,7 +10,10 @@ eq. (10)). What a suite reports is its :class:`Metrics`, named by the suite's ki
 - ``energy``: the energy efficiency EE = B T R / E (bits/J, ``score_plan``'s
   ``objective_value`` on the suite's ``"energy_efficiency"`` scenarios) as % of the energy DP's
   (the normaliser) and of the certified EE bound; each row also holds the plan's rate, its
-  energy (J) and its EE.
+  energy (J) and its EE;
+- ``mobile``: the average rate on the node's true path (``score_plan(..., paths=...)``) as % of
+  the clairvoyant bound (the normaliser) and of MPC(k=1), whose planning time the policy's is
+  compared with.
 
 ``pct_<reference>`` = 100 x rate / the reference's rate on the scenario (energy: 100 x EE / the
 reference's EE). **An infeasible plan
@@ -29,13 +32,22 @@ from typing import Any
 
 import numpy as np
 
-from ios_uav_env.benchmark.suite import ENERGY, MULTI_NODE, SCORED, SINGLE_NODE, Suite, SuiteScenario
+from ios_uav_env.benchmark.suite import (
+    ENERGY,
+    MOBILE,
+    MULTI_NODE,
+    SCORED,
+    SINGLE_NODE,
+    TIMED,
+    Suite,
+    SuiteScenario,
+)
 from ios_uav_env.io import atomic_write_text, save_rows_csv
 from ios_uav_env.model.config import ScenarioConfig
 from ios_uav_env.model.score import PlanScore
 
 #: How a reference is named in summaries and tables.
-LABELS = {"dp": "DP", "sca": "SCA", "bound": "bound"}
+LABELS = {"dp": "DP", "sca": "SCA", "bound": "bound", "mpc_k1": "MPC(k=1)"}
 
 
 @dataclass(frozen=True)
@@ -46,6 +58,7 @@ class Metrics:
     scores: tuple[str, ...]  # e.g. ("dp", "sca"): pct_dp, pct_sca
     schedules: bool  # K > 1 nodes: own shares, the best schedule, K per row
     energy: bool = False  # scores of the energy efficiency (bits/J); rows hold energy and EE
+    timed: str = "sca"  # the reference whose planning time a policy's is compared with (TIMED)
 
     @property
     def normaliser(self) -> str:
@@ -68,6 +81,7 @@ METRICS = {
     SINGLE_NODE: Metrics(SCORED[SINGLE_NODE], False),
     MULTI_NODE: Metrics(SCORED[MULTI_NODE], True),
     ENERGY: Metrics(SCORED[ENERGY], False, energy=True),
+    MOBILE: Metrics(SCORED[MOBILE], False, timed=TIMED[MOBILE]),
 }
 
 
@@ -163,7 +177,8 @@ class Aggregate:
     feasible: int
     stats: Mapping[str, float]  # mean_pct_<r>, p10_pct_<r>, min_pct_<r>, ..., mean_rate, ...
     median_seconds: float  # the policy's median time to plan (NaN if unknown)
-    sca_median_seconds: float  # SCA's, from the suite file, on the same scenarios
+    # the timed reference's (TIMED: SCA's; MPC(k=1)'s on a mobile suite), from the suite file
+    sca_median_seconds: float
 
     @classmethod
     def of(cls, rows: Sequence[ScenarioResult], scenarios: Sequence[SuiteScenario]) -> Aggregate:
@@ -238,7 +253,7 @@ class Results:
             parts.append(f"best schedule % of {LABELS[m.normaliser]} mean "
                          f"{a.stats[f'mean_best_pct_{m.normaliser}']:.2f}")  # fmt: skip
         parts.append(f"feasible {a.feasible}/{a.n}")
-        plan = f"median plan {plan_time(a.median_seconds)} (SCA {a.sca_median_seconds:.2f} s)"
+        plan = f"median plan {plan_time(a.median_seconds)} ({LABELS[m.timed]} {a.sca_median_seconds:.2f} s)"
         return f"{self.name} on {self.suite} ({a.n} scenarios): " + "; ".join([*parts, plan])
 
     def markdown(self) -> str:
@@ -313,10 +328,12 @@ def spread(values: Sequence[float]) -> tuple[float, float, float]:
 
 
 def plan_seconds(rows: Sequence[Any], scenarios: Sequence[SuiteScenario]) -> tuple[float, float]:
-    """The rows' median time to plan (NaN if any is unknown) and SCA's, from the suite file."""
+    """The rows' median time to plan (NaN if any is unknown) and the timed reference's (SCA's;
+    MPC(k=1)'s on a mobile suite: :data:`~ios_uav_env.benchmark.suite.TIMED`), from the suite file."""
     seconds = np.array([r.seconds for r in rows])
     median = float(np.median(seconds)) if np.isfinite(seconds).all() else math.nan
-    return median, float(np.median([s.reference["sca"]["seconds"] for s in scenarios]))
+    timed = TIMED[scenarios[0].kind]
+    return median, float(np.median([s.reference[timed]["seconds"] for s in scenarios]))
 
 
 def plan_time(median_seconds: float) -> str:

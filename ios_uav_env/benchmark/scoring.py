@@ -112,8 +112,13 @@ def episode(
     env: Any, act: Callable, scenario: SuiteScenario, seed: int | None, batched: bool, metrics: Metrics
 ) -> ScenarioResult:
     """One episode of ``act`` on ``scenario`` in ``env`` (a batch of one if ``batched``), scored by
-    ``score_plan`` of its trajectory (and, K > 1 nodes, the shares the policy chose)."""
+    ``score_plan`` of its trajectory (and, K > 1 nodes, the shares the policy chose). A mobile
+    scenario's episode is reset with its own seed (``seed`` is not used) and scored on the node's
+    true path, which must be the scenario's (``RuntimeError`` otherwise: the env drew another)."""
     cfg = scenario.config
+    paths = scenario.paths()
+    if paths is not None:
+        seed = scenario.seed
 
     def checked(obs: np.ndarray) -> np.ndarray:
         action = act(obs)
@@ -126,8 +131,15 @@ def episode(
     seconds -= getattr(base, "score_seconds", 0.0)  # the env's scoring LP is not the plan's time
     trajectory = base.trajectories[0] if batched else base.trajectory
     shares = base.shares if cfg.K > 1 else None  # (a multi-node suite runs the single env)
+    if paths is not None:
+        drawn = (base.envs[0] if batched else base).paths
+        if not np.array_equal(drawn, paths):
+            raise RuntimeError(
+                f"scenario {scenario.index}: the env drew another node path than the suite's (seed "
+                f"{scenario.seed}): its draws are not those of ios_uav_env.envs.knowledge"
+            )
     try:
-        score = score_plan(cfg, trajectory, shares)
+        score = score_plan(cfg, trajectory, shares, paths)
     except ValueError as err:
         raise ValueError(f"scenario {scenario.index}: {err}") from None
     return ScenarioResult.of(scenario, metrics, score, seconds, trajectory, shares)
@@ -254,8 +266,8 @@ def _at_once(
     """:func:`evaluate_scenarios` with ``at_once`` (``metrics``: the suite's)."""
     from ios_uav_env.envs.rollout import run_episodes
 
-    if suite.multi_node:
-        raise ValueError(f"at_once is for single-node suites; {suite.name} is a multi-node suite")
+    if suite.multi_node or suite.mobile:
+        raise ValueError(f"at_once is for static single-node suites; {suite.name} is a {suite.kind} suite")
     if not scenarios:
         raise ValueError("no scenarios to evaluate")
     vec, vector = _make_env(suite.env_id, kwargs, True, len(scenarios))
@@ -325,7 +337,7 @@ def score_trajectories(
             raise ValueError(f"scenario {s.index}: the trajectory has NaN or infinite values")
         a = None if s.index not in shares else np.asarray(shares[s.index], dtype=np.float64)
         try:
-            score = score_plan(s.config, q, a)
+            score = score_plan(s.config, q, a, s.paths())  # a mobile scenario: on its true path
         except ValueError as err:
             raise ValueError(f"scenario {s.index}: {err}") from None
         t = times.get(s.index, float("nan"))

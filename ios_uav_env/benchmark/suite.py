@@ -40,6 +40,24 @@ and holds, per scenario (objective ``"energy_efficiency"``), energy efficiencies
   (``baselines.loiter``), as ``dp``.
 
 Every EE is > 0 and none exceeds the bound (:func:`load_suite` refuses the file otherwise).
+
+A mobile suite (``"kind": "mobile"``, e.g. ``mobile-v1``; frozen by ``python -m
+baselines.references mobile``) runs in a moving-node id (``ios_uav_env.envs.registration.MOBILE_IDS``).
+Each scenario (one node with a motion model) holds an episode ``seed``: the env reset with it
+on the pinned scenario (``reset(seed=seed, options={"config": config})``) draws the node's true
+path, its reports and its measured-rate noise exactly as ``baselines.mpc.run_online(config,
+planner, seed)`` does, so every row faces the same truth and the same noise. Rates (bps/Hz, on
+the true path: ``score_plan(config, q, paths=...)``) of :data:`MOBILE_REFERENCES`:
+
+- ``bound``: the clairvoyant bound (``baselines.dp_bound.clairvoyant_bound`` on the true path:
+  ``upper_bound``, ``resolution``, ``seconds``), the normaliser: no online policy exceeds it;
+- ``clairvoyant``: the tour planner given the true path (``baselines.tour.solve(paths=...)``);
+- ``mpc_k1`` / ``mpc_k10`` / ``plan_once``: ``baselines.mpc.MPC(k=1)``, ``MPC(k=10)`` and
+  ``MPC(k=None)`` online (``rate``, ``feasible``, ``seconds``: planning time per episode);
+- ``track_exact`` / ``track_reports``: ``HoverAt("ground")`` in the env on the true position /
+  on the reports (fly to the node at full speed and follow it).
+
+No reference exceeds the bound (:func:`load_suite` refuses the file otherwise).
 """
 
 from __future__ import annotations
@@ -63,16 +81,30 @@ REFERENCES = ("dp", "sca", "hover_peak", "hover_ground")
 MULTI_REFERENCES = ("sca", "tour", "bound")
 #: Reference values every scenario of an energy suite holds.
 ENERGY_REFERENCES = ("dp", "sca", "bound", "loiter", "hover")
-SINGLE_NODE, MULTI_NODE, ENERGY = "single-node", "multi-node", "energy"
+#: Reference values every scenario of a mobile suite holds.
+MOBILE_REFERENCES = ("bound", "clairvoyant", "mpc_k1", "mpc_k10", "plan_once", "track_exact", "track_reports")
+SINGLE_NODE, MULTI_NODE, ENERGY, MOBILE = "single-node", "multi-node", "energy", "mobile"
 #: By suite kind: the references it may hold, and those its scores are percentages of (the
 #: normaliser first), whose rates must be > 0 on every scenario.
-KIND_REFERENCES = {SINGLE_NODE: REFERENCES, MULTI_NODE: MULTI_REFERENCES, ENERGY: ENERGY_REFERENCES}
-SCORED = {SINGLE_NODE: ("dp", "sca"), MULTI_NODE: ("sca", "bound"), ENERGY: ("dp", "bound")}
+KIND_REFERENCES = {
+    SINGLE_NODE: REFERENCES,
+    MULTI_NODE: MULTI_REFERENCES,
+    ENERGY: ENERGY_REFERENCES,
+    MOBILE: MOBILE_REFERENCES,
+}
+SCORED = {
+    SINGLE_NODE: ("dp", "sca"),
+    MULTI_NODE: ("sca", "bound"),
+    ENERGY: ("dp", "bound"),
+    MOBILE: ("bound", "mpc_k1"),
+}
+#: By suite kind: the reference whose planning time a policy's is compared with.
+TIMED = {SINGLE_NODE: "sca", MULTI_NODE: "sca", ENERGY: "sca", MOBILE: "mpc_k1"}
 #: By suite kind: the key of a plan reference's value (a bound's is ``"upper_bound"``) and its unit.
-VALUE_KEY = {SINGLE_NODE: "rate", MULTI_NODE: "rate", ENERGY: "energy_efficiency"}
-UNIT = {SINGLE_NODE: "bps/Hz", MULTI_NODE: "bps/Hz", ENERGY: "bits/J"}
-#: Relative slack of the energy suite's check that no reference's EE exceeds the bound (float
-#: rounding of two float64 computations of the same kind of sum; a real excess is far larger).
+VALUE_KEY = {SINGLE_NODE: "rate", MULTI_NODE: "rate", ENERGY: "energy_efficiency", MOBILE: "rate"}
+UNIT = {SINGLE_NODE: "bps/Hz", MULTI_NODE: "bps/Hz", ENERGY: "bits/J", MOBILE: "bps/Hz"}
+#: Relative slack of the energy and mobile suites' check that no reference exceeds the bound
+#: (float rounding of two float64 computations of the same kind of sum; a real excess is far larger).
 BOUND_REL = 1e-9
 
 
@@ -95,6 +127,9 @@ SUITES: dict[str, RegisteredSuite] = {
     "energy-v1": RegisteredSuite(
         "energy-v1.json", "08cba48a6aecf24dc29debc83c5beb6dc3ce29eeb3a2552e054c7decb6c6dec7"
     ),
+    "mobile-v1": RegisteredSuite(
+        "mobile-v1.json", "f3b2712dd4b82c0ce6bfc9bb941a930ad571db086c071d97f496f64cf18578e7"
+    ),
 }
 DEFAULT_SUITE = "single-node-v1"
 
@@ -107,6 +142,18 @@ class SuiteScenario:
     config: ScenarioConfig
     reference: Mapping[str, Mapping[str, Any]]
     kind: str = SINGLE_NODE  # the suite's kind: what value() reads (VALUE_KEY)
+    seed: int | None = None  # a mobile suite's episode seed: the node's path and the reports' noise
+
+    def paths(self) -> Any:
+        """(N, 1, 2) m: the node's true path of a mobile scenario (drawn from ``seed`` as the env
+        and ``run_online`` draw it); None for a static suite."""
+        if self.seed is None:
+            return None
+        import numpy as np
+
+        from ios_uav_env.model.motion import node_paths
+
+        return node_paths(self.config, np.random.default_rng(self.seed))
 
     def rate(self, reference: str) -> float:
         """The rate (bps/Hz) of ``reference`` (one of the suite's references) on this scenario;
@@ -165,6 +212,11 @@ class Suite:
     def energy(self) -> bool:
         """Scores are of the energy efficiency (bits/J), not of the rate."""
         return self.kind == ENERGY
+
+    @property
+    def mobile(self) -> bool:
+        """The node moves: each scenario's episode seed fixes its path and the reports' noise."""
+        return self.kind == MOBILE
 
     def __len__(self) -> int:
         return len(self.scenarios)
@@ -274,7 +326,7 @@ def _read_json(path: Path) -> Any:
 
 def _check_header(path: Path, data: Mapping[str, Any]) -> tuple[str, tuple[str, ...]]:
     """Check a suite file's fields other than its scenarios; its kind and references."""
-    from ios_uav_env.envs.registration import ENERGY_IDS, ENV_IDS, MULTINODE_IDS, RANDOM_ENV_ID
+    from ios_uav_env.envs.registration import ENERGY_IDS, ENV_IDS, MOBILE_IDS, MULTINODE_IDS, RANDOM_ENV_ID
 
     version = data.get("version")
     if isinstance(version, bool) or not isinstance(version, int) or version < 1:
@@ -282,7 +334,9 @@ def _check_header(path: Path, data: Mapping[str, Any]) -> tuple[str, tuple[str, 
     kind = data.get("kind", SINGLE_NODE)
     if kind not in KIND_REFERENCES:
         raise ValueError(f"{path}: kind must be one of {list(KIND_REFERENCES)}, got {kind!r}")
-    env_ids = {MULTI_NODE: list(MULTINODE_IDS), ENERGY: list(ENERGY_IDS)}.get(kind, [*ENV_IDS, RANDOM_ENV_ID])
+    env_ids = {MULTI_NODE: list(MULTINODE_IDS), ENERGY: list(ENERGY_IDS), MOBILE: list(MOBILE_IDS)}.get(
+        kind, [*ENV_IDS, RANDOM_ENV_ID]
+    )
     if data.get("env_id") not in env_ids:
         raise ValueError(
             f"{path}: env_id of a {kind} suite must be one of {env_ids}, got {data.get('env_id')!r}"
@@ -328,7 +382,7 @@ def _scenario(path: Path, kind: str, references: tuple[str, ...], position: int,
         config = ScenarioConfig(**rec["config"])
     except (TypeError, ValueError) as err:
         raise ValueError(f"{path}: scenario {index}: config: {err}") from None
-    if kind in (SINGLE_NODE, ENERGY) and config.K != 1:
+    if kind in (SINGLE_NODE, ENERGY, MOBILE) and config.K != 1:
         raise ValueError(
             f"{path}: scenario {index}: a {kind} suite's config has one node, got K = {config.K}"
         )
@@ -337,6 +391,18 @@ def _scenario(path: Path, kind: str, references: tuple[str, ...], position: int,
             f"{path}: scenario {index}: an energy suite's config has the objective 'energy_efficiency', "
             f"got {config.objective!r}"
         )
+    seed = rec.get("seed")
+    if kind == MOBILE:
+        if config.motion is None:
+            raise ValueError(
+                f"{path}: scenario {index}: a mobile suite's config needs a motion model, got None"
+            )
+        if isinstance(seed, bool) or not isinstance(seed, int) or seed < 0:
+            raise ValueError(
+                f"{path}: scenario {index}: seed must be an integer >= 0 (the episode's), got {seed!r}"
+            )
+    elif seed is not None:
+        raise ValueError(f"{path}: scenario {index}: only a mobile suite's scenarios have a seed")
     reference = {}
     for r in references:
         values = rec[r]
@@ -356,16 +422,17 @@ def _scenario(path: Path, kind: str, references: tuple[str, ...], position: int,
                     f"{path}: scenario {index}: {r}.{field} must be true or false, got {values[field]!r}"
                 )
         reference[r] = dict(values)
-    if kind == ENERGY and "bound" in reference:
+    if kind in (ENERGY, MOBILE) and "bound" in reference:
         bound = float(reference["bound"]["upper_bound"])
         above = [f"{r} {reference[r][VALUE_KEY[kind]]!r}" for r in references if r != "bound"
                  and float(reference[r][VALUE_KEY[kind]]) > bound * (1.0 + BOUND_REL)]  # fmt: skip
         if above:
+            what = "EE" if kind == ENERGY else "rate"
             raise ValueError(
-                f"{path}: scenario {index}: the certified bound.upper_bound {bound!r} bits/J is below "
-                f"{', '.join(above)}: no plan's EE may exceed it"
+                f"{path}: scenario {index}: the certified bound.upper_bound {bound!r} {UNIT[kind]} is below "
+                f"{', '.join(above)}: no plan's {what} may exceed it"
             )
-    return SuiteScenario(index, config, reference, kind)
+    return SuiteScenario(index, config, reference, kind, seed if kind == MOBILE else None)
 
 
 def _number(value: Any, where: str, above: float | None) -> None:

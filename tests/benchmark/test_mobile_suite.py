@@ -1,0 +1,124 @@
+"""The mobile suite kind: a tiny suite frozen by ``python -m baselines.references mobile --quick``
+loads, its checks refuse a tampered file, and a policy or a plan file is scored on it by the
+same ``evaluate`` / ``score_trajectories`` on the node's true path, as % of the clairvoyant
+bound and of MPC(k=1); the evaluator replays the suite's own env rows exactly."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from baselines.references.__main__ import main as references_main
+from baselines.references.mobile import mobile_tasks
+from ios_uav_env import MOBILE_IDS, score_plan
+from ios_uav_env.benchmark import evaluate, load_suite, reference_results, score_trajectories
+from ios_uav_env.envs.policies import HoverAt
+from ios_uav_env.model.motion import node_paths
+
+
+@pytest.fixture(scope="module")
+def frozen(tmp_path_factory) -> Path:
+    out = tmp_path_factory.mktemp("mobile")
+    argv = ["mobile", "--quick", "--n", "1", "--cache", str(out / "cache"), "--dir", str(out)]
+    assert references_main(argv) == 0
+    return out / "mobile-quick-v1.json"
+
+
+@pytest.fixture(scope="module")
+def suite(frozen):
+    return load_suite(frozen)
+
+
+def _tampered(frozen: Path, tmp_path: Path, change) -> Path:
+    data = json.loads(frozen.read_text())
+    change(data["scenarios"][0])
+    path = tmp_path / "tampered.json"
+    path.write_text(json.dumps(data))
+    return path
+
+
+def test_the_quick_suite_loads_as_a_mobile_suite(suite):
+    assert suite.kind == "mobile" and suite.mobile and suite.env_id in MOBILE_IDS
+    assert suite.normalizer == "bound" and suite.references[0] == "bound"
+    (s,) = suite.scenarios
+    assert s.config.motion is not None and s.config.K == 1 and isinstance(s.seed, int)
+    assert s.seed == mobile_tasks(1, 20261130)[0]["seed"]  # the held-out stream's own seed
+    ub = s.value("bound")
+    for r in suite.references[1:]:
+        assert 0 < s.value(r) <= ub and s.reference[r]["feasible"], r
+    np.testing.assert_array_equal(s.paths(), node_paths(s.config, np.random.default_rng(s.seed)))
+    assert np.ptp(s.paths()[:, 0, 0]) > 1.0  # the node walks
+
+
+def test_the_evaluator_replays_the_suites_env_rows_on_the_true_path(suite):
+    """HoverAt("ground") on the suite's env (reports) and on exact knowledge gives the stored
+    track rows exactly: the same seed, the same draws, the same scorer; batched too."""
+    (s,) = suite.scenarios
+    reports = evaluate(HoverAt("ground"), suite)
+    exact = evaluate(HoverAt("ground"), suite, env_kwargs={"knowledge": "exact"})
+    batched = evaluate(HoverAt("ground"), suite, batched=True)
+    assert reports.scenarios[0].rate == s.value("track_reports")
+    assert exact.scenarios[0].rate == s.value("track_exact")
+    assert batched.scenarios[0].rate == s.value("track_reports")
+    row = reports.scenarios[0]
+    assert row.pct_bound == pytest.approx(100 * row.rate / s.value("bound"))
+    assert row.pct_mpc_k1 == pytest.approx(100 * row.rate / s.value("mpc_k1"))
+    assert "MPC(k=1)" in reports.summary()
+    # the reset seed of a mobile scenario is its own: another evaluate seed changes nothing
+    assert evaluate(HoverAt("ground"), suite, seed=7).scenarios[0].rate == row.rate
+    # a plan file is scored on the true path too (not on the configured position)
+    files = score_trajectories({0: row.trajectory}, suite)
+    assert files.scenarios[0].rate == row.rate
+    static = score_plan(s.config.replace(motion=None), row.trajectory).rate
+    assert static != row.rate
+
+
+def test_an_env_that_draws_another_path_is_refused(suite, monkeypatch):
+    from ios_uav_env.envs import single
+
+    real = single.start_track
+
+    def shifted(cfg, rng, sigma):
+        rng.standard_normal()  # one draw before the path: another path
+        return real(cfg, rng, sigma)
+
+    monkeypatch.setattr(single, "start_track", shifted)
+    with pytest.raises(RuntimeError, match="another node path"):
+        evaluate(HoverAt("ground"), suite)
+
+
+def test_reference_rows_and_at_once(suite):
+    bound = reference_results(suite, "bound")
+    assert bound.scenarios[0].pct_bound == pytest.approx(100.0)
+    with pytest.raises(ValueError, match="static single-node suites"):
+        evaluate(HoverAt("ground"), suite, batched=True, at_once=True)
+
+
+@pytest.mark.parametrize(
+    ("change", "message"),
+    [
+        (lambda s: s.pop("seed"), "seed must be an integer >= 0"),
+        (lambda s: s.update(seed=-1), "seed must be an integer >= 0"),
+        (lambda s: s["config"].pop("motion"), "needs a motion model"),
+        (lambda s: s["mpc_k10"].update(rate=s["bound"]["upper_bound"] * 1.01), "is below mpc_k10"),
+        (lambda s: s["mpc_k1"].update(rate=0.0), r"mpc_k1.rate \(bps/Hz\) must be a finite number > 0"),
+    ],
+)
+def test_a_tampered_file_is_refused(frozen, tmp_path, change, message):
+    with pytest.raises(ValueError, match=message):
+        load_suite(_tampered(frozen, tmp_path, change))
+
+
+def test_a_seed_in_a_static_suite_is_refused(tmp_path):
+    from ios_uav_env.benchmark.suite import suite_path
+
+    data = json.loads(suite_path("energy-v1").read_text())
+    data["name"] = "energy-tampered"
+    data["scenarios"][0]["seed"] = 3
+    path = tmp_path / "static.json"
+    path.write_text(json.dumps(data))
+    with pytest.raises(ValueError, match="only a mobile suite's scenarios have a seed"):
+        load_suite(path)
