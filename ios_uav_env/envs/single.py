@@ -438,6 +438,7 @@ class IOSUAVEnv(gym.Env):
         )  # fmt: skip
         if self.mobile:  # where the node can be told to be, and the rate feature's bound
             low, high, _ = mobile_bounds(ScenarioRanges.from_config(cfg), self.options, *self._space())
+            low, high = low.astype(np.float32), high.astype(np.float32)  # rounded as the space's were
             if np.any(high > self.observation_space.high) or np.any(low < self.observation_space.low):
                 raise ValueError(
                     f"{field}: its node's motion rectangle (or reports) could take the node features "

@@ -35,6 +35,18 @@ MULTI_SUMMARY = re.compile(
 )
 MULTI_COLUMNS = {"mean % of SCA": "mean", "p10": "p10", "min": "min", "mean % of bound": "bound",
                  "best schedule % of SCA": "best", "feasible": "feasible"}  # fmt: skip
+ENERGY_SUMMARY = re.compile(
+    r"% of DP mean (?P<mean>-?[\d.]+) \| p10 (?P<p10>-?[\d.]+) \| min (?P<min>-?[\d.]+); "
+    r"% of bound mean (?P<bound>-?[\d.]+) \| p10 -?[\d.]+ \| min -?[\d.]+; feasible (?P<feasible>\d+/\d+)"
+)
+ENERGY_COLUMNS = {"mean % of DP": "mean", "p10": "p10", "min": "min", "mean % of bound": "bound",
+                  "feasible": "feasible"}  # fmt: skip
+MOBILE_SUMMARY = re.compile(
+    r"% of bound mean (?P<mean>-?[\d.]+) \| p10 (?P<p10>-?[\d.]+) \| min (?P<min>-?[\d.]+); "
+    r"% of MPC\(k=1\) mean (?P<mpc>-?[\d.]+) \| p10 -?[\d.]+ \| min -?[\d.]+; feasible (?P<feasible>\d+/\d+)"
+)
+MOBILE_COLUMNS = {"mean % of bound": "mean", "p10": "p10", "min": "min", "mean % of MPC(k=1)": "mpc",
+                  "feasible": "feasible"}  # fmt: skip
 
 
 def _rows(suite: str = "single-node-v1") -> list[dict[str, str]]:
@@ -51,10 +63,21 @@ def _rows(suite: str = "single-node-v1") -> list[dict[str, str]]:
 
 ROWS = _rows()
 MULTI_ROWS = _rows("multi-node-v1")
-#: Every row to run: (summary pattern, columns, row) of both suites.
-ALL_ROWS = [(SUMMARY, COLUMNS, row) for row in ROWS] + [
-    (MULTI_SUMMARY, MULTI_COLUMNS, row) for row in MULTI_ROWS
-]
+ENERGY_ROWS = _rows("energy-v1")
+MOBILE_ROWS = _rows("mobile-v1")
+#: Every row to run: (summary pattern, columns, row) of every suite's table.
+ALL_ROWS = (
+    [(SUMMARY, COLUMNS, row) for row in ROWS]
+    + [(MULTI_SUMMARY, MULTI_COLUMNS, row) for row in MULTI_ROWS]
+    + [(ENERGY_SUMMARY, ENERGY_COLUMNS, row) for row in ENERGY_ROWS]
+    + [(MOBILE_SUMMARY, MOBILE_COLUMNS, row) for row in MOBILE_ROWS]
+)
+KINDS = {
+    id(COLUMNS): "single",
+    id(MULTI_COLUMNS): "multi",
+    id(ENERGY_COLUMNS): "energy",
+    id(MOBILE_COLUMNS): "mobile",
+}
 
 
 def test_the_table_has_the_shipped_policies_and_the_references():
@@ -75,10 +98,20 @@ def test_the_multi_node_table_has_the_references_and_the_baselines():
     assert all("--suite multi-node-v1" in row["command"] for row in MULTI_ROWS)
 
 
+def test_the_energy_and_mobile_tables_are_sorted_and_on_their_suites():
+    for rows, column, suite in (
+        (ENERGY_ROWS, "mean % of DP", "energy-v1"),
+        (MOBILE_ROWS, "mean % of bound", "mobile-v1"),
+    ):
+        means = [float(row[column]) for row in rows]
+        assert means == sorted(means, reverse=True), f"{suite}: rows must be in order of {column}"
+        assert rows and all(f"--suite {suite}" in row["command"] for row in rows)
+    assert any("evaluate" in row["command"] for row in MOBILE_ROWS)  # a policy, not only references
+
+
 @pytest.mark.parametrize(
-    "pattern, columns, row", ALL_ROWS, ids=[f"{'multi' if c is MULTI_COLUMNS else 'single'}-{r['#']}"
-                                            for _, c, r in ALL_ROWS]
-)  # fmt: skip
+    "pattern, columns, row", ALL_ROWS, ids=[f"{KINDS[id(c)]}-{r['#']}" for _, c, r in ALL_ROWS]
+)
 def test_a_row_reproduces_from_its_command(pattern, columns, row, capsys):
     command = row["command"].strip("`")
     words = shlex.split(command)

@@ -182,3 +182,14 @@ def test_errors_name_the_field():
     wide = SHORT.replace(motion=GaussMarkov(box=((-2000.0, 2000.0), (-2000.0, 2000.0))))
     with pytest.raises(ValueError, match="motion rectangle"):
         env.reset(options={"config": wide})
+
+
+@pytest.mark.parametrize("knowledge", ["exact", "reports", "rates"])
+def test_every_mobile_suite_scenario_fits_the_mobile_ids_space(knowledge):
+    """A pinned scenario of the family is accepted whatever it draws, also one whose rate bound
+    is the family's own (the space's float32 rounding of the same value must not refuse it)."""
+    from ios_uav_env.benchmark.suite import load_suite
+
+    env = gym.make(MOBILE_ID, knowledge=knowledge).unwrapped
+    for scenario in load_suite("mobile-v1"):
+        env._check_scenario(scenario.config)
