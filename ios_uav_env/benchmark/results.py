@@ -115,6 +115,7 @@ class ScenarioResult:
     config: ScenarioConfig | None = field(default=None, repr=False, compare=False)
     energy: float = math.nan  # J, propulsion energy E of the flight (PlanScore.energy)
     energy_efficiency: float = math.nan  # bits/J, B T rate / E: an energy suite's score
+    seed: int | None = field(default=None, compare=False)  # a mobile scenario's episode seed
 
     @classmethod
     def of(
@@ -154,7 +155,7 @@ class ScenarioResult:
         best_pct = 100.0 * best_value / scenario.value(metrics.normaliser) if feasible else 0.0
         return cls(scenario.index, scenario.config.K, rate, best, feasible, float(worst), pct, best_pct,
                    float(seconds), bool(own), metrics, trajectory, shares, scenario.config,
-                   e, ee)  # fmt: skip
+                   e, ee, scenario.seed)  # fmt: skip
 
     def __getattr__(self, name: str) -> float:
         """``pct_<reference>`` and ``best_pct_<normaliser>`` by name (e.g. ``pct_dp``)."""
@@ -316,6 +317,10 @@ class Results:
             paths["figure"] = save_histogram(self, out / f"pct_{self.metrics.normaliser}.png")
             if self.metrics.schedules and any(r.trajectory is not None for r in self.scenarios):
                 paths["shares"] = save_shares_figure(self, out / "shares.png")
+            if any(r.seed is not None and r.trajectory is not None for r in self.scenarios):
+                from ios_uav_env.benchmark.figures import save_mobile_figure
+
+                paths["mobile"] = save_mobile_figure(self, out / "mobile.png")
         except ImportError:
             pass
         return paths

@@ -28,6 +28,7 @@ and ``"rates"``).
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -149,3 +150,18 @@ def mobile_bounds(
     low[4:6] = -high[4:6]
     high[10] = pad(rate)
     return low, high, rate
+
+
+def episode_reports(
+    config: ScenarioConfig, seed: int, sigma: float, knowledge: str = "reports"
+) -> tuple[np.ndarray, np.ndarray]:
+    """(true path (N, 1, 2), clipped reports (N, 1, 2), NaN unless ``"reports"``) of the episode
+    that the single-node env with channel "expected" and this ``knowledge`` draws when reset with
+    ``seed`` on the pinned ``config``: the draws do not depend on where the UAV flies (each slot
+    takes a report's two normals, then a measured rate's two), so they replay without the flight
+    (for figures; tested against the env)."""
+    rng = np.random.default_rng(seed)
+    track = start_track(config, rng, sigma)
+    for slot in range(config.N):
+        observe_slot(track, slot, np.asarray(config.q0, dtype=float), knowledge, sigma, math.inf, rng)
+    return track.paths, track.reports

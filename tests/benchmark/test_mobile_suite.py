@@ -122,3 +122,25 @@ def test_a_seed_in_a_static_suite_is_refused(tmp_path):
     path.write_text(json.dumps(data))
     with pytest.raises(ValueError, match="only a mobile suite's scenarios have a seed"):
         load_suite(path)
+
+
+@pytest.mark.parametrize("knowledge", ["reports", "exact"])
+def test_the_reports_replay_from_the_seed_without_the_flight(suite, knowledge):
+    """The figure's reports are the env's: the draws replay from the seed alone."""
+    from ios_uav_env.envs.knowledge import episode_reports
+    from ios_uav_env.envs.single import IOSUAVEnv
+
+    (s,) = suite.scenarios
+    env = IOSUAVEnv(s.config, knowledge=knowledge, report_sigma=7.0)
+    env.reset(seed=s.seed, options={"config": s.config})
+    while len(env.trajectory) < s.config.N:
+        env.step(np.array([0.3, -0.8]))
+    truth, reports = episode_reports(s.config, s.seed, 7.0, knowledge)
+    np.testing.assert_array_equal(truth, env.paths)
+    np.testing.assert_array_equal(reports, env.reports)
+
+
+def test_a_mobile_result_saves_its_figure(suite, tmp_path):
+    pytest.importorskip("matplotlib")
+    paths = evaluate(HoverAt("ground"), suite).save(tmp_path)
+    assert paths["mobile"].read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
