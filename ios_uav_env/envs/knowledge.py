@@ -14,6 +14,11 @@ is r(q[n]; w[n]), the single-node model with G = w[n], the one the scorer uses
   position (the draws of ``reports.measured_rates``);
 - ``"rates"``: the measured rate only (the node features are 0).
 
+With ``filter_estimate=True`` (``"reports"`` only; off by default, since estimating is part of the
+task) the node features are the Kalman filter's estimate of the node's position after the
+slot's report instead of the raw report: a memory-free summary of all the reports so far
+(``ios_uav_env.model.kalman.NodeFilter``, the estimator MPC uses), clipped as a report is.
+
 **Clipping.** So that every observation lies in the space, a report is clipped to the node's
 motion rectangle (``motion.node_bounds``; the configured position for static nodes) widened by
 ``REPORT_CLIP`` s, and a measured rate to the space's rate bound (the expected-gain bound plus
@@ -37,6 +42,7 @@ from ios_uav_env.envs.observation import ground_free_rate_bound, length_bounds, 
 from ios_uav_env.envs.options import KNOWLEDGE, EnvOptions
 from ios_uav_env.model.channel import faded_row, path_kernels
 from ios_uav_env.model.config import ScenarioConfig
+from ios_uav_env.model.kalman import NodeFilter
 from ios_uav_env.model.mobility import BOX_MARGIN
 from ios_uav_env.model.motion import node_bounds, node_paths
 from ios_uav_env.model.reports import position_reports
@@ -46,6 +52,8 @@ from ios_uav_env.model.scenarios import ScenarioRanges
 REPORT_CLIP = 4.0
 #: bps/Hz above the expected-gain rate bound where a measured rate is clipped (a factor 16 in SNR).
 FADE_MARGIN = 4.0
+#: m, the filter's report std when the reports are exact (report_sigma = 0), as MPC's.
+EXACT_SIGMA = 1e-6
 
 __all__ = [
     "FADE_MARGIN",
@@ -70,6 +78,8 @@ class NodeTrack:
     hi: np.ndarray  # (2,) m, its upper corner
     reports: np.ndarray  # (N, 1, 2) m, the reports of the slots so far (NaN: not yet)
     measured: np.ndarray  # (N,) bps/Hz, the measured rates of the slots so far (NaN: not yet)
+    config: ScenarioConfig | None = None  # the episode's scenario (the filter's model)
+    filter: NodeFilter | None = None  # the Kalman filter of the reports so far (filter_estimate)
 
 
 def _rectangle(config: ScenarioConfig) -> tuple[np.ndarray, np.ndarray]:
@@ -88,7 +98,7 @@ def start_track(config: ScenarioConfig, rng: np.random.Generator, sigma: float) 
     lo, hi = _rectangle(config)
     margin = REPORT_CLIP * sigma
     full = np.full((config.N, 1, 2), np.nan)
-    return NodeTrack(paths, nodes, params, lo - margin, hi + margin, full, np.full(config.N, np.nan))
+    return NodeTrack(paths, nodes, params, lo - margin, hi + margin, full, np.full(config.N, np.nan), config)
 
 
 def observe_slot(
@@ -99,15 +109,24 @@ def observe_slot(
     sigma: float,
     rate_high: float,
     rng: np.random.Generator,
+    estimate: bool = False,
 ) -> tuple[np.ndarray, float | None]:
     """What the UAV at ``q`` learns in ``slot`` (0-based), drawn from ``rng``: the node position
     it is told ((2,) m: the truth, the clipped report, or None for ``"rates"``) and the measured
-    rate (None for ``"exact"``: the env's own expected rate stays)."""
+    rate (None for ``"exact"``: the env's own expected rate stays). ``estimate`` (``"reports"``
+    only): the position told is the Kalman filter's estimate after this slot's report
+    (``ios_uav_env.model.kalman.NodeFilter`` on the raw reports, as MPC runs it), clipped alike."""
     truth = track.paths[slot, 0]
     position: np.ndarray | None = truth
     if knowledge == "reports":
-        report = position_reports(truth[None], rng, sigma)[0]
-        position = track.reports[slot, 0] = np.clip(report, track.lo, track.hi)
+        report = position_reports(truth[None], rng, sigma)
+        position = track.reports[slot, 0] = np.clip(report[0], track.lo, track.hi)
+        if estimate:
+            if track.filter is None:
+                track.filter = NodeFilter.start(track.config, report, max(sigma, EXACT_SIGMA))
+            else:
+                track.filter.step(report)
+            position = np.clip(track.filter.position[0], track.lo, track.hi)
     if knowledge == "exact":
         return position, None
     n_re, n_im = rng.standard_normal(2)

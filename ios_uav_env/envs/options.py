@@ -61,6 +61,8 @@ class EnvOptions:
     # what the UAV is told of the node each slot (KNOWLEDGE; "exact": its true position)
     knowledge: str = "exact"
     report_sigma: float = REPORT_SIGMA  # m, s: std of each component of a position report's error
+    # knowledge "reports": the node features are the Kalman filter's estimate, not the raw report
+    filter_estimate: bool = False
 
     def __post_init__(self) -> None:
         if self.channel not in CHANNELS:
@@ -70,8 +72,13 @@ class EnvOptions:
         object.__setattr__(
             self, "report_sigma", _number(self.report_sigma, "report_sigma (m)", positive=False)
         )
-        for name in ("arrival_guard", "instance_features", "peak_hint"):
+        for name in ("arrival_guard", "instance_features", "peak_hint", "filter_estimate"):
             object.__setattr__(self, name, _flag(getattr(self, name), name))
+        if self.filter_estimate and self.knowledge != "reports":
+            raise ValueError(
+                "filter_estimate is the Kalman filter of the position reports: it needs knowledge='reports', "
+                f"got knowledge={self.knowledge!r}"
+            )
         for name in ("reach_weight", "terminal_weight"):
             object.__setattr__(self, name, _number(getattr(self, name), name, positive=False))
         object.__setattr__(

@@ -185,8 +185,10 @@ class IOSUAVEnv(gym.Env):
     (``"reports"``), or only the measured rate (``"rates"``; features 4-5 are 0). Reports and
     measured rates are clipped to the space (``knowledge``'s docstring); their bounds cover
     every motion rectangle of the family. ``env.unwrapped.reports`` and ``.measured_rates``
-    hold the slots so far. The peak hint and the energy objective need a static, exactly
-    known node (``ValueError`` otherwise).
+    hold the slots so far. ``filter_estimate=True`` (reports only, off by default) tells the
+    Kalman filter's estimate of the position after each report instead of the raw report. The
+    peak hint and the energy objective need a static, exactly known node (``ValueError``
+    otherwise).
 
     ## Info
 
@@ -247,8 +249,8 @@ class IOSUAVEnv(gym.Env):
     - ``peak_hint`` (False): append the 3 features of the reachable rate peak.
     - ``energy_reference`` (None): lambda_ref (bits/J) of the energy reward (objective
       ``"energy_efficiency"``; see "Energy"); None: the scenario's optimistic reference.
-    - ``knowledge`` ("exact") and ``report_sigma`` (10 m): what the UAV is told of the node
-      each slot, see "Moving nodes".
+    - ``knowledge`` ("exact"), ``report_sigma`` (10 m) and ``filter_estimate`` (False): what the
+      UAV is told of the node each slot, see "Moving nodes".
     - ``render_mode``: None or "rgb_array" (the trajectory over the rate map; needs
       ``pip install ios-uav-env[render]``).
     - ``**kwargs``: ``EnvOptions`` fields (the options above) and ``ScenarioConfig`` fields,
@@ -516,7 +518,7 @@ class IOSUAVEnv(gym.Env):
         ``knowledge.observe_slot``; the batched env calls it on each row's template env)."""
         position, rate = observe_slot(
             self._track, slot, q, self.options.knowledge, self.options.report_sigma, self._rate_clip,
-            self.np_random,
+            self.np_random, self.options.filter_estimate,
         )  # fmt: skip
         obs[4:6] = 0.0 if position is None else (position - q) / self.options.length_scale
         if rate is not None:

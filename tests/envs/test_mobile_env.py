@@ -193,3 +193,29 @@ def test_every_mobile_suite_scenario_fits_the_mobile_ids_space(knowledge):
     env = gym.make(MOBILE_ID, knowledge=knowledge).unwrapped
     for scenario in load_suite("mobile-v1"):
         env._check_scenario(scenario.config)
+
+
+def test_the_filter_estimate_is_the_kalman_filter_of_the_raw_reports():
+    """filter_estimate: features 4-5 are NodeFilter's estimate after each raw report (replayed
+    from the generator), clipped as a report is; closer to the truth than the reports."""
+    from ios_uav_env.model.kalman import NodeFilter
+
+    sigma = 20.0
+    env = IOSUAVEnv(SHORT, knowledge="reports", report_sigma=sigma, filter_estimate=True)
+    observations, _, _ = fly(env, 5, ACTIONS)
+    rng = np.random.default_rng(5)
+    paths = node_paths(SHORT, rng)
+    lo, hi = (b[0] for b in node_bounds(SHORT))
+    q, told, filt = env.trajectory, [], None
+    for n in range(SHORT.N):
+        report = position_reports(paths[n], rng, sigma)
+        rng.standard_normal(2)  # the measured rate's draws
+        filt = NodeFilter.start(SHORT, report, sigma) if filt is None else (filt.step(report) or filt)
+        estimate = np.clip(filt.position[0], lo - REPORT_CLIP * sigma, hi + REPORT_CLIP * sigma)
+        np.testing.assert_array_equal(observations[n][4:6], np.float32((estimate - q[n]) / 400.0))
+        told.append(estimate)
+    error = np.linalg.norm(np.array(told) - paths[:, 0], axis=1).mean()
+    raw = np.linalg.norm(env.reports[:, 0] - paths[:, 0], axis=1).mean()
+    assert error < 0.7 * raw
+    with pytest.raises(ValueError, match="filter_estimate .* needs knowledge='reports'"):
+        IOSUAVEnv(SHORT, filter_estimate=True)
