@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import argparse
 import json
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from pathlib import Path
 
 from baselines.references.content import (
@@ -126,15 +126,38 @@ def _freeze(content: dict, directory: Path) -> int:
     return 0
 
 
-def _energy(args: argparse.Namespace, name: str, directory: Path) -> int:
-    """``energy``: draw, solve (cached, resumable), check and freeze the energy suite."""
-    import dataclasses
-
-    n = args.n if args.n is not None else (QUICK["n"] if args.quick else ENERGY_SIZE)
+def _size(args: argparse.Namespace, default: int, quick: int) -> int:
+    """The scenario count of a drawn suite (``--n``, else its default or the quick one), with
+    ``--n``, ``--jobs`` and ``--seed`` checked."""
+    n = args.n if args.n is not None else (quick if args.quick else default)
     if n < 1 or args.jobs < 1:
         raise SystemExit(f"--n and --jobs must be >= 1, got {n} and {args.jobs}")
     if args.seed < 0:
         raise SystemExit(f"--seed must be an integer >= 0 (a seed sequence's entropy), got {args.seed}")
+    return n
+
+
+def _finish(
+    args: argparse.Namespace, records: list, check: Callable, passed: str, content: Callable, directory: Path
+) -> int:
+    """Print the records' sanity notes (``check`` of each; ``passed`` if none), then, unless
+    ``--compute-only``, build the suite (``content()``) and freeze it."""
+    notes = [note for r in records for note in check(r)]
+    print("\n".join(notes) if notes else passed)
+    if args.compute_only:
+        return 0
+    try:
+        built = content()
+    except ValueError as err:
+        raise SystemExit(str(err)) from None
+    return _freeze(built, directory)
+
+
+def _energy(args: argparse.Namespace, name: str, directory: Path) -> int:
+    """``energy``: draw, solve (cached, resumable), check and freeze the energy suite."""
+    import dataclasses
+
+    n = _size(args, ENERGY_SIZE, QUICK["n"])
     ranges = dataclasses.replace(ENERGY_RANGES, T=QUICK["T"]) if args.quick else ENERGY_RANGES
     dp_res, bound_res = (
         (QUICK["dp_resolution"], QUICK["bound_resolution"])
@@ -145,15 +168,9 @@ def _energy(args: argparse.Namespace, name: str, directory: Path) -> int:
     configs = energy_configs(n, args.seed, ranges)
     records = solve_all(configs, cache, dp_resolution=dp_res, energy_bound_resolution=bound_res,
                         jobs=args.jobs, progress=not args.quick, desc=name)  # fmt: skip
-    notes = [note for r in records for note in check_energy_record(r)]
-    print("\n".join(notes) if notes else "checks: every plan feasible, SCA-EE >= DP-EE and every EE <= bound")
-    if args.compute_only:
-        return 0
-    try:
-        content = energy_content(records, name, args.version, seed=args.seed, ranges=ranges)
-    except ValueError as err:
-        raise SystemExit(str(err)) from None
-    return _freeze(content, directory)
+    passed = "checks: every plan feasible, SCA-EE >= DP-EE and every EE <= bound"
+    build = lambda: energy_content(records, name, args.version, seed=args.seed, ranges=ranges)  # noqa: E731
+    return _finish(args, records, check_energy_record, passed, build, directory)
 
 
 def _mobile(args: argparse.Namespace, name: str, directory: Path) -> int:
@@ -162,11 +179,7 @@ def _mobile(args: argparse.Namespace, name: str, directory: Path) -> int:
 
     from ios_uav_env import ScenarioConfig
 
-    n = args.n if args.n is not None else (MOBILE_QUICK["n"] if args.quick else MOBILE_SIZE)
-    if n < 1 or args.jobs < 1:
-        raise SystemExit(f"--n and --jobs must be >= 1, got {n} and {args.jobs}")
-    if args.seed < 0:
-        raise SystemExit(f"--seed must be an integer >= 0 (a seed sequence's entropy), got {args.seed}")
+    n = _size(args, MOBILE_SIZE, MOBILE_QUICK["n"])
     ranges = dataclasses.replace(MOBILE_RANGES, T=MOBILE_QUICK["T"]) if args.quick else MOBILE_RANGES
     bound_res = MOBILE_QUICK["bound_resolution"] if args.quick else BOUND_RESOLUTION
     cache = args.cache or (MOBILE_QUICK_DIR / "cache" if args.quick else MOBILE_CACHE)
@@ -174,17 +187,9 @@ def _mobile(args: argparse.Namespace, name: str, directory: Path) -> int:
     configs = [ScenarioConfig(**t["config"]) for t in tasks]
     records = solve_all(configs, cache, bound_resolution=bound_res, jobs=args.jobs, progress=not args.quick,
                         desc=name, seeds=[t["seed"] for t in tasks])  # fmt: skip
-    notes = [note for r in records for note in check_mobile_record(r)]
-    print(
-        "\n".join(notes) if notes else "checks: every plan feasible and every rate <= the clairvoyant bound"
-    )
-    if args.compute_only:
-        return 0
-    try:
-        content = mobile_content(records, name, args.version, seed=args.seed, ranges=ranges)
-    except ValueError as err:
-        raise SystemExit(str(err)) from None
-    return _freeze(content, directory)
+    passed = "checks: every plan feasible and every rate <= the clairvoyant bound"
+    build = lambda: mobile_content(records, name, args.version, seed=args.seed, ranges=ranges)  # noqa: E731
+    return _finish(args, records, check_mobile_record, passed, build, directory)
 
 
 if __name__ == "__main__":
