@@ -71,6 +71,12 @@ REGISTRY: dict[str, Measurement] = {
             ("race", "--seeds", "0", "1", "2"),
             "fast trainer, IOSUAV-MultiNode-v0: wall time to 97% of SCA",
         ),
+        (
+            "fast_race_energy",
+            "train_speed.py",
+            ("race", "--env", "ios_uav_env/IOSUAV-Energy-v0", "--seeds", "0", "1", "2"),
+            "fast trainer, IOSUAV-Energy-v0: wall time to 99% of DP-EE",
+        ),
         ("soak_train", "soak_train.py", (), "interrupted and resumed training: steps lost"),
         ("soak_faults", "soak_faults.py", (), "imitation and sweep, SIGKILL and full disk: work lost"),
         ("replay_tolerance", "replay_tolerance.py", (), "shipped models' replays under float32 noise"),
