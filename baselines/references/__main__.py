@@ -7,6 +7,7 @@ import argparse
 import json
 from collections.abc import Callable, Sequence
 from pathlib import Path
+from typing import Any
 
 from baselines.references.content import (
     check_energy_record,
@@ -43,6 +44,20 @@ MOBILE_QUICK = {"n": 2, "T": (40.0, 45.0), "bound_resolution": 12.5}
 MOBILE_QUICK_DIR = Path("out/mobile-quick")
 
 
+def _drawn_parser(
+    kinds: Any, kind: str, what: str, size: int, cache: Path, quick: str
+) -> argparse.ArgumentParser:
+    """The subcommand of a suite drawn from a spawned seed sequence and solved here (energy, mobile)."""
+    sub = kinds.add_parser(kind, help=what)
+    sub.add_argument("--n", type=int, default=None, help=f"scenarios (default {size}; --quick: 2)")
+    sub.add_argument("--seed", type=int, default=ENTROPY, help=f"the draws' entropy (default {ENTROPY})")
+    sub.add_argument("--cache", type=Path, default=None, help=f"per-scenario records ({cache})")
+    sub.add_argument("--jobs", type=int, default=1, help="parallel solves (default 1: this process)")
+    sub.add_argument("--compute-only", action="store_true", help="fill the cache, write no suite")
+    sub.add_argument("--quick", action="store_true", help=quick)
+    return sub
+
+
 def _parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(prog="python -m baselines.references", description=__doc__.splitlines()[0])
     kinds = p.add_subparsers(dest="kind", required=True)
@@ -56,27 +71,21 @@ def _parser() -> argparse.ArgumentParser:
     multi.add_argument("--jobs", type=int, default=1, help="parallel solves (default 1: this process)")
     multi.add_argument("--plans", type=Path, default=None, help="also write the tour's and SCA's plans here")
     multi.add_argument("--compute-only", action="store_true", help="fill the cache, write no suite")
-    energy = kinds.add_parser("energy", help="solve the energy held-out scenarios and freeze them")
-    energy.add_argument("--n", type=int, default=None, help=f"scenarios (default {ENERGY_SIZE}; --quick: 2)")
-    energy.add_argument("--seed", type=int, default=ENTROPY, help=f"the draws' entropy (default {ENTROPY})")
-    energy.add_argument("--cache", type=Path, default=None, help=f"per-scenario records ({ENERGY_CACHE})")
-    energy.add_argument("--jobs", type=int, default=1, help="parallel solves (default 1: this process)")
-    energy.add_argument("--compute-only", action="store_true", help="fill the cache, write no suite")
-    energy.add_argument(
-        "--quick",
-        action="store_true",
-        help="a tiny check suite: 2 short scenarios, coarse grids, energy-quick-v1 in out/energy-quick",
+    energy = _drawn_parser(
+        kinds,
+        "energy",
+        "solve the energy held-out scenarios and freeze them",
+        ENERGY_SIZE,
+        ENERGY_CACHE,
+        "a tiny check suite: 2 short scenarios, coarse grids, energy-quick-v1 in out/energy-quick",
     )
-    mobile = kinds.add_parser("mobile", help="solve the mobile held-out scenarios online and freeze them")
-    mobile.add_argument("--n", type=int, default=None, help=f"scenarios (default {MOBILE_SIZE}; --quick: 2)")
-    mobile.add_argument("--seed", type=int, default=ENTROPY, help=f"the draws' entropy (default {ENTROPY})")
-    mobile.add_argument("--cache", type=Path, default=None, help=f"per-scenario records ({MOBILE_CACHE})")
-    mobile.add_argument("--jobs", type=int, default=1, help="parallel solves (default 1: this process)")
-    mobile.add_argument("--compute-only", action="store_true", help="fill the cache, write no suite")
-    mobile.add_argument(
-        "--quick",
-        action="store_true",
-        help="a tiny check suite: 2 short scenarios, a coarse bound, mobile-quick-v1 in out/mobile-quick",
+    mobile = _drawn_parser(
+        kinds,
+        "mobile",
+        "solve the mobile held-out scenarios online and freeze them",
+        MOBILE_SIZE,
+        MOBILE_CACHE,
+        "a tiny check suite: 2 short scenarios, a coarse bound, mobile-quick-v1 in out/mobile-quick",
     )
     for sub in (single, multi, energy, mobile):
         sub.add_argument("--name", default=None, help="suite name (default <kind>-v1)")
