@@ -249,6 +249,17 @@ def _run(
     return q, rate, n_solves, stop
 
 
+#: The stops of a start that count as a failure in a plan's ``info["status"]``.
+FAILED_STOPS = ("solver_error", "infeasible_iterate", "decrease")
+
+
+def start_status(summaries: list[dict[str, Any]]) -> tuple[list[str], str]:
+    """The starts of a multi-start run that stopped on a :data:`FAILED_STOPS` stop, and the run's
+    status: ``"ok"`` (none), ``"partial_failure"`` (some) or ``"failed"`` (all)."""
+    failed = [s["start"] for s in summaries if s["stop"] in FAILED_STOPS]
+    return failed, "ok" if not failed else "partial_failure" if len(failed) < len(summaries) else "failed"
+
+
 def solve(
     config: ScenarioConfig,
     *,
@@ -336,9 +347,7 @@ def solve(
         if best is None or rate > best[0]:
             best = (rate, q, name)
     assert best is not None
-    failed = [
-        s["start"] for s in summaries if s["stop"] in ("solver_error", "infeasible_iterate", "decrease")
-    ]
+    failed, status = start_status(summaries)
     stops = {s["start"]: s["stop"] for s in summaries if s["start"] in failed}
     # warn when the winning start hit a solver error or an infeasible iterate. A losing
     # start's early stop did not produce the plan, and "decrease" (the exact objective fell,
@@ -358,7 +367,7 @@ def solve(
         "start": winner,
         "starts": summaries,
         "n_iters": sum(s["iters"] for s in summaries),
-        "status": "ok" if not failed else "partial_failure" if len(failed) < len(summaries) else "failed",
+        "status": status,
         "solver": solver,
         "dpp": bool(dpp),
         "compile_seconds": 0.0 if was_compiled else surrogate.compile_seconds,  # 0: cached

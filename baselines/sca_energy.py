@@ -84,7 +84,7 @@ import numpy as np
 import ios_uav_env as ie
 from baselines.energy_bound import check_terms, induced_ratio
 from baselines.plan import Plan
-from baselines.sca import SCHEME_NAMES, _as_starts, _validate
+from baselines.sca import SCHEME_NAMES, _as_starts, _validate, start_status
 from baselines.sca_problem import LENGTH_SCALE, Linearisation, Surrogate
 from ios_uav_env import ScenarioConfig
 
@@ -395,9 +395,7 @@ def solve(
         if best is None or ee > best[0]:
             best = (ee, q, name)
     assert best is not None
-    failed = [
-        s["start"] for s in summaries if s["stop"] in ("solver_error", "infeasible_iterate", "decrease")
-    ]
+    _, status = start_status(summaries)
     stops = {s["start"]: s["stop"] for s in summaries}
     if stops[best[2]] in ("solver_error", "infeasible_iterate"):
         warnings.warn(
@@ -412,7 +410,7 @@ def solve(
         "start": winner,
         "starts": summaries,
         "n_iters": sum(s["iters"] for s in summaries),
-        "status": "ok" if not failed else "partial_failure" if len(failed) < len(summaries) else "failed",
+        "status": status,
         "solver": solver,
         "tol": float(tol),
         "inner_iters": int(inner_iters),
