@@ -103,18 +103,28 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+def check_out(
+    parser: argparse.ArgumentParser, args: argparse.Namespace, out: Path, shipped: Path, hint: str = ""
+) -> None:
+    """Exit through ``parser.error`` unless ``out`` may be written: not the ``shipped`` results
+    folder without ``--overwrite``, and writable (``baselines.runner.check_writable``)."""
+    if out.resolve() == shipped and not args.overwrite:
+        parser.error(
+            f"argument --out: {out} holds the shipped results; pass --overwrite to replace them{hint}"
+        )
+    try:
+        check_writable(out)
+    except OSError as exc:
+        parser.error(f"argument --out: {exc}")
+
+
 def multinode_main(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
     """``python -m experiments multinode``: solve (cached), write CSV, figures and claims."""
     from experiments import multinode
 
     spec = multinode.QUICK if args.quick else multinode.MultiSpec()
     out = args.out or Path("out/multinode-quick" if args.quick else "results/multinode")
-    if out.resolve() == RESULTS_DIR / "multinode" and not args.overwrite:
-        parser.error(f"argument --out: {out} holds the shipped results; pass --overwrite to replace them")
-    try:
-        check_writable(out)
-    except OSError as exc:
-        parser.error(f"argument --out: {exc}")
+    check_out(parser, args, out, RESULTS_DIR / "multinode")
     t0 = time.perf_counter()
     jobs = args.jobs or (None if args.backend == "ray" else 1)
     records = multinode.run(spec, out / "cache", jobs=jobs, backend=args.backend, address=args.address)
@@ -134,12 +144,7 @@ def energy_main(args: argparse.Namespace, parser: argparse.ArgumentParser) -> in
 
     spec = energy.QUICK if args.quick else energy.EnergySpec()
     out = args.out or (Path("out/energy-quick") if args.quick else RESULTS_DIR / "energy")
-    if out.resolve() == RESULTS_DIR / "energy" and not args.overwrite:
-        parser.error(f"argument --out: {out} holds the shipped results; pass --overwrite to replace them")
-    try:
-        check_writable(out)
-    except OSError as exc:
-        parser.error(f"argument --out: {exc}")
+    check_out(parser, args, out, RESULTS_DIR / "energy")
     t0 = time.perf_counter()
     jobs = args.jobs or (None if args.backend == "ray" else 1)
     try:
@@ -169,15 +174,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         return energy_main(args, parser)
     if args.out is None:
         args.out = QUICK_OUT if args.quick else Path("results")
-    if args.out.resolve() == RESULTS_DIR and not args.overwrite:
-        parser.error(
-            f"argument --out: {args.out} holds the shipped results; pass --overwrite to replace them "
-            "(or --out another folder)"
-        )
-    try:
-        check_writable(args.out)
-    except OSError as exc:
-        parser.error(f"argument --out: {exc}")
+    check_out(parser, args, args.out, RESULTS_DIR, " (or --out another folder)")
     spec = QUICK if args.quick else SweepSpec()
     t0 = time.perf_counter()
     try:
