@@ -31,7 +31,7 @@ from typing import Any
 from agents.fast.ppo import FastPPO
 from agents.fast.recipe import FastRecipe
 from agents.hyperparams import Hyperparams
-from agents.training.folder import clear_unstarted, write_config
+from agents.training.folder import start_fresh, write_config
 from agents.training.interrupt import StopFlag, TrainingInterrupted
 from agents.training.resuming import RunStart, TrainResult, Unloadable, continue_run
 from agents.training.settings import TrainSettings
@@ -112,11 +112,7 @@ def train_fast(
     torch.set_num_threads(torch_threads(settings.threads))
     start = continue_run(run_dir, settings, hp, total, loader=_load) if resume else None
     if start is None:
-        if resume:
-            print(f"{run_dir} holds no checkpoint: starting it again from step 0 with its own settings",
-                  file=sys.stderr)  # fmt: skip
-        clear_unstarted(run_dir)
-        run_dir.mkdir(parents=True, exist_ok=True)
+        start_fresh(run_dir, resume)
         set_random_seed(settings.seed)
         algo = FastPPO(settings.env_id, recipe, total, env_kwargs=settings.env_kwargs, seed=settings.seed)
         write_config(run_dir, settings, hp, total)

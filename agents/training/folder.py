@@ -169,6 +169,17 @@ def clear_unstarted(run_dir: Path) -> None:
             path.unlink()
 
 
+def start_fresh(run_dir: Path, again: bool) -> None:
+    """Make ``run_dir`` ready for a run from step 0: what a run stopped before its first
+    checkpoint left is removed (:func:`clear_unstarted`) and the folder exists; ``again`` (a
+    resume of a run with no checkpoint) says so on stderr."""
+    if again:
+        print(f"{run_dir} holds no checkpoint: starting it again from step 0 with its own settings",
+              file=sys.stderr)  # fmt: skip
+    clear_unstarted(run_dir)
+    run_dir.mkdir(parents=True, exist_ok=True)
+
+
 def check_resumable(run_dir: str | Path) -> Path:
     """``run_dir`` if it is a run folder (a readable ``config.json``) that can be written to and
     that no other process is writing (:func:`check_unlocked`)."""

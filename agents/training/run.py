@@ -15,9 +15,9 @@ from agents.training.envs import make_venv
 from agents.training.folder import (
     RUNS_DIR,
     check_new_run_dir,
-    clear_unstarted,
     lock_run_dir,
     run_name,
+    start_fresh,
     write_config,
 )
 from agents.training.interrupt import StopFlag, TrainingInterrupted, stop_on_signals
@@ -97,11 +97,7 @@ def _new_start(run_dir: Path, settings: TrainSettings, hp: Hyperparams, total: i
     from agents.callbacks import Clock
 
     clock = Clock()
-    if again:
-        print(f"{run_dir} holds no checkpoint: starting it again from step 0 with its own settings",
-              file=sys.stderr)  # fmt: skip
-    clear_unstarted(run_dir)
-    run_dir.mkdir(parents=True, exist_ok=True)
+    start_fresh(run_dir, again)
     set_random_seed(settings.seed)
     venv = make_venv(settings, hp, run_dir, None)
     model = ALGOS[settings.algo](
