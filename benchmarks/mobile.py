@@ -68,23 +68,17 @@ def single_scenarios(count: int, seed: int, horizon: float) -> list[tuple[str, i
 
 def env_rows(config: ScenarioConfig, seed: int) -> list[tuple[str, float, float]]:
     """HoverAt("ground") in the single-node env pinned to ``config``, reset with ``seed``, on the
-    reports and on exact knowledge: (row, rate on the true path, seconds per episode)."""
+    reports and on exact knowledge (``baselines.references.mobile.track``, the suite's own rows):
+    (row, rate on the true path, seconds per episode)."""
+    from baselines.references.mobile import track
     from ios_uav_env import score_plan
-    from ios_uav_env.envs.policies import HoverAt
-    from ios_uav_env.envs.single import IOSUAVEnv
+    from ios_uav_env.model.motion import node_paths
 
+    truth = node_paths(config, np.random.default_rng(seed))
     rows = []
     for knowledge in ("reports", "exact"):
-        env = IOSUAVEnv(config, knowledge=knowledge)
-        policy = HoverAt("ground", D=config.D)
-        t0 = time.perf_counter()
-        obs, _ = env.reset(seed=seed, options={"config": config})
-        done = False
-        while not done:
-            obs, _, done, _, _ = env.step(policy(obs))
-        secs = time.perf_counter() - t0
-        rate = score_plan(config, env.trajectory, paths=env.paths).rate
-        rows.append((f"hover at G ({knowledge})", rate, secs))
+        q, secs = track(config, seed, knowledge)
+        rows.append((f"hover at G ({knowledge})", score_plan(config, q, paths=truth).rate, secs))
     return rows
 
 

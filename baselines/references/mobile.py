@@ -19,6 +19,7 @@ env on the true position and on the reports. A planner that raises is recorded (
 from __future__ import annotations
 
 import dataclasses
+import functools
 import time
 import traceback
 from collections.abc import Mapping, Sequence
@@ -42,7 +43,7 @@ TRACKS = {"track_exact": "exact", "track_reports": "reports"}
 PLANS = ("clairvoyant", *ONLINE, *TRACKS)
 
 __all__ = ["MOBILE_RANGES", "MOBILE_SIZE", "MOBILE_SPAWN_KEY", "check_mobile_record", "is_mobile",
-           "mobile_content", "mobile_tasks", "solve_mobile"]  # fmt: skip
+           "mobile_content", "mobile_tasks", "solve_mobile", "track"]  # fmt: skip
 
 
 def is_mobile(config: ScenarioConfig) -> bool:
@@ -70,8 +71,9 @@ def _failed(err: BaseException, seconds: float) -> dict[str, Any]:
             "error": "".join(traceback.format_exception_only(err)).strip()}  # fmt: skip
 
 
-def _track(config: ScenarioConfig, seed: int, knowledge: str) -> tuple[np.ndarray, float]:
-    """HoverAt("ground") in the single-node env on ``config`` reset with ``seed``: (q, seconds)."""
+def track(config: ScenarioConfig, seed: int, knowledge: str) -> tuple[np.ndarray, float]:
+    """HoverAt("ground") in the single-node env with ``knowledge``, pinned to ``config`` and reset
+    with ``seed``: (the flown trajectory (N, 2) m, seconds of the episode)."""
     from ios_uav_env.envs.policies import HoverAt
     from ios_uav_env.envs.single import IOSUAVEnv
 
@@ -92,13 +94,16 @@ def solve_mobile(config: ScenarioConfig, seed: int, bound_resolution: float) -> 
 
     truth = node_paths(config, np.random.default_rng(seed))
     record: dict[str, Any] = {"config": config.to_dict(), "seed": int(seed)}
+
+    def online(k: int | None) -> tuple[np.ndarray, float]:  # its planning time, not its drawing
+        run = run_online(config, MPC(k=k), seed)
+        return run.trajectory, run.seconds
+
     solvers = {"clairvoyant": lambda: (tour.solve(config, paths=truth).trajectory, None)}
     for name, k in ONLINE.items():
-        solvers[name] = lambda k=k: (lambda run: (run.trajectory, run.seconds))(
-            run_online(config, MPC(k=k), seed)
-        )
+        solvers[name] = functools.partial(online, k)
     for name, knowledge in TRACKS.items():
-        solvers[name] = lambda knowledge=knowledge: _track(config, seed, knowledge)
+        solvers[name] = functools.partial(track, config, seed, knowledge)
     for name, solve in solvers.items():
         t0 = time.perf_counter()
         try:

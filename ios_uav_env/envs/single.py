@@ -30,6 +30,7 @@ from ios_uav_env.envs.options import CHANNELS, EnvOptions, split_kwargs
 from ios_uav_env.envs.single_kernels import INFO, STATE, episode_row, flags_of, reset_rows, step_rows
 from ios_uav_env.model.channel import RateKernel, rate_kernel, slot_rates
 from ios_uav_env.model.config import ScenarioConfig, as_config, scenario_option
+from ios_uav_env.model.motion import static_paths
 from ios_uav_env.model.peak import rate_peak
 from ios_uav_env.model.scenarios import ScenarioRanges
 
@@ -530,7 +531,7 @@ class IOSUAVEnv(gym.Env):
         the truth an evaluator scores on, ``score_plan(config, trajectory, paths=paths)``, not an
         observation). Static nodes: the configured position in every slot."""
         if self._track is None:
-            return np.repeat(np.asarray(self.config.nodes, dtype=float)[None], self.config.N, axis=0)
+            return static_paths(self.config)
         return self._track.paths.copy()
 
     @property
