@@ -40,7 +40,9 @@ true ones.
 
 **Draws** (:func:`run_online`): one numpy Generator ``np.random.default_rng(seed)``: the true
 paths (``node_paths``, unless given), then per slot the K reports and, after serving, one
-faded sample per served node in node order; one seed gives one episode, bit for bit.
+faded sample per node in node order (a node not served, share <= ``SERVED_SHARE``, draws its
+sample too and measures nothing, so the stream does not depend on the shares: the draws of the
+multi-node env's ``knowledge="reports"``); one seed gives one episode, bit for bit.
 
 **Score**: ``ios_uav_env.score_plan`` on the true paths with the planner's own shares.
 ``seconds`` is the wall time spent planning (filter, tour, schedules), not drawing or scoring.
@@ -60,15 +62,13 @@ from baselines import tour
 from ios_uav_env import ScenarioConfig
 from ios_uav_env.model.kalman import NodeFilter
 from ios_uav_env.model.motion import check_paths, node_bounds, node_paths
-from ios_uav_env.model.reports import REPORT_SIGMA, measured_rates, position_reports
+from ios_uav_env.model.reports import REPORT_SIGMA, SERVED_SHARE, measured_rates, position_reports
 from ios_uav_env.model.score import PlanScore
 
 #: m, the filter's report std when the reports are exact (``report_sigma = 0``).
 EXACT_SIGMA = 1e-6
-#: Shares below this are treated as "not served" (no rate measured).
-SERVED_SHARE = 1e-9
 
-__all__ = ["EXACT_SIGMA", "MPC", "OnlineResult", "run_online"]
+__all__ = ["EXACT_SIGMA", "MPC", "SERVED_SHARE", "OnlineResult", "run_online"]
 
 
 @dataclass(frozen=True)
@@ -211,13 +211,13 @@ def run_online(
             q[n + 1] = plan_q[n + 1]
         here = ie.node_rates(config, q[n : n + 1], estimate[None])[:, 0]
         seconds += time.perf_counter() - t0
-        served = [k for k in range(k_nodes) if shares[k, n] > SERVED_SHARE]
-        if served:
-            sample = measured_rates(
-                config, np.repeat(q[n : n + 1], len(served), axis=0),
-                np.repeat(truth[n : n + 1], len(served), axis=0), np.array(served), rng,
-            )  # fmt: skip
-            measured[served, n] = sample
+        # every node's sample is drawn (the stream does not depend on the shares); the served keep theirs
+        sample = measured_rates(
+            config, np.repeat(q[n : n + 1], k_nodes, axis=0), np.repeat(truth[n : n + 1], k_nodes, axis=0),
+            np.arange(k_nodes), rng,
+        )  # fmt: skip
+        served = shares[:, n] > SERVED_SHARE
+        measured[served, n] = sample[served]
         credited[:, n] = here if planner.credit == "model" else np.nan_to_num(measured[:, n])
     score = ie.score_plan(config, q, shares if k_nodes > 1 else None, paths=truth, best_schedule=False)
     return OnlineResult(

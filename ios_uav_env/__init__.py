@@ -115,6 +115,8 @@ if _HAS_GYMNASIUM:
         MOBILE_ID,
         MOBILE_IDS,
         MULTINODE_IDS,
+        MULTINODE_MOBILE_ID,
+        MULTINODE_MOBILE_IDS,
         RANDOM_ENV_ID,
         register_envs,
     )
@@ -132,6 +134,8 @@ if _HAS_GYMNASIUM:
         "MOBILE_ID",
         "MOBILE_IDS",
         "MULTINODE_IDS",
+        "MULTINODE_MOBILE_ID",
+        "MULTINODE_MOBILE_IDS",
         "MultiNodeEnv",
         "RANDOM_ENV_ID",
         "RandomIOSUAVEnv",

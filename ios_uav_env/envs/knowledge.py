@@ -45,7 +45,7 @@ from ios_uav_env.model.config import ScenarioConfig
 from ios_uav_env.model.kalman import NodeFilter
 from ios_uav_env.model.mobility import BOX_MARGIN
 from ios_uav_env.model.motion import node_bounds, node_paths
-from ios_uav_env.model.reports import position_reports
+from ios_uav_env.model.reports import SERVED_SHARE, position_reports
 from ios_uav_env.model.scenarios import ScenarioRanges
 
 #: Report clip: the motion rectangle widened by this many ``report_sigma``.
@@ -60,9 +60,13 @@ __all__ = [
     "KNOWLEDGE",
     "REPORT_CLIP",
     "NodeTrack",
+    "NodesTrack",
     "mobile_bounds",
     "node_extent",
+    "nodes_extent",
+    "observe_nodes",
     "observe_slot",
+    "start_nodes_track",
     "start_track",
 ]
 
@@ -184,3 +188,105 @@ def episode_reports(
     for slot in range(config.N):
         observe_slot(track, slot, np.asarray(config.q0, dtype=float), knowledge, sigma, math.inf, rng)
     return track.paths, track.reports
+
+
+# --- several nodes (MultiNodeEnv) --------------------------------------------------------------
+@dataclass(eq=False)
+class NodesTrack:
+    """One episode's K nodes in the multi-node env: their true paths, each node's kernel per slot,
+    what was observed so far and the UAV's own tally of what it served (measured rates)."""
+
+    paths: np.ndarray  # (N, K, 2) m, the true positions w_k[n]
+    nodes: np.ndarray  # (K, N, 3, Q), node k's rate kernel in slot n, padded (zero weight) to Q
+    params: np.ndarray  # (K, N, P)
+    lo: np.ndarray  # (K, 2) m, each node's report clip, lower corner
+    hi: np.ndarray  # (K, 2) m, upper corner
+    reports: np.ndarray  # (N, K, 2) m, the clipped reports of the slots so far (NaN: not yet)
+    measured: np.ndarray  # (K, N) bps/Hz, unclipped measured rates (NaN: not yet, or not served)
+    tally: np.ndarray  # (K,) bps/Hz x slots, sum over slots of share x told rate (the served feature)
+    config: ScenarioConfig
+    filter: NodeFilter | None = None  # the Kalman filter of the reports so far (filter_estimate)
+
+
+def _rectangles(config: ScenarioConfig) -> tuple[np.ndarray, np.ndarray]:
+    """(lo, hi), (K, 2) m: where each node can be (its motion rectangle, or its position)."""
+    if config.motion is None:
+        w = np.asarray(config.nodes, dtype=float)
+        return w, w
+    return node_bounds(config)
+
+
+def start_nodes_track(
+    config: ScenarioConfig, rng: np.random.Generator, sigma: float, width: int
+) -> NodesTrack:
+    """Draw the episode's K node paths from ``rng`` and build every node's kernel per slot
+    (``path_kernels`` of ``config.node_config(k)``), padded to ``width`` surface nodes (at least)."""
+    paths = node_paths(config, rng)
+    kernels = [path_kernels(config.node_config(k), paths[:, k]) for k in range(config.K)]
+    q = max(width, *(nodes.shape[2] for nodes, _ in kernels))
+    nodes = np.zeros((config.K, config.N, 3, q))
+    nodes[:, :, 1, :] = 1.0  # padded surface nodes (0, 1, 0): zero weight
+    for k, (kernel, _) in enumerate(kernels):
+        nodes[k, :, :, : kernel.shape[2]] = kernel
+    params = np.stack([p for _, p in kernels])
+    lo, hi = _rectangles(config)
+    margin = REPORT_CLIP * sigma
+    return NodesTrack(
+        paths, nodes, params, lo - margin, hi + margin, np.full((config.N, config.K, 2), np.nan),
+        np.full((config.K, config.N), np.nan), np.zeros(config.K), config,
+    )  # fmt: skip
+
+
+def observe_nodes(
+    track: NodesTrack,
+    slot: int,
+    q: np.ndarray,
+    shares: np.ndarray,
+    knowledge: str,
+    sigma: float,
+    rate_high: float,
+    rng: np.random.Generator,
+    estimate: bool = False,
+) -> tuple[np.ndarray | None, np.ndarray | None]:
+    """What the UAV at ``q`` learns of the K nodes in ``slot`` (0-based) with the slot's ``shares``
+    (K,), drawn from ``rng`` as ``baselines.mpc.run_online`` draws it: every node's report (K x 2
+    normals, ``"reports"``), then two normals per node in node order (``"reports"`` and
+    ``"rates"``), a measured rate for a served node (share > ``SERVED_SHARE``). Returns the told positions
+    ((K, 2) m: the truth, the clipped reports or, with ``estimate``, the Kalman filter's clipped
+    estimate; None for ``"rates"``) and the told rates ((K,) bps/Hz, clipped to ``rate_high``, NaN
+    for a node not served; None for ``"exact"``). Adds share x told rate to ``track.tally``."""
+    truth = track.paths[slot]
+    told: np.ndarray | None = truth
+    if knowledge == "reports":
+        report = position_reports(truth, rng, sigma)
+        told = track.reports[slot] = np.clip(report, track.lo, track.hi)
+        if estimate:
+            if track.filter is None:
+                track.filter = NodeFilter.start(track.config, report, max(sigma, EXACT_SIGMA))
+            else:
+                track.filter.step(report)
+            told = np.clip(track.filter.position, track.lo, track.hi)
+    if knowledge == "exact":
+        return told, None
+    rates = np.full(len(truth), np.nan)
+    for k in range(len(truth)):
+        n_re, n_im = rng.standard_normal(2)  # drawn for every node: the stream ignores the shares
+        if shares[k] > SERVED_SHARE:
+            rate = faded_row(
+                float(q[0]), float(q[1]), float(n_re), float(n_im), track.nodes[k], track.params[k], slot
+            )
+            track.measured[k, slot] = rate
+            rates[k] = min(rate, rate_high)
+            track.tally[k] += shares[k] * rates[k]
+    return (None if knowledge == "rates" else told), rates
+
+
+def nodes_extent(config: ScenarioConfig, sigma: float) -> tuple[tuple[float, float], tuple[float, float]]:
+    """((x_lo, x_hi), (y_lo, y_hi)) m: where a told position of any node of ``config`` can be (the
+    union of the nodes' rectangles widened by the report clip)."""
+    lo, hi = _rectangles(config)
+    margin = REPORT_CLIP * sigma
+    return (
+        (float(lo[:, 0].min()) - margin, float(hi[:, 0].max()) + margin),
+        (float(lo[:, 1].min()) - margin, float(hi[:, 1].max()) + margin),
+    )

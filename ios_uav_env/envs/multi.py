@@ -13,6 +13,7 @@ transition is the kernel of ``ios_uav_env.envs.multi_kernels`` on a batch of one
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import time
 from collections.abc import Mapping
@@ -22,6 +23,8 @@ import gymnasium as gym
 import numpy as np
 from gymnasium import spaces
 
+from ios_uav_env.envs.knowledge import FADE_MARGIN, NodesTrack, nodes_extent
+from ios_uav_env.envs.knowledge import node_extent as family_extent
 from ios_uav_env.envs.multi_kernels import (
     BEST,
     MULTI_INFO_KEYS,
@@ -31,10 +34,11 @@ from ios_uav_env.envs.multi_kernels import (
     node_peaks,
     soft_minimum,
 )
+from ios_uav_env.envs.multi_mobile import MobileNodes
 from ios_uav_env.envs.observation import M_SCALE, T_SCALE, ground_free_rate_bound, length_bounds, pad
 from ios_uav_env.envs.options import EnvOptions, split_kwargs
 from ios_uav_env.model.config import ScenarioConfig, as_config, scenario_option
-from ios_uav_env.model.scenarios import ScenarioRanges, sample_scenario
+from ios_uav_env.model.scenarios import RANGED_FIELDS, ScenarioRanges, _off_plane, sample_scenario
 from ios_uav_env.model.schedule import reported_maxmin_rate
 
 __all__ = [
@@ -87,13 +91,13 @@ def sample_multinode(
     """A scenario of ``ranges`` with K nodes, K uniform in ``nodes``, each node uniform in the
     ranges of G (draws: K, the nodes, then ``sample_scenario``'s own draws)."""
     k = int(rng.integers(nodes[0], nodes[1], endpoint=True))
-    points = tuple(
-        (float(rng.uniform(*ranges.ground_x)), float(rng.uniform(*ranges.ground_y))) for _ in range(k)
-    )
-    return sample_scenario(rng, ranges).replace(ground_nodes=points)
+    points = [(float(rng.uniform(*ranges.ground_x)), float(rng.uniform(*ranges.ground_y))) for _ in range(k)]
+    drawn = sample_scenario(rng, ranges)
+    # (a walking node drawn next to the IOS plane starts at its margin: sample_scenario's rule)
+    return drawn.replace(ground_nodes=tuple(_off_plane(p, ranges.base, drawn.surface) for p in points))
 
 
-class MultiNodeEnv(gym.Env):
+class MultiNodeEnv(MobileNodes, gym.Env):
     r"""A UAV flies from ``q0`` to ``qF`` and shares every slot between K ground nodes (TDMA).
 
     ## Description
@@ -102,8 +106,10 @@ class MultiNodeEnv(gym.Env):
     minimum over nodes of the average rate each node receives, with time-division shares
     chosen per slot (max-min fairness; the model of ``ios_uav_env.model.schedule``). The agent
     decides where to fly and whom to serve when. Ids: ``ios_uav_env/IOSUAV-MultiNode-v0``
-    (the 3 nodes of ``DEFAULT_NODES``) and ``ios_uav_env/IOSUAV-MultiNode-Random-v0`` (2 to 4
-    nodes drawn at every reset: ``sample_multinode`` over ``MULTINODE_RANGES``).
+    (the 3 nodes of ``DEFAULT_NODES``), ``ios_uav_env/IOSUAV-MultiNode-Random-v0`` (2 to 4
+    nodes drawn at every reset: ``sample_multinode`` over ``MULTINODE_RANGES``) and
+    ``ios_uav_env/IOSUAV-MultiNode-Mobile-v0`` (the same draws, the nodes walking and reported:
+    Moving nodes below).
 
     ## Action Space
 
@@ -145,6 +151,23 @@ class MultiNodeEnv(gym.Env):
     and where to fly); the last step's correction is 0 when the nodes end equally served and
     never below -N log(K) / beta.
 
+    ## Moving nodes
+
+    With a motion model (``motion``, applied to the drawn scenarios too) or ``knowledge`` other
+    than ``"exact"`` the env is *mobile* (``ios_uav_env.envs.multi_mobile``): each reset draws
+    every node's path w_k[1..N] from ``np_random``, and slot n's rates, the served rates, the
+    reward and the score are those at the true positions (``score_plan(config, q, shares,
+    paths=env.paths)``). What a node block tells: with ``"exact"`` the node's true position;
+    with ``"reports"`` a position report (std ``report_sigma``, clipped to the node's motion
+    rectangle widened by 4 sigma), with ``filter_estimate=True`` the Kalman filter's estimate
+    instead; with ``"rates"`` no position (0). Unless exact, the rate feature is the rate the
+    node measured in the slot (one faded sample; 0 if its share was at most
+    ``ios_uav_env.model.reports.SERVED_SHARE``) and
+    the served feature the UAV's own tally sum_m alpha_k[m] x measured_k[m] / N. The draws are
+    ``baselines.mpc.run_online``'s, so the env and MPC see the same paths and noise for a
+    seed. ``env.unwrapped.paths``, ``.reports`` and ``.measured_rates`` hold the episode's.
+    ``peak_hint`` is refused.
+
     ## Info
 
     Every step and the reset carry ``MULTI_INFO_KEYS``: ``position``, ``slot``,
@@ -172,8 +195,9 @@ class MultiNodeEnv(gym.Env):
       that many nodes at every reset.
     - ``peak_hint`` (False): append each node's reachable rate peak (Observation Space; one
       ``rate_peak`` per node and scenario, cached: ``node_peaks``).
-    - ``arrival_guard``, ``reach_weight``, ``terminal_weight``, ``length_scale``: as
-      ``IOSUAVEnv`` (``EnvOptions``); the channel is the expected-gain rate.
+    - ``arrival_guard``, ``reach_weight``, ``terminal_weight``, ``length_scale``, ``knowledge``,
+      ``report_sigma``, ``filter_estimate``: as ``IOSUAVEnv`` (``EnvOptions``); the channel is
+      the expected-gain rate.
     - ``render_mode``: None or "rgb_array" (the best node's rate map, every node, and the
       trajectory so far coloured by the node with the largest share in each slot; needs
       ``pip install ios-uav-env[render]``).
@@ -217,20 +241,10 @@ class MultiNodeEnv(gym.Env):
                 "MultiNodeEnv has no energy reward: energy_reference is for the single-node energy ids, "
                 f"got energy_reference={self.options.energy_reference!r}"
             )
-        if self.options.knowledge != "exact":
-            raise ValueError(
-                "MultiNodeEnv observes its nodes exactly: knowledge must be 'exact' (reports and measured "
-                f"rates are the single-node ids'), got knowledge={self.options.knowledge!r}"
-            )
         if render_mode not in (None, "rgb_array"):
             raise ValueError(f"render_mode must be None or 'rgb_array', got {render_mode!r}")
         base = as_config(config if config is not None else ScenarioConfig(ground_nodes=DEFAULT_NODES))
         self._base = base.replace(**overrides) if overrides else base
-        if self._base.motion is not None:
-            raise ValueError(
-                "MultiNodeEnv's nodes are static: motion must be None (moving nodes: the single-node "
-                "ios_uav_env/IOSUAV-Mobile-v0)"
-            )
         if random_nodes is not None:
             lo, hi = (int(v) for v in random_nodes)
             if not 1 <= lo <= hi:
@@ -239,7 +253,19 @@ class MultiNodeEnv(gym.Env):
                 )
             random_nodes = (lo, hi)
         self.random_nodes = random_nodes
+        unranged = {k: v for k, v in overrides.items() if k not in RANGED_FIELDS | {"ground_nodes"}}
+        if random_nodes and unranged:  # the drawn scenarios take the same fields (a motion model, ...)
+            ranges = dataclasses.replace(ranges, base=ranges.base.replace(**unranged))
         self.ranges = ranges
+        # moving or roughly known nodes (ios_uav_env.envs.knowledge): paths and kernels per episode
+        family = ranges.base if random_nodes else self._base
+        self.mobile: bool = family.motion is not None or self.options.knowledge != "exact"
+        if self.mobile and self.options.peak_hint:
+            raise ValueError(
+                "peak_hint is a static node's rate peak: it needs static, exactly known nodes (motion=None "
+                f"and knowledge='exact'), got motion={family.motion!r}, knowledge={self.options.knowledge!r}"
+            )
+        self._track: NodesTrack | None = None
         # the most nodes an episode can have: random_nodes' high when every reset draws (the
         # config is then not an episode's scenario), else the config's K
         needed = random_nodes[1] if random_nodes else self._base.K
@@ -265,6 +291,9 @@ class MultiNodeEnv(gym.Env):
         self.action_space = spaces.Box(-1.0, 1.0, (2 + self.max_nodes,), np.float32)
         low, high = self._bounds()
         self.observation_space = spaces.Box(low, high, dtype=np.float32)
+        # where a measured rate is clipped (the space's rate bound, over the env's family)
+        own = self.ranges if random_nodes else ScenarioRanges.from_config(self._base.node_config(0))
+        self._rate_clip = self._rate_high(own)
         self.config = self._base
         # a batch of one episode for the kernels of ios_uav_env.envs.multi_kernels
         self._rows = NodeRows(1, self.max_nodes, self.options, self.share_sharpness, self.softmin_beta)
@@ -290,10 +319,16 @@ class MultiNodeEnv(gym.Env):
         nodes = [] if single is None else list(single.nodes)
         gx = (min([r.ground_x[0], *(p[0] for p in nodes)]), max([r.ground_x[1], *(p[0] for p in nodes)]))
         gy = (min([r.ground_y[0], *(p[1] for p in nodes)]), max([r.ground_y[1], *(p[1] for p in nodes)]))
+        if self.mobile:  # where a node can be told to be (the motion rectangles and the report clip)
+            sigma = self.options.report_sigma if self.options.knowledge == "reports" else 0.0
+            if single is None:
+                gx, gy = family_extent(dataclasses.replace(r, base=self.ranges.base), sigma)
+            else:
+                gx, gy = nodes_extent(single, sigma)
         points = [(r.end_x, r.end_y), ((base.ios_center[0],) * 2, (base.ios_center[1],) * 2), (gx, gy)]
         lengths = [pad(v / scale) for v in length_bounds((r.start_x, r.start_y), points, reach)]
         own, final, ios, node = lengths[0:2], lengths[2:4], lengths[4:6], lengths[6:8]
-        rate = pad(max(ground_free_rate_bound(c) for c in r.configs_per_surface()))
+        rate = pad(self._rate_high(r))
         elements = max(1.0, r.ios_columns * r.ios_rows[1] / M_SCALE) * (1 + 1e-6)
         horizon = max(1.0, r.slot_range[1] * base.dt / T_SCALE) * (1 + 1e-6)
         high = [*own, *final, *ios, 1.0, 1.0, elements, 1.0, 1.0, horizon]
@@ -305,6 +340,11 @@ class MultiNodeEnv(gym.Env):
                 [-hint, -hint, 0.0] if self.options.peak_hint else []
             )
         return np.array(low, dtype=np.float32), np.array(high, dtype=np.float32)
+
+    def _rate_high(self, r: ScenarioRanges) -> float:
+        """bps/Hz: the rate features' bound over ``r``, plus ``FADE_MARGIN`` for measured rates."""
+        rate = max(ground_free_rate_bound(c) for c in r.configs_per_surface())
+        return rate + (FADE_MARGIN if self.options.knowledge != "exact" else 0.0)
 
     # --- episode --------------------------------------------------------------------------
     def _episode_config(self, pinned: ScenarioConfig | None) -> ScenarioConfig:
@@ -330,8 +370,11 @@ class MultiNodeEnv(gym.Env):
         """Raise ``ValueError`` naming ``field`` unless the pinned scenario ``cfg`` can be an episode
         of this env: at most ``max_nodes`` nodes and observations inside the space (the batched
         env checks every row's pinned scenario with it before it resets any row)."""
-        if cfg.motion is not None:
-            raise ValueError(f"{field} has a motion model; MultiNodeEnv's nodes are static (motion=None)")
+        if cfg.motion is not None and not self.mobile:
+            raise ValueError(
+                f"{field} has a motion model; this env's nodes are static: make the env on the scenario "
+                "instead (MultiNodeEnv(cfg)), or use ios_uav_env/IOSUAV-MultiNode-Mobile-v0"
+            )
         if cfg.K > self.max_nodes:
             raise ValueError(
                 f"{field}: the scenario has K = {cfg.K} nodes; this env observes at most max_nodes = "
@@ -348,9 +391,14 @@ class MultiNodeEnv(gym.Env):
     def reset(
         self, *, seed: int | None = None, options: dict[str, Any] | None = None
     ) -> tuple[np.ndarray, dict]:
-        self._rows.load(0, self._begin(seed, options))
+        cfg = self._begin(seed, options)
+        self._rows.load(0, cfg)
+        if self.mobile:
+            self._start_track(self._rows, 0)
         self.score_seconds = 0.0  # wall time of the episode's best-schedule LP (scoring, not planning)
         self._rows.start(self._one, self._obs, self._table)
+        if self.mobile:
+            self._observe(self._rows, 0, self._obs[0])
         self._started = True
         return self._obs[0].copy(), self._info()
 
@@ -371,11 +419,15 @@ class MultiNodeEnv(gym.Env):
         self._action[0] = a
         self._norm[0] = math.hypot(a[0], a[1])  # (Python's hypot: see multi_kernels.move_norms)
         outputs = (self._obs, self._reward, self._terminated, self._table)
+        if self.mobile:
+            self._slot_kernels(self._rows, 0)
         self._rows.step(self._action, self._active, outputs, self._norm, serial=True)
+        if self.mobile:
+            self._observe(self._rows, 0, self._obs[0])
         terminated = bool(self._terminated[0])
         if terminated:
             start = time.perf_counter()
-            self._table[0, BEST] = reported_maxmin_rate(self.config, self.trajectory)
+            self._table[0, BEST] = reported_maxmin_rate(self.config, self.trajectory, self.truth)
             self.score_seconds = time.perf_counter() - start
         return self._obs[0].copy(), float(self._reward[0]), terminated, False, self._info()
 

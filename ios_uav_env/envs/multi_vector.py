@@ -62,6 +62,9 @@ class MultiNodeVectorEnv(BatchedEnv):
         )
         self._state = self._rows.state
         self._info_width = info_columns(self.max_nodes)
+        # moving or roughly known nodes: per-row kernels per slot and observations by the rows'
+        # template envs (Python per row and slot: ios_uav_env.envs.knowledge)
+        self._mobile = template.mobile
 
     @property
     def _path(self) -> np.ndarray:
@@ -70,9 +73,14 @@ class MultiNodeVectorEnv(BatchedEnv):
     # --- rows -----------------------------------------------------------------------
     def _load_row(self, i: int, env: MultiNodeEnv) -> None:
         self._rows.load(i, env.config)
+        if self._mobile:  # the row's node paths (drawn as the single env's reset draws them)
+            env._start_track(self._rows, i)
 
     def _start_rows(self, rows: np.ndarray) -> None:
         self._rows.start(rows, self._obs, self._info)
+        if self._mobile:
+            for i in rows:
+                self.envs[i]._observe(self._rows, i, self._obs[i])
 
     def _info_arrays(self, table: np.ndarray) -> dict[str, Any]:
         return info_arrays(table, self.max_nodes)
@@ -99,17 +107,28 @@ class MultiNodeVectorEnv(BatchedEnv):
     def _step_kernel(self, actions: np.ndarray, active: np.ndarray) -> None:
         """One slot of the ``active`` rows, then the best schedule of each flight that ended (an LP)."""
         outputs = (self._obs, self._reward, self._terminated, self._info)
+        stepping = np.flatnonzero(active)
+        if self._mobile:  # each row's node kernels of the slot it flies to
+            for i in stepping:
+                self.envs[i]._slot_kernels(self._rows, i)
         self._rows.step(actions, active, outputs, move_norms(actions), self.num_threads)
+        if self._mobile:
+            for i in stepping:
+                self.envs[i]._observe(self._rows, i, self._obs[i])
         for i in np.flatnonzero(self._terminated):
-            cfg = self.envs[i].config
+            env = self.envs[i]
             self._info[i, BEST] = (
-                reported_maxmin_rate(cfg, self._path[i, : cfg.N]) if self.best_schedule else np.nan
+                reported_maxmin_rate(env.config, self._path[i, : env.config.N], env.truth)
+                if self.best_schedule
+                else np.nan
             )
 
     # --- API ------------------------------------------------------------------------
     def fly(self, rows: Any, targets: Any, moves: Any) -> np.ndarray:
         """:meth:`BatchedEnv.fly` in one compiled call: row ``rows[r]`` flies ``moves[r]`` slots
         towards ``targets[r]`` at full speed with equal shares."""
+        if self._mobile:  # (the compiled flight keeps each row's kernels: step slot by slot instead)
+            return super().fly(rows, targets, moves)
         rows, targets, moves = self._fly_args(rows, targets, moves)
         obs, info = self._obs.copy(), self._info.copy()  # fresh: the arrays returned last stay as they were
         self._rows.fly(rows, targets, moves, obs, info)

@@ -42,6 +42,12 @@ MOBILE_ID = "ios_uav_env/IOSUAV-Mobile-v0"
 MOBILE_IDS: dict[str, dict[str, Any]] = {
     MOBILE_ID: {"motion": {"kind": "gauss_markov"}, "knowledge": "reports"},
 }
+#: Several moving, roughly known nodes: 2 to 4 nodes per reset as the randomised multi-node id's,
+#: each walking and reported as the moving-node id's (``MultiNodeEnv``).
+MULTINODE_MOBILE_ID = "ios_uav_env/IOSUAV-MultiNode-Mobile-v0"
+MULTINODE_MOBILE_IDS: dict[str, dict[str, Any]] = {
+    MULTINODE_MOBILE_ID: {"random_nodes": (2, 4), "motion": {"kind": "gauss_markov"}, "knowledge": "reports"},
+}
 
 
 def _vector(entry_point: str) -> dict[str, str]:
@@ -52,7 +58,7 @@ def _vector(entry_point: str) -> dict[str, str]:
 
 def register_envs() -> None:
     """Register every id of :data:`ENV_IDS`, :data:`RANDOM_ENV_ID`, :data:`MULTINODE_IDS`,
-    :data:`ENERGY_IDS` and :data:`MOBILE_IDS` not registered yet.
+    :data:`ENERGY_IDS`, :data:`MOBILE_IDS` and :data:`MULTINODE_MOBILE_IDS` not registered yet.
 
     No ``max_episode_steps``: the env ends every episode itself at slot N of its scenario
     (``terminated=True``), whatever T is, so no ``TimeLimit`` can cut a mission short. Each id
@@ -82,7 +88,7 @@ def register_envs() -> None:
             "ios_uav_env.envs.single_vector:RandomIOSUAVVectorEnv",
         ),
         (
-            MULTINODE_IDS,
+            {**MULTINODE_IDS, **MULTINODE_MOBILE_IDS},
             "ios_uav_env.envs.multi:MultiNodeEnv",
             "ios_uav_env.envs.multi_vector:MultiNodeVectorEnv",
         ),

@@ -25,8 +25,10 @@ from ios_uav_env.model.motion import check_paths, node_config_at
 
 #: m, default standard deviation of each component of a position report's error.
 REPORT_SIGMA = 10.0
+#: A node is served in a slot (and measures its rate there) when its share exceeds this.
+SERVED_SHARE = 1e-9
 
-__all__ = ["REPORT_SIGMA", "measured_rates", "position_reports"]
+__all__ = ["REPORT_SIGMA", "SERVED_SHARE", "measured_rates", "position_reports"]
 
 
 def _sigma(value: Any) -> float:

@@ -42,6 +42,19 @@ def _interval(value: Any, name: str, integer: bool = False) -> tuple[Any, Any]:
     return float(lo), float(hi)
 
 
+def _off_plane(ground: tuple[float, float], base: ScenarioConfig, surface: str) -> tuple[float, float]:
+    """``ground``, or, when ``base`` has a motion model, ``surface`` is one and the node lies
+    within ``plane_margin`` of the IOS plane (where no node walks), the point at that margin on
+    its side (a node on the plane goes to the transmissive side, x > x_c)."""
+    motion = base.motion
+    if motion is None or surface == "none":
+        return ground
+    plane, gap = float(base.ios_center[0]), motion.plane_margin
+    if abs(ground[0] - plane) >= gap:
+        return ground
+    return (plane - gap if ground[0] < plane else plane + gap, ground[1])
+
+
 @dataclass(frozen=True)
 class ScenarioRanges:
     """The family of randomised scenarios, drawn by :func:`sample_scenario`.
@@ -92,7 +105,8 @@ class ScenarioRanges:
             self.base.replace(
                 T=lo * self.base.dt, q0=(sx, sy), qF=(ex, ey), ios_shape=self.shape(self.ios_rows[1])
             )
-            self.base.replace(ground_node=(self.ground_x[0], self.ground_y[0]), surface=self.surfaces[0])
+            ground = _off_plane((self.ground_x[0], self.ground_y[0]), self.base, self.surfaces[0])
+            self.base.replace(ground_node=ground, surface=self.surfaces[0])
         except ValueError as exc:
             raise ValueError(f"these ranges allow an invalid scenario: {exc}") from None
 
@@ -186,7 +200,9 @@ def sample_scenario(
     The draws, in this order: x_G, y_G (uniform), N (integer, uniform over
     ``ranges.slot_range``; T = N dt), M_z (integer, uniform), the surface (uniform over
     ``ranges.surfaces``), then q0's x and y and qF's x and y (uniform); a fixed value still
-    takes its draw, so the stream does not depend on which ranges are degenerate.
+    takes its draw, so the stream does not depend on which ranges are degenerate. With a
+    motion model on ``ranges.base`` and a surface, a node drawn within ``plane_margin`` of the
+    IOS plane (where it may not walk) is moved out to that margin on its side: no extra draw.
     """
     if not isinstance(rng, np.random.Generator):
         rng = np.random.default_rng(rng)
@@ -198,7 +214,7 @@ def sample_scenario(
     surface = r.surfaces[int(rng.integers(len(r.surfaces)))]
     x0, y0, xf, yf = (float(rng.uniform(*pair)) for pair in (r.start_x, r.start_y, r.end_x, r.end_y))
     return r.base.replace(
-        ground_node=ground,
+        ground_node=_off_plane(ground, r.base, surface),
         T=slots * r.base.dt,
         ios_shape=r.shape(rows),
         surface=surface,

@@ -347,8 +347,11 @@ def scheduled_rates(
 _SCIPY: list[bool] = []  # [is scipy importable], found at the first call
 
 
-def reported_maxmin_rate(config: ScenarioConfig, trajectory: np.ndarray) -> float:
-    """:func:`maxmin_rate` for the envs' ``info["best_schedule_rate"]``: NaN, with one warning,
+def reported_maxmin_rate(
+    config: ScenarioConfig, trajectory: np.ndarray, paths: np.ndarray | None = None
+) -> float:
+    """:func:`maxmin_rate` (on the node ``paths`` when given) for the envs'
+    ``info["best_schedule_rate"]``: NaN, with one warning,
     when scipy (its LP solver) is not installed, so that an env needs only numpy and Gymnasium
     (``pip install scipy``, or the ``planners`` extra, brings the score back)."""
     if not _SCIPY:
@@ -363,4 +366,4 @@ def reported_maxmin_rate(config: ScenarioConfig, trajectory: np.ndarray) -> floa
             warnings.warn(
                 "scipy is not installed: info['best_schedule_rate'] is NaN (pip install scipy)", stacklevel=2
             )
-    return maxmin_rate(config, trajectory) if _SCIPY[0] else float("nan")
+    return maxmin_rate(config, trajectory, paths) if _SCIPY[0] else float("nan")

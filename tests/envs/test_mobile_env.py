@@ -4,6 +4,8 @@ static special case, the batch, seeding and errors."""
 
 from __future__ import annotations
 
+import dataclasses
+
 import gymnasium as gym
 import numpy as np
 import pytest
@@ -11,7 +13,6 @@ import pytest
 import ios_uav_env
 from ios_uav_env import MOBILE_ID, ScenarioConfig, score_plan
 from ios_uav_env.envs.knowledge import REPORT_CLIP, observe_slot, start_track
-from ios_uav_env.envs.multi import MultiNodeEnv
 from ios_uav_env.envs.random_env import RandomIOSUAVEnv
 from ios_uav_env.envs.single import IOSUAVEnv
 from ios_uav_env.envs.single_vector import RandomIOSUAVVectorEnv
@@ -163,6 +164,23 @@ def test_the_batch_is_the_single_envs_step_for_step():
     assert replay(vec, singles, actions, seed=7) <= 1e-9
 
 
+def test_a_node_drawn_next_to_the_ios_plane_walks_from_its_margin():
+    """A node drawn within plane_margin of the IOS plane (x = 0) is moved out to the margin on its
+    side (it would start outside its motion rectangle); the other draws are unchanged."""
+    base = SHORT.replace(motion=GaussMarkov())
+    for x, side in ((0.4, 1.0), (-0.2, -1.0), (0.0, 1.0)):
+        ranges = ScenarioRanges(ground_x=(x, x), ground_y=(5.0, 5.0), base=base)
+        drawn = sample_scenario(0, ranges)
+        assert drawn.ground_node == (side * base.motion.plane_margin, 5.0)
+        if x != 0.0:  # the static config refuses a node on the plane
+            still = sample_scenario(0, dataclasses.replace(ranges, base=base.replace(motion=None)))
+            assert dataclasses.replace(drawn, ground_node=still.ground_node, motion=None) == still
+    far = ScenarioRanges(ground_x=(3.0, 3.0), base=base)
+    assert sample_scenario(0, far).ground_node[0] == 3.0
+    # the mobile id's batched resets draw such nodes among 256 rows (seed 0 did before)
+    gym.make_vec(MOBILE_ID, num_envs=256, vectorization_mode="vector_entry_point").reset(seed=0)
+
+
 def test_errors_name_the_field():
     with pytest.raises(ValueError, match="knowledge must be one of"):
         IOSUAVEnv(knowledge="psychic")
@@ -174,10 +192,6 @@ def test_errors_name_the_field():
         IOSUAVEnv(SHORT, objective="energy_efficiency")
     with pytest.raises(ValueError, match="motion model"):
         IOSUAVEnv(SHORT.replace(motion=None)).reset(options={"config": SHORT})
-    with pytest.raises(ValueError, match="motion must be None"):
-        MultiNodeEnv(SHORT)
-    with pytest.raises(ValueError, match="knowledge must be 'exact'"):
-        MultiNodeEnv(knowledge="reports")
     env = IOSUAVEnv(SHORT, knowledge="reports")
     wide = SHORT.replace(motion=GaussMarkov(box=((-2000.0, 2000.0), (-2000.0, 2000.0))))
     with pytest.raises(ValueError, match="motion rectangle"):
