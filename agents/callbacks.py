@@ -257,6 +257,29 @@ class LogStdSchedule(BaseCallback):
         return True
 
 
+class CloneStart(BaseCallback):
+    """Start the fast trainer's PPO from a behaviour clone of ``expert`` (``agents.fast.clone``:
+    the rounds, the fit and what is recorded). ``expert`` is PKG.MODULE:ATTR of a policy on the
+    raw observation, e.g. ``ios_uav_env.envs.policies:HoverAt('ground')``. A recipe entry of
+    ``agents/hyperparams/fast_ppo.yml``; SB3's own loop (``train.py --trainer sb3``) refuses it."""
+
+    def __init__(self, expert: str, rounds: int = 4, slots: int = 128, epochs: int = 8,
+                 learning_rate: float = 1e-3, noise: float = 0.3, batch_size: int = 4096):  # fmt: skip
+        super().__init__()
+        from agents.fast.clone import CloneSettings
+
+        self.settings = CloneSettings(expert, rounds, slots, epochs, learning_rate, noise, batch_size)
+
+    def _on_training_start(self) -> None:
+        raise ValueError(
+            "agents.callbacks.CloneStart is applied by the fast trainer only (train.py --trainer fast, "
+            "agents/hyperparams/fast_ppo.yml)"
+        )
+
+    def _on_step(self) -> bool:
+        return True
+
+
 class TargetEntropySchedule(BaseCallback):
     """Anneal SAC's target entropy linearly from ``start`` to ``end`` (nats) over the run.
 

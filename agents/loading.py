@@ -363,3 +363,18 @@ def load_agent(
     )
     agent.check_env(source=zip_path)
     return agent
+
+
+def load_numpy_agent(path: str | Path, algo: str | None = None, *, checkpoint: int | None = None) -> Any:
+    """:func:`load_agent`'s deterministic policy exported to numpy (``agents.numpy_policy``): the
+    same actions to float rounding at a fraction of SB3's per-call overhead, for timing a policy's
+    plan (``python -m ios_uav_env.benchmark evaluate --policy
+    "agents.loading:load_numpy_agent('<run>')"``). It carries the agent's ``env_kwargs`` and
+    ``name``, so the benchmark makes the env the agent was trained on."""
+    from agents.numpy_policy import NumpyPolicy
+
+    agent = load_agent(path, algo, checkpoint=checkpoint)
+    policy = NumpyPolicy.from_sb3(agent.model, agent.vecnormalize, agent.repeat)
+    policy.env_kwargs = dict(agent.env_kwargs)
+    policy.name = agent.name
+    return policy

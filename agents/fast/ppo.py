@@ -204,7 +204,7 @@ class FastPPO:
         if self._obs is None:
             self.reset()
         self._apply_schedules()
-        r, buf, vn = self.recipe, self._buf, self.vecnormalize
+        r, buf = self.recipe, self._buf
         obs, timing = self._obs, self.timing
         std = torch.exp(self.policy.log_std.detach())
         for t in range(r.n_steps):
@@ -228,16 +228,7 @@ class FastPPO:
                 reward = self._episode_ends(reward, terminated, truncated, info)
                 if self.starts is not None:
                     obs = explore_rows(self.vec, self._rng, dones, obs, self.starts)
-            if r.reward_shift is not None:
-                reward = r.reward_shift[1] * (reward - r.reward_shift[0])
-            if vn is not None:
-                if vn.norm_obs:
-                    vn.obs_rms.update(obs)
-                if vn.norm_reward:
-                    self._returns = self._returns * vn.gamma + reward
-                    vn.ret_rms.update(self._returns)
-                reward = vn.normalize_reward(reward)
-                self._returns[dones] = 0.0
+            reward = self._normalized_rewards(obs, reward, dones)
             buf["rewards"][t] = torch.from_numpy(np.asarray(reward, dtype=np.float32))
             buf["dones"][t] = torch.from_numpy(dones.astype(np.float32))
             t3 = time.perf_counter()
@@ -246,6 +237,22 @@ class FastPPO:
             timing["other"] += t3 - t2
         self._obs = obs
         return True
+
+    def _normalized_rewards(self, obs: np.ndarray, reward: np.ndarray, dones: np.ndarray) -> np.ndarray:
+        """The slot's rewards as the update sees them (the recipe's shift, then ``VecNormalize``'s
+        return scaling), updating the observation and return statistics with the slot."""
+        r, vn = self.recipe, self.vecnormalize
+        if r.reward_shift is not None:
+            reward = r.reward_shift[1] * (reward - r.reward_shift[0])
+        if vn is not None:
+            if vn.norm_obs:
+                vn.obs_rms.update(obs)
+            if vn.norm_reward:
+                self._returns = self._returns * vn.gamma + reward
+                vn.ret_rms.update(self._returns)
+            reward = vn.normalize_reward(reward)
+            self._returns[dones] = 0.0
+        return reward
 
     def _episode_ends(
         self, reward: np.ndarray, terminated: np.ndarray, truncated: np.ndarray, info: Mapping[str, Any]

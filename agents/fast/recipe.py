@@ -18,6 +18,7 @@ import math
 from dataclasses import dataclass, field
 from typing import Any
 
+from agents.fast.clone import CloneSettings
 from agents.hyperparams import Hyperparams
 
 #: PPO keyword arguments the fast trainer reads (every other PPO argument is refused by name).
@@ -26,7 +27,11 @@ PPO_KEYS = (
     "ent_coef", "vf_coef", "max_grad_norm", "target_kl", "normalize_advantage", "policy_kwargs",
 )  # fmt: skip
 #: Callbacks of the zoo's ``callback`` key the trainer applies itself (by their parameters).
-CALLBACKS = ("agents.callbacks.LogStdSchedule", "agents.callbacks.ExploringStartsSchedule")
+CALLBACKS = (
+    "agents.callbacks.LogStdSchedule",
+    "agents.callbacks.ExploringStartsSchedule",
+    "agents.callbacks.CloneStart",
+)
 #: Wrappers of the zoo's ``env_wrapper`` key the trainer applies on the batched env's arrays.
 WRAPPERS = ("agents.wrappers.ExploringStarts", "agents.wrappers.ShiftReward")
 
@@ -80,6 +85,7 @@ class FastRecipe:
     exploring: dict[str, Any] | None = None  # ExploringStarts' arguments
     exploring_schedule: tuple[float, float] | None = None  # ExploringStartsSchedule (hold, end)
     reward_shift: tuple[float, float] | None = None  # ShiftReward (offset, scale)
+    clone: CloneSettings | None = None  # CloneStart: behaviour cloning before PPO (agents.fast.clone)
 
     @property
     def rollout_size(self) -> int:
@@ -100,13 +106,15 @@ class FastRecipe:
             raise ValueError(
                 f"hyperparameter policy must be 'MlpPolicy' for the fast trainer, got {hp.policy!r}"
             )
-        log_std = exploring_schedule = exploring = shift = None
+        log_std = exploring_schedule = exploring = shift = clone = None
         for callback in hp.callbacks:
             name = _name(callback)
             if name == CALLBACKS[0]:
                 log_std = (callback.start, callback.end)
             elif name == CALLBACKS[1]:
                 exploring_schedule = (callback.hold, callback.end)
+            elif name == CALLBACKS[2]:
+                clone = callback.settings
             else:
                 raise ValueError(
                     f"hyperparameter callback {name!r} is not applied by the fast trainer (it applies "
@@ -145,6 +153,7 @@ class FastRecipe:
             exploring=exploring,
             exploring_schedule=exploring_schedule,
             reward_shift=shift,
+            clone=clone,
         )
         recipe.validate()
         return recipe

@@ -117,6 +117,14 @@ def train_fast(
         algo = FastPPO(settings.env_id, recipe, total, env_kwargs=settings.env_kwargs, seed=settings.seed)
         write_config(run_dir, settings, hp, total)
         start = RunStart(algo.model, None, 0, Clock(), [])
+        if recipe.clone is not None:  # the warm start (agents.fast.clone), recorded in clone.json
+            from agents.fast.clone import clone
+
+            print(
+                f"cloning {recipe.clone.expert} ({recipe.clone.rounds} rounds)", file=sys.stderr, flush=True
+            )
+            record = clone(algo, recipe.clone)
+            atomic_write_text(run_dir / "clone.json", json.dumps(record, indent=1))
     else:
         loaded: _Loaded = start.venv
         algo = FastPPO(settings.env_id, recipe, total, env_kwargs=settings.env_kwargs, seed=settings.seed,

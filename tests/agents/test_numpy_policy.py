@@ -17,8 +17,8 @@ from agents.numpy_policy import NumpyPolicy  # noqa: E402
 ENV = "ios_uav_env/IOSUAV-Random-v0"
 
 
-def observations(n: int = 200) -> np.ndarray:
-    env = gym.make(ENV)
+def observations(n: int = 200, **env_kwargs) -> np.ndarray:
+    env = gym.make(ENV, **env_kwargs)
     env.action_space.seed(0)
     obs, _ = env.reset(seed=0)
     out = [obs]
@@ -78,3 +78,13 @@ def test_learning_curve_scores_every_checkpoint(tmp_path):
     assert checkpoints(tmp_path / "out") == []
     with pytest.raises(FileNotFoundError, match="no checkpoints"):
         learning_curve(tmp_path / "out", n=1)
+
+
+def test_load_numpy_agent_acts_as_the_loaded_agent_and_carries_its_env():
+    from agents.loading import load_agent, load_numpy_agent
+
+    path = "agents/models/ppo_IOSUAV-Random-v0"
+    agent, fast = load_agent(path), load_numpy_agent(path)
+    assert fast.env_kwargs == agent.env_kwargs and fast.env_kwargs and fast.name == agent.name
+    obs = observations(50, **agent.env_kwargs)
+    np.testing.assert_allclose(np.array([fast.act(o) for o in obs]), agent.act(obs), atol=1e-5)

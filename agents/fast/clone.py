@@ -1,0 +1,164 @@
+"""Behaviour cloning before PPO: the fast trainer's warm start from a policy on the observation.
+
+A recipe with the callback ``agents.callbacks.CloneStart`` (``agents/hyperparams/fast_ppo.yml``)
+starts PPO from a clone of an *expert*, a policy that maps the raw observation to an action
+(e.g. ``ios_uav_env.envs.policies:HoverAt('ground')``, which follows the node's told position):
+
+- **Rounds.** Round 0 is flown by the expert, with N(0, ``noise``^2) added to each move (so the
+  data show how to come back); round r >= 1 by the mean of the policy fitted so far (DAgger: the
+  labels cover the states the policy itself reaches). Each round is ``slots`` slots of every row
+  of the run's batched env; the expert labels every state visited with its action.
+- **Fit.** After each round the policy's Gaussian mean is fitted to every label so far and its
+  value to the discounted returns of that round's states (the recipe's gamma, bootstrapped by the
+  value after the round's last slot; rewards normalised as PPO normalises them), by squared
+  error with Adam (a separate optimiser: PPO's Adam starts fresh). The observation statistics
+  (``VecNormalize``) are updated from every state visited, as PPO's rollouts update them.
+- **Then PPO** trains on from the clone with the recipe's schedules from step 0; the clone's env
+  steps are not counted in the run's steps (they are in its summary, ``clone``).
+
+The policy starts where the expert is and RL can only move it from there: a warm start, not a
+bound. The rows are reset after the clone (seeded as the run's first rollout).
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from collections.abc import Callable
+from dataclasses import dataclass
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+if TYPE_CHECKING:
+    from agents.fast.ppo import FastPPO
+
+
+@dataclass(frozen=True)
+class CloneSettings:
+    """``agents.callbacks.CloneStart``'s arguments, checked."""
+
+    expert: str  # PKG.MODULE:ATTR of the expert (ios_uav_env.benchmark.cli.load_policy)
+    rounds: int = 4  # rounds of data (round 0 by the expert, then DAgger)
+    slots: int = 128  # slots of every row per round
+    epochs: int = 8  # passes over the data after each round
+    learning_rate: float = 1e-3  # Adam's step size of the fit
+    noise: float = 0.3  # std of the noise on round 0's moves (units of D)
+    batch_size: int = 4096  # minibatch of the fit (samples)
+
+    def __post_init__(self) -> None:
+        if not isinstance(self.expert, str) or ":" not in self.expert:
+            raise ValueError(f"CloneStart expert must be PKG.MODULE:ATTR, got {self.expert!r}")
+        for name in ("rounds", "slots", "epochs", "batch_size"):
+            value = getattr(self, name)
+            if isinstance(value, bool) or not isinstance(value, int) or value < 1:
+                raise ValueError(f"CloneStart {name} must be an integer >= 1, got {value!r}")
+        for name, low in (("learning_rate", 0.0), ("noise", -1.0)):
+            value = getattr(self, name)
+            if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
+                raise ValueError(f"CloneStart {name} must be a finite number, got {value!r}")
+            if not value > low:
+                raise ValueError(f"CloneStart {name} must be > {low:g}, got {value!r}")
+
+
+def load_expert(spec: str) -> Callable[[np.ndarray], np.ndarray]:
+    """The expert of ``spec`` (``ValueError`` naming it if it does not load or is not callable)."""
+    from ios_uav_env.benchmark.cli import load_policy
+
+    expert = load_policy(spec)
+    if not callable(expert):
+        raise ValueError(f"CloneStart expert {spec!r} is not callable (observations -> actions)")
+    return expert
+
+
+def clone(algo: FastPPO, settings: CloneSettings) -> dict[str, Any]:
+    """Fit ``algo``'s policy to the expert of ``settings`` (module docstring); the fit's record."""
+    import torch
+
+    from agents.fast.gae import gae
+
+    expert = load_expert(settings.expert)
+    start = time.perf_counter()
+    recipe, policy = algo.recipe, algo.policy
+    params = [p for name, p in policy.named_parameters() if name != "log_std"]
+    optimizer = torch.optim.Adam(params, lr=settings.learning_rate)
+    rng = np.random.default_rng([algo.seed, 1])
+    algo.reset(seed=algo.seed + 7_919 * recipe.n_envs)  # rows of their own, not the RL run's first
+    obs = algo._obs
+    seen_obs: list[np.ndarray] = []
+    seen_labels: list[np.ndarray] = []
+    rounds = []
+    for r in range(settings.rounds):
+        xs, labels, rewards, dones = [], [], [], []
+        for _ in range(settings.slots):
+            label = np.clip(np.asarray(expert(obs), dtype=np.float64), algo._low, algo._high)
+            x = np.asarray(algo._normalized_obs(obs), dtype=np.float32)
+            if r == 0:
+                act = label.copy()
+                act[:, :2] += settings.noise * rng.standard_normal((len(act), 2))
+            else:
+                with torch.no_grad():
+                    act = algo._forward(torch.from_numpy(x))[0].numpy().astype(np.float64)
+            obs, reward, terminated, truncated, info = algo.vec.step(np.clip(act, algo._low, algo._high))
+            done = terminated | truncated
+            reward = np.asarray(reward, dtype=np.float64)
+            if done.any():
+                reward = algo._episode_ends(reward, terminated, truncated, info)
+            reward = algo._normalized_rewards(obs, reward, done)
+            xs.append(x)
+            labels.append(label.astype(np.float32))
+            rewards.append(reward)
+            dones.append(done)
+        x_t = torch.from_numpy(np.stack(xs))
+        with torch.no_grad():
+            values = algo._forward(x_t.reshape(-1, x_t.shape[-1]))[1].reshape(x_t.shape[:2])
+            last = algo._forward(torch.from_numpy(np.asarray(algo._normalized_obs(obs), np.float32)))[1]
+        rew = torch.from_numpy(np.stack(rewards).astype(np.float32))
+        don = torch.from_numpy(np.stack(dones).astype(np.float32))
+        returns = gae(rew, values, don, last, recipe.gamma, 1.0)[1].reshape(-1)
+        flat = x_t.reshape(-1, x_t.shape[-1])
+        seen_obs.append(flat)
+        seen_labels.append(torch.from_numpy(np.stack(labels)).reshape(-1, labels[0].shape[-1]))
+        data = (torch.cat(seen_obs), torch.cat(seen_labels))
+        fit = _fit(algo, optimizer, params, *data, flat, returns, settings)
+        scores = algo.take_scores()
+        score = float(np.mean(scores)) if scores else float("nan")
+        samples = int(sum(len(o) for o in seen_obs))
+        rounds.append({"round": r, "samples": samples, "episode_score": score, **fit})
+    algo._obs = None  # PPO's first rollout resets the rows
+    steps = settings.rounds * settings.slots * recipe.n_envs
+    return {"settings": dict(settings.__dict__), "env_steps": steps,
+            "seconds": round(time.perf_counter() - start, 2), "rounds": rounds}  # fmt: skip
+
+
+def _fit(
+    algo: FastPPO, optimizer: Any, params: list[Any], obs: Any, labels: Any, value_obs: Any, returns: Any,
+    settings: CloneSettings,
+) -> dict[str, float]:  # fmt: skip
+    """``epochs`` passes of Adam: the mean's squared error to ``labels`` on ``obs``, and the value's
+    to ``returns`` on ``value_obs`` (one value minibatch per mean minibatch, cycling)."""
+    import torch
+
+    n, m = len(obs), len(value_obs)
+    size = min(settings.batch_size, n)
+    action_loss = value_loss = 0.0
+    count = 0
+    for _ in range(settings.epochs):
+        order, value_order = torch.randperm(n), torch.randperm(m)
+        for k, begin in enumerate(range(0, n, size)):
+            idx = order[begin : begin + size]
+            vidx = value_order[(k * size) % m : (k * size) % m + size]
+            mean = algo._forward(obs[idx])[0]
+            value = algo._forward(value_obs[vidx])[1]
+            a_loss = torch.mean((mean - labels[idx]) ** 2)
+            v_loss = torch.mean((value - returns[vidx]) ** 2)
+            optimizer.zero_grad(set_to_none=True)
+            (a_loss + algo.recipe.vf_coef * v_loss).backward()
+            torch.nn.utils.clip_grad_norm_(params, algo.recipe.max_grad_norm)
+            optimizer.step()
+            action_loss, value_loss, count = (
+                action_loss + float(a_loss.detach()),
+                value_loss + float(v_loss.detach()),
+                count + 1,
+            )
+    return {"action_loss": action_loss / max(count, 1), "value_loss": value_loss / max(count, 1)}
