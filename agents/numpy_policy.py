@@ -96,3 +96,7 @@ class NumpyPolicy:
         if self.squash:
             return (self.low + 0.5 * (np.tanh(x) + 1.0) * (self.high - self.low)).astype(np.float32)
         return np.clip(x, self.low, self.high).astype(np.float32)
+
+    def __call__(self, obs: np.ndarray) -> np.ndarray:
+        """The deterministic action (:meth:`act`): a policy for ``ios_uav_env.benchmark``."""
+        return self.act(obs)

@@ -5,6 +5,7 @@ Usage
 ``python benchmarks/energy.py``                      default scenario (T = 150 s, M = 6000, IOS)
 ``python benchmarks/energy.py --surfaces ios ris none``   the same for each surface
 ``python benchmarks/energy.py --budgets 0.8 0.9 1.0``     also the budget DP: rate vs E_max
+``python benchmarks/energy.py --agents agents/models/ppo_IOSUAV-Energy-v0``   and a trained agent's row
 
 Per surface, one row per planner (``dp-ee``: the grid DP with Dinkelbach, ``baselines.dp_energy``
 at the rate DP's grid; ``sca-ee``: ``baselines.sca_energy`` when it can be imported; ``loiter``
@@ -12,7 +13,9 @@ and ``hover``: ``baselines.loiter``; ``dp``: the rate DP's plan scored for EE): 
 efficiency (bits/J), the energy (J), the average rate, the % of DP-EE, the % of the certified
 bound of ``baselines.energy_bound`` (when it can be imported), feasibility and wall time. With
 ``--budgets`` (fractions of the rate DP plan's energy), the budget DP's rate, energy, dual bound
-and gap per budget.
+and gap per budget. ``--agents`` adds one row per run or model folder (the ``rl`` extra): its
+deterministic episode in its own env (``agents.loading.load_numpy_agent``) on the same scenario,
+scored by the same ``score_plan``; its seconds are the episode's wall time, env included.
 """
 
 from __future__ import annotations
@@ -47,8 +50,29 @@ def _timed(name: str, fn) -> Plan | str:
     return plan
 
 
-def surface_table(config: ScenarioConfig, resolution: float) -> None:
-    """Print every planner's EE, energy, rate, % of DP-EE, % of the bound, feasibility, time."""
+def agent_plan(path: str, config: ScenarioConfig) -> Plan:
+    """The deterministic episode of the agent in ``path`` on ``config``, in its own env."""
+    import gymnasium as gym
+
+    from agents.loading import load_numpy_agent
+    from ios_uav_env.envs.rollout import run_episode
+
+    policy = load_numpy_agent(path)
+    env = gym.make(load_agent_env(path), config=config, **policy.env_kwargs)
+    episode = run_episode(env, policy, seed=0)
+    return Plan.from_trajectory(Path(path).name, config, episode.trajectory, episode.seconds)
+
+
+def load_agent_env(path: str) -> str:
+    """The env id a run or model folder was trained on (its ``config.json``)."""
+    import json
+
+    return json.loads((Path(path) / "config.json").read_text(encoding="utf-8"))["env_id"]
+
+
+def surface_table(config: ScenarioConfig, resolution: float, agents: tuple[str, ...] = ()) -> None:
+    """Print every planner's (and agent's) EE, energy, rate, % of DP-EE, % of the bound,
+    feasibility, time."""
     sca, bound_module = _optional("baselines.sca_energy"), _optional("baselines.energy_bound")
     plans = {
         "dp-ee": _timed("dp-ee", lambda: dp_energy.solve_ee(config, resolution=resolution)),
@@ -58,6 +82,8 @@ def surface_table(config: ScenarioConfig, resolution: float) -> None:
     }
     if sca is not None:
         plans["sca-ee"] = _timed("sca-ee", lambda: sca.solve(config))
+    for path in agents:
+        plans[Path(path).name] = _timed(Path(path).name, lambda p=path: agent_plan(p, config))
     ref = plans["dp-ee"].energy_efficiency if isinstance(plans["dp-ee"], Plan) else float("nan")
     bound, bound_s = float("nan"), float("nan")
     if bound_module is not None:
@@ -123,10 +149,11 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--surfaces", nargs="+", default=["ios"], choices=["ios", "ris", "none"])
     p.add_argument("--resolution", type=float, default=2.5, help="DP grid spacing (m), default 2.5")
     p.add_argument("--budgets", type=float, nargs="*", default=[], help="budgets as fractions of E_rate")
+    p.add_argument("--agents", nargs="*", default=[], help="run or model folders to add as rows (rl extra)")
     args = p.parse_args(argv)
     for surface in args.surfaces:
         config = ScenarioConfig(T=args.T, surface=surface, objective="energy_efficiency")
-        surface_table(config, args.resolution)
+        surface_table(config, args.resolution, tuple(args.agents))
         if args.budgets:
             budget_table(config.replace(objective="rate"), args.resolution, args.budgets)
     return 0
