@@ -8,6 +8,7 @@ node served (over the best-node rate map) above each node's share against the sl
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
@@ -103,12 +104,12 @@ def save_shares_figure(results: Any, path: str | Path, count: int = 3) -> Path:
     return save_figure(fig, path)
 
 
-def save_mobile_figure(results: Any, path: str | Path, count: int = 3) -> Path:
-    """For ``count`` mobile scenarios (worst, middle, best % of the bound): the node's true path,
-    the position reports the UAV received (``knowledge.episode_reports``: the episode's draws
-    replayed from its seed, with the ``knowledge`` and ``report_sigma`` the results were run
-    with, the mobile ids' "reports" and 10 m by default) and the flown trajectory."""
-    from ios_uav_env.envs.knowledge import episode_reports
+def save_mobile_figure(results: Any, path: str | Path, count: int | None = 3) -> Path:
+    """For ``count`` mobile scenarios (worst, middle, best % of the bound; None: every scenario,
+    one small panel each in a grid): the node's true path, the position reports the UAV received
+    (``knowledge.episode_reports``: the episode's draws replayed from its seed, with the
+    ``knowledge`` and ``report_sigma`` the results were run with, the mobile ids' "reports" and
+    10 m by default) and the flown trajectory."""
     from ios_uav_env.model.reports import REPORT_SIGMA
 
     rows = [r for r in results.scenarios if r.seed is not None and r.trajectory is not None]
@@ -116,25 +117,43 @@ def save_mobile_figure(results: Any, path: str | Path, count: int = 3) -> Path:
         raise ValueError("no result holds a mobile scenario's seed and trajectory")
     knowledge = results.env_kwargs.get("knowledge", "reports")
     sigma = float(results.env_kwargs.get("report_sigma", REPORT_SIGMA))
-    chosen = [rows[i] for i in dict.fromkeys(picks([r.pct["bound"] for r in rows], count))]
-    fig = _figure((5.2 * len(chosen), 4.6))
-    for col, r in enumerate(chosen):
-        config, ax = r.config, fig.add_subplot(1, len(chosen), col + 1)
-        truth, reports = episode_reports(config, r.seed, sigma, knowledge)
-        q = np.asarray(r.trajectory)
-        if knowledge == "reports":
-            ax.scatter(reports[:, 0, 0], reports[:, 0, 1], s=4, c="tab:orange", alpha=0.5, label="reports")
-        ax.plot(q[:, 0], q[:, 1], c="tab:blue", lw=1.0, label="UAV")
-        ax.plot(truth[:, 0, 0], truth[:, 0, 1], c="tab:red", lw=1.8, zorder=3, label="node (true path)")
-        ax.plot(*q[0], "o", c="tab:blue", ms=4)
-        ax.plot(*q[-1], "s", c="tab:blue", ms=4)
-        if config.surface != "none":
-            ax.plot(*config.ios_center[:2], "^", c="k", ms=6, label=config.surface.upper())
-        ax.set_aspect("equal", adjustable="datalim")
-        ax.set_xlabel("x (m)")
-        ax.set_ylabel("y (m)")
-        ax.set_title(f"#{r.index}, T={config.T:g} s: {r.rate:.3f} bps/Hz ({r.pct['bound']:.1f}% of bound)",
-                     fontsize=9)  # fmt: skip
-        ax.legend(fontsize=7, loc="best")
+    if count is None:
+        chosen, cols = rows, min(5, len(rows))
+        grid, size = (math.ceil(len(rows) / cols), cols), (3.3 * cols, 3.0 * math.ceil(len(rows) / cols))
+    else:
+        chosen = [rows[i] for i in dict.fromkeys(picks([r.pct["bound"] for r in rows], count))]
+        grid, size = (1, len(chosen)), (5.2 * len(chosen), 4.6)
+    fig = _figure(size)
+    for k, r in enumerate(chosen):
+        _mobile_panel(fig.add_subplot(*grid, k + 1), r, knowledge, sigma, small=count is None)
     fig.tight_layout()
     return save_figure(fig, path)
+
+
+def _mobile_panel(ax: Any, r: Any, knowledge: str, sigma: float, small: bool) -> None:
+    """One scenario's true node path, reports and flight on ``ax`` (``save_mobile_figure``)."""
+    from ios_uav_env.envs.knowledge import episode_reports
+
+    config = r.config
+    truth, reports = episode_reports(config, r.seed, sigma, knowledge)
+    q = np.asarray(r.trajectory)
+    if knowledge == "reports":
+        ax.scatter(reports[:, 0, 0], reports[:, 0, 1], s=2 if small else 4, c="tab:orange", alpha=0.5,
+                   label="reports")  # fmt: skip
+    ax.plot(q[:, 0], q[:, 1], c="tab:blue", lw=0.8 if small else 1.0, label="UAV")
+    ax.plot(truth[:, 0, 0], truth[:, 0, 1], c="tab:red", lw=1.4 if small else 1.8, zorder=3,
+            label="node (true path)")  # fmt: skip
+    ax.plot(*q[0], "o", c="tab:blue", ms=3 if small else 4)
+    ax.plot(*q[-1], "s", c="tab:blue", ms=3 if small else 4)
+    if config.surface != "none":
+        ax.plot(*config.ios_center[:2], "^", c="k", ms=4 if small else 6, label=config.surface.upper())
+    ax.set_aspect("equal", adjustable="datalim")
+    if small:
+        ax.tick_params(labelsize=6)
+        ax.set_title(f"#{r.index}, T={config.T:g} s: {r.pct['bound']:.1f}% of bound", fontsize=7)
+        return
+    ax.set_xlabel("x (m)")
+    ax.set_ylabel("y (m)")
+    ax.set_title(f"#{r.index}, T={config.T:g} s: {r.rate:.3f} bps/Hz ({r.pct['bound']:.1f}% of bound)",
+                 fontsize=9)  # fmt: skip
+    ax.legend(fontsize=7, loc="best")

@@ -321,6 +321,7 @@ class Results:
                 from ios_uav_env.benchmark.figures import save_mobile_figure
 
                 paths["mobile"] = save_mobile_figure(self, out / "mobile.png")
+                paths["mobile_scenarios"] = save_mobile_figure(self, out / "mobile_scenarios.png", count=None)
         except ImportError:
             pass
         return paths

@@ -39,8 +39,8 @@ def test_the_energy_agent_replays_its_record_above_99_percent_of_dp():
 
 
 def test_the_mobile_agent_replays_its_record_and_follows_the_node():
-    """The deterministic episode of its training env (seed 0) replays; on the pinned suite
-    scenarios it ends above MPC(k=1) (the issue's bar is 97% of it) and stays feasible."""
+    """The deterministic episode of its training env (seed 0) replays; on suite scenarios it ends
+    above MPC(k=1) on average, feasible, and below the clairvoyant bound on every one."""
     from ios_uav_env import MOBILE_ID
     from ios_uav_env.benchmark import evaluate
 
@@ -52,4 +52,5 @@ def test_the_mobile_agent_replays_its_record_and_follows_the_node():
     assert episode.average_rate == pytest.approx(record["average_rate"], rel=RATE_REL)
     results = evaluate(load_numpy_agent(path), "mobile-v1", n=8)
     a = results.aggregate
-    assert a.feasible == 8 and a.mean_pct_mpc_k1 > 100.0 and a.mean_pct_bound < 100.0
+    assert a.feasible == 8 and a.mean_pct_mpc_k1 > 100.0
+    assert all(0.0 < r.pct["bound"] < 100.0 for r in results.scenarios)  # the clairvoyant bound holds

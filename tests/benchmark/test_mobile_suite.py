@@ -140,7 +140,21 @@ def test_the_reports_replay_from_the_seed_without_the_flight(suite, knowledge):
     np.testing.assert_array_equal(reports, env.reports)
 
 
-def test_a_mobile_result_saves_its_figure(suite, tmp_path):
+def test_a_mobile_result_saves_its_figure(suite, tmp_path, monkeypatch):
     pytest.importorskip("matplotlib")
-    paths = evaluate(HoverAt("ground"), suite).save(tmp_path)
+    results = evaluate(HoverAt("ground"), suite)
+    paths = results.save(tmp_path)
     assert paths["mobile"].read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    # and a panel per scenario: the grid figure has one axes for each
+    from matplotlib.image import imread
+
+    from ios_uav_env.benchmark import figures
+
+    assert paths["mobile_scenarios"].read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    drawn = []
+    real = figures._mobile_panel
+    monkeypatch.setattr(
+        figures, "_mobile_panel", lambda ax, r, *a, **k: (drawn.append(r.index), real(ax, r, *a, **k))
+    )
+    figures.save_mobile_figure(results, tmp_path / "all.png", count=None)
+    assert drawn == [r.index for r in results.scenarios] and imread(tmp_path / "all.png").shape[0] > 0
