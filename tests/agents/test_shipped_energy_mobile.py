@@ -46,7 +46,9 @@ def test_the_mobile_agent_replays_its_record_and_follows_the_node():
 
     path = MODELS_DIR / "ppo_IOSUAV-Mobile-v0"
     agent = load_agent(path)
-    assert agent.env_id == MOBILE_ID and agent.env_kwargs == {"filter_estimate": True}
+    assert agent.env_id == MOBILE_ID and agent.env_kwargs == {}  # the id's own observation: raw reports
+    clone = json.loads((path / "clone.json").read_text())  # its warm start, recorded
+    assert clone["settings"]["expert"] == "ios_uav_env.envs.policies:HoverAt('ground')"
     record = json.loads((path / "summary.json").read_text())["final_eval"]
     episode = run_episode(gym.make(MOBILE_ID, **agent.env_kwargs), agent.act, seed=0)
     assert episode.average_rate == pytest.approx(record["average_rate"], rel=RATE_REL)
