@@ -10,19 +10,11 @@ import torch
 
 from agents.fast import FastPPO
 from agents.fast.clone import CloneSettings, clone
-from tests.agents.test_fast import ENV, recipe
+from tests.agents.test_fast import ENV, one_torch_thread, recipe  # noqa: F401  (an autouse fixture)
 
 EXPERT = "ios_uav_env.envs.policies:HoverAt('ground')"
 CLONE = {"agents.callbacks.CloneStart": {"expert": EXPERT, "rounds": 2, "slots": 32, "epochs": 6,
                                          "batch_size": 256, "learning_rate": 3e-3}}  # fmt: skip
-
-
-@pytest.fixture(autouse=True)
-def one_torch_thread():
-    before = torch.get_num_threads()
-    torch.set_num_threads(1)
-    yield
-    torch.set_num_threads(before)
 
 
 def _gap(algo: FastPPO, expert, seed: int) -> float:
