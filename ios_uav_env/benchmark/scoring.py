@@ -34,8 +34,7 @@ the :class:`~ios_uav_env.benchmark.results.Results` then report % of SCA and of 
 bound. Scoring a multi-node suite needs scipy (the best schedule is an LP). A policy's plan time
 stops before the scoring, as the planners' (``Plan.seconds``, taken before
 ``Plan.from_trajectory`` scores the plan): the env's own best-schedule LP of the last step
-(``score_seconds``, for ``info["best_schedule_rate"]``) is not counted, nor is the single-node
-energy env's computation of its reward's reference at reset (its ``score_seconds``).
+(``score_seconds``, for ``info["best_schedule_rate"]``) is not counted.
 """
 
 from __future__ import annotations
@@ -129,8 +128,7 @@ def episode(
 
     seconds = play(env, checked if batched else act, scenario, seed, decision_interval(act))
     base = env.unwrapped
-    scorer = base.envs[0] if batched else base  # (a batch of one: its row's env computed it)
-    seconds -= getattr(scorer, "score_seconds", 0.0)  # the scoring LP, the reward reference: not the plan
+    seconds -= getattr(base, "score_seconds", 0.0)  # the env's scoring LP is not the plan's time
     trajectory = base.trajectories[0] if batched else base.trajectory
     shares = base.shares if cfg.K > 1 else None  # (a multi-node suite runs the single env)
     if paths is not None:

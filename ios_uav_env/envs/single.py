@@ -9,7 +9,6 @@ and the score of a finished episode is ``average_rate`` (eq. (9)) of ``env.traje
 from __future__ import annotations
 
 import math
-import time
 from collections.abc import Mapping
 from typing import Any
 
@@ -172,9 +171,7 @@ class IOSUAVEnv(gym.Env):
     B N r(P) / ((N - 1) P(V_mp)), is >= lambda* but far above it on short missions, where most
     of the energy goes into the transit.) It is computed at each new scenario (one
     ``rate_peak`` search, shared with the peak hint, and one scoring) and held in
-    ``env.unwrapped.reference_efficiency``; its wall time, in ``env.unwrapped.score_seconds``,
-    is the reward's, which ``ios_uav_env.benchmark`` leaves out of a policy's plan time (the
-    observation does not use it). The episode's score is its EE
+    ``env.unwrapped.reference_efficiency``. The episode's score is its EE
     (``info["energy_efficiency"]`` at slot N, ``envs.rollout.Episode.energy_efficiency``).
 
     ## Moving nodes
@@ -314,9 +311,6 @@ class IOSUAVEnv(gym.Env):
                 f"'energy_efficiency', got objective={self._ranges().base.objective!r}"
             )
         self.reference_efficiency: float = 0.0  # bits/J, lambda_ref of the episode (energy objective)
-        # s, the wall time of this reset's energy-reward reference (reward scoring, not a plan's:
-        # ios_uav_env.benchmark leaves it out of a policy's plan time, as the multi-node env's LP)
-        self.score_seconds: float = 0.0
         low, high = space_bounds(
             self._ranges(), self.options.length_scale, self.options.instance_features, self.options.peak_hint,
             self.energy_objective, self.options.energy_reference,
@@ -399,10 +393,8 @@ class IOSUAVEnv(gym.Env):
         self.kernel = rate_kernel(cfg)
         peak = rate_peak(cfg) if self.options.peak_hint else None
         reference = 0.0
-        if self.energy_objective:  # the reward's reference: its wall time is scoring, not planning
-            start = time.perf_counter()
+        if self.energy_objective:
             reference = self.options.energy_reference or reference_efficiency(cfg, peak)
-            self.score_seconds = time.perf_counter() - start
         self.reference_efficiency = reference
         hint = (0.0, 0.0, 0.0) if peak is None else peak[:3]
         self._episode = episode_row(cfg, self.options.length_scale, hint, reference)[None, :]
@@ -416,7 +408,6 @@ class IOSUAVEnv(gym.Env):
         """The scenario part of ``reset``: seed ``np_random``, pick the episode's scenario (drawn,
         pinned or the env's own), check that it fits the space, make it current."""
         gym.Env.reset(self, seed=seed)
-        self.score_seconds = 0.0  # (set again if this reset computes the energy reward's reference)
         pinned = scenario_option(options)
         cfg = self._episode_config(pinned)
         if cfg is not self._base_config and cfg != self.config:  # may it leave the space?

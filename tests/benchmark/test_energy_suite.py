@@ -135,23 +135,3 @@ def test_the_rate_suites_are_unchanged():
     assert not METRICS["single-node"].energy and not METRICS["multi-node"].energy
     assert "energy-v1" not in SUITES or load_suite("energy-v1").kind == "energy"
 
-
-def test_a_policys_plan_time_leaves_out_the_energy_rewards_reference(suite, monkeypatch):
-    """The energy env computes its reward's reference (a rate-peak search and a hover flight) at
-    reset: reward scoring, not the policy's plan, so the benchmark leaves it out as it leaves out
-    the multi-node env's scoring LP."""
-    import time
-
-    from ios_uav_env.envs import single
-
-    real = single.reference_efficiency
-
-    def slow(config, peak=None):
-        time.sleep(1.0)
-        return real(config, peak)
-
-    monkeypatch.setattr(single, "reference_efficiency", slow)
-    start = time.perf_counter()
-    results = evaluate(HoverAt("ground"), suite)
-    assert time.perf_counter() - start > 1.0  # the reference was computed
-    assert 0.0 < results.scenarios[0].seconds < 1.0
