@@ -16,7 +16,9 @@ and hover there", is no longer the answer. :func:`loiter` instead
 3. leaves for qF at the last slot from which the cruise speed still arrives in time, flying the remaining
    distance at one constant speed over the moves left, so it reaches qF exactly at slot N.
 
-Every proposed way-point goes through the env's arrival guard
+The flight is ``ios_uav_env.envs.loiter_flight``'s (``loiter_path``, ``best_loiter_path``): the
+energy env's ``energy_reference="loiter"`` flies the same one. Every proposed way-point goes
+through the env's arrival guard
 (``ios_uav_env.envs.guard.guarded_position``: within D of the last one and within reach of qF),
 so the plan is feasible for every valid scenario, even when T leaves no time to loiter or to
 fly at V_mr (both speeds are capped at v_max). :func:`hover` is the existing baseline of the
@@ -28,90 +30,15 @@ plan is still scored by the max-min rate).
 
 from __future__ import annotations
 
-import math
 import time
 from collections.abc import Sequence
 
-import numpy as np
-
 from baselines.fixed import fly_hover_fly
 from baselines.plan import Plan
-from ios_uav_env import ScenarioConfig, max_range_speed, min_power_speed, moves_needed, rate_peak, score_plan
-from ios_uav_env.envs.guard import guarded_position
+from ios_uav_env import ScenarioConfig
+from ios_uav_env.envs.loiter_flight import _peak, best_loiter_path, cruise_speed, loiter_path
 
-__all__ = ["hover", "loiter", "loiter_path", "solve"]
-
-
-def _peak(config: ScenarioConfig, peak: Sequence[float] | None) -> np.ndarray:
-    if peak is None:
-        best = rate_peak(config.node_config(0))
-        return np.array([best.x, best.y])
-    point = np.asarray(peak, dtype=float)
-    if point.shape != (2,) or not np.all(np.isfinite(point)):
-        raise ValueError(f"peak must be a finite (x, y) point in m, got {peak!r}")
-    return point
-
-
-def cruise_speed(config: ScenarioConfig, out: float, back: float) -> float:
-    """The cruise speed (m/s) of the two legs of ``out`` and ``back`` m: the maximum-range speed
-    V_mr, or, when the horizon is too short for the legs at V_mr, the least speed of a grid of
-    256 speeds from V_mr to v_max whose legs fit in the N - 1 moves (v_max if none does)."""
-    v_mr = min(max_range_speed(config.propulsion), config.v_max)
-    for v in np.linspace(v_mr, config.v_max, 256):
-        if moves_needed(out, v * config.dt) + moves_needed(back, v * config.dt) <= config.N - 1:
-            return float(v)
-    return config.v_max
-
-
-def loiter_path(
-    config: ScenarioConfig, sides: int = 3, peak: Sequence[float] | None = None, cruise: float | None = None
-) -> tuple[np.ndarray, dict]:
-    """The loiter trajectory (N, 2) and its description (module docstring); ``sides`` >= 2
-    way-points per lap, ``peak`` (m) the centre (default: the reachable rate peak), ``cruise``
-    (m/s) the legs' speed (default :func:`cruise_speed`; at least that, at most v_max)."""
-    if isinstance(sides, bool) or not isinstance(sides, int) or sides < 2:
-        raise ValueError(f"sides must be an integer >= 2 (way-points per lap), got {sides!r}")
-    centre = _peak(config, peak)
-    d_max, dt = config.D, config.dt
-    chord = min(min_power_speed(config.propulsion), config.v_max) * dt
-    radius = chord / (2.0 * math.sin(math.pi / sides))
-    q0, q_f = np.asarray(config.q0, float), np.asarray(config.qF, float)
-    away = q0 - centre
-    phi0 = math.atan2(away[1], away[0]) if np.any(away) else 0.0
-    angles = phi0 + 2.0 * math.pi * np.arange(sides) / sides
-    corners = centre + radius * np.column_stack([np.cos(angles), np.sin(angles)])
-    least = cruise_speed(config, float(np.hypot(*(corners[0] - q0))), float(np.hypot(*(q_f - corners[0]))))
-    out_step = min(max(least, least if cruise is None else float(cruise)), config.v_max) * dt
-
-    traj = np.empty((config.N, 2))
-    traj[0] = pos = q0
-    phase, corner, loiter_moves = "out", 0, 0
-    for n in range(config.N - 1):
-        left = config.N - 2 - n  # moves left after this one
-        on_circle = phase == "loiter"
-        if phase == "out":
-            moves = max(int(moves_needed(float(np.hypot(*(corners[0] - pos))), out_step)), 1)
-            proposal = pos + (corners[0] - pos) / moves  # one constant speed <= V_mr over the leg
-            if moves == 1:
-                phase = "loiter"
-        elif on_circle:
-            corner = (corner + 1) % sides
-            proposal = corners[corner]
-        if phase != "back" and moves_needed(float(np.hypot(*(q_f - proposal))), out_step) > left:
-            phase = "back"
-        if phase == "back":
-            proposal = pos + (q_f - pos) / (left + 1)  # one constant speed over the moves left
-        else:
-            loiter_moves += on_circle
-        nxt = guarded_position((float(pos[0]), float(pos[1])), (float(proposal[0]), float(proposal[1])),
-                               (float(q_f[0]), float(q_f[1])), d_max, left)  # fmt: skip
-        traj[n + 1] = pos = np.array(nxt)
-    traj[-1] = q_f
-    info = {
-        "peak": centre.tolist(), "radius": radius, "sides": sides, "loiter_moves": int(loiter_moves),
-        "cruise_speed": out_step / dt, "loiter_speed": chord / dt,
-    }  # fmt: skip
-    return traj, info
+__all__ = ["best_loiter_path", "cruise_speed", "hover", "loiter", "loiter_path", "solve"]
 
 
 def loiter(config: ScenarioConfig, sides: int = 3, peak: Sequence[float] | None = None) -> Plan:
@@ -121,14 +48,7 @@ def loiter(config: ScenarioConfig, sides: int = 3, peak: Sequence[float] | None 
     when T is short). ``info`` holds the peak, the circle's radius (m) and sides, the moves
     along the circle (``loiter_moves``) and the speeds."""
     t0 = time.perf_counter()
-    centre = _peak(config, peak)
-    traj, info = loiter_path(config, sides, centre)
-    best = score_plan(config, traj).energy_efficiency
-    for v in np.linspace(info["cruise_speed"], config.v_max, 5)[1:]:  # a tight T: faster legs, more loiter
-        q, more = loiter_path(config, sides, centre, float(v))
-        ee = score_plan(config, q).energy_efficiency
-        if ee > best:
-            traj, info, best = q, more, ee
+    traj, info, _ = best_loiter_path(config, sides, _peak(config, peak))
     return Plan.from_trajectory("loiter", config, traj, time.perf_counter() - t0, info=info)
 
 

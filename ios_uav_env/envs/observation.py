@@ -129,6 +129,20 @@ def reference_efficiency(config: ScenarioConfig, peak: Peak | None = None) -> fl
     return float(score_plan(config, hover_flight(config, peak)).energy_efficiency)
 
 
+def loiter_efficiency(config: ScenarioConfig, peak: Peak | None = None) -> float:
+    """lambda_ref (bits/J) of ``energy_reference="loiter"``: the better EE (``score_plan``) of the
+    loiter heuristic's flight around the reachable rate peak (``loiter_flight.best_loiter_path``,
+    the one ``baselines.loiter`` flies) and the hover plan's (:func:`reference_efficiency`; on a
+    tight horizon hovering can beat the loiter legs). Feasible plans, so lambda_ref <= EE*, and
+    on most scenarios far closer to it than the hover plan's: a plan that maximises the return
+    then has an EE of at least both heuristics' (``IOSUAVEnv``, "Energy"). ``peak``: the
+    reachable rate peak if known."""
+    from ios_uav_env.envs.loiter_flight import best_loiter_path
+
+    p = rate_peak(config) if peak is None else peak
+    return max(best_loiter_path(config, peak=(p.x, p.y))[2], reference_efficiency(config, p))
+
+
 def optimistic_efficiency(config: ScenarioConfig, peak_rate: float | None = None) -> float:
     """B N r(P) / ((N - 1) P(V_mp)) (bits/J): the EE of a plan that would sit at the reachable
     rate peak P for all N slots while flying every one of its N - 1 moves at the minimum-power

@@ -56,8 +56,9 @@ class EnvOptions:
     instance_features: bool = False  # append the 6 features of the instance
     peak_hint: bool = False  # append the 3 features of the reachable rate peak
     # bits/J, lambda_ref of the energy reward (objective "energy_efficiency" only); None: the
-    # scenario's own reference, the EE of its hover plan (observation.reference_efficiency)
-    energy_reference: float | None = None
+    # scenario's own reference, the EE of its hover plan (observation.reference_efficiency);
+    # "loiter": the EE of its loiter flight (observation.loiter_efficiency), closer to the best
+    energy_reference: float | str | None = None
     # what the UAV is told of the node each slot (KNOWLEDGE; "exact": its true position)
     knowledge: str = "exact"
     report_sigma: float = REPORT_SIGMA  # m, s: std of each component of a position report's error
@@ -84,7 +85,12 @@ class EnvOptions:
         object.__setattr__(
             self, "length_scale", _number(self.length_scale, "length_scale (m)", positive=True)
         )
-        if self.energy_reference is not None:
+        if self.energy_reference is not None and self.energy_reference != "loiter":
+            if isinstance(self.energy_reference, str):
+                got = self.energy_reference
+                raise ValueError(
+                    f"energy_reference must be None, 'loiter' or a number > 0 (bits/J), got {got!r}"
+                )
             reference = _number(self.energy_reference, "energy_reference (bits/J)", positive=True)
             object.__setattr__(self, "energy_reference", reference)
 

@@ -23,6 +23,7 @@ from ios_uav_env.envs.observation import (
     OBS_NAMES,
     PEAK_NAMES,
     check_fits,
+    loiter_efficiency,
     reference_efficiency,
     space_bounds,
 )
@@ -249,7 +250,8 @@ class IOSUAVEnv(gym.Env):
     - ``instance_features`` (False): append the 6 instance features to the observation.
     - ``peak_hint`` (False): append the 3 features of the reachable rate peak.
     - ``energy_reference`` (None): lambda_ref (bits/J) of the energy reward (objective
-      ``"energy_efficiency"``; see "Energy"); None: the scenario's optimistic reference.
+      ``"energy_efficiency"``; see "Energy"); None: the scenario's hover plan's EE; "loiter":
+      the better EE of its loiter and hover flights (``observation.loiter_efficiency``).
     - ``knowledge`` ("exact"), ``report_sigma`` (10 m) and ``filter_estimate`` (False): what the
       UAV is told of the node each slot, see "Moving nodes".
     - ``render_mode``: None or "rgb_array" (the trajectory over the rate map; needs
@@ -313,7 +315,7 @@ class IOSUAVEnv(gym.Env):
         self.reference_efficiency: float = 0.0  # bits/J, lambda_ref of the episode (energy objective)
         low, high = space_bounds(
             self._ranges(), self.options.length_scale, self.options.instance_features, self.options.peak_hint,
-            self.energy_objective, self.options.energy_reference,
+            self.energy_objective, self._fixed_reference,
         )  # fmt: skip
         # moving or roughly known node (ios_uav_env.envs.knowledge): a path and kernels per episode
         base = self._ranges().base
@@ -394,7 +396,11 @@ class IOSUAVEnv(gym.Env):
         peak = rate_peak(cfg) if self.options.peak_hint else None
         reference = 0.0
         if self.energy_objective:
-            reference = self.options.energy_reference or reference_efficiency(cfg, peak)
+            reference = self._fixed_reference or (
+                loiter_efficiency(cfg, peak)
+                if self.options.energy_reference == "loiter"
+                else reference_efficiency(cfg, peak)
+            )
         self.reference_efficiency = reference
         hint = (0.0, 0.0, 0.0) if peak is None else peak[:3]
         self._episode = episode_row(cfg, self.options.length_scale, hint, reference)[None, :]
@@ -437,7 +443,7 @@ class IOSUAVEnv(gym.Env):
             )
         check_fits(
             cfg, self.options.length_scale, self.options.instance_features, self.observation_space,
-            self.options.peak_hint, self.energy_objective, self.options.energy_reference,
+            self.options.peak_hint, self.energy_objective, self._fixed_reference,
         )  # fmt: skip
         if self.mobile:  # where the node can be told to be, and the rate feature's bound
             low, high, _ = mobile_bounds(ScenarioRanges.from_config(cfg), self.options, *self._space())
@@ -447,6 +453,13 @@ class IOSUAVEnv(gym.Env):
                     f"{field}: its node's motion rectangle (or reports) could take the node features "
                     "out of this env's observation space; make an env on the scenario instead"
                 )
+
+    @property
+    def _fixed_reference(self) -> float | None:
+        """lambda_ref when it is one number for every scenario (``energy_reference`` in bits/J),
+        else None (each scenario's own: its hover or its loiter flight's EE)."""
+        ref = self.options.energy_reference
+        return None if ref is None or isinstance(ref, str) else float(ref)
 
     def _space(self) -> tuple[np.ndarray, np.ndarray]:
         """The observation space's (low, high) as float64 arrays."""

@@ -134,4 +134,3 @@ def test_the_rate_suites_are_unchanged():
         assert s.normalizer == normalizer and s[0].value(normalizer) == s[0].rate(normalizer)
     assert not METRICS["single-node"].energy and not METRICS["multi-node"].energy
     assert "energy-v1" not in SUITES or load_suite("energy-v1").kind == "energy"
-

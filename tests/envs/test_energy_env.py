@@ -17,6 +17,7 @@ from ios_uav_env import ENERGY_ID, ENERGY_IDS, ENERGY_RANDOM_ID, ScenarioConfig,
 from ios_uav_env.envs.observation import (
     ENERGY_NAMES,
     hover_flight,
+    loiter_efficiency,
     min_power_move,
     optimistic_efficiency,
     reference_efficiency,
@@ -126,6 +127,33 @@ def test_reference_is_the_hover_plans_ee_below_the_best_and_the_optimistic_bound
         assert lam < best < upper
     fixed = IOSUAVEnv(SHORT, energy_reference=1234.5)
     assert fixed.reference_efficiency == 1234.5
+
+
+def test_the_loiter_reference_is_the_loiter_flights_ee_above_hovering_below_the_best():
+    """energy_reference="loiter": lambda_ref is the better EE of the loiter heuristic's flight (the
+    one implementation baselines.loiter flies) and the hover plan's: at most EE*, at least the
+    default reference; the space is the default reference's (both are feasible plans' EE)."""
+    from ios_uav_env.envs.loiter_flight import loiter_path
+
+    dp_energy = pytest.importorskip("baselines.dp_energy")
+    loiter = pytest.importorskip("baselines.loiter")
+    assert loiter.loiter_path is loiter_path
+    lams = []
+    for config in (SHORT, SHORT.replace(surface="ris", T=50.0), SHORT.replace(T=150.0)):
+        env = IOSUAVEnv(config, energy_reference="loiter")
+        env.reset(seed=0)
+        lam = env.unwrapped.reference_efficiency
+        plan = loiter.loiter(config)
+        assert plan.feasible and lam == loiter_efficiency(config)
+        assert lam == max(plan.energy_efficiency, reference_efficiency(config))
+        best = dp_energy.solve_ee(config, resolution=5.0).info["lambda"]
+        assert reference_efficiency(config) <= lam <= best * (1 + 1e-9)
+        lams.append(lam / reference_efficiency(config))
+        assert env.observation_space == IOSUAVEnv(config).observation_space
+    assert max(lams) > 1.2  # on the long horizon loitering is far better than hovering
+    drawn = RandomIOSUAVEnv(objective="energy_efficiency", energy_reference="loiter")
+    drawn.reset(seed=3)
+    assert drawn.reference_efficiency == loiter_efficiency(drawn.config)
 
 
 def plans(config: ScenarioConfig) -> list[np.ndarray]:
@@ -248,6 +276,8 @@ def test_objective_mismatch_and_bad_reference_are_refused():
         IOSUAVEnv(SHORT.replace(objective="rate")).reset(options={"config": SHORT})
     with pytest.raises(ValueError, match="energy_reference"):
         IOSUAVEnv(SHORT, energy_reference=-1.0)
+    with pytest.raises(ValueError, match="energy_reference must be None, 'loiter' or a number"):
+        IOSUAVEnv(SHORT, energy_reference="dp")
     with pytest.raises(ValueError, match="energy_reference.*objective='rate'"):
         gym.make("ios_uav_env/IOSUAV-v0", energy_reference=1e4)
     with pytest.raises(ValueError, match="objective"):
