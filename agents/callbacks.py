@@ -266,7 +266,7 @@ class CloneStart(BaseCallback):
     def __init__(self, expert: str, rounds: int = 4, slots: int = 128, epochs: int = 8,
                  learning_rate: float = 1e-3, noise: float = 0.3, batch_size: int = 4096):  # fmt: skip
         super().__init__()
-        from agents.fast.clone import CloneSettings
+        from agents.fast.recipe import CloneSettings
 
         self.settings = CloneSettings(expert, rounds, slots, epochs, learning_rate, noise, batch_size)
 

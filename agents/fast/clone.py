@@ -22,43 +22,16 @@ bound. The rows are reset after the clone (seeded as the run's first rollout).
 
 from __future__ import annotations
 
-import math
 import time
 from collections.abc import Callable
-from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from agents.fast.recipe import CloneSettings
+
 if TYPE_CHECKING:
     from agents.fast.ppo import FastPPO
-
-
-@dataclass(frozen=True)
-class CloneSettings:
-    """``agents.callbacks.CloneStart``'s arguments, checked."""
-
-    expert: str  # PKG.MODULE:ATTR of the expert (ios_uav_env.benchmark.cli.load_policy)
-    rounds: int = 4  # rounds of data (round 0 by the expert, then DAgger)
-    slots: int = 128  # slots of every row per round
-    epochs: int = 8  # passes over the data after each round
-    learning_rate: float = 1e-3  # Adam's step size of the fit
-    noise: float = 0.3  # std of the noise on round 0's moves (units of D)
-    batch_size: int = 4096  # minibatch of the fit (samples)
-
-    def __post_init__(self) -> None:
-        if not isinstance(self.expert, str) or ":" not in self.expert:
-            raise ValueError(f"CloneStart expert must be PKG.MODULE:ATTR, got {self.expert!r}")
-        for name in ("rounds", "slots", "epochs", "batch_size"):
-            value = getattr(self, name)
-            if isinstance(value, bool) or not isinstance(value, int) or value < 1:
-                raise ValueError(f"CloneStart {name} must be an integer >= 1, got {value!r}")
-        for name, low in (("learning_rate", 0.0), ("noise", -1.0)):
-            value = getattr(self, name)
-            if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
-                raise ValueError(f"CloneStart {name} must be a finite number, got {value!r}")
-            if not value > low:
-                raise ValueError(f"CloneStart {name} must be > {low:g}, got {value!r}")
 
 
 def load_expert(spec: str) -> Callable[[np.ndarray], np.ndarray]:

@@ -18,7 +18,6 @@ import math
 from dataclasses import dataclass, field
 from typing import Any
 
-from agents.fast.clone import CloneSettings
 from agents.hyperparams import Hyperparams
 
 #: PPO keyword arguments the fast trainer reads (every other PPO argument is refused by name).
@@ -60,6 +59,33 @@ class Schedule:
         if isinstance(value, bool) or not isinstance(value, (int, float)) or not value > 0:
             raise ValueError(f"hyperparameter {name} must be > 0, got {value!r}")
         return cls(float(value))
+
+
+@dataclass(frozen=True)
+class CloneSettings:
+    """``agents.callbacks.CloneStart``'s arguments, checked (what they do: ``agents.fast.clone``)."""
+
+    expert: str  # PKG.MODULE:ATTR of the expert (ios_uav_env.benchmark.cli.load_policy)
+    rounds: int = 4  # rounds of data (round 0 by the expert, then DAgger)
+    slots: int = 128  # slots of every row per round
+    epochs: int = 8  # passes over the data after each round
+    learning_rate: float = 1e-3  # Adam's step size of the fit
+    noise: float = 0.3  # std of the noise on round 0's moves (units of D)
+    batch_size: int = 4096  # minibatch of the fit (samples)
+
+    def __post_init__(self) -> None:
+        if not isinstance(self.expert, str) or ":" not in self.expert:
+            raise ValueError(f"CloneStart expert must be PKG.MODULE:ATTR, got {self.expert!r}")
+        for name in ("rounds", "slots", "epochs", "batch_size"):
+            value = getattr(self, name)
+            if isinstance(value, bool) or not isinstance(value, int) or value < 1:
+                raise ValueError(f"CloneStart {name} must be an integer >= 1, got {value!r}")
+        for name, low in (("learning_rate", 0.0), ("noise", -1.0)):
+            value = getattr(self, name)
+            if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
+                raise ValueError(f"CloneStart {name} must be a finite number, got {value!r}")
+            if not value > low:
+                raise ValueError(f"CloneStart {name} must be > {low:g}, got {value!r}")
 
 
 @dataclass(frozen=True)
