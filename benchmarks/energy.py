@@ -58,7 +58,11 @@ def agent_plan(path: str, config: ScenarioConfig) -> Plan:
     from ios_uav_env.envs.rollout import run_episode
 
     policy = load_numpy_agent(path)
-    env = gym.make(load_agent_env(path), config=config, **policy.env_kwargs)
+    # the scenario's own fields over the id's registered ones (e.g. its surface)
+    overrides = {"surface": config.surface, "objective": config.objective}
+    env = gym.make(load_agent_env(path), config=config, **{**policy.env_kwargs, **overrides})
+    if env.unwrapped.config != config:
+        raise ValueError(f"the agent's env flies {env.unwrapped.config}, not the scenario {config}")
     episode = run_episode(env, policy, seed=0)
     return Plan.from_trajectory(Path(path).name, config, episode.trajectory, episode.seconds)
 

@@ -12,9 +12,11 @@ starts PPO from a clone of an *expert*, a policy that maps the raw observation t
   value to the discounted returns of that round's states (the recipe's gamma, bootstrapped by the
   value after the round's last slot; rewards normalised as PPO normalises them), by squared
   error with Adam (a separate optimiser: PPO's Adam starts fresh). The observation statistics
-  (``VecNormalize``) are updated from every state visited, as PPO's rollouts update them.
+  (``VecNormalize``) are updated from every state visited, as PPO's rollouts update them, and
+  each fit normalises every observation so far with the statistics of that moment (the raw
+  observations are kept).
 - **Then PPO** trains on from the clone with the recipe's schedules from step 0; the clone's env
-  steps are not counted in the run's steps (they are in its summary, ``clone``).
+  steps are not counted in the run's steps (``clone.json`` in the run folder records them).
 
 The policy starts where the expert is and RL can only move it from there: a warm start, not a
 bound. The rows are reset after the clone (seeded as the run's first rollout).
@@ -58,13 +60,14 @@ def clone(algo: FastPPO, settings: CloneSettings) -> dict[str, Any]:
     rng = np.random.default_rng([algo.seed, 1])
     algo.reset(seed=algo.seed + 7_919 * recipe.n_envs)  # rows of their own, not the RL run's first
     obs = algo._obs
-    seen_obs: list[np.ndarray] = []
+    seen_raw: list[np.ndarray] = []  # raw observations: each fit normalises them with the current statistics
     seen_labels: list[np.ndarray] = []
     rounds = []
     for r in range(settings.rounds):
-        xs, labels, rewards, dones = [], [], [], []
+        raws, labels, rewards, dones = [], [], [], []
         for _ in range(settings.slots):
             label = np.clip(np.asarray(expert(obs), dtype=np.float64), algo._low, algo._high)
+            x_raw = obs
             x = np.asarray(algo._normalized_obs(obs), dtype=np.float32)
             if r == 0:
                 act = label.copy()
@@ -78,25 +81,29 @@ def clone(algo: FastPPO, settings: CloneSettings) -> dict[str, Any]:
             if done.any():
                 reward = algo._episode_ends(reward, terminated, truncated, info)
             reward = algo._normalized_rewards(obs, reward, done)
-            xs.append(x)
+            raws.append(np.asarray(x_raw, dtype=np.float64))
             labels.append(label.astype(np.float32))
             rewards.append(reward)
             dones.append(done)
-        x_t = torch.from_numpy(np.stack(xs))
+        raw = np.stack(raws)  # (slots, B, obs)
+
+        def normalized(a: np.ndarray) -> torch.Tensor:
+            return torch.from_numpy(np.asarray(algo._normalized_obs(a), dtype=np.float32))
+
+        flat = normalized(raw.reshape(-1, raw.shape[-1]))
         with torch.no_grad():
-            values = algo._forward(x_t.reshape(-1, x_t.shape[-1]))[1].reshape(x_t.shape[:2])
-            last = algo._forward(torch.from_numpy(np.asarray(algo._normalized_obs(obs), np.float32)))[1]
+            values = algo._forward(flat)[1].reshape(raw.shape[:2])
+            last = algo._forward(normalized(obs))[1]
         rew = torch.from_numpy(np.stack(rewards).astype(np.float32))
         don = torch.from_numpy(np.stack(dones).astype(np.float32))
         returns = gae(rew, values, don, last, recipe.gamma, 1.0)[1].reshape(-1)
-        flat = x_t.reshape(-1, x_t.shape[-1])
-        seen_obs.append(flat)
+        seen_raw.append(raw.reshape(-1, raw.shape[-1]))
         seen_labels.append(torch.from_numpy(np.stack(labels)).reshape(-1, labels[0].shape[-1]))
-        data = (torch.cat(seen_obs), torch.cat(seen_labels))
+        data = (normalized(np.concatenate(seen_raw)), torch.cat(seen_labels))
         fit = _fit(algo, optimizer, params, *data, flat, returns, settings)
         scores = algo.take_scores()
         score = float(np.mean(scores)) if scores else float("nan")
-        samples = int(sum(len(o) for o in seen_obs))
+        samples = int(sum(len(o) for o in seen_raw))
         rounds.append({"round": r, "samples": samples, "episode_score": score, **fit})
     algo._obs = None  # PPO's first rollout resets the rows
     steps = settings.rounds * settings.slots * recipe.n_envs

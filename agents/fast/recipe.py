@@ -80,12 +80,12 @@ class CloneSettings:
             value = getattr(self, name)
             if isinstance(value, bool) or not isinstance(value, int) or value < 1:
                 raise ValueError(f"CloneStart {name} must be an integer >= 1, got {value!r}")
-        for name, low in (("learning_rate", 0.0), ("noise", -1.0)):
+        for name, positive in (("learning_rate", True), ("noise", False)):
             value = getattr(self, name)
             if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
                 raise ValueError(f"CloneStart {name} must be a finite number, got {value!r}")
-            if not value > low:
-                raise ValueError(f"CloneStart {name} must be > {low:g}, got {value!r}")
+            if value < 0 or (positive and value == 0):
+                raise ValueError(f"CloneStart {name} must be {'> 0' if positive else '>= 0'}, got {value!r}")
 
 
 @dataclass(frozen=True)

@@ -163,10 +163,10 @@ class MultiNodeEnv(MobileNodes, gym.Env):
     instead; with ``"rates"`` no position (0). Unless exact, the rate feature is the rate the
     node measured in the slot (one faded sample; 0 if its share was at most
     ``ios_uav_env.model.reports.SERVED_SHARE``) and
-    the served feature the UAV's own tally sum_m alpha_k[m] x measured_k[m] / N. The draws are
-    ``baselines.mpc.run_online``'s, so the env and MPC see the same paths and noise for a
-    seed. ``env.unwrapped.paths``, ``.reports`` and ``.measured_rates`` hold the episode's.
-    ``peak_hint`` is refused.
+    the served feature the UAV's own tally sum_m alpha_k[m] x measured_k[m] / N. With
+    ``"reports"`` the draws are ``baselines.mpc.run_online``'s, so the env and MPC see the same
+    paths and noise for a seed. ``env.unwrapped.paths``, ``.reports`` and ``.measured_rates``
+    hold the episode's. ``peak_hint`` is refused.
 
     ## Info
 

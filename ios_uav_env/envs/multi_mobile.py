@@ -49,14 +49,22 @@ class MobileNodes:
         if track.nodes.shape[3] > width:  # (path_kernels has rate_kernel's width: never)
             raise RuntimeError(f"a path kernel has {track.nodes.shape[3]} surface nodes, the row {width}")
         self._track = track
-        k = self.config.K
-        rows.nodes[i, :k], rows.params[i, :k] = track.nodes[:, 0], track.params[:, 0]
+        self._put(rows, i, 0)
 
     def _slot_kernels(self, rows: NodeRows, i: int) -> None:
         """Row ``i``'s node kernels of the slot its next step flies to (the true positions)."""
-        slot, k = int(rows.state[i, 2]) + 1, self.config.K
+        slot = int(rows.state[i, 2]) + 1
         if self._track is not None and slot < self.config.N:  # (a row at its end is left alone)
-            rows.nodes[i, :k], rows.params[i, :k] = self._track.nodes[:, slot], self._track.params[:, slot]
+            self._put(rows, i, slot)
+
+    def _put(self, rows: NodeRows, i: int, slot: int) -> None:
+        """Copy the track's kernels of ``slot`` into row ``i``; the row's surface nodes beyond the
+        track's (the rows grew for another row's wider surface) are padding of zero weight."""
+        assert self._track is not None
+        k, q = self.config.K, self._track.nodes.shape[3]
+        rows.nodes[i, :k, :, :q] = self._track.nodes[:, slot]
+        rows.nodes[i, :k, :, q:] = ((0.0,), (1.0,), (0.0,))
+        rows.params[i, :k] = self._track.params[:, slot]
 
     def _observe(self, rows: NodeRows, i: int, obs: np.ndarray) -> None:
         """Write what the UAV is told of the nodes in row ``i``'s current slot into the observation

@@ -48,6 +48,7 @@ def test_the_recipe_reads_the_clone_and_sb3_refuses_it():
         ("slots", 2.5, "slots must be an integer >= 1"),
         ("learning_rate", 0.0, "learning_rate must be > 0"),
         ("noise", float("nan"), "noise must be a finite number"),
+        ("noise", -0.1, "noise must be >= 0"),
     ],
 )
 def test_bad_clone_settings_name_the_field(field, value, message):

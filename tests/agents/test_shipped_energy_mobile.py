@@ -38,6 +38,23 @@ def test_the_energy_agent_replays_its_record_above_99_percent_of_dp():
     assert scaled.average_rate != pytest.approx(record["average_rate"], rel=RATE_REL)
 
 
+def test_the_energy_generalist_replays_its_record_with_the_loiter_reference():
+    """Its deterministic episode of the randomised energy id (seed 0) replays to the tolerance any
+    CPU meets; the loiter reference is what it was trained with (and its suite row, in
+    docs/leaderboard.md, reruns in test_leaderboard)."""
+    from ios_uav_env import ENERGY_RANDOM_ID
+
+    path = MODELS_DIR / "ppo_IOSUAV-Energy-Random-v0"
+    agent = load_agent(path)
+    assert agent.env_id == ENERGY_RANDOM_ID and agent.env_kwargs == {"energy_reference": "loiter"}
+    record = json.loads((path / "summary.json").read_text())["final_eval"]
+    env = gym.make(ENERGY_RANDOM_ID, **agent.env_kwargs)
+    episode = run_episode(env, agent.act, seed=0)
+    assert episode.average_rate == pytest.approx(record["average_rate"], rel=RATE_REL) and episode.feasible
+    scaled = run_episode(env, lambda o: agent.act(o * (1.0 + NORMALISATION_CHANGE)), seed=0)
+    assert scaled.average_rate != pytest.approx(record["average_rate"], rel=RATE_REL)
+
+
 def test_the_mobile_agent_replays_its_record_and_follows_the_node():
     """The deterministic episode of its training env (seed 0) replays; on suite scenarios it ends
     above MPC(k=1) on average, feasible, and below the clairvoyant bound on every one."""
@@ -56,3 +73,25 @@ def test_the_mobile_agent_replays_its_record_and_follows_the_node():
     a = results.aggregate
     assert a.feasible == 8 and a.mean_pct_mpc_k1 > 100.0
     assert all(0.0 < r.pct["bound"] < 100.0 for r in results.scenarios)  # the clairvoyant bound holds
+
+
+def test_the_energy_benchmark_flies_an_agent_on_the_benchmarks_own_scenario():
+    """benchmarks/energy.py --agents: the agent's row is its episode on the table's scenario (the
+    id's registered surface does not override it), scored by the one scorer."""
+    import importlib.util
+    from pathlib import Path
+
+    from ios_uav_env import ScenarioConfig
+
+    spec = importlib.util.spec_from_file_location(
+        "energy_bench", Path(__file__).parents[2] / "benchmarks" / "energy.py"
+    )
+    bench = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(bench)
+    for surface in ("ios", "none"):
+        config = ScenarioConfig(surface=surface, objective="energy_efficiency")
+        plan = bench.agent_plan(str(MODELS_DIR / "ppo_IOSUAV-Energy-v0"), config)
+        assert plan.config == config and plan.feasible
+        assert plan.energy_efficiency == score_plan(config, plan.trajectory).energy_efficiency
+        if surface == "ios":
+            assert plan.energy_efficiency >= 0.99 * DP_EE

@@ -172,9 +172,31 @@ def test_the_env_and_run_online_share_the_episodes_draws():
     np.testing.assert_allclose(env.measured_rates[served], run.measured[served], rtol=1e-9)
 
 
-def test_the_batch_is_the_single_envs_step_for_step():
-    gap = replay_gap(RANDOM, "next_step", extra={"motion": WALK, "knowledge": "reports"})
+@pytest.mark.parametrize("mode", ["next_step", "same_step"])
+def test_the_batch_is_the_single_envs_step_for_step(mode):
+    gap = replay_gap(RANDOM, mode, extra={"motion": WALK, "knowledge": "reports"})
     assert gap <= 1e-9
+
+
+def test_rows_of_different_surface_widths_swap_their_own_kernels():
+    """A row loaded after another grows the rows' surface nodes; the first row's per-slot kernels
+    are then padded with zero weight, and both rows still step as their single envs."""
+    small = SHORT.replace(ios_shape=(10, 6))
+    configs = [small, SHORT]
+    vec = MultiNodeVectorEnv(2, random_nodes=(2, 4), ranges=RANGES, knowledge="reports")
+    singles = [MultiNodeEnv(random_nodes=(2, 4), ranges=RANGES, knowledge="reports") for _ in configs]
+    obs, _ = vec.reset(seed=5, options={"configs": configs})
+    expected = [
+        env.reset(seed=5 + i, options={"config": c})[0]
+        for i, (env, c) in enumerate(zip(singles, configs, strict=True))
+    ]
+    assert np.abs(obs - np.array(expected)).max() <= 1e-9
+    for t in range(10):
+        actions = ACTIONS[t : t + 1, :6].repeat(2, axis=0)
+        obs, reward, *_ = vec.step(actions)
+        for i, env in enumerate(singles):
+            o, r, *_ = env.step(actions[i])
+            assert np.abs(o - obs[i]).max() <= 1e-9 and abs(r - reward[i]) <= 1e-9
 
 
 def test_observations_stay_in_the_space_with_noisy_reports():
