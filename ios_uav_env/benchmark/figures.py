@@ -119,7 +119,8 @@ def save_mobile_figure(results: Any, path: str | Path, count: int | None = 3) ->
     sigma = float(results.env_kwargs.get("report_sigma", REPORT_SIGMA))
     if count is None:
         chosen, cols = rows, min(5, len(rows))
-        grid, size = (math.ceil(len(rows) / cols), cols), (3.3 * cols, 3.0 * math.ceil(len(rows) / cols))
+        lines = math.ceil(len(rows) / cols)
+        grid, size = (lines, cols), (3.3 * cols, 3.0 * lines)
     else:
         chosen = [rows[i] for i in dict.fromkeys(picks([r.pct["bound"] for r in rows], count))]
         grid, size = (1, len(chosen)), (5.2 * len(chosen), 4.6)

@@ -86,20 +86,19 @@ class NodeTrack:
     filter: NodeFilter | None = None  # the Kalman filter of the reports so far (filter_estimate)
 
 
-def _rectangle(config: ScenarioConfig) -> tuple[np.ndarray, np.ndarray]:
-    """(lo, hi), (2,) m: where the node can be (its motion rectangle, or its position if static)."""
+def _rectangles(config: ScenarioConfig) -> tuple[np.ndarray, np.ndarray]:
+    """(lo, hi), (K, 2) m: where each node can be (its motion rectangle, or its position)."""
     if config.motion is None:
-        w = np.asarray(config.ground_node, dtype=float)
+        w = np.asarray(config.nodes, dtype=float)
         return w, w
-    lo, hi = node_bounds(config)
-    return lo[0], hi[0]
+    return node_bounds(config)
 
 
 def start_track(config: ScenarioConfig, rng: np.random.Generator, sigma: float) -> NodeTrack:
     """Draw the episode's node path from ``rng`` and build its kernel per slot (module docstring)."""
     paths = node_paths(config, rng)
     nodes, params = path_kernels(config.node_config(0), paths[:, 0])
-    lo, hi = _rectangle(config)
+    lo, hi = (corner[0] for corner in _rectangles(config))
     margin = REPORT_CLIP * sigma
     full = np.full((config.N, 1, 2), np.nan)
     return NodeTrack(paths, nodes, params, lo - margin, hi + margin, full, np.full(config.N, np.nan), config)
@@ -120,23 +119,32 @@ def observe_slot(
     rate (None for ``"exact"``: the env's own expected rate stays). ``estimate`` (``"reports"``
     only): the position told is the Kalman filter's estimate after this slot's report
     (``ios_uav_env.model.kalman.NodeFilter`` on the raw reports, as MPC runs it), clipped alike."""
-    truth = track.paths[slot, 0]
-    position: np.ndarray | None = truth
+    position: np.ndarray | None = track.paths[slot, 0]
     if knowledge == "reports":
-        report = position_reports(truth[None], rng, sigma)
-        position = track.reports[slot, 0] = np.clip(report[0], track.lo, track.hi)
-        if estimate:
-            if track.filter is None:
-                track.filter = NodeFilter.start(track.config, report, max(sigma, EXACT_SIGMA))
-            else:
-                track.filter.step(report)
-            position = np.clip(track.filter.position[0], track.lo, track.hi)
+        position = _reported(track, slot, rng, sigma, estimate)[0]
     if knowledge == "exact":
         return position, None
     n_re, n_im = rng.standard_normal(2)
     rate = faded_row(float(q[0]), float(q[1]), float(n_re), float(n_im), track.nodes, track.params, slot)
     track.measured[slot] = rate
     return (None if knowledge == "rates" else position), min(rate, rate_high)
+
+
+def _reported(
+    track: NodeTrack | NodesTrack, slot: int, rng: np.random.Generator, sigma: float, estimate: bool
+) -> np.ndarray:
+    """(K, 2) m: every node's report of ``slot`` (K x 2 normals from ``rng``), clipped to the
+    track's report box and recorded in ``track.reports``, or, with ``estimate``, the Kalman
+    filter's estimate after the raw reports (as MPC runs it), clipped alike."""
+    report = position_reports(track.paths[slot], rng, sigma)
+    told = track.reports[slot] = np.clip(report, track.lo, track.hi)
+    if estimate:
+        if track.filter is None:
+            track.filter = NodeFilter.start(track.config, report, max(sigma, EXACT_SIGMA))
+        else:
+            track.filter.step(report)
+        told = np.clip(track.filter.position, track.lo, track.hi)
+    return told
 
 
 def node_extent(ranges: ScenarioRanges, sigma: float) -> tuple[tuple[float, float], tuple[float, float]]:
@@ -208,14 +216,6 @@ class NodesTrack:
     filter: NodeFilter | None = None  # the Kalman filter of the reports so far (filter_estimate)
 
 
-def _rectangles(config: ScenarioConfig) -> tuple[np.ndarray, np.ndarray]:
-    """(lo, hi), (K, 2) m: where each node can be (its motion rectangle, or its position)."""
-    if config.motion is None:
-        w = np.asarray(config.nodes, dtype=float)
-        return w, w
-    return node_bounds(config)
-
-
 def start_nodes_track(
     config: ScenarioConfig, rng: np.random.Generator, sigma: float, width: int
 ) -> NodesTrack:
@@ -258,14 +258,7 @@ def observe_nodes(
     truth = track.paths[slot]
     told: np.ndarray | None = truth
     if knowledge == "reports":
-        report = position_reports(truth, rng, sigma)
-        told = track.reports[slot] = np.clip(report, track.lo, track.hi)
-        if estimate:
-            if track.filter is None:
-                track.filter = NodeFilter.start(track.config, report, max(sigma, EXACT_SIGMA))
-            else:
-                track.filter.step(report)
-            told = np.clip(track.filter.position, track.lo, track.hi)
+        told = _reported(track, slot, rng, sigma, estimate)
     if knowledge == "exact":
         return told, None
     rates = np.full(len(truth), np.nan)

@@ -19,6 +19,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from ios_uav_env.envs.knowledge import NodesTrack, observe_nodes, start_nodes_track
+from ios_uav_env.model.motion import static_paths
 
 if TYPE_CHECKING:
     from ios_uav_env.envs.multi_kernels import NodeRows
@@ -94,7 +95,7 @@ class MobileNodes:
         """(N, K, 2) m: every node's true position w_k[n] in every slot of the episode (drawn at
         reset; the configured positions for static nodes): the paths the score is taken on."""
         if self._track is None:
-            return np.repeat(np.asarray(self.config.nodes, dtype=float)[None], self.config.N, axis=0)
+            return static_paths(self.config)
         return self._track.paths.copy()
 
     @property

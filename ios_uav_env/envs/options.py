@@ -57,7 +57,7 @@ class EnvOptions:
     peak_hint: bool = False  # append the 3 features of the reachable rate peak
     # bits/J, lambda_ref of the energy reward (objective "energy_efficiency" only); None: the
     # scenario's own reference, the EE of its hover plan (observation.reference_efficiency);
-    # "loiter": the EE of its loiter flight (observation.loiter_efficiency), closer to the best
+    # "loiter": the better EE of its loiter and hover flights (observation.loiter_efficiency)
     energy_reference: float | str | None = None
     # what the UAV is told of the node each slot (KNOWLEDGE; "exact": its true position)
     knowledge: str = "exact"
