@@ -67,39 +67,29 @@ def clone(algo: FastPPO, settings: CloneSettings) -> dict[str, Any]:
         raws, labels, rewards, dones = [], [], [], []
         for _ in range(settings.slots):
             label = np.clip(np.asarray(expert(obs), dtype=np.float64), algo._low, algo._high)
-            x_raw = obs
-            x = np.asarray(algo._normalized_obs(obs), dtype=np.float32)
+            raws.append(np.asarray(obs, dtype=np.float64))
             if r == 0:
                 act = label.copy()
                 act[:, :2] += settings.noise * rng.standard_normal((len(act), 2))
             else:
                 with torch.no_grad():
-                    act = algo._forward(torch.from_numpy(x))[0].numpy().astype(np.float64)
-            obs, reward, terminated, truncated, info = algo.vec.step(np.clip(act, algo._low, algo._high))
-            done = terminated | truncated
-            reward = np.asarray(reward, dtype=np.float64)
-            if done.any():
-                reward = algo._episode_ends(reward, terminated, truncated, info)
-            reward = algo._normalized_rewards(obs, reward, done)
-            raws.append(np.asarray(x_raw, dtype=np.float64))
+                    act = algo._forward(_normalized(algo, obs))[0].numpy().astype(np.float64)
+            stepped = algo.vec.step(np.clip(act, algo._low, algo._high))
+            obs, reward, done = algo._after_step(*stepped, explore=False)
             labels.append(label.astype(np.float32))
             rewards.append(reward)
             dones.append(done)
         raw = np.stack(raws)  # (slots, B, obs)
-
-        def normalized(a: np.ndarray) -> torch.Tensor:
-            return torch.from_numpy(np.asarray(algo._normalized_obs(a), dtype=np.float32))
-
-        flat = normalized(raw.reshape(-1, raw.shape[-1]))
+        flat = _normalized(algo, raw.reshape(-1, raw.shape[-1]))
         with torch.no_grad():
             values = algo._forward(flat)[1].reshape(raw.shape[:2])
-            last = algo._forward(normalized(obs))[1]
+            last = algo._forward(_normalized(algo, obs))[1]
         rew = torch.from_numpy(np.stack(rewards).astype(np.float32))
         don = torch.from_numpy(np.stack(dones).astype(np.float32))
         returns = gae(rew, values, don, last, recipe.gamma, 1.0)[1].reshape(-1)
         seen_raw.append(raw.reshape(-1, raw.shape[-1]))
         seen_labels.append(torch.from_numpy(np.stack(labels)).reshape(-1, labels[0].shape[-1]))
-        data = (normalized(np.concatenate(seen_raw)), torch.cat(seen_labels))
+        data = (_normalized(algo, np.concatenate(seen_raw)), torch.cat(seen_labels))
         fit = _fit(algo, optimizer, params, *data, flat, returns, settings)
         scores = algo.take_scores()
         score = float(np.mean(scores)) if scores else float("nan")
@@ -109,6 +99,13 @@ def clone(algo: FastPPO, settings: CloneSettings) -> dict[str, Any]:
     steps = settings.rounds * settings.slots * recipe.n_envs
     return {"settings": dict(settings.__dict__), "env_steps": steps,
             "seconds": round(time.perf_counter() - start, 2), "rounds": rounds}  # fmt: skip
+
+
+def _normalized(algo: FastPPO, obs: np.ndarray) -> Any:
+    """``obs`` as the policy takes them: normalised with the run's current statistics, float32."""
+    import torch
+
+    return torch.from_numpy(np.asarray(algo._normalized_obs(obs), dtype=np.float32))
 
 
 def _fit(

@@ -199,8 +199,6 @@ class FastPPO:
     def collect(self, stop: Any = None) -> bool:
         """One rollout of ``n_steps`` slots on every row into the buffers; False if ``stop()``
         became true (the rollout is then unfinished and must not be used)."""
-        from agents.vec_env import explore_rows
-
         if self._obs is None:
             self.reset()
         self._apply_schedules()
@@ -220,15 +218,9 @@ class FastPPO:
             buf["obs"][t], buf["actions"][t], buf["logp"][t], buf["values"][t] = x, actions, logp, value
             t1 = time.perf_counter()
             clipped = np.clip(actions.numpy(), self._low, self._high)
-            obs, reward, terminated, truncated, info = self.vec.step(clipped)
+            stepped = self.vec.step(clipped)
             t2 = time.perf_counter()
-            dones = terminated | truncated
-            reward = np.asarray(reward, dtype=np.float64)
-            if dones.any():
-                reward = self._episode_ends(reward, terminated, truncated, info)
-                if self.starts is not None:
-                    obs = explore_rows(self.vec, self._rng, dones, obs, self.starts)
-            reward = self._normalized_rewards(obs, reward, dones)
+            obs, reward, dones = self._after_step(*stepped)
             buf["rewards"][t] = torch.from_numpy(np.asarray(reward, dtype=np.float32))
             buf["dones"][t] = torch.from_numpy(dones.astype(np.float32))
             t3 = time.perf_counter()
@@ -237,6 +229,24 @@ class FastPPO:
             timing["other"] += t3 - t2
         self._obs = obs
         return True
+
+    def _after_step(
+        self, obs: np.ndarray, reward: Any, terminated: np.ndarray, truncated: np.ndarray,
+        info: Mapping[str, Any], explore: bool = True,
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:  # fmt: skip
+        """What the update keeps of one batched ``step``: (observations, rewards, dones), the
+        finished episodes' scores recorded and their time-limit cuts bootstrapped, the exploring
+        starts applied to the rows that ended (unless not ``explore``), the rewards shifted and
+        normalised (:meth:`_normalized_rewards`)."""
+        from agents.vec_env import explore_rows
+
+        dones = terminated | truncated
+        reward = np.asarray(reward, dtype=np.float64)
+        if dones.any():
+            reward = self._episode_ends(reward, terminated, truncated, info)
+            if explore and self.starts is not None:
+                obs = explore_rows(self.vec, self._rng, dones, obs, self.starts)
+        return obs, self._normalized_rewards(obs, reward, dones), dones
 
     def _normalized_rewards(self, obs: np.ndarray, reward: np.ndarray, dones: np.ndarray) -> np.ndarray:
         """The slot's rewards as the update sees them (the recipe's shift, then ``VecNormalize``'s
