@@ -369,15 +369,14 @@ def load_numpy_agent(path: str | Path, algo: str | None = None, *, checkpoint: i
     """:func:`load_agent`'s deterministic policy exported to numpy (``agents.numpy_policy``): the
     same actions to float rounding at a fraction of SB3's per-call overhead, for timing a policy's
     plan (``python -m ios_uav_env.benchmark evaluate --policy
-    "agents.loading:load_numpy_agent('<run>')"``). It carries the agent's ``env_kwargs`` and
-    ``name``, so the benchmark makes the env the agent was trained on, and ``batched`` False, so
-    it plays in the single env (it still takes a batch of observations)."""
+    "agents.loading:load_numpy_agent('<run>')"``). It carries the agent's ``env_id``,
+    ``env_kwargs`` and ``name``, so the benchmark makes the env the agent was trained on, and
+    ``batched`` False, so it plays in the single env (it still takes a batch of observations)."""
     from agents.numpy_policy import NumpyPolicy
 
     agent = load_agent(path, algo, checkpoint=checkpoint)
     policy = NumpyPolicy.from_sb3(agent.model, agent.vecnormalize, agent.repeat)
-    policy.env_kwargs = dict(agent.env_kwargs)
-    policy.name = agent.name
+    policy.env_id, policy.env_kwargs, policy.name = agent.env_id, dict(agent.env_kwargs), agent.name
     # scored one episode at a time in the single env (a batch of one costs more per slot)
     policy.batched = False
     return policy

@@ -60,18 +60,11 @@ def agent_plan(path: str, config: ScenarioConfig) -> Plan:
     policy = load_numpy_agent(path)
     # the scenario's own fields over the id's registered ones (e.g. its surface)
     overrides = {"surface": config.surface, "objective": config.objective}
-    env = gym.make(load_agent_env(path), config=config, **{**policy.env_kwargs, **overrides})
+    env = gym.make(policy.env_id, config=config, **{**policy.env_kwargs, **overrides})
     if env.unwrapped.config != config:
         raise ValueError(f"the agent's env flies {env.unwrapped.config}, not the scenario {config}")
     episode = run_episode(env, policy, seed=0)
     return Plan.from_trajectory(Path(path).name, config, episode.trajectory, episode.seconds)
-
-
-def load_agent_env(path: str) -> str:
-    """The env id a run or model folder was trained on (its ``config.json``)."""
-    import json
-
-    return json.loads((Path(path) / "config.json").read_text(encoding="utf-8"))["env_id"]
 
 
 def surface_table(config: ScenarioConfig, resolution: float, agents: tuple[str, ...] = ()) -> None:

@@ -86,5 +86,6 @@ def test_load_numpy_agent_acts_as_the_loaded_agent_and_carries_its_env():
     path = "agents/models/ppo_IOSUAV-Random-v0"
     agent, fast = load_agent(path), load_numpy_agent(path)
     assert fast.env_kwargs == agent.env_kwargs and fast.env_kwargs and fast.name == agent.name
+    assert fast.env_id == agent.env_id
     obs = observations(50, **agent.env_kwargs)
     np.testing.assert_allclose(np.array([fast.act(o) for o in obs]), agent.act(obs), atol=1e-5)
