@@ -4,7 +4,6 @@ same ``evaluate`` / ``score_trajectories`` as % of the energy DP's EE and of the
 
 from __future__ import annotations
 
-import json
 import math
 from pathlib import Path
 
@@ -12,34 +11,23 @@ import numpy as np
 import pytest
 
 from baselines import loiter
-from baselines.references.__main__ import main as references_main
 from ios_uav_env import score_plan
 from ios_uav_env.benchmark import SUITES, evaluate, load_suite, reference_results, score_trajectories
 from ios_uav_env.benchmark.results import METRICS
 from ios_uav_env.envs.policies import HoverAt
 from ios_uav_env.envs.registration import ENERGY_IDS, RANDOM_ENV_ID
+from tests.benchmark.quick_suites import freeze_quick, tampered
 from tests.tolerances import PLANNER_REL
 
 
 @pytest.fixture(scope="module")
 def frozen(tmp_path_factory) -> Path:
-    out = tmp_path_factory.mktemp("energy")
-    argv = ["energy", "--quick", "--n", "1", "--cache", str(out / "cache"), "--dir", str(out)]
-    assert references_main(argv) == 0
-    return out / "energy-quick-v1.json"
+    return freeze_quick(tmp_path_factory, "energy")
 
 
 @pytest.fixture(scope="module")
 def suite(frozen):
     return load_suite(frozen)
-
-
-def _tampered(frozen: Path, tmp_path: Path, change) -> Path:
-    data = json.loads(frozen.read_text())
-    change(data)
-    path = tmp_path / "tampered.json"
-    path.write_text(json.dumps(data))
-    return path
 
 
 def test_the_quick_suite_loads_as_an_energy_suite(suite):
@@ -80,7 +68,7 @@ def test_the_quick_suite_loads_as_an_energy_suite(suite):
 )
 def test_the_checks_refuse_a_tampered_file(frozen, tmp_path, change, match):
     with pytest.raises(ValueError, match=match):
-        load_suite(_tampered(frozen, tmp_path, change))
+        load_suite(tampered(frozen, tmp_path, change))
 
 
 def test_a_policy_is_scored_as_a_percentage_of_the_dp_energy_efficiency(suite):

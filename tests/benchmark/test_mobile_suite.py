@@ -11,33 +11,22 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from baselines.references.__main__ import main as references_main
 from baselines.references.mobile import mobile_tasks
 from ios_uav_env import MOBILE_IDS, score_plan
 from ios_uav_env.benchmark import evaluate, load_suite, reference_results, score_trajectories
 from ios_uav_env.envs.policies import HoverAt
 from ios_uav_env.model.motion import node_paths
+from tests.benchmark.quick_suites import freeze_quick, tampered
 
 
 @pytest.fixture(scope="module")
 def frozen(tmp_path_factory) -> Path:
-    out = tmp_path_factory.mktemp("mobile")
-    argv = ["mobile", "--quick", "--n", "1", "--cache", str(out / "cache"), "--dir", str(out)]
-    assert references_main(argv) == 0
-    return out / "mobile-quick-v1.json"
+    return freeze_quick(tmp_path_factory, "mobile")
 
 
 @pytest.fixture(scope="module")
 def suite(frozen):
     return load_suite(frozen)
-
-
-def _tampered(frozen: Path, tmp_path: Path, change) -> Path:
-    data = json.loads(frozen.read_text())
-    change(data["scenarios"][0])
-    path = tmp_path / "tampered.json"
-    path.write_text(json.dumps(data))
-    return path
 
 
 def test_the_quick_suite_loads_as_a_mobile_suite(suite):
@@ -109,7 +98,7 @@ def test_reference_rows_and_at_once(suite):
 )
 def test_a_tampered_file_is_refused(frozen, tmp_path, change, message):
     with pytest.raises(ValueError, match=message):
-        load_suite(_tampered(frozen, tmp_path, change))
+        load_suite(tampered(frozen, tmp_path, lambda data: change(data["scenarios"][0])))
 
 
 def test_a_seed_in_a_static_suite_is_refused(tmp_path):
