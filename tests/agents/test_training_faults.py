@@ -55,8 +55,9 @@ def test_a_second_process_on_a_run_folder_is_refused_until_the_holder_dies(tmp_p
     env = {"PYTHONPATH": str(ROOT), "PATH": "/usr/bin:/bin", "OMP_NUM_THREADS": "1"}
     holder = subprocess.Popen(cmd, cwd=tmp_path, env=env, stderr=subprocess.PIPE, text=True)
     try:
-        wait_for(lambda: list((run / "monitor").glob("*.csv")) or holder.poll() is not None, 120,
-                 "the holder to start training")  # fmt: skip
+        # (the monitor files are written before config.json: wait for both, or --resume may find no run)
+        started = lambda: list((run / "monitor").glob("*.csv")) and (run / "config.json").exists()  # noqa: E731
+        wait_for(lambda: started() or holder.poll() is not None, 120, "the holder to start training")
         assert holder.poll() is None, holder.communicate(timeout=10)[1]
         quick = ["--timesteps", "64", "--no-progress"]
         with pytest.raises(SystemExit) as exc:
