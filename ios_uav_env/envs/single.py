@@ -29,6 +29,7 @@ from ios_uav_env.envs.observation import (
 )
 from ios_uav_env.envs.options import CHANNELS, EnvOptions, split_kwargs
 from ios_uav_env.envs.single_kernels import INFO, STATE, episode_row, flags_of, reset_rows, step_rows
+from ios_uav_env.jit import HAVE_NUMBA
 from ios_uav_env.model.channel import RateKernel, rate_kernel, slot_rates
 from ios_uav_env.model.config import ScenarioConfig, as_config, scenario_option
 from ios_uav_env.model.motion import static_paths
@@ -393,7 +394,9 @@ class IOSUAVEnv(gym.Env):
             return
         self.config = cfg
         self.kernel = rate_kernel(cfg)
-        peak = rate_peak(cfg) if self.options.peak_hint else None
+        own_reference = self.energy_objective and self._fixed_reference is None
+        # one peak search for the hint and the reference flights, on the env's own rate kernel
+        peak = rate_peak(cfg, compiled=HAVE_NUMBA) if self.options.peak_hint or own_reference else None
         reference = 0.0
         if self.energy_objective:
             reference = self._fixed_reference or (
@@ -402,7 +405,7 @@ class IOSUAVEnv(gym.Env):
                 else reference_efficiency(cfg, peak)
             )
         self.reference_efficiency = reference
-        hint = (0.0, 0.0, 0.0) if peak is None else peak[:3]
+        hint = (0.0, 0.0, 0.0) if peak is None or not self.options.peak_hint else peak[:3]
         self._episode = episode_row(cfg, self.options.length_scale, hint, reference)[None, :]
         self._nodes, self._params = self.kernel.nodes[None], self.kernel.params[None]
         self.close()  # the renderer's rate map is the previous scenario's
