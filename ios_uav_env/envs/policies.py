@@ -22,7 +22,9 @@ from typing import Any
 
 import numpy as np
 
-from ios_uav_env.envs.observation import OBS_NAMES, PEAK_NAMES
+from ios_uav_env.envs.observation import ENERGY_NAMES, OBS_NAMES, PEAK_NAMES
+from ios_uav_env.model.config import moves_needed
+from ios_uav_env.model.propulsion import PropulsionModel, max_range_speed
 
 #: Observation slices of the offsets (P - q) / L that :class:`HoverAt` can fly to. The
 #: peak hint is always the last 3 components (``PEAK_NAMES``), whatever precedes it.
@@ -86,3 +88,107 @@ class HoverAt:
 
     def __repr__(self) -> str:
         return f"HoverAt({self.target!r}, D={self.D:g}, length_scale={self.length_scale:g})"
+
+
+#: Observation indices the loiter policy reads: the final point's offset, the slack, and (counted
+#: from the end, the peak hint being last) the minimum-power move and the peak's offset.
+_FINAL = slice(OBS_NAMES.index("dx_final"), OBS_NAMES.index("dy_final") + 1)
+_SLACK = OBS_NAMES.index("slack")
+_MIN_POWER_MOVE = ENERGY_NAMES.index("min_power_move") - len(ENERGY_NAMES) - len(PEAK_NAMES)
+
+
+def moves_left(obs: np.ndarray, D: float, length_scale: float) -> np.ndarray:
+    """The moves left (N - 1 at the start, 0 at slot N) read off the observation: the slack
+    s = moves_left - d_F / D is told squashed as y = s / (1 + |s|), so s = y / (1 - |y|) and
+    moves_left = s + d_F / D, rounded to the nearest whole move (float64, one per row)."""
+    obs = np.asarray(obs, dtype=np.float64)
+    y = obs[..., _SLACK]
+    slack = y / np.maximum(1.0 - np.abs(y), 1e-12)
+    d_final = np.hypot(obs[..., _FINAL.start], obs[..., _FINAL.start + 1]) * length_scale
+    return np.maximum(np.rint(slack + d_final / D), 0.0)
+
+
+class Loiter:
+    """Loiter around the reachable rate peak at the minimum-power speed, from the observation:
+    the energy objective's counterpart of ``HoverAt("peak")`` (a rotary-wing UAV spends less
+    power cruising slowly than hovering).
+
+    It flies the flight of ``ios_uav_env.envs.loiter_flight.loiter_path`` from whatever state it
+    is in, reading everything from the observation of an energy env with ``peak_hint=True``
+    (:attr:`env_kwargs`): the peak P (the hint), the chord V_mp dt of the circle (the
+    ``min_power_move`` feature) and the moves left (:func:`moves_left`). Off the circle it
+    heads for the circle's point nearest to it, at one constant speed of at most the cruise
+    speed per leg; on the circle it goes on to the next corner of the regular ``sides``-gon
+    inscribed in it (one chord per slot); it leaves for qF, at one constant speed over the moves
+    left, when the cruise speed would otherwise no longer bring it there in time. The env's
+    arrival guard keeps every flight feasible. Unlike ``baselines.loiter`` it does not pick the
+    best of several cruise speeds (it needs no rate map), so it can fall short of it on short
+    horizons, where faster legs pay.
+
+    ``D`` (m) and ``length_scale`` (m) must be the env's D = v_max dt and L; ``cruise`` (m per
+    move) is the legs' speed times dt, default the maximum-range speed V_mr of the default
+    propulsion model at dt = 1 s, capped at D.
+    """
+
+    #: It takes a batch of observations too ((B, obs_dim) -> (B, 2)).
+    batched = True
+
+    def __init__(
+        self, D: float = 25.0, length_scale: float = 400.0, sides: int = 3, cruise: float | None = None
+    ) -> None:
+        if cruise is None:
+            cruise = min(max_range_speed(PropulsionModel()), D)
+        for name, value in (("D", D), ("length_scale", length_scale), ("cruise", cruise)):
+            if not (isinstance(value, (int, float)) and math.isfinite(value) and value > 0):
+                raise ValueError(f"{name} must be a finite number > 0 (m), got {value!r}")
+        if isinstance(sides, bool) or not isinstance(sides, int) or sides < 2:
+            raise ValueError(f"sides must be an integer >= 2 (way-points per lap), got {sides!r}")
+        self.D, self.length_scale, self.sides = float(D), float(length_scale), sides
+        self.cruise = min(float(cruise), self.D)
+
+    @property
+    def env_kwargs(self) -> dict[str, Any]:
+        """The env arguments this policy needs: the peak hint."""
+        return {"peak_hint": True}
+
+    @property
+    def name(self) -> str:
+        return "loiter around the reachable rate peak (heuristic, from the observation)"
+
+    def __call__(self, obs: np.ndarray) -> np.ndarray:
+        o = np.atleast_2d(np.asarray(obs, dtype=np.float64))
+        if o.shape[-1] < len(OBS_NAMES) + len(ENERGY_NAMES) + len(PEAK_NAMES):
+            raise ValueError(
+                f"Loiter reads the energy features and the peak hint (an energy id with peak_hint=True); "
+                f"got observations of {o.shape[-1]} components"
+            )
+        L, D = self.length_scale, self.D
+        peak = o[:, -len(PEAK_NAMES) : -len(PEAK_NAMES) + 2] * L  # P - q (m)
+        final = o[:, _FINAL] * L  # qF - q (m)
+        left = moves_left(o, D, L)
+        radius = o[:, _MIN_POWER_MOVE] * D / (2.0 * math.sin(math.pi / self.sides))
+        away = -peak  # q - P
+        dist = np.hypot(away[:, 0], away[:, 1])
+        unit = np.where(dist[:, None] > 0.0, away / np.maximum(dist, 1e-300)[:, None], [1.0, 0.0])
+        to_circle = peak + radius[:, None] * unit  # the circle's nearest point, from q (m)
+        gap = np.hypot(to_circle[:, 0], to_circle[:, 1])
+        legs = np.maximum(moves_needed(gap, self.cruise), 1.0)
+        move = to_circle / legs[:, None]  # one constant speed over the leg
+        on_circle = gap <= 1e-6 * D
+        angle = np.arctan2(unit[:, 1], unit[:, 0]) + 2.0 * math.pi / self.sides
+        corner = peak + radius[:, None] * np.column_stack([np.cos(angle), np.sin(angle)])
+        move = np.where(on_circle[:, None], corner, move)
+        late = moves_needed(np.hypot(*(final - move).T), self.cruise) > left - 1.0
+        move = np.where(late[:, None], final / np.maximum(left, 1.0)[:, None], move)
+        action = full_speed_move(move, D).astype(np.float32)
+        return action if np.ndim(obs) == 2 else action[0]
+
+    def act(self, obs: np.ndarray, deterministic: bool = True) -> np.ndarray:
+        """SB3-style alias of ``__call__`` (the policy is deterministic)."""
+        return self(obs)
+
+    def __repr__(self) -> str:
+        return (
+            f"Loiter(D={self.D:g}, length_scale={self.length_scale:g}, sides={self.sides}, "
+            f"cruise={self.cruise:g})"
+        )
