@@ -8,8 +8,12 @@ time per distinct scenario (median and 95th percentile), and the step throughput
 and with the resets (pre-sampled actions, the two envs taking turns).
 The bars: a reset < 5 ms, steps at the fixed env's speed. ``--peak-hint`` times the
 env with ``peak_hint=True`` too: its reset adds the grid search of ``ios_uav_env.rate_peak``.
+``--energy`` times the resets of ``ios_uav_env/IOSUAV-Energy-Random-v0`` with each reward
+reference (the hover plan's EE, the default; ``energy_reference="loiter"``; each with and
+without the peak hint): its reset adds the peak search and the reference flights, and it is
+part of an energy policy's plan time (the observation's energy weight needs the reference).
 
-    python benchmarks/random_env.py [--resets 500] [--steps 5000] [--repeats 5] [--peak-hint]
+    python benchmarks/random_env.py [--resets 500] [--steps 5000] [--repeats 5] [--peak-hint] [--energy]
 """
 
 from __future__ import annotations
@@ -24,11 +28,12 @@ import numpy as np
 import ios_uav_env  # noqa: F401  (registers the ids)
 
 RANDOM, FIXED = "ios_uav_env/IOSUAV-Random-v0", "ios_uav_env/IOSUAV-v0"
+ENERGY_RANDOM = "ios_uav_env/IOSUAV-Energy-Random-v0"
 
 
-def reset_times(resets: int, seed: int = 0, **env_kwargs: object) -> np.ndarray:
+def reset_times(resets: int, seed: int = 0, env_id: str = RANDOM, **env_kwargs: object) -> np.ndarray:
     """Seconds of each of ``resets`` resets of the bare random env (a new scenario each)."""
-    env = gym.make(RANDOM, **env_kwargs).unwrapped
+    env = gym.make(env_id, **env_kwargs).unwrapped
     env.reset(seed=seed)
     out = np.empty(resets)
     for i in range(resets):
@@ -81,6 +86,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser.add_argument("--steps", type=int, default=5000, help="timed steps per repeat (default 5000)")
     parser.add_argument("--repeats", type=int, default=5, help="timed repeats; the best counts (default 5)")
     parser.add_argument("--peak-hint", action="store_true", help="also time resets with peak_hint=True")
+    parser.add_argument("--energy", action="store_true", help=f"also time the resets of {ENERGY_RANDOM}")
     args = parser.parse_args(argv)
     if min(args.resets, args.steps, args.repeats) < 1:
         parser.error("--resets, --steps and --repeats must be >= 1")
@@ -93,6 +99,14 @@ def main(argv: Sequence[str] | None = None) -> int:
         hinted = reset_times(args.resets, peak_hint=True) * 1e3
         print(f"{RANDOM} reset with peak_hint=True (+ rate_peak), {args.resets} resets:")
         print(f"  median {np.median(hinted):.3f} ms, 95th percentile {np.percentile(hinted, 95):.3f} ms")
+    if args.energy:
+        print(f"{ENERGY_RANDOM} reset (new scenario, peak search, reference flights), {args.resets} resets:")
+        for kwargs in ({}, {"peak_hint": True}, {"energy_reference": "loiter"},
+                       {"energy_reference": "loiter", "peak_hint": True}):  # fmt: skip
+            energy = reset_times(args.resets, env_id=ENERGY_RANDOM, **kwargs) * 1e3
+            label = ", ".join(f"{k}={v!r}" for k, v in kwargs.items()) or "defaults (hover reference)"
+            print(f"  {label:45s} median {np.median(energy):.3f} ms, 95th percentile "
+                  f"{np.percentile(energy, 95):.3f} ms")  # fmt: skip
     rates = step_rates(args.steps, args.repeats)
     print(f"throughput of the bare envs, best of {args.repeats} x {args.steps} steps:")
     print(f"  {'':32s} {'step() alone':>22s} {'resets included':>22s}")

@@ -40,13 +40,14 @@ def test_the_energy_agent_replays_its_record_above_99_percent_of_dp():
 
 def test_the_energy_generalist_replays_its_record_with_the_loiter_reference():
     """Its deterministic episode of the randomised energy id (seed 0) replays to the tolerance any
-    CPU meets; the loiter reference is what it was trained with (and its suite row, in
-    docs/leaderboard.md, reruns in test_leaderboard)."""
+    CPU meets; the loiter reference and the peak hint are what it was trained with (and its suite
+    row, in docs/leaderboard.md, reruns in test_leaderboard, above the loiter heuristic's)."""
     from ios_uav_env import ENERGY_RANDOM_ID
 
     path = MODELS_DIR / "ppo_IOSUAV-Energy-Random-v0"
     agent = load_agent(path)
-    assert agent.env_id == ENERGY_RANDOM_ID and agent.env_kwargs == {"energy_reference": "loiter"}
+    assert agent.env_id == ENERGY_RANDOM_ID
+    assert agent.env_kwargs == {"energy_reference": "loiter", "peak_hint": True}
     record = json.loads((path / "summary.json").read_text())["final_eval"]
     env = gym.make(ENERGY_RANDOM_ID, **agent.env_kwargs)
     episode = run_episode(env, agent.act, seed=0)

@@ -125,3 +125,15 @@ def test_a_row_reproduces_from_its_command(pattern, columns, row, capsys):
     printed = match.groupdict()
     table = {key: row[column] for column, key in columns.items()}
     assert printed == table, f"{command}: the table says {table}, the command prints {printed}"
+
+
+def test_the_energy_generalist_beats_the_loiter_heuristic():
+    """The issue's baseline for every energy learner: the shipped generalist's row (whose numbers
+    test_a_row_reproduces_from_its_command reruns) is above the loiter heuristic's on the mean,
+    the 10th percentile and the worst scenario."""
+    rows = {row["policy"]: row for row in ENERGY_ROWS}
+    generalist = next(row for name, row in rows.items() if "ppo_IOSUAV-Energy-Random-v0" in name)
+    loiter = rows["loiter at the minimum-power speed (heuristic)"]
+    assert "--reference loiter" in loiter["command"]
+    for column in ("mean % of DP", "p10", "min"):
+        assert float(generalist[column]) > float(loiter[column]), column
