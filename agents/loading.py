@@ -74,6 +74,11 @@ class Agent:
     repeat: int = 1  # slots each action is held (agents.wrappers.ActionRepeat in its training)
     batched = True  # act takes a (B, obs_dim) batch too (ios_uav_env.envs.rollout.batch_policy)
 
+    @property
+    def observation_space(self) -> Any:
+        """The model's observation space (what it was trained on)."""
+        return self.model.observation_space
+
     def act(self, obs: np.ndarray, deterministic: bool = True) -> np.ndarray:
         if self.vecnormalize is not None:
             obs = self.vecnormalize.normalize_obs(obs)

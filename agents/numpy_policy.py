@@ -57,6 +57,7 @@ class NumpyPolicy:
     obs_clip: float = np.inf
     repeat: int = 1  # slots each action is held (an agent trained with agents.wrappers.ActionRepeat)
     batched = True  # act takes a (B, obs_dim) batch too (ios_uav_env.envs.rollout.batch_policy)
+    observation_space: Any = None  # the model's (a Gymnasium space): what it was trained on
 
     @classmethod
     def from_sb3(cls, model: Any, vecnormalize: Any = None, repeat: int = 1) -> NumpyPolicy:
@@ -82,7 +83,7 @@ class NumpyPolicy:
             clip = float(vecnormalize.clip_obs)
         low = np.asarray(space.low, dtype=np.float64)
         high = np.asarray(space.high, dtype=np.float64)
-        return cls(steps, squash, low, high, mean, std, clip, repeat)
+        return cls(steps, squash, low, high, mean, std, clip, repeat, model.observation_space)
 
     def act(self, obs: np.ndarray, deterministic: bool = True) -> np.ndarray:
         """The deterministic action for one observation (``deterministic`` must be True)."""

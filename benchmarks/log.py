@@ -52,7 +52,7 @@ REGISTRY: dict[str, Measurement] = {
     name: Measurement((f"benchmarks/{script}", *extra), what)
     for name, script, extra, what in [
         ("step_speed", "step_speed.py", (), "raw env.step of IOSUAV-v0 against CartPole-v1"),
-        ("random_env", "random_env.py", ("--peak-hint", "--energy"), "resets and steps of the randomised ids"),
+        ("random_env", "random_env.py", ("--peak-hint", "--energy"), "resets and steps of the random ids"),
         ("vector_speed", "vector_speed.py", (), "the batched envs against CartPole; the multi-node one"),
         ("planners", "planners.py", (), "DP and the paper's schemes: rate, % of DP, seconds"),
         ("sca_bench", "sca_bench.py", (), "SCA against the DP optimum, tiles, solvers, DPP"),

@@ -225,7 +225,7 @@ def main(argv: Sequence[str] | None = None) -> int:
             try:
                 env_kwargs = None if args.env_kwargs is None else parse_env_kwargs(args.env_kwargs)
                 own = getattr(policy, "env_kwargs", None) if env_kwargs is None else env_kwargs
-                check_env_kwargs(suite, dict(own or {}))
+                check_env_kwargs(suite, dict(own or {}), policy)
             except (ValueError, TypeError) as err:
                 refuse("--env-kwargs" if args.env_kwargs is not None else "--policy", err)
             results = evaluate(policy, suite, env_kwargs=env_kwargs, n=args.n, batched=args.batched or None,

@@ -163,15 +163,27 @@ def _make_env(
     return gym.make(env_id, **env_kwargs), False
 
 
-def check_env_kwargs(suite: Suite, env_kwargs: Mapping[str, Any]) -> None:
-    """``ValueError`` if the suite's env does not take ``env_kwargs`` (added to the suite's): the
-    env is made once with them, and closed, before any scenario runs."""
+def check_env_kwargs(suite: Suite, env_kwargs: Mapping[str, Any], policy: Any = None) -> None:
+    """``ValueError`` if the suite's env does not take ``env_kwargs`` (added to the suite's), or if
+    ``policy`` says which observations it takes (an ``observation_space``, as SB3's models and
+    ``agents.numpy_policy.NumpyPolicy`` do) and the env's are of another shape: the env is made
+    once with them, and closed, before any scenario runs."""
     kwargs = {**suite.env_kwargs, **dict(env_kwargs)}
     try:
         env, _ = _make_env(suite.env_id, kwargs, False)
     except (TypeError, ValueError) as err:
         raise ValueError(f"{suite.env_id} does not take the env_kwargs {dict(env_kwargs)}: {err}") from None
+    shape, wanted = (
+        env.observation_space.shape,
+        getattr(getattr(policy, "observation_space", None), "shape", None),
+    )
     env.close()
+    if wanted is not None and tuple(wanted) != tuple(shape):
+        raise ValueError(
+            f"the policy takes observations of shape {tuple(wanted)}, but {suite.env_id} with the env_kwargs "
+            f"{kwargs} gives {tuple(shape)}: pass the env arguments it was trained with (e.g. "
+            "instance_features:false for a specialist of a fixed id, peak_hint:true for a hinted agent)"
+        )
 
 
 def check_seed(seed: Any) -> None:
@@ -201,6 +213,8 @@ def evaluate(
     """
     suite = suite_of(suite)
     own = getattr(policy, "env_kwargs", None) if env_kwargs is None else env_kwargs
+    if getattr(policy, "observation_space", None) is not None:
+        check_env_kwargs(suite, dict(own or {}), policy)
     batched = bool(getattr(policy, "batched", False) if batched is None else batched)
     name = name or policy_name(policy)
     act = action_function(policy)

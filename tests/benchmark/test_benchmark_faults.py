@@ -10,11 +10,19 @@ import re
 from pathlib import Path
 from types import SimpleNamespace
 
+import gymnasium as gym
 import numpy as np
 import pytest
 
 from ios_uav_env import ScenarioConfig
-from ios_uav_env.benchmark import load_suite, read_plans, read_trajectories, score_trajectories, scoring
+from ios_uav_env.benchmark import (
+    evaluate,
+    load_suite,
+    read_plans,
+    read_trajectories,
+    score_trajectories,
+    scoring,
+)
 from ios_uav_env.benchmark.cli import main
 from ios_uav_env.benchmark.suite import suite_path
 
@@ -310,3 +318,26 @@ def test_a_failed_reference_solve_raises_and_is_not_cached(tmp_path, monkeypatch
 
     monkeypatch.setattr(solve, "solve_scenario", solved_again)
     assert references(config, cache)["sca"]["rate"] == 0.3
+
+
+class SpecialistOfTheFixedId:
+    """A policy that says what it was trained on, as SB3's models and the numpy export do: the 11
+    features of ``ios_uav_env/IOSUAV-v0`` (no instance features)."""
+
+    observation_space = gym.spaces.Box(-1.0, 1.0, (11,), dtype=np.float32)
+
+    def __call__(self, obs: np.ndarray) -> np.ndarray:
+        return np.zeros(2, dtype=np.float32)
+
+
+def test_a_policy_of_other_observations_is_refused_naming_both_shapes(capsys, no_scenario_runs):
+    spec = "tests.benchmark.test_benchmark_faults:SpecialistOfTheFixedId()"
+    line = _refused(capsys, ["evaluate", "--policy", spec, "--n", "1"], "--policy")
+    assert "(11,)" in line and "(17,)" in line and "instance_features:false" in line
+    with pytest.raises(ValueError, match=r"\(11,\).*\(17,\)"):
+        evaluate(SpecialistOfTheFixedId(), n=1)
+
+
+def test_a_policy_of_other_observations_runs_with_the_env_arguments_it_was_trained_with():
+    results = evaluate(SpecialistOfTheFixedId(), n=1, env_kwargs={"instance_features": False})
+    assert len(results.scenarios) == 1
