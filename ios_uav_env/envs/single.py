@@ -111,8 +111,9 @@ class IOSUAVEnv(gym.Env):
 
     With ``peak_hint=True`` 3 more follow (names in ``PEAK_NAMES``): the reachable rate peak
     P of the scenario (``ios_uav_env.model.peak.rate_peak``: the best point a fly-hover-fly
-    trajectory can visit) relative to the UAV, (P - q) / L, and its rate r(P) (bps/Hz). It
-    is derived from the instance (no new information) and computed once per scenario.
+    trajectory can visit; searched on the env's compiled rate kernel when numba is installed)
+    relative to the UAV, (P - q) / L, and its rate r(P) (bps/Hz). It is derived from the
+    instance (no new information) and computed once per scenario.
 
     With the objective ``"energy_efficiency"`` (the energy ids; ``config.objective``) 4 energy
     features (names in ``ENERGY_NAMES``) come after the instance features and before the peak
