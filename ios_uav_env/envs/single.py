@@ -406,7 +406,7 @@ class IOSUAVEnv(gym.Env):
                 else reference_efficiency(cfg, peak)
             )
         self.reference_efficiency = reference
-        hint = (0.0, 0.0, 0.0) if peak is None or not self.options.peak_hint else peak[:3]
+        hint = peak[:3] if self.options.peak_hint else (0.0, 0.0, 0.0)  # the hint's search never misses
         self._episode = episode_row(cfg, self.options.length_scale, hint, reference)[None, :]
         self._nodes, self._params = self.kernel.nodes[None], self.kernel.params[None]
         self.close()  # the renderer's rate map is the previous scenario's
