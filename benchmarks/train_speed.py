@@ -39,9 +39,11 @@ sys.path.insert(0, str(ROOT / "benchmarks"))
 
 import numpy as np  # noqa: E402
 import torch  # noqa: E402
+import torch._dynamo  # noqa: E402, F401  (torch.optim's first optimizer imports it: 1.7 s, an import)
 from ppo_speed import EnvTimer, ForwardTimer, loadavg  # noqa: E402
 
 from agents.fast import FastPPO, FastRecipe  # noqa: E402
+from agents.fast.ppo import UPDATES  # noqa: E402
 from agents.fast.run import torch_threads  # noqa: E402
 from agents.hyperparams import load_hyperparams  # noqa: E402
 from agents.training.settings import FAST_HYPERPARAMS  # noqa: E402
@@ -74,11 +76,15 @@ def split(timing: dict[str, float], total: float, steps: int) -> str:
     return "\n".join(rows)
 
 
-def fast_throughput(env_id: str, n_envs: int | None, seconds: float, threads: int, path: Path) -> float:
+def fast_throughput(
+    env_id: str, n_envs: int | None, seconds: float, threads: int, path: Path, update: str = "auto"
+) -> float:
     hp = load_hyperparams("ppo", env_id, path)
     recipe = FastRecipe.from_hyperparams(hp, n_envs)
     torch.set_num_threads(threads)
-    algo = FastPPO(env_id, recipe, hp.n_timesteps, env_kwargs=ENV_KWARGS.get(env_id, {}), seed=0)
+    algo = FastPPO(
+        env_id, recipe, hp.n_timesteps, env_kwargs=ENV_KWARGS.get(env_id, {}), seed=0, update=update
+    )
     algo.collect()  # warm-up: numba's kernels, torch's first calls
     algo.update()
     algo.timing = dict.fromkeys(algo.timing, 0.0)
@@ -92,7 +98,8 @@ def fast_throughput(env_id: str, n_envs: int | None, seconds: float, threads: in
     timing["other"] += wall - sum(timing.values())
     rate = steps / wall
     print(f"fast  ({path.name}, B = {recipe.n_envs}, n_steps {recipe.n_steps}, batch "
-          f"{recipe.batch_size}, {recipe.n_epochs} epochs, torch threads {threads}): {steps} steps in "
+          f"{recipe.batch_size}, {recipe.n_epochs} epochs, torch threads {threads}, update "
+          f"{'kernel' if algo.kernel else 'torch'}): {steps} steps in "
           f"{wall:.1f} s = {rate:,.0f} steps/s")  # fmt: skip
     print(split(timing, wall, steps))
     return rate
@@ -168,10 +175,11 @@ def race(
     n_envs: int | None,
     path: Path,
     times: list[float],
+    update: str = "auto",
 ) -> bool:
     import gymnasium as gym
 
-    from agents.loading import Agent
+    from agents.numpy_policy import NumpyPolicy
     from ios_uav_env.envs.rollout import run_episode
 
     start = time.perf_counter()
@@ -180,7 +188,7 @@ def race(
     hp = load_hyperparams("ppo", env_id, path)
     recipe = FastRecipe.from_hyperparams(hp, n_envs)
     kwargs = ENV_KWARGS.get(env_id, {})
-    algo = FastPPO(env_id, recipe, hp.n_timesteps, env_kwargs=kwargs, seed=seed)
+    algo = FastPPO(env_id, recipe, hp.n_timesteps, env_kwargs=kwargs, seed=seed, update=update)
     env = gym.make(env_id, **kwargs)
     reference, bar = REFERENCES[env_id], BARS[env_id]
     best, reached = 0.0, None
@@ -188,7 +196,9 @@ def race(
         algo.collect()
         algo.update()
         if algo.updates % eval_every == 0 or algo.steps >= algo.total:
-            episode = run_episode(env, Agent(algo.model, algo.vecnormalize, env_id, kwargs).act, seed=0)
+            # the policy exported to numpy: the same actions to float rounding at a tenth of SB3's
+            # per-call cost, so that the measurement takes little of the time it measures
+            episode = run_episode(env, NumpyPolicy.from_sb3(algo.model, algo.vecnormalize), seed=0)
             pct = 100.0 * getattr(episode, SCORES[env_id]) / reference
             best = max(best, pct)
             if pct >= 100.0 * bar and episode.feasible:
@@ -230,6 +240,11 @@ def main(argv: Sequence[str] | None = None) -> int:
     rp.add_argument("--seeds", type=int, nargs="+", default=[0])
     rp.add_argument("--n-envs", type=int, default=None)
     rp.add_argument("--threads", type=int, default=None)
+    for sp in (tp, rp):
+        sp.add_argument(
+            "--update", choices=UPDATES, default="auto",
+            help="the fast trainer's update: the compiled kernel if it applies (auto), or torch",
+        )  # fmt: skip
     rp.add_argument("--eval-every", type=int, default=4, help="updates between evaluations")
     rp.add_argument(
         "--time-cap", type=float, default=None, help="seconds per seed (default: 5 s one node, 180 s multi)"
@@ -238,7 +253,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     threads = torch_threads(args.threads)
     print(f"load average {loadavg()}; {os.cpu_count()} cpus; torch {torch.__version__}", flush=True)
     if args.command == "throughput":
-        fast = fast_throughput(args.env, args.n_envs, args.seconds, threads, args.hyperparams)
+        fast = fast_throughput(args.env, args.n_envs, args.seconds, threads, args.hyperparams, args.update)
         if not args.no_sb3:
             sb3 = sb3_throughput(args.env, args.seconds)
             print(f"fast / SB3: {fast / sb3:.1f}x")
@@ -248,7 +263,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     cap = args.time_cap or TIME_BARS[args.env]
     times: list[float] = []
     for seed in args.seeds:
-        race(args.env, seed, threads, args.eval_every, cap, args.n_envs, args.hyperparams, times)
+        race(args.env, seed, threads, args.eval_every, cap, args.n_envs, args.hyperparams, times, args.update)
     within = sum(t <= TIME_BARS[args.env] for t in times)
     print(f"{len(times)} of {len(args.seeds)} seeds reached the bar within {cap:g} s; {within} within the "
           f"target of {TIME_BARS[args.env]:g} s; load {loadavg()}")  # fmt: skip

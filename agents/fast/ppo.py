@@ -18,6 +18,11 @@ with ``VecNormalize``, row for row:
   ``max_grad_norm``, Adam on SB3's optimizer; ``learning_rate`` and ``clip_range`` follow the
   progress of the run as SB3's schedules do, the log-std schedule and the exploring starts'
   schedule as ``agents.callbacks`` defines them.
+
+The update runs on torch's autograd, or (``update="kernel"``, the default when numba is
+installed and the network is a plain tanh MLP) as one compiled function per update
+(:mod:`agents.fast.kernel`): the same loss, gradient and Adam step in float32, without torch's
+per-op cost; the rollout's forward passes then run compiled too. The two agree to float rounding.
 """
 
 from __future__ import annotations
@@ -33,14 +38,20 @@ import torch
 
 import ios_uav_env  # noqa: F401  (registers the ids)
 from agents.fast.gae import gae
+from agents.fast.kernel import KernelUpdate
 from agents.fast.recipe import FastRecipe
 from agents.wrappers import check_exploring
-from ios_uav_env.jit import prefer_passive_threads
+from ios_uav_env.jit import HAVE_NUMBA, prefer_passive_threads
 
 prefer_passive_threads()  # numba's threads must not spin while torch trains (see the function)
 
 #: Keys of the episode scores in the batched envs' ``final_info``: one node, several nodes.
 SCORE_KEYS = ("average_rate", "min_rate")
+#: How :meth:`FastPPO.update` computes: ``auto`` (the compiled kernel if numba is installed and
+#: it covers the network, else torch), ``kernel`` (an error if it cannot), ``torch``.
+UPDATES = ("auto", "kernel", "torch")
+#: The update's statistics, in :func:`agents.fast.kernel.ppo_update`'s order.
+STAT_KEYS = ("policy_loss", "value_loss", "approx_kl", "clip_fraction")
 
 
 class _Starts:
@@ -63,7 +74,8 @@ class FastPPO:
     default a new one seeded ``seed``; ``vecnormalize``: its statistics (a ``VecNormalize``),
     default new ones if the recipe normalises. ``steps``: the env steps done so far (the
     schedules' progress). Row i of the env is seeded ``seed + i`` and the rows are staggered
-    over the episode (``agents.vec_env.BatchedVecEnv(stagger=True)``)."""
+    over the episode (``agents.vec_env.BatchedVecEnv(stagger=True)``). ``update``: one of
+    :data:`UPDATES`."""
 
     def __init__(
         self,
@@ -77,6 +89,7 @@ class FastPPO:
         vecnormalize: Any = None,
         steps: int = 0,
         env_threads: int | None = None,
+        update: str = "auto",
     ) -> None:
         from stable_baselines3.common.vec_env import DummyVecEnv
 
@@ -112,6 +125,7 @@ class FastPPO:
         if recipe.log_std is not None:
             policy.log_std.requires_grad_(False)
         self.policy, self.optimizer = policy, policy.optimizer
+        self.kernel = self._kernel(update)
         self.starts = _Starts(recipe.exploring) if recipe.exploring is not None else None
         self._rng = np.random.default_rng(self.seed)
         space = self.vec.single_action_space
@@ -128,6 +142,21 @@ class FastPPO:
             "logp": torch.zeros(t, b), "values": torch.zeros(t, b), "rewards": torch.zeros(t, b),
             "dones": torch.zeros(t, b),
         }  # fmt: skip
+
+    def _kernel(self, update: str) -> KernelUpdate | None:
+        if update not in UPDATES:
+            raise ValueError(f"update must be one of {', '.join(UPDATES)}, got {update!r}")
+        if update == "torch" or (update == "auto" and not HAVE_NUMBA):
+            return None
+        if not HAVE_NUMBA:
+            raise ValueError("update='kernel' needs numba (pip install ios-uav-env[fast])")
+        kernel = KernelUpdate.of(self.policy, self.optimizer)
+        if kernel is None and update == "kernel":
+            raise ValueError(
+                "update='kernel' covers separate tanh MLPs for the actor and critic with a Gaussian of "
+                "state-independent std and plain Adam; this policy is not one (use update='torch')"
+            )
+        return kernel
 
     def _new_model(self, template: Any) -> Any:
         from stable_baselines3 import PPO
@@ -199,22 +228,35 @@ class FastPPO:
     def collect(self, stop: Any = None) -> bool:
         """One rollout of ``n_steps`` slots on every row into the buffers; False if ``stop()``
         became true (the rollout is then unfinished and must not be used)."""
+        if self.kernel is None:
+            return self._collect(stop)
+        with self.kernel.one_blas_thread():
+            return self._collect(stop)
+
+    def _collect(self, stop: Any) -> bool:
         if self._obs is None:
             self.reset()
         self._apply_schedules()
         r, buf = self.recipe, self._buf
         obs, timing = self._obs, self.timing
         std = torch.exp(self.policy.log_std.detach())
+        theta = self.kernel.parameters() if self.kernel is not None else None
         for t in range(r.n_steps):
             if stop is not None and stop():
                 self.cut_steps = t * r.n_envs
                 return False
             t0 = time.perf_counter()
             x = torch.from_numpy(np.asarray(self._normalized_obs(obs), dtype=np.float32))
-            with torch.no_grad():
-                mean, value = self._forward(x)
-                actions = mean + std * torch.randn_like(mean)
-                logp = self._log_prob(actions, mean)
+            if theta is not None:  # the compiled forward pass (agents.fast.kernel.policy_step)
+                noise = torch.randn(buf["actions"].shape[1:])
+                actions, logp, value = (
+                    torch.from_numpy(v) for v in self.kernel.act(theta, x.numpy(), noise.numpy())
+                )
+            else:
+                with torch.no_grad():
+                    mean, value = self._forward(x)
+                    actions = mean + std * torch.randn_like(mean)
+                    logp = self._log_prob(actions, mean)
             buf["obs"][t], buf["actions"][t], buf["logp"][t], buf["values"][t] = x, actions, logp, value
             t1 = time.perf_counter()
             clipped = np.clip(actions.numpy(), self._low, self._high)
@@ -297,8 +339,33 @@ class FastPPO:
         obs, actions = buf["obs"].reshape(n, -1), buf["actions"].reshape(n, -1)
         old_logp, advantages, returns = buf["logp"].reshape(n), advantages.reshape(n), returns.reshape(n)
         clip = r.clip_range(self.progress_remaining)
+        if self.kernel is not None:
+            orders = torch.stack([torch.randperm(n) for _ in range(r.n_epochs)]).numpy()
+            arrays = (x.numpy() for x in (obs, actions, old_logp, advantages, returns))
+            count, sums = self.kernel(
+                *arrays, orders, r.batch_size, clip=clip, vf_coef=r.vf_coef, ent_coef=r.ent_coef,
+                max_grad_norm=r.max_grad_norm, target_kl=r.target_kl,
+                normalize_advantage=r.normalize_advantage,
+            )  # fmt: skip
+            stats = dict(zip(STAT_KEYS, sums.tolist(), strict=True))
+        else:
+            count, stats = self._torch_update(obs, actions, old_logp, advantages, returns, clip)
+        self.steps += n
+        self.updates += 1
+        self.model.num_timesteps, self.model._total_timesteps = self.steps, self.total
+        self.timing["update"] += time.perf_counter() - t0
+        out = {key: value / max(count, 1) for key, value in stats.items()}
+        out.update(learning_rate=float(self.optimizer.param_groups[0]["lr"]), clip_range=clip)
+        return out
+
+    def _torch_update(
+        self, obs: torch.Tensor, actions: torch.Tensor, old_logp: torch.Tensor, advantages: torch.Tensor,
+        returns: torch.Tensor, clip: float,
+    ) -> tuple[int, dict[str, float]]:  # fmt: skip
+        """The update's epochs on torch's autograd; (minibatches stepped, the sums of :data:`STAT_KEYS`)."""
+        r, n = self.recipe, obs.shape[0]
         params = [p for p in self.policy.parameters() if p.requires_grad]
-        stats = {"policy_loss": 0.0, "value_loss": 0.0, "approx_kl": 0.0, "clip_fraction": 0.0}
+        stats = dict.fromkeys(STAT_KEYS, 0.0)
         count, stopped = 0, False
         for _ in range(r.n_epochs):
             order = torch.randperm(n)
@@ -331,13 +398,7 @@ class FastPPO:
                 count += 1
             if stopped:
                 break
-        self.steps += n
-        self.updates += 1
-        self.model.num_timesteps, self.model._total_timesteps = self.steps, self.total
-        self.timing["update"] += time.perf_counter() - t0
-        out = {key: value / max(count, 1) for key, value in stats.items()}
-        out.update(learning_rate=float(self.optimizer.param_groups[0]["lr"]), clip_range=clip)
-        return out
+        return count, stats
 
     def take_scores(self) -> list[float]:
         """The scores of the episodes finished since the last call (and forget them)."""

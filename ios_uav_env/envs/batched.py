@@ -354,18 +354,26 @@ class BatchedEnv(gym.vector.VectorEnv):
         return obs
 
     def _fly_once(self, rows: np.ndarray, targets: np.ndarray, moves: np.ndarray) -> np.ndarray:
-        """:meth:`fly` of distinct ``rows`` (checked arguments) through :meth:`advance`."""
-        obs = self._obs
+        """:meth:`fly` of distinct ``rows`` (checked arguments): :meth:`advance`'s steps of those
+        rows on fresh output arrays, without its per-step bookkeeping (no row ends during a flight,
+        so no autoreset and no final observation; the rewards are dropped)."""
+        previous_obs, previous_info = self._obs, self._info
+        self._outputs()  # the arrays returned by the last call are left as they were
+        self._obs[:], self._info[:] = previous_obs, previous_info
         width = self.single_action_space.shape[0]
+        step = np.array([[self.envs[i].config.D] for i in rows])
+        actions = np.zeros((self.num_envs, width))
+        active = np.zeros(self.num_envs, dtype=np.bool_)
         for j in range(int(moves.max(initial=0))):
             live = moves > j
-            mask = np.zeros(self.num_envs, dtype=np.bool_)
-            mask[rows[live]] = True
-            step = np.array([[self.envs[i].config.D] for i in rows[live]])
-            actions = np.zeros((self.num_envs, width))
-            actions[rows[live], :2] = full_speed_move(targets[live] - self._state[rows[live], 0:2], step)
-            obs = self.advance(actions, mask)[0]
-        return obs
+            flying = rows[live]
+            active[:] = False
+            active[flying] = True
+            actions[flying, :2] = full_speed_move(targets[live] - self._state[flying, 0:2], step[live])
+            self._step_kernel(self._check_actions(actions), active)
+        self._reward[:] = 0.0
+        self._terminated[:] = False
+        return self._obs
 
     def _fly_args(self, rows: Any, targets: Any, moves: Any) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """:meth:`fly`'s arguments checked (``ValueError`` naming the field and its limit)."""

@@ -305,3 +305,40 @@ def step_rows_batched(
                 _step_row(i, actions, state, episode, nodes, params, normals, flags, obs, reward, terminated,
                           info, path)  # fmt: skip
     return bad
+
+
+@jit(fastmath=False)
+def fly_rows(
+    rows: np.ndarray, targets: np.ndarray, moves: np.ndarray, actions: np.ndarray, state: np.ndarray,
+    episode: np.ndarray, nodes: np.ndarray, params: np.ndarray, normals: np.ndarray, flags: np.ndarray,
+    obs: np.ndarray, reward: np.ndarray, terminated: np.ndarray, info: np.ndarray, path: np.ndarray,
+) -> int:  # fmt: skip
+    """``moves[r]`` slots of row ``rows[r]``, each a full-speed move towards ``targets[r]`` (the rest
+    of the way once within D; the arrival guard as always): the steps of :func:`step_rows` with
+    those actions (``actions``: (B, 2) scratch; the expected rate: no fading draws); a row given
+    more than once flies its entries in order. Returns -1, or, flying nothing, the first entry
+    ``r`` that is out of range: a row outside 0..B-1, a move count < 0, or a row whose moves
+    (summed over its entries) would finish its episode or pass the end of ``path``."""
+    if targets.shape[0] < rows.size or moves.size < rows.size:
+        return 0
+    planned = np.zeros(state.shape[0])
+    for r in range(rows.size):
+        i = rows[r]
+        if i < 0 or i >= state.shape[0] or moves[r] < 0:
+            return r
+        planned[i] += moves[r]
+        end = state[i, 2] + planned[i]  # moves made after this entry
+        if end >= episode[i, 3] or end >= path.shape[1]:
+            return r
+    for r in range(rows.size):
+        i = rows[r]
+        for _ in range(moves[r]):
+            d = episode[i, 0]
+            mx, my = (targets[r, 0] - state[i, 0]) / d, (targets[r, 1] - state[i, 1]) / d
+            length = math.hypot(mx, my)
+            if length > 1.0:
+                mx, my = mx / length, my / length
+            actions[i, 0], actions[i, 1] = mx, my
+            _step_row(i, actions, state, episode, nodes, params, normals, flags, obs, reward, terminated,
+                      info, path)  # fmt: skip
+    return -1

@@ -24,7 +24,7 @@ import numpy as np
 from ios_uav_env.envs.batched import AUTORESET_MODES, BatchedEnv, check_threads
 from ios_uav_env.envs.random_env import RandomIOSUAVEnv
 from ios_uav_env.envs.single import INFO_KEYS, IOSUAVEnv
-from ios_uav_env.envs.single_kernels import INFO, STATE, reset_rows, step_rows, step_rows_batched
+from ios_uav_env.envs.single_kernels import INFO, STATE, fly_rows, reset_rows, step_rows, step_rows_batched
 from ios_uav_env.jit import run_batched
 
 __all__ = ["AUTORESET_MODES", "IOSUAVVectorEnv", "RandomIOSUAVVectorEnv", "check_threads"]
@@ -121,6 +121,23 @@ class IOSUAVVectorEnv(BatchedEnv):
         out["slot"] = out["slot"].astype(np.int64)
         out["feasible"] = out["feasible"] != 0.0
         return out
+
+    # --- API ------------------------------------------------------------------------
+    def fly(self, rows: Any, targets: Any, moves: Any) -> np.ndarray:
+        """:meth:`BatchedEnv.fly` in one compiled call (``single_kernels.fly_rows``): row ``rows[r]``
+        flies ``moves[r]`` slots towards ``targets[r]`` at full speed."""
+        if self._mobile or self._rician:  # (each slot's track or fading draw: step slot by slot instead)
+            return super().fly(rows, targets, moves)
+        rows, targets, moves = self._fly_args(rows, targets, moves)
+        obs, info = self._obs.copy(), self._info.copy()  # fresh: the arrays returned last stay as they were
+        actions = np.zeros((self.num_envs, 2))
+        bad = fly_rows(rows, targets, moves, actions, self._state, self._episode, self._nodes, self._params,
+                       self._normals, self._flags, obs, np.zeros(self.num_envs),
+                       np.zeros(self.num_envs, dtype=np.bool_), info, self._path)  # fmt: skip
+        if bad >= 0:  # (the arguments were checked above: a kernel refusal is a bug)
+            raise RuntimeError(f"fly_rows refused entry {bad} of checked arguments")
+        self._obs, self._info = obs, info
+        return obs
 
     # --- the step -------------------------------------------------------------------
     def _check_actions(self, actions: Any) -> np.ndarray:

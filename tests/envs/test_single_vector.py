@@ -287,3 +287,35 @@ def test_a_process_forked_after_a_batched_step_can_step_too():
     assert child.exitcode == 0
     for got, want in zip(queue.get(timeout=5), expected, strict=True):
         np.testing.assert_allclose(got, want, rtol=1e-6, atol=1e-6)
+
+
+@pytest.mark.parametrize("env_kwargs", [{}, {"channel": "rician"}])
+def test_fly_is_the_steps_it_hides(env_kwargs):
+    """fly(rows, targets, moves) (compiled in one call; rician rows step slot by slot for their
+    fading draws) equals advance() steps of full-speed moves (the generic BatchedEnv.fly), leaves
+    the other rows and the arrays returned last alone, and the episodes go on alike."""
+    from ios_uav_env.envs.batched import BatchedEnv
+
+    fast, slow = (RandomIOSUAVVectorEnv(3, **env_kwargs) for _ in range(2))
+    first = fast.reset(seed=0)[0]
+    slow.reset(seed=0)
+    kept = first.copy()
+    rows, targets = np.array([0, 2, 0]), np.array([[100.0, 0.0], [-40.0, 90.0], [0.0, -30.0]])
+    moves = np.array([5, 12, 3])
+    obs = fast.fly(rows, targets, moves)
+    ref = BatchedEnv.fly(slow, rows, targets, moves)
+    np.testing.assert_allclose(obs, ref, rtol=1e-9, atol=1e-6)
+    np.testing.assert_array_equal(obs[1], first[1])
+    np.testing.assert_array_equal(first, kept)  # the arrays returned last are left as they were
+    paths = fast.trajectories
+    assert [len(p) for p in paths] == [9, 1, 13]
+    np.testing.assert_allclose(paths[2], slow.trajectories[2], rtol=0, atol=1e-9)
+    d = fast.envs[2].config.D
+    np.testing.assert_allclose(np.hypot(*np.diff(paths[2], axis=0).T), d)  # full speed
+    hover = np.zeros((3, 2))
+    for _ in range(3):
+        a, b = fast.step(hover), slow.step(hover)
+        np.testing.assert_allclose(a[0], b[0], rtol=1e-9, atol=1e-6)
+        np.testing.assert_allclose(a[1], b[1], rtol=1e-9, atol=1e-9)
+    with pytest.raises(ValueError, match="leave each row's episode unfinished"):
+        fast.fly([1], [[0.0, 0.0]], [fast.envs[1].config.N - 1])
