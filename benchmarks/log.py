@@ -58,7 +58,12 @@ REGISTRY: dict[str, Measurement] = {
         ("sca_bench", "sca_bench.py", (), "SCA against the DP optimum, tiles, solvers, DPP"),
         ("ppo_speed", "ppo_speed.py", (), "PPO (ppo_fast.yml), batched env: time to 99.5% of DP"),
         ("multinode", "multinode.py", (), "several nodes: tour, SCA, the DP's plan and bound"),
-        ("train_speed", "train_speed.py", ("throughput",), "fast trainer vs SB3: steps/s and the time split"),
+        (
+            "train_speed",
+            "train_speed.py",
+            ("throughput", "--n-envs", "1024"),
+            "fast trainer (B = 1024) vs SB3: steps/s and the time split",
+        ),
         (
             "fast_race",
             "train_speed.py",

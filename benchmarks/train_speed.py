@@ -16,7 +16,7 @@ out the deterministic policy for one episode of the id (seed 0), until its score
 the multi-node id, DP-EE's energy efficiency on the energy id) or ``--time-cap`` seconds; one
 line per seed, then the count that made it.
 
-    python benchmarks/train_speed.py throughput                        # multi-node id, B = 1024
+    python benchmarks/train_speed.py throughput --n-envs 1024          # multi-node id, B = 1024
     python benchmarks/train_speed.py throughput --env ios_uav_env/IOSUAV-v0
     python benchmarks/train_speed.py race --env ios_uav_env/IOSUAV-v0   # bar 99.5 % of DP
     python benchmarks/train_speed.py race --seeds 0 1 2                 # multi-node: 97 % of SCA
@@ -257,8 +257,10 @@ def main(argv: Sequence[str] | None = None) -> int:
         if not args.no_sb3:
             sb3 = sb3_throughput(args.env, args.seconds)
             print(f"fast / SB3: {fast / sb3:.1f}x")
-        print(f"bar (multi-node id, B = 1024): >= 100,000 steps/s: {'met' if fast >= 1e5 else 'NOT met'}"
-              if args.env == MULTI_ID else "")  # fmt: skip
+        if args.env == MULTI_ID and args.n_envs == 1024:
+            print(f"bar (multi-node id, B = 1024): >= 100,000 steps/s: {'met' if fast >= 1e5 else 'NOT met'}")
+        elif args.env == MULTI_ID:
+            print("(the throughput bar is at B = 1024 rows: --n-envs 1024)")
         return 0
     cap = args.time_cap or TIME_BARS[args.env]
     times: list[float] = []

@@ -26,7 +26,7 @@ import numpy as np
 from ios_uav_env.envs.guard import guarded_position
 from ios_uav_env.envs.observation import M_SCALE, T_SCALE
 from ios_uav_env.envs.options import EnvOptions
-from ios_uav_env.envs.single_kernels import flags_of, penalties
+from ios_uav_env.envs.single_kernels import flags_of, fly_entry_out_of_range, penalties, toward
 from ios_uav_env.jit import HAVE_NUMBA, jit, prange, run_batched
 from ios_uav_env.model.channel import PARAMS, rate_kernel, rate_point
 from ios_uav_env.model.config import FEASIBILITY_TOL, ScenarioConfig
@@ -309,29 +309,18 @@ def fly_rows(
     nothing, the first entry ``r`` that is out of range: a row outside 0..B-1, a move count
     < 0, or a row whose moves (summed over its entries) would finish its episode or pass the
     end of ``path``."""
-    if targets.shape[0] < rows.size or moves.size < rows.size:
-        return 0
-    planned = np.zeros(state.shape[0])
-    for r in range(rows.size):
-        i = rows[r]
-        if i < 0 or i >= state.shape[0] or moves[r] < 0:
-            return r
-        planned[i] += moves[r]
-        end = state[i, 2] + planned[i]  # moves made after this entry
-        if end >= episode[i, 3] or end >= min(path.shape[1], share_path.shape[1]):
-            return r
+    bad = fly_entry_out_of_range(
+        rows, targets, moves, state, episode, min(path.shape[1], share_path.shape[1])
+    )
+    if bad >= 0:
+        return bad
     for r in range(rows.size):
         i = rows[r]
         for k in range(actions.shape[1]):
             actions[i, k] = 0.0  # node scores 0: equal shares
         norms[i] = 0.0  # the move below is on the unit disk already
         for _ in range(moves[r]):
-            d = episode[i, 0]
-            mx, my = (targets[r, 0] - state[i, 0]) / d, (targets[r, 1] - state[i, 1]) / d
-            length = math.hypot(mx, my)
-            if length > 1.0:
-                mx, my = mx / length, my / length
-            actions[i, 0], actions[i, 1] = mx, my
+            toward(i, targets[r, 0], targets[r, 1], state, episode, actions)
             _step_row(i, actions, state, episode, points, nodes, params, served, shares, rates, flags, obs,
                       reward, terminated, info, path, share_path, norms)  # fmt: skip
     return -1

@@ -307,6 +307,38 @@ def step_rows_batched(
     return bad
 
 
+@jit(inline=True, fastmath=False)
+def fly_entry_out_of_range(rows: np.ndarray, targets: np.ndarray, moves: np.ndarray, state: np.ndarray,
+                           episode: np.ndarray, path_length: int) -> int:  # fmt: skip
+    """-1 if every entry of a flight (``fly_rows``) may fly, else the first that may not: a row
+    outside 0..B-1, a move count < 0, or a row whose moves (summed over its entries) would finish
+    its episode or pass ``path_length``; 0 if ``targets`` or ``moves`` are shorter than ``rows``."""
+    if targets.shape[0] < rows.size or moves.size < rows.size:
+        return 0
+    planned = np.zeros(state.shape[0])
+    for r in range(rows.size):
+        i = rows[r]
+        if i < 0 or i >= state.shape[0] or moves[r] < 0:
+            return r
+        planned[i] += moves[r]
+        end = state[i, 2] + planned[i]  # moves made after this entry
+        if end >= episode[i, 3] or end >= path_length:
+            return r
+    return -1
+
+
+@jit(inline=True, fastmath=False)
+def toward(i: int, tx: float, ty: float, state: np.ndarray, episode: np.ndarray, actions: np.ndarray) -> None:
+    """Row ``i``'s move towards (``tx``, ``ty``) m into ``actions[i, :2]``: full speed (``D`` =
+    ``episode[i, 0]``), or the rest of the way once within D (``policies.full_speed_move``)."""
+    d = episode[i, 0]
+    mx, my = (tx - state[i, 0]) / d, (ty - state[i, 1]) / d
+    length = math.hypot(mx, my)
+    if length > 1.0:
+        mx, my = mx / length, my / length
+    actions[i, 0], actions[i, 1] = mx, my
+
+
 @jit(fastmath=False)
 def fly_rows(
     rows: np.ndarray, targets: np.ndarray, moves: np.ndarray, actions: np.ndarray, state: np.ndarray,
@@ -319,26 +351,13 @@ def fly_rows(
     more than once flies its entries in order. Returns -1, or, flying nothing, the first entry
     ``r`` that is out of range: a row outside 0..B-1, a move count < 0, or a row whose moves
     (summed over its entries) would finish its episode or pass the end of ``path``."""
-    if targets.shape[0] < rows.size or moves.size < rows.size:
-        return 0
-    planned = np.zeros(state.shape[0])
-    for r in range(rows.size):
-        i = rows[r]
-        if i < 0 or i >= state.shape[0] or moves[r] < 0:
-            return r
-        planned[i] += moves[r]
-        end = state[i, 2] + planned[i]  # moves made after this entry
-        if end >= episode[i, 3] or end >= path.shape[1]:
-            return r
+    bad = fly_entry_out_of_range(rows, targets, moves, state, episode, path.shape[1])
+    if bad >= 0:
+        return bad
     for r in range(rows.size):
         i = rows[r]
         for _ in range(moves[r]):
-            d = episode[i, 0]
-            mx, my = (targets[r, 0] - state[i, 0]) / d, (targets[r, 1] - state[i, 1]) / d
-            length = math.hypot(mx, my)
-            if length > 1.0:
-                mx, my = mx / length, my / length
-            actions[i, 0], actions[i, 1] = mx, my
+            toward(i, targets[r, 0], targets[r, 1], state, episode, actions)
             _step_row(i, actions, state, episode, nodes, params, normals, flags, obs, reward, terminated,
                       info, path)  # fmt: skip
     return -1

@@ -19,28 +19,14 @@ pytest.importorskip("numba")
 from agents.fast import FastPPO, FastRecipe  # noqa: E402
 from agents.fast.kernel import KernelUpdate, minibatch_gradient  # noqa: E402
 from agents.hyperparams import check_entry, resolve  # noqa: E402
-
-ENV = "ios_uav_env/IOSUAV-v0"
-MULTI = "ios_uav_env/IOSUAV-MultiNode-v0"
-
-
-@pytest.fixture(autouse=True)
-def one_torch_thread():
-    before = torch.get_num_threads()
-    torch.set_num_threads(1)
-    yield
-    torch.set_num_threads(before)
+from tests.agents.test_fast import ENV, MULTI, entry, one_torch_thread  # noqa: E402, F401  (an autouse fixture)
 
 
 def recipe(**overrides) -> FastRecipe:
-    base = {
-        "n_envs": 32, "n_timesteps": 4096, "policy": "MlpPolicy", "n_steps": 8, "batch_size": 64,
-        "n_epochs": 3, "gamma": 0.99, "learning_rate": "lin_1e-3", "max_grad_norm": 0.5,
-        "policy_kwargs": "dict(net_arch=dict(pi=[32, 16], vf=[24]), log_std_init=-1.0)",
-    }  # fmt: skip
-    base.update(overrides)
-    entry = {k: v for k, v in base.items() if v is not None}
-    return FastRecipe.from_hyperparams(resolve(check_entry("ppo", entry)))
+    """test_fast's tiny recipe with 3 epochs of 64-sample minibatches and nets of depth 1-2."""
+    base = {"n_timesteps": 4096, "batch_size": 64, "n_epochs": 3, "max_grad_norm": 0.5,
+            "policy_kwargs": "dict(net_arch=dict(pi=[32, 16], vf=[24]), log_std_init=-1.0)"}  # fmt: skip
+    return FastRecipe.from_hyperparams(resolve(check_entry("ppo", entry(**{**base, **overrides}))))
 
 
 def sb3_policy(env_id: str = ENV, net_arch=None, activation=None, seed: int = 0):
