@@ -38,7 +38,7 @@ import torch
 
 import ios_uav_env  # noqa: F401  (registers the ids)
 from agents.fast.gae import gae
-from agents.fast.kernel import KernelUpdate
+from agents.fast.kernel_policy import KernelUpdate
 from agents.fast.recipe import FastRecipe
 from agents.wrappers import check_exploring
 from ios_uav_env.jit import HAVE_NUMBA, prefer_passive_threads

@@ -17,7 +17,8 @@ import torch
 pytest.importorskip("numba")
 
 from agents.fast import FastPPO, FastRecipe  # noqa: E402
-from agents.fast.kernel import KernelUpdate, minibatch_gradient  # noqa: E402
+from agents.fast.kernel import minibatch_gradient  # noqa: E402
+from agents.fast.kernel_policy import KernelUpdate  # noqa: E402
 from agents.hyperparams import check_entry, resolve  # noqa: E402
 from tests.agents.test_fast import ENV, MULTI, entry, one_torch_thread  # noqa: E402, F401  (an autouse fixture)
 
