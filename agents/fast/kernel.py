@@ -108,6 +108,18 @@ def _backward(
             d = np.dot(d, theta[w_off : w_off + n_out * n_in].reshape((n_out, n_in)))
 
 
+@jit(inline=True)
+def _gaussian_log_prob(
+    diff: np.ndarray, log_std: np.ndarray, inv_var: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
+    """The diagonal Gaussian's log-density of actions ``diff`` = a - mu away from its mean (float64,
+    (m, act_dim)) with ``log_std`` and ``inv_var`` = exp(-2 log_std): ((a - mu)^2 / sigma^2, and per
+    row sum_j -1/2 (a_j - mu_j)^2 / sigma_j^2 - log sigma_j - 1/2 log(2 pi))."""
+    scaled = diff * diff * inv_var
+    logp = -0.5 * scaled.sum(axis=1) - (log_std.sum() + diff.shape[1] * 0.5 * math.log(2.0 * math.pi))
+    return scaled, logp
+
+
 @jit
 def _actor_gradient(
     theta: np.ndarray, grad: np.ndarray, pi_layers: np.ndarray, log_std_off: int, obs: np.ndarray,
@@ -121,8 +133,7 @@ def _actor_gradient(
     log_std = theta[log_std_off : log_std_off + act_dim].astype(np.float64)
     inv_var = np.exp(-2.0 * log_std)
     diff = (actions - acts[-1]).astype(np.float64)
-    scaled = diff * diff * inv_var
-    logp = -0.5 * scaled.sum(axis=1) - (log_std.sum() + act_dim * 0.5 * math.log(2.0 * math.pi))
+    scaled, logp = _gaussian_log_prob(diff, log_std, inv_var)
     log_ratio = logp - old_logp
     ratio = np.exp(log_ratio)
     adv = advantages.astype(np.float64)
@@ -288,7 +299,5 @@ def policy_step(
     actions = mean + np.exp(log_std) * noise
     log_std64 = log_std.astype(np.float64)
     diff = (actions - mean).astype(np.float64)
-    logp = -0.5 * (diff * diff * np.exp(-2.0 * log_std64)).sum(axis=1) - (
-        log_std64.sum() + act_dim * 0.5 * math.log(2.0 * math.pi)
-    )
+    logp = _gaussian_log_prob(diff, log_std64, np.exp(-2.0 * log_std64))[1]
     return actions, logp.astype(np.float32), value

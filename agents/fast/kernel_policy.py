@@ -54,7 +54,6 @@ class KernelUpdate:
 
     def __init__(self, policy: Any, optimizer: Any, pi: list[Any], vf: list[Any]) -> None:
         self.policy, self.optimizer = policy, optimizer
-        self._train_log_std = bool(policy.log_std.requires_grad)
         self.params: list[Any] = []  # (parameter, offset) in the flat vector's order
         rows: dict[str, list[list[int]]] = {"pi": [], "vf": []}
         offset = 0
@@ -67,7 +66,7 @@ class KernelUpdate:
         self.log_std_off = offset
         self.params.append((policy.log_std, offset))
         self.size = offset + policy.log_std.numel()
-        self.n_train = self.size if self._train_log_std else offset
+        self.n_train = self.size if policy.log_std.requires_grad else offset  # a scheduled log std: frozen
         self.pi_layers = np.asarray(rows["pi"], dtype=np.int64)
         self.vf_layers = np.asarray(rows["vf"], dtype=np.int64)
         self._blas = _blas_controller()
@@ -122,11 +121,11 @@ class KernelUpdate:
         return policy_step(theta, self.pi_layers, self.vf_layers, self.log_std_off, obs, noise)  # type: ignore[no-any-return]
 
     def _gather(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, int]:
-        theta = np.empty(self.size, dtype=np.float32)
+        """The parameters (:meth:`parameters`) and Adam's moments and step count, flat."""
+        theta = self.parameters()
         exp_avg, exp_avg_sq = np.zeros_like(theta), np.zeros_like(theta)
         step = 0
         for p, off in self.params:
-            theta[off : off + p.numel()] = p.detach().numpy().ravel()
             state = self.optimizer.state.get(p)
             if state:
                 exp_avg[off : off + p.numel()] = state["exp_avg"].numpy().ravel()
@@ -181,11 +180,12 @@ class KernelUpdate:
              beta2, group["eps"]],
         )  # fmt: skip
         theta, exp_avg, exp_avg_sq, step = self._gather()
+        orders = np.ascontiguousarray(orders, dtype=np.int64)  # (torch.randperm's: no copy)
         with self.one_blas_thread():
             step, count, stats = ppo_update(
                 theta, exp_avg, exp_avg_sq, step, self.n_train, self.pi_layers, self.vf_layers,
-                self.log_std_off, obs, actions, old_logp, advantages, returns, orders.astype(np.int64),
-                int(batch_size), settings, self.parallel and parallel_safe(),
+                self.log_std_off, obs, actions, old_logp, advantages, returns, orders, int(batch_size),
+                settings, self.parallel and parallel_safe(),
             )  # fmt: skip
         self._scatter(theta, exp_avg, exp_avg_sq, step)
         return count, stats

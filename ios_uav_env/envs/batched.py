@@ -362,7 +362,7 @@ class BatchedEnv(gym.vector.VectorEnv):
         self._obs[:], self._info[:] = previous_obs, previous_info
         width = self.single_action_space.shape[0]
         step = np.array([[self.envs[i].config.D] for i in rows])
-        actions = np.zeros((self.num_envs, width))
+        actions = self._check_actions(np.zeros((self.num_envs, width)))  # (the kernel's array type as it is)
         active = np.zeros(self.num_envs, dtype=np.bool_)
         for j in range(int(moves.max(initial=0))):
             live = moves > j
@@ -370,7 +370,7 @@ class BatchedEnv(gym.vector.VectorEnv):
             active[:] = False
             active[flying] = True
             actions[flying, :2] = full_speed_move(targets[live] - self._state[flying, 0:2], step[live])
-            self._step_kernel(self._check_actions(actions), active)
+            self._step_kernel(actions, active)
         self._reward[:] = 0.0
         self._terminated[:] = False
         return self._obs
