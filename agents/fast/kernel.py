@@ -53,6 +53,28 @@ _A11, _A13 = np.float32(2.00018790482477e-13), np.float32(-2.76076847742355e-16)
 _B0, _B2 = np.float32(4.89352518554385e-03), np.float32(2.26843463243900e-03)
 _B4, _B6 = np.float32(1.18534705686654e-04), np.float32(1.19825839466702e-06)
 
+#: The entries of an update's ``settings`` vector, in order (:func:`update_settings` builds it):
+#: the learning rate, the clip range, c_v, c_e, the max gradient norm, target_kl (inf: none),
+#: whether advantages are normalised (0/1), Adam's beta1, beta2 and eps.
+SETTINGS = ("lr", "clip", "vf_coef", "ent_coef", "max_grad_norm", "target_kl", "normalize", "beta1",
+            "beta2", "eps")  # fmt: skip
+_LR, _CLIP, _VF_COEF, _ENT_COEF, _MAX_NORM, _TARGET_KL, _NORMALIZE, _BETA1, _BETA2, _EPS = range(10)
+
+
+def update_settings(**values: float) -> np.ndarray:
+    """The ``settings`` vector of :func:`ppo_update` from every name of :data:`SETTINGS`
+    (``target_kl=None`` for none); a ``ValueError`` names a missing or unknown entry."""
+    if "target_kl" in values and values["target_kl"] is None:
+        values["target_kl"] = math.inf
+    missing, unknown = set(SETTINGS) - set(values), set(values) - set(SETTINGS)
+    if missing or unknown:
+        raise ValueError(f"update settings: missing {sorted(missing)}, unknown {sorted(unknown)}; "
+                         f"the entries are {SETTINGS}")  # fmt: skip
+    return np.array([float(values[name]) for name in SETTINGS])
+
+
+assert len(SETTINGS) == _EPS + 1  # one position per name
+
 
 @jit(inline=True)
 def _tanh(x: float) -> float:
@@ -127,7 +149,7 @@ def _actor_gradient(
     stats: np.ndarray,
 ) -> None:  # fmt: skip
     """The policy loss's gradient (the actor's parameters and the log std) and stats 0, 2, 3."""
-    clip, ent_coef, normalize = settings[1], settings[3], settings[6] > 0.5
+    clip, ent_coef, normalize = settings[_CLIP], settings[_ENT_COEF], settings[_NORMALIZE] > 0.5
     m, act_dim = actions.shape
     acts = _forward(theta, pi_layers, obs)
     log_std = theta[log_std_off : log_std_off + act_dim].astype(np.float64)
@@ -162,7 +184,7 @@ def _critic_gradient(
     m = obs.shape[0]
     acts = _forward(theta, vf_layers, obs)
     err = returns - acts[-1][:, 0].astype(np.float64)
-    d_value = ((-2.0 * settings[2] / m) * err).astype(theta.dtype).reshape((m, 1))
+    d_value = ((-2.0 * settings[_VF_COEF] / m) * err).astype(theta.dtype).reshape((m, 1))
     _backward(theta, grad, vf_layers, acts, d_value)
     stats[1] = np.mean(err * err)
 
@@ -219,7 +241,8 @@ def adam_step(
 ) -> None:  # fmt: skip
     """Clip the gradient of the first ``n_train`` parameters to ``settings``' max norm
     (``clip_grad_norm_``) and take Adam's step ``step`` (1 for the first) on them."""
-    lr, max_norm, beta1, beta2, eps = settings[0], settings[4], settings[7], settings[8], settings[9]
+    lr, max_norm, beta1, beta2, eps = (settings[_LR], settings[_MAX_NORM], settings[_BETA1], settings[_BETA2],
+                                       settings[_EPS])  # fmt: skip
     norm = 0.0
     for j in range(n_train):
         norm += float(grad[j]) * float(grad[j])
@@ -258,11 +281,10 @@ def ppo_update(
     ``theta``: the flat parameters (float32), the trained ones first (``n_train``: the log std is
     last and trained only if ``n_train`` covers it); ``step``: Adam's step count so far;
     ``pi_layers``, ``vf_layers``: the actor's and critic's layouts, heads included;
-    ``orders``: (epochs, n) the sample order of each epoch; ``settings``: (lr, clip range,
-    vf_coef, ent_coef, max_grad_norm, target_kl or inf, normalise advantages (0/1), beta1,
-    beta2, Adam eps). Returns (Adam's step count, the minibatches stepped, the sums of
-    (policy loss, value loss, approx KL, clip fraction) over them); like SB3, an update stops
-    before the step of the first minibatch whose KL exceeds 1.5 target_kl."""
+    ``orders``: (epochs, n) the sample order of each epoch; ``settings``: the entries of
+    :data:`SETTINGS` (:func:`update_settings`). Returns (Adam's step count, the minibatches
+    stepped, the sums of (policy loss, value loss, approx KL, clip fraction) over them); like SB3,
+    an update stops before the step of the first minibatch whose KL exceeds 1.5 target_kl."""
     grad = np.zeros_like(theta)
     totals = np.zeros(4)
     count = 0
@@ -274,7 +296,7 @@ def ppo_update(
                 theta, grad, pi_layers, vf_layers, log_std_off, obs[idx], actions[idx], old_logp[idx],
                 advantages[idx], returns[idx], settings, parallel,
             )  # fmt: skip
-            if stats[2] > 1.5 * settings[5]:
+            if stats[2] > 1.5 * settings[_TARGET_KL]:
                 return step, count, totals
             step += 1
             adam_step(theta, grad, exp_avg, exp_avg_sq, step, n_train, settings)

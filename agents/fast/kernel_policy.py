@@ -8,13 +8,12 @@ torch's at any point. The BLAS products run on one thread (:meth:`KernelUpdate.o
 
 from __future__ import annotations
 
-import math
 from contextlib import nullcontext
 from typing import Any
 
 import numpy as np
 
-from agents.fast.kernel import policy_step, ppo_update
+from agents.fast.kernel import policy_step, ppo_update, update_settings
 from ios_uav_env.jit import parallel_safe
 
 
@@ -174,10 +173,9 @@ class KernelUpdate:
         and Adam state are read before and written after."""
         group = self.optimizer.param_groups[0]
         beta1, beta2 = group["betas"]
-        kl = math.inf if target_kl is None else target_kl
-        settings = np.array(
-            [group["lr"], clip, vf_coef, ent_coef, max_grad_norm, kl, float(normalize_advantage), beta1,
-             beta2, group["eps"]],
+        settings = update_settings(
+            lr=group["lr"], clip=clip, vf_coef=vf_coef, ent_coef=ent_coef, max_grad_norm=max_grad_norm,
+            target_kl=target_kl, normalize=normalize_advantage, beta1=beta1, beta2=beta2, eps=group["eps"],
         )  # fmt: skip
         theta, exp_avg, exp_avg_sq, step = self._gather()
         orders = np.ascontiguousarray(orders, dtype=np.int64)  # (torch.randperm's: no copy)

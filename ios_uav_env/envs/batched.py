@@ -346,8 +346,27 @@ class BatchedEnv(gym.vector.VectorEnv):
         would step it, and none of these steps is returned. A row given more than once flies
         its entries in order. The moves of a row, summed over its entries, must leave its
         episode unfinished. Returns the batch's current observations (those rows' after the
-        flight). E.g. to start episodes part-way (``agents.vec_env.VecExploringStarts``)."""
+        flight). E.g. to start episodes part-way (``agents.vec_env.VecExploringStarts``).
+
+        A subclass whose kernel can fly rows in one call overrides :meth:`_fly_compiled`;
+        otherwise (or when it returns False) the rows step slot by slot (:meth:`_fly_stepped`)."""
         rows, targets, moves = self._fly_args(rows, targets, moves)
+        obs, info = self._obs.copy(), self._info.copy()  # fresh: the arrays returned last stay as they were
+        if not self._fly_compiled(rows, targets, moves, obs, info):
+            return self._fly_stepped(rows, targets, moves)
+        self._obs, self._info = obs, info
+        return obs
+
+    def _fly_compiled(
+        self, rows: np.ndarray, targets: np.ndarray, moves: np.ndarray, obs: np.ndarray, info: np.ndarray
+    ) -> bool:
+        """:meth:`fly` of checked arguments in one compiled call writing ``obs`` and ``info`` (copies
+        of the current arrays), or False (nothing written) where this batch has no such kernel."""
+        return False
+
+    def _fly_stepped(self, rows: np.ndarray, targets: np.ndarray, moves: np.ndarray) -> np.ndarray:
+        """:meth:`fly` of checked arguments by :meth:`advance`'s steps (the reference of every
+        compiled flight)."""
         obs = self._obs
         for entries in _occurrences(rows):  # a row's first entry, then its second, ...
             obs = self._fly_once(rows[entries], targets[entries], moves[entries])

@@ -124,16 +124,15 @@ class MultiNodeVectorEnv(BatchedEnv):
             )
 
     # --- API ------------------------------------------------------------------------
-    def fly(self, rows: Any, targets: Any, moves: Any) -> np.ndarray:
-        """:meth:`BatchedEnv.fly` in one compiled call: row ``rows[r]`` flies ``moves[r]`` slots
-        towards ``targets[r]`` at full speed with equal shares."""
-        if self._mobile:  # (the compiled flight keeps each row's kernels: step slot by slot instead)
-            return super().fly(rows, targets, moves)
-        rows, targets, moves = self._fly_args(rows, targets, moves)
-        obs, info = self._obs.copy(), self._info.copy()  # fresh: the arrays returned last stay as they were
+    def _fly_compiled(
+        self, rows: np.ndarray, targets: np.ndarray, moves: np.ndarray, obs: np.ndarray, info: np.ndarray
+    ) -> bool:
+        """:meth:`BatchedEnv.fly` in one compiled call, with equal shares (not for mobile rows: the
+        compiled flight keeps each row's kernels, so they step slot by slot)."""
+        if self._mobile:
+            return False
         self._rows.fly(rows, targets, moves, obs, info)
-        self._obs, self._info = obs, info
-        return obs
+        return True
 
     @property
     def schedules(self) -> list[np.ndarray]:

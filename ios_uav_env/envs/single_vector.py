@@ -123,21 +123,20 @@ class IOSUAVVectorEnv(BatchedEnv):
         return out
 
     # --- API ------------------------------------------------------------------------
-    def fly(self, rows: Any, targets: Any, moves: Any) -> np.ndarray:
-        """:meth:`BatchedEnv.fly` in one compiled call (``single_kernels.fly_rows``): row ``rows[r]``
-        flies ``moves[r]`` slots towards ``targets[r]`` at full speed."""
-        if self._mobile or self._rician:  # (each slot's track or fading draw: step slot by slot instead)
-            return super().fly(rows, targets, moves)
-        rows, targets, moves = self._fly_args(rows, targets, moves)
-        obs, info = self._obs.copy(), self._info.copy()  # fresh: the arrays returned last stay as they were
+    def _fly_compiled(
+        self, rows: np.ndarray, targets: np.ndarray, moves: np.ndarray, obs: np.ndarray, info: np.ndarray
+    ) -> bool:
+        """:meth:`BatchedEnv.fly` in one call of ``single_kernels.fly_rows`` (not for mobile or
+        rician rows: each slot's track or fading draw steps slot by slot)."""
+        if self._mobile or self._rician:
+            return False
         actions = np.zeros((self.num_envs, 2))
         bad = fly_rows(rows, targets, moves, actions, self._state, self._episode, self._nodes, self._params,
                        self._normals, self._flags, obs, np.zeros(self.num_envs),
                        np.zeros(self.num_envs, dtype=np.bool_), info, self._path)  # fmt: skip
-        if bad >= 0:  # (the arguments were checked above: a kernel refusal is a bug)
+        if bad >= 0:  # (the arguments were checked by fly: a kernel refusal is a bug)
             raise RuntimeError(f"fly_rows refused entry {bad} of checked arguments")
-        self._obs, self._info = obs, info
-        return obs
+        return True
 
     # --- the step -------------------------------------------------------------------
     def _check_actions(self, actions: Any) -> np.ndarray:

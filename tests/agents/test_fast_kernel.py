@@ -17,7 +17,7 @@ import torch
 pytest.importorskip("numba")
 
 from agents.fast import FastPPO, FastRecipe  # noqa: E402
-from agents.fast.kernel import minibatch_gradient  # noqa: E402
+from agents.fast.kernel import SETTINGS, minibatch_gradient, update_settings  # noqa: E402
 from agents.fast.kernel_policy import KernelUpdate  # noqa: E402
 from agents.hyperparams import check_entry, resolve  # noqa: E402
 from tests.agents.test_fast import ENV, MULTI, entry, one_torch_thread  # noqa: E402, F401  (an autouse fixture)
@@ -92,7 +92,8 @@ def test_the_kernels_gradient_is_torchs(env_id, net_arch, parallel):
     loss.backward()
     theta = kernel._gather()[0]
     grad = np.zeros_like(theta)
-    settings = np.array([1e-3, clip, vf_coef, ent_coef, 0.5, np.inf, 1.0, 0.9, 0.999, 1e-8])
+    settings = update_settings(lr=1e-3, clip=clip, vf_coef=vf_coef, ent_coef=ent_coef, max_grad_norm=0.5,
+                               target_kl=None, normalize=True, beta1=0.9, beta2=0.999, eps=1e-8)  # fmt: skip
     stats = minibatch_gradient(theta, grad, kernel.pi_layers, kernel.vf_layers, kernel.log_std_off, obs,
                                actions, old_logp, adv, returns, settings, parallel)  # fmt: skip
     assert 0.2 < stats[3] < 0.8  # both branches of the clipped surrogate are exercised
@@ -191,6 +192,18 @@ def test_the_kernel_covers_tanh_mlps_only_and_says_so():
     algo.close()
     with pytest.raises(ValueError, match="update must be one of auto, kernel, torch"):
         FastPPO(ENV, recipe(), total=64, env_kwargs={"T": 40}, update="numba")
+
+
+def test_update_settings_are_named_in_full():
+    names = dict(lr=1e-3, clip=0.2, vf_coef=0.5, ent_coef=0.0, max_grad_norm=0.5, target_kl=None,
+                 normalize=True, beta1=0.9, beta2=0.999, eps=1e-8)  # fmt: skip
+    settings = update_settings(**names)
+    assert settings.shape == (len(SETTINGS),) and np.isinf(settings[SETTINGS.index("target_kl")])
+    assert settings[SETTINGS.index("beta2")] == 0.999
+    with pytest.raises(ValueError, match=r"missing \['eps'\], unknown \[\]"):
+        update_settings(**{k: v for k, v in names.items() if k != "eps"})
+    with pytest.raises(ValueError, match=r"unknown \['gamma'\]"):
+        update_settings(**names, gamma=0.99)
 
 
 def test_the_compiled_rollout_step_is_torchs_forward():

@@ -66,12 +66,12 @@ def test_the_compiled_flight_checks_the_sum_itself():
 
 
 def test_a_row_given_twice_flies_its_entries_in_order_alike_in_both_flights():
-    """fly([0, 0], ...): the compiled flight and the generic one (BatchedEnv.fly through advance)
+    """fly([0, 0], ...): the compiled flight and the stepped one (``_fly_stepped``, through advance)
     both fly row 0's first entry, then its second."""
     fast, slow = batched(MultiNodeVectorEnv), batched(MultiNodeVectorEnv)
     rows, targets, moves = np.array([0, 0]), np.array([[-300.0, 60.0], [-250.0, -60.0]]), np.array([3, 4])
     obs = fast.fly(rows, targets, moves)
-    ref = BatchedEnv.fly(slow, rows, targets, moves)
+    ref = slow._fly_stepped(*slow._fly_args(rows, targets, moves))
     np.testing.assert_allclose(obs, ref, atol=1e-6)
     assert len(fast.trajectories[0]) == len(slow.trajectories[0]) == 8
     np.testing.assert_allclose(fast.trajectories[0], slow.trajectories[0], atol=1e-9)

@@ -310,16 +310,14 @@ def test_advance_steps_the_masked_rows_only(mode):
 
 def test_fly_is_the_steps_it_hides_in_one_call():
     """fly(rows, targets, moves): the compiled flight equals advance() steps of full-speed moves
-    with equal shares (the generic BatchedEnv.fly), leaves the other rows and the arrays
-    returned last alone, and refuses a flight that would end an episode."""
-    from ios_uav_env.envs.batched import BatchedEnv
-
+    with equal shares (the stepped flight, ``_fly_stepped``), leaves the other rows and the
+    arrays returned last alone, and refuses a flight that would end an episode."""
     fast, slow = (MultiNodeVectorEnv(3, SMALL) for _ in range(2))
     first = fast.reset(seed=0)[0]
     slow.reset(seed=0)
     rows, targets, moves = np.array([0, 2]), np.array([[100.0, 0.0], [-40.0, 90.0]]), np.array([5, 12])
     obs = fast.fly(rows, targets, moves)
-    ref = BatchedEnv.fly(slow, rows, targets, moves)
+    ref = slow._fly_stepped(*slow._fly_args(rows, targets, moves))
     np.testing.assert_allclose(obs, ref, atol=1e-6)
     np.testing.assert_array_equal(obs[1], first[1])
     np.testing.assert_array_equal(first[0], MultiNodeEnv(SMALL).reset(seed=0)[0])  # returned arrays kept

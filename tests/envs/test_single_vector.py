@@ -292,10 +292,9 @@ def test_a_process_forked_after_a_batched_step_can_step_too():
 @pytest.mark.parametrize("env_kwargs", [{}, {"channel": "rician"}])
 def test_fly_is_the_steps_it_hides(env_kwargs):
     """fly(rows, targets, moves) (compiled in one call; rician rows step slot by slot for their
-    fading draws) equals advance() steps of full-speed moves (the generic BatchedEnv.fly), leaves
-    the other rows and the arrays returned last alone, and the episodes go on alike."""
-    from ios_uav_env.envs.batched import BatchedEnv
-
+    fading draws) equals advance() steps of full-speed moves (the stepped flight,
+    ``_fly_stepped``), leaves the other rows and the arrays returned last alone, and the episodes
+    go on alike."""
     fast, slow = (RandomIOSUAVVectorEnv(3, **env_kwargs) for _ in range(2))
     first = fast.reset(seed=0)[0]
     slow.reset(seed=0)
@@ -303,7 +302,7 @@ def test_fly_is_the_steps_it_hides(env_kwargs):
     rows, targets = np.array([0, 2, 0]), np.array([[100.0, 0.0], [-40.0, 90.0], [0.0, -30.0]])
     moves = np.array([5, 12, 3])
     obs = fast.fly(rows, targets, moves)
-    ref = BatchedEnv.fly(slow, rows, targets, moves)
+    ref = slow._fly_stepped(*slow._fly_args(rows, targets, moves))
     np.testing.assert_allclose(obs, ref, rtol=1e-9, atol=1e-6)
     np.testing.assert_array_equal(obs[1], first[1])
     np.testing.assert_array_equal(first, kept)  # the arrays returned last are left as they were
