@@ -8,8 +8,9 @@ scenarios, the action that tracks a plan from any state, and labelled episodes.
 - :meth:`ExpertPlan.action`: at step n, full speed towards the plan's q[n+1]
   (``policies.full_speed_move``) and the plan's shares of that slot as node scores
   (``multinode_env.share_scores``), so it labels states off the plan too.
-- :func:`rollouts`: one episode per plan in the env pinned to its scenario, all in lockstep,
-  played by the expert (with optional move noise) or a policy, every state labelled by the expert.
+- :func:`rollouts`: one episode per plan, each a row of the batched env pinned to its scenario,
+  all in lockstep, played by the expert (with optional move noise) or a policy, every state
+  labelled by the expert (:func:`expert_actions`, the batch of :meth:`ExpertPlan.action`).
 - :func:`hindsight_shares`: share labels that answer the state: at slot n, the shares of the best
   continuation of the episode's own trajectory given what its executed shares served before
   (``multinode.maxmin_schedule`` with ``fixed``). The plan's shares say whom the tour serves at
@@ -50,11 +51,30 @@ class ExpertPlan:
     def action(self, step: int, position: np.ndarray, k_max: int, sharpness: float) -> np.ndarray:
         """The expert's action at ``step`` (moves made so far) from ``position``: full speed towards
         the plan's position after the move, the plan's shares of that slot as scores (padded)."""
-        n = min(int(step) + 1, len(self.trajectory) - 1)
-        action = np.zeros(2 + k_max, dtype=np.float32)
-        action[:2] = full_speed_move(self.trajectory[n] - np.asarray(position, float), self.config.D)
-        action[2 : 2 + self.config.K] = share_scores(self.shares[:, n], sharpness)
-        return action
+        scores = [share_scores(self.shares, sharpness)]
+        return expert_actions(
+            [self], scores, np.zeros(1, dtype=np.int64), step, np.reshape(position, (1, 2)), k_max
+        )[0]
+
+
+def expert_actions(
+    plans: list[ExpertPlan], scores: list[np.ndarray], rows: np.ndarray, step: int, positions: np.ndarray,
+    k_max: int,
+) -> np.ndarray:  # fmt: skip
+    """:meth:`ExpertPlan.action` of ``plans[i]`` for each i of ``rows`` at one ``step``, from
+    ``positions`` ((len(rows), 2) m), as a (len(rows), 2 + k_max) float32 batch; ``scores[i]``: the
+    node scores of ``plans[i]``'s shares, ``share_scores(shares, sharpness)`` (K, N), computed once."""
+    rows = np.asarray(rows, dtype=np.int64)
+    slots = [min(int(step) + 1, len(plans[i].trajectory) - 1) for i in rows.tolist()]
+    targets = np.array([plans[i].trajectory[n] for i, n in zip(rows.tolist(), slots, strict=True)]).reshape(
+        -1, 2
+    )
+    steps = np.array([plans[i].config.D for i in rows.tolist()], dtype=np.float64).reshape(-1, 1)
+    actions = np.zeros((len(rows), 2 + k_max), dtype=np.float32)
+    actions[:, :2] = full_speed_move(targets - np.asarray(positions, dtype=np.float64), steps)
+    for j, (i, n) in enumerate(zip(rows.tolist(), slots, strict=True)):
+        actions[j, 2 : 2 + plans[i].config.K] = scores[i][:, n]
+    return actions
 
 
 def tour_record(task: dict[str, Any]) -> dict[str, Any]:
@@ -156,49 +176,56 @@ def rollouts(
     hindsight_block: int | None = None,
     jobs: int | None = None,
 ) -> Dataset:
-    """One episode per plan in ``env_id`` pinned to its scenario, all in lockstep: the executed action
-    is ``policy(obs batch)`` (None: the expert's) plus N(0, ``noise``^2) on the move; every
-    visited state is labelled with the expert's action, its shares replaced by
-    :func:`hindsight_shares` (``hindsight_block``; ``jobs`` processes) when that is given.
-    ``ratio``: each episode's own min rate over its plan's rate."""
+    """One episode per plan in ``env_id`` pinned to its scenario, all in lockstep as the rows of its
+    batched env (``gym.make_vec``, one row per plan): the executed action is ``policy(obs batch)``
+    (None: the expert's) plus N(0, ``noise``^2) on the move; every visited state is labelled
+    with the expert's action, its shares replaced by :func:`hindsight_shares`
+    (``hindsight_block``; ``jobs`` processes) when that is given. ``ratio``: each episode's own
+    min rate over its plan's rate. A row whose episode has ended stands still
+    (``BatchedEnv.advance``) until the longest one ends."""
     import gymnasium as gym
 
     if not (np.isfinite(noise) and noise >= 0):
         raise ValueError(f"noise must be a finite number >= 0 (units of D), got {noise!r}")
     rng = np.random.default_rng(seed)
-    envs = [gym.make(env_id, **env_kwargs).unwrapped for _ in plans]
-    first = [env.reset(options={"config": p.config}) for env, p in zip(envs, plans, strict=True)]
-    obs = [o for o, _ in first]
-    pos = [i["position"] for _, i in first]
-    k_max, sharpness = envs[0].max_nodes, envs[0].share_sharpness
+    # one kernel thread: a parallel launch per slot stalls whenever other work (the hindsight
+    # processes, a planner) holds a core, and the kernel is a small part of a rollout anyway
+    vec = gym.make_vec(env_id, num_envs=len(plans), vectorization_mode="vector_entry_point",
+                       best_schedule=False, num_threads=1, **env_kwargs)  # fmt: skip
+    obs, info = vec.reset(options={"configs": [p.config for p in plans]})
+    pos = info["position"]
+    k_max, sharpness = vec.max_nodes, vec.envs[0].share_sharpness
+    scores = [share_scores(p.shares, sharpness) for p in plans]
     ratio = np.zeros(len(plans))
     parts: list[tuple[np.ndarray, np.ndarray, np.ndarray]] = []
-    alive, step = list(range(len(plans))), 0
-    while alive:
-        batch = np.array([obs[i] for i in alive])
-        labels = np.array([plans[i].action(step, pos[i], k_max, sharpness) for i in alive])
+    live, step = np.ones(len(plans), dtype=np.bool_), 0
+    actions = np.zeros((len(plans), 2 + k_max))
+    while live.any():
+        alive = np.flatnonzero(live)
+        batch = obs[alive]
+        labels = expert_actions(plans, scores, alive, step, pos[alive], k_max)
         acts = labels.copy() if policy is None else np.asarray(policy(batch), dtype=np.float32).copy()
         if noise:
             acts[:, :2] += rng.normal(0.0, noise, (len(alive), 2))
-        parts.append((batch, labels, np.array(alive)))
-        still = []
-        for j, i in enumerate(alive):
-            obs[i], _, terminated, _, info = envs[i].step(np.clip(acts[j], -1.0, 1.0))
-            pos[i] = info["position"]
-            if terminated:
-                ratio[i] = info["min_rate"] / plans[i].rate
-            else:
-                still.append(i)
-        alive, step = still, step + 1
+        parts.append((batch, labels, alive))
+        actions[alive] = np.clip(acts, -1.0, 1.0)
+        obs, _, terminated, _, info = vec.advance(actions, live)
+        pos = info["position"]
+        for i in np.flatnonzero(terminated):
+            ratio[i] = info["min_rate"][i] / plans[i].rate
+        live &= ~terminated
+        step += 1
     data = Dataset(*(np.concatenate(x) for x in zip(*parts, strict=True)), ratio=ratio)
     if hindsight_block is not None:
-        _relabel_shares(data, [len(p[2]) for p in parts], plans, envs, hindsight_block, sharpness, jobs)
+        episodes = list(zip(vec.trajectories, vec.schedules, strict=True))
+        _relabel_shares(data, [len(p[2]) for p in parts], plans, episodes, hindsight_block, sharpness, jobs)
+    vec.close()
     return data
 
 
 def _relabel_shares(
-    data: Dataset, alive: list[int], plans: list[ExpertPlan], envs: list[Any], block: int, sharpness: float,
-    jobs: int | None,
+    data: Dataset, alive: list[int], plans: list[ExpertPlan], episodes: list[tuple[np.ndarray, np.ndarray]],
+    block: int, sharpness: float, jobs: int | None,
 ) -> None:  # fmt: skip
     """Replace ``data``'s share labels by :func:`hindsight_shares` of each finished episode, in
     ``jobs`` processes (``baselines.runner.local_backend``: Ctrl-C is the parent's alone, and an
@@ -207,7 +234,7 @@ def _relabel_shares(
 
     from baselines.runner import local_backend
 
-    tasks = [(p.config, env.trajectory, env.shares, block) for p, env in zip(plans, envs, strict=True)]
+    tasks = [(p.config, q, shares, block) for p, (q, shares) in zip(plans, episodes, strict=True)]
     labels: list[Any] = [None] * len(tasks)
 
     def done(i: int, shares: np.ndarray) -> None:

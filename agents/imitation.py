@@ -88,6 +88,7 @@ class ImitationSettings:
     hindsight_from: int | None = None  # first round labelled by hindsight shares (None: never)
     hindsight_block: int = 5  # slots between the re-solves of the hindsight labels
     polish_epochs: int = 0  # after the last round: passes with the nodes in random order (0: none)
+    permute: bool = False  # every round's fit sees each batch's nodes in a random order, too
     polish_learning_rate: float = 5e-4
 
     def validate(self) -> None:
@@ -114,6 +115,8 @@ class ImitationSettings:
             raise ValueError(f"polish_epochs: must be an integer >= 0, got {self.polish_epochs!r}")
         if not (isinstance(self.polish_learning_rate, (int, float)) and 0 < self.polish_learning_rate < 1):
             raise ValueError(f"polish_learning_rate: must be in (0, 1), got {self.polish_learning_rate!r}")
+        if not isinstance(self.permute, bool):
+            raise ValueError(f"permute: must be True or False, got {self.permute!r}")
         h = self.hindsight_from
         if h is not None and (isinstance(h, bool) or not isinstance(h, int) or h < 1):
             raise ValueError(f"hindsight_from: must be None or a round >= 1 (a policy's round), got {h!r}")
@@ -193,6 +196,7 @@ def check_resume(settings: ImitationSettings) -> None:
     if path.exists():
         before = read_json(path)
         before.setdefault("hindsight_block", now["hindsight_block"])  # runs recorded before the field
+        before.setdefault("permute", False)  # (likewise)
         finished = finished_rounds(settings.out)
         if settings.rounds < finished:
             raise ValueError(
@@ -337,7 +341,8 @@ def run(settings: ImitationSettings) -> dict[str, Any]:
             model, venv = _new_model(settings, env, data.obs)
         every, mask = _fit_data(settings, r, parts, plans, k_max, width)
         losses = fit(model, venv, every, mask, settings.epochs, settings.batch_size,
-                     settings.learning_rate, settings.seed + r, settings.progress)  # fmt: skip
+                     settings.learning_rate, settings.seed + r, settings.progress,
+                     permute=settings.permute)  # fmt: skip
         _save(folder, model, venv, model_config(settings, round=r))
         ratio = data.ratio[: len(plans)]  # round 0: the clean pass
         summary["rounds"].append({
@@ -409,6 +414,8 @@ def build_parser() -> Any:
     p.add_argument("--polish-epochs", type=int, default=d.polish_epochs,
                    help="after the last round: passes with the nodes in random order (0)")  # fmt: skip
     p.add_argument("--polish-learning-rate", type=float, default=d.polish_learning_rate)
+    p.add_argument("--permute", action="store_true",
+                   help="every round's fit: the nodes in random order (as the polish's)")  # fmt: skip
     p.add_argument("--no-progress", action="store_true")
     return p
 
@@ -455,7 +462,8 @@ def _checked_settings(parser: Any, args: Any) -> ImitationSettings:
             batch_size=args.batch_size, learning_rate=args.learning_rate, net_arch=tuple(args.net_arch),
             seed=args.seed, jobs=args.jobs, plans=args.plans, progress=not args.no_progress,
             hindsight_from=args.hindsight_from, hindsight_block=args.hindsight_block,
-            polish_epochs=args.polish_epochs, polish_learning_rate=args.polish_learning_rate, **extra,
+            polish_epochs=args.polish_epochs, polish_learning_rate=args.polish_learning_rate,
+            permute=args.permute, **extra,
         )  # fmt: skip
         settings.validate()
         Path(settings.out).mkdir(parents=True, exist_ok=True)

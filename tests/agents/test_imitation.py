@@ -224,6 +224,35 @@ def test_a_run_fits_the_labels_resumes_and_loads(plans, plan_cache, tmp_path):
     assert not np.allclose(played.labels[:, 2:4], replay.labels[:, 2:4])  # ... with hindsight shares
 
 
+def test_permute_reaches_every_rounds_fit_and_is_part_of_the_recipe(plan_cache, tmp_path, monkeypatch):
+    import agents.imitation
+
+    seen = []
+    real = agents.imitation.fit
+
+    def recording(*args, **kwargs):
+        seen.append(kwargs.get("permute", False))
+        return real(*args, **kwargs)
+
+    monkeypatch.setattr(agents.imitation, "fit", recording)
+    out = tmp_path / "run"
+    kw = dict(out=str(out), scenarios=1, first_seed=SEEDS[0], epochs=1, net_arch=(8,), batch_size=64,
+              plans=str(plan_cache), progress=False, jobs=1)  # fmt: skip
+    run(ImitationSettings(rounds=2, permute=True, **kw))
+    assert seen == [True, True]
+    settings = json.loads((out / "settings.json").read_text())
+    assert settings["permute"] is True
+    with pytest.raises(ValueError, match=r"other settings \(permute: True -> False\)"):
+        run(ImitationSettings(rounds=3, **kw))  # the rounds so far were fitted otherwise
+    del settings["permute"]  # a run recorded before the field: fitted without the permutation
+    (out / "settings.json").write_text(json.dumps(settings))
+    with pytest.raises(ValueError, match=r"other settings \(permute: False -> True\)"):
+        run(ImitationSettings(rounds=3, permute=True, **kw))
+    seen.clear()
+    run(ImitationSettings(rounds=3, **kw))
+    assert seen == [False]  # round 2 only: rounds 0 and 1 are read back
+
+
 def _round_policy(folder):
     """The numpy actor of a round's model, as ``run`` plays it."""
     import gymnasium as gym
@@ -261,6 +290,7 @@ def test_share_rows_keep_the_labels_of_best_schedules_only(plans):
         ("learning_rate", 2.0),
         ("net_arch", ()),
         ("env_kwargs", {"max_nodes": 3}),
+        ("permute", 1),
     ],  # fmt: skip
 )
 def test_bad_settings_name_the_field(field, value, tmp_path):
