@@ -64,15 +64,15 @@ def expert_actions(
     """:meth:`ExpertPlan.action` of ``plans[i]`` for each i of ``rows`` at one ``step``, from
     ``positions`` ((len(rows), 2) m), as a (len(rows), 2 + k_max) float32 batch; ``scores[i]``: the
     node scores of ``plans[i]``'s shares, ``share_scores(shares, sharpness)`` (K, N), computed once."""
-    rows = np.asarray(rows, dtype=np.int64)
-    slots = [min(int(step) + 1, len(plans[i].trajectory) - 1) for i in rows.tolist()]
-    targets = np.array([plans[i].trajectory[n] for i, n in zip(rows.tolist(), slots, strict=True)]).reshape(
-        -1, 2
-    )
-    steps = np.array([plans[i].config.D for i in rows.tolist()], dtype=np.float64).reshape(-1, 1)
-    actions = np.zeros((len(rows), 2 + k_max), dtype=np.float32)
+    index = [int(i) for i in np.asarray(rows).reshape(-1)]
+    slots = [min(int(step) + 1, len(plans[i].trajectory) - 1) for i in index]
+    targets = np.zeros((len(index), 2))
+    steps = np.zeros((len(index), 1))
+    for j, (i, n) in enumerate(zip(index, slots, strict=True)):
+        targets[j], steps[j] = plans[i].trajectory[n], plans[i].config.D
+    actions = np.zeros((len(index), 2 + k_max), dtype=np.float32)
     actions[:, :2] = full_speed_move(targets - np.asarray(positions, dtype=np.float64), steps)
-    for j, (i, n) in enumerate(zip(rows.tolist(), slots, strict=True)):
+    for j, (i, n) in enumerate(zip(index, slots, strict=True)):
         actions[j, 2 : 2 + plans[i].config.K] = scores[i][:, n]
     return actions
 
