@@ -51,10 +51,18 @@ class ExpertPlan:
     def action(self, step: int, position: np.ndarray, k_max: int, sharpness: float) -> np.ndarray:
         """The expert's action at ``step`` (moves made so far) from ``position``: full speed towards
         the plan's position after the move, the plan's shares of that slot as scores (padded)."""
-        scores = [share_scores(self.shares, sharpness)]
+        scores = [self.node_scores(sharpness)]
         return expert_actions(
             [self], scores, np.zeros(1, dtype=np.int64), step, np.reshape(position, (1, 2)), k_max
         )[0]
+
+    def node_scores(self, sharpness: float) -> np.ndarray:
+        """The plan's shares as node scores (``share_scores``), (K, N): the labels' scores of every
+        slot an action can aim at (1 .. N - 1; column 0, q0's slot, which the env shares equally
+        and no action aims at, is left 0)."""
+        scores = np.zeros_like(self.shares, dtype=np.float64)
+        scores[:, 1:] = share_scores(self.shares[:, 1:], sharpness)
+        return scores
 
 
 def expert_actions(
@@ -63,7 +71,7 @@ def expert_actions(
 ) -> np.ndarray:  # fmt: skip
     """:meth:`ExpertPlan.action` of ``plans[i]`` for each i of ``rows`` at one ``step``, from
     ``positions`` ((len(rows), 2) m), as a (len(rows), 2 + k_max) float32 batch; ``scores[i]``: the
-    node scores of ``plans[i]``'s shares, ``share_scores(shares, sharpness)`` (K, N), computed once."""
+    node scores of ``plans[i]``'s shares (:meth:`ExpertPlan.node_scores`), computed once."""
     index = [int(i) for i in np.asarray(rows).reshape(-1)]
     slots = [min(int(step) + 1, len(plans[i].trajectory) - 1) for i in index]
     targets = np.zeros((len(index), 2))
@@ -195,7 +203,7 @@ def rollouts(
     obs, info = vec.reset(options={"configs": [p.config for p in plans]})
     pos = info["position"]
     k_max, sharpness = vec.max_nodes, vec.envs[0].share_sharpness
-    scores = [share_scores(p.shares, sharpness) for p in plans]
+    scores = [p.node_scores(sharpness) for p in plans]
     ratio = np.zeros(len(plans))
     parts: list[tuple[np.ndarray, np.ndarray, np.ndarray]] = []
     live, step = np.ones(len(plans), dtype=np.bool_), 0

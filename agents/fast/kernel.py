@@ -58,7 +58,10 @@ _B4, _B6 = np.float32(1.18534705686654e-04), np.float32(1.19825839466702e-06)
 #: whether advantages are normalised (0/1), Adam's beta1, beta2 and eps.
 SETTINGS = ("lr", "clip", "vf_coef", "ent_coef", "max_grad_norm", "target_kl", "normalize", "beta1",
             "beta2", "eps")  # fmt: skip
-_LR, _CLIP, _VF_COEF, _ENT_COEF, _MAX_NORM, _TARGET_KL, _NORMALIZE, _BETA1, _BETA2, _EPS = range(10)
+#: (their positions, for the kernels; the unpacking fails if a name is added without one)
+_LR, _CLIP, _VF_COEF, _ENT_COEF, _MAX_NORM, _TARGET_KL, _NORMALIZE, _BETA1, _BETA2, _EPS = range(
+    len(SETTINGS)
+)
 
 
 def update_settings(**values: float) -> np.ndarray:
@@ -71,9 +74,6 @@ def update_settings(**values: float) -> np.ndarray:
         raise ValueError(f"update settings: missing {sorted(missing)}, unknown {sorted(unknown)}; "
                          f"the entries are {SETTINGS}")  # fmt: skip
     return np.array([float(values[name]) for name in SETTINGS])
-
-
-assert len(SETTINGS) == _EPS + 1  # one position per name
 
 
 @jit(inline=True)
