@@ -140,6 +140,14 @@ class Dataset:
         fields = ("obs", "labels", "episode", "ratio")
         return cls(*(np.concatenate([getattr(p, f) for p in parts]) for f in fields))
 
+    def sample(self, fraction: float, rng: np.random.Generator) -> Dataset:
+        """Each state kept with probability ``fraction`` (in (0, 1]), independently; ``ratio``
+        (per episode) kept whole."""
+        if not (isinstance(fraction, (int, float)) and 0 < fraction <= 1):
+            raise ValueError(f"fraction: must be in (0, 1], got {fraction!r}")
+        keep = rng.random(len(self.obs)) < fraction
+        return Dataset(self.obs[keep], self.labels[keep], self.episode[keep], self.ratio)
+
     def save(self, path: str | Path) -> Path:
         """Write the ``.npz`` atomically (``ios_uav_env.io.atomic_write_bytes``)."""
         buf = io.BytesIO()

@@ -47,6 +47,20 @@ def permute_nodes(
     return obs, labels, th.gather(mask, 1, order)
 
 
+def obs_normalizer(vecnormalize: Any) -> Any:
+    """``vecnormalize.normalize_obs`` on torch batches, bit for bit (the same float64 arithmetic,
+    then float32): a function of a (B, obs_dim) float32 tensor. The identity when it does not
+    normalise observations."""
+    import torch as th
+
+    if not vecnormalize.norm_obs:
+        return lambda obs: obs
+    rms, clip = vecnormalize.obs_rms, float(vecnormalize.clip_obs)
+    mean = th.as_tensor(np.asarray(rms.mean, dtype=np.float64))
+    std = th.as_tensor(np.sqrt(np.asarray(rms.var, dtype=np.float64) + vecnormalize.epsilon))
+    return lambda obs: ((obs.double() - mean) / std).clamp(-clip, clip).float()
+
+
 def fit(
     model: Any,
     vecnormalize: Any,
@@ -74,6 +88,7 @@ def fit(
     k_max = m.shape[1]
     width = (x.shape[1] - len(BASE_FEATURES)) // k_max
     valid = th.as_tensor(node_mask(data.obs, k_max, width)) if permute else None
+    normalize = obs_normalizer(vecnormalize)
     params = [*policy.mlp_extractor.policy_net.parameters(), *policy.action_net.parameters()]
     opt = th.optim.Adam(params, lr=learning_rate)
     per_epoch = -(-len(x) // batch_size)
@@ -88,7 +103,7 @@ def fit(
             xb, yb, mb = x[idx], y[idx], m[idx]
             if valid is not None:
                 xb, yb, mb = permute_nodes(xb, yb, mb, valid[idx], k_max, width, gen)
-            xb = th.as_tensor(vecnormalize.normalize_obs(xb.numpy()), dtype=th.float32)  # after permuting
+            xb = normalize(xb)  # after permuting
             features = policy.extract_features(xb, policy.pi_features_extractor)
             latent = policy.mlp_extractor.forward_actor(features)
             move, share = imitation_loss(policy.action_net(latent), yb, mb)

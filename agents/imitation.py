@@ -19,6 +19,9 @@ imitation:
   policy of round r - 1 and labels what it visits (DAgger). Each round fits the policy's action
   mean to every label so far (``epochs`` passes, Adam, one-cycle learning rate): the squared
   error of the move and of the node scores (``agents.fitting.imitation_loss``).
+  ``round_fraction`` < 1 keeps that share of each DAgger round's states (each at random,
+  seeded): consecutive states of an episode are alike, and the fit's passes over every label so
+  far are most of a round's time.
 - **Hindsight shares** (rounds >= ``hindsight_from``): the policy's episodes get the share labels
   of :func:`agents.expert.hindsight_shares`, the best continuation of the flight flown given what
   was served, and from then on the share loss keeps only labels that are a best schedule of
@@ -89,6 +92,7 @@ class ImitationSettings:
     hindsight_block: int = 5  # slots between the re-solves of the hindsight labels
     polish_epochs: int = 0  # after the last round: passes with the nodes in random order (0: none)
     permute: bool = False  # every round's fit sees each batch's nodes in a random order, too
+    round_fraction: float = 1.0  # of each DAgger round's labelled states, the share kept (random)
     polish_learning_rate: float = 5e-4
 
     def validate(self) -> None:
@@ -115,6 +119,9 @@ class ImitationSettings:
             raise ValueError(f"polish_epochs: must be an integer >= 0, got {self.polish_epochs!r}")
         if not (isinstance(self.polish_learning_rate, (int, float)) and 0 < self.polish_learning_rate < 1):
             raise ValueError(f"polish_learning_rate: must be in (0, 1), got {self.polish_learning_rate!r}")
+        f = self.round_fraction
+        if isinstance(f, bool) or not (isinstance(f, (int, float)) and 0 < f <= 1):
+            raise ValueError(f"round_fraction: must be in (0, 1] (the share of states kept), got {f!r}")
         if not isinstance(self.permute, bool):
             raise ValueError(f"permute: must be True or False, got {self.permute!r}")
         h = self.hindsight_from
@@ -197,6 +204,7 @@ def check_resume(settings: ImitationSettings) -> None:
         before = read_json(path)
         before.setdefault("hindsight_block", now["hindsight_block"])  # runs recorded before the field
         before.setdefault("permute", False)  # (likewise)
+        before.setdefault("round_fraction", 1.0)  # (likewise)
         finished = finished_rounds(settings.out)
         if settings.rounds < finished:
             raise ValueError(
@@ -334,6 +342,8 @@ def run(settings: ImitationSettings) -> dict[str, Any]:
             block = settings.hindsight_block if _hindsight(settings, r) else None
             data = rollouts(plans, settings.env_kwargs, policy=act, seed=settings.seed + 1 + r,
                             hindsight_block=block, jobs=settings.jobs)  # fmt: skip
+            if settings.round_fraction < 1:  # consecutive states are alike: fewer labels to fit
+                data = data.sample(settings.round_fraction, np.random.default_rng([settings.seed, r]))
         with naming(data_path):
             data.save(data_path)
         parts.append(data)
@@ -414,6 +424,8 @@ def build_parser() -> Any:
     p.add_argument("--polish-epochs", type=int, default=d.polish_epochs,
                    help="after the last round: passes with the nodes in random order (0)")  # fmt: skip
     p.add_argument("--polish-learning-rate", type=float, default=d.polish_learning_rate)
+    p.add_argument("--round-fraction", type=float, default=d.round_fraction,
+                   help="of each DAgger round's labelled states, the share kept (1: all)")  # fmt: skip
     p.add_argument("--permute", action="store_true",
                    help="every round's fit: the nodes in random order (as the polish's)")  # fmt: skip
     p.add_argument("--no-progress", action="store_true")
@@ -463,7 +475,7 @@ def _checked_settings(parser: Any, args: Any) -> ImitationSettings:
             seed=args.seed, jobs=args.jobs, plans=args.plans, progress=not args.no_progress,
             hindsight_from=args.hindsight_from, hindsight_block=args.hindsight_block,
             polish_epochs=args.polish_epochs, polish_learning_rate=args.polish_learning_rate,
-            permute=args.permute, **extra,
+            permute=args.permute, round_fraction=args.round_fraction, **extra,
         )  # fmt: skip
         settings.validate()
         Path(settings.out).mkdir(parents=True, exist_ok=True)

@@ -37,7 +37,7 @@ import sys
 import threading
 import warnings
 from collections.abc import Callable, Iterator, Sequence
-from concurrent.futures import FIRST_EXCEPTION, ProcessPoolExecutor, wait
+from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
 from contextlib import contextmanager
 from pathlib import Path
 from typing import Any, TypeVar
@@ -120,10 +120,14 @@ def local_backend(
         try:
             futures = {pool.submit(fn, task): i for i, task in items}
             pending = set(futures)
-            while pending:
-                finished, pending = wait(pending, return_when=FIRST_EXCEPTION)
+            while pending:  # each record is cached (and counted) as soon as its task ends
+                finished, pending = wait(pending, return_when=FIRST_COMPLETED)
+                failed = [f for f in finished if f.exception() is not None]
                 for future in finished:
-                    done(futures[future], future.result())
+                    if future.exception() is None:
+                        done(futures[future], future.result())
+                if failed:
+                    raise failed[0].exception()  # type: ignore[misc]
         except BaseException:  # an interrupt or a failed task: no worker may outlive the map
             _stop_pool(pool)
             raise

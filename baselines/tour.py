@@ -56,6 +56,7 @@ import ios_uav_env as ie
 from baselines.fixed import _leg
 from baselines.plan import Plan
 from ios_uav_env import ScenarioConfig, moves_needed
+from ios_uav_env.model.lp import solve_lp
 from ios_uav_env.model.motion import check_paths, is_static
 from ios_uav_env.model.peak import reachable
 
@@ -190,8 +191,10 @@ def route_lp(config: ScenarioConfig, points: np.ndarray) -> tuple[float, np.ndar
 def _solve_route(
     config: ScenarioConfig, r_path: np.ndarray, where: list[int]
 ) -> tuple[float, np.ndarray, np.ndarray] | None:
-    """The route LP on the path's rates (K, L): (value, hover slots x, dual weights w)."""
-    from scipy.optimize import linprog
+    """The route LP on the path's rates (K, L): (value, hover slots x, dual weights w).
+
+    ``sum_i x_i = H`` is the equality row (``ios_uav_env.model.lp.solve_lp``: HiGHS)."""
+    from scipy.sparse import csc_array
 
     k_nodes, n_path, m = r_path.shape[0], r_path.shape[1], len(where)
     spare = config.N - n_path
@@ -214,13 +217,13 @@ def _solve_route(
     a_eq[0, n_a + n_y : n_a + n_y + m] = 1.0
     c = np.zeros(n_var)
     c[-1] = -1.0
-    bounds = [(0.0, 1.0)] * n_a + [(0.0, None)] * (n_y + m + 1)
-    res = linprog(c, A_ub=a_ub, b_ub=b_ub, A_eq=a_eq, b_eq=[spare], bounds=bounds, method="highs")
-    if res.status != 0:
+    upper = np.concatenate([np.ones(n_a), np.full(n_y + m + 1, np.inf)])
+    res = solve_lp(c, csc_array(a_ub), b_ub, upper, a_eq=csc_array(a_eq), b_eq=np.array([spare]))
+    if not res.optimal:
         return None
-    w = np.maximum(-np.asarray(res.ineqlin.marginals[:k_nodes]), 0.0)
+    w = np.maximum(-res.ub_duals[:k_nodes], 0.0)
     w = w / w.sum() if w.sum() > 0 else np.full(k_nodes, 1.0 / k_nodes)
-    return float(-res.fun), np.maximum(res.x[n_a + n_y : n_a + n_y + m], 0.0), w
+    return -res.value, np.maximum(res.x[n_a + n_y : n_a + n_y + m], 0.0), w
 
 
 def route_bound(config: ScenarioConfig, r_path: np.ndarray, where: list[int], weights: np.ndarray) -> float:

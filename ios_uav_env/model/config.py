@@ -9,6 +9,7 @@ are properties. Variants are made with :func:`dataclasses.replace`, which re-val
 from __future__ import annotations
 
 import dataclasses
+import functools
 import math
 import numbers
 from collections.abc import Mapping
@@ -273,7 +274,13 @@ class ScenarioConfig:
             raise ValueError(f"node index k must be an integer in [0, {self.K - 1}], got {k!r}")
         if self.K == 1:
             return self
-        return dataclasses.replace(self, ground_nodes=None, ground_node=self.nodes[int(k)])
+        return self._node_configs[int(k)]
+
+    @functools.cached_property
+    def _node_configs(self) -> tuple[ScenarioConfig, ...]:
+        """Every node's single-node config, made (and validated) once per config: the planners
+        ask for them per leg and per slot. Not a field: equality, hashing and ``to_dict`` ignore it."""
+        return tuple(dataclasses.replace(self, ground_nodes=None, ground_node=w) for w in self.nodes)
 
     def require_single_node(self, what: str) -> None:
         """Raise ``ValueError`` when K > 1: ``what`` models one ground node only."""

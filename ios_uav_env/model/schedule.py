@@ -45,8 +45,8 @@ g(w) = sum_k w_k P_k + (1/N) sum_{n >= n0} max_k w_k r_k[n] (``dual_value(rates,
 The imitation expert labels shares with it (``agents.expert.hindsight_shares``).
 
 For K = 1 nothing is solved: the shares are all ones and the score is
-:func:`ios_uav_env.average_rate` (no scipy needed). scipy (``linprog``) is imported only
-for K > 1.
+:func:`ios_uav_env.average_rate` (no scipy needed). scipy (and HiGHS, ``ios_uav_env.model.lp``) is
+imported only for K > 1.
 """
 
 from __future__ import annotations
@@ -58,6 +58,7 @@ import numpy as np
 
 from ios_uav_env.model.channel import as_positions, path_kernels, rates_of_rows, slot_rates
 from ios_uav_env.model.config import ScenarioConfig
+from ios_uav_env.model.lp import solve_lp
 from ios_uav_env.model.motion import check_paths, is_static
 from ios_uav_env.model.trajectory import as_trajectory, average_rate
 
@@ -193,8 +194,7 @@ def maxmin_schedule(rates: np.ndarray, fixed: np.ndarray | None = None) -> Sched
         shares[:, :n0] = a
         value = float(np.mean(shares[0] * r[0]))
         return Schedule(shares, np.ones(1), value, value, np.array([value]))
-    from scipy.optimize import linprog
-    from scipy.sparse import csr_matrix, hstack, vstack
+    from scipy.sparse import csc_array
 
     free, m = r[:, n0:], n - n0
     past = np.sum(a * r[:, :n0], axis=1) / n  # (K,) served in the fixed slots
@@ -220,20 +220,28 @@ def maxmin_schedule(rates: np.ndarray, fixed: np.ndarray | None = None) -> Sched
 
     # variables: alpha of the LP's nodes in the free slots (k-major, k_lp * m) then t / scale;
     # minimise -t / scale
-    rows = np.repeat(np.arange(k_lp), m)
+    # rows: the k_lp rate rows, then the m slot rows; built column by column (CSC, as HiGHS
+    # takes it): column (k, j) holds -r_k[j] / (n scale) in row k and 1 in slot row j, then t's
+    # column holds 1 in every rate row
+    n_lp = k_lp * m
     scaled = (free[lp] / scale).ravel() / n
-    rate_rows = csr_matrix((-scaled, (rows, np.arange(k_lp * m))), shape=(k_lp, k_lp * m))
-    slot_rows = csr_matrix((np.ones(k_lp * m), (np.tile(np.arange(m), k_lp), np.arange(k_lp * m))))
-    a_ub = vstack(
-        [hstack([rate_rows, csr_matrix(np.ones((k_lp, 1)))]), hstack([slot_rows, csr_matrix((m, 1))])]
-    ).tocsr()
+    col_rows = np.stack([np.repeat(np.arange(k_lp), m), k_lp + np.tile(np.arange(m), k_lp)], axis=1)
+    col_vals = np.stack([-scaled, np.ones(n_lp)], axis=1)
+    keep = col_vals.ravel() != 0.0  # as a sparse constructor drops them
+    per_col = np.concatenate([keep.reshape(n_lp, 2).sum(axis=1), [k_lp]])
+    a_ub = csc_array(
+        (
+            np.concatenate([col_vals.ravel()[keep], np.ones(k_lp)]),
+            np.concatenate([col_rows.ravel()[keep], np.arange(k_lp)]),
+            np.concatenate([[0], np.cumsum(per_col)]),
+        ),
+        shape=(k_lp + m, n_lp + 1),
+    )
     b_ub = np.concatenate([past[lp] / scale, np.full(m, cap)])
-    c = np.zeros(k_lp * m + 1)
+    c = np.zeros(n_lp + 1)
     c[-1] = -1.0
-    bounds = [(0.0, 1.0)] * (k_lp * m) + [(0.0, None)]
-    tols = {"primal_feasibility_tolerance": 1e-10, "dual_feasibility_tolerance": 1e-10}
-    res = linprog(c, A_ub=a_ub, b_ub=b_ub, bounds=bounds, method="highs-ds", options=tols)
-    if res.status != 0 or res.x is None:
+    res = solve_lp(c, a_ub, b_ub, np.append(np.ones(n_lp), np.inf), dual_simplex=True, feasibility_tol=1e-10)
+    if not res.optimal:
         raise RuntimeError(f"max-min schedule LP failed: {res.message}")
     chosen = np.clip(res.x[:-1].reshape(k_lp, m), 0.0, 1.0)
     shares = np.zeros((k_nodes, n))
@@ -244,9 +252,9 @@ def maxmin_schedule(rates: np.ndarray, fixed: np.ndarray | None = None) -> Sched
     shares, per_node = _top_up(shares, per_node, r, n0, past, later)
     value = float(per_node.min())
     w = np.zeros(k_nodes)
-    w[lp] = np.maximum(-np.asarray(res.ineqlin.marginals[:k_lp], dtype=float), 0.0)
+    w[lp] = np.maximum(-res.ub_duals[:k_lp], 0.0)
     if not w.sum() > 0:
-        raise RuntimeError(f"max-min schedule LP returned no dual weights ({res.ineqlin.marginals[:k_lp]})")
+        raise RuntimeError(f"max-min schedule LP returned no dual weights ({res.ub_duals[:k_lp]})")
     w /= w.sum()
     dual = dual_value(r, w, fixed)
     if abs(dual - value) > CERTIFY_TOL * max(scale, abs(value)):

@@ -14,7 +14,7 @@ pytest.importorskip("cvxpy")
 import torch as th  # noqa: E402
 
 from agents.expert import Dataset, hindsight_shares, node_mask, rollouts, tour_plans  # noqa: E402
-from agents.fitting import fit, imitation_loss, permute_nodes  # noqa: E402
+from agents.fitting import fit, imitation_loss, obs_normalizer, permute_nodes  # noqa: E402
 from agents.imitation import ImitationSettings, main, run, share_rows  # noqa: E402
 from ios_uav_env import maxmin_rate  # noqa: E402
 from ios_uav_env.envs.multi import share_scores  # noqa: E402
@@ -291,6 +291,8 @@ def test_share_rows_keep_the_labels_of_best_schedules_only(plans):
         ("net_arch", ()),
         ("env_kwargs", {"max_nodes": 3}),
         ("permute", 1),
+        ("round_fraction", 0.0),
+        ("round_fraction", 1.5),
     ],  # fmt: skip
 )
 def test_bad_settings_name_the_field(field, value, tmp_path):
@@ -317,3 +319,42 @@ def test_fit_lowers_the_loss_on_a_tiny_dataset(plans):
     before = fit(model, venv, data, mask, 1, 64, 1e-9, progress=False)
     after = fit(model, venv, data, mask, 20, 64, 3e-3, progress=False)
     assert after["move"] < 0.5 * before["move"] and after["share"] < before["share"]
+
+
+def test_the_fits_normalisation_is_the_vecnormalize_one_bit_for_bit(plans):
+    """The fit normalises its batches in torch; the policy is run on ``VecNormalize``'s numpy
+    normalisation, so the two must agree exactly, clipping included."""
+    import gymnasium as gym
+
+    from agents.expert import RANDOM_ID
+    from agents.imitation import _new_model
+
+    data = rollouts(plans[:1], KW)
+    env = gym.make(RANDOM_ID, **KW).unwrapped
+    _, venv = _new_model(ImitationSettings(out="x", net_arch=(8,)), env, data.obs)
+    obs = np.concatenate([data.obs, data.obs * 1e4]).astype(np.float32)  # the second half clips
+    want = venv.normalize_obs(obs).astype(np.float32)
+    assert np.any(np.abs(want) == venv.clip_obs)
+    np.testing.assert_array_equal(obs_normalizer(venv)(th.as_tensor(obs)).numpy(), want)
+    venv.norm_obs = False
+    np.testing.assert_array_equal(obs_normalizer(venv)(th.as_tensor(obs)).numpy(), obs)
+
+
+def test_round_fraction_keeps_a_seeded_share_of_each_dagger_rounds_states(plan_cache, tmp_path):
+    """Round 0 (the expert's passes) stays whole; a DAgger round keeps about ``round_fraction``
+    of its states, the same ones in a rerun, with the per-episode ratios whole."""
+    kw = dict(scenarios=1, first_seed=SEEDS[0], epochs=1, net_arch=(8,), batch_size=256,
+              plans=str(plan_cache), progress=False, jobs=1, rounds=2)  # fmt: skip
+    runs = {}
+    for name, fraction in (("all", 1.0), ("half", 0.5), ("again", 0.5)):
+        run(ImitationSettings(out=str(tmp_path / name), round_fraction=fraction, **kw))
+        runs[name] = [Dataset.load(tmp_path / name / "data" / f"round_{r}.npz") for r in (0, 1)]
+    whole, half, again = runs["all"][1], runs["half"][1], runs["again"][1]
+    assert len(runs["half"][0].obs) == len(runs["all"][0].obs)
+    assert 0.3 * len(whole.obs) < len(half.obs) < 0.7 * len(whole.obs)
+    np.testing.assert_array_equal(half.obs, again.obs)
+    assert np.isin(half.obs, whole.obs).all() and len(half.ratio) == len(whole.ratio)
+    rng = np.random.default_rng(0)
+    assert len(whole.sample(1.0, rng).obs) == len(whole.obs)
+    with pytest.raises(ValueError, match="fraction"):
+        whole.sample(0.0, rng)

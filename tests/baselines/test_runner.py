@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 import os
+import time
 
 import pytest
 
@@ -22,6 +23,34 @@ def fail_on_three(x: int) -> dict:
     if x == 3:
         raise RuntimeError("task 3 failed")
     return {"x": x}
+
+
+def sees_the_first_record(task: dict) -> dict:
+    """Task "first" ends at once; task "probe" waits (up to 20 s) for its cache file."""
+    if task["name"] == "probe":
+        deadline = time.monotonic() + 20.0
+        while time.monotonic() < deadline and not os.path.exists(task["first_file"]):
+            time.sleep(0.02)
+        return {"name": "probe", "saw_first": os.path.exists(task["first_file"])}
+    if task["name"] == "fail":
+        time.sleep(0.5)
+        raise RuntimeError("the slow task failed")
+    return {"name": task["name"]}
+
+
+def test_parallel_records_are_cached_as_their_tasks_end(tmp_path):
+    """A parallel map caches each record when its task ends, not when the map ends: progress
+    shows, and an interrupted or failed map keeps what finished."""
+    first = tmp_path / "first.json"
+    tasks = [{"name": "first", "first_file": str(first)}, {"name": "probe", "first_file": str(first)}]
+    out = run_tasks(sees_the_first_record, tasks, tmp_path, key=lambda t: t["name"], jobs=2, progress=False)
+    assert out[1] == {"name": "probe", "saw_first": True}
+    failing = [{"name": "quick"}, {"name": "fail"}]
+    with pytest.raises(RuntimeError, match="the slow task failed"):
+        run_tasks(
+            sees_the_first_record, failing, tmp_path / "f", key=lambda t: t["name"], jobs=2, progress=False
+        )
+    assert [p.stem for p in (tmp_path / "f").glob("*.json")] == ["quick"]
 
 
 def test_records_are_cached_by_key_and_an_interrupted_run_computes_only_the_missing(tmp_path):

@@ -86,3 +86,30 @@ def test_route_bound_is_above_the_route_lp(config):
     weights = rng.dirichlet(np.ones(3), size=20)
     assert tour.route_bound(config, r_path, where, weights) >= value - 1e-12
     assert tour.route_bound(config, r_path, where, w_star[None]) == pytest.approx(value, abs=1e-7)
+
+
+@pytest.mark.parametrize("count", [1, 2, 3])
+def test_route_lp_is_the_documented_lp(config, count):
+    """The route LP's value is its optimum: no integer split of the H hover slots scores above
+    it (each is a feasible point of the relaxation), its hover slots sum to H, and its dual
+    weights certify it (route_bound at them, which counts H slots, equals it)."""
+    points = np.array([[-100.0, -20.0], [150.0, -60.0], [-40.0, 90.0]])[:count]
+    path, where = tour._legs(config, points)
+    r_path = ie.node_rates(config, path)
+    value, x, w = tour._solve_route(config, r_path, where)
+    spare = config.N - len(path)
+    assert np.all(x >= 0) and x.sum() == pytest.approx(spare, abs=1e-7)
+    assert w.sum() == pytest.approx(1.0) and np.all(w >= 0)
+    assert tour.route_bound(config, r_path, where, w[None]) == pytest.approx(value, rel=1e-7)
+    rng = np.random.default_rng(count)
+    for split in [tour._round(x, spare), *rng.multinomial(spare, np.full(count, 1 / count), size=4)]:
+        assert ie.maxmin_rate(config, tour.route_trajectory(config, points, split)) <= value + 1e-9
+
+
+def test_route_lp_reports_an_infeasible_route(config):
+    """A route with more path points than slots has no hover slots to give (H < 0): None."""
+    points = np.array([[-100.0, -20.0]])
+    path, where = tour._legs(config, points)
+    r_path = ie.node_rates(config, path)
+    too_long = np.hstack([r_path] * (config.N // r_path.shape[1] + 1))
+    assert tour._solve_route(config, too_long, where) is None

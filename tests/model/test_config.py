@@ -47,6 +47,25 @@ def test_frozen_hashable_picklable():
     assert ScenarioConfig(**c.to_dict()) == c
 
 
+def test_node_configs_are_made_once_and_leave_the_config_as_it_was():
+    """``node_config(k)`` is node k's single-node config (G = w_k, nothing else changed), made
+    once per config; asking for it changes neither equality, hashing, ``to_dict`` nor a pickle."""
+    nodes = ((-100.0, -20.0), (150.0, -60.0), (-40.0, 90.0))
+    c, fresh = ScenarioConfig(ground_nodes=nodes), ScenarioConfig(ground_nodes=nodes)
+    before = (hash(c), c.to_dict())
+    for k, w in enumerate(nodes):
+        single = c.node_config(k)
+        assert single == dataclasses.replace(c, ground_nodes=None, ground_node=w)
+        assert single.K == 1 and single.ground_node == w
+        assert c.node_config(k) is single  # made once
+    assert c == fresh and (hash(c), c.to_dict()) == before
+    back = pickle.loads(pickle.dumps(c))
+    assert back == c and back.node_config(2) == c.node_config(2)
+    assert c.replace(ground_nodes=nodes[:2]).node_config(1).ground_node == nodes[1]  # not the old cache
+    with pytest.raises(ValueError, match="node index k"):
+        c.node_config(3)
+
+
 def test_min_horizon_is_the_boundary():
     c = ScenarioConfig()
     assert c.min_horizon() == 33.0  # 800 m at 25 m per move: 32 moves, 33 slots

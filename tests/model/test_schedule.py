@@ -230,16 +230,17 @@ def test_plan_scores_several_nodes_with_maxmin_rate():
 
 def test_an_uncertified_lp_answer_raises(monkeypatch):
     """The primal-dual check: corrupt the LP's dual weights and the scorer must refuse."""
-    import scipy.optimize
+    import dataclasses
 
-    real = scipy.optimize.linprog
+    from ios_uav_env.model import lp, schedule
 
     def corrupted(*args, **kwargs):
-        res = real(*args, **kwargs)
-        res.ineqlin.marginals[:3] = np.array([-1.0, 0.0, 0.0])  # w = e_1: g(w) = mean r_1 > V
-        return res
+        res = lp.solve_lp(*args, **kwargs)
+        duals = res.ub_duals.copy()
+        duals[:3] = [-1.0, 0.0, 0.0]  # w = e_1: g(w) = mean r_1 > V
+        return dataclasses.replace(res, ub_duals=duals)
 
-    monkeypatch.setattr(scipy.optimize, "linprog", corrupted)
+    monkeypatch.setattr(schedule, "solve_lp", corrupted)
     r = np.array([[2.0, 2.0], [0.0, 1.0], [1.0, 0.0]])
     with pytest.raises(RuntimeError, match="not certified"):
         maxmin_schedule(r)
