@@ -16,6 +16,7 @@ from __future__ import annotations
 import functools
 import os
 import sys
+import threading
 from dataclasses import dataclass
 from typing import Any
 
@@ -45,25 +46,41 @@ def _highspy() -> Any:
     return highspy
 
 
-@functools.cache
+_LOCAL = threading.local()  # each thread's HiGHS instance: one instance solves one LP at a time
+_BANNER = threading.Lock()  # held while fd 1 points at /dev/null
+_quiet: list[bool] = []  # [True] once this process has made its first (announcing) instance
+
+
 def _highs() -> Any:
-    """This process's HiGHS instance, silent. Its first construction prints a banner on the C
-    stdout, where CLIs print their results, so it is made with fd 1 on /dev/null."""
+    """This thread's HiGHS instance, silent. The first construction in a process prints a banner
+    on the C stdout, where CLIs print their results, so it is made with fd 1 on /dev/null."""
+    h = getattr(_LOCAL, "highs", None)
+    if h is None:
+        h = _LOCAL.highs = _new_highs()
+    return h
+
+
+def _new_highs() -> Any:
     highspy = _highspy()
-    sys.stdout.flush()
-    try:
-        saved = os.dup(1)
-    except OSError:  # no fd 1: no output to keep clean
-        h = highspy.Highs()
-    else:
-        null = os.open(os.devnull, os.O_WRONLY)
-        try:
-            os.dup2(null, 1)
+    with _BANNER:
+        if _quiet:
             h = highspy.Highs()
-        finally:
-            os.dup2(saved, 1)
-            os.close(saved)
-            os.close(null)
+        else:
+            sys.stdout.flush()
+            try:
+                saved = os.dup(1)
+            except OSError:  # no fd 1: no output to keep clean
+                h = highspy.Highs()
+            else:
+                null = os.open(os.devnull, os.O_WRONLY)
+                try:
+                    os.dup2(null, 1)
+                    h = highspy.Highs()
+                finally:
+                    os.dup2(saved, 1)
+                    os.close(saved)
+                    os.close(null)
+            _quiet.append(True)
     h.setOptionValue("output_flag", False)
     return h
 

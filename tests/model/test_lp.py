@@ -86,3 +86,20 @@ def test_the_solver_prints_nothing():
     done = subprocess.run([sys.executable, "-c", code], cwd=root, capture_output=True, text=True, timeout=120)
     assert done.returncode == 0, done.stderr
     assert done.stdout == ""
+
+
+def test_threads_solve_their_lps_apart(backend):
+    """Each thread has its own solver: LPs solved from several threads at once get the answers
+    they get one by one (one shared HiGHS instance would mix their models)."""
+    from concurrent.futures import ThreadPoolExecutor
+
+    problems = [_random_lp(seed) for seed in range(16)]
+
+    def solve(p):
+        c, a_ub, b_ub, a_eq, b_eq, upper = p
+        return lp.solve_lp(c, a_ub, b_ub, upper, a_eq=a_eq, b_eq=b_eq).value
+
+    alone = [solve(p) for p in problems]
+    with ThreadPoolExecutor(4) as pool:
+        for _ in range(3):
+            assert list(pool.map(solve, problems)) == pytest.approx(alone, rel=1e-12)
