@@ -194,8 +194,6 @@ def _solve_route(
     """The route LP on the path's rates (K, L): (value, hover slots x, dual weights w).
 
     ``sum_i x_i = H`` is the equality row (``ios_uav_env.model.lp.solve_lp``: HiGHS)."""
-    from scipy.sparse import csc_array
-
     k_nodes, n_path, m = r_path.shape[0], r_path.shape[1], len(where)
     spare = config.N - n_path
     r_hover = r_path[:, where]  # (K, m)
@@ -218,7 +216,7 @@ def _solve_route(
     c = np.zeros(n_var)
     c[-1] = -1.0
     upper = np.concatenate([np.ones(n_a), np.full(n_y + m + 1, np.inf)])
-    res = solve_lp(c, csc_array(a_ub), b_ub, upper, a_eq=csc_array(a_eq), b_eq=np.array([spare]))
+    res = solve_lp(c, a_ub, b_ub, upper, a_eq=a_eq, b_eq=np.array([spare]))
     if not res.optimal:
         return None
     w = np.maximum(-res.ub_duals[:k_nodes], 0.0)

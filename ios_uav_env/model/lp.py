@@ -48,7 +48,7 @@ def _highspy() -> Any:
 
 _LOCAL = threading.local()  # each thread's HiGHS instance: one instance solves one LP at a time
 _BANNER = threading.Lock()  # held while fd 1 points at /dev/null
-_quiet: list[bool] = []  # [True] once this process has made its first (announcing) instance
+_announced = False  # True once this process has made its first instance (the one with a banner)
 
 
 def _highs() -> Any:
@@ -61,9 +61,10 @@ def _highs() -> Any:
 
 
 def _new_highs() -> Any:
+    global _announced
     highspy = _highspy()
     with _BANNER:
-        if _quiet:
+        if _announced:
             h = highspy.Highs()
         else:
             sys.stdout.flush()
@@ -80,7 +81,7 @@ def _new_highs() -> Any:
                     os.dup2(saved, 1)
                     os.close(saved)
                     os.close(null)
-            _quiet.append(True)
+            _announced = True
     h.setOptionValue("output_flag", False)
     return h
 
