@@ -60,6 +60,10 @@ def build_parser() -> argparse.ArgumentParser:
     )
     r.add_argument("--n", type=positive_int, default=None, help="only the first n scenarios")
     r.add_argument("--out", type=Path, default=Path("out/suite"), help="folder of the table and figures")
+    r.add_argument(
+        "--node-orders", action="store_true",
+        help="a multi-node model: its action averaged over every order of the nodes (agents.node_orders)",
+    )  # fmt: skip
     c = sub.add_parser("curve", help="score every checkpoint of a training run (the learning curve)")
     c.add_argument("--run", type=Path, required=True, help="run folder (with checkpoints/)")
     c.add_argument(
@@ -130,7 +134,13 @@ def main(argv: Sequence[str] | None = None) -> int:
         policy = load_policy(args.model, args.algo)
     except (FileNotFoundError, ValueError) as exc:
         parser.error(f"argument --model: {exc}")
-    run_report(policy, args.out, n=args.n, suite=suite)
+    if args.node_orders:
+        from agents.evaluate_multi import is_multinode
+
+        if not is_multinode(policy):
+            parser.error(f"argument --node-orders: {args.model} is a one-node model (the orders are a "
+                         "multi-node model's nodes')")  # fmt: skip
+    run_report(policy, args.out, n=args.n, suite=suite, node_orders=args.node_orders)
     return 0
 
 

@@ -17,6 +17,7 @@ from pathlib import Path
 from typing import Any
 
 from agents.evaluate_multi import fast_act, model_max_nodes
+from ios_uav_env.envs.multi import BASE_FEATURES
 from ios_uav_env.envs.registration import MULTINODE_IDS
 
 MULTI_SUITE = "multi-node-v1"
@@ -32,9 +33,11 @@ def suite_env_kwargs(agent: Any, max_nodes: int) -> dict[str, Any]:
 
 
 def multi_report(
-    policy: Any, out: str | Path, n: int | None = None, suite: str = MULTI_SUITE
+    policy: Any, out: str | Path, n: int | None = None, suite: str = MULTI_SUITE, node_orders: bool = False
 ) -> dict[str, Any]:
-    """Score ``policy`` on the multi-node suite, print the table, write the files to ``out``."""
+    """Score ``policy`` on the multi-node suite, print the table, write the files to ``out``.
+    ``node_orders``: its action averaged over every order of the nodes
+    (:class:`agents.node_orders.NodeOrderAverage`)."""
     from ios_uav_env.benchmark import load_suite
     from ios_uav_env.benchmark.scoring import evaluate_scenarios
 
@@ -46,7 +49,13 @@ def multi_report(
         raise ValueError(f"no scenario of {loaded.name} has K <= {k_max} nodes (the model's max_nodes)")
     name = getattr(policy, "name", "policy")
     kwargs = suite_env_kwargs(policy, k_max)
-    results = evaluate_scenarios(fast_act(policy), loaded, scenarios, kwargs, 0, name)
+    act = fast_act(policy)
+    if node_orders:
+        from agents.node_orders import NodeOrderAverage
+
+        width = (int(policy.model.observation_space.shape[0]) - len(BASE_FEATURES)) // k_max
+        act, name = NodeOrderAverage(act, k_max, width), f"{name} (node orders averaged)"
+    results = evaluate_scenarios(act, loaded, scenarios, kwargs, 0, name)
     print(results.markdown())
     if len(scenarios) < len(chosen):
         print(f"note: {len(chosen) - len(scenarios)} of {len(chosen)} scenarios have more than the model's "

@@ -197,16 +197,20 @@ def run_report(
     n: int | None = None,
     progress: bool = True,
     suite: Suite | str | None = None,
+    node_orders: bool = False,
 ) -> dict[str, Any]:
     """Evaluate, print the table and the summary, write the benchmark's files and the trajectory
     figure to ``out``. A multi-node agent is scored on the multi-node suite instead
-    (:mod:`agents.suite.multi`)."""
+    (:mod:`agents.suite.multi`; ``node_orders``: its action averaged over every order of the
+    nodes); ``node_orders`` with a one-node agent is a ``ValueError``."""
     from agents.evaluate_multi import is_multinode
 
     if is_multinode(policy):
         from agents.suite.multi import multi_report
 
-        return multi_report(policy, out, n)
+        return multi_report(policy, out, n, node_orders=node_orders)
+    if node_orders:
+        raise ValueError("node_orders: averaging over the orders of the nodes needs a multi-node agent")
     out = Path(out)
     name = getattr(policy, "name", "policy")
     results = evaluate_suite(policy, suite, n, progress=progress)

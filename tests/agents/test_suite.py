@@ -238,6 +238,24 @@ def test_a_multinode_model_is_reported_on_the_multinode_suite(tmp_path, env_id, 
     assert {"shares.png", "pct_sca.png", "results.md", "trajectories.npz"} <= {p.name for p in out.iterdir()}
 
 
+def test_node_orders_average_a_multinode_model_and_refuse_a_one_node_one(tmp_path, capsys):
+    import gymnasium as gym
+    from stable_baselines3 import PPO
+
+    env_id = "ios_uav_env/IOSUAV-MultiNode-Random-v0"
+    folder = tmp_path / "model"
+    folder.mkdir()
+    PPO("MlpPolicy", gym.make(env_id), seed=0, device="cpu").save(folder / "model.zip")
+    (folder / "config.json").write_text(json.dumps({"algo": "ppo", "env_id": env_id, "env_kwargs": {}}))
+    out = tmp_path / "report"
+    assert main(["report", "--model", str(folder), "--n", "2", "--out", str(out), "--node-orders"]) == 0
+    assert "(node orders averaged) on multi-node-v1 (2 scenarios): % of SCA mean" in capsys.readouterr().out
+    assert len(list(csv.DictReader((out / "results.csv").open()))) == 2
+    with pytest.raises(SystemExit):
+        main(["report", "--model", "heuristic", "--node-orders", "--out", str(tmp_path / "one")])
+    assert "argument --node-orders: heuristic is a one-node model" in capsys.readouterr().err
+
+
 def test_shipped_multinode_generalist_reproduces_its_recorded_suite_rows():
     # agents/models/dagger_IOSUAV-MultiNode-Random-v0 (agents.imitation): its recorded
     # suite table, the numbers the README states, and 8 of its rows replayed from the model
