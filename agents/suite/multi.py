@@ -17,7 +17,7 @@ from pathlib import Path
 from typing import Any
 
 from agents.evaluate_multi import fast_act, model_max_nodes
-from ios_uav_env.envs.multi import BASE_FEATURES
+from ios_uav_env.envs.multi import NODE_FEATURES, NODE_PEAK_FEATURES
 from ios_uav_env.envs.registration import MULTINODE_IDS
 
 MULTI_SUITE = "multi-node-v1"
@@ -53,7 +53,7 @@ def multi_report(
     if node_orders:
         from agents.node_orders import NodeOrderAverage
 
-        width = (int(policy.model.observation_space.shape[0]) - len(BASE_FEATURES)) // k_max
+        width = len(NODE_FEATURES) + (len(NODE_PEAK_FEATURES) if kwargs.get("peak_hint") else 0)
         act, name = NodeOrderAverage(act, k_max, width), f"{name} (node orders averaged)"
     results = evaluate_scenarios(act, loaded, scenarios, kwargs, 0, name)
     print(results.markdown())
