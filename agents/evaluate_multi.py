@@ -118,16 +118,24 @@ def planner_rows(scenario: SuiteScenario, record: dict[str, Any]) -> list[Row]:
     return rows
 
 
+def node_width(env_kwargs: Any) -> int:
+    """The features of a node block of the multi-node env made with ``env_kwargs``:
+    ``NODE_FEATURES``, plus ``NODE_PEAK_FEATURES`` with ``peak_hint``."""
+    from ios_uav_env.envs.multi import NODE_FEATURES, NODE_PEAK_FEATURES
+
+    hint = bool(dict(env_kwargs or {}).get("peak_hint", False))
+    return len(NODE_FEATURES) + (len(NODE_PEAK_FEATURES) if hint else 0)
+
+
 def model_max_nodes(agent: Any, default: int = 4) -> int:
-    """K_max of the model's observation (``len(BASE_FEATURES)`` + K_max node blocks, each
-    ``NODE_FEATURES``, plus ``NODE_PEAK_FEATURES`` with ``peak_hint``); ``default`` if unknown."""
-    from ios_uav_env.envs.multi import BASE_FEATURES, NODE_FEATURES, NODE_PEAK_FEATURES
+    """K_max of the model's observation (``len(BASE_FEATURES)`` + K_max node blocks of
+    :func:`node_width` features each); ``default`` if unknown."""
+    from ios_uav_env.envs.multi import BASE_FEATURES
 
     shape = getattr(getattr(getattr(agent, "model", None), "observation_space", None), "shape", None)
     if shape is None:
         return default
-    hint = bool(dict(getattr(agent, "env_kwargs", {}) or {}).get("peak_hint", False))
-    per_node = len(NODE_FEATURES) + (len(NODE_PEAK_FEATURES) if hint else 0)
+    per_node = node_width(getattr(agent, "env_kwargs", {}))
     k_max, extra = divmod(int(shape[0]) - len(BASE_FEATURES), per_node)
     if extra or k_max < 1:
         raise ValueError(

@@ -60,16 +60,13 @@ class NodeOrderAverage:
         base = len(BASE_FEATURES)
         nodes = obs[base:].reshape(self.k_max, self.width)
         k = int(np.count_nonzero(nodes[:, MASK] > 0.5))
-        total = None
-        for order in self.orders(k):
-            action = np.asarray(
-                self.act(np.concatenate([obs[:base], nodes[order].ravel()])), dtype=np.float64
-            )
-            if action.shape != (MOVE + self.k_max,):
+        orders = self.orders(k)
+        total = np.zeros(MOVE + self.k_max)
+        for order in orders:
+            action = np.asarray(self.act(np.concatenate([obs[:base], nodes[order].ravel()])))
+            if action.shape != total.shape:
                 raise ValueError(f"act: an action of shape {action.shape}; a multi-node action with "
-                                 f"{self.k_max} node slots has shape ({MOVE + self.k_max},)")  # fmt: skip
-            restored = action.copy()
-            restored[MOVE + order] = action[MOVE:]  # slot j of this order held node order[j]
-            total = restored if total is None else total + restored
-        assert total is not None  # (at least the identity order)
-        return (total / len(self.orders(k))).astype(np.float32)
+                                 f"{self.k_max} node slots has shape {total.shape}")  # fmt: skip
+            total[:MOVE] += action[:MOVE]
+            total[MOVE + order] += action[MOVE:]  # slot j of this order held node order[j]
+        return (total / len(orders)).astype(np.float32)

@@ -16,8 +16,7 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Any
 
-from agents.evaluate_multi import fast_act, model_max_nodes
-from ios_uav_env.envs.multi import NODE_FEATURES, NODE_PEAK_FEATURES
+from agents.evaluate_multi import fast_act, model_max_nodes, node_width
 from ios_uav_env.envs.registration import MULTINODE_IDS
 
 MULTI_SUITE = "multi-node-v1"
@@ -53,8 +52,7 @@ def multi_report(
     if node_orders:
         from agents.node_orders import NodeOrderAverage
 
-        width = len(NODE_FEATURES) + (len(NODE_PEAK_FEATURES) if kwargs.get("peak_hint") else 0)
-        act, name = NodeOrderAverage(act, k_max, width), f"{name} (node orders averaged)"
+        act, name = NodeOrderAverage(act, k_max, node_width(kwargs)), f"{name} (node orders averaged)"
     results = evaluate_scenarios(act, loaded, scenarios, kwargs, 0, name)
     print(results.markdown())
     if len(scenarios) < len(chosen):
