@@ -1,13 +1,13 @@
 """A multi-node generalist trained from the tour heuristic (DAgger), from a checkout.
 
-    python -m agents.imitation --out runs/dagger --rounds 8 --hindsight-from 5   # the shipped recipe
+    python -m agents.imitation --out runs/dagger --scenarios 3000 --rounds 3 --hindsight-from 1 \
+        --hindsight-block 10 --round-fraction 0.5 --policy node-set --net-arch 64 64   # the shipped recipe
     python -m agents.suite report --model runs/dagger                    # scored on multi-node-v1
 
 Pure PPO on ``ios_uav_env/IOSUAV-MultiNode-Random-v0`` stays far below the bars on the held-out
 suite (31% of SCA after 12M steps; the runs: ``results/log.md``): the tour, the hover times and
 the shares of 2 to 4 random nodes are hard to find by exploration. Here the tour heuristic
-(``baselines.tour``, 99.5% of SCA on the suite) teaches the same SB3 PPO policy network by
-imitation:
+(``baselines.tour``, 99.5% of SCA on the suite) teaches an SB3 PPO policy by imitation:
 
 - **Expert** (:mod:`agents.expert`). ``baselines.tour.solve`` plans each training scenario
   (scenario i is ``sample_multinode(np.random.default_rng(first_seed + i))``, disjoint from
@@ -26,6 +26,11 @@ imitation:
   of :func:`agents.expert.hindsight_shares`, the best continuation of the flight flown given what
   was served, and from then on the share loss keeps only labels that are a best schedule of
   the trajectory flown (:func:`share_rows`).
+- **Network** (``policy``). ``"mlp"``: SB3's MlpPolicy over the whole observation, as the
+  shipped model. ``"node-set"``: :mod:`agents.node_set`'s actor, the same weights for every node
+  slot, equivariant by construction (renumbering the nodes permutes the node scores and keeps
+  the move), with the observation statistics pooled over the nodes. Permuting the nodes
+  (``permute``, the polish) gives it the same losses: its polish is plain passes.
 - **Output.** A run folder that ``agents.loading.load_agent``, ``agents.evaluate`` and
   ``agents.suite report`` read (``model.zip``, ``vecnormalize.pkl`` with the observation
   statistics of round 0, ``config.json``, ``summary.json``), plus ``plans/``, ``data/round_<r>.npz``
@@ -65,6 +70,10 @@ from ios_uav_env.io import atomic_write_bytes, atomic_write_text
 
 #: The largest seed: the model's seed goes to ``np.random.seed``, which takes 32 bits.
 MAX_SEED = 2**32 - 1
+#: The policy networks a run can train: SB3's MLP over the whole observation, or the node-set
+#: actor of ``agents.node_set`` (the same weights for every node; its statistics pooled over the
+#: nodes).
+POLICIES = ("mlp", "node-set")
 #: How the observations (and rewards) of every imitation model are normalised: its VecNormalize.
 NORMALIZE = {"norm_obs": True, "norm_reward": True}
 
@@ -94,6 +103,7 @@ class ImitationSettings:
     permute: bool = False  # every round's fit sees each batch's nodes in a random order, too
     round_fraction: float = 1.0  # of each DAgger round's labelled states, the share kept (random)
     polish_learning_rate: float = 5e-4
+    policy: str = "mlp"  # "mlp": SB3's MlpPolicy; "node-set": agents.node_set's equivariant actor
 
     def validate(self) -> None:
         """``ValueError`` naming the first bad field (``OSError`` subclasses for an ``out`` or
@@ -122,6 +132,8 @@ class ImitationSettings:
         f = self.round_fraction
         if isinstance(f, bool) or not (isinstance(f, (int, float)) and 0 < f <= 1):
             raise ValueError(f"round_fraction: must be in (0, 1] (the share of states kept), got {f!r}")
+        if self.policy not in POLICIES:
+            raise ValueError(f"policy: must be one of {', '.join(POLICIES)}, got {self.policy!r}")
         if not isinstance(self.permute, bool):
             raise ValueError(f"permute: must be True or False, got {self.permute!r}")
         h = self.hindsight_from
@@ -205,6 +217,7 @@ def check_resume(settings: ImitationSettings) -> None:
         before.setdefault("hindsight_block", now["hindsight_block"])  # runs recorded before the field
         before.setdefault("permute", False)  # (likewise)
         before.setdefault("round_fraction", 1.0)  # (likewise)
+        before.setdefault("policy", "mlp")  # (likewise)
         finished = finished_rounds(settings.out)
         if settings.rounds < finished:
             raise ValueError(
@@ -235,17 +248,26 @@ def naming(path: Path) -> Iterator[None]:
 
 
 def _new_model(settings: ImitationSettings, env: Any, obs: np.ndarray) -> tuple[Any, Any]:
-    """A PPO (MlpPolicy) on a one-env VecNormalize whose observation statistics are ``obs``'s."""
+    """A PPO of ``settings.policy`` on a one-env VecNormalize whose observation statistics are
+    ``obs``'s (for the node-set policy, pooled over the nodes: ``agents.node_set.pooled_statistics``)."""
     from stable_baselines3 import PPO
     from stable_baselines3.common.vec_env import DummyVecEnv, VecNormalize
 
     venv = VecNormalize(DummyVecEnv([lambda: env]), gamma=1.0, norm_obs=True, norm_reward=True)
-    venv.obs_rms.mean = obs.mean(0).astype(np.float64)
-    venv.obs_rms.var = obs.var(0).astype(np.float64)
-    venv.obs_rms.count = float(len(obs))
     arch = list(settings.net_arch)
-    kwargs = dict(net_arch=dict(pi=arch, vf=arch), log_std_init=settings.log_std_init)
-    model = PPO("MlpPolicy", venv, gamma=1.0, policy_kwargs=kwargs, seed=settings.seed, device="cpu")
+    if settings.policy == "node-set":
+        from agents.node_set import NodeSetPolicy, pooled_statistics
+
+        policy: Any = NodeSetPolicy
+        mean, var = pooled_statistics(obs, env.max_nodes, len(env.node_features))
+        arch_kwargs = dict(pi=arch, vf=list(ImitationSettings.net_arch))  # the critic: the MLP's
+    else:
+        policy, mean, var = "MlpPolicy", obs.mean(0), obs.var(0)
+        arch_kwargs = dict(pi=arch, vf=arch)
+    venv.obs_rms.mean, venv.obs_rms.var = mean.astype(np.float64), var.astype(np.float64)
+    venv.obs_rms.count = float(len(obs))
+    kwargs = dict(net_arch=arch_kwargs, log_std_init=settings.log_std_init)
+    model = PPO(policy, venv, gamma=1.0, policy_kwargs=kwargs, seed=settings.seed, device="cpu")
     return model, venv
 
 
@@ -279,7 +301,8 @@ def model_config(settings: ImitationSettings, **extra: Any) -> dict[str, Any]:
     """The ``config.json`` of a model of the run: what ``agents.loading.load_agent`` reads (the
     algorithm, env id and arguments, the normalisation as ``hyperparams.normalize``) and the
     run's settings."""
-    hyperparams = {"policy": "MlpPolicy", "gamma": 1.0, "normalize": dict(NORMALIZE)}
+    policy = "agents.node_set.NodeSetPolicy" if settings.policy == "node-set" else "MlpPolicy"
+    hyperparams = {"policy": policy, "gamma": 1.0, "normalize": dict(NORMALIZE)}
     return {"algo": "ppo", "env_id": RANDOM_ID, "seed": settings.seed, "env_kwargs": settings.env_kwargs,
             "hyperparams": hyperparams, "trained_by": "agents.imitation", "imitation": asdict(settings),
             **extra}  # fmt: skip
@@ -403,7 +426,20 @@ def build_parser() -> Any:
     p.add_argument("--epochs", type=positive_int, default=d.epochs, help=f"passes per round ({d.epochs})")
     p.add_argument("--batch-size", type=positive_int, default=d.batch_size)
     p.add_argument("--learning-rate", type=float, default=d.learning_rate)
-    p.add_argument("--net-arch", type=positive_int, nargs="+", default=list(d.net_arch))
+    p.add_argument(
+        "--net-arch",
+        type=positive_int,
+        nargs="+",
+        default=list(d.net_arch),
+        help=f"layer widths: the MLP's, or the node-set encoder's ({' '.join(map(str, d.net_arch))})",
+    )
+    p.add_argument(
+        "--policy",
+        choices=POLICIES,
+        default=d.policy,
+        help="mlp: an MLP over the whole observation; node-set: the same weights for every "
+        f"node, equivariant (agents.node_set) ({d.policy})",
+    )
     p.add_argument(
         "--env-kwargs",
         nargs="*",
@@ -475,7 +511,7 @@ def _checked_settings(parser: Any, args: Any) -> ImitationSettings:
             seed=args.seed, jobs=args.jobs, plans=args.plans, progress=not args.no_progress,
             hindsight_from=args.hindsight_from, hindsight_block=args.hindsight_block,
             polish_epochs=args.polish_epochs, polish_learning_rate=args.polish_learning_rate,
-            permute=args.permute, round_fraction=args.round_fraction, **extra,
+            permute=args.permute, round_fraction=args.round_fraction, policy=args.policy, **extra,
         )  # fmt: skip
         settings.validate()
         Path(settings.out).mkdir(parents=True, exist_ok=True)

@@ -3,7 +3,8 @@
 ``model.predict`` pays a per-call overhead (tensor conversion, distribution objects) that
 outweighs a small MLP's arithmetic, and a plan is a whole episode of calls, so the
 deterministic actor is exported to numpy once: the VecNormalize observation transform (if
-any), the actor MLP, and the action's post-processing (PPO: the Gaussian mean clipped to
+any), the actor MLP (or a module's own numpy forward, its ``to_numpy()``: the node-set actor
+of ``agents.node_set``), and the action's post-processing (PPO: the Gaussian mean clipped to
 the action space; SAC: the tanh-squashed mean). :meth:`NumpyPolicy.act` equals
 ``Agent.act(obs, True)`` to float precision (tested).
 """
@@ -35,12 +36,14 @@ def _layers(module: Any) -> list[tuple[str, Any]]:
             w = m.weight.detach().cpu().numpy().astype(np.float64)
             b = m.bias.detach().cpu().numpy().astype(np.float64)
             steps.append(("linear", (w.T.copy(), b)))
+        elif hasattr(m, "to_numpy"):  # a module with its own numpy forward (agents.node_set)
+            steps.append(("fn", m.to_numpy()))
         elif name in _ACTIVATIONS:
             steps.append(("act", _ACTIVATIONS[name]))
         elif isinstance(m, nn.Sequential):
             steps += _layers(m)
         else:
-            raise ValueError(f"cannot export layer {name} to numpy (MLP policies only)")
+            raise ValueError(f"cannot export layer {name} to numpy (MLP layers, or a module with to_numpy())")
     return steps
 
 

@@ -253,6 +253,26 @@ def test_permute_reaches_every_rounds_fit_and_is_part_of_the_recipe(plan_cache, 
     assert seen == [False]  # round 2 only: rounds 0 and 1 are read back
 
 
+def test_a_node_set_run_trains_the_equivariant_actor_on_pooled_statistics(plan_cache, tmp_path):
+    from agents.loading import load_agent, load_numpy_agent
+    from agents.node_set import NodeSetPolicy
+
+    out = tmp_path / "run"
+    kw = dict(out=str(out), scenarios=1, first_seed=SEEDS[0], epochs=2, net_arch=(8,), batch_size=64,
+              plans=str(plan_cache), progress=False, jobs=1)  # fmt: skip
+    run(ImitationSettings(rounds=1, policy="node-set", **kw))
+    agent = load_agent(out)
+    assert isinstance(agent.model.policy, NodeSetPolicy)
+    config = json.loads((out / "config.json").read_text())
+    assert config["hyperparams"]["policy"] == "agents.node_set.NodeSetPolicy"
+    mean = agent.vecnormalize.obs_rms.mean[12:].reshape(4, -1)  # the node blocks after BASE_FEATURES
+    np.testing.assert_array_equal(mean, np.broadcast_to(mean[0], mean.shape))  # one statistic for all slots
+    obs = Dataset.load(out / "data" / "round_0.npz").obs[:10]
+    np.testing.assert_allclose(load_numpy_agent(out)(obs), agent.act(obs), atol=1e-5)
+    with pytest.raises(ValueError, match=r"other settings \(policy: 'node-set' -> 'mlp'\)"):
+        run(ImitationSettings(rounds=2, **kw))
+
+
 def _round_policy(folder):
     """The numpy actor of a round's model, as ``run`` plays it."""
     import gymnasium as gym
@@ -293,6 +313,7 @@ def test_share_rows_keep_the_labels_of_best_schedules_only(plans):
         ("permute", 1),
         ("round_fraction", 0.0),
         ("round_fraction", 1.5),
+        ("policy", "cnn"),
     ],  # fmt: skip
 )
 def test_bad_settings_name_the_field(field, value, tmp_path):

@@ -1,0 +1,277 @@
+"""A multi-node policy that sees the nodes as a set: the same weights for every node slot.
+
+An MLP over the concatenated node blocks of a multi-node observation learns each slot on its
+own, and a generalist trained that way can fly one numbering of a scenario well and skip a node
+in another (``results/log.md``). :class:`NodeSetPolicy` is an SB3 ``ActorCriticPolicy`` whose
+actor is permutation-equivariant by construction (:class:`NodeSetActor`):
+
+- **encode**: each node block, with the scenario's ``BASE_FEATURES``, through one MLP (the
+  ``net_arch`` widths, tanh): h_k;
+- **context**: c = the mean of h_k over the scenario's nodes (the block's ``mask``);
+- **relate**: g_k = tanh(W [h_k, c] + b), each node against the others;
+- **node scores**: a linear map of g_k, one score per node (0 in a padding slot);
+- **move**: attention over the nodes, a = softmax_k(w . g_k) (padding slots excluded), and an
+  MLP of [base features, c, sum_k a_k g_k]: the move is steered by the nodes it attends to.
+
+Renumbering the nodes permutes the node scores alike and leaves the move unchanged (tested).
+The observation statistics must then be the same for every slot, too: :func:`pooled_statistics`
+pools each node feature over the real nodes of every slot and leaves the mask unscaled. The
+critic is SB3's MLP on the whole observation (PPO can fine-tune the model).
+:meth:`NodeSetActor.to_numpy` is the same forward pass in float64 (numpy's products on a
+batch; one observation compiled by numba, on its real nodes), which
+``agents.numpy_policy.NumpyPolicy`` exports.
+
+    python -m agents.imitation --out runs/set --policy node-set ...
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable, Sequence
+from typing import Any
+
+import numpy as np
+import torch as th
+from stable_baselines3.common.policies import ActorCriticPolicy
+from stable_baselines3.common.torch_layers import MlpExtractor
+from torch import nn
+
+from ios_uav_env.envs.multi import BASE_FEATURES, NODE_FEATURES
+from ios_uav_env.jit import HAVE_NUMBA, jit
+
+#: The node block's entry that is 1 for a node of the scenario and 0 for a padding slot.
+MASK = NODE_FEATURES.index("mask")
+#: The action's entries before the node scores (the move's x and y).
+MOVE = 2
+#: The encoder's widths when ``net_arch`` gives none for the actor.
+DEFAULT_ARCH = (64, 64)
+#: Whether one observation's forward pass runs compiled (with numba; else numpy's products).
+COMPILED = True
+#: Logit of a padding slot in the move's attention: exp() of it is 0 in float32 and float64.
+PADDING_LOGIT = -1e9
+
+
+def node_layout(obs_size: int, action_size: int) -> tuple[int, int]:
+    """(k_max, width) of a multi-node env's flat observation and action sizes; ``ValueError``
+    naming the sizes if they are not ``BASE_FEATURES`` + k_max blocks and 2 + k_max scores."""
+    base = len(BASE_FEATURES)
+    k_max = action_size - MOVE
+    if k_max < 1 or obs_size <= base or (obs_size - base) % k_max:
+        raise ValueError(
+            f"observation size {obs_size} and action size {action_size}: a multi-node env has "
+            f"{base} + k_max x width observations and {MOVE} + k_max actions"
+        )
+    width = (obs_size - base) // k_max
+    if width <= MASK:
+        raise ValueError(f"observation size {obs_size}: a node block of {width} features has no mask")
+    return k_max, width
+
+
+def pooled_statistics(obs: np.ndarray, k_max: int, width: int) -> tuple[np.ndarray, np.ndarray]:
+    """(mean, var) for VecNormalize's ``obs_rms`` that treat every node slot alike: each base
+    feature over the rows, each node feature over the real nodes (mask 1) of every slot, the
+    same in every slot; the mask itself has mean 0 and var 1 (left as it is, 0 or 1)."""
+    x = np.asarray(obs, dtype=np.float64)
+    base = len(BASE_FEATURES)
+    if x.ndim != 2 or x.shape[1] != base + k_max * width or len(x) < 2:
+        raise ValueError(f"obs: shape {x.shape}; (rows >= 2, {base + k_max * width}) expected")
+    nodes = x[:, base:].reshape(-1, width)
+    real = nodes[nodes[:, MASK] > 0.5]
+    if len(real) < 2:
+        raise ValueError("obs: fewer than 2 real nodes in all; node statistics need more")
+    node_mean, node_var = real.mean(0), real.var(0)
+    node_mean[MASK], node_var[MASK] = 0.0, 1.0
+    mean = np.concatenate([x[:, :base].mean(0), np.tile(node_mean, k_max)])
+    var = np.concatenate([x[:, :base].var(0), np.tile(node_var, k_max)])
+    return mean, var
+
+
+def _mlp(sizes: Sequence[int], last_activation: bool = True) -> nn.Sequential:
+    layers: list[nn.Module] = []
+    for i, (a, b) in enumerate(zip(sizes[:-1], sizes[1:], strict=True)):
+        layers.append(nn.Linear(a, b))
+        if last_activation or i < len(sizes) - 2:
+            layers.append(nn.Tanh())
+    return nn.Sequential(*layers)
+
+
+@jit(inline=True)
+def _dense(inp: np.ndarray, w: np.ndarray, bias: np.ndarray, squash: bool) -> np.ndarray:
+    """inp (n, a) @ w (a, b) + bias, then tanh if ``squash``: loops that numba compiles."""
+    out = np.empty((inp.shape[0], w.shape[1]))
+    for i in range(inp.shape[0]):
+        out[i] = bias
+        for a in range(w.shape[0]):  # rows of w: the innermost loop runs along memory (SIMD)
+            value = inp[i, a]
+            for j in range(w.shape[1]):
+                out[i, j] += value * w[a, j]
+        if squash:
+            for j in range(w.shape[1]):
+                out[i, j] = math.tanh(out[i, j])
+    return out
+
+
+@jit
+def _forward_one(x: np.ndarray, k_real: int, k_max: int, width: int, w_base: np.ndarray, w_node: np.ndarray,
+                 b_in: np.ndarray, w_deep: np.ndarray, b_deep: np.ndarray, w_rel_h: np.ndarray,
+                 w_rel_c: np.ndarray, b_rel: np.ndarray, w_heads: np.ndarray, b_heads: np.ndarray,
+                 w_move: np.ndarray, b_move: np.ndarray, w_out: np.ndarray,
+                 b_out: np.ndarray) -> np.ndarray:  # fmt: skip
+    """:meth:`NodeSetActor.to_numpy`'s forward pass of one observation whose ``k_real`` nodes fill
+    the first slots, compiled: a plan calls it once a slot, and numpy's per-call overhead is
+    most of the small products' time. ``w_deep`` (L, H, H): the encoder's layers after the first."""
+    base = w_base.shape[0]
+    pre = _dense(x[:base].reshape(1, base), w_base, b_in, False)[0]
+    h = _dense(x[base : base + k_real * width].reshape(k_real, width), w_node, pre, True)
+    for layer in range(w_deep.shape[0]):
+        h = _dense(h, w_deep[layer], b_deep[layer], True)
+    context = np.zeros((1, h.shape[1]))
+    for i in range(k_real):
+        for j in range(h.shape[1]):
+            context[0, j] += h[i, j] / k_real
+    g = _dense(h, w_rel_h, _dense(context, w_rel_c, b_rel, False)[0], True)
+    heads = _dense(g, w_heads, b_heads, False)
+    top = heads[0, 1]
+    for i in range(k_real):
+        top = max(top, heads[i, 1])
+    weights = np.exp(heads[:, 1] - top)
+    weights /= weights.sum()
+    joined = np.zeros((1, base + 2 * h.shape[1]))
+    joined[0, :base] = x[:base]
+    joined[0, base : base + h.shape[1]] = context[0]
+    for i in range(k_real):
+        joined[0, base + h.shape[1] :] += weights[i] * g[i]
+    move = _dense(_dense(joined, w_move, b_move, True), w_out, b_out, False)[0]
+    out = np.zeros(MOVE + k_max)
+    out[:MOVE] = move
+    out[MOVE : MOVE + k_real] = heads[:, 0]
+    return out
+
+
+class NodeSetActor(nn.Module):
+    """The equivariant actor of the module docstring: (B, obs_size) -> (B, 2 + k_max) action means."""
+
+    def __init__(self, k_max: int, width: int, arch: Sequence[int]) -> None:
+        super().__init__()
+        if not arch or any(int(w) < 1 for w in arch):
+            raise ValueError(f"net_arch: must be layer widths >= 1, got {list(arch)!r}")
+        self.k_max, self.width, self.base = int(k_max), int(width), len(BASE_FEATURES)
+        hidden = int(arch[-1])
+        self.encode = _mlp([self.base + self.width, *map(int, arch)])
+        self.relate = _mlp([2 * hidden, hidden])
+        self.score = nn.Linear(hidden, 1)
+        self.attend = nn.Linear(hidden, 1)
+        self.move = _mlp([self.base + 2 * hidden, hidden, MOVE], last_activation=False)
+
+    def forward(self, x: th.Tensor) -> th.Tensor:
+        b, k = x.shape[0], self.k_max
+        base = x[:, : self.base]
+        nodes = x[:, self.base :].reshape(b, k, self.width)
+        mask = (nodes[..., MASK] > 0.5).to(x.dtype)
+        h = self.encode(th.cat([base[:, None, :].expand(b, k, self.base), nodes], -1))
+        context = (h * mask[..., None]).sum(1) / mask.sum(1, keepdim=True).clamp(min=1.0)
+        g = self.relate(th.cat([h, context[:, None, :].expand_as(h)], -1))
+        scores = self.score(g)[..., 0] * mask  # a padding slot's score is 0 (the env ignores it)
+        logits = self.attend(g)[..., 0].masked_fill(mask < 0.5, PADDING_LOGIT)
+        attended = (th.softmax(logits, 1)[..., None] * g).sum(1)
+        return th.cat([self.move(th.cat([base, context, attended], -1)), scores], 1)
+
+    def to_numpy(self) -> Callable[[np.ndarray], np.ndarray]:
+        """The same forward pass in float64, for one (obs_size,) observation or a batch: numpy's
+        products on a batch; one observation compiled (:func:`_forward_one`, with numba), on its
+        real nodes only. The layers of concatenations are split into sums of products (a layer of
+        [u, v] is u W_u + v W_v)."""
+        p = {
+            name: value.detach().cpu().numpy().astype(np.float64) for name, value in self.state_dict().items()
+        }
+        base, k, width = self.base, self.k_max, self.width
+        hidden = p["relate.0.weight"].shape[0]
+        w_in = p["encode.0.weight"].T  # (base + width, H): the base's rows, then the node block's
+        w_base, w_node, b_in = w_in[:base].copy(), w_in[base:].copy(), p["encode.0.bias"]
+        deeper = [(p[f"encode.{2 * i}.weight"].T.copy(), p[f"encode.{2 * i}.bias"])
+                  for i in range(1, sum(1 for m in self.encode if isinstance(m, nn.Linear)))]  # fmt: skip
+        w_rel = p["relate.0.weight"].T
+        w_rel_h, w_rel_c, b_rel = w_rel[:hidden].copy(), w_rel[hidden:].copy(), p["relate.0.bias"]
+        w_heads = np.concatenate([p["score.weight"], p["attend.weight"]]).T.copy()  # (H, 2)
+        b_heads = np.concatenate([p["score.bias"], p["attend.bias"]])
+        w_move, b_move = p["move.0.weight"].T.copy(), p["move.0.bias"]
+        w_out, b_out = p["move.2.weight"].T.copy(), p["move.2.bias"]
+
+        # the compiled path takes the deeper encoder layers stacked: every one of them (H, H)
+        stackable = all(w.shape == (hidden, hidden) for w, _ in deeper) and w_base.shape[1] == hidden
+        compiled = None
+        if COMPILED and HAVE_NUMBA and stackable:
+            compiled = (np.array([w for w, _ in deeper]).reshape(len(deeper), hidden, hidden),
+                        np.array([b for _, b in deeper]).reshape(len(deeper), hidden))  # fmt: skip
+
+        def one(x: np.ndarray) -> np.ndarray | None:
+            """One observation whose real nodes fill the first slots, compiled, on those nodes only
+            (None otherwise: the batch's path)."""
+            mask = x[base + MASK :: width] > 0.5
+            k_real = int(mask.sum())
+            if compiled is None or k_real == 0 or not mask[:k_real].all():
+                return None
+            return _forward_one(x, k_real, k, width, w_base, w_node, b_in, *compiled, w_rel_h, w_rel_c,
+                                b_rel, w_heads, b_heads, w_move, b_move, w_out, b_out)  # fmt: skip
+
+        def forward(obs: np.ndarray) -> np.ndarray:
+            x = np.asarray(obs, dtype=np.float64)
+            if x.ndim == 1 and (out := one(x)) is not None:
+                return out
+            single = x.ndim == 1
+            x = x[None] if single else x
+            b = len(x)
+            nodes = x[:, base:].reshape(b * k, width)  # 2-D products: numpy's fastest at these sizes
+            real = (nodes[:, MASK] > 0.5).reshape(b, k)
+            h = np.tanh(nodes @ w_node + np.repeat(x[:, :base] @ w_base + b_in, k, axis=0))
+            for w, bias in deeper:
+                h = np.tanh(h @ w + bias)
+            weight = real.astype(np.float64)
+            count = np.maximum(weight.sum(1), 1.0)[:, None]
+            context = (weight[:, None, :] @ h.reshape(b, k, hidden))[:, 0] / count
+            g = np.tanh(h @ w_rel_h + np.repeat(context @ w_rel_c + b_rel, k, axis=0))
+            heads = (g @ w_heads + b_heads).reshape(b, k, 2)
+            logits = np.where(real, heads[..., 1], PADDING_LOGIT)
+            a = np.exp(logits - logits.max(1, keepdims=True))
+            attended = ((a / a.sum(1, keepdims=True))[:, None, :] @ g.reshape(b, k, hidden))[:, 0]
+            move = (
+                np.tanh(np.concatenate([x[:, :base], context, attended], 1) @ w_move + b_move) @ w_out + b_out
+            )
+            out = np.concatenate([move, heads[..., 0] * weight], 1)
+            return out[0] if single else out
+
+        return forward
+
+
+class NodeSetExtractor(MlpExtractor):
+    """SB3's ``MlpExtractor`` with :class:`NodeSetActor` as its policy network: its latent is the
+    action mean itself (the policy's ``action_net`` is the identity)."""
+
+    def __init__(self, feature_dim: int, k_max: int, width: int, pi: Sequence[int], vf: Sequence[int],
+                 activation_fn: Any, device: Any) -> None:  # fmt: skip
+        super().__init__(
+            feature_dim, net_arch=dict(pi=[], vf=list(vf)), activation_fn=activation_fn, device=device
+        )
+        self.policy_net = NodeSetActor(k_max, width, pi).to(device)
+        self.latent_dim_pi = MOVE + k_max
+
+
+class NodeSetPolicy(ActorCriticPolicy):
+    """An SB3 ``ActorCriticPolicy`` with the node-set actor (module docstring). ``net_arch``: the
+    encoder's widths (a list, or a dict whose ``pi`` is used for the actor and ``vf`` for the
+    critic's MLP); the node layout comes from the spaces (:func:`node_layout`)."""
+
+    def _build_mlp_extractor(self) -> None:
+        arch = self.net_arch
+        pi, vf = (arch.get("pi", []), arch.get("vf", [])) if isinstance(arch, dict) else (arch, arch)
+        k_max, width = node_layout(int(self.features_dim), int(self.action_space.shape[0]))
+        self.mlp_extractor = NodeSetExtractor(self.features_dim, k_max, width, pi or DEFAULT_ARCH, vf,
+                                              self.activation_fn, self.device)  # fmt: skip
+
+    def _build(self, lr_schedule: Any) -> None:
+        super()._build(lr_schedule)
+        self.action_net = nn.Identity()  # the actor's output is the action mean
+        actor = self.mlp_extractor.policy_net
+        for head in (actor.score, actor.attend, actor.move[-1]):
+            self.init_weights(head, gain=0.01)  # small first actions, as SB3's action_net
+        self.optimizer = self.optimizer_class(self.parameters(), lr=lr_schedule(1), **self.optimizer_kwargs)
