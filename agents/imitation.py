@@ -26,8 +26,8 @@ the shares of 2 to 4 random nodes are hard to find by exploration. Here the tour
   of :func:`agents.expert.hindsight_shares`, the best continuation of the flight flown given what
   was served, and from then on the share loss keeps only labels that are a best schedule of
   the trajectory flown (:func:`share_rows`).
-- **Network** (``policy``). ``"mlp"``: SB3's MlpPolicy over the whole observation, as the
-  shipped model. ``"node-set"``: :mod:`agents.node_set`'s actor, the same weights for every node
+- **Network** (``policy``). ``"mlp"``: SB3's MlpPolicy over the whole observation.
+  ``"node-set"`` (the shipped model): :mod:`agents.node_set`'s actor, the same weights for every node
   slot, equivariant by construction (renumbering the nodes permutes the node scores and keeps
   the move), with the observation statistics pooled over the nodes. Permuting the nodes
   (``permute``, the polish) gives it the same losses: its polish is plain passes.
@@ -74,6 +74,9 @@ MAX_SEED = 2**32 - 1
 #: actor of ``agents.node_set`` (the same weights for every node; its statistics pooled over the
 #: nodes).
 POLICIES = ("mlp", "node-set")
+#: The node-set encoder's widths when the CLI names none (the shipped model's; every node of every
+#: label goes through the encoder, so its width costs K times an MLP layer's).
+NODE_SET_ARCH = (64, 64)
 #: How the observations (and rewards) of every imitation model are normalised: its VecNormalize.
 NORMALIZE = {"norm_obs": True, "norm_reward": True}
 
@@ -103,7 +106,7 @@ class ImitationSettings:
     permute: bool = False  # every round's fit sees each batch's nodes in a random order, too
     round_fraction: float = 1.0  # of each DAgger round's labelled states, the share kept (random)
     polish_learning_rate: float = 5e-4
-    policy: str = "mlp"  # "mlp": SB3's MlpPolicy; "node-set": agents.node_set's equivariant actor
+    policy: str = "mlp"  # "mlp": SB3's MlpPolicy; "node-set": agents.node_set's equivariant actor (shipped)
 
     def validate(self) -> None:
         """``ValueError`` naming the first bad field (``OSError`` subclasses for an ``out`` or
@@ -430,8 +433,9 @@ def build_parser() -> Any:
         "--net-arch",
         type=positive_int,
         nargs="+",
-        default=list(d.net_arch),
-        help=f"layer widths: the MLP's, or the node-set encoder's ({' '.join(map(str, d.net_arch))})",
+        default=None,
+        help=f"layer widths of the MLP ({' '.join(map(str, d.net_arch))}) or of the node-set encoder "
+        f"({' '.join(map(str, NODE_SET_ARCH))}); the node-set critic is an MLP of the MLP's widths",
     )
     p.add_argument(
         "--policy",
@@ -505,9 +509,11 @@ def _checked_settings(parser: Any, args: Any) -> ImitationSettings:
 
     try:
         extra = {} if args.env_kwargs is None else {"env_kwargs": parse_env_kwargs(args.env_kwargs)}
+        default_arch = NODE_SET_ARCH if args.policy == "node-set" else ImitationSettings.net_arch
+        arch = tuple(args.net_arch) if args.net_arch else default_arch
         settings = ImitationSettings(
             out=args.out, scenarios=args.scenarios, rounds=args.rounds, noise=args.noise, epochs=args.epochs,
-            batch_size=args.batch_size, learning_rate=args.learning_rate, net_arch=tuple(args.net_arch),
+            batch_size=args.batch_size, learning_rate=args.learning_rate, net_arch=arch,
             seed=args.seed, jobs=args.jobs, plans=args.plans, progress=not args.no_progress,
             hindsight_from=args.hindsight_from, hindsight_block=args.hindsight_block,
             polish_epochs=args.polish_epochs, polish_learning_rate=args.polish_learning_rate,

@@ -16,7 +16,10 @@ actor is permutation-equivariant by construction (:class:`NodeSetActor`):
 Renumbering the nodes permutes the node scores alike and leaves the move unchanged (tested).
 The observation statistics must then be the same for every slot, too: :func:`pooled_statistics`
 pools each node feature over the real nodes of every slot and leaves the mask unscaled. The
-critic is SB3's MLP on the whole observation (PPO can fine-tune the model).
+critic is SB3's MLP on the whole observation. The actor reads each slot's mask after the
+normalisation (pooled statistics leave it 0 or 1): a PPO fine-tune must keep the observation
+statistics frozen (VecNormalize's ``training = False``), as its per-slot updates would undo the
+pooling.
 :meth:`NodeSetActor.to_numpy` is the same forward pass in float64 (numpy's products on a
 batch; one observation compiled by numba, on its real nodes), which
 ``agents.numpy_policy.NumpyPolicy`` exports.
@@ -62,8 +65,11 @@ def node_layout(obs_size: int, action_size: int) -> tuple[int, int]:
             f"{base} + k_max x width observations and {MOVE} + k_max actions"
         )
     width = (obs_size - base) // k_max
-    if width <= MASK:
-        raise ValueError(f"observation size {obs_size}: a node block of {width} features has no mask")
+    if width < len(NODE_FEATURES):
+        raise ValueError(
+            f"observation size {obs_size}: node blocks of {width} features; a block has at least "
+            f"{len(NODE_FEATURES)} ({', '.join(NODE_FEATURES)})"
+        )
     return k_max, width
 
 
@@ -215,7 +221,7 @@ class NodeSetActor(nn.Module):
                                 b_rel, w_heads, b_heads, w_move, b_move, w_out, b_out)  # fmt: skip
 
         def forward(obs: np.ndarray) -> np.ndarray:
-            x = np.asarray(obs, dtype=np.float64)
+            x = np.ascontiguousarray(obs, dtype=np.float64)  # the compiled path reshapes views
             if x.ndim == 1 and (out := one(x)) is not None:
                 return out
             single = x.ndim == 1

@@ -49,7 +49,7 @@ def _layers(module: Any) -> list[tuple[str, Any]]:
 
 @dataclass
 class NumpyPolicy:
-    """The deterministic actor of an SB3 PPO/SAC MlpPolicy, in numpy."""
+    """The deterministic actor of an SB3 PPO/SAC policy (an MlpPolicy, or ``agents.node_set``'s), in numpy."""
 
     steps: list[tuple[str, Any]]
     squash: bool  # SAC: tanh of the mean, then rescaled to the action space
@@ -64,7 +64,8 @@ class NumpyPolicy:
 
     @classmethod
     def from_sb3(cls, model: Any, vecnormalize: Any = None, repeat: int = 1) -> NumpyPolicy:
-        """Export ``model`` (PPO or SAC with an MLP policy) and its VecNormalize statistics;
+        """Export ``model`` (PPO or SAC with an MLP policy, or PPO with ``agents.node_set``'s) and its
+        VecNormalize statistics;
         ``repeat``: the agent's (``agents.loading.Agent.repeat``)."""
         policy = model.policy
         space = model.action_space
@@ -76,7 +77,9 @@ class NumpyPolicy:
             steps = _layers(policy.mlp_extractor.policy_net) + _layers(policy.action_net)
             squash = False
         else:
-            raise ValueError(f"unsupported policy {type(policy).__name__}: PPO or SAC MlpPolicy expected")
+            raise ValueError(
+                f"unsupported policy {type(policy).__name__}: MlpPolicy (PPO, SAC) or NodeSetPolicy expected"
+            )
         mean = std = None
         clip = np.inf
         if vecnormalize is not None and getattr(vecnormalize, "norm_obs", False):

@@ -17,7 +17,7 @@ from agents.expert import Dataset, hindsight_shares, node_mask, rollouts, tour_p
 from agents.fitting import fit, imitation_loss, obs_normalizer, permute_nodes  # noqa: E402
 from agents.imitation import ImitationSettings, main, run, share_rows  # noqa: E402
 from ios_uav_env import maxmin_rate  # noqa: E402
-from ios_uav_env.envs.multi import share_scores  # noqa: E402
+from ios_uav_env.envs.multi import BASE_FEATURES, NODE_FEATURES, NODE_PEAK_FEATURES, share_scores  # noqa: E402
 from ios_uav_env.model.schedule import maxmin_schedule, node_rates  # noqa: E402
 
 KW = {"softmin_beta": 20, "peak_hint": True}
@@ -265,12 +265,33 @@ def test_a_node_set_run_trains_the_equivariant_actor_on_pooled_statistics(plan_c
     assert isinstance(agent.model.policy, NodeSetPolicy)
     config = json.loads((out / "config.json").read_text())
     assert config["hyperparams"]["policy"] == "agents.node_set.NodeSetPolicy"
-    mean = agent.vecnormalize.obs_rms.mean[12:].reshape(4, -1)  # the node blocks after BASE_FEATURES
-    np.testing.assert_array_equal(mean, np.broadcast_to(mean[0], mean.shape))  # one statistic for all slots
+    rms, base = agent.vecnormalize.obs_rms, len(BASE_FEATURES)
+    for stat in (rms.mean, rms.var):  # one statistic for all slots; the mask left 0 or 1
+        blocks = stat[base:].reshape(4, len(NODE_FEATURES) + len(NODE_PEAK_FEATURES))
+        np.testing.assert_array_equal(blocks, np.broadcast_to(blocks[0], blocks.shape))
+    assert (rms.mean[base], rms.var[base]) == (0.0, 1.0)
     obs = Dataset.load(out / "data" / "round_0.npz").obs[:10]
-    np.testing.assert_allclose(load_numpy_agent(out)(obs), agent.act(obs), atol=1e-5)
+    numpy_agent = load_numpy_agent(out)
+    np.testing.assert_allclose(numpy_agent(obs), agent.act(obs), atol=1e-5)
+    np.testing.assert_allclose(numpy_agent(obs[3]), agent.act(obs[3:4])[0], atol=1e-5)  # one at a time
     with pytest.raises(ValueError, match=r"other settings \(policy: 'node-set' -> 'mlp'\)"):
         run(ImitationSettings(rounds=2, **kw))
+    settings = json.loads((out / "settings.json").read_text())
+    del settings["policy"]  # a run recorded before the field: an MLP's
+    (out / "settings.json").write_text(json.dumps(settings))
+    with pytest.raises(ValueError, match=r"other settings \(policy: 'mlp' -> 'node-set'\)"):
+        run(ImitationSettings(rounds=2, policy="node-set", **kw))
+
+
+def test_the_cli_picks_the_networks_own_default_widths(tmp_path):
+    from agents.imitation import NODE_SET_ARCH, _checked_settings, build_parser
+
+    parser = build_parser()
+    for policy, arch in (("node-set", NODE_SET_ARCH), ("mlp", ImitationSettings.net_arch)):
+        args = parser.parse_args(["--out", str(tmp_path / policy), "--policy", policy])
+        assert _checked_settings(parser, args).net_arch == arch
+    args = parser.parse_args(["--out", str(tmp_path / "w"), "--policy", "node-set", "--net-arch", "32"])
+    assert _checked_settings(parser, args).net_arch == (32,)
 
 
 def _round_policy(folder):

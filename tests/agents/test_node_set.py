@@ -84,13 +84,16 @@ def test_the_numpy_forward_is_the_torch_forward(arch, compiled, monkeypatch):
     import agents.node_set
 
     monkeypatch.setattr(agents.node_set, "COMPILED", compiled)
+    calls = []
+    kernel = agents.node_set._forward_one
+    monkeypatch.setattr(agents.node_set, "_forward_one", lambda *a: calls.append(1) or kernel(*a))
     th.manual_seed(3)
     actor = NodeSetActor(K_MAX, WIDTH, arch).double()
     with th.no_grad():
         for p in actor.parameters():
             p.normal_(0.0, 0.6)
     numpy_forward = actor.to_numpy()
-    for k in (2, 3, 4):
+    for k in (1, 2, 3, 4):
         batch = _obs(k, rows=5, seed=k)
         np.testing.assert_allclose(numpy_forward(batch), _forward(actor, batch), rtol=1e-10, atol=1e-10)
         single = numpy_forward(batch[0])  # one observation: the real nodes only
@@ -99,6 +102,10 @@ def test_the_numpy_forward_is_the_torch_forward(arch, compiled, monkeypatch):
     gap = _obs(4, rows=1, seed=9)
     gap[0, BASE + WIDTH : BASE + 2 * WIDTH] = 0.0  # slot 1 empty, slots 2 and 3 real: the general path
     np.testing.assert_allclose(numpy_forward(gap[0]), _forward(actor, gap)[0], rtol=1e-10, atol=1e-10)
+    expected = 4 if compiled and arch == (16, 16) and agents.node_set.HAVE_NUMBA else 0
+    assert len(calls) == expected  # one per single observation with its nodes first, when compiled
+    strided = np.repeat(batch[0], 2)[::2]  # a strided view: copied before the compiled pass
+    np.testing.assert_allclose(numpy_forward(strided), numpy_forward(batch[0]), rtol=0, atol=0)
 
 
 def test_pooled_statistics_treat_every_slot_alike_and_skip_padding():
