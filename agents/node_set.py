@@ -39,13 +39,10 @@ from stable_baselines3.common.policies import ActorCriticPolicy
 from stable_baselines3.common.torch_layers import MlpExtractor
 from torch import nn
 
+from agents.node_orders import MASK, MOVE  # the node block's mask entry, the move's entries
 from ios_uav_env.envs.multi import BASE_FEATURES, NODE_FEATURES
 from ios_uav_env.jit import HAVE_NUMBA, jit
 
-#: The node block's entry that is 1 for a node of the scenario and 0 for a padding slot.
-MASK = NODE_FEATURES.index("mask")
-#: The action's entries before the node scores (the move's x and y).
-MOVE = 2
 #: The encoder's widths when ``net_arch`` gives none for the actor.
 DEFAULT_ARCH = (64, 64)
 #: Whether one observation's forward pass runs compiled (with numba; else numpy's products).
