@@ -118,28 +118,31 @@ def _backward(
     n_layers = layers.shape[0]
     for k in range(n_layers - 1, -1, -1):
         w_off, b_off, n_in, n_out = layers[k, 0], layers[k, 1], layers[k, 2], layers[k, 3]
-        if k < n_layers - 1:
+        if k < n_layers - 1:  # d is the product of the layer above (a temporary): scaled in place
             y = acts[k + 1]
-            d = d.copy()
             for i in range(d.shape[0]):
                 for j in range(n_out):
                     d[i, j] *= np.float32(1.0) - y[i, j] * y[i, j]
         grad[w_off : w_off + n_out * n_in] = np.dot(d.T, acts[k]).ravel()
-        grad[b_off : b_off + n_out] = d.sum(axis=0)
+        db = grad[b_off : b_off + n_out]
+        db[:] = 0.0
+        for i in range(d.shape[0]):  # the bias's gradient, row by row (vectorised over j)
+            for j in range(n_out):
+                db[j] += d[i, j]
         if k > 0:
             d = np.dot(d, theta[w_off : w_off + n_out * n_in].reshape((n_out, n_in)))
 
 
 @jit(inline=True)
-def _gaussian_log_prob(
-    diff: np.ndarray, log_std: np.ndarray, inv_var: np.ndarray
-) -> tuple[np.ndarray, np.ndarray]:
-    """The diagonal Gaussian's log-density of actions ``diff`` = a - mu away from its mean (float64,
-    (m, act_dim)) with ``log_std`` and ``inv_var`` = exp(-2 log_std): ((a - mu)^2 / sigma^2, and per
-    row sum_j -1/2 (a_j - mu_j)^2 / sigma_j^2 - log sigma_j - 1/2 log(2 pi))."""
-    scaled = diff * diff * inv_var
-    logp = -0.5 * scaled.sum(axis=1) - (log_std.sum() + diff.shape[1] * 0.5 * math.log(2.0 * math.pi))
-    return scaled, logp
+def _log_prob_row(actions: np.ndarray, mean: np.ndarray, inv_var: np.ndarray, const: float, i: int) -> float:
+    """The diagonal Gaussian's log-density of row ``i`` of ``actions`` about ``mean`` with
+    ``inv_var`` = exp(-2 log sigma) and ``const`` = sum_j log sigma_j + act_dim/2 log(2 pi):
+    sum_j -1/2 (a_ij - mu_ij)^2 / sigma_j^2 - const (float64; the difference taken in float32)."""
+    s = 0.0
+    for j in range(inv_var.shape[0]):
+        diff = float(actions[i, j] - mean[i, j])
+        s += diff * diff * inv_var[j]
+    return -0.5 * s - const
 
 
 @jit
@@ -148,31 +151,48 @@ def _actor_gradient(
     actions: np.ndarray, old_logp: np.ndarray, advantages: np.ndarray, settings: np.ndarray,
     stats: np.ndarray,
 ) -> None:  # fmt: skip
-    """The policy loss's gradient (the actor's parameters and the log std) and stats 0, 2, 3."""
+    """The policy loss's gradient (the actor's parameters and the log std) and stats 0, 2, 3:
+    one pass over the rows (no temporary arrays), then the backward pass."""
     clip, ent_coef, normalize = settings[_CLIP], settings[_ENT_COEF], settings[_NORMALIZE] > 0.5
     m, act_dim = actions.shape
     acts = _forward(theta, pi_layers, obs)
+    mean = acts[-1]
     log_std = theta[log_std_off : log_std_off + act_dim].astype(np.float64)
     inv_var = np.exp(-2.0 * log_std)
-    diff = (actions - acts[-1]).astype(np.float64)
-    scaled, logp = _gaussian_log_prob(diff, log_std, inv_var)
-    log_ratio = logp - old_logp
-    ratio = np.exp(log_ratio)
-    adv = advantages.astype(np.float64)
+    const = log_std.sum() + act_dim * 0.5 * math.log(2.0 * math.pi)
+    adv_mean, adv_std = 0.0, 1.0
     if normalize and m > 1:
-        centred = adv - adv.mean()
-        adv = centred / (np.sqrt((centred * centred).sum() / (m - 1)) + 1e-8)
-    clipped = np.minimum(np.maximum(ratio, 1.0 - clip), 1.0 + clip)
-    surrogate, clipped_surrogate = adv * ratio, adv * clipped
-    # the unclipped term is the minimum (inside the clip range the two are equal)
-    live = surrogate <= clipped_surrogate
-    d_logp = np.where(live, -surrogate / m, 0.0).reshape((m, 1))
-    _backward(theta, grad, pi_layers, acts, ((d_logp * diff) * inv_var).astype(theta.dtype))
-    g_log_std = (d_logp * (scaled - 1.0)).sum(axis=0) - ent_coef
-    grad[log_std_off : log_std_off + act_dim] = g_log_std.astype(theta.dtype)
-    stats[0] = -np.mean(np.minimum(surrogate, clipped_surrogate))
-    stats[2] = np.mean(ratio - 1.0 - log_ratio)
-    stats[3] = np.mean(np.abs(ratio - 1.0) > clip)
+        for i in range(m):
+            adv_mean += float(advantages[i])
+        adv_mean /= m
+        square = 0.0
+        for i in range(m):
+            square += (float(advantages[i]) - adv_mean) ** 2
+        adv_std = math.sqrt(square / (m - 1)) + 1e-8
+    d_mean = np.empty((m, act_dim), dtype=theta.dtype)
+    g_log_std = np.zeros(act_dim)
+    objective, kl, n_clipped = 0.0, 0.0, 0
+    for i in range(m):
+        log_ratio = _log_prob_row(actions, mean, inv_var, const, i) - old_logp[i]
+        ratio = math.exp(log_ratio)
+        adv = (float(advantages[i]) - adv_mean) / adv_std
+        surrogate = adv * ratio
+        clipped_surrogate = adv * min(max(ratio, 1.0 - clip), 1.0 + clip)
+        objective += min(surrogate, clipped_surrogate)
+        kl += ratio - 1.0 - log_ratio
+        n_clipped += abs(ratio - 1.0) > clip
+        # the unclipped term is the minimum (inside the clip range the two are equal)
+        d_logp = -surrogate / m if surrogate <= clipped_surrogate else 0.0
+        for j in range(act_dim):
+            diff = float(actions[i, j] - mean[i, j])
+            d_mean[i, j] = d_logp * diff * inv_var[j]
+            g_log_std[j] += d_logp * (diff * diff * inv_var[j] - 1.0)
+    _backward(theta, grad, pi_layers, acts, d_mean)
+    for j in range(act_dim):
+        grad[log_std_off + j] = g_log_std[j] - ent_coef
+    stats[0] = -objective / m
+    stats[2] = kl / m
+    stats[3] = n_clipped / m
 
 
 @jit
@@ -183,10 +203,16 @@ def _critic_gradient(
     """The value loss's gradient (the critic's parameters) and stat 1."""
     m = obs.shape[0]
     acts = _forward(theta, vf_layers, obs)
-    err = returns - acts[-1][:, 0].astype(np.float64)
-    d_value = ((-2.0 * settings[_VF_COEF] / m) * err).astype(theta.dtype).reshape((m, 1))
+    value = acts[-1]
+    d_value = np.empty((m, 1), dtype=theta.dtype)
+    scale = -2.0 * settings[_VF_COEF] / m
+    square = 0.0
+    for i in range(m):
+        err = returns[i] - float(value[i, 0])
+        square += err * err
+        d_value[i, 0] = scale * err
     _backward(theta, grad, vf_layers, acts, d_value)
-    stats[1] = np.mean(err * err)
+    stats[1] = square / m
 
 
 @jit(parallel=True)
@@ -246,14 +272,17 @@ def adam_step(
     norm = 0.0
     for j in range(n_train):
         norm += float(grad[j]) * float(grad[j])
-    scale = min(1.0, max_norm / (math.sqrt(norm) + 1e-6))
-    step_size = lr / (1.0 - beta1**step)
-    root_bias2 = math.sqrt(1.0 - beta2**step)
+    # the step in float32, as torch's Adam takes it on float32 parameters (8 lanes, not 4)
+    f32 = np.float32
+    scale = f32(min(1.0, max_norm / (math.sqrt(norm) + 1e-6)))
+    step_size = f32(lr / (1.0 - beta1**step))
+    root_bias2 = f32(math.sqrt(1.0 - beta2**step))
+    decay1, decay2, mix2, eps32 = f32(1.0 - beta1), f32(beta2), f32(1.0 - beta2), f32(eps)
     for j in range(n_train):
         g = grad[j] * scale
-        exp_avg[j] += (g - exp_avg[j]) * (1.0 - beta1)
-        exp_avg_sq[j] = exp_avg_sq[j] * beta2 + (1.0 - beta2) * g * g
-        theta[j] -= step_size * exp_avg[j] / (math.sqrt(exp_avg_sq[j]) / root_bias2 + eps)
+        exp_avg[j] += (g - exp_avg[j]) * decay1
+        exp_avg_sq[j] = exp_avg_sq[j] * decay2 + mix2 * g * g
+        theta[j] -= step_size * exp_avg[j] / (math.sqrt(exp_avg_sq[j]) / root_bias2 + eps32)
 
 
 @jit
@@ -305,21 +334,42 @@ def ppo_update(
     return step, count, totals
 
 
+@jit(parallel=True)
+def _forward_parallel(
+    theta: np.ndarray, pi_layers: np.ndarray, vf_layers: np.ndarray, obs: np.ndarray, mean: np.ndarray,
+    value: np.ndarray,
+) -> None:  # fmt: skip
+    for branch in prange(2):  # the actor's and the critic's passes, one thread each
+        if branch == 0:
+            mean[:] = _forward(theta, pi_layers, obs)[-1]
+        else:
+            value[:] = _forward(theta, vf_layers, obs)[-1][:, 0]
+
+
 @jit
 def policy_step(
     theta: np.ndarray, pi_layers: np.ndarray, vf_layers: np.ndarray, log_std_off: int, obs: np.ndarray,
-    noise: np.ndarray,
+    noise: np.ndarray, parallel: bool = False,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:  # fmt: skip
     """A rollout slot's (actions, log-probabilities, values) for the rows' observations ``obs``:
     actions = mean + sigma * ``noise`` (standard normal draws, one per row and action entry),
     their log-probability as :func:`minibatch_gradient` computes it (so that an update's first
-    ratios are 1 to float rounding)."""
-    act_dim = noise.shape[1]
-    mean = _forward(theta, pi_layers, obs)[-1]
-    value = _forward(theta, vf_layers, obs)[-1][:, 0].copy()
+    ratios are 1 to float rounding). ``parallel``: the actor's and the critic's passes on two
+    of numba's threads."""
+    m, act_dim = noise.shape
+    if parallel:
+        mean = np.empty((m, act_dim), dtype=theta.dtype)
+        value = np.empty(m, dtype=theta.dtype)
+        _forward_parallel(theta, pi_layers, vf_layers, obs, mean, value)
+    else:
+        mean = _forward(theta, pi_layers, obs)[-1]
+        value = _forward(theta, vf_layers, obs)[-1][:, 0].copy()
     log_std = theta[log_std_off : log_std_off + act_dim]
     actions = mean + np.exp(log_std) * noise
     log_std64 = log_std.astype(np.float64)
-    diff = (actions - mean).astype(np.float64)
-    logp = _gaussian_log_prob(diff, log_std64, np.exp(-2.0 * log_std64))[1]
-    return actions, logp.astype(np.float32), value
+    inv_var = np.exp(-2.0 * log_std64)
+    const = log_std64.sum() + act_dim * 0.5 * math.log(2.0 * math.pi)
+    logp = np.empty(m, dtype=np.float32)
+    for i in range(m):
+        logp[i] = _log_prob_row(actions, mean, inv_var, const, i)
+    return actions, logp, value

@@ -117,7 +117,8 @@ class KernelUpdate:
     def act(self, theta: np.ndarray, obs: np.ndarray, noise: np.ndarray) -> tuple[np.ndarray, ...]:
         """:func:`policy_step` of the parameters ``theta`` (:meth:`parameters`) on float32 arrays
         (call it under :meth:`one_blas_thread`)."""
-        return policy_step(theta, self.pi_layers, self.vf_layers, self.log_std_off, obs, noise)  # type: ignore[no-any-return]
+        parallel = self.parallel and parallel_safe()
+        return policy_step(theta, self.pi_layers, self.vf_layers, self.log_std_off, obs, noise, parallel)  # type: ignore[no-any-return]
 
     def _gather(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, int]:
         """The parameters (:meth:`parameters`) and Adam's moments and step count, flat."""

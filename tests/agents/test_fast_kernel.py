@@ -122,6 +122,7 @@ def updated(update: str, r: FastRecipe, seed: int = 0) -> FastPPO:
         {"max_grad_norm": 0.01},  # every step clipped hard
         {"callback": [{"agents.callbacks.LogStdSchedule": {"start": -1.0, "end": -3.0}}]},  # log std frozen
         {"target_kl": 1e-4},  # an early stop part-way
+        {"normalize_advantage": False},  # the advantages as GAE gave them
     ],
 )
 def test_an_update_by_the_kernel_is_torchs_update(overrides):
@@ -206,11 +207,14 @@ def test_update_settings_are_named_in_full():
         update_settings(**names, gamma=0.99)
 
 
-def test_the_compiled_rollout_step_is_torchs_forward():
-    """policy_step: the actions mean + sigma * noise, their log-probabilities and the values of
-    SB3's policy, to float rounding; a rollout of FastPPO with it equals one with torch's."""
+@pytest.mark.parametrize("parallel", [False, True])
+def test_the_compiled_rollout_step_is_torchs_forward(parallel):
+    """policy_step, its actor and critic passes on one thread or two: the actions mean + sigma *
+    noise, their log-probabilities and the values of SB3's policy, to float rounding; a rollout
+    of FastPPO with it equals one with torch's."""
     policy = sb3_policy(MULTI, {"pi": [32, 32], "vf": [16]})
     kernel = KernelUpdate.of(policy, policy.optimizer)
+    kernel.parallel = parallel
     obs = minibatch(policy, m=64)[0]
     noise = np.random.default_rng(1).standard_normal((64, 5)).astype(np.float32)
     actions, logp, values = kernel.act(kernel.parameters(), obs, noise)
@@ -230,6 +234,8 @@ def test_the_compiled_rollout_step_is_torchs_forward():
     rollouts = []
     for update in ("torch", "kernel"):
         algo = FastPPO(ENV, r, total=r.rollout_size, env_kwargs={"T": 40}, seed=2, update=update)
+        if algo.kernel is not None:
+            algo.kernel.parallel = parallel
         torch.manual_seed(2)
         algo.collect()
         rollouts.append({k: v.clone() for k, v in algo._buf.items()})
