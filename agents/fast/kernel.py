@@ -152,7 +152,7 @@ def _actor_gradient(
     stats: np.ndarray,
 ) -> None:  # fmt: skip
     """The policy loss's gradient (the actor's parameters and the log std) and stats 0, 2, 3:
-    one pass over the rows (no temporary arrays), then the backward pass."""
+    one pass over the rows (no float64 temporaries), then the backward pass."""
     clip, ent_coef, normalize = settings[_CLIP], settings[_ENT_COEF], settings[_NORMALIZE] > 0.5
     m, act_dim = actions.shape
     acts = _forward(theta, pi_layers, obs)
@@ -272,7 +272,7 @@ def adam_step(
     norm = 0.0
     for j in range(n_train):
         norm += float(grad[j]) * float(grad[j])
-    # the step in float32, as torch's Adam takes it on float32 parameters (8 lanes, not 4)
+    # the step in float32, as torch's Adam takes it on float32 parameters
     f32 = np.float32
     scale = f32(min(1.0, max_norm / (math.sqrt(norm) + 1e-6)))
     step_size = f32(lr / (1.0 - beta1**step))

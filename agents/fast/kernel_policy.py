@@ -69,7 +69,8 @@ class KernelUpdate:
         self.pi_layers = np.asarray(rows["pi"], dtype=np.int64)
         self.vf_layers = np.asarray(rows["vf"], dtype=np.int64)
         self._blas = _blas_controller()
-        #: the actor's and the critic's gradients on two of numba's threads (where they may run)
+        #: the actor's and the critic's gradients, and their rollout passes, on two of numba's threads
+        #: (where they may run)
         self.parallel = True
 
     @classmethod

@@ -42,8 +42,9 @@ def sb3_policy(env_id: str = ENV, net_arch=None, activation=None, seed: int = 0)
     return PPO("MlpPolicy", env, policy_kwargs=kwargs, device="cpu", seed=seed).policy
 
 
-def torch_loss(policy, obs, actions, old_logp, adv, returns, clip, vf_coef, ent_coef):
-    """FastPPO's torch loss (the reference), written out here once more."""
+def torch_loss(policy, obs, actions, old_logp, adv, returns, clip, vf_coef, ent_coef, stats=None):
+    """FastPPO's torch loss (the reference), written out here once more; ``stats``: a dict that
+    receives the approx KL and the clip fraction."""
     x = torch.from_numpy(obs)
     ex = policy.mlp_extractor
     mean = policy.action_net(ex.forward_actor(x))
@@ -51,9 +52,15 @@ def torch_loss(policy, obs, actions, old_logp, adv, returns, clip, vf_coef, ent_
     log_std = policy.log_std
     z = (torch.from_numpy(actions) - mean) * torch.exp(-log_std)
     logp = (-0.5 * z * z - log_std - 0.5 * math.log(2 * math.pi)).sum(-1)
-    ratio = torch.exp(logp - torch.from_numpy(old_logp))
+    log_ratio = logp - torch.from_numpy(old_logp)
+    ratio = torch.exp(log_ratio)
     a = torch.from_numpy(adv)
-    a = (a - a.mean()) / (a.std() + 1e-8)
+    if a.numel() > 1:  # as SB3: one sample has no spread to normalise by
+        a = (a - a.mean()) / (a.std() + 1e-8)
+    if stats is not None:
+        r, lr = ratio.detach(), log_ratio.detach()
+        stats["approx_kl"] = float(torch.mean(r - 1.0 - lr))
+        stats["clip_fraction"] = float(torch.mean((torch.abs(r - 1.0) > clip).float()))
     policy_loss = -torch.min(a * ratio, a * torch.clamp(ratio, 1 - clip, 1 + clip)).mean()
     value_loss = torch.mean((torch.from_numpy(returns) - value) ** 2)
     entropy = (log_std + 0.5 * math.log(2 * math.pi * math.e)).sum()
@@ -85,8 +92,9 @@ def test_the_kernels_gradient_is_torchs(env_id, net_arch, parallel):
     assert kernel is not None
     obs, actions, old_logp, adv, returns = minibatch(policy)
     clip, vf_coef, ent_coef = 0.2, 0.5, 0.01
+    expected: dict[str, float] = {}
     loss, policy_loss, value_loss = torch_loss(
-        policy, obs, actions, old_logp, adv, returns, clip, vf_coef, ent_coef
+        policy, obs, actions, old_logp, adv, returns, clip, vf_coef, ent_coef, expected
     )
     policy.zero_grad()
     loss.backward()
@@ -100,10 +108,57 @@ def test_the_kernels_gradient_is_torchs(env_id, net_arch, parallel):
     np.testing.assert_allclose(
         stats[:2], [float(policy_loss.detach()), float(value_loss.detach())], rtol=1e-5
     )
+    np.testing.assert_allclose(stats[2], expected["approx_kl"], rtol=1e-4)
+    assert stats[3] == expected["clip_fraction"]  # counts of the same ratios (none near the edge)
     for p, offset in kernel.params:
         mine = grad[offset : offset + p.numel()].reshape(p.shape)
         scale = float(p.grad.abs().max())
         np.testing.assert_allclose(mine, p.grad.numpy(), rtol=0, atol=1e-5 * scale + 1e-12)
+
+
+#: The update settings of the minibatch tests below.
+MINIBATCH = {"lr": 1e-3, "clip": 0.2, "vf_coef": 0.5, "ent_coef": 0.01, "max_grad_norm": 0.5,
+             "target_kl": None, "normalize": True, "beta1": 0.9, "beta2": 0.999, "eps": 1e-8}  # fmt: skip
+
+
+def test_a_one_sample_minibatch_keeps_its_advantage():
+    """A minibatch of one sample (a rollout one longer than a multiple of batch_size) is not
+    normalised, as in SB3: its spread is undefined (0 / 0), and the gradient would be NaN."""
+    policy = sb3_policy(ENV)
+    kernel = KernelUpdate.of(policy, policy.optimizer)
+    obs, actions, old_logp, adv, returns = minibatch(policy, m=1)
+    with torch.no_grad():  # ratio 1: inside the clip range, the advantage's scale reaches the gradient
+        old_logp = policy.get_distribution(torch.from_numpy(obs)).log_prob(torch.from_numpy(actions)).numpy()
+    loss = torch_loss(policy, obs, actions, old_logp, adv, returns, 0.2, 0.5, 0.01)[0]
+    policy.zero_grad()
+    loss.backward()
+    theta = kernel._gather()[0]
+    grad = np.zeros_like(theta)
+    minibatch_gradient(theta, grad, kernel.pi_layers, kernel.vf_layers, kernel.log_std_off, obs, actions,
+                       old_logp, adv, returns, update_settings(**MINIBATCH))  # fmt: skip
+    assert np.all(np.isfinite(grad))
+    for p, offset in kernel.params:
+        mine = grad[offset : offset + p.numel()].reshape(p.shape)
+        scale = float(p.grad.abs().max())
+        np.testing.assert_allclose(mine, p.grad.numpy(), rtol=0, atol=1e-5 * scale + 1e-12)
+
+
+@pytest.mark.parametrize("parallel", [False, True])
+def test_an_updates_first_ratios_are_one(parallel):
+    """The rollout step's log-probabilities are the update's own (one formula): fed back into
+    the gradient with the same parameters, every ratio is 1 to float32 rounding."""
+    policy = sb3_policy(MULTI, {"pi": [32, 32], "vf": [16]})
+    kernel = KernelUpdate.of(policy, policy.optimizer)
+    kernel.parallel = parallel
+    obs, _, _, adv, returns = minibatch(policy, m=64)
+    noise = np.random.default_rng(3).standard_normal((64, 5)).astype(np.float32)
+    theta = kernel.parameters()
+    actions, logp, _ = kernel.act(theta, obs, noise)
+    stats = minibatch_gradient(theta, np.zeros_like(theta), kernel.pi_layers, kernel.vf_layers,
+                               kernel.log_std_off, obs, actions, logp, adv, returns,
+                               update_settings(**MINIBATCH))  # fmt: skip
+    assert 0.0 <= stats[2] < 1e-10
+    assert stats[3] == 0.0
 
 
 def updated(update: str, r: FastRecipe, seed: int = 0) -> FastPPO:
