@@ -8,15 +8,22 @@ and redrawn each call (what different float32 kernels do to the same weights), a
 is compared with the rate and terminal miss recorded when the model shipped (``summary.json``);
 then every observation is scaled by 1 + 1e-3 (a changed normalisation). Prints the worst relative
 rate deviation and the worst miss deviation (m) of each, and whether the tolerances of
-``tests/tolerances.py`` hold the noise and break on the regression.
+``tests/tolerances.py`` hold the noise and break on the regression. The multi-node generalist
+(``dagger_IOSUAV-MultiNode-Random-v0``) is replayed as its test replays it: the first 8
+scenarios of ``multi-node-v1`` (``Suite.subset(8)``) against the rates of its recorded suite
+table (``suite_report.csv``); its plans have no terminal miss (a plan is feasible or not).
 """
 
 from __future__ import annotations
 
 import argparse
+import csv
+import functools
 import json
 import sys
+from collections.abc import Callable
 from pathlib import Path
+from types import SimpleNamespace
 from typing import Any
 
 import numpy as np
@@ -29,6 +36,10 @@ from agents.rollout import rollout  # noqa: E402
 from tests.tolerances import MISS_ABS, NORMALISATION_CHANGE, RATE_REL  # noqa: E402
 
 AGENTS = (*SHIPPED, "ppo_IOSUAV-MultiNode-v0")
+#: The multi-node generalist, replayed on suite scenarios (see the module docstring).
+GENERALIST = "dagger_IOSUAV-MultiNode-Random-v0"
+#: How many of ``multi-node-v1``'s scenarios its replay covers (the test's subset).
+GENERALIST_SCENARIOS = 8
 
 
 class _Perturbed:
@@ -52,6 +63,27 @@ def deviation(agent: Any, record: dict[str, float], **perturbation: Any) -> tupl
     return rate, abs(episode.terminal_miss - record["terminal_miss"])
 
 
+def suite_deviation(agent: Any, **perturbation: Any) -> tuple[float, float]:
+    """(worst relative rate deviation, 0.0: no miss) of the generalist's perturbed plans on the
+    replayed suite scenarios from its recorded suite table; an infeasible plan counts as inf."""
+    from agents.evaluate_multi import fast_act
+    from agents.suite.multi import suite_env_kwargs
+    from ios_uav_env.benchmark import load_suite
+    from ios_uav_env.benchmark.scoring import evaluate_scenarios
+
+    folder = MODELS_DIR / GENERALIST
+    table = csv.DictReader((folder / "suite_report.csv").open())
+    recorded = {int(r["index"]): float(r["rate"]) for r in table}
+    suite = load_suite("multi-node-v1")
+    fast = SimpleNamespace(act=fast_act(agent), env_id=agent.env_id, env_kwargs=agent.env_kwargs)
+    rows = evaluate_scenarios(
+        _Perturbed(fast, **perturbation).act, suite, suite.subset(GENERALIST_SCENARIOS),
+        suite_env_kwargs(agent, 4), 0, GENERALIST,
+    ).scenarios  # fmt: skip
+    worst = max(abs(r.rate / recorded[r.index] - 1.0) if r.feasible else float("inf") for r in rows)
+    return worst, 0.0
+
+
 def main(argv: list[str] | None = None) -> int:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("--ulps", type=float, nargs="+", default=[4.0, 64.0], help="jitter sizes (float32 ulps)")
@@ -60,17 +92,21 @@ def main(argv: list[str] | None = None) -> int:
     if args.seeds < 1 or any(u <= 0 for u in args.ulps):
         p.error("--seeds must be >= 1 and every --ulps > 0")
     print(f"tolerances: rate {RATE_REL:g} relative, terminal miss {MISS_ABS:g} m")
-    for name in AGENTS:
+    for name in (*AGENTS, GENERALIST):
         agent = load_agent(MODELS_DIR / name)
-        record = json.loads((MODELS_DIR / name / "summary.json").read_text())["final_eval"]
+        replay: Callable[..., tuple[float, float]] = suite_deviation
+        if name != GENERALIST:
+            record = json.loads((MODELS_DIR / name / "summary.json").read_text())["final_eval"]
+            replay = functools.partial(deviation, record=record)
+
         cells = []
         for ulps in args.ulps:
-            worst = np.max([deviation(agent, record, ulps=ulps, seed=s) for s in range(args.seeds)], axis=0)
+            worst = np.max([replay(agent, ulps=ulps, seed=s) for s in range(args.seeds)], axis=0)
             held = worst[0] <= RATE_REL and worst[1] <= MISS_ABS
             cells.append(
                 f"{ulps:g} ulps: rate {worst[0]:.1e}, miss {worst[1]:.1e} ({'held' if held else 'NOT held'})"
             )
-        rate, miss = deviation(agent, record, scale=NORMALISATION_CHANGE)
+        rate, miss = replay(agent, scale=NORMALISATION_CHANGE)
         caught = rate > RATE_REL or miss > MISS_ABS
         cells.append(f"obs x (1 + {NORMALISATION_CHANGE:g}): rate {rate:.1e}, miss {miss:.1e} "
                      f"({'caught' if caught else 'NOT caught'})")  # fmt: skip
