@@ -168,9 +168,15 @@ def read_json(path: Path) -> dict[str, Any]:
     return data
 
 
+#: This package's own SB3 policy classes (SB3 records a policy under its class's module) and the
+#: algorithm that trains them.
+PACKAGE_POLICIES = {"agents.node_set": "ppo"}
+
+
 def zip_algorithm(zip_path: Path) -> str | None:
     """The algorithm an SB3 ``.zip`` was saved by (``"ppo"``, ``"sac"``; None if another), from
-    its policy class; ``ValueError`` naming the file if it is not an SB3 model file."""
+    its policy class (SB3's, or one of :data:`PACKAGE_POLICIES`); ``ValueError`` naming the file
+    if it is not an SB3 model file."""
     import zipfile
 
     try:
@@ -184,7 +190,7 @@ def zip_algorithm(zip_path: Path) -> str | None:
     for algo in ALGOS:
         if module.startswith(f"stable_baselines3.{algo}."):
             return algo
-    return None
+    return PACKAGE_POLICIES.get(module)
 
 
 def check_config(config: Mapping[str, Any], path: Path) -> None:

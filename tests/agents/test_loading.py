@@ -18,7 +18,7 @@ from stable_baselines3 import PPO, SAC  # noqa: E402
 
 import ios_uav_env  # noqa: E402, F401
 from agents.evaluate import MODELS_DIR  # noqa: E402
-from agents.loading import ALGOS, Agent, checkpoint_file, checkpoints, load_agent  # noqa: E402
+from agents.loading import ALGOS, Agent, checkpoint_file, checkpoints, load_agent, zip_algorithm  # noqa: E402
 
 GENERALIST = MODELS_DIR / "ppo_IOSUAV-Random-v0"  # trained with norm_obs: True
 
@@ -96,6 +96,17 @@ def test_algorithm_comes_from_the_config_and_a_bare_zip_needs_it(tmp_path):
     assert agent.env_id == "ios_uav_env/RISUAV-v0" and agent.name == "sac_named_but_ppo"
     with pytest.raises(FileNotFoundError, match="no model at"):
         load_agent(tmp_path / "nothing")
+
+
+def test_a_node_set_model_is_known_as_ppo(tmp_path):
+    """The node-set policy is this package's class (its module is not SB3's): its zip still says
+    PPO, so a node-set model named as another algorithm is refused."""
+    shipped = MODELS_DIR / "dagger_IOSUAV-MultiNode-Random-v0"
+    assert zip_algorithm(shipped / "model.zip") == "ppo"
+    bare = tmp_path / "node_set.zip"
+    shutil.copy(shipped / "model.zip", bare)
+    with pytest.raises(ValueError, match="holds a PPO model, not SAC"):
+        load_agent(bare, "sac", env_id="ios_uav_env/IOSUAV-MultiNode-Random-v0")
 
 
 def test_a_checkpoint_loads_with_its_own_vecnormalize_statistics(tmp_path):
