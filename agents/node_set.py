@@ -36,7 +36,7 @@ from typing import Any
 import numpy as np
 import torch as th
 from stable_baselines3.common.policies import ActorCriticPolicy
-from stable_baselines3.common.torch_layers import MlpExtractor
+from stable_baselines3.common.torch_layers import MlpExtractor, create_mlp
 from torch import nn
 
 from agents.node_orders import MASK, MOVE  # the node block's mask entry, the move's entries
@@ -87,15 +87,6 @@ def pooled_statistics(obs: np.ndarray, k_max: int, width: int) -> tuple[np.ndarr
     mean = np.concatenate([x[:, :base].mean(0), np.tile(node_mean, k_max)])
     var = np.concatenate([x[:, :base].var(0), np.tile(node_var, k_max)])
     return mean, var
-
-
-def _mlp(sizes: Sequence[int], last_activation: bool = True) -> nn.Sequential:
-    layers: list[nn.Module] = []
-    for i, (a, b) in enumerate(zip(sizes[:-1], sizes[1:], strict=True)):
-        layers.append(nn.Linear(a, b))
-        if last_activation or i < len(sizes) - 2:
-            layers.append(nn.Tanh())
-    return nn.Sequential(*layers)
 
 
 @jit(inline=True)
@@ -160,11 +151,12 @@ class NodeSetActor(nn.Module):
             raise ValueError(f"net_arch: must be layer widths >= 1, got {list(arch)!r}")
         self.k_max, self.width, self.base = int(k_max), int(width), len(BASE_FEATURES)
         hidden = int(arch[-1])
-        self.encode = _mlp([self.base + self.width, *map(int, arch)])
-        self.relate = _mlp([2 * hidden, hidden])
+        # SB3's tanh MLPs: (Linear, Tanh) pairs, with a last Linear where an output width is given
+        self.encode = nn.Sequential(*create_mlp(self.base + self.width, -1, list(map(int, arch)), nn.Tanh))
+        self.relate = nn.Sequential(*create_mlp(2 * hidden, -1, [hidden], nn.Tanh))
         self.score = nn.Linear(hidden, 1)
         self.attend = nn.Linear(hidden, 1)
-        self.move = _mlp([self.base + 2 * hidden, hidden, MOVE], last_activation=False)
+        self.move = nn.Sequential(*create_mlp(self.base + 2 * hidden, MOVE, [hidden], nn.Tanh))
 
     def forward(self, x: th.Tensor) -> th.Tensor:
         b, k = x.shape[0], self.k_max
