@@ -63,17 +63,21 @@ def deviation(agent: Any, record: dict[str, float], **perturbation: Any) -> tupl
     return rate, abs(episode.terminal_miss - record["terminal_miss"])
 
 
-def suite_deviation(agent: Any, **perturbation: Any) -> tuple[float, float]:
+def suite_record() -> dict[int, float]:
+    """The generalist's recorded rate on each scenario of its suite table, by scenario index."""
+    with (MODELS_DIR / GENERALIST / "suite_report.csv").open() as table:
+        return {int(r["index"]): float(r["rate"]) for r in csv.DictReader(table)}
+
+
+def suite_deviation(agent: Any, recorded: dict[int, float], **perturbation: Any) -> tuple[float, float]:
     """(worst relative rate deviation, 0.0: no miss) of the generalist's perturbed plans on the
-    replayed suite scenarios from its recorded suite table; an infeasible plan counts as inf."""
+    replayed suite scenarios from ``recorded`` (:func:`suite_record`); an infeasible plan counts
+    as inf."""
     from agents.evaluate_multi import fast_act
     from agents.suite.multi import suite_env_kwargs
     from ios_uav_env.benchmark import load_suite
     from ios_uav_env.benchmark.scoring import evaluate_scenarios
 
-    folder = MODELS_DIR / GENERALIST
-    table = csv.DictReader((folder / "suite_report.csv").open())
-    recorded = {int(r["index"]): float(r["rate"]) for r in table}
     suite = load_suite("multi-node-v1")
     fast = SimpleNamespace(act=fast_act(agent), env_id=agent.env_id, env_kwargs=agent.env_kwargs)
     rows = evaluate_scenarios(
@@ -94,11 +98,12 @@ def main(argv: list[str] | None = None) -> int:
     print(f"tolerances: rate {RATE_REL:g} relative, terminal miss {MISS_ABS:g} m")
     for name in (*AGENTS, GENERALIST):
         agent = load_agent(MODELS_DIR / name)
-        replay: Callable[..., tuple[float, float]] = suite_deviation
-        if name != GENERALIST:
+        replay: Callable[..., tuple[float, float]]
+        if name == GENERALIST:
+            replay = functools.partial(suite_deviation, recorded=suite_record())
+        else:
             record = json.loads((MODELS_DIR / name / "summary.json").read_text())["final_eval"]
             replay = functools.partial(deviation, record=record)
-
         cells = []
         for ulps in args.ulps:
             worst = np.max([replay(agent, ulps=ulps, seed=s) for s in range(args.seeds)], axis=0)
