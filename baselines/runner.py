@@ -23,7 +23,9 @@ A cached record that cannot be read (truncated, empty, not JSON), lacks one of t
 ``required`` keys or holds a non-finite number is treated as missing: a warning names the
 file and the task is computed again. SIGINT or SIGTERM during a map stops the worker
 processes (none is left behind) and keeps the finished records; the interrupt then goes on
-(``KeyboardInterrupt``, or ``SystemExit(143)`` for SIGTERM).
+(``KeyboardInterrupt``, or ``SystemExit(143)`` for SIGTERM). A full disk ends the map with
+``ios_uav_env.io.DiskFullError`` naming the cache file that did not fit (never left torn) after
+a note on stderr of the records kept; run again once there is room.
 """
 
 from __future__ import annotations
@@ -42,7 +44,7 @@ from contextlib import contextmanager
 from pathlib import Path
 from typing import Any, TypeVar
 
-from ios_uav_env.io import atomic_write_text
+from ios_uav_env.io import DiskFullError, atomic_write_text, naming_full_disk
 
 T = TypeVar("T")
 Record = dict[str, Any]
@@ -240,7 +242,9 @@ def run_tasks(
     at ``address`` (default: a new local Ray; ``jobs`` default: no cap, Ray schedules them on
     its CPUs), with the same records and cache files as ``"local"``.
     On SIGINT / SIGTERM the workers are stopped, the finished records stay cached, and the
-    interrupt propagates after a note on stderr.
+    interrupt propagates after a note on stderr. A full disk raises
+    ``ios_uav_env.io.DiskFullError`` naming the cache file that did not fit (none is left torn),
+    after the same note.
     """
     if backend not in BACKENDS:
         raise ValueError(f"backend: unknown backend {backend!r}; choose from {', '.join(BACKENDS)}")
@@ -253,7 +257,8 @@ def run_tasks(
 
         require_ray()  # ImportError naming the extra, before any work
     cache_dir = Path(cache_dir)
-    cache_dir.mkdir(parents=True, exist_ok=True)
+    with naming_full_disk(cache_dir):
+        cache_dir.mkdir(parents=True, exist_ok=True)
     keys = [key(task) for task in tasks]
     records = cached_records(tasks, cache_dir, key, required)
     twins: dict[str, list[int]] = {}  # key -> the indices of the tasks to compute, the first computes
@@ -286,6 +291,11 @@ def run_tasks(
             bar.close()
             print(f"interrupted: {len(records)} of {len(tasks)} records are kept in {cache_dir}; "
                   "run again to compute the rest", file=sys.stderr)  # fmt: skip
+            raise
+        except DiskFullError as exc:
+            bar.close()
+            print(f"disk full: {len(records)} of {len(tasks)} records are kept in {cache_dir}; free some "
+                  f"space and run again to compute the rest ({exc})", file=sys.stderr)  # fmt: skip
             raise
         finally:
             bar.close()

@@ -223,3 +223,57 @@ def test_baselines_out_is_checked_before_planning(tmp_path, monkeypatch, capsys)
     with pytest.raises(SystemExit) as exc:
         cli.main(["--scheme", "ia-ft", "--out", str(tmp_path / "a_file" / "plans")])
     assert exc.value.code == 2 and "argument --out: cannot create" in capsys.readouterr().err
+
+
+# ============ a full disk: a clear error naming the path, no torn file ============
+def _full_after(half: bool = True):
+    """A stand-in for ``ios_uav_env.io._write_all`` on a disk that fills up: it writes the first
+    half of the data (``half``), then fails with ENOSPC."""
+    import errno
+    import os
+
+    def write_all(fd: int, data: bytes) -> None:
+        if half:
+            os.write(fd, bytes(data[: len(data) // 2]))
+        raise OSError(errno.ENOSPC, "No space left on device")
+
+    return write_all
+
+
+def test_a_full_disk_names_the_path_and_leaves_the_old_file_whole(tmp_path, monkeypatch):
+    # before: a raw "[Errno 28] No space left on device" without the path
+    import errno
+
+    import ios_uav_env.io as io
+
+    path = io.atomic_write_text(tmp_path / "record.json", '{"old": 1}')
+    monkeypatch.setattr(io, "_write_all", _full_after())
+    with pytest.raises(io.DiskFullError) as raised:
+        io.atomic_write_text(path, '{"new": 2, "padding": "' + "x" * 1000 + '"}')
+    assert raised.value.errno == errno.ENOSPC and isinstance(raised.value, OSError)
+    assert str(path) in str(raised.value) and "the disk is full" in str(raised.value)
+    assert path.read_text() == '{"old": 1}' and sorted(p.name for p in tmp_path.iterdir()) == ["record.json"]
+
+
+def test_an_appended_log_line_is_whole_or_absent_and_a_torn_tail_is_cut(tmp_path, monkeypatch):
+    # before: the trainers' logs were buffered handles: a full disk left half a line for the next
+    # record to be glued onto
+    import ios_uav_env.io as io
+
+    log = tmp_path / "progress.csv"
+    io.append_line(log, '{"steps": 1}')
+    write_all = io._write_all
+    monkeypatch.setattr(io, "_write_all", _full_after())
+    with pytest.raises(io.DiskFullError, match="progress.csv: the disk is full"):
+        io.append_line(log, '{"steps": 2, "padding": "' + "x" * 500 + '"}')
+    assert log.read_text() == '{"steps": 1}\n'
+    monkeypatch.setattr(io, "_write_all", write_all)
+    io.append_line(log, '{"steps": 2}')
+    assert log.read_text().splitlines() == ['{"steps": 1}', '{"steps": 2}']
+    with log.open("a") as fh:  # a torn line, as an older writer or a killed process may leave
+        fh.write('{"steps": 3, "lo')
+    assert io.cut_torn_tail(log) == len('{"steps": 3, "lo')
+    assert io.cut_torn_tail(log) == 0 and log.read_text() == '{"steps": 1}\n{"steps": 2}\n'
+    (tmp_path / "torn_only").write_text("no newline at all")
+    assert io.cut_torn_tail(tmp_path / "torn_only") == 17 and (tmp_path / "torn_only").read_text() == ""
+    assert io.cut_torn_tail(tmp_path / "missing") == 0

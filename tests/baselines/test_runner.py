@@ -100,3 +100,30 @@ def test_bad_arguments_are_refused(tmp_path):
         run_tasks(square, [1], tmp_path, key=str, backend="dask")
     with pytest.raises(ValueError, match="jobs: must be a positive integer"):
         run_tasks(square, [1], tmp_path, key=str, jobs=0)
+
+
+def test_a_full_disk_names_the_cache_file_keeps_the_finished_records_and_leaves_nothing_torn(
+    tmp_path, monkeypatch, capsys
+):
+    # before: a raw "[Errno 28] No space left on device" without the file or the records kept
+    import errno
+
+    import ios_uav_env.io as io
+
+    write_all, writes = io._write_all, []
+
+    def filling(fd: int, data: bytes) -> None:
+        writes.append(data)
+        if len(writes) == 2:  # the second record's file: half of it fits, then the disk is full
+            os.write(fd, bytes(data[: len(data) // 2]))
+            raise OSError(errno.ENOSPC, "No space left on device")
+        write_all(fd, data)
+
+    monkeypatch.setattr(io, "_write_all", filling)
+    with pytest.raises(io.DiskFullError) as raised:
+        run_tasks(square, [3, 4, 5], tmp_path, key=str, jobs=1, progress=False)
+    assert str(tmp_path / "4.json") in str(raised.value) and "the disk is full" in str(raised.value)
+    assert "disk full: 1 of 3 records are kept" in capsys.readouterr().err
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["3.json"]  # no torn 4.json, no temporary file
+    monkeypatch.setattr(io, "_write_all", write_all)
+    assert run_tasks(square, [3, 4, 5], tmp_path, key=str, jobs=1, progress=False)[1] == {"x": 4, "y": 16}
