@@ -11,7 +11,9 @@ output folder by its permissions and its lock (an error names the argument and e
 status 2). A run holds its folder's lock (``RUN_DIR/.lock``) while it runs: a second
 ``train.py`` on the same folder, a new run or ``--resume``, is refused with the holder's pid.
 SIGINT (Ctrl-C) or SIGTERM saves a checkpoint of that moment and exits with status 130 or
-143; ``--resume`` then goes on from it. The library is :mod:`agents.training`
+143; ``--resume`` then goes on from it. A full disk ends the run with a message naming the file
+that did not fit and status 1, every file of the run whole; ``--resume`` goes on from its newest
+checkpoint once there is room. The library is :mod:`agents.training`
 (``TrainSettings``, ``train``, ``resume``).
 """
 
@@ -204,6 +206,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         print("train.py: interrupted while checking the arguments; nothing was written", file=sys.stderr)
         return 130
     from agents.training import RunFolderInUse, TrainingInterrupted, resume, train
+    from ios_uav_env.io import DiskFullError
 
     argument = "--resume" if settings is None else "--out"
     try:
@@ -221,6 +224,12 @@ def main(argv: Sequence[str] | None = None) -> int:
     except TrainingInterrupted as stop:
         print(f"train.py: {stop}", file=sys.stderr)
         return stop.exit_status
+    except DiskFullError as exc:
+        run_dir = args.resume if settings is None else settings.out
+        print(f"train.py: error: {exc}\ntrain.py: the run folder {run_dir} keeps its newest whole "
+              f"checkpoint; once there is room, continue with: python train.py --resume {run_dir}",
+              file=sys.stderr)  # fmt: skip
+        return 1
     summary = result.summary
     final = summary["final_eval"]
     print(f"run: {result.run_dir}")

@@ -12,7 +12,7 @@ from typing import Any
 
 from stable_baselines3.common.callbacks import BaseCallback, CheckpointCallback
 
-from ios_uav_env.io import atomic_write_bytes, atomic_write_text
+from ios_uav_env.io import atomic_write_bytes, atomic_write_text, naming_full_disk
 
 PROGRESS_FILE = "progress.json"
 
@@ -33,15 +33,17 @@ class Clock:
 
 def replace_into(path: str | Path, write: Callable[[Path], Any]) -> Path:
     """Write ``path`` atomically: ``write(tmp)`` writes a temporary file in the same folder (its name
-    starts with a dot and keeps the suffix), which then replaces ``path``."""
+    starts with a dot and keeps the suffix), which then replaces ``path``; a full disk raises
+    ``ios_uav_env.io.DiskFullError`` naming ``path`` (left as it was)."""
     path = Path(path)
     tmp = path.with_name(f".{path.stem}.tmp{os.getpid()}{path.suffix}")
-    try:
-        write(tmp)
-        os.replace(tmp, path)
-    except BaseException:
-        tmp.unlink(missing_ok=True)
-        raise
+    with naming_full_disk(path):
+        try:
+            write(tmp)
+            os.replace(tmp, path)
+        except BaseException:
+            tmp.unlink(missing_ok=True)
+            raise
     return path
 
 

@@ -7,16 +7,22 @@ holds the run folder's lock. The folder is the SB3 path's (``agents.training``):
 Adam state) and ``vecnormalize.pkl`` (a ``VecNormalize``'s statistics), ``summary.json``, and
 ``checkpoints/`` with the same files per checkpoint plus ``rl_model_trainer_<steps>_steps.pkl``
 (the trainer's own state: its update count and random generators), all written atomically with
-the ``.zip`` last (``agents.callbacks.save_checkpoint``). So ``agents.loading.load_agent`` loads
-its models and checkpoints, ``agents.numpy_policy.NumpyPolicy`` exports them and
-``ios_uav_env.benchmark`` scores them like any other.
+the ``.zip`` last (``agents.callbacks.save_checkpoint``), and ``progress.csv``, one JSON line per
+update appended whole as the update ends (``ios_uav_env.io.append_line``: a process killed at any
+moment has lost no finished update's line, a full disk leaves no half line). So
+``agents.loading.load_agent`` loads its models and checkpoints,
+``agents.numpy_policy.NumpyPolicy`` exports them and ``ios_uav_env.benchmark`` scores them like
+any other.
 
 A checkpoint is taken after the update that crosses each multiple of ``checkpoint_freq`` steps,
 and at the end. SIGINT / SIGTERM stops the rollout under way (its steps are dropped: no update
 used them) and saves a checkpoint of the last update; ``--resume`` continues from the newest
 checkpoint that loads with the same Adam state, statistics, step count (hence the schedules)
 and random generators; its rows start new episodes (seeded from the run's seed and the update
-count), as an SB3 run's resume does.
+count), as an SB3 run's resume does; ``progress.csv`` is cut back to the checkpoint's updates
+first (:func:`trim_progress`: the lines of updates past it, which the resumed run redoes, and a
+torn last line). A full disk ends the run with ``ios_uav_env.io.DiskFullError`` naming the file;
+the newest whole checkpoint stays, so ``--resume`` goes on from it once there is room.
 """
 
 from __future__ import annotations
@@ -35,10 +41,12 @@ from agents.training.folder import start_fresh, write_config
 from agents.training.interrupt import StopFlag, TrainingInterrupted
 from agents.training.resuming import RunStart, TrainResult, Unloadable, continue_run
 from agents.training.settings import TrainSettings
-from ios_uav_env.io import atomic_write_bytes, atomic_write_text
+from ios_uav_env.io import append_line, atomic_write_bytes, atomic_write_text
 
 #: The checkpoint pickle of the trainer's own state (``rl_model_trainer_<steps>_steps.pkl``).
 STATE_KIND = "trainer"
+#: The run's log: one JSON line per update (steps, wall time, the update's statistics, the score).
+PROGRESS_LOG = "progress.csv"
 
 
 @dataclass
@@ -80,6 +88,30 @@ def _load(run_dir: Path, steps: int, ckpt: Path, settings: TrainSettings, hp: Hy
         reason = f"{type(exc).__name__}: {exc}" if str(exc) else type(exc).__name__
         raise Unloadable(current, reason) from exc
     return model, _Loaded(vecnormalize, state)
+
+
+def trim_progress(run_dir: Path, steps: int) -> int:
+    """Cut ``progress.csv`` back to the updates of the checkpoint of ``steps``: its whole lines of
+    updates at or before ``steps`` are kept, in order; a torn or unreadable line and the lines of
+    later updates (a resumed run redoes them) are dropped. The lines dropped (the file is
+    rewritten atomically only if there are any)."""
+    path = run_dir / PROGRESS_LOG
+    try:
+        text = path.read_text(encoding="utf-8", errors="replace")
+    except FileNotFoundError:
+        return 0
+    lines = text.split("\n")  # the last item: the unfinished line after the last newline, or ""
+    kept = []
+    for line in lines[:-1]:
+        try:
+            if int(json.loads(line)["steps"]) <= steps:
+                kept.append(line)
+        except (ValueError, KeyError, TypeError):  # glued or torn by an older writer
+            continue
+    dropped = len(lines) - 1 - len(kept) + (lines[-1] != "")
+    if dropped:
+        atomic_write_text(path, "".join(f"{line}\n" for line in kept))
+    return dropped
 
 
 def _state(algo: FastPPO) -> dict[str, Any]:
@@ -130,6 +162,10 @@ def train_fast(
         algo = FastPPO(settings.env_id, recipe, total, env_kwargs=settings.env_kwargs, seed=settings.seed,
                        model=start.model, vecnormalize=loaded.vecnormalize, steps=start.steps)  # fmt: skip
         algo.updates = int(loaded.state["updates"])
+        dropped = trim_progress(run_dir, start.steps)
+        if dropped:
+            print(f"{run_dir / PROGRESS_LOG}: {dropped} lines past the checkpoint of {start.steps} steps "
+                  "dropped (their updates are done again)", file=sys.stderr)  # fmt: skip
         torch.set_rng_state(loaded.state["torch_rng"])
         algo.reset()
         algo._rng.bit_generator.state = loaded.state["rng"]
@@ -160,7 +196,7 @@ def _loop(
     bar = tqdm(
         total=total, initial=algo.steps, unit="step", unit_scale=True, disable=not settings.progress_bar
     )
-    log = (run_dir / "progress.csv").open("a", encoding="utf-8")
+    log = run_dir / PROGRESS_LOG
     try:
         while algo.steps < total:
             if not algo.collect(stop):
@@ -173,10 +209,8 @@ def _loop(
             bar.update(algo.steps - before)
             scores = algo.take_scores()
             stats["episode_score"] = float(np.mean(scores)) if scores else float("nan")
-            log.write(
-                json.dumps({"steps": algo.steps, "wall_time_s": round(start.clock.seconds(), 3), **stats})
-                + "\n"
-            )
+            append_line(log, json.dumps({"steps": algo.steps, "wall_time_s": round(start.clock.seconds(), 3),
+                                         **stats}))  # fmt: skip
             if settings.eval_freq and algo.steps // settings.eval_freq > before // settings.eval_freq:
                 record = evaluate()
                 bar.set_postfix(score=f"{record['average_rate']:.4f}")
@@ -184,7 +218,6 @@ def _loop(
                 _save(run_dir, algo, start)
     finally:
         bar.close()
-        log.close()
     _save(run_dir, algo, start)  # the final state too, so that --resume can extend a finished run
     seconds = start.clock.seconds()
     model_path = _save_model(run_dir, algo)

@@ -131,7 +131,7 @@ def _load(run_dir: Path, steps: int, ckpt: Path, settings: TrainSettings, hp: Hy
             vecnorm = current = checkpoint_file(run_dir, steps, "vecnormalize")
             if not vecnorm.exists():
                 raise FileNotFoundError("missing")
-        venv = make_venv(settings, hp, run_dir, str(vecnorm) if vecnorm else None)
+        venv = make_venv(settings, hp, run_dir, str(vecnorm) if vecnorm else None, resumed=True)
         current = ckpt
         model = ALGOS[settings.algo].load(ckpt, env=venv, device="cpu", tensorboard_log=str(run_dir / "tb"))
         if settings.algo == "sac":

@@ -1,6 +1,8 @@
 """The training loop: a run starts (new, or from its newest checkpoint that loads), learns with
 the checkpoint and evaluation callbacks until its total or a signal, and ends with its model,
-VecNormalize statistics and ``summary.json``."""
+VecNormalize statistics and ``summary.json``. A full disk ends it with
+``ios_uav_env.io.DiskFullError`` naming the file (or the run folder, for a write of a library's
+own, e.g. a monitor file); every file of the run is whole, its newest whole checkpoint kept."""
 
 from __future__ import annotations
 
@@ -23,7 +25,7 @@ from agents.training.folder import (
 from agents.training.interrupt import StopFlag, TrainingInterrupted, stop_on_signals
 from agents.training.resuming import RunStart, TrainResult, continue_run, resume_settings
 from agents.training.settings import TrainSettings
-from ios_uav_env.io import atomic_write_bytes, atomic_write_text
+from ios_uav_env.io import DiskFullError, atomic_write_bytes, atomic_write_text, is_no_room
 
 
 def train(settings: TrainSettings, *, _resume: bool = False) -> TrainResult:
@@ -32,9 +34,15 @@ def train(settings: TrainSettings, *, _resume: bool = False) -> TrainResult:
     The run holds its folder's lock while it runs (:func:`agents.training.folder.lock_run_dir`):
     :class:`agents.training.folder.RunFolderInUse` if another process is writing the folder.
     Raises :class:`TrainingInterrupted` after saving a checkpoint if SIGINT or SIGTERM arrives
-    (in the main thread)."""
+    (in the main thread), and ``ios_uav_env.io.DiskFullError`` if the disk fills up."""
     with stop_on_signals() as stop:
-        return _train(settings, stop, _resume)
+        try:
+            return _train(settings, stop, _resume)
+        except OSError as exc:  # a library's own write (a monitor file, TensorBoard's) names no file
+            if isinstance(exc, DiskFullError) or not is_no_room(exc):
+                raise
+            path = exc.filename or settings.out or RUNS_DIR
+            raise DiskFullError(exc.errno, path, exc.strerror or "") from exc
 
 
 def resume(run_dir: str | Path, *, timesteps: int | None = None, progress_bar: bool = True) -> TrainResult:

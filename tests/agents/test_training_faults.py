@@ -140,3 +140,46 @@ def test_the_lock_of_a_finished_run_is_released_in_the_same_process(tmp_path):
     from agents.training import resume
 
     assert resume(tmp_path / "run", timesteps=128, progress_bar=False).summary["steps"] == 128
+
+
+# --- the monitor files: append-only logs -------------------------------------------------
+def _monitor_rows(run: Path) -> list[str]:
+    return (run / "monitor" / "0.monitor.csv").read_text().splitlines()[2:]  # after the two header lines
+
+
+def test_a_resume_appends_to_the_monitor_files_after_cutting_a_torn_line(tmp_path):
+    # before: a run without VecNormalize started its monitor files anew on resume (the first
+    # session's episodes lost), and a torn last line had the next episode glued onto it
+    hp = write_hp(tmp_path / "hp.yml", n_timesteps=128, normalize="False")
+    settings = TrainSettings(algo="ppo", env_kwargs={"T": 40}, out=str(tmp_path / "run"), eval_freq=0,
+                             checkpoint_freq=64, hyperparams_file=str(hp), progress_bar=False)  # fmt: skip
+    run = train(settings).run_dir
+    first = _monitor_rows(run)
+    assert first
+    with (run / "monitor" / "0.monitor.csv").open("a") as fh:
+        fh.write("12.5,3")  # a killed process's half line
+    from agents.training import resume
+
+    resume(run, timesteps=256, progress_bar=False)
+    rows = _monitor_rows(run)
+    assert rows[: len(first)] == first and len(rows) > len(first)
+    assert all(len(row.split(",")) == 3 for row in rows)
+
+
+def test_a_full_disk_in_a_librarys_own_write_names_the_run_folder(tmp_path, monkeypatch, capsys):
+    # before: a raw "[Errno 28] No space left on device" traceback, naming no file
+    import errno
+
+    from stable_baselines3.common.monitor import ResultsWriter
+
+    def full(self, epinfo):
+        raise OSError(errno.ENOSPC, "No space left on device")
+
+    monkeypatch.setattr(ResultsWriter, "write_row", full)
+    hp = write_hp(tmp_path / "hp.yml", n_timesteps=128)
+    run = tmp_path / "run"
+    argv = ["--algo", "ppo", "--hyperparams", str(hp), "--out", str(run), "--env-kwargs", "T:40",
+            "--eval-freq", "0", "--no-progress"]  # fmt: skip
+    assert main(argv) == 1
+    err = capsys.readouterr().err
+    assert f"cannot write {run}: the disk is full" in err and f"python train.py --resume {run}" in err
