@@ -65,6 +65,8 @@ from __future__ import annotations
 import hashlib
 import json
 import math
+import re
+import unicodedata
 from collections.abc import Iterator, Mapping
 from dataclasses import dataclass
 from pathlib import Path
@@ -132,6 +134,39 @@ SUITES: dict[str, RegisteredSuite] = {
     ),
 }
 DEFAULT_SUITE = "single-node-v1"
+#: A suite's name: words of lowercase ASCII letters and digits joined by one "-", "." or "_"
+#: (``single-node-v1``): no spaces, no capitals, no look-alike characters.
+NAME_PATTERN = re.compile(r"[a-z0-9]+(?:[-._][a-z0-9]+)*")
+
+
+def _name_key(name: str) -> str:
+    """What a reader sees of a name: its letters and digits, case and width folded (NFKC)."""
+    return "".join(c for c in unicodedata.normalize("NFKC", name).casefold() if c.isalnum())
+
+
+def check_suite_name(name: Any, where: str) -> str:
+    """``name`` if it is a canonical suite name (:data:`NAME_PATTERN`) that cannot be taken for
+    another registered suite's; ``ValueError`` naming ``where``, the name and the rule otherwise.
+
+    A name that differs from a registered one only by case, spacing, separators or look-alike
+    characters (``" mobile-v1"``, ``"Mobile-V1"``, ``"mobile_v1"``) would print as that suite
+    while holding other content: it is refused (the registered name itself is checked against
+    its hash by :func:`load_suite`)."""
+    twin = None
+    if isinstance(name, str):
+        twin = next((r for r in SUITES if r != name and _name_key(r) == _name_key(name)), None)
+    if not isinstance(name, str) or not NAME_PATTERN.fullmatch(name):
+        like = f" (it looks like the registered suite {twin!r})" if twin else ""
+        raise ValueError(
+            f"{where}: name must be lowercase ASCII letters and digits in words joined by one '-', '.' "
+            f"or '_' (e.g. 'single-node-v1'), got {name!r}{like}"
+        )
+    if twin is not None:
+        raise ValueError(
+            f"{where}: name {name!r} differs from the registered suite {twin!r} only by its separators: "
+            "it would be read as that suite; a new suite needs a name of its own"
+        )
+    return name
 
 
 @dataclass(frozen=True)
@@ -262,7 +297,8 @@ def load_suite(suite: str | Path = DEFAULT_SUITE) -> Suite:
 
     A file whose ``name`` is registered must hash to the registered value, wherever it lies
     (``ValueError`` otherwise: the file was modified); a file with an unregistered name (a
-    suite being built) loads with its own hash. Every file is checked (``ValueError`` naming
+    suite being built) loads with its own hash if the name is canonical and cannot be taken for
+    a registered one (:func:`check_suite_name`). Every file is checked (``ValueError`` naming
     the file, the field and, for a scenario, its index): a non-empty ``name``, a ``version``
     >= 1, a ``kind`` of :data:`KIND_REFERENCES`, an ``env_id`` of this package for that kind,
     the kind's ``normalizer`` and references (:data:`KIND_REFERENCES`, :data:`SCORED`), and per
@@ -278,6 +314,7 @@ def load_suite(suite: str | Path = DEFAULT_SUITE) -> Suite:
     name = data.get("name")
     if not isinstance(name, str) or not name.strip():
         raise ValueError(f"{path}: name must be a non-empty string (the suite's name), got {name!r}")
+    check_suite_name(name, str(path))
     digest = content_hash(data)
     registered = SUITES.get(name)
     if registered is not None and digest != registered.sha256:
