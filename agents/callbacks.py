@@ -1,5 +1,7 @@
 """SB3 callbacks of a training run: a checkpoint that also records the wall time, and an
-evaluation that logs the paper's metrics (average rate, feasibility, terminal miss)."""
+evaluation that logs the episode's score (the value of its id's objective, :class:`ScoreLabel`:
+the average rate, the max-min rate of several nodes, or the energy efficiency), feasibility
+and terminal miss."""
 
 from __future__ import annotations
 
@@ -7,6 +9,7 @@ import json
 import os
 import time
 from collections.abc import Callable
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -166,22 +169,61 @@ class TimedCheckpointCallback(CheckpointCallback):
         return True
 
 
+#: The score of each objective (``ScenarioConfig.objective``): its name (one node, several nodes;
+#: also the key of the score in the envs' ``info`` at an episode's end) and its unit.
+SCORES: dict[str, tuple[str, str, str]] = {
+    "rate": ("average_rate", "min_rate", "bps/Hz"),
+    "energy_efficiency": ("energy_efficiency", "energy_efficiency", "bits/J"),
+}
+
+
+@dataclass(frozen=True)
+class ScoreLabel:
+    """What an episode's score is on an env: the value of its objective, by name and unit."""
+
+    objective: str  # ScenarioConfig.objective
+    name: str  # "average_rate" (eq. (9)), "min_rate" (several nodes: max-min) or "energy_efficiency"
+    unit: str  # "bps/Hz" or "bits/J"
+
+    def text(self, value: float) -> str:
+        """``value`` labelled, e.g. ``energy efficiency 4722 bits/J``."""
+        return f"{self.name.replace('_', ' ')} {value:.6g} {self.unit}"
+
+
+def score_label(env: Any) -> ScoreLabel:
+    """The :class:`ScoreLabel` of a (single, possibly wrapped) env of this package: its objective
+    (``env.unwrapped.config.objective``) and whether it serves several nodes."""
+    from ios_uav_env.envs.multi import MultiNodeEnv
+
+    base = env.unwrapped
+    objective = base.config.objective
+    if objective not in SCORES:
+        raise ValueError(f"objective must be one of {', '.join(SCORES)}, got {objective!r}")
+    one, several, unit = SCORES[objective]
+    return ScoreLabel(objective, several if isinstance(base, MultiNodeEnv) else one, unit)
+
+
 def evaluate_agent(agent: Any, steps: int, seconds: float) -> dict[str, Any]:
     """The record of one deterministic episode (seed 0) of ``agent`` on its own env (``env_id``
-    with ``env_kwargs``) at ``steps`` env steps and ``seconds`` of wall time: its score
-    (``average_rate``: the multi-node ids' own max-min rate), feasibility and terminal miss."""
+    with ``env_kwargs``) at ``steps`` env steps and ``seconds`` of wall time: its ``score`` (the
+    value of the env's objective) with its ``score_name`` and ``score_unit`` (:func:`score_label`),
+    ``average_rate`` (bps/Hz; the multi-node ids' own max-min rate), feasibility and terminal miss."""
     import gymnasium as gym
 
     from ios_uav_env.envs.rollout import run_episode
 
     env = gym.make(agent.env_id, **agent.env_kwargs)
     try:
+        label = score_label(env)
         result = run_episode(env, agent.act, seed=0)
     finally:
         env.close()
     return {
         "steps": int(steps),
         "wall_time_s": round(seconds, 2),
+        "score": result.score,
+        "score_name": label.name,
+        "score_unit": label.unit,
         "average_rate": result.average_rate,
         "feasible": result.feasible,
         "terminal_miss": result.terminal_miss,
@@ -190,7 +232,9 @@ def evaluate_agent(agent: Any, steps: int, seconds: float) -> dict[str, Any]:
 
 class RateEvalCallback(BaseCallback):
     """Every ``eval_freq`` env steps: a deterministic episode on the training scenario, scored by the
-    model (``eval/average_rate``, ``eval/terminal_miss``, ``eval/feasible`` in TensorBoard)."""
+    model (:func:`evaluate_agent`): ``eval/<score name>`` (its objective's value, e.g.
+    ``eval/energy_efficiency`` on the energy ids), ``eval/average_rate``, ``eval/terminal_miss``
+    and ``eval/feasible`` in TensorBoard."""
 
     def __init__(
         self,
@@ -218,6 +262,7 @@ class RateEvalCallback(BaseCallback):
                       repeat=self.repeat)  # fmt: skip
         record = evaluate_agent(agent, int(self.num_timesteps), self.clock.seconds())
         self.history.append(record)
+        self.logger.record(f"eval/{record['score_name']}", float(record["score"]))
         for key in ("average_rate", "terminal_miss", "feasible"):
             self.logger.record(f"eval/{key}", float(record[key]))
         return record

@@ -94,7 +94,8 @@ def clone(algo: FastPPO, settings: CloneSettings) -> dict[str, Any]:
         scores = algo.take_scores()
         score = float(np.mean(scores)) if scores else float("nan")
         samples = int(sum(len(o) for o in seen_raw))
-        rounds.append({"round": r, "samples": samples, "episode_score": score, **fit})
+        rounds.append({"round": r, "samples": samples, "episode_score": score, "score_name": algo.score.name,
+                       "score_unit": algo.score.unit, **fit})  # fmt: skip
     algo._obs = None  # PPO's first rollout resets the rows
     steps = settings.rounds * settings.slots * recipe.n_envs
     return {"settings": dict(settings.__dict__), "env_steps": steps,

@@ -45,8 +45,6 @@ from ios_uav_env.jit import HAVE_NUMBA, prefer_passive_threads
 
 prefer_passive_threads()  # numba's threads must not spin while torch trains (see the function)
 
-#: Keys of the episode scores in the batched envs' ``final_info``: one node, several nodes.
-SCORE_KEYS = ("average_rate", "min_rate")
 #: How :meth:`FastPPO.update` computes: ``auto`` (the compiled kernel if numba is installed and
 #: it covers the network, else torch), ``kernel`` (an error if it cannot), ``torch``.
 UPDATES = ("auto", "kernel", "torch")
@@ -113,6 +111,14 @@ class FastPPO:
         self.base = BatchedVecEnv(env_id, recipe.n_envs, vector_kwargs, stagger=True)
         self.vec = self.base.vector_env
         template = DummyVecEnv([lambda: gym.make(env_id, **self.env_kwargs)])
+        from agents.callbacks import score_label
+
+        self.score = score_label(template.envs[0])  # what the finished episodes' scores are
+        if self.score.name not in self.vec.info_keys:
+            raise ValueError(
+                f"env_id {env_id!r}: its batched form does not report the score {self.score.name!r} of "
+                f"its objective {self.score.objective!r} (it reports {', '.join(self.vec.info_keys)})"
+            )
         self.model = model if model is not None else self._new_model(template)
         self.vecnormalize = vecnormalize
         if vecnormalize is not None and getattr(vecnormalize, "venv", None) is None:
@@ -134,7 +140,7 @@ class FastPPO:
         self._obs: np.ndarray | None = None
         self.cut_steps = 0  # env steps of the rollout a stop cut short (dropped)
         self.timing = {"env": 0.0, "forward": 0.0, "update": 0.0, "other": 0.0}
-        self.scores: list[float] = []  # the finished episodes' own scores since the last read
+        self.scores: list[float] = []  # the finished episodes' scores (self.score) since the last read
         t, b = recipe.n_steps, recipe.n_envs
         obs_dim, act_dim = self.vec.single_observation_space.shape[0], space.shape[0]
         self._buf = {
@@ -313,10 +319,8 @@ class FastPPO:
         ``r += gamma V(final observation)``, with the value of the normalised final observation)."""
         final = info.get("final_info", {})
         mask = info.get("_final_info", terminated | truncated)
-        for key in SCORE_KEYS:
-            if key in final:
-                self.scores.extend(np.asarray(final[key])[mask].tolist())
-                break
+        if self.score.name in final:
+            self.scores.extend(np.asarray(final[self.score.name])[mask].tolist())
         cut = truncated & ~terminated
         if cut.any():
             last = np.asarray(info["final_obs"])[cut]
@@ -401,7 +405,8 @@ class FastPPO:
         return count, stats
 
     def take_scores(self) -> list[float]:
-        """The scores of the episodes finished since the last call (and forget them)."""
+        """The scores (the value of the env's objective, :attr:`score`) of the episodes finished
+        since the last call (and forget them)."""
         scores, self.scores = self.scores, []
         return scores
 

@@ -207,13 +207,14 @@ def _loop(
             before = algo.steps
             stats = algo.update()
             bar.update(algo.steps - before)
-            scores = algo.take_scores()
-            stats["episode_score"] = float(np.mean(scores)) if scores else float("nan")
+            scores = algo.take_scores()  # the value of the env's objective, labelled
+            stats.update(episode_score=float(np.mean(scores)) if scores else float("nan"),
+                         score_name=algo.score.name, score_unit=algo.score.unit)  # fmt: skip
             append_line(log, json.dumps({"steps": algo.steps, "wall_time_s": round(start.clock.seconds(), 3),
                                          **stats}))  # fmt: skip
             if settings.eval_freq and algo.steps // settings.eval_freq > before // settings.eval_freq:
                 record = evaluate()
-                bar.set_postfix(score=f"{record['average_rate']:.4f}")
+                bar.set_postfix_str(algo.score.text(record["score"]))
             if algo.steps // settings.checkpoint_freq > before // settings.checkpoint_freq:
                 _save(run_dir, algo, start)
     finally:
