@@ -30,6 +30,7 @@ from pathlib import Path
 
 import numpy as np
 
+from baselines import registry
 from baselines.plan import Plan
 from baselines.runner import check_writable
 from baselines.schemes import SCHEMES, get_scheme, run_scheme, sca_unavailable_reason
@@ -40,13 +41,11 @@ _WIDTHS = (8, 7, 6, 14, 9, 16, 8)
 _ENERGY_HEADER = ("scheme", "T (s)", "M", "EE (bits/J)", "energy (J)", "rate (bps/Hz)", "feasible", "seconds")
 _ENERGY_WIDTHS = (8, 7, 6, 12, 11, 14, 9, 8)
 
-#: The planners of ``--objective energy_efficiency``: name -> (module, description). Each module's
-#: ``solve(config, **kwargs)`` returns a Plan; ``sca-ee`` (cvxpy) runs when it can be imported.
+#: The planners of ``--objective energy_efficiency``: name -> (entry point, description), from
+#: ``baselines.registry``; ``sca-ee`` (cvxpy) runs when it can be imported.
 ENERGY_SCHEMES: dict[str, tuple[str, str]] = {
-    "dp-ee": ("baselines.dp_energy", "best EE on the DP grid (Dinkelbach)"),
-    "sca-ee": ("baselines.sca_energy", "SCA with the propulsion term inside Dinkelbach"),
-    "loiter": ("baselines.loiter", "fly at V_mr to the rate peak, circle it at V_mp, back to qF"),
-    "hover": ("baselines.loiter", "fly to the rate peak at v_max and hover there"),
+    name: (registry.PLANNERS[name].entry, registry.PLANNERS[name].description)
+    for name in ("dp-ee", "sca-ee", "loiter", "hover")
 }
 
 
@@ -213,14 +212,8 @@ def format_energy_row(plan: Plan) -> str:
 def run_energy_scheme(name: str, config: ScenarioConfig, resolution: float, margin: float) -> Plan:
     """Run energy planner ``name`` of :data:`ENERGY_SCHEMES` on ``config`` (``ImportError`` if its
     module cannot be imported, e.g. ``sca-ee`` without cvxpy)."""
-    module = importlib.import_module(ENERGY_SCHEMES[name][0])
-    if name == "dp-ee":
-        plan = module.solve_ee(config, resolution=resolution, margin=margin)
-    elif name == "hover":
-        plan = module.hover(config)
-    else:
-        plan = module.solve(config)
-    return dataclasses.replace(plan, scheme=name)
+    kwargs = {"resolution": resolution, "margin": margin} if name == "dp-ee" else {}
+    return dataclasses.replace(registry.solve(name, config, **kwargs), scheme=name)
 
 
 def energy_bound(plans: Sequence[Plan], config: ScenarioConfig) -> float | None:

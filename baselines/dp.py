@@ -52,6 +52,7 @@ from baselines.grid import (
     validate_grid_args,
 )
 from baselines.plan import Plan
+from baselines.registry import check as check_planner
 from ios_uav_env import ScenarioConfig, slot_rates
 
 __all__ = [
@@ -98,6 +99,7 @@ def solve(
         path reaches qF in N - 1 moves (horizon too tight for this grid: refine it).
     """
     t0 = time.perf_counter()
+    check_planner("dp", config)
     validate_grid_args(config, resolution, margin)
     if config.K > 1:  # several ground nodes: best plan found + certified upper bound
         from baselines.dp_bound import solve_multinode

@@ -101,6 +101,7 @@ from baselines.grid import (
     validate_grid_args,
 )
 from baselines.plan import Plan
+from baselines.registry import check as check_planner
 from ios_uav_env import ScenarioConfig, scene_box
 from ios_uav_env.model.motion import check_paths, node_config_at
 
@@ -445,6 +446,7 @@ def solve_multinode(
     w, UB(w), plan score), ``resolution``, ``bound_resolution``.
     """
     t0 = time.perf_counter()
+    check_planner("dp-bound", config, paths)
     validate_grid_args(config, resolution, margin)
     if config.K < 2:
         raise ValueError(f"solve_multinode needs K >= 2 ground nodes, got K={config.K}")
@@ -550,6 +552,7 @@ def clairvoyant_bound(
     policy, scores more on those paths. K = 1: the relaxed DP at w = (1,) (the single node's
     average rate; module docstring, "Moving nodes"); K > 1: :func:`solve_multinode`'s
     ``upper_bound`` (``kwargs`` go to it)."""
+    check_planner("dp-bound", config, paths)
     validate_grid_args(config, resolution, margin)
     if config.K == 1:
         if paths is not None:

@@ -84,6 +84,7 @@ from baselines.grid import (
     validate_grid_args,
 )
 from baselines.plan import Plan
+from baselines.registry import check as check_planner
 from ios_uav_env import ScenarioConfig, energy, propulsion_power, score_plan, slot_rates
 
 __all__ = ["parametric_path", "solve", "solve_budget", "solve_ee"]
@@ -227,8 +228,7 @@ def solve_ee(
     t0 = time.perf_counter()
     if not (isinstance(tol, (int, float)) and 0 < tol < 1):
         raise ValueError(f"tol must be a number in (0, 1), got {tol!r}")
-    if config.energy_budget_j is not None:
-        raise ValueError("solve_ee maximises EE without an energy budget: use energy_budget_j=None")
+    check_planner("dp-ee", config)
     grid = _Grid(config, resolution, margin)
     e_least = config.least_energy()
     lam, history = _start_lambda(config), []
@@ -272,10 +272,10 @@ def solve_budget(
     ``ValueError`` when no grid path meets the budget (the least-energy grid path is named).
     """
     t0 = time.perf_counter()
-    budget = config.energy_budget_j if budget is None else budget
-    if budget is None:
-        raise ValueError("solve_budget needs an energy budget: pass budget= or set config.energy_budget_j")
-    config = config.replace(energy_budget_j=float(budget))
+    if budget is not None:  # else config.energy_budget_j, which the registry requires to be set
+        config = config.replace(energy_budget_j=float(budget))
+    check_planner("dp-budget", config)
+    budget = config.energy_budget_j
     if not (isinstance(tol, (int, float)) and 0 < tol < 1):
         raise ValueError(f"tol must be a number in (0, 1), got {tol!r}")
     grid = _Grid(config, resolution, margin)
@@ -335,7 +335,9 @@ def solve(
 ) -> Plan:
     """The energy DP of ``config``'s problem: :func:`solve_budget` when it sets
     ``energy_budget_j`` (the best rate within the budget), else :func:`solve_ee` (the best
-    energy efficiency); ``kwargs`` go to that function."""
+    energy efficiency); ``kwargs`` go to that function. A rate config without a budget, or an
+    energy-efficiency config with one, is refused (``baselines.registry``)."""
+    check_planner("dp-budget" if config.energy_budget_j is not None else "dp-ee", config)
     if config.energy_budget_j is not None:
         return solve_budget(config, resolution=resolution, margin=margin, **kwargs)
     return solve_ee(config, resolution=resolution, margin=margin, **kwargs)

@@ -12,6 +12,7 @@ from collections.abc import Sequence
 import numpy as np
 
 from baselines.plan import Plan
+from baselines.registry import check as check_planner
 from ios_uav_env import ScenarioConfig, moves_needed
 
 
@@ -96,6 +97,7 @@ def fly_hover_fly(config: ScenarioConfig, hover: Sequence[float] | None = None) 
         of slots spent there.
     """
     t0 = time.perf_counter()
+    check_planner("fixed", config)
     traj, turn, slots = fly_hover_fly_path(config, hover)
     target = [float(v) for v in (config.ground_node if hover is None else hover)]
     info = {
@@ -130,5 +132,6 @@ def straight_line(config: ScenarioConfig) -> Plan:
         Scheme ``"line"``; each step is |qF - q0| / (N - 1) <= D.
     """
     t0 = time.perf_counter()
+    check_planner("fixed", config)
     traj = straight_line_path(config)
     return Plan.from_trajectory("line", config, traj, time.perf_counter() - t0)

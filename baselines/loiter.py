@@ -35,6 +35,7 @@ from collections.abc import Sequence
 
 from baselines.fixed import fly_hover_fly
 from baselines.plan import Plan
+from baselines.registry import check as check_planner
 from ios_uav_env import ScenarioConfig
 from ios_uav_env.envs.loiter_flight import _peak, best_loiter_path, cruise_speed, loiter_path
 
@@ -48,6 +49,7 @@ def loiter(config: ScenarioConfig, sides: int = 3, peak: Sequence[float] | None 
     when T is short). ``info`` holds the peak, the circle's radius (m) and sides, the moves
     along the circle (``loiter_moves``) and the speeds."""
     t0 = time.perf_counter()
+    check_planner("loiter", config)
     traj, info, _ = best_loiter_path(config, sides, _peak(config, peak))
     return Plan.from_trajectory("loiter", config, traj, time.perf_counter() - t0, info=info)
 
@@ -56,6 +58,7 @@ def hover(config: ScenarioConfig, peak: Sequence[float] | None = None) -> Plan:
     """Fly to the reachable rate peak at v_max, hover, fly to qF arriving at slot N
     (``baselines.fixed.fly_hover_fly`` through the peak), scheme ``"hover"``."""
     t0 = time.perf_counter()
+    check_planner("hover", config)
     centre = _peak(config, peak)
     plan = fly_hover_fly(config, hover=centre)
     plan.seconds = time.perf_counter() - t0

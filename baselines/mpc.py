@@ -59,6 +59,7 @@ import numpy as np
 
 import ios_uav_env as ie
 from baselines import tour
+from baselines.registry import check as check_planner
 from ios_uav_env import ScenarioConfig
 from ios_uav_env.model.kalman import NodeFilter
 from ios_uav_env.model.motion import check_paths, node_bounds, node_paths
@@ -159,8 +160,7 @@ def run_online(
     ``paths`` (N, K, 2) m: the true node paths (default: drawn by ``node_paths`` from the
     episode's generator first); ``report_sigma`` (m): the reports' error std (0: exact).
     """
-    if not isinstance(config, ScenarioConfig):
-        raise TypeError(f"config must be a ScenarioConfig, got {type(config).__name__}")
+    check_planner("mpc", config)
     if not isinstance(planner, MPC):
         raise TypeError(f"planner must be an MPC (MPC(k=...) or MPC(k=None)), got {type(planner).__name__}")
     rng = np.random.default_rng(_check_seed(seed))

@@ -66,6 +66,15 @@ class Plan:
             info=info,
         )
 
+    def scored_on(self, config: ScenarioConfig, scheme: str | None = None) -> Plan:
+        """This plan's trajectory scored on another ``config`` (same geometry, e.g. another
+        objective or budget): the explicit way to report a plan made for one problem under another
+        (``baselines.registry``). ``scheme`` defaults to this plan's; ``seconds`` and ``info`` are
+        kept, the schedule entries of ``info`` rescored."""
+        info = {k: v for k, v in self.info.items() if k not in ("shares", "node_rates")}
+        name = self.scheme if scheme is None else scheme
+        return Plan.from_trajectory(name, config, self.trajectory, self.seconds, self.history, info)
+
     def to_dict(self) -> dict[str, Any]:
         return {
             "scheme": self.scheme,

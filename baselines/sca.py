@@ -41,6 +41,7 @@ import numpy as np
 
 import ios_uav_env as ie
 from baselines.plan import Plan
+from baselines.registry import check as check_planner
 from baselines.sca_problem import PLANE_TOL, STEP_MARGIN, Surrogate, tiled_config
 from ios_uav_env import ScenarioConfig
 from ios_uav_env.model import channel as ch
@@ -321,6 +322,7 @@ def solve(
         Bad ``tiles``, ``max_iters``, ``tol``, ``solver`` or ``init``.
     """
     t_start = time.perf_counter()
+    check_planner("sca", config)
     _validate(config, tiles, max_iters, tol, solver)
     if config.K > 1:  # several ground nodes: the same SCA inside BCD with the TDMA shares
         from baselines import sca_multi

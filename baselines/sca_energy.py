@@ -84,6 +84,7 @@ import numpy as np
 import ios_uav_env as ie
 from baselines.energy_bound import check_terms, induced_ratio
 from baselines.plan import Plan
+from baselines.registry import check as check_planner
 from baselines.sca import SCHEME_NAMES, _as_starts, _validate, start_status
 from baselines.sca_problem import LENGTH_SCALE, Linearisation, Surrogate
 from ios_uav_env import ScenarioConfig
@@ -356,16 +357,8 @@ def solve(
         ``inner_iters``, ``tol``, ``solver`` or ``init``.
     """
     t_start = time.perf_counter()
+    check_planner("sca-ee", config)
     _validate(config, tiles, max_iters, tol, solver)
-    if config.K > 1:
-        raise ValueError(
-            f"baselines.sca_energy.solve plans for one ground node, got K={config.K} ground_nodes"
-        )
-    if config.energy_budget_j is not None:
-        raise ValueError(
-            "baselines.sca_energy.solve maximises the energy efficiency without a budget: use "
-            "energy_budget_j=None (the rate under a budget: baselines.dp_energy.solve_budget)"
-        )
     if isinstance(inner_iters, bool) or not isinstance(inner_iters, (int, np.integer)) or inner_iters < 1:
         raise ValueError(f"inner_iters must be an integer >= 1 (SCA steps per lambda), got {inner_iters!r}")
     solver = solver.upper()

@@ -59,6 +59,7 @@ import numpy as np
 
 import ios_uav_env as ie
 from baselines.plan import Plan
+from baselines.registry import check as check_planner
 from baselines.sca_problem import (
     LENGTH_SCALE,
     OK_STATUSES,
@@ -309,7 +310,7 @@ def default_starts(config: ScenarioConfig, paths: np.ndarray | None = None) -> l
     tour's all-node compromise point(s). Starts equal to an earlier one are dropped. With
     moving nodes' ``paths``: the clairvoyant tour and the fly-hover-fly flights (module doc)."""
     from baselines.dp_bound import hover_points, weighted_dp_path
-    from baselines.fixed import fly_hover_fly
+    from baselines.fixed import fly_hover_fly_path
     from baselines.tour import solve as tour_solve
 
     plan = tour_solve(config, paths=paths)
@@ -326,7 +327,7 @@ def default_starts(config: ScenarioConfig, paths: np.ndarray | None = None) -> l
         name for name in plan.info["candidates"] if name.count("-") == config.K - 1 and name.startswith("mid")
     ]
     for name in mids:
-        starts.append((f"fhf-{name}", fly_hover_fly(config, plan.info["candidates"][name]).trajectory))
+        starts.append((f"fhf-{name}", fly_hover_fly_path(config, plan.info["candidates"][name])[0]))
     return starts
 
 
@@ -352,8 +353,7 @@ def solve(
     ``history`` (every solve's exact score; accepted scores never decrease within a start).
     """
     t_start = time.perf_counter()
-    if config.K < 2:
-        raise ValueError(f"sca_multi.solve needs K >= 2 ground nodes, got K={config.K}")
+    check_planner("sca-multi", config, paths)
     if isinstance(tiles, bool) or not isinstance(tiles, int) or not 1 <= tiles <= 64:
         raise ValueError(f"tiles must be an integer in [1, 64] (nodes per axis), got {tiles!r}")
     if isinstance(max_iters, bool) or not isinstance(max_iters, int) or max_iters < 1:

@@ -36,6 +36,7 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
 
+from baselines import registry
 from baselines.plan import Plan
 from ios_uav_env import ScenarioConfig
 
@@ -46,8 +47,11 @@ class Scheme:
 
     name: str
     surface: str | None  # "ios", "ris", "none"; None keeps the config's surface
-    planner: str  # "sca", "dp", "fixed" or "tour"
+    planner: str  # a name of baselines.registry.PLANNERS: "sca", "dp", "fixed" or "tour"
     description: str
+
+    def __post_init__(self) -> None:
+        registry.get(self.planner)
 
 
 SCHEMES: dict[str, Scheme] = {
@@ -91,22 +95,10 @@ def available(name: str) -> bool:
 
 
 def _planner(kind: str) -> Callable[..., Plan]:
-    if kind == "dp":
-        from baselines.dp import solve
-
-        return solve
-    if kind == "fixed":
-        from baselines.fixed import fly_hover_fly
-
-        return fly_hover_fly
-    if kind == "tour":
-        from baselines.tour import solve as tour_solve
-
-        return tour_solve
-    reason = sca_unavailable_reason()
-    if reason is not None:
+    """The entry point of registered planner ``kind`` (``baselines.registry``)."""
+    if kind == "sca" and (reason := sca_unavailable_reason()) is not None:
         raise ImportError(reason)
-    return importlib.import_module("baselines.sca").solve
+    return registry.get(kind).load()
 
 
 def scheme_config(name: str, config: ScenarioConfig) -> ScenarioConfig:
@@ -139,7 +131,8 @@ def run_scheme(name: str, config: ScenarioConfig, **kwargs: Any) -> Plan:
     Raises
     ------
     ValueError
-        Unknown scheme.
+        Unknown scheme, or a config its planner does not handle
+        (:class:`baselines.registry.PlannerMismatch`, naming the planners that do).
     ImportError
         An SCA scheme while ``baselines.sca`` (or cvxpy) is not available.
     """

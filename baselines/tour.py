@@ -55,6 +55,7 @@ import numpy as np
 import ios_uav_env as ie
 from baselines.fixed import _leg
 from baselines.plan import Plan
+from baselines.registry import check as check_planner
 from ios_uav_env import ScenarioConfig, moves_needed
 from ios_uav_env.model.lp import solve_lp
 from ios_uav_env.model.motion import check_paths, is_static
@@ -326,8 +327,7 @@ def solve(
     ``n_routes`` (LPs solved).
     """
     t0 = time.perf_counter()
-    if not isinstance(config, ScenarioConfig):
-        raise TypeError(f"config must be a ScenarioConfig, got {type(config).__name__}")
+    check_planner("tour", config, paths)
     max_points = min(config.K + 1, 4) if max_points is None else max_points
     for name, value in (("max_points", max_points), ("orders", orders), ("keep", keep)):
         if isinstance(value, bool) or not isinstance(value, int) or value < 1:

@@ -75,7 +75,9 @@ def surface_table(config: ScenarioConfig, resolution: float, agents: tuple[str, 
         "dp-ee": _timed("dp-ee", lambda: dp_energy.solve_ee(config, resolution=resolution)),
         "loiter": _timed("loiter", lambda: loiter.loiter(config)),
         "hover": _timed("hover", lambda: loiter.hover(config)),
-        "dp": _timed("dp", lambda: dp.solve(config, resolution=resolution)),
+        "dp": _timed(
+            "dp", lambda: dp.solve(config.replace(objective="rate"), resolution=resolution).scored_on(config)
+        ),
     }
     if sca is not None:
         plans["sca-ee"] = _timed("sca-ee", lambda: sca.solve(config))

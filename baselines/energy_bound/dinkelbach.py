@@ -19,6 +19,7 @@ import numpy as np
 import ios_uav_env as ie
 from baselines.energy_bound.relaxation import CellRelaxation, multipliers
 from baselines.grid import DEFAULT_MARGIN
+from baselines.registry import check as check_planner
 from ios_uav_env import ScenarioConfig
 
 #: Default cell side (m) of the relaxation.
@@ -264,8 +265,7 @@ def solve(
         No certificate within ``max_iters`` DPs.
     """
     t0 = time.perf_counter()
-    if not isinstance(config, ScenarioConfig):
-        raise TypeError(f"config must be a ScenarioConfig, got {type(config).__name__}")
+    check_planner("energy-bound", config)
     if isinstance(max_iters, bool) or not isinstance(max_iters, (int, np.integer)) or max_iters < 1:
         raise ValueError(f"max_iters must be an integer >= 1, got {max_iters!r}")
     if start is not None and not (

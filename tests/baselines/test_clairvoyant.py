@@ -13,7 +13,7 @@ from baselines.dp_bound import (
     region_rate_bound,
     solve_multinode,
 )
-from baselines.fixed import fly_hover_fly, straight_line_path
+from baselines.fixed import fly_hover_fly_path, straight_line_path
 from baselines.grid import grid_axes, grid_path
 from ios_uav_env import ScenarioConfig
 from ios_uav_env.model.motion import GaussMarkov, node_config_at, node_paths, static_paths
@@ -35,7 +35,7 @@ def mobile():
 def _trajectories(config, rng, count=4):
     out = [straight_line_path(config)]
     for _ in range(count):  # feasible fly-hover-fly flights through random points
-        out.append(fly_hover_fly(config, rng.uniform([-150, -100], [150, 100])).trajectory)
+        out.append(fly_hover_fly_path(config, rng.uniform([-150, -100], [150, 100]))[0])
     return out
 
 

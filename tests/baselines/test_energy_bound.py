@@ -26,7 +26,9 @@ from ios_uav_env import ScenarioConfig
 
 # T = 24 s, q0 -> qF 200 m apart around a 10 x 6 surface with the amplitude of the default 6000
 # elements: ~11 moves of transit, the rest near the rate peak.
-SMALL = ScenarioConfig(T=24, q0=(-100.0, 20.0), qF=(100.0, 20.0), ios_shape=(10, 6), g_element=1e4)
+SMALL = ScenarioConfig(
+    T=24, q0=(-100.0, 20.0), qF=(100.0, 20.0), ios_shape=(10, 6), g_element=1e4, objective="energy_efficiency"
+)
 MARGIN = 100.0  # the planners' default box
 COARSE, FINE = 25.0, 25.0 / 3.0  # D and D / 3: nested cells, one coarse cell of side D
 TILTED = 5.0  # the cell side of the tests with multipliers
@@ -172,7 +174,9 @@ def test_bound_decreases_towards_the_optimum_as_cells_shrink(plans, plain):
 
 
 def test_two_slots_give_the_only_plan():
-    config = ScenarioConfig(T=2, q0=(-10.0, 20.0), qF=(10.0, 20.0), ios_shape=(10, 6))
+    config = ScenarioConfig(
+        T=2, q0=(-10.0, 20.0), qF=(10.0, 20.0), ios_shape=(10, 6), objective="energy_efficiency"
+    )
     q = np.array([config.q0, config.qF])
     bound = energy_bound.solve(config)
     assert bound.upper_bound == pytest.approx(ie.energy_efficiency(config, q), rel=1e-8)
@@ -195,7 +199,7 @@ def test_multipliers_cancel_an_oscillation():
 
 
 def test_inputs_are_checked(plans):
-    with pytest.raises(ValueError, match="one ground node"):
+    with pytest.raises(ValueError, match=r"2 ground node\(s\) \(it takes K = 1\)"):
         energy_bound.solve(SMALL.replace(ground_nodes=((-100.0, -20.0), (100.0, 40.0))))
     with pytest.raises(ValueError, match="resolution"):
         energy_bound.solve(SMALL, resolution=SMALL.D + 1)

@@ -17,7 +17,9 @@ from ios_uav_env import ScenarioConfig  # noqa: E402
 # T = 40 s, q0 -> qF 300 m apart around a 10 x 6 surface with the amplitude of the default 6000
 # elements (as tests/baselines/test_sca.py): ~16 moves of transit at the maximum-range speed, the
 # rest near the rate peak, where the best plan loiters.
-TINY = ScenarioConfig(T=40, q0=(-150.0, 20.0), qF=(150.0, 20.0), ios_shape=(10, 6), g_element=1e4)
+TINY = ScenarioConfig(
+    T=40, q0=(-150.0, 20.0), qF=(150.0, 20.0), ios_shape=(10, 6), g_element=1e4, objective="energy_efficiency"
+)
 ITERS = 10
 
 
@@ -128,7 +130,7 @@ def test_default_starts_are_the_loiter_and_the_coarse_energy_dp():
 
 def test_inputs_are_checked():
     line = straight_line(TINY)
-    with pytest.raises(ValueError, match="one ground node"):
+    with pytest.raises(ValueError, match=r"2 ground node\(s\) \(it takes K = 1\)"):
         sca_energy.solve(TINY.replace(ground_nodes=((-100.0, -20.0), (100.0, 40.0))), init=line)
     with pytest.raises(ValueError, match="energy_budget_j"):
         sca_energy.solve(TINY.replace(energy_budget_j=1e6), init=line)
