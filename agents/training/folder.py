@@ -31,8 +31,10 @@ RUNS_DIR = Path("runs")
 
 #: The lock file of a run folder: held (an exclusive ``flock``) by the process writing the folder.
 LOCK_FILE = ".lock"
-#: What a run leaves in its folder before its first checkpoint: such a folder can be reused.
-UNSTARTED_RUN = ("config.json", "monitor", "tb", "checkpoints")
+#: What a run leaves in its folder before its first checkpoint: such a folder can be reused (the
+#: SB3 path's monitor files and TensorBoard events, the fast trainer's log and clone record), as
+#: can the temporary files of atomic writes a killed process left (:func:`_litter`).
+UNSTARTED_RUN = ("config.json", "monitor", "tb", "checkpoints", "progress.csv", "clone.json")
 
 #: The run folders whose lock this process holds (resolved paths).
 _HELD: set[Path] = set()
@@ -137,10 +139,21 @@ def run_name(settings: TrainSettings) -> str:
     return f"{env}__{settings.algo}__{settings.seed}__{int(time.time())}"
 
 
+def _litter(name: str) -> bool:
+    """A temporary file of an atomic write cut short: ``.<name>.<random>.tmp``
+    (``ios_uav_env.io``) or ``.<stem>.tmp<pid><suffix>`` (``agents.callbacks.replace_into``)."""
+    return name.startswith(".") and re.search(r"\.tmp(\d+(\.\w+)?)?$", name) is not None
+
+
+def _leftovers(run_dir: Path) -> list[str]:
+    """What ``run_dir`` holds beside what a run leaves before its first checkpoint."""
+    names = {p.name for p in run_dir.iterdir()} - {LOCK_FILE, *UNSTARTED_RUN}
+    return sorted(name for name in names if not _litter(name))
+
+
 def _unstarted(run_dir: Path) -> bool:
     """A run folder holding only what a run writes before its first checkpoint."""
-    names = {p.name for p in run_dir.iterdir()} - {LOCK_FILE}
-    return names <= set(UNSTARTED_RUN) and not checkpoints(run_dir)
+    return not _leftovers(run_dir) and not checkpoints(run_dir)
 
 
 def check_new_run_dir(run_dir: str | Path) -> Path:
@@ -161,7 +174,8 @@ def clear_unstarted(run_dir: Path) -> None:
     if not run_dir.exists():
         return
     check_new_run_dir(run_dir)
-    for name in UNSTARTED_RUN:
+    litter = [p.name for p in run_dir.iterdir() if _litter(p.name)]
+    for name in (*UNSTARTED_RUN, *litter):
         path = run_dir / name
         if path.is_dir():
             shutil.rmtree(path)
@@ -181,13 +195,22 @@ def start_fresh(run_dir: Path, again: bool) -> None:
 
 
 def check_resumable(run_dir: str | Path) -> Path:
-    """``run_dir`` if it is a run folder (a readable ``config.json``) that can be written to and
-    that no other process is writing (:func:`check_unlocked`)."""
+    """``run_dir`` if it is a run folder (a readable ``config.json``) with a checkpoint to go on
+    from, or one stopped before its first checkpoint (resumed from step 0), that can be written to
+    and that no other process is writing (:func:`check_unlocked`); writes nothing. A folder with a
+    finished model but no checkpoint (a shipped model, ``agents/models/*``) is refused
+    (``ValueError``)."""
     run_dir = Path(run_dir)
     config = run_dir / "config.json"
     if not config.exists():
         raise FileNotFoundError(f"{run_dir} is not a run folder (no config.json)")
     read_config(run_dir)
+    if not checkpoints(run_dir) and _leftovers(run_dir):
+        raise ValueError(
+            f"{run_dir} has no checkpoint to resume from, and it holds more than a run stopped before its "
+            f"first checkpoint ({', '.join(_leftovers(run_dir))}): a finished model without checkpoints "
+            "(e.g. a shipped one) cannot be resumed; train a new run with --out"
+        )
     check_unlocked(run_dir)
     return check_writable(run_dir)
 

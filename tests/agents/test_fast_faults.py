@@ -84,3 +84,28 @@ def test_a_resume_cuts_the_log_back_to_its_checkpoint(tmp_path):
     log.write_text('{"steps": 256}\n{"steps": 512}\n{"steps": 768}\n{"steps": 10')
     assert trim_progress(tmp_path, 512) == 2 and log.read_text() == '{"steps": 256}\n{"steps": 512}\n'
     assert trim_progress(tmp_path, 512) == 0 and trim_progress(tmp_path / "none", 0) == 0
+
+
+def test_a_fast_run_killed_before_its_first_checkpoint_can_be_resumed_or_restarted(
+    fast_file, tmp_path, capsys
+):
+    # before: its progress.csv and clone.json (and the temporary file of a write cut short) were
+    # not on the list of what an unstarted run leaves: --resume and a new run both refused it
+    import shutil
+
+    import train
+    from agents.training import check_new_run_dir
+
+    run = tmp_path / "run"
+    argv = ["--algo", "ppo", "--trainer", "fast", "--hyperparams", str(fast_file), "--out", str(run),
+            "--timesteps", "512", "--env-kwargs", "T:40", "--eval-freq", "0", "--no-progress"]  # fmt: skip
+    assert train.main(argv) == 0
+    for name in ("checkpoints", "model.zip", "vecnormalize.pkl", "summary.json"):  # as a SIGKILL leaves it
+        shutil.rmtree(run / name) if name == "checkpoints" else (run / name).unlink()
+    (run / "clone.json").write_text("{}")
+    (run / ".summary.json.k2x9_a.tmp").write_text('{"ste')
+    assert check_new_run_dir(run) == run
+    assert train.main(["--resume", str(run), "--no-progress"]) == 0
+    assert "holds no checkpoint: starting it again from step 0" in capsys.readouterr().err
+    assert [row["steps"] for row in _lines(run)] == [256, 512]  # the new run's lines only
+    assert not (run / "clone.json").exists() and not (run / ".summary.json.k2x9_a.tmp").exists()

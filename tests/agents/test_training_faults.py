@@ -183,3 +183,22 @@ def test_a_full_disk_in_a_librarys_own_write_names_the_run_folder(tmp_path, monk
     assert main(argv) == 1
     err = capsys.readouterr().err
     assert f"cannot write {run}: the disk is full" in err and f"python train.py --resume {run}" in err
+
+
+def test_resume_of_a_shipped_model_is_refused_before_anything_is_written(tmp_path, capsys):
+    # before: the resume took the folder's lock (a stray .lock in agents/models/...) and then
+    # failed with a FileExistsError traceback
+    import shutil
+
+    from agents.evaluate import MODELS_DIR
+
+    shipped = tmp_path / "ppo_IOSUAV-v0"
+    shutil.copytree(MODELS_DIR / "ppo_IOSUAV-v0", shipped)  # a copy: the test must not write the real one
+    before = sorted(p.name for p in shipped.iterdir())
+    with pytest.raises(SystemExit) as exc:
+        main(["--resume", str(shipped), "--no-progress"])
+    err = capsys.readouterr().err
+    assert exc.value.code == 2 and "argument --resume" in err and "has no checkpoint to resume from" in err
+    assert "model.zip" in err and sorted(p.name for p in shipped.iterdir()) == before
+    with pytest.raises(ValueError, match="has no checkpoint to resume from"):
+        check_resumable(shipped)
