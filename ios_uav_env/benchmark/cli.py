@@ -4,14 +4,18 @@
     python -m ios_uav_env.benchmark show [--suite single-node-v1] [--reference dp|sca|hover_peak|hover_ground]
     python -m ios_uav_env.benchmark show --suite multi-node-v1 [--reference sca|tour|bound]
     python -m ios_uav_env.benchmark evaluate [--suite single-node-v1] --policy PKG.MODULE:ATTR \\
-        [--batched] [--env-kwargs KEY:VALUE ...] [--n N] [--name NAME] [--out DIR]
+        [--batched] [--env-kwargs KEY:VALUE ...] [--allow-task-change] [--n N] [--name NAME] [--out DIR]
     python -m ios_uav_env.benchmark evaluate [--suite single-node-v1] --trajectories FILE.npz|FILE.csv \\
         [--name NAME] [--out DIR]
 
 ``--policy`` imports ``PKG.MODULE`` (the current directory is on the path) and takes ``ATTR``
 (dotted for a nested attribute): a policy, or a class (instantiated without arguments), or a
 call with literal arguments, e.g. ``"ios_uav_env.envs.policies:HoverAt('peak')"``. ``--env-kwargs``
-values are JSON or Python literals (``peak_hint:true``), else strings. ``evaluate`` prints the
+values are JSON or Python literals (``peak_hint:true``), else strings; an argument the suite pins
+(a scenario field, a reset's draw) is refused, and so is one that changes the suite's task
+(``ios_uav_env.benchmark.overrides``: e.g. ``knowledge``, ``arrival_guard``) unless
+``--allow-task-change`` is given: the summary, the files and the figures then name the changed
+task (``mobile-v1 with knowledge='exact' [not mobile-v1's task]``). ``evaluate`` prints the
 summary line (mean / p10 / min % of DP and of SCA, feasible count, median time to plan) and
 writes ``results.csv``, ``results.json``, ``results.md`` and ``pct_dp.png`` (with matplotlib)
 to ``--out``. ``show`` prints the same line for each stored reference (DP, SCA, heuristics).
@@ -34,6 +38,7 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any, NoReturn
 
+from ios_uav_env.benchmark.overrides import policy_env_kwargs
 from ios_uav_env.benchmark.results import reference_results
 from ios_uav_env.benchmark.scoring import action_function, check_env_kwargs, evaluate, score_trajectories
 from ios_uav_env.benchmark.suite import (
@@ -169,6 +174,8 @@ def _parser() -> argparse.ArgumentParser:
                     help="env arguments (default: the policy's env_kwargs attribute)")  # fmt: skip
     ev.add_argument("--n", type=_count, default=None, help="the first n scenarios only (policies)")
     ev.add_argument("--seed", type=_seed, default=0, help="the reset seed of every scenario (>= 0)")
+    ev.add_argument("--allow-task-change", action="store_true",
+                    help="run env arguments that change the suite's task (the outputs name it)")  # fmt: skip
     ev.add_argument("--name", default=None, help="the name in the outputs")
     ev.add_argument("--out", type=Path, default=None, help="folder for the CSV, JSON, markdown and figure")
     return p
@@ -224,12 +231,13 @@ def main(argv: Sequence[str] | None = None) -> int:
                 refuse("--policy", err)
             try:
                 env_kwargs = None if args.env_kwargs is None else parse_env_kwargs(args.env_kwargs)
-                own = getattr(policy, "env_kwargs", None) if env_kwargs is None else env_kwargs
-                check_env_kwargs(suite, dict(own or {}), policy)
+                own = policy_env_kwargs(suite, policy, env_kwargs)
+                check_env_kwargs(suite, own, policy, allow_task_change=args.allow_task_change)
             except (ValueError, TypeError) as err:
                 refuse("--env-kwargs" if args.env_kwargs is not None else "--policy", err)
             results = evaluate(policy, suite, env_kwargs=env_kwargs, n=args.n, batched=args.batched or None,
-                               seed=args.seed, name=args.name or args.policy)  # fmt: skip
+                               seed=args.seed, name=args.name or args.policy,
+                               allow_task_change=args.allow_task_change)  # fmt: skip
     except (ValueError, KeyError, ImportError) as err:
         parser.error(str(err))
     print(results.summary())

@@ -71,9 +71,15 @@ def save_histogram(results: Any, path: str | Path) -> Path:
     ax.axvline(100.0, color="k", lw=0.8, ls="--")
     ax.set_ylabel("scenarios")
     mean = results.aggregate.stats[f"mean_pct_{norm}"]
-    ax.set_title(f"{results.name} on {results.suite}: mean {mean:.2f}%", fontsize=9)
+    ax.set_title(f"{results.name} on {results.task}: mean {mean:.2f}%", fontsize=9)
     fig.tight_layout()
     return save_figure(fig, path)
+
+
+def changed_task_title(fig: Any, results: Any) -> None:
+    """A figure of a changed task (``results.task_changes``) is titled with it (``results.task``)."""
+    if getattr(results, "task_changes", None):
+        fig.suptitle(f"{results.name} on {results.task}", fontsize=10, color="tab:red")
 
 
 def picks(values: Sequence[float], count: int = 3) -> list[int]:
@@ -100,6 +106,7 @@ def save_shares_figure(results: Any, path: str | Path, count: int = 3) -> Path:
                  f"({r.pct_sca:.1f}% of SCA)")  # fmt: skip
         shares = best_schedule(config, r.trajectory) if r.shares is None else r.shares  # best: no own shares
         shares_panels(map_ax, share_ax, config, r.trajectory, shares, title)
+    changed_task_title(fig, results)
     fig.tight_layout()
     return save_figure(fig, path)
 
@@ -127,6 +134,7 @@ def save_mobile_figure(results: Any, path: str | Path, count: int | None = 3) ->
     fig = _figure(size)
     for k, r in enumerate(chosen):
         _mobile_panel(fig.add_subplot(*grid, k + 1), r, knowledge, sigma, small=count is None)
+    changed_task_title(fig, results)
     fig.tight_layout()
     return save_figure(fig, path)
 

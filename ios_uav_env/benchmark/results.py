@@ -223,12 +223,27 @@ class Results:
     scenarios: tuple[ScenarioResult, ...] = field(repr=False)
     aggregate: Aggregate
     metrics: Metrics = field(repr=False)
+    # the env arguments that made another task than the suite's (overrides.task_changes): {} on the suite's
+    task_changes: Mapping[str, Any] = field(default_factory=dict)
 
     @classmethod
     def of(cls, suite: Suite, name: str, kwargs: Mapping[str, Any], rows: Sequence[ScenarioResult],
            scenarios: Sequence[SuiteScenario]) -> Results:  # fmt: skip
+        """The results of ``rows`` on ``suite``'s ``scenarios``, run with the env arguments
+        ``kwargs``; those that change the suite's task are kept as :attr:`task_changes`."""
+        from ios_uav_env.benchmark.overrides import task_changes
+
         return cls(name, suite.name, suite.sha256, suite.env_id, dict(kwargs), tuple(rows),
-                   Aggregate.of(rows, scenarios), metrics_of(suite))  # fmt: skip
+                   Aggregate.of(rows, scenarios), metrics_of(suite), task_changes(suite, kwargs))  # fmt: skip
+
+    @property
+    def task(self) -> str:
+        """What was run: the suite's name, or for a changed task ``"<suite> with k=v, ... [not
+        <suite>'s task]"`` (``overrides.task_label``), as the summary, the files and the figures
+        name it."""
+        from ios_uav_env.benchmark.overrides import task_label
+
+        return task_label(self.suite, self.task_changes)
 
     def __iter__(self) -> Iterator[ScenarioResult]:
         return iter(self.scenarios)
@@ -237,9 +252,12 @@ class Results:
         return len(self.scenarios)
 
     def to_dict(self) -> dict[str, Any]:
+        """What was run (``task``: :attr:`task`; ``task_changes``: the arguments that changed it),
+        the aggregate and the rows."""
         return {
-            "name": self.name, "suite": self.suite, "sha256": self.sha256, "env_id": self.env_id,
-            "env_kwargs": dict(self.env_kwargs), "aggregate": self.aggregate.to_dict(),
+            "name": self.name, "task": self.task, "suite": self.suite, "sha256": self.sha256,
+            "env_id": self.env_id, "env_kwargs": dict(self.env_kwargs),
+            "task_changes": dict(self.task_changes), "aggregate": self.aggregate.to_dict(),
             "scenarios": [r.to_dict() for r in self.scenarios],
         }  # fmt: skip
 
@@ -255,7 +273,7 @@ class Results:
                          f"{a.stats[f'mean_best_pct_{m.normaliser}']:.2f}")  # fmt: skip
         parts.append(f"feasible {a.feasible}/{a.n}")
         plan = f"median plan {plan_time(a.median_seconds)} ({LABELS[m.timed]} {a.sca_median_seconds:.2f} s)"
-        return f"{self.name} on {self.suite} ({a.n} scenarios): " + "; ".join([*parts, plan])
+        return f"{self.name} on {self.task} ({a.n} scenarios): " + "; ".join([*parts, plan])
 
     def markdown(self) -> str:
         """The summary and one table row per scenario, as markdown."""
@@ -265,7 +283,7 @@ class Results:
         head = ["#", *rates,
                 "feasible", *(f"% of {LABELS[r]}" for r in m.scores),
                 *([f"best % of {LABELS[m.normaliser]}"] if m.schedules else []), "plan (ms)"]  # fmt: skip
-        lines = [f"# {self.name} on {self.suite}", "", self.summary(), "", "| " + " | ".join(head) + " |",
+        lines = [f"# {self.name} on {self.task}", "", self.summary(), "", "| " + " | ".join(head) + " |",
                  "|" + "---|" * len(head)]  # fmt: skip
         for r in self.scenarios:
             cells = [str(r.index)]
@@ -286,8 +304,12 @@ class Results:
         return "\n".join(lines) + "\n"
 
     def save_csv(self, path: str | Path) -> Path:
-        """One row per scenario (full precision), atomically."""
-        return save_rows_csv(path, self.metrics.columns(), (r.to_dict() for r in self.scenarios))
+        """One row per scenario (full precision), atomically; a changed task's rows start with a
+        ``task`` column (:attr:`task`)."""
+        if not self.task_changes:
+            return save_rows_csv(path, self.metrics.columns(), (r.to_dict() for r in self.scenarios))
+        rows = ({"task": self.task, **r.to_dict()} for r in self.scenarios)
+        return save_rows_csv(path, ("task", *self.metrics.columns()), rows)
 
     def save(self, out: str | Path) -> dict[str, Path]:
         """Write ``results.csv``, ``results.json`` (strict: NaN as null), ``results.md``, the plans

@@ -46,6 +46,7 @@ from typing import Any
 
 import numpy as np
 
+from ios_uav_env.benchmark.overrides import check_overrides, policy_env_kwargs
 from ios_uav_env.benchmark.results import Metrics, Results, ScenarioResult, metrics_of
 from ios_uav_env.benchmark.suite import DEFAULT_SUITE, Suite, SuiteScenario, load_suite
 from ios_uav_env.benchmark.trajectories import check_plan_time
@@ -163,11 +164,15 @@ def _make_env(
     return gym.make(env_id, **env_kwargs), False
 
 
-def check_env_kwargs(suite: Suite, env_kwargs: Mapping[str, Any], policy: Any = None) -> None:
-    """``ValueError`` if the suite's env does not take ``env_kwargs`` (added to the suite's), or if
-    ``policy`` says which observations it takes (an ``observation_space``, as SB3's models and
-    ``agents.numpy_policy.NumpyPolicy`` do) and the env's are of another shape: the env is made
-    once with them, and closed, before any scenario runs."""
+def check_env_kwargs(
+    suite: Suite, env_kwargs: Mapping[str, Any], policy: Any = None, *, allow_task_change: bool = False
+) -> None:
+    """``ValueError`` if ``env_kwargs`` (added to the suite's) would be ignored or change the suite's
+    task without ``allow_task_change`` (:func:`~ios_uav_env.benchmark.overrides.check_overrides`),
+    if the suite's env does not take them, or if ``policy`` says which observations it takes (an
+    ``observation_space``, as SB3's models and ``agents.numpy_policy.NumpyPolicy`` do) and the
+    env's are of another shape: the env is made once with them, and closed, before any scenario runs."""
+    check_overrides(suite, env_kwargs, allow_task_change=allow_task_change)
     kwargs = {**suite.env_kwargs, **dict(env_kwargs)}
     try:
         env, _ = _make_env(suite.env_id, kwargs, False)
@@ -202,25 +207,33 @@ def evaluate(
     seed: int | None = 0,
     name: str | None = None,
     at_once: bool = False,
+    allow_task_change: bool = False,
 ) -> Results:
     """Score ``policy`` on the first ``n`` scenarios of ``suite`` (all for None): a :class:`Results`
     (per scenario: rate, feasibility, % of DP and of SCA, time to plan; their aggregate).
 
     ``env_kwargs`` are added to the suite's env arguments (default: ``policy.env_kwargs`` if it
-    has them); ``batched`` (default: ``policy.batched``) runs a batched callable in the batched
-    env; ``seed`` (None or an integer >= 0) seeds each scenario's reset; ``at_once``: every
-    scenario at once in the batched env (:func:`evaluate_scenarios`).
+    has them, without its training draw: :func:`~ios_uav_env.benchmark.overrides.policy_env_kwargs`,
+    which also refuses ``env_kwargs`` that show the policy other observations than its own
+    declare); ``batched`` (default: ``policy.batched``) gives the policy a batch of one
+    observation; ``seed`` (None or an integer >= 0) seeds each scenario's reset; ``at_once``:
+    every scenario at once in the batched env (:func:`evaluate_scenarios`). Env arguments that
+    would be ignored (a scenario field, a reset's draw) are refused, and so are those that change
+    the suite's task (:mod:`~ios_uav_env.benchmark.overrides`) unless ``allow_task_change``: the
+    results then name the changed task (``Results.task``) wherever they are printed or saved.
     """
     suite = suite_of(suite)
-    own = getattr(policy, "env_kwargs", None) if env_kwargs is None else env_kwargs
+    own = policy_env_kwargs(suite, policy, env_kwargs)
+    check_overrides(suite, own, allow_task_change=allow_task_change)
     if getattr(policy, "observation_space", None) is not None:
-        check_env_kwargs(suite, dict(own or {}), policy)
+        check_env_kwargs(suite, own, policy, allow_task_change=allow_task_change)
     batched = bool(getattr(policy, "batched", False) if batched is None else batched)
     name = name or policy_name(policy)
     act = action_function(policy)
     if at_once and batched:  # run_episodes hands the batch to a function that says it takes one
         act = _takes_a_batch(act)
-    return evaluate_scenarios(act, suite, suite.subset(n), own, seed, name, batched=batched, at_once=at_once)
+    return evaluate_scenarios(act, suite, suite.subset(n), own, seed, name, batched=batched, at_once=at_once,
+                              allow_task_change=allow_task_change)  # fmt: skip
 
 
 def _takes_a_batch(act: Callable) -> Callable:
@@ -241,9 +254,12 @@ def evaluate_scenarios(
     *,
     batched: bool = False,
     at_once: bool = False,
+    allow_task_change: bool = False,
 ) -> Results:
     """Roll ``act`` (an action function, :func:`action_function`) out on ``scenarios`` of
     ``suite`` in the suite's env with ``env_kwargs`` added to the suite's, and score each plan.
+    ``env_kwargs`` that would be ignored, or change the suite's task without
+    ``allow_task_change``, are refused (:func:`~ios_uav_env.benchmark.overrides.check_overrides`).
 
     ``at_once`` (single-node suites): every scenario at once, row i of the id's batched env
     pinned to scenario i (``ios_uav_env.envs.rollout.run_episodes``: the same episodes as one
@@ -251,6 +267,7 @@ def evaluate_scenarios(
     says ``batched = True``), and a plan's time is the batch's divided by B: the time per plan
     when the suite is planned at once."""
     check_seed(seed)
+    check_overrides(suite, env_kwargs, allow_task_change=allow_task_change)
     metrics = metrics_of(suite)
     kwargs = {**suite.env_kwargs, **dict(env_kwargs or {})}
     if at_once:

@@ -49,6 +49,21 @@ MOBILE_COLUMNS = {"mean % of bound": "mean", "p10": "p10", "min": "min", "mean %
                   "feasible": "feasible"}  # fmt: skip
 
 
+def task_changes_of(argv: list[str]) -> dict:
+    """The env arguments of a row's command that change its suite's task
+    (``ios_uav_env.benchmark.overrides``): such a row runs only with ``--allow-task-change``."""
+    from ios_uav_env.benchmark import load_suite
+    from ios_uav_env.benchmark.cli import parse_env_kwargs
+    from ios_uav_env.benchmark.overrides import task_changes
+
+    suite = argv[argv.index("--suite") + 1] if "--suite" in argv else "single-node-v1"
+    if "--env-kwargs" not in argv:
+        return {}
+    start = argv.index("--env-kwargs") + 1
+    end = next((i for i in range(start, len(argv)) if argv[i].startswith("--")), len(argv))
+    return task_changes(load_suite(suite), parse_env_kwargs(argv[start:end]))
+
+
 def _rows(suite: str = "single-node-v1") -> list[dict[str, str]]:
     """The rows of the table in the section ``## <suite>``, by header name."""
     section = PAGE.read_text(encoding="utf-8").split(f"\n## {suite}\n", 1)[1].split("\n## ", 1)[0]
@@ -119,9 +134,19 @@ def test_a_row_reproduces_from_its_command(pattern, columns, row, capsys):
     if "agents.loading" in command and importlib.util.find_spec("stable_baselines3") is None:
         message = "the row loads an SB3 agent: pip install -e '.[rl]'"
         pytest.fail(message) if os.environ.get("CI") else pytest.skip(message)
-    assert main(words[3:]) == 0
-    match = pattern.search(capsys.readouterr().out)
+    argv = words[3:]
+    changes = task_changes_of(argv)
+    if changes:  # another task than the suite's: refused without the opt-in, then named as such
+        with pytest.raises(SystemExit):
+            main(argv)
+        refusal = capsys.readouterr().err
+        assert "--allow-task-change" in refusal and all(f"{k}=" in refusal for k in changes), refusal
+        argv = [*argv, "--allow-task-change"]
+    assert main(argv) == 0
+    out = capsys.readouterr().out
+    match = pattern.search(out)
     assert match, command
+    assert ("[not " in out) == bool(changes), out
     printed = match.groupdict()
     table = {key: row[column] for column, key in columns.items()}
     assert printed == table, f"{command}: the table says {table}, the command prints {printed}"

@@ -47,7 +47,9 @@ def test_the_evaluator_replays_the_suites_env_rows_on_the_true_path(suite):
     track rows exactly: the same seed, the same draws, the same scorer; batched too."""
     (s,) = suite.scenarios
     reports = evaluate(HoverAt("ground"), suite)
-    exact = evaluate(HoverAt("ground"), suite, env_kwargs={"knowledge": "exact"})
+    # exact knowledge is another task than the suite's: run only when asked for, and named so
+    exact = evaluate(HoverAt("ground"), suite, env_kwargs={"knowledge": "exact"}, allow_task_change=True)
+    assert exact.task == "mobile-quick-v1 with knowledge='exact' [not mobile-quick-v1's task]"
     batched = evaluate(HoverAt("ground"), suite, batched=True)
     assert reports.scenarios[0].rate == s.value("track_reports")
     assert exact.scenarios[0].rate == s.value("track_exact")
