@@ -31,6 +31,25 @@ AVX-512 transcendentals, numba's reassociated sums), ~1e-16 relative per operati
 plan's rate, so ``PLANNER_REL`` leaves six orders of magnitude while any change of a planner's
 grid, objective or tie-breaking moves a rate by far more. SCA (an interior-point solver stopped
 at its own tolerance) is compared at ``SOLVER_REL``, the order of its stopping tolerance.
+
+## Golden episodes re-run (``GOLDEN_REL``, ``GOLDEN_OBS_ABS``)
+
+A golden episode (``tests/envs/golden/``) is re-run with the same seeded actions, so no float32
+policy is in the loop, but its numbers still move with the CPU: numba's kernels are compiled for
+the host with fast-math (reassociated node sums, fused multiply-add where the CPU has it) and
+numpy's transcendentals take SIMD paths, ~1e-16 relative per operation. The arrival guard then
+amplifies that: once the UAV has no spare move left, its projection onto the two disks takes a
+square root of a difference that is 0 in exact arithmetic, so an eps-level rounding becomes a
+sqrt(eps) D ~ 1e-7 m change of position, which every later rate, reward and observation carries.
+Measured (the compiled kernels against the plain-Python ones, ``IOS_UAV_ENV_NO_NUMBA=1``, and
+every action multiplied by ``1 + u``, ``|u|`` up to 1e-14, on every id): a float64 value moves
+by at most 9e-9 of its key's largest magnitude (a multi-node reward, a difference of running
+minima), so ``GOLDEN_REL`` leaves a factor 100. The observations are float32 features scaled
+to O(1); most move by a float32 ulp (~1e-7), but the measured (faded) rates of the reported-node
+ids depend on the carrier phase, 2 pi / lambda per metre of distance, and move by up to 1.3e-5:
+``GOLDEN_OBS_ABS`` leaves a factor 15. A real regression still breaks both: the noise power
+changed by 0.01 dB moves the rates by ~1e-3 relative (2e-3 bps/Hz, in the info and in the rate
+feature), and a dropped or changed normalisation moves a feature by far more than 2e-4.
 """
 
 from __future__ import annotations
@@ -45,3 +64,8 @@ NORMALISATION_CHANGE = 1e-3
 PLANNER_REL = 1e-9
 #: Relative tolerance of an SCA re-run (a conic solver's stopping tolerance) against its stored value.
 SOLVER_REL = 1e-6
+#: Largest change of a golden episode's float64 value (info, reward), in units of max(1, the
+#: largest magnitude of the same key in the recorded episode).
+GOLDEN_REL = 1e-6
+#: Largest absolute change of a golden episode's float32 observation feature.
+GOLDEN_OBS_ABS = 2e-4
