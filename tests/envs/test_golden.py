@@ -1,0 +1,139 @@
+"""Golden episodes: every registered id re-runs its recorded seeded episode, single and batched, and
+gives the recorded observations, rewards, flags and infos (``tests/envs/golden/record.py`` records
+them; re-record only with a reason stated in the commit).
+
+Keys, dtypes and shapes must match exactly, as must booleans, integers, strings and the actions; float64
+values to ``GOLDEN_REL`` of their key's scale and the float32 observations to ``GOLDEN_OBS_ABS``
+(``tests/tolerances.py`` says why: what another CPU moves, what a regression moves).
+"""
+
+from __future__ import annotations
+
+import json
+from typing import Any
+
+import gymnasium as gym
+import numpy as np
+import pytest
+
+import ios_uav_env  # noqa: F401  (registers the ids)
+from tests.envs.golden.record import (
+    GOLDEN_DIR,
+    INDEX_NAME,
+    golden_arrays,
+    has_vector,
+    main,
+    record,
+    registered_ids,
+    single_episode,
+)
+from tests.tolerances import GOLDEN_OBS_ABS, GOLDEN_REL, NORMALISATION_CHANGE
+
+INDEX: dict[str, Any] = json.loads((GOLDEN_DIR / INDEX_NAME).read_text(encoding="utf-8"))
+#: The id whose single episode the tests of the comparison perturb (a short, fixed scenario).
+PAPER_ID = "ios_uav_env/IOSUAV-v0"
+
+
+def _stored(env_id: str) -> dict[str, np.ndarray]:
+    with np.load(GOLDEN_DIR / INDEX["ids"][env_id]["file"]) as data:
+        return {key: data[key] for key in data.files}
+
+
+def _part(arrays: dict[str, np.ndarray], part: str) -> dict[str, np.ndarray]:
+    return {key: value for key, value in arrays.items() if key.startswith(f"{part}.")}
+
+
+def mismatches(stored: dict[str, np.ndarray], new: dict[str, np.ndarray]) -> list[str]:
+    """What differs between a golden file's arrays and a re-run's (empty: they match)."""
+    if sorted(stored) != sorted(new):
+        return [f"keys: missing {sorted(set(stored) - set(new))}, new {sorted(set(new) - set(stored))}"]
+    out = []
+    for key, ref in stored.items():
+        value = new[key]
+        if value.dtype != ref.dtype or value.shape != ref.shape:
+            out.append(f"{key}: {value.dtype}{value.shape}, recorded {ref.dtype}{ref.shape}")
+            continue
+        if ref.dtype.kind != "f" or key.endswith(".action"):  # bool, int, str; actions are drawn exactly
+            if not np.array_equal(value, ref):
+                out.append(f"{key}: differs at {np.argwhere(value != ref)[:3].tolist()}")
+            continue
+        finite = np.isfinite(ref)
+        if not np.array_equal(np.isfinite(value), finite) or not np.array_equal(
+            value[~finite], ref[~finite], equal_nan=True
+        ):
+            out.append(f"{key}: NaN or inf elsewhere")
+            continue
+        gap = np.abs(value[finite].astype(np.float64) - ref[finite].astype(np.float64))
+        if ref.dtype == np.float32:
+            bound = GOLDEN_OBS_ABS
+        else:
+            bound = GOLDEN_REL * max(1.0, float(np.abs(ref[finite]).max(initial=0.0)))
+        if gap.size and gap.max() > bound:
+            out.append(f"{key}: off by {gap.max():.3g} > {bound:.3g}")
+    return out
+
+
+def test_every_registered_id_has_a_golden() -> None:
+    """A new id needs its golden (python -m tests.envs.golden.record), a removed one loses its own."""
+    assert sorted(INDEX["ids"]) == registered_ids()
+    for env_id, entry in INDEX["ids"].items():
+        assert (GOLDEN_DIR / entry["file"]).is_file(), entry["file"]
+        assert entry["batched"] or not has_vector(env_id), f"{env_id}: its batched env has no golden"
+
+
+@pytest.mark.parametrize("env_id", sorted(INDEX["ids"]))
+def test_golden_episode(env_id: str) -> None:
+    entry = INDEX["ids"][env_id]
+    stored = _stored(env_id)
+    batched = entry["batched"] and has_vector(env_id)  # (Gymnasium < 1.0 has no vector entry points)
+    if not batched:
+        stored = _part(stored, "single")
+    new = golden_arrays(env_id, {**entry, "batched": batched})
+    problems = mismatches(stored, new)
+    assert not problems, f"{env_id} ({entry['kwargs']}) left its golden episode:\n" + "\n".join(problems)
+
+
+@pytest.mark.parametrize(
+    ("change", "expected"),
+    [
+        ({"noise_dbm": -80.0 + 0.01}, "single.reward"),  # a physics constant, slightly
+        ({"length_scale": 400.0 * (1 + NORMALISATION_CHANGE)}, "single.obs"),  # a normalisation
+    ],
+)
+def test_a_slight_regression_leaves_the_golden(change: dict[str, float], expected: str) -> None:
+    """The tolerances still see a small real change (the paper's id, its recorded episode)."""
+    entry = INDEX["ids"][PAPER_ID]
+    assert gym.spec(PAPER_ID).kwargs == {"surface": "ios"} and entry["kwargs"] == {"T": 40.0}
+    stored = _part(_stored(PAPER_ID), "single")
+    assert not mismatches(stored, single_episode(PAPER_ID, entry["kwargs"], entry["seed"]))
+    problems = mismatches(stored, single_episode(PAPER_ID, {**entry["kwargs"], **change}, entry["seed"]))
+    assert any(problem.startswith(f"{expected}:") for problem in problems), problems
+
+
+def test_the_comparison_sees_keys_dtypes_and_exact_values() -> None:
+    stored = _part(_stored(PAPER_ID), "single")
+    changed = dict(stored)
+    del changed["single.info.rate"]  # an info key dropped
+    assert mismatches(stored, changed)[0].startswith("keys:")
+    rate = stored["single.info.rate"]
+    for key, value in [
+        ("single.info.slot", stored["single.info.slot"].astype(np.int32)),  # another dtype
+        ("single.terminated", ~stored["single.terminated"]),  # a flag
+        ("single.info.slot", stored["single.info.slot"] + 1),  # an integer
+        ("single.obs", stored["single.obs"][:-1]),  # another shape
+        ("single.action", np.nextafter(stored["single.action"], np.float32(2))),  # another action stream
+        ("single.info_keys", stored["single.info_keys"][::-1]),  # the keys' order
+        ("single.info.rate", np.where(np.arange(rate.size) == 3, np.nan, rate)),  # a NaN
+        ("single.reward", stored["single.reward"] * (1 + 10 * GOLDEN_REL)),  # a float64 beyond the tolerance
+    ]:
+        assert [problem.split(":")[0] for problem in mismatches(stored, {**stored, key: value})] == [key]
+
+
+def test_the_recorder_refuses_to_overwrite_goldens(tmp_path, capsys) -> None:
+    (tmp_path / INDEX_NAME).write_text("{}", encoding="utf-8")
+    with pytest.raises(FileExistsError, match="--overwrite"):
+        record(tmp_path)
+    assert main(["--out", str(tmp_path)]) == 1
+    assert "--overwrite" in capsys.readouterr().err
+    assert sorted(path.name for path in tmp_path.iterdir()) == [INDEX_NAME]
+    assert (tmp_path / INDEX_NAME).read_text(encoding="utf-8") == "{}"
