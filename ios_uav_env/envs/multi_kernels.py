@@ -26,18 +26,20 @@ import numpy as np
 from ios_uav_env.envs.guard import guarded_position
 from ios_uav_env.envs.observation import M_SCALE, T_SCALE
 from ios_uav_env.envs.options import EnvOptions
-from ios_uav_env.envs.single_kernels import flags_of, fly_entry_out_of_range, penalties, toward
+from ios_uav_env.envs.single_kernels import budget_of, flags_of, fly_entry_out_of_range, penalties, toward
 from ios_uav_env.jit import HAVE_NUMBA, jit, prange, run_batched
 from ios_uav_env.model.channel import PARAMS, rate_kernel, rate_point
-from ios_uav_env.model.config import FEASIBILITY_TOL, ScenarioConfig
+from ios_uav_env.model.config import ENERGY_RTOL, FEASIBILITY_TOL, ScenarioConfig
 from ios_uav_env.model.peak import rate_peak
 
-#: Columns of a row of ``state`` (``moves_made`` at column 2, as in ``single_kernels.STATE``).
-STATE = ("x", "y", "moves_made", "excess", "min_rate", "potential")
+#: Columns of a row of ``state`` (``moves_made`` at column 2, as in ``single_kernels.STATE``;
+#: ``energy``: the propulsion energy so far, J).
+STATE = ("x", "y", "moves_made", "excess", "min_rate", "potential", "energy")
 #: Columns of a row of ``episode``.
 EPISODE = (
     "D", "qfx", "qfy", "moves", "inv_l", "N", "cx", "cy", "K", "sharpness", "elements", "is_ios",
-    "is_ris", "horizon", "softmin_beta", "peak_hint",
+    "is_ris", "horizon", "softmin_beta", "peak_hint", "dt", "p_blade", "blade_k", "p_induced", "induced_k",
+    "drag", "budget",
 )  # fmt: skip
 #: Columns of a row of ``points`` (per node).
 POINT = ("x", "y", "side", "peak_x", "peak_y", "peak_rate")
@@ -82,12 +84,15 @@ def node_peaks(config: ScenarioConfig) -> tuple[tuple[float, float, float], ...]
 
 def episode_row(config: ScenarioConfig, length_scale: float, sharpness: float, softmin_beta: float = 0.0,
                 peak_hint: bool = False) -> np.ndarray:  # fmt: skip
-    """The ``episode`` row of ``config`` (see :data:`EPISODE`)."""
+    """The ``episode`` row of ``config`` (see :data:`EPISODE`): the propulsion constants of
+    ``single_kernels.move_power`` and the energy budget (``single_kernels.budget_of``) last."""
     (fx, fy), (cx, cy) = config.qF, config.ios_center[:2]
     elements = config.M / M_SCALE if config.surface != "none" else 0.0
     kind = float(config.surface == "ios"), float(config.surface == "ris")
+    m = config.propulsion
     row = [config.D, fx, fy, config.N - 1, 1.0 / length_scale, config.N, cx, cy, config.K, sharpness,
-           elements, *kind, config.T / T_SCALE, softmin_beta, float(peak_hint)]  # fmt: skip
+           elements, *kind, config.T / T_SCALE, softmin_beta, float(peak_hint), config.dt, m.P0,
+           3.0 / m.U_tip**2, m.P_i, 1.0 / (2.0 * m.v0**2), m.drag_coefficient, budget_of(config)]  # fmt: skip
     return np.array(row, dtype=np.float64)
 
 
@@ -118,6 +123,16 @@ def soft_minimum(served: np.ndarray, k_n: int, n_slots: float, beta: float) -> f
     for k in range(k_n):
         total += math.exp(-beta * (served[k] / n_slots - low))
     return low - math.log(total / k_n) / beta
+
+
+@jit(inline=True, fastmath=False)
+def _move_power(length: float, ep: np.ndarray) -> float:
+    """P(V) (W) of a move of ``length`` m over one slot with the constants of the ``episode`` row
+    ``ep`` (``single_kernels.move_power``'s formula, the model's ``propulsion_power``)."""
+    v = length / ep[16]
+    v2 = v * v
+    x = v2 * ep[20]
+    return ep[17] * (1.0 + ep[18] * v2) + ep[19] / math.sqrt(math.sqrt(1.0 + x * x) + x) + ep[21] * v2 * v
 
 
 @jit(inline=True, fastmath=False)
@@ -158,15 +173,18 @@ def _observe(obs: np.ndarray, i: int, x: float, y: float, left: float, dist: flo
 def _info(info: np.ndarray, i: int, state: np.ndarray, episode: np.ndarray, shares: np.ndarray,
           served: np.ndarray, dist: float, left: float, r_rate: float, r_reach: float,
           r_terminal: float) -> None:  # fmt: skip
-    """Write ``info`` row ``i`` (``best_schedule_rate`` 0: the caller's, at episode end)."""
+    """Write ``info`` row ``i`` (``best_schedule_rate`` 0: the caller's, at episode end); with an
+    energy budget, ``feasible`` also asks E <= E_max (1 + ENERGY_RTOL) of the energy so far, as
+    ``check_trajectory`` does."""
     st, ep, row = state[i], episode[i], info[i]
     k_max = served.shape[1]
     k_n, n_slots = int(ep[8]), ep[5]
     deficit = max(0.0, dist - left * ep[0])
     worst = max(st[3], deficit)
+    feasible = worst <= FEASIBILITY_TOL and st[6] <= ep[22] * (1.0 + ENERGY_RTOL)
     row[0], row[1], row[2], row[3], row[4], row[5] = st[0], st[1], st[2] + 1.0, dist, st[4], 0.0
     row[6], row[7], row[8] = r_rate, r_reach, r_terminal
-    row[9], row[10], row[11] = 1.0 if worst <= FEASIBILITY_TOL else 0.0, worst, deficit
+    row[9], row[10], row[11] = 1.0 if feasible else 0.0, worst, deficit
     for k in range(k_max):
         row[12 + k] = shares[i, k] if k < k_n else 0.0
         row[12 + k_max + k] = served[i, k] / n_slots if k < k_n else 0.0
@@ -190,7 +208,7 @@ def reset_rows(
             served[i, k] = shares[i, k] * rates[i, k]
             share_path[i, 0, k] = shares[i, k]
             low = min(low, served[i, k])
-        st[2], st[3], st[4], st[5] = 0.0, 0.0, low / ep[5], 0.0  # potential before slot 1: 0
+        st[2], st[3], st[4], st[5], st[6] = 0.0, 0.0, low / ep[5], 0.0, 0.0  # potential before slot 1: 0
         dist = math.hypot(ep[1] - x, ep[2] - y)
         _observe(obs, i, x, y, ep[3], dist, episode, points, served, rates)
         _info(info, i, state, episode, shares, served, dist, ep[3], 0.0, 0.0, 0.0)
@@ -235,7 +253,9 @@ def _step_row(
     if flags[0] != 0.0:
         x, y = guarded_position((x0, y0), (x, y), (ep[1], ep[2]), d, int(left))
     st[0], st[1], st[2] = x, y, n + 1.0
-    st[3] = max(st[3], math.hypot(x - x0, y - y0) - d)
+    length = math.hypot(x - x0, y - y0)
+    st[3] = max(st[3], length - d)
+    st[6] += ep[16] * _move_power(length, ep)
     path[i, int(n) + 1, 0], path[i, int(n) + 1, 1] = x, y
     _rates(i, x, y, k_n, nodes, params, rates)
     low = math.inf

@@ -28,7 +28,7 @@ from ios_uav_env.envs.observation import T_SCALE, instance_values, min_power_mov
 from ios_uav_env.envs.options import EnvOptions
 from ios_uav_env.jit import jit, prange
 from ios_uav_env.model.channel import faded_row, rate_row
-from ios_uav_env.model.config import FEASIBILITY_TOL, ScenarioConfig
+from ios_uav_env.model.config import ENERGY_RTOL, FEASIBILITY_TOL, ScenarioConfig
 
 #: Columns of a row of ``state``.
 STATE = ("x", "y", "moves_made", "sum_expected", "sum_rate", "excess", "energy", "move_x", "move_y")
@@ -37,7 +37,7 @@ EPISODE = (
     "D", "qfx", "qfy", "moves", "inv_l", "fx_l", "fy_l", "gx_l", "gy_l", "cx_l", "cy_l", "inv_moves",
     "left_scale", "elements", "is_ios", "is_ris", "transmit", "horizon", "peak_x_l", "peak_y_l", "peak_rate",
     "dt", "p_blade", "blade_k", "p_induced", "induced_k", "drag", "bits_scale", "energy_cost",
-    "energy_weight", "min_power_move",
+    "energy_weight", "min_power_move", "budget",
 )  # fmt: skip
 #: Columns of a row of ``info`` (``INFO_KEYS`` with ``position`` as x and y).
 INFO = (
@@ -67,11 +67,17 @@ def flags_of(options: EnvOptions, energy: bool = False) -> np.ndarray:
     )  # fmt: skip
 
 
+def budget_of(config: ScenarioConfig) -> float:
+    """``config.energy_budget_j`` (J), inf without a budget: the ``budget`` column of the kernels."""
+    return math.inf if config.energy_budget_j is None else float(config.energy_budget_j)
+
+
 def episode_row(
     config: ScenarioConfig, length_scale: float, peak: tuple[float, float, float], reference: float = 0.0
 ) -> np.ndarray:
     """The ``episode`` row of ``config`` (see :data:`EPISODE`); ``peak``: the peak hint (x, y, rate);
-    ``reference``: lambda_ref (bits/J) of the energy reward (0 for the rate objective)."""
+    ``reference``: lambda_ref (bits/J) of the energy reward (0 for the rate objective). Its last
+    column is the energy budget (:func:`budget_of`)."""
     inv_l, moves = 1.0 / length_scale, config.N - 1
     (fx, fy), (gx, gy), (cx, cy) = config.qF, config.ground_node, config.ios_center[:2]
     m = config.propulsion
@@ -80,7 +86,7 @@ def episode_row(
            cy * inv_l, 1.0 / moves, config.dt / T_SCALE, *instance_values(config), peak[0] * inv_l,
            peak[1] * inv_l, peak[2], config.dt, m.P0, 3.0 / m.U_tip**2, m.P_i, 1.0 / (2.0 * m.v0**2),
            m.drag_coefficient, config.bandwidth_hz * config.dt, cost, cost * m.hover_power,
-           min_power_move(config)]  # fmt: skip
+           min_power_move(config), budget_of(config)]  # fmt: skip
     return np.array(row, dtype=np.float64)
 
 
@@ -119,17 +125,20 @@ def _info(info: np.ndarray, i: int, st: np.ndarray, ep: np.ndarray, rate: float,
           dist: float, left: float, r_rate: float, r_reach: float, r_terminal: float, power: float,
           r_energy: float) -> None:  # fmt: skip
     """Write ``info`` row ``i``: the step's terms and the running eq. (9) score and eq. (10)
-    check (``st``: ``state``, ``ep``: ``episode``), the move's power, the energy so far and the
-    bits per joule so far, B dt sum_n r(q[n]) / E (0 before the first move)."""
+    check (``st``: ``state``, ``ep``: ``episode``; with an energy budget, feasible also asks
+    E <= E_max (1 + ENERGY_RTOL) of the energy so far, as ``check_trajectory``), the move's power,
+    the energy so far and the bits per joule so far, B dt sum_n r(q[n]) / E (0 before the first
+    move)."""
     points = st[i, 2] + 1.0  # way-points so far
     deficit = max(0.0, dist - left * ep[i, 0])  # how far qF is out of reach (m)
     worst = max(st[i, 5], deficit)
+    energy = st[i, 6]
     info[i, 0], info[i, 1], info[i, 2], info[i, 3], info[i, 4] = rate, expected, st[i, 0], st[i, 1], dist
     info[i, 5], info[i, 6], info[i, 7], info[i, 8] = points, r_rate, r_reach, r_terminal
     info[i, 9], info[i, 10] = st[i, 3] / points, st[i, 4] / points
-    info[i, 11] = 1.0 if worst <= FEASIBILITY_TOL else 0.0
+    within = energy <= ep[i, 31] * (1.0 + ENERGY_RTOL)
+    info[i, 11] = 1.0 if worst <= FEASIBILITY_TOL and within else 0.0
     info[i, 12], info[i, 13] = worst, deficit
-    energy = st[i, 6]
     info[i, 14], info[i, 15], info[i, 17] = power, energy, r_energy
     info[i, 16] = ep[i, 27] * st[i, 3] / energy if energy > 0.0 else 0.0
 
