@@ -8,9 +8,10 @@ A policy is any of:
   a model trained with ``VecNormalize`` needs its statistics applied to the observation, as
   ``agents.loading.load_agent`` of a checkout does);
 - a batched callable from a (B, obs_dim) array to a (B, 2) array: pass ``batched=True`` or give
-  it an attribute ``batched = True``; it then runs in the id's natively batched env (its
-  ``vector_entry_point``, made directly, so on every supported Gymnasium), a batch of one
-  row per scenario; an id without one runs the single env, the policy on a batch of one.
+  it an attribute ``batched = True``; each scenario is then planned in the single env with the
+  policy on a batch of one observation, and with ``at_once`` every scenario at once in the id's
+  natively batched env (its ``vector_entry_point``, made directly, so on every supported
+  Gymnasium), one row per scenario.
 
 Actions may be numpy arrays, lists or CPU tensors (anything with ``detach``). Each scenario is
 one deterministic episode in the suite's env (``suite.env_id``) pinned to the scenario with
@@ -18,7 +19,9 @@ one deterministic episode in the suite's env (``suite.env_id``) pinned to the sc
 ``env_kwargs`` added (default: the policy's own ``env_kwargs`` attribute, as ``HoverAt("peak")``
 has ``{"peak_hint": True}``). The plan is scored by the one scorer: ``ios_uav_env.average_rate``
 (eq. (9)) and ``check_trajectory`` (eq. (10)) of the env's trajectory; the time to plan is the
-episode's wall time from the reset to the last step (policy and env).
+episode's wall time from the reset to the last step (policy and env) in the single env, after
+an unscored warm-up episode: what planning one scenario costs a user, without compilations or
+first calls (with ``at_once``: the warm batch's wall time divided by the number of scenarios).
 
 >>> from ios_uav_env.benchmark import evaluate
 >>> from ios_uav_env.envs.policies import HoverAt
@@ -261,21 +264,24 @@ def evaluate_scenarios(
     ``env_kwargs`` that would be ignored, or change the suite's task without
     ``allow_task_change``, are refused (:func:`~ios_uav_env.benchmark.overrides.check_overrides`).
 
-    ``at_once`` (single-node suites): every scenario at once, row i of the id's batched env
-    pinned to scenario i (``ios_uav_env.envs.rollout.run_episodes``: the same episodes as one
-    env pinned per scenario); ``act`` sees the (B, obs_dim) batch (one call per row unless it
-    says ``batched = True``), and a plan's time is the batch's divided by B: the time per plan
-    when the suite is planned at once."""
+    A plan's time is what planning that scenario costs a user: without ``at_once``, the wall time
+    of its episode in the id's single env (a ``batched`` action function sees a batch of one
+    observation, :func:`batch_of_one`), after one unscored warm-up episode of the first scenario
+    in the same env, so no compilation, cache load or first call of the policy is in any
+    scenario's time. ``at_once`` (single-node suites): every scenario at once, row i of the id's
+    batched env pinned to scenario i (``ios_uav_env.envs.rollout.run_episodes``: the same
+    episodes as one env pinned per scenario); ``act`` sees the (B, obs_dim) batch (one call per
+    row unless it says ``batched = True``), and a plan's time is the batch's divided by B (after
+    a warm-up batch of the first scenario): the time per plan when the suite is planned at once."""
     check_seed(seed)
     check_overrides(suite, env_kwargs, allow_task_change=allow_task_change)
     metrics = metrics_of(suite)
     kwargs = {**suite.env_kwargs, **dict(env_kwargs or {})}
     if at_once:
         return _at_once(act, suite, scenarios, kwargs, seed, name, metrics)
-    env, vector = _make_env(suite.env_id, kwargs, batched and not suite.multi_node)
-    if batched and not vector:  # no batched env (or a multi-node suite): the policy on a batch of one
-        batch_act = act
-        act = lambda obs: np.asarray(batch_act(np.asarray(obs)[None]))[0]  # noqa: E731
+    env, _ = _make_env(suite.env_id, kwargs, False)  # one scenario is planned in the single env
+    if batched:
+        act = batch_of_one(act)
     try:
         max_nodes = getattr(env.unwrapped, "max_nodes", 1)
         too_many = [s.index for s in scenarios if s.config.K > max_nodes]
@@ -284,10 +290,29 @@ def evaluate_scenarios(
                 f"scenarios {too_many} have more nodes than the env's max_nodes = {max_nodes} "
                 f"(env_kwargs {kwargs})"
             )
-        rows = [episode(env, act, s, seed, vector, metrics) for s in scenarios]
+        if scenarios:  # warm-up, not scored: compilations and first calls stay out of the plan times
+            episode(env, act, scenarios[0], seed, False, metrics)
+        rows = [episode(env, act, s, seed, False, metrics) for s in scenarios]
     finally:
         env.close()
     return Results.of(suite, name, kwargs, rows, scenarios)
+
+
+def batch_of_one(act: Callable) -> Callable[[np.ndarray], np.ndarray]:
+    """A batched action function (a (B, obs_dim) batch to (B, action_dim)) as a function of one
+    observation, the batch of one row it sees; its ``repeat`` kept. ``ValueError`` if it returns
+    another shape than (1, action_dim)."""
+
+    def one(obs: np.ndarray) -> np.ndarray:
+        action = np.asarray(act(np.asarray(obs)[None]))
+        if action.ndim != 2 or action.shape[0] != 1:
+            raise ValueError(
+                f"a batched policy must return a (B, action_dim) action (B=1 here), got {action.shape}"
+            )
+        return action[0]
+
+    one.repeat = decision_interval(act)  # type: ignore[attr-defined]
+    return one
 
 
 def _at_once(
@@ -301,16 +326,19 @@ def _at_once(
         raise ValueError(f"at_once is for static single-node suites; {suite.name} is a {suite.kind} suite")
     if not scenarios:
         raise ValueError("no scenarios to evaluate")
-    vec, vector = _make_env(suite.env_id, kwargs, True, len(scenarios))
-    try:
-        if not vector:
-            raise ValueError(
-                f"{suite.env_id} has no batched env here (Gymnasium >= 1.0): evaluate without at_once"
-            )
-        seeds = None if seed is None else [seed] * len(scenarios)
-        episodes = run_episodes(vec, act, seed=seeds, options={"configs": [s.config for s in scenarios]})
-    finally:
-        vec.close()
+    seeds = None if seed is None else [seed]
+    for count in (1, len(scenarios)):  # a warm-up batch of the first scenario, then the timed one
+        vec, vector = _make_env(suite.env_id, kwargs, True, count)
+        try:
+            if not vector:
+                raise ValueError(
+                    f"{suite.env_id} has no batched env here (Gymnasium >= 1.0): evaluate without at_once"
+                )
+            configs = [s.config for s in scenarios[:count]]
+            episodes = run_episodes(vec, act, seed=None if seeds is None else seeds * count,
+                                    options={"configs": configs})  # fmt: skip
+        finally:
+            vec.close()
     rows = [ScenarioResult.of(s, metrics, score_plan(s.config, e.trajectory), e.seconds, e.trajectory)
             for s, e in zip(scenarios, episodes, strict=True)]  # fmt: skip
     return Results.of(suite, name, kwargs, rows, scenarios)

@@ -262,4 +262,4 @@ def test_at_once_scores_the_same_episodes_as_one_env_per_scenario(batched):
         np.testing.assert_allclose(b.trajectory, a.trajectory, atol=1e-9)
     assert len({r.seconds for r in together.scenarios}) == 1  # the batch's time / B
     with pytest.raises(ValueError, match="single-node suites"):
-        evaluate(policy, "multi-node-v1", n=1, at_once=True)
+        evaluate(lambda obs: np.zeros(6), "multi-node-v1", n=1, at_once=True)
