@@ -4,12 +4,16 @@
     python train.py --algo sac --env ios_uav_env/IOSUAV-v0 --timesteps 60000 --seed 1 \\
         --env-kwargs arrival_guard:False channel:rician --out runs/sac_noguard
     python train.py --resume runs/sac_noguard                    # from its last checkpoint
+    python train.py --algo ppo --trainer fast --env ios_uav_env/IOSUAV-MultiNode-v0  # the recipe's env_kwargs
 
-Every argument is checked as it is parsed, before the run folder is made: the env kwargs by
-making the env and resetting it, the hyperparameters by building the algorithm with them, the
-output folder by its permissions and its lock (an error names the argument and exits with
-status 2). A run holds its folder's lock (``RUN_DIR/.lock``) while it runs: a second
-``train.py`` on the same folder, a new run or ``--resume``, is refused with the holder's pid.
+A recipe (an entry of the hyperparameter file) may carry the env arguments it is trained with
+(the zoo's ``env_kwargs`` key); ``--env-kwargs`` overrides them key by key, and the resolved
+ones are recorded in the run's ``config.json``. Every argument is checked as it is parsed,
+before the run folder is made: the env kwargs by making the env and resetting it, the
+hyperparameters by building the algorithm with them, the output folder by its permissions and
+its lock (an error names the argument and exits with status 2). A run holds its folder's lock
+(``RUN_DIR/.lock``) while it runs: a second ``train.py`` on the same folder, a new run or
+``--resume``, is refused with the holder's pid.
 SIGINT (Ctrl-C) or SIGTERM saves a checkpoint of that moment and exits with status 130 or
 143; ``--resume`` then goes on from it. A full disk ends the run with a message naming the file
 that did not fit and status 1, every file of the run whole; ``--resume`` goes on from its newest
@@ -117,7 +121,8 @@ def build_parser() -> argparse.ArgumentParser:
              "(agents.vec_env.BatchedVecEnv: all envs as one array computation, rows staggered over the "
              "episode), for hundreds of envs, e.g. agents/hyperparams/ppo_fast.yml")  # fmt: skip
     add("--env-kwargs", type=_checked(_env_kwarg), nargs="*", default=None, metavar="KEY:VALUE",
-        help="env arguments, zoo style: arrival_guard:False channel:rician T:100")  # fmt: skip
+        help="env arguments, zoo style: arrival_guard:False channel:rician T:100; each overrides the "
+             "recipe's own (its env_kwargs key) of the same name")  # fmt: skip
     add("--out", type=_checked(_new_run_dir), default=None,
         help="run folder: new, empty, or one whose run stopped before its first checkpoint (its files "
              "are replaced) (default: runs/<env>__<algo>__<seed>__<time>)")  # fmt: skip
@@ -161,11 +166,15 @@ def parse_args(argv: Sequence[str] | None = None) -> tuple[argparse.Namespace, A
     from agents.training import RUNS_DIR, TrainSettings, check_env_kwargs, check_hyperparams, check_writable
 
     env_id = args.env or DEFAULT_ENV_ID
-    env_kwargs = dict(args.env_kwargs or [])
+    given = dict(args.env_kwargs or [])
+    recipe = TrainSettings(algo=args.algo, env_id=env_id, hyperparams_file=args.hyperparams,
+                           trainer=args.trainer or "sb3")  # fmt: skip
+    env_kwargs = {**recipe.resolve_env_kwargs(), **given}  # the recipe's env_kwargs, --env-kwargs over them
     try:
         check_env_kwargs(env_id, env_kwargs)
     except ValueError as exc:
-        parser.error(f"argument --env-kwargs: {exc}")
+        where = f" (the recipe's env_kwargs {recipe.env_kwargs} with these)" if recipe.env_kwargs else ""
+        parser.error(f"argument --env-kwargs{where}: {exc}")
     try:
         check_hyperparams(
             args.algo, env_id, args.hyperparams, env_kwargs, args.n_envs, args.vec_env or "dummy",

@@ -5,8 +5,10 @@
 ``"{'norm_obs': False, 'norm_reward': True}"``), ``policy_kwargs`` (a Python string, e.g.
 ``"dict(net_arch=[64, 64])"``), ``learning_rate`` (a number or ``lin_<value>``, the zoo's
 linear schedule), ``callback`` and ``env_wrapper`` (``module.Class`` or a list of
-``{module.Class: {kwargs}}``, e.g. ``agents.wrappers.ShiftReward``) and the algorithm's own
-keyword arguments. The same files train with the zoo:
+``{module.Class: {kwargs}}``, e.g. ``agents.wrappers.ShiftReward``), ``env_kwargs`` (the env's
+keyword arguments the recipe is trained with, a mapping such as ``{peak_hint: true}``; a
+command line's ``--env-kwargs`` overrides them key by key in ``train.py``, the whole mapping in
+the zoo) and the algorithm's own keyword arguments. The same files train with the zoo:
 
     python -m rl_zoo3.train --algo ppo --env ios_uav_env/IOSUAV-v0 --gym-packages ios_uav_env \\
         --conf-file agents/hyperparams/ppo.yml
@@ -24,7 +26,9 @@ import yaml
 
 HYPERPARAMS_DIR = Path(__file__).resolve().parent / "hyperparams"
 #: zoo keys that are not keyword arguments of the algorithm
-_ZOO_KEYS = ("n_timesteps", "n_envs", "policy", "normalize", "env_wrapper", "frame_stack", "callback")
+_ZOO_KEYS = (
+    "n_timesteps", "n_envs", "policy", "normalize", "env_wrapper", "frame_stack", "callback", "env_kwargs",
+)  # fmt: skip
 
 
 @dataclass
@@ -39,6 +43,7 @@ class Hyperparams:
     model_kwargs: dict[str, Any] = field(default_factory=dict)  # for PPO(...) / SAC(...)
     callbacks: list[Any] = field(default_factory=list)  # instances from the zoo's ``callback`` key
     env_wrappers: list[tuple[Any, dict[str, Any]]] = field(default_factory=list)  # (class, kwargs)
+    env_kwargs: dict[str, Any] = field(default_factory=dict)  # the env's arguments of the recipe
 
     @property
     def repeat(self) -> int:
@@ -230,6 +235,18 @@ def _callbacks(spec: Any) -> list[Any]:
     return out
 
 
+def _env_kwargs(spec: Any) -> dict[str, Any]:
+    """The zoo's ``env_kwargs`` value: a mapping of the env's keyword arguments (none: {})."""
+    if spec is None:
+        return {}
+    if not isinstance(spec, dict) or not all(isinstance(k, str) and k.isidentifier() for k in spec):
+        raise ValueError(
+            f"hyperparameter env_kwargs must map env argument names to values (e.g. {{peak_hint: true}}), "
+            f"got {spec!r}"
+        )
+    return copy.deepcopy(spec)
+
+
 def resolve(entry: dict[str, Any]) -> Hyperparams:
     """Turn a zoo entry into algorithm keyword arguments, the way the zoo does."""
     raw = copy.deepcopy(entry)
@@ -256,6 +273,7 @@ def resolve(entry: dict[str, Any]) -> Hyperparams:
         raw=raw,
         callbacks=_callbacks(entry.get("callback")),
         env_wrappers=_wrappers(entry.get("env_wrapper")),
+        env_kwargs=_env_kwargs(entry.get("env_kwargs")),
         n_timesteps=int(float(entry.get("n_timesteps", 100_000))),
         n_envs=int(entry.get("n_envs", 1)),
         policy=str(entry.get("policy", "MlpPolicy")),

@@ -53,6 +53,8 @@ def resume(run_dir: str | Path, *, timesteps: int | None = None, progress_bar: b
 
 
 def _train(settings: TrainSettings, stop: StopFlag, _resume: bool) -> TrainResult:
+    if not _resume:  # a resumed run keeps the env arguments its config.json recorded
+        settings.resolve_env_kwargs()
     hp, total, run_dir = _resolve(settings)
     if not _resume:
         check_new_run_dir(run_dir)  # before the lock makes the folder

@@ -168,7 +168,7 @@ class TrainSettings:
     seed: int = 0  # seeds torch, numpy, the model and the envs (env i gets seed + i)
     n_envs: int | None = None  # parallel envs; None = the file's n_envs
     vec_env: str = "dummy"  # "dummy" (SB3's DummyVecEnv) or "batched" (agents.vec_env.BatchedVecEnv)
-    env_kwargs: dict[str, Any] = field(default_factory=dict)  # IOSUAVEnv arguments
+    env_kwargs: dict[str, Any] = field(default_factory=dict)  # env arguments (over the recipe's env_kwargs)
     out: str | None = None  # run folder; None = runs/<env>__<algo>__<seed>__<time>
     hyperparams_file: str | None = None  # None = agents/hyperparams/<algo>.yml
     checkpoint_freq: int = 25_000  # env steps between checkpoints
@@ -176,6 +176,17 @@ class TrainSettings:
     progress_bar: bool = True
     trainer: str = "sb3"  # "sb3" (SB3's loop) or "fast" (agents.fast: PPO on the batched env's arrays)
     threads: int | None = None  # torch threads of the fast trainer; None = 1
+
+    def resolve_env_kwargs(self) -> dict[str, Any]:
+        """Fill ``env_kwargs`` in with the recipe's (the ``env_kwargs`` of the hyperparameter entry):
+        a key given here wins, key by key. Returns them. A recipe that does not load leaves them
+        as they are (the hyperparameter check names its problem)."""
+        try:
+            hp = load_hyperparams(self.algo, self.env_id, self.hyperparams_path())
+        except (ValueError, OSError, KeyError):
+            return self.env_kwargs
+        self.env_kwargs = {**hp.env_kwargs, **self.env_kwargs}
+        return self.env_kwargs
 
     def hyperparams_path(self) -> Path:
         """The recipe file the run reads: ``hyperparams_file``, else the trainer's default
