@@ -13,7 +13,11 @@ alone (no planner, no deep-learning library):
   file that does not match its registered hash fails to load);
 - :mod:`~ios_uav_env.benchmark.scoring`: :func:`evaluate` (a policy) and
   :func:`score_trajectories` (one trajectory, and for K > 1 its shares, per scenario), for
-  every suite, each plan scored by :func:`ios_uav_env.score_plan`;
+  every suite, each plan scored by :func:`ios_uav_env.score_plan` (a policy that raises:
+  :class:`PolicyError`, naming the suite, the scenario and the policy);
+- :mod:`~ios_uav_env.benchmark.overrides`: which env arguments a run may add to a suite's
+  (one the suite pins is refused, one that changes the task only with ``allow_task_change``,
+  and the results then name the changed task);
 - :mod:`~ios_uav_env.benchmark.results`: :class:`Results` (per scenario and aggregate; CSV,
   JSON, markdown, figures) for any K, with the suite kind's :class:`Metrics` (single-node:
   % of DP and of SCA; multi-node: the plan's own max-min rate as % of SCA and of the
@@ -24,6 +28,7 @@ alone (no planner, no deep-learning library):
   (:mod:`~ios_uav_env.benchmark.cli`).
 """
 
+from ios_uav_env.benchmark.policy_errors import PolicyError
 from ios_uav_env.benchmark.results import (
     METRICS,
     Aggregate,
@@ -42,6 +47,7 @@ __all__ = [
     "METRICS",
     "Aggregate",
     "Metrics",
+    "PolicyError",
     "Results",
     "ScenarioResult",
     "Suite",

@@ -50,6 +50,7 @@ from typing import Any
 import numpy as np
 
 from ios_uav_env.benchmark.overrides import check_overrides, policy_env_kwargs
+from ios_uav_env.benchmark.policy_errors import NamedPolicy
 from ios_uav_env.benchmark.results import Metrics, Results, ScenarioResult, metrics_of
 from ios_uav_env.benchmark.suite import DEFAULT_SUITE, Suite, SuiteScenario, load_suite
 from ios_uav_env.benchmark.trajectories import check_plan_time
@@ -272,16 +273,20 @@ def evaluate_scenarios(
     batched env pinned to scenario i (``ios_uav_env.envs.rollout.run_episodes``: the same
     episodes as one env pinned per scenario); ``act`` sees the (B, obs_dim) batch (one call per
     row unless it says ``batched = True``), and a plan's time is the batch's divided by B (after
-    a warm-up batch of the first scenario): the time per plan when the suite is planned at once."""
+    a warm-up batch of the first scenario): the time per plan when the suite is planned at once.
+
+    An exception of ``act`` is raised again as
+    :class:`~ios_uav_env.benchmark.policy_errors.PolicyError` naming the suite, the scenario
+    (or the batch) and ``name``, the policy's own exception chained."""
     check_seed(seed)
     check_overrides(suite, env_kwargs, allow_task_change=allow_task_change)
     metrics = metrics_of(suite)
     kwargs = {**suite.env_kwargs, **dict(env_kwargs or {})}
+    named = NamedPolicy(act, suite.name, name)  # a policy's error names the suite, scenario and policy
     if at_once:
-        return _at_once(act, suite, scenarios, kwargs, seed, name, metrics)
+        return _at_once(named, suite, scenarios, kwargs, seed, name, metrics)
     env, _ = _make_env(suite.env_id, kwargs, False)  # one scenario is planned in the single env
-    if batched:
-        act = batch_of_one(act)
+    act = batch_of_one(named) if batched else named
     try:
         max_nodes = getattr(env.unwrapped, "max_nodes", 1)
         too_many = [s.index for s in scenarios if s.config.K > max_nodes]
@@ -291,8 +296,12 @@ def evaluate_scenarios(
                 f"(env_kwargs {kwargs})"
             )
         if scenarios:  # warm-up, not scored: compilations and first calls stay out of the plan times
+            named.at(scenarios[0], warm_up=True)
             episode(env, act, scenarios[0], seed, False, metrics)
-        rows = [episode(env, act, s, seed, False, metrics) for s in scenarios]
+        rows = []
+        for s in scenarios:
+            named.at(s)
+            rows.append(episode(env, act, s, seed, False, metrics))
     finally:
         env.close()
     return Results.of(suite, name, kwargs, rows, scenarios)
@@ -316,7 +325,7 @@ def batch_of_one(act: Callable) -> Callable[[np.ndarray], np.ndarray]:
 
 
 def _at_once(
-    act: Callable, suite: Suite, scenarios: Sequence[SuiteScenario], kwargs: dict[str, Any],
+    act: NamedPolicy, suite: Suite, scenarios: Sequence[SuiteScenario], kwargs: dict[str, Any],
     seed: int | None, name: str, metrics: Metrics,
 ) -> Results:  # fmt: skip
     """:func:`evaluate_scenarios` with ``at_once`` (``metrics``: the suite's)."""
@@ -335,6 +344,10 @@ def _at_once(
                     f"{suite.env_id} has no batched env here (Gymnasium >= 1.0): evaluate without at_once"
                 )
             configs = [s.config for s in scenarios[:count]]
+            if count == 1:
+                act.at(scenarios[0], warm_up=True)
+            else:
+                act.at_once(scenarios)
             episodes = run_episodes(vec, act, seed=None if seeds is None else seeds * count,
                                     options={"configs": configs})  # fmt: skip
         finally:

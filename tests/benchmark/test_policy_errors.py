@@ -1,0 +1,53 @@
+"""A policy that raises mid-evaluation: on every suite, batched or not, at once or one scenario at
+a time, the error names the suite, the scenario and the policy, and chains the policy's own."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from ios_uav_env.benchmark import SUITES, evaluate, load_suite
+from ios_uav_env.benchmark.policy_errors import PolicyError
+
+
+class Breaks:
+    """Stays in place (the guard flies it to qF) and raises ZeroDivisionError at call ``at``."""
+
+    name = "breaks"
+
+    def __init__(self, at: int, width: int, batched: bool = False) -> None:
+        self.at, self.width, self.batched, self.calls = at, width, batched, 0
+
+    def __call__(self, obs: np.ndarray) -> np.ndarray:
+        self.calls += 1
+        if self.calls == self.at:
+            raise ZeroDivisionError("the policy's own bug")
+        return np.zeros((len(obs), self.width) if self.batched else self.width)
+
+
+def _width(suite) -> int:
+    return 2 + (4 if suite.multi_node else 0)
+
+
+@pytest.mark.parametrize("batched", [False, True])
+@pytest.mark.parametrize("name", sorted(SUITES))
+def test_the_error_names_the_suite_the_scenario_and_the_policy(name, batched):
+    suite = load_suite(name)
+    steps = suite[0].config.N - 1  # one call per step; the warm-up episode plays scenario 0 first
+    policy = Breaks(2 * steps + 1, _width(suite), batched)  # the first call of scenario 1
+    with pytest.raises(PolicyError) as err:
+        evaluate(policy, suite, n=2, batched=batched)
+    message = str(err.value)
+    assert f"suite {name}" in message and "scenario 1" in message and "'breaks'" in message, message
+    assert "ZeroDivisionError" in message and "the policy's own bug" in message
+    assert isinstance(err.value.__cause__, ZeroDivisionError)
+    if suite.mobile:
+        assert f"(episode seed {suite[1].seed})" in message
+
+
+def test_in_the_warm_up_and_at_once_the_error_says_which_episode():
+    with pytest.raises(PolicyError, match=r"on scenario 0 \(the unscored warm-up episode\) of suite single"):
+        evaluate(Breaks(1, 2), "single-node-v1", n=2)
+    steps = load_suite("single-node-v1")[0].config.N - 1  # the warm-up batch: scenario 0 alone
+    with pytest.raises(PolicyError, match=r"on the batch of scenarios 0\.\.2 at once of suite single-node"):
+        evaluate(Breaks(steps + 10, 2, batched=True), "single-node-v1", n=3, batched=True, at_once=True)
