@@ -4,9 +4,10 @@
     python -m ios_uav_env.benchmark show [--suite single-node-v1] [--reference dp|sca|hover_peak|hover_ground]
     python -m ios_uav_env.benchmark show --suite multi-node-v1 [--reference sca|tour|bound]
     python -m ios_uav_env.benchmark evaluate [--suite single-node-v1] --policy PKG.MODULE:ATTR \\
-        [--batched] [--env-kwargs KEY:VALUE ...] [--allow-task-change] [--n N] [--name NAME] [--out DIR]
+        [--batched] [--env-kwargs KEY:VALUE ...] [--allow-task-change] [--n N] [--name NAME] \\
+        [--out DIR [--overwrite]]
     python -m ios_uav_env.benchmark evaluate [--suite single-node-v1] --trajectories FILE.npz|FILE.csv \\
-        [--name NAME] [--out DIR]
+        [--name NAME] [--out DIR [--overwrite]]
 
 ``--policy`` imports ``PKG.MODULE`` (the current directory is on the path) and takes ``ATTR``
 (dotted for a nested attribute): a policy, or a class (instantiated without arguments), or a
@@ -18,7 +19,12 @@ values are JSON or Python literals (``peak_hint:true``), else strings; an argume
 task (``mobile-v1 with knowledge='exact' [not mobile-v1's task]``). ``evaluate`` prints the
 summary line (mean / p10 / min % of DP and of SCA, feasible count, median time to plan) and
 writes ``results.csv``, ``results.json``, ``results.md`` and ``pct_dp.png`` (with matplotlib)
-to ``--out``. ``show`` prints the same line for each stored reference (DP, SCA, heuristics).
+to ``--out``: a folder that already holds results (``ios_uav_env.benchmark.outputs``) is refused
+before anything runs unless ``--overwrite`` is given, and then the previous run's result files
+that this run does not write again are removed. The summary's "median plan" is the median of the
+scenarios' plan times: each the wall time of its episode in the single env, warm (see
+``ios_uav_env.benchmark.scoring``). ``show`` prints the same line for each stored reference (DP,
+SCA, heuristics).
 
 On a multi-node suite (``--suite multi-node-v1``) the line has % of SCA, % of the certified
 bound and the best schedule's % of SCA (``ios_uav_env.benchmark.results``), the figures are
@@ -38,6 +44,7 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any, NoReturn
 
+from ios_uav_env.benchmark.outputs import RESULT_FILES, claim
 from ios_uav_env.benchmark.overrides import policy_env_kwargs
 from ios_uav_env.benchmark.results import reference_results
 from ios_uav_env.benchmark.scoring import action_function, check_env_kwargs, evaluate, score_trajectories
@@ -178,6 +185,8 @@ def _parser() -> argparse.ArgumentParser:
                     help="run env arguments that change the suite's task (the outputs name it)")  # fmt: skip
     ev.add_argument("--name", default=None, help="the name in the outputs")
     ev.add_argument("--out", type=Path, default=None, help="folder for the CSV, JSON, markdown and figure")
+    ev.add_argument("--overwrite", action="store_true",
+                    help="replace the results in --out (and remove the previous run's others)")  # fmt: skip
     return p
 
 
@@ -199,7 +208,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     if args.command == "evaluate" and args.out is not None:
         try:
             check_out(args.out)
-        except ValueError as err:
+            claim(args.out, RESULT_FILES, args.overwrite)
+        except (ValueError, FileExistsError) as err:
             refuse("--out", err)
     try:
         suite = load_suite(args.suite)
@@ -242,7 +252,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         parser.error(str(err))
     print(results.summary())
     if args.out is not None:
-        paths = results.save(args.out)
+        paths = results.save(args.out, overwrite=args.overwrite)
         if "figure" not in paths:
             print("no figure: matplotlib is not installed (pip install 'ios-uav-env[render]')")
         print("wrote " + ", ".join(str(p) for p in paths.values()))

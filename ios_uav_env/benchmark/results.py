@@ -311,16 +311,22 @@ class Results:
         rows = ({"task": self.task, **r.to_dict()} for r in self.scenarios)
         return save_rows_csv(path, ("task", *self.metrics.columns()), rows)
 
-    def save(self, out: str | Path) -> dict[str, Path]:
+    def save(self, out: str | Path, *, overwrite: bool = False) -> dict[str, Path]:
         """Write ``results.csv``, ``results.json`` (strict: NaN as null), ``results.md``, the plans
         as ``trajectories.npz`` (with their own shares; if every result has its trajectory: a file
         ``score_trajectories`` scores alike) and, with matplotlib, ``pct_<normaliser>.png`` and,
-        K > 1, ``shares.png`` to the folder ``out``; the paths written by kind."""
+        K > 1, ``shares.png`` to the folder ``out``; the paths written by kind.
+
+        Results already in ``out`` (:data:`~ios_uav_env.benchmark.outputs.RESULT_FILES`) are
+        refused (``FileExistsError`` naming them) unless ``overwrite``; then those of the previous
+        run that this one does not write again are removed once the new ones are written."""
         import json
 
+        from ios_uav_env.benchmark.outputs import RESULT_FILES, claim, remove_stale
         from ios_uav_env.benchmark.trajectories import write_trajectories
 
         out = Path(out)
+        previous = claim(out, RESULT_FILES, overwrite)
         paths = {
             "csv": self.save_csv(out / "results.csv"),
             "json": atomic_write_text(
@@ -346,6 +352,7 @@ class Results:
                 paths["mobile_scenarios"] = save_mobile_figure(self, out / "mobile_scenarios.png", count=None)
         except ImportError:
             pass
+        remove_stale(previous, paths.values())
         return paths
 
 
