@@ -1,12 +1,13 @@
-"""Soak test of crashes and full disks: ``python -m agents.imitation`` and ``python -m agents.sweep``
-(tiny settings) are killed by SIGKILL at random moments, or run out of disk space part-way through
+"""Soak test of crashes and full disks: ``python -m agents.imitation``, ``python -m agents.sweep`` and
+``train.py --trainer fast`` (tiny settings; the last in ``benchmarks/soak_fast.py``) are killed by
+SIGKILL at random moments, or run out of disk space part-way through
 a write (a file-size limit, RLIMIT_FSIZE, of a random size: a write beyond it fails with EFBIG),
 several times each, and run again after each fault; this prints, for every fault, what the run's
 folder held when the session ended (finished rounds or trials, the newest checkpoints), the files
 left torn, where the next session went on and what was lost beyond the work in progress, then
 finishes the run undisturbed and checks that it is complete and that every file in it is whole.
 
-    python benchmarks/soak_faults.py                         # both commands, 4 faults each, seed 0
+    python benchmarks/soak_faults.py                         # the three commands, 4 faults each, seed 0
     python benchmarks/soak_faults.py --target sweep --faults 6 --seed 3
 
 What counts as lost: for imitation, a round (or a tour plan) finished at a fault that a later
@@ -63,10 +64,10 @@ SWEEP_ARGS = ["--seeds", "0", "1", "2", "--jobs", "2", "--timesteps", str(SWEEP_
               "--set", "n_envs=2", "--set", "n_steps=32", "--set", "batch_size=64",
               "--set", "n_epochs=1"]  # fmt: skip
 #: When a SIGKILL comes (s after the session starts; startup, the imports included, takes a few).
-KILL_AFTER = {"imitation": (2.0, 14.0), "sweep": (4.0, 16.0)}
+KILL_AFTER = {"imitation": (2.0, 14.0), "sweep": (4.0, 16.0), "fast": (4.0, 16.0)}
 #: The file-size limit of a disk-full session, log-uniform between these (bytes): from below the
 #: smallest result file to below the largest (checkpoints, datasets), so some write always fails.
-LIMIT_RANGE = {"imitation": (600, 100_000), "sweep": (600, 140_000)}
+LIMIT_RANGE = {"imitation": (600, 100_000), "sweep": (600, 140_000), "fast": (600, 100_000)}
 #: How long the workers of a killed sweep may take to checkpoint and exit (agents.sweep's grace, 30 s,
 #: and a margin).
 ORPHAN_WAIT_S = 45.0
@@ -79,8 +80,11 @@ class Session:
     """One command in a session (process group) of its own; its output lines read as they come."""
 
     def __init__(self, argv: list[str], limit: int | None = None) -> None:
+        # no bytecode cache writes: under a file-size limit CPython renames a short .pyc into the
+        # source tree's __pycache__ (it does not check the write's count), which breaks every import
+        # of that module afterwards, in any process
         env = {"PYTHONPATH": str(ROOT), "PATH": "/usr/bin:/bin", "OMP_NUM_THREADS": "1",
-               "HOME": os.environ.get("HOME", "/tmp")}  # fmt: skip
+               "HOME": os.environ.get("HOME", "/tmp"), "PYTHONDONTWRITEBYTECODE": "1"}  # fmt: skip
         self.started_at = time.monotonic()
         self.proc = subprocess.Popen(
             [sys.executable, *argv], cwd=ROOT, env=env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT,
@@ -446,7 +450,13 @@ def soak_sweep(workdir: Path, faults: int, rng: random.Random, timeout: float, d
     return ok
 
 
-SOAKS = {"imitation": soak_imitation, "sweep": soak_sweep}
+def _soak_fast(workdir: Path, faults: int, rng: random.Random, timeout: float, deadline: float) -> bool:
+    from soak_fast import soak_fast  # benchmarks/soak_fast.py (beside this file)
+
+    return soak_fast(workdir, faults, rng, timeout, deadline)
+
+
+SOAKS = {"imitation": soak_imitation, "sweep": soak_sweep, "fast": _soak_fast}
 
 
 def main(argv: Sequence[str] | None = None) -> int:
