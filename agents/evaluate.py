@@ -11,6 +11,9 @@ the same fading draws) and the mean and standard deviation of its faded average 
     python -m agents.evaluate runs/<run> agents/models/ppo_IOSUAV-v0 --scenario T:100
     python -m agents.evaluate runs/<multi-node run>     # vs SCA, tour and the bound (agents.evaluate_multi)
 
+A folder that already holds a comparison (``comparison.md``, ``.csv``, ``.png``) is refused
+before any agent loads or planner runs unless ``--overwrite`` is given.
+
 Models trained on a multi-node id (``ios_uav_env/IOSUAV-MultiNode-v0`` or ``-Random-v0``) are
 compared on the 3-node scenario (``--scenario`` fields applied to it) by
 :mod:`agents.evaluate_multi`: their own min rate, the best schedule of their trajectory, SCA,
@@ -135,12 +138,15 @@ def build_parser() -> argparse.ArgumentParser:
     )
     parser.add_argument("--rician-seeds", type=int, default=20, help="Rician episodes per scheme (0: none)")
     parser.add_argument("--out", type=Path, default=Path("out/agents"), help="folder of the table and figure")
+    parser.add_argument("--overwrite", action="store_true", help="replace a comparison in --out")
     return parser
 
 
 def main(argv: Sequence[str] | None = None) -> int:
+    from agents.evaluate_multi import COMPARISON_FILES
     from agents.hyperparams import parse_env_kwargs
     from agents.report import markdown_table, save_comparison_figure, save_table_csv
+    from ios_uav_env.benchmark.outputs import claim, remove_stale
 
     parser = build_parser()
     args = parser.parse_args(argv)
@@ -152,6 +158,10 @@ def main(argv: Sequence[str] | None = None) -> int:
         parser.error(f"argument --scenario: {exc}")
     if args.rician_seeds < 0:
         parser.error(f"argument --rician-seeds: must be >= 0, got {args.rician_seeds}")
+    try:  # before any agent loads or any planner runs
+        previous = claim(args.out, COMPARISON_FILES, args.overwrite)
+    except FileExistsError as exc:
+        parser.error(f"argument --out: {exc}")
     try:
         agents = [load_agent(path) for path in args.models]
     except (FileNotFoundError, ValueError) as exc:
@@ -172,7 +182,7 @@ def main(argv: Sequence[str] | None = None) -> int:
             check_agents(agents, multi_config)
         except (TypeError, ValueError) as exc:
             parser.error(f"argument --scenario: {exc}")
-        run_multi(agents, multi_config, args.out)
+        run_multi(agents, multi_config, args.out, overwrite=args.overwrite)
         return 0
     rows = compare(agents, config, args.schemes, args.rician_seeds)
     table = markdown_table(rows)
@@ -186,9 +196,12 @@ def main(argv: Sequence[str] | None = None) -> int:
             )
     from ios_uav_env.io import atomic_write_text
 
-    atomic_write_text(args.out / "comparison.md", table + "\n")
-    print(f"table: {args.out / 'comparison.md'}, {save_table_csv(rows, args.out / 'comparison.csv')}")
-    print(f"figure: {save_comparison_figure(rows, config, args.out / 'comparison.png')}")
+    written = [atomic_write_text(args.out / "comparison.md", table + "\n"),
+               save_table_csv(rows, args.out / "comparison.csv")]  # fmt: skip
+    print(f"table: {written[0]}, {written[1]}")
+    written.append(save_comparison_figure(rows, config, args.out / "comparison.png"))
+    print(f"figure: {written[-1]}")
+    remove_stale(previous, written)
     return 0
 
 

@@ -42,6 +42,8 @@ from ios_uav_env.model.score import score_plan
 
 DEFAULT_MULTI = ScenarioConfig(ground_nodes=DEFAULT_NODES)
 REFERENCE_CACHE = Path("out/multinode-references")
+#: The files a comparison writes to its folder (one node, ``agents.evaluate``, or several).
+COMPARISON_FILES: tuple[str, ...] = ("comparison.md", "comparison.csv", "comparison.png")
 COLUMNS = ("scheme", "kind", "rate", "best_schedule_rate", "pct_sca", "pct_bound", "feasible", "wall_time_s")
 
 
@@ -279,13 +281,26 @@ def save_shares_figure(rows: Sequence[Row], config: ScenarioConfig, path: str | 
 
 
 def run(
-    agents: Sequence[Any], config: ScenarioConfig, out: str | Path, cache: str | Path = REFERENCE_CACHE
+    agents: Sequence[Any],
+    config: ScenarioConfig,
+    out: str | Path,
+    cache: str | Path = REFERENCE_CACHE,
+    *,
+    overwrite: bool = False,
 ) -> None:
-    """Compare, print the table, write ``comparison.md``, ``comparison.csv`` and ``comparison.png``."""
+    """Compare, print the table, write ``comparison.md``, ``comparison.csv`` and ``comparison.png``
+    (a comparison already in ``out`` is refused before anything is solved, ``FileExistsError``,
+    unless ``overwrite``)."""
+    from ios_uav_env.benchmark.outputs import claim, remove_stale
+
     out = Path(out)
+    previous = claim(out, COMPARISON_FILES, overwrite)
     rows = compare_multi(agents, config, cache)
     table = markdown_table(rows)
     print(table)
-    atomic_write_text(out / "comparison.md", table + "\n")
-    print(f"table: {out / 'comparison.md'}, {save_table_csv(rows, out / 'comparison.csv')}")
-    print(f"figure: {save_shares_figure(rows, config, out / 'comparison.png')}")
+    written = [atomic_write_text(out / "comparison.md", table + "\n")]
+    written.append(save_table_csv(rows, out / "comparison.csv"))
+    print(f"table: {written[0]}, {written[1]}")
+    written.append(save_shares_figure(rows, config, out / "comparison.png"))
+    print(f"figure: {written[-1]}")
+    remove_stale(previous, written)

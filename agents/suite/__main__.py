@@ -24,6 +24,7 @@ from baselines.references.heldout import (
 from baselines.runner import check_writable
 from ios_uav_env.benchmark import DEFAULT_SUITE
 from ios_uav_env.benchmark import load_suite as load_benchmark
+from ios_uav_env.benchmark.outputs import claim
 
 SUITE_HELP = f"benchmark suite, a name or a file (default {DEFAULT_SUITE})"
 
@@ -60,6 +61,11 @@ def build_parser() -> argparse.ArgumentParser:
     )
     r.add_argument("--n", type=positive_int, default=None, help="only the first n scenarios")
     r.add_argument("--out", type=Path, default=Path("out/suite"), help="folder of the table and figures")
+    r.add_argument("--overwrite", action="store_true", help="replace a report in --out (and its stale files)")
+    r.add_argument(
+        "--allow-task-change", action="store_true",
+        help="run the model's env arguments that change the suite's task (the outputs name it)",
+    )  # fmt: skip
     r.add_argument(
         "--node-orders", action="store_true",
         help="a multi-node model: its action averaged over every order of the nodes (agents.node_orders)",
@@ -71,6 +77,7 @@ def build_parser() -> argparse.ArgumentParser:
     )
     c.add_argument("--n", type=positive_int, default=None, help="only the first n scenarios")
     c.add_argument("--out", type=Path, default=Path("out/suite_curve"), help="folder of the CSV and PNG")
+    c.add_argument("--overwrite", action="store_true", help="replace a curve in --out")
     return parser
 
 
@@ -113,11 +120,17 @@ def main(argv: Sequence[str] | None = None) -> int:
         parser.error(f"argument --suite: {suite.name} is a multi-node suite (a multi-node --model is scored "
                      "on multi-node-v1 by itself)")  # fmt: skip
     if args.command == "curve":
-        from agents.suite.curve import learning_curve, write_curve
+        from agents.suite.curve import CURVE_FILES, learning_curve, write_curve
 
+        try:  # a previous curve's files go when the new curve's first row is written
+            stale = claim(args.out, CURVE_FILES, args.overwrite)
+        except FileExistsError as exc:
+            parser.error(f"argument --out: {exc}")
         try:
-            rows = learning_curve(args.run, suite, args.n, out=args.out)
+            rows = learning_curve(args.run, suite, args.n, out=args.out, stale=stale)
         except FileNotFoundError as exc:
+            parser.error(f"argument --run: {exc}")
+        except ValueError as exc:  # the run's env arguments on the suite (ios_uav_env.benchmark.overrides)
             parser.error(f"argument --run: {exc}")
         except KeyboardInterrupt:
             print(f"interrupted: the checkpoints scored so far are in {args.out / 'suite_curve.csv'}",
@@ -128,8 +141,12 @@ def main(argv: Sequence[str] | None = None) -> int:
             return 1
         print("wrote " + ", ".join(str(p) for p in write_curve(rows, args.out)))
         return 0
-    from agents.suite.report import load_policy, run_report
+    from agents.suite.report import REPORT_FILES, load_policy, run_report
 
+    try:
+        claim(args.out, REPORT_FILES, args.overwrite)
+    except FileExistsError as exc:
+        parser.error(f"argument --out: {exc}")
     try:
         policy = load_policy(args.model, args.algo)
     except (FileNotFoundError, ValueError) as exc:
@@ -140,7 +157,11 @@ def main(argv: Sequence[str] | None = None) -> int:
         if not is_multinode(policy):
             parser.error(f"argument --node-orders: {args.model} is a one-node model (the orders are a "
                          "multi-node model's nodes')")  # fmt: skip
-    run_report(policy, args.out, n=args.n, suite=suite, node_orders=args.node_orders)
+    try:
+        run_report(policy, args.out, n=args.n, suite=suite, node_orders=args.node_orders,
+                   overwrite=args.overwrite, allow_task_change=args.allow_task_change)  # fmt: skip
+    except ValueError as exc:  # the model's env arguments on the suite (ios_uav_env.benchmark.overrides)
+        parser.error(f"argument --model: {exc}")
     return 0
 
 

@@ -22,24 +22,39 @@ from ios_uav_env.envs.registration import MULTINODE_IDS
 MULTI_SUITE = "multi-node-v1"
 
 
-def suite_env_kwargs(agent: Any, max_nodes: int) -> dict[str, Any]:
-    """The suite env's arguments for ``agent``: its own, with the model's ``max_nodes`` for an agent
-    of the fixed id (``random_nodes`` up to it: the randomised family's observation bounds)."""
-    kwargs = dict(getattr(agent, "env_kwargs", {}) or {})
+def suite_env_kwargs(agent: Any, max_nodes: int, suite: Any = MULTI_SUITE) -> dict[str, Any]:
+    """The suite env's arguments for ``agent``: its own without its training draw
+    (``ios_uav_env.benchmark.overrides.policy_env_kwargs``), with the model's ``max_nodes`` for an
+    agent of the fixed id (``random_nodes`` up to it: the randomised family's observation bounds)."""
+    from ios_uav_env.benchmark import Suite, load_suite
+    from ios_uav_env.benchmark.overrides import policy_env_kwargs
+
+    kwargs = policy_env_kwargs(suite if isinstance(suite, Suite) else load_suite(suite), agent, None)
     if MULTINODE_IDS.get(getattr(agent, "env_id", ""), {}).get("random_nodes") is None:
         kwargs.update(max_nodes=max_nodes, random_nodes=(min(2, max_nodes), max_nodes))
     return kwargs
 
 
 def multi_report(
-    policy: Any, out: str | Path, n: int | None = None, suite: str = MULTI_SUITE, node_orders: bool = False
+    policy: Any,
+    out: str | Path,
+    n: int | None = None,
+    suite: str = MULTI_SUITE,
+    node_orders: bool = False,
+    *,
+    overwrite: bool = False,
+    allow_task_change: bool = False,
 ) -> dict[str, Any]:
     """Score ``policy`` on the multi-node suite, print the table, write the files to ``out``.
     ``node_orders``: its action averaged over every order of the nodes
-    (:class:`agents.node_orders.NodeOrderAverage`)."""
+    (:class:`agents.node_orders.NodeOrderAverage`). Results already in ``out`` are refused before
+    anything runs unless ``overwrite`` (``Results.save``); env arguments of the policy that
+    change the suite's task only run with ``allow_task_change`` (``ios_uav_env.benchmark.overrides``)."""
     from ios_uav_env.benchmark import load_suite
+    from ios_uav_env.benchmark.outputs import RESULT_FILES, claim
     from ios_uav_env.benchmark.scoring import evaluate_scenarios
 
+    claim(out, RESULT_FILES, overwrite)
     loaded = load_suite(suite)
     k_max = model_max_nodes(policy)
     chosen = loaded.subset(n)
@@ -47,17 +62,17 @@ def multi_report(
     if not scenarios:
         raise ValueError(f"no scenario of {loaded.name} has K <= {k_max} nodes (the model's max_nodes)")
     name = getattr(policy, "name", "policy")
-    kwargs = suite_env_kwargs(policy, k_max)
+    kwargs = suite_env_kwargs(policy, k_max, loaded)
     act = fast_act(policy)
     if node_orders:
         from agents.node_orders import NodeOrderAverage
 
         act, name = NodeOrderAverage(act, k_max, node_width(kwargs)), f"{name} (node orders averaged)"
-    results = evaluate_scenarios(act, loaded, scenarios, kwargs, 0, name)
+    results = evaluate_scenarios(act, loaded, scenarios, kwargs, 0, name, allow_task_change=allow_task_change)
     print(results.markdown())
     if len(scenarios) < len(chosen):
         print(f"note: {len(chosen) - len(scenarios)} of {len(chosen)} scenarios have more than the model's "
               f"max_nodes = {k_max} nodes and were not scored")  # fmt: skip
-    paths = results.save(out)
+    paths = results.save(out, overwrite=overwrite)
     print("wrote " + ", ".join(str(p) for p in paths.values()))
     return {"summary": results.aggregate.to_dict(), "results": results, "paths": paths}

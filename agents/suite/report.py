@@ -21,7 +21,11 @@ the optimum over a grid, and an off-grid trajectory can beat it.
 Writes what ``ios_uav_env.benchmark.Results.save`` writes (``results.csv``, ``results.json``,
 ``results.md``, ``trajectories.npz``, ``pct_dp.png``) and ``suite_trajectories.png`` (six
 scenarios, the policy against DP and SCA over the rate map, from the worst to the best % of DP;
-DP's and SCA's plans from the held-out plan file). :func:`suite_score` is the score as a dict,
+DP's and SCA's plans from the held-out plan file). A folder that already holds a report is
+refused before the model loads unless ``--overwrite`` is given (the previous report's files that
+this one does not write are then removed). A model whose env arguments change the suite's task
+(e.g. ``arrival_guard=False``: ``ios_uav_env.benchmark.overrides``) is refused unless
+``--allow-task-change`` is given; its outputs then name the changed task. :func:`suite_score` is the score as a dict,
 for a training callback.
 """
 
@@ -41,9 +45,15 @@ from baselines.references.heldout import load_suite as load_plans
 from ios_uav_env import ENV_IDS, RANDOM_ENV_ID, score_plan
 from ios_uav_env.benchmark import DEFAULT_SUITE, Results, ScenarioResult, Suite, evaluate_scenarios
 from ios_uav_env.benchmark import load_suite as load_benchmark
+from ios_uav_env.benchmark.outputs import RESULT_FILES, claim, remove_stale
+from ios_uav_env.benchmark.overrides import check_overrides, policy_env_kwargs
+from ios_uav_env.benchmark.policy_errors import NamedPolicy
 from ios_uav_env.benchmark.results import metrics_of
 from ios_uav_env.envs.policies import HoverAt
 from ios_uav_env.io import save_figure
+
+#: The files a report may write to its folder: the benchmark's and the trajectory figure.
+REPORT_FILES: tuple[str, ...] = (*RESULT_FILES, "suite_trajectories.png")
 
 #: The heuristic policies :func:`load_policy` knows by name (``ios_uav_env.envs.policies.HoverAt``).
 HEURISTICS: dict[str, Callable[[], HoverAt]] = {
@@ -86,29 +96,39 @@ def evaluate_suite(
     *,
     env_id: str | None = None,
     env_kwargs: dict[str, Any] | None = None,
+    allow_task_change: bool = False,
 ) -> Results:
     """``ios_uav_env.benchmark.Results`` of ``policy`` on the first ``n`` scenarios of a
     single-node ``suite`` (a name or a file; default ``single-node-v1``); the policy runs in
-    ``env_id`` with ``env_kwargs`` (default: its own ``env_id`` / ``env_kwargs`` attributes, else
-    the randomised id without arguments)."""
+    ``env_id`` with ``env_kwargs`` (default: its own ``env_id`` / ``env_kwargs`` attributes
+    without its training draw, ``ios_uav_env.benchmark.overrides.policy_env_kwargs``, else the
+    randomised id without arguments). Env arguments the suite pins are refused, and so are those
+    that change its task unless ``allow_task_change`` (the results then name the changed task).
+    A plan's time is its episode's, after an unscored warm-up episode (as the benchmark's)."""
     suite = _suite(suite)
     if suite.multi_node:
         raise ValueError(
             f"{suite.name} is a multi-node suite: score multi-node agents with agents.suite.multi"
         )
     env_id = env_id or getattr(policy, "env_id", RANDOM_ENV_ID)
-    env_kwargs = dict(getattr(policy, "env_kwargs", {}) if env_kwargs is None else env_kwargs)
+    env_kwargs = policy_env_kwargs(suite, policy, env_kwargs)
+    check_overrides(suite, env_kwargs, allow_task_change=allow_task_change)
     name = getattr(policy, "name", "policy")
     act, scenarios = fast_act(policy), suite.subset(n)
     if env_id not in ENV_IDS:  # the randomised id: every scenario at once, in its batched env
-        return evaluate_scenarios(act, suite, scenarios, env_kwargs, 0, name, at_once=True)
+        return evaluate_scenarios(
+            act, suite, scenarios, env_kwargs, 0, name, at_once=True, allow_task_change=allow_task_change
+        )
+    named = NamedPolicy(act, suite.name, name)  # a policy's error names the suite, scenario and policy
     if progress:
         from tqdm.auto import tqdm
 
         scenarios = tqdm(scenarios, desc="suite report", unit="scenario")
     metrics = metrics_of(suite)
     with ScenarioRunner(env_id, env_kwargs) as runner:
-        episodes = [(s, runner.run(act, s.config, seed=0)) for s in scenarios]
+        if len(scenarios):  # warm-up, not scored: compilations and first calls stay out of the times
+            runner.run(named.at(suite[0], warm_up=True), suite[0].config, seed=0)
+        episodes = [(s, runner.run(named.at(s), s.config, seed=0)) for s in scenarios]
     rows = [ScenarioResult.of(s, metrics, score_plan(s.config, e.trajectory), e.seconds, e.trajectory)
             for s, e in episodes]  # fmt: skip
     return Results.of(suite, name, env_kwargs, rows, [s for s, _ in episodes])
@@ -132,6 +152,7 @@ def summarize(results: Results) -> dict[str, Any]:
         "median_seconds": policy_s,
         "sca_median_seconds": a.sca_median_seconds,
         "speedup": a.sca_median_seconds / policy_s if policy_s > 0 else math.inf,
+        "task": results.task,  # the suite's name, or the changed task's (Results.task)
     }
 
 
@@ -148,8 +169,10 @@ def suite_score(
 
 
 def summary_text(s: dict[str, Any], name: str = "policy") -> str:
+    """The summary of :func:`summarize` in a sentence (a changed task named after the count)."""
+    task = f" of {s['task']}" if "[not " in str(s.get("task", "")) else ""
     return (
-        f"{name} on {s['n']} held-out scenarios: {s['mean_pct_dp']:.2f}% of DP on average, "
+        f"{name} on {s['n']} held-out scenarios{task}: {s['mean_pct_dp']:.2f}% of DP on average, "
         f"10th percentile {s['p10_pct_dp']:.2f}%, minimum {s['min_pct_dp']:.2f}%; feasible "
         f"{s['feasible']}/{s['n']} (SCA: {s['sca_mean_pct_dp']:.2f}% of DP, "
         f"feasible {s['sca_feasible']}/{s['n']}); "
@@ -187,6 +210,8 @@ def save_trajectories_figure(results: Results, path: str | Path, name: str = "po
         plot_trajectories(ax, config, lines, legend=k == 0, lw=1.2, ms=2)
         ax.set_title(f"#{row.index} {config.surface.upper()}, T={config.T:g} s, M={config.M}: "
                      f"{row.pct_dp:.1f}% of DP", fontsize=9)  # fmt: skip
+    if results.task_changes:
+        fig.suptitle(f"{name} on {results.task}", fontsize=10, color="tab:red")
     fig.tight_layout()
     return save_figure(fig, path)
 
@@ -198,26 +223,38 @@ def run_report(
     progress: bool = True,
     suite: Suite | str | None = None,
     node_orders: bool = False,
+    *,
+    overwrite: bool = False,
+    allow_task_change: bool = False,
 ) -> dict[str, Any]:
     """Evaluate, print the table and the summary, write the benchmark's files and the trajectory
     figure to ``out``. A multi-node agent is scored on the multi-node suite instead
     (:mod:`agents.suite.multi`; ``node_orders``: its action averaged over every order of the
-    nodes); ``node_orders`` with a one-node agent is a ``ValueError``."""
+    nodes); ``node_orders`` with a one-node agent is a ``ValueError``. Results already in ``out``
+    (:data:`REPORT_FILES`) are refused before anything runs (``FileExistsError``) unless
+    ``overwrite``: then the previous report's files this one does not write are removed.
+    ``allow_task_change``: run env arguments of the policy that change the suite's task
+    (``ios_uav_env.benchmark.overrides``), the outputs naming the changed task."""
     from agents.evaluate_multi import is_multinode
 
+    out = Path(out)
+    previous = claim(out, REPORT_FILES, overwrite)
     if is_multinode(policy):
         from agents.suite.multi import multi_report
 
-        return multi_report(policy, out, n, node_orders=node_orders)
+        report = multi_report(policy, out, n, node_orders=node_orders, overwrite=overwrite,
+                              allow_task_change=allow_task_change)  # fmt: skip
+        remove_stale(previous, report["paths"].values())
+        return report
     if node_orders:
         raise ValueError("node_orders: averaging over the orders of the nodes needs a multi-node agent")
-    out = Path(out)
     name = getattr(policy, "name", "policy")
-    results = evaluate_suite(policy, suite, n, progress=progress)
+    results = evaluate_suite(policy, suite, n, progress=progress, allow_task_change=allow_task_change)
     s = summarize(results)
     print(results.markdown())
     print(summary_text(s, name))
-    paths = results.save(out)
+    paths = results.save(out, overwrite=overwrite)
     paths["trajectories_figure"] = save_trajectories_figure(results, out / "suite_trajectories.png", name)
+    remove_stale(previous, paths.values())
     print("wrote " + ", ".join(str(p) for p in paths.values()))
     return {"summary": s, "results": results, "paths": paths}

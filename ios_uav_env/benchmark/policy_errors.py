@@ -29,12 +29,16 @@ def where(scenario: Any) -> str:
 class NamedPolicy:
     """``act`` (an action function) whose exceptions name the suite, the scenario and the policy.
 
-    The scorer calls :meth:`at` before each episode; ``repeat`` and ``batched`` are ``act``'s."""
+    The scorer calls :meth:`at` before each episode; ``repeat``, ``batched`` and ``check_env``
+    are ``act``'s (or its object's, for a bound method)."""
 
     def __init__(self, act: Callable[[np.ndarray], Any], suite: str, policy: str) -> None:
         self.act, self.suite, self.policy = act, suite, policy
+        owner = getattr(act, "__self__", act)  # a bound method's object: what runners ask
         self.repeat = decision_interval(act)
-        self.batched = bool(getattr(getattr(act, "__self__", act), "batched", False))
+        self.batched = bool(getattr(owner, "batched", False))
+        if callable(getattr(owner, "check_env", None)):  # an agent's check of the env it runs in
+            self.check_env = owner.check_env
         self.place = "its first episode"
 
     def at(self, scenario: Any, warm_up: bool = False) -> NamedPolicy:

@@ -139,6 +139,24 @@ def test_cli_writes_table_csv_and_figure(tmp_path, capsys):
     assert (tmp_path / "comparison.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
 
 
+def test_cli_refuses_an_out_holding_a_comparison_and_overwrite_replaces_it(tmp_path, capsys, monkeypatch):
+    import agents.evaluate as evaluate
+
+    loaded = []
+    monkeypatch.setattr(evaluate, "load_agent", lambda path: loaded.append(path) or load_agent(path))
+    (tmp_path / "comparison.md").write_text("a previous comparison\n")
+    argv = [str(MODELS_DIR / SHIPPED[0]), "--schemes", "--rician-seeds", "0", "--out", str(tmp_path)]
+    with pytest.raises(SystemExit) as exc:
+        main(argv)
+    line = capsys.readouterr().err.strip().splitlines()[-1]
+    assert exc.value.code == 2 and "argument --out: " in line and "comparison.md" in line
+    assert "--overwrite" in line
+    assert not loaded and (tmp_path / "comparison.md").read_text() == "a previous comparison\n"
+    assert main([*argv, "--overwrite"]) == 0
+    assert (tmp_path / "comparison.md").read_text().startswith("| scheme |") and loaded
+    assert {p.name for p in tmp_path.iterdir()} == {"comparison.md", "comparison.csv", "comparison.png"}
+
+
 @pytest.mark.parametrize(
     "argv, message",
     [

@@ -287,3 +287,96 @@ def test_shipped_multinode_generalist_reproduces_its_recorded_suite_rows():
     for row, rec in zip(rows, recorded, strict=False):
         assert row.index == int(rec["index"]) and row.feasible
         assert row.rate == pytest.approx(float(rec["rate"]), rel=RATE_REL)
+
+
+# --- results folders, task changes, plan times and errors of the report and the curve ----------
+def _exit_2(capsys, argv) -> str:
+    with pytest.raises(SystemExit) as exit_:
+        main(argv)
+    assert exit_.value.code == 2
+    return capsys.readouterr().err.strip().splitlines()[-1]
+
+
+def test_report_refuses_an_out_holding_results_and_overwrite_removes_the_stale_ones(tmp_path, capsys):
+    argv = ["report", "--model", "heuristic", "--n", "1", "--out", str(tmp_path)]
+    assert main(argv) == 0
+    before = {p.name: p.read_bytes() for p in tmp_path.iterdir()}
+    assert {"results.md", "suite_trajectories.png", "pct_dp.png"} <= set(before)
+    line = _exit_2(capsys, argv)
+    assert "argument --out: " in line and "results.md" in line and "--overwrite" in line
+    assert {p.name: p.read_bytes() for p in tmp_path.iterdir()} == before
+    (tmp_path / "shares.png").write_bytes(b"a multi-node report's figure")  # a previous run's file
+    assert main([*argv, "--overwrite"]) == 0
+    assert not (tmp_path / "shares.png").exists() and (tmp_path / "suite_trajectories.png").exists()
+
+
+def test_curve_refuses_an_out_holding_a_curve_and_keeps_it_until_a_new_row_is_written(
+    tmp_path, capsys, monkeypatch
+):
+    from agents.suite import curve
+
+    (tmp_path / "suite_curve.png").write_bytes(b"the previous curve")
+    argv = ["curve", "--run", str(tmp_path / "no-run"), "--out", str(tmp_path)]
+    assert "argument --out: " in _exit_2(capsys, argv)
+    assert "argument --run: " in _exit_2(capsys, [*argv, "--overwrite"])  # no checkpoint: nothing removed
+    assert (tmp_path / "suite_curve.png").read_bytes() == b"the previous curve"
+    row = {"mean_pct_dp": 99.0, "p10_pct_dp": 98.0, "min_pct_dp": 97.0, "feasible": 2, "n": 2}
+    (tmp_path / "rl_model_1000_steps.zip").write_bytes(b"")
+    monkeypatch.setattr(curve, "checkpoints", lambda run: [(1000, tmp_path / "rl_model_1000_steps.zip")])
+    monkeypatch.setattr(curve, "load_agent", lambda *a, **k: HoverAt("ground"))
+    monkeypatch.setattr(curve, "summarize", lambda results: row)
+    monkeypatch.setattr(curve, "evaluate_suite", lambda *a, **k: None)
+    seen = []
+    real = curve.remove_stale
+    monkeypatch.setattr(curve, "remove_stale", lambda stale, kept: seen.extend(real(stale, kept)))
+    assert main([*argv, "--overwrite"]) == 0
+    assert [p.name for p in seen] == ["suite_curve.png"]  # removed before the first row, then redrawn
+    assert (tmp_path / "suite_curve.csv").read_text().splitlines()[1].startswith("1000,")
+
+
+class NoGuard(HoverAt):
+    """HoverAt("ground") in an env without the arrival guard: another task than the suite's."""
+
+    env_kwargs = {"arrival_guard": False}
+
+
+def test_report_refuses_a_task_change_and_names_it_everywhere_with_the_opt_in(bench, tmp_path, capsys):
+    with pytest.raises(ValueError, match=r"arrival_guard=False \(the suite's: True.*--allow-task-change"):
+        run_report(NoGuard("ground"), tmp_path / "a", n=1, progress=False)
+    assert not (tmp_path / "a").exists() or not any((tmp_path / "a").iterdir())
+    out = tmp_path / "b"
+    result = run_report(NoGuard("ground"), out, n=1, progress=False, allow_task_change=True)
+    label = "single-node-v1 with arrival_guard=False [not single-node-v1's task]"
+    printed = capsys.readouterr().out
+    assert result["results"].task == label and result["summary"]["task"] == label
+    assert f"held-out scenarios of {label}" in printed and f"on {label} (1 scenarios)" in printed
+    assert label in (out / "results.md").read_text() and label in (out / "results.json").read_text()
+
+
+def test_a_fixed_id_report_times_warm_episodes_and_names_a_failing_scenario(bench, monkeypatch):
+    import types
+
+    from ios_uav_env.benchmark import PolicyError
+    from ios_uav_env.envs import rollout
+
+    clock = types.SimpleNamespace(now=0.0)
+    monkeypatch.setattr(rollout, "time", types.SimpleNamespace(perf_counter=lambda: clock.now))
+    calls = []
+
+    def slow_first(obs):  # its first call costs 100 s of the fake clock (a compilation), others 1 s
+        clock.now += 1.0 if calls else 100.0
+        calls.append(1)
+        return HoverAt("ground")(obs)
+
+    rows = evaluate_suite(slow_first, bench, n=2, env_id="ios_uav_env/IOSUAV-v0")
+    steps = [bench[i].config.N - 1 for i in range(2)]
+    assert [r.seconds for r in rows] == [float(s) for s in steps]  # the warm-up episode took the 100 s
+    assert len(calls) == steps[0] + sum(steps)
+
+    def breaks(obs):
+        raise KeyError("feature")
+
+    with pytest.raises(
+        PolicyError, match=r"scenario 0 \(the unscored warm-up episode\) of suite single-node-v1"
+    ):
+        evaluate_suite(breaks, bench, n=1, env_id="ios_uav_env/IOSUAV-v0")
