@@ -67,7 +67,7 @@ $(OLDEST_VENV)/.installed: pyproject.toml Makefile $(CONSTRAINTS)
 
 demo: $(VENV)/.installed
 	$(PY) -m ios_uav_env --out out/demo.png
-	$(PY) -m agents.evaluate --shipped --out out/compare
+	$(PY) -m agents.evaluate --shipped --out out/compare --overwrite
 
 # Two chains side by side from the start: the main one (install .venv, lint, the suite on two
 # workers) and the side one (install the side venvs, oldest releases and other Pythons, then run
