@@ -53,7 +53,8 @@ REGISTRY: dict[str, Measurement] = {
     for name, script, extra, what in [
         ("step_speed", "step_speed.py", (), "raw env.step of IOSUAV-v0 against CartPole-v1"),
         ("random_env", "random_env.py", ("--peak-hint", "--energy"), "resets and steps of the random ids"),
-        ("vector_speed", "vector_speed.py", (), "the batched envs against CartPole; the multi-node one"),
+        ("vector_speed", "vector_speed.py", ("--steps",), "batched steps vs CartPole; the multi-node one"),
+        ("vector_episodes", "vector_speed.py", (), "whole episodes of every id at B = 1024 vs CartPoleVec"),
         ("planners", "planners.py", (), "DP and the paper's schemes: rate, % of DP, seconds"),
         ("sca_bench", "sca_bench.py", (), "SCA against the DP optimum, tiles, solvers, DPP"),
         ("ppo_speed", "ppo_speed.py", (), "PPO (ppo_fast.yml), batched env: time to 99.5% of DP"),
