@@ -246,7 +246,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         f"steps {summary['steps']}, wall time {summary['wall_time_s']:.1f} s, "
         f"{summary['steps_per_s']:.0f} steps/s"
     )
-    # the score: the value of the id's objective (agents.callbacks.ScoreLabel), named, with its unit
+    # the score: the value of the id's objective (agents.scores.ScoreLabel), named, with its unit
     name, unit, rate = final["score_name"].replace("_", " "), final["score_unit"], final["average_rate"]
     if unit == "bps/Hz":
         score = f"{name} {final['score']:.6f} bps/Hz"

@@ -1,5 +1,5 @@
 """SB3 callbacks of a training run: a checkpoint that also records the wall time, and an
-evaluation that logs the episode's score (the value of its id's objective, :class:`ScoreLabel`:
+evaluation that logs the episode's score (the value of its id's objective, ``agents.scores``:
 the average rate, the max-min rate of several nodes, or the energy efficiency), feasibility
 and terminal miss."""
 
@@ -9,12 +9,12 @@ import json
 import os
 import time
 from collections.abc import Callable
-from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
 from stable_baselines3.common.callbacks import BaseCallback, CheckpointCallback
 
+from agents.scores import score_label
 from ios_uav_env.io import atomic_write_bytes, atomic_write_text, naming_full_disk
 
 PROGRESS_FILE = "progress.json"
@@ -167,40 +167,6 @@ class TimedCheckpointCallback(CheckpointCallback):
             self._last = self.num_timesteps // self.every
             self.save()
         return True
-
-
-#: The score of each objective (``ScenarioConfig.objective``): its name (one node, several nodes;
-#: also the key of the score in the envs' ``info`` at an episode's end) and its unit.
-SCORES: dict[str, tuple[str, str, str]] = {
-    "rate": ("average_rate", "min_rate", "bps/Hz"),
-    "energy_efficiency": ("energy_efficiency", "energy_efficiency", "bits/J"),
-}
-
-
-@dataclass(frozen=True)
-class ScoreLabel:
-    """What an episode's score is on an env: the value of its objective, by name and unit."""
-
-    objective: str  # ScenarioConfig.objective
-    name: str  # "average_rate" (eq. (9)), "min_rate" (several nodes: max-min) or "energy_efficiency"
-    unit: str  # "bps/Hz" or "bits/J"
-
-    def text(self, value: float) -> str:
-        """``value`` labelled, e.g. ``energy efficiency 4722 bits/J``."""
-        return f"{self.name.replace('_', ' ')} {value:.6g} {self.unit}"
-
-
-def score_label(env: Any) -> ScoreLabel:
-    """The :class:`ScoreLabel` of a (single, possibly wrapped) env of this package: its objective
-    (``env.unwrapped.config.objective``) and whether it serves several nodes."""
-    from ios_uav_env.envs.multi import MultiNodeEnv
-
-    base = env.unwrapped
-    objective = base.config.objective
-    if objective not in SCORES:
-        raise ValueError(f"objective must be one of {', '.join(SCORES)}, got {objective!r}")
-    one, several, unit = SCORES[objective]
-    return ScoreLabel(objective, several if isinstance(base, MultiNodeEnv) else one, unit)
 
 
 def evaluate_agent(agent: Any, steps: int, seconds: float) -> dict[str, Any]:

@@ -25,6 +25,12 @@ NO_ROOM: frozenset[int] = frozenset(
 )
 
 
+#: How :class:`DiskFullError` says what found no room, by errno.
+_NO_ROOM_REASONS = {errno.ENOSPC: "the disk is full", errno.EFBIG: "the file-size limit is reached"}
+if hasattr(errno, "EDQUOT"):
+    _NO_ROOM_REASONS[errno.EDQUOT] = "the disk quota is used up"
+
+
 class DiskFullError(OSError):
     """A write to ``path`` that found no room (``errno`` one of :data:`NO_ROOM`); what was being
     written was not left torn (see the module docstring)."""
@@ -34,9 +40,10 @@ class DiskFullError(OSError):
         self.path = Path(path)
 
     def __str__(self) -> str:
+        reason = _NO_ROOM_REASONS.get(self.errno, "the disk is full")
         return (
-            f"cannot write {self.path}: the disk is full ({self.strerror}); nothing was left half "
-            "written: free some space and run again"
+            f"cannot write {self.path}: {reason} ({self.strerror}); nothing was left half written: make "
+            "room and run again"
         )
 
     def __reduce__(self) -> tuple[Any, ...]:  # raised in a worker process, re-raised in its parent

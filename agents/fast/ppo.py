@@ -40,6 +40,7 @@ import ios_uav_env  # noqa: F401  (registers the ids)
 from agents.fast.gae import gae
 from agents.fast.kernel_policy import KernelUpdate
 from agents.fast.recipe import FastRecipe
+from agents.scores import score_label
 from agents.wrappers import check_exploring
 from ios_uav_env.jit import HAVE_NUMBA, prefer_passive_threads
 
@@ -111,8 +112,6 @@ class FastPPO:
         self.base = BatchedVecEnv(env_id, recipe.n_envs, vector_kwargs, stagger=True)
         self.vec = self.base.vector_env
         template = DummyVecEnv([lambda: gym.make(env_id, **self.env_kwargs)])
-        from agents.callbacks import score_label
-
         self.score = score_label(template.envs[0])  # what the finished episodes' scores are
         if self.score.name not in self.vec.info_keys:
             raise ValueError(
