@@ -172,9 +172,9 @@ def check_overrides(
                  for k, v in sorted(changes.items())]  # fmt: skip
         raise ValueError(
             f"env_kwargs {', '.join(parts)} change the task of suite {suite.name}: its references were "
-            f"computed without them, so the scores would not be {suite.name} scores. To run it anyway, "
-            "pass allow_task_change=True (--allow-task-change on the command line): the results are then "
-            f"labelled {task_label(suite.name, changes)!r}"
+            f"computed with the suite's values, so the scores would not be {suite.name} scores. To run it "
+            "anyway, pass allow_task_change=True (--allow-task-change on the command line): the results are "
+            f"then labelled {task_label(suite.name, changes)!r}"
         )
     return changes
 
