@@ -24,7 +24,10 @@ command). :func:`resume` continues a run from its newest checkpoint that loads (
 one is set aside as ``*.unreadable`` with a warning naming it) in the same folder: the step
 count, the TensorBoard run, the monitor files and the wall-time clock go on where they
 stopped. A run folder without a checkpoint (a run stopped before its first) is no dead end:
-``--resume`` starts it again from step 0 with its own settings, and a new run may use it.
+``--resume`` starts it again from step 0 with its own settings, and a new run may use it; a
+folder with a finished model but no checkpoint (a shipped model) is refused before anything is
+written to it. A full disk ends a run with ``ios_uav_env.io.DiskFullError`` naming the file
+(nothing left half written: every file is written atomically, the logs a whole line at a time).
 
 The modules, by concern:
 
