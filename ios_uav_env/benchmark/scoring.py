@@ -231,6 +231,9 @@ def evaluate(
     check_overrides(suite, own, allow_task_change=allow_task_change)
     if getattr(policy, "observation_space", None) is not None:
         check_env_kwargs(suite, own, policy, allow_task_change=allow_task_change)
+    from ios_uav_env.envs.rollout import policy_for  # a policy reading features by name: checked first
+
+    policy = policy_for(policy, suite.env_id, {**suite.env_kwargs, **dict(own or {})})
     batched = bool(getattr(policy, "batched", False) if batched is None else batched)
     name = name or policy_name(policy)
     act = action_function(policy)

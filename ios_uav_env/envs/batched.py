@@ -97,7 +97,8 @@ class BatchedEnv(gym.vector.VectorEnv):
     the batched kernel; None: every core). Rendering is not supported (``render_mode=None``).
     ``reset(seed=s)`` seeds row i with ``s + i`` (a list of B seeds works too);
     ``options={"config": cfg}`` pins every row's episode to ``cfg``, ``options={"configs":
-    [cfg_0, ...]}`` row i's to ``cfg_i``.
+    [cfg_0, ...]}`` row i's to ``cfg_i``. ``observation_names``: the names of a row's observation
+    components, the single env's.
     """
 
     env_class: type[gym.Env]
@@ -150,6 +151,8 @@ class BatchedEnv(gym.vector.VectorEnv):
         the rows' scenario managers, each with its own generator, seeded at reset)."""
         self.single_observation_space = template.observation_space
         self.single_action_space = template.action_space
+        #: The names of one row's observation components (the single env's ``observation_names``).
+        self.observation_names: tuple[str, ...] | None = getattr(template, "observation_names", None)
         self.observation_space = batch_space(self.single_observation_space, self.num_envs)
         self.action_space = batch_space(self.single_action_space, self.num_envs)
         self.envs = [copy.copy(template) for _ in range(self.num_envs)]

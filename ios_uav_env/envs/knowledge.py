@@ -38,7 +38,15 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ios_uav_env.envs.observation import ground_free_rate_bound, length_bounds, pad
+from ios_uav_env.envs.observation import (
+    F32_MAX,
+    float32_bounds,
+    ground_free_rate_bound,
+    length_bounds,
+    observation_names,
+    overflow_hint,
+    pad,
+)
 from ios_uav_env.envs.options import KNOWLEDGE, EnvOptions
 from ios_uav_env.model.channel import faded_row, path_kernels
 from ios_uav_env.model.config import ScenarioConfig
@@ -177,9 +185,20 @@ def mobile_bounds(
     rate = max(ground_free_rate_bound(c) for c in ranges.configs_per_surface())
     rate += 0.0 if options.knowledge == "exact" else FADE_MARGIN
     low, high = low.copy(), high.copy()
-    high[4:6] = [pad(v / options.length_scale) for v in lengths[2:4]]
+    scale = options.length_scale
+
+    def why(name: str, value: float) -> str:
+        if sigma > 0.0 and name != "rate":  # a told position can be 4 report_sigma off the node's box
+            without = length_bounds((ranges.start_x, ranges.start_y), [node_extent(ranges, 0.0)], reach)[2]
+            top = (F32_MAX / (1.0 + 1e-3) * scale - without) / REPORT_CLIP
+            clip = f"a report is clipped {REPORT_CLIP:g} report_sigma beyond the node's box"
+            return f"{clip}: report_sigma must be <= {top:.4g} m"
+        return overflow_hint(name, value, scale, ranges.base)
+
+    node_names = observation_names(False, knowledge=options.knowledge)[4:6]
+    high[4:6] = float32_bounds([pad(v / scale) for v in lengths[2:4]], node_names, why)
+    high[10] = float32_bounds([pad(rate)], ("rate",), why)[0]
     low[4:6] = -high[4:6]
-    high[10] = pad(rate)
     return low, high, rate
 
 

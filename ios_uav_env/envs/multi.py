@@ -35,8 +35,23 @@ from ios_uav_env.envs.multi_kernels import (
     soft_minimum,
 )
 from ios_uav_env.envs.multi_mobile import MobileNodes
-from ios_uav_env.envs.observation import M_SCALE, T_SCALE, ground_free_rate_bound, length_bounds, pad
+from ios_uav_env.envs.observation import (
+    M_SCALE,
+    T_SCALE,
+    float32_bounds,
+    ground_free_rate_bound,
+    length_bounds,
+    node_block_names,
+    overflow_hint,
+    pad,
+)
 from ios_uav_env.envs.options import EnvOptions, split_kwargs
+from ios_uav_env.envs.settings import (
+    check_multinode_arguments,
+    check_scenario_overrides,
+    multinode_id,
+    multinode_objective,
+)
 from ios_uav_env.model.config import ScenarioConfig, as_config, scenario_option
 from ios_uav_env.model.scenarios import RANGED_FIELDS, ScenarioRanges, _off_plane, sample_scenario
 from ios_uav_env.model.schedule import reported_maxmin_rate
@@ -134,7 +149,10 @@ class MultiNodeEnv(MobileNodes, gym.Env):
     node alone is best served, not the order of the visits, the hover times or the shares.
     The bounds hold for every scenario of the family (lengths: the largest value at q0 plus
     (N_max - 1) D / L, and 2 (N_max - 1) D / L for P_k - q, both within (N_max - 1) D of q0;
-    rates: ``ground_free_rate_bound``).
+    rates: ``ground_free_rate_bound``). ``env.unwrapped.observation_names`` holds the names of
+    the components, in order: ``BASE_FEATURES``, then ``<feature>_<k>`` for node slot k (unless
+    the knowledge is exact, ``served_measured_<k>`` and ``measured_rate_<k>``; with ``"rates"``
+    ``dx_node_hidden_<k>`` and ``dy_node_hidden_<k>``).
 
     ## Rewards
 
@@ -175,7 +193,9 @@ class MultiNodeEnv(MobileNodes, gym.Env):
     far), ``min_rate`` (m_n: at slot N the agent's own score min_k R_k), ``best_schedule_rate``
     (at slot N ``maxmin_rate`` of the trajectory, the best shares for the same flight, an LP
     of scipy's: NaN if scipy is not installed; 0
-    before), the three reward terms, ``feasible``, ``worst_violation``, ``terminal_miss``.
+    before), the three reward terms, ``feasible`` (eq. (10) so far and, with ``energy_budget_j``,
+    the flight's energy so far within it: at slot N, ``score_plan``'s verdict), ``worst_violation``,
+    ``terminal_miss``.
     The LP's wall time is kept in ``score_seconds`` (0 before slot N): it scores the flight, so
     the benchmark leaves it out of a policy's plan time.
 
@@ -201,7 +221,11 @@ class MultiNodeEnv(MobileNodes, gym.Env):
     - ``render_mode``: None or "rgb_array" (the best node's rate map, every node, and the
       trajectory so far coloured by the node with the largest share in each slot; needs
       ``pip install ios-uav-env[render]``).
-    - ``**kwargs``: ``ScenarioConfig`` fields applied to ``config``.
+    - ``**kwargs``: ``ScenarioConfig`` fields applied to ``config`` (with ``random_nodes``: to the
+      drawn scenarios; a drawn field, ``config`` or, without ``random_nodes``, ``ranges`` would
+      be unused and is refused). The objective is the max-min rate: ``objective``
+      ``"energy_efficiency"`` is refused (it is single-node: the energy ids), and so are
+      ``bandwidth_hz``, and ``propulsion`` without ``energy_budget_j``, which would do nothing.
 
     ```python
     >>> import gymnasium as gym
@@ -243,6 +267,7 @@ class MultiNodeEnv(MobileNodes, gym.Env):
             )
         if render_mode not in (None, "rgb_array"):
             raise ValueError(f"render_mode must be None or 'rgb_array', got {render_mode!r}")
+        check_multinode_arguments(config, random_nodes, ranges, MULTINODE_RANGES, overrides)
         base = as_config(config if config is not None else ScenarioConfig(ground_nodes=DEFAULT_NODES))
         self._base = base.replace(**overrides) if overrides else base
         if random_nodes is not None:
@@ -260,6 +285,12 @@ class MultiNodeEnv(MobileNodes, gym.Env):
         # moving or roughly known nodes (ios_uav_env.envs.knowledge): paths and kernels per episode
         family = ranges.base if random_nodes else self._base
         self.mobile: bool = family.motion is not None or self.options.knowledge != "exact"
+        multinode_objective(family, "ranges.base" if random_nodes else "config", self._own_id())
+        surfaces = ranges.surfaces if random_nodes else (self._base.surface,)
+        check_scenario_overrides(
+            self._own_id(), overrides, surfaces, fades=self.mobile and self.options.knowledge != "exact",
+            multinode=True, budget=family.energy_budget_j is not None,
+        )  # fmt: skip
         if self.mobile and self.options.peak_hint:
             raise ValueError(
                 "peak_hint is a static node's rate peak: it needs static, exactly known nodes (motion=None "
@@ -288,6 +319,11 @@ class MultiNodeEnv(MobileNodes, gym.Env):
         self.score_seconds = 0.0  # see reset()
         self.render_mode = render_mode
         self.node_features = NODE_FEATURES + (NODE_PEAK_FEATURES if self.options.peak_hint else ())
+        #: The names of the observation's components, in order: ``BASE_FEATURES``, then node slot
+        #: k's ``node_features`` as ``<feature>_<k>`` (``observation.node_block_names``).
+        self.observation_names: tuple[str, ...] = BASE_FEATURES + node_block_names(
+            self.node_features, self.max_nodes, self.options.knowledge
+        )
         self.action_space = spaces.Box(-1.0, 1.0, (2 + self.max_nodes,), np.float32)
         low, high = self._bounds()
         self.observation_space = spaces.Box(low, high, dtype=np.float32)
@@ -339,7 +375,16 @@ class MultiNodeEnv(MobileNodes, gym.Env):
             low += [0.0, -node[0], -node[1], -1.0, 0.0, 0.0] + (
                 [-hint, -hint, 0.0] if self.options.peak_hint else []
             )
-        return np.array(low, dtype=np.float32), np.array(high, dtype=np.float32)
+
+        def why(name: str, value: float) -> str:
+            return overflow_hint(name, value, scale, base)
+
+        names = self.observation_names
+        return float32_bounds(low, names, why), float32_bounds(high, names, why)
+
+    def _own_id(self) -> str:
+        """The registered id of this env, for messages (``settings.multinode_id``)."""
+        return multinode_id(self.random_nodes, self.mobile)
 
     def _rate_high(self, r: ScenarioRanges) -> float:
         """bps/Hz: the rate features' bound over ``r``, plus ``FADE_MARGIN`` for measured rates."""
@@ -375,6 +420,7 @@ class MultiNodeEnv(MobileNodes, gym.Env):
                 f"{field} has a motion model; this env's nodes are static: make the env on the scenario "
                 "instead (MultiNodeEnv(cfg)), or use ios_uav_env/IOSUAV-MultiNode-Mobile-v0"
             )
+        multinode_objective(cfg, field, self._own_id())
         if cfg.K > self.max_nodes:
             raise ValueError(
                 f"{field}: the scenario has K = {cfg.K} nodes; this env observes at most max_nodes = "

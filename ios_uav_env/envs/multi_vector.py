@@ -44,8 +44,8 @@ class MultiNodeVectorEnv(BatchedEnv):
     ``random_nodes``, ``ranges``, ``EnvOptions`` and ``ScenarioConfig`` keywords) plus
     ``num_envs``, ``autoreset_mode``, ``num_threads`` and ``best_schedule`` (True:
     ``maxmin_rate`` at each episode end, as the single env; False: NaN there, no LP).
-    Observations (B, 12 + 6 K_max) float32, actions (B, 2 + K_max), rewards (B,) float64.
-    No rendering.
+    Observations (B, 12 + 6 K_max) float32 (``observation_names``: a row's, the single env's),
+    actions (B, 2 + K_max), rewards (B,) float64. No rendering.
     """
 
     env_class = MultiNodeEnv

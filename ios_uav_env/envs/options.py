@@ -5,7 +5,10 @@ An env is made from a scenario (``ScenarioConfig``: the physics, the paper's par
 observation's scale and extra features). Both can be given as keywords to ``gym.make``;
 :func:`split_kwargs` sorts them by name, so the two namespaces never mix, and refuses any
 other keyword with Python's own ``TypeError`` wording (which libraries such as TorchRL
-rely on to retry without their own keywords).
+rely on to retry without their own keywords). A setting that another one makes do nothing is
+refused, naming what it needs: ``report_sigma`` and ``filter_estimate`` need
+``knowledge="reports"``, and ``reach_weight`` / ``terminal_weight`` other than their defaults need
+``arrival_guard=False`` (the guard keeps both penalties at 0).
 """
 
 from __future__ import annotations
@@ -50,8 +53,8 @@ class EnvOptions:
 
     channel: str = "expected"  # "expected" (deterministic) or "rician" (one faded sample per slot)
     arrival_guard: bool = True  # project every move onto the set that still reaches qF in time
-    reach_weight: float = 1.0  # weight of the reach penalty (moves out of reach of qF)
-    terminal_weight: float = 2.0  # weight of the terminal penalty (final miss, in moves)
+    reach_weight: float = 1.0  # weight of the reach penalty (moves out of reach of qF; no guard only)
+    terminal_weight: float = 2.0  # weight of the terminal penalty (final miss, in moves; no guard only)
     length_scale: float = 400.0  # m, L: lengths in the observation are divided by it
     instance_features: bool = False  # append the 6 features of the instance
     peak_hint: bool = False  # append the 3 features of the reachable rate peak
@@ -61,7 +64,7 @@ class EnvOptions:
     energy_reference: float | str | None = None
     # what the UAV is told of the node each slot (KNOWLEDGE; "exact": its true position)
     knowledge: str = "exact"
-    report_sigma: float = REPORT_SIGMA  # m, s: std of each component of a position report's error
+    report_sigma: float = REPORT_SIGMA  # m, s: std of each component of a report's error (reports only)
     # knowledge "reports": the node features are the Kalman filter's estimate, not the raw report
     filter_estimate: bool = False
 
@@ -80,8 +83,18 @@ class EnvOptions:
                 "filter_estimate is the Kalman filter of the position reports: it needs knowledge='reports', "
                 f"got knowledge={self.knowledge!r}"
             )
+        if self.report_sigma != REPORT_SIGMA and self.knowledge != "reports":
+            raise ValueError(
+                f"report_sigma is the std of the position reports: it needs knowledge='reports', got "
+                f"knowledge={self.knowledge!r} (where report_sigma={self.report_sigma!r} would do nothing)"
+            )
         for name in ("reach_weight", "terminal_weight"):
             object.__setattr__(self, name, _number(getattr(self, name), name, positive=False))
+            if self.arrival_guard and getattr(self, name) != _DEFAULT_WEIGHTS[name]:
+                raise ValueError(
+                    f"{name} weighs a penalty for missing qF, which the arrival guard keeps at 0: it needs "
+                    f"arrival_guard=False (with the guard {name}={getattr(self, name)!r} would do nothing)"
+                )
         object.__setattr__(
             self, "length_scale", _number(self.length_scale, "length_scale (m)", positive=True)
         )
@@ -94,6 +107,10 @@ class EnvOptions:
             reference = _number(self.energy_reference, "energy_reference (bits/J)", positive=True)
             object.__setattr__(self, "energy_reference", reference)
 
+
+#: The penalty weights' defaults: another weight needs ``arrival_guard=False`` (with the guard both
+#: penalties are always 0).
+_DEFAULT_WEIGHTS = {"reach_weight": 1.0, "terminal_weight": 2.0}
 
 #: The names of the ``EnvOptions`` fields.
 OPTION_FIELDS: frozenset[str] = frozenset(f.name for f in dataclasses.fields(EnvOptions))

@@ -13,18 +13,89 @@ scenario of an id without knowing the config:
 >>> round(run_episode(env, policy).average_rate, 4)
 1.2702
 
+Each policy reads the observation by feature name (:class:`FeatureReader`): it declares the
+features it needs (``observation_features``), and ``policy.bind(env.unwrapped.observation_names)``
+checks them against the env's published layout (``ValueError`` naming each missing feature and
+the env argument that provides it, e.g. ``peak_hint=True``) and reads them where that layout has
+them. ``envs.rollout.run_episode`` / ``run_episodes`` and ``benchmark.evaluate`` bind it before the
+episode. Unbound, it takes the single-node layout of the observation's length
+(``observation.SINGLE_LAYOUTS``) and refuses one that lacks its features.
 """
 
 from __future__ import annotations
 
+import copy
+import functools
 import math
+from collections.abc import Sequence
 from typing import Any
 
 import numpy as np
 
-from ios_uav_env.envs.observation import ENERGY_NAMES, OBS_NAMES, PEAK_NAMES
+from ios_uav_env.envs.observation import (
+    ENERGY_NAMES,
+    OBS_NAMES,
+    PEAK_NAMES,
+    SINGLE_LAYOUTS,
+    require_features,
+)
 from ios_uav_env.model.config import moves_needed
 from ios_uav_env.model.propulsion import PropulsionModel, max_range_speed
+
+__all__ = ["TARGETS", "FeatureReader", "HoverAt", "Loiter", "full_speed_move", "move_toward", "moves_left"]
+
+
+@functools.lru_cache(maxsize=64)
+def _single_layout_columns(needed: tuple[str, ...], width: int, who: str) -> tuple[int, ...]:
+    """The positions of ``needed`` in the single-node layout of ``width`` components."""
+    layout = SINGLE_LAYOUTS.get(width)
+    if layout is None:
+        raise ValueError(
+            f"{who} reads the features {needed} by name, and an observation of {width} components is none of "
+            f"the single-node layouts (lengths {sorted(SINGLE_LAYOUTS)}): bind it to its env's layout first, "
+            "policy.bind(env.unwrapped.observation_names) (run_episode and evaluate do)"
+        )
+    return require_features(needed, layout, who, f"a single-node observation of {width} components")
+
+
+class FeatureReader:
+    """A policy that reads the observation by feature name (the module's docstring).
+
+    A subclass sets :attr:`observation_features` (per instance or class) and reads feature j of
+    an observation ``obs`` at ``self._columns(obs)[j]``.
+    """
+
+    #: The names of the observation features the policy reads, in the order it reads them.
+    observation_features: tuple[str, ...] = ()
+    _bound: tuple[tuple[str, ...], tuple[int, ...]] | None = None  # (layout, positions) once bound
+
+    def bind(self, names: Sequence[str]) -> Any:
+        """A copy of the policy that reads the layout ``names`` (an env's ``observation_names``);
+        ``ValueError`` (``observation.require_features``) unless it has every feature needed."""
+        layout = tuple(names)
+        env = f"the env ({len(layout)} features)"
+        columns = require_features(self.observation_features, layout, repr(self), env)
+        bound = copy.copy(self)
+        bound._bound = (layout, columns)
+        return bound
+
+    @property
+    def layout(self) -> tuple[str, ...] | None:
+        """The layout the policy is bound to (None: unbound)."""
+        return None if self._bound is None else self._bound[0]
+
+    def _columns(self, obs: np.ndarray) -> tuple[int, ...]:
+        """Where each of :attr:`observation_features` is in ``obs`` (..., width)."""
+        width = int(np.shape(obs)[-1])
+        if self._bound is None:
+            return _single_layout_columns(tuple(self.observation_features), width, repr(self))
+        layout, columns = self._bound
+        if width != len(layout):
+            raise ValueError(
+                f"{self!r} is bound to a layout of {len(layout)} features, got an observation of {width}"
+            )
+        return columns
+
 
 #: Observation slices of the offsets (P - q) / L that :class:`HoverAt` can fly to. The
 #: peak hint is always the last 3 components (``PEAK_NAMES``), whatever precedes it.
@@ -48,12 +119,14 @@ def move_toward(offset: np.ndarray, D: float) -> np.ndarray:
     return full_speed_move(offset, D).astype(np.float32)
 
 
-class HoverAt:
+class HoverAt(FeatureReader):
     """Fly at full speed towards a point given by the observation and hover there.
 
     ``target``: ``"peak"`` (the reachable rate peak of the scenario, the ``peak_hint``
-    features; make the env with :attr:`env_kwargs`) or ``"ground"`` (the ground node G).
-    ``D`` (m) and ``length_scale`` (m) must be the env's D = v_max dt and L.
+    features ``dx_peak``, ``dy_peak``; make the env with :attr:`env_kwargs`) or ``"ground"``
+    (the ground node G as the UAV is told it: ``dx_ground``, ``dy_ground``; refused where the
+    position is hidden, ``knowledge="rates"``). ``D`` (m) and ``length_scale`` (m) must be the
+    env's D = v_max dt and L.
     """
 
     #: It takes a batch of observations too ((B, obs_dim) -> (B, 2)).
@@ -66,7 +139,7 @@ class HoverAt:
             if not (isinstance(value, (int, float)) and math.isfinite(value) and value > 0):
                 raise ValueError(f"{name} must be a finite number > 0 (m), got {value!r}")
         self.target, self.D, self.length_scale = target, float(D), float(length_scale)
-        self._slice = slice(*TARGETS[target])
+        self.observation_features = (f"dx_{target}", f"dy_{target}")
 
     @property
     def env_kwargs(self) -> dict[str, Any]:
@@ -79,7 +152,7 @@ class HoverAt:
         return f"fly to {what} and hover (heuristic)"
 
     def __call__(self, obs: np.ndarray) -> np.ndarray:
-        offset = np.asarray(obs, dtype=np.float64)[..., self._slice] * self.length_scale
+        offset = np.asarray(obs, dtype=np.float64)[..., list(self._columns(obs))] * self.length_scale
         return move_toward(offset, self.D)
 
     def act(self, obs: np.ndarray, deterministic: bool = True) -> np.ndarray:
@@ -102,13 +175,18 @@ def moves_left(obs: np.ndarray, D: float, length_scale: float) -> np.ndarray:
     s = moves_left - d_F / D is told squashed as y = s / (1 + |s|), so s = y / (1 - |y|) and
     moves_left = s + d_F / D, rounded to the nearest whole move (float64, one per row)."""
     obs = np.asarray(obs, dtype=np.float64)
-    y = obs[..., _SLACK]
-    slack = y / np.maximum(1.0 - np.abs(y), 1e-12)
-    d_final = np.hypot(obs[..., _FINAL.start], obs[..., _FINAL.start + 1]) * length_scale
-    return np.maximum(np.rint(slack + d_final / D), 0.0)
+    return _moves_left(obs, _SLACK, _FINAL.start, _FINAL.start + 1, D, length_scale)
 
 
-class Loiter:
+def _moves_left(obs: np.ndarray, slack: int, fx: int, fy: int, D: float, length_scale: float) -> np.ndarray:
+    """:func:`moves_left` with the slack and qF - q read at the positions ``slack``, ``fx``, ``fy``."""
+    y = obs[..., slack]
+    s = y / np.maximum(1.0 - np.abs(y), 1e-12)
+    d_final = np.hypot(obs[..., fx], obs[..., fy]) * length_scale
+    return np.maximum(np.rint(s + d_final / D), 0.0)
+
+
+class Loiter(FeatureReader):
     """Loiter around the reachable rate peak at the minimum-power speed, from the observation:
     the energy objective's counterpart of ``HoverAt("peak")`` (a rotary-wing UAV spends less
     power cruising slowly than hovering).
@@ -132,6 +210,7 @@ class Loiter:
 
     #: It takes a batch of observations too ((B, obs_dim) -> (B, 2)).
     batched = True
+    observation_features = ("dx_final", "dy_final", "slack", "min_power_move", "dx_peak", "dy_peak")
 
     def __init__(
         self, D: float = 25.0, length_scale: float = 400.0, sides: int = 3, cruise: float | None = None
@@ -157,16 +236,12 @@ class Loiter:
 
     def __call__(self, obs: np.ndarray) -> np.ndarray:
         o = np.atleast_2d(np.asarray(obs, dtype=np.float64))
-        if o.shape[-1] < len(OBS_NAMES) + len(ENERGY_NAMES) + len(PEAK_NAMES):
-            raise ValueError(
-                f"Loiter reads the energy features and the peak hint (an energy id with peak_hint=True); "
-                f"got observations of {o.shape[-1]} components"
-            )
+        fx, fy, slack, power_move, px, py = self._columns(o)
         L, D = self.length_scale, self.D
-        peak = o[:, -len(PEAK_NAMES) : -len(PEAK_NAMES) + 2] * L  # P - q (m)
-        final = o[:, _FINAL] * L  # qF - q (m)
-        left = moves_left(o, D, L)
-        radius = o[:, _MIN_POWER_MOVE] * D / (2.0 * math.sin(math.pi / self.sides))
+        peak = o[:, [px, py]] * L  # P - q (m)
+        final = o[:, [fx, fy]] * L  # qF - q (m)
+        left = _moves_left(o, slack, fx, fy, D, L)
+        radius = o[:, power_move] * D / (2.0 * math.sin(math.pi / self.sides))
         away = -peak  # q - P
         dist = np.hypot(away[:, 0], away[:, 1])
         unit = np.where(dist[:, None] > 0.0, away / np.maximum(dist, 1e-300)[:, None], [1.0, 0.0])

@@ -17,6 +17,7 @@ import dataclasses
 from collections.abc import Mapping
 from typing import Any
 
+from ios_uav_env.envs.settings import several_nodes_error, single_node_id
 from ios_uav_env.envs.single import IOSUAVEnv
 from ios_uav_env.model.config import SCENARIO_FIELDS, ScenarioConfig, as_config
 from ios_uav_env.model.scenarios import (
@@ -28,6 +29,20 @@ from ios_uav_env.model.scenarios import (
 )
 
 __all__ = ["DEFAULT_RANGES", "RANGED_FIELDS", "RandomIOSUAVEnv", "ScenarioRanges", "sample_scenario"]
+
+
+def _check_focus(focus: Any, focus_prob: float, config: Any) -> None:
+    """Refuse a ``focus`` that would never be drawn (``focus_prob`` 0, or ``config`` pinning every
+    episode) and a ``focus_prob`` without a ``focus`` to draw from."""
+    if focus is None:
+        if focus_prob != 0.0:
+            raise ValueError(
+                f"focus_prob={focus_prob!r} is the probability of drawing from focus: it needs focus=..."
+            )
+    elif config is not None:
+        raise ValueError("focus is never drawn when config pins every episode: drop focus or config")
+    elif focus_prob == 0.0:
+        raise ValueError("focus is drawn with probability focus_prob: it needs focus_prob > 0 (0: never)")
 
 
 class RandomIOSUAVEnv(IOSUAVEnv):
@@ -80,6 +95,7 @@ class RandomIOSUAVEnv(IOSUAVEnv):
     (:func:`~ios_uav_env.envs.observation.ground_free_rate_bound`, over the ranges' surfaces and
     sizes); the maxima of 11, 15, 16 are those of the ranges, at least 1 (with margins of
     1e-6). Both env checkers pass; the observation's shape does not depend on the scenario.
+    ``env.unwrapped.observation_names`` holds the names of the components, in order.
 
     ## Rewards
 
@@ -115,7 +131,8 @@ class RandomIOSUAVEnv(IOSUAVEnv):
       the fields that differ, e.g. ``{"ground_x": (-150, 150), "ground_y": (-60, 60)}``),
       drawn instead with probability ``focus_prob``: a training distribution that visits
       more often the scenarios where the surface changes the best plan. The observation
-      space stays that of ``ranges``; with ``focus_prob = 0`` the draws are unchanged.
+      space stays that of ``ranges``. Each needs the other (``focus_prob`` > 0), and ``focus``
+      is refused with ``config`` (never drawn): ``ValueError``.
     - ``instance_features`` (True), ``peak_hint`` (False: with True, 3 more components,
       the reachable rate peak; see ``IOSUAVEnv``), ``channel``, ``arrival_guard``, ``reach_weight``,
       ``terminal_weight``, ``length_scale``, ``render_mode``: as ``IOSUAVEnv``.
@@ -162,10 +179,15 @@ class RandomIOSUAVEnv(IOSUAVEnv):
                 "to change them, config=... to pin every episode, or reset(options={'config': ...})"
             )
         if overrides:
-            ranges = dataclasses.replace(ranges, base=ranges.base.replace(**overrides))
+            base = ranges.base.replace(**overrides)
+            if base.K != 1:  # (the ranges draw one node)
+                knowledge = kwargs.get("knowledge", "exact")
+                raise several_nodes_error(single_node_id(base, knowledge, random=True), base, "ground_nodes")
+            ranges = dataclasses.replace(ranges, base=base)
         self.ranges: ScenarioRanges = ranges
         if not (isinstance(focus_prob, (int, float)) and 0.0 <= focus_prob <= 1.0):
             raise ValueError(f"focus_prob must be a probability in [0, 1], got {focus_prob!r}")
+        _check_focus(focus, focus_prob, config)
         self.focus: ScenarioRanges | None = None
         if focus is not None:
             # narrower ranges (filled in from ``ranges``), drawn with probability focus_prob:
@@ -177,8 +199,11 @@ class RandomIOSUAVEnv(IOSUAVEnv):
         self.focus_prob = float(focus_prob) if self.focus is not None else 0.0
         self.pinned: ScenarioConfig | None = None if config is None else as_config(config)
         super().__init__(self.pinned or ranges.base, instance_features=instance_features, **kwargs)
+        self._check_overrides(overrides, ranges.surfaces)
         if self.pinned is not None:
             self._check_scenario(self.pinned, "config")
+
+    _draws = True
 
     def _ranges(self) -> ScenarioRanges:
         """The observation space holds every scenario of the ranges (focus lies inside them)."""

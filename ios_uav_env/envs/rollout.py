@@ -9,6 +9,12 @@ planner's plan is: ``score_plan``, whose energy (J), energy efficiency (bits/J) 
 the scenario's objective the :class:`Episode` carries too (``Episode.score``: EE on the energy
 ids, the average rate on the others).
 
+Before the episode, a policy that reads the observation by feature name (an
+``observation_features`` attribute: the shipped policies of ``envs.policies`` and
+``benchmark.multi_policies``) is checked against the layout the env publishes
+(``env.unwrapped.observation_names``) and bound to it (:func:`bind_policy`): a missing feature
+raises ``ValueError`` naming it and the env argument that provides it, before any step.
+
 >>> import gymnasium as gym
 >>> import ios_uav_env
 >>> from ios_uav_env.envs.policies import HoverAt
@@ -22,12 +28,13 @@ ids, the average rate on the others).
 from __future__ import annotations
 
 import time
-from collections.abc import Callable, Mapping
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
 
+from ios_uav_env.envs.observation import require_features
 from ios_uav_env.model.config import ScenarioConfig
 from ios_uav_env.model.score import score_plan
 
@@ -73,6 +80,7 @@ def run_episode(
     against an env that never does (``RuntimeError``). The trajectory must be complete
     (N way-points) to be scored: a truncated episode raises ``ValueError`` from the scorer.
     """
+    policy = checked_policy(policy, env)
     repeat = decision_interval(policy)
     start = time.perf_counter()
     obs, info = env.reset(seed=seed, options=None if options is None else dict(options))
@@ -166,6 +174,7 @@ def run_episodes(
     vec = getattr(vec_env, "unwrapped", vec_env)
     if getattr(vec, "same_step", True):
         raise ValueError("run_episodes needs a batched env with autoreset_mode='next_step' (the default)")
+    policy = checked_policy(policy, vec_env)
     act, repeat = batch_policy(policy), decision_interval(policy)
     start = time.perf_counter()
     obs, _ = vec.reset(seed=seed, options=None if options is None else dict(options))
@@ -191,3 +200,70 @@ def run_episodes(
         raise RuntimeError(f"the episodes did not all end within max_steps={max_steps} steps")
     seconds = (time.perf_counter() - start) / b
     return [score_episode(*ends[i][:3], totals[i], ends[i][3], steps[i], seconds) for i in range(b)]
+
+
+def _reader(policy: Any) -> Any:
+    """The object that says which features ``policy`` reads (itself, or a bound method's object)."""
+    return getattr(policy, "__self__", policy)
+
+
+def observation_layout(env: Any) -> tuple[str, ...] | None:
+    """The names of ``env``'s observation components (``observation_names`` of its unwrapped
+    env, single or batched), None if it publishes none. ``ValueError`` if the observation it
+    returns is not of that length (a wrapper changed the observation: the names are not its)."""
+    names = getattr(getattr(env, "unwrapped", env), "observation_names", None)
+    if names is None:
+        return None
+    space = getattr(env, "single_observation_space", None) or getattr(env, "observation_space", None)
+    shape = getattr(space, "shape", None)
+    if shape is not None and tuple(shape) != (len(names),):
+        raise ValueError(
+            f"the env's observations have shape {tuple(shape)}, but its unwrapped env publishes a layout of "
+            f"{len(names)} features: a wrapper changed the observation, so a policy that reads features by "
+            "name cannot be checked against it"
+        )
+    return tuple(names)
+
+
+def bind_policy(policy: Policy, names: Sequence[str] | None, env: str = "the env") -> Policy:
+    """``policy`` bound to the layout ``names`` (an env's ``observation_names``) when it reads the
+    observation by feature name (``observation_features``, on itself or a bound method's object):
+    its ``bind(names)`` if it has one (a bound method stays a method of the bound copy), else
+    itself once ``observation.require_features`` passes. ``ValueError`` naming each missing
+    feature and the env argument that provides it. A policy that declares no features is
+    returned as it is."""
+    reader = _reader(policy)
+    needed = getattr(reader, "observation_features", None)
+    if needed is None:
+        return policy
+    columns = require_features(tuple(needed), names, repr(reader), env)  # (raises: names None or missing)
+    bind = getattr(reader, "bind", None)
+    if not callable(bind) or names is None or not columns:
+        return policy
+    bound = bind(tuple(names))
+    return bound if reader is policy else getattr(bound, policy.__name__)
+
+
+def checked_policy(policy: Policy, env: Any) -> Policy:
+    """:func:`bind_policy` of ``policy`` on the layout ``env`` publishes (:func:`observation_layout`),
+    before any episode; a policy that declares no features is returned as it is (no check)."""
+    if getattr(_reader(policy), "observation_features", None) is None:
+        return policy
+    spec = getattr(env, "spec", None)
+    label = getattr(spec, "id", None) or type(getattr(env, "unwrapped", env)).__name__
+    return bind_policy(policy, observation_layout(env), label)
+
+
+def policy_for(policy: Any, env_id: str, env_kwargs: Mapping[str, Any]) -> Any:
+    """:func:`checked_policy` on the env ``gym.make(env_id, **env_kwargs)`` (made and closed only
+    when ``policy`` declares the features it reads): where a policy will run in envs made later
+    (``ios_uav_env.benchmark.evaluate``), checked before the first of them."""
+    if getattr(_reader(policy), "observation_features", None) is None:
+        return policy
+    import gymnasium as gym
+
+    env = gym.make(env_id, **dict(env_kwargs))
+    try:
+        return checked_policy(policy, env)
+    finally:
+        env.close()

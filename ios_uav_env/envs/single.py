@@ -24,10 +24,12 @@ from ios_uav_env.envs.observation import (
     PEAK_NAMES,
     check_fits,
     loiter_efficiency,
+    observation_names,
     reference_efficiency,
     space_bounds,
 )
 from ios_uav_env.envs.options import CHANNELS, EnvOptions, split_kwargs
+from ios_uav_env.envs.settings import check_scenario_overrides, several_nodes_error, single_node_id
 from ios_uav_env.envs.single_kernels import INFO, STATE, episode_row, flags_of, reset_rows, step_rows
 from ios_uav_env.jit import HAVE_NUMBA
 from ios_uav_env.model.channel import RateKernel, rate_kernel, slot_rates
@@ -122,6 +124,13 @@ class IOSUAVEnv(gym.Env):
     P(0) / B of the reward below (bps/Hz, per scenario) and the minimum-power move V_mp dt / D.
     The rate objective's layouts above are unchanged.
 
+    ``env.unwrapped.observation_names`` is the layout: the names of the components, in order
+    (``observation.observation_names``; with ``knowledge`` other than ``"exact"`` the rate is
+    ``measured_rate``, and with ``"rates"`` features 4-5 are ``dx_ground_hidden`` /
+    ``dy_ground_hidden``). Every bound is a finite float32: a setting that would take a feature
+    beyond float32 (e.g. a tiny ``length_scale``, a huge ``energy_reference``) is refused with
+    ``ValueError`` naming the field and its allowed range.
+
     ## Rewards
 
     Step n moves the UAV to q' = q[n+1] with m = moves_left after the move:
@@ -205,8 +214,9 @@ class IOSUAVEnv(gym.Env):
     the way-points so far; at slot N, eq. (9)), ``mean_faded_rate`` (mean of the ``rate``
     terms; equal to ``average_rate`` for channel "expected"), ``terminal_miss`` (m by which qF
     is out of reach in the moves left; at slot N, |q[N] - qF|), ``worst_violation`` (m, the
-    worst breach of eq. (10) so far) and ``feasible`` (``worst_violation`` <= 1e-6 m; at slot
-    N, eq. (10)), and the flight's energy so far: ``power`` (W, P(V) of the step's move; 0 at
+    worst breach of eq. (10) so far) and ``feasible`` (``worst_violation`` <= 1e-6 m and, with
+    ``energy_budget_j``, the energy so far within it; at slot N, ``score_plan``'s verdict: eq.
+    (10) and the budget), and the flight's energy so far: ``power`` (W, P(V) of the step's move; 0 at
     reset), ``energy`` (J, dt times the sum of the powers so far) and ``energy_efficiency``
     (bits/J so far, B dt sum r(q[n]) / energy; 0 at reset; at slot N, ``score_plan``'s EE), on
     every id (the rate ids report them too, with the scenario's propulsion model). The full
@@ -262,6 +272,11 @@ class IOSUAVEnv(gym.Env):
       applied with ``config.replace``; the ids set ``surface`` this way, so ``config``'s
       surface is replaced by the id's.
 
+    A setting that would do nothing is refused with ``ValueError`` naming what it needs
+    (``EnvOptions``; as keywords, ``kappa`` without faded rates, ``epsilon`` without an IOS, the
+    surface's channel fields without a surface: ``settings.check_scenario_overrides``), and so
+    is a config of several nodes, naming the multi-node id (``settings.several_nodes_error``).
+
     ```python
     >>> import gymnasium as gym
     >>> import ios_uav_env
@@ -297,6 +312,9 @@ class IOSUAVEnv(gym.Env):
         config = as_config(config)
         self._base_config: ScenarioConfig = config.replace(**overrides) if overrides else config
         self.options = EnvOptions(**options)
+        if self._base_config.K != 1:  # (before the family of the space, which is single-node)
+            raise several_nodes_error(self._own_id(), self._base_config)
+        self._check_overrides(overrides, (self._base_config.surface,))
         if render_mode is not None and render_mode not in self.metadata["render_modes"]:
             raise ValueError(
                 f"render_mode must be None or one of {self.metadata['render_modes']}, got {render_mode!r}"
@@ -328,6 +346,11 @@ class IOSUAVEnv(gym.Env):
             self._check_mobile()
             low, high, self._rate_clip = mobile_bounds(self._ranges(), self.options, low, high)
         self.observation_space = spaces.Box(low, high, dtype=np.float32)
+        #: The names of the observation's components, in order (``observation.observation_names``).
+        o = self.options
+        self.observation_names: tuple[str, ...] = observation_names(
+            o.instance_features, o.peak_hint, self.energy_objective, o.knowledge
+        )
         # a batch of one episode for the kernels of ios_uav_env.envs.single_kernels (rows of length 1)
         self._flags = flags_of(self.options, self.energy_objective)
         self._rows = np.zeros(1, dtype=np.int64)
@@ -430,10 +453,7 @@ class IOSUAVEnv(gym.Env):
         ground node (K = 1) and observations inside the space (the batched env checks every
         row's pinned scenario with it before it resets any row)."""
         if cfg.K != 1:
-            raise ValueError(
-                f"{field} has K = {cfg.K} ground_nodes; this env serves one node (K = 1): use "
-                "ios_uav_env/IOSUAV-MultiNode-v0 (MultiNodeEnv) for several"
-            )
+            raise several_nodes_error(self._own_id(), cfg, field)
         if cfg.motion is not None and not self.mobile:
             raise ValueError(
                 f"{field} has a motion model; this env's nodes are static and exactly known (make an "
@@ -445,10 +465,13 @@ class IOSUAVEnv(gym.Env):
                 f"{field} has objective={cfg.objective!r}; this env's observation and reward are those "
                 f"of objective {allowed} (make an env on the scenario instead: gym.make(id, config=cfg))"
             )
-        check_fits(
-            cfg, self.options.length_scale, self.options.instance_features, self.observation_space,
-            self.options.peak_hint, self.energy_objective, self._fixed_reference,
-        )  # fmt: skip
+        try:
+            check_fits(
+                cfg, self.options.length_scale, self.options.instance_features, self.observation_space,
+                self.options.peak_hint, self.energy_objective, self._fixed_reference,
+            )  # fmt: skip
+        except ValueError as err:  # (naming the scenario's field: a pin, a draw, the construction's)
+            raise ValueError(f"{field}: {err}") from None
         if self.mobile:  # where the node can be told to be, and the rate feature's bound
             low, high, _ = mobile_bounds(ScenarioRanges.from_config(cfg), self.options, *self._space())
             low, high = low.astype(np.float32), high.astype(np.float32)  # rounded as the space's were
@@ -457,6 +480,18 @@ class IOSUAVEnv(gym.Env):
                     f"{field}: its node's motion rectangle (or reports) could take the node features "
                     "out of this env's observation space; make an env on the scenario instead"
                 )
+
+    #: Whether each reset draws its scenario (``RandomIOSUAVEnv``): which id the env is.
+    _draws = False
+
+    def _check_overrides(self, overrides: Mapping[str, Any], surfaces: tuple[str, ...]) -> None:
+        """Refuse scenario keywords that would do nothing here (``settings.check_scenario_overrides``)."""
+        fades = self.options.channel == "rician" or self.options.knowledge != "exact"
+        check_scenario_overrides(self._own_id(), overrides, surfaces, fades=fades)
+
+    def _own_id(self) -> str:
+        """The registered id of this env, for messages (``settings.single_node_id``)."""
+        return single_node_id(self._base_config, self.options.knowledge, random=self._draws)
 
     @property
     def _fixed_reference(self) -> float | None:

@@ -42,6 +42,7 @@ class IOSUAVVectorEnv(BatchedEnv):
     False. ``reset(seed=s)`` seeds row i with ``s + i`` (a list of B seeds works too);
     ``options={"config": cfg}`` pins every row's episode to ``cfg``, ``options={"configs":
     [cfg_0, ...]}`` row i's to ``cfg_i`` (a batch of different scenarios, e.g. a held-out suite).
+    ``observation_names``: the names of a row's observation components (the single env's).
     """
 
     env_class = IOSUAVEnv

@@ -122,7 +122,8 @@ def test_the_reports_replay_from_the_seed_without_the_flight(suite, knowledge):
     from ios_uav_env.envs.single import IOSUAVEnv
 
     (s,) = suite.scenarios
-    env = IOSUAVEnv(s.config, knowledge=knowledge, report_sigma=7.0)
+    sigma = {"report_sigma": 7.0} if knowledge == "reports" else {}  # (exact knowledge takes no report_sigma)
+    env = IOSUAVEnv(s.config, knowledge=knowledge, **sigma)
     env.reset(seed=s.seed, options={"config": s.config})
     while len(env.trajectory) < s.config.N:
         env.step(np.array([0.3, -0.8]))

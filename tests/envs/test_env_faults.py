@@ -212,7 +212,9 @@ def test_restart_rows_are_row_indices(cls, rows):
 
 
 def test_a_single_node_env_refuses_a_multi_node_scenario_before_any_row_resets():
-    with pytest.raises(ValueError, match=r'options\["config"\] has K = 2 ground_nodes; this env serves one'):
+    single = r'options\["config"\] has K = 2 ground_nodes, but ios_uav_env/IOSUAV-v0 is a single-node env'
+    several = r".*several nodes: MultiNodeEnv, ios_uav_env/IOSUAV-MultiNode-v0"
+    with pytest.raises(ValueError, match=single + several):
         IOSUAVEnv(ONE).reset(options={"config": TWO})
     vec = batched(IOSUAVVectorEnv)
     vec.step(np.zeros((2, 2)))

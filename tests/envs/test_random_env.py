@@ -364,12 +364,19 @@ def test_focus_mixes_in_narrower_ranges_at_the_given_rate():
     assert half.observation_space == RandomIOSUAVEnv().observation_space
 
 
-def test_focus_prob_zero_leaves_the_draws_unchanged():
-    plain, focused = RandomIOSUAVEnv(), RandomIOSUAVEnv(focus=FOCUS, focus_prob=0.0)
-    for seed in range(5):
-        plain.reset(seed=seed)
-        focused.reset(seed=seed)
-        assert plain.config == focused.config
+@pytest.mark.parametrize(
+    ("kwargs", "match"),
+    [
+        ({"focus": FOCUS, "focus_prob": 0.0}, "it needs focus_prob > 0"),
+        ({"focus_prob": 0.5}, "it needs focus=..."),
+        ({"focus": FOCUS, "focus_prob": 0.5, "config": ScenarioConfig(T=100.0)}, "focus is never drawn"),
+    ],
+)
+def test_a_focus_that_would_never_be_drawn_is_refused(kwargs, match):
+    """focus_prob = 0 (or a pinned config) never draws the focus, and focus_prob without a focus
+    has nothing to draw: each would do nothing, so each is refused."""
+    with pytest.raises(ValueError, match=match):
+        RandomIOSUAVEnv(**kwargs)
 
 
 @pytest.mark.parametrize(

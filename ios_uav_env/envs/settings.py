@@ -1,0 +1,154 @@
+"""What each env supports, checked at construction: errors that name the id and what handles the rest.
+
+The envs refuse a setting that would be accepted and then do nothing (a setting that needs
+another one, as ``filter_estimate`` needs ``knowledge="reports"``), and a scenario they do not
+model (several nodes in a single-node env, the energy objective in the multi-node env), naming
+the registered id the env is and, where one exists, the id that handles the request. The
+options' own dependencies are checked by ``EnvOptions``; this module holds the env-level ones.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from typing import Any
+
+from ios_uav_env.envs.registration import (
+    ENERGY_ID,
+    ENERGY_RANDOM_ID,
+    ENV_IDS,
+    MOBILE_ID,
+    MULTINODE_IDS,
+    MULTINODE_MOBILE_ID,
+    RANDOM_ENV_ID,
+)
+from ios_uav_env.model.config import ScenarioConfig
+from ios_uav_env.model.scenarios import RANGED_FIELDS
+
+__all__ = [
+    "check_multinode_arguments",
+    "check_scenario_overrides",
+    "multinode_id",
+    "multinode_objective",
+    "several_nodes_error",
+    "single_node_id",
+]
+
+#: The static multi-node ids: one scenario, and a new one drawn at every reset.
+_MULTI_ID = next(i for i, kw in MULTINODE_IDS.items() if not kw.get("random_nodes"))
+_MULTI_RANDOM_ID = next(i for i, kw in MULTINODE_IDS.items() if kw.get("random_nodes"))
+
+
+def single_node_id(config: ScenarioConfig, knowledge: str = "exact", random: bool = False) -> str:
+    """The registered id of the single-node env on ``config`` (``random``: a ``RandomIOSUAVEnv``
+    whose family's base is ``config``): the id whose env this is, for error messages."""
+    mobile = config.motion is not None or knowledge != "exact"
+    if random:
+        if mobile:
+            return MOBILE_ID
+        return ENERGY_RANDOM_ID if config.objective == "energy_efficiency" else RANDOM_ENV_ID
+    if config.objective == "energy_efficiency":
+        return ENERGY_ID
+    return next((i for i, kw in ENV_IDS.items() if kw["surface"] == config.surface), "IOSUAVEnv")
+
+
+def multinode_id(random_nodes: Any, mobile: bool) -> str:
+    """The registered id of a ``MultiNodeEnv`` (drawing ``random_nodes`` or not; ``mobile`` nodes)."""
+    if mobile:
+        return MULTINODE_MOBILE_ID
+    return _MULTI_RANDOM_ID if random_nodes else _MULTI_ID
+
+
+def several_nodes_error(env_id: str, config: ScenarioConfig, field: str = "config") -> ValueError:
+    """The error of a single-node env given ``config`` with K > 1 nodes: it names ``env_id``, what
+    it supports, and the id that handles several nodes (none for the energy objective)."""
+    head = (
+        f"{field} has K = {config.K} ground_nodes, but {env_id} is a single-node env (one ground node, "
+        "K = 1: ground_node)"
+    )
+    if config.objective == "energy_efficiency":
+        return ValueError(
+            f"{head}; the energy objective is single-node only: no id has it with several nodes (the "
+            f"multi-node ids {_MULTI_ID}, {_MULTI_RANDOM_ID} and {MULTINODE_MOBILE_ID} score the max-min "
+            "rate)"
+        )
+    mobile = config.motion is not None or env_id == MOBILE_ID
+    several = MULTINODE_MOBILE_ID if mobile else f"{_MULTI_ID} or {_MULTI_RANDOM_ID}"
+    return ValueError(f"{head}; several nodes: MultiNodeEnv, {several}")
+
+
+def multinode_objective(config: ScenarioConfig, field: str, env_id: str) -> None:
+    """``ValueError`` unless ``config``'s objective is the multi-node env's, the max-min rate."""
+    if config.objective != "rate":
+        raise ValueError(
+            f"{field} has objective={config.objective!r}, but {env_id} (MultiNodeEnv) rewards and scores the "
+            f"max-min rate (objective 'rate'); the energy objective is single-node: {ENERGY_ID}, "
+            f"{ENERGY_RANDOM_ID} (K = 1)"
+        )
+
+
+def check_multinode_arguments(
+    config: Any, random_nodes: Any, ranges: Any, default_ranges: Any, overrides: Mapping[str, Any]
+) -> None:
+    """Refuse the ``MultiNodeEnv`` arguments that would do nothing: ``config`` or a drawn field
+    (``RANGED_FIELDS``, ``ground_nodes``) with ``random_nodes`` (every reset draws its scenario
+    from ``ranges``), and ``ranges`` without it (the env runs its one ``config``)."""
+    if random_nodes is None:
+        if ranges != default_ranges:
+            raise ValueError(
+                "ranges is the family that random_nodes draws from: it needs random_nodes=(low, high) "
+                "(without it every episode runs config)"
+            )
+        return
+    drawn = sorted(set(overrides) & (RANGED_FIELDS | {"ground_nodes"}))
+    if config is not None or drawn:
+        what = "config" if config is not None else f"{drawn}"
+        raise ValueError(
+            f"{what}: with random_nodes={tuple(random_nodes)!r} every reset draws its scenario (its nodes, "
+            "T, surface, q0, qF) from ranges, so it would be unused: pass ranges=ScenarioRanges(...) to "
+            "change the family, or drop random_nodes to run one scenario"
+        )
+
+
+#: Scenario fields of the surface's channel (not of its geometry, which a scenario without a
+#: surface still validates: the UAV flies above the IOS's top edge): they do nothing without one.
+SURFACE_CHANNEL_FIELDS = ("gamma", "g_element", "quadrature_nodes", "quadrature_tol")
+
+
+def check_scenario_overrides(
+    env_id: str,
+    overrides: Mapping[str, Any],
+    surfaces: tuple[str, ...],
+    *,
+    fades: bool,
+    multinode: bool = False,
+    budget: bool = False,
+) -> None:
+    """Refuse scenario fields given as env keywords (``overrides``) that would do nothing in the
+    env ``env_id``, whose scenarios have the ``surfaces`` given: ``kappa`` unless the env samples
+    faded rates (``fades``: channel "rician", or measured rates), ``epsilon`` without an IOS, the
+    surface's channel fields without a surface (:data:`SURFACE_CHANNEL_FIELDS`), and in the
+    multi-node env (no energy in its reward, info or score) ``bandwidth_hz``, and ``propulsion``
+    unless an energy budget (``budget``) makes the flight's energy count. (A field of a config
+    passed whole is the scenario's own, as is: only the keywords are checked.)"""
+    inert: dict[str, str] = {}
+    if not fades:
+        inert["kappa"] = (
+            "the Rician factor of faded rates: it needs channel='rician' (or measured rates: "
+            "knowledge='reports' or 'rates')"
+        )
+    if "ios" not in surfaces:
+        inert["epsilon"] = f"the IOS's transmissive factor: it needs surface 'ios' (this env's: {surfaces})"
+    if set(surfaces) == {"none"}:
+        for name in SURFACE_CHANNEL_FIELDS:
+            inert[name] = "a field of the surface's channel: it needs a surface (this env has surface 'none')"
+    if multinode:
+        inert["bandwidth_hz"] = "the bandwidth of the energy efficiency, which MultiNodeEnv never scores"
+        if not budget:
+            inert["propulsion"] = (
+                "the propulsion power model: MultiNodeEnv counts the flight's energy only against an "
+                "energy_budget_j"
+            )
+    for name in overrides:
+        if name in inert:
+            value = overrides[name]
+            raise ValueError(f"{name} is {inert[name]}; in {env_id} {name}={value!r} would do nothing")

@@ -1,0 +1,52 @@
+"""An id given a scenario it does not model says so: the error names the id, what it supports and
+the id that handles the request (if one does), on every registered id, at construction and for a
+scenario pinned at reset."""
+
+from __future__ import annotations
+
+import gymnasium as gym
+import pytest
+
+import ios_uav_env
+from ios_uav_env import ScenarioConfig
+
+IDS = sorted(i for i in gym.registry if i.startswith("ios_uav_env/"))
+MULTI_IDS = {*ios_uav_env.MULTINODE_IDS, *ios_uav_env.MULTINODE_MOBILE_IDS}
+SINGLE_IDS = [i for i in IDS if i not in MULTI_IDS]
+NODES = ((-100.0, -20.0), (150.0, -60.0))
+
+
+def _several_nodes_message(env_id: str) -> str:
+    """What the error of ``env_id`` given two nodes must say after naming the id."""
+    if env_id in ios_uav_env.ENERGY_IDS:  # the energy objective: no multi-node id has it
+        return "the energy objective is single-node only: no id has it with several nodes"
+    if env_id in ios_uav_env.MOBILE_IDS:
+        return f"several nodes: MultiNodeEnv, {ios_uav_env.MULTINODE_MOBILE_ID}"
+    return "several nodes: MultiNodeEnv, ios_uav_env/IOSUAV-MultiNode-v0"
+
+
+@pytest.mark.parametrize("env_id", SINGLE_IDS)
+def test_a_single_node_id_given_several_nodes_says_it_is_single_node(env_id):
+    with pytest.raises(ValueError) as err:
+        gym.make(env_id, ground_nodes=NODES)
+    message = str(err.value)
+    assert f"{env_id} is a single-node env (one ground node, K = 1" in message, message
+    assert _several_nodes_message(env_id) in message and "ranges" not in message
+    # a scenario pinned at reset: the same, naming the option
+    env = gym.make(env_id)
+    pinned = env.unwrapped.config.replace(ground_nodes=NODES)
+    with pytest.raises(ValueError, match=r'options\["config"\] has K = 2 ground_nodes, but ' + env_id):
+        env.reset(options={"config": pinned})
+
+
+@pytest.mark.parametrize("env_id", sorted(MULTI_IDS))
+def test_a_multi_node_id_given_the_energy_objective_points_to_the_energy_ids(env_id):
+    with pytest.raises(ValueError) as err:
+        gym.make(env_id, objective="energy_efficiency")
+    message = str(err.value)
+    assert f"{env_id} (MultiNodeEnv) rewards and scores the max-min rate" in message
+    assert ios_uav_env.ENERGY_ID in message and ios_uav_env.ENERGY_RANDOM_ID in message
+    if env_id == "ios_uav_env/IOSUAV-MultiNode-v0":  # a pinned scenario too
+        env = gym.make(env_id)
+        with pytest.raises(ValueError, match=r'options\["config"\] has objective=.energy_efficiency., but'):
+            env.reset(options={"config": ScenarioConfig(ground_nodes=NODES, objective="energy_efficiency")})
