@@ -14,6 +14,7 @@ name                      objectives           budget  K      motion      kind
 ``dp``                    rate                 no      >= 1   static      optimum
 ``dp-ee``                 energy_efficiency    no      1      static      optimum
 ``dp-budget``             rate                 yes     1      static      optimum
+``dp-clairvoyant``        rate                 no      >= 1   paths       optimum
 ``sca``                   rate                 no      >= 1   static      local
 ``sca-multi``             rate                 no      >= 2   paths       local
 ``sca-ee``                energy_efficiency    no      1      static      local
@@ -118,6 +119,8 @@ PLANNERS: dict[str, PlannerSpec] = {
                     "optimum", "best energy efficiency on the DP grid (Dinkelbach)"),
         PlannerSpec("dp-budget", "baselines.dp_energy:solve_budget", ("rate",), True, 1, 1, "static",
                     "optimum", "best average rate within the energy budget on the DP grid (Lagrangian)"),
+        PlannerSpec("dp-clairvoyant", "baselines.dp_moving:solve", ("rate",), False, 1, None, "paths",
+                    "optimum", "grid optimum on given node paths (K > 1: best DP plan and max-min bound)"),
         PlannerSpec("sca", "baselines.sca:solve", ("rate",), False, 1, None, "static", "local",
                     "the paper's SCA, multi-start (K > 1: block-coordinate descent)"),
         PlannerSpec("sca-multi", "baselines.sca_multi:solve", ("rate",), False, 2, None, "paths", "local",

@@ -33,10 +33,10 @@ PROBLEMS: dict[str, ScenarioConfig] = {
     "moving-ee": RATE.replace(objective="energy_efficiency", motion=GaussMarkov(speed=3.0, sigma=1.0)),
 }
 #: The arguments each entry point takes after the config.
-EXTRA = {"mpc": (MPC(k=None), 0), "dp-bound": (None,)}
+EXTRA = {"mpc": (MPC(k=None), 0), "dp-bound": (None,), "dp-clairvoyant": (None, 10.0)}
 #: The entries cheap enough to run here on every problem they accept (the others, SCA and the
 #: energy bound, are run on their problems by their own tests).
-CHEAP = ("dp", "dp-ee", "dp-budget", "tour", "fixed", "loiter", "hover", "mpc")
+CHEAP = ("dp", "dp-ee", "dp-budget", "dp-clairvoyant", "tour", "fixed", "loiter", "hover", "mpc")
 
 
 def _call(name: str, config: ScenarioConfig, **kwargs):
@@ -82,7 +82,7 @@ def test_the_named_examples_are_refused_with_the_planner_that_handles_them():
         _call("dp-ee", PROBLEMS["rate"])
     with pytest.raises(PlannerMismatch, match=r"energy_budget_j=20000 J.*dp-budget"):
         _call("dp", PROBLEMS["budget"])
-    with pytest.raises(PlannerMismatch, match=r"motion.*tour \(baselines\.tour:solve\)"):
+    with pytest.raises(PlannerMismatch, match=r"motion.*dp-clairvoyant \(baselines\.dp_moving:solve\)"):
         _call("dp", PROBLEMS["moving"])
     with pytest.raises(PlannerMismatch, match=r"motion without paths=.*; pass paths=.*, or use mpc"):
         _call("tour", PROBLEMS["moving"])
