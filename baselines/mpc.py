@@ -13,16 +13,23 @@ q[n+1]) use the reports of slots 0..n and the measured rates of slots 0..n-1 onl
 1. the :class:`~ios_uav_env.model.kalman.NodeFilter` folds in the reports so far; its estimate
    of slot n (clipped to each node's motion rectangle) and ``predict_paths(N - 1 - n)`` give the
    predicted paths of slots n..N-1;
-2. the tour planner (``baselines.tour.solve(paths=...)``) plans the rest of the flight on a
-   scenario with q0 = q[n] and T = (N - n) dt (the remaining horizon, N - n slots, qF reachable
-   by construction: the flown prefix is a prefix of a feasible plan, as the arrival guard's
-   induction in ``ios_uav_env.envs.guard`` keeps it), the nodes at their estimates;
+2. the inner planner (``planner``) plans the rest of the flight on a scenario with q0 = q[n]
+   and T = (N - n) dt (the remaining horizon, N - n slots, qF reachable by construction: the
+   flown prefix is a prefix of a feasible plan, as the arrival guard's induction in
+   ``ios_uav_env.envs.guard`` keeps it), the nodes at their estimates: ``"tour"`` (default),
+   ``baselines.tour.solve(paths=predicted)``; ``"dp"``, the receding-horizon DP of
+   ``baselines.dp_moving`` on the predicted paths' rate maps (``grid_plan`` on the grid of
+   spacing ``resolution`` anchored at q[n], arrival at qF at slot N a hard constraint, then
+   ``refine`` corridor levels). With K > 1 nodes the DP maximises the per-slot rewards
+   max_k w_k r_k at the dual weights w of the incumbent's predicted frame (step 3); the first
+   plan is the better of the tour and the DP at the tour's weights;
 3. the rest of the frame is scheduled by ``maxmin_schedule(rates, fixed=past shares)`` on a
    rate matrix whose past columns are the *credited* rates of the slots flown and whose future
    columns are the predicted rates r_k(q[m]; ŵ_k[m]) of the plan; the new plan is kept only
    when this predicted frame value beats that of the incumbent (the previous plan's rest,
    rescheduled the same way), so the predicted value never decreases from one re-plan to the
-   next (with exact knowledge MPC scores at least what its first plan, the offline tour, scores);
+   next (with exact knowledge MPC scores at least what its first plan, the offline tour or DP,
+   scores);
 4. the next k slots are flown: positions q[n+1..n+k] and shares alpha[:, n..n+k-1].
 
 Credited rates (``credit``): ``"model"`` (default), r_k(q[i]; ŵ_k[i]) at the filter's estimate of
@@ -45,7 +52,9 @@ sample too and measures nothing, so the stream does not depend on the shares: th
 multi-node env's ``knowledge="reports"``); one seed gives one episode, bit for bit.
 
 **Score**: ``ios_uav_env.score_plan`` on the true paths with the planner's own shares.
-``seconds`` is the wall time spent planning (filter, tour, schedules), not drawing or scoring.
+``seconds`` is the wall time spent planning (filter, tour or DP, schedules), not drawing or
+scoring. The inner planner does not touch the generator, so the draws of one seed are the same
+whichever planner flies.
 """
 
 from __future__ import annotations
@@ -59,17 +68,22 @@ import numpy as np
 
 import ios_uav_env as ie
 from baselines import tour
+from baselines.grid import DEFAULT_MARGIN, validate_grid_args
 from baselines.registry import check as check_planner
 from ios_uav_env import ScenarioConfig
 from ios_uav_env.model.kalman import NodeFilter
 from ios_uav_env.model.motion import check_paths, node_bounds, node_paths
 from ios_uav_env.model.reports import REPORT_SIGMA, SERVED_SHARE, measured_rates, position_reports
+from ios_uav_env.model.schedule import Schedule
 from ios_uav_env.model.score import PlanScore
 
 #: m, the filter's report std when the reports are exact (``report_sigma = 0``).
 EXACT_SIGMA = 1e-6
+#: The DP planner's defaults: grid spacing (m) and corridor refinement levels.
+DP_RESOLUTION = 5.0
+DP_REFINE = 2
 
-__all__ = ["EXACT_SIGMA", "MPC", "SERVED_SHARE", "OnlineResult", "run_online"]
+__all__ = ["DP_REFINE", "DP_RESOLUTION", "EXACT_SIGMA", "MPC", "SERVED_SHARE", "OnlineResult", "run_online"]
 
 
 @dataclass(frozen=True)
@@ -81,6 +95,9 @@ class MPC:
     max_points: int | None = None  # tour: most hover points per route (None: its default)
     orders: int = 2  # tour: orders solved per subset
     keep: int = 5  # tour: LP winners scored exactly
+    planner: Literal["tour", "dp"] = "tour"  # the inner planner of each re-plan (module docstring)
+    resolution: float = DP_RESOLUTION  # dp: grid spacing (m), in (0, D]
+    refine: int = DP_REFINE  # dp: corridor refinement levels (baselines.dp_moving), >= 0
 
     def __post_init__(self) -> None:
         k = self.k
@@ -88,10 +105,20 @@ class MPC:
             raise ValueError(f"MPC.k must be None (plan once) or an integer >= 1 (slots), got {k!r}")
         if self.credit not in ("model", "measured"):
             raise ValueError(f"MPC.credit must be 'model' or 'measured', got {self.credit!r}")
+        if self.planner not in ("tour", "dp"):
+            raise ValueError(f"MPC.planner must be 'tour' or 'dp', got {self.planner!r}")
+        r = self.resolution
+        if isinstance(r, bool) or not isinstance(r, (int, float)) or not (math.isfinite(r) and r > 0):
+            raise ValueError(f"MPC.resolution must be a finite number > 0 (m; at most D), got {r!r}")
+        f = self.refine
+        if isinstance(f, bool) or not isinstance(f, (int, np.integer)) or f < 0:
+            raise ValueError(f"MPC.refine must be an integer >= 0 (corridor levels), got {f!r}")
 
     @property
     def name(self) -> str:
-        """``"plan-once"`` or ``"mpc-k<k>"``."""
+        """``"plan-once"`` or ``"mpc-k<k>"``; with the DP, ``"plan-once-dp"`` or ``"mpc-dp-k<k>"``."""
+        if self.planner == "dp":
+            return "plan-once-dp" if self.k is None else f"mpc-dp-k{self.k}"
         return "plan-once" if self.k is None else f"mpc-k{self.k}"
 
 
@@ -104,7 +131,7 @@ class OnlineResult:
     shares: np.ndarray  # (K, N) alpha_k[n] used
     score: PlanScore  # score_plan(config, trajectory, shares (K > 1), paths=true paths)
     seconds: float  # s, wall time spent planning
-    n_plans: int  # tour plans made
+    n_plans: int  # re-plans made (the first plan included)
     n_kept: int  # re-plans that replaced the incumbent (the first plan included)
     paths: np.ndarray  # (N, K, 2) m, the true node paths
     reports: np.ndarray  # (N, K, 2) m, the position reports
@@ -131,14 +158,41 @@ def _rest_config(config: ScenarioConfig, q: np.ndarray, n: int, nodes: np.ndarra
 
 def _frame(
     config: ScenarioConfig, past: tuple[np.ndarray, np.ndarray], rest_q: np.ndarray, pred: np.ndarray
-) -> tuple[float, np.ndarray]:
-    """(predicted frame value, shares (K, N)): the best continuation of the past slots' shares
-    ``past[1]`` (K, n0) at their credited rates ``past[0]`` (K, n0), the rest of the flight
-    ``rest_q`` (N - n0, 2) on the predicted paths ``pred`` (N - n0, K, 2)."""
+) -> Schedule:
+    """The predicted frame's schedule (its ``value``, ``shares`` (K, N) and dual ``weights``): the
+    best continuation of the past slots' shares ``past[1]`` (K, n0) at their credited rates
+    ``past[0]`` (K, n0), the rest of the flight ``rest_q`` (N - n0, 2) on the predicted paths
+    ``pred`` (N - n0, K, 2)."""
     credited, fixed = past
     rates = np.concatenate([credited, ie.node_rates(config, rest_q, pred)], axis=1)
-    sched = ie.maxmin_schedule(rates, fixed if fixed.shape[1] else None)
-    return float(sched.value), sched.shares
+    return ie.maxmin_schedule(rates, fixed if fixed.shape[1] else None)
+
+
+def _dp_rest(
+    planner: MPC, rest: ScenarioConfig, pred: np.ndarray, weights: np.ndarray | None
+) -> np.ndarray | None:
+    """The DP's plan of the rest of the flight on the predicted paths (``dp_moving.grid_plan`` at
+    ``weights``, then ``planner.refine`` corridor levels), or None when no grid path is in time."""
+    from baselines import dp_moving
+
+    found = dp_moving.grid_plan(rest, pred, planner.resolution, weights=weights)
+    if found is None:
+        return None
+    return dp_moving.refine_plan(rest, pred, *found, planner.resolution, planner.refine, weights)[0]
+
+
+def _tour_rest(
+    config: ScenarioConfig,
+    planner: MPC,
+    rest: ScenarioConfig,
+    pred: np.ndarray,
+    past: tuple[np.ndarray, np.ndarray],
+) -> tuple[Schedule, np.ndarray]:
+    """The tour's plan of the rest of the flight on the predicted paths, with its predicted frame."""
+    rest_q = tour.solve(
+        rest, paths=pred, max_points=planner.max_points, orders=planner.orders, keep=planner.keep
+    ).trajectory
+    return _frame(config, past, rest_q, pred), rest_q
 
 
 def _check_seed(seed: Any) -> int:
@@ -163,6 +217,8 @@ def run_online(
     check_planner("mpc", config)
     if not isinstance(planner, MPC):
         raise TypeError(f"planner must be an MPC (MPC(k=...) or MPC(k=None)), got {type(planner).__name__}")
+    if planner.planner == "dp":
+        validate_grid_args(config, planner.resolution, DEFAULT_MARGIN)
     rng = np.random.default_rng(_check_seed(seed))
     truth = node_paths(config, rng) if paths is None else check_paths(config, paths)
     if not (isinstance(report_sigma, (int, float)) and math.isfinite(report_sigma) and report_sigma >= 0):
@@ -194,17 +250,28 @@ def run_online(
                 pred = np.clip(pred, lo, hi)
             past = (credited[:, :n], shares[:, :n])
             rest = _rest_config(config, q[n], n, estimate)
-            new_q = tour.solve(
-                rest, paths=pred, max_points=planner.max_points, orders=planner.orders, keep=planner.keep
-            ).trajectory
-            n_plans += 1
-            new_value, new_a = _frame(config, past, new_q, pred)
             old = None if plan_q is None else _frame(config, past, plan_q[n:], pred)
-            if old is None or new_value > old[0]:
-                plan_q = np.concatenate([q[:n], new_q])
-                plan_a, n_kept = new_a, n_kept + 1
+            found: list[tuple[Schedule, np.ndarray]] = []  # (predicted frame, rest of the flight)
+            if planner.planner == "tour":
+                found.append(_tour_rest(config, planner, rest, pred, past))
             else:
-                plan_a = old[1]
+                weights = None if k_nodes == 1 or old is None else old.weights
+                if weights is None and k_nodes > 1:  # the first plan: the tour's, and the DP at its weights
+                    found.append(_tour_rest(config, planner, rest, pred, past))
+                    weights = found[0][0].weights
+                rest_q = _dp_rest(planner, rest, pred, weights)
+                if rest_q is not None:
+                    found.append((_frame(config, past, rest_q, pred), rest_q))
+            if not found and old is None:  # the tour (or no grid path in time: the tour stands in)
+                found.append(_tour_rest(config, planner, rest, pred, past))
+            n_plans += 1
+            new = max(found, key=lambda f: f[0].value) if found else None  # (the first of equal values)
+            if new is not None and (old is None or new[0].value > old.value):
+                plan_q = np.concatenate([q[:n], new[1]])
+                plan_a, n_kept = new[0].shares, n_kept + 1
+            else:
+                assert old is not None
+                plan_a = old.shares
         assert plan_q is not None and plan_a is not None
         shares[:, n] = plan_a[:, n]
         if n + 1 < n_slots:

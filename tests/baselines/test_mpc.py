@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from baselines import tour
+from baselines import dp_moving, tour
 from baselines.dp_bound import clairvoyant_bound
 from baselines.mpc import MPC, run_online
 from ios_uav_env import ScenarioConfig
@@ -68,14 +68,15 @@ def test_a_seeded_episode_reproduces_bit_for_bit(mobile_runs: dict) -> None:
     assert not np.array_equal(other.paths, first.paths)
 
 
-def test_mpc_sees_only_the_reports_so_far() -> None:
+@pytest.mark.parametrize("inner", ["tour", "dp"])
+def test_mpc_sees_only_the_reports_so_far(inner: str) -> None:
     short = MOBILE.replace(T=12.0, q0=(-50.0, 20.0), qF=(50.0, 20.0))
     truth = node_paths(short, np.random.default_rng(11))
     changed = truth.copy()
     n = 4
     changed[n + 1 :] = truth[n]  # the nodes stop after slot n
-    a = run_online(short, MPC(k=2), 0, paths=truth)
-    b = run_online(short, MPC(k=2), 0, paths=changed)
+    a = run_online(short, MPC(k=2, planner=inner), 0, paths=truth)
+    b = run_online(short, MPC(k=2, planner=inner), 0, paths=changed)
     np.testing.assert_array_equal(a.trajectory[: n + 2], b.trajectory[: n + 2])  # moves to q[n+1]
     np.testing.assert_array_equal(a.shares[:, : n + 1], b.shares[:, : n + 1])
     assert not np.array_equal(a.reports[n + 1 :], b.reports[n + 1 :])  # the truth did change
@@ -114,3 +115,67 @@ def test_the_mobile_env_and_run_online_share_the_episodes_draws() -> None:
     np.testing.assert_array_equal(env.reports, run.reports)
     np.testing.assert_allclose(env.measured_rates, run.measured[0], rtol=1e-9)  # ulp of the LoS phase
     assert env._info()["average_rate"] == pytest.approx(run.score.rate, rel=1e-9) and run.score.rate > 0
+
+
+ONE = STATIC.replace(ground_nodes=((-60.0, -20.0),))
+
+
+def test_the_dp_planner_is_a_choice_named_apart() -> None:
+    assert MPC().planner == "tour" and MPC(k=1).name == "mpc-k1" and MPC(k=None).name == "plan-once"
+    assert MPC(k=1, planner="dp").name == "mpc-dp-k1" and MPC(k=None, planner="dp").name == "plan-once-dp"
+    bad = [({"planner": "sca"}, r"MPC\.planner"), ({"resolution": 0.0}, r"MPC\.resolution"),
+           ({"resolution": True}, r"MPC\.resolution"), ({"refine": -1}, r"MPC\.refine")]  # fmt: skip
+    for kwargs, match in bad:
+        with pytest.raises(ValueError, match=match):
+            MPC(**{"k": 1, "planner": "dp", **kwargs})  # type: ignore[arg-type]
+    with pytest.raises(ValueError, match=r"resolution must be a finite number in \(0, D=25\] m"):
+        run_online(ONE, MPC(k=None, planner="dp", resolution=30.0), 0)
+
+
+def test_static_exact_knowledge_mpc_dp_flies_the_grid_optimum() -> None:
+    """One static node known exactly: every re-plan is the DP on the true map over the same grid
+    (anchored at a grid point), so MPC-DP flies the clairvoyant grid optimum; the refinement
+    only adds to it."""
+    optimum = dp_moving.solve(ONE, resolution=5.0, refine=0, bound=False).mean_rate
+    once = run_online(ONE, MPC(k=None, planner="dp", refine=0), 0, report_sigma=0.0)
+    mpc = run_online(ONE, MPC(k=4, planner="dp", refine=0), 0, report_sigma=0.0)
+    assert once.rate == pytest.approx(optimum, rel=1e-9) and mpc.rate == pytest.approx(optimum, rel=1e-9)
+    assert mpc.n_plans == 5 and once.n_plans == 1
+    refined = run_online(ONE, MPC(k=None, planner="dp"), 0, report_sigma=0.0)
+    assert refined.feasible and refined.rate >= optimum - 1e-12
+
+
+def test_several_nodes_mpc_dp_starts_from_the_tour() -> None:
+    """K = 2: the first plan is the better of the tour and the weighted DP at the tour's dual
+    weights, so with exact knowledge MPC-DP scores at least the offline tour."""
+    offline = tour.solve(STATIC).mean_rate
+    run = run_online(STATIC, MPC(k=5, planner="dp"), 0, report_sigma=0.0)
+    assert run.feasible and run.rate >= offline - 1e-9
+    again = run_online(STATIC, MPC(k=5, planner="dp"), 0, report_sigma=0.0)
+    np.testing.assert_array_equal(again.trajectory, run.trajectory)
+
+
+def test_the_dp_replans_at_the_incumbents_dual_weights(monkeypatch: pytest.MonkeyPatch) -> None:
+    """K = 2: each weighted DP runs at the dual weights of the frame computed just before it,
+    the tour's at the first plan and the incumbent's at a re-plan."""
+    from baselines import mpc
+
+    frames: list = []
+    calls: list[tuple[int, np.ndarray]] = []
+    real_frame, real_plan = mpc._frame, dp_moving.grid_plan
+
+    def frame(*args):
+        frames.append(real_frame(*args))
+        return frames[-1]
+
+    def grid_plan(*args, weights=None, **kwargs):
+        calls.append((len(frames), weights))
+        return real_plan(*args, weights=weights, **kwargs)
+
+    monkeypatch.setattr(mpc, "_frame", frame)
+    monkeypatch.setattr(dp_moving, "grid_plan", grid_plan)
+    run = run_online(MOBILE, MPC(k=10, planner="dp"), 3)
+    assert run.n_plans == 2 and len(calls) == 2
+    for seen, weights in calls:
+        np.testing.assert_array_equal(weights, frames[seen - 1].weights)
+    assert not np.allclose(calls[1][1], 0.5)
