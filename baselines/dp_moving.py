@@ -11,27 +11,38 @@ On the grid of ``baselines.grid.grid_axes`` (anchored at q0, spacing ``resolutio
 grid offsets inside the disk of radius D; the last move onto qF exactly) it is a longest path
 through N layers, solved exactly by the backward recursion of ``baselines.dp`` with layer n's
 reward taken from slot n's map (``baselines.dp_bound.moving_dp_path``). The plan is the best grid
-path, the grid optimum; ``info["dp_objective"]``, the recursion's value read back along the path,
-equals its score (checked to 1e-9).
+path, the grid optimum; the plan's ``info["dp_objective"]``, the rewards read back along it, equals
+its score (checked to 1e-9).
 
 **The maps** (:func:`rate_maps`): r_k(grid point; w_k[n]) for every slot, one map per distinct
 position of a node, computed with the scorer's own per-slot kernels
 (``ios_uav_env.path_kernels``), so the rewards at the grid points are the rates ``score_plan``
 counts on the paths.
 
+**Refinement** (``refine`` levels, :func:`refine_plan`): the grid's moves are grid offsets, shorter
+than D in most directions, so a grid path flies its legs a little slower than a straight line at
+v_max and arrives (or leaves) up to a slot late. Each level j = 1..``refine`` runs corridor DPs
+(:func:`refine_path`): way-point n may move to any of the (2 ``REFINE_CELLS`` + 1)^2 points of
+spacing resolution / 2^j centred on the current q[n], moves <= D, q0 and qF fixed, the same
+per-slot rewards; repeated while the path changes (at most ``REFINE_SWEEPS`` times). The current
+path is a candidate, so the score never decreases; the result is the best path of the last
+corridor, a local refinement of the grid optimum (``info["grid_objective"]``), not a global
+optimum of a finer grid. ``refine=0`` returns the grid optimum itself.
+
 **The gap to the bound**: ``info["upper_bound"]`` is ``dp_bound.clairvoyant_bound`` on the same
 paths (the relaxed DP at cell side ``bound_resolution``): no flight on the paths, so no online
-policy, scores more; ``info["gap"]`` = upper_bound / mean_rate - 1 bounds how far the grid
-optimum can be from the continuous one.
+policy, scores more; ``info["gap"]`` = upper_bound / mean_rate - 1 bounds how far the plan can be
+from the continuous optimum.
 
 **Several nodes** (K > 1): the max-min rate over TDMA shares is not a sum over slots, so no DP is
 exact. The plan and bound are ``dp_bound.solve_multinode(paths=...)``'s: at each of Kelley's dual
-weights w the DP on the per-slot rewards max_k w_k r_k(.; w_k[n]) (:func:`grid_plan` with
-``weights``), the clairvoyant tour and tours through the DP paths' hovers, the best of them scored
-on the paths, under the certified bound.
+weights w the DP on the per-slot rewards max_k w_k r_k(.; w_k[n]) (``dp_bound.moving_dp_path``:
+:func:`grid_plan` with ``weights``), the clairvoyant tour and tours through the DP paths' hovers,
+the best of them scored on the paths, under the certified bound; ``refine`` does not apply.
 
-**Static nodes** (``motion`` None, or paths that stand still): every slot has the same map and the
-plan is ``baselines.dp.solve``'s (the same grid and recursion; its score to the kernels' rounding).
+**Static nodes** (``motion`` None, or paths that stand still): every slot has the same map, and
+with ``refine=0`` the plan is ``baselines.dp.solve``'s (the same grid and recursion; its score to
+the kernels' rounding); the refinement only adds to it.
 
 The receding-horizon planner ``baselines.mpc.MPC(planner="dp")`` calls :func:`grid_plan` on the
 Kalman filter's predicted paths.
@@ -216,11 +227,13 @@ def solve(
 
     ``paths``: the nodes' true paths, required when the config moves (None: the configured
     positions). ``resolution``: grid spacing in (0, D] m; ``margin``: the grid box's widening (m).
-    ``bound``: K = 1, also compute ``dp_bound.clairvoyant_bound`` at cell side
+    ``refine``: K = 1, corridor refinement levels (module docstring, "Refinement"; 0: the grid
+    optimum). ``bound``: K = 1, also compute ``dp_bound.clairvoyant_bound`` at cell side
     ``bound_resolution`` (default ``resolution``) into ``info["upper_bound"]`` and ``info["gap"]``
     (K > 1 always has them: ``kwargs`` go to ``dp_bound.solve_multinode``). ``info`` also holds
-    ``dp_objective`` (K = 1), ``resolution``, ``margin``, ``grid_shape`` and ``clairvoyant``
-    (true when scored on moving paths).
+    ``dp_objective`` and ``grid_objective`` (K = 1: the plan's and the grid optimum's mean
+    reward), ``sweeps`` (corridor DPs solved), ``resolution``, ``margin``, ``grid_shape`` and
+    ``clairvoyant`` (true when scored on moving paths).
 
     ``ValueError``: bad arguments, a grid above ``MAX_TABLE_BYTES``, or no grid path reaching qF
     in time (refine the grid).
