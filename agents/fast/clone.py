@@ -20,30 +20,26 @@ starts PPO from a clone of an *expert*, a policy that maps the raw observation t
 
 The policy starts where the expert is and RL can only move it from there: a warm start, not a
 bound. The rows are reset after the clone (seeded as the run's first rollout).
+
+The expert is checked with the recipe, on the run's env, before anything of the run is written
+(``agents.fast.recipe.checked_expert``, called by ``agents.training.check_hyperparams``): it
+must load, the observation features it declares (``observation_features``, e.g.
+``HoverAt('peak')``'s peak hint) must be among the env's (``env.unwrapped.observation_names``;
+the expert is then bound to that layout), and on the env's first observations it must return
+finite actions of the env's shape.
 """
 
 from __future__ import annotations
 
 import time
-from collections.abc import Callable
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from agents.fast.recipe import CloneSettings
+from agents.fast.recipe import CloneSettings, checked_expert
 
 if TYPE_CHECKING:
     from agents.fast.ppo import FastPPO
-
-
-def load_expert(spec: str) -> Callable[[np.ndarray], np.ndarray]:
-    """The expert of ``spec`` (``ValueError`` naming it if it does not load or is not callable)."""
-    from ios_uav_env.benchmark.cli import load_policy
-
-    expert = load_policy(spec)
-    if not callable(expert):
-        raise ValueError(f"CloneStart expert {spec!r} is not callable (observations -> actions)")
-    return expert
 
 
 def clone(algo: FastPPO, settings: CloneSettings) -> dict[str, Any]:
@@ -52,7 +48,7 @@ def clone(algo: FastPPO, settings: CloneSettings) -> dict[str, Any]:
 
     from agents.fast.gae import gae
 
-    expert = load_expert(settings.expert)
+    expert = checked_expert(settings.expert, algo.env_id, algo.env_kwargs)
     start = time.perf_counter()
     recipe, policy = algo.recipe, algo.policy
     params = [p for name, p in policy.named_parameters() if name != "log_std"]
@@ -66,7 +62,12 @@ def clone(algo: FastPPO, settings: CloneSettings) -> dict[str, Any]:
     for r in range(settings.rounds):
         raws, labels, rewards, dones = [], [], [], []
         for _ in range(settings.slots):
-            label = np.clip(np.asarray(expert(obs), dtype=np.float64), algo._low, algo._high)
+            label = np.asarray(expert(obs), dtype=np.float64)
+            if not np.all(np.isfinite(label)):
+                raise ValueError(
+                    f"CloneStart expert {settings.expert!r} returned non-finite actions in round {r}"
+                )
+            label = np.clip(label, algo._low, algo._high)
             raws.append(np.asarray(obs, dtype=np.float64))
             if r == 0:
                 act = label.copy()

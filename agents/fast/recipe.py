@@ -9,14 +9,18 @@ and ``clip_range`` (a number or ``lin_<number>``), ``ent_coef``, ``vf_coef``,
 ``max_grad_norm``, ``target_kl``, ``normalize_advantage``, ``policy_kwargs`` (the SB3 policy is
 the network), ``normalize`` (VecNormalize's statistics and rules). Of the zoo's ``callback`` and
 ``env_wrapper`` keys the trainer honours the ones whose effect it reproduces on arrays
-(:data:`CALLBACKS`, :data:`WRAPPERS`) and refuses any other by name.
+(:data:`CALLBACKS`, :data:`WRAPPERS`) and refuses any other by name. A ``CloneStart`` expert is
+checked on the run's env with the recipe (:func:`checked_expert`), before the run writes anything.
 """
 
 from __future__ import annotations
 
 import math
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from typing import Any
+
+import numpy as np
 
 from agents.hyperparams import Hyperparams
 
@@ -118,9 +122,13 @@ class FastRecipe:
         return self.n_envs * self.n_steps
 
     @classmethod
-    def from_hyperparams(cls, hp: Hyperparams, n_envs: int | None = None) -> FastRecipe:
+    def from_hyperparams(
+        cls, hp: Hyperparams, n_envs: int | None = None, env_id: str | None = None,
+        env_kwargs: Mapping[str, Any] | None = None,
+    ) -> FastRecipe:  # fmt: skip
         """The recipe of a resolved zoo entry (``agents.hyperparams.load_hyperparams("ppo", ...)``);
-        ``ValueError`` naming the key the fast trainer cannot honour."""
+        ``ValueError`` naming the key the fast trainer cannot honour. With ``env_id`` (and the run's
+        ``env_kwargs``), a ``CloneStart`` expert is checked on that env too (:func:`checked_expert`)."""
         kwargs = dict(hp.model_kwargs)
         unknown = sorted(set(kwargs) - set(PPO_KEYS))
         if unknown:
@@ -182,6 +190,8 @@ class FastRecipe:
             clone=clone,
         )
         recipe.validate()
+        if recipe.clone is not None and env_id is not None:
+            checked_expert(recipe.clone.expert, env_id, env_kwargs or {})
         return recipe
 
     def validate(self) -> None:
@@ -204,3 +214,59 @@ class FastRecipe:
                 raise ValueError(f"{name} must be a finite number >= 0, got {value}")
         if self.target_kl is not None and not self.target_kl > 0:
             raise ValueError(f"target_kl must be > 0 or unset, got {self.target_kl}")
+
+
+#: An expert: (B, obs) observations -> (B, action) actions.
+Expert = Callable[[np.ndarray], np.ndarray]
+
+
+def load_expert(spec: str) -> Expert:
+    """The expert of ``spec`` (``ValueError`` naming it if it does not load or is not callable)."""
+    from ios_uav_env.benchmark.cli import load_policy
+
+    try:
+        expert = load_policy(spec)
+    except ValueError as exc:
+        raise ValueError(f"CloneStart expert: {exc}") from None
+    if not callable(expert):
+        raise ValueError(f"CloneStart expert {spec!r} is not callable (observations -> actions)")
+    return expert
+
+
+def checked_expert(spec: str, env_id: str, env_kwargs: Mapping[str, Any]) -> Expert:
+    """The expert of ``spec`` for the env ``env_id`` with ``env_kwargs`` (the run's), bound to its
+    observation layout; ``ValueError`` naming the expert unless it loads (an unknown module or
+    attribute named), the env publishes every observation feature it declares (each missing one
+    named with the env argument that provides it, e.g. ``peak_hint=True``), and on a batch of the
+    env's first observations (seeds 0 and 1) it returns finite actions of shape (2, action size)."""
+    import gymnasium as gym
+
+    expert = load_expert(spec)
+    who, where = f"CloneStart expert {spec!r}", f"{env_id} with env_kwargs {dict(env_kwargs)}"
+    env = gym.make(env_id, **env_kwargs)
+    try:
+        names = getattr(env.unwrapped, "observation_names", None)
+        needed = tuple(getattr(expert, "observation_features", ()) or ())
+        if needed:  # read by name: checked against the env's layout, then bound to it
+            from ios_uav_env.envs.observation import require_features
+
+            require_features(needed, names, who, where)
+            if callable(getattr(expert, "bind", None)):
+                expert = expert.bind(names)
+        batch = np.stack([env.reset(seed=seed)[0] for seed in (0, 1)])
+        shape = (2, *env.action_space.shape)
+    finally:
+        env.close()
+    try:
+        actions = np.asarray(expert(batch), dtype=np.float64)
+    except Exception as exc:  # the expert's own failure on this env's observations
+        raise ValueError(f"{who} fails on the observations of {where}: {type(exc).__name__}: {exc}") from exc
+    if actions.shape != shape:
+        raise ValueError(
+            f"{who} returns actions of shape {actions.shape} for a batch of {shape[0]} observations of "
+            f"{where}; the env's actions need shape {shape}"
+        )
+    if not np.all(np.isfinite(actions)):
+        raise ValueError(f"{who} returns non-finite actions (NaN or inf) on the first observations of "
+                         f"{where}")  # fmt: skip
+    return expert

@@ -116,7 +116,7 @@ def check_hyperparams(
         from agents.fast.recipe import FastRecipe
 
         try:
-            FastRecipe.from_hyperparams(hp, n_envs)
+            FastRecipe.from_hyperparams(hp, n_envs, env_id, env_kwargs)  # a CloneStart expert on the env
         except ValueError as exc:
             raise ValueError(f"{where}, {env_id}: {exc}") from None
         vec_env = "batched"

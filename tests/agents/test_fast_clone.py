@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import re
 
 import numpy as np
 import pytest
@@ -91,3 +92,51 @@ def test_the_clone_follows_the_expert_where_the_untrained_policy_does_not():
     assert [r_["samples"] for r_ in rounds] == [32 * 64, 2 * 32 * 64] and record["env_steps"] == 2 * 32 * 64
     assert rounds[-1]["value_loss"] < rounds[0]["value_loss"]
     json.dumps(record)  # (written as clone.json)
+
+
+def three_actions(obs: np.ndarray) -> np.ndarray:
+    """An expert of the wrong action size."""
+    return np.zeros((len(obs), 3))
+
+
+def nan_actions(obs: np.ndarray) -> np.ndarray:
+    """An expert that returns NaN."""
+    return np.full((len(obs), 2), np.nan)
+
+
+@pytest.mark.parametrize(
+    ("expert", "message"),
+    [
+        ("tests.agents.test_fast_clone:three_actions", r"actions of shape \(2, 3\).* need shape \(2, 2\)"),
+        ("ios_uav_env.envs.nowhere:HoverAt('ground')", "cannot import 'ios_uav_env.envs.nowhere'"),
+        ("tests.agents.test_fast_clone:nan_actions", "returns non-finite actions"),
+        ("ios_uav_env.envs.policies:HoverAt('peak')", r"dx_peak.*peak_hint=True"),
+    ],
+)
+def test_a_bad_expert_is_refused_with_the_recipe_before_the_run_folder_exists(
+    expert, message, tmp_path, capsys
+):
+    # before: each failed only in the clone, after config.json was written (or, for the peak hint
+    # without peak_hint=True, did not fail at all: HoverAt('peak') flew to the last 3 components)
+    import yaml
+
+    import train
+    from agents.training import TrainSettings
+    from agents.training import train as train_run
+    from tests.agents.test_fast import entry
+
+    clone_start = {"agents.callbacks.CloneStart": {"expert": expert, "rounds": 1, "slots": 8}}
+    hp = tmp_path / "fast.yml"
+    hp.write_text(yaml.safe_dump({ENV: entry(callback=[clone_start])}))
+    run = tmp_path / "run"
+    with pytest.raises(SystemExit) as exc:
+        train.main(["--algo", "ppo", "--trainer", "fast", "--hyperparams", str(hp), "--out", str(run),
+                    "--env-kwargs", "T:40", "--no-progress"])  # fmt: skip
+    err = capsys.readouterr().err
+    assert exc.value.code == 2 and "argument --hyperparams" in err and "CloneStart expert" in err
+    assert re.search(message, err) and not run.exists()
+    settings = TrainSettings(algo="ppo", trainer="fast", env_kwargs={"T": 40}, hyperparams_file=str(hp),
+                             out=str(run), progress_bar=False)  # fmt: skip
+    with pytest.raises(ValueError, match=message):
+        train_run(settings)
+    assert not run.exists()
