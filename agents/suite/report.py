@@ -25,8 +25,8 @@ DP's and SCA's plans from the held-out plan file). A folder that already holds a
 refused before the model loads unless ``--overwrite`` is given (the previous report's files that
 this one does not write are then removed). A model whose env arguments change the suite's task
 (e.g. ``arrival_guard=False``: ``ios_uav_env.benchmark.overrides``) is refused unless
-``--allow-task-change`` is given; its outputs then name the changed task. :func:`suite_score` is the score as a dict,
-for a training callback.
+``--allow-task-change`` is given; its outputs then name the changed task. :func:`suite_score`
+is the score as a dict, for a training callback.
 """
 
 from __future__ import annotations

@@ -68,15 +68,22 @@ def test_the_evaluator_replays_the_suites_env_rows_on_the_true_path(suite):
 
 
 def test_an_env_that_draws_another_path_is_refused(suite, monkeypatch):
-    from ios_uav_env.envs import single
+    import sys
 
-    real = single.start_track
+    import ios_uav_env.envs.single  # noqa: F401  (loads the env modules that draw the path)
+    from ios_uav_env.envs import knowledge
+
+    real = knowledge.start_track
 
     def shifted(cfg, rng, sigma):
         rng.standard_normal()  # one draw before the path: another path
         return real(cfg, rng, sigma)
 
-    monkeypatch.setattr(single, "start_track", shifted)
+    users = [m for name, m in list(sys.modules.items())
+             if name.startswith("ios_uav_env.envs") and getattr(m, "start_track", None) is real]  # fmt: skip
+    assert len(users) >= 2  # knowledge and the env module that calls it
+    for module in users:
+        monkeypatch.setattr(module, "start_track", shifted)
     with pytest.raises(RuntimeError, match="another node path"):
         evaluate(HoverAt("ground"), suite)
 
