@@ -4,8 +4,12 @@
   their batched form; ``single_kernels`` the step they share (compiled with numba if installed);
 - ``multi`` / ``multi_vector`` / ``multi_kernels``: the same for K >= 1 ground nodes;
 - ``batched``: ``BatchedEnv``, the base of both batched envs (rows, seeding, autoreset, info);
-- ``observation``, ``options``, ``guard``: the observation layout, the env options and the
-  arrival guard; ``registration``: the ids, registered on ``import ios_uav_env``;
+- ``single_mobile`` / ``multi_mobile`` (with ``knowledge``): moving, roughly known nodes;
+  ``multi_space``: the multi-node observation space;
+- ``observation``, ``options``, ``guard``: the observation layout (and ``require_features``,
+  the check of a layout by feature name), the env options and the arrival guard;
+  ``settings``: what each env supports, checked at construction; ``registration``: the ids,
+  registered on ``import ios_uav_env``;
 - ``rollout`` runs a policy for one episode; ``policies`` holds reference policies;
   ``rendering`` / ``rendering_multi`` draw a frame (matplotlib, imported lazily).
 """

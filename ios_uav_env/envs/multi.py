@@ -23,8 +23,7 @@ import gymnasium as gym
 import numpy as np
 from gymnasium import spaces
 
-from ios_uav_env.envs.knowledge import FADE_MARGIN, NodesTrack, nodes_extent
-from ios_uav_env.envs.knowledge import node_extent as family_extent
+from ios_uav_env.envs.knowledge import NodesTrack
 from ios_uav_env.envs.multi_kernels import (
     BEST,
     MULTI_INFO_KEYS,
@@ -35,16 +34,8 @@ from ios_uav_env.envs.multi_kernels import (
     soft_minimum,
 )
 from ios_uav_env.envs.multi_mobile import MobileNodes
-from ios_uav_env.envs.observation import (
-    M_SCALE,
-    T_SCALE,
-    float32_bounds,
-    ground_free_rate_bound,
-    length_bounds,
-    node_block_names,
-    overflow_hint,
-    pad,
-)
+from ios_uav_env.envs.multi_space import multinode_bounds, rate_high
+from ios_uav_env.envs.observation import node_block_names
 from ios_uav_env.envs.options import EnvOptions, split_kwargs
 from ios_uav_env.envs.settings import (
     check_multinode_arguments,
@@ -347,49 +338,17 @@ class MultiNodeEnv(MobileNodes, gym.Env):
 
     # --- spaces ---------------------------------------------------------------------------
     def _bounds(self, config: ScenarioConfig | None = None) -> tuple[np.ndarray, np.ndarray]:
-        """(low, high) over the env's family (its ranges, or its one config), or over ``config``."""
-        single = config if config is not None else None if self.random_nodes else self._base
-        r = self.ranges if single is None else ScenarioRanges.from_config(single.node_config(0))
-        base, scale = r.base, self.options.length_scale
-        reach = r.max_moves * base.D
-        nodes = [] if single is None else list(single.nodes)
-        gx = (min([r.ground_x[0], *(p[0] for p in nodes)]), max([r.ground_x[1], *(p[0] for p in nodes)]))
-        gy = (min([r.ground_y[0], *(p[1] for p in nodes)]), max([r.ground_y[1], *(p[1] for p in nodes)]))
-        if self.mobile:  # where a node can be told to be (the motion rectangles and the report clip)
-            sigma = self.options.report_sigma if self.options.knowledge == "reports" else 0.0
-            if single is None:
-                gx, gy = family_extent(dataclasses.replace(r, base=self.ranges.base), sigma)
-            else:
-                gx, gy = nodes_extent(single, sigma)
-        points = [(r.end_x, r.end_y), ((base.ios_center[0],) * 2, (base.ios_center[1],) * 2), (gx, gy)]
-        lengths = [pad(v / scale) for v in length_bounds((r.start_x, r.start_y), points, reach)]
-        own, final, ios, node = lengths[0:2], lengths[2:4], lengths[4:6], lengths[6:8]
-        rate = pad(self._rate_high(r))
-        elements = max(1.0, r.ios_columns * r.ios_rows[1] / M_SCALE) * (1 + 1e-6)
-        horizon = max(1.0, r.slot_range[1] * base.dt / T_SCALE) * (1 + 1e-6)
-        high = [*own, *final, *ios, 1.0, 1.0, elements, 1.0, 1.0, horizon]
-        low = [-h for h in high[:6]] + [0.0, -1.0, 0.0, 0.0, 0.0, 0.0]
-        hint = pad(2.0 * reach / scale)  # P_k and q are both within (N_max - 1) D of q0
-        for _ in range(self.max_nodes):
-            high += [1.0, *node, 1.0, rate, rate] + ([hint, hint, rate] if self.options.peak_hint else [])
-            low += [0.0, -node[0], -node[1], -1.0, 0.0, 0.0] + (
-                [-hint, -hint, 0.0] if self.options.peak_hint else []
-            )
-
-        def why(name: str, value: float) -> str:
-            return overflow_hint(name, value, scale, base)
-
-        names = self.observation_names
-        return float32_bounds(low, names, why), float32_bounds(high, names, why)
+        """(low, high) over the env's family (its ranges, or its one config), or over ``config``
+        (``multi_space.multinode_bounds``)."""
+        return multinode_bounds(self, config)
 
     def _own_id(self) -> str:
         """The registered id of this env, for messages (``settings.multinode_id``)."""
         return multinode_id(self.random_nodes, self.mobile)
 
     def _rate_high(self, r: ScenarioRanges) -> float:
-        """bps/Hz: the rate features' bound over ``r``, plus ``FADE_MARGIN`` for measured rates."""
-        rate = max(ground_free_rate_bound(c) for c in r.configs_per_surface())
-        return rate + (FADE_MARGIN if self.options.knowledge != "exact" else 0.0)
+        """bps/Hz: the rate features' bound over ``r`` (``multi_space.rate_high``)."""
+        return rate_high(r, self.options.knowledge)
 
     # --- episode --------------------------------------------------------------------------
     def _episode_config(self, pinned: ScenarioConfig | None) -> ScenarioConfig:

@@ -16,7 +16,7 @@ import gymnasium as gym
 import numpy as np
 from gymnasium import spaces
 
-from ios_uav_env.envs.knowledge import NodeTrack, mobile_bounds, observe_slot, start_track
+from ios_uav_env.envs.knowledge import NodeTrack, mobile_bounds
 from ios_uav_env.envs.observation import (
     ENERGY_NAMES,
     INSTANCE_NAMES,
@@ -31,10 +31,10 @@ from ios_uav_env.envs.observation import (
 from ios_uav_env.envs.options import CHANNELS, EnvOptions, split_kwargs
 from ios_uav_env.envs.settings import check_scenario_overrides, several_nodes_error, single_node_id
 from ios_uav_env.envs.single_kernels import INFO, STATE, episode_row, flags_of, reset_rows, step_rows
+from ios_uav_env.envs.single_mobile import MobileNode
 from ios_uav_env.jit import HAVE_NUMBA
 from ios_uav_env.model.channel import RateKernel, rate_kernel, slot_rates
 from ios_uav_env.model.config import ScenarioConfig, as_config, scenario_option
-from ios_uav_env.model.motion import static_paths
 from ios_uav_env.model.peak import rate_peak
 from ios_uav_env.model.scenarios import ScenarioRanges
 
@@ -49,7 +49,7 @@ INFO_KEYS: tuple[str, ...] = (
 __all__ = ["CHANNELS", "ENERGY_NAMES", "INFO_KEYS", "INSTANCE_NAMES", "OBS_NAMES", "PEAK_NAMES", "IOSUAVEnv"]
 
 
-class IOSUAVEnv(gym.Env):
+class IOSUAVEnv(MobileNode, gym.Env):
     r"""A UAV flies from ``q0`` to ``qF`` in ``T`` seconds while serving a ground node G via an IOS.
 
     ## Description
@@ -366,19 +366,6 @@ class IOSUAVEnv(gym.Env):
         self._path = np.zeros((1, self.config.N, 2))
         self._started = False
 
-    def _check_mobile(self) -> None:
-        """Refuse what a moving or roughly known node does not support (yet), naming the field."""
-        if self.options.peak_hint:
-            raise ValueError(
-                "peak_hint is the static node's rate peak: it needs a static, exactly known node "
-                "(motion=None and knowledge='exact')"
-            )
-        if self.energy_objective:
-            raise ValueError(
-                "the objective 'energy_efficiency' needs a static, exactly known node (motion=None and "
-                "knowledge='exact'): its reference efficiency is a static plan's"
-            )
-
     # --- options (read-only views of self.options) ---------------------------------------
     channel = property(lambda self: self.options.channel)
     arrival_guard = property(lambda self: self.options.arrival_guard)
@@ -559,45 +546,6 @@ class IOSUAVEnv(gym.Env):
         if self.mobile:
             self._observe(slot, self._state[0, 0:2], self._obs[0])
         return self._obs[0].copy(), float(self._reward[0]), bool(self._terminated[0]), False, self._info()
-
-    def _start_track(self, cfg: ScenarioConfig) -> None:
-        """Draw the episode's node path on ``cfg`` from ``np_random`` (``knowledge.start_track``;
-        after the scenario's draws, before the first slot's)."""
-        self._track = start_track(cfg, self.np_random, self.options.report_sigma)
-
-    def _observe(self, slot: int, q: np.ndarray, obs: np.ndarray) -> None:
-        """Write what the UAV at ``q`` is told of the node in ``slot`` into the observation row
-        ``obs`` (the node features 4-5 and, unless knowledge is exact, the rate feature 10:
-        ``knowledge.observe_slot``; the batched env calls it on each row's template env)."""
-        position, rate = observe_slot(
-            self._track, slot, q, self.options.knowledge, self.options.report_sigma, self._rate_clip,
-            self.np_random, self.options.filter_estimate,
-        )  # fmt: skip
-        obs[4:6] = 0.0 if position is None else (position - q) / self.options.length_scale
-        if rate is not None:
-            obs[10] = rate
-
-    @property
-    def paths(self) -> np.ndarray:
-        """(N, 1, 2) m: the node's true position w[n] in every slot of the episode (drawn at reset;
-        the truth an evaluator scores on, ``score_plan(config, trajectory, paths=paths)``, not an
-        observation). Static nodes: the configured position in every slot."""
-        if self._track is None:
-            return static_paths(self.config)
-        return self._track.paths.copy()
-
-    @property
-    def reports(self) -> np.ndarray:
-        """(n, 1, 2) m: the position reports of the slots so far (knowledge "reports"; else NaN)."""
-        n = len(self.trajectory)
-        return np.full((n, 1, 2), np.nan) if self._track is None else self._track.reports[:n].copy()
-
-    @property
-    def measured_rates(self) -> np.ndarray:
-        """(n,) bps/Hz: the measured rates of the slots so far, unclipped (knowledge "reports" or
-        "rates"; else NaN)."""
-        n = len(self.trajectory)
-        return np.full(n, np.nan) if self._track is None else self._track.measured[:n].copy()
 
     def _parse_action(self, action: Any) -> tuple[float, float]:
         try:
