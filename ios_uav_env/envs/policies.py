@@ -11,7 +11,7 @@ scenario of an id without knowing the config:
 >>> policy = HoverAt("peak")
 >>> env = gym.make("ios_uav_env/IOSUAV-v0", T=60, **policy.env_kwargs)
 >>> round(run_episode(env, policy).average_rate, 4)
-1.2702
+1.9149
 
 Each policy reads the observation by feature name (:class:`FeatureReader`): it declares the
 features it needs (``observation_features``), and ``policy.bind(env.unwrapped.observation_names)``
@@ -25,7 +25,6 @@ episode. Unbound, it takes the single-node layout of the observation's length
 from __future__ import annotations
 
 import copy
-import functools
 import math
 from collections.abc import Sequence
 from typing import Any
@@ -45,7 +44,6 @@ from ios_uav_env.model.propulsion import PropulsionModel, max_range_speed
 __all__ = ["TARGETS", "FeatureReader", "HoverAt", "Loiter", "full_speed_move", "move_toward", "moves_left"]
 
 
-@functools.lru_cache(maxsize=64)
 def _single_layout_columns(needed: tuple[str, ...], width: int, who: str) -> tuple[int, ...]:
     """The positions of ``needed`` in the single-node layout of ``width`` components."""
     layout = SINGLE_LAYOUTS.get(width)
@@ -58,6 +56,10 @@ def _single_layout_columns(needed: tuple[str, ...], width: int, who: str) -> tup
     return require_features(needed, layout, who, f"a single-node observation of {width} components")
 
 
+#: (features, width) -> their positions in the single-node layout of that width (found once).
+_UNBOUND: dict[tuple[tuple[str, ...], int], tuple[int, ...]] = {}
+
+
 class FeatureReader:
     """A policy that reads the observation by feature name (the module's docstring).
 
@@ -67,7 +69,8 @@ class FeatureReader:
 
     #: The names of the observation features the policy reads, in the order it reads them.
     observation_features: tuple[str, ...] = ()
-    _bound: tuple[tuple[str, ...], tuple[int, ...]] | None = None  # (layout, positions) once bound
+    _layout: tuple[str, ...] | None = None  # the layout it is bound to
+    _bound: tuple[int, ...] = ()  # the positions of its features there
 
     def bind(self, names: Sequence[str]) -> Any:
         """A copy of the policy that reads the layout ``names`` (an env's ``observation_names``);
@@ -76,25 +79,27 @@ class FeatureReader:
         env = f"the env ({len(layout)} features)"
         columns = require_features(self.observation_features, layout, repr(self), env)
         bound = copy.copy(self)
-        bound._bound = (layout, columns)
+        bound._layout, bound._bound = layout, columns
         return bound
 
     @property
     def layout(self) -> tuple[str, ...] | None:
         """The layout the policy is bound to (None: unbound)."""
-        return None if self._bound is None else self._bound[0]
+        return self._layout
 
     def _columns(self, obs: np.ndarray) -> tuple[int, ...]:
         """Where each of :attr:`observation_features` is in ``obs`` (..., width)."""
-        width = int(np.shape(obs)[-1])
-        if self._bound is None:
-            return _single_layout_columns(tuple(self.observation_features), width, repr(self))
-        layout, columns = self._bound
-        if width != len(layout):
-            raise ValueError(
-                f"{self!r} is bound to a layout of {len(layout)} features, got an observation of {width}"
-            )
-        return columns
+        width = obs.shape[-1]
+        if self._layout is None:
+            key = (tuple(self.observation_features), width)
+            columns = _UNBOUND.get(key)
+            if columns is None:
+                columns = _UNBOUND[key] = _single_layout_columns(*key, repr(self))
+            return columns
+        if width != len(self._layout):
+            bound = len(self._layout)
+            raise ValueError(f"{self!r} is bound to a layout of {bound} features, got {width} features")
+        return self._bound
 
 
 #: Observation slices of the offsets (P - q) / L that :class:`HoverAt` can fly to. The
@@ -152,7 +157,9 @@ class HoverAt(FeatureReader):
         return f"fly to {what} and hover (heuristic)"
 
     def __call__(self, obs: np.ndarray) -> np.ndarray:
-        offset = np.asarray(obs, dtype=np.float64)[..., list(self._columns(obs))] * self.length_scale
+        obs = np.asarray(obs, dtype=np.float64)
+        x, y = self._columns(obs)
+        offset = (obs[..., x : x + 2] if y == x + 1 else obs[..., [x, y]]) * self.length_scale
         return move_toward(offset, self.D)
 
     def act(self, obs: np.ndarray, deterministic: bool = True) -> np.ndarray:

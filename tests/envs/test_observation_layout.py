@@ -126,6 +126,8 @@ def test_a_bound_policy_reads_by_name_wherever_the_layout_puts_a_feature(policy_
     np.testing.assert_array_equal(shuffled(obs[order]), policy.bind(names)(obs))
     if policy_name != "straight":
         np.testing.assert_array_equal(policy.bind(names)(obs), policy(obs))  # unbound: the same layout
+    with pytest.raises(ValueError, match=f"bound to a layout of {len(names)} features, got 5"):
+        policy.bind(names)(np.zeros(5))
 
 
 @pytest.mark.parametrize("width", sorted(SINGLE_LAYOUTS))
