@@ -27,7 +27,7 @@ from baselines.references.mobile import (
     mobile_tasks,
 )
 from baselines.references.solve import BOUND_RESOLUTION, DP_RESOLUTION, ENERGY_BOUND_RESOLUTION, solve_all
-from ios_uav_env.benchmark.suite import SUITE_DIR
+from ios_uav_env.benchmark.suite import SUITE_DIR, check_suite_name
 
 HELDOUT = Path("agents/suite/heldout.json")
 MULTI_CACHE = Path("out/multi-node-v1")
@@ -102,6 +102,10 @@ def main(argv: Sequence[str] | None = None) -> int:
     directory = args.dir or (quick_dir if quick else SUITE_DIR)
     if args.version < 1:
         raise SystemExit(f"--version must be >= 1, got {args.version}")
+    try:  # before any solve: a suite file under a non-canonical name would not load
+        check_suite_name(name, "--name")
+    except ValueError as err:
+        raise SystemExit(str(err)) from None
     if args.kind == "energy":
         return _energy(args, name, directory)
     if args.kind == "mobile":

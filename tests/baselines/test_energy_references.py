@@ -106,3 +106,21 @@ def test_the_freeze_command_solves_once_checks_and_never_overwrites(tmp_path, mo
     failed = {**record, "loiter": {**record["loiter"], "energy_efficiency": 0.0}}
     with pytest.raises(ValueError, match=r"> 0 bits/J, got loiter 0.0"):
         energy_content([failed], "x", 1)
+
+
+@pytest.mark.parametrize("kind", ["energy", "mobile", "multi-node"])
+def test_a_suite_name_that_would_not_load_is_refused_before_any_solve(kind, tmp_path, monkeypatch):
+    """A suite frozen under a non-canonical name (or a registered one's look-alike) could not be
+    loaded: the command refuses it before it draws or solves anything."""
+    import baselines.references.__main__ as cli
+
+    def no_solve(*args, **kwargs):
+        raise AssertionError("solved before the name was checked")
+
+    for name in ("_energy", "_mobile", "solve_all"):
+        if hasattr(cli, name):
+            monkeypatch.setattr(cli, name, no_solve)
+    for bad in ("Energy-V1", " mobile-v1", "my suite"):
+        with pytest.raises(SystemExit, match="--name: name must be lowercase"):
+            references_main([kind, "--name", bad, "--dir", str(tmp_path)])
+    assert not list(tmp_path.iterdir())
