@@ -33,6 +33,7 @@ def main(argv: list[str] | None = None) -> float:
     p.add_argument("--n", type=int, default=None, help="the first n scenarios (default: all 60)")
     p.add_argument("--checkpoint", default=None, help="a state_dict of the actor (torch.save)")
     p.add_argument("--out", default=None, help="folder for the CSV, JSON, markdown and figure")
+    p.add_argument("--overwrite", action="store_true", help="replace the results already in --out")
     args = p.parse_args(argv)
 
     actor = actor_mean()
@@ -52,7 +53,7 @@ def main(argv: list[str] | None = None) -> float:
     for reference in ("sca", "hover_peak"):  # what to beat, on the same scenarios
         print("  reference:", reference_results(suite, reference, args.n).summary())
     if args.out:
-        print("wrote", ", ".join(str(p) for p in results.save(args.out).values()))
+        print("wrote", ", ".join(str(p) for p in results.save(args.out, overwrite=args.overwrite).values()))
     return results.aggregate.mean_pct_dp
 
 
