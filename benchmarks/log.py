@@ -84,7 +84,12 @@ REGISTRY: dict[str, Measurement] = {
             "fast trainer, IOSUAV-Energy-v0: wall time to 99% of DP-EE",
         ),
         ("soak_train", "soak_train.py", (), "interrupted and resumed training: steps lost"),
-        ("soak_faults", "soak_faults.py", (), "imitation and sweep, SIGKILL and full disk: work lost"),
+        (
+            "soak_faults",
+            "soak_faults.py",
+            (),
+            "imitation, sweep and fast trainer, SIGKILL and full disk: work lost",
+        ),
         ("replay_tolerance", "replay_tolerance.py", (), "shipped models' replays under float32 noise"),
         ("energy", "energy.py", ("--budgets", "0.8", "0.9"), "energy planners: EE, % of the bound"),
         (

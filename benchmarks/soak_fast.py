@@ -128,8 +128,8 @@ def soak_fast(workdir: Path, faults: int, rng: random.Random, timeout: float, de
     run, hp = workdir / "fast" / "run", workdir / "fast" / "fast.yml"
     hp.parent.mkdir(parents=True, exist_ok=True)
     hp.write_text(RECIPE)
-    print(f"soak: train.py --trainer fast, {STEPS} steps ({STEPS // 256} updates), a checkpoint every {CHECKPOINT} "
-          f"steps, {faults} faults, run {run}")  # fmt: skip
+    print(f"soak: train.py --trainer fast, {STEPS} steps ({STEPS // 256} updates), a checkpoint every "
+          f"{CHECKPOINT} steps, {faults} faults, run {run}")  # fmt: skip
     print(f"  {'#':>2} {'fault':24} {'ended':20} {'checkpoint':>10} {'updates':>7} {'lines':>5} {'lost':>4} "
           f"{'torn':>4} {'litter':>6}  next session resumed at")  # fmt: skip
     rows, ok = [], True
@@ -146,7 +146,7 @@ def soak_fast(workdir: Path, faults: int, rng: random.Random, timeout: float, de
         rows.append({"fault": describe_fault(kind, value), "ended": ended, "state": state, "next": None,
                      "error": error})  # fmt: skip
         if (run / "summary.json").exists() and "exit 0" in ended:
-            print(f"  the run ended in session {k + 1}, before its fault: no more faults")
+            print(f"  the run finished before fault {k + 1} came: no more faults")
             break
     final = Session(argv_of(run, hp))
     code = final.wait(timeout)

@@ -281,7 +281,7 @@ def soak_imitation(workdir: Path, faults: int, rng: random.Random, timeout: floa
                      "plans": len(plans), "torn": torn, "litter": litter, "next": None,
                      "error": None if ended in ("killed", "exit 0") else error_line(session)})  # fmt: skip
         if len(finished) == rounds and "exit 0" in ended:
-            print(f"  the run ended in session {k + 1}, before its fault: no more faults")
+            print(f"  the run finished before fault {k + 1} came: no more faults")
             break
     final = Session(argv)
     code = final.wait(timeout)
@@ -412,7 +412,7 @@ def soak_sweep(workdir: Path, faults: int, rng: random.Random, timeout: float, d
                      "records": len(state.records), "newest": state.newest, "torn": torn, "litter": litter,
                      "next": "-", "error": error})  # fmt: skip
         if len(state.records) == SWEEP_TRIALS and "exit 0" in ended:
-            print(f"  the sweep ended in session {k + 1}, before its fault: no more faults")
+            print(f"  the sweep finished before fault {k + 1} came: no more faults")
             break
     final = Session(argv)
     code = final.wait(timeout)
