@@ -77,23 +77,28 @@ REFINE_SWEEPS = 25
 __all__ = ["REFINE_LEVELS", "SCHEME", "grid_plan", "rate_maps", "refine_path", "refine_plan", "solve"]
 
 
+def _node_maps(
+    config: ScenarioConfig, k: int, path: np.ndarray, xs: np.ndarray, ys: np.ndarray
+) -> np.ndarray:
+    """(n, ny, nx): r_k(grid point; path[i]) for each slot i of node k's ``path`` (n, 2) m."""
+    xx, yy = np.meshgrid(xs, ys)
+    points = np.column_stack([xx.ravel(), yy.ravel()])
+    where, inverse = np.unique(path, axis=0, return_inverse=True)
+    inverse = np.ravel(inverse)
+    nodes, params = ie.path_kernels(config.node_config(k), where)
+    out = np.empty((len(path), *xx.shape))
+    for u in range(len(where)):
+        rates = rates_at(points, np.ascontiguousarray(nodes[u]), params[u].copy())
+        out[inverse == u] = rates.reshape(xx.shape)
+    return out
+
+
 def rate_maps(config: ScenarioConfig, paths: np.ndarray, xs: np.ndarray, ys: np.ndarray) -> np.ndarray:
     """(n, K, ny, nx) bps/Hz: r_k(grid point; w_k[i]) for each slot i of ``paths`` (n, K, 2) m on
     the grid ``xs`` (nx,) x ``ys`` (ny,): the scorer's rates (``path_kernels``), one map computed
     per distinct position of a node."""
     w = np.asarray(paths, dtype=float)
-    xx, yy = np.meshgrid(xs, ys)
-    points = np.column_stack([xx.ravel(), yy.ravel()])
-    out = np.empty((w.shape[0], w.shape[1], *xx.shape))
-    for k in range(w.shape[1]):
-        where, inverse = np.unique(w[:, k], axis=0, return_inverse=True)
-        nodes, params = ie.path_kernels(config.node_config(k), where)
-        maps = np.stack([
-            rates_at(points, np.ascontiguousarray(nodes[u]), params[u].copy()).reshape(xx.shape)
-            for u in range(len(where))
-        ])  # fmt: skip
-        out[:, k] = maps[np.ravel(inverse)]
-    return out
+    return np.stack([_node_maps(config, k, w[:, k], xs, ys) for k in range(w.shape[1])], axis=1)
 
 
 def grid_plan(
@@ -120,11 +125,12 @@ def grid_plan(
             raise ValueError(f"weights must be K={config.K} numbers >= 0 summing to 1, got {weights!r}")
     check_plain_grid(config, resolution, margin, moving=True)
     xs, ys, _ = grid_axes(config, resolution, margin)
-    maps = rate_maps(config, w_paths[:-1], xs, ys)  # slots 1..N-1 (slot N is at qF)
-    rewards = maps[:, 0] if config.K == 1 else np.max(w[None, :, None, None] * maps, axis=1)
-    del maps
-    padded = np.concatenate([rewards, rewards[-1:]])  # slot N's layer is not read
-    traj = moving_dp_path(config, padded, resolution, margin)
+    rewards = _node_maps(config, 0, w_paths[:, 0], xs, ys)  # (N, ny, nx); slot N's layer is not read
+    if config.K > 1:  # max_k w_k r_k, one node's maps at a time
+        rewards *= w[0]
+        for k in range(1, config.K):
+            np.maximum(rewards, w[k] * _node_maps(config, k, w_paths[:, k], xs, ys), out=rewards)
+    traj = moving_dp_path(config, rewards, resolution, margin)
     if traj is None:
         return None
     iy = np.rint((traj[:-1, 1] - ys[0]) / resolution).astype(int)
