@@ -50,12 +50,26 @@ ids depend on the carrier phase, 2 pi / lambda per metre of distance, and move b
 ``GOLDEN_OBS_ABS`` leaves a factor 15. A real regression still breaks both: the noise power
 changed by 0.01 dB moves the rates by ~1e-3 relative (2e-3 bps/Hz, in the info and in the rate
 feature), and a dropped or changed normalisation moves a feature by far more than 2e-4.
+
+## A moving-node agent replayed (``MOBILE_REPLAY_REL``)
+
+The moving-node agent (``ppo_IOSUAV-Mobile-v0``) observes the *measured* rates of the slots flown,
+and a measured (faded) rate depends on the carrier phase of the path length, which turns a change
+of 1e-7 m in a way-point into a change of ~1e-5 in a feature. Its closed loop therefore amplifies
+a float32 ulp of an action to a different flight: actions multiplied by ``1 + u``, ``u`` within
++-1 float32 ulp, move the seed-0 episode's average rate by up to 1.3 % relative, within +-4 ulps
+by up to 2.1 % (the recorded 0.48510 bps/Hz replays as 0.48197 on a machine other than the one
+that recorded it, 0.65 % off). ``RATE_REL`` cannot hold for it there; ``MOBILE_REPLAY_REL``
+leaves a factor 2.4 over the +-4 ulps figure. What still pins the agent: two replays on the same
+machine are equal bit for bit, and its suite score must stay above MPC(k=1) on every run.
 """
 
 from __future__ import annotations
 
 #: Relative tolerance of a replayed episode's rate (bps/Hz) against its record.
 RATE_REL = 1e-6
+#: Relative tolerance of the moving-node agent's replayed rate against its record (see above).
+MOBILE_REPLAY_REL = 0.05
 #: Absolute tolerance of a replayed episode's terminal miss |q[N] - qF| (m) against its record.
 MISS_ABS = 2e-3
 #: The observation scaling that stands for a changed normalisation in the test of the tolerances.

@@ -13,7 +13,7 @@ from agents.evaluate import MODELS_DIR  # noqa: E402
 from agents.loading import load_agent, load_numpy_agent  # noqa: E402
 from ios_uav_env import ENERGY_ID, score_plan  # noqa: E402
 from ios_uav_env.envs.rollout import run_episode  # noqa: E402
-from tests.tolerances import NORMALISATION_CHANGE, RATE_REL  # noqa: E402
+from tests.tolerances import MOBILE_REPLAY_REL, NORMALISATION_CHANGE, RATE_REL  # noqa: E402
 
 #: bits/J, DP-EE's energy efficiency on the energy id's scenario (2.5 m grid; printed by
 #: ``python benchmarks/energy.py``): the agent's bar is 99 % of it.
@@ -68,8 +68,12 @@ def test_the_mobile_agent_replays_its_record_and_follows_the_node():
     clone = json.loads((path / "clone.json").read_text())  # its warm start, recorded
     assert clone["settings"]["expert"] == "ios_uav_env.envs.policies:HoverAt('ground')"
     record = json.loads((path / "summary.json").read_text())["final_eval"]
-    episode = run_episode(gym.make(MOBILE_ID, **agent.env_kwargs), agent.act, seed=0)
-    assert episode.average_rate == pytest.approx(record["average_rate"], rel=RATE_REL)
+    env = gym.make(MOBILE_ID, **agent.env_kwargs)
+    episode = run_episode(env, agent.act, seed=0)
+    # its closed loop turns an ulp of an action into another flight: the record holds to
+    # MOBILE_REPLAY_REL on another CPU, and two replays on this machine are equal bit for bit
+    assert episode.average_rate == pytest.approx(record["average_rate"], rel=MOBILE_REPLAY_REL)
+    assert run_episode(env, agent.act, seed=0).average_rate == episode.average_rate
     results = evaluate(load_numpy_agent(path), "mobile-v1", n=8)
     a = results.aggregate
     assert a.feasible == 8 and a.mean_pct_mpc_k1 > 100.0
