@@ -249,6 +249,6 @@ def test_an_uncertified_lp_answer_raises(monkeypatch):
 def test_env_refuses_several_nodes():
     pytest.importorskip("gymnasium")
     c = ScenarioConfig(ground_nodes=NODES, **SMALL)
-    with pytest.raises(ValueError, match="K = 3 ground_nodes, but ios_uav_env/IOSUAV-v0 is a single-node env"):
+    with pytest.raises(ValueError, match="K = 3 ground_nodes, but ios_uav_env/IOSUAV-v0 is a single-node"):
         env = ie.IOSUAVEnv(config=c)
         env.reset(seed=0)
