@@ -39,7 +39,16 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
-from soak_faults import Session, describe_fault, error_line, fault_plan, run_session, torn_files  # noqa: E402
+from soak_faults import (  # noqa: E402
+    Session,
+    add_fault_arguments,
+    check_fault_arguments,
+    describe_fault,
+    error_line,
+    fault_plan,
+    run_session,
+    torn_files,
+)
 
 #: The tiny recipe: 32 rows x 8 slots = 256 env steps per update.
 RECIPE = """
@@ -188,23 +197,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser = argparse.ArgumentParser(
         prog="python benchmarks/soak_fast.py", description=__doc__.splitlines()[0]
     )
-    parser.add_argument("--faults", type=int, default=4, help="faults, 1 to 20 (default 4)")
-    parser.add_argument("--seed", type=int, default=0, help="seeds the fault times and sizes (default 0)")
-    parser.add_argument("--session-timeout", type=float, default=300.0,
-                        help="seconds one session may run, 10 to 3600 (default 300)")  # fmt: skip
-    parser.add_argument("--max-seconds", type=float, default=900.0,
-                        help="no new fault after this many seconds, 60 to 7200 (default 900)")  # fmt: skip
-    parser.add_argument("--keep", type=Path, default=None, help="run in this new folder (kept)")
+    add_fault_arguments(parser, max_seconds=900.0)
     args = parser.parse_args(argv)
-    if not 1 <= args.faults <= 20:
-        parser.error(f"argument --faults: must be 1 to 20, got {args.faults}")
-    if not 10 <= args.session_timeout <= 3600:
-        parser.error(f"argument --session-timeout: must be 10 to 3600 s, got {args.session_timeout}")
-    if not 60 <= args.max_seconds <= 7200:
-        parser.error(f"argument --max-seconds: must be 60 to 7200 s, got {args.max_seconds}")
-    if args.keep is not None and args.keep.exists():
-        parser.error(f"argument --keep: {args.keep} exists; give a new folder")
-    deadline = time.monotonic() + args.max_seconds
+    deadline = check_fault_arguments(parser, args)
     with tempfile.TemporaryDirectory(prefix="soak-fast-") as tmp:
         workdir = args.keep or Path(tmp)
         workdir.mkdir(parents=True, exist_ok=True)

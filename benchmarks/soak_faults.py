@@ -459,21 +459,24 @@ def _soak_fast(workdir: Path, faults: int, rng: random.Random, timeout: float, d
 SOAKS = {"imitation": soak_imitation, "sweep": soak_sweep, "fast": _soak_fast}
 
 
-def main(argv: Sequence[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(
-        prog="python benchmarks/soak_faults.py", description=__doc__.splitlines()[0]
-    )
-    parser.add_argument("--target", choices=list(SOAKS), nargs="+", default=list(SOAKS))
+def add_fault_arguments(parser: argparse.ArgumentParser, max_seconds: float) -> None:
+    """The options every soak takes: --faults, --seed, --session-timeout, --max-seconds, --keep."""
     parser.add_argument("--faults", type=int, default=4, help="faults per command, 1 to 20 (default 4)")
     parser.add_argument("--seed", type=int, default=0, help="seeds the fault times and sizes (default 0)")
     parser.add_argument("--session-timeout", type=float, default=300.0,
                         help="seconds one session may run, 10 to 3600 (default 300)")  # fmt: skip
-    parser.add_argument("--max-seconds", type=float, default=1200.0,
-                        help="no new fault after this many seconds, 60 to 7200 (default 1200)")  # fmt: skip
+    parser.add_argument(
+        "--max-seconds", type=float, default=max_seconds,
+        help=f"no new fault after this many seconds, 60 to 7200 (default {max_seconds:g})",
+    )  # fmt: skip
     parser.add_argument(
         "--keep", type=Path, default=None, help="run in this new folder (kept), not a temporary one"
     )
-    args = parser.parse_args(argv)
+
+
+def check_fault_arguments(parser: argparse.ArgumentParser, args: argparse.Namespace) -> float:
+    """``args`` of :func:`add_fault_arguments` checked (a parser error naming the option); returns the
+    monotonic deadline after which no new fault starts."""
     if not 1 <= args.faults <= 20:
         parser.error(f"argument --faults: must be 1 to 20, got {args.faults}")
     if not 10 <= args.session_timeout <= 3600:
@@ -482,7 +485,17 @@ def main(argv: Sequence[str] | None = None) -> int:
         parser.error(f"argument --max-seconds: must be 60 to 7200 s, got {args.max_seconds}")
     if args.keep is not None and args.keep.exists():
         parser.error(f"argument --keep: {args.keep} exists; give a new folder")
-    deadline = time.monotonic() + args.max_seconds
+    return time.monotonic() + args.max_seconds
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(
+        prog="python benchmarks/soak_faults.py", description=__doc__.splitlines()[0]
+    )
+    parser.add_argument("--target", choices=list(SOAKS), nargs="+", default=list(SOAKS))
+    add_fault_arguments(parser, max_seconds=1200.0)
+    args = parser.parse_args(argv)
+    deadline = check_fault_arguments(parser, args)
     rng = random.Random(args.seed)
     ok = True
     with tempfile.TemporaryDirectory(prefix="soak-faults-") as tmp:
