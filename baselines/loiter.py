@@ -16,10 +16,10 @@ and hover there", is no longer the answer. :func:`loiter` instead
 3. leaves for qF at the last slot from which the cruise speed still arrives in time, flying the remaining
    distance at one constant speed over the moves left, so it reaches qF exactly at slot N.
 
-The flight is ``ios_uav_env.envs.loiter_flight``'s (``loiter_path``, ``best_loiter_path``): the
-energy env's ``energy_reference="loiter"`` flies the same one. Every proposed way-point goes
-through the env's arrival guard
-(``ios_uav_env.envs.guard.guarded_position``: within D of the last one and within reach of qF),
+The flight is the model's (``ios_uav_env.model.flights``: ``loiter_path``, ``best_loiter_path``):
+the energy env's ``energy_reference="loiter"`` flies the same one. Every proposed way-point goes
+through the arrival guard
+(``ios_uav_env.model.guard.guarded_position``: within D of the last one and within reach of qF),
 so the plan is feasible for every valid scenario, even when T leaves no time to loiter or to
 fly at V_mr (both speeds are capped at v_max). :func:`hover` is the existing baseline of the
 rate objective, the fly-hover-fly of ``baselines.fixed`` through the same peak, scored alike.
@@ -37,7 +37,7 @@ from baselines.fixed import fly_hover_fly
 from baselines.plan import Plan
 from baselines.registry import check as check_planner
 from ios_uav_env import ScenarioConfig
-from ios_uav_env.envs.loiter_flight import _peak, best_loiter_path, cruise_speed, loiter_path
+from ios_uav_env.model.flights import best_loiter_path, cruise_speed, loiter_centre, loiter_path
 
 __all__ = ["best_loiter_path", "cruise_speed", "hover", "loiter", "loiter_path", "solve"]
 
@@ -50,7 +50,7 @@ def loiter(config: ScenarioConfig, sides: int = 3, peak: Sequence[float] | None 
     along the circle (``loiter_moves``) and the speeds."""
     t0 = time.perf_counter()
     check_planner("loiter", config)
-    traj, info, _ = best_loiter_path(config, sides, _peak(config, peak))
+    traj, info, _ = best_loiter_path(config, sides, loiter_centre(config, peak))
     return Plan.from_trajectory("loiter", config, traj, time.perf_counter() - t0, info=info)
 
 
@@ -59,7 +59,7 @@ def hover(config: ScenarioConfig, peak: Sequence[float] | None = None) -> Plan:
     (``baselines.fixed.fly_hover_fly`` through the peak), scheme ``"hover"``."""
     t0 = time.perf_counter()
     check_planner("hover", config)
-    centre = _peak(config, peak)
+    centre = loiter_centre(config, peak)
     plan = fly_hover_fly(config, hover=centre)
     plan.seconds = time.perf_counter() - t0
     plan.scheme = "hover"

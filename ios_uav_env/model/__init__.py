@@ -5,7 +5,9 @@ a trajectory, on numpy arrays, knowing nothing of Gymnasium.
 - ``surface``: the IOS element layout; ``channel``: the cascaded channel and the slot rate;
 - ``trajectory``: the one scorer of a flight (average rate, feasibility);
 - ``schedule``: K >= 1 ground nodes, the TDMA shares and the max-min rate;
-- ``peak``: the rate peak; ``scenarios``: random scenarios.
+- ``peak``: the rate peak; ``scenarios``: the scenario families (random scenarios, one node or
+  several) and their draws;
+- ``guard``: the arrival guard; ``flights``: pure flight rules (the loiter flight).
 
 Users import these names from ``ios_uav_env`` itself.
 """
