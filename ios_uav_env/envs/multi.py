@@ -44,7 +44,7 @@ from ios_uav_env.envs.settings import (
     multinode_objective,
 )
 from ios_uav_env.model.config import ScenarioConfig, as_config, scenario_option
-from ios_uav_env.model.scenarios import RANGED_FIELDS, ScenarioRanges, _off_plane, sample_scenario
+from ios_uav_env.model.scenarios import MULTINODE_RANGES, RANGED_FIELDS, ScenarioRanges, sample_multinode
 from ios_uav_env.model.schedule import reported_maxmin_rate
 
 __all__ = [
@@ -55,9 +55,6 @@ __all__ = [
 #: The default multi-node scenario: three nodes, two on the reflecting side of the IOS and one
 #: across it, every other parameter at the paper's defaults.
 DEFAULT_NODES = ((-100.0, -20.0), (150.0, -60.0), (-40.0, 90.0))
-#: The ranges of the randomised id: G's ranges of the single-node family for every node,
-#: T in [100, 200] s, IOS or RIS, q0 and qF as in the single-node family.
-MULTINODE_RANGES = ScenarioRanges(T=(100.0, 200.0))
 #: Per-node observation block: mask, (w_k - q) / L, side of the IOS, served rate R_k so far, r_k(q).
 NODE_FEATURES = ("mask", "dx_node", "dy_node", "side", "served", "rate")
 #: Per-node hint appended to each node block with ``peak_hint=True``: the node's reachable rate
@@ -89,18 +86,6 @@ def share_scores(shares: np.ndarray, sharpness: float = 5.0) -> np.ndarray:
         raise ValueError(f"shares must be finite, >= 0 and not all 0 ((K,) or (K, B)), got {alpha!r}")
     ratio = np.maximum(alpha / alpha.max(axis=0), np.exp(-2.0 * sharpness))
     return np.clip(1.0 + np.log(ratio) / sharpness, -1.0, 1.0)
-
-
-def sample_multinode(
-    rng: np.random.Generator, ranges: ScenarioRanges = MULTINODE_RANGES, nodes: tuple[int, int] = (2, 4)
-) -> ScenarioConfig:
-    """A scenario of ``ranges`` with K nodes, K uniform in ``nodes``, each node uniform in the
-    ranges of G (draws: K, the nodes, then ``sample_scenario``'s own draws)."""
-    k = int(rng.integers(nodes[0], nodes[1], endpoint=True))
-    points = [(float(rng.uniform(*ranges.ground_x)), float(rng.uniform(*ranges.ground_y))) for _ in range(k)]
-    drawn = sample_scenario(rng, ranges)
-    # (a walking node drawn next to the IOS plane starts at its margin: sample_scenario's rule)
-    return drawn.replace(ground_nodes=tuple(_off_plane(p, ranges.base, drawn.surface) for p in points))
 
 
 class MultiNodeEnv(MobileNodes, gym.Env):

@@ -2,7 +2,8 @@
 
 ``ScenarioRanges`` is a family (ranges of G, T, the surface's size and kind, and the start and
 end points; every other field is its ``base`` config's); :func:`sample_scenario` draws one
-``ScenarioConfig`` from it. A fixed scenario is the family whose ranges have equal ends
+``ScenarioConfig`` from it, :func:`sample_multinode` one with several ground nodes (the
+multi-node family :data:`MULTINODE_RANGES`). A fixed scenario is the family whose ranges have equal ends
 (:meth:`ScenarioRanges.from_config`), so the observation bounds of every env are built one
 way (``ios_uav_env.envs.observation.space_bounds``). Pure numpy: no Gymnasium.
 """
@@ -221,3 +222,21 @@ def sample_scenario(
         q0=(x0, y0),
         qF=(xf, yf),
     )
+
+
+#: The multi-node family (the ranges of ``ios_uav_env/IOSUAV-MultiNode-Random-v0``): G's ranges
+#: of the single-node family for every node, T in [100, 200] s, IOS or RIS, q0 and qF as in the
+#: single-node family.
+MULTINODE_RANGES = ScenarioRanges(T=(100.0, 200.0))
+
+
+def sample_multinode(
+    rng: np.random.Generator, ranges: ScenarioRanges = MULTINODE_RANGES, nodes: tuple[int, int] = (2, 4)
+) -> ScenarioConfig:
+    """A scenario of ``ranges`` with K nodes, K uniform in ``nodes``, each node uniform in the
+    ranges of G (draws: K, the nodes, then ``sample_scenario``'s own draws)."""
+    k = int(rng.integers(nodes[0], nodes[1], endpoint=True))
+    points = [(float(rng.uniform(*ranges.ground_x)), float(rng.uniform(*ranges.ground_y))) for _ in range(k)]
+    drawn = sample_scenario(rng, ranges)
+    # (a walking node drawn next to the IOS plane starts at its margin: sample_scenario's rule)
+    return drawn.replace(ground_nodes=tuple(_off_plane(p, ranges.base, drawn.surface) for p in points))
