@@ -37,7 +37,13 @@ from ios_uav_env.model.motion import GaussMarkov, node_paths
 from ios_uav_env.model.peak import Peak, rate_peak
 from ios_uav_env.model.propulsion import PropulsionModel, max_range_speed, min_power_speed, propulsion_power
 from ios_uav_env.model.reports import measured_rates, position_reports
-from ios_uav_env.model.scenarios import DEFAULT_RANGES, ScenarioRanges, sample_scenario
+from ios_uav_env.model.scenarios import (
+    DEFAULT_RANGES,
+    MULTINODE_RANGES,
+    ScenarioRanges,
+    sample_multinode,
+    sample_scenario,
+)
 from ios_uav_env.model.schedule import (
     Schedule,
     best_schedule,
@@ -57,6 +63,7 @@ __all__ = [
     "ENERGY_RTOL",
     "FEASIBILITY_TOL",
     "GaussMarkov",
+    "MULTINODE_RANGES",
     "NodeFilter",
     "OBJECTIVES",
     "Peak",
@@ -88,6 +95,7 @@ __all__ = [
     "rate_kernel",
     "rates_of_rows",
     "rate_peak",
+    "sample_multinode",
     "sample_scenario",
     "scene_box",
     "schedule",
