@@ -28,7 +28,8 @@ from typing import Any
 import numpy as np
 
 from baselines.references.draws import ENERGY_RANGES, ENERGY_SPAWN_KEY, ENTROPY, MULTI_ENV_ID, SPAWN_KEY
-from ios_uav_env import ScenarioConfig, ScenarioRanges
+from ios_uav_env import ENERGY_RANDOM_ID, MULTINODE_RANGES, RANDOM_ENV_ID, ScenarioConfig, ScenarioRanges
+from ios_uav_env.benchmark.heuristics import hover_episode
 from ios_uav_env.benchmark.suite import (
     BOUND_REL,
     ENERGY,
@@ -42,25 +43,15 @@ from ios_uav_env.benchmark.suite import (
     content_hash,
     suite_text,
 )
-from ios_uav_env.envs.registration import ENERGY_RANDOM_ID, RANDOM_ENV_ID
 from ios_uav_env.io import atomic_write_text
 
 HEURISTICS = {"hover_peak": "peak", "hover_ground": "ground"}
 
 
 def heuristic_reference(config: ScenarioConfig, target: str, env_id: str = RANDOM_ENV_ID) -> dict[str, Any]:
-    """Rate and feasibility of ``HoverAt(target)`` on ``config`` (its env arguments, reset seed 0)."""
-    import gymnasium as gym
-
-    from ios_uav_env.envs.policies import HoverAt
-    from ios_uav_env.envs.rollout import run_episode
-
-    policy = HoverAt(target)
-    env = gym.make(env_id, **policy.env_kwargs)
-    try:
-        episode = run_episode(env, policy, seed=0, options={"config": config})
-    finally:
-        env.close()
+    """Rate and feasibility of ``HoverAt(target)`` on ``config`` in ``env_id``'s env (with the
+    policy's env arguments, reset seed 0: ``ios_uav_env.benchmark.heuristics.hover_episode``)."""
+    episode = hover_episode(config, target, env_id=env_id, seed=0)
     return {"rate": episode.average_rate, "feasible": bool(episode.feasible)}
 
 
@@ -150,8 +141,6 @@ def check_record(rec: Mapping[str, Any]) -> list[str]:
 
 def multinode_content(records: Sequence[Mapping[str, Any]], name: str, version: int) -> dict[str, Any]:
     """The content of a multi-node suite from the per-scenario records of :func:`compute`."""
-    from ios_uav_env.envs.multi import MULTINODE_RANGES
-
     bad = [f"#{r['index']}: {k}" for r in records for k in ("sca", "bound")
            if (r[k].get("rate") if k == "sca" else r[k].get("upper_bound")) in (None, 0.0)]  # fmt: skip
     if bad:
@@ -194,7 +183,7 @@ def multinode_content(records: Sequence[Mapping[str, Any]], name: str, version: 
         "source": {
             "entropy": ENTROPY,
             "spawn_key": list(SPAWN_KEY),
-            "sampler": "ios_uav_env.envs.multi.sample_multinode",
+            "sampler": "ios_uav_env.envs.multi.sample_multinode",  # as frozen (ios_uav_env.sample_multinode)
             "nodes": [2, 4],
             "ranges": MULTINODE_RANGES.to_dict(),
             "module": "ios_uav_env.benchmark.freeze_multi",  # as frozen: the suite file keeps its bytes

@@ -3,7 +3,7 @@
 - single-node (``single-node-v1``): :data:`HELDOUT_SEED` draws :data:`DEFAULT_SIZE` scenarios
   with ``sample_scenario(np.random.default_rng(seed), DEFAULT_RANGES)`` (training seeds are small
   integers);
-- multi-node (``multi-node-v1``): ``n`` draws in turn of ``ios_uav_env.envs.multi.sample_multinode``
+- multi-node (``multi-node-v1``): ``n`` draws in turn of ``ios_uav_env.sample_multinode``
   (the distribution of ``ios_uav_env/IOSUAV-MultiNode-Random-v0``: 2 to 4 nodes) from
   ``np.random.default_rng(np.random.SeedSequence(entropy=20261130, spawn_key=(17,)))``. A spawned
   key gives a stream independent of every ``default_rng(seed)`` / ``env.reset(seed=seed)``
@@ -21,7 +21,7 @@ import dataclasses
 
 import numpy as np
 
-from ios_uav_env import DEFAULT_RANGES, ScenarioConfig, ScenarioRanges, sample_scenario
+from ios_uav_env import DEFAULT_RANGES, ScenarioConfig, ScenarioRanges, sample_multinode, sample_scenario
 
 #: The seed of the single-node held-out suite: never a training seed (those are small integers).
 HELDOUT_SEED = 20261122
@@ -57,8 +57,6 @@ def suite_configs(
 def multinode_configs(n: int = 48) -> list[ScenarioConfig]:
     """The first ``n`` multi-node held-out scenarios: ``sample_multinode`` drawn in turn from
     :func:`heldout_rng`."""
-    from ios_uav_env.envs.multi import sample_multinode
-
     rng = heldout_rng()
     return [sample_multinode(rng) for _ in range(int(n))]
 

@@ -28,6 +28,7 @@ from typing import Any
 import numpy as np
 
 from ios_uav_env import DEFAULT_RANGES, MOBILE_ID, ScenarioConfig, ScenarioRanges, sample_scenario, score_plan
+from ios_uav_env.benchmark.heuristics import hover_episode
 from ios_uav_env.benchmark.suite import BOUND_REL, FORMAT, MOBILE, MOBILE_REFERENCES
 from ios_uav_env.model.mobility import GaussMarkov
 from ios_uav_env.model.motion import node_paths
@@ -73,17 +74,10 @@ def _failed(err: BaseException, seconds: float) -> dict[str, Any]:
 
 def track(config: ScenarioConfig, seed: int, knowledge: str) -> tuple[np.ndarray, float]:
     """HoverAt("ground") in the single-node env with ``knowledge``, pinned to ``config`` and reset
-    with ``seed``: (the flown trajectory (N, 2) m, seconds of the episode)."""
-    from ios_uav_env.envs.policies import HoverAt
-    from ios_uav_env.envs.single import IOSUAVEnv
-
-    env, policy = IOSUAVEnv(config, knowledge=knowledge), HoverAt("ground", D=config.D)
-    t0 = time.perf_counter()
-    obs, _ = env.reset(seed=seed, options={"config": config})
-    done = False
-    while not done:
-        obs, _, done, _, _ = env.step(policy(obs))
-    return env.trajectory, time.perf_counter() - t0
+    with ``seed`` (``ios_uav_env.benchmark.heuristics.hover_episode``): (the flown trajectory
+    (N, 2) m, seconds of the episode)."""
+    episode = hover_episode(config, "ground", seed=seed, knowledge=knowledge)
+    return episode.trajectory, episode.seconds
 
 
 def solve_mobile(config: ScenarioConfig, seed: int, bound_resolution: float) -> dict[str, Any]:

@@ -22,12 +22,15 @@ alone (no planner, no deep-learning library):
   JSON, markdown, figures) for any K, with the suite kind's :class:`Metrics` (single-node:
   % of DP and of SCA; multi-node: the plan's own max-min rate as % of SCA and of the
   certified bound, and its best schedule's % of SCA);
+- :mod:`~ios_uav_env.benchmark.heuristics`: :func:`hover_episode`, the suites' heuristic rows
+  (``HoverAt`` flown in the env on one scenario);
 - :mod:`~ios_uav_env.benchmark.trajectories`: trajectory files (``.npz`` or CSV; multi-node
   plans may carry their shares: :func:`read_plans`);
 - ``python -m ios_uav_env.benchmark {list,show,evaluate}``: the command line
   (:mod:`~ios_uav_env.benchmark.cli`).
 """
 
+from ios_uav_env.benchmark.heuristics import hover_episode
 from ios_uav_env.benchmark.policy_errors import PolicyError
 from ios_uav_env.benchmark.results import (
     METRICS,
@@ -55,6 +58,7 @@ __all__ = [
     "action_function",
     "evaluate",
     "evaluate_scenarios",
+    "hover_episode",
     "list_suites",
     "load_suite",
     "read_plans",
