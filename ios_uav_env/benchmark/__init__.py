@@ -22,15 +22,15 @@ alone (no planner, no deep-learning library):
   JSON, markdown, figures) for any K, with the suite kind's :class:`Metrics` (single-node:
   % of DP and of SCA; multi-node: the plan's own max-min rate as % of SCA and of the
   certified bound, and its best schedule's % of SCA);
-- :mod:`~ios_uav_env.benchmark.heuristics`: :func:`hover_episode`, the suites' heuristic rows
-  (``HoverAt`` flown in the env on one scenario);
+- :mod:`~ios_uav_env.benchmark.heuristics`: :func:`fly` (a policy flown in the env on one
+  scenario: the suites' policy rows) and :func:`hover_episode` (``HoverAt``'s);
 - :mod:`~ios_uav_env.benchmark.trajectories`: trajectory files (``.npz`` or CSV; multi-node
   plans may carry their shares: :func:`read_plans`);
 - ``python -m ios_uav_env.benchmark {list,show,evaluate}``: the command line
   (:mod:`~ios_uav_env.benchmark.cli`).
 """
 
-from ios_uav_env.benchmark.heuristics import hover_episode
+from ios_uav_env.benchmark.heuristics import Flight, fly, hover_episode
 from ios_uav_env.benchmark.policy_errors import PolicyError
 from ios_uav_env.benchmark.results import (
     METRICS,
@@ -49,6 +49,7 @@ __all__ = [
     "SUITES",
     "METRICS",
     "Aggregate",
+    "Flight",
     "Metrics",
     "PolicyError",
     "Results",
@@ -58,6 +59,7 @@ __all__ = [
     "action_function",
     "evaluate",
     "evaluate_scenarios",
+    "fly",
     "hover_episode",
     "list_suites",
     "load_suite",

@@ -1,4 +1,4 @@
-"""ios_uav_env.benchmark.heuristics: the suites' heuristic rows, HoverAt flown in the env."""
+"""ios_uav_env.benchmark.heuristics: the suites' policy rows, a policy flown in the env."""
 
 from __future__ import annotations
 
@@ -9,10 +9,11 @@ import numpy as np
 import pytest
 
 import ios_uav_env.benchmark.heuristics as heuristics
-from ios_uav_env import RANDOM_ENV_ID, GaussMarkov, IOSUAVEnv, ScenarioConfig
-from ios_uav_env.benchmark import hover_episode
+from ios_uav_env import MULTINODE_MOBILE_ID, RANDOM_ENV_ID, GaussMarkov, IOSUAVEnv, ScenarioConfig
+from ios_uav_env.benchmark import fly, hover_episode
+from ios_uav_env.benchmark.multi_policies import StraightEqualShares
 from ios_uav_env.envs.policies import HoverAt
-from ios_uav_env.envs.rollout import run_episode
+from ios_uav_env.envs.rollout import policy_for, run_episode
 
 SMALL = {"ios_shape": (10, 6), "quadrature_nodes": 4}
 WALK = ScenarioConfig(
@@ -57,3 +58,24 @@ def test_an_ids_env_gets_the_policys_arguments():
 def test_an_unknown_target_is_refused_before_any_env_is_made():
     with pytest.raises(ValueError, match="target must be one of"):
         hover_episode(WALK, "qF")
+
+
+def test_fly_returns_a_multinode_policys_own_shares():
+    config = WALK.replace(ground_nodes=((-60.0, -20.0), (80.0, 40.0)))
+    policy = policy_for(StraightEqualShares(), MULTINODE_MOBILE_ID, {})
+    env = gym.make(MULTINODE_MOBILE_ID)
+    try:
+        obs, _ = env.reset(seed=5, options={"config": config})
+        done = False
+        while not done:
+            obs, _, done, _, _ = env.step(policy(obs))
+        expected = env.unwrapped.trajectory, env.unwrapped.shares
+    finally:
+        env.close()
+    flight = fly(StraightEqualShares(), config, env_id=MULTINODE_MOBILE_ID, seed=5)
+    assert np.array_equal(flight.trajectory, expected[0]) and np.array_equal(flight.shares, expected[1])
+    assert flight.shares.shape == (2, config.N) and flight.seconds == flight.episode.seconds > 0
+    own = fly(StraightEqualShares(), config, seed=5)  # the scenario's own env: MultiNodeEnv, exact knowledge
+    assert own.shares.shape == (2, config.N) and own.episode.feasible
+    assert hover_episode(WALK, "ground", seed=5).trajectory.shape == (WALK.N, 2)
+    assert fly(HoverAt("ground", D=WALK.D), WALK, seed=5).shares is None  # one node: no shares
