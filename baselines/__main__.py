@@ -13,7 +13,7 @@ efficiency in bits/J, the energy, the average rate and the time, and the certifi
 
 For each scheme: ``<out>/<scheme>_T<T>_M<M>.json`` (the :class:`Plan`, written atomically)
 and ``.csv`` (x, y per slot, m); one PNG of all trajectories over the rate map of the
-scenario's surface (``--surface``, default IOS), drawn by ``ios_uav_env.envs.rendering``.
+scenario's surface (``--surface``, default IOS), drawn by ``ios_uav_env.plotting``.
 Exit status: 0 if every scheme ran, 1 if some could not (e.g. SCA without cvxpy), 2 for
 bad arguments.
 """
@@ -168,17 +168,20 @@ def save_csv(path: Path, trajectory: np.ndarray) -> Path:
 def plot_plans(path: Path, config: ScenarioConfig, plans: Sequence[Plan]) -> Path:
     """PNG of the plans' trajectories over the rate map of ``config``'s surface.
 
-    Drawn with the shared helpers of ``ios_uav_env.envs.rendering`` (matplotlib, Agg canvas).
+    Drawn with the shared helpers of ``ios_uav_env.plotting`` (matplotlib, Agg canvas).
     """
     from matplotlib.figure import Figure  # no pyplot: never touches the user's backend
 
-    from ios_uav_env.envs.rendering import plot_rate_map, plot_trajectories
+    from ios_uav_env.plotting import (
+        plot_multinode_map,
+        plot_rate_map,
+        plot_served_trajectories,
+        plot_trajectories,
+    )
 
     fig = Figure(figsize=(10, 5.5), layout="constrained")
     ax = fig.add_subplot()
     if config.K > 1:  # every node, trajectories coloured by the node served in each slot
-        from ios_uav_env.envs.rendering_multi import plot_multinode_map, plot_served_trajectories
-
         plot_multinode_map(ax, config)
         labels = {f"{p.scheme}: {p.mean_rate:.3f} bps/Hz": p.trajectory for p in plans}
         shares = {f"{p.scheme}: {p.mean_rate:.3f} bps/Hz": np.array(p.info["shares"]) for p in plans}

@@ -1,4 +1,5 @@
-"""Rendering (ios_uav_env/envs/rendering.py and IOSUAVEnv.render): frames, plot helpers, lazy import."""
+"""Rendering (ios_uav_env/envs/rendering.py and IOSUAVEnv.render): frames, the plot helpers of
+ios_uav_env/plotting.py, lazy import."""
 
 from __future__ import annotations
 
@@ -118,7 +119,22 @@ def test_missing_matplotlib_says_what_to_install(monkeypatch):
 
 
 def test_importing_the_env_does_not_import_matplotlib():
-    code = "import sys, ios_uav_env, ios_uav_env.envs.rendering; print('matplotlib' in sys.modules)"
+    code = (
+        "import sys, ios_uav_env, ios_uav_env.plotting, ios_uav_env.envs.rendering\n"
+        "import ios_uav_env.envs.rendering_multi\n"
+        "print('matplotlib' in sys.modules)"
+    )
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=60)
     assert out.returncode == 0, out.stderr
     assert out.stdout.strip() == "False"
+
+
+def test_the_envs_renderers_draw_with_the_plotting_modules_helpers():
+    import ios_uav_env.envs.rendering as rendering
+    import ios_uav_env.envs.rendering_multi as rendering_multi
+    import ios_uav_env.plotting as plotting
+
+    for module in (rendering, rendering_multi):
+        for name in module.__all__:
+            if name != "FrameRenderer":  # the env's own frame, drawn with those helpers
+                assert getattr(module, name) is getattr(plotting, name), (module.__name__, name)
