@@ -1,6 +1,6 @@
 """The package's and the tools' modules form no import circle (lazy imports inside functions
-included), the layers hold (the wheel imports no tool, planners no agent or experiment), and
-every module imports on its own."""
+included), the layers hold (the wheel imports no tool, planners no agent or experiment, nor the
+env faces), and every module imports on its own."""
 
 from __future__ import annotations
 
@@ -73,6 +73,93 @@ def test_layers_the_wheel_imports_no_tool_planners_no_agent_agents_no_experiment
             assert not {d for d in deps if d.startswith(("agents", "experiments"))}, name
         if name.startswith("agents"):
             assert not {d for d in deps if d.startswith("experiments")}, name
+
+
+#: The env faces (Gymnasium envs, vector envs, registration, observation views, policies on
+#: observations, renderers): a thin layer over the model that the planners never import.
+FACES = "ios_uav_env.envs"
+_IMPORTERS = ("import_module", "__import__")
+
+
+def face_imports(source: str, name: str) -> list[str]:
+    """Every module of the env faces (``ios_uav_env.envs`` or a submodule) that ``source``, the
+    module ``name``, imports: at the top, in a function, by ``from ios_uav_env import envs``, by a
+    relative import, or by ``importlib.import_module`` / ``__import__`` of a string literal."""
+    package = name.rpartition(".")[0]
+    found = []
+    for node in ast.walk(ast.parse(source)):
+        if isinstance(node, ast.Import):
+            targets = [alias.name for alias in node.names]
+        elif isinstance(node, ast.ImportFrom):
+            base = node.module or ""
+            if node.level:
+                anchor = package.rsplit(".", node.level - 1)[0] if node.level > 1 else package
+                base = f"{anchor}.{base}" if base else anchor
+            targets = [base] if _is_face(base) else [f"{base}.{alias.name}" for alias in node.names]
+        elif isinstance(node, ast.Call):
+            func = node.func
+            called = func.attr if isinstance(func, ast.Attribute) else getattr(func, "id", None)
+            first = node.args[0] if node.args else None
+            if called not in _IMPORTERS or not isinstance(getattr(first, "value", None), str):
+                continue
+            targets = [first.value]
+        else:
+            continue
+        found += [f"line {node.lineno}: {t}" for t in targets if _is_face(t)]
+    return found
+
+
+def _is_face(module: str) -> bool:
+    return module == FACES or module.startswith(FACES + ".")
+
+
+def test_the_planners_import_nothing_from_the_env_faces():
+    """``baselines`` plans on the model (``ios_uav_env``'s names, ``ios_uav_env.model``), scores and
+    flies the suites' policy rows through ``ios_uav_env.benchmark`` and draws with
+    ``ios_uav_env.plotting``; ``agents`` drives the envs for training, so the rule is the planners'."""
+    assert "baselines.references.content" in MODULES and "baselines.loiter" in MODULES
+    found = {
+        name: hits
+        for name, path in MODULES.items()
+        if name.split(".")[0] == "baselines" and (hits := face_imports(path.read_text(), name))
+    }
+    assert not found, (
+        f"baselines imports the env faces ({FACES}): {found}; import the model's names from ios_uav_env "
+        "(the scenario families, the env ids) or ios_uav_env.model, a policy's rollout from "
+        "ios_uav_env.benchmark (fly, hover_episode), the drawing helpers from ios_uav_env.plotting"
+    )
+
+
+@pytest.mark.parametrize(
+    "source",
+    [
+        "from ios_uav_env.envs.multi import sample_multinode",
+        "import ios_uav_env.envs",
+        "from ios_uav_env import ScenarioConfig, envs",
+        "def draw():\n    from ios_uav_env.envs.rendering import plot_rate_map\n",
+        "import importlib\nimportlib.import_module('ios_uav_env.envs.single')",
+        "__import__('ios_uav_env.envs.policies')",
+    ],
+)
+def test_the_rule_finds_an_import_of_the_env_faces_wherever_it_is(source):
+    assert face_imports(source, "baselines.references.content")
+
+
+def test_the_rule_resolves_relative_imports():
+    assert face_imports("from ..envs import policies", "ios_uav_env.benchmark.heuristics")
+    assert face_imports("from . import rollout", "ios_uav_env.envs.policies")
+    assert not face_imports("from .suite import SUITES", "ios_uav_env.benchmark.heuristics")
+
+
+def test_the_rule_lets_the_model_the_benchmark_and_the_plotting_modules_through():
+    source = (
+        "from ios_uav_env import MULTINODE_RANGES, RANDOM_ENV_ID, sample_multinode\n"
+        "from ios_uav_env.model.flights import loiter_path\n"
+        "from ios_uav_env.benchmark.heuristics import hover_episode\n"
+        "import ios_uav_env.envsx\n"
+        "def f():\n    from ios_uav_env.plotting import plot_rate_map\n    return 'ios_uav_env.envs.multi'\n"
+    )
+    assert face_imports(source, "baselines.x") == []
 
 
 def test_every_module_imports_first_in_a_fresh_interpreter():
