@@ -30,6 +30,7 @@ from ios_uav_env.envs.single_kernels import budget_of, flags_of, fly_entry_out_o
 from ios_uav_env.jit import HAVE_NUMBA, jit, prange, run_batched
 from ios_uav_env.model.channel import PARAMS, rate_kernel, rate_point
 from ios_uav_env.model.config import ENERGY_RTOL, FEASIBILITY_TOL, ScenarioConfig
+from ios_uav_env.model.maxmin_paths import path_values
 from ios_uav_env.model.peak import rate_peak
 
 #: Columns of a row of ``state`` (``moves_made`` at column 2, as in ``single_kernels.STATE``;
@@ -444,6 +445,33 @@ class NodeRows:
                 f"be 0..{b - 1}, moves >= 0 and, summed per row, leave each row's episode unfinished"
             )
 
+    def best_values(self, rows: np.ndarray, num_threads: int | None = None) -> tuple[np.ndarray, np.ndarray]:
+        """(values, certified): the best-schedule value of each of ``rows`` (ended episodes) on its
+        scenario's static nodes, all rows in one compiled call (``maxmin_paths.path_values``)."""
+        sizes = np.array([(self.loaded[i].K, self.loaded[i].N) for i in rows], dtype=np.int64)
+        return path_values(rows, sizes, self.path, self.nodes, self.params, num_threads)
+
     def schedule(self, i: int, k: int) -> np.ndarray:
         """Row ``i``'s shares of its ``k`` nodes so far, (k, n + 1): slot 1's, then one column per step."""
         return self.share_path[i, : int(self.state[i, 2]) + 1, :k].T.copy()
+
+
+def episode_best_values(rows: NodeRows, ended: np.ndarray, envs: Sequence[Any],
+                        num_threads: int | None = None) -> np.ndarray:  # fmt: skip
+    """``info["best_schedule_rate"]`` of the rows ``ended`` (their episodes just ended; ``envs[j]``
+    the env of row ``ended[j]``): NaN without scipy (``schedule.scipy_or_warn``); static nodes
+    by :meth:`NodeRows.best_values` (compiled, all rows at once); moving nodes, and a row whose
+    certificate failed, by ``schedule.maxmin_rate`` of the env's flight on its true paths."""
+    from ios_uav_env.model.schedule import maxmin_rate, scipy_or_warn
+
+    values = np.full(len(ended), np.nan)
+    if not scipy_or_warn():
+        return values
+    static = np.array([not env.mobile for env in envs], dtype=bool)
+    ok = np.zeros(len(ended), dtype=bool)
+    if static.any():
+        values[static], ok[static] = rows.best_values(ended[static], num_threads)
+    for j in np.flatnonzero(~ok):
+        i, env = ended[j], envs[j]
+        values[j] = maxmin_rate(env.config, rows.path[i, : env.config.N], env.truth)
+    return values

@@ -29,11 +29,11 @@ from ios_uav_env.envs.multi_kernels import (
     BEST,
     MULTI_INFO_KEYS,
     NodeRows,
+    episode_best_values,
     info_arrays,
     info_columns,
     move_norms,
 )
-from ios_uav_env.model.schedule import reported_maxmin_rate
 
 
 class MultiNodeVectorEnv(BatchedEnv):
@@ -115,10 +115,10 @@ class MultiNodeVectorEnv(BatchedEnv):
         if self._mobile:
             for i in stepping:
                 self.envs[i]._observe(self._rows, i, self._obs[i])
-        for i in np.flatnonzero(self._terminated):
-            env = self.envs[i]
-            self._info[i, BEST] = (
-                reported_maxmin_rate(env.config, self._path[i, : env.config.N], env.truth)
+        ended = np.flatnonzero(self._terminated)
+        if ended.size:
+            self._info[ended, BEST] = (
+                episode_best_values(self._rows, ended, [self.envs[i] for i in ended], self.num_threads)
                 if self.best_schedule
                 else np.nan
             )

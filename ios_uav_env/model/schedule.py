@@ -16,6 +16,11 @@ sum_k alpha_k[n] <= 1, alpha >= 0. Its dual is
 (weak duality is one line: for feasible alpha, min_k R_k <= sum_k w_k R_k
 = (1/N) sum_n sum_k alpha_k[n] w_k r_k[n] <= g(w)).
 
+**The scorer's solver.** :func:`schedule` (and so :func:`maxmin_rate`, ``score_plan`` and the
+multi-node envs' ``best_schedule_rate``) takes :func:`certified_schedule`: for 2 <= K <= 8 the
+exact column generation of :mod:`ios_uav_env.model.maxmin` (compiled, no LP solver), certified
+to ``maxmin.FAST_TOL`` relative; HiGHS below for more nodes or when that certificate fails.
+
 **Certified value.** :func:`maxmin_schedule` solves (P) with HiGHS, cleans the shares
 (clipped to [0, 1], each slot's column scaled down to sum <= 1) and computes the primal
 value min_k R_k of those shares exactly; it takes the dual weights w of the K rate rows
@@ -59,6 +64,7 @@ import numpy as np
 from ios_uav_env.model.channel import as_positions, path_kernels, rates_of_rows, slot_rates
 from ios_uav_env.model.config import ScenarioConfig
 from ios_uav_env.model.lp import solve_lp
+from ios_uav_env.model.maxmin import MAX_NODES, fast_schedule
 from ios_uav_env.model.motion import check_paths, is_static
 from ios_uav_env.model.trajectory import as_trajectory, average_rate
 
@@ -81,6 +87,7 @@ __all__ = [
     "SMALL_SHARE",
     "Schedule",
     "best_schedule",
+    "certified_schedule",
     "dual_value",
     "maxmin_rate",
     "maxmin_schedule",
@@ -264,6 +271,21 @@ def maxmin_schedule(rates: np.ndarray, fixed: np.ndarray | None = None) -> Sched
     return Schedule(shares, w, value, dual, per_node)
 
 
+def certified_schedule(rates: np.ndarray) -> Schedule:
+    """The best schedule (P) of a (K, N) rate matrix, certified: :func:`maxmin.fast_schedule
+    <ios_uav_env.model.maxmin.fast_schedule>` for 2 <= K <= ``MAX_NODES`` when every node can be
+    served (its primal and dual values within ``maxmin.FAST_TOL`` relative), else
+    :func:`maxmin_schedule` (HiGHS; K = 1 and a node that cannot be served included)."""
+    r = _check_rates(rates)
+    if 2 <= r.shape[0] <= MAX_NODES and np.all(np.sum(r, axis=1) > 0):
+        found = fast_schedule(r)
+        if found is not None:
+            shares, weights = found[0], found[1]
+            per_node = np.mean(shares * r, axis=1)
+            return Schedule(shares, weights, float(per_node.min()), dual_value(r, weights), per_node)
+    return maxmin_schedule(r)
+
+
 def _top_up(
     shares: np.ndarray, per_node: np.ndarray, r: np.ndarray, n0: int, past: np.ndarray, later: np.ndarray
 ) -> tuple[np.ndarray, np.ndarray]:
@@ -299,14 +321,14 @@ def _moving(config: ScenarioConfig, paths: np.ndarray | None) -> np.ndarray | No
 
 
 def schedule(config: ScenarioConfig, trajectory: np.ndarray, paths: np.ndarray | None = None) -> Schedule:
-    """The certified best schedule of ``trajectory`` (see :func:`maxmin_schedule`), on the node
+    """The certified best schedule of ``trajectory`` (:func:`certified_schedule`), on the node
     ``paths`` (N, K, 2) when given (:func:`node_rates`)."""
     q = as_trajectory(config, trajectory)
     w = _moving(config, paths)
     if config.K == 1:  # the single-node score, exactly: average_rate (static nodes)
         value = average_rate(config, q) if w is None else float(np.mean(node_rates(config, q, w)[0]))
         return Schedule(np.ones((1, len(q))), np.ones(1), value, value, np.array([value]))
-    return maxmin_schedule(node_rates(config, q, w))
+    return certified_schedule(node_rates(config, q, w))
 
 
 def best_schedule(
@@ -321,7 +343,7 @@ def maxmin_rate(config: ScenarioConfig, trajectory: np.ndarray, paths: np.ndarra
     node ``paths`` (N, K, 2) when given).
 
     For K = 1 this is :func:`ios_uav_env.average_rate` exactly (static nodes). For K > 1 the
-    value is certified by the LP's dual to ``CERTIFY_TOL`` (module docstring).
+    value is certified by its dual (:func:`certified_schedule`; module docstring).
     """
     return schedule(config, trajectory, paths).value
 
@@ -355,13 +377,11 @@ def scheduled_rates(
 _SCIPY: list[bool] = []  # [is scipy importable], found at the first call
 
 
-def reported_maxmin_rate(
-    config: ScenarioConfig, trajectory: np.ndarray, paths: np.ndarray | None = None
-) -> float:
-    """:func:`maxmin_rate` (on the node ``paths`` when given) for the envs'
-    ``info["best_schedule_rate"]``: NaN, with one warning,
-    when scipy (its LP solver) is not installed, so that an env needs only numpy and Gymnasium
-    (``pip install scipy``, or the ``planners`` extra, brings the score back)."""
+def scipy_or_warn() -> bool:
+    """Whether scipy (HiGHS's LP, the fallback of :func:`certified_schedule`) imports: the
+    multi-node envs report ``info["best_schedule_rate"]`` only then, else NaN, with one warning
+    the first time (an env needs only numpy and Gymnasium; ``pip install scipy``, or the
+    ``planners`` extra, brings the score back)."""
     if not _SCIPY:
         try:
             import scipy.optimize  # noqa: F401
@@ -372,6 +392,14 @@ def reported_maxmin_rate(
             import warnings
 
             warnings.warn(
-                "scipy is not installed: info['best_schedule_rate'] is NaN (pip install scipy)", stacklevel=2
+                "scipy is not installed: info['best_schedule_rate'] is NaN (pip install scipy)", stacklevel=3
             )
-    return maxmin_rate(config, trajectory, paths) if _SCIPY[0] else float("nan")
+    return _SCIPY[0]
+
+
+def reported_maxmin_rate(
+    config: ScenarioConfig, trajectory: np.ndarray, paths: np.ndarray | None = None
+) -> float:
+    """:func:`maxmin_rate` (on the node ``paths`` when given) for the envs'
+    ``info["best_schedule_rate"]``, or NaN without scipy (:func:`scipy_or_warn`)."""
+    return maxmin_rate(config, trajectory, paths) if scipy_or_warn() else float("nan")

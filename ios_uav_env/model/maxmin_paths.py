@@ -1,0 +1,83 @@
+"""The best-schedule value of many flown paths at once, compiled: the multi-node envs' episode
+ends (``info["best_schedule_rate"]``) without a Python call per row.
+
+Row i of a batch has a way-point path ``path[i, :N_i]`` and K_i rate kernels
+(``channel.RateKernel``'s ``nodes`` and ``params``, row i's node k at ``nodes[i, k]``,
+``params[i, k]``: the layout of ``ios_uav_env.envs.multi_kernels``). Its value is
+:func:`~ios_uav_env.model.maxmin.maxmin_row` of the rates r_k[n] = ``channel.rate_point`` of
+node k at way-point n: the value ``schedule.maxmin_rate`` gives for the static nodes of those
+kernels, from the same column generation (``schedule.certified_schedule``), to rounding.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+import numpy as np
+
+from ios_uav_env.jit import jit, prange, run_batched
+from ios_uav_env.model.channel import rate_point
+from ios_uav_env.model.maxmin import CERTIFIED, maxmin_row
+
+__all__ = ["path_values", "path_values_rows", "path_values_rows_batched"]
+
+
+@jit(inline=True)
+def _row(
+    j: int, rows: np.ndarray, sizes: np.ndarray, path: np.ndarray, nodes: np.ndarray, params: np.ndarray,
+    out: np.ndarray,
+) -> None:  # fmt: skip
+    i, k_n, n_n = rows[j], sizes[j, 0], sizes[j, 1]
+    r = np.empty((k_n, n_n))
+    for k in range(k_n):
+        for n in range(n_n):
+            r[k, n] = rate_point(path[i, n, 0], path[i, n, 1], nodes[i, k], params[i, k])
+    out[j, 0], out[j, 1], out[j, 2] = maxmin_row(r)
+
+
+@jit
+def path_values_rows(
+    rows: np.ndarray, sizes: np.ndarray, path: np.ndarray, nodes: np.ndarray, params: np.ndarray,
+    out: np.ndarray,
+) -> None:  # fmt: skip
+    """:func:`path_values_rows_batched` one row after the other."""
+    for j in range(rows.shape[0]):
+        _row(j, rows, sizes, path, nodes, params, out)
+
+
+@jit(parallel=True)
+def path_values_rows_batched(
+    rows: np.ndarray, sizes: np.ndarray, path: np.ndarray, nodes: np.ndarray, params: np.ndarray,
+    out: np.ndarray,
+) -> None:  # fmt: skip
+    """For each entry j: batch row ``rows[j]`` with (K, N) = ``sizes[j]``, ``out[j]`` = (primal
+    value, dual value, status) of :func:`~ios_uav_env.model.maxmin.maxmin_row` of its rates
+    (module docstring); the entries on numba's threads."""
+    for j in prange(rows.shape[0]):
+        _row(j, rows, sizes, path, nodes, params, out)
+
+
+def path_values(
+    rows: Sequence[int] | np.ndarray, sizes: np.ndarray, path: np.ndarray, nodes: np.ndarray,
+    params: np.ndarray, num_threads: int | None = None,
+) -> tuple[np.ndarray, np.ndarray]:  # fmt: skip
+    """(values, certified) of the batch rows ``rows`` (module docstring; ``sizes`` (len(rows), 2)
+    their K and N), on ``num_threads`` of numba's threads (``jit.run_batched``): ``certified``
+    false where the caller must score the row otherwise (more than ``maxmin.MAX_NODES`` nodes,
+    or a certificate that failed; its value is then NaN)."""
+    idx = np.ascontiguousarray(rows, dtype=np.int64)
+    size = np.ascontiguousarray(sizes, dtype=np.int64).reshape(len(idx), 2)
+    if len(idx) and (size[:, 0].min() < 1 or size[:, 1].min() < 1 or size[:, 1].max() > path.shape[1]
+                     or size[:, 0].max() > nodes.shape[1]):  # fmt: skip
+        k_got, n_got = (size[:, 0].min(), size[:, 0].max()), (size[:, 1].min(), size[:, 1].max())
+        raise ValueError(
+            f"sizes must be (K, N) with 1 <= K <= {nodes.shape[1]} and 1 <= N <= {path.shape[1]}, "
+            f"got K in [{k_got[0]}, {k_got[1]}] and N in [{n_got[0]}, {n_got[1]}]"
+        )
+    out = np.zeros((len(idx), 3))
+    if len(idx):
+        run_batched(
+            path_values_rows_batched, path_values_rows, num_threads, idx, size, path, nodes, params, out
+        )
+    ok = out[:, 2] == CERTIFIED
+    return np.where(ok, out[:, 0], np.nan), ok
