@@ -13,7 +13,6 @@ statistics and in ``VecNormalize`` as usual.
 
 from __future__ import annotations
 
-import math
 from collections.abc import Iterable, Sequence
 from typing import Any
 
@@ -27,7 +26,8 @@ from stable_baselines3.common.vec_env.base_vec_env import (
 )
 
 import ios_uav_env  # registers the ids
-from agents.wrappers import EXPLORE_BOX, check_exploring, check_repeat, draw_targets
+from agents import tricks
+from agents.tricks import EXPLORE_BOX, StartsField
 from ios_uav_env.jit import prefer_passive_threads
 
 prefer_passive_threads()  # numba's threads must not spin while torch trains (see the function)
@@ -153,31 +153,29 @@ class BatchedVecEnv(VecEnv):
 
 
 class VecShiftReward(VecEnvWrapper):
-    """``agents.wrappers.ShiftReward`` on a whole VecEnv: rewards become ``scale * (reward - offset)``
-    (the terminal observations and infos pass through unchanged)."""
+    """``agents.wrappers.ShiftReward`` on a whole VecEnv (``agents.tricks.RewardShift`` on its
+    rewards): rewards become ``scale * (reward - offset)`` (the terminal observations and infos
+    pass through unchanged)."""
 
     def __init__(self, venv: VecEnv, offset: float = 0.0, scale: float = 1.0):
-        for name, value in (("offset", offset), ("scale", scale)):
-            if isinstance(value, bool) or not (isinstance(value, (int, float)) and math.isfinite(value)):
-                raise ValueError(f"VecShiftReward {name} must be a finite number, got {value!r}")
-        if scale <= 0:
-            raise ValueError(f"VecShiftReward scale must be > 0, got {scale!r}")
+        self.shift = tricks.RewardShift(offset, scale, who="VecShiftReward")
         super().__init__(venv)
-        self.offset, self.scale = float(offset), float(scale)
+        self.offset, self.scale = self.shift.offset, self.shift.scale
 
     def reset(self) -> np.ndarray:
         return self.venv.reset()
 
     def step_wait(self) -> VecEnvStepReturn:
         obs, reward, dones, infos = self.venv.step_wait()
-        return obs, (self.scale * (reward - self.offset)).astype(np.float32), dones, infos
+        return obs, self.shift(reward).astype(np.float32), dones, infos
 
 
 class VecActionRepeat(VecEnvWrapper):
-    """``agents.wrappers.ActionRepeat`` on a :class:`BatchedVecEnv`: each action is held for
-    ``repeat`` slots, the rewards summed; a row whose episode ends within the repeat stops there
-    (its info and ``terminal_observation`` are that slot's, its observation the next episode's
-    first), while the other rows finish the repeat (``BatchedVecEnv.advance``)."""
+    """``agents.wrappers.ActionRepeat`` on a :class:`BatchedVecEnv` (``agents.tricks.ActionRepeat``
+    over its ``advance``): each action is held for ``repeat`` slots, the rewards summed in
+    float32; a row whose episode ends within the repeat stops there (its info and
+    ``terminal_observation`` are that slot's, its observation the next episode's first), while
+    the other rows finish the repeat."""
 
     def __init__(self, venv: VecEnv, repeat: int = 1):
         if not isinstance(venv, BatchedVecEnv):
@@ -186,7 +184,8 @@ class VecActionRepeat(VecEnvWrapper):
                 f"got {type(venv).__name__}"
             )
         super().__init__(venv)
-        self.repeat = check_repeat(repeat)
+        self.hold = tricks.ActionRepeat(repeat)
+        self.repeat = self.hold.repeat
         self._actions: np.ndarray | None = None
 
     def reset(self) -> np.ndarray:
@@ -196,28 +195,33 @@ class VecActionRepeat(VecEnvWrapper):
         self._actions = np.asarray(actions, dtype=np.float64).reshape(self.num_envs, -1)
 
     def step_wait(self) -> VecEnvStepReturn:
-        n = self.num_envs
-        rows, total = np.ones(n, dtype=np.bool_), np.zeros(n, dtype=np.float32)
-        dones, infos = np.zeros(n, dtype=np.bool_), [{} for _ in range(n)]
-        for _ in range(self.repeat):
-            obs, reward, done, info = self.venv.advance(self._actions, rows)
-            total += reward
+        infos: list[dict[str, Any]] = [{} for _ in range(self.num_envs)]
+
+        def ended(done: np.ndarray, info: list[dict[str, Any]]) -> None:
             for i in np.flatnonzero(done):
                 infos[i] = info[i]
-            dones |= done
-            rows &= ~done
-            if not rows.any():
-                break
+
+        def advance(rows: np.ndarray) -> VecEnvStepReturn:
+            return self.venv.advance(self._actions, rows)
+
+        obs, total, dones, _ = self.hold.step(advance, self.num_envs, np.float32, ended)
         return obs, total, dones, infos
 
 
 class VecExploringStarts(VecEnvWrapper):
-    """``agents.wrappers.ExploringStarts`` on a batched env: each row's next episode (after an
-    episode end, not the first), with probability ``prob``, starts after the hidden prefix of
-    the single form (m ~ U{1..max_moves} full-speed moves towards a point of ``box``, equal
-    shares), flown on the rows of the ``BatchedVecEnv`` under ``venv`` (its batched env's ``fly``), below
-    any wrapper in between: the monitor counts the episode from the agent's first move. The
-    generator is seeded from the seed of the batched env's next reset (``venv.seed(s)``)."""
+    """``agents.wrappers.ExploringStarts`` on a batched env (``agents.tricks.ExploringStarts`` on its
+    rows): each row's next episode (after an episode end, not the first), with probability
+    ``prob``, starts after the hidden prefix of the single form (m ~ U{1..max_moves} full-speed
+    moves towards a point of ``box``, equal shares), flown on the rows of the ``BatchedVecEnv``
+    under ``venv`` (its batched env's ``fly``), below any wrapper in between: the monitor counts
+    the episode from the agent's first move. The generator is seeded from the seed of the
+    batched env's next reset (``venv.seed(s)``)."""
+
+    prob = StartsField()
+    max_moves = StartsField()
+    box = StartsField()
+    peak_prob = StartsField()
+    peak_noise = StartsField()
 
     def __init__(
         self,
@@ -232,41 +236,18 @@ class VecExploringStarts(VecEnvWrapper):
         if not isinstance(base, BatchedVecEnv):
             raise ValueError(f"VecExploringStarts needs a BatchedVecEnv under it, got {type(base).__name__}")
         super().__init__(venv)
-        checked = check_exploring(prob, max_moves, box, peak_prob, peak_noise)
-        self.prob, self.max_moves, self.box, self.peak_prob, self.peak_noise = checked
-        self._base, self._rng = base, np.random.default_rng()
+        self.starts = tricks.ExploringStarts(prob, max_moves, box, peak_prob, peak_noise)
+        self._base = base
 
     def reset(self) -> np.ndarray:
-        seed = self._base._seeds[0] if self._base._seeds else None
+        seed = self._base._seeds[0] if self._base._seeds else None  # SB3's VecEnv.seed(s), kept to the reset
         if seed is not None:
-            self._rng = np.random.default_rng(seed)
+            self.starts.seed(seed)
         return self.venv.reset()
 
     def step_wait(self) -> VecEnvStepReturn:
         obs, reward, dones, infos = self.venv.step_wait()
-        obs = explore_rows(self._base.vector_env, self._rng, dones, obs, self)
-        return obs, reward, dones, infos
-
-
-def explore_rows(
-    vec: Any, rng: np.random.Generator, dones: np.ndarray, obs: np.ndarray, starts: Any
-) -> np.ndarray:
-    """The exploring starts of one step of the batched env ``vec``: each row that just finished
-    (``dones``), with probability ``starts.prob``, flies the hidden prefix of
-    ``agents.wrappers.ExploringStarts`` (``starts``: its ``prob``, ``max_moves``, ``box``,
-    ``peak_prob`` and ``peak_noise``); ``obs`` with those rows' observations after the prefix
-    (a copy if any row changed)."""
-    rows = np.flatnonzero(dones)
-    rows = rows[rng.random(rows.size) < starts.prob]
-    if not rows.size:
-        return obs
-    configs = [vec.envs[i].config for i in rows]
-    drawn = rng.integers(1, starts.max_moves, rows.size, endpoint=True)
-    moves = np.minimum(drawn, [c.N - 3 for c in configs])
-    targets = draw_targets(rng, configs, starts.box, starts.peak_prob, starts.peak_noise)
-    obs = obs.copy()
-    obs[rows] = vec.fly(rows, targets, np.maximum(moves, 0))[rows]
-    return obs
+        return self.starts.apply(self._base.vector_env, dones, obs), reward, dones, infos
 
 
 #: Gymnasium wrappers of the zoo's ``env_wrapper`` key that have a VecEnv form here.

@@ -1,18 +1,27 @@
 """Gymnasium wrappers for training (named in the zoo's ``env_wrapper`` key of a hyperparameter file).
 
 They change what the learner sees, never the episode: trajectories, ``info`` and the
-evaluation (``agents.rollout``, on the plain env) are those of the env.
+evaluation (``agents.rollout``, on the plain env) are those of the env. Each is a thin adapter
+over its trick in ``agents.tricks`` (the one implementation, on the batched env's rows) applied
+to one row, for the zoo and SB3's ``DummyVecEnv``; the batched env's forms are in
+``agents.vec_env`` and the fast trainer's in ``agents.fast.ppo``.
 """
 
 from __future__ import annotations
 
-import math
 from typing import Any, SupportsFloat
 
 import gymnasium as gym
 import numpy as np
 
+from agents import tricks
+from agents.tricks import EXPLORE_BOX, StartsField, check_exploring, check_repeat, draw_targets
 from ios_uav_env.envs.policies import move_toward
+
+__all__ = [
+    "EXPLORE_BOX", "ActionRepeat", "ExploringStarts", "ShiftReward", "action_repeat", "apply_wrappers",
+    "check_exploring", "check_repeat", "draw_targets",
+]  # fmt: skip
 
 
 class ShiftReward(gym.RewardWrapper):
@@ -29,15 +38,11 @@ class ShiftReward(gym.RewardWrapper):
 
     def __init__(self, env: gym.Env, offset: float = 0.0, scale: float = 1.0) -> None:
         super().__init__(env)
-        for name, value in (("offset", offset), ("scale", scale)):
-            if not (isinstance(value, (int, float)) and math.isfinite(value)):
-                raise ValueError(f"ShiftReward {name} must be a finite number, got {value!r}")
-        if scale <= 0:
-            raise ValueError(f"ShiftReward scale must be > 0, got {scale!r}")
-        self.offset, self.scale = float(offset), float(scale)
+        self.shift = tricks.RewardShift(offset, scale)
+        self.offset, self.scale = self.shift.offset, self.shift.scale
 
     def reward(self, reward: SupportsFloat) -> float:
-        return self.scale * (float(reward) - self.offset)
+        return float(self.shift(np.float64(reward)))
 
 
 def action_repeat(spec: Any) -> int:
@@ -49,13 +54,6 @@ def action_repeat(spec: Any) -> int:
         if name == f"{__name__}.{ActionRepeat.__name__}":
             return check_repeat((kwargs or {}).get("repeat", 1))
     return 1
-
-
-def check_repeat(repeat: Any) -> int:
-    """``repeat`` checked: an integer >= 1."""
-    if isinstance(repeat, bool) or not isinstance(repeat, int) or repeat < 1:
-        raise ValueError(f"ActionRepeat repeat must be an integer >= 1, got {repeat!r}")
-    return repeat
 
 
 class ActionRepeat(gym.Wrapper):
@@ -70,56 +68,19 @@ class ActionRepeat(gym.Wrapper):
 
     def __init__(self, env: gym.Env, repeat: int = 1) -> None:
         super().__init__(env)
-        self.repeat = check_repeat(repeat)
+        self.hold = tricks.ActionRepeat(repeat)
+        self.repeat = self.hold.repeat
 
     def step(self, action: Any) -> tuple[Any, float, bool, bool, dict[str, Any]]:
-        total = 0.0
-        for _ in range(self.repeat):
+        flags: list[tuple[bool, bool]] = []
+
+        def advance(rows: np.ndarray) -> tuple[Any, np.ndarray, np.ndarray, dict[str, Any]]:
             obs, reward, terminated, truncated, info = self.env.step(action)
-            total += float(reward)
-            if terminated or truncated:
-                break
-        return obs, total, terminated, truncated, info
+            flags.append((terminated, truncated))
+            return obs, np.array([float(reward)]), np.array([terminated or truncated]), info
 
-
-#: The box the exploring starts fly towards (x, y ranges in m): the nodes' ranges of the
-#: randomised ids (``MULTINODE_RANGES``), a little higher in y for the far side of the IOS.
-EXPLORE_BOX = ((-250.0, 250.0), (-150.0, 200.0))
-
-
-def check_exploring(
-    prob: Any, max_moves: Any, box: Any, peak_prob: Any = 0.0, peak_noise: Any = 0.0
-) -> tuple[float, int, np.ndarray, float, float]:
-    """The arguments of :class:`ExploringStarts` checked (``ValueError`` naming the field)."""
-    for name, value in (("prob", prob), ("peak_prob", peak_prob)):
-        if isinstance(value, bool) or not (isinstance(value, (int, float)) and 0.0 <= value <= 1.0):
-            raise ValueError(f"ExploringStarts {name} must be a number in [0, 1], got {value!r}")
-    if isinstance(peak_noise, bool) or not (
-        isinstance(peak_noise, (int, float)) and math.isfinite(peak_noise) and peak_noise >= 0
-    ):
-        raise ValueError(f"ExploringStarts peak_noise must be a finite number >= 0 (m), got {peak_noise!r}")
-    if isinstance(max_moves, bool) or not isinstance(max_moves, int) or max_moves < 1:
-        raise ValueError(f"ExploringStarts max_moves must be an integer >= 1, got {max_moves!r}")
-    area = np.asarray(box, dtype=np.float64)
-    if area.shape != (2, 2) or not np.all(np.isfinite(area)) or np.any(area[:, 0] > area[:, 1]):
-        raise ValueError(f"ExploringStarts box must be ((x_min, x_max), (y_min, y_max)) in m, got {box!r}")
-    return float(prob), max_moves, area, float(peak_prob), float(peak_noise)
-
-
-def draw_targets(
-    rng: np.random.Generator, configs: list[Any], box: np.ndarray, peak_prob: float, peak_noise: float
-) -> np.ndarray:
-    """One prefix target per scenario of ``configs`` ((n, 2) m): with probability ``peak_prob`` the
-    reachable rate peak of one of its nodes drawn uniformly (``node_peaks``, the ``peak_hint``
-    points) plus Gaussian noise of ``peak_noise`` m per axis, else a point uniform in ``box``."""
-    from ios_uav_env.envs.multi import node_peaks
-
-    targets = rng.uniform(box[:, 0], box[:, 1], (len(configs), 2))
-    near = rng.random(len(configs)) < peak_prob
-    for i in np.flatnonzero(near):
-        peaks = node_peaks(configs[i])
-        targets[i] = np.asarray(peaks[int(rng.integers(len(peaks)))][:2]) + rng.normal(0.0, peak_noise, 2)
-    return targets
+        obs, total, _, info = self.hold.step(advance, 1)
+        return obs, float(total[0]), *flags[-1], info
 
 
 class ExploringStarts(gym.Wrapper):
@@ -136,8 +97,16 @@ class ExploringStarts(gym.Wrapper):
     rarely lead to (the multi-node runs: ``results/log.md``). A training wrapper: the episode's return
     and its scorer are the env's, the learner sees only the part after the prefix, and
     evaluation runs on the plain env. The draws come from the wrapper's own generator, seeded
-    by ``reset(seed=...)``. The batched env's form is ``agents.vec_env.VecExploringStarts``.
+    by ``reset(seed=...)`` (``agents.tricks.ExploringStarts`` on one row). The batched env's form
+    is ``agents.vec_env.VecExploringStarts``; the prefix is flown by ``self.env.step``, so list
+    this wrapper before (under) an ``ActionRepeat``.
     """
+
+    prob = StartsField()
+    max_moves = StartsField()
+    box = StartsField()
+    peak_prob = StartsField()
+    peak_noise = StartsField()
 
     def __init__(
         self,
@@ -149,23 +118,18 @@ class ExploringStarts(gym.Wrapper):
         peak_noise: float = 25.0,
     ) -> None:
         super().__init__(env)
-        checked = check_exploring(prob, max_moves, box, peak_prob, peak_noise)
-        self.prob, self.max_moves, self.box, self.peak_prob, self.peak_noise = checked
-        self._rng = np.random.default_rng()
+        self.starts = tricks.ExploringStarts(prob, max_moves, box, peak_prob, peak_noise)
 
     def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None) -> tuple[Any, dict]:
         if seed is not None:
-            self._rng = np.random.default_rng(seed)
+            self.starts.seed(seed)
         obs, info = self.env.reset(seed=seed, options=options)
-        if self._rng.random() >= self.prob:
-            return obs, info
-        base = self.env.unwrapped
-        cfg = base.config
-        moves = min(int(self._rng.integers(1, self.max_moves, endpoint=True)), cfg.N - 3)
-        target = draw_targets(self._rng, [cfg], self.box, self.peak_prob, self.peak_noise)[0]
+        cfg = self.env.unwrapped.config
+        rows, targets, moves = self.starts.draw(np.zeros(1, dtype=np.int64), lambda rows: [cfg])
+        # one row: its prefix flown by the env's own steps (a single env has no batched fly)
         action = np.zeros(self.action_space.shape, dtype=np.float32)  # node scores 0: equal shares
-        for _ in range(max(moves, 0)):
-            action[:2] = move_toward(target - info["position"], cfg.D)
+        for _ in range(int(moves[0]) if rows.size else 0):
+            action[:2] = move_toward(targets[0] - info["position"], cfg.D)
             obs, _, _, _, info = self.env.step(action)
         return obs, info
 

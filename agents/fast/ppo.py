@@ -17,7 +17,9 @@ with ``VecNormalize``, row for row:
   value's squared error (``vf_coef``), the entropy (``ent_coef``), the gradient clipped to
   ``max_grad_norm``, Adam on SB3's optimizer; ``learning_rate`` and ``clip_range`` follow the
   progress of the run as SB3's schedules do, the log-std schedule and the exploring starts'
-  schedule as ``agents.callbacks`` defines them.
+  schedule as ``agents.callbacks`` defines them;
+- the recipe's tricks (the exploring starts, the reward shift) are ``agents.tricks``' on the
+  rows' arrays, the implementation the SB3 VecEnv path (``agents.vec_env``) calls too.
 
 The update runs on torch's autograd, or (``update="kernel"``, the default when numba is
 installed and the network is a plain tanh MLP) as one compiled function per update
@@ -41,7 +43,7 @@ from agents.fast.gae import gae
 from agents.fast.kernel_policy import KernelUpdate
 from agents.fast.recipe import FastRecipe
 from agents.scores import score_label
-from agents.wrappers import check_exploring
+from agents.tricks import ExploringStarts, RewardShift, scheduled_prob
 from ios_uav_env.jit import HAVE_NUMBA, prefer_passive_threads
 
 prefer_passive_threads()  # numba's threads must not spin while torch trains (see the function)
@@ -51,19 +53,6 @@ prefer_passive_threads()  # numba's threads must not spin while torch trains (se
 UPDATES = ("auto", "kernel", "torch")
 #: The update's statistics, in :func:`agents.fast.kernel.ppo_update`'s order.
 STAT_KEYS = ("policy_loss", "value_loss", "approx_kl", "clip_fraction")
-
-
-class _Starts:
-    """The exploring starts' settings (``agents.wrappers.ExploringStarts``' fields), ``prob`` scheduled."""
-
-    def __init__(self, kwargs: Mapping[str, Any]) -> None:
-        full = {"prob": 0.5, "max_moves": 110, "peak_prob": 0.0, "peak_noise": 25.0, **kwargs}
-        from agents.wrappers import EXPLORE_BOX
-
-        checked = check_exploring(full["prob"], full["max_moves"], full.get("box", EXPLORE_BOX),
-                                  full["peak_prob"], full["peak_noise"])  # fmt: skip
-        self.prob, self.max_moves, self.box, self.peak_prob, self.peak_noise = checked
-        self.initial = self.prob
 
 
 class FastPPO:
@@ -131,8 +120,10 @@ class FastPPO:
             policy.log_std.requires_grad_(False)
         self.policy, self.optimizer = policy, policy.optimizer
         self.kernel = self._kernel(update)
-        self.starts = _Starts(recipe.exploring) if recipe.exploring is not None else None
-        self._rng = np.random.default_rng(self.seed)
+        # the recipe's tricks on the rows' arrays (agents.tricks, as the SB3 VecEnv path applies them)
+        self.starts = ExploringStarts(**recipe.exploring) if recipe.exploring is not None else None
+        self.shift = RewardShift(*recipe.reward_shift) if recipe.reward_shift is not None else None
+        self._rng = np.random.default_rng(self.seed)  # the starts' draws (reset() reseeds it)
         space = self.vec.single_action_space
         self._low, self._high = space.low.astype(np.float32), space.high.astype(np.float32)
         self._returns = np.zeros(recipe.n_envs)
@@ -201,6 +192,8 @@ class FastPPO:
         self._returns[:] = 0.0
         self._obs = obs
         self._rng = np.random.default_rng([self.seed, self.steps])
+        if self.starts is not None:  # one generator: checkpoints keep its state (agents.fast.run)
+            self.starts.rng = self._rng
 
     def _normalized_obs(self, obs: np.ndarray) -> np.ndarray:
         vn = self.vecnormalize
@@ -224,9 +217,7 @@ class FastPPO:
             with torch.no_grad():
                 self.policy.log_std.fill_(r.log_std[0] + done * (r.log_std[1] - r.log_std[0]))
         if self.starts is not None and r.exploring_schedule is not None:
-            hold, end = r.exploring_schedule
-            late = max(0.0, done - hold) / (1.0 - hold) if hold < 1.0 else 0.0
-            self.starts.prob = self.starts.initial + late * (end - self.starts.initial)
+            self.starts.prob = scheduled_prob(self.starts.initial, done, *r.exploring_schedule)
         for group in self.optimizer.param_groups:
             group["lr"] = r.learning_rate(self.progress_remaining)
 
@@ -285,22 +276,20 @@ class FastPPO:
         finished episodes' scores recorded and their time-limit cuts bootstrapped, the exploring
         starts applied to the rows that ended (unless not ``explore``), the rewards shifted and
         normalised (:meth:`_normalized_rewards`)."""
-        from agents.vec_env import explore_rows
-
         dones = terminated | truncated
         reward = np.asarray(reward, dtype=np.float64)
         if dones.any():
             reward = self._episode_ends(reward, terminated, truncated, info)
             if explore and self.starts is not None:
-                obs = explore_rows(self.vec, self._rng, dones, obs, self.starts)
+                obs = self.starts.apply(self.vec, dones, obs)
         return obs, self._normalized_rewards(obs, reward, dones), dones
 
     def _normalized_rewards(self, obs: np.ndarray, reward: np.ndarray, dones: np.ndarray) -> np.ndarray:
         """The slot's rewards as the update sees them (the recipe's shift, then ``VecNormalize``'s
         return scaling), updating the observation and return statistics with the slot."""
-        r, vn = self.recipe, self.vecnormalize
-        if r.reward_shift is not None:
-            reward = r.reward_shift[1] * (reward - r.reward_shift[0])
+        vn = self.vecnormalize
+        if self.shift is not None:
+            reward = self.shift(reward)
         if vn is not None:
             if vn.norm_obs:
                 vn.obs_rms.update(obs)

@@ -9,7 +9,8 @@ and ``clip_range`` (a number or ``lin_<number>``), ``ent_coef``, ``vf_coef``,
 ``max_grad_norm``, ``target_kl``, ``normalize_advantage``, ``policy_kwargs`` (the SB3 policy is
 the network), ``normalize`` (VecNormalize's statistics and rules). Of the zoo's ``callback`` and
 ``env_wrapper`` keys the trainer honours the ones whose effect it reproduces on arrays
-(:data:`CALLBACKS`, :data:`WRAPPERS`) and refuses any other by name. A ``CloneStart`` expert is
+(:data:`CALLBACKS`, :data:`WRAPPERS`: their ``agents.tricks`` forms, checked here) and refuses
+any other by name. A ``CloneStart`` expert is
 checked on the run's env with the recipe (:func:`checked_expert`), before the run writes anything.
 """
 
@@ -23,6 +24,7 @@ from typing import Any
 import numpy as np
 
 from agents.hyperparams import Hyperparams
+from agents.tricks import ExploringStarts, RewardShift
 
 #: PPO keyword arguments the fast trainer reads (every other PPO argument is refused by name).
 PPO_KEYS = (
@@ -35,7 +37,8 @@ CALLBACKS = (
     "agents.callbacks.ExploringStartsSchedule",
     "agents.callbacks.CloneStart",
 )
-#: Wrappers of the zoo's ``env_wrapper`` key the trainer applies on the batched env's arrays.
+#: Wrappers of the zoo's ``env_wrapper`` key the trainer applies on the batched env's arrays
+#: (``agents.tricks.ExploringStarts`` and ``RewardShift``; the action repeat is not one of them).
 WRAPPERS = ("agents.wrappers.ExploringStarts", "agents.wrappers.ShiftReward")
 
 
@@ -157,12 +160,14 @@ class FastRecipe:
         for wrapper, wrapper_kwargs in hp.env_wrappers:
             name = _name(wrapper)
             if name == WRAPPERS[0]:
+                ExploringStarts(**wrapper_kwargs)  # checked now (ValueError naming the field)
                 exploring = dict(wrapper_kwargs)
             elif name == WRAPPERS[1]:
-                shift = (float(wrapper_kwargs.get("offset", 0.0)), float(wrapper_kwargs.get("scale", 1.0)))
+                trick = RewardShift(**wrapper_kwargs)
+                shift = (trick.offset, trick.scale)
             else:
                 raise ValueError(
-                    f"hyperparameter env_wrapper {name!r} has no array form in the fast trainer (it has "
+                    f"hyperparameter env_wrapper {name!r} is not applied by the fast trainer (it applies "
                     f"{', '.join(WRAPPERS)})"
                 )
         if exploring_schedule is not None and exploring is None:
