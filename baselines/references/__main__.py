@@ -26,6 +26,7 @@ from baselines.references.mobile import (
     mobile_content,
     mobile_tasks,
 )
+from baselines.references.online import MULTI_MOBILE_RANGES, MULTI_MOBILE_SIZE
 from baselines.references.solve import BOUND_RESOLUTION, DP_RESOLUTION, ENERGY_BOUND_RESOLUTION, solve_all
 from ios_uav_env.benchmark.suite import SUITE_DIR, check_suite_name
 
@@ -42,6 +43,15 @@ MOBILE_CACHE = Path("out/mobile-v1")
 #: mobile-quick-v1, cached and written under out/mobile-quick.
 MOBILE_QUICK = {"n": 2, "T": (40.0, 45.0), "bound_resolution": 12.5}
 MOBILE_QUICK_DIR = Path("out/mobile-quick")
+#: The suites normalised by the clairvoyant optimum (``mobile --version 2``, ``multi-node-mobile``),
+#: by multi-node: their caches and quick folders; ``--quick``: 2 scenarios of 20 to 22 s, q0 and qF
+#: 200 m apart, a surface of 4 x 10 elements, the optimum on a 2.5 m grid, the bound's cells and MPC-DP's
+#: grid 12.5 m: a suite for checks, not for comparisons.
+ONLINE_CACHE = {False: Path("out/mobile-v2"), True: Path("out/multi-node-mobile-v1")}
+ONLINE_QUICK_DIR = {False: MOBILE_QUICK_DIR, True: Path("out/multi-node-mobile-quick")}
+ONLINE_QUICK = {"n": 2, "dp_resolution": 2.5, "resolution": 12.5}
+ONLINE_QUICK_RANGES = {"T": (20.0, 22.0), "start_x": (-100.0, -100.0), "end_x": (100.0, 100.0),
+                       "ios_rows": (4, 4), "ios_columns": 10}  # fmt: skip
 
 
 def _drawn_parser(
@@ -87,17 +97,27 @@ def _parser() -> argparse.ArgumentParser:
         MOBILE_CACHE,
         "a tiny check suite: 2 short scenarios, a coarse bound, mobile-quick-v1 in out/mobile-quick",
     )
-    for sub in (single, multi, energy, mobile):
-        sub.add_argument("--name", default=None, help="suite name (default <kind>-v1)")
-        sub.add_argument("--version", type=int, default=1)
+    multi_mobile = _drawn_parser(
+        kinds,
+        "multi-node-mobile",
+        "solve the multi-node mobile held-out scenarios online and freeze them",
+        MULTI_MOBILE_SIZE,
+        ONLINE_CACHE[True],
+        "a tiny check suite: 2 short scenarios, coarse grids, in out/multi-node-mobile-quick",
+    )
+    for sub in (single, multi, energy, mobile, multi_mobile):
+        sub.add_argument("--name", default=None, help="suite name (default <kind>-v<version>)")
+        sub.add_argument(
+            "--version", type=int, default=1, help="mobile: 2 is the suite normalised by the optimum"
+        )
         sub.add_argument("--dir", type=Path, default=None, help="folder of the suite file (the package's)")
     return p
 
 
 def main(argv: Sequence[str] | None = None) -> int:
     args = _parser().parse_args(argv)
-    quick = args.kind in ("energy", "mobile") and args.quick
-    name = args.name or (f"{args.kind}-quick-v1" if quick else f"{args.kind}-v1")
+    quick = args.kind in ("energy", "mobile", "multi-node-mobile") and args.quick
+    name = args.name or (f"{args.kind}-quick-v{args.version}" if quick else f"{args.kind}-v{args.version}")
     quick_dir = MOBILE_QUICK_DIR if args.kind == "mobile" else QUICK_DIR
     directory = args.dir or (quick_dir if quick else SUITE_DIR)
     if args.version < 1:
@@ -108,6 +128,9 @@ def main(argv: Sequence[str] | None = None) -> int:
         raise SystemExit(str(err)) from None
     if args.kind == "energy":
         return _energy(args, name, directory)
+    if args.kind == "multi-node-mobile" or (args.kind == "mobile" and args.version >= 2):
+        multi = args.kind == "multi-node-mobile"
+        return _online(args, name, args.dir or (ONLINE_QUICK_DIR[multi] if quick else SUITE_DIR), multi)
     if args.kind == "mobile":
         return _mobile(args, name, directory)
     if args.kind == "single-node":
@@ -203,6 +226,41 @@ def _mobile(args: argparse.Namespace, name: str, directory: Path) -> int:
     passed = "checks: every plan feasible and every rate <= the clairvoyant bound"
     build = lambda: mobile_content(records, name, args.version, seed=args.seed, ranges=ranges)  # noqa: E731
     return _finish(args, records, check_mobile_record, passed, build, directory)
+
+
+def _online(args: argparse.Namespace, name: str, directory: Path, multi: bool) -> int:
+    """``mobile --version 2`` / ``multi-node-mobile``: draw, solve (cached, resumable), check and
+    freeze a suite normalised by the clairvoyant optimum (:mod:`baselines.references.online`); a
+    scenario that fails a check stops the freeze, named."""
+    import dataclasses
+    import functools
+
+    from baselines.references import online
+    from baselines.runner import run_tasks
+
+    n = _size(args, MULTI_MOBILE_SIZE if multi else MOBILE_SIZE, ONLINE_QUICK["n"])
+    family = MULTI_MOBILE_RANGES if multi else MOBILE_RANGES
+    ranges = dataclasses.replace(family, **ONLINE_QUICK_RANGES) if args.quick else family
+    grids = (ONLINE_QUICK["dp_resolution"], *(ONLINE_QUICK["resolution"],) * 2) if args.quick else (
+        online.DP_RESOLUTION, online.BOUND_RESOLUTION, online.MPC_RESOLUTION)  # fmt: skip
+    settings = dict(zip(("dp_resolution", "bound_resolution", "mpc_resolution"), grids, strict=True))
+    cache = args.cache or (ONLINE_QUICK_DIR[multi] / "cache" if args.quick else ONLINE_CACHE[multi])
+    tasks = (online.multi_mobile_tasks if multi else mobile_tasks)(n, args.seed, ranges)
+    records = run_tasks(
+        functools.partial(online.solve_task, **settings), tasks, cache,
+        key=functools.partial(online.online_key, **settings), jobs=args.jobs,
+        order=online.longest_first,
+        progress=not args.quick, desc=name, unit="scenario", describe=online.describe,
+        required=("config", "seed", "optimum", "bound", *online.ONLINE),
+    )  # fmt: skip
+    share = f"{100 * online.ONLINE_SHARE:g}%"
+    passed = (
+        f"checks: every plan feasible, bound >= optimum >= {share} of every online row, every row <= bound"
+    )
+    build = lambda: online.online_content(  # noqa: E731
+        records, name, args.version, seed=args.seed, ranges=ranges, multi=multi, settings=settings
+    )
+    return _finish(args, records, online.check_online_record, passed, build, directory)
 
 
 if __name__ == "__main__":

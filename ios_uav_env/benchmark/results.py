@@ -13,7 +13,11 @@ eq. (10)). What a suite reports is its :class:`Metrics`, named by the suite's ki
   energy (J) and its EE;
 - ``mobile``: the average rate on the node's true path (``score_plan(..., paths=...)``) as % of
   the clairvoyant bound (the normaliser) and of MPC(k=1), whose planning time the policy's is
-  compared with.
+  compared with; a mobile suite normalised by ``"optimum"`` (``mobile-v2``) as % of the
+  clairvoyant optimum (``pct_optimum``, the DP on the true path) and of the bound;
+- ``multi-node-mobile``: the max-min rate with the plan's own shares on the nodes' true paths as
+  % of the clairvoyant optimum (the normaliser) and of the bound, and the best schedule's % of
+  the optimum.
 
 ``pct_<reference>`` = 100 x rate / the reference's rate on the scenario (energy: 100 x EE / the
 reference's EE). **An infeasible plan
@@ -24,6 +28,7 @@ on a grid, SCA a local optimum); "% of bound" never does for a feasible plan.
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from collections.abc import Iterator, Mapping, Sequence
 from dataclasses import dataclass, field
@@ -36,6 +41,7 @@ from ios_uav_env.benchmark.suite import (
     ENERGY,
     MOBILE,
     MULTI_NODE,
+    MULTI_NODE_MOBILE,
     SCORED,
     SINGLE_NODE,
     TIMED,
@@ -47,7 +53,7 @@ from ios_uav_env.model.config import ScenarioConfig
 from ios_uav_env.model.score import PlanScore
 
 #: How a reference is named in summaries and tables.
-LABELS = {"dp": "DP", "sca": "SCA", "bound": "bound", "mpc_k1": "MPC(k=1)"}
+LABELS = {"dp": "DP", "sca": "SCA", "bound": "bound", "mpc_k1": "MPC(k=1)", "optimum": "optimum"}
 
 
 @dataclass(frozen=True)
@@ -82,17 +88,19 @@ METRICS = {
     MULTI_NODE: Metrics(SCORED[MULTI_NODE], True),
     ENERGY: Metrics(SCORED[ENERGY], False, energy=True),
     MOBILE: Metrics(SCORED[MOBILE], False, timed=TIMED[MOBILE]),
+    MULTI_NODE_MOBILE: Metrics(SCORED[MULTI_NODE_MOBILE], True, timed=TIMED[MULTI_NODE_MOBILE]),
 }
 
 
 def metrics_of(suite: Suite) -> Metrics:
-    """The :class:`Metrics` of ``suite`` (its kind's, normalised by the suite's normaliser)."""
+    """The :class:`Metrics` of ``suite``: its kind's, scored against the references of the suite's
+    normaliser (``suite.scores``: ``ValueError`` for a normaliser its kind has not)."""
     metrics = METRICS[suite.kind]
-    if metrics.normaliser != suite.normalizer:
-        raise ValueError(
-            f"suite {suite.name}: normaliser {suite.normalizer!r}, its kind's is {metrics.normaliser!r}"
-        )
-    return metrics
+    try:
+        scores = suite.scores
+    except ValueError as err:
+        raise ValueError(f"suite {suite.name}: {err}") from None
+    return metrics if scores == metrics.scores else dataclasses.replace(metrics, scores=scores)
 
 
 @dataclass(frozen=True)

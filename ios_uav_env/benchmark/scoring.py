@@ -389,8 +389,8 @@ def score_trajectories(
     missing = sorted(set(range(indices[-1] + 1)) - set(indices))
     if missing:
         raise ValueError(f"the trajectories must cover scenarios 0..n-1 of {suite.name}; missing {missing}")
-    if shares and not suite.multi_node:
-        raise ValueError(f"shares are for multi-node suites; {suite.name} is a single-node suite")
+    if shares and not suite.schedules:
+        raise ValueError(f"shares are for multi-node suites; {suite.name} is a {suite.kind} suite")
     scenarios, metrics = suite.subset(len(indices)), metrics_of(suite)
     times = {
         int(i): check_plan_time(t, f"scenario {int(i)}", unknown=True) for i, t in (seconds or {}).items()

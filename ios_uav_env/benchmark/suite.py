@@ -58,6 +58,18 @@ the true path: ``score_plan(config, q, paths=...)``) of :data:`MOBILE_REFERENCES
   on the reports (fly to the node at full speed and follow it).
 
 No reference exceeds the bound (:func:`load_suite` refuses the file otherwise).
+
+A mobile suite whose ``normalizer`` is ``"optimum"`` (``mobile-v2``: :data:`MOBILE_V2_REFERENCES`)
+adds ``optimum``, the clairvoyant DP on the true path (``baselines.dp_moving.solve``, planner
+``dp-clairvoyant``: ``rate``, ``feasible``, ``resolution``, ``seconds``), its normaliser, and
+``mpc_dp_k1`` / ``mpc_dp_k10``, ``MPC(k=1 / 10, planner="dp")`` online; its scores are % of the
+optimum and % of the bound (:data:`NORMALISERS`). A multi-node mobile suite (``"kind":
+"multi-node-mobile"``, ``multi-node-mobile-v1``) runs in ``ios_uav_env/IOSUAV-MultiNode-Mobile-v0``:
+2 to 4 walking, reported nodes per scenario with its episode ``seed``, max-min rates with each
+row's own shares on the true paths (:data:`MULTI_MOBILE_REFERENCES`: ``optimum`` and ``bound``
+from ``dp_moving.solve(paths=...)``, i.e. ``dp_bound.solve_multinode``'s plan and certified
+bound; the MPC rows; ``straight``, ``StraightEqualShares`` in the env), scored as % of the
+optimum and of the bound, with the best schedule.
 """
 
 from __future__ import annotations
@@ -85,26 +97,61 @@ MULTI_REFERENCES = ("sca", "tour", "bound")
 ENERGY_REFERENCES = ("dp", "sca", "bound", "loiter", "hover")
 #: Reference values every scenario of a mobile suite holds.
 MOBILE_REFERENCES = ("bound", "clairvoyant", "mpc_k1", "mpc_k10", "plan_once", "track_exact", "track_reports")
+#: Those of a mobile suite normalised by the clairvoyant optimum (mobile-v2), the optimum first.
+MOBILE_V2_REFERENCES = ("optimum", "bound", "mpc_dp_k1", "mpc_dp_k10", "track_exact", "track_reports",
+                        "mpc_k1", "mpc_k10", "plan_once", "clairvoyant")  # fmt: skip
+#: Those of a multi-node mobile suite (no tracking heuristic: HoverAt needs one node).
+MULTI_MOBILE_REFERENCES = ("optimum", "bound", "mpc_dp_k1", "mpc_dp_k10", "mpc_k1", "mpc_k10", "plan_once",
+                           "clairvoyant", "straight")  # fmt: skip
 SINGLE_NODE, MULTI_NODE, ENERGY, MOBILE = "single-node", "multi-node", "energy", "mobile"
+MULTI_NODE_MOBILE = "multi-node-mobile"
+#: The kinds whose scenarios hold an episode seed (moving nodes, scored on their true paths).
+MOBILE_KINDS = (MOBILE, MULTI_NODE_MOBILE)
 #: By suite kind: the references it may hold, and those its scores are percentages of (the
 #: normaliser first), whose rates must be > 0 on every scenario.
 KIND_REFERENCES = {
     SINGLE_NODE: REFERENCES,
     MULTI_NODE: MULTI_REFERENCES,
     ENERGY: ENERGY_REFERENCES,
-    MOBILE: MOBILE_REFERENCES,
+    MOBILE: tuple(dict.fromkeys((*MOBILE_REFERENCES, *MOBILE_V2_REFERENCES))),
+    MULTI_NODE_MOBILE: MULTI_MOBILE_REFERENCES,
 }
 SCORED = {
     SINGLE_NODE: ("dp", "sca"),
     MULTI_NODE: ("sca", "bound"),
     ENERGY: ("dp", "bound"),
     MOBILE: ("bound", "mpc_k1"),
+    MULTI_NODE_MOBILE: ("optimum", "bound"),
 }
+#: By suite kind and normaliser (the file's ``normalizer``): the references scored, the normaliser
+#: first. A kind's default is :data:`SCORED`'s; a mobile suite may be normalised by the optimum.
+NORMALISERS: dict[str, dict[str, tuple[str, ...]]] = {kind: {refs[0]: refs} for kind, refs in SCORED.items()}
+NORMALISERS[MOBILE]["optimum"] = ("optimum", "bound")
 #: By suite kind: the reference whose planning time a policy's is compared with.
-TIMED = {SINGLE_NODE: "sca", MULTI_NODE: "sca", ENERGY: "sca", MOBILE: "mpc_k1"}
+TIMED = {SINGLE_NODE: "sca", MULTI_NODE: "sca", ENERGY: "sca", MOBILE: "mpc_k1", MULTI_NODE_MOBILE: "mpc_k1"}
 #: By suite kind: the key of a plan reference's value (a bound's is ``"upper_bound"``) and its unit.
-VALUE_KEY = {SINGLE_NODE: "rate", MULTI_NODE: "rate", ENERGY: "energy_efficiency", MOBILE: "rate"}
-UNIT = {SINGLE_NODE: "bps/Hz", MULTI_NODE: "bps/Hz", ENERGY: "bits/J", MOBILE: "bps/Hz"}
+VALUE_KEY = {SINGLE_NODE: "rate", MULTI_NODE: "rate", ENERGY: "energy_efficiency", MOBILE: "rate",
+             MULTI_NODE_MOBILE: "rate"}  # fmt: skip
+UNIT = {
+    SINGLE_NODE: "bps/Hz",
+    MULTI_NODE: "bps/Hz",
+    ENERGY: "bits/J",
+    MOBILE: "bps/Hz",
+    MULTI_NODE_MOBILE: "bps/Hz",
+}
+
+
+def scored_references(kind: str, normalizer: str) -> tuple[str, ...]:
+    """The references a ``kind`` suite normalised by ``normalizer`` is scored against (the
+    normaliser first; :data:`NORMALISERS`); ``ValueError`` for a normaliser the kind has not."""
+    if normalizer not in NORMALISERS.get(kind, {}):
+        raise ValueError(
+            f"normalizer of a {kind} suite must be one of {list(NORMALISERS.get(kind, {}))}, "
+            f"got {normalizer!r}"
+        )
+    return NORMALISERS[kind][normalizer]
+
+
 #: Relative slack of the energy and mobile suites' check that no reference exceeds the bound
 #: (float rounding of two float64 computations of the same kind of sum; a real excess is far larger).
 BOUND_REL = 1e-9
@@ -250,8 +297,18 @@ class Suite:
 
     @property
     def mobile(self) -> bool:
-        """The node moves: each scenario's episode seed fixes its path and the reports' noise."""
-        return self.kind == MOBILE
+        """The nodes move: each scenario's episode seed fixes their paths and the reports' noise."""
+        return self.kind in MOBILE_KINDS
+
+    @property
+    def schedules(self) -> bool:
+        """K > 1 nodes: plans carry TDMA shares (a multi-node or multi-node mobile suite)."""
+        return self.kind in (MULTI_NODE, MULTI_NODE_MOBILE)
+
+    @property
+    def scores(self) -> tuple[str, ...]:
+        """The references the scores are percentages of, the normaliser first (:func:`scored_references`)."""
+        return scored_references(self.kind, self.normalizer)
 
     def __len__(self) -> int:
         return len(self.scenarios)
@@ -327,7 +384,8 @@ def load_suite(suite: str | Path = DEFAULT_SUITE) -> Suite:
     records = data.get("scenarios")
     if not isinstance(records, list) or not records:
         raise ValueError(f"{path}: scenarios must be a non-empty list of scenario objects")
-    scenarios = [_scenario(path, kind, references, i, rec) for i, rec in enumerate(records)]
+    scored = scored_references(kind, data["normalizer"])
+    scenarios = [_scenario(path, kind, references, scored, i, rec) for i, rec in enumerate(records)]
     if [s.index for s in scenarios] != list(range(len(scenarios))):
         raise ValueError(f"{path}: scenario indices must be 0 .. n-1 in order")
     return Suite(
@@ -362,8 +420,16 @@ def _read_json(path: Path) -> Any:
 
 
 def _check_header(path: Path, data: Mapping[str, Any]) -> tuple[str, tuple[str, ...]]:
-    """Check a suite file's fields other than its scenarios; its kind and references."""
-    from ios_uav_env.envs.registration import ENERGY_IDS, ENV_IDS, MOBILE_IDS, MULTINODE_IDS, RANDOM_ENV_ID
+    """Check a suite file's fields other than its scenarios; its kind and references (a
+    normaliser of :data:`NORMALISERS`, whose scored references the file must hold)."""
+    from ios_uav_env.envs.registration import (
+        ENERGY_IDS,
+        ENV_IDS,
+        MOBILE_IDS,
+        MULTINODE_IDS,
+        MULTINODE_MOBILE_IDS,
+        RANDOM_ENV_ID,
+    )
 
     version = data.get("version")
     if isinstance(version, bool) or not isinstance(version, int) or version < 1:
@@ -371,20 +437,23 @@ def _check_header(path: Path, data: Mapping[str, Any]) -> tuple[str, tuple[str, 
     kind = data.get("kind", SINGLE_NODE)
     if kind not in KIND_REFERENCES:
         raise ValueError(f"{path}: kind must be one of {list(KIND_REFERENCES)}, got {kind!r}")
-    env_ids = {MULTI_NODE: list(MULTINODE_IDS), ENERGY: list(ENERGY_IDS), MOBILE: list(MOBILE_IDS)}.get(
-        kind, [*ENV_IDS, RANDOM_ENV_ID]
-    )
+    ids = {
+        MULTI_NODE: MULTINODE_IDS,
+        ENERGY: ENERGY_IDS,
+        MOBILE: MOBILE_IDS,
+        MULTI_NODE_MOBILE: MULTINODE_MOBILE_IDS,
+    }
+    env_ids = list(ids[kind]) if kind in ids else [*ENV_IDS, RANDOM_ENV_ID]
     if data.get("env_id") not in env_ids:
         raise ValueError(
             f"{path}: env_id of a {kind} suite must be one of {env_ids}, got {data.get('env_id')!r}"
         )
     if not isinstance(data.get("env_kwargs", {}), dict):
         raise ValueError(f"{path}: env_kwargs must be an object of env arguments, got {data['env_kwargs']!r}")
-    scored = SCORED[kind]
-    if data.get("normalizer") != scored[0]:
-        raise ValueError(
-            f"{path}: normalizer of a {kind} suite must be {scored[0]!r}, got {data.get('normalizer')!r}"
-        )
+    try:
+        scored = scored_references(kind, data.get("normalizer"))
+    except ValueError as err:
+        raise ValueError(f"{path}: {err}") from None
     references = data.get("references")
     allowed = KIND_REFERENCES[kind]
     if (
@@ -399,7 +468,9 @@ def _check_header(path: Path, data: Mapping[str, Any]) -> tuple[str, tuple[str, 
     return str(kind), tuple(references)
 
 
-def _scenario(path: Path, kind: str, references: tuple[str, ...], position: int, rec: Any) -> SuiteScenario:
+def _scenario(
+    path: Path, kind: str, references: tuple[str, ...], scored: tuple[str, ...], position: int, rec: Any
+) -> SuiteScenario:
     """Scenario ``position`` of a suite file, checked (``ValueError`` naming it and the field)."""
     where = f"{path}: scenario {position}"
     if not isinstance(rec, dict):
@@ -428,8 +499,10 @@ def _scenario(path: Path, kind: str, references: tuple[str, ...], position: int,
             f"{path}: scenario {index}: an energy suite's config has the objective 'energy_efficiency', "
             f"got {config.objective!r}"
         )
+    if kind == MULTI_NODE_MOBILE and config.K < 2:
+        raise ValueError(f"{path}: scenario {index}: a {kind} suite's config has K >= 2 nodes, got K = 1")
     seed = rec.get("seed")
-    if kind == MOBILE:
+    if kind in MOBILE_KINDS:
         if config.motion is None:
             raise ValueError(
                 f"{path}: scenario {index}: a mobile suite's config needs a motion model, got None"
@@ -448,7 +521,7 @@ def _scenario(path: Path, kind: str, references: tuple[str, ...], position: int,
                 f"{path}: scenario {index}: {r} must be an object of reference values, got {values!r}"
             )
         key = "upper_bound" if r == "bound" else VALUE_KEY[kind]
-        low = 0.0 if r in SCORED[kind] or kind == ENERGY else None  # a score is a percentage of it: > 0
+        low = 0.0 if r in scored or kind == ENERGY else None  # a score is a percentage of it: > 0
         _number(values.get(key), f"{path}: scenario {index}: {r}.{key} ({UNIT[kind]})", low)
         for field in ("seconds", "plan_rate", "resolution", *(("rate", "energy") if kind == ENERGY else ())):
             if field in values:
@@ -459,7 +532,7 @@ def _scenario(path: Path, kind: str, references: tuple[str, ...], position: int,
                     f"{path}: scenario {index}: {r}.{field} must be true or false, got {values[field]!r}"
                 )
         reference[r] = dict(values)
-    if kind in (ENERGY, MOBILE) and "bound" in reference:
+    if kind in (ENERGY, *MOBILE_KINDS) and "bound" in reference:
         bound = float(reference["bound"]["upper_bound"])
         above = [f"{r} {reference[r][VALUE_KEY[kind]]!r}" for r in references if r != "bound"
                  and float(reference[r][VALUE_KEY[kind]]) > bound * (1.0 + BOUND_REL)]  # fmt: skip
@@ -469,7 +542,7 @@ def _scenario(path: Path, kind: str, references: tuple[str, ...], position: int,
                 f"{path}: scenario {index}: the certified bound.upper_bound {bound!r} {UNIT[kind]} is below "
                 f"{', '.join(above)}: no plan's {what} may exceed it"
             )
-    return SuiteScenario(index, config, reference, kind, seed if kind == MOBILE else None)
+    return SuiteScenario(index, config, reference, kind, seed if kind in MOBILE_KINDS else None)
 
 
 def _number(value: Any, where: str, above: float | None) -> None:

@@ -1,4 +1,5 @@
-"""Quick suites frozen for a test module, and tampered copies of them (energy and mobile suites)."""
+"""Quick suites frozen for a test module, and tampered copies of them (energy and mobile suites, and
+the online suites normalised by the clairvoyant optimum)."""
 
 from __future__ import annotations
 
@@ -25,3 +26,14 @@ def tampered(frozen: Path, tmp_path: Path, change: Callable[[dict], Any]) -> Pat
     path = tmp_path / "tampered.json"
     path.write_text(json.dumps(data))
     return path
+
+
+def freeze_quick_online(tmp_path_factory: Any, multi: bool) -> Path:
+    """A one-scenario quick suite normalised by the clairvoyant optimum, frozen by the references
+    CLI: ``mobile --version 2 --quick`` (one node) or ``multi-node-mobile --quick`` (``multi``)."""
+    kind = "multi-node-mobile" if multi else "mobile"
+    out = tmp_path_factory.mktemp(f"{kind}-online")
+    version = [] if multi else ["--version", "2"]
+    argv = [kind, *version, "--quick", "--n", "1", "--cache", str(out / "cache"), "--dir", str(out)]
+    assert references_main(argv) == 0
+    return out / f"{kind}-quick-v{1 if multi else 2}.json"

@@ -1,0 +1,82 @@
+"""The multi-node mobile suite kind (``multi-node-mobile``): a quick suite frozen by ``python -m
+baselines.references multi-node-mobile --quick`` loads, the scorer plays any policy in
+``ios_uav_env/IOSUAV-MultiNode-Mobile-v0`` on each scenario's episode seed and scores its own
+shares on the nodes' true paths as % of the clairvoyant optimum and of the bound, replaying the
+suite's ``straight`` row exactly; the draws are the env's family from a stream of their own."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import gymnasium as gym
+import numpy as np
+import pytest
+
+from baselines.references.mobile import mobile_tasks
+from baselines.references.online import MULTI_MOBILE_RANGES, multi_mobile_tasks, online_rows
+from ios_uav_env import MULTINODE_MOBILE_ID
+from ios_uav_env.benchmark import evaluate, load_suite, reference_results, score_trajectories
+from ios_uav_env.benchmark.multi_policies import StraightEqualShares
+from ios_uav_env.benchmark.suite import MULTI_MOBILE_REFERENCES
+from ios_uav_env.model.motion import node_paths
+from tests.benchmark.quick_suites import freeze_quick_online, tampered
+
+
+@pytest.fixture(scope="module")
+def frozen(tmp_path_factory) -> Path:
+    return freeze_quick_online(tmp_path_factory, multi=True)
+
+
+@pytest.fixture(scope="module")
+def suite(frozen):
+    return load_suite(frozen)
+
+
+def test_the_quick_suite_loads_as_a_multi_node_mobile_suite(suite):
+    assert suite.kind == "multi-node-mobile" and suite.env_id == MULTINODE_MOBILE_ID
+    assert suite.mobile and suite.schedules and not suite.multi_node
+    assert suite.references == MULTI_MOBILE_REFERENCES and suite.scores == ("optimum", "bound")
+    (s,) = suite.scenarios
+    assert s.config.K >= 2 and s.config.motion is not None and isinstance(s.seed, int)
+    paths = s.paths()
+    assert paths.shape == (s.config.N, s.config.K, 2)
+    np.testing.assert_array_equal(paths, node_paths(s.config, np.random.default_rng(s.seed)))
+    assert online_rows(s.config.K)[-1] == "straight"
+
+
+def test_a_policy_is_scored_with_its_own_shares_on_the_true_paths(suite):
+    (s,) = suite.scenarios
+    result = evaluate(StraightEqualShares(), suite)
+    row = result.scenarios[0]
+    assert row.rate == s.value("straight")  # the pipeline's own row: same env, seed and scorer
+    assert row.own_shares and row.shares.shape == (s.config.K, s.config.N)
+    assert row.pct_optimum == pytest.approx(100 * row.rate / s.value("optimum"))
+    assert row.pct_bound == pytest.approx(100 * row.rate / s.value("bound"))
+    assert row.best_pct_optimum == pytest.approx(100 * row.best_schedule_rate / s.value("optimum"))
+    assert row.best_schedule_rate >= row.rate
+    summary = result.summary()
+    assert "% of optimum mean" in summary and "best schedule % of optimum" in summary
+    files = score_trajectories({0: row.trajectory}, suite, shares={0: row.shares})
+    assert files.scenarios[0].rate == row.rate
+    assert reference_results(suite, "optimum").aggregate.mean_pct_optimum == pytest.approx(100.0, rel=1e-12)
+
+
+def test_a_single_node_scenario_is_refused(frozen, tmp_path):
+    def one_node(data):
+        config = data["scenarios"][0]["config"]
+        config["ground_nodes"] = config["ground_nodes"][:1]
+
+    with pytest.raises(ValueError, match="K >= 2"):
+        load_suite(tampered(frozen, tmp_path, one_node))
+
+
+def test_the_draws_are_the_envs_family_from_their_own_stream():
+    env = gym.make(MULTINODE_MOBILE_ID)
+    try:
+        assert env.unwrapped.ranges == MULTI_MOBILE_RANGES
+    finally:
+        env.close()
+    tasks = multi_mobile_tasks(3, 20261130)
+    assert tasks == multi_mobile_tasks(3, 20261130)
+    assert all(2 <= len(t["config"]["ground_nodes"]) <= 4 for t in tasks)
+    assert {t["seed"] for t in tasks}.isdisjoint(t["seed"] for t in mobile_tasks(3, 20261130))
