@@ -14,18 +14,23 @@ simplex; its duals on the K rate rows are weights w, and t <= V <= g(w) (the mas
 a schedule, the mix of its vertices' assignments; g(w) is the dual bound). The vertex priced
 at w is added while g(w) - t > ``STOP`` x B (B = min_k B_k, B_k the rate of node k given
 every slot, V <= B <= K V); S has finitely many vertices and each added one is new, so the
-method ends, exactly in exact arithmetic. The rate rows are divided by B_k and t by B, so the
-master's numbers are O(1) whatever the rates' scale (far nodes of 1e-10 bps/Hz included).
+method ends, exactly in exact arithmetic. A vertex is priced first between the best w so far
+and the master's (Wentges' smoothing, ``SMOOTH``: fewer vertices), then at the master's own w
+when that one does not improve t. The master (:mod:`ios_uav_env.model.maxmin_master`) divides
+the rate rows by B_k and t by B, so its numbers are O(1) whatever the rates' scale, and refines
+its final solution iteratively, so that the tiny shares of a node whose B_k is far above B
+(the others' partner of a far node of 1e-10 bps/Hz) are exact to rounding too.
 
-**Certificate.** The result is recomputed from scratch: the shares are the mix of the basic
-vertices' assignments (>= 0, every column sum the master's sum_j lambda_j, scaled down to <= 1),
+**Certificate.** :func:`certificate` recomputes the answer from scratch: the shares are the mix
+of the basic vertices' assignments (>= 0, every column sum the master's sum_j lambda_j <= 1),
 the primal value is min_k R_k of those shares, w is the master's duals clipped to >= 0 and
-normalised, and the dual value is g(w). :func:`fast_schedule` accepts the answer only when
-``0 <= dual - primal <= FAST_TOL x dual``; otherwise (or when the simplex hits its caps) it
-returns None and the caller solves the LP by HiGHS (``schedule.maxmin_schedule``).
+normalised, and the dual value is g(w). The answer counts only when the shares are a schedule,
+w is on the simplex and ``0 <= dual - primal <= FAST_TOL x dual``; otherwise (or when the
+simplex hits its caps) :func:`fast_schedule` returns None and the caller solves the LP by
+HiGHS (``schedule.certified_schedule``).
 
 The kernel is one source for both paths: numba's compilation, or plain Python
-(``IOS_UAV_ENV_NO_NUMBA=1`` or numba absent; much slower, same answers). :func:`maxmin_row`
+(``IOS_UAV_ENV_NO_NUMBA=1`` or numba absent; slower, the same answers to rounding). :func:`maxmin_row`
 gives the value alone, for compiled callers (the multi-node envs' episode ends).
 """
 
@@ -34,6 +39,7 @@ from __future__ import annotations
 import numpy as np
 
 from ios_uav_env.jit import jit
+from ios_uav_env.model.maxmin_master import invert, master, reduced, refine
 
 #: Largest K the fast path takes (the master has K + 1 rows; more nodes: HiGHS).
 MAX_NODES = 8
@@ -41,18 +47,10 @@ MAX_NODES = 8
 FAST_TOL = 1e-12
 #: The column generation stops when the priced vertex improves t by at most this, in units of B.
 STOP = 1e-13
-#: A reduced cost (units of B) above this lets a column enter the master's basis.
-ENTER = 1e-14
 #: Weight of the best dual point so far where the next vertex is priced (Wentges' smoothing).
 SMOOTH = 0.5
 #: Most vertices the master keeps (then the method gives up: status ``CAPPED``).
 MAX_COLUMNS = 400
-#: Most simplex pivots of one solve.
-MAX_PIVOTS = 4000
-#: Entries of a pivot column below this fraction of its largest are rounding noise.
-NOISE = 1e-14
-#: Steps of iterative refinement of the final basic solution and duals.
-REFINE = 2
 #: Statuses of :func:`maxmin_kernel`.
 CERTIFIED, UNCERTIFIED, CAPPED, SINGULAR = 0, 1, 2, 3
 
@@ -63,6 +61,7 @@ __all__ = [
     "MAX_NODES",
     "SINGULAR",
     "UNCERTIFIED",
+    "certificate",
     "fast_schedule",
     "maxmin_kernel",
     "maxmin_row",
@@ -89,147 +88,6 @@ def _price(r: np.ndarray, w: np.ndarray, assign: np.ndarray, bounds: np.ndarray,
     for k in range(k_n):
         out[k] /= n_n * bounds[k]
     return total / n_n
-
-
-@jit
-def _column(v: int, k_n: int, cols: np.ndarray, coef: np.ndarray, out: np.ndarray) -> None:
-    """The master's column of variable ``v`` into ``out`` (K + 1,): slack k < K (-e_k), t (K:
-    -B / B_k in rate row k) or vertex j = v - K - 1 (R^j_k / B_k, then 1 in the convexity row)."""
-    for i in range(k_n + 1):
-        out[i] = 0.0
-    if v < k_n:
-        out[v] = -1.0
-    elif v == k_n:
-        for i in range(k_n):
-            out[i] = -coef[i]
-    else:
-        for i in range(k_n):
-            out[i] = cols[v - k_n - 1, i]
-        out[k_n] = 1.0
-
-
-@jit
-def _invert(basis: np.ndarray, k_n: int, cols: np.ndarray, coef: np.ndarray, inv: np.ndarray) -> bool:
-    """``inv`` = the inverse of the basis matrix (Gauss-Jordan, partial pivoting); False if singular."""
-    m = k_n + 1
-    a = np.zeros((m, 2 * m))
-    col = np.empty(m)
-    for j in range(m):
-        _column(basis[j], k_n, cols, coef, col)
-        for i in range(m):
-            a[i, j] = col[i]
-        a[j, m + j] = 1.0
-    for j in range(m):
-        p = j
-        for i in range(j + 1, m):
-            if abs(a[i, j]) > abs(a[p, j]):
-                p = i
-        if abs(a[p, j]) < 1e-13:
-            return False
-        if p != j:
-            for c in range(2 * m):
-                a[j, c], a[p, c] = a[p, c], a[j, c]
-        piv = a[j, j]
-        for c in range(2 * m):
-            a[j, c] /= piv
-        for i in range(m):
-            if i != j and a[i, j] != 0.0:
-                f = a[i, j]
-                for c in range(2 * m):
-                    a[i, c] -= f * a[j, c]
-    for i in range(m):
-        for c in range(m):
-            inv[i, c] = a[i, m + c]
-    return True
-
-
-@jit
-def _duals(basis: np.ndarray, k_n: int, inv: np.ndarray, y: np.ndarray) -> None:
-    """y = c_B B^-1: the row of B^-1 at t's basis position (t is the only cost), or 0."""
-    for i in range(k_n + 1):
-        y[i] = 0.0
-    for p in range(k_n + 1):
-        if basis[p] == k_n:
-            for i in range(k_n + 1):
-                y[i] = inv[p, i]
-
-
-@jit
-def _reduced(v: int, k_n: int, y: np.ndarray, cols: np.ndarray, coef: np.ndarray) -> float:
-    """Reduced cost c_v - y A_v of variable ``v`` (maximising t)."""
-    if v < k_n:
-        return y[v]
-    if v == k_n:
-        d = 1.0
-        for i in range(k_n):
-            d += y[i] * coef[i]
-        return d
-    d = -y[k_n]
-    for i in range(k_n):
-        d -= y[i] * cols[v - k_n - 1, i]
-    return d
-
-
-@jit
-def _master(
-    basis: np.ndarray, in_basis: np.ndarray, k_n: int, n_cols: int, cols: np.ndarray, coef: np.ndarray,
-    inv: np.ndarray, y: np.ndarray, pivots: int,
-) -> int:  # fmt: skip
-    """Primal simplex on the master's ``n_cols`` vertices (Dantzig's rule; Bland's after
-    degenerate pivots) until no reduced cost exceeds ``ENTER``; leaves its duals in ``y``.
-    Returns the pivot count so far, or -1 (singular basis) / -2 (``MAX_PIVOTS``)."""
-    m = k_n + 1
-    u = np.empty(m)
-    col = np.empty(m)
-    stall = 0
-    while True:
-        _duals(basis, k_n, inv, y)
-        enter, best = -1, ENTER
-        for v in range(k_n + 1 + n_cols):
-            if not in_basis[v]:
-                d = _reduced(v, k_n, y, cols, coef)
-                if d > best:
-                    enter, best = v, d
-                    if stall > 2 * m:  # Bland: the first improving variable
-                        break
-        if enter < 0:
-            return pivots
-        if pivots >= MAX_PIVOTS:
-            return -2
-        _column(enter, k_n, cols, coef, col)
-        for i in range(m):
-            s = 0.0
-            for c in range(m):
-                s += inv[i, c] * col[c]
-            u[i] = s
-        top = 0.0
-        for i in range(m):
-            top = max(top, abs(u[i]))
-        leave, ratio = -1, np.inf
-        for i in range(m):
-            if u[i] > NOISE * top:
-                q = max(inv[i, k_n], 0.0) / u[i]  # x_B = B^-1 e_K
-                if q < ratio or (q == ratio and u[i] > u[leave]):
-                    leave, ratio = i, q
-        if leave < 0:
-            return -1  # unbounded: cannot happen (t <= min_k B_k); treat as a failure
-        stall = stall + 1 if ratio == 0.0 else 0
-        in_basis[basis[leave]] = False
-        basis[leave] = enter
-        in_basis[enter] = True
-        pivots += 1
-        if pivots % 32 == 0:
-            if not _invert(basis, k_n, cols, coef, inv):
-                return -1
-        else:
-            p = u[leave]
-            for c in range(m):
-                inv[leave, c] /= p
-            for i in range(m):
-                if i != leave and u[i] != 0.0:
-                    f = u[i]
-                    for c in range(m):
-                        inv[i, c] -= f * inv[leave, c]
 
 
 @jit
@@ -270,10 +128,10 @@ def maxmin_kernel(r: np.ndarray, shares: np.ndarray, weights: np.ndarray) -> tup
     inv = np.zeros((m, m))
     y = np.zeros(m)
     status, pivots = CERTIFIED, 0
-    if not _invert(basis, k_n, cols, coef, inv):
+    if not invert(basis, k_n, cols, coef, inv):
         status = SINGULAR
     while status == CERTIFIED:
-        pivots = _master(basis, in_basis, k_n, n_cols, cols, coef, inv, y, pivots)
+        pivots = master(basis, in_basis, k_n, n_cols, cols, coef, inv, y, pivots)
         if pivots < 0:
             status = SINGULAR if pivots == -1 else CAPPED
             break
@@ -297,64 +155,23 @@ def maxmin_kernel(r: np.ndarray, shares: np.ndarray, weights: np.ndarray) -> tup
             if g < best_g:
                 best_g = g
                 w_best[:] = w_s
-            if _reduced(new, k_n, y, cols, coef) > STOP:
+            if reduced(new, k_n, y, cols, coef) > STOP:
                 n_cols += 1
                 continue
         g = _price(r, w, assign[n_cols], bounds, cols[n_cols])
         if g < best_g:
             best_g = g
             w_best[:] = w
-        if _reduced(new, k_n, y, cols, coef) <= STOP:
+        if reduced(new, k_n, y, cols, coef) <= STOP:
             break
         n_cols += 1
     if status != CERTIFIED:
         return np.nan, np.nan, status, n_cols
-    if not _invert(basis, k_n, cols, coef, inv):  # a fresh B^-1 for the final x_B and duals
+    if not invert(basis, k_n, cols, coef, inv):  # a fresh B^-1 for the final x_B and duals
         return np.nan, np.nan, SINGULAR, n_cols
     x = np.empty(m)
-    _refine(basis, k_n, cols, coef, inv, x, y)
+    refine(basis, k_n, cols, coef, inv, x, y)
     return _certify(r, basis, k_n, x, y, coef, assign, shares, weights, n_cols)
-
-
-@jit
-def _refine(
-    basis: np.ndarray, k_n: int, cols: np.ndarray, coef: np.ndarray, inv: np.ndarray, x: np.ndarray,
-    y: np.ndarray,
-) -> None:  # fmt: skip
-    """The basic solution x (B x = e_K) and the duals y (y B = c_B) from ``inv`` = B^-1, each
-    with ``REFINE`` steps of iterative refinement: the residual of every row is computed in that
-    row's own scale, so the small shares of nodes whose full-time rates B_k are far above B
-    (rows whose numbers are all small) are exact to rounding too, not only to eps x the
-    largest row's scale."""
-    m = k_n + 1
-    col = np.empty(m)
-    res = np.empty(m)
-    for i in range(m):
-        x[i] = inv[i, k_n]
-    _duals(basis, k_n, inv, y)
-    for _ in range(REFINE):
-        for i in range(m):
-            res[i] = 1.0 if i == k_n else 0.0
-        for j in range(m):
-            _column(basis[j], k_n, cols, coef, col)
-            for i in range(m):
-                res[i] -= col[i] * x[j]
-        for i in range(m):
-            s = 0.0
-            for c in range(m):
-                s += inv[i, c] * res[c]
-            x[i] += s
-        for j in range(m):  # y's residual: c_B[j] - y B_j
-            _column(basis[j], k_n, cols, coef, col)
-            s = 1.0 if basis[j] == k_n else 0.0
-            for i in range(m):
-                s -= y[i] * col[i]
-            res[j] = s
-        for i in range(m):
-            s = 0.0
-            for c in range(m):
-                s += res[c] * inv[c, i]
-            y[i] += s
 
 
 @jit
@@ -380,12 +197,6 @@ def _certify(
                 row = assign[basis[p] - k_n - 1]
                 for n in range(n_n):
                     shares[row[n], n] += lam
-    primal = np.inf
-    for k in range(k_n):
-        s = 0.0
-        for n in range(n_n):
-            s += shares[k, n] * r[k, n]
-        primal = min(primal, s / n_n)
     total = 0.0
     for k in range(k_n):
         weights[k] = max(-y[k], 0.0) * coef[k]
@@ -394,6 +205,36 @@ def _certify(
         return np.nan, np.nan, SINGULAR, n_cols
     for k in range(k_n):
         weights[k] /= total
+    primal, dual, status = certificate(r, shares, weights)
+    return primal, dual, status, n_cols
+
+
+@jit
+def certificate(r: np.ndarray, shares: np.ndarray, weights: np.ndarray) -> tuple[float, float, int]:
+    """(primal, dual, status) of a proposed answer for the (K, N) rates ``r``: primal = min_k
+    (1/N) sum_n shares_k[n] r_k[n], dual = g(weights); ``CERTIFIED`` when the shares are a
+    schedule (>= 0, column sums <= 1 + 1e-12: rounding), the weights lie on the simplex (to 1e-12) and
+    0 <= dual - primal <= ``FAST_TOL`` x dual, else ``UNCERTIFIED``. Independent of how the
+    answer was found: by weak duality primal <= V <= dual."""
+    k_n, n_n = r.shape
+    feasible = True
+    for n in range(n_n):
+        column = 0.0
+        for k in range(k_n):
+            feasible = feasible and shares[k, n] >= 0.0
+            column += shares[k, n]
+        feasible = feasible and column <= 1.0 + 1e-12
+    total = 0.0
+    for k in range(k_n):
+        feasible = feasible and weights[k] >= 0.0
+        total += weights[k]
+    feasible = feasible and abs(total - 1.0) <= 1e-12
+    primal = np.inf
+    for k in range(k_n):
+        s = 0.0
+        for n in range(n_n):
+            s += shares[k, n] * r[k, n]
+        primal = min(primal, s / n_n)
     dual = 0.0
     for n in range(n_n):
         top = 0.0
@@ -402,8 +243,8 @@ def _certify(
         dual += top
     dual /= n_n
     gap = dual - primal
-    ok = primal > 0.0 and gap >= -FAST_TOL * dual and gap <= FAST_TOL * dual
-    return primal, dual, CERTIFIED if ok else UNCERTIFIED, n_cols
+    ok = feasible and primal > 0.0 and -FAST_TOL * dual <= gap <= FAST_TOL * dual
+    return primal, dual, CERTIFIED if ok else UNCERTIFIED
 
 
 @jit
