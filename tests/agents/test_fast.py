@@ -102,6 +102,11 @@ def test_recipe_reads_schedules_and_the_callbacks_it_applies():
         ({"use_sde": True}, "'use_sde' is not read by the fast trainer"),
         ({"callback": "agents.callbacks.TargetEntropySchedule"}, "TargetEntropySchedule"),
         ({"env_wrapper": "agents.wrappers.ActionRepeat"}, "ActionRepeat"),
+        (
+            {"env_wrapper": [{"agents.wrappers.ExploringStarts": {"prob": 1.5}}]},
+            r"ExploringStarts prob .* \[0, 1\]",
+        ),
+        ({"env_wrapper": [{"agents.wrappers.ShiftReward": {"scale": 0}}]}, "ShiftReward scale must be > 0"),
         ({"batch_size": 512}, r"batch_size must be in \[2, n_envs \* n_steps = 256\]"),
         ({"callback": "agents.callbacks.ExploringStartsSchedule"}, "needs 'agents.wrappers.ExploringStarts'"),
         ({"policy": "CnnPolicy"}, "MlpPolicy"),
