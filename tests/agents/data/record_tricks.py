@@ -1,8 +1,9 @@
 """Record ``tricks_parity.npz``: what the training tricks (reward shift, action repeat, exploring
 starts and their schedule) gave, on tiny budgets, before they became one implementation on the
 batched arrays (``agents.tricks``); ``tests/agents/test_tricks.py`` re-runs the same cases and
-compares. Recorded from the code before that change; re-record only when a trick is meant to
-change (then say in the commit which case moved and why):
+compares. Recorded from the code before that change; re-record only when a trick, or the
+tricks of a shipped recipe read here (``fast_ppo.yml``, ``ppo_fast.yml``, ``sac.yml``), are
+meant to change (then say in the commit which case moved and why), from committed code:
 
     python -m tests.agents.data.record_tricks --overwrite
 
