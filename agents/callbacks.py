@@ -15,6 +15,7 @@ from typing import Any
 from stable_baselines3.common.callbacks import BaseCallback, CheckpointCallback
 
 from agents.scores import score_label
+from agents.tricks import scheduled_prob
 from ios_uav_env.io import atomic_write_bytes, atomic_write_text, naming_full_disk
 
 PROGRESS_FILE = "progress.json"
@@ -371,9 +372,9 @@ class ExploringStartsSchedule(BaseCallback):
 
     def _update(self) -> None:
         frac = min(1.0, self.model.num_timesteps / max(1, self.model._total_timesteps))
-        late = max(0.0, frac - self.hold) / (1.0 - self.hold) if self.hold < 1.0 else 0.0
+        prob = scheduled_prob(self._start, frac, self.hold, self.end)
         for wrapper in self._wrappers:
-            wrapper.prob = self._start + late * (self.end - self._start)
+            wrapper.prob = prob
 
     def _on_rollout_start(self) -> None:
         self._update()
