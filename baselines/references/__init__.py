@@ -10,6 +10,9 @@ here, in a checkout:
   (:func:`solve_all`);
 - :mod:`~baselines.references.mobile`: the mobile suite's draws (scenarios with episode seeds),
   its references (the clairvoyant bound and tour, MPC, plan once, tracking) and its content;
+- :mod:`~baselines.references.online`: the suites normalised by the clairvoyant optimum
+  (``mobile-v2``, ``multi-node-mobile-v1``): their draws, references (the clairvoyant DP and bound,
+  MPC-DP, MPC, plan once, the env rows), checks and content;
 - :mod:`~baselines.references.heldout`: the single-node suite's plan file
   (``agents/suite/heldout.json``: each scenario's DP and SCA plans), built by ``python -m
   agents.suite build``;
@@ -23,6 +26,8 @@ The command line freezes one suite at a time:
     python -m baselines.references multi-node [--n 48] [--cache out/multi-node-v1] [--plans DIR]
     python -m baselines.references energy [--n 40] [--cache out/energy-v1] [--jobs 2] [--quick]
     python -m baselines.references mobile [--n 40] [--cache out/mobile-v1] [--jobs 2] [--quick]
+    python -m baselines.references mobile --version 2 [--n 40] [--cache out/mobile-v2] [--jobs 2] [--quick]
+    python -m baselines.references multi-node-mobile [--n 24] [--cache out/multi-node-mobile-v1] [--jobs 2]
 
 The single-node suite is frozen from its plan file; the multi-node and energy ones from the
 records :func:`solve_all` caches (``energy --quick``: a tiny check suite in ``out/energy-quick``).

@@ -244,6 +244,7 @@ def _online(args: argparse.Namespace, name: str, directory: Path, multi: bool) -
     grids = (ONLINE_QUICK["dp_resolution"], *(ONLINE_QUICK["resolution"],) * 2) if args.quick else (
         online.DP_RESOLUTION, online.BOUND_RESOLUTION, online.MPC_RESOLUTION)  # fmt: skip
     settings = dict(zip(("dp_resolution", "bound_resolution", "mpc_resolution"), grids, strict=True))
+    settings["dp_refine"] = online.DP_REFINE
     cache = args.cache or (ONLINE_QUICK_DIR[multi] / "cache" if args.quick else ONLINE_CACHE[multi])
     tasks = (online.multi_mobile_tasks if multi else mobile_tasks)(n, args.seed, ranges)
     records = run_tasks(

@@ -179,6 +179,9 @@ SUITES: dict[str, RegisteredSuite] = {
     "mobile-v1": RegisteredSuite(
         "mobile-v1.json", "f3b2712dd4b82c0ce6bfc9bb941a930ad571db086c071d97f496f64cf18578e7"
     ),
+    "mobile-v2": RegisteredSuite(
+        "mobile-v2.json", "a20d796bb79315b07bb072d961092fae9accb88fcc24a911873b0a5ba9d06944"
+    ),
 }
 DEFAULT_SUITE = "single-node-v1"
 #: A suite's name: words of lowercase ASCII letters and digits joined by one "-", "." or "_"
