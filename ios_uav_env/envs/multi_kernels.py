@@ -375,6 +375,9 @@ class NodeRows:
         self.shares, self.rates = np.zeros((b, k)), np.zeros((b, k))
         self.nodes, self.params = np.zeros((b, k, 3, 1)), np.zeros((b, k, len(PARAMS)))
         self.path, self.share_path = np.zeros((b, 1, 2)), np.zeros((b, 1, k))
+        # each slot's node rates as the kernels computed them (rate_path), while `stored` (a row
+        # not flown by fly(), which skips slots): the episode's best schedule needs no new rates
+        self.rate_path, self.stored = np.zeros((b, 1, k)), np.zeros(b, dtype=np.bool_)
         self.loaded: list[ScenarioConfig | None] = [None] * b
 
     def _grow(self, name: str, axis: int, size: int, fill: tuple[float, ...] = (0.0,)) -> None:
@@ -399,6 +402,7 @@ class NodeRows:
             if cfg.N > self.path.shape[1]:
                 self._grow("path", 1, cfg.N)
                 self._grow("share_path", 1, cfg.N)
+                self._grow("rate_path", 1, cfg.N)
             for k, kn in enumerate(kernels):
                 q = kn.nodes.shape[1]
                 self.nodes[i, k, :, :q] = kn.nodes
@@ -414,6 +418,8 @@ class NodeRows:
         """:func:`reset_rows` on ``rows`` (int64), writing ``obs`` and the ``info`` table."""
         reset_rows(rows, self.state, self.episode, self.points, self.nodes, self.params, self.served,
                    self.shares, self.rates, obs, info, self.share_path)  # fmt: skip
+        self.rate_path[rows, 0] = self.rates[rows]
+        self.stored[rows] = True
 
     def step(self, actions: np.ndarray, active: np.ndarray, outputs: tuple[np.ndarray, ...],
              norms: np.ndarray, num_threads: int | None = None, serial: bool = False) -> None:  # fmt: skip
@@ -429,12 +435,15 @@ class NodeRows:
             step_rows(*args)
         else:
             run_batched(step_rows_batched, step_rows, num_threads, *args)
+        stepped = np.flatnonzero(active)
+        self.rate_path[stepped, self.state[stepped, 2].astype(np.int64)] = self.rates[stepped]
 
     def fly(self, rows: np.ndarray, targets: np.ndarray, moves: np.ndarray, obs: np.ndarray,
             info: np.ndarray) -> None:  # fmt: skip
         """:func:`fly_rows` (checked arguments: ``ValueError`` if the kernel still refuses an
         entry, having flown nothing), writing ``obs`` and the ``info`` table."""
         b, width = self.state.shape[0], 2 + self.shares.shape[1]
+        self.stored[rows[(rows >= 0) & (rows < b)]] = False  # (its slots' rates are not kept)
         bad = fly_rows(rows, targets, moves, np.zeros((b, width)), self.state, self.episode, self.points,
                        self.nodes, self.params, self.served, self.shares, self.rates, self.flags, obs,
                        np.zeros(b), np.zeros(b, dtype=np.bool_), info, self.path, self.share_path,
@@ -449,7 +458,8 @@ class NodeRows:
         """(values, certified): the best-schedule value of each of ``rows`` (ended episodes) on its
         scenario's static nodes, all rows in one compiled call (``maxmin_paths.path_values``)."""
         sizes = np.array([(self.loaded[i].K, self.loaded[i].N) for i in rows], dtype=np.int64)
-        return path_values(rows, sizes, self.path, self.nodes, self.params, num_threads)
+        return path_values(rows, sizes, self.path, self.nodes, self.params, num_threads,
+                           self.rate_path, self.stored)  # fmt: skip
 
     def schedule(self, i: int, k: int) -> np.ndarray:
         """Row ``i``'s shares of its ``k`` nodes so far, (k, n + 1): slot 1's, then one column per step."""

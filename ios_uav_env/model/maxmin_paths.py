@@ -5,8 +5,10 @@ Row i of a batch has a way-point path ``path[i, :N_i]`` and K_i rate kernels
 (``channel.RateKernel``'s ``nodes`` and ``params``, row i's node k at ``nodes[i, k]``,
 ``params[i, k]``: the layout of ``ios_uav_env.envs.multi_kernels``). Its value is
 :func:`~ios_uav_env.model.maxmin.maxmin_row` of the rates r_k[n] = ``channel.rate_point`` of
-node k at way-point n: the value ``schedule.maxmin_rate`` gives for the static nodes of those
-kernels, from the same column generation (``schedule.certified_schedule``), to rounding.
+node k at way-point n (or, for a row marked ``stored``, ``rate_path[i, n, k]``: the rates the
+env's kernels computed slot by slot, the same numbers): the value ``schedule.maxmin_rate``
+gives for the static nodes of those kernels, from the same column generation
+(``schedule.certified_schedule``), to rounding.
 """
 
 from __future__ import annotations
@@ -25,46 +27,51 @@ __all__ = ["path_values", "path_values_rows", "path_values_rows_batched"]
 @jit(inline=True)
 def _row(
     j: int, rows: np.ndarray, sizes: np.ndarray, path: np.ndarray, nodes: np.ndarray, params: np.ndarray,
-    out: np.ndarray,
+    rate_path: np.ndarray, stored: np.ndarray, out: np.ndarray,
 ) -> None:  # fmt: skip
     i, k_n, n_n = rows[j], sizes[j, 0], sizes[j, 1]
     r = np.empty((k_n, n_n))
     for k in range(k_n):
         for n in range(n_n):
-            r[k, n] = rate_point(path[i, n, 0], path[i, n, 1], nodes[i, k], params[i, k])
+            if stored[i]:
+                r[k, n] = rate_path[i, n, k]
+            else:
+                r[k, n] = rate_point(path[i, n, 0], path[i, n, 1], nodes[i, k], params[i, k])
     out[j, 0], out[j, 1], out[j, 2] = maxmin_row(r)
 
 
 @jit
 def path_values_rows(
     rows: np.ndarray, sizes: np.ndarray, path: np.ndarray, nodes: np.ndarray, params: np.ndarray,
-    out: np.ndarray,
+    rate_path: np.ndarray, stored: np.ndarray, out: np.ndarray,
 ) -> None:  # fmt: skip
     """:func:`path_values_rows_batched` one row after the other."""
     for j in range(rows.shape[0]):
-        _row(j, rows, sizes, path, nodes, params, out)
+        _row(j, rows, sizes, path, nodes, params, rate_path, stored, out)
 
 
 @jit(parallel=True)
 def path_values_rows_batched(
     rows: np.ndarray, sizes: np.ndarray, path: np.ndarray, nodes: np.ndarray, params: np.ndarray,
-    out: np.ndarray,
+    rate_path: np.ndarray, stored: np.ndarray, out: np.ndarray,
 ) -> None:  # fmt: skip
     """For each entry j: batch row ``rows[j]`` with (K, N) = ``sizes[j]``, ``out[j]`` = (primal
     value, dual value, status) of :func:`~ios_uav_env.model.maxmin.maxmin_row` of its rates
     (module docstring); the entries on numba's threads."""
     for j in prange(rows.shape[0]):
-        _row(j, rows, sizes, path, nodes, params, out)
+        _row(j, rows, sizes, path, nodes, params, rate_path, stored, out)
 
 
 def path_values(
     rows: Sequence[int] | np.ndarray, sizes: np.ndarray, path: np.ndarray, nodes: np.ndarray,
-    params: np.ndarray, num_threads: int | None = None,
+    params: np.ndarray, num_threads: int | None = None, rate_path: np.ndarray | None = None,
+    stored: np.ndarray | None = None,
 ) -> tuple[np.ndarray, np.ndarray]:  # fmt: skip
     """(values, certified) of the batch rows ``rows`` (module docstring; ``sizes`` (len(rows), 2)
-    their K and N), on ``num_threads`` of numba's threads (``jit.run_batched``): ``certified``
-    false where the caller must score the row otherwise (more than ``maxmin.MAX_NODES`` nodes,
-    or a certificate that failed; its value is then NaN)."""
+    their K and N; ``rate_path`` (B, N_max, K_max) and ``stored`` (B,) bool, or None: every
+    row's rates from its kernels), on ``num_threads`` of numba's threads (``jit.run_batched``):
+    ``certified`` false where the caller must score the row otherwise (more than
+    ``maxmin.MAX_NODES`` nodes, or a certificate that failed; its value is then NaN)."""
     idx = np.ascontiguousarray(rows, dtype=np.int64)
     size = np.ascontiguousarray(sizes, dtype=np.int64).reshape(len(idx), 2)
     if len(idx) and (size[:, 0].min() < 1 or size[:, 1].min() < 1 or size[:, 1].max() > path.shape[1]
@@ -74,10 +81,12 @@ def path_values(
             f"sizes must be (K, N) with 1 <= K <= {nodes.shape[1]} and 1 <= N <= {path.shape[1]}, "
             f"got K in [{k_got[0]}, {k_got[1]}] and N in [{n_got[0]}, {n_got[1]}]"
         )
+    if rate_path is None or stored is None:
+        rate_path, stored = np.zeros((1, 1, 1)), np.zeros(path.shape[0], dtype=np.bool_)
     out = np.zeros((len(idx), 3))
     if len(idx):
-        run_batched(
-            path_values_rows_batched, path_values_rows, num_threads, idx, size, path, nodes, params, out
-        )
+        kept = np.ascontiguousarray(stored, dtype=np.bool_)
+        arrays = (idx, size, path, nodes, params, rate_path, kept, out)
+        run_batched(path_values_rows_batched, path_values_rows, num_threads, *arrays)
     ok = out[:, 2] == CERTIFIED
     return np.where(ok, out[:, 0], np.nan), ok

@@ -241,3 +241,31 @@ def test_the_envs_report_score_plans_value_by_the_fast_path(env_id, no_highs):
             best = score_plan(vec.configs[i], vec.trajectories[i], vec.schedules[i], truth).best_schedule_rate
             assert info["best_schedule_rate"][i] == pytest.approx(best, rel=1e-12) and best > 0
             ended += 1
+
+
+def test_the_batched_env_keeps_each_slots_rates_and_recomputes_after_a_flight(no_highs):
+    """The batched env stores the rates its kernels computed slot by slot (node_rates of the
+    flight, to rounding) and scores an ended row from them; a row flown by ``fly`` (slots
+    skipped) is scored from its path instead, still score_plan's value."""
+    gym = pytest.importorskip("gymnasium")
+    from ios_uav_env import score_plan
+    from ios_uav_env.model.schedule import node_rates
+
+    vec = gym.make_vec("ios_uav_env/IOSUAV-MultiNode-v0", num_envs=2, vectorization_mode="vector_entry_point",
+                       T=40.0)  # fmt: skip
+    vec.reset(seed=0)
+    vec.fly([1], [[0.0, 0.0]], [5])
+    rows, rng = vec._rows, np.random.default_rng(3)
+    assert rows.stored.tolist() == [True, False]
+    checked = set()
+    for _ in range(2 * vec.configs[0].N):  # row 1 ends 5 steps before row 0
+        _, _, terminated, _, info = vec.step(rng.uniform(-1, 1, (2, *vec.single_action_space.shape)))
+        for i in set(np.flatnonzero(terminated)) - checked:
+            config = vec.configs[i]
+            if i == 0:
+                kept = rows.rate_path[0, : config.N, : config.K].T
+                np.testing.assert_allclose(kept, node_rates(config, vec.trajectories[0]), rtol=1e-12, atol=0)
+            best = score_plan(config, vec.trajectories[i], vec.schedules[i]).best_schedule_rate
+            assert info["best_schedule_rate"][i] == pytest.approx(best, rel=1e-12)
+            checked.add(i)
+    assert checked == {0, 1}
