@@ -148,17 +148,16 @@ def maxmin_kernel(r: np.ndarray, shares: np.ndarray, weights: np.ndarray) -> tup
             status = CAPPED
             break
         new = k_n + 1 + n_cols
-        if best_g < np.inf:  # price first between the best w so far and the master's (smoothing)
-            for k in range(k_n):
-                w_s[k] = SMOOTH * w_best[k] + (1.0 - SMOOTH) * w[k]
-            g = _price(r, w_s, assign[n_cols], bounds, cols[n_cols])
-            if g < best_g:
-                best_g = g
-                w_best[:] = w_s
-            if reduced(new, k_n, y, cols, coef) > STOP:
-                n_cols += 1
-                continue
-        g = _price(r, w, assign[n_cols], bounds, cols[n_cols])
+        for k in range(k_n):  # price first between the best w so far and the master's (smoothing)
+            w_s[k] = SMOOTH * w_best[k] + (1.0 - SMOOTH) * w[k]
+        g = _price(r, w_s, assign[n_cols], bounds, cols[n_cols])
+        if g < best_g:
+            best_g = g
+            w_best[:] = w_s
+        if reduced(new, k_n, y, cols, coef) > STOP:  # it improves the master's t: keep it
+            n_cols += 1
+            continue
+        g = _price(r, w, assign[n_cols], bounds, cols[n_cols])  # else the master's own w
         if g < best_g:
             best_g = g
             w_best[:] = w
