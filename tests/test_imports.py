@@ -23,22 +23,30 @@ def module_name(path: Path) -> str:
 MODULES = {module_name(p): p for top in PACKAGES for p in sorted((ROOT / top).rglob("*.py"))}
 
 
+def import_targets(node: ast.AST, package: str) -> tuple[str, list[str]] | None:
+    """For an import statement ``node`` of a module in ``package``: the module it imports from (its
+    relative form resolved) and the dotted names it imports, e.g. ``("a.b", ["a.b.c"])`` for
+    ``from a.b import c``; None for any other node."""
+    if isinstance(node, ast.Import):
+        return "", [alias.name for alias in node.names]
+    if not isinstance(node, ast.ImportFrom):
+        return None
+    base = node.module or ""
+    if node.level:
+        anchor = package.rsplit(".", node.level - 1)[0] if node.level > 1 else package
+        base = f"{anchor}.{base}" if base else anchor
+    return base, [f"{base}.{alias.name}" for alias in node.names]
+
+
 def imports_of(path: Path, name: str) -> set[str]:
     """The modules of ``MODULES`` that ``path`` imports anywhere (top level or in a function)."""
     package = name if path.name == "__init__.py" else name.rpartition(".")[0]
     found = set()
     for node in ast.walk(ast.parse(path.read_text())):
-        if isinstance(node, ast.Import):
-            targets = [alias.name for alias in node.names]
-        elif isinstance(node, ast.ImportFrom):
-            base = node.module or ""
-            if node.level:
-                anchor = package.rsplit(".", node.level - 1)[0] if node.level > 1 else package
-                base = f"{anchor}.{base}" if base else anchor
-            targets = [base] + [f"{base}.{alias.name}" for alias in node.names]
-        else:
+        if (imported := import_targets(node, package)) is None:
             continue
-        found |= {t for t in targets if t in MODULES and t != name}
+        base, names = imported
+        found |= {t for t in [base, *names] if t in MODULES and t != name}
     return found
 
 
@@ -88,14 +96,9 @@ def face_imports(source: str, name: str) -> list[str]:
     package = name.rpartition(".")[0]
     found = []
     for node in ast.walk(ast.parse(source)):
-        if isinstance(node, ast.Import):
-            targets = [alias.name for alias in node.names]
-        elif isinstance(node, ast.ImportFrom):
-            base = node.module or ""
-            if node.level:
-                anchor = package.rsplit(".", node.level - 1)[0] if node.level > 1 else package
-                base = f"{anchor}.{base}" if base else anchor
-            targets = [base] if _is_face(base) else [f"{base}.{alias.name}" for alias in node.names]
+        if (imported := import_targets(node, package)) is not None:
+            base, names = imported
+            targets = [base] if _is_face(base) else names
         elif isinstance(node, ast.Call):
             func = node.func
             called = func.attr if isinstance(func, ast.Attribute) else getattr(func, "id", None)
