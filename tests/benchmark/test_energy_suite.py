@@ -56,7 +56,7 @@ def test_the_quick_suite_loads_as_an_energy_suite(suite):
             ),
             "bound.upper_bound .* is below sca",
         ),  # fmt: skip
-        (lambda d: d.update(normalizer="sca"), r"normalizer of a energy suite must be one of \['dp'\], got 'sca'"),
+        (lambda d: d.update(normalizer="sca"), r"energy suite must be one of \['dp'\], got 'sca'"),
         (lambda d: d.update(env_id=RANDOM_ENV_ID), "env_id of a energy suite must be one of"),
         (
             lambda d: d["scenarios"][0]["hover"].update(energy_efficiency=0.0),
