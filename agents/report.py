@@ -107,8 +107,8 @@ def save_comparison_figure(rows: Sequence[Any], config: ScenarioConfig, path: st
     from matplotlib.backends.backend_agg import FigureCanvasAgg
     from matplotlib.figure import Figure
 
-    from ios_uav_env.envs.rendering import plot_rate_map, plot_trajectories
     from ios_uav_env.model.peak import rate_peak
+    from ios_uav_env.plotting import plot_rate_map, plot_trajectories
 
     fig = Figure(figsize=(10, 8.4), dpi=100)
     FigureCanvasAgg(fig)

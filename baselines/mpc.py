@@ -16,7 +16,7 @@ q[n+1]) use the reports of slots 0..n and the measured rates of slots 0..n-1 onl
 2. the inner planner (``planner``) plans the rest of the flight on a scenario with q0 = q[n]
    and T = (N - n) dt (the remaining horizon, N - n slots, qF reachable by construction: the
    flown prefix is a prefix of a feasible plan, as the arrival guard's induction in
-   ``ios_uav_env.envs.guard`` keeps it), the nodes at their estimates: ``"tour"`` (default),
+   ``ios_uav_env.model.guard`` keeps it), the nodes at their estimates: ``"tour"`` (default),
    ``baselines.tour.solve(paths=predicted)``; ``"dp"``, the receding-horizon DP of
    ``baselines.dp_moving`` on the predicted paths' rate maps (``grid_plan`` on the grid of
    spacing ``resolution`` anchored at q[n], arrival at qF at slot N a hard constraint, then

@@ -274,8 +274,8 @@ def make_figures(records: Sequence[dict[str, Any]], spec: EnergySpec, out: Path)
     trade-off curve."""
     from matplotlib.figure import Figure
 
-    from ios_uav_env.envs.rendering import plot_rate_map, plot_trajectories
     from ios_uav_env.io import save_figure
+    from ios_uav_env.plotting import plot_rate_map, plot_trajectories
 
     paths = []
     part = [r for r in records if r["part"] == "T"]

@@ -176,8 +176,8 @@ def make_figures(records: Sequence[dict[str, Any]], out: Path) -> list[Path]:
     """Rate vs T (schemes and bound), rate vs K (mean over seeds), trajectories at the middle T."""
     from matplotlib.figure import Figure
 
-    from ios_uav_env.envs.rendering_multi import plot_multinode_map, plot_served_trajectories
     from ios_uav_env.io import save_figure
+    from ios_uav_env.plotting import plot_multinode_map, plot_served_trajectories
 
     paths = []
     fig = Figure(figsize=(7, 4.2), layout="constrained")

@@ -193,7 +193,7 @@ def _figure(size: tuple[float, float]) -> Any:
 def save_trajectories_figure(results: Results, path: str | Path, name: str = "policy") -> Path:
     """2 x 3 small multiples: six scenarios from the worst to the best % of DP, the policy's plan
     against DP's and SCA's (from the held-out plan file, where it holds the scenario)."""
-    from ios_uav_env.envs.rendering import plot_rate_map, plot_trajectories
+    from ios_uav_env.plotting import plot_rate_map, plot_trajectories
 
     plans = {e.config: e for e in load_plans(SUITE_PATH)} if SUITE_PATH.exists() else {}
     ranked = sorted(results.scenarios, key=lambda r: r.pct_dp)

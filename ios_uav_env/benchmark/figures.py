@@ -33,7 +33,7 @@ def shares_panels(
 ) -> None:
     """The trajectory coloured by the served node over the best-node rate map (``map_ax``) and the
     shares (K, N) stacked against the slot (``share_ax``)."""
-    from ios_uav_env.envs.rendering_multi import NODE_COLORS, plot_multinode_map, plot_served_trajectories
+    from ios_uav_env.plotting import NODE_COLORS, plot_multinode_map, plot_served_trajectories
 
     a = np.asarray(shares, dtype=float)
     plot_multinode_map(map_ax, config, resolution=(120, 60))

@@ -441,7 +441,7 @@ class MultiNodeEnv(MobileNodes, gym.Env):
             gym.logger.warn('render() needs render_mode="rgb_array" at construction; returning None')
             return None
         from ios_uav_env.envs.rendering import _matplotlib
-        from ios_uav_env.envs.rendering_multi import plot_multinode_map, plot_served_trajectories
+        from ios_uav_env.plotting import plot_multinode_map, plot_served_trajectories
 
         figure_cls, canvas_cls = _matplotlib()
         fig = figure_cls(figsize=(7.2, 3.6), dpi=100)

@@ -23,13 +23,13 @@ from typing import Any
 
 import numpy as np
 
-from ios_uav_env.envs.guard import guarded_position
 from ios_uav_env.envs.observation import M_SCALE, T_SCALE
 from ios_uav_env.envs.options import EnvOptions
 from ios_uav_env.envs.single_kernels import budget_of, flags_of, fly_entry_out_of_range, penalties, toward
 from ios_uav_env.jit import HAVE_NUMBA, jit, prange, run_batched
 from ios_uav_env.model.channel import PARAMS, rate_kernel, rate_point
 from ios_uav_env.model.config import ENERGY_RTOL, FEASIBILITY_TOL, ScenarioConfig
+from ios_uav_env.model.guard import guarded_position
 from ios_uav_env.model.maxmin_paths import path_values
 from ios_uav_env.model.peak import rate_peak
 

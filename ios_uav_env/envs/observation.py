@@ -15,9 +15,9 @@ from typing import Any
 
 import numpy as np
 
-from ios_uav_env.envs.guard import guarded_position
 from ios_uav_env.model.channel import RateKernel, rate_kernel
 from ios_uav_env.model.config import ScenarioConfig
+from ios_uav_env.model.guard import guarded_position
 from ios_uav_env.model.peak import Peak, rate_peak
 from ios_uav_env.model.propulsion import min_power_speed, propulsion_power
 from ios_uav_env.model.scenarios import ScenarioRanges
@@ -150,7 +150,7 @@ def loiter_efficiency(config: ScenarioConfig, peak: Peak | None = None) -> float
     on most scenarios far closer to it than the hover plan's: a plan that maximises the return
     then has an EE of at least both heuristics' (``IOSUAVEnv``, "Energy"). ``peak``: the
     reachable rate peak if known."""
-    from ios_uav_env.envs.loiter_flight import best_loiter_path
+    from ios_uav_env.model.flights import best_loiter_path
 
     p = rate_peak(config) if peak is None else peak
     return max(best_loiter_path(config, peak=(p.x, p.y))[2], reference_efficiency(config, p))

@@ -198,7 +198,7 @@ class Loiter(FeatureReader):
     the energy objective's counterpart of ``HoverAt("peak")`` (a rotary-wing UAV spends less
     power cruising slowly than hovering).
 
-    It flies the flight of ``ios_uav_env.envs.loiter_flight.loiter_path`` from whatever state it
+    It flies the flight of ``ios_uav_env.model.flights.loiter_path`` from whatever state it
     is in, reading everything from the observation of an energy env with ``peak_hint=True``
     (:attr:`env_kwargs`): the peak P (the hint), the chord V_mp dt of the circle (the
     ``min_power_move`` feature) and the moves left (:func:`moves_left`). Off the circle it

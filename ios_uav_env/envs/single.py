@@ -251,7 +251,7 @@ class IOSUAVEnv(MobileNode, gym.Env):
     - ``arrival_guard`` (default True): projects the next position onto the intersection of
       the disk of radius D around q and the disk of radius m D around qF, so both limits hold
       at once and any action sequence gives a trajectory meeting eq. (10) (the last move lands
-      exactly on qF; see ``ios_uav_env.envs.guard``). On by default because the paper's
+      exactly on qF; see ``ios_uav_env.model.guard``). On by default because the paper's
       constraints (10b)-(10c) are hard: an agent that learns them through penalties may still
       miss qF, and the guard turns the task into the paper's (maximise the rate over feasible
       trajectories). False leaves feasibility to the reward shaping.

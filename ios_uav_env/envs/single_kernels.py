@@ -23,12 +23,12 @@ import math
 
 import numpy as np
 
-from ios_uav_env.envs.guard import guarded_position
 from ios_uav_env.envs.observation import T_SCALE, instance_values, min_power_move
 from ios_uav_env.envs.options import EnvOptions
 from ios_uav_env.jit import jit, prange
 from ios_uav_env.model.channel import faded_row, rate_row
 from ios_uav_env.model.config import ENERGY_RTOL, FEASIBILITY_TOL, ScenarioConfig
+from ios_uav_env.model.guard import guarded_position
 
 #: Columns of a row of ``state``.
 STATE = ("x", "y", "moves_made", "sum_expected", "sum_rate", "excess", "energy", "move_x", "move_y")
