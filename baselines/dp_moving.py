@@ -223,7 +223,7 @@ def solve(
     resolution: float = 2.5,
     margin: float = DEFAULT_MARGIN,
     *,
-    refine: int = REFINE_LEVELS,
+    refine: int | None = None,
     bound: bool = True,
     bound_resolution: float | None = None,
     **kwargs: Any,
@@ -234,9 +234,11 @@ def solve(
     ``paths``: the nodes' true paths, required when the config moves (None: the configured
     positions). ``resolution``: grid spacing in (0, D] m; ``margin``: the grid box's widening (m).
     ``refine``: K = 1, corridor refinement levels (module docstring, "Refinement"; 0: the grid
-    optimum). ``bound``: K = 1, also compute ``dp_bound.clairvoyant_bound`` at cell side
+    optimum; None: :data:`REFINE_LEVELS`); a ``ValueError`` for K > 1, where it does not apply.
+    ``bound``: K = 1, also compute ``dp_bound.clairvoyant_bound`` at cell side
     ``bound_resolution`` (default ``resolution``) into ``info["upper_bound"]`` and ``info["gap"]``
-    (K > 1 always has them: ``kwargs`` go to ``dp_bound.solve_multinode``). ``info`` also holds
+    (K > 1 always has them, the plan and the bound being one computation: ``kwargs`` go to
+    ``dp_bound.solve_multinode``). ``info`` also holds
     ``dp_objective`` and ``grid_objective`` (K = 1: the plan's and the grid optimum's mean
     reward), ``sweeps`` (corridor DPs solved), ``resolution``, ``margin``, ``grid_shape`` and
     ``clairvoyant`` (true when scored on moving paths).
@@ -250,6 +252,8 @@ def solve(
     from baselines import tour
 
     if config.K > 1:
+        if refine is not None:
+            raise ValueError(f"refine applies to one node (K = 1), got refine={refine!r} with K={config.K}")
         plan = solve_multinode(
             config,
             resolution=resolution,
@@ -261,6 +265,7 @@ def solve(
         return dataclasses.replace(plan, scheme=SCHEME, seconds=time.perf_counter() - t0)
     if kwargs:
         raise TypeError(f"unexpected arguments for one node: {', '.join(sorted(kwargs))}")
+    refine = REFINE_LEVELS if refine is None else refine
     if isinstance(refine, bool) or not isinstance(refine, (int, np.integer)) or refine < 0:
         raise ValueError(f"refine must be an integer >= 0 (corridor levels), got {refine!r}")
     moving = tour.moving_paths(config, paths)

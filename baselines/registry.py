@@ -94,7 +94,11 @@ class PlannerSpec:
         if config.energy_budget_j is None and self.name == "dp-budget":
             return "energy_budget_j=None (it maximises the rate within a budget: set one)"
         if config.K < self.k_min or (self.k_max is not None and config.K > self.k_max):
-            allowed = f"K = {self.k_min}" if self.k_max == self.k_min else f"K >= {self.k_min}"
+            allowed = (
+                f"K >= {self.k_min}" if self.k_max is None
+                else f"K = {self.k_min}" if self.k_max == self.k_min
+                else f"{self.k_min} <= K <= {self.k_max}"
+            )  # fmt: skip
             return f"{config.K} ground node(s) (it takes {allowed})"
         if config.motion is not None:
             if self.motion == "static":
@@ -136,7 +140,7 @@ PLANNERS: dict[str, PlannerSpec] = {
         PlannerSpec("hover", "baselines.loiter:hover", _ANY, True, 1, None, "static", "heuristic",
                     "fly to the rate peak at v_max and hover there (scored on the config)"),
         PlannerSpec("mpc", "baselines.mpc:run_online", ("rate",), False, 1, None, "online", "online",
-                    "MPC over the tour on the Kalman filter's predicted node paths"),
+                    "MPC (the tour or the receding-horizon DP) on the Kalman filter's predicted paths"),
         PlannerSpec("dp-bound", "baselines.dp_bound:clairvoyant_bound", ("rate",), False, 1, None, "paths",
                     "bound", "certified upper bound of the rate (max-min for K > 1), given node paths"),
         PlannerSpec("energy-bound", "baselines.energy_bound:solve", ("energy_efficiency",), False, 1, 1,

@@ -167,12 +167,12 @@ class MultiNodeEnv(MobileNodes, gym.Env):
     Every step and the reset carry ``MULTI_INFO_KEYS``: ``position``, ``slot``,
     ``distance_to_final``, ``shares`` (K_max, this slot's), ``node_rates`` (K_max, S_k / N so
     far), ``min_rate`` (m_n: at slot N the agent's own score min_k R_k), ``best_schedule_rate``
-    (at slot N ``maxmin_rate`` of the trajectory, the best shares for the same flight, an LP
-    of scipy's: NaN if scipy is not installed; 0
+    (at slot N ``maxmin_rate`` of the trajectory, the best shares for the same flight, the
+    certified best schedule of ``ios_uav_env.model.schedule``: NaN if scipy is not installed; 0
     before), the three reward terms, ``feasible`` (eq. (10) so far and, with ``energy_budget_j``,
     the flight's energy so far within it: at slot N, ``score_plan``'s verdict), ``worst_violation``,
     ``terminal_miss``.
-    The LP's wall time is kept in ``score_seconds`` (0 before slot N): it scores the flight, so
+    The best schedule's wall time is kept in ``score_seconds`` (0 before slot N): it scores the flight, so
     the benchmark leaves it out of a policy's plan time.
 
     ## Episode End
@@ -385,7 +385,7 @@ class MultiNodeEnv(MobileNodes, gym.Env):
         self._rows.load(0, cfg)
         if self.mobile:
             self._start_track(self._rows, 0)
-        self.score_seconds = 0.0  # wall time of the episode's best-schedule LP (scoring, not planning)
+        self.score_seconds = 0.0  # wall time of the episode's best schedule (scoring, not planning)
         self._rows.start(self._one, self._obs, self._table)
         if self.mobile:
             self._observe(self._rows, 0, self._obs[0])

@@ -5,9 +5,9 @@ vectorization_mode="vector_entry_point")`` (and the ``-Random-v0`` id) returns a
 :class:`MultiNodeVectorEnv`. Each step runs the kernel of ``ios_uav_env.envs.multi_kernels``
 that the single env runs on a batch of one, on B rows (compiled with numba when installed),
 so row i reproduces the single env reset with seed ``seed + i`` (tested). The last step of
-an episode also reports ``best_schedule_rate``: ``multinode.maxmin_rate`` of the row's
-trajectory, an LP per row and episode; ``best_schedule=False`` skips it (the key then holds
-NaN at episode ends).
+an episode also reports ``best_schedule_rate``: ``maxmin_rate`` of the row's trajectory, the
+certified best schedule (``ios_uav_env.model.schedule``; the ended static rows in one compiled
+call); ``best_schedule=False`` skips it (the key then holds NaN at episode ends).
 
 The batch-level conventions are ``ios_uav_env.envs.batched.BatchedEnv``'s: scenario choice at
 reset in one template ``MultiNodeEnv`` per row, autoreset ``NEXT_STEP`` by default or
@@ -105,7 +105,7 @@ class MultiNodeVectorEnv(BatchedEnv):
         return a
 
     def _step_kernel(self, actions: np.ndarray, active: np.ndarray) -> None:
-        """One slot of the ``active`` rows, then the best schedule of each flight that ended (an LP)."""
+        """One slot of the ``active`` rows, then the best schedule of each flight that ended."""
         outputs = (self._obs, self._reward, self._terminated, self._info)
         stepping = np.flatnonzero(active)
         if self._mobile:  # each row's node kernels of the slot it flies to

@@ -25,9 +25,9 @@ its final solution iteratively, so that the tiny shares of a node whose B_k is f
 of the basic vertices' assignments (>= 0, every column sum the master's sum_j lambda_j <= 1),
 the primal value is min_k R_k of those shares, w is the master's duals clipped to >= 0 and
 normalised, and the dual value is g(w). The answer counts only when the shares are a schedule,
-w is on the simplex and ``0 <= dual - primal <= FAST_TOL x dual``; otherwise (or when the
-simplex hits its caps) :func:`fast_schedule` returns None and the caller solves the LP by
-HiGHS (``schedule.certified_schedule``).
+w is on the simplex and ``|dual - primal| <= FAST_TOL x dual`` (a negative gap is rounding);
+otherwise (or when the simplex hits its caps) :func:`fast_schedule` returns None and the caller
+solves the LP by HiGHS (``schedule.certified_schedule``).
 
 The kernel is one source for both paths: numba's compilation, or plain Python
 (``IOS_UAV_ENV_NO_NUMBA=1`` or numba absent; slower, the same answers to rounding). :func:`maxmin_row`
@@ -95,7 +95,7 @@ def maxmin_kernel(r: np.ndarray, shares: np.ndarray, weights: np.ndarray) -> tup
     """Solve (P) for the (K, N) rates ``r`` (finite, >= 0, 2 <= K <= ``MAX_NODES``, every B_k > 0):
     ``shares`` (K, N) and ``weights`` (K,) receive the schedule and the dual weights. Returns
     (primal value, dual value g(w), status, vertices generated); the status is ``CERTIFIED``
-    when 0 <= dual - primal <= ``FAST_TOL`` x dual (module docstring)."""
+    when |dual - primal| <= ``FAST_TOL`` x dual (module docstring)."""
     k_n, n_n = r.shape
     bounds = np.zeros(k_n)
     for k in range(k_n):
@@ -213,8 +213,8 @@ def certificate(r: np.ndarray, shares: np.ndarray, weights: np.ndarray) -> tuple
     """(primal, dual, status) of a proposed answer for the (K, N) rates ``r``: primal = min_k
     (1/N) sum_n shares_k[n] r_k[n], dual = g(weights); ``CERTIFIED`` when the shares are a
     schedule (>= 0, column sums <= 1 + 1e-12: rounding), the weights lie on the simplex (to 1e-12) and
-    0 <= dual - primal <= ``FAST_TOL`` x dual, else ``UNCERTIFIED``. Independent of how the
-    answer was found: by weak duality primal <= V <= dual."""
+    |dual - primal| <= ``FAST_TOL`` x dual (a negative gap is rounding), else ``UNCERTIFIED``.
+    Independent of how the answer was found: by weak duality primal <= V <= dual."""
     k_n, n_n = r.shape
     feasible = True
     for n in range(n_n):

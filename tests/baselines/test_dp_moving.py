@@ -153,6 +153,8 @@ def test_bad_input_is_refused():
         dp_moving.solve(WALK, paths[1:], resolution=10.0)
     two = WALK.replace(ground_nodes=((-60.0, -20.0), (80.0, -40.0)))
     two_paths = node_paths(two, np.random.default_rng(0))
+    with pytest.raises(ValueError, match=r"refine applies to one node \(K = 1\), got refine=3 with K=2"):
+        dp_moving.solve(two, two_paths, resolution=10.0, refine=3)
     with pytest.raises(ValueError, match="weights must be given"):
         dp_moving.grid_plan(two, two_paths, 10.0)
     with pytest.raises(ValueError, match="weights must be K=2 numbers >= 0 summing to 1"):
