@@ -31,7 +31,7 @@ The command line freezes one suite at a time:
 
 The single-node suite is frozen from its plan file; the multi-node and energy ones from the
 records :func:`solve_all` caches (``energy --quick``: a tiny check suite in ``out/energy-quick``).
-Each prints the content hash to register in ``ios_uav_env.benchmark.suite.SUITES``.
+Each prints the content hash to register in ``ios_uav_env.benchmark.suite_registry.SUITES``.
 """
 
 from baselines.references.content import (

@@ -28,7 +28,7 @@ from baselines.references.mobile import (
 )
 from baselines.references.online import MULTI_MOBILE_RANGES, MULTI_MOBILE_SIZE
 from baselines.references.solve import BOUND_RESOLUTION, DP_RESOLUTION, ENERGY_BOUND_RESOLUTION, solve_all
-from ios_uav_env.benchmark.suite import SUITE_DIR, check_suite_name
+from ios_uav_env.benchmark.suite_registry import SUITE_DIR, check_suite_name
 
 HELDOUT = Path("agents/suite/heldout.json")
 MULTI_CACHE = Path("out/multi-node-v1")

@@ -12,7 +12,7 @@ its plans, and the writer that never changes a suite under its name.
   the scenario, where a reference's EE is not > 0 or exceeds the bound); :func:`check_energy_record`
   lists its sanity notes (a plan failed or infeasible, SCA-EE below its DP start, a value above
   the bound);
-- :func:`freeze` writes ``<dir>/<name>.json`` (``ios_uav_env.benchmark.suite.suite_text``)
+- :func:`freeze` writes ``<dir>/<name>.json`` (``ios_uav_env.benchmark.suite_registry.suite_text``)
   atomically and refuses other content under an existing file or a registered name;
   :func:`write_plans` writes the planners' plans as trajectory files that the benchmark scores
   like any other.
@@ -30,7 +30,7 @@ import numpy as np
 from baselines.references.draws import ENERGY_RANGES, ENERGY_SPAWN_KEY, ENTROPY, MULTI_ENV_ID, SPAWN_KEY
 from ios_uav_env import ENERGY_RANDOM_ID, MULTINODE_RANGES, RANDOM_ENV_ID, ScenarioConfig, ScenarioRanges
 from ios_uav_env.benchmark.heuristics import hover_episode
-from ios_uav_env.benchmark.suite import (
+from ios_uav_env.benchmark.suite_registry import (
     BOUND_REL,
     ENERGY,
     ENERGY_REFERENCES,
@@ -104,7 +104,7 @@ def freeze(content: Mapping[str, Any], directory: str | Path = SUITE_DIR) -> tup
     """Write ``content`` to ``<directory>/<name>.json`` (atomically); its path and hash.
 
     ``ValueError`` if a file of that name exists with different content, or if the name is a
-    registered suite's (``ios_uav_env.benchmark.suite.SUITES``) and the content is not its.
+    registered suite's (``ios_uav_env.benchmark.suite_registry.SUITES``) and the content is not its.
     """
     path = Path(directory) / f"{content['name']}.json"
     digest = content_hash(content)

@@ -29,7 +29,7 @@ import numpy as np
 
 from ios_uav_env import DEFAULT_RANGES, MOBILE_ID, ScenarioConfig, ScenarioRanges, sample_scenario, score_plan
 from ios_uav_env.benchmark.heuristics import hover_episode
-from ios_uav_env.benchmark.suite import BOUND_REL, FORMAT, MOBILE, MOBILE_REFERENCES
+from ios_uav_env.benchmark.suite_registry import BOUND_REL, FORMAT, MOBILE, MOBILE_REFERENCES
 from ios_uav_env.model.mobility import GaussMarkov
 from ios_uav_env.model.motion import node_paths
 

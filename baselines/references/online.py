@@ -57,7 +57,7 @@ from ios_uav_env import (
     sample_multinode,
     score_plan,
 )
-from ios_uav_env.benchmark.suite import (
+from ios_uav_env.benchmark.suite_registry import (
     BOUND_REL,
     FORMAT,
     MOBILE,

@@ -41,7 +41,8 @@ from ios_uav_env.benchmark.results import (
     reference_results,
 )
 from ios_uav_env.benchmark.scoring import action_function, evaluate, evaluate_scenarios, score_trajectories
-from ios_uav_env.benchmark.suite import DEFAULT_SUITE, SUITES, Suite, SuiteScenario, list_suites, load_suite
+from ios_uav_env.benchmark.suite import Suite, SuiteScenario, list_suites, load_suite
+from ios_uav_env.benchmark.suite_registry import DEFAULT_SUITE, SUITES
 from ios_uav_env.benchmark.trajectories import read_plans, read_trajectories, write_trajectories
 
 __all__ = [

@@ -37,7 +37,8 @@ from typing import Any
 
 import numpy as np
 
-from ios_uav_env.benchmark.suite import (
+from ios_uav_env.benchmark.suite import Suite, SuiteScenario
+from ios_uav_env.benchmark.suite_registry import (
     ENERGY,
     MOBILE,
     MULTI_NODE,
@@ -45,8 +46,6 @@ from ios_uav_env.benchmark.suite import (
     SCORED,
     SINGLE_NODE,
     TIMED,
-    Suite,
-    SuiteScenario,
 )
 from ios_uav_env.io import atomic_write_text, save_rows_csv
 from ios_uav_env.model.config import ScenarioConfig
@@ -372,7 +371,8 @@ def spread(values: Sequence[float]) -> tuple[float, float, float]:
 
 def plan_seconds(rows: Sequence[Any], scenarios: Sequence[SuiteScenario]) -> tuple[float, float]:
     """The rows' median time to plan (NaN if any is unknown) and the timed reference's (SCA's;
-    MPC(k=1)'s on a mobile suite: :data:`~ios_uav_env.benchmark.suite.TIMED`), from the suite file."""
+    MPC(k=1)'s on a mobile suite: :data:`~ios_uav_env.benchmark.suite_registry.TIMED`), from the
+    suite file."""
     seconds = np.array([r.seconds for r in rows])
     median = float(np.median(seconds)) if np.isfinite(seconds).all() else math.nan
     timed = TIMED[scenarios[0].kind]

@@ -52,7 +52,8 @@ import numpy as np
 from ios_uav_env.benchmark.overrides import check_overrides, policy_env_kwargs
 from ios_uav_env.benchmark.policy_errors import NamedPolicy
 from ios_uav_env.benchmark.results import Metrics, Results, ScenarioResult, metrics_of
-from ios_uav_env.benchmark.suite import DEFAULT_SUITE, Suite, SuiteScenario, load_suite
+from ios_uav_env.benchmark.suite import Suite, SuiteScenario, load_suite
+from ios_uav_env.benchmark.suite_registry import DEFAULT_SUITE
 from ios_uav_env.benchmark.trajectories import check_plan_time
 from ios_uav_env.envs.rollout import decision_interval
 from ios_uav_env.model.score import score_plan
