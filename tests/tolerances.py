@@ -81,5 +81,9 @@ SOLVER_REL = 1e-6
 #: Largest change of a golden episode's float64 value (info, reward), in units of max(1, the
 #: largest magnitude of the same key in the recorded episode).
 GOLDEN_REL = 1e-6
-#: Largest absolute change of a golden episode's float32 observation feature.
+#: Largest absolute change of a golden episode's float32 observation feature, on the ids that
+#: observe measured (faded) rates (their carrier phase turns 1e-7 m into ~1e-5).
 GOLDEN_OBS_ABS = 2e-4
+#: The same on every other id: their features move by a float32 ulp (~1e-7 on O(1) features), so
+#: 1e-5 leaves a factor 100 and a changed normalisation of a small feature still shows.
+GOLDEN_EXACT_OBS_ABS = 1e-5
