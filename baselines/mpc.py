@@ -269,9 +269,10 @@ def run_online(
             if new is not None and (old is None or new[0].value > old.value):
                 plan_q = np.concatenate([q[:n], new[1]])
                 plan_a, n_kept = new[0].shares, n_kept + 1
-            else:
-                assert old is not None
+            elif old is not None:
                 plan_a = old.shares
+            else:  # the first plan of the flight found no route: nothing to fly
+                raise RuntimeError(f"{planner.name}: no plan at slot {n} (the inner planner found no route)")
         assert plan_q is not None and plan_a is not None
         shares[:, n] = plan_a[:, n]
         if n + 1 < n_slots:
