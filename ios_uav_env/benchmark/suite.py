@@ -19,7 +19,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from ios_uav_env.benchmark.suite_registry import (  # the registry, re-exported
+from ios_uav_env.benchmark.suite_registry import (  # noqa: F401 (the registry, re-exported)
     BOUND_REL,
     DEFAULT_SUITE,
     ENERGY,
@@ -50,17 +50,8 @@ from ios_uav_env.benchmark.suite_registry import (  # the registry, re-exported
     scored_references,
     suite_path,
     suite_text,
-)  # fmt: skip
+)
 from ios_uav_env.model.config import ScenarioConfig
-
-__all__ = [
-    "BOUND_REL", "DEFAULT_SUITE", "ENERGY", "ENERGY_REFERENCES", "FORMAT", "KIND_REFERENCES", "MOBILE",
-    "MOBILE_KINDS", "MOBILE_REFERENCES", "MOBILE_V2_REFERENCES", "MULTI_MOBILE_REFERENCES",
-    "MULTI_NODE", "MULTI_NODE_MOBILE", "MULTI_REFERENCES", "NAME_PATTERN", "NORMALISERS", "REFERENCES",
-    "RegisteredSuite", "SCORED", "SINGLE_NODE", "SUITES", "SUITE_DIR", "Suite", "SuiteScenario",
-    "TIMED", "UNIT", "VALUE_KEY", "check_suite_name", "content_hash", "list_suites", "load_suite",
-    "scored_references", "suite_path", "suite_text",
-]  # fmt: skip
 
 
 @dataclass(frozen=True)
