@@ -253,7 +253,7 @@ def checked_expert(spec: str, env_id: str, env_kwargs: Mapping[str, Any]) -> Exp
         names = getattr(env.unwrapped, "observation_names", None)
         needed = tuple(getattr(expert, "observation_features", ()) or ())
         if needed:  # read by name: checked against the env's layout, then bound to it
-            from ios_uav_env.envs.observation import require_features
+            from ios_uav_env.envs.observation_layout import require_features
 
             require_features(needed, names, who, where)
             if callable(getattr(expert, "bind", None)):

@@ -43,10 +43,10 @@ from ios_uav_env.envs.observation import (
     float32_bounds,
     ground_free_rate_bound,
     length_bounds,
-    observation_names,
     overflow_hint,
     pad,
 )
+from ios_uav_env.envs.observation_layout import observation_names
 from ios_uav_env.envs.options import KNOWLEDGE, EnvOptions
 from ios_uav_env.model.channel import faded_row, path_kernels
 from ios_uav_env.model.config import ScenarioConfig

@@ -35,7 +35,7 @@ from ios_uav_env.envs.multi_kernels import (
 )
 from ios_uav_env.envs.multi_mobile import MobileNodes
 from ios_uav_env.envs.multi_space import multinode_bounds, rate_high
-from ios_uav_env.envs.observation import node_block_names
+from ios_uav_env.envs.observation_layout import node_block_names
 from ios_uav_env.envs.options import EnvOptions, split_kwargs
 from ios_uav_env.envs.settings import (
     check_multinode_arguments,
@@ -296,7 +296,7 @@ class MultiNodeEnv(MobileNodes, gym.Env):
         self.render_mode = render_mode
         self.node_features = NODE_FEATURES + (NODE_PEAK_FEATURES if self.options.peak_hint else ())
         #: The names of the observation's components, in order: ``BASE_FEATURES``, then node slot
-        #: k's ``node_features`` as ``<feature>_<k>`` (``observation.node_block_names``).
+        #: k's ``node_features`` as ``<feature>_<k>`` (``observation_layout.node_block_names``).
         self.observation_names: tuple[str, ...] = BASE_FEATURES + node_block_names(
             self.node_features, self.max_nodes, self.options.knowledge
         )

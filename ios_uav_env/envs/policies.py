@@ -19,7 +19,7 @@ checks them against the env's published layout (``ValueError`` naming each missi
 the env argument that provides it, e.g. ``peak_hint=True``) and reads them where that layout has
 them. ``envs.rollout.run_episode`` / ``run_episodes`` and ``benchmark.evaluate`` bind it before the
 episode. Unbound, it takes the single-node layout of the observation's length
-(``observation.SINGLE_LAYOUTS``) and refuses one that lacks its features.
+(``observation_layout.SINGLE_LAYOUTS``) and refuses one that lacks its features.
 """
 
 from __future__ import annotations
@@ -31,7 +31,7 @@ from typing import Any
 
 import numpy as np
 
-from ios_uav_env.envs.observation import (
+from ios_uav_env.envs.observation_layout import (
     ENERGY_NAMES,
     OBS_NAMES,
     PEAK_NAMES,
@@ -74,7 +74,7 @@ class FeatureReader:
 
     def bind(self, names: Sequence[str]) -> Any:
         """A copy of the policy that reads the layout ``names`` (an env's ``observation_names``);
-        ``ValueError`` (``observation.require_features``) unless it has every feature needed."""
+        ``ValueError`` (``observation_layout.require_features``) unless it has every feature needed."""
         layout = tuple(names)
         env = f"the env ({len(layout)} features)"
         columns = require_features(self.observation_features, layout, repr(self), env)

@@ -34,7 +34,7 @@ from typing import Any
 
 import numpy as np
 
-from ios_uav_env.envs.observation import require_features
+from ios_uav_env.envs.observation_layout import require_features
 from ios_uav_env.model.config import ScenarioConfig
 from ios_uav_env.model.score import score_plan
 
@@ -229,7 +229,7 @@ def bind_policy(policy: Policy, names: Sequence[str] | None, env: str = "the env
     """``policy`` bound to the layout ``names`` (an env's ``observation_names``) when it reads the
     observation by feature name (``observation_features``, on itself or a bound method's object):
     its ``bind(names)`` if it has one (a bound method stays a method of the bound copy), else
-    itself once ``observation.require_features`` passes. ``ValueError`` naming each missing
+    itself once ``observation_layout.require_features`` passes. ``ValueError`` naming each missing
     feature and the env argument that provides it. A policy that declares no features is
     returned as it is."""
     reader = _reader(policy)

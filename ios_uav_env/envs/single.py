@@ -17,16 +17,13 @@ import numpy as np
 from gymnasium import spaces
 
 from ios_uav_env.envs.knowledge import NodeTrack, mobile_bounds
-from ios_uav_env.envs.observation import (
+from ios_uav_env.envs.observation import check_fits, loiter_efficiency, reference_efficiency, space_bounds
+from ios_uav_env.envs.observation_layout import (
     ENERGY_NAMES,
     INSTANCE_NAMES,
     OBS_NAMES,
     PEAK_NAMES,
-    check_fits,
-    loiter_efficiency,
     observation_names,
-    reference_efficiency,
-    space_bounds,
 )
 from ios_uav_env.envs.options import CHANNELS, EnvOptions, split_kwargs
 from ios_uav_env.envs.settings import check_scenario_overrides, several_nodes_error, single_node_id
@@ -125,7 +122,7 @@ class IOSUAVEnv(MobileNode, gym.Env):
     The rate objective's layouts above are unchanged.
 
     ``env.unwrapped.observation_names`` is the layout: the names of the components, in order
-    (``observation.observation_names``; with ``knowledge`` other than ``"exact"`` the rate is
+    (``observation_layout.observation_names``; with ``knowledge`` other than ``"exact"`` the rate is
     ``measured_rate``, and with ``"rates"`` features 4-5 are ``dx_ground_hidden`` /
     ``dy_ground_hidden``). Every bound is a finite float32: a setting that would take a feature
     beyond float32 (e.g. a tiny ``length_scale``, a huge ``energy_reference``) is refused with
@@ -346,7 +343,7 @@ class IOSUAVEnv(MobileNode, gym.Env):
             self._check_mobile()
             low, high, self._rate_clip = mobile_bounds(self._ranges(), self.options, low, high)
         self.observation_space = spaces.Box(low, high, dtype=np.float32)
-        #: The names of the observation's components, in order (``observation.observation_names``).
+        #: The names of the observation's components, in order (``observation_layout.observation_names``).
         o = self.options
         self.observation_names: tuple[str, ...] = observation_names(
             o.instance_features, o.peak_hint, self.energy_objective, o.knowledge
