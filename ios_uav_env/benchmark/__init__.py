@@ -9,10 +9,12 @@ alone (no planner, no deep-learning library):
 >>> results.aggregate.n, results.aggregate.feasible   # the arrival guard brings it to qF
 (2, 2)
 
-- :mod:`~ios_uav_env.benchmark.suite`: the suites (:data:`SUITES`, :func:`load_suite`; a
-  file that does not match its registered hash fails to load);
+- :mod:`~ios_uav_env.benchmark.suite`: the suites (:func:`load_suite`; a file that does not
+  match its registered hash fails to load); :mod:`~ios_uav_env.benchmark.suite_registry`:
+  :data:`SUITES`, the kinds and their references;
 - :mod:`~ios_uav_env.benchmark.scoring`: :func:`evaluate` (a policy) and
-  :func:`score_trajectories` (one trajectory, and for K > 1 its shares, per scenario), for
+  :mod:`~ios_uav_env.benchmark.trajectory_scoring`: :func:`score_trajectories` (one
+  trajectory, and for K > 1 its shares, per scenario), for
   every suite, each plan scored by :func:`ios_uav_env.score_plan` (a policy that raises:
   :class:`PolicyError`, naming the suite, the scenario and the policy);
 - :mod:`~ios_uav_env.benchmark.overrides`: which env arguments a run may add to a suite's
@@ -40,10 +42,11 @@ from ios_uav_env.benchmark.results import (
     ScenarioResult,
     reference_results,
 )
-from ios_uav_env.benchmark.scoring import action_function, evaluate, evaluate_scenarios, score_trajectories
+from ios_uav_env.benchmark.scoring import action_function, evaluate, evaluate_scenarios
 from ios_uav_env.benchmark.suite import Suite, SuiteScenario, list_suites, load_suite
 from ios_uav_env.benchmark.suite_registry import DEFAULT_SUITE, SUITES
 from ios_uav_env.benchmark.trajectories import read_plans, read_trajectories, write_trajectories
+from ios_uav_env.benchmark.trajectory_scoring import score_trajectories
 
 __all__ = [
     "DEFAULT_SUITE",

@@ -47,10 +47,11 @@ from typing import Any, NoReturn
 from ios_uav_env.benchmark.outputs import RESULT_FILES, claim
 from ios_uav_env.benchmark.overrides import policy_env_kwargs
 from ios_uav_env.benchmark.results import reference_results
-from ios_uav_env.benchmark.scoring import action_function, check_env_kwargs, evaluate, score_trajectories
+from ios_uav_env.benchmark.scoring import action_function, check_env_kwargs, evaluate
 from ios_uav_env.benchmark.suite import list_suites, load_suite
 from ios_uav_env.benchmark.suite_registry import DEFAULT_SUITE, KIND_REFERENCES, SUITES
 from ios_uav_env.benchmark.trajectories import read_plans
+from ios_uav_env.benchmark.trajectory_scoring import score_trajectories
 
 
 def load_policy(spec: str) -> Any:

@@ -220,6 +220,11 @@ def load_suite(suite: str | Path = DEFAULT_SUITE) -> Suite:
     )
 
 
+def suite_of(suite: Suite | str | Any) -> Suite:
+    """``suite`` itself if loaded, else :func:`load_suite` of it."""
+    return suite if isinstance(suite, Suite) else load_suite(suite)
+
+
 def _read_json(path: Path) -> Any:
     """The JSON content of ``path`` (``ValueError`` naming it if it is not JSON of finite numbers)."""
 

@@ -16,7 +16,7 @@ the scenario's K). :func:`read_plans` returns them; without them a plan is score
 trajectory's best schedule.
 
 :func:`read_trajectories` checks the file's layout (clear ``ValueError`` naming the scenario or
-the line); :func:`~ios_uav_env.benchmark.scoring.score_trajectories` checks each trajectory
+the line); :func:`~ios_uav_env.benchmark.trajectory_scoring.score_trajectories` checks each trajectory
 against its scenario.
 """
 
