@@ -32,7 +32,8 @@ import numpy as np
 
 from agents.report import Row
 from ios_uav_env import ScenarioConfig
-from ios_uav_env.benchmark.results import METRICS, ScenarioResult
+from ios_uav_env.benchmark.metrics import METRICS
+from ios_uav_env.benchmark.results import ScenarioResult
 from ios_uav_env.benchmark.scoring import episode
 from ios_uav_env.benchmark.suite import MULTI_NODE, SuiteScenario
 from ios_uav_env.envs.multi import DEFAULT_NODES

@@ -45,10 +45,10 @@ from baselines.references.heldout import load_suite as load_plans
 from ios_uav_env import ENV_IDS, RANDOM_ENV_ID, score_plan
 from ios_uav_env.benchmark import DEFAULT_SUITE, Results, ScenarioResult, Suite, evaluate_scenarios
 from ios_uav_env.benchmark import load_suite as load_benchmark
+from ios_uav_env.benchmark.metrics import metrics_of
 from ios_uav_env.benchmark.outputs import RESULT_FILES, claim, remove_stale
 from ios_uav_env.benchmark.overrides import check_overrides, policy_env_kwargs
 from ios_uav_env.benchmark.policy_errors import NamedPolicy
-from ios_uav_env.benchmark.results import metrics_of
 from ios_uav_env.envs.policies import HoverAt
 from ios_uav_env.io import save_figure
 

@@ -21,7 +21,8 @@ alone (no planner, no deep-learning library):
   (one the suite pins is refused, one that changes the task only with ``allow_task_change``,
   and the results then name the changed task);
 - :mod:`~ios_uav_env.benchmark.results`: :class:`Results` (per scenario and aggregate; CSV,
-  JSON, markdown, figures) for any K, with the suite kind's :class:`Metrics` (single-node:
+  JSON, markdown, figures) for any K, with the suite kind's :class:`Metrics`
+  (:mod:`~ios_uav_env.benchmark.metrics`; single-node:
   % of DP and of SCA; multi-node: the plan's own max-min rate as % of SCA and of the
   certified bound, and its best schedule's % of SCA);
 - :mod:`~ios_uav_env.benchmark.heuristics`: :func:`fly` (a policy flown in the env on one
@@ -33,15 +34,9 @@ alone (no planner, no deep-learning library):
 """
 
 from ios_uav_env.benchmark.heuristics import Flight, fly, hover_episode
+from ios_uav_env.benchmark.metrics import METRICS, Metrics
 from ios_uav_env.benchmark.policy_errors import PolicyError
-from ios_uav_env.benchmark.results import (
-    METRICS,
-    Aggregate,
-    Metrics,
-    Results,
-    ScenarioResult,
-    reference_results,
-)
+from ios_uav_env.benchmark.results import Aggregate, Results, ScenarioResult, reference_results
 from ios_uav_env.benchmark.scoring import action_function, evaluate, evaluate_scenarios
 from ios_uav_env.benchmark.suite import Suite, SuiteScenario, list_suites, load_suite
 from ios_uav_env.benchmark.suite_registry import DEFAULT_SUITE, SUITES

@@ -52,9 +52,10 @@ from typing import Any
 
 import numpy as np
 
+from ios_uav_env.benchmark.metrics import Metrics, metrics_of
 from ios_uav_env.benchmark.overrides import check_overrides, policy_env_kwargs
 from ios_uav_env.benchmark.policy_errors import NamedPolicy
-from ios_uav_env.benchmark.results import Metrics, Results, ScenarioResult, metrics_of
+from ios_uav_env.benchmark.results import Results, ScenarioResult
 from ios_uav_env.benchmark.suite import Suite, SuiteScenario, suite_of
 from ios_uav_env.benchmark.suite_registry import DEFAULT_SUITE
 from ios_uav_env.benchmark.trajectory_scoring import score_trajectories  # noqa: F401 (re-exported)

@@ -10,7 +10,8 @@ from typing import Any
 
 import numpy as np
 
-from ios_uav_env.benchmark.results import Results, ScenarioResult, metrics_of
+from ios_uav_env.benchmark.metrics import metrics_of
+from ios_uav_env.benchmark.results import Results, ScenarioResult
 from ios_uav_env.benchmark.suite import Suite, suite_of
 from ios_uav_env.benchmark.suite_registry import DEFAULT_SUITE
 from ios_uav_env.benchmark.trajectories import check_plan_time
