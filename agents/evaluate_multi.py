@@ -200,7 +200,7 @@ def agent_row(agent: Any, scenario: SuiteScenario) -> Row:
     """Roll ``agent`` out deterministically on the scenario and score its plan."""
     env = agent_env(agent, scenario.config)
     try:
-        r = episode(env, fast_act(agent), scenario, 0, False, METRICS[MULTI_NODE])
+        r = episode(env, fast_act(agent), scenario, 0, METRICS[MULTI_NODE])
     finally:
         env.close()
     return _row(getattr(agent, "name", "agent"), "agent", r, r.trajectory, r.shares)

@@ -114,31 +114,24 @@ def play(
 
 
 def episode(
-    env: Any, act: Callable, scenario: SuiteScenario, seed: int | None, batched: bool, metrics: Metrics
+    env: Any, act: Callable, scenario: SuiteScenario, seed: int | None, metrics: Metrics
 ) -> ScenarioResult:
-    """One episode of ``act`` on ``scenario`` in ``env`` (a batch of one if ``batched``), scored by
-    ``score_plan`` of its trajectory (and, K > 1 nodes, the shares the policy chose). A mobile
-    scenario's episode is reset with its own seed (``seed`` is not used) and scored on the node's
-    true path, which must be the scenario's (``RuntimeError`` otherwise: the env drew another)."""
+    """One episode of ``act`` on ``scenario`` in the single env ``env`` (a batched action function
+    as :func:`batch_of_one`), scored by ``score_plan`` of its trajectory (and, K > 1 nodes, the
+    shares the policy chose). A mobile scenario's episode is reset with its own seed (``seed`` is
+    not used) and scored on the node's true path, which must be the scenario's (``RuntimeError``
+    otherwise: the env drew another)."""
     cfg = scenario.config
     paths = scenario.paths()
     if paths is not None:
         seed = scenario.seed
-
-    def checked(obs: np.ndarray) -> np.ndarray:
-        action = act(obs)
-        if action.shape != (1, 2):
-            raise ValueError(f"a batched policy must return a (B, 2) action (B=1 here), got {action.shape}")
-        return action
-
-    seconds = play(env, checked if batched else act, scenario, seed, decision_interval(act))
+    seconds = play(env, act, scenario, seed, decision_interval(act))
     base = env.unwrapped
     seconds -= getattr(base, "score_seconds", 0.0)  # the env's scoring LP is not the plan's time
-    trajectory = base.trajectories[0] if batched else base.trajectory
+    trajectory = base.trajectory
     shares = base.shares if cfg.K > 1 else None  # (a multi-node suite runs the single env)
     if paths is not None:
-        drawn = (base.envs[0] if batched else base).paths
-        if not np.array_equal(drawn, paths):
+        if not np.array_equal(base.paths, paths):
             raise RuntimeError(
                 f"scenario {scenario.index}: the env drew another node path than the suite's (seed "
                 f"{scenario.seed}): its draws are not those of ios_uav_env.envs.knowledge"
@@ -177,6 +170,11 @@ def check_env_kwargs(
     ``observation_space``, as SB3's models and ``agents.numpy_policy.NumpyPolicy`` do) and the
     env's are of another shape: the env is made once with them, and closed, before any scenario runs."""
     check_overrides(suite, env_kwargs, allow_task_change=allow_task_change)
+    _check_env_takes(suite, env_kwargs, policy)
+
+
+def _check_env_takes(suite: Suite, env_kwargs: Mapping[str, Any], policy: Any) -> None:
+    """:func:`check_env_kwargs` after its ``check_overrides`` (for a caller that ran it already)."""
     kwargs = {**suite.env_kwargs, **dict(env_kwargs)}
     try:
         env, _ = _make_env(suite.env_id, kwargs, False)
@@ -228,9 +226,9 @@ def evaluate(
     """
     suite = suite_of(suite)
     own = policy_env_kwargs(suite, policy, env_kwargs)
-    check_overrides(suite, own, allow_task_change=allow_task_change)
+    check_overrides(suite, own, allow_task_change=allow_task_change)  # once: the calls below skip it
     if getattr(policy, "observation_space", None) is not None:
-        check_env_kwargs(suite, own, policy, allow_task_change=allow_task_change)
+        _check_env_takes(suite, own, policy)
     from ios_uav_env.envs.rollout import policy_for  # a policy reading features by name: checked first
 
     policy = policy_for(policy, suite.env_id, {**suite.env_kwargs, **dict(own or {})})
@@ -239,8 +237,8 @@ def evaluate(
     act = action_function(policy)
     if at_once and batched:  # run_episodes hands the batch to a function that says it takes one
         act = _takes_a_batch(act)
-    return evaluate_scenarios(act, suite, suite.subset(n), own, seed, name, batched=batched, at_once=at_once,
-                              allow_task_change=allow_task_change)  # fmt: skip
+    check_seed(seed)
+    return _evaluate_checked(act, suite, suite.subset(n), own, seed, name, batched=batched, at_once=at_once)
 
 
 def _takes_a_batch(act: Callable) -> Callable:
@@ -283,6 +281,21 @@ def evaluate_scenarios(
     (or the batch) and ``name``, the policy's own exception chained."""
     check_seed(seed)
     check_overrides(suite, env_kwargs, allow_task_change=allow_task_change)
+    return _evaluate_checked(act, suite, scenarios, env_kwargs, seed, name, batched=batched, at_once=at_once)
+
+
+def _evaluate_checked(
+    act: Callable,
+    suite: Suite,
+    scenarios: Sequence[SuiteScenario],
+    env_kwargs: Mapping[str, Any] | None,
+    seed: int | None,
+    name: str,
+    *,
+    batched: bool,
+    at_once: bool,
+) -> Results:
+    """:func:`evaluate_scenarios` after its checks of ``seed`` and ``env_kwargs`` (run once by the caller)."""
     metrics = metrics_of(suite)
     kwargs = {**suite.env_kwargs, **dict(env_kwargs or {})}
     named = NamedPolicy(act, suite.name, name)  # a policy's error names the suite, scenario and policy
@@ -300,11 +313,11 @@ def evaluate_scenarios(
             )
         if scenarios:  # warm-up, not scored: compilations and first calls stay out of the plan times
             named.at(scenarios[0], warm_up=True)
-            episode(env, act, scenarios[0], seed, False, metrics)
+            episode(env, act, scenarios[0], seed, metrics)
         rows = []
         for s in scenarios:
             named.at(s)
-            rows.append(episode(env, act, s, seed, False, metrics))
+            rows.append(episode(env, act, s, seed, metrics))
     finally:
         env.close()
     return Results.of(suite, name, kwargs, rows, scenarios)
