@@ -168,8 +168,9 @@ class MultiNodeEnv(MobileNodes, gym.Env):
     ``distance_to_final``, ``shares`` (K_max, this slot's), ``node_rates`` (K_max, S_k / N so
     far), ``min_rate`` (m_n: at slot N the agent's own score min_k R_k), ``best_schedule_rate``
     (at slot N ``maxmin_rate`` of the trajectory, the best shares for the same flight, the
-    certified best schedule of ``ios_uav_env.model.schedule``: NaN if scipy is not installed; 0
-    before), the three reward terms, ``feasible`` (eq. (10) so far and, with ``energy_budget_j``,
+    certified best schedule of ``ios_uav_env.model.schedule``: NaN if scipy is not installed
+    and the schedule needs its HiGHS fallback, K > 8 or a failed certificate; 0 before), the
+    three reward terms, ``feasible`` (eq. (10) so far and, with ``energy_budget_j``,
     the flight's energy so far within it: at slot N, ``score_plan``'s verdict), ``worst_violation``,
     ``terminal_miss``.
     The best schedule's wall time is kept in ``score_seconds`` (0 before slot N): it scores the flight, so

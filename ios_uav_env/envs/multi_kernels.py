@@ -469,19 +469,18 @@ class NodeRows:
 def episode_best_values(rows: NodeRows, ended: np.ndarray, envs: Sequence[Any],
                         num_threads: int | None = None) -> np.ndarray:  # fmt: skip
     """``info["best_schedule_rate"]`` of the rows ``ended`` (their episodes just ended; ``envs[j]``
-    the env of row ``ended[j]``): NaN without scipy (``schedule.scipy_or_warn``); static nodes
-    by :meth:`NodeRows.best_values` (compiled, all rows at once); moving nodes, and a row whose
-    certificate failed, by ``schedule.maxmin_rate`` of the env's flight on its true paths."""
-    from ios_uav_env.model.schedule import maxmin_rate, scipy_or_warn
+    the env of row ``ended[j]``): static nodes by :meth:`NodeRows.best_values` (compiled, all
+    rows at once, no scipy); moving nodes, and a row whose certificate failed, by
+    ``schedule.reported_maxmin_rate`` of the env's flight on its true paths (``maxmin_rate``:
+    NaN where that falls back to HiGHS without scipy, ``schedule.scipy_or_warn``)."""
+    from ios_uav_env.model.schedule import reported_maxmin_rate
 
     values = np.full(len(ended), np.nan)
-    if not scipy_or_warn():
-        return values
     static = np.array([not env.mobile for env in envs], dtype=bool)
     ok = np.zeros(len(ended), dtype=bool)
     if static.any():
         values[static], ok[static] = rows.best_values(ended[static], num_threads)
     for j in np.flatnonzero(~ok):
         i, env = ended[j], envs[j]
-        values[j] = maxmin_rate(env.config, rows.path[i, : env.config.N], env.truth)
+        values[j] = reported_maxmin_rate(env.config, rows.path[i, : env.config.N], env.truth)
     return values

@@ -51,7 +51,7 @@ The imitation expert labels shares with it (``agents.expert.hindsight_shares``).
 
 For K = 1 nothing is solved: the shares are all ones and the score is
 :func:`ios_uav_env.average_rate` (no scipy needed). scipy (and HiGHS, ``ios_uav_env.model.lp``) is
-imported only for K > 1.
+imported only by :func:`maxmin_schedule` for K > 1: the certified column generation needs none.
 """
 
 from __future__ import annotations
@@ -378,10 +378,11 @@ _SCIPY: list[bool] = []  # [is scipy importable], found at the first call
 
 
 def scipy_or_warn() -> bool:
-    """Whether scipy (HiGHS's LP, the fallback of :func:`certified_schedule`) imports: the
-    multi-node envs report ``info["best_schedule_rate"]`` only then, else NaN, with one warning
-    the first time (an env needs only numpy and Gymnasium; ``pip install scipy``, or the
-    ``planners`` extra, brings the score back)."""
+    """Whether scipy (HiGHS's LP, the fallback of :func:`certified_schedule`) imports: without it
+    the multi-node envs report ``info["best_schedule_rate"]`` as NaN for a flight that needs
+    that fallback (:func:`reported_maxmin_rate`), with one warning the first time (an env needs
+    only numpy and Gymnasium; ``pip install scipy``, or the ``planners`` extra, brings the score
+    back)."""
     if not _SCIPY:
         try:
             import scipy.optimize  # noqa: F401
@@ -392,7 +393,9 @@ def scipy_or_warn() -> bool:
             import warnings
 
             warnings.warn(
-                "scipy is not installed: info['best_schedule_rate'] is NaN (pip install scipy)", stacklevel=3
+                "scipy is not installed: info['best_schedule_rate'] is NaN where the certified schedule "
+                "falls back to HiGHS (pip install scipy)",
+                stacklevel=3,
             )
     return _SCIPY[0]
 
@@ -401,5 +404,12 @@ def reported_maxmin_rate(
     config: ScenarioConfig, trajectory: np.ndarray, paths: np.ndarray | None = None
 ) -> float:
     """:func:`maxmin_rate` (on the node ``paths`` when given) for the envs'
-    ``info["best_schedule_rate"]``, or NaN without scipy (:func:`scipy_or_warn`)."""
-    return maxmin_rate(config, trajectory, paths) if scipy_or_warn() else float("nan")
+    ``info["best_schedule_rate"]``. scipy is needed only where :func:`certified_schedule` falls
+    back to HiGHS (K > ``maxmin.MAX_NODES``, or a failed certificate): without it such a flight
+    gets NaN (:func:`scipy_or_warn`); K = 1 and the certified column generation need no scipy."""
+    try:
+        return maxmin_rate(config, trajectory, paths)
+    except ImportError:  # scipy, imported by the HiGHS fallback only (maxmin_schedule, lp.solve_lp)
+        if scipy_or_warn():
+            raise
+        return float("nan")
