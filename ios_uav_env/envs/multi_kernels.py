@@ -25,7 +25,14 @@ import numpy as np
 
 from ios_uav_env.envs.observation import M_SCALE, T_SCALE
 from ios_uav_env.envs.options import EnvOptions
-from ios_uav_env.envs.single_kernels import budget_of, flags_of, fly_entry_out_of_range, penalties, toward
+from ios_uav_env.envs.single_kernels import (
+    budget_of,
+    flags_of,
+    fly_entry_out_of_range,
+    penalties,
+    slot_power,
+    toward,
+)
 from ios_uav_env.jit import HAVE_NUMBA, jit, prange, run_batched
 from ios_uav_env.model.channel import PARAMS, rate_kernel, rate_point
 from ios_uav_env.model.config import ENERGY_RTOL, FEASIBILITY_TOL, ScenarioConfig
@@ -86,7 +93,7 @@ def node_peaks(config: ScenarioConfig) -> tuple[tuple[float, float, float], ...]
 def episode_row(config: ScenarioConfig, length_scale: float, sharpness: float, softmin_beta: float = 0.0,
                 peak_hint: bool = False) -> np.ndarray:  # fmt: skip
     """The ``episode`` row of ``config`` (see :data:`EPISODE`): the propulsion constants of
-    ``single_kernels.move_power`` and the energy budget (``single_kernels.budget_of``) last."""
+    ``single_kernels.slot_power`` and the energy budget (``single_kernels.budget_of``) last."""
     (fx, fy), (cx, cy) = config.qF, config.ios_center[:2]
     elements = config.M / M_SCALE if config.surface != "none" else 0.0
     kind = float(config.surface == "ios"), float(config.surface == "ris")
@@ -124,16 +131,6 @@ def soft_minimum(served: np.ndarray, k_n: int, n_slots: float, beta: float) -> f
     for k in range(k_n):
         total += math.exp(-beta * (served[k] / n_slots - low))
     return low - math.log(total / k_n) / beta
-
-
-@jit(inline=True, fastmath=False)
-def _move_power(length: float, ep: np.ndarray) -> float:
-    """P(V) (W) of a move of ``length`` m over one slot with the constants of the ``episode`` row
-    ``ep`` (``single_kernels.move_power``'s formula, the model's ``propulsion_power``)."""
-    v = length / ep[16]
-    v2 = v * v
-    x = v2 * ep[20]
-    return ep[17] * (1.0 + ep[18] * v2) + ep[19] / math.sqrt(math.sqrt(1.0 + x * x) + x) + ep[21] * v2 * v
 
 
 @jit(inline=True, fastmath=False)
@@ -256,7 +253,7 @@ def _step_row(
     st[0], st[1], st[2] = x, y, n + 1.0
     length = math.hypot(x - x0, y - y0)
     st[3] = max(st[3], length - d)
-    st[6] += ep[16] * _move_power(length, ep)
+    st[6] += ep[16] * slot_power(length, ep[16], ep[17], ep[18], ep[19], ep[20], ep[21])
     path[i, int(n) + 1, 0], path[i, int(n) + 1, 1] = x, y
     _rates(i, x, y, k_n, nodes, params, rates)
     low = math.inf

@@ -163,17 +163,22 @@ def reset_rows(
 
 
 @jit(inline=True)
-def move_power(length: float, ep: np.ndarray, i: int) -> float:
-    """P(V) (W) of a move of ``length`` m flown over one slot, V = length / dt: eq. (12) with row
-    ``i``'s constants (``ios_uav_env.propulsion_power``, inlined)."""
-    v = length / ep[i, 21]
+def slot_power(
+    length: float, dt: float, p_blade: float, blade_k: float, p_induced: float, induced_k: float, drag: float
+) -> float:
+    """P(V) (W) of a move of ``length`` m flown over a slot of ``dt`` s, V = length / dt: eq. (12)
+    (``ios_uav_env.propulsion_power``, inlined) with the constants of an ``episode`` row's
+    ``p_blade, blade_k, p_induced, induced_k, drag`` columns (both kernels' rows hold them)."""
+    v = length / dt
     v2 = v * v
-    x = v2 * ep[i, 25]
-    return (
-        ep[i, 22] * (1.0 + ep[i, 23] * v2)
-        + ep[i, 24] / math.sqrt(math.sqrt(1.0 + x * x) + x)
-        + ep[i, 26] * v2 * v
-    )
+    x = v2 * induced_k
+    return p_blade * (1.0 + blade_k * v2) + p_induced / math.sqrt(math.sqrt(1.0 + x * x) + x) + drag * v2 * v
+
+
+@jit(inline=True)
+def move_power(length: float, ep: np.ndarray, i: int) -> float:
+    """:func:`slot_power` with row ``i``'s constants."""
+    return slot_power(length, ep[i, 21], ep[i, 22], ep[i, 23], ep[i, 24], ep[i, 25], ep[i, 26])
 
 
 @jit(inline=True)
