@@ -160,7 +160,16 @@ class VecShiftReward(VecEnvWrapper):
     def __init__(self, venv: VecEnv, offset: float = 0.0, scale: float = 1.0):
         self.shift = tricks.RewardShift(offset, scale, who="VecShiftReward")
         super().__init__(venv)
-        self.offset, self.scale = self.shift.offset, self.shift.scale
+
+    @property
+    def offset(self) -> float:
+        """The shift's offset (``agents.tricks.RewardShift``)."""
+        return self.shift.offset
+
+    @property
+    def scale(self) -> float:
+        """The shift's scale (``agents.tricks.RewardShift``)."""
+        return self.shift.scale
 
     def reset(self) -> np.ndarray:
         return self.venv.reset()

@@ -39,7 +39,16 @@ class ShiftReward(gym.RewardWrapper):
     def __init__(self, env: gym.Env, offset: float = 0.0, scale: float = 1.0) -> None:
         super().__init__(env)
         self.shift = tricks.RewardShift(offset, scale)
-        self.offset, self.scale = self.shift.offset, self.shift.scale
+
+    @property
+    def offset(self) -> float:
+        """The shift's offset (``agents.tricks.RewardShift``)."""
+        return self.shift.offset
+
+    @property
+    def scale(self) -> float:
+        """The shift's scale (``agents.tricks.RewardShift``)."""
+        return self.shift.scale
 
     def reward(self, reward: SupportsFloat) -> float:
         return float(self.shift(np.float64(reward)))
