@@ -1,0 +1,95 @@
+r"""Link components: how the slot's rate follows from the UAV, the surface's control and the beam.
+
+:class:`SingleAntennaLink` is today's link: a single-antenna UAV, one node served per slot,
+rate log2(1 + eta E|h|^2) (bps/Hz). Its interface is the one every link keeps: the slot's rate
+at UAV ``positions`` for the config's node, given the surface's ``phases`` (K, M) (None: the
+surface's closed-form phases, eq. (13)) and the transmit ``beam`` (None: the UAV's only antenna
+at full power). With ``phases`` given, the expected gain of the Rician channel of eqs. (4)-(8)
+is E|h|^2 = kappa/(1+kappa) |h^LoS(psi)|^2 + 1/(1+kappa) (sum_m a_m + a_D)^2, which for the
+closed-form phases is zeta^2 (``channel.slot_rates``): the link and the env's rate agree there.
+``fading`` is what the env samples each slot: the expected-gain rate (the paper's objective) or
+one Rician faded sample (the env option ``channel``).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from typing import Any, ClassVar
+
+import numpy as np
+
+from ios_uav_env.components.base import Component, Registry
+from ios_uav_env.model import channel
+from ios_uav_env.model.config import ScenarioConfig
+
+__all__ = ["FADINGS", "LINKS", "Link", "SingleAntennaLink"]
+
+#: What the env samples each slot (the env option ``channel``).
+FADINGS: tuple[str, ...] = ("expected", "rician")
+
+
+@dataclasses.dataclass(frozen=True)
+class Link(Component):
+    """A link: ``antennas`` at the UAV, ``fading`` sampled each slot."""
+
+    family: ClassVar[str] = "link"
+    antennas: ClassVar[int] = 1
+    fading: str = "expected"
+
+    def __post_init__(self) -> None:
+        if self.fading not in FADINGS:
+            raise ValueError(f"link.fading must be one of {FADINGS}, got {self.fading!r}")
+
+    @classmethod
+    def variants(cls) -> tuple[Link, ...]:
+        """One link per ``fading``."""
+        return tuple(cls(fading=f) for f in FADINGS)
+
+    def option_fields(self) -> dict[str, Any]:
+        """The env options this link sets."""
+        return {"channel": self.fading}
+
+    def rates(
+        self,
+        config: ScenarioConfig,
+        positions: np.ndarray,
+        phases: np.ndarray | None = None,
+        beam: np.ndarray | None = None,
+    ) -> np.ndarray:
+        """Expected-gain rate (bps/Hz) of ``config``'s node at each UAV position, shape (K,)."""
+        raise NotImplementedError
+
+
+#: The link registry.
+LINKS: Registry[Link] = Registry("link")
+
+
+@LINKS.register("single_antenna")
+@dataclasses.dataclass(frozen=True)
+class SingleAntennaLink(Link):
+    """One antenna at the UAV, one node per slot (module docstring)."""
+
+    kind: ClassVar[str] = "single_antenna"
+
+    def rates(
+        self,
+        config: ScenarioConfig,
+        positions: np.ndarray,
+        phases: np.ndarray | None = None,
+        beam: np.ndarray | None = None,
+    ) -> np.ndarray:
+        """Expected-gain rate log2(1 + eta E|h|^2) at each position (module docstring), (K,)."""
+        config.require_single_node("SingleAntennaLink.rates")
+        if beam is not None:
+            raise ValueError(
+                f"beam is the transmit beam of a multi-antenna UAV; link 'single_antenna' has "
+                f"{self.antennas} antenna at full power: pass beam=None"
+            )
+        q = channel.as_positions(positions)
+        if phases is None:
+            return channel.slot_rates(config, q)
+        k = config.kappa
+        los = channel.los_channel(config, q, phases)
+        amp = channel.element_amplitudes(config, q).sum(axis=1) + channel.direct_amplitude(config, q)
+        gain = k / (1 + k) * np.abs(los) ** 2 + amp**2 / (1 + k)
+        return np.log2(1.0 + config.eta * gain)

@@ -1,0 +1,167 @@
+"""A world: one choice of every component, checked as a whole, and the env that runs it.
+
+``World(surface, link, objective, motion, knowledge, nodes)`` holds a component of each family
+(given as objects, names or dicts with ``kind``) and the number K of ground nodes. It maps to
+the two things an env is made from, ``config_fields()`` (``ScenarioConfig``) and
+``option_fields()`` (``EnvOptions``), and back: ``World.of(config, options)`` is the world of an
+env's scenario and options. :meth:`World.check` refuses a combination the simulator does not
+run, naming the components and why; every env calls it at construction, so the refusal and
+its message live here only. :func:`combinations` walks every combination of the registered
+kinds (at their default parameters), the matrix the tests run through the env checker.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import itertools
+import numbers
+from collections.abc import Iterator
+from typing import Any
+
+from ios_uav_env.components.knowledge import KNOWLEDGE, Knowledge
+from ios_uav_env.components.link import LINKS, Link
+from ios_uav_env.components.motion import MOTIONS, Motion
+from ios_uav_env.components.objective import OBJECTIVES, Objective
+from ios_uav_env.components.surface import SURFACES, Surface
+from ios_uav_env.model.config import ScenarioConfig
+
+__all__ = ["FAMILIES", "UnsupportedWorld", "World", "combinations"]
+
+#: family name -> its registry, in the order of ``World``'s fields.
+FAMILIES = {
+    "surface": SURFACES,
+    "link": LINKS,
+    "objective": OBJECTIVES,
+    "motion": MOTIONS,
+    "knowledge": KNOWLEDGE,
+}
+
+
+class UnsupportedWorld(ValueError):
+    """A combination of components the simulator does not run (the message says which and why)."""
+
+
+@dataclasses.dataclass(frozen=True)
+class World:
+    """One component of each family and K ground ``nodes`` (module docstring). Defaults: the
+    paper's world (an IOS, the single-antenna expected-gain link, the rate, static, exactly known
+    nodes, one node)."""
+
+    surface: Surface | str | dict = "ios"
+    link: Link | str | dict = "single_antenna"
+    objective: Objective | str | dict = "rate"
+    motion: Motion | str | dict = "static"
+    knowledge: Knowledge | str | dict = "exact"
+    nodes: int = 1
+
+    def __post_init__(self) -> None:
+        for family, registry in FAMILIES.items():
+            object.__setattr__(self, family, registry.make(getattr(self, family)))
+        k = self.nodes
+        if not (isinstance(k, numbers.Integral) and not isinstance(k, bool) and k >= 1):
+            raise ValueError(f"nodes must be an integer >= 1 (K, the number of ground nodes), got {k!r}")
+        object.__setattr__(self, "nodes", int(k))
+
+    @classmethod
+    def of(
+        cls,
+        config: ScenarioConfig,
+        *,
+        channel: str = "expected",
+        knowledge: str = "exact",
+        report_sigma: float | None = None,
+        filter_estimate: bool = False,
+    ) -> World:
+        """The world of ``config`` and the env options given (``EnvOptions``' fields)."""
+        motion: Any = (
+            "static" if config.motion is None else {"kind": "gauss_markov", **_motion_fields(config)}
+        )
+        know: Any = {"kind": "filtered" if filter_estimate else knowledge}
+        if knowledge == "reports" and report_sigma is not None:
+            know["sigma"] = report_sigma
+        return cls(
+            surface=config.surface,
+            link={"kind": "single_antenna", "fading": channel},
+            objective={"kind": config.objective, "budget_j": config.energy_budget_j},
+            motion=motion,
+            knowledge=know,
+            nodes=config.K,
+        )
+
+    def config_fields(self) -> dict[str, Any]:
+        """The ``ScenarioConfig`` fields of the surface, the objective and the motion."""
+        return {
+            **self.surface.config_fields(),
+            **self.objective.config_fields(),
+            **self.motion.config_fields(),
+        }
+
+    def option_fields(self) -> dict[str, Any]:
+        """The ``EnvOptions`` fields of the link and the knowledge."""
+        return {**self.link.option_fields(), **self.knowledge.option_fields()}
+
+    def names(self) -> dict[str, str]:
+        """family -> kind, and ``nodes``: the world in one line (for messages and tables)."""
+        out: dict[str, Any] = {family: getattr(self, family).kind for family in FAMILIES}
+        if self.link.fading != "expected":
+            out["link"] += f" ({self.link.fading})"
+        if self.objective.budget_j is not None:
+            out["objective"] += " within a budget"
+        return {**out, "nodes": f"K = {self.nodes}"}
+
+    def problems(self) -> list[str]:
+        """Why the simulator does not run this world (empty when it does); see ``RULES``."""
+        return [why for applies, why in RULES if applies(self)]
+
+    def check(self) -> World:
+        """``self`` if the simulator runs it, else ``UnsupportedWorld`` naming the components and why."""
+        problems = self.problems()
+        if problems:
+            named = ", ".join(f"{family} {kind}" for family, kind in self.names().items())
+            raise UnsupportedWorld(f"unsupported world ({named}): " + "; ".join(problems))
+        return self
+
+
+def _motion_fields(config: ScenarioConfig) -> dict[str, Any]:
+    motion = config.motion
+    return {f.name: getattr(motion, f.name) for f in dataclasses.fields(motion)}
+
+
+#: The combinations the simulator does not run: (applies to a world, why). Each names the
+#: components involved and, where one exists, what to use instead.
+RULES: tuple[tuple[Any, str], ...] = (
+    (
+        lambda w: w.nodes > 1 and w.objective.counts_energy,
+        "objective energy_efficiency with several nodes (K > 1): the multi-node step has no energy "
+        "reward or reference; with K > 1 use objective rate (max-min), with an energy budget if the "
+        "flight's energy must be bounded",
+    ),
+    (
+        lambda w: w.nodes > 1 and w.link.fading != "expected",
+        "link fading 'rician' with several nodes (K > 1): the multi-node step rates every node by its "
+        "expected gain; use fading 'expected'",
+    ),
+    (
+        lambda w: w.objective.counts_energy and (w.motion.moves or not w.knowledge.exact),
+        "objective energy_efficiency with a moving or reported node: the energy reward's reference "
+        "efficiency is a static, exactly known node's plan; use motion static and knowledge exact",
+    ),
+)
+
+
+def combinations(
+    nodes: tuple[int, ...] = (1, 3), budgets: tuple[float | None, ...] = (None,)
+) -> Iterator[World]:
+    """Every world of the registered kinds (each kind's ``variants()``, e.g. a link per fading),
+    for each K in ``nodes`` and each objective budget in ``budgets`` (supported or not:
+    ``World.check`` tells)."""
+    choices = [
+        [v for kind in registry.names() for v in registry.get(kind).variants()]
+        for registry in FAMILIES.values()
+    ]
+    for k, budget in itertools.product(nodes, budgets):
+        for surface, link, objective, motion, knowledge in itertools.product(*choices):
+            objective = dataclasses.replace(objective, budget_j=budget)
+            yield World(
+                surface=surface, link=link, objective=objective, motion=motion, knowledge=knowledge, nodes=k
+            )

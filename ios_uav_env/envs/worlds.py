@@ -1,0 +1,88 @@
+"""Envs from worlds: ``make_world`` builds the env (single or batched) that runs a
+``ios_uav_env.components.World``, and ``check_world`` is the check every env runs at
+construction on its scenario and options (``World.check``: the one place that says which
+combinations of components the simulator runs).
+
+>>> from ios_uav_env.components import World
+>>> env = make_world(World(surface="ris", motion="gauss_markov", knowledge="reports"))
+>>> env.unwrapped.config.surface, env.unwrapped.options.knowledge
+('ris', 'reports')
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import gymnasium as gym
+
+from ios_uav_env.components import UnsupportedWorld, World
+from ios_uav_env.model.config import ScenarioConfig, as_config
+
+__all__ = ["check_world", "default_scenario", "make_world"]
+
+#: The id whose env runs a world of one node, and of several (its config given whole).
+SINGLE_NODE_ID = "ios_uav_env/IOSUAV-v0"
+MULTI_NODE_ID = "ios_uav_env/IOSUAV-MultiNode-v0"
+
+
+def check_world(config: ScenarioConfig, options: Any, env_id: str, field: str = "config") -> World:
+    """The world of ``config`` (the env's scenario, or its family's base, named ``field``) and
+    ``options`` (``EnvOptions``), checked: ``UnsupportedWorld`` naming ``env_id``, ``field``,
+    the components and why, if the simulator does not run it."""
+    world = World.of(
+        config,
+        channel=options.channel,
+        knowledge=options.knowledge,
+        report_sigma=options.report_sigma,
+        filter_estimate=options.filter_estimate,
+    )
+    try:
+        return world.check()
+    except UnsupportedWorld as err:
+        raise UnsupportedWorld(f"{env_id} ({field}): {err}") from None
+
+
+def default_scenario(nodes: int) -> ScenarioConfig:
+    """The scenario a world of ``nodes`` nodes runs on when none is given: the paper's for one
+    node, the multi-node id's three nodes (``multi.DEFAULT_NODES``) for three."""
+    from ios_uav_env.envs.multi import DEFAULT_NODES
+
+    if nodes == 1:
+        return ScenarioConfig()
+    if nodes == len(DEFAULT_NODES):
+        return ScenarioConfig(ground_nodes=DEFAULT_NODES)
+    raise ValueError(
+        f"a world of nodes={nodes} needs config=ScenarioConfig(ground_nodes=...) with {nodes} nodes (the "
+        f"default scenarios have 1 or {len(DEFAULT_NODES)})"
+    )
+
+
+def make_world(
+    world: World, config: ScenarioConfig | dict | None = None, *, num_envs: int | None = None, **kwargs: Any
+) -> Any:
+    """The env that runs ``world`` on ``config`` (its other fields; default:
+    :func:`default_scenario`), single (``gym.make``: the registered id's wrappers) or, with
+    ``num_envs``, batched (the id's vector class, B rows). ``kwargs``: more ``EnvOptions`` (the
+    view: ``instance_features``, ``peak_hint``, ...) or the env's own arguments. An unsupported
+    world raises ``UnsupportedWorld`` before anything is built."""
+    if not isinstance(world, World):
+        raise TypeError(f"world must be an ios_uav_env.components.World, got {world!r}")
+    world.check()
+    base = default_scenario(world.nodes) if config is None else as_config(config)
+    if base.K != world.nodes:
+        raise ValueError(f"config has K = {base.K} ground nodes, but the world has nodes={world.nodes}")
+    clash = sorted(set(kwargs) & (set(world.config_fields()) | set(world.option_fields())))
+    if clash:
+        raise ValueError(f"{clash} are set by the world's components: change the world, not the keywords")
+    cfg = base.replace(**world.config_fields())
+    arguments = {"config": cfg, **world.option_fields(), **kwargs}
+    env_id = SINGLE_NODE_ID if world.nodes == 1 else MULTI_NODE_ID
+    if world.nodes == 1:  # the single-node id's own keyword (its surface) would replace the config's
+        arguments["surface"] = cfg.surface
+    if num_envs is None:
+        return gym.make(env_id, **arguments)
+    if world.nodes == 1:
+        from ios_uav_env.envs.single_vector import IOSUAVVectorEnv as Vector
+    else:
+        from ios_uav_env.envs.multi_vector import MultiNodeVectorEnv as Vector  # type: ignore[assignment]
+    return Vector(num_envs=num_envs, **arguments)
