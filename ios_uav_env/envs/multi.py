@@ -24,12 +24,14 @@ import numpy as np
 from gymnasium import spaces
 
 from ios_uav_env.envs.knowledge import NodesTrack
+from ios_uav_env.envs.multi_energy import ENERGY_NAMES, EnergyChannel, check_options
 from ios_uav_env.envs.multi_kernels import (
     BEST,
     MULTI_INFO_KEYS,
     NodeRows,
     info_arrays,
     info_columns,
+    info_keys,
     node_peaks,
     soft_minimum,
 )
@@ -88,7 +90,7 @@ def share_scores(shares: np.ndarray, sharpness: float = 5.0) -> np.ndarray:
     return np.clip(1.0 + np.log(ratio) / sharpness, -1.0, 1.0)
 
 
-class MultiNodeEnv(MobileNodes, gym.Env):
+class MultiNodeEnv(MobileNodes, EnergyChannel, gym.Env):
     r"""A UAV flies from ``q0`` to ``qF`` and shares every slot between K ground nodes (TDMA).
 
     ## Description
@@ -235,13 +237,6 @@ class MultiNodeEnv(MobileNodes, gym.Env):
     ) -> None:
         options, overrides = split_kwargs(kwargs, f"{type(self).__name__}.__init__")
         self.options = EnvOptions(**options)
-        if self.options.channel != "expected" or self.options.instance_features:
-            raise ValueError("MultiNodeEnv takes channel='expected' and no instance_features")
-        if self.options.energy_reference is not None:
-            raise ValueError(
-                "MultiNodeEnv has no energy reward: energy_reference is for the single-node energy ids, "
-                f"got energy_reference={self.options.energy_reference!r}"
-            )
         if render_mode not in (None, "rgb_array"):
             raise ValueError(f"render_mode must be None or 'rgb_array', got {render_mode!r}")
         check_multinode_arguments(config, random_nodes, ranges, MULTINODE_RANGES, overrides)
@@ -262,11 +257,15 @@ class MultiNodeEnv(MobileNodes, gym.Env):
         # moving or roughly known nodes (ios_uav_env.envs.knowledge): paths and kernels per episode
         family = ranges.base if random_nodes else self._base
         self.mobile: bool = family.motion is not None or self.options.knowledge != "exact"
-        multinode_objective(family, "ranges.base" if random_nodes else "config", self._own_id())
+        # the objective fixes the reward and the observation's layout (multi_energy)
+        self.energy_objective: bool = family.objective == "energy_efficiency"
+        self.reference_efficiency: float = 0.0  # bits/J, lambda_ref of the episode (energy objective)
+        check_options(self.options, self.energy_objective)
+        fades = self.options.channel == "rician" or self.options.knowledge != "exact"
         surfaces = ranges.surfaces if random_nodes else (self._base.surface,)
         check_scenario_overrides(
-            self._own_id(), overrides, surfaces, fades=self.mobile and self.options.knowledge != "exact",
-            multinode=True, budget=family.energy_budget_j is not None,
+            self._own_id(), overrides, surfaces, fades=fades, multinode=True,
+            budget=family.energy_budget_j is not None, energy=self.energy_objective,
         )  # fmt: skip
         if self.mobile and self.options.peak_hint:
             raise ValueError(
@@ -298,8 +297,10 @@ class MultiNodeEnv(MobileNodes, gym.Env):
         self.node_features = NODE_FEATURES + (NODE_PEAK_FEATURES if self.options.peak_hint else ())
         #: The names of the observation's components, in order: ``BASE_FEATURES``, then node slot
         #: k's ``node_features`` as ``<feature>_<k>`` (``observation_layout.node_block_names``).
-        self.observation_names: tuple[str, ...] = BASE_FEATURES + node_block_names(
-            self.node_features, self.max_nodes, self.options.knowledge
+        self.observation_names: tuple[str, ...] = (
+            BASE_FEATURES
+            + node_block_names(self.node_features, self.max_nodes, self.options.knowledge)
+            + (ENERGY_NAMES if self.energy_objective else ())
         )
         self.action_space = spaces.Box(-1.0, 1.0, (2 + self.max_nodes,), np.float32)
         low, high = self._bounds()
@@ -307,9 +308,16 @@ class MultiNodeEnv(MobileNodes, gym.Env):
         # where a measured rate is clipped (the space's rate bound, over the env's family)
         own = self.ranges if random_nodes else ScenarioRanges.from_config(self._base.node_config(0))
         self._rate_clip = self._rate_high(own)
+        # where the observation clips a served rate (faded rates only: channel "rician")
+        self._served_clip = rate_high(own, "exact", True) if self._rician else math.inf
+        #: The keys of ``info`` (``multi_kernels.info_keys``: more with the energy objective, Rician).
+        self.info_keys: tuple[str, ...] = info_keys(self.energy_objective, self._rician)
         self.config = self._base
         # a batch of one episode for the kernels of ios_uav_env.envs.multi_kernels
-        self._rows = NodeRows(1, self.max_nodes, self.options, self.share_sharpness, self.softmin_beta)
+        self._rows = NodeRows(
+            1, self.max_nodes, self.options, self.share_sharpness, self.softmin_beta, self.energy_objective,
+            self._served_clip,
+        )  # fmt: skip
         self._one, self._active = np.zeros(1, dtype=np.int64), np.ones(1, dtype=np.bool_)
         self._action, self._norm = np.zeros((1, 2 + self.max_nodes)), np.zeros(1)
         self._obs = np.zeros((1, low.size), dtype=np.float32)
@@ -365,7 +373,7 @@ class MultiNodeEnv(MobileNodes, gym.Env):
                 f"{field} has a motion model; this env's nodes are static: make the env on the scenario "
                 "instead (MultiNodeEnv(cfg)), or use ios_uav_env/IOSUAV-MultiNode-Mobile-v0"
             )
-        multinode_objective(cfg, field, self._own_id())
+        multinode_objective(cfg, field, self._own_id(), self.energy_objective)
         if cfg.K > self.max_nodes:
             raise ValueError(
                 f"{field}: the scenario has K = {cfg.K} nodes; this env observes at most max_nodes = "
@@ -386,6 +394,7 @@ class MultiNodeEnv(MobileNodes, gym.Env):
         self._rows.load(0, cfg)
         if self.mobile:
             self._start_track(self._rows, 0)
+        self._prepare(self._rows, 0)  # lambda_ref, the first slot's fading
         self.score_seconds = 0.0  # wall time of the episode's best schedule (scoring, not planning)
         self._rows.start(self._one, self._obs, self._table)
         if self.mobile:
@@ -395,7 +404,8 @@ class MultiNodeEnv(MobileNodes, gym.Env):
 
     def _info(self) -> dict[str, Any]:
         """The ``info`` dict (``MULTI_INFO_KEYS``) of the info table: numpy scalars and arrays."""
-        return {key: value[0] for key, value in info_arrays(self._table.copy(), self.max_nodes).items()}
+        table = self._table.copy()
+        return {key: value[0] for key, value in info_arrays(table, self.max_nodes, self.info_keys).items()}
 
     def step(self, action: Any) -> tuple[np.ndarray, float, bool, bool, dict]:
         if not self._started:
@@ -412,6 +422,7 @@ class MultiNodeEnv(MobileNodes, gym.Env):
         outputs = (self._obs, self._reward, self._terminated, self._table)
         if self.mobile:
             self._slot_kernels(self._rows, 0)
+        self._fade(self._rows, 0)
         self._rows.step(self._action, self._active, outputs, self._norm, serial=True)
         if self.mobile:
             self._observe(self._rows, 0, self._obs[0])

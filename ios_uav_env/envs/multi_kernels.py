@@ -12,6 +12,14 @@ rows they touch: node k's rate is ``channel.rate_point``, the move goes through
 ``guard.guarded_position``, the shares are the softmax of ``share_sharpness`` x the scores of
 the scenario's K nodes, and the reward terms are those of ``MultiNodeEnv``'s docstring.
 Compiled with numba when installed (``ios_uav_env.jit``).
+
+Two options of ``flags`` (``single_kernels.flags_of``) change the step: ``energy`` (the
+objective ``"energy_efficiency"``) adds the reward's energy term -(lambda_ref / B) P(V_n) and the
+energy features after the node blocks; ``rician`` serves each node its faded rate of the slot
+(``channel.faded_point`` with the two standard normal draws of ``normals[i, k]``), while
+``expected`` (B, K_max) keeps the expected-gain sums sum_n alpha_k[n] r_k(q[n]) that the score
+and the energy efficiency are taken on. Every step books the move's propulsion energy
+(``single_kernels.slot_power``) whatever the flags.
 """
 
 from __future__ import annotations
@@ -23,7 +31,7 @@ from typing import Any
 
 import numpy as np
 
-from ios_uav_env.envs.observation import M_SCALE, T_SCALE
+from ios_uav_env.envs.observation import M_SCALE, T_SCALE, min_power_move
 from ios_uav_env.envs.options import EnvOptions
 from ios_uav_env.envs.single_kernels import (
     budget_of,
@@ -34,28 +42,32 @@ from ios_uav_env.envs.single_kernels import (
     toward,
 )
 from ios_uav_env.jit import HAVE_NUMBA, jit, prange, run_batched
-from ios_uav_env.model.channel import PARAMS, rate_kernel, rate_point
+from ios_uav_env.model.channel import PARAMS, faded_point, rate_kernel, rate_point
 from ios_uav_env.model.config import ENERGY_RTOL, FEASIBILITY_TOL, ScenarioConfig
 from ios_uav_env.model.guard import guarded_position
 from ios_uav_env.model.maxmin_paths import path_values
 from ios_uav_env.model.peak import rate_peak
 
 #: Columns of a row of ``state`` (``moves_made`` at column 2, as in ``single_kernels.STATE``;
-#: ``energy``: the propulsion energy so far, J).
-STATE = ("x", "y", "moves_made", "excess", "min_rate", "potential", "energy")
+#: ``energy``: the propulsion energy so far, J; ``move_x``, ``move_y``: the last move / D).
+STATE = ("x", "y", "moves_made", "excess", "min_rate", "potential", "energy", "move_x", "move_y")
 #: Columns of a row of ``episode``.
 EPISODE = (
     "D", "qfx", "qfy", "moves", "inv_l", "N", "cx", "cy", "K", "sharpness", "elements", "is_ios",
     "is_ris", "horizon", "softmin_beta", "peak_hint", "dt", "p_blade", "blade_k", "p_induced", "induced_k",
-    "drag", "budget",
+    "drag", "budget", "energy_cost", "energy_weight", "min_power_move", "bits_scale", "served_clip",
 )  # fmt: skip
 #: Columns of a row of ``points`` (per node).
 POINT = ("x", "y", "side", "peak_x", "peak_y", "peak_rate")
-#: The scalar columns of the ``info`` table; then ``shares`` (K_max), then ``node_rates`` (K_max).
+#: The scalar columns of the ``info`` table; then ``shares`` (K_max), ``node_rates`` (K_max),
+#: :data:`MORE` and ``expected_node_rates`` (K_max).
 INFO = (
     "position_x", "position_y", "slot", "distance_to_final", "min_rate", "best_schedule_rate",
     "reward_rate", "reward_reach", "reward_terminal", "feasible", "worst_violation", "terminal_miss",
 )  # fmt: skip
+#: The scalar columns of the ``info`` table after ``node_rates``: the energy objective's and the
+#: Rician channel's (written on every row; ``info`` shows them only where they mean something).
+MORE = ("power", "energy", "energy_efficiency", "reward_energy", "expected_min_rate")
 #: Column of ``best_schedule_rate`` (filled in by the caller: an LP, at episode end only).
 BEST = INFO.index("best_schedule_rate")
 #: The keys of ``info`` (the same on every step and at reset): :func:`info_arrays`.
@@ -63,23 +75,42 @@ MULTI_INFO_KEYS = (
     "position", "slot", "distance_to_final", "shares", "node_rates", "min_rate", "best_schedule_rate",
     "reward_rate", "reward_reach", "reward_terminal", "feasible", "worst_violation", "terminal_miss",
 )  # fmt: skip
+#: The keys ``info`` adds with the objective ``"energy_efficiency"``.
+ENERGY_INFO_KEYS = ("power", "energy", "energy_efficiency", "reward_energy")
+#: The keys ``info`` adds with channel ``"rician"``.
+RICIAN_INFO_KEYS = ("expected_node_rates", "expected_min_rate")
+
+
+def info_keys(energy: bool = False, rician: bool = False) -> tuple[str, ...]:
+    """The keys of ``info``: :data:`MULTI_INFO_KEYS`, then :data:`ENERGY_INFO_KEYS` with the energy
+    objective, then :data:`RICIAN_INFO_KEYS` with channel ``"rician"``."""
+    return MULTI_INFO_KEYS + (ENERGY_INFO_KEYS if energy else ()) + (RICIAN_INFO_KEYS if rician else ())
 
 
 def info_columns(max_nodes: int) -> int:
     """Width of the ``info`` table for ``max_nodes`` nodes."""
-    return len(INFO) + 2 * max_nodes
+    return len(INFO) + len(MORE) + 3 * max_nodes
 
 
-def info_arrays(table: np.ndarray, max_nodes: int) -> dict[str, np.ndarray]:
-    """``info`` (:data:`MULTI_INFO_KEYS`) as views of the rows of the info ``table``: ``position``
-    (B, 2), ``shares`` and ``node_rates`` (B, K_max), ``slot`` int64, ``feasible`` bool."""
+def info_arrays(
+    table: np.ndarray, max_nodes: int, keys: tuple[str, ...] = MULTI_INFO_KEYS
+) -> dict[str, np.ndarray]:
+    """``info`` (``keys``, of :func:`info_keys`) as views of the rows of the info ``table``:
+    ``position`` (B, 2), ``shares``, ``node_rates`` and ``expected_node_rates`` (B, K_max),
+    ``slot`` int64, ``feasible`` bool."""
     columns, end = table.T, len(INFO)
     out = {key: columns[i] for i, key in enumerate(INFO) if not key.startswith("position")}
     out["position"] = table[:, 0:2]
     out["slot"] = out["slot"].astype(np.int64)
     out["feasible"] = out["feasible"] != 0.0
-    out["shares"], out["node_rates"] = table[:, end : end + max_nodes], table[:, end + max_nodes :]
-    return {key: out[key] for key in MULTI_INFO_KEYS}
+    out["shares"], out["node_rates"] = (
+        table[:, end : end + max_nodes],
+        table[:, end + max_nodes : end + 2 * max_nodes],
+    )
+    more = end + 2 * max_nodes
+    out.update({key: columns[more + j] for j, key in enumerate(MORE)})
+    out["expected_node_rates"] = table[:, more + len(MORE) :]
+    return {key: out[key] for key in keys}
 
 
 @functools.lru_cache(maxsize=256)
@@ -91,17 +122,31 @@ def node_peaks(config: ScenarioConfig) -> tuple[tuple[float, float, float], ...]
 
 
 def episode_row(config: ScenarioConfig, length_scale: float, sharpness: float, softmin_beta: float = 0.0,
-                peak_hint: bool = False) -> np.ndarray:  # fmt: skip
+                peak_hint: bool = False, reference: float = 0.0,
+                served_clip: float = math.inf) -> np.ndarray:  # fmt: skip
     """The ``episode`` row of ``config`` (see :data:`EPISODE`): the propulsion constants of
-    ``single_kernels.slot_power`` and the energy budget (``single_kernels.budget_of``) last."""
+    ``single_kernels.slot_power``, the energy budget (``single_kernels.budget_of``), then the
+    energy reward's constants of lambda_ref = ``reference`` (bits/J; :func:`set_reference`), the
+    minimum-power move V_mp dt / D, B dt (bits per bps/Hz of a slot) and where the observation
+    clips the served rates (``served_clip``, bps/Hz: finite for faded rates only)."""
     (fx, fy), (cx, cy) = config.qF, config.ios_center[:2]
     elements = config.M / M_SCALE if config.surface != "none" else 0.0
     kind = float(config.surface == "ios"), float(config.surface == "ris")
     m = config.propulsion
     row = [config.D, fx, fy, config.N - 1, 1.0 / length_scale, config.N, cx, cy, config.K, sharpness,
            elements, *kind, config.T / T_SCALE, softmin_beta, float(peak_hint), config.dt, m.P0,
-           3.0 / m.U_tip**2, m.P_i, 1.0 / (2.0 * m.v0**2), m.drag_coefficient, budget_of(config)]  # fmt: skip
-    return np.array(row, dtype=np.float64)
+           3.0 / m.U_tip**2, m.P_i, 1.0 / (2.0 * m.v0**2), m.drag_coefficient, budget_of(config), 0.0, 0.0,
+           min_power_move(config), config.bandwidth_hz * config.dt, served_clip]  # fmt: skip
+    out = np.array(row, dtype=np.float64)
+    set_reference(out, config, reference)
+    return out
+
+
+def set_reference(row: np.ndarray, config: ScenarioConfig, reference: float) -> None:
+    """Write lambda_ref = ``reference`` (bits/J) into the ``episode`` ``row`` of ``config``: the
+    energy cost lambda_ref / B (bps/Hz per W) and the energy weight lambda_ref P(0) / B (bps/Hz)."""
+    cost = reference / config.bandwidth_hz
+    row[23], row[24] = cost, cost * config.propulsion.hover_power
 
 
 def node_points(
@@ -144,8 +189,10 @@ def _rates(
 
 @jit(inline=True, fastmath=False)
 def _observe(obs: np.ndarray, i: int, x: float, y: float, left: float, dist: float, episode: np.ndarray,
-             points: np.ndarray, served: np.ndarray, rates: np.ndarray) -> None:  # fmt: skip
-    """Write observation row ``i`` (the layout of ``MultiNodeEnv``'s docstring)."""
+             points: np.ndarray, served: np.ndarray, rates: np.ndarray, state: np.ndarray,
+             flags: np.ndarray) -> None:  # fmt: skip
+    """Write observation row ``i`` (the layout of ``MultiNodeEnv``'s docstring; with the energy
+    objective the last move / D, the energy weight and the minimum-power move after the blocks)."""
     ep, o = episode[i], obs[i]
     inv_l, n_slots, k_n = ep[4], ep[5], int(ep[8])
     width = 9 if ep[15] != 0.0 else 6
@@ -158,22 +205,28 @@ def _observe(obs: np.ndarray, i: int, x: float, y: float, left: float, dist: flo
         j = 12 + width * k
         if k < k_n:
             o[j], o[j + 1], o[j + 2] = 1.0, (points[i, k, 0] - x) * inv_l, (points[i, k, 1] - y) * inv_l
-            o[j + 3], o[j + 4], o[j + 5] = points[i, k, 2], served[i, k] / n_slots, rates[i, k]
+            o[j + 3], o[j + 4], o[j + 5] = points[i, k, 2], min(served[i, k] / n_slots, ep[27]), rates[i, k]
             if width == 9:
                 o[j + 6], o[j + 7] = (points[i, k, 3] - x) * inv_l, (points[i, k, 4] - y) * inv_l
                 o[j + 8] = points[i, k, 5]
         else:
             for c in range(width):
                 o[j + c] = 0.0
+    if flags[6] != 0.0:
+        j = 12 + width * points.shape[1]
+        o[j], o[j + 1], o[j + 2], o[j + 3] = state[i, 7], state[i, 8], ep[24], ep[25]
 
 
 @jit(inline=True, fastmath=False)
 def _info(info: np.ndarray, i: int, state: np.ndarray, episode: np.ndarray, shares: np.ndarray,
           served: np.ndarray, dist: float, left: float, r_rate: float, r_reach: float,
-          r_terminal: float) -> None:  # fmt: skip
+          r_terminal: float, expected: np.ndarray, power: float, r_energy: float) -> None:  # fmt: skip
     """Write ``info`` row ``i`` (``best_schedule_rate`` 0: the caller's, at episode end); with an
     energy budget, ``feasible`` also asks E <= E_max (1 + ENERGY_RTOL) of the energy so far, as
-    ``check_trajectory`` does."""
+    ``check_trajectory`` does. Then :data:`MORE`: the move's ``power`` (W), the ``energy`` so far
+    (J), the bits per joule so far B dt min_k sum_n alpha_k[n] r_k(q[n]) / E (expected-gain
+    rates; 0 before the first move), the energy term, min_k of ``expected`` / N, and each node's
+    ``expected`` / N."""
     st, ep, row = state[i], episode[i], info[i]
     k_max = served.shape[1]
     k_n, n_slots = int(ep[8]), ep[5]
@@ -183,19 +236,37 @@ def _info(info: np.ndarray, i: int, state: np.ndarray, episode: np.ndarray, shar
     row[0], row[1], row[2], row[3], row[4], row[5] = st[0], st[1], st[2] + 1.0, dist, st[4], 0.0
     row[6], row[7], row[8] = r_rate, r_reach, r_terminal
     row[9], row[10], row[11] = 1.0 if feasible else 0.0, worst, deficit
+    low = math.inf
     for k in range(k_max):
         row[12 + k] = shares[i, k] if k < k_n else 0.0
         row[12 + k_max + k] = served[i, k] / n_slots if k < k_n else 0.0
+        row[17 + 2 * k_max + k] = expected[i, k] / n_slots if k < k_n else 0.0
+        if k < k_n:
+            low = min(low, expected[i, k])
+    more, energy = 12 + 2 * k_max, st[6]
+    row[more], row[more + 1], row[more + 3], row[more + 4] = power, energy, r_energy, low / n_slots
+    row[more + 2] = ep[26] * low / energy if energy > 0.0 else 0.0
+
+
+@jit(inline=True, fastmath=False)
+def _served(i: int, x: float, y: float, k_n: int, nodes: np.ndarray, params: np.ndarray, rates: np.ndarray,
+            normals: np.ndarray, flags: np.ndarray, k: int) -> float:  # fmt: skip
+    """Node ``k``'s rate of row ``i``'s slot as served: its expected-gain rate ``rates[i, k]``, or
+    with channel "rician" (``flags[1]``) one faded sample drawn from ``normals[i, k]``."""
+    if flags[1] != 0.0:
+        return faded_point(x, y, normals[i, k, 0], normals[i, k, 1], nodes[i, k], params[i, k])
+    return rates[i, k]
 
 
 @jit(fastmath=False)
 def reset_rows(
     rows: np.ndarray, state: np.ndarray, episode: np.ndarray, points: np.ndarray, nodes: np.ndarray,
     params: np.ndarray, served: np.ndarray, shares: np.ndarray, rates: np.ndarray, obs: np.ndarray,
-    info: np.ndarray, share_path: np.ndarray,
+    info: np.ndarray, share_path: np.ndarray, expected: np.ndarray, normals: np.ndarray, flags: np.ndarray,
 ) -> None:  # fmt: skip
     """Start the episodes of ``rows`` at the position already in ``state[:, 0:2]`` (q0): slot 1
-    shared equally (``shares`` (B, K_max) holds each row's current shares)."""
+    shared equally (``shares`` (B, K_max) holds each row's current shares; ``expected`` and
+    ``normals`` as in :func:`step_rows_batched`)."""
     for i in rows:
         ep, st = episode[i], state[i]
         x, y, k_n = st[0], st[1], int(ep[8])
@@ -203,13 +274,15 @@ def reset_rows(
         low = math.inf
         for k in range(k_n):
             shares[i, k] = 1.0 / k_n
-            served[i, k] = shares[i, k] * rates[i, k]
+            served[i, k] = shares[i, k] * _served(i, x, y, k_n, nodes, params, rates, normals, flags, k)
+            expected[i, k] = shares[i, k] * rates[i, k]
             share_path[i, 0, k] = shares[i, k]
             low = min(low, served[i, k])
         st[2], st[3], st[4], st[5], st[6] = 0.0, 0.0, low / ep[5], 0.0, 0.0  # potential before slot 1: 0
+        st[7], st[8] = 0.0, 0.0
         dist = math.hypot(ep[1] - x, ep[2] - y)
-        _observe(obs, i, x, y, ep[3], dist, episode, points, served, rates)
-        _info(info, i, state, episode, shares, served, dist, ep[3], 0.0, 0.0, 0.0)
+        _observe(obs, i, x, y, ep[3], dist, episode, points, served, rates, state, flags)
+        _info(info, i, state, episode, shares, served, dist, ep[3], 0.0, 0.0, 0.0, expected, 0.0, 0.0)
 
 
 @jit(inline=True, fastmath=False)
@@ -232,7 +305,7 @@ def _step_row(
     i: int, actions: np.ndarray, state: np.ndarray, episode: np.ndarray, points: np.ndarray,
     nodes: np.ndarray, params: np.ndarray, served: np.ndarray, shares: np.ndarray, rates: np.ndarray,
     flags: np.ndarray, obs: np.ndarray, reward: np.ndarray, terminated: np.ndarray, info: np.ndarray,
-    path: np.ndarray, share_path: np.ndarray, norms: np.ndarray,
+    path: np.ndarray, share_path: np.ndarray, norms: np.ndarray, expected: np.ndarray, normals: np.ndarray,
 ) -> None:  # fmt: skip
     """One slot of row ``i`` (see :func:`step_rows`); a row whose episode is over (or whose
     ``path`` is full) is left as it is: nothing is written past its slot N."""
@@ -253,12 +326,16 @@ def _step_row(
     st[0], st[1], st[2] = x, y, n + 1.0
     length = math.hypot(x - x0, y - y0)
     st[3] = max(st[3], length - d)
-    st[6] += ep[16] * slot_power(length, ep[16], ep[17], ep[18], ep[19], ep[20], ep[21])
+    power = slot_power(length, ep[16], ep[17], ep[18], ep[19], ep[20], ep[21])
+    st[6] += ep[16] * power
+    st[7], st[8] = (x - x0) / d, (y - y0) / d
     path[i, int(n) + 1, 0], path[i, int(n) + 1, 1] = x, y
     _rates(i, x, y, k_n, nodes, params, rates)
     low = math.inf
     for k in range(k_n):
-        served[i, k] = served[i, k] + shares[i, k] * rates[i, k]
+        rate = _served(i, x, y, k_n, nodes, params, rates, normals, flags, k)
+        served[i, k] = served[i, k] + shares[i, k] * rate
+        expected[i, k] = expected[i, k] + shares[i, k] * rates[i, k]
         share_path[i, int(n) + 1, k] = shares[i, k]
         low = min(low, served[i, k])
     st[4] = low / n_slots
@@ -269,10 +346,16 @@ def _step_row(
     r_rate = n_slots * (st[5] - previous)
     if done and ep[14] != 0.0:
         r_rate += n_slots * (st[4] - st[5])
-    reward[i] = r_rate + r_reach + r_terminal
+    r_energy = 0.0
+    if flags[6] != 0.0:
+        r_energy = -ep[23] * power
+        reward[i] = r_rate + r_energy + r_reach + r_terminal
+    else:
+        reward[i] = r_rate + r_reach + r_terminal
     terminated[i] = done
-    _observe(obs, i, x, y, left, dist, episode, points, served, rates)
-    _info(info, i, state, episode, shares, served, dist, left, r_rate, r_reach, r_terminal)
+    _observe(obs, i, x, y, left, dist, episode, points, served, rates, state, flags)
+    _info(info, i, state, episode, shares, served, dist, left, r_rate, r_reach, r_terminal, expected, power,
+          r_energy)  # fmt: skip
 
 
 @jit(fastmath=False)
@@ -280,14 +363,14 @@ def step_rows(
     actions: np.ndarray, state: np.ndarray, episode: np.ndarray, points: np.ndarray, nodes: np.ndarray,
     params: np.ndarray, served: np.ndarray, shares: np.ndarray, rates: np.ndarray, flags: np.ndarray,
     obs: np.ndarray, reward: np.ndarray, terminated: np.ndarray, info: np.ndarray, path: np.ndarray,
-    share_path: np.ndarray, active: np.ndarray, norms: np.ndarray,
+    share_path: np.ndarray, active: np.ndarray, norms: np.ndarray, expected: np.ndarray, normals: np.ndarray,
 ) -> None:  # fmt: skip
     """:func:`step_rows_batched` one row after the other (where numba's threads cannot run:
     ``ios_uav_env.jit.parallel_safe``)."""
     for i in range(actions.shape[0]):
         if active[i]:
             _step_row(i, actions, state, episode, points, nodes, params, served, shares, rates, flags, obs,
-                      reward, terminated, info, path, share_path, norms)  # fmt: skip
+                      reward, terminated, info, path, share_path, norms, expected, normals)  # fmt: skip
 
 
 @jit(fastmath=False, parallel=True)
@@ -295,7 +378,7 @@ def step_rows_batched(
     actions: np.ndarray, state: np.ndarray, episode: np.ndarray, points: np.ndarray, nodes: np.ndarray,
     params: np.ndarray, served: np.ndarray, shares: np.ndarray, rates: np.ndarray, flags: np.ndarray,
     obs: np.ndarray, reward: np.ndarray, terminated: np.ndarray, info: np.ndarray, path: np.ndarray,
-    share_path: np.ndarray, active: np.ndarray, norms: np.ndarray,
+    share_path: np.ndarray, active: np.ndarray, norms: np.ndarray, expected: np.ndarray, normals: np.ndarray,
 ) -> None:  # fmt: skip
     """One slot of every active row: move (unit-disk projection, then the arrival guard), shares,
     node rates, served rates, reward, observation and info. ``actions`` (B, 2 + K_max) must be
@@ -303,14 +386,16 @@ def step_rows_batched(
     and ``share_path`` (B, N_max, K_max) receive the new way-point and shares (at ``moves
     made``). ``norms`` (B,): |move| of each row whose move may leave the unit disk, 0 for the
     others (:func:`move_norms`: Python's ``math.hypot``, which the compiled one does not match
-    bit for bit). The rows run in parallel on numba's threads
+    bit for bit). ``expected`` (B, K_max): each node's expected-gain sum sum_n alpha_k[n]
+    r_k(q[n]); ``normals`` (B, K_max, 2): the slot's draws of h_SS per node (channel "rician"
+    only). The rows run in parallel on numba's threads
     (``MultiNodeVectorEnv(num_threads=...)``). IEEE arithmetic (no fused multiply-add) in the
     kernel's own code, rounded as plain Python rounds it: the arrival guard amplifies a
     last-bit difference when it pulls the UAV home along the reach circle."""
     for i in prange(actions.shape[0]):  # rows are independent, on numba's threads
         if active[i]:
             _step_row(i, actions, state, episode, points, nodes, params, served, shares, rates, flags, obs,
-                      reward, terminated, info, path, share_path, norms)  # fmt: skip
+                      reward, terminated, info, path, share_path, norms, expected, normals)  # fmt: skip
 
 
 @jit(fastmath=False)
@@ -319,11 +404,13 @@ def fly_rows(
     episode: np.ndarray, points: np.ndarray, nodes: np.ndarray, params: np.ndarray, served: np.ndarray,
     shares: np.ndarray, rates: np.ndarray, flags: np.ndarray, obs: np.ndarray, reward: np.ndarray,
     terminated: np.ndarray, info: np.ndarray, path: np.ndarray, share_path: np.ndarray, norms: np.ndarray,
+    expected: np.ndarray, normals: np.ndarray,
 ) -> int:  # fmt: skip
     """``moves[r]`` slots of row ``rows[r]``, each a full-speed move towards ``targets[r]`` (the rest
     of the way once within D; the arrival guard as always) with equal shares: the steps of
     :func:`step_rows` with those actions (``actions`` and ``norms`` are scratch, (B, 2 + K_max)
-    and (B,)); a row given more than once flies its entries in order. Returns -1, or, flying
+    and (B,); no fading draws: the batched env steps Rician rows instead); a row given more than
+    once flies its entries in order. Returns -1, or, flying
     nothing, the first entry ``r`` that is out of range: a row outside 0..B-1, a move count
     < 0, or a row whose moves (summed over its entries) would finish its episode or pass the
     end of ``path``."""
@@ -340,7 +427,7 @@ def fly_rows(
         for _ in range(moves[r]):
             toward(i, targets[r, 0], targets[r, 1], state, episode, actions)
             _step_row(i, actions, state, episode, points, nodes, params, served, shares, rates, flags, obs,
-                      reward, terminated, info, path, share_path, norms)  # fmt: skip
+                      reward, terminated, info, path, share_path, norms, expected, normals)  # fmt: skip
     return -1
 
 
@@ -359,17 +446,21 @@ class NodeRows:
     """The arrays of B multi-node episodes (row i = episode i; the layout of the module's
     docstring), the scenario loaded in each row, and the kernel calls on them. ``options``,
     ``sharpness`` and ``softmin_beta`` are the env's (``EnvOptions``, ``share_sharpness``,
-    ``softmin_beta``). ``path`` and ``share_path`` hold each row's way-points and shares."""
+    ``softmin_beta``); ``energy``: the objective is ``"energy_efficiency"``. ``path`` and
+    ``share_path`` hold each row's way-points and shares; ``normals`` (B, K_max, 2) the draws of
+    the slot's fading (channel "rician": the env writes them before each kernel call)."""
 
     def __init__(
-        self, num_rows: int, max_nodes: int, options: EnvOptions, sharpness: float, softmin_beta: float
-    ) -> None:
+        self, num_rows: int, max_nodes: int, options: EnvOptions, sharpness: float, softmin_beta: float,
+        energy: bool = False, served_clip: float = math.inf,
+    ) -> None:  # fmt: skip
         b, k = num_rows, max_nodes
-        self.flags = flags_of(options)
-        self.settings = (options.length_scale, sharpness, softmin_beta, options.peak_hint)
+        self.flags = flags_of(options, energy)
+        self.settings = (options.length_scale, sharpness, softmin_beta, options.peak_hint, served_clip)
         self.state, self.episode = np.zeros((b, len(STATE))), np.zeros((b, len(EPISODE)))
         self.points, self.served = np.zeros((b, k, len(POINT))), np.zeros((b, k))
         self.shares, self.rates = np.zeros((b, k)), np.zeros((b, k))
+        self.expected, self.normals = np.zeros((b, k)), np.zeros((b, k, 2))
         self.nodes, self.params = np.zeros((b, k, 3, 1)), np.zeros((b, k, len(PARAMS)))
         self.path, self.share_path = np.zeros((b, 1, 2)), np.zeros((b, 1, k))
         # each slot's node rates as the kernels computed them (rate_path), while `stored` (a row
@@ -390,7 +481,8 @@ class NodeRows:
         setattr(self, name, grown)
 
     def load(self, i: int, cfg: ScenarioConfig) -> None:
-        """Copy the scenario ``cfg`` into row ``i`` (unless it is already there) and put the UAV at q0."""
+        """Copy the scenario ``cfg`` into row ``i`` (unless it is already there) and put the UAV at q0
+        (the energy reward's lambda_ref: :meth:`set_reference`)."""
         if self.loaded[i] is not cfg:
             kernels = [rate_kernel(cfg.node_config(k)) for k in range(cfg.K)]
             width = max(kn.nodes.shape[1] for kn in kernels)
@@ -405,16 +497,23 @@ class NodeRows:
                 self.nodes[i, k, :, :q] = kn.nodes
                 self.nodes[i, k, :, q:] = ((0.0,), (1.0,), (0.0,))
                 self.params[i, k] = kn.params
-            length_scale, sharpness, softmin_beta, peak_hint = self.settings
+            length_scale, sharpness, softmin_beta, peak_hint, clip = self.settings
             self.points[i, : cfg.K] = node_points(cfg, node_peaks(cfg) if peak_hint else None)
-            self.episode[i] = episode_row(cfg, length_scale, sharpness, softmin_beta, peak_hint)
+            self.episode[i] = episode_row(cfg, length_scale, sharpness, softmin_beta, peak_hint, 0.0, clip)
             self.loaded[i] = cfg
         self.state[i, 0:2] = self.path[i, 0] = cfg.q0
+
+    def set_reference(self, i: int, reference: float) -> None:
+        """lambda_ref (bits/J) of row ``i``'s episode (:func:`set_reference` on its loaded scenario)."""
+        cfg = self.loaded[i]
+        assert cfg is not None
+        set_reference(self.episode[i], cfg, reference)
 
     def start(self, rows: np.ndarray, obs: np.ndarray, info: np.ndarray) -> None:
         """:func:`reset_rows` on ``rows`` (int64), writing ``obs`` and the ``info`` table."""
         reset_rows(rows, self.state, self.episode, self.points, self.nodes, self.params, self.served,
-                   self.shares, self.rates, obs, info, self.share_path)  # fmt: skip
+                   self.shares, self.rates, obs, info, self.share_path, self.expected, self.normals,
+                   self.flags)  # fmt: skip
         self.rate_path[rows, 0] = self.rates[rows]
         self.stored[rows] = True
 
@@ -427,7 +526,8 @@ class NodeRows:
         obs, reward, terminated, info = outputs
         args: tuple[Any, ...] = (actions, self.state, self.episode, self.points, self.nodes, self.params,
                                  self.served, self.shares, self.rates, self.flags, obs, reward, terminated,
-                                 info, self.path, self.share_path, active, norms)  # fmt: skip
+                                 info, self.path, self.share_path, active, norms, self.expected,
+                                 self.normals)  # fmt: skip
         if serial:
             step_rows(*args)
         else:
@@ -444,7 +544,7 @@ class NodeRows:
         bad = fly_rows(rows, targets, moves, np.zeros((b, width)), self.state, self.episode, self.points,
                        self.nodes, self.params, self.served, self.shares, self.rates, self.flags, obs,
                        np.zeros(b), np.zeros(b, dtype=np.bool_), info, self.path, self.share_path,
-                       np.zeros(b))  # fmt: skip
+                       np.zeros(b), self.expected, self.normals)  # fmt: skip
         if bad >= 0:
             raise ValueError(
                 f"fly entry {bad} (row {rows[bad] if bad < rows.size else '?'}) is out of range: rows must "

@@ -13,8 +13,12 @@ The batch-level conventions are ``ios_uav_env.envs.batched.BatchedEnv``'s: scena
 reset in one template ``MultiNodeEnv`` per row, autoreset ``NEXT_STEP`` by default or
 ``autoreset_mode="same_step"`` with ``final_obs`` / ``final_info``, ``reset(seed=s)`` seeding
 row i with ``s + i``, ``options={"config": cfg}`` / ``{"configs": [...]}`` pinning the rows'
-scenarios. ``info`` is a dict of arrays (``MULTI_INFO_KEYS``; ``position`` (B, 2), ``shares``
-and ``node_rates`` (B, K_max)) with Gymnasium's ``_key`` masks.
+scenarios. ``info`` is a dict of arrays (the single env's ``info_keys``: ``MULTI_INFO_KEYS``, and
+the energy objective's and the Rician channel's keys; ``position`` (B, 2), ``shares``,
+``node_rates`` and ``expected_node_rates`` (B, K_max)) with Gymnasium's ``_key`` masks. With the
+energy objective each row's lambda_ref is its template env's; with channel "rician" each row
+draws its slots' fading from its template env's ``np_random`` (so row i is the single env of seed
+``seed + i``, draw for draw).
 """
 
 from __future__ import annotations
@@ -58,8 +62,12 @@ class MultiNodeVectorEnv(BatchedEnv):
     def _init_rows(self, template: MultiNodeEnv) -> None:
         self.max_nodes = template.max_nodes
         self._rows = NodeRows(
-            self.num_envs, self.max_nodes, template.options, template.share_sharpness, template.softmin_beta
-        )
+            self.num_envs, self.max_nodes, template.options, template.share_sharpness, template.softmin_beta,
+            template.energy_objective, template._served_clip,
+        )  # fmt: skip
+        self.info_keys = template.info_keys  # (more with the energy objective, channel "rician")
+        # Rician rows draw each slot's fading from their template env's np_random (Python per row)
+        self._rician = template._rician
         self._state = self._rows.state
         self._info_width = info_columns(self.max_nodes)
         # moving or roughly known nodes: per-row kernels per slot and observations by the rows'
@@ -75,6 +83,7 @@ class MultiNodeVectorEnv(BatchedEnv):
         self._rows.load(i, env.config)
         if self._mobile:  # the row's node paths (drawn as the single env's reset draws them)
             env._start_track(self._rows, i)
+        env._prepare(self._rows, i)  # lambda_ref, the first slot's fading
 
     def _start_rows(self, rows: np.ndarray) -> None:
         self._rows.start(rows, self._obs, self._info)
@@ -83,7 +92,7 @@ class MultiNodeVectorEnv(BatchedEnv):
                 self.envs[i]._observe(self._rows, i, self._obs[i])
 
     def _info_arrays(self, table: np.ndarray) -> dict[str, Any]:
-        return info_arrays(table, self.max_nodes)
+        return info_arrays(table, self.max_nodes, self.info_keys)
 
     # --- the step -------------------------------------------------------------------
     def _check_actions(self, actions: Any) -> np.ndarray:
@@ -111,6 +120,9 @@ class MultiNodeVectorEnv(BatchedEnv):
         if self._mobile:  # each row's node kernels of the slot it flies to
             for i in stepping:
                 self.envs[i]._slot_kernels(self._rows, i)
+        if self._rician:  # each row's fading of the slot it flies to
+            for i in stepping:
+                self.envs[i]._fade(self._rows, i)
         self._rows.step(actions, active, outputs, move_norms(actions), self.num_threads)
         if self._mobile:
             for i in stepping:
@@ -127,9 +139,10 @@ class MultiNodeVectorEnv(BatchedEnv):
     def _fly_compiled(
         self, rows: np.ndarray, targets: np.ndarray, moves: np.ndarray, obs: np.ndarray, info: np.ndarray
     ) -> bool:
-        """:meth:`BatchedEnv.fly` in one compiled call, with equal shares (not for mobile rows: the
-        compiled flight keeps each row's kernels, so they step slot by slot)."""
-        if self._mobile:
+        """:meth:`BatchedEnv.fly` in one compiled call, with equal shares (not for mobile or Rician
+        rows: the compiled flight keeps each row's kernels and draws no fading, so they step slot
+        by slot)."""
+        if self._mobile or self._rician:
             return False
         self._rows.fly(rows, targets, moves, obs, info)
         return True

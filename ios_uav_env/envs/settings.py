@@ -2,7 +2,7 @@
 
 The envs refuse a setting that would be accepted and then do nothing (a setting that needs
 another one, as ``filter_estimate`` needs ``knowledge="reports"``), and a scenario they do not
-model (several nodes in a single-node env, the energy objective in the multi-node env), naming
+model (several nodes in a single-node env, another objective than the env's), naming
 the registered id the env is and, where one exists, the id that handles the request. The
 options' own dependencies are checked by ``EnvOptions``; this module holds the env-level ones.
 """
@@ -60,29 +60,29 @@ def multinode_id(random_nodes: Any, mobile: bool) -> str:
 
 def several_nodes_error(env_id: str, config: ScenarioConfig, field: str = "config") -> ValueError:
     """The error of a single-node env given ``config`` with K > 1 nodes: it names ``env_id``, what
-    it supports, and the id that handles several nodes (none for the energy objective)."""
+    it supports, and the id that handles several nodes (with the energy objective: the multi-node
+    ids given ``objective="energy_efficiency"``)."""
     head = (
         f"{field} has K = {config.K} ground_nodes, but {env_id} is a single-node env (one ground node, "
         "K = 1: ground_node)"
     )
-    if config.objective == "energy_efficiency":
-        return ValueError(
-            f"{head}; the energy objective is single-node only: no id has it with several nodes (the "
-            f"multi-node ids {_MULTI_ID}, {_MULTI_RANDOM_ID} and {MULTINODE_MOBILE_ID} score the max-min "
-            "rate)"
-        )
     mobile = config.motion is not None or env_id == MOBILE_ID
     several = MULTINODE_MOBILE_ID if mobile else f"{_MULTI_ID} or {_MULTI_RANDOM_ID}"
+    if config.objective == "energy_efficiency":
+        several += ' with objective="energy_efficiency" (the max-min rate per joule)'
     return ValueError(f"{head}; several nodes: MultiNodeEnv, {several}")
 
 
-def multinode_objective(config: ScenarioConfig, field: str, env_id: str) -> None:
-    """``ValueError`` unless ``config``'s objective is the multi-node env's, the max-min rate."""
-    if config.objective != "rate":
+def multinode_objective(config: ScenarioConfig, field: str, env_id: str, energy: bool) -> None:
+    """``ValueError`` unless ``config``'s objective is the multi-node env's: ``"energy_efficiency"``
+    when ``energy`` (the env was made with it), else the max-min rate ``"rate"``. The objective
+    fixes the observation's layout and the reward, so a pinned scenario cannot change it."""
+    own = "energy_efficiency" if energy else "rate"
+    if config.objective != own:
         raise ValueError(
-            f"{field} has objective={config.objective!r}, but {env_id} (MultiNodeEnv) rewards and scores the "
-            f"max-min rate (objective 'rate'); the energy objective is single-node: {ENERGY_ID}, "
-            f"{ENERGY_RANDOM_ID} (K = 1)"
+            f"{field} has objective={config.objective!r}, but this {env_id} (MultiNodeEnv) was made with "
+            f"objective {own!r}, whose observation and reward it has: make an env on the scenario instead "
+            f"(gym.make({env_id!r}, objective={config.objective!r}) or MultiNodeEnv(cfg))"
         )
 
 
@@ -122,12 +122,14 @@ def check_scenario_overrides(
     fades: bool,
     multinode: bool = False,
     budget: bool = False,
+    energy: bool = False,
 ) -> None:
     """Refuse scenario fields given as env keywords (``overrides``) that would do nothing in the
     env ``env_id``, whose scenarios have the ``surfaces`` given: ``kappa`` unless the env samples
     faded rates (``fades``: channel "rician", or measured rates), ``epsilon`` without an IOS, the
     surface's channel fields without a surface (:data:`SURFACE_CHANNEL_FIELDS`), and in the
-    multi-node env (no energy in its reward, info or score) ``bandwidth_hz``, and ``propulsion``
+    multi-node env with the max-min rate objective (no energy in its reward, info or score; not
+    with ``energy``, the objective ``"energy_efficiency"``) ``bandwidth_hz``, and ``propulsion``
     unless an energy budget (``budget``) makes the flight's energy count. (A field of a config
     passed whole is the scenario's own, as is: only the keywords are checked.)"""
     inert: dict[str, str] = {}
@@ -141,12 +143,15 @@ def check_scenario_overrides(
     if set(surfaces) == {"none"}:
         for name in SURFACE_CHANNEL_FIELDS:
             inert[name] = "a field of the surface's channel: it needs a surface (this env has surface 'none')"
-    if multinode:
-        inert["bandwidth_hz"] = "the bandwidth of the energy efficiency, which MultiNodeEnv never scores"
+    if multinode and not energy:
+        inert["bandwidth_hz"] = (
+            "the bandwidth of the energy efficiency, which MultiNodeEnv scores only with "
+            "objective='energy_efficiency'"
+        )
         if not budget:
             inert["propulsion"] = (
-                "the propulsion power model: MultiNodeEnv counts the flight's energy only against an "
-                "energy_budget_j"
+                "the propulsion power model: MultiNodeEnv counts the flight's energy only with "
+                "objective='energy_efficiency' or against an energy_budget_j"
             )
     for name in overrides:
         if name in inert:

@@ -8,7 +8,6 @@ import gymnasium as gym
 import pytest
 
 import ios_uav_env
-from ios_uav_env import ScenarioConfig
 
 IDS = sorted(i for i in gym.registry if i.startswith("ios_uav_env/"))
 MULTI_IDS = {*ios_uav_env.MULTINODE_IDS, *ios_uav_env.MULTINODE_MOBILE_IDS}
@@ -18,8 +17,11 @@ NODES = ((-100.0, -20.0), (150.0, -60.0))
 
 def _several_nodes_message(env_id: str) -> str:
     """What the error of ``env_id`` given two nodes must say after naming the id."""
-    if env_id in ios_uav_env.ENERGY_IDS:  # the energy objective: no multi-node id has it
-        return "the energy objective is single-node only: no id has it with several nodes"
+    if env_id in ios_uav_env.ENERGY_IDS:  # the energy objective: the multi-node ids, given it
+        return (
+            "several nodes: MultiNodeEnv, ios_uav_env/IOSUAV-MultiNode-v0 or "
+            'ios_uav_env/IOSUAV-MultiNode-Random-v0 with objective="energy_efficiency"'
+        )
     if env_id in ios_uav_env.MOBILE_IDS:
         return f"several nodes: MultiNodeEnv, {ios_uav_env.MULTINODE_MOBILE_ID}"
     return "several nodes: MultiNodeEnv, ios_uav_env/IOSUAV-MultiNode-v0"
@@ -40,13 +42,16 @@ def test_a_single_node_id_given_several_nodes_says_it_is_single_node(env_id):
 
 
 @pytest.mark.parametrize("env_id", sorted(MULTI_IDS))
-def test_a_multi_node_id_given_the_energy_objective_points_to_the_energy_ids(env_id):
-    with pytest.raises(ValueError) as err:
-        gym.make(env_id, objective="energy_efficiency")
-    message = str(err.value)
-    assert f"{env_id} (MultiNodeEnv) rewards and scores the max-min rate" in message
-    assert ios_uav_env.ENERGY_ID in message and ios_uav_env.ENERGY_RANDOM_ID in message
-    if env_id == "ios_uav_env/IOSUAV-MultiNode-v0":  # a pinned scenario too
-        env = gym.make(env_id)
-        with pytest.raises(ValueError, match=r'options\["config"\] has objective=.energy_efficiency., but'):
-            env.reset(options={"config": ScenarioConfig(ground_nodes=NODES, objective="energy_efficiency")})
+def test_a_multi_node_id_keeps_the_objective_it_was_made_with(env_id):
+    """Either objective at construction; a scenario pinned at reset with the other one is refused,
+    naming the option, the id and the objective the env has (its observation and reward)."""
+    for own, other in (("rate", "energy_efficiency"), ("energy_efficiency", "rate")):
+        env = gym.make(env_id, objective=own)
+        assert env.unwrapped.energy_objective == (own == "energy_efficiency")
+        env.reset(seed=0)
+        pinned = env.unwrapped.config.replace(objective=other)
+        with pytest.raises(ValueError) as err:
+            env.reset(options={"config": pinned})
+        message = str(err.value)
+        assert message.startswith(f'options["config"] has objective={other!r}, but this {env_id}'), message
+        assert f"was made with objective {own!r}" in message

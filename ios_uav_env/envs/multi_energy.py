@@ -1,0 +1,187 @@
+"""The energy objective and the Rician channel of ``MultiNodeEnv``: the reference efficiency, the
+options they take, and their per-episode pieces.
+
+**Energy** (``objective="energy_efficiency"``). The reward gains -(lambda_ref / B) P(V_n) per
+step, as the single env's (``IOSUAVEnv``, "Energy"), so the return is (bits - lambda_ref E) / (B dt)
+with bits = B T min_k R_k of the agent's own shares. lambda_ref is ``energy_reference`` when
+given (bits/J), else :func:`reference_efficiency` of the episode: the EE (``score_plan``) of
+:func:`straight_flight` (q0 to qF along the segment at one constant speed, |qF - q0| / T) with
+:func:`reference_shares`, its best schedule. That plan meets eq. (10) on every valid scenario,
+so without an energy budget lambda_ref <= EE*, the best EE of the scenario, and a plan of the
+largest return has an EE of at least lambda_ref (the bound of ``IOSUAVEnv``'s "Energy": the
+return is an increasing affine function of G = bits - lambda_ref E). With ``energy_budget_j``
+the straight flight may exceed the budget (it is not the least-energy flight), and lambda_ref
+is then still its EE, which need not be <= the best EE of the flights within the budget.
+
+With moving nodes (``motion``, ``knowledge``) the reference is taken on the episode's true paths
+(the truth the score is taken on; ``score_plan(..., paths=env.paths)``), so lambda_ref <= EE*
+still holds; it is one number of the truth, and the observation's energy weight shows it (pass
+``energy_reference`` in bits/J to keep the truth out of the observation).
+
+**Rician** (``channel="rician"``): each slot draws two standard normals per node from the
+env's ``np_random`` (:func:`draw_fading`: (K, 2), the real then the imaginary part of h_SS, node
+by node), and the kernel serves node k its faded rate ``channel.faded_point`` of that slot, as
+the single env does with its one node.
+"""
+
+from __future__ import annotations
+
+import functools
+from typing import Any
+
+import numpy as np
+
+from ios_uav_env.envs.observation import pad
+from ios_uav_env.envs.observation_layout import ENERGY_NAMES
+from ios_uav_env.envs.options import EnvOptions
+from ios_uav_env.model.config import ScenarioConfig
+from ios_uav_env.model.maxmin import MAX_NODES, fast_schedule
+from ios_uav_env.model.propulsion import min_power_speed, propulsion_power
+from ios_uav_env.model.schedule import node_rates
+from ios_uav_env.model.score import score_plan
+
+__all__ = [
+    "ENERGY_NAMES", "EnergyChannel", "check_options", "draw_fading", "energy_bounds", "fixed_reference",
+    "reference_efficiency", "reference_shares", "straight_flight",
+]  # fmt: skip
+
+
+def straight_flight(config: ScenarioConfig) -> np.ndarray:
+    """The (N, 2) flight (m) from q0 to qF along the segment, every move the same,
+    (qF - q0) / (N - 1): one constant speed |qF - q0| / ((N - 1) dt) <= v_max (a valid scenario
+    reaches qF in N - 1 moves), so it meets eq. (10)."""
+    q0, qf = np.asarray(config.q0, dtype=np.float64), np.asarray(config.qF, dtype=np.float64)
+    fraction = np.arange(config.N, dtype=np.float64)[:, None] / (config.N - 1)
+    path = q0 + fraction * (qf - q0)
+    path[-1] = qf
+    return path
+
+
+def reference_shares(rates: np.ndarray) -> np.ndarray:
+    """The shares (K, N) of the reference plan on its (K, N) expected-gain ``rates``: the certified
+    best schedule of ``maxmin.fast_schedule`` (2 <= K <= ``MAX_NODES``, every node served somewhere),
+    else the best constant shares, alpha_k proportional to 1 / mean_n r_k[n] (each node then gets
+    1 / sum_j 1 / mean_n r_j[n]; equal shares if a node is never served). Both without scipy, so
+    the reference is the same on every install."""
+    r = np.asarray(rates, dtype=np.float64)
+    k_n, n_slots = r.shape
+    if k_n == 1:
+        return np.ones((1, n_slots))
+    means = r.mean(axis=1)
+    if np.all(means > 0):
+        if k_n <= MAX_NODES:
+            found = fast_schedule(r)
+            if found is not None:
+                return found[0]
+        inverse = 1.0 / means
+        return np.repeat((inverse / inverse.sum())[:, None], n_slots, axis=1)
+    return np.full((k_n, n_slots), 1.0 / k_n)
+
+
+def _reference(config: ScenarioConfig, paths: np.ndarray | None) -> float:
+    q = straight_flight(config)
+    shares = reference_shares(node_rates(config, q, paths))
+    plan = None if config.K == 1 else shares
+    return float(score_plan(config, q, plan, paths, best_schedule=False).energy_efficiency)
+
+
+@functools.lru_cache(maxsize=256)
+def _static_reference(config: ScenarioConfig) -> float:
+    return _reference(config, None)
+
+
+def reference_efficiency(config: ScenarioConfig, paths: np.ndarray | None = None) -> float:
+    """lambda_ref (bits/J) of the energy reward: the EE (``score_plan``) of :func:`straight_flight`
+    with :func:`reference_shares` on its rates, on the true node ``paths`` (N, K, 2) when given
+    (moving nodes), else on the static nodes (cached per scenario). A feasible plan: module
+    docstring for what it guarantees."""
+    if paths is None:
+        return _static_reference(config)
+    return _reference(config, paths)
+
+
+def check_options(options: EnvOptions, energy: bool) -> None:
+    """Refuse the options ``MultiNodeEnv`` does not take, naming the field: ``instance_features``;
+    ``energy_reference`` without the energy objective (``energy``) or as ``"loiter"`` (a single-node
+    flight); channel ``"rician"`` with measured rates (``knowledge`` other than ``"exact"``, which
+    already samples the fading of each served node)."""
+    if options.instance_features:
+        raise ValueError(
+            "MultiNodeEnv takes no instance_features (its node blocks and base features describe it)"
+        )
+    ref = options.energy_reference
+    if ref is not None and not energy:
+        raise ValueError(
+            "energy_reference is lambda_ref of the energy reward: it needs objective='energy_efficiency', "
+            f"got energy_reference={ref!r}"
+        )
+    if ref == "loiter":
+        raise ValueError(
+            "energy_reference='loiter' is the single-node loiter flight around one node's rate peak; "
+            "MultiNodeEnv takes None (its straight flight's EE) or a number of bits/J"
+        )
+    if options.channel == "rician" and options.knowledge != "exact":
+        raise ValueError(
+            "channel='rician' draws a faded rate per node and slot; with knowledge="
+            f"{options.knowledge!r} the nodes' measured rates are already faded samples of their own: it "
+            "needs knowledge='exact'"
+        )
+
+
+def draw_fading(rng: np.random.Generator, normals: np.ndarray, k_n: int) -> None:
+    """Draw the slot's fading of ``k_n`` nodes into ``normals`` (K_max, 2): (k_n, 2) standard normals."""
+    normals[:k_n] = rng.standard_normal((k_n, 2))
+
+
+def energy_bounds(base: ScenarioConfig, rate: float, reference: float | None) -> tuple[list, list]:
+    """(low, high) of the energy features (``ENERGY_NAMES``) over a family whose propulsion, bandwidth
+    and v_max are ``base``'s and whose expected-gain rates are at most ``rate``: the last move / D
+    in [-1, 1]; the energy weight lambda_ref P(0) / B with lambda_ref <= EE* <= B N rate / ((N - 1)
+    P(V_mp)) (every flight's E >= (N - 1) dt P(V_mp), min_k R_k <= rate), N / (N - 1) <= 2, or the
+    fixed ``reference``'s; V_mp dt / D."""
+    model = base.propulsion
+    if reference is None:
+        weight = 2.0 * rate * model.hover_power / float(propulsion_power(min_power_speed(model), model))
+    else:
+        weight = reference * model.hover_power / base.bandwidth_hz
+    move = min_power_speed(model) / base.v_max
+    return [-pad(1.0), -pad(1.0), 0.0, 0.0], [pad(1.0), pad(1.0), pad(weight), pad(move)]
+
+
+def fixed_reference(options: EnvOptions) -> float | None:
+    """lambda_ref (bits/J) when ``energy_reference`` fixes it, else None (each episode's own)."""
+    ref: Any = options.energy_reference
+    return None if ref is None or isinstance(ref, str) else float(ref)
+
+
+class EnergyChannel:
+    """The per-episode part of the energy objective and the Rician channel in ``MultiNodeEnv``
+    (a mixin; the batched env calls its methods on each row's template env)."""
+
+    config: ScenarioConfig
+    options: EnvOptions
+    np_random: np.random.Generator
+    energy_objective: bool
+    truth: np.ndarray | None
+    reference_efficiency: float
+
+    @property
+    def _rician(self) -> bool:
+        return self.options.channel == "rician"
+
+    def _prepare(self, rows: Any, i: int) -> None:
+        """Row ``i`` of ``rows`` (``multi_kernels.NodeRows``) at reset, after the scenario's and the
+        paths' draws: the episode's lambda_ref (the energy objective: ``energy_reference`` or
+        :func:`reference_efficiency` on the true paths) and the first slot's fading (Rician)."""
+        if self.energy_objective:
+            reference = fixed_reference(self.options)
+            if reference is None:
+                reference = reference_efficiency(self.config, self.truth)
+            self.reference_efficiency = reference
+            rows.set_reference(i, reference)
+        self._fade(rows, i)
+
+    def _fade(self, rows: Any, i: int) -> None:
+        """The fading of row ``i``'s next slot (channel "rician"; nothing otherwise)."""
+        if self._rician:
+            draw_fading(self.np_random, rows.normals[i], self.config.K)
