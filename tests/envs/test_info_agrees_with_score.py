@@ -10,6 +10,7 @@ import pytest
 
 import ios_uav_env
 from ios_uav_env import ScenarioConfig, score_plan
+from ios_uav_env.envs.multi import DEFAULT_NODES, MultiNodeEnv
 from ios_uav_env.envs.single import IOSUAVEnv
 
 #: Every registered id of the package.
@@ -29,10 +30,13 @@ def test_the_ids_here_are_every_registered_id():
 
 
 def _objective_value(info: dict, config: ScenarioConfig) -> float:
-    """The info's value of the scenario's objective (multi-node: ``min_rate``)."""
+    """The info's value of the scenario's objective: the energy efficiency, else the rate
+    (multi-node: ``min_rate``, or with channel "rician" the expected-gain ``expected_min_rate``)."""
+    if config.objective == "energy_efficiency":
+        return float(info["energy_efficiency"])
     if "min_rate" in info:
-        return float(info["min_rate"])
-    return float(info["energy_efficiency" if config.objective == "energy_efficiency" else "average_rate"])
+        return float(info.get("expected_min_rate", info["min_rate"]))
+    return float(info["average_rate"])
 
 
 def _final(env: gym.Env, seed: int) -> dict:
@@ -128,3 +132,26 @@ def test_every_scoring_field_and_option_agrees(changes, options, budget):
     env = IOSUAVEnv(config, **options)
     info = _final(env, 1)
     _assert_agrees(info, config, env.trajectory, None, None)
+
+
+@pytest.mark.parametrize(
+    "changes",
+    [{"objective": "energy_efficiency"}, {"bandwidth_hz": 2.5e6, "objective": "energy_efficiency"},
+     {"propulsion": {"P0": 60.0, "v0": 5.0}, "objective": "energy_efficiency"}, {}],
+    ids=["objective", "bandwidth", "propulsion", "rate"],
+)  # fmt: skip
+@pytest.mark.parametrize(
+    "options", [{}, {"arrival_guard": False}, {"channel": "rician"}], ids=["guard", "noguard", "rician"]
+)
+@pytest.mark.parametrize("budget", [1.0, 3.0])
+def test_the_multi_node_objectives_and_channels_agree(changes, options, budget):
+    """Several nodes with the energy objective or the max-min rate, with the guard, without it, and
+    with faded rates (the score keeps the expected-gain rates), under a budget exceeded and one met."""
+    config = ScenarioConfig(T=40.0, ios_shape=(100, 20), ground_nodes=DEFAULT_NODES).replace(**changes)
+    config = config.replace(energy_budget_j=budget * config.least_energy())
+    env = MultiNodeEnv(config, **options)
+    info = _final(env, 1)
+    score = _assert_agrees(info, config, env.trajectory, env.shares, None)
+    assert ("energy_efficiency" in info) == (config.objective == "energy_efficiency")
+    if budget == 1.0 and options.get("arrival_guard", True):  # (a flight that reaches qF exceeds it)
+        assert score.report.energy_excess > 0 and not info["feasible"]
