@@ -144,6 +144,32 @@ def loiter_efficiency(config: ScenarioConfig, peak: Peak | None = None) -> float
     return max(best_loiter_path(config, peak=(p.x, p.y))[2], reference_efficiency(config, p))
 
 
+def reference_flights(
+    config: ScenarioConfig, peak: Peak | None = None, loiter: bool = False
+) -> list[np.ndarray]:
+    """The feasible (N, 2) flights whose best EE is the default lambda_ref: :func:`hover_flight`
+    and, with ``loiter`` (``energy_reference="loiter"``), first the loiter heuristic's flight
+    (``loiter_flight.best_loiter_path``, the one :func:`loiter_efficiency` scores). Planned on
+    ``config`` as it is configured (its node at its configured position), so they are the same
+    whatever the node does after; ``peak``: the reachable rate peak if known."""
+    from ios_uav_env.model.flights import best_loiter_path
+
+    p = rate_peak(config) if peak is None else peak
+    hover = hover_flight(config, p)
+    return [best_loiter_path(config, peak=(p.x, p.y))[0], hover] if loiter else [hover]
+
+
+def flights_efficiency(
+    config: ScenarioConfig, flights: Sequence[np.ndarray], paths: np.ndarray | None = None
+) -> float:
+    """The best EE (bits/J) of ``flights`` on ``config``, each scored by ``score_plan(config, flight,
+    paths=paths)``: on the node's true path ``paths`` (N, 1, 2) of a moving node, the reference of
+    the energy reward of a mobile env (``IOSUAVEnv``, "Energy"). Feasible flights, so at most the
+    best EE on those paths. With :func:`reference_flights` and ``paths`` None (or static), the
+    value of :func:`reference_efficiency` (:func:`loiter_efficiency` with ``loiter``)."""
+    return max(float(score_plan(config, flight, paths=paths).energy_efficiency) for flight in flights)
+
+
 def optimistic_efficiency(config: ScenarioConfig, peak_rate: float | None = None) -> float:
     """B N r(P) / ((N - 1) P(V_mp)) (bits/J): the EE of a plan that would sit at the reachable
     rate peak P for all N slots while flying every one of its N - 1 moves at the minimum-power

@@ -17,7 +17,7 @@ import numpy as np
 from gymnasium import spaces
 
 from ios_uav_env.envs.knowledge import NodeTrack, mobile_bounds
-from ios_uav_env.envs.observation import check_fits, loiter_efficiency, reference_efficiency, space_bounds
+from ios_uav_env.envs.observation import check_fits, space_bounds
 from ios_uav_env.envs.observation_layout import (
     ENERGY_NAMES,
     INSTANCE_NAMES,
@@ -405,14 +405,8 @@ class IOSUAVEnv(MobileNode, gym.Env):
         own_reference = self.energy_objective and self._fixed_reference is None
         # one peak search for the hint and the reference flights, on the env's own rate kernel
         peak = rate_peak(cfg, compiled=HAVE_NUMBA) if self.options.peak_hint or own_reference else None
-        reference = 0.0
-        if self.energy_objective:
-            reference = self._fixed_reference or (
-                loiter_efficiency(cfg, peak)
-                if self.options.energy_reference == "loiter"
-                else reference_efficiency(cfg, peak)
-            )
-        self.reference_efficiency = reference
+        reference = self._scenario_reference(cfg, peak) if self.energy_objective else 0.0
+        self.reference_efficiency = reference  # (a mobile env's reward: each episode's, see "Energy")
         hint = peak[:3] if self.options.peak_hint else (0.0, 0.0, 0.0)  # the hint's search never misses
         self._episode = episode_row(cfg, self.options.length_scale, hint, reference)[None, :]
         self._nodes, self._params = self.kernel.nodes[None], self.kernel.params[None]

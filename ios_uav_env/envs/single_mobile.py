@@ -6,6 +6,12 @@ a moving or roughly known node does not support, draws the episode's node path a
 (``knowledge.observe_slot``) and holds the episode's truth and observations (``paths``,
 ``reports``, ``measured_rates``). The batched env calls the same methods on each row's template
 env (Python per row and slot). Inactive (``_track`` None) for a static, exactly known node.
+
+It also holds lambda_ref, the reference EE of the energy reward (objective
+``"energy_efficiency"``; ``IOSUAVEnv``'s "Energy"): :meth:`MobileNode._scenario_reference` per
+scenario (the value the energy ids have always used, and what the ``energy_weight`` feature
+shows), and, for a mobile env, :meth:`MobileNode._episode_reference` per episode: the same
+reference flights scored on the node path just drawn, which only the reward uses.
 """
 
 from __future__ import annotations
@@ -15,11 +21,22 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from ios_uav_env.envs.knowledge import NodeTrack, observe_slot, start_track
+from ios_uav_env.envs.observation import (
+    flights_efficiency,
+    loiter_efficiency,
+    reference_efficiency,
+    reference_flights,
+)
+from ios_uav_env.envs.single_kernels import EPISODE
 from ios_uav_env.model.motion import static_paths
 
 if TYPE_CHECKING:
     from ios_uav_env.envs.options import EnvOptions
     from ios_uav_env.model.config import ScenarioConfig
+    from ios_uav_env.model.peak import Peak
+
+#: The ``episode`` row's column of the reward's energy cost lambda_ref / B (bps/Hz per W).
+_ENERGY_COST = EPISODE.index("energy_cost")
 
 
 class MobileNode:
@@ -28,10 +45,15 @@ class MobileNode:
     config: ScenarioConfig
     options: EnvOptions
     energy_objective: bool
+    mobile: bool
     np_random: np.random.Generator
+    reference_efficiency: float
+    _episode: np.ndarray
+    _fixed_reference: float | None
     _track: NodeTrack | None
     _rate_clip: float
     trajectory: np.ndarray
+    _reference_flights: tuple[ScenarioConfig, list[np.ndarray]] | None = None
 
     def _check_mobile(self) -> None:
         """Refuse what a moving or roughly known node does not support (yet), naming the field."""
@@ -40,16 +62,45 @@ class MobileNode:
                 "peak_hint is the static node's rate peak: it needs a static, exactly known node "
                 "(motion=None and knowledge='exact')"
             )
-        if self.energy_objective:
-            raise ValueError(
-                "the objective 'energy_efficiency' needs a static, exactly known node (motion=None and "
-                "knowledge='exact'): its reference efficiency is a static plan's"
-            )
+
+    def _scenario_reference(self, cfg: ScenarioConfig, peak: Peak | None) -> float:
+        """lambda_ref (bits/J) of the scenario ``cfg`` (energy objective; ``peak``: its reachable
+        rate peak, None with a fixed ``energy_reference``): the fixed ``energy_reference``, else
+        the EE of its hover flight (with ``"loiter"``, the better of its loiter and hover flights')
+        with the node at its configured position. A mobile env keeps those flights: each episode
+        scores them on its node path (:meth:`_episode_reference`)."""
+        fixed, loiter = self._fixed_reference, self.options.energy_reference == "loiter"
+        if fixed is not None:
+            return fixed
+        if not self.mobile:
+            return loiter_efficiency(cfg, peak) if loiter else reference_efficiency(cfg, peak)
+        flights = reference_flights(cfg, peak, loiter)
+        self._reference_flights = (cfg, flights)
+        return flights_efficiency(cfg, flights)
+
+    def _episode_reference(self, cfg: ScenarioConfig) -> None:
+        """Set the reward's lambda_ref of the episode just drawn on ``cfg`` (energy objective, a
+        mobile env, after :meth:`_start_track`): the fixed ``energy_reference``, else the scenario's
+        reference flights scored on the drawn node path (``observation.flights_efficiency``), the
+        EE of feasible plans on the episode's truth, so at most the best EE on it. It enters the
+        ``episode`` row's energy cost (the reward), never the observation: the ``energy_weight``
+        feature stays the scenario's (:meth:`_scenario_reference`). Held in ``reference_efficiency``."""
+        reference = self._fixed_reference
+        if reference is None:
+            flights = self._reference_flights
+            if flights is None or flights[0] is not cfg:  # (the scenario's, set by _set_config)
+                raise RuntimeError("the reference flights are not those of the episode's scenario")
+            reference = flights_efficiency(cfg, flights[1], self._track.paths)
+        self.reference_efficiency = reference
+        self._episode[0, _ENERGY_COST] = reference / cfg.bandwidth_hz
 
     def _start_track(self, cfg: ScenarioConfig) -> None:
         """Draw the episode's node path on ``cfg`` from ``np_random`` (``knowledge.start_track``;
-        after the scenario's draws, before the first slot's)."""
+        after the scenario's draws, before the first slot's); with the energy objective, set the
+        episode's lambda_ref on it (:meth:`_episode_reference`)."""
         self._track = start_track(cfg, self.np_random, self.options.report_sigma)
+        if self.energy_objective:
+            self._episode_reference(cfg)
 
     def _observe(self, slot: int, q: np.ndarray, obs: np.ndarray) -> None:
         """Write what the UAV at ``q`` is told of the node in ``slot`` into the observation row

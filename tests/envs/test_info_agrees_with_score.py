@@ -134,6 +134,38 @@ def test_every_scoring_field_and_option_agrees(changes, options, budget):
     _assert_agrees(info, config, env.trajectory, None, None)
 
 
+@pytest.mark.parametrize("budget", sorted(BUDGETS))
+@pytest.mark.parametrize("knowledge", ["exact", "reports", "rates"])
+def test_a_moving_node_with_the_energy_objective_agrees_single_and_batched(knowledge, budget):
+    """The mobile id given the energy objective: its EE at slot N is ``score_plan``'s on the true
+    path (not on the configured node), and the energy budget books feasibility, single and batched
+    (two rows, each to the end of its first episode)."""
+    kwargs = {"objective": "energy_efficiency", "knowledge": knowledge}
+    env, seed = _budgeted(ios_uav_env.MOBILE_ID, BUDGETS[budget], **kwargs)
+    info = _final(env, seed)
+    base = env.unwrapped
+    score = _assert_agrees(info, base.config, base.trajectory, None, base.paths)
+    assert score.objective_value == score.energy_efficiency
+    assert score.feasible == (budget != "exceeded") == bool(info["feasible"])
+    static = score_plan(base.config, base.trajectory)  # (the configured node scores otherwise)
+    assert static.energy_efficiency != pytest.approx(score.energy_efficiency, rel=1e-6)
+    vec, seed = _budgeted(ios_uav_env.MOBILE_ID, BUDGETS[budget], gym.make_vec, num_envs=2,
+                          vectorization_mode="vector_entry_point", **kwargs)  # fmt: skip
+    batch = vec.unwrapped
+    batch.reset(seed=seed)
+    rng = np.random.default_rng(seed)
+    finals: dict[int, tuple] = {}
+    while len(finals) < batch.num_envs:
+        _, _, terminated, _, info = batch.step(rng.uniform(-1.0, 1.0, batch.action_space.shape))
+        for i in np.flatnonzero(terminated):
+            if int(i) not in finals:
+                row = {key: value[i] for key, value in info.items() if not key.startswith("_")}
+                finals[int(i)] = (row, batch.envs[i].config, batch.trajectories[i], None, batch.envs[i].paths)
+    for row, config, trajectory, shares, paths in finals.values():
+        score = _assert_agrees(row, config, trajectory, shares, paths)
+        assert score.feasible == (budget != "exceeded")
+
+
 @pytest.mark.parametrize(
     "changes",
     [{"objective": "energy_efficiency"}, {"bandwidth_hz": 2.5e6, "objective": "energy_efficiency"},

@@ -188,8 +188,6 @@ def test_errors_name_the_field():
         IOSUAVEnv(SHORT, knowledge="reports", report_sigma=-1.0)
     with pytest.raises(ValueError, match="peak_hint"):
         IOSUAVEnv(SHORT, peak_hint=True)
-    with pytest.raises(ValueError, match="energy_efficiency"):
-        IOSUAVEnv(SHORT, objective="energy_efficiency")
     with pytest.raises(ValueError, match="motion model"):
         IOSUAVEnv(SHORT.replace(motion=None)).reset(options={"config": SHORT})
     env = IOSUAVEnv(SHORT, knowledge="reports")
