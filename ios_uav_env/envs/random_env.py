@@ -8,7 +8,9 @@ at every reset from a family ``ios_uav_env.model.scenarios.ScenarioRanges`` with
 and score of ``IOSUAVEnv``'s "Energy", with lambda_ref the reference of each drawn scenario.
 ``ios_uav_env/IOSUAV-Mobile-v0`` is the same family with a walking node (``motion`` applied to
 ``ranges.base``) known through noisy reports (``knowledge="reports"``): ``IOSUAVEnv``'s "Moving
-nodes".
+nodes". It takes the energy objective too (``gym.make("ios_uav_env/IOSUAV-Mobile-v0",
+objective="energy_efficiency")``): lambda_ref is then each episode's, the scenario's reference
+flights scored on the node's drawn path (``IOSUAVEnv``'s "Energy").
 """
 
 from __future__ import annotations
@@ -103,7 +105,8 @@ class RandomIOSUAVEnv(IOSUAVEnv):
     (0 with the guard). The return is N R - r(q0); N varies per episode, so compare
     episodes by ``info["average_rate"]`` (eq. (9)). With the objective ``"energy_efficiency"``
     (the energy id) the energy term of ``IOSUAVEnv``'s "Energy" joins it, lambda_ref being each
-    scenario's own reference (or ``energy_reference``), and episodes compare by
+    scenario's own reference (a moving node's: on each episode's drawn path; or
+    ``energy_reference``), and episodes compare by
     ``info["energy_efficiency"]``; the observation then has 4 energy features after the 6
     instance features (shape (21,)).
 

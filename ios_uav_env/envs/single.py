@@ -182,6 +182,11 @@ class IOSUAVEnv(MobileNode, gym.Env):
     ``rate_peak`` search, shared with the peak hint, and one scoring) and held in
     ``env.unwrapped.reference_efficiency``. The episode's score is its EE
     (``info["energy_efficiency"]`` at slot N, ``envs.rollout.Episode.energy_efficiency``).
+    A mobile env (see "Moving nodes") scores the same flights, planned on the configured node,
+    on each episode's drawn node path at reset (``observation.flights_efficiency``): a feasible
+    plan's EE on the episode's truth, so lambda_ref <= lambda* of that path as above. It is
+    computed from the truth, so it shapes the reward only: ``energy_weight`` shows the
+    scenario's value (the flights on the configured node), never the episode's.
 
     ## Moving nodes
 
@@ -197,8 +202,7 @@ class IOSUAVEnv(MobileNode, gym.Env):
     every motion rectangle of the family. ``env.unwrapped.reports`` and ``.measured_rates``
     hold the slots so far. ``filter_estimate=True`` (reports only, off by default) tells the
     Kalman filter's estimate of the position after each report instead of the raw report. The
-    peak hint and the energy objective need a static, exactly known node (``ValueError``
-    otherwise).
+    energy objective works as in "Energy"; the peak hint needs a static, exactly known node.
 
     ## Info
 
@@ -293,7 +297,7 @@ class IOSUAVEnv(MobileNode, gym.Env):
       and the energy objective (ids ``ios_uav_env/IOSUAV-Energy-v0`` and
       ``ios_uav_env/IOSUAV-Energy-Random-v0``: the energy features, the energy reward); then
       moving, roughly known nodes (``knowledge``, ``report_sigma``, ``config.motion``; id
-      ``ios_uav_env/IOSUAV-Mobile-v0``).
+      ``ios_uav_env/IOSUAV-Mobile-v0``); then the energy objective with them.
     """
 
     metadata = {"render_modes": ["rgb_array"], "render_fps": 10}

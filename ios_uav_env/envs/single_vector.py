@@ -79,7 +79,9 @@ class IOSUAVVectorEnv(BatchedEnv):
         self._nodes[i, :, :k] = nodes
         self._nodes[i, :, k:] = ((0.0,), (1.0,), (0.0,))  # padded nodes: zero weight
         self._params[i] = env.kernel.params
-        if self._mobile:  # the row's node path (drawn as the single env's reset does), slot 1's kernel
+        # a mobile row: its node path (drawn as the single env's reset does), slot 1's kernel and, with
+        # the energy objective, the episode's lambda_ref in env.episode_row (copied below)
+        if self._mobile:
             env._start_track(env.config)
             self._nodes[i, :, :k], self._params[i] = env._track.nodes[0], env._track.params[0]
         self._episode[i] = env.episode_row
