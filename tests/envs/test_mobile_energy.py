@@ -287,3 +287,16 @@ def test_the_peak_hint_stays_refused_with_motion():
         IOSUAVEnv(SHORT, peak_hint=True)
     with pytest.raises(ValueError, match="peak_hint"):
         gym.make(MOBILE_ID, peak_hint=True, **ENERGY)
+
+
+def test_a_pickled_env_steps_and_resets_alike():
+    import pickle
+
+    env = IOSUAVEnv(SHORT, knowledge="reports", energy_reference="loiter")
+    env.reset(seed=2)
+    env.step(np.array([0.3, 0.4]))
+    twin = pickle.loads(pickle.dumps(env))
+    a, b = env.step(np.array([0.5, -0.2])), twin.step(np.array([0.5, -0.2]))
+    assert data_equivalence(a, b, exact=True) and twin.reference_efficiency == env.reference_efficiency
+    a, b = play(env, 3), play(twin, 3)
+    assert data_equivalence(a, b, exact=True) and twin.reference_efficiency == env.reference_efficiency
