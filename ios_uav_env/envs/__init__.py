@@ -2,7 +2,9 @@
 
 - ``single`` / ``random_env``: one ground node, a fixed or a random scenario; ``single_vector``
   their batched form; ``single_kernels`` the step they share (compiled with numba if installed);
-- ``multi`` / ``multi_vector`` / ``multi_kernels``: the same for K >= 1 ground nodes;
+- ``multi`` / ``multi_vector`` / ``multi_kernels``: the same for K >= 1 ground nodes
+  (``multi_table``: the kernels' columns and ``info`` keys; ``multi_features``: the feature
+  names and the share map; ``multi_energy``: the energy objective and the Rician channel);
 - ``batched``: ``BatchedEnv``, the base of both batched envs (rows, seeding, autoreset, info);
 - ``single_mobile`` / ``multi_mobile`` (with ``knowledge``): moving, roughly known nodes;
   ``multi_space``: the multi-node observation space;

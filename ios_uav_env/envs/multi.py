@@ -8,7 +8,8 @@ shares itself; the episode's score is its own ``min_k R_k`` (``scheduled_rates``
 above the trajectory's best-schedule score (``maxmin_rate``), which the last step reports
 beside it. Movement, the arrival guard and the feasibility shaping are the single env's. The
 transition is the kernel of ``ios_uav_env.envs.multi_kernels`` on a batch of one, the one that
-``MultiNodeVectorEnv`` runs on B rows.
+``MultiNodeVectorEnv`` runs on B rows. The energy objective and the Rician channel: the class
+docstring and ``ios_uav_env.envs.multi_energy``.
 """
 
 from __future__ import annotations
@@ -25,18 +26,25 @@ from gymnasium import spaces
 
 from ios_uav_env.envs.knowledge import NodesTrack
 from ios_uav_env.envs.multi_energy import ENERGY_NAMES, EnergyChannel, check_options
-from ios_uav_env.envs.multi_kernels import (
+from ios_uav_env.envs.multi_features import (
+    BASE_FEATURES,
+    DEFAULT_NODES,
+    NODE_FEATURES,
+    NODE_PEAK_FEATURES,
+    rate_potential,
+    share_scores,
+)
+from ios_uav_env.envs.multi_kernels import NodeRows
+from ios_uav_env.envs.multi_mobile import MobileNodes
+from ios_uav_env.envs.multi_space import multinode_bounds, rate_high
+from ios_uav_env.envs.multi_table import (
     BEST,
     MULTI_INFO_KEYS,
-    NodeRows,
     info_arrays,
     info_columns,
     info_keys,
     node_peaks,
-    soft_minimum,
 )
-from ios_uav_env.envs.multi_mobile import MobileNodes
-from ios_uav_env.envs.multi_space import multinode_bounds, rate_high
 from ios_uav_env.envs.observation_layout import node_block_names
 from ios_uav_env.envs.options import EnvOptions, split_kwargs
 from ios_uav_env.envs.settings import (
@@ -54,41 +62,6 @@ __all__ = [
     "NODE_PEAK_FEATURES", "MultiNodeEnv", "node_peaks", "rate_potential", "sample_multinode", "share_scores",
 ]  # fmt: skip
 
-#: The default multi-node scenario: three nodes, two on the reflecting side of the IOS and one
-#: across it, every other parameter at the paper's defaults.
-DEFAULT_NODES = ((-100.0, -20.0), (150.0, -60.0), (-40.0, 90.0))
-#: Per-node observation block: mask, (w_k - q) / L, side of the IOS, served rate R_k so far, r_k(q).
-NODE_FEATURES = ("mask", "dx_node", "dy_node", "side", "served", "rate")
-#: Per-node hint appended to each node block with ``peak_hint=True``: the node's reachable rate
-#: peak P_k (``rate_peak(config.node_config(k))``) relative to the UAV, (P_k - q) / L, and r_k(P_k).
-NODE_PEAK_FEATURES = ("dx_peak", "dy_peak", "rate_peak")
-#: The scenario-level observation, before the node blocks.
-BASE_FEATURES = (
-    "x", "y", "dx_final", "dy_final", "dx_ios", "dy_ios", "time_left", "slack",
-    "elements", "is_ios", "is_ris", "horizon",
-)  # fmt: skip
-
-
-def rate_potential(rates: np.ndarray, beta: float = 0.0) -> float:
-    """The potential of the rate term: min_k R_k for ``beta`` = 0, else the soft minimum
-    -(1/beta) log((1/K) sum_k exp(-beta R_k)), which lies in [min_k R_k, min_k R_k + log(K) /
-    beta] and equals the minimum when every R_k is the same."""
-    values = np.asarray(rates, dtype=np.float64)
-    return soft_minimum(values, values.size, 1.0, float(beta))
-
-
-def share_scores(shares: np.ndarray, sharpness: float = 5.0) -> np.ndarray:
-    """Node scores in [-1, 1] whose softmax (x ``sharpness``, the env's share map) gives
-    ``shares`` (K,) or (K, B): 1 for the largest share, 1 + log(alpha_k / alpha_max) /
-    sharpness for the others, so exact for ratios alpha_k / alpha_max >= exp(-2 sharpness);
-    smaller ones (a 0 share too) become -1. The inverse of the action's share entries."""
-    alpha = np.asarray(shares, dtype=np.float64)
-    bad = alpha.ndim not in (1, 2) or not np.all(np.isfinite(alpha)) or np.any(alpha < 0)
-    if bad or np.any(alpha.max(axis=0) <= 0):
-        raise ValueError(f"shares must be finite, >= 0 and not all 0 ((K,) or (K, B)), got {alpha!r}")
-    ratio = np.maximum(alpha / alpha.max(axis=0), np.exp(-2.0 * sharpness))
-    return np.clip(1.0 + np.log(ratio) / sharpness, -1.0, 1.0)
-
 
 class MultiNodeEnv(MobileNodes, EnergyChannel, gym.Env):
     r"""A UAV flies from ``q0`` to ``qF`` and shares every slot between K ground nodes (TDMA).
@@ -102,7 +75,8 @@ class MultiNodeEnv(MobileNodes, EnergyChannel, gym.Env):
     (the 3 nodes of ``DEFAULT_NODES``), ``ios_uav_env/IOSUAV-MultiNode-Random-v0`` (2 to 4
     nodes drawn at every reset: ``sample_multinode`` over ``MULTINODE_RANGES``) and
     ``ios_uav_env/IOSUAV-MultiNode-Mobile-v0`` (the same draws, the nodes walking and reported:
-    Moving nodes below).
+    Moving nodes below). Each id takes ``objective="energy_efficiency"`` (the worst node's bits
+    per joule: Energy below) and ``channel="rician"`` (faded rates: Rician channel below).
 
     ## Action Space
 
@@ -130,7 +104,14 @@ class MultiNodeEnv(MobileNodes, EnergyChannel, gym.Env):
     rates: ``ground_free_rate_bound``). ``env.unwrapped.observation_names`` holds the names of
     the components, in order: ``BASE_FEATURES``, then ``<feature>_<k>`` for node slot k (unless
     the knowledge is exact, ``served_measured_<k>`` and ``measured_rate_<k>``; with ``"rates"``
-    ``dx_node_hidden_<k>`` and ``dy_node_hidden_<k>``).
+    ``dx_node_hidden_<k>`` and ``dy_node_hidden_<k>``), then with the energy objective the 4
+    energy features of the single env (``ENERGY_NAMES``, after the node blocks, whose offsets
+    stay 12 + width k): the last move (q[n] - q[n-1]) / D (0 at the start), the energy weight
+    w = lambda_ref P(0) / B (bps/Hz) and the minimum-power move V_mp dt / D. With channel
+    "rician" the served features are sums of faded rates, clipped in the observation at the rate
+    bound plus ``knowledge.FADE_MARGIN`` (the clip of measured rates, which a faded sample
+    rarely reaches, and S_k / N never exceeds the largest sample); the rate features stay the
+    expected-gain r_k(q).
 
     ## Rewards
 
@@ -146,6 +127,38 @@ class MultiNodeEnv(MobileNodes, EnergyChannel, gym.Env):
     weighted towards the nodes served least so far (a denser signal for learning whom to serve
     and where to fly); the last step's correction is 0 when the nodes end equally served and
     never below -N log(K) / beta.
+
+    ## Energy
+
+    With ``objective="energy_efficiency"`` (``score_plan``'s EE = B T min_k R_k / E, the worst
+    node's bits per joule of propulsion energy) each step also adds
+
+        reward_energy = -(lambda_ref / B) P(V_n)   (bps/Hz)
+
+    as the single env does (``IOSUAVEnv``, "Energy"), so with the guard the return is
+    (bits - lambda_ref E) / (B dt), bits = B T min_k R_k of the agent's own shares (no start
+    term: slot 1's service is in the first step's rate term): an increasing affine function of
+    Dinkelbach's G = bits - lambda_ref E, whose maximisers have an EE of at least lambda_ref
+    when lambda_ref <= EE*. lambda_ref is ``energy_reference`` (bits/J) when given, else the EE
+    of the scenario's straight flight q0 -> qF at one constant speed with its best schedule
+    (``multi_energy.reference_efficiency``, computed at reset; for moving nodes scored on the
+    episode's true paths, while the observation's energy weight keeps the configured nodes'
+    value): a feasible plan, so lambda_ref <= EE* without an energy budget (with one, the
+    straight flight may exceed it: ``multi_energy``). ``env.unwrapped.reference_efficiency``
+    holds it. The episode's score is ``info["energy_efficiency"]`` at slot N.
+
+    ## Rician channel
+
+    With ``channel="rician"`` each slot draws two standard normals per node from ``np_random``
+    (the reset's slot 1, after the scenario's and the paths' draws, then every step's; (K, 2) at
+    a time) and node k is served its faded rate log2(1 + eta |h_k|^2) of the slot
+    (``channel.faded_point``; Rician factor ``kappa``): the served S_k, ``node_rates``,
+    ``min_rate`` and the rate term are the faded rates the agent actually got. The score stays
+    the expected-gain one, as the single env's ``average_rate``: ``info`` adds
+    ``expected_node_rates`` (K_max, sum_m alpha_k[m] r_k(q[m]) / N) and ``expected_min_rate``
+    (at slot N ``score_plan(config, q, shares).rate``); ``best_schedule_rate`` and the EE are
+    taken on the expected-gain rates too. It needs ``knowledge="exact"`` (measured rates are
+    faded samples already).
 
     ## Moving nodes
 
@@ -176,7 +189,11 @@ class MultiNodeEnv(MobileNodes, EnergyChannel, gym.Env):
     the flight's energy so far within it: at slot N, ``score_plan``'s verdict), ``worst_violation``,
     ``terminal_miss``.
     The best schedule's wall time is kept in ``score_seconds`` (0 before slot N): it scores the flight, so
-    the benchmark leaves it out of a policy's plan time.
+    the benchmark leaves it out of a policy's plan time. With the energy objective ``info`` adds
+    ``power`` (W, P(V) of the step's move; 0 at reset), ``energy`` (J so far), ``energy_efficiency``
+    (bits/J so far, B dt min_k sum_m alpha_k[m] r_k(q[m]) / energy; 0 at reset; at slot N
+    ``score_plan``'s EE) and ``reward_energy``; with channel "rician" ``expected_node_rates`` and
+    ``expected_min_rate`` (Rician channel). ``env.unwrapped.info_keys`` lists the keys.
 
     ## Episode End
 
@@ -195,16 +212,17 @@ class MultiNodeEnv(MobileNodes, EnergyChannel, gym.Env):
     - ``peak_hint`` (False): append each node's reachable rate peak (Observation Space; one
       ``rate_peak`` per node and scenario, cached: ``node_peaks``).
     - ``arrival_guard``, ``reach_weight``, ``terminal_weight``, ``length_scale``, ``knowledge``,
-      ``report_sigma``, ``filter_estimate``: as ``IOSUAVEnv`` (``EnvOptions``); the channel is
-      the expected-gain rate.
+      ``report_sigma``, ``filter_estimate``, ``channel`` ("expected" or "rician", the latter with
+      ``knowledge="exact"``), ``energy_reference`` (None or bits/J; the energy objective only):
+      as ``IOSUAVEnv`` (``EnvOptions``); ``instance_features`` is refused.
     - ``render_mode``: None or "rgb_array" (the best node's rate map, every node, and the
       trajectory so far coloured by the node with the largest share in each slot; needs
       ``pip install ios-uav-env[render]``).
     - ``**kwargs``: ``ScenarioConfig`` fields applied to ``config`` (with ``random_nodes``: to the
       drawn scenarios; a drawn field, ``config`` or, without ``random_nodes``, ``ranges`` would
-      be unused and is refused). The objective is the max-min rate: ``objective``
-      ``"energy_efficiency"`` is refused (it is single-node: the energy ids), and so are
-      ``bandwidth_hz``, and ``propulsion`` without ``energy_budget_j``, which would do nothing.
+      be unused and is refused). ``objective``: ``"rate"`` (the max-min rate) or
+      ``"energy_efficiency"`` (Energy); with the rate objective ``bandwidth_hz``, and
+      ``propulsion`` without ``energy_budget_j``, would do nothing and are refused.
 
     ```python
     >>> import gymnasium as gym
@@ -310,7 +328,7 @@ class MultiNodeEnv(MobileNodes, EnergyChannel, gym.Env):
         self._rate_clip = self._rate_high(own)
         # where the observation clips a served rate (faded rates only: channel "rician")
         self._served_clip = rate_high(own, "exact", True) if self._rician else math.inf
-        #: The keys of ``info`` (``multi_kernels.info_keys``: more with the energy objective, Rician).
+        #: The keys of ``info`` (``multi_table.info_keys``: more with the energy objective, Rician).
         self.info_keys: tuple[str, ...] = info_keys(self.energy_objective, self._rician)
         self.config = self._base
         # a batch of one episode for the kernels of ios_uav_env.envs.multi_kernels

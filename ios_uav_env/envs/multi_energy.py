@@ -13,10 +13,12 @@ return is an increasing affine function of G = bits - lambda_ref E). With ``ener
 the straight flight may exceed the budget (it is not the least-energy flight), and lambda_ref
 is then still its EE, which need not be <= the best EE of the flights within the budget.
 
-With moving nodes (``motion``, ``knowledge``) the reference is taken on the episode's true paths
-(the truth the score is taken on; ``score_plan(..., paths=env.paths)``), so lambda_ref <= EE*
-still holds; it is one number of the truth, and the observation's energy weight shows it (pass
-``energy_reference`` in bits/J to keep the truth out of the observation).
+With moving nodes (``motion``, ``knowledge``) the reward's lambda_ref is the same plan scored on
+the episode's true paths, drawn at reset (the truth the score is taken on;
+``score_plan(..., paths=env.paths)``), so lambda_ref <= EE* of that episode still holds. The
+agent never sees the truth: the observation's energy weight stays the scenario's, the plan's EE
+on the configured nodes (the static env's value), as the single env's mobile energy id does. A
+number given as ``energy_reference`` is used as it is, in the reward and the observation alike.
 
 **Rician** (``channel="rician"``): each slot draws two standard normals per node from the
 env's ``np_random`` (:func:`draw_fading`: (K, 2), the real then the imaginary part of h_SS, node
@@ -174,11 +176,13 @@ class EnergyChannel:
         paths' draws: the episode's lambda_ref (the energy objective: ``energy_reference`` or
         :func:`reference_efficiency` on the true paths) and the first slot's fading (Rician)."""
         if self.energy_objective:
-            reference = fixed_reference(self.options)
-            if reference is None:
-                reference = reference_efficiency(self.config, self.truth)
+            reference = seen = fixed_reference(self.options)
+            if reference is None:  # the configured nodes' (observed), the true paths' (rewarded)
+                seen = reference = reference_efficiency(self.config)
+                if self.truth is not None:
+                    reference = reference_efficiency(self.config, self.truth)
             self.reference_efficiency = reference
-            rows.set_reference(i, reference)
+            rows.set_reference(i, reference, seen)
         self._fade(rows, i)
 
     def _fade(self, rows: Any, i: int) -> None:

@@ -1,13 +1,14 @@
 """The multi-node env's transition as array kernels over B rows: one implementation for
 ``MultiNodeEnv`` (a batch of one) and ``MultiNodeVectorEnv`` (B rows).
 
-Row i of a few arrays is episode i (:class:`NodeRows` holds them): ``state`` (:data:`STATE`),
-``episode`` (:data:`EPISODE`: the scenario's constants), ``points`` (B, K_max, 6: each node's
+Row i of a few arrays is episode i (:class:`NodeRows` holds them; their columns:
+``ios_uav_env.envs.multi_table``): ``state`` (``STATE``), ``episode`` (``EPISODE``: the
+scenario's constants), ``points`` (B, K_max, 6: each node's
 x, y, its side of the IOS and, with ``peak_hint``, its reachable rate peak x, y and rate),
 ``served`` (B, K_max: S_k) and, per node, the arrays of its rate kernel
 (``ios_uav_env.model.channel.RateKernel`` of ``config.node_config(k)``: ``nodes`` (B, K_max, 3, Q),
 ``params`` (B, K_max, P)). :func:`reset_rows` and :func:`step_rows` write the observations,
-rewards and the ``info`` table (:func:`info_columns`, read by :func:`info_arrays`) of the
+rewards and the ``info`` table (``multi_table.info_columns``, read by ``info_arrays``) of the
 rows they touch: node k's rate is ``channel.rate_point``, the move goes through
 ``guard.guarded_position``, the shares are the softmax of ``share_sharpness`` x the scores of
 the scenario's K nodes, and the reward terms are those of ``MultiNodeEnv``'s docstring.
@@ -24,142 +25,34 @@ and the energy efficiency are taken on. Every step books the move's propulsion e
 
 from __future__ import annotations
 
-import functools
 import math
 from collections.abc import Sequence
 from typing import Any
 
 import numpy as np
 
-from ios_uav_env.envs.observation import M_SCALE, T_SCALE, min_power_move
+from ios_uav_env.envs.multi_table import (
+    EPISODE,
+    POINT,
+    STATE,
+    episode_row,
+    node_peaks,
+    node_points,
+    set_reference,
+)
 from ios_uav_env.envs.options import EnvOptions
 from ios_uav_env.envs.single_kernels import (
-    budget_of,
     flags_of,
     fly_entry_out_of_range,
     penalties,
     slot_power,
     toward,
 )
-from ios_uav_env.jit import HAVE_NUMBA, jit, prange, run_batched
+from ios_uav_env.jit import jit, prange, run_batched
 from ios_uav_env.model.channel import PARAMS, faded_point, rate_kernel, rate_point
 from ios_uav_env.model.config import ENERGY_RTOL, FEASIBILITY_TOL, ScenarioConfig
 from ios_uav_env.model.guard import guarded_position
 from ios_uav_env.model.maxmin_paths import path_values
-from ios_uav_env.model.peak import rate_peak
-
-#: Columns of a row of ``state`` (``moves_made`` at column 2, as in ``single_kernels.STATE``;
-#: ``energy``: the propulsion energy so far, J; ``move_x``, ``move_y``: the last move / D).
-STATE = ("x", "y", "moves_made", "excess", "min_rate", "potential", "energy", "move_x", "move_y")
-#: Columns of a row of ``episode``.
-EPISODE = (
-    "D", "qfx", "qfy", "moves", "inv_l", "N", "cx", "cy", "K", "sharpness", "elements", "is_ios",
-    "is_ris", "horizon", "softmin_beta", "peak_hint", "dt", "p_blade", "blade_k", "p_induced", "induced_k",
-    "drag", "budget", "energy_cost", "energy_weight", "min_power_move", "bits_scale", "served_clip",
-)  # fmt: skip
-#: Columns of a row of ``points`` (per node).
-POINT = ("x", "y", "side", "peak_x", "peak_y", "peak_rate")
-#: The scalar columns of the ``info`` table; then ``shares`` (K_max), ``node_rates`` (K_max),
-#: :data:`MORE` and ``expected_node_rates`` (K_max).
-INFO = (
-    "position_x", "position_y", "slot", "distance_to_final", "min_rate", "best_schedule_rate",
-    "reward_rate", "reward_reach", "reward_terminal", "feasible", "worst_violation", "terminal_miss",
-)  # fmt: skip
-#: The scalar columns of the ``info`` table after ``node_rates``: the energy objective's and the
-#: Rician channel's (written on every row; ``info`` shows them only where they mean something).
-MORE = ("power", "energy", "energy_efficiency", "reward_energy", "expected_min_rate")
-#: Column of ``best_schedule_rate`` (filled in by the caller: an LP, at episode end only).
-BEST = INFO.index("best_schedule_rate")
-#: The keys of ``info`` (the same on every step and at reset): :func:`info_arrays`.
-MULTI_INFO_KEYS = (
-    "position", "slot", "distance_to_final", "shares", "node_rates", "min_rate", "best_schedule_rate",
-    "reward_rate", "reward_reach", "reward_terminal", "feasible", "worst_violation", "terminal_miss",
-)  # fmt: skip
-#: The keys ``info`` adds with the objective ``"energy_efficiency"``.
-ENERGY_INFO_KEYS = ("power", "energy", "energy_efficiency", "reward_energy")
-#: The keys ``info`` adds with channel ``"rician"``.
-RICIAN_INFO_KEYS = ("expected_node_rates", "expected_min_rate")
-
-
-def info_keys(energy: bool = False, rician: bool = False) -> tuple[str, ...]:
-    """The keys of ``info``: :data:`MULTI_INFO_KEYS`, then :data:`ENERGY_INFO_KEYS` with the energy
-    objective, then :data:`RICIAN_INFO_KEYS` with channel ``"rician"``."""
-    return MULTI_INFO_KEYS + (ENERGY_INFO_KEYS if energy else ()) + (RICIAN_INFO_KEYS if rician else ())
-
-
-def info_columns(max_nodes: int) -> int:
-    """Width of the ``info`` table for ``max_nodes`` nodes."""
-    return len(INFO) + len(MORE) + 3 * max_nodes
-
-
-def info_arrays(
-    table: np.ndarray, max_nodes: int, keys: tuple[str, ...] = MULTI_INFO_KEYS
-) -> dict[str, np.ndarray]:
-    """``info`` (``keys``, of :func:`info_keys`) as views of the rows of the info ``table``:
-    ``position`` (B, 2), ``shares``, ``node_rates`` and ``expected_node_rates`` (B, K_max),
-    ``slot`` int64, ``feasible`` bool."""
-    columns, end = table.T, len(INFO)
-    out = {key: columns[i] for i, key in enumerate(INFO) if not key.startswith("position")}
-    out["position"] = table[:, 0:2]
-    out["slot"] = out["slot"].astype(np.int64)
-    out["feasible"] = out["feasible"] != 0.0
-    out["shares"], out["node_rates"] = (
-        table[:, end : end + max_nodes],
-        table[:, end + max_nodes : end + 2 * max_nodes],
-    )
-    more = end + 2 * max_nodes
-    out.update({key: columns[more + j] for j, key in enumerate(MORE)})
-    out["expected_node_rates"] = table[:, more + len(MORE) :]
-    return {key: out[key] for key in keys}
-
-
-@functools.lru_cache(maxsize=256)
-def node_peaks(config: ScenarioConfig) -> tuple[tuple[float, float, float], ...]:
-    """Each node's reachable rate peak (x, y, rate): ``rate_peak`` of ``config.node_config(k)``
-    (on the compiled kernel when numba is installed: ``compiled=HAVE_NUMBA``), the ``peak_hint``
-    features; cached, so a fixed scenario and the rows of a batch sharing one compute them once."""
-    return tuple(tuple(rate_peak(config.node_config(k), compiled=HAVE_NUMBA)) for k in range(config.K))
-
-
-def episode_row(config: ScenarioConfig, length_scale: float, sharpness: float, softmin_beta: float = 0.0,
-                peak_hint: bool = False, reference: float = 0.0,
-                served_clip: float = math.inf) -> np.ndarray:  # fmt: skip
-    """The ``episode`` row of ``config`` (see :data:`EPISODE`): the propulsion constants of
-    ``single_kernels.slot_power``, the energy budget (``single_kernels.budget_of``), then the
-    energy reward's constants of lambda_ref = ``reference`` (bits/J; :func:`set_reference`), the
-    minimum-power move V_mp dt / D, B dt (bits per bps/Hz of a slot) and where the observation
-    clips the served rates (``served_clip``, bps/Hz: finite for faded rates only)."""
-    (fx, fy), (cx, cy) = config.qF, config.ios_center[:2]
-    elements = config.M / M_SCALE if config.surface != "none" else 0.0
-    kind = float(config.surface == "ios"), float(config.surface == "ris")
-    m = config.propulsion
-    row = [config.D, fx, fy, config.N - 1, 1.0 / length_scale, config.N, cx, cy, config.K, sharpness,
-           elements, *kind, config.T / T_SCALE, softmin_beta, float(peak_hint), config.dt, m.P0,
-           3.0 / m.U_tip**2, m.P_i, 1.0 / (2.0 * m.v0**2), m.drag_coefficient, budget_of(config), 0.0, 0.0,
-           min_power_move(config), config.bandwidth_hz * config.dt, served_clip]  # fmt: skip
-    out = np.array(row, dtype=np.float64)
-    set_reference(out, config, reference)
-    return out
-
-
-def set_reference(row: np.ndarray, config: ScenarioConfig, reference: float) -> None:
-    """Write lambda_ref = ``reference`` (bits/J) into the ``episode`` ``row`` of ``config``: the
-    energy cost lambda_ref / B (bps/Hz per W) and the energy weight lambda_ref P(0) / B (bps/Hz)."""
-    cost = reference / config.bandwidth_hz
-    row[23], row[24] = cost, cost * config.propulsion.hover_power
-
-
-def node_points(
-    config: ScenarioConfig, peaks: Sequence[tuple[float, float, float]] | None = None
-) -> np.ndarray:
-    """The (K, 6) ``points`` of ``config`` (:data:`POINT`): each node's x, y, side of the IOS
-    (+1 at x > x_c) and its rate peak (``peaks``, the single env's ``peak_hint``; 0 without)."""
-    cx = config.ios_center[0]
-    peaks = peaks or [(0.0, 0.0, 0.0)] * config.K
-    rows = [
-        (wx, wy, 1.0 if wx > cx else -1.0, *peak) for (wx, wy), peak in zip(config.nodes, peaks, strict=True)
-    ]
-    return np.array(rows, dtype=np.float64)
 
 
 @jit(fastmath=False)
@@ -503,11 +396,12 @@ class NodeRows:
             self.loaded[i] = cfg
         self.state[i, 0:2] = self.path[i, 0] = cfg.q0
 
-    def set_reference(self, i: int, reference: float) -> None:
-        """lambda_ref (bits/J) of row ``i``'s episode (:func:`set_reference` on its loaded scenario)."""
+    def set_reference(self, i: int, reference: float, observed: float | None = None) -> None:
+        """lambda_ref (bits/J) of row ``i``'s episode, and the one its observation shows
+        (``multi_table.set_reference`` on its loaded scenario)."""
         cfg = self.loaded[i]
         assert cfg is not None
-        set_reference(self.episode[i], cfg, reference)
+        set_reference(self.episode[i], cfg, reference, observed)
 
     def start(self, rows: np.ndarray, obs: np.ndarray, info: np.ndarray) -> None:
         """:func:`reset_rows` on ``rows`` (int64), writing ``obs`` and the ``info`` table."""

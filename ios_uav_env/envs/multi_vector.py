@@ -29,15 +29,8 @@ import numpy as np
 
 from ios_uav_env.envs.batched import BatchedEnv
 from ios_uav_env.envs.multi import MultiNodeEnv
-from ios_uav_env.envs.multi_kernels import (
-    BEST,
-    MULTI_INFO_KEYS,
-    NodeRows,
-    episode_best_values,
-    info_arrays,
-    info_columns,
-    move_norms,
-)
+from ios_uav_env.envs.multi_kernels import NodeRows, episode_best_values, move_norms
+from ios_uav_env.envs.multi_table import BEST, MULTI_INFO_KEYS, info_arrays, info_columns
 
 
 class MultiNodeVectorEnv(BatchedEnv):

@@ -28,7 +28,7 @@ from ios_uav_env.envs.multi_energy import (
     reference_shares,
     straight_flight,
 )
-from ios_uav_env.envs.multi_kernels import ENERGY_INFO_KEYS
+from ios_uav_env.envs.multi_table import ENERGY_INFO_KEYS
 from ios_uav_env.model.schedule import node_rates, scheduled_rates
 
 FIXED, RANDOM = "ios_uav_env/IOSUAV-MultiNode-v0", "ios_uav_env/IOSUAV-MultiNode-Random-v0"
@@ -132,6 +132,13 @@ def test_moving_nodes_take_the_reference_on_the_true_paths():
     assert u.truth is not None
     assert u.reference_efficiency == reference_efficiency(u.config, u.paths)
     assert u.reference_efficiency != reference_efficiency(u.config)  # (the static nodes' differs)
+    # the reward takes the truth's lambda_ref, the observation the configured nodes' (no truth)
+    cfg = u.config
+    obs = env.reset(seed=2)[0]
+    weight = reference_efficiency(cfg) * cfg.propulsion.hover_power / cfg.bandwidth_hz
+    assert obs[u.observation_names.index("energy_weight")] == np.float32(weight)
+    info = env.step(np.zeros(env.action_space.shape))[4]
+    assert info["reward_energy"] == pytest.approx(-u.reference_efficiency / cfg.bandwidth_hz * info["power"])
 
 
 # --- observation and info layout ------------------------------------------------------------

@@ -16,7 +16,7 @@ from gymnasium.vector import AutoresetMode
 
 from ios_uav_env import ScenarioConfig, maxmin_rate, score_plan
 from ios_uav_env.envs.multi import DEFAULT_NODES, MULTI_INFO_KEYS, MULTINODE_RANGES, MultiNodeEnv
-from ios_uav_env.envs.multi_kernels import ENERGY_INFO_KEYS, RICIAN_INFO_KEYS
+from ios_uav_env.envs.multi_table import ENERGY_INFO_KEYS, RICIAN_INFO_KEYS
 from ios_uav_env.model.channel import faded_point, rate_kernel
 from ios_uav_env.model.schedule import node_rates, scheduled_rates
 
