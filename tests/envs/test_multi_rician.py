@@ -5,7 +5,12 @@ identity, seeding bit for bit, the batched form row for row, the checker, and th
 from __future__ import annotations
 
 import dataclasses
+import json
+import os
+import subprocess
+import sys
 import warnings
+from pathlib import Path
 
 import gymnasium as gym
 import numpy as np
@@ -211,3 +216,30 @@ def test_refused_combinations_name_the_field():
         MultiNodeEnv(T=40.0, kappa=5.0)
     env = MultiNodeEnv(T=40.0, kappa=5.0, **RICIAN)  # with faded rates it counts
     assert env.config.kappa == 5.0
+
+
+def test_the_plain_python_kernels_give_the_same_episodes(tmp_path):
+    """Without numba (IOS_UAV_ENV_NO_NUMBA=1, a fresh interpreter) the batch still equals the
+    single envs, and an episode with both the energy objective and faded rates is the compiled
+    kernels' to the rounding the guard amplifies."""
+    code = (
+        "import importlib.util, json, ios_uav_env.jit as j\n"
+        "assert not j.HAVE_NUMBA\n"
+        f"spec = importlib.util.spec_from_file_location('mr', {str(Path(__file__))!r})\n"
+        "m = importlib.util.module_from_spec(spec)\n"
+        "spec.loader.exec_module(m)\n"
+        "gap = m._replay(m.FIXED, 'next_step', 2, 90)\n"
+        "out = m.play(m.MultiNodeEnv(m.SHORT.replace(objective='energy_efficiency'), channel='rician'), 3)\n"
+        "print(json.dumps([gap, [float(r) for r in out['rewards']]]))\n"
+    )
+    env = {**os.environ, "IOS_UAV_ENV_NO_NUMBA": "1"}
+    run = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True, timeout=600)
+    assert run.returncode == 0, run.stderr
+    gap, rewards = json.loads(run.stdout.split("\n")[-2])
+    assert gap <= 1e-9
+    compiled = play(MultiNodeEnv(SHORT.replace(objective="energy_efficiency"), channel="rician"), 3)[
+        "rewards"
+    ]
+    # (the compiled channel rounds otherwise, and the arrival guard amplifies a last-bit
+    # difference of a position, as in the rate objective's episodes: about 1e-7)
+    np.testing.assert_allclose(rewards, compiled, rtol=1e-5, atol=1e-5)
