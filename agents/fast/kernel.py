@@ -10,6 +10,12 @@ layers (the offsets of each weight and bias in the flat vector, the input and ou
 tanh after every layer but the last). :class:`agents.fast.kernel_policy.KernelUpdate` runs these
 on an SB3 policy.
 
+The kernels address the columns of their arrays by name, as ``ios_uav_env.envs.single_kernels``
+does: a module-level int per entry of :data:`LAYER` (a ``layers`` row), :data:`SETTINGS` and
+:data:`STATS`, the prefix ``LAYER_``, ``SETTING_`` or ``STAT_`` and the entry upper-cased
+(``layers[k, LAYER_N_OUT]``, ``settings[SETTING_CLIP]``, ``stats[STAT_APPROX_KL]``), each
+``TUPLE.index("name")``: numba compiles it as a constant.
+
 The loss is :meth:`agents.fast.ppo.FastPPO.update`'s (SB3's PPO): for a minibatch of n samples
 with ratio rho = exp(log pi(a|s) - log pi_old(a|s)), normalised advantages A, values v and
 returns R,
@@ -58,10 +64,31 @@ _B4, _B6 = np.float32(1.18534705686654e-04), np.float32(1.19825839466702e-06)
 #: whether advantages are normalised (0/1), Adam's beta1, beta2 and eps.
 SETTINGS = ("lr", "clip", "vf_coef", "ent_coef", "max_grad_norm", "target_kl", "normalize", "beta1",
             "beta2", "eps")  # fmt: skip
-#: (their positions, for the kernels; the unpacking fails if a name is added without one)
-_LR, _CLIP, _VF_COEF, _ENT_COEF, _MAX_NORM, _TARGET_KL, _NORMALIZE, _BETA1, _BETA2, _EPS = range(
-    len(SETTINGS)
-)
+SETTING_LR = SETTINGS.index("lr")
+SETTING_CLIP = SETTINGS.index("clip")
+SETTING_VF_COEF = SETTINGS.index("vf_coef")
+SETTING_ENT_COEF = SETTINGS.index("ent_coef")
+SETTING_MAX_GRAD_NORM = SETTINGS.index("max_grad_norm")
+SETTING_TARGET_KL = SETTINGS.index("target_kl")
+SETTING_NORMALIZE = SETTINGS.index("normalize")
+SETTING_BETA1 = SETTINGS.index("beta1")
+SETTING_BETA2 = SETTINGS.index("beta2")
+SETTING_EPS = SETTINGS.index("eps")
+
+#: The columns of a net's (L, 4) ``layers`` array, a row per layer: the offsets of its weight and
+#: bias in the flat parameter vector, its input and output widths.
+LAYER = ("w_off", "b_off", "n_in", "n_out")
+LAYER_W_OFF = LAYER.index("w_off")
+LAYER_B_OFF = LAYER.index("b_off")
+LAYER_N_IN = LAYER.index("n_in")
+LAYER_N_OUT = LAYER.index("n_out")
+
+#: An update's statistics, in the order :func:`minibatch_gradient` and :func:`ppo_update` return them.
+STATS = ("policy_loss", "value_loss", "approx_kl", "clip_fraction")
+STAT_POLICY_LOSS = STATS.index("policy_loss")
+STAT_VALUE_LOSS = STATS.index("value_loss")
+STAT_APPROX_KL = STATS.index("approx_kl")
+STAT_CLIP_FRACTION = STATS.index("clip_fraction")
 
 
 def update_settings(**values: float) -> np.ndarray:
@@ -93,7 +120,8 @@ def _forward(theta: np.ndarray, layers: np.ndarray, x: np.ndarray) -> list[np.nd
     h = x
     n_layers = layers.shape[0]
     for k in range(n_layers):
-        w_off, b_off, n_in, n_out = layers[k, 0], layers[k, 1], layers[k, 2], layers[k, 3]
+        w_off, b_off = layers[k, LAYER_W_OFF], layers[k, LAYER_B_OFF]
+        n_in, n_out = layers[k, LAYER_N_IN], layers[k, LAYER_N_OUT]
         w = theta[w_off : w_off + n_out * n_in].reshape((n_out, n_in))
         b = theta[b_off : b_off + n_out]
         h = np.dot(h, w.T)
@@ -117,7 +145,8 @@ def _backward(
     d = d_out
     n_layers = layers.shape[0]
     for k in range(n_layers - 1, -1, -1):
-        w_off, b_off, n_in, n_out = layers[k, 0], layers[k, 1], layers[k, 2], layers[k, 3]
+        w_off, b_off = layers[k, LAYER_W_OFF], layers[k, LAYER_B_OFF]
+        n_in, n_out = layers[k, LAYER_N_IN], layers[k, LAYER_N_OUT]
         if k < n_layers - 1:  # d is the product of the layer above (a temporary): scaled in place
             y = acts[k + 1]
             for i in range(d.shape[0]):
@@ -151,9 +180,11 @@ def _actor_gradient(
     actions: np.ndarray, old_logp: np.ndarray, advantages: np.ndarray, settings: np.ndarray,
     stats: np.ndarray,
 ) -> None:  # fmt: skip
-    """The policy loss's gradient (the actor's parameters and the log std) and stats 0, 2, 3:
-    one pass over the rows (no float64 temporaries), then the backward pass."""
-    clip, ent_coef, normalize = settings[_CLIP], settings[_ENT_COEF], settings[_NORMALIZE] > 0.5
+    """The policy loss's gradient (the actor's parameters and the log std) and the stats policy
+    loss, approx KL and clip fraction: one pass over the rows (no float64 temporaries), then the
+    backward pass."""
+    clip, ent_coef = settings[SETTING_CLIP], settings[SETTING_ENT_COEF]
+    normalize = settings[SETTING_NORMALIZE] > 0.5
     m, act_dim = actions.shape
     acts = _forward(theta, pi_layers, obs)
     mean = acts[-1]
@@ -190,9 +221,9 @@ def _actor_gradient(
     _backward(theta, grad, pi_layers, acts, d_mean)
     for j in range(act_dim):
         grad[log_std_off + j] = g_log_std[j] - ent_coef
-    stats[0] = -objective / m
-    stats[2] = kl / m
-    stats[3] = n_clipped / m
+    stats[STAT_POLICY_LOSS] = -objective / m
+    stats[STAT_APPROX_KL] = kl / m
+    stats[STAT_CLIP_FRACTION] = n_clipped / m
 
 
 @jit
@@ -200,19 +231,19 @@ def _critic_gradient(
     theta: np.ndarray, grad: np.ndarray, vf_layers: np.ndarray, obs: np.ndarray, returns: np.ndarray,
     settings: np.ndarray, stats: np.ndarray,
 ) -> None:  # fmt: skip
-    """The value loss's gradient (the critic's parameters) and stat 1."""
+    """The value loss's gradient (the critic's parameters) and the stat value loss."""
     m = obs.shape[0]
     acts = _forward(theta, vf_layers, obs)
     value = acts[-1]
     d_value = np.empty((m, 1), dtype=theta.dtype)
-    scale = -2.0 * settings[_VF_COEF] / m
+    scale = -2.0 * settings[SETTING_VF_COEF] / m
     square = 0.0
     for i in range(m):
         err = returns[i] - float(value[i, 0])
         square += err * err
         d_value[i, 0] = scale * err
     _backward(theta, grad, vf_layers, acts, d_value)
-    stats[1] = square / m
+    stats[STAT_VALUE_LOSS] = square / m
 
 
 @jit(parallel=True)
@@ -245,10 +276,10 @@ def minibatch_gradient(
     parallel: bool = False,
 ) -> np.ndarray:
     """The PPO loss's gradient on one minibatch, written into ``grad`` (every entry: the log
-    std's too, whether trained or not); returns (policy loss, value loss, approx KL, clip
-    fraction). ``settings``: as :func:`ppo_update`'s; ``parallel``: the actor's and the critic's
-    parts on two of numba's threads."""
-    stats = np.empty(4)
+    std's too, whether trained or not); returns the :data:`STATS` (policy loss, value loss,
+    approx KL, clip fraction). ``settings``: as :func:`ppo_update`'s; ``parallel``: the actor's
+    and the critic's parts on two of numba's threads."""
+    stats = np.empty(len(STATS))
     if parallel:
         _gradient_parallel(theta, grad, pi_layers, vf_layers, log_std_off, obs, actions, old_logp, advantages,
                            returns, settings, stats)  # fmt: skip
@@ -267,8 +298,8 @@ def adam_step(
 ) -> None:  # fmt: skip
     """Clip the gradient of the first ``n_train`` parameters to ``settings``' max norm
     (``clip_grad_norm_``) and take Adam's step ``step`` (1 for the first) on them."""
-    lr, max_norm, beta1, beta2, eps = (settings[_LR], settings[_MAX_NORM], settings[_BETA1], settings[_BETA2],
-                                       settings[_EPS])  # fmt: skip
+    lr, max_norm = settings[SETTING_LR], settings[SETTING_MAX_GRAD_NORM]
+    beta1, beta2, eps = settings[SETTING_BETA1], settings[SETTING_BETA2], settings[SETTING_EPS]
     norm = 0.0
     for j in range(n_train):
         norm += float(grad[j]) * float(grad[j])
@@ -315,7 +346,7 @@ def ppo_update(
     stepped, the sums of (policy loss, value loss, approx KL, clip fraction) over them); like SB3,
     an update stops before the step of the first minibatch whose KL exceeds 1.5 target_kl."""
     grad = np.zeros_like(theta)
-    totals = np.zeros(4)
+    totals = np.zeros(len(STATS))
     count = 0
     n = orders.shape[1]
     for epoch in range(orders.shape[0]):
@@ -325,7 +356,7 @@ def ppo_update(
                 theta, grad, pi_layers, vf_layers, log_std_off, obs[idx], actions[idx], old_logp[idx],
                 advantages[idx], returns[idx], settings, parallel,
             )  # fmt: skip
-            if stats[2] > 1.5 * settings[_TARGET_KL]:
+            if stats[STAT_APPROX_KL] > 1.5 * settings[SETTING_TARGET_KL]:
                 return step, count, totals
             step += 1
             adam_step(theta, grad, exp_avg, exp_avg_sq, step, n_train, settings)

@@ -13,7 +13,7 @@ from typing import Any
 
 import numpy as np
 
-from agents.fast.kernel import policy_step, ppo_update, update_settings
+from agents.fast.kernel import LAYER, policy_step, ppo_update, update_settings
 from ios_uav_env.jit import parallel_safe
 
 
@@ -59,7 +59,8 @@ class KernelUpdate:
         for name, stack in (("pi", pi), ("vf", vf)):
             for linear in stack:
                 w, b = linear.weight, linear.bias
-                rows[name].append([offset, offset + w.numel(), w.shape[1], w.shape[0]])
+                layer = dict(w_off=offset, b_off=offset + w.numel(), n_in=w.shape[1], n_out=w.shape[0])
+                rows[name].append([layer[column] for column in LAYER])
                 self.params += [(w, offset), (b, offset + w.numel())]
                 offset += w.numel() + b.numel()
         self.log_std_off = offset

@@ -40,6 +40,7 @@ import torch
 
 import ios_uav_env  # noqa: F401  (registers the ids)
 from agents.fast.gae import gae
+from agents.fast.kernel import STATS
 from agents.fast.kernel_policy import KernelUpdate
 from agents.fast.recipe import FastRecipe
 from agents.scores import score_label
@@ -52,7 +53,7 @@ prefer_passive_threads()  # numba's threads must not spin while torch trains (se
 #: it covers the network, else torch), ``kernel`` (an error if it cannot), ``torch``.
 UPDATES = ("auto", "kernel", "torch")
 #: The update's statistics, in :func:`agents.fast.kernel.ppo_update`'s order.
-STAT_KEYS = ("policy_loss", "value_loss", "approx_kl", "clip_fraction")
+STAT_KEYS = STATS
 
 
 class FastPPO:

@@ -15,6 +15,17 @@ power P(|move| / dt) (:func:`move_power`: eq. (12) of the propulsion model, inli
 so far and the bits per joule so far (``info``'s ``power``, ``energy``, ``energy_efficiency``);
 the reward's energy term -(lambda_ref / B) P and the energy features of the observation are
 added only for the objective ``"energy_efficiency"`` (flag ``energy``).
+
+The kernels address every column by name, never by number: a module-level int per entry of
+:data:`STATE`, :data:`EPISODE`, :data:`INFO` and :data:`FLAGS`, named by a prefix and the entry
+upper-cased, ``ST_`` (``state[i, ST_MOVES_MADE]``), ``EP_`` (``episode[i, EP_INV_L]``), ``INFO_``
+(``info[i, INFO_RATE]``) and ``FLAG_`` (``flags[FLAG_ENERGY]``), and ``OBS_`` for the observation's
+components (the names of ``observation_layout``: ``obs[i, OBS_X]``; a component of an appended block
+at its offset in the block, ``obs[i, k + OBS_MOVE_X]`` with ``k`` where the block starts, ``N_*``
+the blocks' lengths). Each is ``TUPLE.index("name")``: a plain int, which numba freezes into the
+compiled code as a constant (the machine code of a literal index) and plain Python reads as any
+global. A run of columns is its named first column plus an offset (``ep[i, EP_ELEMENTS + j]``).
+``tests/envs/test_kernel_columns.py`` refuses a literal column index.
 """
 
 from __future__ import annotations
@@ -24,6 +35,7 @@ import math
 import numpy as np
 
 from ios_uav_env.envs.observation import T_SCALE, instance_values, min_power_move
+from ios_uav_env.envs.observation_layout import ENERGY_NAMES, INSTANCE_NAMES, OBS_NAMES, PEAK_NAMES
 from ios_uav_env.envs.options import EnvOptions
 from ios_uav_env.jit import jit, prange
 from ios_uav_env.model.channel import faded_row, rate_row
@@ -58,6 +70,108 @@ FLAGS = (
 )
 
 
+# The columns by name (see the module's docstring).
+ST_X = STATE.index("x")
+ST_Y = STATE.index("y")
+ST_MOVES_MADE = STATE.index("moves_made")
+ST_SUM_EXPECTED = STATE.index("sum_expected")
+ST_SUM_RATE = STATE.index("sum_rate")
+ST_EXCESS = STATE.index("excess")
+ST_ENERGY = STATE.index("energy")
+ST_MOVE_X = STATE.index("move_x")
+ST_MOVE_Y = STATE.index("move_y")
+
+EP_D = EPISODE.index("D")
+EP_QFX = EPISODE.index("qfx")
+EP_QFY = EPISODE.index("qfy")
+EP_MOVES = EPISODE.index("moves")
+EP_INV_L = EPISODE.index("inv_l")
+EP_FX_L = EPISODE.index("fx_l")
+EP_FY_L = EPISODE.index("fy_l")
+EP_GX_L = EPISODE.index("gx_l")
+EP_GY_L = EPISODE.index("gy_l")
+EP_CX_L = EPISODE.index("cx_l")
+EP_CY_L = EPISODE.index("cy_l")
+EP_INV_MOVES = EPISODE.index("inv_moves")
+EP_LEFT_SCALE = EPISODE.index("left_scale")
+EP_ELEMENTS = EPISODE.index("elements")
+EP_IS_IOS = EPISODE.index("is_ios")
+EP_IS_RIS = EPISODE.index("is_ris")
+EP_TRANSMIT = EPISODE.index("transmit")
+EP_HORIZON = EPISODE.index("horizon")
+EP_PEAK_X_L = EPISODE.index("peak_x_l")
+EP_PEAK_Y_L = EPISODE.index("peak_y_l")
+EP_PEAK_RATE = EPISODE.index("peak_rate")
+EP_DT = EPISODE.index("dt")
+EP_P_BLADE = EPISODE.index("p_blade")
+EP_BLADE_K = EPISODE.index("blade_k")
+EP_P_INDUCED = EPISODE.index("p_induced")
+EP_INDUCED_K = EPISODE.index("induced_k")
+EP_DRAG = EPISODE.index("drag")
+EP_BITS_SCALE = EPISODE.index("bits_scale")
+EP_ENERGY_COST = EPISODE.index("energy_cost")
+EP_ENERGY_WEIGHT = EPISODE.index("energy_weight")
+EP_MIN_POWER_MOVE = EPISODE.index("min_power_move")
+EP_BUDGET = EPISODE.index("budget")
+#: The instance values (``instance_values``: elements .. horizon), columns EP_ELEMENTS on, in the
+#: order of the observation's instance block.
+N_INSTANCE_VALUES = EP_HORIZON + 1 - EP_ELEMENTS
+
+INFO_RATE = INFO.index("rate")
+INFO_EXPECTED_RATE = INFO.index("expected_rate")
+INFO_POSITION_X = INFO.index("position_x")
+INFO_POSITION_Y = INFO.index("position_y")
+INFO_DISTANCE_TO_FINAL = INFO.index("distance_to_final")
+INFO_SLOT = INFO.index("slot")
+INFO_REWARD_RATE = INFO.index("reward_rate")
+INFO_REWARD_REACH = INFO.index("reward_reach")
+INFO_REWARD_TERMINAL = INFO.index("reward_terminal")
+INFO_AVERAGE_RATE = INFO.index("average_rate")
+INFO_MEAN_FADED_RATE = INFO.index("mean_faded_rate")
+INFO_FEASIBLE = INFO.index("feasible")
+INFO_WORST_VIOLATION = INFO.index("worst_violation")
+INFO_TERMINAL_MISS = INFO.index("terminal_miss")
+INFO_POWER = INFO.index("power")
+INFO_ENERGY = INFO.index("energy")
+INFO_ENERGY_EFFICIENCY = INFO.index("energy_efficiency")
+INFO_REWARD_ENERGY = INFO.index("reward_energy")
+
+FLAG_ARRIVAL_GUARD = FLAGS.index("arrival_guard")
+FLAG_RICIAN = FLAGS.index("rician")
+FLAG_INSTANCE_FEATURES = FLAGS.index("instance_features")
+FLAG_PEAK_HINT = FLAGS.index("peak_hint")
+FLAG_REACH_WEIGHT = FLAGS.index("reach_weight")
+FLAG_TERMINAL_WEIGHT = FLAGS.index("terminal_weight")
+FLAG_ENERGY = FLAGS.index("energy")
+
+# The observation's columns: the base block (OBS_NAMES) from 0, then the blocks that the flags
+# append (instance, energy, peak; ``observation_layout.observation_names``), each at its offset
+# in its block.
+OBS_X = OBS_NAMES.index("x")
+OBS_Y = OBS_NAMES.index("y")
+OBS_DX_FINAL = OBS_NAMES.index("dx_final")
+OBS_DY_FINAL = OBS_NAMES.index("dy_final")
+OBS_DX_GROUND = OBS_NAMES.index("dx_ground")
+OBS_DY_GROUND = OBS_NAMES.index("dy_ground")
+OBS_DX_IOS = OBS_NAMES.index("dx_ios")
+OBS_DY_IOS = OBS_NAMES.index("dy_ios")
+OBS_TIME_LEFT = OBS_NAMES.index("time_left")
+OBS_SLACK = OBS_NAMES.index("slack")
+OBS_RATE = OBS_NAMES.index("rate")
+N_OBS = len(OBS_NAMES)
+OBS_ELEMENTS = INSTANCE_NAMES.index("elements")
+OBS_SECONDS_LEFT = INSTANCE_NAMES.index("seconds_left")
+N_INSTANCE = len(INSTANCE_NAMES)
+OBS_MOVE_X = ENERGY_NAMES.index("move_x")
+OBS_MOVE_Y = ENERGY_NAMES.index("move_y")
+OBS_ENERGY_WEIGHT = ENERGY_NAMES.index("energy_weight")
+OBS_MIN_POWER_MOVE = ENERGY_NAMES.index("min_power_move")
+N_ENERGY = len(ENERGY_NAMES)
+OBS_DX_PEAK = PEAK_NAMES.index("dx_peak")
+OBS_DY_PEAK = PEAK_NAMES.index("dy_peak")
+OBS_RATE_PEAK = PEAK_NAMES.index("rate_peak")
+
+
 def flags_of(options: EnvOptions, energy: bool = False) -> np.ndarray:
     """The ``flags`` array of ``options`` (see :data:`FLAGS`); ``energy``: the scenario's objective
     is ``"energy_efficiency"``."""
@@ -90,7 +204,7 @@ def episode_row(
     return np.array(row, dtype=np.float64)
 
 
-# The kernels index the 2-D arrays in place (``episode[i, 4]``), never through row views
+# The kernels index the 2-D arrays in place (``episode[i, EP_INV_L]``), never through row views
 # (``episode[i]``): in compiled code every view costs a reference count, more than the row's
 # arithmetic.
 
@@ -100,24 +214,29 @@ def _observe(obs: np.ndarray, i: int, x: float, y: float, left: float, dist: flo
              ep: np.ndarray, flags: np.ndarray, mx: float, my: float) -> None:  # fmt: skip
     """Write observation row ``i`` (the layout of ``IOSUAVEnv``'s docstring); ``ep``: ``episode``,
     (``mx``, ``my``): the last move / D."""
-    inv_l = ep[i, 4]
+    inv_l = ep[i, EP_INV_L]
     xl, yl = x * inv_l, y * inv_l
-    s = left - dist / ep[i, 0]
-    obs[i, 0], obs[i, 1] = xl, yl
-    obs[i, 2], obs[i, 3], obs[i, 4], obs[i, 5] = ep[i, 5] - xl, ep[i, 6] - yl, ep[i, 7] - xl, ep[i, 8] - yl
-    obs[i, 6], obs[i, 7] = ep[i, 9] - xl, ep[i, 10] - yl
-    obs[i, 8], obs[i, 9], obs[i, 10] = left * ep[i, 11], s / (1.0 + abs(s)), rate
-    k = 11
-    if flags[2] != 0.0:
-        for j in range(5):
-            obs[i, k + j] = ep[i, 13 + j]
-        obs[i, k + 5] = left * ep[i, 12]
-        k += 6
-    if flags[6] != 0.0:
-        obs[i, k], obs[i, k + 1], obs[i, k + 2], obs[i, k + 3] = mx, my, ep[i, 29], ep[i, 30]
-        k += 4
-    if flags[3] != 0.0:
-        obs[i, k], obs[i, k + 1], obs[i, k + 2] = ep[i, 18] - xl, ep[i, 19] - yl, ep[i, 20]
+    s = left - dist / ep[i, EP_D]
+    obs[i, OBS_X], obs[i, OBS_Y] = xl, yl
+    obs[i, OBS_DX_FINAL], obs[i, OBS_DY_FINAL] = ep[i, EP_FX_L] - xl, ep[i, EP_FY_L] - yl
+    obs[i, OBS_DX_GROUND], obs[i, OBS_DY_GROUND] = ep[i, EP_GX_L] - xl, ep[i, EP_GY_L] - yl
+    obs[i, OBS_DX_IOS], obs[i, OBS_DY_IOS] = ep[i, EP_CX_L] - xl, ep[i, EP_CY_L] - yl
+    obs[i, OBS_TIME_LEFT] = left * ep[i, EP_INV_MOVES]
+    obs[i, OBS_SLACK], obs[i, OBS_RATE] = s / (1.0 + abs(s)), rate
+    k = N_OBS  # where the next block starts
+    if flags[FLAG_INSTANCE_FEATURES] != 0.0:
+        for j in range(N_INSTANCE_VALUES):
+            obs[i, k + OBS_ELEMENTS + j] = ep[i, EP_ELEMENTS + j]
+        obs[i, k + OBS_SECONDS_LEFT] = left * ep[i, EP_LEFT_SCALE]
+        k += N_INSTANCE
+    if flags[FLAG_ENERGY] != 0.0:
+        obs[i, k + OBS_MOVE_X], obs[i, k + OBS_MOVE_Y] = mx, my
+        obs[i, k + OBS_ENERGY_WEIGHT] = ep[i, EP_ENERGY_WEIGHT]
+        obs[i, k + OBS_MIN_POWER_MOVE] = ep[i, EP_MIN_POWER_MOVE]
+        k += N_ENERGY
+    if flags[FLAG_PEAK_HINT] != 0.0:
+        obs[i, k + OBS_DX_PEAK], obs[i, k + OBS_DY_PEAK] = ep[i, EP_PEAK_X_L] - xl, ep[i, EP_PEAK_Y_L] - yl
+        obs[i, k + OBS_RATE_PEAK] = ep[i, EP_PEAK_RATE]
 
 
 @jit(inline=True)
@@ -129,18 +248,24 @@ def _info(info: np.ndarray, i: int, st: np.ndarray, ep: np.ndarray, rate: float,
     E <= E_max (1 + ENERGY_RTOL) of the energy so far, as ``check_trajectory``), the move's power,
     the energy so far and the bits per joule so far, B dt sum_n r(q[n]) / E (0 before the first
     move)."""
-    points = st[i, 2] + 1.0  # way-points so far
-    deficit = max(0.0, dist - left * ep[i, 0])  # how far qF is out of reach (m)
-    worst = max(st[i, 5], deficit)
-    energy = st[i, 6]
-    info[i, 0], info[i, 1], info[i, 2], info[i, 3], info[i, 4] = rate, expected, st[i, 0], st[i, 1], dist
-    info[i, 5], info[i, 6], info[i, 7], info[i, 8] = points, r_rate, r_reach, r_terminal
-    info[i, 9], info[i, 10] = st[i, 3] / points, st[i, 4] / points
-    within = energy <= ep[i, 31] * (1.0 + ENERGY_RTOL)
-    info[i, 11] = 1.0 if worst <= FEASIBILITY_TOL and within else 0.0
-    info[i, 12], info[i, 13] = worst, deficit
-    info[i, 14], info[i, 15], info[i, 17] = power, energy, r_energy
-    info[i, 16] = ep[i, 27] * st[i, 3] / energy if energy > 0.0 else 0.0
+    points = st[i, ST_MOVES_MADE] + 1.0  # way-points so far
+    deficit = max(0.0, dist - left * ep[i, EP_D])  # how far qF is out of reach (m)
+    worst = max(st[i, ST_EXCESS], deficit)
+    energy = st[i, ST_ENERGY]
+    info[i, INFO_RATE], info[i, INFO_EXPECTED_RATE] = rate, expected
+    info[i, INFO_POSITION_X], info[i, INFO_POSITION_Y] = st[i, ST_X], st[i, ST_Y]
+    info[i, INFO_DISTANCE_TO_FINAL], info[i, INFO_SLOT] = dist, points
+    info[i, INFO_REWARD_RATE], info[i, INFO_REWARD_REACH] = r_rate, r_reach
+    info[i, INFO_REWARD_TERMINAL] = r_terminal
+    info[i, INFO_AVERAGE_RATE] = st[i, ST_SUM_EXPECTED] / points
+    info[i, INFO_MEAN_FADED_RATE] = st[i, ST_SUM_RATE] / points
+    within = energy <= ep[i, EP_BUDGET] * (1.0 + ENERGY_RTOL)
+    info[i, INFO_FEASIBLE] = 1.0 if worst <= FEASIBILITY_TOL and within else 0.0
+    info[i, INFO_WORST_VIOLATION], info[i, INFO_TERMINAL_MISS] = worst, deficit
+    info[i, INFO_POWER], info[i, INFO_ENERGY], info[i, INFO_REWARD_ENERGY] = power, energy, r_energy
+    info[i, INFO_ENERGY_EFFICIENCY] = (
+        ep[i, EP_BITS_SCALE] * st[i, ST_SUM_EXPECTED] / energy if energy > 0.0 else 0.0
+    )
 
 
 @jit
@@ -148,18 +273,20 @@ def reset_rows(
     rows: np.ndarray, state: np.ndarray, episode: np.ndarray, nodes: np.ndarray, params: np.ndarray,
     normals: np.ndarray, flags: np.ndarray, obs: np.ndarray, info: np.ndarray,
 ) -> None:  # fmt: skip
-    """Start the episodes of ``rows`` at the position already in ``state[:, 0:2]`` (q0)."""
+    """Start the episodes of ``rows`` at the position already in ``state``'s ``x``, ``y`` (q0)."""
     for i in rows:
-        x, y = state[i, 0], state[i, 1]
+        x, y = state[i, ST_X], state[i, ST_Y]
         expected = rate_row(x, y, nodes, params, i)
         rate = expected
-        if flags[1] != 0.0:
+        if flags[FLAG_RICIAN] != 0.0:
             rate = faded_row(x, y, normals[i, 0], normals[i, 1], nodes, params, i)
-        state[i, 2], state[i, 3], state[i, 4], state[i, 5] = 0.0, expected, rate, 0.0
-        state[i, 6], state[i, 7], state[i, 8] = 0.0, 0.0, 0.0
-        dist = math.hypot(episode[i, 1] - x, episode[i, 2] - y)
-        _observe(obs, i, x, y, episode[i, 3], dist, expected, episode, flags, 0.0, 0.0)
-        _info(info, i, state, episode, rate, expected, dist, episode[i, 3], 0.0, 0.0, 0.0, 0.0, 0.0)
+        state[i, ST_MOVES_MADE], state[i, ST_SUM_EXPECTED], state[i, ST_SUM_RATE] = 0.0, expected, rate
+        state[i, ST_EXCESS], state[i, ST_ENERGY] = 0.0, 0.0
+        state[i, ST_MOVE_X], state[i, ST_MOVE_Y] = 0.0, 0.0
+        dist = math.hypot(episode[i, EP_QFX] - x, episode[i, EP_QFY] - y)
+        moves = episode[i, EP_MOVES]
+        _observe(obs, i, x, y, moves, dist, expected, episode, flags, 0.0, 0.0)
+        _info(info, i, state, episode, rate, expected, dist, moves, 0.0, 0.0, 0.0, 0.0, 0.0)
 
 
 @jit(inline=True)
@@ -178,7 +305,8 @@ def slot_power(
 @jit(inline=True)
 def move_power(length: float, ep: np.ndarray, i: int) -> float:
     """:func:`slot_power` with row ``i``'s constants."""
-    return slot_power(length, ep[i, 21], ep[i, 22], ep[i, 23], ep[i, 24], ep[i, 25], ep[i, 26])
+    return slot_power(length, ep[i, EP_DT], ep[i, EP_P_BLADE], ep[i, EP_BLADE_K], ep[i, EP_P_INDUCED],
+                      ep[i, EP_INDUCED_K], ep[i, EP_DRAG])  # fmt: skip
 
 
 @jit(inline=True)
@@ -190,18 +318,18 @@ def _move(i: int, actions: np.ndarray, st: np.ndarray, ep: np.ndarray, flags: np
     norm = math.hypot(ax, ay)  # no overflow for huge actions
     if norm > 1.0:
         ax, ay = ax / norm, ay / norm
-    d, x0, y0 = ep[i, 0], st[i, 0], st[i, 1]
+    d, x0, y0 = ep[i, EP_D], st[i, ST_X], st[i, ST_Y]
     x, y = x0 + d * ax, y0 + d * ay
-    n = st[i, 2]
-    left = ep[i, 3] - n - 1.0  # moves left after this one
-    if flags[0] != 0.0:
-        x, y = guarded_position((x0, y0), (x, y), (ep[i, 1], ep[i, 2]), d, int(left))
-    st[i, 0], st[i, 1], st[i, 2] = x, y, n + 1.0
+    n = st[i, ST_MOVES_MADE]
+    left = ep[i, EP_MOVES] - n - 1.0  # moves left after this one
+    if flags[FLAG_ARRIVAL_GUARD] != 0.0:
+        x, y = guarded_position((x0, y0), (x, y), (ep[i, EP_QFX], ep[i, EP_QFY]), d, int(left))
+    st[i, ST_X], st[i, ST_Y], st[i, ST_MOVES_MADE] = x, y, n + 1.0
     length = math.hypot(x - x0, y - y0)
-    st[i, 5] = max(st[i, 5], length - d)
+    st[i, ST_EXCESS] = max(st[i, ST_EXCESS], length - d)
     power = move_power(length, ep, i)
-    st[i, 6] += ep[i, 21] * power
-    st[i, 7], st[i, 8] = (x - x0) / d, (y - y0) / d
+    st[i, ST_ENERGY] += ep[i, EP_DT] * power
+    st[i, ST_MOVE_X], st[i, ST_MOVE_Y] = (x - x0) / d, (y - y0) / d
     path[i, int(n) + 1, 0], path[i, int(n) + 1, 1] = x, y
     return x, y, left, power
 
@@ -227,18 +355,20 @@ def _settle(i: int, x: float, y: float, left: float, rate: float, expected: floa
             terminated: np.ndarray, info: np.ndarray) -> None:  # fmt: skip
     """Row ``i`` after its move (of ``power`` W): the running sums, the reward terms, the
     observation, the info."""
-    st[i, 3] += expected
-    st[i, 4] += rate
-    dist = math.hypot(ep[i, 1] - x, ep[i, 2] - y)
-    r_reach, r_terminal = penalties(dist, left, ep[i, 0], flags[4], flags[5])
+    st[i, ST_SUM_EXPECTED] += expected
+    st[i, ST_SUM_RATE] += rate
+    dist = math.hypot(ep[i, EP_QFX] - x, ep[i, EP_QFY] - y)
+    r_reach, r_terminal = penalties(
+        dist, left, ep[i, EP_D], flags[FLAG_REACH_WEIGHT], flags[FLAG_TERMINAL_WEIGHT]
+    )
     r_energy = 0.0
-    if flags[6] != 0.0:
-        r_energy = -ep[i, 28] * power
+    if flags[FLAG_ENERGY] != 0.0:
+        r_energy = -ep[i, EP_ENERGY_COST] * power
         reward[i] = rate + r_energy + r_reach + r_terminal
     else:
         reward[i] = rate + r_reach + r_terminal
     terminated[i] = left == 0.0
-    _observe(obs, i, x, y, left, dist, expected, ep, flags, st[i, 7], st[i, 8])
+    _observe(obs, i, x, y, left, dist, expected, ep, flags, st[i, ST_MOVE_X], st[i, ST_MOVE_Y])
     _info(info, i, st, ep, rate, expected, dist, left, rate, r_reach, r_terminal, power, r_energy)
 
 
@@ -255,7 +385,9 @@ def _finite_actions(actions: np.ndarray, active: np.ndarray) -> int:
 def _ended_row(active: np.ndarray, state: np.ndarray, episode: np.ndarray, path: np.ndarray) -> int:
     """-1 if every active row has a move left (and room in ``path``), else the first that has not."""
     for i in range(active.shape[0]):
-        if active[i] and (state[i, 2] >= episode[i, 3] or state[i, 2] + 1.0 >= path.shape[1]):
+        if active[i] and (
+            state[i, ST_MOVES_MADE] >= episode[i, EP_MOVES] or state[i, ST_MOVES_MADE] + 1.0 >= path.shape[1]
+        ):
             return i
     return -1
 
@@ -272,7 +404,7 @@ def _step_row(
     x, y, left, power = _move(i, actions, state, episode, flags, path)
     expected = rate_row(x, y, nodes, params, i)
     rate = expected
-    if flags[1] != 0.0:
+    if flags[FLAG_RICIAN] != 0.0:
         rate = faded_row(x, y, normals[i, 0], normals[i, 1], nodes, params, i)
     _settle(i, x, y, left, rate, expected, power, state, episode, flags, obs, reward, terminated, info)
 
@@ -335,8 +467,8 @@ def fly_entry_out_of_range(rows: np.ndarray, targets: np.ndarray, moves: np.ndar
         if i < 0 or i >= state.shape[0] or moves[r] < 0:
             return r
         planned[i] += moves[r]
-        end = state[i, 2] + planned[i]  # moves made after this entry
-        if end >= episode[i, 3] or end >= path_length:
+        end = state[i, ST_MOVES_MADE] + planned[i]  # moves made after this entry
+        if end >= episode[i, EP_MOVES] or end >= path_length:
             return r
     return -1
 
@@ -344,9 +476,9 @@ def fly_entry_out_of_range(rows: np.ndarray, targets: np.ndarray, moves: np.ndar
 @jit(inline=True, fastmath=False)
 def toward(i: int, tx: float, ty: float, state: np.ndarray, episode: np.ndarray, actions: np.ndarray) -> None:
     """Row ``i``'s move towards (``tx``, ``ty``) m into ``actions[i, :2]``: full speed (``D`` =
-    ``episode[i, 0]``), or the rest of the way once within D (``policies.full_speed_move``)."""
-    d = episode[i, 0]
-    mx, my = (tx - state[i, 0]) / d, (ty - state[i, 1]) / d
+    ``episode[i, EP_D]``), or the rest of the way once within D (``policies.full_speed_move``)."""
+    d = episode[i, EP_D]
+    mx, my = (tx - state[i, ST_X]) / d, (ty - state[i, ST_Y]) / d
     length = math.hypot(mx, my)
     if length > 1.0:
         mx, my = mx / length, my / length
