@@ -27,16 +27,13 @@ from ios_uav_env.envs.observation import (
     reference_efficiency,
     reference_flights,
 )
-from ios_uav_env.envs.single_kernels import EPISODE
+from ios_uav_env.envs.single_kernels import EP_ENERGY_COST
 from ios_uav_env.model.motion import static_paths
 
 if TYPE_CHECKING:
     from ios_uav_env.envs.options import EnvOptions
     from ios_uav_env.model.config import ScenarioConfig
     from ios_uav_env.model.peak import Peak
-
-#: The ``episode`` row's column of the reward's energy cost lambda_ref / B (bps/Hz per W).
-_ENERGY_COST = EPISODE.index("energy_cost")
 
 
 class MobileNode:
@@ -92,7 +89,7 @@ class MobileNode:
                 raise RuntimeError("the reference flights are not those of the episode's scenario")
             reference = flights_efficiency(cfg, flights[1], self._track.paths)
         self.reference_efficiency = reference
-        self._episode[0, _ENERGY_COST] = reference / cfg.bandwidth_hz
+        self._episode[0, EP_ENERGY_COST] = reference / cfg.bandwidth_hz
 
     def _start_track(self, cfg: ScenarioConfig) -> None:
         """Draw the episode's node path on ``cfg`` from ``np_random`` (``knowledge.start_track``;
