@@ -131,20 +131,10 @@ def _motion_fields(config: ScenarioConfig) -> dict[str, Any]:
 #: components involved and, where one exists, what to use instead.
 RULES: tuple[tuple[Any, str], ...] = (
     (
-        lambda w: w.nodes > 1 and w.objective.counts_energy,
-        "objective energy_efficiency with several nodes (K > 1): the multi-node step has no energy "
-        "reward or reference; with K > 1 use objective rate (max-min), with an energy budget if the "
-        "flight's energy must be bounded",
-    ),
-    (
-        lambda w: w.nodes > 1 and w.link.fading != "expected",
-        "link fading 'rician' with several nodes (K > 1): the multi-node step rates every node by its "
-        "expected gain; use fading 'expected'",
-    ),
-    (
-        lambda w: w.objective.counts_energy and (w.motion.moves or not w.knowledge.exact),
-        "objective energy_efficiency with a moving or reported node: the energy reward's reference "
-        "efficiency is a static, exactly known node's plan; use motion static and knowledge exact",
+        lambda w: w.nodes > 1 and w.link.fading != "expected" and not w.knowledge.exact,
+        "link fading 'rician' with several nodes (K > 1) and measured rates (knowledge reports, filtered or "
+        "rates): the nodes' measured rates are faded samples of their own, so a second faded rate per node "
+        "and slot would contradict them; use fading 'expected' with measured rates, or knowledge exact",
     ),
 )
 
