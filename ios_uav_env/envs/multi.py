@@ -236,7 +236,9 @@ class MultiNodeEnv(MobileNodes, EnergyChannel, gym.Env):
 
     ## Version History
 
-    * v0: Initial version.
+    * v0: Initial version; later, without changing v0's episodes, observations or ``info`` keys:
+      ``objective="energy_efficiency"`` (the energy reward, features and ``info``) and
+      ``channel="rician"`` (faded service, the expected-gain scoring in ``info``).
     """
 
     metadata = {"render_modes": ["rgb_array"], "render_fps": 10}
