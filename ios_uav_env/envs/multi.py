@@ -139,13 +139,14 @@ class MultiNodeEnv(MobileNodes, EnergyChannel, gym.Env):
     (bits - lambda_ref E) / (B dt), bits = B T min_k R_k of the agent's own shares (no start
     term: slot 1's service is in the first step's rate term): an increasing affine function of
     Dinkelbach's G = bits - lambda_ref E, whose maximisers have an EE of at least lambda_ref
-    when lambda_ref <= EE*. lambda_ref is ``energy_reference`` (bits/J) when given, else the EE
-    of the scenario's straight flight q0 -> qF at one constant speed with its best schedule
-    (``multi_energy.reference_efficiency``, computed at reset; for moving nodes scored on the
-    episode's true paths, while the observation's energy weight keeps the configured nodes'
-    value): a feasible plan, so lambda_ref <= EE* without an energy budget (with one, the
-    straight flight may exceed it: ``multi_energy``). ``env.unwrapped.reference_efficiency``
-    holds it. The episode's score is ``info["energy_efficiency"]`` at slot N.
+    when lambda_ref <= EE*. lambda_ref is ``energy_reference`` (bits/J) when given, else the
+    better EE of two flights with their best schedules, the straight flight q0 -> qF at one
+    constant speed (unless it exceeds ``energy_budget_j``) and the least-energy flight (equal
+    moves at the speed of ``config.least_energy()``) (``multi_energy.reference_efficiency``,
+    computed at reset; for moving nodes scored on the episode's true paths, while the
+    observation's energy weight keeps the configured nodes' value): feasible plans, so
+    lambda_ref <= EE*. ``env.unwrapped.reference_efficiency`` holds it. The episode's score is
+    ``info["energy_efficiency"]`` at slot N.
 
     ## Rician channel
 

@@ -4,20 +4,27 @@ options they take, and their per-episode pieces.
 **Energy** (``objective="energy_efficiency"``). The reward gains -(lambda_ref / B) P(V_n) per
 step, as the single env's (``IOSUAVEnv``, "Energy"), so the return is (bits - lambda_ref E) / (B dt)
 with bits = B T min_k R_k of the agent's own shares. lambda_ref is ``energy_reference`` when
-given (bits/J), else :func:`reference_efficiency` of the episode: the EE (``score_plan``) of
-:func:`straight_flight` (q0 to qF along the segment at one constant speed, |qF - q0| / T) with
-:func:`reference_shares`, its best schedule. That plan meets eq. (10) on every valid scenario,
-so without an energy budget lambda_ref <= EE*, the best EE of the scenario, and a plan of the
-largest return has an EE of at least lambda_ref (the bound of ``IOSUAVEnv``'s "Energy": the
-return is an increasing affine function of G = bits - lambda_ref E). With ``energy_budget_j``
-the straight flight may exceed the budget (it is not the least-energy flight), and lambda_ref
-is then still its EE, which need not be <= the best EE of the flights within the budget.
+given (bits/J), else :func:`reference_efficiency` of the episode: the better EE (``score_plan``)
+of two flights, each with its best schedule (:func:`reference_shares`):
 
-With moving nodes (``motion``, ``knowledge``) the reward's lambda_ref is the same plan scored on
-the episode's true paths, drawn at reset (the truth the score is taken on;
-``score_plan(..., paths=env.paths)``), so lambda_ref <= EE* of that episode still holds. The
-agent never sees the truth: the observation's energy weight stays the scenario's, the plan's EE
-on the configured nodes (the static env's value), as the single env's mobile energy id does. A
+- :func:`least_energy_flight`: N - 1 equal moves at c* = clip(V_mp, |qF - q0| / ((N - 1) dt),
+  v_max), the speed of ``config.least_energy()`` (a detour when c* exceeds the straight
+  flight's speed), so its energy is that least energy, within every budget the config admits;
+- :func:`straight_flight`: q0 to qF along the segment at one constant speed (nearer the nodes;
+  below V_mp it costs more power than the detour), unless it exceeds ``energy_budget_j``.
+
+Both meet eq. (10) on every valid scenario, so lambda_ref is a feasible plan's EE: lambda_ref
+<= EE*, the best EE of the scenario (under its budget), and a plan of the largest return has an
+EE of at least lambda_ref (the bound of ``IOSUAVEnv``'s "Energy": the return is an increasing
+affine function of G = bits - lambda_ref E). (With N = 2 and qF nearer than V_mp dt the one move
+cannot detour: the straight flight is then the only flight.)
+
+With moving nodes (``motion``, ``knowledge``) the reward's lambda_ref is that of the same two
+flights, scheduled and scored on the episode's true paths, drawn at reset (the truth the score is
+taken on; ``score_plan(..., paths=env.paths)``), so lambda_ref <= EE* of that episode still
+holds. The agent never sees the truth: the observation's energy weight stays the scenario's,
+the flights' EE on the configured nodes (the static env's value), as the single env's mobile
+energy id does. A
 number given as ``energy_reference`` is used as it is, in the reward and the observation alike.
 
 **Rician** (``channel="rician"``): each slot draws two standard normals per node from the
@@ -36,15 +43,17 @@ import numpy as np
 from ios_uav_env.envs.observation import pad
 from ios_uav_env.envs.observation_layout import ENERGY_NAMES
 from ios_uav_env.envs.options import EnvOptions
+from ios_uav_env.model.channel import rates_of_rows
 from ios_uav_env.model.config import ScenarioConfig
 from ios_uav_env.model.maxmin import MAX_NODES, fast_schedule
 from ios_uav_env.model.propulsion import min_power_speed, propulsion_power
 from ios_uav_env.model.schedule import node_rates
-from ios_uav_env.model.score import score_plan
+from ios_uav_env.model.score import bits_per_joule, score_plan
+from ios_uav_env.model.trajectory import check_trajectory
 
 __all__ = [
     "ENERGY_NAMES", "EnergyChannel", "check_options", "draw_fading", "energy_bounds", "fixed_reference",
-    "reference_efficiency", "reference_shares", "straight_flight",
+    "least_energy_flight", "reference_efficiency", "reference_shares", "straight_flight",
 ]  # fmt: skip
 
 
@@ -55,6 +64,38 @@ def straight_flight(config: ScenarioConfig) -> np.ndarray:
     q0, qf = np.asarray(config.q0, dtype=np.float64), np.asarray(config.qF, dtype=np.float64)
     fraction = np.arange(config.N, dtype=np.float64)[:, None] / (config.N - 1)
     path = q0 + fraction * (qf - q0)
+    path[-1] = qf
+    return path
+
+
+def least_energy_flight(config: ScenarioConfig) -> np.ndarray:
+    """The (N, 2) flight (m) of ``config.least_energy()``: N - 1 moves of one length s = c* dt at
+    c* = ``config.least_energy_speed()``, from q0 to qF. The straight flight when c* is its speed;
+    else a detour: two straight legs of m1 and m2 moves (m1 + m2 the moves, m1 - m2 in {0, 1})
+    meeting at an apex on the left of q0 -> qF, after, when the moves are odd and qF is nearer
+    than s, one first move of length s straight away from qF. N = 2 with qF nearer than s: the
+    straight flight (no other flight exists)."""
+    q0, qf = np.asarray(config.q0, dtype=np.float64), np.asarray(config.qF, dtype=np.float64)
+    moves, s = config.N - 1, config.least_energy_speed() * config.dt
+    length = float(np.hypot(*(qf - q0)))
+    if s * moves <= length * (1.0 + 1e-12) or moves == 1:
+        return straight_flight(config)
+    points, start = [q0], q0
+    if moves % 2 == 1 and length < s:  # (moves >= 3) one move away from qF, then an even V
+        away = (q0 - qf) / length if length > 0 else np.array([1.0, 0.0])
+        start = q0 + s * away
+        points.append(start)
+        moves -= 1
+    m1 = (moves + 1) // 2
+    m2 = moves - m1
+    d = float(np.hypot(*(qf - start)))
+    u = (qf - start) / d if d > 0 else np.array([1.0, 0.0])
+    r1, r2 = m1 * s, m2 * s
+    a = (d * d + r1 * r1 - r2 * r2) / (2.0 * d) if d > 0 else 0.0
+    apex = start + a * u + np.sqrt(max(r1 * r1 - a * a, 0.0)) * np.array([-u[1], u[0]])
+    points += [start + (apex - start) * j / m1 for j in range(1, m1 + 1)]
+    points += [apex + (qf - apex) * j / m2 for j in range(1, m2 + 1)]
+    path = np.array(points)
     path[-1] = qf
     return path
 
@@ -80,11 +121,32 @@ def reference_shares(rates: np.ndarray) -> np.ndarray:
     return np.full((k_n, n_slots), 1.0 / k_n)
 
 
-def _reference(config: ScenarioConfig, paths: np.ndarray | None) -> float:
-    q = straight_flight(config)
-    shares = reference_shares(node_rates(config, q, paths))
-    plan = None if config.K == 1 else shares
-    return float(score_plan(config, q, plan, paths, best_schedule=False).energy_efficiency)
+Kernels = tuple[np.ndarray, np.ndarray]
+
+
+def _flight_efficiency(
+    config: ScenarioConfig, q: np.ndarray, paths: np.ndarray | None, kernels: Kernels | None
+) -> tuple[float, bool]:
+    """(EE in bits/J, feasible) of the flight ``q`` with :func:`reference_shares`: ``score_plan``'s;
+    with the ``kernels`` of the ``paths`` (each node's per slot, (K, N, 3, Q) and (K, N, P)) its
+    rates are taken on them (``rates_of_rows``, as ``schedule.node_rates`` does on the same
+    kernels, without building them again) and its EE is ``score_plan``'s formula,
+    ``bits_per_joule`` of min_k R_k and the flight's energy."""
+    if kernels is None:
+        shares = reference_shares(node_rates(config, q, paths))
+        score = score_plan(config, q, None if config.K == 1 else shares, paths, best_schedule=False)
+        return float(score.energy_efficiency), score.feasible
+    points = np.ascontiguousarray(q)
+    rates = np.stack([rates_of_rows(points, kernels[0][k], kernels[1][k]) for k in range(config.K)])
+    own = float(np.mean(reference_shares(rates) * rates, axis=1).min())  # (scheduled_rates')
+    report = check_trajectory(config, q)
+    return float(bits_per_joule(config, own, report.energy)), bool(report.feasible)
+
+
+def _reference(config: ScenarioConfig, paths: np.ndarray | None, kernels: Kernels | None = None) -> float:
+    least, _ = _flight_efficiency(config, least_energy_flight(config), paths, kernels)  # (any budget)
+    straight, feasible = _flight_efficiency(config, straight_flight(config), paths, kernels)
+    return max(least, straight) if feasible else least
 
 
 @functools.lru_cache(maxsize=256)
@@ -92,14 +154,18 @@ def _static_reference(config: ScenarioConfig) -> float:
     return _reference(config, None)
 
 
-def reference_efficiency(config: ScenarioConfig, paths: np.ndarray | None = None) -> float:
-    """lambda_ref (bits/J) of the energy reward: the EE (``score_plan``) of :func:`straight_flight`
-    with :func:`reference_shares` on its rates, on the true node ``paths`` (N, K, 2) when given
-    (moving nodes), else on the static nodes (cached per scenario). A feasible plan: module
-    docstring for what it guarantees."""
+def reference_efficiency(
+    config: ScenarioConfig, paths: np.ndarray | None = None, kernels: Kernels | None = None
+) -> float:
+    """lambda_ref (bits/J) of the energy reward: the better EE (``score_plan``) of
+    :func:`least_energy_flight` and, unless it exceeds the energy budget, :func:`straight_flight`,
+    each with :func:`reference_shares` on its rates, on the true node ``paths`` (N, K, 2) when
+    given (moving nodes), else on the static nodes (cached per scenario). Feasible plans: module
+    docstring for what it guarantees. ``kernels``: the paths' per-slot node kernels, if built
+    already (``knowledge.NodesTrack``'s ``nodes`` and ``params``; the same rates, faster)."""
     if paths is None:
         return _static_reference(config)
-    return _reference(config, paths)
+    return _reference(config, paths, kernels)
 
 
 def check_options(options: EnvOptions, energy: bool) -> None:
@@ -164,7 +230,7 @@ class EnergyChannel:
     options: EnvOptions
     np_random: np.random.Generator
     energy_objective: bool
-    truth: np.ndarray | None
+    _track: Any
     reference_efficiency: float
 
     @property
@@ -179,8 +245,9 @@ class EnergyChannel:
             reference = seen = fixed_reference(self.options)
             if reference is None:  # the configured nodes' (observed), the true paths' (rewarded)
                 seen = reference = reference_efficiency(self.config)
-                if self.truth is not None:
-                    reference = reference_efficiency(self.config, self.truth)
+                track = self._track
+                if track is not None:  # (the track's kernels are the paths')
+                    reference = reference_efficiency(self.config, track.paths, (track.nodes, track.params))
             self.reference_efficiency = reference
             rows.set_reference(i, reference, seen)
         self._fade(rows, i)

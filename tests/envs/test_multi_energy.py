@@ -24,6 +24,7 @@ from ios_uav_env.envs.multi import (
 )
 from ios_uav_env.envs.multi_energy import (
     ENERGY_NAMES,
+    least_energy_flight,
     reference_efficiency,
     reference_shares,
     straight_flight,
@@ -98,20 +99,49 @@ def test_the_final_info_is_score_plans_energy_efficiency(env_id):
     assert info["min_rate"] == pytest.approx(score.rate, rel=RTOL) and info["feasible"] == score.feasible
 
 
-def test_the_reference_is_the_straight_flights_ee_with_its_best_schedule():
-    q = straight_flight(SHORT)
-    assert score_plan(SHORT, q).feasible and np.allclose(np.diff(q, axis=0), (q[-1] - q[0]) / (SHORT.N - 1))
-    shares = reference_shares(node_rates(SHORT, q))
-    lam = reference_efficiency(SHORT)
-    assert lam == score_plan(SHORT, q, shares, best_schedule=False).energy_efficiency
+def _efficiency(cfg: ScenarioConfig, q: np.ndarray) -> float:
+    return score_plan(cfg, q, reference_shares(node_rates(cfg, q)), best_schedule=False).energy_efficiency
+
+
+@pytest.mark.parametrize("t", [40.0, 150.0])
+def test_the_reference_is_the_better_of_the_straight_and_the_least_energy_flights(t):
+    cfg = SHORT.replace(T=t)
+    straight, least = straight_flight(cfg), least_energy_flight(cfg)
+    assert score_plan(cfg, straight).feasible and score_plan(cfg, least).feasible
+    np.testing.assert_allclose(
+        np.diff(straight, axis=0), (cfg.qF - straight[0]) / (cfg.N - 1) + 0 * straight[1:]
+    )
+    lam = reference_efficiency(cfg)
+    assert lam == max(_efficiency(cfg, straight), _efficiency(cfg, least)) > 0
     # the best schedule: as good as score_plan's own (certified) one, better than equal shares
-    best = score_plan(SHORT, q)
-    assert lam == pytest.approx(best.energy_efficiency, rel=1e-9)
-    equal = np.full((SHORT.K, SHORT.N), 1.0 / SHORT.K)
-    assert lam > score_plan(SHORT, q, equal).energy_efficiency
-    # one node: the straight flight's own EE
-    one = SHORT.replace(ground_nodes=None)
-    assert reference_efficiency(one) == score_plan(one, straight_flight(one)).energy_efficiency
+    best = max(score_plan(cfg, straight).energy_efficiency, score_plan(cfg, least).energy_efficiency)
+    assert lam == pytest.approx(best, rel=1e-9)
+    equal = np.full((cfg.K, cfg.N), 1.0 / cfg.K)
+    assert lam > score_plan(cfg, straight, equal).energy_efficiency
+    # under a budget the straight flight exceeds, only the least-energy flight counts
+    tight = cfg.replace(energy_budget_j=cfg.least_energy() * (1.0 + 1e-9))
+    if not score_plan(tight, straight).feasible:
+        assert score_plan(tight, least).feasible
+        assert reference_efficiency(tight) == _efficiency(tight, least) != lam
+    else:  # (the straight flight is the least-energy one: fast enough)
+        np.testing.assert_allclose(least, straight)
+
+
+@pytest.mark.parametrize(
+    "changes",
+    [{"T": 150.0}, {"T": 151.0}, {"T": 60.0, "qF": (-390.0, 0.0)}, {"T": 61.0, "qF": (-400.0, 0.0)},
+     {"T": 40.0}, {"T": 2.0, "qF": (-399.0, 0.0)}],
+    ids=["even", "odd", "near-even", "near-odd", "fast", "one-move"],
+)  # fmt: skip
+def test_the_least_energy_flight_has_the_least_energy(changes):
+    """N - 1 moves of one length c* dt from q0 to qF, so its energy is ``least_energy()`` (a detour
+    of an even or odd number of moves, qF far or near, or the straight flight)."""
+    cfg = SHORT.replace(**changes)
+    q = least_energy_flight(cfg)
+    steps = np.linalg.norm(np.diff(q, axis=0), axis=1)
+    assert q.shape == (cfg.N, 2) and np.array_equal(q[0], cfg.q0) and np.array_equal(q[-1], cfg.qF)
+    np.testing.assert_allclose(steps, cfg.least_energy_speed() * cfg.dt, rtol=1e-9)
+    assert score_plan(cfg, q).energy == pytest.approx(cfg.least_energy(), rel=1e-12)
 
 
 def test_a_given_energy_reference_is_lambda_ref():
@@ -130,7 +160,13 @@ def test_moving_nodes_take_the_reference_on_the_true_paths():
     play(env, seed=2)
     u = env.unwrapped
     assert u.truth is not None
-    assert u.reference_efficiency == reference_efficiency(u.config, u.paths)
+    assert u.reference_efficiency == pytest.approx(reference_efficiency(u.config, u.paths), rel=1e-12)
+    flights = (least_energy_flight(u.config), straight_flight(u.config))  # score_plan's EE on the truth
+    best = max(
+        score_plan(u.config, q, reference_shares(node_rates(u.config, q, u.paths)), u.paths).energy_efficiency
+        for q in flights
+    )
+    assert u.reference_efficiency == pytest.approx(best, rel=1e-12)
     assert u.reference_efficiency != reference_efficiency(u.config)  # (the static nodes' differs)
     # the reward takes the truth's lambda_ref, the observation the configured nodes' (no truth)
     cfg = u.config
