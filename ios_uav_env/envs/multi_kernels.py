@@ -32,8 +32,17 @@ from typing import Any
 import numpy as np
 
 from ios_uav_env.envs.multi_table import (
+    EP_BITS_SCALE,
+    EP_BUDGET,
+    EP_ENERGY_COST,
+    EP_ENERGY_WEIGHT,
+    EP_MIN_POWER_MOVE,
+    EP_SERVED_CLIP,
     EPISODE,
     POINT,
+    ST_ENERGY,
+    ST_MOVE_X,
+    ST_MOVE_Y,
     STATE,
     episode_row,
     node_peaks,
@@ -42,6 +51,8 @@ from ios_uav_env.envs.multi_table import (
 )
 from ios_uav_env.envs.options import EnvOptions
 from ios_uav_env.envs.single_kernels import (
+    FLAG_ENERGY,
+    FLAG_RICIAN,
     flags_of,
     fly_entry_out_of_range,
     penalties,
@@ -98,16 +109,18 @@ def _observe(obs: np.ndarray, i: int, x: float, y: float, left: float, dist: flo
         j = 12 + width * k
         if k < k_n:
             o[j], o[j + 1], o[j + 2] = 1.0, (points[i, k, 0] - x) * inv_l, (points[i, k, 1] - y) * inv_l
-            o[j + 3], o[j + 4], o[j + 5] = points[i, k, 2], min(served[i, k] / n_slots, ep[27]), rates[i, k]
+            o[j + 3], o[j + 5] = points[i, k, 2], rates[i, k]
+            o[j + 4] = min(served[i, k] / n_slots, ep[EP_SERVED_CLIP])
             if width == 9:
                 o[j + 6], o[j + 7] = (points[i, k, 3] - x) * inv_l, (points[i, k, 4] - y) * inv_l
                 o[j + 8] = points[i, k, 5]
         else:
             for c in range(width):
                 o[j + c] = 0.0
-    if flags[6] != 0.0:
+    if flags[FLAG_ENERGY] != 0.0:
         j = 12 + width * points.shape[1]
-        o[j], o[j + 1], o[j + 2], o[j + 3] = state[i, 7], state[i, 8], ep[24], ep[25]
+        o[j], o[j + 1] = state[i, ST_MOVE_X], state[i, ST_MOVE_Y]
+        o[j + 2], o[j + 3] = ep[EP_ENERGY_WEIGHT], ep[EP_MIN_POWER_MOVE]
 
 
 @jit(inline=True, fastmath=False)
@@ -125,7 +138,7 @@ def _info(info: np.ndarray, i: int, state: np.ndarray, episode: np.ndarray, shar
     k_n, n_slots = int(ep[8]), ep[5]
     deficit = max(0.0, dist - left * ep[0])
     worst = max(st[3], deficit)
-    feasible = worst <= FEASIBILITY_TOL and st[6] <= ep[22] * (1.0 + ENERGY_RTOL)
+    feasible = worst <= FEASIBILITY_TOL and st[ST_ENERGY] <= ep[EP_BUDGET] * (1.0 + ENERGY_RTOL)
     row[0], row[1], row[2], row[3], row[4], row[5] = st[0], st[1], st[2] + 1.0, dist, st[4], 0.0
     row[6], row[7], row[8] = r_rate, r_reach, r_terminal
     row[9], row[10], row[11] = 1.0 if feasible else 0.0, worst, deficit
@@ -136,17 +149,17 @@ def _info(info: np.ndarray, i: int, state: np.ndarray, episode: np.ndarray, shar
         row[17 + 2 * k_max + k] = expected[i, k] / n_slots if k < k_n else 0.0
         if k < k_n:
             low = min(low, expected[i, k])
-    more, energy = 12 + 2 * k_max, st[6]
+    more, energy = 12 + 2 * k_max, st[ST_ENERGY]
     row[more], row[more + 1], row[more + 3], row[more + 4] = power, energy, r_energy, low / n_slots
-    row[more + 2] = ep[26] * low / energy if energy > 0.0 else 0.0
+    row[more + 2] = ep[EP_BITS_SCALE] * low / energy if energy > 0.0 else 0.0
 
 
 @jit(inline=True, fastmath=False)
 def _served(i: int, x: float, y: float, k_n: int, nodes: np.ndarray, params: np.ndarray, rates: np.ndarray,
             normals: np.ndarray, flags: np.ndarray, k: int) -> float:  # fmt: skip
     """Node ``k``'s rate of row ``i``'s slot as served: its expected-gain rate ``rates[i, k]``, or
-    with channel "rician" (``flags[1]``) one faded sample drawn from ``normals[i, k]``."""
-    if flags[1] != 0.0:
+    with channel "rician" (``flags[FLAG_RICIAN]``) one faded sample drawn from ``normals[i, k]``."""
+    if flags[FLAG_RICIAN] != 0.0:
         return faded_point(x, y, normals[i, k, 0], normals[i, k, 1], nodes[i, k], params[i, k])
     return rates[i, k]
 
@@ -171,8 +184,8 @@ def reset_rows(
             expected[i, k] = shares[i, k] * rates[i, k]
             share_path[i, 0, k] = shares[i, k]
             low = min(low, served[i, k])
-        st[2], st[3], st[4], st[5], st[6] = 0.0, 0.0, low / ep[5], 0.0, 0.0  # potential before slot 1: 0
-        st[7], st[8] = 0.0, 0.0
+        st[2], st[3], st[4], st[5] = 0.0, 0.0, low / ep[5], 0.0  # potential before slot 1: 0
+        st[ST_ENERGY], st[ST_MOVE_X], st[ST_MOVE_Y] = 0.0, 0.0, 0.0
         dist = math.hypot(ep[1] - x, ep[2] - y)
         _observe(obs, i, x, y, ep[3], dist, episode, points, served, rates, state, flags)
         _info(info, i, state, episode, shares, served, dist, ep[3], 0.0, 0.0, 0.0, expected, 0.0, 0.0)
@@ -220,8 +233,8 @@ def _step_row(
     length = math.hypot(x - x0, y - y0)
     st[3] = max(st[3], length - d)
     power = slot_power(length, ep[16], ep[17], ep[18], ep[19], ep[20], ep[21])
-    st[6] += ep[16] * power
-    st[7], st[8] = (x - x0) / d, (y - y0) / d
+    st[ST_ENERGY] += ep[16] * power
+    st[ST_MOVE_X], st[ST_MOVE_Y] = (x - x0) / d, (y - y0) / d
     path[i, int(n) + 1, 0], path[i, int(n) + 1, 1] = x, y
     _rates(i, x, y, k_n, nodes, params, rates)
     low = math.inf
@@ -240,8 +253,8 @@ def _step_row(
     if done and ep[14] != 0.0:
         r_rate += n_slots * (st[4] - st[5])
     r_energy = 0.0
-    if flags[6] != 0.0:
-        r_energy = -ep[23] * power
+    if flags[FLAG_ENERGY] != 0.0:
+        r_energy = -ep[EP_ENERGY_COST] * power
         reward[i] = r_rate + r_energy + r_reach + r_terminal
     else:
         reward[i] = r_rate + r_reach + r_terminal

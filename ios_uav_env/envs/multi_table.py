@@ -19,9 +19,10 @@ from ios_uav_env.model.config import ScenarioConfig
 from ios_uav_env.model.peak import rate_peak
 
 __all__ = [
-    "BEST", "ENERGY_INFO_KEYS", "EPISODE", "INFO", "MORE", "MULTI_INFO_KEYS", "POINT", "RICIAN_INFO_KEYS",
-    "STATE", "episode_row", "info_arrays", "info_columns", "info_keys", "node_peaks", "node_points",
-    "set_reference",
+    "BEST", "ENERGY_INFO_KEYS", "EPISODE", "EP_BITS_SCALE", "EP_BUDGET", "EP_ENERGY_COST", "EP_ENERGY_WEIGHT",
+    "EP_MIN_POWER_MOVE", "EP_SERVED_CLIP", "INFO", "MORE", "MULTI_INFO_KEYS", "POINT", "RICIAN_INFO_KEYS",
+    "STATE", "ST_ENERGY", "ST_MOVE_X", "ST_MOVE_Y", "episode_row", "info_arrays", "info_columns", "info_keys",
+    "node_peaks", "node_points", "set_reference",
 ]  # fmt: skip
 
 #: Columns of a row of ``state`` (``moves_made`` at column 2, as in ``single_kernels.STATE``;
@@ -35,6 +36,12 @@ EPISODE = (
 )  # fmt: skip
 #: Columns of a row of ``points`` (per node).
 POINT = ("x", "y", "side", "peak_x", "peak_y", "peak_rate")
+#: The energy objective's and the Rician channel's columns, by name (the kernels index them so).
+ST_ENERGY, ST_MOVE_X, ST_MOVE_Y = (STATE.index(c) for c in ("energy", "move_x", "move_y"))
+EP_BUDGET, EP_ENERGY_COST, EP_ENERGY_WEIGHT, EP_MIN_POWER_MOVE, EP_BITS_SCALE, EP_SERVED_CLIP = (
+    EPISODE.index(c)
+    for c in ("budget", "energy_cost", "energy_weight", "min_power_move", "bits_scale", "served_clip")
+)
 #: The scalar columns of the ``info`` table; then ``shares`` (K_max), ``node_rates`` (K_max),
 #: :data:`MORE` and ``expected_node_rates`` (K_max).
 INFO = (
@@ -126,10 +133,8 @@ def set_reference(
     ``observed`` P(0) / B (bps/Hz; ``observed`` defaults to ``reference``: it differs for moving
     nodes, whose reward takes the truth's lambda_ref and whose observation the configured one)."""
     seen = reference if observed is None else observed
-    row[23], row[24] = (
-        reference / config.bandwidth_hz,
-        seen / config.bandwidth_hz * config.propulsion.hover_power,
-    )
+    row[EP_ENERGY_COST] = reference / config.bandwidth_hz
+    row[EP_ENERGY_WEIGHT] = seen / config.bandwidth_hz * config.propulsion.hover_power
 
 
 def node_points(
