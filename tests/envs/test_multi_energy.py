@@ -216,6 +216,12 @@ def test_gymnasiums_checker_passes(env_id):
         check_env(MultiNodeEnv(SHORT, energy_reference=300.0, peak_hint=True), skip_render_check=True)
 
 
+@pytest.mark.parametrize("env_id", [FIXED, RANDOM])
+def test_sb3s_checker_passes(env_id):
+    sb3_checker = pytest.importorskip("stable_baselines3.common.env_checker")
+    sb3_checker.check_env(gym.make(env_id, **KWARGS[env_id]).unwrapped, warn=True)
+
+
 @pytest.mark.parametrize("env_id", [RANDOM, MOBILE])
 def test_a_seed_reproduces_an_episode_bit_for_bit(env_id):
     a, b = (play(gym.make(env_id, **KWARGS[env_id]), seed=5) for _ in range(2))
