@@ -131,10 +131,10 @@ def _motion_fields(config: ScenarioConfig) -> dict[str, Any]:
 #: components involved and, where one exists, what to use instead.
 RULES: tuple[tuple[Any, str], ...] = (
     (
-        lambda w: w.nodes > 1 and w.link.fading != "expected" and not w.knowledge.exact,
-        "link fading 'rician' with several nodes (K > 1) and measured rates (knowledge reports, filtered or "
-        "rates): the nodes' measured rates are faded samples of their own, so a second faded rate per node "
-        "and slot would contradict them; use fading 'expected' with measured rates, or knowledge exact",
+        lambda w: w.link.fading != "expected" and not w.knowledge.exact,
+        "link fading 'rician' with measured rates (knowledge reports, filtered or rates): a measured rate is "
+        "the slot's own faded sample, so a second faded rate of the same slot would contradict it; use "
+        "fading 'expected' with measured rates, or knowledge exact with fading 'rician'",
     ),
 )
 

@@ -50,6 +50,7 @@ from ios_uav_env.envs.options import EnvOptions, split_kwargs
 from ios_uav_env.envs.settings import (
     check_multinode_arguments,
     check_scenario_overrides,
+    check_world,
     multinode_id,
     multinode_objective,
 )
@@ -282,6 +283,7 @@ class MultiNodeEnv(MobileNodes, EnergyChannel, gym.Env):
         self.energy_objective: bool = family.objective == "energy_efficiency"
         self.reference_efficiency: float = 0.0  # bits/J, lambda_ref of the episode (energy objective)
         check_options(self.options, self.energy_objective)
+        check_world(family, self.options, self._own_id(), "ranges.base" if random_nodes else "config")
         fades = self.options.channel == "rician" or self.options.knowledge != "exact"
         surfaces = ranges.surfaces if random_nodes else (self._base.surface,)
         check_scenario_overrides(

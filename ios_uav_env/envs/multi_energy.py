@@ -171,8 +171,8 @@ def reference_efficiency(
 def check_options(options: EnvOptions, energy: bool) -> None:
     """Refuse the options ``MultiNodeEnv`` does not take, naming the field: ``instance_features``;
     ``energy_reference`` without the energy objective (``energy``) or as ``"loiter"`` (a single-node
-    flight); channel ``"rician"`` with measured rates (``knowledge`` other than ``"exact"``, which
-    already samples the fading of each served node)."""
+    flight). (Channel ``"rician"`` with measured rates is a combination of components that
+    ``settings.check_world`` refuses.)"""
     if options.instance_features:
         raise ValueError(
             "MultiNodeEnv takes no instance_features (its node blocks and base features describe it)"
@@ -187,12 +187,6 @@ def check_options(options: EnvOptions, energy: bool) -> None:
         raise ValueError(
             "energy_reference='loiter' is the single-node loiter flight around one node's rate peak; "
             "MultiNodeEnv takes None (its straight flight's EE) or a number of bits/J"
-        )
-    if options.channel == "rician" and options.knowledge != "exact":
-        raise ValueError(
-            "channel='rician' draws a faded rate per node and slot; with knowledge="
-            f"{options.knowledge!r} the nodes' measured rates are already faded samples of their own: it "
-            "needs knowledge='exact'"
         )
 
 

@@ -12,6 +12,7 @@ from __future__ import annotations
 from collections.abc import Mapping
 from typing import Any
 
+from ios_uav_env.components import UnsupportedWorld, World
 from ios_uav_env.envs.registration import (
     ENERGY_ID,
     ENERGY_RANDOM_ID,
@@ -25,6 +26,7 @@ from ios_uav_env.model.config import ScenarioConfig
 from ios_uav_env.model.scenarios import RANGED_FIELDS
 
 __all__ = [
+    "check_world",
     "check_multinode_arguments",
     "check_scenario_overrides",
     "multinode_id",
@@ -56,6 +58,25 @@ def multinode_id(random_nodes: Any, mobile: bool) -> str:
     if mobile:
         return MULTINODE_MOBILE_ID
     return _MULTI_RANDOM_ID if random_nodes else _MULTI_ID
+
+
+def check_world(config: ScenarioConfig, options: Any, env_id: str, field: str = "config") -> World:
+    """The world of ``config`` (the env's scenario, or its family's base, named ``field``) and
+    ``options`` (``EnvOptions``), checked (``ios_uav_env.components.World.check``, the one place
+    that says which combinations of components the simulator runs): ``UnsupportedWorld`` (a
+    ``ValueError``) naming ``env_id``, ``field``, the components and why."""
+    world = World.of(
+        config,
+        channel=options.channel,
+        knowledge=options.knowledge,
+        report_sigma=options.report_sigma,
+        filter_estimate=options.filter_estimate,
+    )
+    try:
+        return world.check()
+    except UnsupportedWorld as err:  # (naming the env's own fields too: the options that set the world)
+        options_set = ", ".join(f"{name}={value!r}" for name, value in world.option_fields().items())
+        raise UnsupportedWorld(f"{env_id} ({field}; {options_set}): {err}") from None
 
 
 def several_nodes_error(env_id: str, config: ScenarioConfig, field: str = "config") -> ValueError:

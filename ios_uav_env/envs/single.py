@@ -26,7 +26,12 @@ from ios_uav_env.envs.observation_layout import (
     observation_names,
 )
 from ios_uav_env.envs.options import CHANNELS, EnvOptions, split_kwargs
-from ios_uav_env.envs.settings import check_scenario_overrides, several_nodes_error, single_node_id
+from ios_uav_env.envs.settings import (
+    check_scenario_overrides,
+    check_world,
+    several_nodes_error,
+    single_node_id,
+)
 from ios_uav_env.envs.single_kernels import INFO, STATE, episode_row, flags_of, reset_rows, step_rows
 from ios_uav_env.envs.single_mobile import MobileNode
 from ios_uav_env.jit import HAVE_NUMBA
@@ -326,6 +331,9 @@ class IOSUAVEnv(MobileNode, gym.Env):
         self.config: ScenarioConfig | None = None  # the current episode's scenario
         self.kernel: RateKernel  # the rate kernel of self.config
         self.action_space = spaces.Box(-1.0, 1.0, (2,), np.float32)
+        check_world(
+            self._ranges().base, self.options, self._own_id(), "ranges.base" if self._draws else "config"
+        )
         # the objective of the construction scenario fixes the observation's layout and the reward
         self.energy_objective: bool = self._ranges().base.objective == "energy_efficiency"
         if self.options.energy_reference is not None and not self.energy_objective:

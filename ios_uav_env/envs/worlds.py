@@ -1,7 +1,7 @@
 """Envs from worlds: ``make_world`` builds the env (single or batched) that runs a
-``ios_uav_env.components.World``, and ``check_world`` is the check every env runs at
-construction on its scenario and options (``World.check``: the one place that says which
-combinations of components the simulator runs).
+``ios_uav_env.components.World``. Every env checks its own world at construction
+(``settings.check_world``: ``World.check``, the one place that says which combinations of
+components the simulator runs).
 
 >>> from ios_uav_env.components import World
 >>> env = make_world(World(surface="ris", motion="gauss_markov", knowledge="reports"))
@@ -15,31 +15,14 @@ from typing import Any
 
 import gymnasium as gym
 
-from ios_uav_env.components import UnsupportedWorld, World
+from ios_uav_env.components import World
 from ios_uav_env.model.config import ScenarioConfig, as_config
 
-__all__ = ["check_world", "default_scenario", "make_world"]
+__all__ = ["default_scenario", "make_world"]
 
 #: The id whose env runs a world of one node, and of several (its config given whole).
 SINGLE_NODE_ID = "ios_uav_env/IOSUAV-v0"
 MULTI_NODE_ID = "ios_uav_env/IOSUAV-MultiNode-v0"
-
-
-def check_world(config: ScenarioConfig, options: Any, env_id: str, field: str = "config") -> World:
-    """The world of ``config`` (the env's scenario, or its family's base, named ``field``) and
-    ``options`` (``EnvOptions``), checked: ``UnsupportedWorld`` naming ``env_id``, ``field``,
-    the components and why, if the simulator does not run it."""
-    world = World.of(
-        config,
-        channel=options.channel,
-        knowledge=options.knowledge,
-        report_sigma=options.report_sigma,
-        filter_estimate=options.filter_estimate,
-    )
-    try:
-        return world.check()
-    except UnsupportedWorld as err:
-        raise UnsupportedWorld(f"{env_id} ({field}): {err}") from None
 
 
 def default_scenario(nodes: int) -> ScenarioConfig:

@@ -216,7 +216,7 @@ def _replay(vec, singles, actions: np.ndarray, seed: int) -> int:
 
 
 def test_the_random_batch_is_the_single_envs_row_for_row():
-    kwargs = {"knowledge": "reports", "channel": "rician", "energy_reference": "loiter"}
+    kwargs = {"knowledge": "reports", "energy_reference": "loiter"}
     vec = RandomIOSUAVVectorEnv(3, RANGES, **kwargs)
     singles = [RandomIOSUAVEnv(RANGES, **kwargs) for _ in range(3)]
     actions = np.random.default_rng(1).uniform(-1.3, 1.3, (100, 3, 2))

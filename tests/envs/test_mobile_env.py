@@ -148,7 +148,12 @@ def test_reports_are_clipped_to_the_widened_rectangle():
 
 
 def test_observations_stay_in_the_space_with_noisy_reports_and_fading():
-    env = RandomIOSUAVEnv(RANGES, knowledge="reports", report_sigma=40.0, channel="rician")
+    """(The measured rates are the faded samples: the Rician channel with them is refused.)"""
+    with pytest.raises(
+        ValueError, match="channel='rician', knowledge='reports'.* a measured rate is the slot's own"
+    ):
+        RandomIOSUAVEnv(RANGES, knowledge="reports", channel="rician")
+    env = RandomIOSUAVEnv(RANGES, knowledge="reports", report_sigma=40.0)
     for seed in range(3):
         observations, _, _ = fly(env, seed, ACTIONS)
         assert all(env.observation_space.contains(o) for o in observations)
@@ -157,7 +162,7 @@ def test_observations_stay_in_the_space_with_noisy_reports_and_fading():
 def test_the_batch_is_the_single_envs_step_for_step():
     from tests.envs.test_single_vector import replay
 
-    kwargs = {"knowledge": "reports", "channel": "rician"}
+    kwargs = {"knowledge": "reports", "report_sigma": 20.0}
     vec = RandomIOSUAVVectorEnv(3, RANGES, **kwargs)
     singles = [RandomIOSUAVEnv(RANGES, **kwargs) for _ in range(3)]
     actions = np.random.default_rng(1).uniform(-1.4, 1.4, (110, 3, 2))

@@ -192,7 +192,9 @@ def test_pinned_scenarios_and_errors():
         MultiNodeEnv(frameskip=1)
     with pytest.raises(ValueError, match="max_nodes"):
         MultiNodeEnv(max_nodes=2)
-    with pytest.raises(ValueError, match="channel='rician' .* needs knowledge='exact'"):
+    with pytest.raises(
+        ValueError, match="channel='rician', knowledge='reports'.* a measured rate is the slot's own"
+    ):
         MultiNodeEnv(channel="rician", knowledge="reports")
     with pytest.raises(ValueError, match="energy_reference .* needs objective='energy_efficiency'"):
         MultiNodeEnv(energy_reference=1e4)
