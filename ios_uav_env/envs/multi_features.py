@@ -1,7 +1,8 @@
 """The multi-node env's names and maps, apart from the env: its default nodes, the names of its
-observation's features (the scenario's, then each node block's), the inverse of its share map
-(:func:`share_scores`) and the potential of its rate term (:func:`rate_potential`). Re-exported
-by ``ios_uav_env.envs.multi``, where callers import them.
+observation's features (the scenario's, then each node block's; defined with the kernels' layout
+in ``multi_table``), the inverse of its share map (:func:`share_scores`) and the potential of its
+rate term (:func:`rate_potential`). Re-exported by ``ios_uav_env.envs.multi``, where callers
+import them.
 """
 
 from __future__ import annotations
@@ -9,6 +10,7 @@ from __future__ import annotations
 import numpy as np
 
 from ios_uav_env.envs.multi_kernels import soft_minimum
+from ios_uav_env.envs.multi_table import BASE_FEATURES, NODE_FEATURES, NODE_PEAK_FEATURES
 
 __all__ = [
     "BASE_FEATURES", "DEFAULT_NODES", "NODE_FEATURES", "NODE_PEAK_FEATURES", "rate_potential", "share_scores",
@@ -17,16 +19,6 @@ __all__ = [
 #: The default multi-node scenario: three nodes, two on the reflecting side of the IOS and one
 #: across it, every other parameter at the paper's defaults.
 DEFAULT_NODES = ((-100.0, -20.0), (150.0, -60.0), (-40.0, 90.0))
-#: Per-node observation block: mask, (w_k - q) / L, side of the IOS, served rate R_k so far, r_k(q).
-NODE_FEATURES = ("mask", "dx_node", "dy_node", "side", "served", "rate")
-#: Per-node hint appended to each node block with ``peak_hint=True``: the node's reachable rate
-#: peak P_k (``rate_peak(config.node_config(k))``) relative to the UAV, (P_k - q) / L, and r_k(P_k).
-NODE_PEAK_FEATURES = ("dx_peak", "dy_peak", "rate_peak")
-#: The scenario-level observation, before the node blocks.
-BASE_FEATURES = (
-    "x", "y", "dx_final", "dy_final", "dx_ios", "dy_ios", "time_left", "slack",
-    "elements", "is_ios", "is_ris", "horizon",
-)  # fmt: skip
 
 
 def rate_potential(rates: np.ndarray, beta: float = 0.0) -> float:

@@ -12,7 +12,8 @@ rewards and the ``info`` table (``multi_table.info_columns``, read by ``info_arr
 rows they touch: node k's rate is ``channel.rate_point``, the move goes through
 ``guard.guarded_position``, the shares are the softmax of ``share_sharpness`` x the scores of
 the scenario's K nodes, and the reward terms are those of ``MultiNodeEnv``'s docstring.
-Compiled with numba when installed (``ios_uav_env.jit``).
+Compiled with numba when installed (``ios_uav_env.jit``). The kernels index every column by
+name (``multi_table``'s module docstring), never by number.
 
 Two options of ``flags`` (``single_kernels.flags_of``) change the step: ``energy`` (the
 objective ``"energy_efficiency"``) adds the reward's energy term -(lambda_ref / B) P(V_n) and the
@@ -32,17 +33,98 @@ from typing import Any
 import numpy as np
 
 from ios_uav_env.envs.multi_table import (
-    EP_BITS_SCALE,
-    EP_BUDGET,
-    EP_ENERGY_COST,
-    EP_ENERGY_WEIGHT,
-    EP_MIN_POWER_MOVE,
-    EP_SERVED_CLIP,
+    ACT_MOVE,
+    ACT_MOVE_X,
+    ACT_MOVE_Y,
+    ACT_SCORES,
     EPISODE,
+    MEP_BITS_SCALE,
+    MEP_BLADE_K,
+    MEP_BUDGET,
+    MEP_CX,
+    MEP_CY,
+    MEP_D,
+    MEP_DRAG,
+    MEP_DT,
+    MEP_ELEMENTS,
+    MEP_ENERGY_COST,
+    MEP_ENERGY_WEIGHT,
+    MEP_HORIZON,
+    MEP_INDUCED_K,
+    MEP_INV_L,
+    MEP_IS_IOS,
+    MEP_IS_RIS,
+    MEP_K,
+    MEP_MIN_POWER_MOVE,
+    MEP_MOVES,
+    MEP_N,
+    MEP_P_BLADE,
+    MEP_P_INDUCED,
+    MEP_PEAK_HINT,
+    MEP_QFX,
+    MEP_QFY,
+    MEP_SERVED_CLIP,
+    MEP_SHARPNESS,
+    MEP_SOFTMIN_BETA,
+    MINFO_BEST_SCHEDULE_RATE,
+    MINFO_DISTANCE_TO_FINAL,
+    MINFO_FEASIBLE,
+    MINFO_MIN_RATE,
+    MINFO_POSITION_X,
+    MINFO_POSITION_Y,
+    MINFO_REWARD_RATE,
+    MINFO_REWARD_REACH,
+    MINFO_REWARD_TERMINAL,
+    MINFO_SLOT,
+    MINFO_TERMINAL_MISS,
+    MINFO_WORST_VIOLATION,
+    MOBS_DX_FINAL,
+    MOBS_DX_IOS,
+    MOBS_DY_FINAL,
+    MOBS_DY_IOS,
+    MOBS_ELEMENTS,
+    MOBS_HORIZON,
+    MOBS_IS_IOS,
+    MOBS_IS_RIS,
+    MOBS_SLACK,
+    MOBS_TIME_LEFT,
+    MOBS_X,
+    MOBS_Y,
+    MORE_ENERGY,
+    MORE_ENERGY_EFFICIENCY,
+    MORE_EXPECTED_MIN_RATE,
+    MORE_POWER,
+    MORE_REWARD_ENERGY,
+    MST_ENERGY,
+    MST_EXCESS,
+    MST_MIN_RATE,
+    MST_MOVE_X,
+    MST_MOVE_Y,
+    MST_MOVES_MADE,
+    MST_POTENTIAL,
+    MST_X,
+    MST_Y,
+    N_MINFO,
+    N_MOBS,
+    N_MORE,
+    N_NODE,
+    N_NODE_PEAK,
+    NODE_DX_NODE,
+    NODE_DX_PEAK,
+    NODE_DY_NODE,
+    NODE_DY_PEAK,
+    NODE_MASK,
+    NODE_RATE,
+    NODE_RATE_PEAK,
+    NODE_SERVED,
+    NODE_SIDE,
     POINT,
-    ST_ENERGY,
-    ST_MOVE_X,
-    ST_MOVE_Y,
+    PT_PEAK_RATE,
+    PT_PEAK_X,
+    PT_PEAK_Y,
+    PT_SIDE,
+    PT_X,
+    PT_Y,
     STATE,
     episode_row,
     node_peaks,
@@ -51,8 +133,15 @@ from ios_uav_env.envs.multi_table import (
 )
 from ios_uav_env.envs.options import EnvOptions
 from ios_uav_env.envs.single_kernels import (
+    FLAG_ARRIVAL_GUARD,
     FLAG_ENERGY,
+    FLAG_REACH_WEIGHT,
     FLAG_RICIAN,
+    FLAG_TERMINAL_WEIGHT,
+    OBS_ENERGY_WEIGHT,
+    OBS_MIN_POWER_MOVE,
+    OBS_MOVE_X,
+    OBS_MOVE_Y,
     flags_of,
     fly_entry_out_of_range,
     penalties,
@@ -98,29 +187,34 @@ def _observe(obs: np.ndarray, i: int, x: float, y: float, left: float, dist: flo
     """Write observation row ``i`` (the layout of ``MultiNodeEnv``'s docstring; with the energy
     objective the last move / D, the energy weight and the minimum-power move after the blocks)."""
     ep, o = episode[i], obs[i]
-    inv_l, n_slots, k_n = ep[4], ep[5], int(ep[8])
-    width = 9 if ep[15] != 0.0 else 6
-    s = left - dist / ep[0]
-    o[0], o[1], o[2], o[3] = x * inv_l, y * inv_l, (ep[1] - x) * inv_l, (ep[2] - y) * inv_l
-    o[4], o[5] = (ep[6] - x) * inv_l, (ep[7] - y) * inv_l
-    o[6], o[7] = left / (n_slots - 1.0), s / (1.0 + abs(s))
-    o[8], o[9], o[10], o[11] = ep[10], ep[11], ep[12], ep[13]
+    inv_l, n_slots, k_n = ep[MEP_INV_L], ep[MEP_N], int(ep[MEP_K])
+    width = N_NODE_PEAK if ep[MEP_PEAK_HINT] != 0.0 else N_NODE
+    s = left - dist / ep[MEP_D]
+    o[MOBS_X], o[MOBS_Y] = x * inv_l, y * inv_l
+    o[MOBS_DX_FINAL], o[MOBS_DY_FINAL] = (ep[MEP_QFX] - x) * inv_l, (ep[MEP_QFY] - y) * inv_l
+    o[MOBS_DX_IOS], o[MOBS_DY_IOS] = (ep[MEP_CX] - x) * inv_l, (ep[MEP_CY] - y) * inv_l
+    o[MOBS_TIME_LEFT], o[MOBS_SLACK] = left / (n_slots - 1.0), s / (1.0 + abs(s))
+    o[MOBS_ELEMENTS], o[MOBS_IS_IOS] = ep[MEP_ELEMENTS], ep[MEP_IS_IOS]
+    o[MOBS_IS_RIS], o[MOBS_HORIZON] = ep[MEP_IS_RIS], ep[MEP_HORIZON]
     for k in range(points.shape[1]):
-        j = 12 + width * k
+        j = N_MOBS + width * k
         if k < k_n:
-            o[j], o[j + 1], o[j + 2] = 1.0, (points[i, k, 0] - x) * inv_l, (points[i, k, 1] - y) * inv_l
-            o[j + 3], o[j + 5] = points[i, k, 2], rates[i, k]
-            o[j + 4] = min(served[i, k] / n_slots, ep[EP_SERVED_CLIP])
-            if width == 9:
-                o[j + 6], o[j + 7] = (points[i, k, 3] - x) * inv_l, (points[i, k, 4] - y) * inv_l
-                o[j + 8] = points[i, k, 5]
+            o[j + NODE_MASK] = 1.0
+            o[j + NODE_DX_NODE] = (points[i, k, PT_X] - x) * inv_l
+            o[j + NODE_DY_NODE] = (points[i, k, PT_Y] - y) * inv_l
+            o[j + NODE_SIDE], o[j + NODE_RATE] = points[i, k, PT_SIDE], rates[i, k]
+            o[j + NODE_SERVED] = min(served[i, k] / n_slots, ep[MEP_SERVED_CLIP])
+            if width == N_NODE_PEAK:
+                o[j + NODE_DX_PEAK] = (points[i, k, PT_PEAK_X] - x) * inv_l
+                o[j + NODE_DY_PEAK] = (points[i, k, PT_PEAK_Y] - y) * inv_l
+                o[j + NODE_RATE_PEAK] = points[i, k, PT_PEAK_RATE]
         else:
             for c in range(width):
                 o[j + c] = 0.0
     if flags[FLAG_ENERGY] != 0.0:
-        j = 12 + width * points.shape[1]
-        o[j], o[j + 1] = state[i, ST_MOVE_X], state[i, ST_MOVE_Y]
-        o[j + 2], o[j + 3] = ep[EP_ENERGY_WEIGHT], ep[EP_MIN_POWER_MOVE]
+        j = N_MOBS + width * points.shape[1]
+        o[j + OBS_MOVE_X], o[j + OBS_MOVE_Y] = state[i, MST_MOVE_X], state[i, MST_MOVE_Y]
+        o[j + OBS_ENERGY_WEIGHT], o[j + OBS_MIN_POWER_MOVE] = ep[MEP_ENERGY_WEIGHT], ep[MEP_MIN_POWER_MOVE]
 
 
 @jit(inline=True, fastmath=False)
@@ -135,23 +229,30 @@ def _info(info: np.ndarray, i: int, state: np.ndarray, episode: np.ndarray, shar
     ``expected`` / N."""
     st, ep, row = state[i], episode[i], info[i]
     k_max = served.shape[1]
-    k_n, n_slots = int(ep[8]), ep[5]
-    deficit = max(0.0, dist - left * ep[0])
-    worst = max(st[3], deficit)
-    feasible = worst <= FEASIBILITY_TOL and st[ST_ENERGY] <= ep[EP_BUDGET] * (1.0 + ENERGY_RTOL)
-    row[0], row[1], row[2], row[3], row[4], row[5] = st[0], st[1], st[2] + 1.0, dist, st[4], 0.0
-    row[6], row[7], row[8] = r_rate, r_reach, r_terminal
-    row[9], row[10], row[11] = 1.0 if feasible else 0.0, worst, deficit
+    k_n, n_slots = int(ep[MEP_K]), ep[MEP_N]
+    deficit = max(0.0, dist - left * ep[MEP_D])
+    worst = max(st[MST_EXCESS], deficit)
+    feasible = worst <= FEASIBILITY_TOL and st[MST_ENERGY] <= ep[MEP_BUDGET] * (1.0 + ENERGY_RTOL)
+    row[MINFO_POSITION_X], row[MINFO_POSITION_Y] = st[MST_X], st[MST_Y]
+    row[MINFO_SLOT], row[MINFO_DISTANCE_TO_FINAL] = st[MST_MOVES_MADE] + 1.0, dist
+    row[MINFO_MIN_RATE], row[MINFO_BEST_SCHEDULE_RATE] = st[MST_MIN_RATE], 0.0
+    row[MINFO_REWARD_RATE], row[MINFO_REWARD_REACH], row[MINFO_REWARD_TERMINAL] = r_rate, r_reach, r_terminal
+    row[MINFO_FEASIBLE] = 1.0 if feasible else 0.0
+    row[MINFO_WORST_VIOLATION], row[MINFO_TERMINAL_MISS] = worst, deficit
+    # the blocks after INFO: shares, node_rates, MORE, expected_node_rates (multi_table.info_arrays)
+    node_rates, more = N_MINFO + k_max, N_MINFO + 2 * k_max
+    expected_rates = more + N_MORE
     low = math.inf
     for k in range(k_max):
-        row[12 + k] = shares[i, k] if k < k_n else 0.0
-        row[12 + k_max + k] = served[i, k] / n_slots if k < k_n else 0.0
-        row[17 + 2 * k_max + k] = expected[i, k] / n_slots if k < k_n else 0.0
+        row[N_MINFO + k] = shares[i, k] if k < k_n else 0.0
+        row[node_rates + k] = served[i, k] / n_slots if k < k_n else 0.0
+        row[expected_rates + k] = expected[i, k] / n_slots if k < k_n else 0.0
         if k < k_n:
             low = min(low, expected[i, k])
-    more, energy = 12 + 2 * k_max, st[ST_ENERGY]
-    row[more], row[more + 1], row[more + 3], row[more + 4] = power, energy, r_energy, low / n_slots
-    row[more + 2] = ep[EP_BITS_SCALE] * low / energy if energy > 0.0 else 0.0
+    energy = st[MST_ENERGY]
+    row[more + MORE_POWER], row[more + MORE_ENERGY] = power, energy
+    row[more + MORE_REWARD_ENERGY], row[more + MORE_EXPECTED_MIN_RATE] = r_energy, low / n_slots
+    row[more + MORE_ENERGY_EFFICIENCY] = ep[MEP_BITS_SCALE] * low / energy if energy > 0.0 else 0.0
 
 
 @jit(inline=True, fastmath=False)
@@ -175,7 +276,7 @@ def reset_rows(
     ``normals`` as in :func:`step_rows_batched`)."""
     for i in rows:
         ep, st = episode[i], state[i]
-        x, y, k_n = st[0], st[1], int(ep[8])
+        x, y, k_n = st[MST_X], st[MST_Y], int(ep[MEP_K])
         _rates(i, x, y, k_n, nodes, params, rates)
         low = math.inf
         for k in range(k_n):
@@ -184,23 +285,25 @@ def reset_rows(
             expected[i, k] = shares[i, k] * rates[i, k]
             share_path[i, 0, k] = shares[i, k]
             low = min(low, served[i, k])
-        st[2], st[3], st[4], st[5] = 0.0, 0.0, low / ep[5], 0.0  # potential before slot 1: 0
-        st[ST_ENERGY], st[ST_MOVE_X], st[ST_MOVE_Y] = 0.0, 0.0, 0.0
-        dist = math.hypot(ep[1] - x, ep[2] - y)
-        _observe(obs, i, x, y, ep[3], dist, episode, points, served, rates, state, flags)
-        _info(info, i, state, episode, shares, served, dist, ep[3], 0.0, 0.0, 0.0, expected, 0.0, 0.0)
+        st[MST_MOVES_MADE], st[MST_EXCESS] = 0.0, 0.0
+        st[MST_MIN_RATE], st[MST_POTENTIAL] = low / ep[MEP_N], 0.0  # potential before slot 1: 0
+        st[MST_ENERGY], st[MST_MOVE_X], st[MST_MOVE_Y] = 0.0, 0.0, 0.0
+        dist = math.hypot(ep[MEP_QFX] - x, ep[MEP_QFY] - y)
+        left = ep[MEP_MOVES]
+        _observe(obs, i, x, y, left, dist, episode, points, served, rates, state, flags)
+        _info(info, i, state, episode, shares, served, dist, left, 0.0, 0.0, 0.0, expected, 0.0, 0.0)
 
 
 @jit(inline=True, fastmath=False)
 def _softmax(i: int, actions: np.ndarray, sharpness: float, k_n: int, shares: np.ndarray) -> None:
-    """Row ``i``'s shares: the softmax of ``sharpness`` x its K node scores (``actions[i, 2:2+K]``),
+    """Row ``i``'s shares: the softmax of ``sharpness`` x its K node scores (``actions[i, ACT_SCORES + k]``),
     each clipped to the action space's [-1, 1] first (so any finite score gives finite shares)."""
     top = -math.inf
     for k in range(k_n):
-        top = max(top, sharpness * min(1.0, max(-1.0, actions[i, 2 + k])))
+        top = max(top, sharpness * min(1.0, max(-1.0, actions[i, ACT_SCORES + k])))
     total = 0.0
     for k in range(k_n):
-        shares[i, k] = math.exp(sharpness * min(1.0, max(-1.0, actions[i, 2 + k])) - top)
+        shares[i, k] = math.exp(sharpness * min(1.0, max(-1.0, actions[i, ACT_SCORES + k])) - top)
         total += shares[i, k]
     for k in range(k_n):
         shares[i, k] /= total
@@ -216,25 +319,27 @@ def _step_row(
     """One slot of row ``i`` (see :func:`step_rows`); a row whose episode is over (or whose
     ``path`` is full) is left as it is: nothing is written past its slot N."""
     ep, st = episode[i], state[i]
-    if st[2] >= ep[3] or st[2] + 1.0 >= min(path.shape[1], share_path.shape[1]):
+    n_max = min(path.shape[1], share_path.shape[1])
+    if st[MST_MOVES_MADE] >= ep[MEP_MOVES] or st[MST_MOVES_MADE] + 1.0 >= n_max:
         return  # (the envs never step such a row: they check first)
-    d, n_slots, k_n = ep[0], ep[5], int(ep[8])
-    ax, ay = actions[i, 0], actions[i, 1]
+    d, n_slots, k_n = ep[MEP_D], ep[MEP_N], int(ep[MEP_K])
+    ax, ay = actions[i, ACT_MOVE_X], actions[i, ACT_MOVE_Y]
     norm = norms[i]
     if norm > 1.0:
         ax, ay = ax / norm, ay / norm
-    _softmax(i, actions, ep[9], k_n, shares)
-    x0, y0, n = st[0], st[1], st[2]
-    left = ep[3] - n - 1.0  # moves left after this one
+    _softmax(i, actions, ep[MEP_SHARPNESS], k_n, shares)
+    x0, y0, n = st[MST_X], st[MST_Y], st[MST_MOVES_MADE]
+    left = ep[MEP_MOVES] - n - 1.0  # moves left after this one
     x, y = x0 + d * ax, y0 + d * ay
-    if flags[0] != 0.0:
-        x, y = guarded_position((x0, y0), (x, y), (ep[1], ep[2]), d, int(left))
-    st[0], st[1], st[2] = x, y, n + 1.0
+    if flags[FLAG_ARRIVAL_GUARD] != 0.0:
+        x, y = guarded_position((x0, y0), (x, y), (ep[MEP_QFX], ep[MEP_QFY]), d, int(left))
+    st[MST_X], st[MST_Y], st[MST_MOVES_MADE] = x, y, n + 1.0
     length = math.hypot(x - x0, y - y0)
-    st[3] = max(st[3], length - d)
-    power = slot_power(length, ep[16], ep[17], ep[18], ep[19], ep[20], ep[21])
-    st[ST_ENERGY] += ep[16] * power
-    st[ST_MOVE_X], st[ST_MOVE_Y] = (x - x0) / d, (y - y0) / d
+    st[MST_EXCESS] = max(st[MST_EXCESS], length - d)
+    power = slot_power(length, ep[MEP_DT], ep[MEP_P_BLADE], ep[MEP_BLADE_K], ep[MEP_P_INDUCED],
+                       ep[MEP_INDUCED_K], ep[MEP_DRAG])  # fmt: skip
+    st[MST_ENERGY] += ep[MEP_DT] * power
+    st[MST_MOVE_X], st[MST_MOVE_Y] = (x - x0) / d, (y - y0) / d
     path[i, int(n) + 1, 0], path[i, int(n) + 1, 1] = x, y
     _rates(i, x, y, k_n, nodes, params, rates)
     low = math.inf
@@ -244,17 +349,18 @@ def _step_row(
         expected[i, k] = expected[i, k] + shares[i, k] * rates[i, k]
         share_path[i, int(n) + 1, k] = shares[i, k]
         low = min(low, served[i, k])
-    st[4] = low / n_slots
-    previous, st[5] = st[5], soft_minimum(served[i], k_n, n_slots, ep[14])
-    dist = math.hypot(ep[1] - x, ep[2] - y)
-    r_reach, r_terminal = penalties(dist, left, d, flags[4], flags[5])
+    st[MST_MIN_RATE] = low / n_slots
+    beta = ep[MEP_SOFTMIN_BETA]
+    previous, st[MST_POTENTIAL] = st[MST_POTENTIAL], soft_minimum(served[i], k_n, n_slots, beta)
+    dist = math.hypot(ep[MEP_QFX] - x, ep[MEP_QFY] - y)
+    r_reach, r_terminal = penalties(dist, left, d, flags[FLAG_REACH_WEIGHT], flags[FLAG_TERMINAL_WEIGHT])
     done = left == 0.0
-    r_rate = n_slots * (st[5] - previous)
-    if done and ep[14] != 0.0:
-        r_rate += n_slots * (st[4] - st[5])
+    r_rate = n_slots * (st[MST_POTENTIAL] - previous)
+    if done and beta != 0.0:
+        r_rate += n_slots * (st[MST_MIN_RATE] - st[MST_POTENTIAL])
     r_energy = 0.0
     if flags[FLAG_ENERGY] != 0.0:
-        r_energy = -ep[EP_ENERGY_COST] * power
+        r_energy = -ep[MEP_ENERGY_COST] * power
         reward[i] = r_rate + r_energy + r_reach + r_terminal
     else:
         reward[i] = r_rate + r_reach + r_terminal
@@ -342,9 +448,9 @@ def move_norms(actions: np.ndarray) -> np.ndarray:
     whose squared move exceeds 1 - 1e-6 (the rows it may project), 0 for the others (whose
     norm is below 1: the kernel does not read it)."""
     norms = np.zeros(actions.shape[0])
-    rows = np.flatnonzero(actions[:, 0] ** 2 + actions[:, 1] ** 2 > 1.0 - 1e-6)
+    rows = np.flatnonzero(actions[:, ACT_MOVE_X] ** 2 + actions[:, ACT_MOVE_Y] ** 2 > 1.0 - 1e-6)
     if rows.size:
-        norms[rows] = [math.hypot(ax, ay) for ax, ay in actions[rows, :2].tolist()]
+        norms[rows] = [math.hypot(ax, ay) for ax, ay in actions[rows, ACT_MOVE].tolist()]
     return norms
 
 
@@ -407,7 +513,7 @@ class NodeRows:
             self.points[i, : cfg.K] = node_points(cfg, node_peaks(cfg) if peak_hint else None)
             self.episode[i] = episode_row(cfg, length_scale, sharpness, softmin_beta, peak_hint, 0.0, clip)
             self.loaded[i] = cfg
-        self.state[i, 0:2] = self.path[i, 0] = cfg.q0
+        self.state[i, MST_X], self.state[i, MST_Y] = self.path[i, 0] = cfg.q0
 
     def set_reference(self, i: int, reference: float, observed: float | None = None) -> None:
         """lambda_ref (bits/J) of row ``i``'s episode, and the one its observation shows
@@ -440,13 +546,13 @@ class NodeRows:
         else:
             run_batched(step_rows_batched, step_rows, num_threads, *args)
         stepped = np.flatnonzero(active)
-        self.rate_path[stepped, self.state[stepped, 2].astype(np.int64)] = self.rates[stepped]
+        self.rate_path[stepped, self.state[stepped, MST_MOVES_MADE].astype(np.int64)] = self.rates[stepped]
 
     def fly(self, rows: np.ndarray, targets: np.ndarray, moves: np.ndarray, obs: np.ndarray,
             info: np.ndarray) -> None:  # fmt: skip
         """:func:`fly_rows` (checked arguments: ``ValueError`` if the kernel still refuses an
         entry, having flown nothing), writing ``obs`` and the ``info`` table."""
-        b, width = self.state.shape[0], 2 + self.shares.shape[1]
+        b, width = self.state.shape[0], ACT_SCORES + self.shares.shape[1]
         self.stored[rows[(rows >= 0) & (rows < b)]] = False  # (its slots' rates are not kept)
         bad = fly_rows(rows, targets, moves, np.zeros((b, width)), self.state, self.episode, self.points,
                        self.nodes, self.params, self.served, self.shares, self.rates, self.flags, obs,
@@ -467,7 +573,7 @@ class NodeRows:
 
     def schedule(self, i: int, k: int) -> np.ndarray:
         """Row ``i``'s shares of its ``k`` nodes so far, (k, n + 1): slot 1's, then one column per step."""
-        return self.share_path[i, : int(self.state[i, 2]) + 1, :k].T.copy()
+        return self.share_path[i, : int(self.state[i, MST_MOVES_MADE]) + 1, :k].T.copy()
 
 
 def episode_best_values(rows: NodeRows, ended: np.ndarray, envs: Sequence[Any],

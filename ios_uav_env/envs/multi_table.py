@@ -1,7 +1,20 @@
 """The rows' layout of the multi-node kernels (``ios_uav_env.envs.multi_kernels``): the columns
-of ``state``, ``episode``, ``points`` and the ``info`` table, the ``info`` keys of each setting
-(more with the energy objective and with channel "rician") and their views of the table, and
-each scenario's ``episode`` row and node ``points``.
+of ``state``, ``episode``, ``points``, ``actions``, the observation and the ``info`` table, the
+``info`` keys of each setting (more with the energy objective and with channel "rician") and
+their views of the table, and each scenario's ``episode`` row and node ``points``.
+
+The kernels address every column by name, never by number, as ``single_kernels`` does (its
+module docstring): a module-level int per entry of each column tuple, ``TUPLE.index("name")``,
+named by a prefix that no name of ``single_kernels`` uses and the entry upper-cased: ``MST_``
+(:data:`STATE`: ``state[i, MST_MOVES_MADE]``), ``MEP_`` (:data:`EPISODE`: ``ep[MEP_INV_L]``),
+``PT_`` (:data:`POINT`: ``points[i, k, PT_SIDE]``), ``ACT_`` (:data:`ACTION`: ``actions[i,
+ACT_SCORES + k]``), ``MINFO_`` (:data:`INFO`) and ``MORE_`` (:data:`MORE`, at its offset in the
+block: ``row[more + MORE_POWER]``), ``MOBS_`` (the observation's :data:`BASE_FEATURES`) and
+``NODE_`` (the features of a node block, at their offset in the block: ``o[j + NODE_SERVED]``;
+:data:`NODE_FEATURES`, then with ``peak_hint`` :data:`NODE_PEAK_FEATURES`). ``N_*`` are the
+lengths of the blocks. The flags and the energy features after the node blocks are the single
+env's (``single_kernels.FLAG_*``, ``OBS_MOVE_X`` ...). ``tests/envs/test_kernel_columns.py``
+refuses a literal column index.
 """
 
 from __future__ import annotations
@@ -19,10 +32,9 @@ from ios_uav_env.model.config import ScenarioConfig
 from ios_uav_env.model.peak import rate_peak
 
 __all__ = [
-    "BEST", "ENERGY_INFO_KEYS", "EPISODE", "EP_BITS_SCALE", "EP_BUDGET", "EP_ENERGY_COST", "EP_ENERGY_WEIGHT",
-    "EP_MIN_POWER_MOVE", "EP_SERVED_CLIP", "INFO", "MORE", "MULTI_INFO_KEYS", "POINT", "RICIAN_INFO_KEYS",
-    "STATE", "ST_ENERGY", "ST_MOVE_X", "ST_MOVE_Y", "episode_row", "info_arrays", "info_columns", "info_keys",
-    "node_peaks", "node_points", "set_reference",
+    "ACTION", "BASE_FEATURES", "BEST", "ENERGY_INFO_KEYS", "EPISODE", "INFO", "MORE", "MULTI_INFO_KEYS",
+    "NODE_FEATURES", "NODE_PEAK_FEATURES", "POINT", "RICIAN_INFO_KEYS", "STATE", "episode_row", "info_arrays",
+    "info_columns", "info_keys", "node_peaks", "node_points", "set_reference",
 ]  # fmt: skip
 
 #: Columns of a row of ``state`` (``moves_made`` at column 2, as in ``single_kernels.STATE``;
@@ -36,12 +48,6 @@ EPISODE = (
 )  # fmt: skip
 #: Columns of a row of ``points`` (per node).
 POINT = ("x", "y", "side", "peak_x", "peak_y", "peak_rate")
-#: The energy objective's and the Rician channel's columns, by name (the kernels index them so).
-ST_ENERGY, ST_MOVE_X, ST_MOVE_Y = (STATE.index(c) for c in ("energy", "move_x", "move_y"))
-EP_BUDGET, EP_ENERGY_COST, EP_ENERGY_WEIGHT, EP_MIN_POWER_MOVE, EP_BITS_SCALE, EP_SERVED_CLIP = (
-    EPISODE.index(c)
-    for c in ("budget", "energy_cost", "energy_weight", "min_power_move", "bits_scale", "served_clip")
-)
 #: The scalar columns of the ``info`` table; then ``shares`` (K_max), ``node_rates`` (K_max),
 #: :data:`MORE` and ``expected_node_rates`` (K_max).
 INFO = (
@@ -51,8 +57,125 @@ INFO = (
 #: The scalar columns of the ``info`` table after ``node_rates``: the energy objective's and the
 #: Rician channel's (written on every row; ``info`` shows them only where they mean something).
 MORE = ("power", "energy", "energy_efficiency", "reward_energy", "expected_min_rate")
+#: Columns of a row of ``actions``: the move, then from ``scores`` on one score per node slot.
+ACTION = ("move_x", "move_y", "scores")
+#: The scenario-level observation, before the node blocks.
+BASE_FEATURES = (
+    "x", "y", "dx_final", "dy_final", "dx_ios", "dy_ios", "time_left", "slack",
+    "elements", "is_ios", "is_ris", "horizon",
+)  # fmt: skip
+#: Per-node observation block: mask, (w_k - q) / L, side of the IOS, served rate R_k so far, r_k(q).
+NODE_FEATURES = ("mask", "dx_node", "dy_node", "side", "served", "rate")
+#: Per-node hint appended to each node block with ``peak_hint=True``: the node's reachable rate
+#: peak P_k (``rate_peak(config.node_config(k))``) relative to the UAV, (P_k - q) / L, and r_k(P_k).
+NODE_PEAK_FEATURES = ("dx_peak", "dy_peak", "rate_peak")
+
+# The columns by name (see the module's docstring).
+MST_X = STATE.index("x")
+MST_Y = STATE.index("y")
+MST_MOVES_MADE = STATE.index("moves_made")
+MST_EXCESS = STATE.index("excess")
+MST_MIN_RATE = STATE.index("min_rate")
+MST_POTENTIAL = STATE.index("potential")
+MST_ENERGY = STATE.index("energy")
+MST_MOVE_X = STATE.index("move_x")
+MST_MOVE_Y = STATE.index("move_y")
+
+MEP_D = EPISODE.index("D")
+MEP_QFX = EPISODE.index("qfx")
+MEP_QFY = EPISODE.index("qfy")
+MEP_MOVES = EPISODE.index("moves")
+MEP_INV_L = EPISODE.index("inv_l")
+MEP_N = EPISODE.index("N")
+MEP_CX = EPISODE.index("cx")
+MEP_CY = EPISODE.index("cy")
+MEP_K = EPISODE.index("K")
+MEP_SHARPNESS = EPISODE.index("sharpness")
+MEP_ELEMENTS = EPISODE.index("elements")
+MEP_IS_IOS = EPISODE.index("is_ios")
+MEP_IS_RIS = EPISODE.index("is_ris")
+MEP_HORIZON = EPISODE.index("horizon")
+MEP_SOFTMIN_BETA = EPISODE.index("softmin_beta")
+MEP_PEAK_HINT = EPISODE.index("peak_hint")
+MEP_DT = EPISODE.index("dt")
+MEP_P_BLADE = EPISODE.index("p_blade")
+MEP_BLADE_K = EPISODE.index("blade_k")
+MEP_P_INDUCED = EPISODE.index("p_induced")
+MEP_INDUCED_K = EPISODE.index("induced_k")
+MEP_DRAG = EPISODE.index("drag")
+MEP_BUDGET = EPISODE.index("budget")
+MEP_ENERGY_COST = EPISODE.index("energy_cost")
+MEP_ENERGY_WEIGHT = EPISODE.index("energy_weight")
+MEP_MIN_POWER_MOVE = EPISODE.index("min_power_move")
+MEP_BITS_SCALE = EPISODE.index("bits_scale")
+MEP_SERVED_CLIP = EPISODE.index("served_clip")
+
+PT_X = POINT.index("x")
+PT_Y = POINT.index("y")
+PT_SIDE = POINT.index("side")
+PT_PEAK_X = POINT.index("peak_x")
+PT_PEAK_Y = POINT.index("peak_y")
+PT_PEAK_RATE = POINT.index("peak_rate")
+
+ACT_MOVE_X = ACTION.index("move_x")
+ACT_MOVE_Y = ACTION.index("move_y")
+ACT_SCORES = ACTION.index("scores")
+#: The move's columns (adjacent: x, then y), as a slice.
+ACT_MOVE = slice(ACT_MOVE_X, ACT_MOVE_Y + 1)
+
+# The ``info`` table: INFO from 0, then the blocks shares, node_rates (K_max each), MORE (each at
+# its offset in the block) and expected_node_rates (K_max).
+MINFO_POSITION_X = INFO.index("position_x")
+MINFO_POSITION_Y = INFO.index("position_y")
+MINFO_SLOT = INFO.index("slot")
+MINFO_DISTANCE_TO_FINAL = INFO.index("distance_to_final")
+MINFO_MIN_RATE = INFO.index("min_rate")
+MINFO_BEST_SCHEDULE_RATE = INFO.index("best_schedule_rate")
+MINFO_REWARD_RATE = INFO.index("reward_rate")
+MINFO_REWARD_REACH = INFO.index("reward_reach")
+MINFO_REWARD_TERMINAL = INFO.index("reward_terminal")
+MINFO_FEASIBLE = INFO.index("feasible")
+MINFO_WORST_VIOLATION = INFO.index("worst_violation")
+MINFO_TERMINAL_MISS = INFO.index("terminal_miss")
+N_MINFO = len(INFO)
+#: The position's columns (adjacent: x, then y), as a slice.
+MINFO_POSITION = slice(MINFO_POSITION_X, MINFO_POSITION_Y + 1)
+MORE_POWER = MORE.index("power")
+MORE_ENERGY = MORE.index("energy")
+MORE_ENERGY_EFFICIENCY = MORE.index("energy_efficiency")
+MORE_REWARD_ENERGY = MORE.index("reward_energy")
+MORE_EXPECTED_MIN_RATE = MORE.index("expected_min_rate")
+N_MORE = len(MORE)
 #: Column of ``best_schedule_rate`` (filled in by the caller: an LP, at episode end only).
-BEST = INFO.index("best_schedule_rate")
+BEST = MINFO_BEST_SCHEDULE_RATE
+
+# The observation: BASE_FEATURES from 0, then K_max node blocks of N_NODE (N_NODE_PEAK with
+# ``peak_hint``) features each, then with the energy objective the energy block.
+MOBS_X = BASE_FEATURES.index("x")
+MOBS_Y = BASE_FEATURES.index("y")
+MOBS_DX_FINAL = BASE_FEATURES.index("dx_final")
+MOBS_DY_FINAL = BASE_FEATURES.index("dy_final")
+MOBS_DX_IOS = BASE_FEATURES.index("dx_ios")
+MOBS_DY_IOS = BASE_FEATURES.index("dy_ios")
+MOBS_TIME_LEFT = BASE_FEATURES.index("time_left")
+MOBS_SLACK = BASE_FEATURES.index("slack")
+MOBS_ELEMENTS = BASE_FEATURES.index("elements")
+MOBS_IS_IOS = BASE_FEATURES.index("is_ios")
+MOBS_IS_RIS = BASE_FEATURES.index("is_ris")
+MOBS_HORIZON = BASE_FEATURES.index("horizon")
+N_MOBS = len(BASE_FEATURES)
+NODE_MASK = NODE_FEATURES.index("mask")
+NODE_DX_NODE = NODE_FEATURES.index("dx_node")
+NODE_DY_NODE = NODE_FEATURES.index("dy_node")
+NODE_SIDE = NODE_FEATURES.index("side")
+NODE_SERVED = NODE_FEATURES.index("served")
+NODE_RATE = NODE_FEATURES.index("rate")
+N_NODE = len(NODE_FEATURES)
+NODE_DX_PEAK = N_NODE + NODE_PEAK_FEATURES.index("dx_peak")
+NODE_DY_PEAK = N_NODE + NODE_PEAK_FEATURES.index("dy_peak")
+NODE_RATE_PEAK = N_NODE + NODE_PEAK_FEATURES.index("rate_peak")
+N_NODE_PEAK = N_NODE + len(NODE_PEAK_FEATURES)
+
 #: The keys of ``info`` (the same on every step and at reset): :func:`info_arrays`.
 MULTI_INFO_KEYS = (
     "position", "slot", "distance_to_final", "shares", "node_rates", "min_rate", "best_schedule_rate",
@@ -83,14 +206,12 @@ def info_arrays(
     ``slot`` int64, ``feasible`` bool."""
     columns, end = table.T, len(INFO)
     out = {key: columns[i] for i, key in enumerate(INFO) if not key.startswith("position")}
-    out["position"] = table[:, 0:2]
+    out["position"] = table[:, MINFO_POSITION]
     out["slot"] = out["slot"].astype(np.int64)
     out["feasible"] = out["feasible"] != 0.0
-    out["shares"], out["node_rates"] = (
-        table[:, end : end + max_nodes],
-        table[:, end + max_nodes : end + 2 * max_nodes],
-    )
-    more = end + 2 * max_nodes
+    node_rates = end + max_nodes
+    more = node_rates + max_nodes
+    out["shares"], out["node_rates"] = table[:, end:node_rates], table[:, node_rates:more]
     out.update({key: columns[more + j] for j, key in enumerate(MORE)})
     out["expected_node_rates"] = table[:, more + len(MORE) :]
     return {key: out[key] for key in keys}
@@ -133,8 +254,8 @@ def set_reference(
     ``observed`` P(0) / B (bps/Hz; ``observed`` defaults to ``reference``: it differs for moving
     nodes, whose reward takes the truth's lambda_ref and whose observation the configured one)."""
     seen = reference if observed is None else observed
-    row[EP_ENERGY_COST] = reference / config.bandwidth_hz
-    row[EP_ENERGY_WEIGHT] = seen / config.bandwidth_hz * config.propulsion.hover_power
+    row[MEP_ENERGY_COST] = reference / config.bandwidth_hz
+    row[MEP_ENERGY_WEIGHT] = seen / config.bandwidth_hz * config.propulsion.hover_power
 
 
 def node_points(

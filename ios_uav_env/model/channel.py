@@ -51,6 +51,21 @@ PARAMS = (
     "x_c", "g_side", "t_factor", "has_surface", "gx", "gy", "z_u2", "k_direct", "d_exp", "eta",
     "wavelength", "los_gain", "nlos_gain",
 )  # fmt: skip
+# Its columns by name, as the env's kernels name theirs (``envs.single_kernels``' docstring):
+# plain ints, constants in the compiled code.
+PARAM_X_C = PARAMS.index("x_c")
+PARAM_G_SIDE = PARAMS.index("g_side")
+PARAM_T_FACTOR = PARAMS.index("t_factor")
+PARAM_HAS_SURFACE = PARAMS.index("has_surface")
+PARAM_GX = PARAMS.index("gx")
+PARAM_GY = PARAMS.index("gy")
+PARAM_Z_U2 = PARAMS.index("z_u2")
+PARAM_K_DIRECT = PARAMS.index("k_direct")
+PARAM_D_EXP = PARAMS.index("d_exp")
+PARAM_ETA = PARAMS.index("eta")
+PARAM_WAVELENGTH = PARAMS.index("wavelength")
+PARAM_LOS_GAIN = PARAMS.index("los_gain")
+PARAM_NLOS_GAIN = PARAMS.index("nlos_gain")
 
 
 @jit(inline=True)
@@ -60,12 +75,14 @@ def zeta_row(x: float, y: float, nodes: np.ndarray, params: np.ndarray, i: int) 
     ``params`` (B, P): the scalars of :data:`PARAMS`). Inlined into the compiled kernels that
     call it (the env's hot path) and indexed in place: no per-row array views, which cost more
     than the sum itself."""
-    dxg, dyg = x - params[i, 4], y - params[i, 5]
-    direct = params[i, 7] * (dxg * dxg + dyg * dyg + params[i, 6]) ** params[i, 8]
-    dx = x - params[i, 0]
-    if params[i, 3] == 0.0 or dx == 0.0:
+    dxg, dyg = x - params[i, PARAM_GX], y - params[i, PARAM_GY]
+    direct = (
+        params[i, PARAM_K_DIRECT] * (dxg * dxg + dyg * dyg + params[i, PARAM_Z_U2]) ** params[i, PARAM_D_EXP]
+    )
+    dx = x - params[i, PARAM_X_C]
+    if params[i, PARAM_HAS_SURFACE] == 0.0 or dx == 0.0:
         return direct
-    side = 1.0 if dx * params[i, 1] > 0.0 else params[i, 2]
+    side = 1.0 if dx * params[i, PARAM_G_SIDE] > 0.0 else params[i, PARAM_T_FACTOR]
     dx2, total = dx * dx, 0.0
     for k in range(nodes.shape[2]):
         dy = y - nodes[i, 0, k]
@@ -78,7 +95,7 @@ def zeta_row(x: float, y: float, nodes: np.ndarray, params: np.ndarray, i: int) 
 def rate_row(x: float, y: float, nodes: np.ndarray, params: np.ndarray, i: int) -> float:
     """Expected-gain rate log2(1 + eta zeta^2) at one position, row ``i`` (see :func:`zeta_row`)."""
     z = zeta_row(x, y, nodes, params, i)
-    return math.log2(1.0 + params[i, 9] * z * z)
+    return math.log2(1.0 + params[i, PARAM_ETA] * z * z)
 
 
 @jit(inline=True)
@@ -88,11 +105,13 @@ def faded_row(
     """One faded-rate sample log2(1 + eta |h|^2) at one position, row ``i``, given the two
     standard normal draws of h_SS (real, then imaginary part): the scalar form of :func:`faded_rates`."""
     z = zeta_row(x, y, nodes, params, i)
-    dxg, dyg = x - params[i, 4], y - params[i, 5]
-    phase = 2.0 * math.pi * math.sqrt(dxg * dxg + dyg * dyg + params[i, 6]) / params[i, 10]
-    re = params[i, 11] * math.cos(phase) + params[i, 12] * n_re
-    im = -params[i, 11] * math.sin(phase) + params[i, 12] * n_im
-    return math.log2(1.0 + params[i, 9] * z * z * (re * re + im * im))
+    dxg, dyg = x - params[i, PARAM_GX], y - params[i, PARAM_GY]
+    phase = (
+        2.0 * math.pi * math.sqrt(dxg * dxg + dyg * dyg + params[i, PARAM_Z_U2]) / params[i, PARAM_WAVELENGTH]
+    )
+    re = params[i, PARAM_LOS_GAIN] * math.cos(phase) + params[i, PARAM_NLOS_GAIN] * n_re
+    im = -params[i, PARAM_LOS_GAIN] * math.sin(phase) + params[i, PARAM_NLOS_GAIN] * n_im
+    return math.log2(1.0 + params[i, PARAM_ETA] * z * z * (re * re + im * im))
 
 
 @jit

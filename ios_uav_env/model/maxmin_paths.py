@@ -21,7 +21,16 @@ from ios_uav_env.jit import jit, prange, run_batched
 from ios_uav_env.model.channel import rate_point
 from ios_uav_env.model.maxmin import CERTIFIED, maxmin_row
 
-__all__ = ["path_values", "path_values_rows", "path_values_rows_batched"]
+__all__ = ["OUT", "SIZES", "path_values", "path_values_rows", "path_values_rows_batched"]
+
+#: Columns of a row of ``sizes``: the row's node count K and way-point count N.
+SIZES = ("K", "N")
+#: Columns of a row of ``out``: :func:`~ios_uav_env.model.maxmin.maxmin_row`'s (primal value,
+#: dual value, status).
+OUT = ("value", "dual", "status")
+# The columns by name, as the env's kernels name theirs (``envs.single_kernels``' docstring).
+SIZE_K, SIZE_N = SIZES.index("K"), SIZES.index("N")
+OUT_VALUE, OUT_DUAL, OUT_STATUS = OUT.index("value"), OUT.index("dual"), OUT.index("status")
 
 
 @jit(inline=True)
@@ -29,7 +38,7 @@ def _row(
     j: int, rows: np.ndarray, sizes: np.ndarray, path: np.ndarray, nodes: np.ndarray, params: np.ndarray,
     rate_path: np.ndarray, stored: np.ndarray, out: np.ndarray,
 ) -> None:  # fmt: skip
-    i, k_n, n_n = rows[j], sizes[j, 0], sizes[j, 1]
+    i, k_n, n_n = rows[j], sizes[j, SIZE_K], sizes[j, SIZE_N]
     r = np.empty((k_n, n_n))
     for k in range(k_n):
         for n in range(n_n):
@@ -37,7 +46,7 @@ def _row(
                 r[k, n] = rate_path[i, n, k]
             else:
                 r[k, n] = rate_point(path[i, n, 0], path[i, n, 1], nodes[i, k], params[i, k])
-    out[j, 0], out[j, 1], out[j, 2] = maxmin_row(r)
+    out[j, OUT_VALUE], out[j, OUT_DUAL], out[j, OUT_STATUS] = maxmin_row(r)
 
 
 @jit
@@ -73,20 +82,21 @@ def path_values(
     ``certified`` false where the caller must score the row otherwise (more than
     ``maxmin.MAX_NODES`` nodes, or a certificate that failed; its value is then NaN)."""
     idx = np.ascontiguousarray(rows, dtype=np.int64)
-    size = np.ascontiguousarray(sizes, dtype=np.int64).reshape(len(idx), 2)
-    if len(idx) and (size[:, 0].min() < 1 or size[:, 1].min() < 1 or size[:, 1].max() > path.shape[1]
-                     or size[:, 0].max() > nodes.shape[1]):  # fmt: skip
-        k_got, n_got = (size[:, 0].min(), size[:, 0].max()), (size[:, 1].min(), size[:, 1].max())
+    size = np.ascontiguousarray(sizes, dtype=np.int64).reshape(len(idx), len(SIZES))
+    k_of, n_of = size[:, SIZE_K], size[:, SIZE_N]
+    if len(idx) and (k_of.min() < 1 or n_of.min() < 1 or n_of.max() > path.shape[1]
+                     or k_of.max() > nodes.shape[1]):  # fmt: skip
+        k_got, n_got = (k_of.min(), k_of.max()), (n_of.min(), n_of.max())
         raise ValueError(
             f"sizes must be (K, N) with 1 <= K <= {nodes.shape[1]} and 1 <= N <= {path.shape[1]}, "
             f"got K in [{k_got[0]}, {k_got[1]}] and N in [{n_got[0]}, {n_got[1]}]"
         )
     if rate_path is None or stored is None:
         rate_path, stored = np.zeros((1, 1, 1)), np.zeros(path.shape[0], dtype=np.bool_)
-    out = np.zeros((len(idx), 3))
+    out = np.zeros((len(idx), len(OUT)))
     if len(idx):
         kept = np.ascontiguousarray(stored, dtype=np.bool_)
         arrays = (idx, size, path, nodes, params, rate_path, kept, out)
         run_batched(path_values_rows_batched, path_values_rows, num_threads, *arrays)
-    ok = out[:, 2] == CERTIFIED
-    return np.where(ok, out[:, 0], np.nan), ok
+    ok = out[:, OUT_STATUS] == CERTIFIED
+    return np.where(ok, out[:, OUT_VALUE], np.nan), ok

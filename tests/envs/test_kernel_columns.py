@@ -1,14 +1,19 @@
 """No literal column index in the compiled kernels: they address the columns of their arrays by
 name (the module constants derived from ``STATE``, ``EPISODE``, ``INFO``, ``FLAGS`` and the
-observation's layout in ``ios_uav_env.envs.single_kernels``; from ``LAYER``, ``SETTINGS`` and
-``STATS`` in ``agents.fast.kernel``), never by number (``ep[i, 29]``, ``flags[6]``,
-``ep[i, 13 + j]``).
+observation's layout in ``ios_uav_env.envs.single_kernels``; from ``STATE``, ``EPISODE``,
+``POINT``, ``ACTION``, ``INFO``, ``MORE`` and the observation's features in
+``ios_uav_env.envs.multi_table`` for ``multi_kernels``; from ``PARAMS`` in
+``ios_uav_env.model.channel``; from ``SIZES`` and ``OUT`` in ``ios_uav_env.model.maxmin_paths``;
+from ``LAYER``, ``SETTINGS`` and ``STATS`` in ``agents.fast.kernel``), never by number
+(``ep[i, 29]``, ``flags[6]``, ``ep[i, 13 + j]``).
 
-The check reads each module's source: every array a function body subscripts is either one whose
-columns have names (its column index may hold no int literal at all: ``ep[i, EP_ELEMENTS + j]``,
-``obs[i, k + OBS_MOVE_X]``) or one listed as having none (actions, paths, the nets' activations,
-...). An array name in neither list fails the test until it is classified, so that a kernel cannot
-slip a literal index past the check under a new name.
+The check reads each module's source: every array a function body subscripts (``self.<name>``
+counts as ``<name>``) is either one whose columns have names (its column index may hold no int
+literal at all: ``ep[i, EP_ELEMENTS + j]``, ``obs[i, k + OBS_MOVE_X]``) or one listed as having
+none (actions, paths, the nets' activations, ...). An array name in neither list fails the test
+until it is classified, so that a kernel cannot slip a literal index past the check under a new
+name. In ``model/channel.py`` only the compiled functions count (the rest is numpy on (K, 2)
+positions).
 """
 
 from __future__ import annotations
@@ -19,8 +24,10 @@ from pathlib import Path
 import pytest
 
 from agents.fast import kernel as fast_kernel
+from ios_uav_env.envs import multi_table as mt
 from ios_uav_env.envs import observation_layout as layout
 from ios_uav_env.envs import single_kernels as sk
+from ios_uav_env.model import channel, maxmin_paths
 
 ROOT = Path(__file__).resolve().parents[2]
 
@@ -45,23 +52,69 @@ MODULES = {
             "values",  # update_settings' keyword arguments
         },
     ),
+    "ios_uav_env/envs/multi_kernels.py": (
+        {"state", "st", "episode", "ep", "info", "row", "obs", "o", "points", "flags", "actions"},
+        {
+            "rates", "served", "shares", "expected", "share_path", "rate_path",  # one entry per node
+            "nodes", "params",  # the nodes' rate kernels (channel's layout), passed whole
+            "normals", "path", "targets",  # (re, im) draws and (x, y) pairs
+            "rows", "moves", "active", "norms", "reward", "terminated", "stored", "loaded",  # per row
+            "ended", "envs", "ok", "values",  # episode_best_values' per ended row
+            "grown", "shape",  # NodeRows._grow's
+        },
+    ),
+    "ios_uav_env/envs/multi_table.py": (
+        {"row", "table"},
+        {"columns", "out"},  # info_arrays' columns of the table and its dict
+    ),
+    "ios_uav_env/model/channel.py": (
+        {"params"},
+        {"nodes", "points", "out"},  # the (3, K) surface nodes per row, (x, y) pairs, one per point
+    ),
+    "ios_uav_env/model/maxmin_paths.py": (
+        {"sizes", "size", "out"},
+        {"rows", "idx", "stored", "rate_path", "path", "nodes", "params", "r", "k_got", "n_got"},
+    ),
 }  # fmt: skip
+#: The modules in which only the compiled functions (decorated with ``jit``) count.
+JIT_ONLY = {"ios_uav_env/model/channel.py"}
 
 
-def literal_columns(source: str, named: set[str], free: set[str]) -> list[str]:
+def _array_name(node: ast.expr) -> str | None:
+    """The array name of a subscripted expression: ``name`` or ``self.name``, else None."""
+    if isinstance(node, ast.Name):
+        return node.id
+    if isinstance(node, ast.Attribute) and isinstance(node.value, ast.Name) and node.value.id == "self":
+        return node.attr
+    return None
+
+
+def _compiled(function: ast.FunctionDef | ast.AsyncFunctionDef) -> bool:
+    return any("jit" in ast.unparse(decorator) for decorator in function.decorator_list)
+
+
+def literal_columns(source: str, named: set[str], free: set[str], jit_only: bool = False) -> list[str]:
     """The offending subscripts of ``source`` (as ``line: text``): a named array's column index
     (the last index; the only one of a 1-D array) holding an int literal, or any subscript of an
-    array name in neither ``named`` nor ``free``. Only function bodies count (not annotations)."""
+    array name in neither ``named`` nor ``free``. Only function bodies count (not annotations),
+    with ``jit_only`` only those of compiled functions."""
     found = []
     tree = ast.parse(source)
     for function in ast.walk(tree):
         if not isinstance(function, ast.FunctionDef | ast.AsyncFunctionDef):
             continue
+        if jit_only and not _compiled(function):
+            continue
+        annotations = {
+            id(n) for a in ast.walk(function) if isinstance(a, ast.AnnAssign) for n in ast.walk(a.annotation)
+        }
         for statement in function.body:
             for node in ast.walk(statement):
-                if not (isinstance(node, ast.Subscript) and isinstance(node.value, ast.Name)):
+                if not isinstance(node, ast.Subscript) or id(node) in annotations:
                     continue
-                name = node.value.id
+                name = _array_name(node.value)
+                if name is None:
+                    continue
                 index = node.slice
                 column = index.elts[-1] if isinstance(index, ast.Tuple) else index
                 literal = any(isinstance(n, ast.Constant) and type(n.value) is int for n in ast.walk(column))
@@ -73,7 +126,7 @@ def literal_columns(source: str, named: set[str], free: set[str]) -> list[str]:
 @pytest.mark.parametrize("path", sorted(MODULES))
 def test_kernels_index_columns_by_name(path: str) -> None:
     named, free = MODULES[path]
-    found = literal_columns((ROOT / path).read_text(), named, free)
+    found = literal_columns((ROOT / path).read_text(), named, free, path in JIT_ONLY)
     assert not found, (
         f"{path}: a literal column index, or an array the check does not know (name its columns "
         f"with the module's constants, or classify the array in {__name__}.MODULES):\n" + "\n".join(found)
@@ -104,6 +157,36 @@ def test_the_check_catches_literal_columns() -> None:
     assert literal_columns(new, named, free) == []
 
 
+def test_the_check_reads_the_multi_kernels_and_self() -> None:
+    """The multi-node kernels' old literals are refused, ``self.<array>`` is checked as ``<array>``,
+    and in a ``jit_only`` module a plain function is not read."""
+    named, free = MODULES["ios_uav_env/envs/multi_kernels.py"]
+    old = (
+        "def f(o, ep, st, row, points, actions, i, j, k):\n"
+        "    o[j + 4] = min(served[i, k] / ep[5], ep[27])\n"
+        "    row[12 + k] = actions[i, 2 + k]\n"
+        "    o[j + 1] = points[i, k, 0]\n"
+        "    st[3] = 0.0\n"
+        "def g(self, i):\n"
+        "    self.state[i, 0:2] = self.path[i, 0]\n"
+    )
+    assert {int(line.split(":")[0]) for line in literal_columns(old, named, free)} == {2, 3, 4, 5, 7}
+    new = (
+        "def f(o, ep, st, row, points, actions, i, j, k):\n"
+        "    o[j + NODE_SERVED] = min(served[i, k] / ep[MEP_N], ep[MEP_SERVED_CLIP])\n"
+        "    row[N_MINFO + k] = actions[i, ACT_SCORES + k]\n"
+        "    o[j + NODE_DX_NODE] = points[i, k, PT_X]\n"
+        "    st[MST_EXCESS] = 0.0\n"
+        "def g(self, i):\n"
+        "    self.loaded: list[int] = [0]\n"
+        "    self.state[i, MST_X], self.state[i, MST_Y] = self.path[i, 0]\n"
+    )
+    assert literal_columns(new, named, free) == []
+    plain = "def f(params):\n    return params[0, 4]\n"
+    assert literal_columns(plain, {"params"}, set(), jit_only=True) == []
+    assert literal_columns("@jit\n" + plain, {"params"}, set(), jit_only=True) == ["3: params[0, 4]"]
+
+
 @pytest.mark.parametrize(
     "module, names, prefix",
     [
@@ -112,6 +195,17 @@ def test_the_check_catches_literal_columns() -> None:
         (sk, sk.INFO, "INFO_"),
         (sk, sk.FLAGS, "FLAG_"),
         (sk, layout.OBS_NAMES, "OBS_"),
+        (mt, mt.STATE, "MST_"),
+        (mt, mt.EPISODE, "MEP_"),
+        (mt, mt.POINT, "PT_"),
+        (mt, mt.ACTION, "ACT_"),
+        (mt, mt.INFO, "MINFO_"),
+        (mt, mt.MORE, "MORE_"),
+        (mt, mt.BASE_FEATURES, "MOBS_"),
+        (mt, mt.NODE_FEATURES + mt.NODE_PEAK_FEATURES, "NODE_"),
+        (channel, channel.PARAMS, "PARAM_"),
+        (maxmin_paths, maxmin_paths.SIZES, "SIZE_"),
+        (maxmin_paths, maxmin_paths.OUT, "OUT_"),
         (fast_kernel, fast_kernel.SETTINGS, "SETTING_"),
         (fast_kernel, fast_kernel.LAYER, "LAYER_"),
         (fast_kernel, fast_kernel.STATS, "STAT_"),
@@ -143,3 +237,32 @@ def test_observation_blocks_match_the_layout() -> None:
     copied = sk.EPISODE[sk.EP_ELEMENTS : sk.EP_ELEMENTS + run]
     assert copied == layout.INSTANCE_NAMES[sk.OBS_ELEMENTS : sk.OBS_ELEMENTS + run]
     assert sk.OBS_SECONDS_LEFT not in range(sk.OBS_ELEMENTS, sk.OBS_ELEMENTS + run)
+
+
+def test_multi_layout_matches_the_env_and_the_single_kernels() -> None:
+    """The multi-node kernels' observation constants name the components of ``MultiNodeEnv``'s
+    ``observation_names`` (the base block, node block k at ``N_MOBS + width k``, the energy block
+    after the node blocks at the single kernels' offsets); the ``info`` blocks fill
+    ``info_columns``; and the columns that ``single_kernels``' ``toward`` and
+    ``fly_entry_out_of_range`` read of the multi-node rows are the same."""
+    k_max = 3
+    for peak in (False, True):
+        features = mt.NODE_FEATURES + (mt.NODE_PEAK_FEATURES if peak else ())
+        width = mt.N_NODE_PEAK if peak else mt.N_NODE
+        assert width == len(features)
+        names = mt.BASE_FEATURES + layout.node_block_names(features, k_max) + layout.ENERGY_NAMES
+        for name in mt.BASE_FEATURES:
+            assert names[getattr(mt, "MOBS_" + name.upper())] == name
+        for k in range(k_max):
+            for name in features:
+                assert names[mt.N_MOBS + width * k + getattr(mt, "NODE_" + name.upper())] == f"{name}_{k}"
+        energy = mt.N_MOBS + width * k_max
+        for constant in ("OBS_MOVE_X", "OBS_MOVE_Y", "OBS_ENERGY_WEIGHT", "OBS_MIN_POWER_MOVE"):
+            assert names[energy + getattr(sk, constant)] == constant.removeprefix("OBS_").lower()
+    assert mt.info_columns(k_max) == mt.N_MINFO + 3 * k_max + mt.N_MORE
+    assert mt.BEST == mt.MINFO_BEST_SCHEDULE_RATE
+    assert (mt.MST_X, mt.MST_Y, mt.MST_MOVES_MADE) == (sk.ST_X, sk.ST_Y, sk.ST_MOVES_MADE)
+    assert (mt.MEP_D, mt.MEP_MOVES) == (sk.EP_D, sk.EP_MOVES)
+    assert (mt.ACT_MOVE_X, mt.ACT_MOVE_Y) == (0, 1)  # toward writes actions[i, :2]
+    assert mt.ACTION[mt.ACT_MOVE] == ("move_x", "move_y")
+    assert mt.INFO[mt.MINFO_POSITION] == ("position_x", "position_y")
