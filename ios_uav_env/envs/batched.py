@@ -5,11 +5,21 @@
 env's own code chooses each row's scenario at reset: its ``np_random``, its draws, pinned
 configs and their checks), the seeding, the reset and step skeleton, both autoreset modes,
 ``info`` as a dict of arrays with Gymnasium's ``_key`` masks, and the batch-level calls
-:meth:`~BatchedEnv.advance`, :meth:`~BatchedEnv.fly` and :meth:`~BatchedEnv.restart`. A
-subclass holds its rows' arrays and its kernels, and supplies:
+:meth:`~BatchedEnv.advance`, :meth:`~BatchedEnv.fly` and :meth:`~BatchedEnv.restart`.
 
-- ``env_class``: the single env (its ``_begin(seed, options)`` is the scenario part of its
-  reset) and ``info_keys``: the keys of ``info``;
+The row protocol (``ios_uav_env.envs.row_protocol``): the batched envs use their row envs
+through public calls only, the ones the single env's own ``reset`` and ``step`` make.
+``BatchedEnv`` calls ``begin_episode(seed, options) -> ScenarioConfig`` (the scenario part of
+``reset``: seed, choose, check, make current; no step) at every reset, autoreset and restart,
+and ``check_scenario(cfg, field)`` (optional) on every pinned scenario before any row resets;
+it reads ``config`` and gives each row its own ``np_random``. ``IOSUAVVectorEnv`` adds the
+kernel row (``kernel``, ``episode_row``, ...) and, for moving nodes, ``start_track``, ``track``
+and ``observe_slot``; ``MultiNodeVectorEnv`` calls ``load_row``, ``prepare_slot`` and
+``observe_slot`` on its ``NodeRows``. No batched module touches a private name of another object
+(tested). A subclass holds its rows' arrays and its kernels, and supplies:
+
+- ``env_class``: the single env (a ``row_protocol.ScenarioRow``) and ``info_keys``: the keys of
+  ``info``;
 - ``_init_rows(template)``: the row arrays (with ``_state``: (B, S), the UAV's x, y and moves
   made in columns 0-2, and ``_path``: (B, N_max, 2), each row's way-points) and
   ``_info_width``, the columns of the info table;
@@ -34,10 +44,12 @@ from typing import Any
 
 import gymnasium as gym
 import numpy as np
+from gymnasium.utils import seeding
 from gymnasium.vector.utils import batch_space
 
 from ios_uav_env.envs.policies import full_speed_move
-from ios_uav_env.model.config import ScenarioConfig, as_config
+from ios_uav_env.envs.row_protocol import row_seeds, rows_options
+from ios_uav_env.model.config import ScenarioConfig
 
 try:  # Gymnasium >= 1.1 names the autoreset modes
     from gymnasium.vector import AutoresetMode
@@ -61,11 +73,6 @@ def check_threads(num_threads: Any) -> int | None:
     if isinstance(num_threads, bool) or not isinstance(num_threads, (int, np.integer)) or num_threads < 1:
         raise ValueError(f"num_threads must be None (every core) or an integer >= 1, got {num_threads!r}")
     return int(num_threads)
-
-
-def _is_integer(value: Any) -> bool:
-    """Whether ``value`` is an integer (Python's or numpy's; a bool is not one)."""
-    return isinstance(value, (int, np.integer)) and not isinstance(value, (bool, np.bool_))
 
 
 def _whole_numbers(values: Any, name: str) -> np.ndarray:
@@ -148,7 +155,7 @@ class BatchedEnv(gym.vector.VectorEnv):
 
     def _copy_template(self, template: gym.Env) -> None:
         """The spaces of ``template`` (single and batched) and one copy of it per row (``envs``:
-        the rows' scenario managers, each with its own generator, seeded at reset)."""
+        the rows' scenario managers, each with a generator of its own, seeded at reset)."""
         self.single_observation_space = template.observation_space
         self.single_action_space = template.action_space
         #: The names of one row's observation components (the single env's ``observation_names``).
@@ -156,8 +163,8 @@ class BatchedEnv(gym.vector.VectorEnv):
         self.observation_space = batch_space(self.single_observation_space, self.num_envs)
         self.action_space = batch_space(self.single_action_space, self.num_envs)
         self.envs = [copy.copy(template) for _ in range(self.num_envs)]
-        for env in self.envs:
-            env._np_random = None
+        for env in self.envs:  # (a shallow copy would share the template's, if it had one)
+            env.np_random = seeding.np_random()[0]
 
     # --- the subclass's rows and kernels --------------------------------------------
     def _init_rows(self, template: gym.Env) -> None:
@@ -191,81 +198,13 @@ class BatchedEnv(gym.vector.VectorEnv):
         """New episodes on ``rows``: each row's env chooses its scenario (with its seed and options)."""
         for i, seed, row_options in zip(rows, seeds, options, strict=True):
             env = self.envs[i]
-            env._begin(seed, row_options)
+            env.begin_episode(seed, row_options)
             self._load_row(int(i), env)
         self._start_rows(rows.astype(np.int64))
 
     def _restart_rows(self, rows: np.ndarray) -> None:
         """New episodes on ``rows`` without a seed or options (autoreset, :meth:`restart`)."""
         self._reset_rows(rows, [None] * rows.size, [None] * rows.size)
-
-    def _row_options(self, options: Mapping[str, Any] | None) -> list[Any]:
-        """Each row's reset options: ``{"config": cfg}`` pins every row, ``{"configs": [cfg_0,
-        ..., cfg_{B-1}]}`` one scenario per row (None for a row: its own draw). Every pinned
-        scenario is checked here (``ValueError`` / ``TypeError`` naming it), before any row resets."""
-        if options is None or not isinstance(options, Mapping) or "configs" not in options:
-            only_config = isinstance(options, Mapping) and set(options) == {"config"}
-            pinned = options.get("config") if only_config else None
-            if pinned is None:  # (any other key or type: the row env's reset refuses it)
-                return [options] * self.num_envs
-            return [{"config": self._pinned(0, pinned, 'options["config"]')}] * self.num_envs
-        if set(options) != {"configs"}:
-            raise ValueError(
-                f'reset takes options={{"config": cfg}} or {{"configs": [...]}}, got {sorted(options)}'
-            )
-        configs = options["configs"]
-        if isinstance(configs, (ScenarioConfig, Mapping, str, bytes)) or not isinstance(
-            configs, (Sequence, np.ndarray)
-        ):
-            raise TypeError(
-                f'options["configs"] must be a list of {self.num_envs} scenarios (one per row: a '
-                "ScenarioConfig, a dict of its fields, or None for the row's own), got "
-                f'{type(configs).__name__}; options={{"config": cfg}} pins every row to one scenario'
-            )
-        configs = list(configs)
-        if len(configs) != self.num_envs:
-            raise ValueError(
-                f'options["configs"] must hold {self.num_envs} scenarios (one per row), got {len(configs)}'
-            )
-        rows: list[Any] = []
-        checked: dict[int, Any] = {}  # id of a config given for several rows -> it checked once
-        for i, config in enumerate(configs):
-            if config is not None and id(config) not in checked:
-                checked[id(config)] = self._pinned(i, config, f'options["configs"][{i}]')
-            rows.append(None if config is None else {"config": checked[id(config)]})
-        return rows
-
-    def _pinned(self, i: int, config: Any, field: str) -> Any:
-        """Row ``i``'s pinned scenario ``config`` checked by the row env's ``_check_scenario`` when it
-        has one (the package's envs: a ``ScenarioConfig`` or a dict of its fields, which must fit
-        the env; ``ValueError`` / ``TypeError`` naming ``field``); other envs take it as given."""
-        check = getattr(self.envs[i], "_check_scenario", None)
-        if check is None:
-            return config
-        cfg = as_config(config, field)
-        check(cfg, field)
-        return cfg
-
-    def _seeds(self, seed: Any) -> list[int | None]:
-        """Each row's reset seed: None, ``seed + i`` for an integer ``seed``, or the i-th of a list
-        of ``num_envs`` seeds (``ValueError`` naming the entry unless each is None or an integer >= 0)."""
-        b = self.num_envs
-        allowed = f"None, an integer >= 0 (row i is seeded with seed + i) or a list of {b} integers >= 0"
-        if seed is None:
-            return [None] * b
-        if _is_integer(seed):
-            if seed < 0:
-                raise ValueError(f"seed must be {allowed}, got {seed!r}")
-            return [int(seed) + i for i in range(b)]
-        if isinstance(seed, (str, bytes, Mapping)) or not isinstance(seed, (Sequence, np.ndarray)):
-            raise ValueError(f"seed must be {allowed}, got {seed!r}")
-        seeds = list(seed)
-        if len(seeds) != b:
-            raise ValueError(f"seed must be an int or {b} seeds (one per env), got {len(seeds)}")
-        for i, value in enumerate(seeds):
-            if not (value is None or (_is_integer(value) and value >= 0)):
-                raise ValueError(f"seed[{i}] must be None or an integer >= 0, got {value!r}")
-        return [None if value is None else int(value) for value in seeds]
 
     def _infos(self, table: np.ndarray | None = None) -> dict[str, Any]:
         """``info``: views of the info table (``info_keys``), then the ``_key`` masks."""
@@ -277,7 +216,8 @@ class BatchedEnv(gym.vector.VectorEnv):
     def reset(
         self, *, seed: int | Sequence[int] | None = None, options: Mapping[str, Any] | None = None
     ) -> tuple[np.ndarray, dict[str, Any]]:
-        seeds, row_options = self._seeds(seed), self._row_options(options)  # checked before any row resets
+        seeds = row_seeds(seed, self.num_envs)  # both checked before any row resets
+        row_options = rows_options(options, self.envs)
         self._outputs()
         try:
             self._reset_rows(np.arange(self.num_envs), seeds, row_options)
@@ -348,8 +288,17 @@ class BatchedEnv(gym.vector.VectorEnv):
         action entries 0: the multi-node env serves every node equally), as :meth:`advance`
         would step it, and none of these steps is returned. A row given more than once flies
         its entries in order. The moves of a row, summed over its entries, must leave its
-        episode unfinished. Returns the batch's current observations (those rows' after the
-        flight). E.g. to start episodes part-way (``agents.vec_env.VecExploringStarts``).
+        episode unfinished. E.g. to start episodes part-way (``agents.vec_env.VecExploringStarts``).
+
+        Afterwards each row is where those steps leave it, as if the policy had flown them: its
+        episode, scenario and slot (``moves`` later), ``trajectories`` holding the flown
+        way-points, its running score (``average_rate``, energy, ``feasible``, ...) over them, and
+        its generator past their draws (fading, reports: a row draws exactly what its steps would;
+        no seed is involved). Their rewards are dropped. Returns the batch's current observations
+        (the flown rows' after the flight, the others' unchanged); the rows' ``info`` is not
+        returned but moves with them: an :meth:`advance` that holds a row returns its info after
+        the flight, and its next step reports from there. The arrays returned earlier are left
+        as they were.
 
         A subclass whose kernel can fly rows in one call overrides :meth:`_fly_compiled`;
         otherwise (or when it returns False) the rows step slot by slot (:meth:`_fly_stepped`)."""
@@ -429,9 +378,14 @@ class BatchedEnv(gym.vector.VectorEnv):
         return rows, targets, moves
 
     def restart(self, rows: Sequence[int]) -> np.ndarray:
-        """Start new episodes on ``rows`` now (each row's next scenario, no new seed); return the
-        batch's current observations (those rows' first ones). E.g. to spread the rows over the
-        episode before training (``agents.vec_env.BatchedVecEnv(stagger=True)``)."""
+        """Start new episodes on ``rows`` now, as an autoreset would: each row's next scenario from
+        its own generator, without a new seed (a fixed id's scenario again, a random id's next
+        draw; the row's ``begin_episode(None, None)``), the UAV at q0 in slot 1, ``trajectories``
+        holding q0 only, and a pending NEXT_STEP autoreset of the row dropped (its next step is
+        its new episode's first). Returns the batch's current observations: the array returned
+        last, with those rows' first ones written in. The rows' ``info`` is their reset's, not
+        returned: an :meth:`advance` that holds a row returns it. E.g. to spread the rows over
+        the episode before training (``agents.vec_env.BatchedVecEnv(stagger=True)``)."""
         if not self._started:
             raise RuntimeError("call reset() before restart()")
         rows = _whole_numbers(rows, "restart rows")

@@ -331,15 +331,15 @@ class MultiNodeEnv(MobileNodes, EnergyChannel, gym.Env):
         # where a measured rate is clipped (the space's rate bound, over the env's family)
         own = self.ranges if random_nodes else ScenarioRanges.from_config(self._base.node_config(0))
         self._rate_clip = self._rate_high(own)
-        # where the observation clips a served rate (faded rates only: channel "rician")
-        self._served_clip = rate_high(own, "exact", True) if self._rician else math.inf
+        #: bps/Hz: where the observation clips a served rate (channel "rician"; else inf): the kernels'.
+        self.served_clip: float = rate_high(own, "exact", True) if self._rician else math.inf
         #: The keys of ``info`` (``multi_table.info_keys``: more with the energy objective, Rician).
         self.info_keys: tuple[str, ...] = info_keys(self.energy_objective, self._rician)
         self.config = self._base
         # a batch of one episode for the kernels of ios_uav_env.envs.multi_kernels
         self._rows = NodeRows(
             1, self.max_nodes, self.options, self.share_sharpness, self.softmin_beta, self.energy_objective,
-            self._served_clip,
+            self.served_clip,
         )  # fmt: skip
         self._one, self._active = np.zeros(1, dtype=np.int64), np.ones(1, dtype=np.bool_)
         self._action, self._norm = np.zeros((1, 2 + self.max_nodes)), np.zeros(1)
@@ -375,22 +375,22 @@ class MultiNodeEnv(MobileNodes, EnergyChannel, gym.Env):
             return sample_multinode(self.np_random, self.ranges, self.random_nodes)
         return self._base
 
-    def _begin(self, seed: int | None, options: dict[str, Any] | None) -> ScenarioConfig:
-        """The scenario part of ``reset`` (``MultiNodeVectorEnv`` runs it on each row's env): seed
-        ``np_random``, choose the episode's scenario (pinned, drawn or the env's own), check that
-        it fits the spaces, make it current."""
+    def begin_episode(self, seed: int | None, options: dict[str, Any] | None) -> ScenarioConfig:
+        """The scenario part of ``reset`` (row protocol; ``MultiNodeVectorEnv`` runs it on each row's
+        env): seed ``np_random``, choose the episode's scenario (pinned, drawn or the env's own),
+        check that it fits the spaces, make it ``config``; no step, no observation."""
         super().reset(seed=seed)
         pinned = scenario_option(options)
         cfg = self._episode_config(pinned)
         if pinned is not None:
-            self._check_scenario(cfg)
+            self.check_scenario(cfg)
         self.config = cfg
         return cfg
 
-    def _check_scenario(self, cfg: ScenarioConfig, field: str = 'options["config"]') -> None:
+    def check_scenario(self, cfg: ScenarioConfig, field: str = 'options["config"]') -> None:
         """Raise ``ValueError`` naming ``field`` unless the pinned scenario ``cfg`` can be an episode
-        of this env: at most ``max_nodes`` nodes and observations inside the space (the batched
-        env checks every row's pinned scenario with it before it resets any row)."""
+        of this env: at most ``max_nodes`` nodes and observations inside the space (row protocol:
+        the batched env checks every row's pinned scenario with it before it resets any row)."""
         if cfg.motion is not None and not self.mobile:
             raise ValueError(
                 f"{field} has a motion model; this env's nodes are static: make the env on the scenario "
@@ -413,15 +413,11 @@ class MultiNodeEnv(MobileNodes, EnergyChannel, gym.Env):
     def reset(
         self, *, seed: int | None = None, options: dict[str, Any] | None = None
     ) -> tuple[np.ndarray, dict]:
-        cfg = self._begin(seed, options)
-        self._rows.load(0, cfg)
-        if self.mobile:
-            self._start_track(self._rows, 0)
-        self._prepare(self._rows, 0)  # lambda_ref, the first slot's fading
+        self.begin_episode(seed, options)
+        self.load_row(self._rows, 0)  # the scenario, node paths, lambda_ref, the first slot's fading
         self.score_seconds = 0.0  # wall time of the episode's best schedule (scoring, not planning)
         self._rows.start(self._one, self._obs, self._table)
-        if self.mobile:
-            self._observe(self._rows, 0, self._obs[0])
+        self.observe_slot(self._rows, 0, self._obs[0])
         self._started = True
         return self._obs[0].copy(), self._info()
 
@@ -443,12 +439,9 @@ class MultiNodeEnv(MobileNodes, EnergyChannel, gym.Env):
         self._action[0] = a
         self._norm[0] = math.hypot(a[0], a[1])  # (Python's hypot: see multi_kernels.move_norms)
         outputs = (self._obs, self._reward, self._terminated, self._table)
-        if self.mobile:
-            self._slot_kernels(self._rows, 0)
-        self._fade(self._rows, 0)
+        self.prepare_slot(self._rows, 0)
         self._rows.step(self._action, self._active, outputs, self._norm, serial=True)
-        if self.mobile:
-            self._observe(self._rows, 0, self._obs[0])
+        self.observe_slot(self._rows, 0, self._obs[0])
         terminated = bool(self._terminated[0])
         if terminated:
             start = time.perf_counter()

@@ -1,19 +1,26 @@
-"""The moving, roughly known nodes of ``MultiNodeEnv`` (``ios_uav_env/IOSUAV-MultiNode-Mobile-v0``).
+"""The episode of ``MultiNodeEnv`` as a row of the kernels, and its moving, roughly known nodes.
 
-A mixin of the multi-node env, the multi-node counterpart of the single env's mobile methods: at
-reset it draws the episode's node paths and puts each node's kernel of the slot in the env's
-rows (``knowledge.start_nodes_track``); before every step it swaps in the kernels of the slot
-flown to (so the compiled step's rates, served rates, reward and score are those at the true
-positions); after it, it overwrites what the UAV is told (``knowledge.observe_nodes``): each node
-block's position (the truth, a clipped report, the filter's estimate, or 0 for ``"rates"``) and,
-unless the knowledge is exact, its served feature (the UAV's own tally, sum of share x measured
-rate, over N) and its rate feature (the slot's measured rate, 0 for a node not served). The
-batched env calls the same methods on each row's template env (Python per row and slot).
+A mixin of the multi-node env holding the multi-node row protocol's per-row calls
+(``ios_uav_env.envs.row_protocol.MultiNodeRow``), which the env makes on its one row and the
+batched env on each row's template env (Python per row): :meth:`MobileNodes.load_row` puts the
+episode just begun in a row of ``multi_kernels.NodeRows``, :meth:`MobileNodes.prepare_slot`
+readies the row's next slot, :meth:`MobileNodes.observe_slot` writes what the UAV is told.
+
+With moving or roughly known nodes (``ios_uav_env/IOSUAV-MultiNode-Mobile-v0``; the multi-node
+counterpart of the single env's mobile methods) the row's episode draws its node paths and puts
+each node's kernel of the slot in the row (``knowledge.start_nodes_track``); before every step it
+swaps in the kernels of the slot flown to (so the compiled step's rates, served rates, reward and
+score are those at the true positions); after it, it overwrites what the UAV is told
+(``knowledge.observe_nodes``): each node block's position (the truth, a clipped report, the
+filter's estimate, or 0 for ``"rates"``) and, unless the knowledge is exact, its served feature
+(the UAV's own tally, sum of share x measured rate, over N) and its rate feature (the slot's
+measured rate, 0 for a node not served).
 """
 
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -31,7 +38,7 @@ N_BASE = 12
 
 
 class MobileNodes:
-    """The mobile part of ``MultiNodeEnv`` (module docstring); inactive for static, exactly known nodes."""
+    """The row protocol's calls and the moving nodes of ``MultiNodeEnv`` (module docstring)."""
 
     config: ScenarioConfig
     options: EnvOptions
@@ -41,10 +48,57 @@ class MobileNodes:
     _track: NodesTrack | None
     _rate_clip: float
     trajectory: np.ndarray
+    _prepare: Callable[[NodeRows, int], None]  # (multi_energy.EnergyChannel's)
+    _fade: Callable[[NodeRows, int], None]
 
+    # --- the row protocol ----------------------------------------------------------------
+    def load_row(self, rows: NodeRows, i: int) -> None:
+        """Put the episode just begun (``begin_episode``) in row ``i`` of ``rows``: its scenario,
+        the node paths and slot 1's kernels (moving or roughly known nodes: drawn from
+        ``np_random``), the episode's lambda_ref (energy objective) and slot 1's fading (Rician)."""
+        rows.load(i, self.config)
+        if self.mobile:
+            self._start_track(rows, i)
+        self._prepare(rows, i)
+
+    def prepare_slot(self, rows: NodeRows, i: int) -> None:
+        """Ready row ``i`` for its next step: the node kernels of the slot it flies to (moving or
+        roughly known nodes) and the slot's fading (channel "rician", from ``np_random``)."""
+        if self.mobile:
+            self._slot_kernels(rows, i)
+        self._fade(rows, i)
+
+    def observe_slot(self, rows: NodeRows, i: int, obs: np.ndarray) -> None:
+        """Write what the UAV is told of the nodes in row ``i``'s current slot into the observation
+        row ``obs`` in place (each node block's position, served and rate features:
+        ``observe_nodes``; reports drawn from ``np_random``). Nothing for static, exactly known
+        nodes (the kernel's observation is then the truth)."""
+        if self._track is None:
+            return
+        slot, k_n, o = int(rows.state[i, 2]), self.config.K, self.options
+        q, shares = rows.state[i, 0:2], rows.shares[i, :k_n]
+        told, rates = observe_nodes(
+            self._track, slot, q, shares, o.knowledge, o.report_sigma, self._rate_clip, self.np_random,
+            o.filter_estimate,
+        )  # fmt: skip
+        width = len(self.node_features)
+        for k in range(k_n):
+            j = N_BASE + width * k
+            obs[j + 1 : j + 3] = 0.0 if told is None else (told[k] - q) / o.length_scale
+            if rates is not None:  # the UAV's own tally of measured rates, and this slot's (0: not served)
+                obs[j + 4] = self._track.tally[k] / self.config.N
+                obs[j + 5] = 0.0 if math.isnan(rates[k]) else rates[k]
+
+    @property
+    def track(self) -> NodesTrack | None:
+        """The episode's node tracks (``knowledge.NodesTrack``: the true paths, each slot's kernels,
+        the reports and measured rates); None for static, exactly known nodes. The env's own."""
+        return self._track
+
+    # --- moving nodes ----------------------------------------------------------------------
     def _start_track(self, rows: NodeRows, i: int) -> None:
         """Draw the episode's node paths from ``np_random`` (after the scenario's draws) and put
-        slot 1's kernels in row ``i`` of ``rows`` (the batched env runs it on each row's env)."""
+        slot 1's kernels in row ``i`` of ``rows``."""
         width = rows.nodes.shape[3]
         track = start_nodes_track(self.config, self.np_random, self.options.report_sigma, width)
         if track.nodes.shape[3] > width:  # (path_kernels has rate_kernel's width: never)
@@ -66,24 +120,6 @@ class MobileNodes:
         rows.nodes[i, :k, :, :q] = self._track.nodes[:, slot]
         rows.nodes[i, :k, :, q:] = ((0.0,), (1.0,), (0.0,))
         rows.params[i, :k] = self._track.params[:, slot]
-
-    def _observe(self, rows: NodeRows, i: int, obs: np.ndarray) -> None:
-        """Write what the UAV is told of the nodes in row ``i``'s current slot into the observation
-        row ``obs`` (each node block's position, served and rate features: ``observe_nodes``)."""
-        assert self._track is not None
-        slot, k_n, o = int(rows.state[i, 2]), self.config.K, self.options
-        q, shares = rows.state[i, 0:2], rows.shares[i, :k_n]
-        told, rates = observe_nodes(
-            self._track, slot, q, shares, o.knowledge, o.report_sigma, self._rate_clip, self.np_random,
-            o.filter_estimate,
-        )  # fmt: skip
-        width = len(self.node_features)
-        for k in range(k_n):
-            j = N_BASE + width * k
-            obs[j + 1 : j + 3] = 0.0 if told is None else (told[k] - q) / o.length_scale
-            if rates is not None:  # the UAV's own tally of measured rates, and this slot's (0: not served)
-                obs[j + 4] = self._track.tally[k] / self.config.N
-                obs[j + 5] = 0.0 if math.isnan(rates[k]) else rates[k]
 
     @property
     def truth(self) -> np.ndarray | None:

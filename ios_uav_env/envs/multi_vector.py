@@ -10,7 +10,8 @@ certified best schedule (``ios_uav_env.model.schedule``; the ended static rows i
 call); ``best_schedule=False`` skips it (the key then holds NaN at episode ends).
 
 The batch-level conventions are ``ios_uav_env.envs.batched.BatchedEnv``'s: scenario choice at
-reset in one template ``MultiNodeEnv`` per row, autoreset ``NEXT_STEP`` by default or
+reset in one template ``MultiNodeEnv`` per row (``load_row``, ``prepare_slot`` and
+``observe_slot`` of ``ios_uav_env.envs.row_protocol.MultiNodeRow``), autoreset ``NEXT_STEP`` by default or
 ``autoreset_mode="same_step"`` with ``final_obs`` / ``final_info``, ``reset(seed=s)`` seeding
 row i with ``s + i``, ``options={"config": cfg}`` / ``{"configs": [...]}`` pinning the rows'
 scenarios. ``info`` is a dict of arrays (the single env's ``info_keys``: ``MULTI_INFO_KEYS``, and
@@ -56,11 +57,11 @@ class MultiNodeVectorEnv(BatchedEnv):
         self.max_nodes = template.max_nodes
         self._rows = NodeRows(
             self.num_envs, self.max_nodes, template.options, template.share_sharpness, template.softmin_beta,
-            template.energy_objective, template._served_clip,
+            template.energy_objective, template.served_clip,
         )  # fmt: skip
         self.info_keys = template.info_keys  # (more with the energy objective, channel "rician")
         # Rician rows draw each slot's fading from their template env's np_random (Python per row)
-        self._rician = template._rician
+        self._rician = template.options.channel == "rician"
         self._state = self._rows.state
         self._info_width = info_columns(self.max_nodes)
         # moving or roughly known nodes: per-row kernels per slot and observations by the rows'
@@ -73,16 +74,14 @@ class MultiNodeVectorEnv(BatchedEnv):
 
     # --- rows -----------------------------------------------------------------------
     def _load_row(self, i: int, env: MultiNodeEnv) -> None:
-        self._rows.load(i, env.config)
-        if self._mobile:  # the row's node paths (drawn as the single env's reset draws them)
-            env._start_track(self._rows, i)
-        env._prepare(self._rows, i)  # lambda_ref, the first slot's fading
+        # the scenario, node paths, lambda_ref, the first slot's fading: as the single env's reset
+        env.load_row(self._rows, i)
 
     def _start_rows(self, rows: np.ndarray) -> None:
         self._rows.start(rows, self._obs, self._info)
         if self._mobile:
             for i in rows:
-                self.envs[i]._observe(self._rows, i, self._obs[i])
+                self.envs[i].observe_slot(self._rows, i, self._obs[i])
 
     def _info_arrays(self, table: np.ndarray) -> dict[str, Any]:
         return info_arrays(table, self.max_nodes, self.info_keys)
@@ -110,16 +109,13 @@ class MultiNodeVectorEnv(BatchedEnv):
         """One slot of the ``active`` rows, then the best schedule of each flight that ended."""
         outputs = (self._obs, self._reward, self._terminated, self._info)
         stepping = np.flatnonzero(active)
-        if self._mobile:  # each row's node kernels of the slot it flies to
+        if self._mobile or self._rician:  # each row's node kernels and fading of the slot it flies to
             for i in stepping:
-                self.envs[i]._slot_kernels(self._rows, i)
-        if self._rician:  # each row's fading of the slot it flies to
-            for i in stepping:
-                self.envs[i]._fade(self._rows, i)
+                self.envs[i].prepare_slot(self._rows, i)
         self._rows.step(actions, active, outputs, move_norms(actions), self.num_threads)
         if self._mobile:
             for i in stepping:
-                self.envs[i]._observe(self._rows, i, self._obs[i])
+                self.envs[i].observe_slot(self._rows, i, self._obs[i])
         ended = np.flatnonzero(self._terminated)
         if ended.size:
             self._info[ended, BEST] = (

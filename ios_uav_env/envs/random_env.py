@@ -204,7 +204,7 @@ class RandomIOSUAVEnv(IOSUAVEnv):
         super().__init__(self.pinned or ranges.base, instance_features=instance_features, **kwargs)
         self._check_overrides(overrides, ranges.surfaces)
         if self.pinned is not None:
-            self._check_scenario(self.pinned, "config")
+            self.check_scenario(self.pinned, "config")
 
     _draws = True
 

@@ -427,21 +427,21 @@ class IOSUAVEnv(MobileNode, gym.Env):
     def _episode_config(self, pinned: ScenarioConfig | None) -> ScenarioConfig:  # at reset
         return self._base_config if pinned is None else pinned
 
-    def _begin(self, seed: int | None, options: dict[str, Any] | None) -> ScenarioConfig:
-        """The scenario part of ``reset``: seed ``np_random``, pick the episode's scenario (drawn,
-        pinned or the env's own), check that it fits the space, make it current."""
+    def begin_episode(self, seed: int | None, options: dict[str, Any] | None) -> ScenarioConfig:
+        """The scenario part of ``reset`` (row protocol): seed ``np_random``, choose the episode's
+        scenario (drawn, pinned or the env's own), check it, make it ``config``; no step, no obs."""
         gym.Env.reset(self, seed=seed)
         pinned = scenario_option(options)
         cfg = self._episode_config(pinned)
         if cfg is not self._base_config and cfg != self.config:  # may it leave the space?
-            self._check_scenario(cfg, 'options["config"]' if pinned is not None else "the drawn scenario")
+            self.check_scenario(cfg, 'options["config"]' if pinned is not None else "the drawn scenario")
         self._set_config(cfg)
         return cfg
 
-    def _check_scenario(self, cfg: ScenarioConfig, field: str = 'options["config"]') -> None:
+    def check_scenario(self, cfg: ScenarioConfig, field: str = 'options["config"]') -> None:
         """Raise ``ValueError`` naming ``field`` unless ``cfg`` can be an episode of this env: one
-        ground node (K = 1) and observations inside the space (the batched env checks every
-        row's pinned scenario with it before it resets any row)."""
+        ground node (K = 1) and observations inside the space (row protocol: the batched env checks
+        every row's pinned scenario with it before it resets any row)."""
         if cfg.K != 1:
             raise several_nodes_error(self._own_id(), cfg, field)
         if cfg.motion is not None and not self.mobile:
@@ -512,18 +512,18 @@ class IOSUAVEnv(MobileNode, gym.Env):
     def reset(
         self, *, seed: int | None = None, options: dict[str, Any] | None = None
     ) -> tuple[np.ndarray, dict[str, Any]]:
-        cfg = self._begin(seed, options)
+        cfg = self.begin_episode(seed, options)
         if self._path.shape[1] != cfg.N:
             self._path = np.zeros((1, cfg.N, 2))
         self._path[0, 0] = self._state[0, 0:2] = cfg.q0
         if self.mobile:  # the episode's node path, and its slot-1 kernel in the row
-            self._start_track(cfg)
+            self.start_track(cfg)
             self._nodes, self._params = self._track.nodes[0:1].copy(), self._track.params[0:1].copy()
         self._draw_normals()
         reset_rows(self._rows, self._state, self._episode, self._nodes, self._params, self._normals,
                    self._flags, self._obs, self._info_row)  # fmt: skip
         if self.mobile:
-            self._observe(0, self._state[0, 0:2], self._obs[0])
+            self.observe_slot(0, self._state[0, 0:2], self._obs[0])
         self._started = True
         return self._obs[0].copy(), self._info()
 
@@ -547,7 +547,7 @@ class IOSUAVEnv(MobileNode, gym.Env):
                   self._flags, self._obs, self._reward, self._terminated, self._info_row, self._path,
                   self._active)  # fmt: skip
         if self.mobile:
-            self._observe(slot, self._state[0, 0:2], self._obs[0])
+            self.observe_slot(slot, self._state[0, 0:2], self._obs[0])
         return self._obs[0].copy(), float(self._reward[0]), bool(self._terminated[0]), False, self._info()
 
     def _parse_action(self, action: Any) -> tuple[float, float]:

@@ -2,10 +2,11 @@
 
 A mixin of the single-node env, the counterpart of ``multi_mobile.MobileNodes``: it refuses what
 a moving or roughly known node does not support, draws the episode's node path at reset
-(``knowledge.start_track``), writes what the UAV is told of the node after each slot
-(``knowledge.observe_slot``) and holds the episode's truth and observations (``paths``,
-``reports``, ``measured_rates``). The batched env calls the same methods on each row's template
-env (Python per row and slot). Inactive (``_track`` None) for a static, exactly known node.
+(:meth:`MobileNode.start_track`), writes what the UAV is told of the node after each slot
+(:meth:`MobileNode.observe_slot`) and holds the episode's truth and observations (``track``,
+``paths``, ``reports``, ``measured_rates``). These are the single-node row protocol's mobile calls
+(``ios_uav_env.envs.row_protocol.SingleNodeRow``): the batched env makes them on each row's
+template env (Python per row and slot). Inactive (``track`` None) for a static, exactly known node.
 
 It also holds lambda_ref, the reference EE of the energy reward (objective
 ``"energy_efficiency"``; ``IOSUAVEnv``'s "Energy"): :meth:`MobileNode._scenario_reference` per
@@ -77,7 +78,7 @@ class MobileNode:
 
     def _episode_reference(self, cfg: ScenarioConfig) -> None:
         """Set the reward's lambda_ref of the episode just drawn on ``cfg`` (energy objective, a
-        mobile env, after :meth:`_start_track`): the fixed ``energy_reference``, else the scenario's
+        mobile env, after :meth:`start_track`): the fixed ``energy_reference``, else the scenario's
         reference flights scored on the drawn node path (``observation.flights_efficiency``), the
         EE of feasible plans on the episode's truth, so at most the best EE on it. It enters the
         ``episode`` row's energy cost (the reward), never the observation: the ``energy_weight``
@@ -91,18 +92,21 @@ class MobileNode:
         self.reference_efficiency = reference
         self._episode[0, EP_ENERGY_COST] = reference / cfg.bandwidth_hz
 
-    def _start_track(self, cfg: ScenarioConfig) -> None:
-        """Draw the episode's node path on ``cfg`` from ``np_random`` (``knowledge.start_track``;
-        after the scenario's draws, before the first slot's); with the energy objective, set the
-        episode's lambda_ref on it (:meth:`_episode_reference`)."""
+    def start_track(self, cfg: ScenarioConfig) -> None:
+        """Draw the episode's node path on ``cfg`` (the scenario just begun) from ``np_random``
+        (``knowledge.start_track``; after the scenario's draws, before the first slot's) into
+        :attr:`track`; with the energy objective, set the episode's lambda_ref on it
+        (:meth:`_episode_reference`, in ``reference_efficiency`` and ``episode_row``). A mobile
+        env only (row protocol)."""
         self._track = start_track(cfg, self.np_random, self.options.report_sigma)
         if self.energy_objective:
             self._episode_reference(cfg)
 
-    def _observe(self, slot: int, q: np.ndarray, obs: np.ndarray) -> None:
-        """Write what the UAV at ``q`` is told of the node in ``slot`` into the observation row
-        ``obs`` (the node features 4-5 and, unless knowledge is exact, the rate feature 10:
-        ``knowledge.observe_slot``; the batched env calls it on each row's template env)."""
+    def observe_slot(self, slot: int, q: np.ndarray, obs: np.ndarray) -> None:
+        """Write what the UAV at ``q`` is told of the node in ``slot`` (0-based: 0 at reset, n after
+        the n-th step) into the observation row ``obs`` in place (the node features 4-5 and,
+        unless knowledge is exact, the rate feature 10: ``knowledge.observe_slot``; draws the
+        slot's report and measured rate from ``np_random``). A mobile env only (row protocol)."""
         position, rate = observe_slot(
             self._track, slot, q, self.options.knowledge, self.options.report_sigma, self._rate_clip,
             self.np_random, self.options.filter_estimate,
@@ -110,6 +114,13 @@ class MobileNode:
         obs[4:6] = 0.0 if position is None else (position - q) / self.options.length_scale
         if rate is not None:
             obs[10] = rate
+
+    @property
+    def track(self) -> NodeTrack | None:
+        """The episode's node track (``knowledge.NodeTrack``: the true path, each slot's rate kernel
+        in ``nodes`` / ``params``, the reports and measured rates), drawn by :meth:`start_track`;
+        None for a static, exactly known node. Read-only: the env's own, not a copy."""
+        return self._track
 
     @property
     def paths(self) -> np.ndarray:

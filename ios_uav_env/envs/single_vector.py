@@ -8,7 +8,8 @@ single env reset with seed ``seed + i``: the same scenarios, and with channel "r
 same fading draws, so a batch reproduces B single envs exactly (tested).
 
 The batch-level conventions are ``ios_uav_env.envs.batched.BatchedEnv``'s: scenario choice at
-reset in one template env per row (the single env's own code), autoreset ``NEXT_STEP`` by
+reset in one template env per row (the single env's own code, through the public row protocol
+of ``ios_uav_env.envs.row_protocol``), autoreset ``NEXT_STEP`` by
 default or ``autoreset_mode="same_step"`` with ``final_obs`` / ``final_info``, ``advance``,
 ``fly``, ``restart``. ``info`` is a dict of arrays (``INFO_KEYS``, ``position`` of shape
 (B, 2)) with Gymnasium's ``_key`` masks (all True: every row has every key).
@@ -82,8 +83,8 @@ class IOSUAVVectorEnv(BatchedEnv):
         # a mobile row: its node path (drawn as the single env's reset does), slot 1's kernel and, with
         # the energy objective, the episode's lambda_ref in env.episode_row (copied below)
         if self._mobile:
-            env._start_track(env.config)
-            self._nodes[i, :, :k], self._params[i] = env._track.nodes[0], env._track.params[0]
+            env.start_track(env.config)
+            self._nodes[i, :, :k], self._params[i] = env.track.nodes[0], env.track.params[0]
         self._episode[i] = env.episode_row
         self._state[i, 0:2] = self._path[i, 0] = env.config.q0
         # the env's own scenario object (a fixed id's): a plain reset keeps it. A pinned
@@ -98,7 +99,7 @@ class IOSUAVVectorEnv(BatchedEnv):
                    self._obs, self._info)  # fmt: skip
         if self._mobile:
             for i in rows:
-                self.envs[i]._observe(0, self._state[i, 0:2], self._obs[i])
+                self.envs[i].observe_slot(0, self._state[i, 0:2], self._obs[i])
 
     def _restart_rows(self, rows: np.ndarray) -> None:
         """New episodes on ``rows`` without a seed or options (autoreset, :meth:`restart`). A row
@@ -155,7 +156,7 @@ class IOSUAVVectorEnv(BatchedEnv):
         stepping = np.flatnonzero(active)
         if self._mobile:  # each row's kernel of the slot it flies to
             for i in stepping:
-                track, slot = self.envs[i]._track, int(self._state[i, 2]) + 1
+                track, slot = self.envs[i].track, int(self._state[i, 2]) + 1
                 if slot < len(track.params):  # (a row at its end is refused by the kernel below)
                     k = track.nodes.shape[2]
                     self._nodes[i, :, :k], self._params[i] = track.nodes[slot], track.params[slot]
@@ -172,7 +173,7 @@ class IOSUAVVectorEnv(BatchedEnv):
             raise ValueError(f"actions must be finite (no NaN or inf); rows {rows.tolist()[:10]} are not")
         if self._mobile:
             for i in stepping:
-                self.envs[i]._observe(int(self._state[i, 2]), self._state[i, 0:2], self._obs[i])
+                self.envs[i].observe_slot(int(self._state[i, 2]), self._state[i, 0:2], self._obs[i])
 
 
 class RandomIOSUAVVectorEnv(IOSUAVVectorEnv):

@@ -1,18 +1,27 @@
 """The batched-env base (ios_uav_env/envs/batched.py) on a toy subclass: seeding, both autoreset
 modes, advance masks, restart and fly are the base's, whatever the subclass's kernel; both
-batched envs of the package extend it without redefining them."""
+batched envs of the package extend it without redefining them, and use their row envs through
+the public row protocol only (ios_uav_env/envs/row_protocol.py)."""
 
 from __future__ import annotations
 
+import ast
+from pathlib import Path
 from types import SimpleNamespace
 
 import gymnasium as gym
 import numpy as np
 import pytest
 
+import ios_uav_env.envs as envs_package
 from ios_uav_env.envs.batched import BatchedEnv
+from ios_uav_env.envs.multi import MultiNodeEnv
 from ios_uav_env.envs.multi_vector import MultiNodeVectorEnv
-from ios_uav_env.envs.single_vector import IOSUAVVectorEnv
+from ios_uav_env.envs.policies import full_speed_move
+from ios_uav_env.envs.random_env import RandomIOSUAVEnv
+from ios_uav_env.envs.row_protocol import MultiNodeRow, ScenarioRow, SingleNodeRow
+from ios_uav_env.envs.single import IOSUAVEnv
+from ios_uav_env.envs.single_vector import IOSUAVVectorEnv, RandomIOSUAVVectorEnv
 
 
 class Walk(gym.Env):
@@ -25,7 +34,7 @@ class Walk(gym.Env):
     def __init__(self, config=None):
         self.config = SimpleNamespace(N=5, D=1.0)
 
-    def _begin(self, seed, options):
+    def begin_episode(self, seed, options):
         super().reset(seed=seed)
         n = options["config"] if options else int(self.np_random.integers(3, 8))
         self.config = SimpleNamespace(N=n, D=1.0)
@@ -70,11 +79,11 @@ class WalkVectorEnv(BatchedEnv):
 def test_reset_seeds_row_i_with_seed_plus_i_and_pins_scenarios():
     vec = WalkVectorEnv(4)
     obs, info = vec.reset(seed=10)
-    expected = [Walk()._begin(10 + i, None).N for i in range(4)]
+    expected = [Walk().begin_episode(10 + i, None).N for i in range(4)]
     assert [c.N for c in vec.configs] == expected and obs[:, 1].tolist() == expected
     assert list(info) == ["slot", "N", "_slot", "_N"] and info["_slot"].all()
     vec.reset(seed=[3, 3, 5, 5])
-    assert [c.N for c in vec.configs] == [Walk()._begin(s, None).N for s in (3, 3, 5, 5)]
+    assert [c.N for c in vec.configs] == [Walk().begin_episode(s, None).N for s in (3, 3, 5, 5)]
     vec.reset(options={"configs": [4, None, 6, None]})
     assert [vec.configs[i].N for i in (0, 2)] == [4, 6]
     with pytest.raises(ValueError, match="4 seeds"):
@@ -89,7 +98,7 @@ def test_autoreset_and_advance_follow_gymnasiums_conventions(mode):
     vec = WalkVectorEnv(b, autoreset_mode=mode)
     obs, _ = vec.reset(seed=seed)
     refs = [Walk() for _ in range(b)]
-    lengths = [ref._begin(seed + i, None).N for i, ref in enumerate(refs)]
+    lengths = [ref.begin_episode(seed + i, None).N for i, ref in enumerate(refs)]
     x, moves, pending = [0.0] * b, [0] * b, [False] * b
     rng = np.random.default_rng(0)
     ended = 0
@@ -103,7 +112,7 @@ def test_autoreset_and_advance_follow_gymnasiums_conventions(mode):
                 assert obs[i].tolist() == previous[i].tolist() and reward[i] == 0 and not terminated[i]
                 continue
             if pending[i]:  # NEXT_STEP: the reset step
-                lengths[i], x[i], moves[i], pending[i] = refs[i]._begin(None, None).N, 0.0, 0, False
+                lengths[i], x[i], moves[i], pending[i] = refs[i].begin_episode(None, None).N, 0.0, 0, False
                 assert reward[i] == 0 and not terminated[i] and info["slot"][i] == 1
                 assert obs[i].tolist() == [0.0, lengths[i]]
                 continue
@@ -113,7 +122,7 @@ def test_autoreset_and_advance_follow_gymnasiums_conventions(mode):
             if done and mode == "same_step":  # the next episode's first observation, the last in info
                 assert info["_final_obs"][i] and info["final_info"]["slot"][i] == lengths[i]
                 assert info["final_obs"][i].tolist() == pytest.approx([x[i], lengths[i]])
-                lengths[i], x[i], moves[i] = refs[i]._begin(None, None).N, 0.0, 0
+                lengths[i], x[i], moves[i] = refs[i].begin_episode(None, None).N, 0.0, 0
                 assert obs[i].tolist() == [0.0, lengths[i]] and info["slot"][i] == 1
             else:
                 assert obs[i].tolist() == pytest.approx([x[i], lengths[i]])
@@ -169,8 +178,136 @@ def test_the_batch_arguments_are_checked_by_the_base(cls):
 @pytest.mark.parametrize("cls", [IOSUAVVectorEnv, MultiNodeVectorEnv])
 def test_the_batched_envs_extend_the_base_without_redefining_it(cls):
     shared = ("reset", "step", "advance", "restart", "trajectories", "configs", "close", "_begin_step",
-              "_end_step", "_row_options", "_reset_rows", "_fly_args", "_outputs", "_infos")  # fmt: skip
+              "_end_step", "_reset_rows", "_fly_args", "_outputs", "_infos")  # fmt: skip
     assert issubclass(cls, BatchedEnv)
     assert not [name for name in shared if name in vars(cls)]
     hooks = ("_init_rows", "_load_row", "_start_rows", "_check_actions", "_step_kernel", "_info_arrays")
     assert all(name in vars(cls) for name in hooks)
+
+
+# --- the row protocol ------------------------------------------------------------------------
+BATCHED_MODULES = ("batched.py", "single_vector.py", "multi_vector.py", "row_protocol.py")
+#: (module, attribute) pairs a batched module may take from another object although private:
+#: none (numpy's private API never); add one only with the reason next to it.
+ALLOWED_PRIVATE: frozenset[tuple[str, str]] = frozenset()
+
+
+def _own(node: ast.expr) -> bool:
+    """Whether ``node`` is the object itself: ``self``, ``cls`` or ``super()``."""
+    if isinstance(node, ast.Name):
+        return node.id in ("self", "cls")
+    return isinstance(node, ast.Call) and isinstance(node.func, ast.Name) and node.func.id == "super"
+
+
+def _private(name: str) -> bool:
+    return name.startswith("_") and not (name.startswith("__") and name.endswith("__"))
+
+
+def foreign_private_names(source: str) -> list[tuple[int, str]]:
+    """(line, expression) of every private attribute of another object in ``source``: ``x._name``
+    (read, written or called) with ``x`` not ``self`` / ``cls`` / ``super()``, and
+    ``getattr(x, "_name")`` and its kin."""
+    found = []
+    for node in ast.walk(ast.parse(source)):
+        if isinstance(node, ast.Attribute) and _private(node.attr) and not _own(node.value):
+            found.append((node.lineno, node.attr, ast.unparse(node)))
+        elif (
+            isinstance(node, ast.Call)
+            and isinstance(node.func, ast.Name)
+            and node.func.id in ("getattr", "setattr", "hasattr", "delattr")
+            and len(node.args) >= 2
+            and isinstance(node.args[1], ast.Constant)
+            and isinstance(node.args[1].value, str)
+            and _private(node.args[1].value)
+            and not _own(node.args[0])
+        ):
+            found.append((node.lineno, node.args[1].value, ast.unparse(node)))
+    return found
+
+
+def test_the_private_name_finder_finds_what_it_must():
+    source = (
+        "env._begin(1)\nself.envs[i]._observe(0)\nx = t._served_clip\nenv._np_random = None\n"
+        "getattr(env, '_check_scenario', None)\nnp.random._bit_generator\n"
+        "self._rows.state\nsuper()._init_rows(t)\ncls._x\ntype(x).__name__\ngetattr(env, 'check')\n"
+    )
+    assert sorted(line for line, _, _ in foreign_private_names(source)) == [1, 2, 3, 4, 5, 6]
+
+
+@pytest.mark.parametrize("module", BATCHED_MODULES)
+def test_a_batched_env_touches_no_private_name_of_another_object(module):
+    """The batched envs use their row envs (and everything else) through public names only: the
+    row protocol of ``ios_uav_env.envs.row_protocol``."""
+    source = (Path(envs_package.__file__).parent / module).read_text(encoding="utf-8")
+    found = [
+        f"{module}:{line}: {text}"
+        for line, name, text in foreign_private_names(source)
+        if (module, name) not in ALLOWED_PRIVATE
+    ]
+    assert not found, "private names of other objects:\n" + "\n".join(found)
+
+
+@pytest.mark.parametrize(
+    ("make", "protocol"),
+    [
+        (lambda: IOSUAVEnv(), SingleNodeRow),
+        (lambda: IOSUAVEnv(knowledge="reports"), SingleNodeRow),
+        (lambda: RandomIOSUAVEnv(), SingleNodeRow),
+        (lambda: MultiNodeEnv(), MultiNodeRow),
+        (lambda: MultiNodeEnv(random_nodes=(1, 3), knowledge="reports"), MultiNodeRow),
+        (lambda: Walk(), ScenarioRow),
+    ],
+)
+def test_the_row_envs_offer_their_protocol(make, protocol):
+    env = make()
+    assert isinstance(env, protocol) and isinstance(env, ScenarioRow)
+    assert env.begin_episode(3, None) is env.config
+    if protocol is not ScenarioRow:
+        env.check_scenario(env.config)
+        assert env.track is None  # (drawn by the episode's row calls, after begin_episode)
+
+
+def test_a_row_env_track_and_observations_are_the_single_envs():
+    """``start_track`` / ``track`` / ``observe_slot`` on a begun episode are what ``reset`` does."""
+    single, row = IOSUAVEnv(knowledge="reports", T=40.0), IOSUAVEnv(knowledge="reports", T=40.0)
+    obs, _ = single.reset(seed=5)
+    cfg = row.begin_episode(5, None)
+    row.start_track(cfg)
+    np.testing.assert_array_equal(row.track.paths, single.track.paths)
+    seen = obs.copy()
+    seen[4:6] = seen[10] = -7.0
+    row.observe_slot(0, np.asarray(cfg.q0, dtype=np.float64), seen)
+    np.testing.assert_array_equal(seen, obs)
+
+
+def test_restart_and_fly_match_the_single_env_and_keep_the_rows_info():
+    """``restart``: the row's next episode from its own generator (no seed), as the single env's
+    next ``reset()``; ``fly``: the single env stepped by the same full-speed moves, draws included
+    (Rician fading). Their info is returned by an ``advance`` that holds the row."""
+    kwargs = {"channel": "rician"}
+    vec = RandomIOSUAVVectorEnv(3, **kwargs)
+    vec.reset(seed=11)
+    singles = [RandomIOSUAVEnv(**kwargs) for _ in range(3)]
+    for i, env in enumerate(singles):
+        env.reset(seed=11 + i)
+    for _ in range(2):
+        vec.step(np.full((3, 2), 0.3))
+        for env in singles:
+            env.step(np.full(2, 0.3))
+    obs = vec.restart([1])
+    first, _ = singles[1].reset()
+    np.testing.assert_allclose(obs[1], first, rtol=1e-12)
+    assert vec.configs[1] == singles[1].config and len(vec.trajectories[1]) == 1
+    target = np.array([40.0, -30.0])
+    obs = vec.fly([0], [target], [3])
+    for _ in range(3):
+        q = singles[0].trajectory[-1]
+        expected, _, _, _, info = singles[0].step(full_speed_move(target - q, singles[0].config.D))
+    np.testing.assert_allclose(obs[0], expected, rtol=1e-12)
+    np.testing.assert_allclose(vec.trajectories[0], singles[0].trajectory, rtol=1e-12)
+    _, reward, _, _, held = vec.advance(np.zeros((3, 2)), np.zeros(3, dtype=bool))
+    assert reward.tolist() == [0.0, 0.0, 0.0]
+    assert held["slot"].tolist() == [6, 1, 3]  # flown to slot 3 + 3; restarted; as it was
+    for key in ("average_rate", "rate", "distance_to_final"):
+        assert held[key][0] == pytest.approx(info[key], rel=1e-12)
+    np.testing.assert_allclose(held["position"][0], info["position"], rtol=1e-12)

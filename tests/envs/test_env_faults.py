@@ -235,7 +235,7 @@ def test_a_reset_that_fails_part_way_leaves_no_batch_to_step(monkeypatch):
     def broken(seed, options):
         raise RuntimeError("this row cannot reset")
 
-    monkeypatch.setattr(vec.envs[1], "_begin", broken)
+    monkeypatch.setattr(vec.envs[1], "begin_episode", broken)
     with pytest.raises(RuntimeError, match="this row cannot reset"):
         vec.reset(seed=1)
     with pytest.raises(RuntimeError, match="call reset"):

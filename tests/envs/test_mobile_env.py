@@ -209,7 +209,7 @@ def test_every_mobile_suite_scenario_fits_the_mobile_ids_space(knowledge):
 
     env = gym.make(MOBILE_ID, knowledge=knowledge).unwrapped
     for scenario in load_suite("mobile-v1"):
-        env._check_scenario(scenario.config)
+        env.check_scenario(scenario.config)
 
 
 def test_the_filter_estimate_is_the_kalman_filter_of_the_raw_reports():
