@@ -107,16 +107,17 @@ def hover_flight(config: ScenarioConfig, peak: Peak | None = None) -> np.ndarray
     N: the flight of ``policies.HoverAt("peak")`` in the env, feasible for every scenario.
     ``peak``: P if known, else ``rate_peak(config)``."""
     p = rate_peak(config) if peak is None else peak
-    d, final = config.D, (float(config.qF[0]), float(config.qF[1]))
+    d, final, slots = config.D, (float(config.qF[0]), float(config.qF[1])), config.N
+    px, py = p.x, p.y
     x, y = float(config.q0[0]), float(config.q0[1])
-    path = np.empty((config.N, 2))
+    path = np.empty((slots, 2))
     path[0] = x, y
-    for n in range(1, config.N):
-        dx, dy = p.x - x, p.y - y
+    for n in range(1, slots):
+        dx, dy = px - x, py - y
         norm = math.hypot(dx, dy)
         if norm > d:  # full speed towards P, then stop on it
             dx, dy = dx * d / norm, dy * d / norm
-        x, y = guarded_position((x, y), (x + dx, y + dy), final, d, config.N - 1 - n)
+        x, y = guarded_position((x, y), (x + dx, y + dy), final, d, slots - 1 - n)
         path[n] = x, y
     return path
 

@@ -39,6 +39,7 @@ from typing import Any
 
 import numpy as np
 
+from ios_uav_env.jit import HAVE_NUMBA, jit
 from ios_uav_env.model.config import ScenarioConfig
 from ios_uav_env.model.mobility import BOX_MARGIN, GaussMarkov, as_motion, rectangles, reflect
 
@@ -87,9 +88,12 @@ def node_paths(config: ScenarioConfig, rng: np.random.Generator) -> np.ndarray:
     mean = motion.speed * np.column_stack([np.cos(theta), np.sin(theta)])
     v = mean + sigma * rng.standard_normal((k_nodes, 2))
     w = np.asarray(config.nodes, dtype=float)
+    gain = math.sqrt(1.0 - a * a) * sigma
+    if HAVE_NUMBA:  # the slots' normals in one draw (the same stream), the walk compiled
+        normals = rng.standard_normal((config.N - 1, k_nodes, 2))
+        return _walk(w, v, mean, normals, lo, hi, a, gain, config.dt)
     out = np.empty((config.N, k_nodes, 2))
     out[0] = w
-    gain = math.sqrt(1.0 - a * a) * sigma
     for n in range(config.N - 1):
         step = w + v * config.dt
         v = a * v + (1.0 - a) * mean + gain * rng.standard_normal((k_nodes, 2))
@@ -97,6 +101,39 @@ def node_paths(config: ScenarioConfig, rng: np.random.Generator) -> np.ndarray:
         v = np.where(flip, -v, v)
         mean = np.where(flip, -mean, mean)
         out[n + 1] = w
+    return out
+
+
+@jit(fastmath=False)
+def _walk(
+    w: np.ndarray, v: np.ndarray, mean: np.ndarray, normals: np.ndarray, lo: np.ndarray,
+    hi: np.ndarray, a: float, gain: float, dt: float,
+) -> np.ndarray:  # fmt: skip
+    """The loop of :func:`node_paths` (and :func:`~ios_uav_env.model.mobility.reflect`) per
+    component, slot n + 1 from slot n's ``normals[n]``: the same IEEE operations in the same
+    order (no fused multiply-add, no reassociation), so the same paths bit for bit."""
+    v, mean = v.copy(), mean.copy()
+    out = np.empty((normals.shape[0] + 1, w.shape[0], 2))
+    out[0] = w
+    for n in range(normals.shape[0]):
+        for k in range(w.shape[0]):
+            for c in range(2):
+                p = out[n, k, c] + v[k, c] * dt
+                vel = a * v[k, c] + (1.0 - a) * mean[k, c] + gain * normals[n, k, c]
+                low, high = lo[k, c], hi[k, c]
+                if low <= p <= high:
+                    out[n + 1, k, c] = p
+                else:
+                    width = high - low
+                    u = p - low
+                    times = np.floor(u / width)
+                    r = u - times * width
+                    if times % 2 != 0:  # mirrored an odd number of times: reversed
+                        out[n + 1, k, c] = high - r
+                        vel, mean[k, c] = -vel, -mean[k, c]
+                    else:
+                        out[n + 1, k, c] = low + r
+                v[k, c] = vel
     return out
 
 

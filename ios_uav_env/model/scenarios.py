@@ -56,6 +56,16 @@ def _off_plane(ground: tuple[float, float], base: ScenarioConfig, surface: str) 
     return (plane - gap if ground[0] < plane else plane + gap, ground[1])
 
 
+def _variant(base: ScenarioConfig, **changes: Any) -> ScenarioConfig:
+    """``base.replace(**changes)`` (validated), or ``base`` itself when every change keeps its
+    value (a one-node base: the replace would give an equal config, and ``base`` is valid): a
+    one-scenario family (``ScenarioRanges.from_config``, built at every check of a drawn or
+    pinned scenario) makes no config."""
+    if base.K == 1 and all(getattr(base, name) == value for name, value in changes.items()):
+        return base
+    return base.replace(**changes)
+
+
 @dataclass(frozen=True)
 class ScenarioRanges:
     """The family of randomised scenarios, drawn by :func:`sample_scenario`.
@@ -103,11 +113,15 @@ class ScenarioRanges:
             for pair_s, pair_e in ((self.start_x, self.end_x), (self.start_y, self.end_y))
         )
         try:
-            self.base.replace(
-                T=lo * self.base.dt, q0=(sx, sy), qF=(ex, ey), ios_shape=self.shape(self.ios_rows[1])
+            _variant(
+                self.base,
+                T=lo * self.base.dt,
+                q0=(sx, sy),
+                qF=(ex, ey),
+                ios_shape=self.shape(self.ios_rows[1]),
             )
             ground = _off_plane((self.ground_x[0], self.ground_y[0]), self.base, self.surfaces[0])
-            self.base.replace(ground_node=ground, surface=self.surfaces[0])
+            _variant(self.base, ground_node=ground, surface=self.surfaces[0])
         except ValueError as exc:
             raise ValueError(f"these ranges allow an invalid scenario: {exc}") from None
 
@@ -147,7 +161,7 @@ class ScenarioRanges:
         (``base`` otherwise): what the rate bound of the observation is taken over."""
         ground = (self.ground_x[0], self.ground_y[0])
         return [
-            self.base.replace(surface=s, ios_shape=self.shape(rows), ground_node=ground)
+            _variant(self.base, surface=s, ios_shape=self.shape(rows), ground_node=ground)
             for s in self.surfaces
             for rows in range(self.ios_rows[0], self.ios_rows[1] + 1)
         ]

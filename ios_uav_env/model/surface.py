@@ -33,6 +33,7 @@ from functools import lru_cache
 
 import numpy as np
 
+from ios_uav_env.jit import HAVE_NUMBA, jit
 from ios_uav_env.model.config import ScenarioConfig
 
 
@@ -128,8 +129,36 @@ class _Projection:
     lz: np.ndarray | None
 
 
-@lru_cache(maxsize=64)
+class _Geometry:
+    """``config`` hashed and compared by the fields its :class:`_Projection` depends on (the
+    grid: ``ios_shape``, the pitch, ``ios_center``; the node count: ``uav_altitude`` and the
+    quadrature fields), not by G, T, q0, qF or the surface's kind: the key of the projection's
+    cache, so the drawn scenarios of a family share one projection per surface size."""
+
+    __slots__ = ("config", "key")
+
+    def __init__(self, config: ScenarioConfig) -> None:
+        self.config = config
+        self.key = (
+            config.ios_shape, config.element_spacing_wl, config.wavelength, config.ios_center,
+            config.uav_altitude, config.quadrature_nodes, config.quadrature_tol,
+        )  # fmt: skip
+
+    def __hash__(self) -> int:
+        return hash(self.key)
+
+    def __eq__(self, other: object) -> bool:
+        return isinstance(other, _Geometry) and self.key == other.key
+
+
 def _projection(config: ScenarioConfig) -> _Projection:
+    """The :class:`_Projection` of ``config``'s geometry (cached per geometry, :class:`_Geometry`)."""
+    return _geometry_projection(_Geometry(config))
+
+
+@lru_cache(maxsize=128)
+def _geometry_projection(geometry: _Geometry) -> _Projection:
+    config = geometry.config
     ys, zs = _axes(config)
     n = node_count(config)
     if n == 0 or (n >= ys.size and n >= zs.size):
@@ -158,8 +187,25 @@ def _betas(config: ScenarioConfig, grounds: np.ndarray) -> np.ndarray:
     ys, zs = _axes(config)
     dx2 = (grounds[:, 0] - config.ios_center[0]) ** 2
     dy2 = (grounds[:, 1, None] - ys[None, :]) ** 2  # (P, M_y)
+    if HAVE_NUMBA:  # the same IEEE operations in one pass, without the (P, M_y, M_z) temporaries
+        return _beta_grid(dx2**1.5, dx2, dy2, zs * zs)
     d2 = dx2[:, None, None] + dy2[:, :, None] + (zs * zs)[None, None, :]
     return (dx2**1.5)[:, None, None] / (d2 * d2)
+
+
+@jit(fastmath=False)
+def _beta_grid(scale: np.ndarray, dx2: np.ndarray, dy2: np.ndarray, z2: np.ndarray) -> np.ndarray:
+    """out[p, i, k] = scale[p] / d2^2 with d2 = (dx2[p] + dy2[p, i]) + z2[k]: :func:`_betas`'s
+    numpy expression element by element, in IEEE arithmetic (no fused multiply-add, no
+    reassociation), so bit for bit the same."""
+    out = np.empty((dy2.shape[0], dy2.shape[1], z2.shape[0]))
+    for p in range(dy2.shape[0]):
+        for i in range(dy2.shape[1]):
+            row = dx2[p] + dy2[p, i]
+            for k in range(z2.shape[0]):
+                d2 = row + z2[k]
+                out[p, i, k] = scale[p] / (d2 * d2)
+    return out
 
 
 @lru_cache(maxsize=64)
@@ -182,4 +228,8 @@ def ground_weights(config: ScenarioConfig, grounds: np.ndarray) -> np.ndarray:
     points = np.asarray(grounds, dtype=float)
     if points.ndim != 2 or points.shape[1] != 2:
         raise ValueError(f"grounds must have shape (P, 2) (m), got {points.shape}")
-    return np.stack([_weights(projection, beta) for beta in _betas(config, points)])
+    betas = _betas(config, points)
+    if projection.ly is None:
+        return betas.reshape(len(points), -1)
+    # one stacked product: numpy's matmul runs the same BLAS product on each slice as _weights
+    return np.matmul(np.matmul(projection.ly, betas), projection.lz.T).reshape(len(points), -1)

@@ -1,0 +1,146 @@
+"""The compiled and cached forms of the per-scenario model work (what a randomised env's reset
+runs) against the numpy forms they replace: the same results bit for bit.
+
+- ``surface._beta_grid`` (the element weights of every ground position) and the stacked
+  projection of ``surface.ground_weights``;
+- ``surface._projection``, cached per geometry (shared by scenarios that differ in G, T, q0,
+  qF or the surface's kind);
+- ``motion._walk`` (the Gauss-Markov walk of ``node_paths`` with its slots' normals drawn at
+  once);
+- ``peak._candidates`` (``reachable`` and ``_on_side`` in one pass);
+- ``ScenarioRanges`` of one scenario making no config.
+
+Each compiled function is plain Python without numba, so these run both ways.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from ios_uav_env.model import motion, peak, surface
+from ios_uav_env.model.config import ScenarioConfig
+from ios_uav_env.model.mobility import reflect
+from ios_uav_env.model.scenarios import DEFAULT_RANGES, ScenarioRanges, sample_scenario
+
+
+def _numpy_betas(config: ScenarioConfig, grounds: np.ndarray) -> np.ndarray:
+    ys, zs = surface._axes(config)
+    dx2 = (grounds[:, 0] - config.ios_center[0]) ** 2
+    dy2 = (grounds[:, 1, None] - ys[None, :]) ** 2
+    d2 = dx2[:, None, None] + dy2[:, :, None] + (zs * zs)[None, None, :]
+    return (dx2**1.5)[:, None, None] / (d2 * d2)
+
+
+def _drawn(n: int, seed: int, ranges: ScenarioRanges = DEFAULT_RANGES) -> list[ScenarioConfig]:
+    rng = np.random.default_rng(seed)
+    return [sample_scenario(rng, ranges) for _ in range(n)]
+
+
+@pytest.mark.parametrize("exact", [False, True])
+def test_ground_weights_are_the_numpy_weights_bit_for_bit(exact):
+    rng = np.random.default_rng(0)
+    for config in _drawn(6, 1):
+        config = config.replace(ios_shape=(12, 9), quadrature_nodes=0) if exact else config
+        grounds = rng.uniform(-300.0, 300.0, (7, 2))
+        ys, zs = surface._axes(config)
+        dx2 = (grounds[:, 0] - config.ios_center[0]) ** 2
+        dy2 = (grounds[:, 1, None] - ys[None, :]) ** 2
+        betas = _numpy_betas(config, grounds)
+        assert np.array_equal(surface._beta_grid(dx2**1.5, dx2, dy2, zs * zs), betas)
+        assert np.array_equal(surface._betas(config, grounds), betas)
+        projection = surface._projection(config)
+        rows = np.stack([surface._weights(projection, beta) for beta in betas])
+        assert np.array_equal(surface.ground_weights(config, grounds), rows)
+        single = surface.surface_nodes(config.replace(ground_node=tuple(grounds[3])))
+        assert np.array_equal(single.weight, rows[3])
+
+
+def test_the_projection_is_shared_by_scenarios_of_one_geometry():
+    config = ScenarioConfig()
+    other = config.replace(ground_node=(120.0, 40.0), T=180.0, q0=(-400.0, -60.0), surface="ris")
+    assert surface._projection(other) is surface._projection(config)
+    for change in ({"ios_shape": (100, 59)}, {"uav_altitude": 90.0}, {"quadrature_nodes": 9}):
+        changed = config.replace(**change)
+        assert surface._projection(changed) is not surface._projection(config)
+        assert surface._projection(changed) is surface._projection(changed.replace(ground_node=(5.0, 5.0)))
+
+
+def _numpy_walk(config: ScenarioConfig, rng: np.random.Generator) -> tuple[np.ndarray, int]:
+    """``node_paths``'s loop as numpy, one draw of normals per slot (its form without numba),
+    and how many steps left the rectangle (were reflected)."""
+    m = config.motion
+    lo, hi = motion.node_bounds(config)
+    a, sigma = m.memory, m.sigma
+    theta = rng.uniform(0.0, 2.0 * math.pi, config.K) if m.heading is None else np.full(config.K, m.heading)
+    mean = m.speed * np.column_stack([np.cos(theta), np.sin(theta)])
+    v = mean + sigma * rng.standard_normal((config.K, 2))
+    w = np.asarray(config.nodes, dtype=float)
+    out = np.empty((config.N, config.K, 2))
+    out[0] = w
+    gain = math.sqrt(1.0 - a * a) * sigma
+    walls = 0
+    for n in range(config.N - 1):
+        step = w + v * config.dt
+        walls += int(np.sum((step < lo) | (step > hi)))
+        v = a * v + (1.0 - a) * mean + gain * rng.standard_normal((config.K, 2))
+        w, flip = reflect(step, lo, hi)
+        v, mean = np.where(flip, -v, v), np.where(flip, -mean, mean)
+        out[n + 1] = w
+    return out, walls
+
+
+@pytest.mark.parametrize(
+    "model",
+    [
+        {"kind": "gauss_markov"},
+        {"kind": "gauss_markov", "speed": 40.0, "memory": 0.2, "heading": 1.0},  # walls, often
+        {"kind": "gauss_markov", "speed": 20.0, "sigma": 8.0, "box": ((-300.0, 300.0), (-200.0, 200.0))},
+    ],
+)
+def test_node_paths_are_the_numpy_walk_bit_for_bit(model):
+    ranges = ScenarioRanges(base=DEFAULT_RANGES.base.replace(motion=model))
+    walls = 0
+    for i, config in enumerate(_drawn(12, 2, ranges)):
+        if i % 3 == 0:  # several nodes, on both sides of the IOS plane
+            (x, y) = config.ground_node
+            config = config.replace(ground_nodes=((x, y), (x, -50.0), (-x, 10.0)))
+        ours, theirs = np.random.default_rng(i), np.random.default_rng(i)
+        expected, reflected = _numpy_walk(config, theirs)
+        assert np.array_equal(motion.node_paths(config, ours), expected)
+        assert ours.random() == theirs.random()  # the same draws, no more
+        walls += reflected
+    assert walls > 0  # the reflections are covered
+
+
+@pytest.mark.parametrize("side", peak.SIDES)
+def test_the_candidate_mask_is_reachable_and_on_side(side):
+    rng = np.random.default_rng(3)
+    for config in _drawn(10, 4):
+        points = rng.uniform(-2500.0, 2500.0, (2000, 2))
+        points[:300] = np.round(points[:300] / config.D) * config.D  # exact multiples of D
+        points[300:350, 0] = config.ios_center[0]  # on the plane
+        along = np.asarray(config.q0) + np.column_stack([np.arange(100) * config.D, np.zeros(100)])
+        points[350:450] = along  # exactly k moves from q0
+        code = 0 if side is None else 1 if side == "front" else -1
+        q0, qf = np.asarray(config.q0, float), np.asarray(config.qF, float)
+        x_c, g_x = config.ios_center[0], config.ground_node[0]
+        mask = peak._candidates(points, q0, qf, config.D, config.N - 1, x_c, g_x, code)
+        expected = peak.reachable(config, points) & peak._on_side(config, points, side)
+        assert np.array_equal(mask, expected)
+        assert np.array_equal(peak._mask(config, points, side), expected)
+
+
+def test_a_one_scenario_family_makes_no_config():
+    config = _drawn(1, 5)[0]
+    ranges = ScenarioRanges.from_config(config)
+    assert ranges.configs_per_surface()[0] is config
+    wider = ScenarioRanges(ground_x=(-10.0, 10.0), ground_y=(0.0, 0.0), base=config)
+    first = wider.configs_per_surface()[0]
+    assert first is not config and first == config.replace(
+        ground_node=(-10.0, 0.0), ios_shape=wider.shape(wider.ios_rows[0]), surface=wider.surfaces[0]
+    )
+    with pytest.raises(ValueError, match="invalid scenario"):  # the checks still run on a change
+        ScenarioRanges(T=(20.0, 200.0), base=config)
