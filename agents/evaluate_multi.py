@@ -130,22 +130,40 @@ def node_width(env_kwargs: Any) -> int:
     return len(NODE_FEATURES) + (len(NODE_PEAK_FEATURES) if hint else 0)
 
 
-def model_max_nodes(agent: Any, default: int = 4) -> int:
-    """K_max of the model's observation (``len(BASE_FEATURES)`` + K_max node blocks of
-    :func:`node_width` features each); ``default`` if unknown."""
+def model_layout(agent: Any) -> Any:
+    """The observation layout of the model of ``agent`` (``agents.node_orders.NodeLayout``): the
+    multi-node env's with its env_kwargs' ``peak_hint`` (node blocks of :func:`node_width`) and,
+    with ``objective="energy_efficiency"``, the energy features after the node blocks, K_max
+    read from the observation's size; None without a model. ``ValueError`` naming the agent if
+    the size is not such a layout's."""
+    from agents.node_orders import exact_layout
     from ios_uav_env.envs.multi import BASE_FEATURES
+    from ios_uav_env.envs.observation_layout import ENERGY_NAMES
 
     shape = getattr(getattr(getattr(agent, "model", None), "observation_space", None), "shape", None)
     if shape is None:
-        return default
-    per_node = node_width(getattr(agent, "env_kwargs", {}))
-    k_max, extra = divmod(int(shape[0]) - len(BASE_FEATURES), per_node)
+        return None
+    kwargs = dict(getattr(agent, "env_kwargs", {}) or {})
+    per_node = node_width(kwargs)
+    energy = kwargs.get("objective") == "energy_efficiency"
+    after = len(ENERGY_NAMES) if energy else 0
+    k_max, extra = divmod(int(shape[0]) - len(BASE_FEATURES) - after, per_node)
     if extra or k_max < 1:
+        energy_part = f" + {after} energy features ({', '.join(ENERGY_NAMES)})" if energy else ""
         raise ValueError(
             f"{getattr(agent, 'name', 'agent')}: observations of shape {tuple(shape)} are not "
-            f"a multi-node env's ({len(BASE_FEATURES)} + {per_node} per node)"
+            f"a multi-node env's ({len(BASE_FEATURES)} + {per_node} per node{energy_part}, as its "
+            f"env_kwargs {kwargs} make)"
         )
-    return k_max
+    return exact_layout(k_max, bool(kwargs.get("peak_hint", False)), energy)
+
+
+def model_max_nodes(agent: Any, default: int = 4) -> int:
+    """K_max of the model's observation (:func:`model_layout`: ``len(BASE_FEATURES)`` + K_max
+    node blocks of :func:`node_width` features each, then the energy features with the energy
+    objective); ``default`` if unknown."""
+    layout = model_layout(agent)
+    return default if layout is None else layout.k_max
 
 
 def agent_max_nodes(agent: Any) -> int | None:

@@ -267,6 +267,15 @@ def _relabel_shares(
 
 
 def node_mask(obs: np.ndarray, k_max: int, node_width: int) -> np.ndarray:
-    """The node mask columns (1 for a node of the scenario) of raw multi-node observations (S, k_max)."""
+    """The node mask columns (1 for a node of the scenario) of raw multi-node observations (S, k_max):
+    ``mask_<k>``, the first of each of the ``k_max`` node blocks of ``node_width`` features after
+    ``BASE_FEATURES`` (what follows the blocks, the energy features of the energy objective, is
+    not read). ``ValueError`` if the observations are shorter than the blocks."""
     base = len(BASE_FEATURES)
-    return obs[:, base : base + k_max * node_width : node_width] > 0.5
+    end = base + k_max * node_width
+    if obs.ndim != 2 or obs.shape[1] < end:
+        raise ValueError(
+            f"obs: shape {obs.shape}; multi-node observations of {base} + {k_max} x {node_width} features "
+            "(or more after the node blocks) expected"
+        )
+    return obs[:, base:end:node_width] > 0.5

@@ -4,11 +4,13 @@ the node-permutation augmentation (:func:`permute_nodes`) and the training loop 
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from typing import Any
 
 import numpy as np
 
 from agents.expert import Dataset, node_mask
+from agents.node_orders import NodeLayout
 from ios_uav_env.envs.multi import BASE_FEATURES
 
 #: Weight of the move's squared error against a node score's: the trajectory is what the rates
@@ -29,20 +31,27 @@ def imitation_loss(mean: Any, labels: Any, mask: Any) -> tuple[Any, Any]:
 
 
 def permute_nodes(
-    obs: Any, labels: Any, mask: Any, valid: Any, k_max: int, width: int, generator: Any
+    obs: Any, labels: Any, mask: Any, valid: Any, k_max: int, width: int, generator: Any, extra: int = 0
 ) -> tuple:
     """A random order of each row's real nodes (torch): the node blocks of the raw observations
-    (after ``BASE_FEATURES``), the node scores of the labels and the ``mask`` columns, permuted
-    alike among the ``valid`` (real) node slots; padding slots stay last. The scenario is the
-    same one with its nodes numbered otherwise, so the labels stay right."""
+    (after ``BASE_FEATURES``; the ``extra`` features after the blocks, the energy features, stay
+    where they are), the node scores of the labels and the ``mask`` columns, permuted alike
+    among the ``valid`` (real) node slots; padding slots stay last. The scenario is the same one
+    with its nodes numbered otherwise, so the labels stay right."""
     import torch as th
 
     keys = th.rand(len(obs), k_max, generator=generator)
     keys[~valid] = 2.0  # padding sorts last, in its order
     order = keys.argsort(dim=1)
     base = len(BASE_FEATURES)
-    nodes = obs[:, base:].reshape(len(obs), k_max, width)
-    obs = th.cat([obs[:, :base], th.gather(nodes, 1, order[:, :, None].expand(-1, -1, width)).flatten(1)], 1)
+    end = base + k_max * width
+    if obs.shape[1] != end + extra:
+        raise ValueError(
+            f"obs: {obs.shape[1]} features; {base} + {k_max} x {width} + {extra} after the blocks expected"
+        )
+    nodes = obs[:, base:end].reshape(len(obs), k_max, width)
+    permuted = th.gather(nodes, 1, order[:, :, None].expand(-1, -1, width)).flatten(1)
+    obs = th.cat([obs[:, :base], permuted, obs[:, end:]], 1)
     labels = th.cat([labels[:, :2], th.gather(labels[:, 2:], 1, order)], 1)
     return obs, labels, th.gather(mask, 1, order)
 
@@ -72,11 +81,14 @@ def fit(
     seed: int = 0,
     progress: bool = True,
     permute: bool = False,
+    observation_names: Sequence[str] | None = None,
 ) -> dict[str, float]:
     """Fit ``model``'s (SB3 PPO) action mean to ``data``'s labels on observations normalised by
     ``vecnormalize`` (:func:`imitation_loss`, Adam with a one-cycle rate peaking at
     ``learning_rate``); the last epoch's mean losses. ``permute``: every batch sees its
-    scenarios with their nodes in a random order (:func:`permute_nodes`)."""
+    scenarios with their nodes in a random order (:func:`permute_nodes`), the node blocks read
+    from ``observation_names`` (the env's) if given, else from the sizes
+    (``agents.node_orders.NodeLayout``)."""
     import torch as th
     from tqdm.auto import tqdm
 
@@ -86,7 +98,15 @@ def fit(
     y = th.as_tensor(data.labels, dtype=th.float32)
     m = th.as_tensor(mask)
     k_max = m.shape[1]
-    width = (x.shape[1] - len(BASE_FEATURES)) // k_max
+    layout = (
+        NodeLayout.from_sizes(x.shape[1], y.shape[1])
+        if observation_names is None
+        else NodeLayout.from_names(observation_names, "the imitation fit")
+    )
+    layout.check_size(x.shape[1], "the imitation fit")
+    if layout.k_max != k_max:
+        raise ValueError(f"mask: {k_max} node columns, but the layout has k_max = {layout.k_max}")
+    width, extra = layout.width, layout.extra
     valid = th.as_tensor(node_mask(data.obs, k_max, width)) if permute else None
     normalize = obs_normalizer(vecnormalize)
     params = [*policy.mlp_extractor.policy_net.parameters(), *policy.action_net.parameters()]
@@ -102,7 +122,7 @@ def fit(
             idx = order[start : start + batch_size]
             xb, yb, mb = x[idx], y[idx], m[idx]
             if valid is not None:
-                xb, yb, mb = permute_nodes(xb, yb, mb, valid[idx], k_max, width, gen)
+                xb, yb, mb = permute_nodes(xb, yb, mb, valid[idx], k_max, width, gen, extra)
             xb = normalize(xb)  # after permuting
             features = policy.extract_features(xb, policy.pi_features_extractor)
             latent = policy.mlp_extractor.forward_actor(features)

@@ -156,6 +156,13 @@ class ImitationSettings:
             raise ValueError(f"env_kwargs: must be a dict of env arguments by name, got {self.env_kwargs!r}")
         if "max_nodes" in self.env_kwargs or "random_nodes" in self.env_kwargs:
             raise ValueError("env_kwargs: max_nodes and random_nodes are the random id's own (2 to 4 nodes)")
+        if self.env_kwargs.get("objective", "rate") != "rate":
+            raise ValueError(
+                f"env_kwargs: objective={self.env_kwargs['objective']!r}: the expert (the tour heuristic) "
+                "plans the max-min rate, and its scenarios have objective 'rate', which an env of another "
+                "objective refuses; train an energy-efficiency policy with PPO instead (agents.node_set's "
+                "NodeSetPolicy reads the energy features after the node blocks)"
+            )
         try:
             json.dumps(self.env_kwargs)
         except (TypeError, ValueError) as exc:
@@ -259,17 +266,21 @@ def _new_model(settings: ImitationSettings, env: Any, obs: np.ndarray) -> tuple[
     venv = VecNormalize(DummyVecEnv([lambda: env]), gamma=1.0, norm_obs=True, norm_reward=True)
     arch = list(settings.net_arch)
     if settings.policy == "node-set":
+        from agents.node_orders import NodeLayout
         from agents.node_set import NodeSetPolicy, pooled_statistics
 
         policy: Any = NodeSetPolicy
-        mean, var = pooled_statistics(obs, env.max_nodes, len(env.node_features))
+        layout = NodeLayout.from_names(env.observation_names, "the node-set policy")
+        mean, var = pooled_statistics(obs, layout.k_max, layout.width, layout.extra)
         arch_kwargs = dict(pi=arch, vf=list(ImitationSettings.net_arch))  # the critic: the MLP's
+        # the actor reads the layout by name (the energy features after the node blocks)
+        extra_kwargs: dict[str, Any] = {"observation_names": tuple(env.observation_names)}
     else:
         policy, mean, var = "MlpPolicy", obs.mean(0), obs.var(0)
-        arch_kwargs = dict(pi=arch, vf=arch)
+        arch_kwargs, extra_kwargs = dict(pi=arch, vf=arch), {}
     venv.obs_rms.mean, venv.obs_rms.var = mean.astype(np.float64), var.astype(np.float64)
     venv.obs_rms.count = float(len(obs))
-    kwargs = dict(net_arch=arch_kwargs, log_std_init=settings.log_std_init)
+    kwargs = dict(net_arch=arch_kwargs, log_std_init=settings.log_std_init, **extra_kwargs)
     model = PPO(policy, venv, gamma=1.0, policy_kwargs=kwargs, seed=settings.seed, device="cpu")
     return model, venv
 
@@ -378,7 +389,7 @@ def run(settings: ImitationSettings) -> dict[str, Any]:
         every, mask = _fit_data(settings, r, parts, plans, k_max, width)
         losses = fit(model, venv, every, mask, settings.epochs, settings.batch_size,
                      settings.learning_rate, settings.seed + r, settings.progress,
-                     permute=settings.permute)  # fmt: skip
+                     permute=settings.permute, observation_names=env.observation_names)  # fmt: skip
         _save(folder, model, venv, model_config(settings, round=r))
         ratio = data.ratio[: len(plans)]  # round 0: the clean pass
         summary["rounds"].append({
@@ -398,7 +409,7 @@ def run(settings: ImitationSettings) -> dict[str, Any]:
             every, mask = _fit_data(settings, last, parts, plans, k_max, width)
         losses = fit(model, venv, every, mask, settings.polish_epochs, settings.batch_size,
                      settings.polish_learning_rate, settings.seed + settings.rounds, settings.progress,
-                     permute=True)  # fmt: skip
+                     permute=True, observation_names=env.observation_names)  # fmt: skip
         summary["polish"] = {"after_round": last, "epochs": settings.polish_epochs, **losses,
                              "seconds": round(time.perf_counter() - start, 1)}  # fmt: skip
         print(f"polish: loss move {losses['move']:.4f} share {losses['share']:.4f}", flush=True)

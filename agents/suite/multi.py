@@ -16,7 +16,7 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Any
 
-from agents.evaluate_multi import fast_act, model_max_nodes, node_width
+from agents.evaluate_multi import fast_act, model_max_nodes
 from ios_uav_env.envs.registration import MULTINODE_IDS
 
 MULTI_SUITE = "multi-node-v1"
@@ -33,6 +33,18 @@ def suite_env_kwargs(agent: Any, max_nodes: int, suite: Any = MULTI_SUITE) -> di
     if MULTINODE_IDS.get(getattr(agent, "env_id", ""), {}).get("random_nodes") is None:
         kwargs.update(max_nodes=max_nodes, random_nodes=(min(2, max_nodes), max_nodes))
     return kwargs
+
+
+def suite_names(suite: Any, kwargs: dict[str, Any]) -> tuple[str, ...]:
+    """The ``observation_names`` of ``suite``'s env made with ``kwargs`` (the layout a policy of
+    the report reads, the energy features after the node blocks included)."""
+    import gymnasium as gym
+
+    env = gym.make(suite.env_id, **kwargs)
+    try:
+        return tuple(env.unwrapped.observation_names)
+    finally:
+        env.close()
 
 
 def multi_report(
@@ -67,7 +79,10 @@ def multi_report(
     if node_orders:
         from agents.node_orders import NodeOrderAverage
 
-        act, name = NodeOrderAverage(act, k_max, node_width(kwargs)), f"{name} (node orders averaged)"
+        act, name = (
+            NodeOrderAverage.for_layout(act, suite_names(loaded, kwargs)),
+            f"{name} (node orders averaged)",
+        )
     results = evaluate_scenarios(act, loaded, scenarios, kwargs, 0, name, allow_task_change=allow_task_change)
     print(results.markdown())
     if len(scenarios) < len(chosen):

@@ -5,8 +5,11 @@ slot equally between the nodes (equal scores: the softmax gives 1/K each). It re
 observation of ``MultiNodeEnv``: qF relative to the UAV (``dx_final``, ``dy_final``) and the
 number of node slots K_max (the ``mask_<k>`` features; the action has 2 + K_max entries). Bound to
 an env's layout (``bind(env.unwrapped.observation_names)``, as ``run_episode`` and ``evaluate``
-do) it reads them by name and is refused on a single-node env; unbound, it takes an observation
-of 12 + 6 K_max components (no peak hint) with qF's offset at components 2 and 3:
+do) it reads them by name, whatever else the layout holds (the peak hint, the energy features of
+``objective="energy_efficiency"`` after the node blocks), and is refused on a single-node env;
+unbound, it takes an observation of 12 + 6 K_max components (no peak hint, no energy features)
+with qF's offset at components 2 and 3 (an energy layout, 12 + 6 K_max + 4 or 12 + 9 K_max + 4
+long, is never that: refused):
 
 >>> import gymnasium as gym
 >>> import ios_uav_env
@@ -59,7 +62,9 @@ class StraightEqualShares(FeatureReader):
             if extra or k_max < 1:
                 raise ValueError(
                     f"obs must be a multi-node observation (12 + 6 K_max entries), got {obs.shape}: bind the "
-                    "policy to its env's layout (policy.bind(env.unwrapped.observation_names))"
+                    "policy to its env's layout (policy.bind(env.unwrapped.observation_names)); an unbound "
+                    "policy cannot tell the peak hint or the energy features (move_x, move_y, "
+                    "energy_weight, min_power_move) from node blocks"
                 )
             fx, fy = 2, 3
         else:
