@@ -101,6 +101,12 @@ def instance_values(config: ScenarioConfig) -> tuple[float, float, float, float,
     )
 
 
+#: ``hover_flight`` skips the guard where qF is within (moves left) D / _SLACK: a relative 2e-9
+#: inside the guard's reach disk ((moves left) D (1 - 1e-12)), far beyond any rounding of its
+#: distances (a few ulps), so the guard's answer (the target itself) is certain.
+_SLACK = (1.0 + 1e-9) / (1.0 - 1e-9)
+
+
 def hover_flight(config: ScenarioConfig, peak: Peak | None = None) -> np.ndarray:
     """The (N, 2) flight (m) of "fly to the reachable rate peak P at full speed and hover there"
     through the env's arrival guard (``guard.guarded_position``), which brings it to qF at slot
@@ -108,16 +114,23 @@ def hover_flight(config: ScenarioConfig, peak: Peak | None = None) -> np.ndarray
     ``peak``: P if known, else ``rate_peak(config)``."""
     p = rate_peak(config) if peak is None else peak
     d, final, slots = config.D, (float(config.qF[0]), float(config.qF[1])), config.N
-    px, py = p.x, p.y
+    (px, py), (fx, fy) = (p.x, p.y), final
     x, y = float(config.q0[0]), float(config.q0[1])
     path = np.empty((slots, 2))
     path[0] = x, y
     for n in range(1, slots):
         dx, dy = px - x, py - y
+        left = slots - 1 - n
+        if dx == 0.0 and dy == 0.0 and left > 0 and _SLACK * math.hypot(x - fx, y - fy) < left * d:
+            # hovering on P with qF within reach by far more than rounding: the guard would
+            # return its target (inside both of its disks), so skip the call
+            x, y = x + dx, y + dy
+            path[n] = x, y
+            continue
         norm = math.hypot(dx, dy)
         if norm > d:  # full speed towards P, then stop on it
             dx, dy = dx * d / norm, dy * d / norm
-        x, y = guarded_position((x, y), (x + dx, y + dy), final, d, slots - 1 - n)
+        x, y = guarded_position((x, y), (x + dx, y + dy), final, d, left)
         path[n] = x, y
     return path
 

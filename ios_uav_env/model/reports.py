@@ -32,6 +32,8 @@ __all__ = ["REPORT_SIGMA", "SERVED_SHARE", "measured_rates", "position_reports"]
 
 
 def _sigma(value: Any) -> float:
+    if type(value) is float and 0.0 <= value < math.inf:  # (the common case, checked per slot)
+        return value
     number = isinstance(value, (int, float)) and not isinstance(value, bool)
     if not (number and math.isfinite(value) and value >= 0):
         raise ValueError(f"sigma must be a finite number >= 0 (m), got {value!r}")
@@ -45,7 +47,7 @@ def position_reports(
     normals drawn from ``rng`` in C order, same shape."""
     s = _sigma(sigma)
     w = np.asarray(positions, dtype=float)
-    if w.ndim < 1 or w.shape[-1] != 2 or not np.all(np.isfinite(w)):
+    if w.ndim < 1 or w.shape[-1] != 2 or not np.isfinite(w).all():
         raise ValueError(f"positions must be a finite array of shape (..., 2) (m), got shape {w.shape}")
     return w + s * rng.standard_normal(w.shape)
 
