@@ -409,3 +409,31 @@ def test_a_fixed_scenario_is_a_family_with_equal_ends():
         check_fits(sample_scenario(seed), 400.0, True, random_env.observation_space)
     with pytest.raises(ValueError, match="does not fit"):
         check_fits(config.replace(T=150.0), 400.0, False, IOSUAVEnv(config).observation_space)
+
+
+@pytest.mark.parametrize(
+    "kwargs",
+    [
+        {},
+        {"peak_hint": True},
+        {"instance_features": False, "length_scale": 300.0},
+        {"objective": "energy_efficiency"},
+        {"motion": {"kind": "gauss_markov"}, "knowledge": "reports"},
+        {
+            "motion": {"kind": "gauss_markov", "speed": 4.0},
+            "knowledge": "rates",
+            "objective": "energy_efficiency",
+        },
+        {"focus": {"ground_x": (-150.0, 150.0)}, "focus_prob": 0.5},
+    ],
+    ids=lambda kw: ",".join(sorted(kw)) or "default",
+)
+def test_every_scenario_the_env_draws_fits_its_space(kwargs):
+    """The env checks a pinned scenario against its space, not its own draws (a reset would pay
+    the check each time): the space is built from the family the draws come from, so each draw
+    must pass the pinned scenario's check. Many draws of each kind of family, through the env's
+    own reset path."""
+    env = RandomIOSUAVEnv(**kwargs)
+    for seed in range(150):
+        cfg = env.begin_episode(seed, None)
+        env.check_scenario(cfg, f"draw {seed}")
