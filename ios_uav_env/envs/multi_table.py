@@ -205,16 +205,25 @@ def info_arrays(
     ``position`` (B, 2), ``shares``, ``node_rates`` and ``expected_node_rates`` (B, K_max),
     ``slot`` int64, ``feasible`` bool."""
     columns, end = table.T, len(INFO)
-    out = {key: columns[i] for i, key in enumerate(INFO) if not key.startswith("position")}
-    out["position"] = table[:, MINFO_POSITION]
-    out["slot"] = out["slot"].astype(np.int64)
-    out["feasible"] = out["feasible"] != 0.0
     node_rates = end + max_nodes
     more = node_rates + max_nodes
-    out["shares"], out["node_rates"] = table[:, end:node_rates], table[:, node_rates:more]
-    out.update({key: columns[more + j] for j, key in enumerate(MORE)})
-    out["expected_node_rates"] = table[:, more + len(MORE) :]
-    return {key: out[key] for key in keys}
+    blocks = {
+        "position": lambda: table[:, MINFO_POSITION],
+        "shares": lambda: table[:, end:node_rates],
+        "node_rates": lambda: table[:, node_rates:more],
+        "expected_node_rates": lambda: table[:, more + len(MORE) :],
+        "slot": lambda: columns[MINFO_SLOT].astype(np.int64),
+        "feasible": lambda: columns[MINFO_FEASIBLE] != 0.0,
+    }
+    out = {}
+    for key in keys:  # (only the keys asked for: the table holds every objective's columns)
+        if key in blocks:
+            out[key] = blocks[key]()
+        elif key in MORE:
+            out[key] = columns[more + MORE.index(key)]
+        else:
+            out[key] = columns[INFO.index(key)]
+    return out
 
 
 @functools.lru_cache(maxsize=256)
