@@ -207,22 +207,22 @@ def info_arrays(
     columns, end = table.T, len(INFO)
     node_rates = end + max_nodes
     more = node_rates + max_nodes
-    blocks = {
-        "position": lambda: table[:, MINFO_POSITION],
-        "shares": lambda: table[:, end:node_rates],
-        "node_rates": lambda: table[:, node_rates:more],
-        "expected_node_rates": lambda: table[:, more + len(MORE) :],
-        "slot": lambda: columns[MINFO_SLOT].astype(np.int64),
-        "feasible": lambda: columns[MINFO_FEASIBLE] != 0.0,
-    }
     out = {}
     for key in keys:  # (only the keys asked for: the table holds every objective's columns)
-        if key in blocks:
-            out[key] = blocks[key]()
-        elif key in MORE:
-            out[key] = columns[more + MORE.index(key)]
+        if key == "position":
+            out[key] = table[:, MINFO_POSITION]
+        elif key == "shares":
+            out[key] = table[:, end:node_rates]
+        elif key == "node_rates":
+            out[key] = table[:, node_rates:more]
+        elif key == "expected_node_rates":
+            out[key] = table[:, more + len(MORE) :]
+        elif key == "slot":
+            out[key] = columns[MINFO_SLOT].astype(np.int64)
+        elif key == "feasible":
+            out[key] = columns[MINFO_FEASIBLE] != 0.0
         else:
-            out[key] = columns[INFO.index(key)]
+            out[key] = columns[more + MORE.index(key)] if key in MORE else columns[INFO.index(key)]
     return out
 
 
