@@ -12,7 +12,6 @@ import gymnasium as gym
 import numpy as np
 import pytest
 from gymnasium.utils.env_checker import check_env, data_equivalence
-from gymnasium.vector import AutoresetMode
 
 from ios_uav_env import ScenarioConfig, propulsion_power, score_plan
 from ios_uav_env.envs.multi import (
@@ -31,6 +30,7 @@ from ios_uav_env.envs.multi_energy import (
 )
 from ios_uav_env.envs.multi_table import ENERGY_INFO_KEYS
 from ios_uav_env.model.schedule import node_rates, scheduled_rates
+from tests.envs.test_multi_vector import replay_gap
 
 FIXED, RANDOM = "ios_uav_env/IOSUAV-MultiNode-v0", "ios_uav_env/IOSUAV-MultiNode-Random-v0"
 MOBILE = "ios_uav_env/IOSUAV-MultiNode-Mobile-v0"
@@ -231,46 +231,12 @@ def test_a_seed_reproduces_an_episode_bit_for_bit(env_id):
 
 
 def _replay(env_id: str, mode: str, n: int = 3, steps: int = 110) -> float:
-    """Step the batched env and SyncVectorEnv of single envs side by side; the largest gap of
-    observations, rewards and every info key (final ones included); flags equal."""
-    sync = AutoresetMode.SAME_STEP if mode == "same_step" else AutoresetMode.NEXT_STEP
-    vec = gym.make_vec(
-        env_id, n, vectorization_mode="vector_entry_point", autoreset_mode=mode, **KWARGS[env_id]
-    )
-    ref = gym.make_vec(env_id, n, vectorization_mode="sync", vector_kwargs={"autoreset_mode": sync},
-                       **KWARGS[env_id])  # fmt: skip
-    keys = vec.unwrapped.info_keys
-    assert keys == MULTI_INFO_KEYS + ENERGY_INFO_KEYS
-
-    def gap(a: dict, b: dict, rows: np.ndarray) -> float:
-        worst = 0.0
-        for key in keys:
-            x, y = np.asarray(a[key])[rows], np.asarray(b[key])[rows]
-            if key == "feasible" or x.dtype == np.int64:
-                np.testing.assert_array_equal(x, y.astype(x.dtype), err_msg=key)
-            else:
-                worst = max(worst, float(np.abs(x - y).max()))
-        return worst
-
-    (obs, info), (obs_ref, info_ref) = vec.reset(seed=11), ref.reset(seed=11)
-    worst, every = (
-        max(float(np.abs(obs - obs_ref).max()), gap(info, info_ref, np.ones(n, bool))),
-        np.ones(n, bool),
-    )
-    rng, ended = np.random.default_rng(11), 0
-    for _ in range(steps):
-        actions = rng.uniform(-1.3, 1.3, (n, *vec.single_action_space.shape))
-        obs, reward, term, _, info = vec.step(actions)
-        obs_ref, reward_ref, term_ref, _, info_ref = ref.step(actions)
-        assert vec.observation_space.contains(obs)
-        np.testing.assert_array_equal(term, term_ref)
-        worst = max(worst, float(np.abs(obs - obs_ref).max()), float(np.abs(reward - reward_ref).max()))
-        worst = max(worst, gap(info, info_ref, every))
-        if mode == "same_step" and term.any():
-            worst = max(worst, gap(info["final_info"], info_ref["final_info"], term))
-        ended += int(term.sum())
-    assert ended >= 2 * n
-    return worst
+    """The batched env and SyncVectorEnv of single envs side by side (``replay_gap``: the largest
+    gap of observations, rewards and every info key, final ones included; flags equal), after
+    checking that info has this objective's and channel's keys."""
+    vec = gym.make_vec(env_id, n, vectorization_mode="vector_entry_point", **KWARGS[env_id])
+    assert vec.unwrapped.info_keys == MULTI_INFO_KEYS + ENERGY_INFO_KEYS
+    return replay_gap(env_id, mode, steps=steps, n=n, seed=11, kwargs=KWARGS[env_id])
 
 
 @pytest.mark.parametrize(

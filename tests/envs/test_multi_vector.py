@@ -32,13 +32,20 @@ def make_vec(env_id: str, num_envs: int, **kwargs) -> MultiNodeVectorEnv:
 
 
 def replay_gap(
-    env_id: str, mode: str, steps: int = 130, n: int = 3, seed: int = 7, extra: dict | None = None
+    env_id: str,
+    mode: str,
+    steps: int = 130,
+    n: int = 3,
+    seed: int = 7,
+    extra: dict | None = None,
+    kwargs: dict | None = None,
 ) -> float:
     """Step the batched env and Gymnasium's SyncVectorEnv of n single envs with the same seeds and
     random actions; return the largest difference of observations, rewards and every info
     value (final ones included). Asserts equal flags, dtypes and shapes, and the trajectories
-    and shares of every finished episode."""
-    kwargs = {**KWARGS[env_id], **(extra or {})}
+    and shares of every finished episode. ``kwargs``: the envs' keywords (default: this module's
+    ``KWARGS[env_id]``), updated with ``extra``."""
+    kwargs = {**(KWARGS[env_id] if kwargs is None else kwargs), **(extra or {})}
     sync_mode = AutoresetMode.SAME_STEP if mode == "same_step" else AutoresetMode.NEXT_STEP
     vec = make_vec(env_id, n, autoreset_mode=mode, **kwargs)
     ref = gym.make_vec(
@@ -78,10 +85,14 @@ def replay_gap(
 
 
 def info_gap(info: dict, ref: dict, rows: np.ndarray) -> float:
-    """Largest difference of the ``MULTI_INFO_KEYS`` of ``info`` and ``ref`` on ``rows`` (same
-    dtypes, shapes and masks asserted; SyncVectorEnv stacks ``np.bool_`` as objects)."""
+    """Largest difference of every info key of ``info`` and ``ref`` on ``rows`` (the same keys, at
+    least ``MULTI_INFO_KEYS``; same dtypes, shapes and masks asserted; SyncVectorEnv stacks
+    ``np.bool_`` as objects)."""
     gap = 0.0
-    for key in MULTI_INFO_KEYS:
+    keys = [k for k in info if not k.startswith("_") and k not in ("final_obs", "final_info")]
+    assert set(MULTI_INFO_KEYS) <= set(keys)
+    assert set(keys) == {k for k in ref if not k.startswith("_") and k not in ("final_obs", "final_info")}
+    for key in keys:
         a, b = info[key], ref[key]
         b = b.astype(np.bool_) if key == "feasible" and b.dtype == object else b
         assert a.dtype == b.dtype and a.shape == b.shape, key
