@@ -10,10 +10,23 @@ with a ``kind`` (``{"kind": "gauss_markov", "speed": 3.0}``) or the object itsel
 from __future__ import annotations
 
 import dataclasses
+import math
+import numbers
 from collections.abc import Callable, Mapping
 from typing import Any, ClassVar, Generic, TypeVar
 
-__all__ = ["Component", "Registry"]
+__all__ = ["Component", "Registry", "finite_number"]
+
+
+def finite_number(value: Any, name: str, *, positive: bool, unit: str) -> float:
+    """``value`` as a float, or ``ValueError`` naming the field ``name`` and its range (a finite
+    number > 0 when ``positive``, else >= 0; ``unit`` as the message writes it)."""
+    ok = isinstance(value, numbers.Real) and not isinstance(value, bool) and math.isfinite(value)
+    if not ok or (value <= 0 if positive else value < 0):
+        raise ValueError(
+            f"{name} must be a finite number {'> 0' if positive else '>= 0'} ({unit}), got {value!r}"
+        )
+    return float(value)
 
 
 @dataclasses.dataclass(frozen=True)

@@ -9,11 +9,9 @@ rate only). The env options are ``knowledge``, ``report_sigma`` and ``filter_est
 from __future__ import annotations
 
 import dataclasses
-import math
-import numbers
 from typing import Any, ClassVar
 
-from ios_uav_env.components.base import Component, Registry
+from ios_uav_env.components.base import Component, Registry, finite_number
 from ios_uav_env.model.reports import REPORT_SIGMA
 
 __all__ = ["KNOWLEDGE", "Exact", "Filtered", "Knowledge", "MeasuredRates", "Reports"]
@@ -58,10 +56,9 @@ class Reports(Knowledge):
     sigma: float = REPORT_SIGMA
 
     def __post_init__(self) -> None:
-        s = self.sigma
-        if not (isinstance(s, numbers.Real) and not isinstance(s, bool) and math.isfinite(s) and s >= 0):
-            raise ValueError(f"knowledge.sigma must be a finite number >= 0 (m), got {s!r}")
-        object.__setattr__(self, "sigma", float(s))
+        object.__setattr__(
+            self, "sigma", finite_number(self.sigma, "knowledge.sigma", positive=False, unit="m")
+        )
 
     def option_fields(self) -> dict[str, Any]:
         out: dict[str, Any] = {"knowledge": "reports"}

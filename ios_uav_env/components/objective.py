@@ -10,11 +10,9 @@ The config fields are ``objective`` and ``energy_budget_j``.
 from __future__ import annotations
 
 import dataclasses
-import math
-import numbers
 from typing import Any, ClassVar
 
-from ios_uav_env.components.base import Component, Registry
+from ios_uav_env.components.base import Component, Registry, finite_number
 
 __all__ = ["OBJECTIVES", "EnergyEfficiency", "Objective", "Rate"]
 
@@ -29,12 +27,9 @@ class Objective(Component):
     budget_j: float | None = None
 
     def __post_init__(self) -> None:
-        b = self.budget_j
-        if b is not None:
-            ok = isinstance(b, numbers.Real) and not isinstance(b, bool) and math.isfinite(b) and b > 0
-            if not ok:
-                raise ValueError(f"objective.budget_j must be None or a finite number > 0 (J), got {b!r}")
-            object.__setattr__(self, "budget_j", float(b))
+        if self.budget_j is not None:  # (None: no budget)
+            budget = finite_number(self.budget_j, "objective.budget_j", positive=True, unit="J; or None")
+            object.__setattr__(self, "budget_j", budget)
 
     def config_fields(self) -> dict[str, Any]:
         """The ``ScenarioConfig`` fields this objective sets."""

@@ -41,8 +41,14 @@ def test_unknown_parameter_is_named():
 @pytest.mark.parametrize(
     ("world", "message"),
     [
-        ({"objective": {"kind": "rate", "budget_j": -1.0}}, r"objective.budget_j must be None or a finite"),
-        ({"objective": {"kind": "rate", "budget_j": True}}, r"objective.budget_j must be None or a finite"),
+        (
+            {"objective": {"kind": "rate", "budget_j": -1.0}},
+            r"objective.budget_j must be a finite number > 0 \(J; or None\)",
+        ),
+        (
+            {"objective": {"kind": "rate", "budget_j": True}},
+            r"objective.budget_j must be a finite number > 0 \(J; or None\)",
+        ),
         ({"knowledge": {"kind": "reports", "sigma": float("nan")}}, r"knowledge.sigma must be a finite"),
         ({"link": {"kind": "single_antenna", "fading": "rayleigh"}}, r"link.fading must be one of"),
         (
