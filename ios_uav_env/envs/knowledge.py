@@ -69,6 +69,7 @@ __all__ = [
     "REPORT_CLIP",
     "NodeTrack",
     "NodesTrack",
+    "filter_report",
     "mobile_bounds",
     "node_extent",
     "nodes_extent",
@@ -147,12 +148,19 @@ def _reported(
     report = position_reports(track.paths[slot], rng, sigma)
     told = track.reports[slot] = np.clip(report, track.lo, track.hi)
     if estimate:
-        if track.filter is None:
-            track.filter = NodeFilter.start(track.config, report, max(sigma, EXACT_SIGMA))
-        else:
-            track.filter.step(report)
-        told = np.clip(track.filter.position, track.lo, track.hi)
+        told = filter_report(track, report, sigma)
     return told
+
+
+def filter_report(track: NodeTrack | NodesTrack, report: np.ndarray, sigma: float) -> np.ndarray:
+    """(K, 2) m: the Kalman filter's estimate after the raw ``report`` (K, 2) of the slot (the
+    filter started on the episode's first report, as MPC runs it), clipped to the track's report
+    box (``filter_estimate``)."""
+    if track.filter is None:
+        track.filter = NodeFilter.start(track.config, report, max(sigma, EXACT_SIGMA))
+    else:
+        track.filter.step(report)
+    return np.clip(track.filter.position, track.lo, track.hi)
 
 
 def node_extent(ranges: ScenarioRanges, sigma: float) -> tuple[tuple[float, float], tuple[float, float]]:

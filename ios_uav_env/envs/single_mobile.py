@@ -116,6 +116,12 @@ class MobileNode:
             obs[10] = rate
 
     @property
+    def rate_clip(self) -> float:
+        """bps/Hz, where a measured rate is clipped in the observation (the space's rate bound;
+        inf for a static, exactly known node)."""
+        return self._rate_clip
+
+    @property
     def track(self) -> NodeTrack | None:
         """The episode's node track (``knowledge.NodeTrack``: the true path, each slot's rate kernel
         in ``nodes`` / ``params``, the reports and measured rates), drawn by :meth:`start_track`;

@@ -23,6 +23,8 @@ from typing import Any
 import numpy as np
 
 from ios_uav_env.envs.batched import AUTORESET_MODES, BatchedEnv, check_threads
+from ios_uav_env.envs.knowledge import filter_report
+from ios_uav_env.envs.knowledge_kernels import DRAWS, MODES, gather_slot_kernels, observe_rows, row_list
 from ios_uav_env.envs.random_env import RandomIOSUAVEnv
 from ios_uav_env.envs.single import INFO_KEYS, IOSUAVEnv
 from ios_uav_env.envs.single_kernels import INFO, STATE, fly_rows, reset_rows, step_rows, step_rows_batched
@@ -63,9 +65,27 @@ class IOSUAVVectorEnv(BatchedEnv):
         # rows whose scenario is the env's own (not pinned, not drawn): see _load_row
         self._plain = np.zeros(b, dtype=np.bool_)
         self._q0 = np.asarray(template.base_config.q0, dtype=np.float64)
-        # a moving or roughly known node: per-row kernels per slot and observations by the
-        # rows' template envs (Python per row and slot: ios_uav_env.envs.knowledge)
+        # a moving or roughly known node: each row's track (its kernels per slot, its truth and
+        # records) and what its UAV is told per slot, for all rows in one compiled call
+        # (ios_uav_env.envs.knowledge_kernels; the draws from each row's template env)
         self._mobile = template.mobile
+        if self._mobile:
+            options = template.options
+            self._knowledge = MODES[options.knowledge]
+            self._draws = DRAWS[options.knowledge]
+            self._sigma = float(options.report_sigma)
+            self._rate_high = float(template.rate_clip)
+            self._scale = float(options.length_scale)
+            self._estimate = options.knowledge == "reports" and options.filter_estimate
+            self._slot_normals = np.zeros((b, 4))
+            self._raw = np.zeros((b, 2))
+            self._lo = np.zeros((b, 2))
+            self._hi = np.zeros((b, 2))
+            self._track_paths = row_list(np.zeros((1, 1, 2)), b)
+            self._track_reports = row_list(np.zeros((1, 1, 2)), b)
+            self._track_measured = row_list(np.zeros(1), b)
+            self._track_nodes = row_list(np.zeros((1, 3, 1)), b)
+            self._track_params = row_list(np.zeros((1, template.kernel.params.size)), b)
 
     # --- rows -----------------------------------------------------------------------
     def _load_row(self, i: int, env: IOSUAVEnv) -> None:
@@ -84,7 +104,12 @@ class IOSUAVVectorEnv(BatchedEnv):
         # the energy objective, the episode's lambda_ref in env.episode_row (copied below)
         if self._mobile:
             env.start_track(env.config)
-            self._nodes[i, :, :k], self._params[i] = env.track.nodes[0], env.track.params[0]
+            track = env.track
+            self._nodes[i, :, :k], self._params[i] = track.nodes[0], track.params[0]
+            self._track_paths[i], self._track_reports[i] = track.paths, track.reports
+            self._track_measured[i], self._track_nodes[i] = track.measured, track.nodes
+            self._track_params[i] = track.params
+            self._lo[i], self._hi[i] = track.lo, track.hi
         self._episode[i] = env.episode_row
         self._state[i, 0:2] = self._path[i, 0] = env.config.q0
         # the env's own scenario object (a fixed id's): a plain reset keeps it. A pinned
@@ -98,8 +123,26 @@ class IOSUAVVectorEnv(BatchedEnv):
         reset_rows(rows, self._state, self._episode, self._nodes, self._params, self._normals, self._flags,
                    self._obs, self._info)  # fmt: skip
         if self._mobile:
-            for i in rows:
-                self.envs[i].observe_slot(0, self._state[i, 0:2], self._obs[i])
+            self._observe_rows(rows)
+
+    def _observe_rows(self, rows: np.ndarray) -> None:
+        """What each row's UAV is told of its node in its current slot, as the single env's
+        ``observe_slot`` (``knowledge.observe_slot``), bit for bit: per row, the slot's normals in
+        one draw of its generator, then one compiled call for all ``rows``
+        (``knowledge_kernels.observe_rows``); the Kalman filter (``filter_estimate``) per row."""
+        rows = np.asarray(rows, dtype=np.int64)
+        draws, normals, envs = self._draws, self._slot_normals, self.envs
+        if draws:
+            for i in rows.tolist():
+                envs[i].np_random.standard_normal(out=normals[i, :draws])
+        observe_rows(rows, self._state, self._track_paths, self._track_reports, self._track_measured,
+                     self._track_nodes, self._track_params, self._lo, self._hi, normals, self._knowledge,
+                     self._sigma, self._rate_high, self._scale, not self._estimate, self._obs,
+                     self._raw)  # fmt: skip
+        if self._estimate:
+            for i in rows.tolist():
+                told = filter_report(envs[i].track, self._raw[i : i + 1].copy(), self._sigma)
+                self._obs[i, 4:6] = (told[0] - self._state[i, 0:2]) / self._scale
 
     def _restart_rows(self, rows: np.ndarray) -> None:
         """New episodes on ``rows`` without a seed or options (autoreset, :meth:`restart`). A row
@@ -154,12 +197,9 @@ class IOSUAVVectorEnv(BatchedEnv):
     def _step_kernel(self, actions: np.ndarray, active: np.ndarray) -> None:
         """One slot of the ``active`` rows (the kernel checks that their actions are finite)."""
         stepping = np.flatnonzero(active)
-        if self._mobile:  # each row's kernel of the slot it flies to
-            for i in stepping:
-                track, slot = self.envs[i].track, int(self._state[i, 2]) + 1
-                if slot < len(track.params):  # (a row at its end is refused by the kernel below)
-                    k = track.nodes.shape[2]
-                    self._nodes[i, :, :k], self._params[i] = track.nodes[slot], track.params[slot]
+        if self._mobile:  # each row's kernel of the slot it flies to (a row at its end is refused below)
+            gather_slot_kernels(stepping, self._state, self._track_nodes, self._track_params, self._nodes,
+                                self._params)  # fmt: skip
         if self._rician:
             for i in stepping:
                 self._normals[i] = self.envs[i].np_random.standard_normal(2)
@@ -172,8 +212,7 @@ class IOSUAVVectorEnv(BatchedEnv):
             rows = np.flatnonzero(~np.isfinite(actions).all(axis=1))
             raise ValueError(f"actions must be finite (no NaN or inf); rows {rows.tolist()[:10]} are not")
         if self._mobile:
-            for i in stepping:
-                self.envs[i].observe_slot(int(self._state[i, 2]), self._state[i, 0:2], self._obs[i])
+            self._observe_rows(stepping)
 
 
 class RandomIOSUAVVectorEnv(IOSUAVVectorEnv):

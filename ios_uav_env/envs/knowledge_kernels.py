@@ -1,0 +1,180 @@
+"""Compiled observation of the moving-node rows of the batched single-node env.
+
+``IOSUAVVectorEnv`` with a moving or roughly known node tells every row what its UAV learns of
+the node after each slot (``ios_uav_env.envs.knowledge.observe_slot``, the single env's per-row
+path) in one compiled call over the rows: :func:`observe_rows`. The draws stay each row's own:
+per row, the batched env draws the slot's normals in ONE ``standard_normal(k)`` call of the row's
+generator (:data:`DRAWS`: the report's two, then the measured rate's two; numpy's Generator
+gives one call of four the stream of two calls of two), and the kernel does the per-row
+arithmetic as the per-row path does (the report ``w + s e`` and its clip and the position
+features in IEEE arithmetic, the faded rate with ``channel.faded_row``'s own flags), so the
+rows equal the single env's bit for bit (tested, with and without numba). The Kalman filter of
+``filter_estimate`` stays Python per row (``knowledge.filter_report`` on the raw reports the
+kernel leaves in ``raw``). :func:`gather_slot_kernels` copies each row's rate kernel of the slot
+it flies to out of its track.
+
+The rows' tracks are held as lists of their arrays (:func:`row_list`: a numba typed list, or a
+plain list without numba), set once per episode and row; the kernels write the track records
+(``reports``, ``measured``) in place.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+from ios_uav_env.jit import HAVE_NUMBA, jit
+from ios_uav_env.model.channel import faded_row
+
+__all__ = [
+    "DRAWS",
+    "MODES",
+    "gather_slot_kernels",
+    "measure_rates",
+    "observe_rows",
+    "row_list",
+    "tell_positions",
+]
+
+#: knowledge -> the kernel's mode code
+MODES = {"exact": 0, "reports": 1, "rates": 2}
+#: knowledge -> normals drawn per slot (the report's two, then the measured rate's two)
+DRAWS = {"exact": 0, "reports": 4, "rates": 2}
+
+
+def row_list(template: np.ndarray, size: int) -> Any:
+    """A list of ``size`` arrays, each ``template`` until set, that the kernels take: a numba typed
+    list of ``template``'s array type (the compiled kernels), or a plain list."""
+    if not HAVE_NUMBA:
+        return [template] * size
+    from numba.typed import List
+
+    out = List()
+    for _ in range(size):
+        out.append(template)
+    return out
+
+
+def observe_rows(
+    rows: np.ndarray,
+    state: np.ndarray,
+    paths: Any,
+    reports: Any,
+    measured: Any,
+    nodes: Any,
+    params: Any,
+    lo: np.ndarray,
+    hi: np.ndarray,
+    normals: np.ndarray,
+    mode: int,
+    sigma: float,
+    rate_high: float,
+    scale: float,
+    positions: bool,
+    obs: np.ndarray,
+    raw: np.ndarray,
+) -> None:
+    """What the UAV of each row in ``rows`` (int64) is told of its node in its current slot
+    (``state[i, 2]``, 0-based), as ``knowledge.observe_slot`` tells it (module docstring).
+
+    Row i's track: ``paths[i]`` (N, 1, 2), ``reports[i]`` (N, 1, 2) and ``measured[i]`` (N,) (the
+    records, written in place), ``nodes[i]`` / ``params[i]`` its kernels per slot, ``lo[i]`` /
+    ``hi[i]`` its report clip; ``normals[i]`` the slot's draws (``DRAWS``). ``mode``:
+    ``MODES``; ``sigma`` the report std, ``rate_high`` the measured rate's clip, ``scale`` the
+    observation's length scale. Writes the node features (4-5; unless ``positions`` is False:
+    the filter's, written after) and, unless knowledge is exact, the rate feature (10) of
+    ``obs[i]``, and the raw report in ``raw[i]`` (``"reports"``).
+
+    Two compiled calls, neither inlined into the other: :func:`tell_positions` in IEEE
+    arithmetic (as numpy computes a report and a feature) and :func:`measure_rates` with the
+    kernels' fast-math flags (those ``channel.faded_row`` has when called from Python; inlined
+    into an IEEE function it rounds differently)."""
+    if mode != 2 or positions:
+        tell_positions(rows, state, paths, reports, lo, hi, normals, mode, sigma, scale, positions, obs, raw)
+    if mode != 0:
+        measure_rates(rows, state, measured, nodes, params, normals, 2 if mode == 1 else 0, rate_high, obs)
+
+
+@jit(fastmath=False)
+def tell_positions(
+    rows: np.ndarray,
+    state: np.ndarray,
+    paths: Any,
+    reports: Any,
+    lo: np.ndarray,
+    hi: np.ndarray,
+    normals: np.ndarray,
+    mode: int,
+    sigma: float,
+    scale: float,
+    positions: bool,
+    obs: np.ndarray,
+    raw: np.ndarray,
+) -> None:
+    """The node features of :func:`observe_rows` (and the reports), in IEEE arithmetic."""
+    for j in range(rows.size):
+        i = rows[j]
+        if mode == 2:
+            obs[i, 4] = 0.0
+            obs[i, 5] = 0.0
+            continue
+        slot = int(state[i, 2])
+        path = paths[i]
+        px, py = path[slot, 0, 0], path[slot, 0, 1]
+        if mode == 1:
+            rx = px + sigma * normals[i, 0]
+            ry = py + sigma * normals[i, 1]
+            raw[i, 0], raw[i, 1] = rx, ry
+            px = min(max(rx, lo[i, 0]), hi[i, 0])
+            py = min(max(ry, lo[i, 1]), hi[i, 1])
+            report = reports[i]
+            report[slot, 0, 0], report[slot, 0, 1] = px, py
+        if positions:
+            obs[i, 4] = (px - state[i, 0]) / scale
+            obs[i, 5] = (py - state[i, 1]) / scale
+
+
+@jit
+def measure_rates(
+    rows: np.ndarray,
+    state: np.ndarray,
+    measured: Any,
+    nodes: Any,
+    params: Any,
+    normals: np.ndarray,
+    first: int,
+    rate_high: float,
+    obs: np.ndarray,
+) -> None:
+    """The measured rates of :func:`observe_rows` (``normals[i, first:first + 2]``), recorded
+    unclipped and told clipped to ``rate_high``."""
+    for j in range(rows.size):
+        i = rows[j]
+        slot = int(state[i, 2])
+        rate = faded_row(
+            state[i, 0], state[i, 1], normals[i, first], normals[i, first + 1], nodes[i], params[i], slot
+        )
+        measured[i][slot] = rate
+        obs[i, 10] = rate_high if rate_high < rate else rate
+
+
+@jit(fastmath=False)
+def gather_slot_kernels(
+    rows: np.ndarray,
+    state: np.ndarray,
+    track_nodes: Any,
+    track_params: Any,
+    nodes: np.ndarray,
+    params: np.ndarray,
+) -> None:
+    """Copy each row's rate kernel of the slot it flies to (``state[i, 2] + 1``) out of its track
+    (``track_nodes[i]`` (N, 3, k), ``track_params[i]`` (N, P)) into ``nodes[i, :, :k]`` /
+    ``params[i]``; a row at its episode's end is left as it is (the step refuses it)."""
+    for j in range(rows.size):
+        i = rows[j]
+        slot = int(state[i, 2]) + 1
+        kernel = track_nodes[i]
+        if slot < kernel.shape[0]:
+            nodes[i, :, : kernel.shape[2]] = kernel[slot]
+            params[i, :] = track_params[i][slot]

@@ -1,0 +1,92 @@
+"""The moving-node batched env's compiled observation (ios_uav_env/envs/knowledge_kernels.py)
+equals the single env's per-row path (knowledge.observe_slot) bit for bit: observations, reports,
+measured rates and the filtered estimates, across episode ends; compiled and plain Python."""
+
+from __future__ import annotations
+
+import os
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+from ios_uav_env.envs.random_env import RandomIOSUAVEnv
+from ios_uav_env.envs.single_vector import RandomIOSUAVVectorEnv
+
+CASES = [
+    {"knowledge": "reports"},
+    {"knowledge": "reports", "filter_estimate": True},
+    {"knowledge": "rates"},
+    {"knowledge": "exact"},
+    {"knowledge": "exact", "channel": "rician"},
+    {"knowledge": "reports", "report_sigma": 40.0, "filter_estimate": True},
+]
+
+
+def same(a: np.ndarray, b: np.ndarray) -> bool:
+    """Equal bit for bit (NaN where the other is NaN)."""
+    return a.shape == b.shape and a.dtype == b.dtype and a.tobytes() == b.tobytes()
+
+
+def check_rows(kwargs: dict, rows: int = 3, steps: int = 90, seed: int = 11) -> int:
+    """Step a batch and its rows' single envs with the same actions (the singles reset as the
+    batch's NEXT_STEP autoreset does) and assert every output and track record equal bit for
+    bit; returns the number of episode ends seen."""
+    kwargs = {"ranges": {"T": (40.0, 60.0)}, "motion": {"kind": "gauss_markov"}, **kwargs}
+    vec = RandomIOSUAVVectorEnv(rows, **kwargs)
+    singles = [RandomIOSUAVEnv(**kwargs) for _ in range(rows)]
+    actions = np.random.default_rng(seed).uniform(-1.2, 1.2, (steps, rows, 2))
+    obs, _ = vec.reset(seed=seed)
+    for i, env in enumerate(singles):
+        assert same(env.reset(seed=seed + i)[0], obs[i])
+    pending, ends = [False] * rows, 0
+    for t in range(steps):
+        obs, reward, terminated, _, _ = vec.step(actions[t])
+        for i, env in enumerate(singles):
+            if pending[i]:
+                o, r = env.reset()[0], 0.0
+                pending[i] = False
+            else:
+                o, r, term, _, _ = env.step(actions[t, i])
+                pending[i], ends = term, ends + term
+            assert same(o, obs[i]), (t, i, o, obs[i])
+            # (the reward is the step kernel's, not the observation's: the batch's parallel kernel on
+            # padded rows and the single env's agree to rounding, as test_single_vector checks)
+            assert abs(r - reward[i]) <= 1e-9
+            mine, theirs = vec.envs[i].track, env.track
+            assert same(mine.reports, theirs.reports) and same(mine.measured, theirs.measured)
+            if kwargs.get("filter_estimate"):
+                assert same(mine.filter.position, theirs.filter.position)
+    return ends
+
+
+@pytest.mark.parametrize("kwargs", CASES)
+def test_compiled_observation_equals_the_per_row_path(kwargs):
+    assert check_rows(kwargs) > 0  # (the episodes end: the autoreset's observations are compared too)
+
+
+def test_plain_python_observation_equals_the_per_row_path():
+    """Under IOS_UAV_ENV_NO_NUMBA=1 (plain-Python kernels) the batch equals its singles too."""
+    code = (
+        "import runpy, ios_uav_env.jit as j\n"
+        "assert not j.HAVE_NUMBA\n"
+        f"check = runpy.run_path({__file__!r})['check_rows']\n"
+        f"for kwargs in {CASES!r}:\n"
+        "    assert check(kwargs, rows=2, steps=60) > 0\n"
+    )
+    env = {**os.environ, "IOS_UAV_ENV_NO_NUMBA": "1"}
+    run = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True)
+    assert run.returncode == 0, run.stderr[-3000:]
+
+
+def test_one_call_of_four_normals_is_two_calls_of_two():
+    """The batch draws a slot's report and measured-rate normals in one call per row: numpy's
+    Generator gives one call of four the stream of two calls of two (and ``out=`` the same)."""
+    a, b, c = (np.random.default_rng(3) for _ in range(3))
+    out = np.zeros((2, 4))
+    for _ in range(5):
+        c.standard_normal(out=out[1, :4])
+        one = a.standard_normal(4)
+        assert same(one, np.concatenate([b.standard_normal(2), b.standard_normal(2)]))
+        assert same(one, out[1])
