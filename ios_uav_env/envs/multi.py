@@ -345,7 +345,8 @@ class MultiNodeEnv(MobileNodes, EnergyChannel, gym.Env):
         self._action, self._norm = np.zeros((1, 2 + self.max_nodes)), np.zeros(1)
         self._obs = np.zeros((1, low.size), dtype=np.float32)
         self._reward, self._terminated = np.zeros(1), np.zeros(1, dtype=np.bool_)
-        self._table = np.zeros((1, info_columns(self.max_nodes)))
+        more = self.energy_objective or self.options.channel == "rician"  # (their info columns)
+        self._table = np.zeros((1, info_columns(self.max_nodes, more)))
         self._started = False
 
     # --- options (read-only views of self.options, as on IOSUAVEnv) -------------------------

@@ -242,17 +242,22 @@ def _info(info: np.ndarray, i: int, state: np.ndarray, episode: np.ndarray, shar
     # the blocks after INFO: shares, node_rates, MORE, expected_node_rates (multi_table.info_arrays)
     node_rates, more = N_MINFO + k_max, N_MINFO + 2 * k_max
     expected_rates = more + N_MORE
+    # MORE and expected_node_rates only where the table has them (the energy objective, channel
+    # "rician": multi_table.info_columns)
+    extended = row.shape[0] > more
     low = math.inf
     for k in range(k_max):
         row[N_MINFO + k] = shares[i, k] if k < k_n else 0.0
         row[node_rates + k] = served[i, k] / n_slots if k < k_n else 0.0
-        row[expected_rates + k] = expected[i, k] / n_slots if k < k_n else 0.0
+        if extended:
+            row[expected_rates + k] = expected[i, k] / n_slots if k < k_n else 0.0
         if k < k_n:
             low = min(low, expected[i, k])
-    energy = st[MST_ENERGY]
-    row[more + MORE_POWER], row[more + MORE_ENERGY] = power, energy
-    row[more + MORE_REWARD_ENERGY], row[more + MORE_EXPECTED_MIN_RATE] = r_energy, low / n_slots
-    row[more + MORE_ENERGY_EFFICIENCY] = ep[MEP_BITS_SCALE] * low / energy if energy > 0.0 else 0.0
+    if extended:
+        energy = st[MST_ENERGY]
+        row[more + MORE_POWER], row[more + MORE_ENERGY] = power, energy
+        row[more + MORE_REWARD_ENERGY], row[more + MORE_EXPECTED_MIN_RATE] = r_energy, low / n_slots
+        row[more + MORE_ENERGY_EFFICIENCY] = ep[MEP_BITS_SCALE] * low / energy if energy > 0.0 else 0.0
 
 
 @jit(inline=True, fastmath=False)

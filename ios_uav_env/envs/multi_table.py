@@ -193,9 +193,10 @@ def info_keys(energy: bool = False, rician: bool = False) -> tuple[str, ...]:
     return MULTI_INFO_KEYS + (ENERGY_INFO_KEYS if energy else ()) + (RICIAN_INFO_KEYS if rician else ())
 
 
-def info_columns(max_nodes: int) -> int:
-    """Width of the ``info`` table for ``max_nodes`` nodes."""
-    return len(INFO) + len(MORE) + 3 * max_nodes
+def info_columns(max_nodes: int, more: bool = True) -> int:
+    """Width of the ``info`` table for ``max_nodes`` nodes: ``INFO``, shares and node rates, then
+    (``more``: the energy objective, channel "rician") ``MORE`` and the expected node rates."""
+    return len(INFO) + 2 * max_nodes + (len(MORE) + max_nodes if more else 0)
 
 
 def info_arrays(

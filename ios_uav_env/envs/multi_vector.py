@@ -63,7 +63,7 @@ class MultiNodeVectorEnv(BatchedEnv):
         # Rician rows draw each slot's fading from their template env's np_random (Python per row)
         self._rician = template.options.channel == "rician"
         self._state = self._rows.state
-        self._info_width = info_columns(self.max_nodes)
+        self._info_width = info_columns(self.max_nodes, template.energy_objective or self._rician)
         # moving or roughly known nodes: per-row kernels per slot and observations by the rows'
         # template envs (Python per row and slot: ios_uav_env.envs.knowledge)
         self._mobile = template.mobile
