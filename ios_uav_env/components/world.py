@@ -73,9 +73,7 @@ class World:
         filter_estimate: bool = False,
     ) -> World:
         """The world of ``config`` and the env options given (``EnvOptions``' fields)."""
-        motion: Any = (
-            "static" if config.motion is None else {"kind": "gauss_markov", **_motion_fields(config)}
-        )
+        motion: Any = "static" if config.motion is None else config.motion.to_dict()
         know: Any = {"kind": "filtered" if filter_estimate else knowledge}
         if knowledge == "reports" and report_sigma is not None:
             know["sigma"] = report_sigma
@@ -120,11 +118,6 @@ class World:
             named = ", ".join(f"{family} {kind}" for family, kind in self.names().items())
             raise UnsupportedWorld(f"unsupported world ({named}): " + "; ".join(problems))
         return self
-
-
-def _motion_fields(config: ScenarioConfig) -> dict[str, Any]:
-    motion = config.motion
-    return {f.name: getattr(motion, f.name) for f in dataclasses.fields(motion)}
 
 
 #: The combinations the simulator does not run: (applies to a world, why). Each names the
