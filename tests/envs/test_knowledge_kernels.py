@@ -4,15 +4,12 @@ measured rates and the filtered estimates, across episode ends; compiled and pla
 
 from __future__ import annotations
 
-import os
-import subprocess
-import sys
-
 import numpy as np
 import pytest
 
 from ios_uav_env.envs.random_env import RandomIOSUAVEnv
 from ios_uav_env.envs.single_vector import RandomIOSUAVVectorEnv
+from tests.processes import run_without_numba
 
 CASES = [
     {"knowledge": "reports"},
@@ -75,9 +72,7 @@ def test_plain_python_observation_equals_the_per_row_path():
         f"for kwargs in {CASES!r}:\n"
         "    assert check(kwargs, rows=2, steps=60) > 0\n"
     )
-    env = {**os.environ, "IOS_UAV_ENV_NO_NUMBA": "1"}
-    run = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True)
-    assert run.returncode == 0, run.stderr[-3000:]
+    run_without_numba(code)
 
 
 def test_one_call_of_four_normals_is_two_calls_of_two():

@@ -29,6 +29,7 @@ from ios_uav_env.model.mobility import GaussMarkov
 from ios_uav_env.model.peak import rate_peak
 from ios_uav_env.model.scenarios import ScenarioRanges
 from ios_uav_env.model.schedule import node_rates
+from tests.envs.test_energy_env import play as play_actions
 
 ENERGY = {"objective": "energy_efficiency"}
 SHORT = ScenarioConfig(T=40.0, ios_shape=(100, 20), motion=GaussMarkov(speed=3.0), **ENERGY)
@@ -41,17 +42,9 @@ WEIGHT = ENERGY_NAMES.index("energy_weight")
 
 
 def play(env: gym.Env, seed: int | None, actions: np.ndarray = ACTIONS) -> dict:
-    """One episode of ``env`` on ``actions`` (cycled): observations, rewards, infos."""
-    obs, info = env.reset(seed=seed)
-    out = {"obs": [obs], "rewards": [], "infos": [info]}
-    done, n = False, 0
-    while not done:
-        obs, reward, terminated, truncated, info = env.step(actions[n % len(actions)])
-        out["obs"].append(obs)
-        out["rewards"].append(reward)
-        out["infos"].append(info)
-        done, n = terminated or truncated, n + 1
-    return out
+    """One episode of ``env`` on ``actions`` (cycled): observations, rewards, infos, trajectory
+    (``test_energy_env.play``, seeded ``seed``)."""
+    return play_actions(env, actions, seed)
 
 
 def own_reference(env: IOSUAVEnv) -> float:

@@ -6,9 +6,6 @@ from __future__ import annotations
 
 import dataclasses
 import json
-import os
-import subprocess
-import sys
 import warnings
 from pathlib import Path
 
@@ -23,7 +20,9 @@ from ios_uav_env.envs.multi import DEFAULT_NODES, MULTI_INFO_KEYS, MULTINODE_RAN
 from ios_uav_env.envs.multi_table import ENERGY_INFO_KEYS, RICIAN_INFO_KEYS
 from ios_uav_env.model.channel import faded_point, rate_kernel
 from ios_uav_env.model.schedule import node_rates, scheduled_rates
+from tests.envs.test_multi_energy import play
 from tests.envs.test_multi_vector import replay_gap
+from tests.processes import run_without_numba
 
 FIXED, RANDOM = "ios_uav_env/IOSUAV-MultiNode-v0", "ios_uav_env/IOSUAV-MultiNode-Random-v0"
 MOBILE = "ios_uav_env/IOSUAV-MultiNode-Mobile-v0"
@@ -35,21 +34,6 @@ KWARGS = {FIXED: {"T": 40.0, **RICIAN}, RANDOM: {"ranges": SHORT_RANGES, **RICIA
           MOBILE: {"ranges": SHORT_RANGES, "knowledge": "exact", **RICIAN}}  # fmt: skip
 SHORT = ScenarioConfig(T=40.0, ground_nodes=DEFAULT_NODES)
 RTOL = 1e-9
-
-
-def play(env: gym.Env, seed: int = 0) -> dict:
-    """One episode of seeded random moves and node scores."""
-    obs, info = env.reset(seed=seed)
-    rng = np.random.default_rng(seed)
-    out = {"obs": [obs], "rewards": [], "infos": [info]}
-    done = False
-    while not done:
-        obs, reward, terminated, truncated, info = env.step(rng.uniform(-1.3, 1.3, env.action_space.shape))
-        out["obs"].append(obs)
-        out["rewards"].append(reward)
-        out["infos"].append(info)
-        done = terminated or truncated
-    return out
 
 
 def test_each_node_is_served_its_faded_rate_of_the_slot():
@@ -206,10 +190,7 @@ def test_the_plain_python_kernels_give_the_same_episodes(tmp_path):
         "out = m.play(m.MultiNodeEnv(m.SHORT.replace(objective='energy_efficiency'), channel='rician'), 3)\n"
         "print(json.dumps([gap, [float(r) for r in out['rewards']]]))\n"
     )
-    env = {**os.environ, "IOS_UAV_ENV_NO_NUMBA": "1"}
-    run = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True, timeout=600)
-    assert run.returncode == 0, run.stderr
-    gap, rewards = json.loads(run.stdout.split("\n")[-2])
+    gap, rewards = json.loads(run_without_numba(code).split("\n")[-2])
     assert gap <= 1e-9
     compiled = play(MultiNodeEnv(SHORT.replace(objective="energy_efficiency"), channel="rician"), 3)[
         "rewards"

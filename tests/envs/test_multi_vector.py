@@ -4,9 +4,6 @@ ends, with and without numba), info as arrays, pinned scenarios, errors."""
 
 from __future__ import annotations
 
-import os
-import subprocess
-import sys
 from pathlib import Path
 
 import gymnasium as gym
@@ -20,6 +17,7 @@ from ios_uav_env import ScenarioConfig, maxmin_rate
 from ios_uav_env.envs.multi import DEFAULT_NODES, MULTI_INFO_KEYS, MultiNodeEnv
 from ios_uav_env.envs.multi_vector import MultiNodeVectorEnv
 from ios_uav_env.model.scenarios import ScenarioRanges
+from tests.processes import run_without_numba
 
 FIXED, RANDOM = "ios_uav_env/IOSUAV-MultiNode-v0", "ios_uav_env/IOSUAV-MultiNode-Random-v0"
 #: Short episodes (39 to 59 moves) so that 130 steps cross two or three episode ends.
@@ -152,10 +150,7 @@ def test_parity_without_numba(tmp_path):
         "spec.loader.exec_module(m)\n"
         "print(max(m.replay_gap(m.FIXED, 'next_step', 90), m.replay_gap(m.RANDOM, 'same_step', 130, 2)))\n"
     )
-    env = {**os.environ, "IOS_UAV_ENV_NO_NUMBA": "1"}
-    run = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True, timeout=600)
-    assert run.returncode == 0, run.stderr
-    assert float(run.stdout.split()[-1]) <= 1e-9
+    assert float(run_without_numba(code).split()[-1]) <= 1e-9
 
 
 def test_last_step_reports_both_scores_and_the_lp_can_be_skipped():

@@ -6,9 +6,6 @@ multi-node envs report at an episode end (score_plan's value, without HiGHS)."""
 from __future__ import annotations
 
 import json
-import os
-import subprocess
-import sys
 
 import numpy as np
 import pytest
@@ -18,6 +15,7 @@ from ios_uav_env.model import maxmin, schedule
 from ios_uav_env.model.maxmin import CAPPED, CERTIFIED, FAST_TOL, UNCERTIFIED, certificate, fast_schedule
 from ios_uav_env.model.maxmin_paths import path_values
 from ios_uav_env.model.schedule import certified_schedule, dual_value, maxmin_schedule
+from tests.processes import run_without_numba
 
 pytest.importorskip("scipy")
 
@@ -179,11 +177,7 @@ def test_compiled_and_plain_python_agree():
         "cases = [np.array(c) for c in json.load(sys.stdin)]\n"
         "print(json.dumps([HAVE_NUMBA] + [fast_schedule(r)[2] for r in cases]))\n"
     )
-    env = {**os.environ, "IOS_UAV_ENV_NO_NUMBA": "1"}
-    run = subprocess.run([sys.executable, "-c", code], input=json.dumps([c.tolist() for c in cases]),
-                         env=env, capture_output=True, text=True, timeout=300)  # fmt: skip
-    assert run.returncode == 0, run.stderr
-    plain = json.loads(run.stdout)
+    plain = json.loads(run_without_numba(code, stdin=json.dumps([c.tolist() for c in cases]), timeout=300))
     assert plain[0] is False
     np.testing.assert_allclose(plain[1:], [fast_schedule(r)[2] for r in cases], rtol=1e-13, atol=0)
 
