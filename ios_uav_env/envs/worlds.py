@@ -4,6 +4,9 @@
 components the simulator runs).
 
 >>> from ios_uav_env.components import World
+from ios_uav_env.envs.multi_features import DEFAULT_NODES
+from ios_uav_env.envs.multi_vector import MultiNodeVectorEnv
+from ios_uav_env.envs.single_vector import IOSUAVVectorEnv
 >>> env = make_world(World(surface="ris", motion="gauss_markov", knowledge="reports"))
 >>> env.unwrapped.config.surface, env.unwrapped.options.knowledge
 ('ris', 'reports')
@@ -16,6 +19,9 @@ from typing import Any
 import gymnasium as gym
 
 from ios_uav_env.components import World
+from ios_uav_env.envs.multi_features import DEFAULT_NODES
+from ios_uav_env.envs.multi_vector import MultiNodeVectorEnv
+from ios_uav_env.envs.single_vector import IOSUAVVectorEnv
 from ios_uav_env.model.config import ScenarioConfig, as_config
 
 __all__ = ["default_scenario", "make_world"]
@@ -28,8 +34,6 @@ MULTI_NODE_ID = "ios_uav_env/IOSUAV-MultiNode-v0"
 def default_scenario(nodes: int) -> ScenarioConfig:
     """The scenario a world of ``nodes`` nodes runs on when none is given: the paper's for one
     node, the multi-node id's three nodes (``multi.DEFAULT_NODES``) for three."""
-    from ios_uav_env.envs.multi import DEFAULT_NODES
-
     if nodes == 1:
         return ScenarioConfig()
     if nodes == len(DEFAULT_NODES):
@@ -64,8 +68,5 @@ def make_world(
         arguments["surface"] = cfg.surface
     if num_envs is None:
         return gym.make(env_id, **arguments)
-    if world.nodes == 1:
-        from ios_uav_env.envs.single_vector import IOSUAVVectorEnv as Vector
-    else:
-        from ios_uav_env.envs.multi_vector import MultiNodeVectorEnv as Vector  # type: ignore[assignment]
-    return Vector(num_envs=num_envs, **arguments)
+    vector = IOSUAVVectorEnv if world.nodes == 1 else MultiNodeVectorEnv
+    return vector(num_envs=num_envs, **arguments)
