@@ -48,6 +48,7 @@ from ios_uav_env.envs.multi_table import (
 from ios_uav_env.envs.observation_layout import node_block_names
 from ios_uav_env.envs.options import EnvOptions, split_kwargs
 from ios_uav_env.envs.settings import (
+    check_config_keywords,
     check_multinode_arguments,
     check_scenario_overrides,
     check_world,
@@ -263,6 +264,7 @@ class MultiNodeEnv(MobileNodes, EnergyChannel, gym.Env):
             raise ValueError(f"render_mode must be None or 'rgb_array', got {render_mode!r}")
         check_multinode_arguments(config, random_nodes, ranges, MULTINODE_RANGES, overrides)
         base = as_config(config if config is not None else ScenarioConfig(ground_nodes=DEFAULT_NODES))
+        check_config_keywords(multinode_id(random_nodes, False), base, overrides)
         self._base = base.replace(**overrides) if overrides else base
         if random_nodes is not None:
             lo, hi = (int(v) for v in random_nodes)

@@ -27,6 +27,7 @@ from ios_uav_env.model.scenarios import RANGED_FIELDS
 
 __all__ = [
     "check_world",
+    "check_config_keywords",
     "check_multinode_arguments",
     "check_scenario_overrides",
     "multinode_id",
@@ -77,6 +78,33 @@ def check_world(config: ScenarioConfig, options: Any, env_id: str, field: str = 
     except UnsupportedWorld as err:  # (naming the env's own fields too: the options that set the world)
         options_set = ", ".join(f"{name}={value!r}" for name, value in world.option_fields().items())
         raise UnsupportedWorld(f"{env_id} ({field}; {options_set}): {err}") from None
+
+
+def check_config_keywords(
+    env_id: str, config: ScenarioConfig, overrides: Mapping[str, Any], alternative: str | None = None
+) -> None:
+    """``ValueError`` when a scenario keyword (``overrides``: the user's or the id's, as
+    ``surface="ris"`` of ``RISUAV-v0``) would replace a field that the ``config`` passed whole set
+    to another value than ``ScenarioConfig``'s default: ``gym.make("ios_uav_env/IOSUAV-v0",
+    config=ScenarioConfig(surface="ris"))`` would otherwise run the IOS in silence. A field left at
+    its default is taken from the keyword (the id's setting wins over a config that did not choose).
+    ``alternative``: the id whose setting the config's is, named in the message."""
+    default = ScenarioConfig()
+    clashes = [
+        name
+        for name, value in overrides.items()
+        if getattr(config, name) != getattr(default, name)
+        and getattr(config.replace(**{name: value}), name) != getattr(config, name)
+    ]
+    if clashes:
+        said = ", ".join(
+            f"config.{n}={getattr(config, n)!r} but the keyword {n}={overrides[n]!r}" for n in clashes
+        )
+        raise ValueError(
+            f"{env_id}: {said} (the keyword wins, so the config's choice would be dropped). Pass the "
+            f"value once, as the keyword (gym.make(id, config=..., {clashes[0]}=...))"
+            + (f", or use {alternative}, whose setting the config's is" if alternative else "")
+        )
 
 
 def several_nodes_error(env_id: str, config: ScenarioConfig, field: str = "config") -> ValueError:

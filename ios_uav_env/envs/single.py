@@ -27,6 +27,7 @@ from ios_uav_env.envs.observation_layout import (
 )
 from ios_uav_env.envs.options import CHANNELS, EnvOptions, split_kwargs
 from ios_uav_env.envs.settings import (
+    check_config_keywords,
     check_scenario_overrides,
     check_world,
     several_nodes_error,
@@ -275,8 +276,9 @@ class IOSUAVEnv(MobileNode, gym.Env):
     - ``render_mode``: None or "rgb_array" (the trajectory over the rate map; needs
       ``pip install ios-uav-env[render]``).
     - ``**kwargs``: ``EnvOptions`` fields (the options above) and ``ScenarioConfig`` fields,
-      applied with ``config.replace``; the ids set ``surface`` this way, so ``config``'s
-      surface is replaced by the id's.
+      applied with ``config.replace``; the ids set ``surface`` this way. A ``config`` field left
+      at its default takes the keyword's value; one the config set to another value is refused
+      (``settings.check_config_keywords``: ``IOSUAV-v0`` given a RIS config names ``RISUAV-v0``).
 
     A setting that would do nothing is refused with ``ValueError`` naming what it needs
     (``EnvOptions``; as keywords, ``kappa`` without faded rates, ``epsilon`` without an IOS, the
@@ -318,6 +320,8 @@ class IOSUAVEnv(MobileNode, gym.Env):
         config = as_config(config)
         self._base_config: ScenarioConfig = config.replace(**overrides) if overrides else config
         self.options = EnvOptions(**options)
+        own, alternative = self._own_id(), single_node_id(config, self.options.knowledge, random=self._draws)
+        check_config_keywords(own, config, overrides, alternative if alternative != own else None)
         if self._base_config.K != 1:  # (before the family of the space, which is single-node)
             raise several_nodes_error(self._own_id(), self._base_config)
         self._check_overrides(overrides, (self._base_config.surface,))

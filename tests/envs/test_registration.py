@@ -116,3 +116,38 @@ def test_sb3_make_vec_env():
         obs, rewards, dones, infos = vec.step(np.zeros((2, 2), dtype=np.float32))
     assert rewards.shape == (2,) and not dones.any() and infos[0]["slot"] == 4
     vec.close()
+
+
+@pytest.mark.parametrize(
+    ("env_id", "config", "field", "alternative"),
+    [
+        (IOS_ID, ScenarioConfig(surface="ris"), "surface", "ios_uav_env/RISUAV-v0"),
+        ("ios_uav_env/UAV-v0", ScenarioConfig(surface="ris"), "surface", "ios_uav_env/RISUAV-v0"),
+        ("ios_uav_env/IOSUAV-Energy-v0", ScenarioConfig(objective="rate", surface="ris"), "surface", None),
+    ],
+)
+def test_a_config_field_the_id_would_replace_is_refused(env_id, config, field, alternative):
+    # the id's keyword wins over the config passed whole: a config that chose another value
+    # would run another scenario in silence, so the env refuses and names both values
+    with pytest.raises(ValueError, match=rf"config\.{field}=.*keyword {field}=") as err:
+        gym.make(env_id, config=config)
+    if alternative is not None:
+        assert alternative in str(err.value)
+    # the same value passed once, as the keyword, is taken
+    assert gym.make(env_id, config=config, **{field: getattr(config, field)}).unwrapped.config == config.replace(
+        objective=gym.spec(env_id).kwargs.get("objective", config.objective)
+    )
+
+
+def test_a_multi_node_config_the_id_would_replace_is_refused():
+    from ios_uav_env.model.mobility import GaussMarkov
+
+    walk = GaussMarkov(speed=3.0)
+    base = ScenarioConfig(ground_nodes=((10.0, 20.0), (30.0, -20.0)), motion=walk)
+    from ios_uav_env.envs.multi import MultiNodeEnv
+
+    with pytest.raises(ValueError, match=r"config\.motion=.*keyword motion="):
+        MultiNodeEnv(config=base, motion={"kind": "gauss_markov"}, knowledge="reports")
+    # the id's keyword on a config that did not choose is taken
+    env = MultiNodeEnv(config=base.replace(motion=None), motion={"kind": "gauss_markov"}, knowledge="reports")
+    assert env.unwrapped._base.motion == GaussMarkov()
