@@ -7,9 +7,11 @@ Examples
 ``python -m baselines --nodes="-100,-20;150,-60;-40,90" --scheme tour ia dp`` (several ground
 nodes: max-min rates; ``dp`` also prints its certified upper bound and gap)
 ``python -m baselines --objective energy_efficiency`` (the energy planners of
-:data:`ENERGY_SCHEMES`: ``dp-ee``, ``sca-ee``, ``loiter``, ``hover``; each row gives the energy
-efficiency in bits/J, the energy, the average rate and the time, and the certified EE bound of
-``baselines.energy_bound`` with each plan's % of it, when that module can run)
+:data:`ENERGY_SCHEMES` that handle the scenario: ``dp-ee``, ``sca-ee``, ``loiter``, ``hover``;
+each row gives the energy efficiency in bits/J, the energy, the average rate and the time, and
+the certified EE bound of ``baselines.energy_bound`` with each plan's % of it, when that module
+can run; with ``--nodes``: ``dp-ee-multi``, ``loiter`` and ``hover``, and dp-ee-multi's bound
+over its grid paths)
 
 For each scheme: ``<out>/<scheme>_T<T>_M<M>.json`` (the :class:`Plan`, written atomically)
 and ``.csv`` (x, y per slot, m); one PNG of all trajectories over the rate map of the
@@ -45,7 +47,7 @@ _ENERGY_WIDTHS = (8, 7, 6, 12, 11, 14, 9, 8)
 #: ``baselines.registry``; ``sca-ee`` (cvxpy) runs when it can be imported.
 ENERGY_SCHEMES: dict[str, tuple[str, str]] = {
     name: (registry.PLANNERS[name].entry, registry.PLANNERS[name].description)
-    for name in ("dp-ee", "sca-ee", "loiter", "hover")
+    for name in ("dp-ee", "dp-ee-multi", "sca-ee", "loiter", "hover")
 }
 
 
@@ -215,7 +217,7 @@ def format_energy_row(plan: Plan) -> str:
 def run_energy_scheme(name: str, config: ScenarioConfig, resolution: float, margin: float) -> Plan:
     """Run energy planner ``name`` of :data:`ENERGY_SCHEMES` on ``config`` (``ImportError`` if its
     module cannot be imported, e.g. ``sca-ee`` without cvxpy)."""
-    kwargs = {"resolution": resolution, "margin": margin} if name == "dp-ee" else {}
+    kwargs = {"resolution": resolution, "margin": margin} if name in ("dp-ee", "dp-ee-multi") else {}
     return dataclasses.replace(registry.solve(name, config, **kwargs), scheme=name)
 
 
@@ -236,14 +238,16 @@ def energy_bound(plans: Sequence[Plan], config: ScenarioConfig) -> float | None:
 
 
 def _main_energy(args: argparse.Namespace, parser: argparse.ArgumentParser, config: ScenarioConfig) -> int:
-    names = list(dict.fromkeys(args.scheme or ENERGY_SCHEMES))
+    handled = [n for n in ENERGY_SCHEMES if registry.PLANNERS[n].problem(config) is None]
+    names = list(dict.fromkeys(args.scheme or handled))
     if bad := [n for n in names if n not in ENERGY_SCHEMES]:
         parser.error(
             f"argument --scheme: {', '.join(bad)} score the rate; with --objective energy_efficiency "
-            f"choose from {', '.join(ENERGY_SCHEMES)}"
+            f"choose from {', '.join(handled)}"
         )
-    if config.K > 1:
-        parser.error("--objective energy_efficiency: the energy planners model one ground node (no --nodes)")
+    if bad := [n for n in names if n not in handled]:
+        why = "; ".join(f"{n}: {registry.PLANNERS[n].problem(config)}" for n in bad)
+        parser.error(f"argument --scheme: {why}; for this scenario choose from {', '.join(handled)}")
     print(_row(_ENERGY_HEADER, _ENERGY_WIDTHS))
     plans: list[Plan] = []
     failed = 0
@@ -262,7 +266,13 @@ def _main_energy(args: argparse.Namespace, parser: argparse.ArgumentParser, conf
         print(format_energy_row(plan), flush=True)
         _save(args, config, plan)
         plans.append(plan)
-    if plans and not args.no_bound:
+    if plans and not args.no_bound and config.K > 1:
+        grid = [p for p in plans if p.scheme == "dp-ee-multi"]
+        if grid:
+            ub = grid[0].info["ee_upper_bound"]
+            shares = ", ".join(f"{p.scheme} {100 * p.energy_efficiency / ub:.2f}%" for p in plans)
+            print(f"bound: dp-ee-multi's EE upper bound over its grid paths {ub:.2f} bits/J; {shares}")
+    elif plans and not args.no_bound:
         ub = energy_bound(plans, config)
         if ub is not None:
             shares = ", ".join(f"{p.scheme} {100 * p.energy_efficiency / ub:.2f}%" for p in plans)

@@ -57,9 +57,9 @@ loiter points farther from the peak and the legs on coarser headings, so its EE 
 converges to the continuous optimum as the step goes to 0 (and ``margin`` grows), as for the rate
 DP. The box and its ``margin`` are the rate DP's.
 
-**Several nodes.** Only K = 1 is supported (``ValueError`` otherwise): the per-slot reward of the
-max-min rate is not a sum over slots, and the multi-node DP (``baselines.dp_bound``) works on the
-dual of that; an energy-aware version of it is not implemented.
+**Several nodes.** K = 1 only here: the per-slot reward of the max-min rate is not a sum over
+slots. ``baselines.dp_energy_multi`` runs this parametric DP on the dual of the schedule (per-cell
+bits B dt max_k w_k r_k) for the EE of K > 1 nodes.
 
 **Parity.** Each plan is scored by ``ios_uav_env.score_plan`` (``Plan.from_trajectory``), and
 the DP's own bits - lam E of the returned plan is checked against the score (1e-9).
@@ -87,7 +87,7 @@ from baselines.plan import Plan
 from baselines.registry import check as check_planner
 from ios_uav_env import ScenarioConfig, energy, propulsion_power, score_plan, slot_rates
 
-__all__ = ["parametric_path", "solve", "solve_budget", "solve_ee"]
+__all__ = ["Grid", "parametric_path", "solve", "solve_budget", "solve_ee"]
 
 
 def _bits(config: ScenarioConfig, q: np.ndarray) -> float:
@@ -130,11 +130,23 @@ def _best_move(layer: np.ndarray, cell: tuple[int, int], offsets: np.ndarray, co
     return None if not np.isfinite(vals[i]) else (int(cand[i, 0]), int(cand[i, 1]))
 
 
-class _Grid:
-    """The grid, its per-cell bits and the move lengths of one scenario, built once per solve."""
+class Grid:
+    """The grid, its per-cell bits and the move lengths of one scenario, built once per solve.
 
-    def __init__(self, config: ScenarioConfig, resolution: float, margin: float) -> None:
-        config.require_single_node("the energy DP")
+    ``bits`` (ny, nx) and ``bits_f``: the per-cell and final bits of the parametric problem
+    (default: one node's, B dt r(c) and B dt r(qF)); ``baselines.dp_energy_multi`` gives its
+    weighted f_w instead."""
+
+    def __init__(
+        self,
+        config: ScenarioConfig,
+        resolution: float,
+        margin: float,
+        bits: np.ndarray | None = None,
+        bits_f: float | None = None,
+    ) -> None:
+        if bits is None:
+            config.require_single_node("the energy DP")
         validate_grid_args(config, resolution, margin)
         if config.N < 3:
             raise ValueError(f"the energy DP needs N >= 3 slots (a free way-point), got N={config.N}")
@@ -149,9 +161,13 @@ class _Grid:
         self.config, self.resolution, self.margin = config, float(resolution), float(margin)
         self.xs, self.ys, self.start = grid_axes(config, resolution, margin)
         scale = config.bandwidth_hz * config.dt
-        self.bits = scale * rate_map(config, resolution, margin)[2]  # w(c) = B dt r(c)
         q_f = np.asarray(config.qF, dtype=float)
-        self.bits_f = scale * float(slot_rates(config, q_f)[0])
+        if bits is None:
+            bits = scale * rate_map(config, resolution, margin)[2]  # w(c) = B dt r(c)
+            bits_f = scale * float(slot_rates(config, q_f)[0])
+        if bits.shape != (len(self.ys), len(self.xs)) or bits_f is None:
+            raise ValueError(f"bits must have the grid's shape {(len(self.ys), len(self.xs))} with bits_f")
+        self.bits, self.bits_f = bits, float(bits_f)
         self.rings = _rings(resolution, config.D)
         self.offsets = disk_offsets(resolution, config.D)  # the forward pass's order
         lengths = resolution * np.hypot(self.offsets[:, 0], self.offsets[:, 1])
@@ -166,7 +182,7 @@ class _Grid:
         )
 
 
-def parametric_path(grid: _Grid, lam: float) -> tuple[np.ndarray, float]:
+def parametric_path(grid: Grid, lam: float) -> tuple[np.ndarray, float]:
     """The grid path maximising bits - ``lam`` E (bits/J) and that value (module docstring)."""
     config = grid.config
     n = config.N
@@ -229,7 +245,7 @@ def solve_ee(
     if not (isinstance(tol, (int, float)) and 0 < tol < 1):
         raise ValueError(f"tol must be a number in (0, 1), got {tol!r}")
     check_planner("dp-ee", config)
-    grid = _Grid(config, resolution, margin)
+    grid = Grid(config, resolution, margin)
     e_least = config.least_energy()
     lam, history = _start_lambda(config), []
     for k in range(1, max_iter + 1):
@@ -278,7 +294,7 @@ def solve_budget(
     budget = config.energy_budget_j
     if not (isinstance(tol, (int, float)) and 0 < tol < 1):
         raise ValueError(f"tol must be a number in (0, 1), got {tol!r}")
-    grid = _Grid(config, resolution, margin)
+    grid = Grid(config, resolution, margin)
     scale = config.bandwidth_hz * config.T
 
     def at(mu: float) -> dict[str, Any]:

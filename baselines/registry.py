@@ -13,6 +13,7 @@ name                      objectives           budget  K      motion      kind
 ========================  ===================  ======  =====  ==========  =========
 ``dp``                    rate                 no      >= 1   static      optimum
 ``dp-ee``                 energy_efficiency    no      1      static      optimum
+``dp-ee-multi``           energy_efficiency    no      >= 2   static      optimum
 ``dp-budget``             rate                 yes     1      static      optimum
 ``dp-clairvoyant``        rate                 no      >= 1   paths       optimum
 ``sca``                   rate                 no      >= 1   static      local
@@ -121,6 +122,9 @@ PLANNERS: dict[str, PlannerSpec] = {
                     "global optimum on a grid (K > 1: best DP plan and certified max-min bound)"),
         PlannerSpec("dp-ee", "baselines.dp_energy:solve_ee", ("energy_efficiency",), False, 1, 1, "static",
                     "optimum", "best energy efficiency on the DP grid (Dinkelbach)"),
+        PlannerSpec("dp-ee-multi", "baselines.dp_energy_multi:solve", ("energy_efficiency",), False, 2, None,
+                    "static", "optimum", "best energy efficiency found on the DP grid (Dinkelbach on the "
+                    "schedule's dual) and a certified bound, K >= 2"),
         PlannerSpec("dp-budget", "baselines.dp_energy:solve_budget", ("rate",), True, 1, 1, "static",
                     "optimum", "best average rate within the energy budget on the DP grid (Lagrangian)"),
         PlannerSpec("dp-clairvoyant", "baselines.dp_moving:solve", ("rate",), False, 1, None, "paths",
