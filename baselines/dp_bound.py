@@ -87,7 +87,7 @@ CUT_TOL = 1e-4
 
 __all__ = [
     "RelaxedDP", "ZETA_SLACK", "check_plain_grid", "check_relaxed_grid", "clairvoyant_bound",
-    "region_rate_bound", "relaxed_offsets", "solve_multinode",
+    "kelley_step", "region_rate_bound", "relaxed_offsets", "solve_multinode",
 ]  # fmt: skip
 
 
@@ -170,17 +170,19 @@ def hover_points(paths: list[np.ndarray], limit: int) -> list[tuple[str, tuple[f
     return [(f"dp-hover({p[0]:g},{p[1]:g})", p) for p in ranked]
 
 
-def _kelley_step(cuts: list[np.ndarray]) -> tuple[np.ndarray, float]:
-    """argmin and min over the simplex of max_i G_i . w (an LP)."""
+def kelley_step(slopes: np.ndarray, offsets: np.ndarray | None = None) -> tuple[np.ndarray, float]:
+    """argmin and min over the simplex of max_i (G_i . w - c_i) (an LP): Kelley's next point
+    for the cuts of slopes G_i (rows of ``slopes``) and offsets c_i (default 0)."""
     from scipy.optimize import linprog
 
-    g = np.array(cuts)
-    k = g.shape[1]
+    g = np.asarray(slopes, dtype=float)
+    n, k = g.shape
     c = np.zeros(k + 1)
     c[-1] = 1.0
-    a_ub = np.hstack([g, -np.ones((len(g), 1))])
+    a_ub = np.hstack([g, -np.ones((n, 1))])
+    b_ub = np.zeros(n) if offsets is None else np.asarray(offsets, dtype=float)
     a_eq = np.hstack([np.ones((1, k)), np.zeros((1, 1))])
-    res = linprog(c, A_ub=a_ub, b_ub=np.zeros(len(g)), A_eq=a_eq, b_eq=[1.0],
+    res = linprog(c, A_ub=a_ub, b_ub=b_ub, A_eq=a_eq, b_eq=[1.0],
                   bounds=[(0, None)] * k + [(None, None)], method="highs")  # fmt: skip
     if res.status != 0:
         raise RuntimeError(f"Kelley LP failed: {res.message}")
@@ -273,7 +275,7 @@ def solve_multinode(
             if best_plan is None or score > best_plan[0]:
                 best_plan = (score, traj, f"dp{it}")
         records.append({"iteration": it, "weights": w.tolist(), "upper_bound": ub, "plan_score": score})
-        w, lower = _kelley_step(cuts)
+        w, lower = kelley_step(np.array(cuts))
         if progress:
             print(f"[dp-bound] it {it:2d}: UB(w) {ub:.6f}  best UB {best_ub:.6f}  Kelley lower {lower:.6f}")
         if best_ub - lower <= tol * best_ub:

@@ -65,6 +65,7 @@ from typing import Any
 import numpy as np
 
 import ios_uav_env as ie
+from baselines.dp_bound import kelley_step
 from baselines.dp_energy import Grid, parametric_path
 from baselines.fixed import straight_line_path
 from baselines.grid import DEFAULT_MARGIN, grid_axes
@@ -73,28 +74,6 @@ from baselines.registry import check as check_planner
 from ios_uav_env import ScenarioConfig
 
 __all__ = ["solve"]
-
-
-def _kelley_step(a: np.ndarray, c: np.ndarray) -> tuple[np.ndarray, float]:
-    """argmin and min over the simplex of max_i (a_i . w - c_i) (an LP)."""
-    from scipy.optimize import linprog
-
-    n, k = a.shape
-    cost = np.zeros(k + 1)
-    cost[-1] = 1.0
-    res = linprog(
-        cost,
-        A_ub=np.hstack([a, -np.ones((n, 1))]),
-        b_ub=c,
-        A_eq=np.hstack([np.ones((1, k)), np.zeros((1, 1))]),
-        b_eq=[1.0],
-        bounds=[(0, None)] * k + [(None, None)],
-        method="highs",
-    )
-    if res.status != 0:
-        raise RuntimeError(f"Kelley LP failed: {res.message}")
-    w = np.maximum(res.x[:k], 0.0)
-    return w / w.sum(), float(res.fun)
 
 
 class _Nodes:
@@ -203,7 +182,7 @@ def solve(
                 best_ee, best_traj = ee, traj
             if value < least_g:
                 least_g, g_w = value, w
-            w_next, lower = _kelley_step(np.array(slopes), np.array(costs))
+            w_next, lower = kelley_step(np.array(slopes), np.array(costs))
             if least_g - lower <= tol * lam * e_least:
                 break
             w = w_next
