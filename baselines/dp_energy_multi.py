@@ -68,7 +68,7 @@ import ios_uav_env as ie
 from baselines.dp_bound import kelley_step
 from baselines.dp_energy import Grid, parametric_path
 from baselines.fixed import straight_line_path
-from baselines.grid import DEFAULT_MARGIN, grid_axes
+from baselines.grid import DEFAULT_MARGIN, check_grid_bytes, grid_axes, validate_grid_args
 from baselines.plan import Plan
 from baselines.registry import check as check_planner
 from ios_uav_env import ScenarioConfig
@@ -163,6 +163,11 @@ def solve(
     for name, value in (("max_iter", max_iter), ("max_cuts", max_cuts)):
         if not (isinstance(value, int) and value >= 1):
             raise ValueError(f"{name} must be an integer >= 1, got {value!r}")
+    validate_grid_args(config, resolution, margin)
+    if config.N < 3:
+        raise ValueError(f"the energy DP needs N >= 3 slots (a free way-point), got N={config.N}")
+    per_cell = 8 * (config.N - 2 + config.K + 1)  # the value table, the K node maps and f_w
+    check_grid_bytes(config, resolution, margin, per_cell, "value table and node maps", largest=config.D)
     nodes = _Nodes(config, resolution, margin)
     e_least = config.least_energy()
     # lam starts at a feasible flight's EE (the straight line, off the grid in general: it only

@@ -117,10 +117,14 @@ def test_the_registry_routes_energy_with_several_nodes_here():
         registry.check("dp-ee", SMALL)
 
 
-@pytest.mark.parametrize(("field", "value"), [("tol", 0.0), ("max_iter", 0), ("max_cuts", 1.5)])
+@pytest.mark.parametrize(
+    ("field", "value"),
+    [("tol", 0.0), ("max_iter", 0), ("max_cuts", 1.5), ("resolution", -1.0), ("resolution", float("nan")),
+     ("resolution", 0.01), ("margin", -5.0)],
+)  # fmt: skip
 def test_bad_arguments_name_the_field(field, value):
     with pytest.raises(ValueError, match=field):
-        dp_energy_multi.solve(SMALL, resolution=10.0, **{field: value})
+        dp_energy_multi.solve(SMALL, **{"resolution": 10.0, field: value})
 
 
 def test_the_command_line_runs_the_energy_planners_of_several_nodes(tmp_path, capsys):
