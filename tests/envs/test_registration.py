@@ -134,9 +134,8 @@ def test_a_config_field_the_id_would_replace_is_refused(env_id, config, field, a
     if alternative is not None:
         assert alternative in str(err.value)
     # the same value passed once, as the keyword, is taken
-    assert gym.make(env_id, config=config, **{field: getattr(config, field)}).unwrapped.config == config.replace(
-        objective=gym.spec(env_id).kwargs.get("objective", config.objective)
-    )
+    made = gym.make(env_id, config=config, **{field: getattr(config, field)}).unwrapped.config
+    assert made == config.replace(objective=gym.spec(env_id).kwargs.get("objective", config.objective))
 
 
 def test_a_multi_node_config_the_id_would_replace_is_refused():
