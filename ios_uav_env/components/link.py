@@ -8,7 +8,10 @@ at full power). With ``phases`` given, the expected gain of the Rician channel o
 is E|h|^2 = kappa/(1+kappa) |h^LoS(psi)|^2 + 1/(1+kappa) (sum_m a_m + a_D)^2, which for the
 closed-form phases is zeta^2 (``channel.slot_rates``): the link and the env's rate agree there.
 ``fading`` is what the env samples each slot: the expected-gain rate (the paper's objective) or
-one Rician faded sample (the env option ``channel``).
+one Rician faded sample (the env option ``channel``). ``region_pricer`` is the link's per-slot
+weighted-sum problem along a flight, from which the flight's max-min over several users is solved
+(``ios_uav_env.model.regions``): TDMA here, equal to the frame's schedule; a link that serves
+several users at once gives its own.
 """
 
 from __future__ import annotations
@@ -21,6 +24,8 @@ import numpy as np
 from ios_uav_env.components.base import Component, Registry
 from ios_uav_env.model import channel
 from ios_uav_env.model.config import ScenarioConfig
+from ios_uav_env.model.regions import Pricer, tdma_pricer
+from ios_uav_env.model.schedule import node_rates
 
 __all__ = ["FADINGS", "LINKS", "Link", "SingleAntennaLink"]
 
@@ -59,6 +64,15 @@ class Link(Component):
         """Expected-gain rate (bps/Hz) of ``config``'s node at each UAV position, shape (K,)."""
         raise NotImplementedError
 
+    def region_pricer(
+        self, config: ScenarioConfig, trajectory: np.ndarray, paths: np.ndarray | None = None
+    ) -> Pricer:
+        """The weighted-sum pricer of the slots' rate regions along ``trajectory`` (N, 2) m for
+        ``config``'s K nodes (``paths`` (N, K, 2): moving nodes' true paths): what the flight's
+        max-min over several users served at once is solved from
+        (``ios_uav_env.model.regions.maxmin_regions``)."""
+        raise NotImplementedError
+
 
 #: The link registry.
 LINKS: Registry[Link] = Registry("link")
@@ -93,3 +107,10 @@ class SingleAntennaLink(Link):
         amp = channel.element_amplitudes(config, q).sum(axis=1) + channel.direct_amplitude(config, q)
         gain = k / (1 + k) * np.abs(los) ** 2 + amp**2 / (1 + k)
         return np.log2(1.0 + config.eta * gain)
+
+    def region_pricer(
+        self, config: ScenarioConfig, trajectory: np.ndarray, paths: np.ndarray | None = None
+    ) -> Pricer:
+        """TDMA: one node per slot at its expected-gain rate (``schedule.node_rates``), so the
+        regions' max-min is the frame's schedule (``maxmin_rate``)."""
+        return tdma_pricer(node_rates(config, channel.as_positions(trajectory, "trajectory"), paths))

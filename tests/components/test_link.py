@@ -56,3 +56,16 @@ def test_bad_inputs_are_refused():
         link.rates(cfg, POSITIONS, phases=np.zeros((3, 2)))
     with pytest.raises(ValueError, match=r"models one ground node.*node_config\(k\)"):
         link.rates(ScenarioConfig(ground_nodes=((-100.0, -20.0), (60.0, 30.0))), POSITIONS)
+
+
+@pytest.mark.parametrize("nodes", [((-100.0, -20.0),), ((-100.0, -20.0), (60.0, 30.0), (120.0, -80.0))])
+def test_the_links_region_gives_the_frames_max_min(nodes):
+    """The single-antenna link serves one node per slot: its regions' max-min over the flight is
+    the schedule's (``maxmin_rate``) for any K, the mean rate for K = 1."""
+    from ios_uav_env import maxmin_rate
+    from ios_uav_env.model.regions import maxmin_regions
+
+    cfg = ScenarioConfig(ground_nodes=nodes, T=40.0)
+    q = np.linspace(cfg.q0, cfg.qF, cfg.N)
+    got = maxmin_regions(SingleAntennaLink().region_pricer(cfg, q), cfg.K)
+    assert got.value == pytest.approx(maxmin_rate(cfg, q), rel=1e-9) and got.gap <= 1e-9
