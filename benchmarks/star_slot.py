@@ -58,7 +58,7 @@ def scenarios(count: int, seed: int, config: ScenarioConfig) -> list[StarChannel
 
 def _name(surface: StarSurface) -> str:
     bits = "cont" if surface.bits is None else f"{surface.bits}-bit"
-    return f"{surface.protocol}/{surface.phases}/{bits}"
+    return f"{surface.protocol}:{surface.phases}:{bits}"
 
 
 def main() -> None:
@@ -89,8 +89,8 @@ def main() -> None:
                 f"{_name(surface):<22} {access:>9} {np.mean(values):9.5f} {np.mean(gaps):9.2e} "
                 f"{np.max(gaps):9.2e} {np.mean(randoms):9.5f} {seconds / len(channels):9.3f}"
             )
-    es_noma, es_tdma = table["es/independent/cont", "noma"], table["es/independent/cont", "tdma"]
-    ts_noma, ios = table["ts/independent/cont", "noma"], table["fixed/shared/cont", "tdma"]
+    es_noma, es_tdma = table["es:independent:cont", "noma"], table["es:independent:cont", "tdma"]
+    ts_noma, ios = table["ts:independent:cont", "noma"], table["fixed:shared:cont", "tdma"]
     print(f"\n{'scenario':>8} {'ES NOMA':>9} {'ES TDMA':>9} {'TS NOMA':>9} {'IOS TDMA':>9}  NOMA/TDMA  TS/ES")
     for i in range(len(channels)):
         print(

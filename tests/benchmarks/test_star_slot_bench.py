@@ -15,7 +15,7 @@ def test_quick_run_prints_every_row() -> None:
         [sys.executable, str(ROOT / "benchmarks" / "star_slot.py"), "--quick"],
         capture_output=True, text=True, check=True, cwd=ROOT, timeout=600,
     ).stdout  # fmt: skip
-    rows = [line.split() for line in out.splitlines() if line.split()[:1] and "/" in line.split()[0]]
+    rows = [row for row in map(str.split, out.splitlines()) if len(row) == 7 and row[0].count(":") == 2]
     assert len(rows) == 2 * 11  # SURFACES x (noma, tdma)
     assert {row[1] for row in rows} == {"noma", "tdma"}
     assert all(float(row[3]) >= 0 and float(row[4]) >= 0 for row in rows)  # certified gaps
