@@ -27,13 +27,15 @@ ES amplitudes (x, y) = (cos gamma, sin gamma) the square A^2 cos^2 gamma + B^2 s
 A B cos(delta) sin(2 gamma), delta = alpha - beta', is largest at 2 gamma =
 atan2(max(A B cos delta, 0), (A^2 - B^2) / 2); coupled phases take the better sign. Each step
 cannot lower c_r A_r + c_t A_t; the steps run from the frontier settings of 11 weights and the
-independent optimum's, and the best max-min rate is kept.
+independent optimum's, and the best max-min rate is kept. On surfaces of at most 256 elements a
+coordinate search then polishes it (:func:`coordinate_search`: element by element, the best of a
+grid of its settings with the others held; from every start when M <= 32).
 
 **b-bit phases** are bounded by the continuous optimum. The value is the continuous setting with
 each side's phases replaced by that side's exact b-bit optimum
 (:func:`~ios_uav_env.model.star.best_discrete_phases`; independent phases, MS), or the
 minorise-maximise steps with theta on the grid (coupled, shared: the +-pi/2 offset stays on the
-grid for b >= 2).
+grid for b >= 2); with independent phases the coordinate search polishes it too (M <= 256).
 """
 
 from __future__ import annotations
@@ -50,6 +52,7 @@ from ios_uav_env.model.star import (
     best_discrete_phases,
     noma_maxmin,
     noma_rates,
+    phase_grid,
     quantise,
     side_amplitude,
 )
@@ -59,6 +62,11 @@ DEFAULT_TOL = 1e-6
 _MAX_NODES = 4000
 _MM_WEIGHTS = np.linspace(0.0, 1.0, 11)
 _MM_STEPS = 40
+#: Largest M for the coordinate search that polishes the coupled, shared and b-bit settings.
+LOCAL_SEARCH_MAX_M = 256
+_SWEEPS = 3
+#: Up to this M the coordinate search starts from every minorise-maximise result, not the best only.
+_MULTI_START_MAX_M = 32
 
 
 @dataclass(frozen=True)
@@ -280,6 +288,58 @@ def mm_phases(
     return amp_r, amp_t, dict(u_r=u_r, u_t=u_t, theta_r=theta_r, theta_t=theta_t)
 
 
+def _candidates(ch: StarChannels, surface: StarSurface) -> tuple[np.ndarray, ...]:
+    """One element's settings on a grid: (u_r, u_t, theta_r, theta_t), each (C,)."""
+    theta = phase_grid(surface.bits) if surface.bits else np.linspace(0, 2 * np.pi, 24, endpoint=False)
+    gamma = np.linspace(0, np.pi / 2, 11)
+    if surface.phases == "independent":
+        g, a, b = (x.ravel() for x in np.meshgrid(gamma, theta, theta, indexing="ij"))
+    else:
+        offsets = [0.0] if surface.phases == "shared" else [np.pi / 2, -np.pi / 2]
+        g, a, o = (x.ravel() for x in np.meshgrid(gamma, theta, offsets, indexing="ij"))
+        b = quantise(a + o, surface.bits)
+    if surface.protocol == "fixed":
+        return np.full(a.size, ch.fixed_r), np.full(a.size, ch.fixed_t), a, b
+    return np.cos(g), np.sin(g), a, b
+
+
+def coordinate_search(ch: StarChannels, surface: StarSurface, setting: dict) -> dict:
+    """Polish a NOMA max-min setting of at most ``LOCAL_SEARCH_MAX_M`` elements: element by element,
+    the best of a grid of its settings (``_candidates``, on the b-bit grid if any) with the others
+    held, kept only if the max-min rate rises; up to 3 sweeps. The result is a setting of the same
+    surface, never worse."""
+    if ch.M > LOCAL_SEARCH_MAX_M:
+        return setting
+    u_r, u_t = setting["u_r"].astype(float), setting["u_t"].astype(float)
+    th_r, th_t = setting["theta_r"].astype(float), setting["theta_t"].astype(float)
+    c_ur, c_ut, c_thr, c_tht = _candidates(ch, surface)
+    t_r = u_r * ch.a_r * np.exp(1j * (ch.phi_r - th_r))
+    t_t = u_t * ch.a_t * np.exp(1j * (ch.phi_t - th_t))
+    h_r, h_t = ch.direct_r + t_r.sum(), ch.direct_t + t_t.sum()
+    current = float(maxmin_of(ch, abs(h_r), abs(h_t)))
+    for _ in range(_SWEEPS):
+        improved = False
+        for m in range(ch.M):
+            cand_r = c_ur * ch.a_r[m] * np.exp(1j * (ch.phi_r[m] - c_thr))
+            cand_t = c_ut * ch.a_t[m] * np.exp(1j * (ch.phi_t[m] - c_tht))
+            values = maxmin_of(ch, np.abs(h_r - t_r[m] + cand_r), np.abs(h_t - t_t[m] + cand_t))
+            k = int(np.argmax(values))
+            if values[k] > current * (1 + 1e-12):
+                h_r, h_t = h_r - t_r[m] + cand_r[k], h_t - t_t[m] + cand_t[k]
+                t_r[m], t_t[m], current, improved = cand_r[k], cand_t[k], float(values[k]), True
+                u_r[m], u_t[m], th_r[m], th_t[m] = c_ur[k], c_ut[k], c_thr[k], c_tht[k]
+        if not improved:
+            break
+    return dict(u_r=u_r, u_t=u_t, theta_r=th_r, theta_t=th_t)
+
+
+def setting_value(ch: StarChannels, setting: dict) -> tuple:
+    """noma_setting of a (u, theta) setting: its amplitudes re-summed, then the max-min split."""
+    amp_r = side_amplitude(setting["u_r"] * ch.a_r, ch.phi_r, ch.direct_r, setting["theta_r"])
+    amp_t = side_amplitude(setting["u_t"] * ch.a_t, ch.phi_t, ch.direct_t, setting["theta_t"])
+    return noma_setting(ch, amp_r, amp_t, **setting)
+
+
 def joint_phases(ch: StarChannels, surface: StarSurface, tol: float) -> SlotOptimum:
     if surface.protocol == "fixed":
         u_r0, u_t0 = np.full(ch.M, ch.fixed_r), np.full(ch.M, ch.fixed_t)
@@ -288,13 +348,16 @@ def joint_phases(ch: StarChannels, surface: StarSurface, tol: float) -> SlotOpti
     else:
         _, upper, w_star = es_frontier_bb(ch, tol)
         weights = np.unique(np.concatenate([_MM_WEIGHTS, [w_star]]))
-    best = None
+    starts = []
     for w in weights:
         if surface.protocol != "fixed":
             _, _, u_r0, u_t0 = frontier_point(ch, float(w))
         amp_r, amp_t, setting = mm_phases(ch, surface, 1 - w, w, u_r0.copy(), u_t0.copy())
-        out = noma_setting(ch, amp_r, amp_t, **setting)
-        if best is None or out[0] > best[0]:
-            best = out
+        starts.append(noma_setting(ch, amp_r, amp_t, **setting))
+    starts.sort(key=lambda out: -out[0])
+    best = starts[0]
+    for start in starts if ch.M <= _MULTI_START_MAX_M else starts[:1]:
+        polished = setting_value(ch, coordinate_search(ch, surface, start[2]))
+        best = polished if polished[0] > best[0] else best
     method = f"{surface.phases} phases by minorise-maximise; bound: independent continuous phases"
     return SlotOptimum(best[0], max(upper, best[0]), best[1], method, best[2])

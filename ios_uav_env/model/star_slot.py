@@ -57,6 +57,7 @@ from ios_uav_env.model.star import (
 from ios_uav_env.model.star_frontier import (
     DEFAULT_TOL,
     SlotOptimum,
+    coordinate_search,
     discrete_sides,
     es_frontier_bb,
     frontier_point,
@@ -65,6 +66,7 @@ from ios_uav_env.model.star_frontier import (
     maxmin_of,
     noma_setting,
     rate_of,
+    setting_value,
     ts_amplitudes,
     ts_noma,
 )
@@ -122,6 +124,11 @@ def _es_independent(ch: StarChannels, surface: StarSurface, tol: float) -> SlotO
         amp_r, amp_t, th_r, th_t = discrete_sides(ch, surface.bits, u_r, u_t)
         method += f", each side's exact {surface.bits}-bit phases (bound: continuous)"
     value, rates, setting = noma_setting(ch, amp_r, amp_t, u_r=u_r, u_t=u_t, theta_r=th_r, theta_t=th_t)
+    if surface.bits is not None:
+        polished = setting_value(ch, coordinate_search(ch, surface, setting))
+        if polished[0] > value:
+            value, rates, setting = polished
+            method += " and a coordinate search"
     return SlotOptimum(value, max(upper, value), rates, method, setting)
 
 

@@ -113,8 +113,9 @@ def test_ms_against_every_assignment(bits: int | None) -> None:
 )
 def test_joint_phase_certificates_against_brute_force(phases: str, bits: int | None) -> None:
     """Coupled, shared or b-bit phases on M = 2: the bound is above brute force over a grid of
-    every element's amplitudes and phases; the value is feasible (re-scored) and at least the
-    better single side."""
+    every element's amplitudes and phases; the value is feasible (re-scored), at least the
+    better single side, and within 1 % of the grid's best (the heuristic's quality, measured
+    within 0.7 % on such draws; one minorise-maximise start alone fell up to 20 % short)."""
     rng = np.random.default_rng(7)
     surface = StarSurface("es", phases, bits)
     for _ in range(6):
@@ -123,6 +124,7 @@ def test_joint_phase_certificates_against_brute_force(phases: str, bits: int | N
         brute = _brute_noma(ch, [_choices(phases, bits)] * 2)
         assert brute <= opt.upper * (1 + EXACT)
         assert opt.value <= opt.upper
+        assert opt.value >= 0.99 * brute
         rates = evaluate(ch, surface, "noma", opt.setting)
         assert min(rates) == pytest.approx(opt.value, rel=EXACT)
         if bits is None:
