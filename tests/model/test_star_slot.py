@@ -266,3 +266,24 @@ def test_bad_inputs_of_the_optimum() -> None:
             evaluate(ch, StarSurface("ms"), "noma", es.setting)
     with pytest.raises(ValueError, match="phases='shared'"):
         evaluate(ch, StarSurface("es", "shared"), "noma", es.setting)
+
+
+@pytest.mark.parametrize(
+    ("protocol", "phases", "bits", "access", "value", "upper"),
+    [
+        ("es", "independent", None, "tdma", 0.418191, 0.418191),
+        ("es", "independent", None, "noma", 0.382243, 0.382244),
+        ("ms", "independent", None, "noma", 0.364504, 0.364526),
+        ("ts", "independent", None, "noma", 0.418191, 0.418191),
+        ("es", "independent", 2, "tdma", 0.370602, 0.370602),
+        ("fixed", "shared", None, "tdma", 1.039265, 1.039265),
+    ],
+)
+def test_spot_values_of_the_docs(protocol, phases, bits, access, value, upper) -> None:
+    """docs/model.md's STAR spot values (6 decimals). The closed forms move by ~1e-15 across CPUs
+    and the branch and bound's value by at most its gap (1e-6 relative): 2e-6 absolute holds on
+    any CPU, and a changed channel, split or rate formula moves them by far more."""
+    ch = star.star_channels(ScenarioConfig(), (-100.0, -20.0), (-100.0, -20.0), (100.0, 30.0))
+    opt = slot_optimum(ch, StarSurface(protocol, phases, bits), access)
+    assert opt.value == pytest.approx(value, abs=2e-6)
+    assert opt.upper == pytest.approx(upper, abs=2e-6)
