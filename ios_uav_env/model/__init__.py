@@ -3,6 +3,8 @@ a trajectory, on numpy arrays, knowing nothing of Gymnasium.
 
 - ``config``: the frozen, validated scenario (units and the paper's symbols);
 - ``surface``: the IOS element layout; ``channel``: the cascaded channel and the slot rate;
+- ``star``, ``star_slot``, ``star_frontier``: STAR surfaces (the IOS generalised) and their
+  certified per-slot optima for two users;
 - ``trajectory``: the one scorer of a flight (average rate, feasibility);
 - ``schedule``: K >= 1 ground nodes, the TDMA shares and the max-min rate;
 - ``peak``: the rate peak; ``scenarios``: the scenario families (random scenarios, one node or
