@@ -26,15 +26,13 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from ios_uav_env.envs.knowledge import NodesTrack, observe_nodes, start_nodes_track
+from ios_uav_env.envs.nodes_kernels import N_BASE
 from ios_uav_env.model.motion import static_paths
 
 if TYPE_CHECKING:
     from ios_uav_env.envs.multi_kernels import NodeRows
     from ios_uav_env.envs.options import EnvOptions
     from ios_uav_env.model.config import ScenarioConfig
-
-#: The scenario-level features before the node blocks (``multi.BASE_FEATURES``).
-N_BASE = 12
 
 
 class MobileNodes:
@@ -88,6 +86,11 @@ class MobileNodes:
             if rates is not None:  # the UAV's own tally of measured rates, and this slot's (0: not served)
                 obs[j + 4] = self._track.tally[k] / self.config.N
                 obs[j + 5] = 0.0 if math.isnan(rates[k]) else rates[k]
+
+    @property
+    def rate_clip(self) -> float:
+        """bps/Hz, where a measured rate is clipped in the observation (the space's rate bound)."""
+        return self._rate_clip
 
     @property
     def track(self) -> NodesTrack | None:
