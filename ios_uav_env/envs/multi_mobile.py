@@ -1,10 +1,12 @@
 """The episode of ``MultiNodeEnv`` as a row of the kernels, and its moving, roughly known nodes.
 
 A mixin of the multi-node env holding the multi-node row protocol's per-row calls
-(``ios_uav_env.envs.row_protocol.MultiNodeRow``), which the env makes on its one row and the
-batched env on each row's template env (Python per row): :meth:`MobileNodes.load_row` puts the
-episode just begun in a row of ``multi_kernels.NodeRows``, :meth:`MobileNodes.prepare_slot`
-readies the row's next slot, :meth:`MobileNodes.observe_slot` writes what the UAV is told.
+(``ios_uav_env.envs.row_protocol.MultiNodeRow``), which the env makes on its one row:
+:meth:`MobileNodes.load_row` puts the episode just begun in a row of ``multi_kernels.NodeRows``,
+:meth:`MobileNodes.prepare_slot` readies the row's next slot, :meth:`MobileNodes.observe_slot`
+writes what the UAV is told. The batched env makes ``load_row`` on each row's template env and
+the other two, for all its moving rows at once, in compiled calls on the rows' ``track`` arrays
+(``ios_uav_env.envs.nodes_kernels``: the same arithmetic and draws, tested equal bit for bit).
 
 With moving or roughly known nodes (``ios_uav_env/IOSUAV-MultiNode-Mobile-v0``; the multi-node
 counterpart of the single env's mobile methods) the row's episode draws its node paths and puts

@@ -10,16 +10,17 @@ certified best schedule (``ios_uav_env.model.schedule``; the ended static rows i
 call); ``best_schedule=False`` skips it (the key then holds NaN at episode ends).
 
 The batch-level conventions are ``ios_uav_env.envs.batched.BatchedEnv``'s: scenario choice at
-reset in one template ``MultiNodeEnv`` per row (``load_row``, ``prepare_slot`` and
-``observe_slot`` of ``ios_uav_env.envs.row_protocol.MultiNodeRow``), autoreset ``NEXT_STEP`` by default or
-``autoreset_mode="same_step"`` with ``final_obs`` / ``final_info``, ``reset(seed=s)`` seeding
-row i with ``s + i``, ``options={"config": cfg}`` / ``{"configs": [...]}`` pinning the rows'
-scenarios. ``info`` is a dict of arrays (the single env's ``info_keys``: ``MULTI_INFO_KEYS``, and
-the energy objective's and the Rician channel's keys; ``position`` (B, 2), ``shares``,
-``node_rates`` and ``expected_node_rates`` (B, K_max)) with Gymnasium's ``_key`` masks. With the
-energy objective each row's lambda_ref is its template env's; with channel "rician" each row
-draws its slots' fading from its template env's ``np_random`` (so row i is the single env of seed
-``seed + i``, draw for draw).
+reset in one template ``MultiNodeEnv`` per row (``load_row`` of
+``ios_uav_env.envs.row_protocol.MultiNodeRow``; moving nodes: each slot's kernels and what the
+rows observe in compiled calls over the rows, ``ios_uav_env.envs.nodes_kernels``), autoreset
+``NEXT_STEP`` by default or ``autoreset_mode="same_step"`` with ``final_obs`` / ``final_info``,
+``reset(seed=s)`` seeding row i with ``s + i``, ``options={"config": cfg}`` / ``{"configs":
+[...]}`` pinning the rows' scenarios. ``info`` is a dict of arrays (the single env's
+``info_keys``: ``MULTI_INFO_KEYS``, and the energy objective's and the Rician channel's keys;
+``position`` (B, 2), ``shares``, ``node_rates`` and ``expected_node_rates`` (B, K_max)) with
+Gymnasium's ``_key`` masks. With the energy objective each row's lambda_ref is its template
+env's; with channel "rician" each row draws its slots' fading from its template env's
+``np_random`` (so row i is the single env of seed ``seed + i``, draw for draw).
 """
 
 from __future__ import annotations
