@@ -219,8 +219,7 @@ def rate_kernel(config: ScenarioConfig) -> RateKernel:
 
 
 class HeldKernels:
-    """A path's kernels that :func:`path_kernels` returns (copies of) while this object lives
-    (:func:`hold_path_kernels`)."""
+    """A path's kernels, which :func:`path_kernels` copies while this object lives."""
 
     __slots__ = ("__weakref__", "nodes", "params")
 
@@ -235,10 +234,10 @@ _HELD: weakref.WeakValueDictionary[tuple[ScenarioConfig, bytes], HeldKernels] = 
 def hold_path_kernels(
     config: ScenarioConfig, grounds: np.ndarray, nodes: np.ndarray, params: np.ndarray
 ) -> HeldKernels:
-    """Let :func:`path_kernels` of ``config`` and ``grounds`` return copies of ``nodes`` and
-    ``params`` (its own result, kept by the caller, e.g. a moving-node episode's track: views are
-    fine) instead of computing them again, for as long as the returned object lives. E.g. the
-    multi-node env's score of an episode rebuilds the kernels of the paths its track holds."""
+    """Let :func:`path_kernels` of ``config`` and ``grounds`` return copies of ``nodes`` and ``params``
+    (its own result, which the caller keeps, e.g. in a moving-node episode's track; views are fine)
+    instead of computing them again, as long as the returned object lives (e.g. the multi-node env's
+    score of an episode builds the kernels of the paths its track holds)."""
     held = HeldKernels(nodes, params)
     _HELD[(config, as_positions(grounds, "grounds").tobytes())] = held
     return held
