@@ -48,7 +48,7 @@ from ios_uav_env.envs.observation import (
 )
 from ios_uav_env.envs.observation_layout import observation_names
 from ios_uav_env.envs.options import KNOWLEDGE, EnvOptions
-from ios_uav_env.model.channel import faded_row, path_kernels
+from ios_uav_env.model.channel import HeldKernels, faded_row, hold_path_kernels, path_kernels
 from ios_uav_env.model.config import ScenarioConfig
 from ios_uav_env.model.kalman import NodeFilter
 from ios_uav_env.model.mobility import BOX_MARGIN
@@ -241,6 +241,9 @@ class NodesTrack:
     tally: np.ndarray  # (K,) bps/Hz x slots, sum over slots of share x told rate (the served feature)
     config: ScenarioConfig
     filter: NodeFilter | None = None  # the Kalman filter of the reports so far (filter_estimate)
+    # the kernels held for the episode's score (channel.hold_path_kernels: its maxmin_rate on the
+    # true paths finds them instead of building them again)
+    held: tuple[HeldKernels, ...] = ()
 
 
 def start_nodes_track(
@@ -256,11 +259,15 @@ def start_nodes_track(
     for k, (kernel, _) in enumerate(kernels):
         nodes[k, :, :, : kernel.shape[2]] = kernel
     params = np.stack([p for _, p in kernels])
+    held = tuple(
+        hold_path_kernels(config.node_config(k), paths[:, k], nodes[k, :, :, : kernel.shape[2]], params[k])
+        for k, (kernel, _) in enumerate(kernels)
+    )  # (views of the track's arrays: no copy)
     lo, hi = _rectangles(config)
     margin = REPORT_CLIP * sigma
     return NodesTrack(
         paths, nodes, params, lo - margin, hi + margin, np.full((config.N, config.K, 2), np.nan),
-        np.full((config.K, config.N), np.nan), np.zeros(config.K), config,
+        np.full((config.K, config.N), np.nan), np.zeros(config.K), config, held=held,
     )  # fmt: skip
 
 

@@ -1,10 +1,12 @@
 """The episode of ``MultiNodeEnv`` as a row of the kernels, and its moving, roughly known nodes.
 
 A mixin of the multi-node env holding the multi-node row protocol's per-row calls
-(``ios_uav_env.envs.row_protocol.MultiNodeRow``), which the env makes on its one row and the
-batched env on each row's template env (Python per row): :meth:`MobileNodes.load_row` puts the
-episode just begun in a row of ``multi_kernels.NodeRows``, :meth:`MobileNodes.prepare_slot`
-readies the row's next slot, :meth:`MobileNodes.observe_slot` writes what the UAV is told.
+(``ios_uav_env.envs.row_protocol.MultiNodeRow``), which the env makes on its one row:
+:meth:`MobileNodes.load_row` puts the episode just begun in a row of ``multi_kernels.NodeRows``,
+:meth:`MobileNodes.prepare_slot` readies the row's next slot, :meth:`MobileNodes.observe_slot`
+writes what the UAV is told. The batched env makes ``load_row`` on each row's template env and
+the other two, for all its moving rows at once, in compiled calls on the rows' ``track`` arrays
+(``ios_uav_env.envs.nodes_kernels``: the same arithmetic and draws, tested equal bit for bit).
 
 With moving or roughly known nodes (``ios_uav_env/IOSUAV-MultiNode-Mobile-v0``; the multi-node
 counterpart of the single env's mobile methods) the row's episode draws its node paths and puts
@@ -26,15 +28,13 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from ios_uav_env.envs.knowledge import NodesTrack, observe_nodes, start_nodes_track
+from ios_uav_env.envs.nodes_kernels import N_BASE
 from ios_uav_env.model.motion import static_paths
 
 if TYPE_CHECKING:
     from ios_uav_env.envs.multi_kernels import NodeRows
     from ios_uav_env.envs.options import EnvOptions
     from ios_uav_env.model.config import ScenarioConfig
-
-#: The scenario-level features before the node blocks (``multi.BASE_FEATURES``).
-N_BASE = 12
 
 
 class MobileNodes:
@@ -88,6 +88,11 @@ class MobileNodes:
             if rates is not None:  # the UAV's own tally of measured rates, and this slot's (0: not served)
                 obs[j + 4] = self._track.tally[k] / self.config.N
                 obs[j + 5] = 0.0 if math.isnan(rates[k]) else rates[k]
+
+    @property
+    def rate_clip(self) -> float:
+        """bps/Hz, where a measured rate is clipped in the observation (the space's rate bound)."""
+        return self._rate_clip
 
     @property
     def track(self) -> NodesTrack | None:

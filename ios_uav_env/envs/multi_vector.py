@@ -10,16 +10,17 @@ certified best schedule (``ios_uav_env.model.schedule``; the ended static rows i
 call); ``best_schedule=False`` skips it (the key then holds NaN at episode ends).
 
 The batch-level conventions are ``ios_uav_env.envs.batched.BatchedEnv``'s: scenario choice at
-reset in one template ``MultiNodeEnv`` per row (``load_row``, ``prepare_slot`` and
-``observe_slot`` of ``ios_uav_env.envs.row_protocol.MultiNodeRow``), autoreset ``NEXT_STEP`` by default or
-``autoreset_mode="same_step"`` with ``final_obs`` / ``final_info``, ``reset(seed=s)`` seeding
-row i with ``s + i``, ``options={"config": cfg}`` / ``{"configs": [...]}`` pinning the rows'
-scenarios. ``info`` is a dict of arrays (the single env's ``info_keys``: ``MULTI_INFO_KEYS``, and
-the energy objective's and the Rician channel's keys; ``position`` (B, 2), ``shares``,
-``node_rates`` and ``expected_node_rates`` (B, K_max)) with Gymnasium's ``_key`` masks. With the
-energy objective each row's lambda_ref is its template env's; with channel "rician" each row
-draws its slots' fading from its template env's ``np_random`` (so row i is the single env of seed
-``seed + i``, draw for draw).
+reset in one template ``MultiNodeEnv`` per row (``load_row`` of
+``ios_uav_env.envs.row_protocol.MultiNodeRow``; moving nodes: each slot's kernels and what the
+rows observe in compiled calls over the rows, ``ios_uav_env.envs.nodes_kernels``), autoreset
+``NEXT_STEP`` by default or ``autoreset_mode="same_step"`` with ``final_obs`` / ``final_info``,
+``reset(seed=s)`` seeding row i with ``s + i``, ``options={"config": cfg}`` / ``{"configs":
+[...]}`` pinning the rows' scenarios. ``info`` is a dict of arrays (the single env's
+``info_keys``: ``MULTI_INFO_KEYS``, and the energy objective's and the Rician channel's keys;
+``position`` (B, 2), ``shares``, ``node_rates`` and ``expected_node_rates`` (B, K_max)) with
+Gymnasium's ``_key`` masks. With the energy objective each row's lambda_ref is its template
+env's; with channel "rician" each row draws its slots' fading from its template env's
+``np_random`` (so row i is the single env of seed ``seed + i``, draw for draw).
 """
 
 from __future__ import annotations
@@ -29,9 +30,19 @@ from typing import Any
 import numpy as np
 
 from ios_uav_env.envs.batched import BatchedEnv
+from ios_uav_env.envs.knowledge import filter_report
+from ios_uav_env.envs.knowledge_kernels import row_list
 from ios_uav_env.envs.multi import MultiNodeEnv
 from ios_uav_env.envs.multi_kernels import NodeRows, episode_best_values, move_norms
 from ios_uav_env.envs.multi_table import BEST, MULTI_INFO_KEYS, info_arrays, info_columns
+from ios_uav_env.envs.nodes_kernels import (
+    MODES,
+    N_BASE,
+    draws,
+    gather_node_kernels,
+    measure_nodes,
+    tell_nodes,
+)
 
 
 class MultiNodeVectorEnv(BatchedEnv):
@@ -64,9 +75,34 @@ class MultiNodeVectorEnv(BatchedEnv):
         self._rician = template.options.channel == "rician"
         self._state = self._rows.state
         self._info_width = info_columns(self.max_nodes, template.energy_objective or self._rician)
-        # moving or roughly known nodes: per-row kernels per slot and observations by the rows'
-        # template envs (Python per row and slot: ios_uav_env.envs.knowledge)
+        # moving or roughly known nodes: each row's tracks (its nodes' kernels per slot, the truth
+        # and the records), drawn by its template env at reset, and what its UAV is told per slot,
+        # for all rows in one compiled call (ios_uav_env.envs.nodes_kernels)
         self._mobile = template.mobile
+        if self._mobile:
+            self._init_tracks(template)
+
+    def _init_tracks(self, template: MultiNodeEnv) -> None:
+        """The arrays and the row lists of the rows' node tracks (moving or roughly known nodes)."""
+        b, k, o = self.num_envs, self.max_nodes, template.options
+        self._knowledge, self._kind = MODES[o.knowledge], o.knowledge  # (exact: nothing drawn)
+        self._sigma, self._scale = float(o.report_sigma), float(o.length_scale)
+        self._rate_high = float(template.rate_clip)
+        self._estimate = o.knowledge == "reports" and o.filter_estimate
+        self._width = len(template.node_features)
+        self._k = np.zeros(b, dtype=np.int64)
+        self._slot_normals, self._told = np.zeros((b, 4 * k)), np.zeros((b, k))
+        self._raw, self._lo, self._hi = np.zeros((b, k, 2)), np.zeros((b, k, 2)), np.zeros((b, k, 2))
+        self._track_paths = row_list(np.zeros((1, 1, 2)), b)
+        self._track_reports = row_list(np.zeros((1, 1, 2)), b)
+        self._track_measured = row_list(np.zeros((1, 1)), b)
+        self._track_tally = row_list(np.zeros(1), b)
+        self._track_nodes = row_list(np.zeros((1, 1, 3, 1)), b)
+        self._track_params = row_list(np.zeros((1, 1, self._rows.params.shape[2])), b)
+        # each row's draw of the slot's normals: its generator's standard_normal and the row's slice
+        # of _slot_normals (set at each episode: a seeded reset makes a new generator, K changes)
+        self._draw: list[Any] = [None] * b
+        self._draw_out: list[Any] = [None] * b
 
     @property
     def _path(self) -> np.ndarray:
@@ -76,12 +112,45 @@ class MultiNodeVectorEnv(BatchedEnv):
     def _load_row(self, i: int, env: MultiNodeEnv) -> None:
         # the scenario, node paths, lambda_ref, the first slot's fading: as the single env's reset
         env.load_row(self._rows, i)
+        track = env.track if self._mobile else None
+        if track is not None:
+            k = self._k[i] = env.config.K
+            self._track_paths[i], self._track_reports[i] = track.paths, track.reports
+            self._track_measured[i], self._track_tally[i] = track.measured, track.tally
+            self._track_nodes[i], self._track_params[i] = track.nodes, track.params
+            self._lo[i, :k], self._hi[i, :k] = track.lo, track.hi
+            self._draw[i] = env.np_random.standard_normal
+            self._draw_out[i] = self._slot_normals[i, : draws(self._kind, k)]
 
     def _start_rows(self, rows: np.ndarray) -> None:
         self._rows.start(rows, self._obs, self._info)
         if self._mobile:
-            for i in rows:
-                self.envs[i].observe_slot(self._rows, i, self._obs[i])
+            self._observe_rows(rows)
+
+    def _observe_rows(self, rows: np.ndarray) -> None:
+        """What each row's UAV is told of its nodes in its current slot, as the single env's
+        ``observe_slot`` (``knowledge.observe_nodes``), bit for bit: per row, the slot's normals in
+        one draw of its generator, then compiled calls for all ``rows``
+        (``nodes_kernels.measure_nodes`` and ``tell_nodes``); the Kalman filter (``filter_estimate``)
+        per row."""
+        rows = np.asarray(rows, dtype=np.int64)
+        normals, envs, counts, draw, out = self._slot_normals, self.envs, self._k, self._draw, self._draw_out
+        state, shares = self._rows.state, self._rows.shares
+        if self._knowledge != 0:
+            for i in rows.tolist():
+                draw[i](out=out[i])
+            measure_nodes(rows, state, shares, self._track_measured, self._track_nodes, self._track_params,
+                          normals, self._knowledge == 1, self._rate_high, self._told)  # fmt: skip
+        tell_nodes(rows, state, shares, self._track_paths, self._track_reports, self._track_tally, self._lo,
+                   self._hi, normals, self._knowledge, self._sigma, self._scale, not self._estimate,
+                   self._width, self._told, self._obs, self._raw)  # fmt: skip
+        if self._estimate:
+            for i in rows.tolist():
+                k = int(counts[i])
+                told = filter_report(envs[i].track, self._raw[i, :k].copy(), self._sigma)
+                for node in range(k):
+                    at = N_BASE + self._width * node
+                    self._obs[i, at + 1 : at + 3] = (told[node] - state[i, 0:2]) / self._scale
 
     def _info_arrays(self, table: np.ndarray) -> dict[str, Any]:
         return info_arrays(table, self.max_nodes, self.info_keys)
@@ -109,13 +178,16 @@ class MultiNodeVectorEnv(BatchedEnv):
         """One slot of the ``active`` rows, then the best schedule of each flight that ended."""
         outputs = (self._obs, self._reward, self._terminated, self._info)
         stepping = np.flatnonzero(active)
-        if self._mobile or self._rician:  # each row's node kernels and fading of the slot it flies to
+        if self._rician:  # each row's node kernels and fading of the slot it flies to (its draws)
             for i in stepping:
                 self.envs[i].prepare_slot(self._rows, i)
+        elif self._mobile:  # each row's node kernels of the slot it flies to, in one call
+            rows = self._rows
+            gather_node_kernels(stepping, rows.state, self._track_nodes, self._track_params, rows.nodes,
+                                rows.params)  # fmt: skip
         self._rows.step(actions, active, outputs, move_norms(actions), self.num_threads)
         if self._mobile:
-            for i in stepping:
-                self.envs[i].observe_slot(self._rows, i, self._obs[i])
+            self._observe_rows(stepping)
         ended = np.flatnonzero(self._terminated)
         if ended.size:
             self._info[ended, BEST] = (

@@ -26,7 +26,9 @@ One ground node (:class:`SingleNodeRow`: ``IOSUAVEnv``, ``RandomIOSUAVEnv``; wha
 ``IOSUAVVectorEnv`` calls): the current scenario as one kernel row (``kernel``, ``episode_row``,
 ``flags``, ``base_config``, ``max_slots``, ``options``) and, for a ``mobile`` env only, after
 ``begin_episode``: ``start_track(cfg)`` draws the episode's node path, ``track`` holds each
-slot's rate kernel, ``observe_slot(slot, q, obs)`` writes what the UAV is told after the slot.
+slot's rate kernel and the records, ``observe_slot(slot, q, obs)`` writes what the UAV is told
+after the slot (the batched env tells all its rows in compiled calls on their ``track`` arrays
+instead, ``knowledge_kernels``, with ``rate_clip``).
 
 K >= 1 nodes (:class:`MultiNodeRow`: ``MultiNodeEnv``; what ``MultiNodeVectorEnv`` calls): the
 settings of the kernels' rows (``max_nodes``, ``options``, ``share_sharpness``,
@@ -34,6 +36,9 @@ settings of the kernels' rows (``max_nodes``, ``options``, ``share_sharpness``,
 ``multi_kernels.NodeRows``: ``load_row(rows, i)`` after ``begin_episode``, ``prepare_slot(rows,
 i)`` before each step, ``observe_slot(rows, i, obs)`` after the start and each step (moving or
 roughly known nodes; nothing otherwise), and ``mobile`` and ``truth`` for the episode's score.
+``MultiNodeVectorEnv`` makes ``prepare_slot`` only where it draws (channel "rician"): it swaps
+in its moving rows' kernels and tells them what they observe in compiled calls on their
+``track`` arrays (``nodes_kernels``, with ``rate_clip`` and ``node_features``).
 
 A batched ``reset(seed=..., options=...)`` becomes the rows' ``begin_episode`` arguments by
 :func:`row_seeds` and :func:`rows_options` (every pinned scenario checked before any row resets).
@@ -154,6 +159,11 @@ class MultiNodeRow(ScenarioRow, Protocol):
     @property
     def track(self) -> NodesTrack | None:
         """The episode's node tracks; None for static, exactly known nodes."""
+        ...
+
+    @property
+    def rate_clip(self) -> float:
+        """bps/Hz, where a measured rate is clipped in the observation."""
         ...
 
     @property

@@ -5,8 +5,9 @@ a moving or roughly known node does not support, draws the episode's node path a
 (:meth:`MobileNode.start_track`), writes what the UAV is told of the node after each slot
 (:meth:`MobileNode.observe_slot`) and holds the episode's truth and observations (``track``,
 ``paths``, ``reports``, ``measured_rates``). These are the single-node row protocol's mobile calls
-(``ios_uav_env.envs.row_protocol.SingleNodeRow``): the batched env makes them on each row's
-template env (Python per row and slot). Inactive (``track`` None) for a static, exactly known node.
+(``ios_uav_env.envs.row_protocol.SingleNodeRow``): the batched env makes ``start_track`` on each
+row's template env and observes all its rows in compiled calls on their ``track`` arrays
+(``ios_uav_env.envs.knowledge_kernels``). Inactive (``track`` None) for a static, exactly known node.
 
 It also holds lambda_ref, the reference EE of the energy reward (objective
 ``"energy_efficiency"``; ``IOSUAVEnv``'s "Energy"): :meth:`MobileNode._scenario_reference` per

@@ -86,6 +86,10 @@ class IOSUAVVectorEnv(BatchedEnv):
             self._track_measured = row_list(np.zeros(1), b)
             self._track_nodes = row_list(np.zeros((1, 3, 1)), b)
             self._track_params = row_list(np.zeros((1, template.kernel.params.size)), b)
+            # each row's draw of the slot's normals: its generator's standard_normal and the row's
+            # slice of _slot_normals (set at each episode: a seeded reset makes a new generator)
+            self._draw: list[Any] = [None] * b
+            self._draw_out = [self._slot_normals[i, : self._draws] for i in range(b)]
 
     # --- rows -----------------------------------------------------------------------
     def _load_row(self, i: int, env: IOSUAVEnv) -> None:
@@ -110,6 +114,7 @@ class IOSUAVVectorEnv(BatchedEnv):
             self._track_measured[i], self._track_nodes[i] = track.measured, track.nodes
             self._track_params[i] = track.params
             self._lo[i], self._hi[i] = track.lo, track.hi
+            self._draw[i] = env.np_random.standard_normal
         self._episode[i] = env.episode_row
         self._state[i, 0:2] = self._path[i, 0] = env.config.q0
         # the env's own scenario object (a fixed id's): a plain reset keeps it. A pinned
@@ -131,10 +136,10 @@ class IOSUAVVectorEnv(BatchedEnv):
         one draw of its generator, then one compiled call for all ``rows``
         (``knowledge_kernels.observe_rows``); the Kalman filter (``filter_estimate``) per row."""
         rows = np.asarray(rows, dtype=np.int64)
-        draws, normals, envs = self._draws, self._slot_normals, self.envs
-        if draws:
+        normals, envs, draw, out = self._slot_normals, self.envs, self._draw, self._draw_out
+        if self._draws:
             for i in rows.tolist():
-                envs[i].np_random.standard_normal(out=normals[i, :draws])
+                draw[i](out=out[i])
         observe_rows(rows, self._state, self._track_paths, self._track_reports, self._track_measured,
                      self._track_nodes, self._track_params, self._lo, self._hi, normals, self._knowledge,
                      self._sigma, self._rate_high, self._scale, not self._estimate, self._obs,

@@ -13,6 +13,7 @@ phase-aligned amplitude (14); rate r(q) = log2(1 + eta zeta^2) (25).
 from __future__ import annotations
 
 import math
+import weakref
 from dataclasses import dataclass
 from functools import lru_cache
 
@@ -217,14 +218,43 @@ def rate_kernel(config: ScenarioConfig) -> RateKernel:
     return RateKernel(**fields, nodes=packed, params=params)
 
 
+class HeldKernels:
+    """A path's kernels, which :func:`path_kernels` copies while this object lives."""
+
+    __slots__ = ("__weakref__", "nodes", "params")
+
+    def __init__(self, nodes: np.ndarray, params: np.ndarray) -> None:
+        self.nodes, self.params = nodes, params
+
+
+#: (config, the path's bytes) -> the kernels some live object holds (weak: gone with their holder)
+_HELD: weakref.WeakValueDictionary[tuple[ScenarioConfig, bytes], HeldKernels] = weakref.WeakValueDictionary()
+
+
+def hold_path_kernels(
+    config: ScenarioConfig, grounds: np.ndarray, nodes: np.ndarray, params: np.ndarray
+) -> HeldKernels:
+    """Let :func:`path_kernels` of ``config`` and ``grounds`` return copies of ``nodes`` and ``params``
+    (its own result, which the caller keeps, e.g. in a moving-node episode's track; views are fine)
+    instead of computing them again, as long as the returned object lives (e.g. the multi-node env's
+    score of an episode builds the kernels of the paths its track holds)."""
+    held = HeldKernels(nodes, params)
+    _HELD[(config, as_positions(grounds, "grounds").tobytes())] = held
+    return held
+
+
 def path_kernels(config: ScenarioConfig, grounds: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """The rate kernels of one ground node at each of the (P, 2) ``grounds`` (m): ``nodes``
     (P, 3, n) and ``params`` (P, len(PARAMS)), row p equal bit for bit to
     ``rate_kernel(config.replace(ground_node=grounds[p]))``'s ``nodes`` and ``params``. A
     moving node's kernel per slot (``ios_uav_env.model.motion``) without a config per slot:
     only the surface weights and G's coordinates and side depend on G
-    (:func:`~ios_uav_env.model.surface.ground_weights`). ``config`` has one node (K = 1)."""
+    (:func:`~ios_uav_env.model.surface.ground_weights`). ``config`` has one node (K = 1).
+    New arrays: copies of the held ones when the path's kernels are held (:func:`hold_path_kernels`)."""
     points = as_positions(grounds, "grounds")
+    held = _HELD.get((config, points.tobytes()))
+    if held is not None:
+        return held.nodes.copy(), held.params.copy()
     base = rate_kernel(config)
     nodes = np.repeat(base.nodes[None], len(points), axis=0)
     nodes[:, 2] = config.J * ground_weights(config, points)

@@ -113,32 +113,34 @@ def rectangles(
     (default: the nodes and the IOS centre widened by ``BOX_MARGIN``), cut, unless ``surface``
     is "none", to the node's side of the IOS plane x = ios_center[0], ``plane_margin`` away from
     it. ``ValueError`` naming the node when it starts outside its rectangle or that is empty."""
-    nodes = np.asarray(nodes, dtype=float)
-    k_nodes = len(nodes)
+    points = np.asarray(nodes, dtype=float).tolist()  # (scalar Python: a few nodes, once per episode)
     if motion.box is None:
-        pts = np.vstack([nodes, np.asarray(ios_center[:2], dtype=float)])
-        (x0, y0), (x1, y1) = pts.min(axis=0) - BOX_MARGIN, pts.max(axis=0) + BOX_MARGIN
+        xs = [p[0] for p in points] + [float(ios_center[0])]
+        ys = [p[1] for p in points] + [float(ios_center[1])]
+        box = ((min(xs) - BOX_MARGIN, max(xs) + BOX_MARGIN), (min(ys) - BOX_MARGIN, max(ys) + BOX_MARGIN))
     else:
-        (x0, x1), (y0, y1) = motion.box
-    lo = np.tile([x0, y0], (k_nodes, 1))
-    hi = np.tile([x1, y1], (k_nodes, 1))
-    if surface != "none":
-        plane, gap = ios_center[0], motion.plane_margin
-        left = nodes[:, 0] < plane
-        hi[left, 0] = np.minimum(hi[left, 0], plane - gap)
-        lo[~left, 0] = np.maximum(lo[~left, 0], plane + gap)
-    for k in range(k_nodes):
-        name = "ground_node" if k_nodes == 1 else f"ground_nodes[{k}]"
-        node = (float(nodes[k, 0]), float(nodes[k, 1]))
-        where = f"x in [{lo[k, 0]:g}, {hi[k, 0]:g}], y in [{lo[k, 1]:g}, {hi[k, 1]:g}] m"
-        if not np.all(lo[k] < hi[k]):
+        box = motion.box
+    (x0, x1), (y0, y1) = box
+    plane, gap = float(ios_center[0]), motion.plane_margin
+    lo, hi = np.empty((len(points), 2)), np.empty((len(points), 2))
+    for k, (x, y) in enumerate(points):
+        low_x, high_x = x0, x1
+        if surface != "none":  # the node's side of the IOS plane, plane_margin away from it
+            if x < plane:
+                high_x = min(high_x, plane - gap)
+            else:
+                low_x = max(low_x, plane + gap)
+        lo[k], hi[k] = (low_x, y0), (high_x, y1)
+        name = "ground_node" if len(points) == 1 else f"ground_nodes[{k}]"
+        where = f"x in [{low_x:g}, {high_x:g}], y in [{y0:g}, {y1:g}] m"
+        if not (low_x < high_x and y0 < y1):
             raise ValueError(
-                f"{name}={node}: its motion rectangle {where} (the box on its side of the IOS "
+                f"{name}={(x, y)}: its motion rectangle {where} (the box on its side of the IOS "
                 f"plane, plane_margin={motion.plane_margin:g} m) is empty: widen motion.box"
             )
-        if not np.all((lo[k] <= nodes[k]) & (nodes[k] <= hi[k])):
+        if not (low_x <= x <= high_x and y0 <= y <= y1):
             raise ValueError(
-                f"{name}={node} starts outside its motion rectangle {where} (motion.box, and at "
+                f"{name}={(x, y)} starts outside its motion rectangle {where} (motion.box, and at "
                 f"least plane_margin={motion.plane_margin:g} m from the IOS plane x = {ios_center[0]:g} m)"
             )
     return lo, hi

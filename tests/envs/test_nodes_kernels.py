@@ -1,0 +1,98 @@
+"""The batched multi-node env's compiled moving-node calls (ios_uav_env/envs/nodes_kernels.py)
+equal the single env's per-row path (``MobileNodes.prepare_slot`` / ``observe_slot``,
+``knowledge.observe_nodes``) bit for bit: observations, reports, measured rates, the served tally
+and the filtered estimates, across episode ends, rows of 2 to 4 nodes and of different surface
+widths; compiled and plain Python."""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+import pytest
+
+from ios_uav_env.envs.multi import MultiNodeEnv
+from ios_uav_env.envs.multi_vector import MultiNodeVectorEnv
+from ios_uav_env.envs.nodes_kernels import draws
+from ios_uav_env.model.config import ScenarioConfig
+from ios_uav_env.model.scenarios import ScenarioRanges
+from tests.processes import run_without_numba
+
+CASES = [
+    {"knowledge": "reports"},
+    {"knowledge": "reports", "filter_estimate": True},
+    {"knowledge": "rates"},
+    {"knowledge": "exact"},
+    {"knowledge": "exact", "channel": "rician"},
+    {"knowledge": "reports", "report_sigma": 40.0, "filter_estimate": True},
+]
+#: Scenarios of different surface widths (an exact 60-element sum, the 64 compressed nodes)
+#: pinned at the first reset: the narrower rows' kernels are padded in the batch's arrays.
+WIDTHS = [{"ios_shape": (10, 6)}, {"ios_shape": (100, 20)}, {"ios_shape": (12, 5)}]
+
+
+def same(a: np.ndarray, b: np.ndarray) -> bool:
+    """Equal bit for bit (NaN where the other is NaN)."""
+    return a.shape == b.shape and a.dtype == b.dtype and a.tobytes() == b.tobytes()
+
+
+def check_rows(kwargs: dict[str, Any], rows: int = 3, steps: int = 90, seed: int = 11) -> int:
+    """Step a batch and its rows' single envs with the same actions (the singles reset as the
+    batch's NEXT_STEP autoreset does; the first reset pins scenarios of different widths) and
+    assert every observation and track record equal bit for bit; the number of episode ends."""
+    walk = {"kind": "gauss_markov"}
+    ranges = ScenarioRanges(T=(40.0, 60.0), ios_rows=(20, 30), base=ScenarioConfig(motion=walk))
+    kwargs = {"random_nodes": (2, 4), "ranges": ranges, **kwargs}
+    vec = MultiNodeVectorEnv(rows, **kwargs)
+    singles = [MultiNodeEnv(**kwargs) for _ in range(rows)]
+    draw = np.random.default_rng(seed)
+    configs = [
+        ranges.base.replace(T=40.0, ground_nodes=((40.0, 30.0), (-50.0, 60.0), (90.0, -20.0))[: 2 + i % 2],
+                            **WIDTHS[i % len(WIDTHS)])
+        for i in range(rows)
+    ]  # fmt: skip
+    obs, _ = vec.reset(seed=seed, options={"configs": configs})
+    for i, env in enumerate(singles):
+        assert same(env.reset(seed=seed + i, options={"config": configs[i]})[0], obs[i])
+    pending, ends = [False] * rows, 0
+    for _ in range(steps):
+        actions = draw.uniform(-1.2, 1.2, vec.action_space.shape)
+        obs, reward, terminated, _, _ = vec.step(actions)
+        for i, env in enumerate(singles):
+            if pending[i]:
+                o, r = env.reset()[0], 0.0
+                pending[i] = False
+            else:
+                o, r, term, _, _ = env.step(actions[i])
+                pending[i], ends = term, ends + term
+            assert same(o, obs[i]), (i, o, obs[i])
+            # (the reward is the step kernel's: the batch's parallel kernel and the single env's
+            # agree to rounding, as test_multi_vector checks)
+            assert abs(r - reward[i]) <= 1e-9
+            mine, theirs = vec.envs[i].track, env.track
+            for name in ("paths", "reports", "measured", "tally"):
+                assert same(getattr(mine, name), getattr(theirs, name)), name
+            if kwargs.get("filter_estimate"):
+                assert same(mine.filter.position, theirs.filter.position)
+    return ends
+
+
+@pytest.mark.parametrize("kwargs", CASES)
+def test_compiled_nodes_equal_the_per_row_path(kwargs):
+    assert check_rows(kwargs) > 0  # (the episodes end: the autoreset's observations are compared too)
+
+
+def test_plain_python_nodes_equal_the_per_row_path():
+    """Under IOS_UAV_ENV_NO_NUMBA=1 (plain-Python kernels) the batch equals its singles too."""
+    code = (
+        "import runpy, ios_uav_env.jit as j\n"
+        "assert not j.HAVE_NUMBA\n"
+        f"check = runpy.run_path({__file__!r})['check_rows']\n"
+        f"for kwargs in {CASES[:3]!r}:\n"
+        "    assert check(kwargs, rows=2, steps=45) > 0\n"
+    )
+    run_without_numba(code)
+
+
+def test_a_slot_draws_the_reports_then_the_rates_normals():
+    assert [draws(kind, 3) for kind in ("exact", "reports", "rates")] == [0, 12, 6]
