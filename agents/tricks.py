@@ -1,16 +1,19 @@
 """The training tricks, each once, on the batched env's arrays (B rows).
 
 A recipe names its tricks by the zoo's ``env_wrapper`` key (``agents.wrappers.ShiftReward``,
-``ActionRepeat``, ``ExploringStarts``; ``agents.callbacks.ExploringStartsSchedule`` winds the
-starts down). Each is implemented here, on arrays of rows: observations (B, d), actions
+``ActionRepeat``, ``ExploringStarts``, ``FrameStack``; ``agents.callbacks.ExploringStartsSchedule``
+winds the starts down). Each is implemented here, on arrays of rows: observations (B, d), actions
 (B, a), rewards (B,), dones (B,). Every training path calls these:
 
 - the SB3 VecEnv path over the batched env (``agents.vec_env``: ``VecShiftReward``,
   ``VecActionRepeat``, ``VecExploringStarts``);
-- the fast trainer (``agents.fast.ppo.FastPPO``: the shift and the exploring starts, with their
-  schedule);
+- the fast trainer (``agents.fast.ppo.FastPPO``: the shift, the exploring starts with their
+  schedule, and the memory);
 - the Gymnasium wrappers of one env (``agents.wrappers``, for the zoo and SB3's
   ``DummyVecEnv``): the same functions on one row.
+
+A model trained with a memory is flown on the env's own observations with :class:`History`
+beside it (``agents.loading``), which rebuilds the stack the model was trained on.
 
 They change what the learner sees, never the episode: trajectories, ``info`` and the score are the
 env's. Arguments are checked on construction (``ValueError`` naming the wrapper's field).

@@ -15,7 +15,7 @@ import pytest
 import torch
 
 import ios_uav_env  # noqa: F401
-from agents.fast import FastPPO
+from agents.fast import FastPPO, FastRecipe
 from agents.tricks import FrameStack as Stack
 from agents.tricks import History
 from agents.wrappers import FrameStack, memory_frames
@@ -221,3 +221,16 @@ def test_the_run_records_the_memory_and_sb3_trains_with_it_too(memory_run, tmp_p
         3 * agent.observation_space.shape[0],
     )
     assert result.summary["final_eval"]["feasible"]
+
+
+def test_the_memory_recipe_is_read_by_both_trainers():
+    """``agents/hyperparams/fast_ppo_memory.yml``: the fast trainer reads its memory, clone and env
+    arguments (its expert checked on the env)."""
+    from agents.hyperparams import HYPERPARAMS_DIR
+    from agents.training import check_hyperparams
+
+    path = HYPERPARAMS_DIR / "fast_ppo_memory.yml"
+    hp = check_hyperparams("ppo", MOBILE, path, trainer="fast")
+    r = FastRecipe.from_hyperparams(hp)
+    assert r.frames == 4 and r.clone is not None and hp.env_kwargs == {"filter_estimate": True}
+    assert hp.memory == 4 and r.rollout_size % r.batch_size == 0
