@@ -234,3 +234,20 @@ def test_the_memory_recipe_is_read_by_both_trainers():
     r = FastRecipe.from_hyperparams(hp)
     assert r.frames == 4 and r.clone is not None and hp.env_kwargs == {"filter_estimate": True}
     assert hp.memory == 4 and r.rollout_size % r.batch_size == 0
+
+
+def test_a_memory_run_resumes_from_its_checkpoint(memory_run, tmp_path):
+    """``--resume`` rebuilds the stacked observation's network and statistics from the checkpoint."""
+    import shutil
+
+    from agents.training import resume
+
+    run = tmp_path / "run"
+    shutil.copytree(memory_run, run)
+    before = torch.get_num_threads()
+    try:
+        result = resume(run, timesteps=512, progress_bar=False)
+    finally:
+        torch.set_num_threads(before)
+    assert result.summary["steps"] == 512
+    assert result.summary["final_eval"]["feasible"]
