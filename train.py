@@ -5,6 +5,7 @@
         --env-kwargs arrival_guard:False channel:rician --out runs/sac_noguard
     python train.py --resume runs/sac_noguard                    # from its last checkpoint
     python train.py --algo ppo --trainer fast --env ios_uav_env/IOSUAV-MultiNode-v0  # the recipe's env_kwargs
+    python train.py --algo ppo --trainer fast --init-from runs/imitation  # from a trained model's weights
 
 A recipe (an entry of the hyperparameter file) may carry the env arguments it is trained with
 (the zoo's ``env_kwargs`` key); ``--env-kwargs`` overrides them key by key, and the resolved
@@ -43,6 +44,7 @@ RUN_SETTINGS = (
     "hyperparams",
     "trainer",
     "threads",
+    "init_from",
 )
 
 
@@ -133,6 +135,10 @@ def build_parser() -> argparse.ArgumentParser:
              "(agents.fast, docs/fast-training.md; --algo ppo; agents/hyperparams/fast_ppo.yml)")  # fmt: skip
     add("--threads", type=_checked(_count), default=None,
         help="torch threads of the fast trainer (default: 1; more pay on idle cores only)")  # fmt: skip
+    add("--init-from", default=None, metavar="PATH",
+        help="fast trainer: start from the weights and observation statistics of the PPO model at PATH "
+             "(a model or run folder, e.g. agents.imitation's, or a .zip) if its network is the "
+             "recipe's (agents.fast.init_from)")  # fmt: skip
     add("--checkpoint-freq", type=_checked(_count), default=25_000, help="steps between checkpoints")
     add("--eval-freq", type=_checked(lambda text: _count(text, 0)), default=10_000,
         help="steps between evaluations (0: none)")  # fmt: skip
@@ -202,9 +208,15 @@ def parse_args(argv: Sequence[str] | None = None) -> tuple[argparse.Namespace, A
         progress_bar=not args.no_progress,
         trainer=args.trainer or "sb3",
         threads=args.threads,
+        init_from=args.init_from,
     )
     if args.threads is not None and settings.trainer != "fast":
         parser.error("argument --threads: only the fast trainer takes it (add --trainer fast)")
+    if args.init_from is not None:
+        try:
+            settings.check_init_from(args.init_from)
+        except ValueError as exc:
+            parser.error(f"argument --init-from: {exc}")
     return args, settings
 
 

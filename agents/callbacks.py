@@ -211,8 +211,10 @@ class RateEvalCallback(BaseCallback):
         clock: Clock,
         history: list,
         repeat: int = 1,
+        memory: int = 1,
     ):
         super().__init__()
+        self.memory = memory  # the training's FrameStack: the agent keeps this many observations
         self.eval_freq, self.env_id, self.env_kwargs = eval_freq, env_id, dict(env_kwargs)
         self.repeat = repeat  # the training's ActionRepeat: the agent holds each action this many slots
         self.clock, self.history = clock, history
@@ -226,7 +228,7 @@ class RateEvalCallback(BaseCallback):
         from agents.loading import Agent
 
         agent = Agent(self.model, self.model.get_vec_normalize_env(), self.env_id, self.env_kwargs,
-                      repeat=self.repeat)  # fmt: skip
+                      repeat=self.repeat, memory=self.memory)  # fmt: skip
         record = evaluate_agent(agent, int(self.num_timesteps), self.clock.seconds())
         self.history.append(record)
         self.logger.record(f"eval/{record['score_name']}", float(record["score"]))

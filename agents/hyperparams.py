@@ -52,6 +52,13 @@ class Hyperparams:
 
         return action_repeat(self.raw.get("env_wrapper"))
 
+    @property
+    def memory(self) -> int:
+        """The observations the policy sees at once (``agents.wrappers.FrameStack``'s frames; else 1)."""
+        from agents.wrappers import memory_frames
+
+        return memory_frames(self.raw.get("env_wrapper"))
+
 
 def hyperparams_path(algo: str) -> Path:
     """The shipped file of ``algo`` (``agents/hyperparams/<algo>.yml``)."""

@@ -45,7 +45,9 @@ the shares of 2 to 4 random nodes are hard to find by exploration. Here the tour
 
 The policy imitates a heuristic: it cannot beat the tour, and the report puts both side by side.
 Its value is speed (one forward pass a slot instead of the tour's LPs), and it is an SB3 PPO
-model that PPO could go on training (``train.py`` cannot start from a model yet).
+model that PPO can go on training: ``train.py --trainer fast --init-from <out>`` starts the fast
+trainer from an ``mlp`` model whose network and normalisation the recipe shares
+(``agents.fast.init_from``; the node-set actor is another network, and is refused by name).
 """
 
 from __future__ import annotations

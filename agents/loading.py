@@ -72,14 +72,24 @@ class Agent:
     name: str = "agent"
     meta: dict[str, Any] = field(default_factory=dict)  # config.json and summary.json of its run
     repeat: int = 1  # slots each action is held (agents.wrappers.ActionRepeat in its training)
+    memory: int = 1  # observations the model sees at once (agents.wrappers.FrameStack in its training)
     batched = True  # act takes a (B, obs_dim) batch too (ios_uav_env.envs.rollout.batch_policy)
+    _history: Any = field(default=None, init=False, repr=False)  # agents.tricks.History, made at first use
 
     @property
     def observation_space(self) -> Any:
-        """The model's observation space (what it was trained on)."""
-        return self.model.observation_space
+        """The observations the agent takes: the model's (what it was trained on), or with a memory
+        (:attr:`memory` frames) the env's own, one frame of the model's."""
+        return self.model.observation_space if self.memory == 1 else frame_space(self.model, self.memory)
 
     def act(self, obs: np.ndarray, deterministic: bool = True) -> np.ndarray:
+        """The model's action on ``obs``; with a memory, ``obs`` is the env's own observation and the
+        agent keeps the last :attr:`memory` of them (``agents.tricks.History``: a new episode is
+        told by the ``time_left`` feature), so one agent flies one episode (or one batch) at a time."""
+        if self.memory > 1:
+            if self._history is None:
+                self._history = history(self.memory, self.env_id, self.env_kwargs)
+            obs = self._history(obs)
         if self.vecnormalize is not None:
             obs = self.vecnormalize.normalize_obs(obs)
         action, _ = self.model.predict(obs, deterministic=deterministic)
@@ -115,11 +125,38 @@ class Agent:
         else:
             shape = env.observation_space.shape
             where = f"the env {getattr(getattr(env, 'spec', None), 'id', type(env).__name__)}"
+        if self.memory > 1:  # the model takes the env's observations stacked
+            shape = (shape[0] * self.memory,)
         if tuple(shape) != tuple(expected):
             raise ValueError(
                 f"{source or self.name}: the model takes observations of shape {tuple(expected)}, "
                 f"{where} gives {tuple(shape)}"
             )
+
+
+def frame_space(model: Any, frames: int) -> Any:
+    """The space of one frame of the stacked observations ``model`` takes (``frames`` of them)."""
+    import gymnasium as gym
+
+    space = model.observation_space
+    d = space.shape[0] // frames
+    return gym.spaces.Box(space.low[-d:], space.high[-d:], dtype=space.dtype)
+
+
+def history(frames: int, env_id: str, env_kwargs: Mapping[str, Any]) -> Any:
+    """A memory of ``frames`` observations for a policy flown on ``env_id`` with ``env_kwargs``
+    (``agents.tricks.History``, its clock the env's ``time_left`` feature); ``ValueError`` if the
+    env's observation has no such feature."""
+    import gymnasium as gym
+
+    from agents.tricks import History
+
+    env = gym.make(env_id, **dict(env_kwargs))
+    names = tuple(getattr(env.unwrapped, "observation_names", ()))
+    env.close()
+    if "time_left" not in names:
+        raise ValueError(f"{env_id}: a memory needs the time_left feature in the observation, got {names}")
+    return History(frames, names.index("time_left"))
 
 
 def checkpoints(run_dir: str | Path) -> list[tuple[int, Path]]:
@@ -200,7 +237,7 @@ def check_config(config: Mapping[str, Any], path: Path) -> None:
     ``normalize`` (a bool, a zoo string or an object) and its ``env_wrapper`` (a valid repeat)."""
     import gymnasium as gym
 
-    from agents.wrappers import action_repeat
+    from agents.wrappers import action_repeat, memory_frames
 
     def bad(name: str, must: str) -> ValueError:
         value = config
@@ -223,6 +260,7 @@ def check_config(config: Mapping[str, Any], path: Path) -> None:
         raise bad("hyperparams.normalize", "true, false, a zoo string or an object of VecNormalize arguments")
     try:
         action_repeat(hyperparams.get("env_wrapper"))
+        memory_frames(hyperparams.get("env_wrapper"))
     except (ValueError, TypeError, AttributeError, StopIteration) as exc:
         raise ValueError(f"{path}: hyperparams.env_wrapper: {exc}") from None
     env_id = config.get("env_id", DEFAULT_ENV_ID)
@@ -352,7 +390,7 @@ def load_agent(
         )
     import torch
 
-    from agents.wrappers import action_repeat
+    from agents.wrappers import action_repeat, memory_frames
 
     torch.set_num_threads(1)
     try:
@@ -371,6 +409,7 @@ def load_agent(
         name or (zip_path.stem if checkpoint is not None or path.suffix == ".zip" else folder.name),
         meta,
         action_repeat(config.get("hyperparams", {}).get("env_wrapper")),
+        memory_frames(config.get("hyperparams", {}).get("env_wrapper")),
     )
     agent.check_env(source=zip_path)
     return agent
@@ -387,6 +426,9 @@ def load_numpy_agent(path: str | Path, algo: str | None = None, *, checkpoint: i
 
     agent = load_agent(path, algo, checkpoint=checkpoint)
     policy = NumpyPolicy.from_sb3(agent.model, agent.vecnormalize, agent.repeat)
+    if agent.memory > 1:  # flown on the env's own observations, its memory beside it
+        policy.history = history(agent.memory, agent.env_id, agent.env_kwargs)
+        policy.observation_space = agent.observation_space
     policy.env_id, policy.env_kwargs, policy.name = agent.env_id, dict(agent.env_kwargs), agent.name
     # scored one episode at a time in the single env (a batch of one costs more per slot)
     policy.batched = False

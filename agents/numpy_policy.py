@@ -61,6 +61,7 @@ class NumpyPolicy:
     repeat: int = 1  # slots each action is held (an agent trained with agents.wrappers.ActionRepeat)
     batched = True  # act takes a (B, obs_dim) batch too (ios_uav_env.envs.rollout.batch_policy)
     observation_space: Any = None  # the model's (a Gymnasium space): what it was trained on
+    history: Any = None  # agents.tricks.History: a memory model's last observations (act feeds it)
 
     @classmethod
     def from_sb3(cls, model: Any, vecnormalize: Any = None, repeat: int = 1) -> NumpyPolicy:
@@ -96,6 +97,8 @@ class NumpyPolicy:
         if not deterministic:
             raise ValueError("NumpyPolicy is deterministic only; use the SB3 model to sample actions")
         x = np.asarray(obs, dtype=np.float64)
+        if self.history is not None:  # the env's own observation joins the memory the model reads
+            x = self.history(x)
         if self.obs_mean is not None:
             x = np.clip((x - self.obs_mean) / self.obs_std, -self.obs_clip, self.obs_clip)
         for kind, p in self.steps:

@@ -1,16 +1,19 @@
 """The training tricks, each once, on the batched env's arrays (B rows).
 
 A recipe names its tricks by the zoo's ``env_wrapper`` key (``agents.wrappers.ShiftReward``,
-``ActionRepeat``, ``ExploringStarts``; ``agents.callbacks.ExploringStartsSchedule`` winds the
-starts down). Each is implemented here, on arrays of rows: observations (B, d), actions
+``ActionRepeat``, ``ExploringStarts``, ``FrameStack``; ``agents.callbacks.ExploringStartsSchedule``
+winds the starts down). Each is implemented here, on arrays of rows: observations (B, d), actions
 (B, a), rewards (B,), dones (B,). Every training path calls these:
 
 - the SB3 VecEnv path over the batched env (``agents.vec_env``: ``VecShiftReward``,
   ``VecActionRepeat``, ``VecExploringStarts``);
-- the fast trainer (``agents.fast.ppo.FastPPO``: the shift and the exploring starts, with their
-  schedule);
+- the fast trainer (``agents.fast.ppo.FastPPO``: the shift, the exploring starts with their
+  schedule, and the memory);
 - the Gymnasium wrappers of one env (``agents.wrappers``, for the zoo and SB3's
   ``DummyVecEnv``): the same functions on one row.
+
+A model trained with a memory is flown on the env's own observations with :class:`History`
+beside it (``agents.loading``), which rebuilds the stack the model was trained on.
 
 They change what the learner sees, never the episode: trajectories, ``info`` and the score are the
 env's. Arguments are checked on construction (``ValueError`` naming the wrapper's field).
@@ -192,3 +195,93 @@ class StartsField:
 
     def __set__(self, obj: Any, value: Any) -> None:
         setattr(obj.starts, self.name, value)
+
+
+# --- the memory: the last observations ------------------------------------------------------
+def check_frames(frames: Any, who: str = "FrameStack") -> int:
+    """``frames`` checked: an integer >= 1 (1: the observation alone)."""
+    if isinstance(frames, bool) or not isinstance(frames, (int, np.integer)) or frames < 1:
+        raise ValueError(f"{who} frames must be an integer >= 1, got {frames!r}")
+    return int(frames)
+
+
+class FrameStack:
+    """The last ``frames`` observations of each of B rows, oldest first, as one flat row
+    (``agents.wrappers.FrameStack``): observations (B, d) in, (B, frames * d) out, of their dtype.
+
+    It is Gymnasium's ``FrameStackObservation(env, frames)`` with its default padding
+    (``"reset"``: an episode's history begins as its first observation repeated ``frames``
+    times) followed by ``FlattenObservation``, on the rows of a batched env with same-step
+    autoreset: a row whose episode just ended (``dones``) gets the new episode's first
+    observation repeated, and its final observation's stack is :meth:`final` (``tests/agents/
+    test_memory.py`` compares the two on a seeded episode)."""
+
+    def __init__(self, frames: int = 4, who: str = "FrameStack") -> None:
+        self.frames = check_frames(frames, who)
+        self._stack: np.ndarray | None = None  # (B, frames, d)
+
+    def space(self, space: Any) -> Any:
+        """The Box of the stacked observations of ``space`` (a Box of shape (d,)): its bounds repeated."""
+        import gymnasium as gym
+
+        low, high = (np.tile(np.asarray(b).reshape(-1), self.frames) for b in (space.low, space.high))
+        return gym.spaces.Box(low, high, dtype=space.dtype)
+
+    def reset(self, obs: np.ndarray) -> np.ndarray:
+        """Every row starts an episode at ``obs`` (B, d); the stacked observations."""
+        obs = np.asarray(obs)
+        self._stack = np.repeat(obs[:, None, :], self.frames, axis=1)
+        return self._flat(self._stack)
+
+    def step(self, obs: np.ndarray, dones: np.ndarray) -> np.ndarray:
+        """One slot: ``obs`` (B, d) joins each row's history, oldest out; the rows of ``dones``
+        have begun a new episode at ``obs``. The stacked observations."""
+        if self._stack is None or self._stack.shape[0] != len(obs):
+            return self.reset(obs)
+        obs = np.asarray(obs, dtype=self._stack.dtype)
+        self._stack[:, :-1] = self._stack[:, 1:]
+        self._stack[:, -1] = obs
+        rows = np.flatnonzero(dones)
+        if rows.size:
+            self._stack[rows] = obs[rows, None, :]
+        return self._flat(self._stack)
+
+    def final(self, rows: np.ndarray, final_obs: np.ndarray) -> np.ndarray:
+        """The stacked final observations ``final_obs`` (n, d) of the rows ``rows`` whose episodes
+        just ended (their histories, then the final one), before :meth:`step` starts them anew."""
+        assert self._stack is not None, "reset() first"
+        stack = np.concatenate([self._stack[rows, 1:], np.asarray(final_obs)[:, None, :]], axis=1)
+        return self._flat(stack.astype(self._stack.dtype))
+
+    def latest(self, stacked: np.ndarray) -> np.ndarray:
+        """The newest observation of each stacked row: (..., frames * d) -> (..., d)."""
+        d = stacked.shape[-1] // self.frames
+        return stacked[..., -d:]
+
+    @staticmethod
+    def _flat(stack: np.ndarray) -> np.ndarray:
+        return stack.reshape(len(stack), -1).copy()
+
+
+class History:
+    """The memory of a policy flown on the env's own observations (evaluation, the benchmark's
+    scorer, which know nothing of it): a :class:`FrameStack` of ``frames`` fed one call a slot,
+    whose rows start anew at the first call, when the batch size changes, or when their clock
+    (column ``clock``: the ``time_left`` feature, 1 at a reset and lower by 1/N each slot) does
+    not fall from the previous call's: a new episode. One observation (d,) gives (frames * d,),
+    a batch (B, d) gives (B, frames * d)."""
+
+    def __init__(self, frames: int, clock: int) -> None:
+        self.stack, self.clock = FrameStack(frames), int(clock)
+        self._last: np.ndarray | None = None
+
+    def __call__(self, obs: np.ndarray) -> np.ndarray:
+        obs = np.asarray(obs)
+        rows = obs[None] if obs.ndim == 1 else obs
+        clock = rows[:, self.clock].astype(np.float64)
+        if self._last is None or len(self._last) != len(rows):
+            stacked = self.stack.reset(rows)
+        else:
+            stacked = self.stack.step(rows, clock >= self._last)
+        self._last = clock
+        return stacked[0] if obs.ndim == 1 else stacked

@@ -259,11 +259,38 @@ class VecExploringStarts(VecEnvWrapper):
         return self.starts.apply(self._base.vector_env, dones, obs), reward, dones, infos
 
 
+class VecFrameStack(VecEnvWrapper):
+    """``agents.wrappers.FrameStack`` on a batched VecEnv (``agents.tricks.FrameStack`` on its rows):
+    each row's last ``frames`` observations, oldest first, flattened; a row that just finished
+    has its next episode's first observation repeated, and the ``terminal_observation`` of its
+    info is the stack of its final observation. List it after (outside) ``ExploringStarts``, so
+    that a drawn row's history begins after its hidden prefix."""
+
+    def __init__(self, venv: VecEnv, frames: int = 4):
+        self.stack = tricks.FrameStack(frames, who="VecFrameStack")
+        self.frames = self.stack.frames
+        super().__init__(venv, observation_space=self.stack.space(venv.observation_space))
+
+    def reset(self) -> np.ndarray:
+        return self.stack.reset(self.venv.reset())
+
+    def step_wait(self) -> VecEnvStepReturn:
+        obs, reward, dones, infos = self.venv.step_wait()
+        rows = np.flatnonzero(dones)
+        if rows.size:
+            finals = np.stack([infos[i]["terminal_observation"] for i in rows])
+            infos = list(infos)
+            for i, final in zip(rows, self.stack.final(rows, finals), strict=True):
+                infos[i] = {**infos[i], "terminal_observation": final}
+        return self.stack.step(obs, dones), reward, dones, infos
+
+
 #: Gymnasium wrappers of the zoo's ``env_wrapper`` key that have a VecEnv form here.
 VEC_FORMS: dict[str, type[VecEnvWrapper]] = {
     "agents.wrappers.ShiftReward": VecShiftReward,
     "agents.wrappers.ActionRepeat": VecActionRepeat,
     "agents.wrappers.ExploringStarts": VecExploringStarts,
+    "agents.wrappers.FrameStack": VecFrameStack,
 }
 
 

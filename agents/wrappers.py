@@ -19,8 +19,8 @@ from agents.tricks import EXPLORE_BOX, StartsField, check_exploring, check_repea
 from ios_uav_env.envs.policies import move_toward
 
 __all__ = [
-    "EXPLORE_BOX", "ActionRepeat", "ExploringStarts", "ShiftReward", "action_repeat", "apply_wrappers",
-    "check_exploring", "check_repeat", "draw_targets",
+    "EXPLORE_BOX", "ActionRepeat", "ExploringStarts", "FrameStack", "ShiftReward", "action_repeat",
+    "apply_wrappers", "check_exploring", "check_repeat", "draw_targets", "memory_frames",
 ]  # fmt: skip
 
 
@@ -58,11 +58,8 @@ def action_repeat(spec: Any) -> int:
     """The ``repeat`` of the :class:`ActionRepeat` in a zoo ``env_wrapper`` value ("module.Class",
     or a list of names and {"module.Class": {kwargs}} mappings, as a run's ``config.json`` keeps
     it); 1 without one."""
-    for item in spec if isinstance(spec, list) else [spec] if spec else []:
-        name, kwargs = next(iter(item.items())) if isinstance(item, dict) and len(item) == 1 else (item, {})
-        if name == f"{__name__}.{ActionRepeat.__name__}":
-            return check_repeat((kwargs or {}).get("repeat", 1))
-    return 1
+    kwargs = _wrapper_kwargs(spec, ActionRepeat)
+    return 1 if kwargs is None else check_repeat(kwargs.get("repeat", 1))
 
 
 class ActionRepeat(gym.Wrapper):
@@ -141,6 +138,60 @@ class ExploringStarts(gym.Wrapper):
             action[:2] = move_toward(targets[0] - info["position"], cfg.D)
             obs, _, _, _, info = self.env.step(action)
         return obs, info
+
+
+def _wrapper_kwargs(spec: Any, cls: type) -> dict[str, Any] | None:
+    """The arguments of ``cls`` in a zoo ``env_wrapper`` value (None if it is not listed)."""
+    for item in spec if isinstance(spec, list) else [spec] if spec else []:
+        name, kwargs = next(iter(item.items())) if isinstance(item, dict) and len(item) == 1 else (item, {})
+        if name == f"{__name__}.{cls.__name__}":
+            return dict(kwargs or {})
+    return None
+
+
+class FrameStack(gym.Wrapper):
+    """Memory in the observation: the last ``frames`` observations, oldest first, flattened into
+    one vector of ``frames * d`` values (an episode's history begins as its first observation
+    repeated). It is Gymnasium's ``FrameStackObservation(env, frames)`` followed by
+    ``FlattenObservation``, written once on arrays of rows (``agents.tricks.FrameStack``) so that
+    the batched env's form (``agents.vec_env.VecFrameStack``) and the fast trainer stack alike.
+
+    A noisy position report, one slot at a time, says where the node was told to be; several
+    slots of them say where it is heading and how far each report is to be trusted. A model
+    trained with it is flown on the plain env with its memory kept beside it
+    (``agents.loading.Agent.memory``, ``agents.tricks.History``), so that the benchmark scores it
+    on the env's own observations. Not with ``ActionRepeat``: the memory is one frame a slot.
+    """
+
+    def __init__(self, env: gym.Env, frames: int = 4) -> None:
+        super().__init__(env)
+        self.stack = tricks.FrameStack(frames)
+        self.frames = self.stack.frames
+        self.observation_space = self.stack.space(env.observation_space)
+
+    def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None) -> tuple[Any, dict]:
+        obs, info = self.env.reset(seed=seed, options=options)
+        return self.stack.reset(np.asarray(obs)[None])[0], info
+
+    def step(self, action: Any) -> tuple[Any, SupportsFloat, bool, bool, dict[str, Any]]:
+        obs, reward, terminated, truncated, info = self.env.step(action)
+        stacked = self.stack.step(np.asarray(obs)[None], np.zeros(1, dtype=bool))[0]
+        return stacked, reward, terminated, truncated, info
+
+
+def memory_frames(spec: Any) -> int:
+    """The ``frames`` of the :class:`FrameStack` in a zoo ``env_wrapper`` value (as for
+    :func:`action_repeat`); 1 without one. ``ValueError`` if it is listed with an action repeat
+    above 1 (the memory holds one observation a slot, a repeated action sees one in ``repeat``)."""
+    kwargs = _wrapper_kwargs(spec, FrameStack)
+    if kwargs is None:
+        return 1
+    frames = tricks.check_frames(kwargs.get("frames", 4))
+    if frames > 1 and action_repeat(spec) > 1:
+        raise ValueError(
+            "FrameStack and ActionRepeat cannot be combined: the memory holds one observation a slot"
+        )
+    return frames
 
 
 def apply_wrappers(env: gym.Env, wrappers: list[tuple[Any, dict[str, Any]]]) -> gym.Env:

@@ -18,6 +18,9 @@ starts PPO from a clone of an *expert*, a policy that maps the raw observation t
 - **Then PPO** trains on from the clone with the recipe's schedules from step 0; the clone's env
   steps are not counted in the run's steps (``clone.json`` in the run folder records them).
 
+With a memory in the recipe (``agents.wrappers.FrameStack``) the policy is fitted on its
+stacked observations and the expert labels the newest frame, the env's own observation.
+
 The policy starts where the expert is and RL can only move it from there: a warm start, not a
 bound. The rows are reset after the clone (seeded as the run's first rollout).
 
@@ -62,7 +65,7 @@ def clone(algo: FastPPO, settings: CloneSettings) -> dict[str, Any]:
     for r in range(settings.rounds):
         raws, labels, rewards, dones = [], [], [], []
         for _ in range(settings.slots):
-            label = np.asarray(expert(obs), dtype=np.float64)
+            label = np.asarray(expert(algo.latest(obs)), dtype=np.float64)  # the env's own observation
             if not np.all(np.isfinite(label)):
                 raise ValueError(
                     f"CloneStart expert {settings.expert!r} returned non-finite actions in round {r}"

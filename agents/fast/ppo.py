@@ -18,8 +18,9 @@ with ``VecNormalize``, row for row:
   ``max_grad_norm``, Adam on SB3's optimizer; ``learning_rate`` and ``clip_range`` follow the
   progress of the run as SB3's schedules do, the log-std schedule and the exploring starts'
   schedule as ``agents.callbacks`` defines them;
-- the recipe's tricks (the exploring starts, the reward shift) are ``agents.tricks``' on the
-  rows' arrays, the implementation the SB3 VecEnv path (``agents.vec_env``) calls too.
+- the recipe's tricks (the exploring starts, the reward shift, the memory of the last
+  observations) are ``agents.tricks``' on the rows' arrays, the implementation the SB3 VecEnv
+  path (``agents.vec_env``) calls too.
 
 The update runs on torch's autograd, or (``update="kernel"``, the default when numba is
 installed and the network is a plain tanh MLP) as one compiled function per update
@@ -42,9 +43,10 @@ import ios_uav_env  # noqa: F401  (registers the ids)
 from agents.fast.gae import gae
 from agents.fast.kernel import STATS
 from agents.fast.kernel_policy import KernelUpdate
+from agents.fast.network import new_model, new_statistics, template_venv
 from agents.fast.recipe import FastRecipe
 from agents.scores import score_label
-from agents.tricks import ExploringStarts, RewardShift, scheduled_prob
+from agents.tricks import ExploringStarts, FrameStack, RewardShift, scheduled_prob
 from ios_uav_env.jit import HAVE_NUMBA, prefer_passive_threads
 
 prefer_passive_threads()  # numba's threads must not spin while torch trains (see the function)
@@ -64,7 +66,9 @@ class FastPPO:
     default new ones if the recipe normalises. ``steps``: the env steps done so far (the
     schedules' progress). Row i of the env is seeded ``seed + i`` and the rows are staggered
     over the episode (``agents.vec_env.BatchedVecEnv(stagger=True)``). ``update``: one of
-    :data:`UPDATES`."""
+    :data:`UPDATES`. ``init_from``: a model or run folder, or an SB3 PPO ``.zip``, whose weights
+    and observation statistics a new model starts from (:mod:`agents.fast.init_from`; not read
+    with ``model``)."""
 
     def __init__(
         self,
@@ -79,9 +83,8 @@ class FastPPO:
         steps: int = 0,
         env_threads: int | None = None,
         update: str = "auto",
+        init_from: str | None = None,
     ) -> None:
-        from stable_baselines3.common.vec_env import DummyVecEnv
-
         from agents.vec_env import BatchedVecEnv
 
         spec = gym.registry.get(env_id)
@@ -101,21 +104,24 @@ class FastPPO:
             vector_kwargs["num_threads"] = env_threads
         self.base = BatchedVecEnv(env_id, recipe.n_envs, vector_kwargs, stagger=True)
         self.vec = self.base.vector_env
-        template = DummyVecEnv([lambda: gym.make(env_id, **self.env_kwargs)])
+        template = template_venv(env_id, self.env_kwargs, recipe)
         self.score = score_label(template.envs[0])  # what the finished episodes' scores are
         if self.score.name not in self.vec.info_keys:
             raise ValueError(
                 f"env_id {env_id!r}: its batched form does not report the score {self.score.name!r} of "
                 f"its objective {self.score.objective!r} (it reports {', '.join(self.vec.info_keys)})"
             )
-        self.model = model if model is not None else self._new_model(template)
+        self.model = model if model is not None else new_model(recipe, template, self.seed)
         self.vecnormalize = vecnormalize
         if vecnormalize is not None and getattr(vecnormalize, "venv", None) is None:
             vecnormalize.set_venv(template)  # unpickled statistics: attach them to envs of their spaces
-        if self.vecnormalize is None and recipe.normalize is not None:
-            from stable_baselines3.common.vec_env import VecNormalize
+        if self.vecnormalize is None:
+            self.vecnormalize = new_statistics(recipe, template)
+        self.init_model = None  # the model the run started from (init_from), None for a new one
+        if init_from is not None and model is None:
+            from agents.fast.init_from import start_from
 
-            self.vecnormalize = VecNormalize(template, gamma=recipe.gamma, **recipe.normalize)
+            self.init_model = start_from(init_from, self.model, self.vecnormalize, recipe.clone)
         policy = self.model.policy
         if recipe.log_std is not None:
             policy.log_std.requires_grad_(False)
@@ -124,6 +130,7 @@ class FastPPO:
         # the recipe's tricks on the rows' arrays (agents.tricks, as the SB3 VecEnv path applies them)
         self.starts = ExploringStarts(**recipe.exploring) if recipe.exploring is not None else None
         self.shift = RewardShift(*recipe.reward_shift) if recipe.reward_shift is not None else None
+        self.memory = FrameStack(recipe.frames) if recipe.frames > 1 else None
         self._rng = np.random.default_rng(self.seed)  # the starts' draws (reset() reseeds it)
         space = self.vec.single_action_space
         self._low, self._high = space.low.astype(np.float32), space.high.astype(np.float32)
@@ -133,12 +140,16 @@ class FastPPO:
         self.timing = {"env": 0.0, "forward": 0.0, "update": 0.0, "other": 0.0}
         self.scores: list[float] = []  # the finished episodes' scores (self.score) since the last read
         t, b = recipe.n_steps, recipe.n_envs
-        obs_dim, act_dim = self.vec.single_observation_space.shape[0], space.shape[0]
+        obs_dim, act_dim = template.observation_space.shape[0], space.shape[0]
         self._buf = {
             "obs": torch.zeros(t, b, obs_dim), "actions": torch.zeros(t, b, act_dim),
             "logp": torch.zeros(t, b), "values": torch.zeros(t, b), "rewards": torch.zeros(t, b),
             "dones": torch.zeros(t, b),
         }  # fmt: skip
+
+    def latest(self, obs: np.ndarray) -> np.ndarray:
+        """The env's own observations (B, d) in the policy's ``obs`` (the newest frame of a memory)."""
+        return obs if self.memory is None else self.memory.latest(obs)
 
     def _kernel(self, update: str) -> KernelUpdate | None:
         if update not in UPDATES:
@@ -155,27 +166,6 @@ class FastPPO:
             )
         return kernel
 
-    def _new_model(self, template: Any) -> Any:
-        from stable_baselines3 import PPO
-
-        r = self.recipe
-        return PPO(
-            "MlpPolicy",
-            template,
-            learning_rate=r.learning_rate.initial,
-            n_steps=r.batch_size,  # SB3's own buffer is not used; this size keeps its checks quiet
-            batch_size=r.batch_size,
-            n_epochs=r.n_epochs,
-            gamma=r.gamma,
-            gae_lambda=r.gae_lambda,
-            ent_coef=r.ent_coef,
-            vf_coef=r.vf_coef,
-            max_grad_norm=r.max_grad_norm,
-            policy_kwargs=r.policy_kwargs,
-            seed=self.seed,
-            device="cpu",
-        )
-
     # --- the parts of one iteration ------------------------------------------------------
     @property
     def progress_remaining(self) -> float:
@@ -188,6 +178,8 @@ class FastPPO:
         base = self.seed if seed is None else seed
         self.base.seed(base + (self.steps // max(1, self.recipe.rollout_size)) * self.recipe.n_envs)
         obs = self.base.reset()
+        if self.memory is not None:
+            obs = self.memory.reset(obs)
         if self.vecnormalize is not None and self.vecnormalize.norm_obs:
             self.vecnormalize.obs_rms.update(obs)
         self._returns[:] = 0.0
@@ -283,6 +275,8 @@ class FastPPO:
             reward = self._episode_ends(reward, terminated, truncated, info)
             if explore and self.starts is not None:
                 obs = self.starts.apply(self.vec, dones, obs)
+        if self.memory is not None:  # after the starts: a drawn row's history begins after its prefix
+            obs = self.memory.step(obs, dones)
         return obs, self._normalized_rewards(obs, reward, dones), dones
 
     def _normalized_rewards(self, obs: np.ndarray, reward: np.ndarray, dones: np.ndarray) -> np.ndarray:
@@ -313,6 +307,8 @@ class FastPPO:
         cut = truncated & ~terminated
         if cut.any():
             last = np.asarray(info["final_obs"])[cut]
+            if self.memory is not None:
+                last = self.memory.final(np.flatnonzero(cut), last)
             x = torch.from_numpy(np.asarray(self._normalized_obs(last), dtype=np.float32))
             with torch.no_grad():
                 reward = reward.copy()

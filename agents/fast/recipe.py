@@ -24,7 +24,7 @@ from typing import Any
 import numpy as np
 
 from agents.hyperparams import Hyperparams
-from agents.tricks import ExploringStarts, RewardShift
+from agents.tricks import ExploringStarts, RewardShift, check_frames
 
 #: PPO keyword arguments the fast trainer reads (every other PPO argument is refused by name).
 PPO_KEYS = (
@@ -38,8 +38,9 @@ CALLBACKS = (
     "agents.callbacks.CloneStart",
 )
 #: Wrappers of the zoo's ``env_wrapper`` key the trainer applies on the batched env's arrays
-#: (``agents.tricks.ExploringStarts`` and ``RewardShift``; the action repeat is not one of them).
-WRAPPERS = ("agents.wrappers.ExploringStarts", "agents.wrappers.ShiftReward")
+#: (``agents.tricks.ExploringStarts``, ``RewardShift`` and ``FrameStack``; the action repeat is not
+#: one of them).
+WRAPPERS = ("agents.wrappers.ExploringStarts", "agents.wrappers.ShiftReward", "agents.wrappers.FrameStack")
 
 
 def _name(obj: Any) -> str:
@@ -119,6 +120,7 @@ class FastRecipe:
     exploring_schedule: tuple[float, float] | None = None  # ExploringStartsSchedule (hold, end)
     reward_shift: tuple[float, float] | None = None  # ShiftReward (offset, scale)
     clone: CloneSettings | None = None  # CloneStart: behaviour cloning before PPO (agents.fast.clone)
+    frames: int = 1  # FrameStack: the policy sees the last `frames` observations (1: the current one)
 
     @property
     def rollout_size(self) -> int:
@@ -144,6 +146,7 @@ class FastRecipe:
                 f"hyperparameter policy must be 'MlpPolicy' for the fast trainer, got {hp.policy!r}"
             )
         log_std = exploring_schedule = exploring = shift = clone = None
+        frames = 1
         for callback in hp.callbacks:
             name = _name(callback)
             if name == CALLBACKS[0]:
@@ -165,6 +168,8 @@ class FastRecipe:
             elif name == WRAPPERS[1]:
                 trick = RewardShift(**wrapper_kwargs)
                 shift = (trick.offset, trick.scale)
+            elif name == WRAPPERS[2]:
+                frames = check_frames(dict(wrapper_kwargs).get("frames", 4))
             else:
                 raise ValueError(
                     f"hyperparameter env_wrapper {name!r} is not applied by the fast trainer (it applies "
@@ -193,6 +198,7 @@ class FastRecipe:
             exploring_schedule=exploring_schedule,
             reward_shift=shift,
             clone=clone,
+            frames=frames,
         )
         recipe.validate()
         if recipe.clone is not None and env_id is not None:

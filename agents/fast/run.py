@@ -14,6 +14,10 @@ moment has lost no finished update's line, a full disk leaves no half line). So
 ``agents.numpy_policy.NumpyPolicy`` exports them and ``ios_uav_env.benchmark`` scores them like
 any other.
 
+A new run may start from a trained model's weights and observation statistics
+(``settings.init_from``, ``--init-from``: :mod:`agents.fast.init_from`); a resumed run reads
+its own checkpoint instead.
+
 A checkpoint is taken after the update that crosses each multiple of ``checkpoint_freq`` steps,
 and at the end. SIGINT / SIGTERM stops the rollout under way (its steps are dropped: no update
 used them) and saves a checkpoint of the last update; ``--resume`` continues from the newest
@@ -146,7 +150,8 @@ def train_fast(
     if start is None:
         start_fresh(run_dir, resume)
         set_random_seed(settings.seed)
-        algo = FastPPO(settings.env_id, recipe, total, env_kwargs=settings.env_kwargs, seed=settings.seed)
+        algo = FastPPO(settings.env_id, recipe, total, env_kwargs=settings.env_kwargs, seed=settings.seed,
+                       init_from=settings.init_from)  # fmt: skip
         write_config(run_dir, settings, hp, total)
         start = RunStart(algo.model, None, 0, Clock(), [])
         if recipe.clone is not None:  # the warm start (agents.fast.clone), recorded in clone.json
@@ -186,7 +191,8 @@ def _loop(
     from agents.loading import Agent
 
     def evaluate() -> dict[str, Any]:
-        agent = Agent(algo.model, algo.vecnormalize, settings.env_id, settings.env_kwargs)
+        agent = Agent(algo.model, algo.vecnormalize, settings.env_id, settings.env_kwargs,
+                      memory=algo.recipe.frames)  # fmt: skip
         record = evaluate_agent(agent, algo.steps, start.clock.seconds())
         start.history.append(record)
         return record

@@ -150,7 +150,13 @@ def _learn(
         save_vecnormalize=hp.normalize is not None,
     )
     evaluation = RateEvalCallback(
-        settings.eval_freq, settings.env_id, settings.env_kwargs, start.clock, start.history, repeat=hp.repeat
+        settings.eval_freq,
+        settings.env_id,
+        settings.env_kwargs,
+        start.clock,
+        start.history,
+        repeat=hp.repeat,
+        memory=hp.memory,
     )
     print(f"training {run_dir}: step {start.steps} of {total}", file=sys.stderr, flush=True)
     start.model.learn(

@@ -176,6 +176,7 @@ class TrainSettings:
     progress_bar: bool = True
     trainer: str = "sb3"  # "sb3" (SB3's loop) or "fast" (agents.fast: PPO on the batched env's arrays)
     threads: int | None = None  # torch threads of the fast trainer; None = 1
+    init_from: str | None = None  # fast trainer: a model (folder or PPO .zip) whose weights it starts from
 
     def resolve_env_kwargs(self) -> dict[str, Any]:
         """Fill ``env_kwargs`` in with the recipe's (the ``env_kwargs`` of the hyperparameter entry):
@@ -230,4 +231,16 @@ class TrainSettings:
             trainer=self.trainer,
         )
         checks.append(("hyperparams_file", hyperparams, self.hyperparams_file))
+        if self.init_from is not None:
+            checks.append(("init_from", self.check_init_from, self.init_from))
         return checks
+
+    def check_init_from(self, path: str) -> None:
+        """``ValueError`` unless the fast trainer can start this run from the model at ``path``
+        (:mod:`agents.fast.init_from`: the same observation and action sizes, network and
+        observation normalisation as the recipe builds, and no ``CloneStart`` in the recipe)."""
+        if self.trainer != "fast":
+            raise ValueError("only the fast trainer takes it (add --trainer fast)")
+        from agents.fast.init_from import check_init_from
+
+        check_init_from(path, self.env_id, self.env_kwargs, self.hyperparams_path(), self.n_envs)
