@@ -30,9 +30,11 @@ from ios_uav_env.envs.observation_layout import (  # noqa: F401 (the layouts, re
     observation_names,
     require_features,
 )
+from ios_uav_env.jit import HAVE_NUMBA
 from ios_uav_env.model.channel import RateKernel, rate_kernel
 from ios_uav_env.model.config import ScenarioConfig
 from ios_uav_env.model.guard import guarded_position
+from ios_uav_env.model.hover_reference import HOVER_SLACK, flight_efficiency, hover_path
 from ios_uav_env.model.peak import Peak, rate_peak
 from ios_uav_env.model.propulsion import min_power_speed, propulsion_power
 from ios_uav_env.model.scenarios import ScenarioRanges
@@ -101,12 +103,6 @@ def instance_values(config: ScenarioConfig) -> tuple[float, float, float, float,
     )
 
 
-#: ``hover_flight`` skips the guard where qF is within (moves left) D / _SLACK: a relative 2e-9
-#: inside the guard's reach disk ((moves left) D (1 - 1e-12)), far beyond any rounding of its
-#: distances (a few ulps), so the guard's answer (the target itself) is certain.
-_SLACK = (1.0 + 1e-9) / (1.0 - 1e-9)
-
-
 def hover_flight(config: ScenarioConfig, peak: Peak | None = None) -> np.ndarray:
     """The (N, 2) flight (m) of "fly to the reachable rate peak P at full speed and hover there"
     through the env's arrival guard (``guard.guarded_position``), which brings it to qF at slot
@@ -121,7 +117,7 @@ def hover_flight(config: ScenarioConfig, peak: Peak | None = None) -> np.ndarray
     for n in range(1, slots):
         dx, dy = px - x, py - y
         left = slots - 1 - n
-        if dx == 0.0 and dy == 0.0 and left > 0 and _SLACK * math.hypot(x - fx, y - fy) < left * d:
+        if dx == 0.0 and dy == 0.0 and left > 0 and HOVER_SLACK * math.hypot(x - fx, y - fy) < left * d:
             # hovering on P with qF within reach by far more than rounding: the guard would
             # return its target (inside both of its disks), so skip the call
             x, y = x + dx, y + dy
@@ -140,8 +136,22 @@ def reference_efficiency(config: ScenarioConfig, peak: Peak | None = None) -> fl
     (``score_plan``) of :func:`hover_flight`, the rate objective's "fly to the peak and hover"
     plan. A feasible plan, so lambda_ref <= EE* (the best EE), and a plan that maximises the
     energy reward's return has an EE of at least lambda_ref (``IOSUAVEnv``, "Energy").
-    ``peak``: the reachable rate peak if known, else ``rate_peak(config)``'s."""
-    return float(score_plan(config, hover_flight(config, peak)).energy_efficiency)
+    ``peak``: the reachable rate peak if known, else ``rate_peak(config)``'s. With numba, the
+    flight and its EE in the compiled kernels of ``hover_reference`` (their hypot is the C
+    library's, not Python's, so a way-point may move by an ulp: the EE equals ``score_plan``'s
+    to rounding, ~1e-15 relative; tested); without, ``score_plan`` of :func:`hover_flight`."""
+    if not HAVE_NUMBA:
+        return float(score_plan(config, hover_flight(config, peak)).energy_efficiency)
+    p = rate_peak(config) if peak is None else peak
+    (x, y), (fx, fy) = config.q0, config.qF
+    flight = hover_path(float(x), float(y), float(fx), float(fy), float(p.x), float(p.y), config.D, config.N)
+    kernel, m = rate_kernel(config), config.propulsion
+    constants = np.array([m.P0, m.U_tip, m.P_i, m.v0, m.drag_coefficient])
+    return float(
+        flight_efficiency(
+            flight, kernel.nodes, kernel.params, config.dt, config.bandwidth_hz, config.T, constants
+        )
+    )
 
 
 def loiter_efficiency(config: ScenarioConfig, peak: Peak | None = None) -> float:

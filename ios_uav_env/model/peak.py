@@ -25,6 +25,7 @@ import numpy as np
 from ios_uav_env.jit import HAVE_NUMBA, jit
 from ios_uav_env.model.channel import rate_kernel, slot_rates
 from ios_uav_env.model.config import ScenarioConfig, moves_needed, scene_box
+from ios_uav_env.model.peak_search import candidate, grid_argmax
 from ios_uav_env.model.surface import _axes
 
 #: Least metres searched around G and the IOS centre (see :func:`search_margin`).
@@ -95,19 +96,7 @@ def _candidates(
     out = np.empty(points.shape[0], dtype=np.bool_)
     g_sign = np.sign(g_x - x_c)
     for i in range(points.shape[0]):
-        x, y = points[i, 0], points[i, 1]
-        ax, ay, bx, by = x - q0[0], y - q0[1], qf[0] - x, qf[1] - y
-        there = np.ceil(math.sqrt(ax * ax + ay * ay) / d - 1e-9)
-        back = np.ceil(math.sqrt(bx * bx + by * by) / d - 1e-9)
-        if there < 0.0:
-            there = 0.0
-        if back < 0.0:
-            back = 0.0
-        ok = there + back <= moves
-        if side != 0:
-            facing = np.sign(x - x_c) * g_sign
-            ok = ok and (facing > 0.0 if side > 0 else facing < 0.0)
-        out[i] = ok
+        out[i] = candidate(points[i, 0], points[i, 1], q0, qf, d, moves, x_c, g_sign, side)
     return out
 
 
@@ -132,6 +121,53 @@ def _best(config: ScenarioConfig, points: np.ndarray, side: str | None, compiled
     return Peak(float(points[i, 0]), float(points[i, 1]), float(rates[i]))
 
 
+_NO_LINE = np.zeros((0, 2))
+#: Points a side of ``peak_search``'s blocks on the coarse grid and on the fine one (measured
+#: fastest: one bound per block, then the points of the blocks that could hold the peak).
+_BLOCKS = (8, 4)
+
+
+def _exhaustive(
+    config: ScenarioConfig,
+    xs: np.ndarray,
+    ys: np.ndarray,
+    line: np.ndarray,
+    side: str | None,
+    compiled: bool,
+    block: int = 0,
+) -> Peak | None:
+    """The best reachable point on ``side`` of the grid ``xs`` x ``ys`` (``np.meshgrid``'s order)
+    and the ``line``, every point's rate evaluated."""
+    xx, yy = np.meshgrid(xs, ys)
+    return _best(config, np.vstack([np.column_stack([xx.ravel(), yy.ravel()]), line]), side, compiled)
+
+
+def _pruned(
+    config: ScenarioConfig,
+    xs: np.ndarray,
+    ys: np.ndarray,
+    line: np.ndarray,
+    side: str | None,
+    compiled: bool,
+    block: int = 8,
+) -> Peak | None:
+    """:func:`_exhaustive` with the compiled rate kernel, by ``peak_search.grid_argmax``'s branch
+    and bound over blocks of ``block`` x ``block`` points: the same point and rate, most points'
+    rates never evaluated."""
+    kernel = rate_kernel(config)
+    code = 0 if side is None else 1 if side == "front" else -1
+    q0, qf = np.asarray(config.q0, float), np.asarray(config.qF, float)
+    line = np.ascontiguousarray(line, dtype=np.float64)
+    x_c, g_x = config.ios_center[0], config.ground_node[0]
+    i, rate = grid_argmax(xs, ys, line, q0, qf, config.D, config.N - 1, x_c, g_x, code, kernel.nodes,
+                          kernel.params, block)  # fmt: skip
+    if i < 0:
+        return None
+    grid = xs.size * ys.size
+    x, y = (xs[i % xs.size], ys[i // xs.size]) if i < grid else line[i - grid]
+    return Peak(float(x), float(y), float(rate))
+
+
 def rate_peak(
     config: ScenarioConfig,
     resolution: float = 10.0,
@@ -149,7 +185,9 @@ def rate_peak(
     if no reachable point of the grid lies there); ``compiled``: evaluate the grids with the
     compiled rate kernel (``RateKernel.rates``, several times faster with numba; the rates
     agree with ``slot_rates`` to rounding, so only an exact tie between two grid points could
-    pick the other one). Deterministic.
+    pick the other one; with numba the grids are searched by branch and bound,
+    ``peak_search.grid_argmax``, which returns the exhaustive search's point and rate while
+    evaluating a few percent of the points). Deterministic.
     """
     if side not in SIDES:
         raise ValueError(f"side must be one of {SIDES}, got {side!r}")
@@ -163,13 +201,13 @@ def rate_peak(
     box_lo, box_hi = _ellipse_box(config)
     lo = np.maximum((x0, y0), box_lo)
     hi = np.minimum((x1, y1), box_hi)
-    xx, yy = np.meshgrid(_axis(lo[0], hi[0], resolution), _axis(lo[1], hi[1], resolution))
+    xs, ys = _axis(lo[0], hi[0], resolution), _axis(lo[1], hi[1], resolution)
     line = np.linspace(config.q0, config.qF, config.N)  # a straight flight: every point reachable
-    best = _best(config, np.vstack([np.column_stack([xx.ravel(), yy.ravel()]), line]), side, compiled)
+    search = _pruned if compiled and HAVE_NUMBA else _exhaustive
+    best = search(config, xs, ys, line, side, compiled, _BLOCKS[0])
     if best is not None and refine > 0:
         offsets = np.arange(-math.floor(resolution / refine), math.floor(resolution / refine) + 1) * refine
-        fx, fy = np.meshgrid(best.x + offsets, best.y + offsets)
-        fine = _best(config, np.column_stack([fx.ravel(), fy.ravel()]), side, compiled)
+        fine = search(config, best.x + offsets, best.y + offsets, _NO_LINE, side, compiled, _BLOCKS[1])
         if fine is not None and fine.rate > best.rate:
             best = fine
     return best
