@@ -30,16 +30,15 @@ from ios_uav_env.envs.observation_layout import (  # noqa: F401 (the layouts, re
     observation_names,
     require_features,
 )
-from ios_uav_env.jit import HAVE_NUMBA
 from ios_uav_env.model.channel import RateKernel, rate_kernel
 from ios_uav_env.model.config import ScenarioConfig
-from ios_uav_env.model.guard import guarded_position
-from ios_uav_env.model.hover_reference import HOVER_SLACK, flight_efficiency, hover_path
+from ios_uav_env.model.hover_reference import hover_path
 from ios_uav_env.model.peak import Peak, rate_peak
 from ios_uav_env.model.propulsion import min_power_speed, propulsion_power
 from ios_uav_env.model.scenarios import ScenarioRanges
-from ios_uav_env.model.score import score_plan
+from ios_uav_env.model.score import bits_per_joule, score_plan
 from ios_uav_env.model.surface import _axes
+from ios_uav_env.model.trajectory import average_rate, energy
 
 #: The largest finite float32, the observation's dtype: every bound of a space must stay within it.
 F32_MAX = float(np.finfo(np.float32).max)
@@ -106,29 +105,11 @@ def instance_values(config: ScenarioConfig) -> tuple[float, float, float, float,
 def hover_flight(config: ScenarioConfig, peak: Peak | None = None) -> np.ndarray:
     """The (N, 2) flight (m) of "fly to the reachable rate peak P at full speed and hover there"
     through the env's arrival guard (``guard.guarded_position``), which brings it to qF at slot
-    N: the flight of ``policies.HoverAt("peak")`` in the env, feasible for every scenario.
-    ``peak``: P if known, else ``rate_peak(config)``."""
+    N: the flight of ``policies.HoverAt("peak")`` in the env, feasible for every scenario
+    (compiled: ``hover_reference.hover_path``). ``peak``: P if known, else ``rate_peak(config)``."""
     p = rate_peak(config) if peak is None else peak
-    d, final, slots = config.D, (float(config.qF[0]), float(config.qF[1])), config.N
-    (px, py), (fx, fy) = (p.x, p.y), final
-    x, y = float(config.q0[0]), float(config.q0[1])
-    path = np.empty((slots, 2))
-    path[0] = x, y
-    for n in range(1, slots):
-        dx, dy = px - x, py - y
-        left = slots - 1 - n
-        if dx == 0.0 and dy == 0.0 and left > 0 and HOVER_SLACK * math.hypot(x - fx, y - fy) < left * d:
-            # hovering on P with qF within reach by far more than rounding: the guard would
-            # return its target (inside both of its disks), so skip the call
-            x, y = x + dx, y + dy
-            path[n] = x, y
-            continue
-        norm = math.hypot(dx, dy)
-        if norm > d:  # full speed towards P, then stop on it
-            dx, dy = dx * d / norm, dy * d / norm
-        x, y = guarded_position((x, y), (x + dx, y + dy), final, d, left)
-        path[n] = x, y
-    return path
+    (x, y), (fx, fy) = config.q0, config.qF
+    return hover_path(float(x), float(y), float(fx), float(fy), float(p.x), float(p.y), config.D, config.N)
 
 
 def reference_efficiency(config: ScenarioConfig, peak: Peak | None = None) -> float:
@@ -136,22 +117,11 @@ def reference_efficiency(config: ScenarioConfig, peak: Peak | None = None) -> fl
     (``score_plan``) of :func:`hover_flight`, the rate objective's "fly to the peak and hover"
     plan. A feasible plan, so lambda_ref <= EE* (the best EE), and a plan that maximises the
     energy reward's return has an EE of at least lambda_ref (``IOSUAVEnv``, "Energy").
-    ``peak``: the reachable rate peak if known, else ``rate_peak(config)``'s. With numba, the
-    flight and its EE in the compiled kernels of ``hover_reference`` (their hypot is the C
-    library's, not Python's, so a way-point may move by an ulp: the EE equals ``score_plan``'s
-    to rounding, ~1e-15 relative; tested); without, ``score_plan`` of :func:`hover_flight`."""
-    if not HAVE_NUMBA:
-        return float(score_plan(config, hover_flight(config, peak)).energy_efficiency)
-    p = rate_peak(config) if peak is None else peak
-    (x, y), (fx, fy) = config.q0, config.qF
-    flight = hover_path(float(x), float(y), float(fx), float(fy), float(p.x), float(p.y), config.D, config.N)
-    kernel, m = rate_kernel(config), config.propulsion
-    constants = np.array([m.P0, m.U_tip, m.P_i, m.v0, m.drag_coefficient])
-    return float(
-        flight_efficiency(
-            flight, kernel.nodes, kernel.params, config.dt, config.bandwidth_hz, config.T, constants
-        )
-    )
+    ``peak``: the reachable rate peak if known, else ``rate_peak(config)``'s. Computed as
+    ``score_plan`` computes a single node's EE (``bits_per_joule`` of ``average_rate`` and the
+    flight's ``energy``), without its checks: the same number bit for bit."""
+    flight = hover_flight(config, peak)
+    return float(bits_per_joule(config, average_rate(config, flight), energy(config, flight)))
 
 
 def loiter_efficiency(config: ScenarioConfig, peak: Peak | None = None) -> float:

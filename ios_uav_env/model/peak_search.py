@@ -196,3 +196,61 @@ def grid_argmax(
             if rates[m] > best or (rates[m] == best and index[m] < best_i):
                 best, best_i = rates[m], index[m]
     return best_i, best
+
+
+@jit(fastmath=False)
+def straight_line(x0: float, y0: float, xf: float, yf: float, num: int) -> np.ndarray:
+    """``np.linspace((x0, y0), (xf, yf), num)`` (num >= 2) in numpy's operations, bit for bit: n
+    step + start with step = (stop - start) / (num - 1), or, where a component's step is 0,
+    (n / (num - 1)) (stop - start) + start; the last point is the stop itself."""
+    div = num - 1
+    dx, dy = xf - x0, yf - y0
+    sx, sy = dx / div, dy / div
+    out = np.empty((num, 2))
+    for n in range(num):
+        if sx == 0.0 or sy == 0.0:
+            t = n / div
+            out[n, 0], out[n, 1] = t * dx + x0, t * dy + y0
+        else:
+            out[n, 0], out[n, 1] = n * sx + x0, n * sy + y0
+    out[num - 1, 0], out[num - 1, 1] = xf, yf
+    return out
+
+
+@jit(fastmath=False)
+def fine_axis(centre: float, half: int, step: float) -> np.ndarray:
+    """``centre + np.arange(-half, half + 1) * step`` in numpy's operations, bit for bit."""
+    out = np.empty(2 * half + 1)
+    for k in range(-half, half + 1):
+        offset = k * step
+        out[k + half] = centre + offset
+    return out
+
+
+@jit
+def search_grids(
+    xs: np.ndarray, ys: np.ndarray, q0: np.ndarray, qf: np.ndarray, d: float, slots: int, x_c: float,
+    g_x: float, side: int, nodes: np.ndarray, params: np.ndarray, half: int, refine: float, coarse_block: int,
+    fine_block: int,
+) -> tuple[float, float, float]:  # fmt: skip
+    """``peak.rate_peak``'s two searches in one call, each by :func:`grid_argmax`: the coarse grid
+    ``xs`` x ``ys`` and the straight line q0 -> qF of ``slots`` points, then (``half`` > 0) the
+    fine grid of (2 ``half`` + 1)^2 points ``refine`` m apart around the coarse best, which
+    replaces it only with a strictly higher rate. (x, y, rate) of the best point, (nan, nan,
+    -inf) if no point qualifies."""
+    line = straight_line(q0[0], q0[1], qf[0], qf[1], slots)
+    moves = slots - 1
+    i, rate = grid_argmax(xs, ys, line, q0, qf, d, moves, x_c, g_x, side, nodes, params, coarse_block)
+    if i < 0:
+        return math.nan, math.nan, -math.inf
+    grid = xs.shape[0] * ys.shape[0]
+    if i < grid:
+        x, y = xs[i % xs.shape[0]], ys[i // xs.shape[0]]
+    else:
+        x, y = line[i - grid, 0], line[i - grid, 1]
+    if half > 0:
+        fx, fy = fine_axis(x, half, refine), fine_axis(y, half, refine)
+        j, fine = grid_argmax(fx, fy, line[:0], q0, qf, d, moves, x_c, g_x, side, nodes, params, fine_block)
+        if j >= 0 and fine > rate:
+            x, y, rate = fx[j % fx.shape[0]], fy[j // fx.shape[0]], fine
+    return x, y, rate

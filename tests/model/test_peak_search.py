@@ -12,8 +12,8 @@ import pytest
 from ios_uav_env.jit import HAVE_NUMBA
 from ios_uav_env.model.channel import PARAMS, rate_kernel, rate_point
 from ios_uav_env.model.config import ScenarioConfig, scene_box
-from ios_uav_env.model.peak import _axis, _ellipse_box, _exhaustive, _pruned, rate_peak, search_margin
-from ios_uav_env.model.peak_search import block_bound, grid_argmax
+from ios_uav_env.model.peak import Peak, _axis, _ellipse_box, _exhaustive, rate_peak, search_margin
+from ios_uav_env.model.peak_search import block_bound, fine_axis, grid_argmax, straight_line
 from ios_uav_env.model.scenarios import DEFAULT_RANGES, ScenarioRanges, sample_scenario
 from tests.processes import run_without_numba
 
@@ -35,24 +35,64 @@ def _scenarios(count: int, seed: int) -> list[ScenarioConfig]:
     return out + [c.replace(surface="none") for c in out[:6]]
 
 
-@pytest.mark.skipif(not HAVE_NUMBA, reason="the pruned search runs where numba compiles it")
+def _same_rate(a: float, b: float) -> bool:
+    """Equal but for the last bits: the exhaustive search's kernel (``RateKernel.rates``, called from
+    Python) may run another compiled specialisation of ``channel.rates_at`` (numba picks one by the
+    arrays' layout, among those the process compiled first) than the one the compiled search
+    calls, whose vectorised node sums round differently by an ulp or so."""
+    return math.isclose(a, b, rel_tol=1e-14, abs_tol=0.0)
+
+
+def _exhaustive_peak(config: ScenarioConfig, side: str | None) -> Peak | None:
+    """``rate_peak(config, side=side, compiled=True)`` with every point's rate evaluated."""
+    xs, ys, line = _grids(config)
+    best = _exhaustive(config, xs, ys, line, side, True)
+    if best is not None:
+        fx, fy = best.x + np.arange(-10, 11) * 1.0, best.y + np.arange(-10, 11) * 1.0
+        fine = _exhaustive(config, fx, fy, np.zeros((0, 2)), side, True)
+        best = fine if fine is not None and fine.rate > best.rate else best
+    return best
+
+
+@pytest.mark.skipif(not HAVE_NUMBA, reason="rate_peak prunes where numba compiles it")
 @pytest.mark.parametrize("side", [None, "front", "behind"])
 def test_branch_and_bound_returns_the_exhaustive_point_and_rate(side):
     for config in _scenarios(40, seed=side is None):
+        ours, theirs = rate_peak(config, side=side, compiled=True), _exhaustive_peak(config, side)
+        assert (ours is None) == (theirs is None)
+        if ours is not None:  # the same point; the same rate but for the last bit (_same_rate)
+            assert (ours.x, ours.y) == (theirs.x, theirs.y) and _same_rate(ours.rate, theirs.rate)
+
+
+@pytest.mark.parametrize("block", [1, 3, 8, 13])
+def test_every_block_size_finds_the_same_point(block):
+    code = {None: 0, "front": 1, "behind": -1}
+    for config in _scenarios(8, seed=block):
         xs, ys, line = _grids(config)
-        for block in (1, 4, 8, 13):
-            ours = _pruned(config, xs, ys, line, side, True, block)
-            theirs = _exhaustive(config, xs, ys, line, side, True)
-            assert ours == theirs  # the same point and the same rate, bit for bit (or both None)
-        if theirs is not None:  # the fine grid around it, no line
-            fx, fy, none = (
-                theirs.x + np.arange(-10, 11) * 1.0,
-                theirs.y + np.arange(-10, 11) * 1.0,
-                np.zeros((0, 2)),
-            )
-            assert _pruned(config, fx, fy, none, side, True, 4) == _exhaustive(
-                config, fx, fy, none, side, True
-            )
+        k, q0, qf = rate_kernel(config), np.asarray(config.q0, float), np.asarray(config.qF, float)
+        for side in (None, "front", "behind"):
+            i, rate = grid_argmax(xs, ys, line, q0, qf, config.D, config.N - 1, config.ios_center[0],
+                                  config.ground_node[0], code[side], k.nodes, k.params, block)  # fmt: skip
+            best, grid = _exhaustive(config, xs, ys, line, side, True), xs.size * ys.size
+            if best is None:
+                assert i == -1 and rate == -math.inf
+                continue
+            point = (xs[i % xs.size], ys[i // xs.size]) if i < grid else tuple(line[i - grid])
+            assert point == (best.x, best.y) and _same_rate(rate, best.rate)
+
+
+def test_the_compiled_line_and_fine_axis_are_numpys_bit_for_bit():
+    rng = np.random.default_rng(4)
+    for x0, y0, xf, yf in [(-400.0, 0.0, 400.0, 0.0), (-400.0, 31.7, -400.0, -55.2), (3.0, 3.0, 3.0, 3.0)]:
+        for num in (2, 3, 61, 200):
+            expected = np.linspace((x0, y0), (xf, yf), num)
+            assert np.array_equal(straight_line(x0, y0, xf, yf, num), expected)
+    for _ in range(50):
+        x0, y0, xf, yf = rng.uniform(-500.0, 500.0, 4)
+        num = int(rng.integers(2, 250))
+        assert np.array_equal(straight_line(x0, y0, xf, yf, num), np.linspace((x0, y0), (xf, yf), num))
+        centre, step = rng.uniform(-500.0, 500.0), rng.choice([1.0, 0.3, 2.5])
+        assert np.array_equal(fine_axis(centre, 10, step), centre + np.arange(-10, 11) * step)
 
 
 def test_the_bound_holds_over_its_box_and_is_tight_on_a_point():
@@ -143,3 +183,29 @@ print(json.dumps(out))
     configs = [c.to_dict() for c in _scenarios(3, seed=11)[:3]]
     for x, y, rate, bx, by, brate in json.loads(run_without_numba(code, stdin=json.dumps(configs))):
         assert (x, y, rate) == (bx, by, brate)
+
+
+def _numpy_ellipse_box(config: ScenarioConfig) -> tuple[np.ndarray, np.ndarray]:
+    """The box's numpy form (the reference of ``peak._ellipse_box``'s scalar one)."""
+    q0, qf = np.asarray(config.q0, float), np.asarray(config.qF, float)
+    a = 0.5 * (config.N - 1) * config.D + config.D
+    c = 0.5 * float(np.linalg.norm(qf - q0))
+    b = math.sqrt(max(a * a - c * c, 0.0))
+    u = (qf - q0) / (2.0 * c) if c > 0 else np.array([1.0, 0.0])
+    half = np.sqrt((a * u) ** 2 + (b * u[::-1]) ** 2)
+    centre = 0.5 * (q0 + qf)
+    return centre - half, centre + half
+
+
+def test_the_search_box_is_the_numpy_box_bit_for_bit():
+    from ios_uav_env.model.surface import _axes
+
+    configs = _scenarios(60, seed=9) + [ScenarioConfig(), ScenarioConfig(qF=(-400.0, 0.0), T=30.0)]
+    for config in configs + [c.replace(ios_shape=(7, 13), uav_altitude=250.0) for c in configs[:5]]:
+        lo, hi = _ellipse_box(config)
+        np_lo, np_hi = _numpy_ellipse_box(config)
+        assert lo == tuple(np_lo) and hi == tuple(np_hi)
+        if config.surface != "none":
+            _, zs = _axes(config)
+            expected = max(200.0, 2.0 * math.sqrt(3.0) * (config.uav_altitude - float(np.min(zs))))
+            assert search_margin(config) == expected
