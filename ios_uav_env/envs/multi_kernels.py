@@ -149,10 +149,11 @@ from ios_uav_env.envs.single_kernels import (
     toward,
 )
 from ios_uav_env.jit import jit, prange, run_batched
-from ios_uav_env.model.channel import PARAMS, faded_point, rate_kernel, rate_point
+from ios_uav_env.model.channel import PARAMS, faded_point, rate_point
 from ios_uav_env.model.config import ENERGY_RTOL, FEASIBILITY_TOL, ScenarioConfig
 from ios_uav_env.model.guard import guarded_position
 from ios_uav_env.model.maxmin_paths import path_values
+from ios_uav_env.model.node_kernels import node_kernels
 
 
 @jit(fastmath=False)
@@ -501,19 +502,17 @@ class NodeRows:
         """Copy the scenario ``cfg`` into row ``i`` (unless it is already there) and put the UAV at q0
         (the energy reward's lambda_ref: :meth:`set_reference`)."""
         if self.loaded[i] is not cfg:
-            kernels = [rate_kernel(cfg.node_config(k)) for k in range(cfg.K)]
-            width = max(kn.nodes.shape[1] for kn in kernels)
+            nodes, params = node_kernels(cfg)  # each node's rate kernel, no config per node
+            width = nodes.shape[2]
             if width > self.nodes.shape[3]:
                 self._grow("nodes", 3, width, fill=(0.0, 1.0, 0.0))  # padded nodes: zero weight
             if cfg.N > self.path.shape[1]:
                 self._grow("path", 1, cfg.N)
                 self._grow("share_path", 1, cfg.N)
                 self._grow("rate_path", 1, cfg.N)
-            for k, kn in enumerate(kernels):
-                q = kn.nodes.shape[1]
-                self.nodes[i, k, :, :q] = kn.nodes
-                self.nodes[i, k, :, q:] = ((0.0,), (1.0,), (0.0,))
-                self.params[i, k] = kn.params
+            self.nodes[i, : cfg.K, :, :width] = nodes
+            self.nodes[i, : cfg.K, :, width:] = ((0.0,), (1.0,), (0.0,))
+            self.params[i, : cfg.K] = params
             length_scale, sharpness, softmin_beta, peak_hint, clip = self.settings
             self.points[i, : cfg.K] = node_points(cfg, node_peaks(cfg) if peak_hint else None)
             self.episode[i] = episode_row(cfg, length_scale, sharpness, softmin_beta, peak_hint, 0.0, clip)
