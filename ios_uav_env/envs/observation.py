@@ -30,9 +30,11 @@ from ios_uav_env.envs.observation_layout import (  # noqa: F401 (the layouts, re
     observation_names,
     require_features,
 )
+from ios_uav_env.jit import HAVE_NUMBA
 from ios_uav_env.model.channel import RateKernel, rate_kernel
 from ios_uav_env.model.config import ScenarioConfig
-from ios_uav_env.model.hover_reference import hover_path
+from ios_uav_env.model.hover_reference import flight_efficiency, hover_path
+from ios_uav_env.model.motion import is_static
 from ios_uav_env.model.peak import Peak, rate_peak
 from ios_uav_env.model.propulsion import min_power_speed, propulsion_power
 from ios_uav_env.model.scenarios import ScenarioRanges
@@ -112,16 +114,28 @@ def hover_flight(config: ScenarioConfig, peak: Peak | None = None) -> np.ndarray
     return hover_path(float(x), float(y), float(fx), float(fy), float(p.x), float(p.y), config.D, config.N)
 
 
+def flight_ee(config: ScenarioConfig, flight: np.ndarray) -> float:
+    """The EE (bits/J) of one node's ``flight`` (N, 2) on ``config``'s static node: ``score_plan``'s
+    to rounding, ~1e-15 relative (with numba, the compiled ``hover_reference.flight_efficiency``;
+    without, ``bits_per_joule`` of ``average_rate`` and the flight's ``energy``, as ``score_plan``
+    computes it, without its checks). The reference flights' scorer: one function, so each
+    lambda_ref below is the same number whichever of them computes it."""
+    if not HAVE_NUMBA:
+        return float(bits_per_joule(config, average_rate(config, flight), energy(config, flight)))
+    kernel, m = rate_kernel(config), config.propulsion
+    constants = np.array([m.P0, m.U_tip, m.P_i, m.v0, m.drag_coefficient])
+    q = np.ascontiguousarray(flight, dtype=np.float64)
+    dt, bandwidth = config.dt, config.bandwidth_hz
+    return float(flight_efficiency(q, kernel.nodes, kernel.params, dt, bandwidth, config.T, constants))
+
+
 def reference_efficiency(config: ScenarioConfig, peak: Peak | None = None) -> float:
     """lambda_ref (bits/J), the default reference energy efficiency of the energy reward: the EE
-    (``score_plan``) of :func:`hover_flight`, the rate objective's "fly to the peak and hover"
-    plan. A feasible plan, so lambda_ref <= EE* (the best EE), and a plan that maximises the
-    energy reward's return has an EE of at least lambda_ref (``IOSUAVEnv``, "Energy").
-    ``peak``: the reachable rate peak if known, else ``rate_peak(config)``'s. Computed as
-    ``score_plan`` computes a single node's EE (``bits_per_joule`` of ``average_rate`` and the
-    flight's ``energy``), without its checks: the same number bit for bit."""
-    flight = hover_flight(config, peak)
-    return float(bits_per_joule(config, average_rate(config, flight), energy(config, flight)))
+    (:func:`flight_ee`, ``score_plan``'s) of :func:`hover_flight`, the rate objective's "fly to the
+    peak and hover" plan. A feasible plan, so lambda_ref <= EE* (the best EE), and a plan that
+    maximises the energy reward's return has an EE of at least lambda_ref (``IOSUAVEnv``,
+    "Energy"). ``peak``: the reachable rate peak if known, else ``rate_peak(config)``'s."""
+    return flight_ee(config, hover_flight(config, peak))
 
 
 def loiter_efficiency(config: ScenarioConfig, peak: Peak | None = None) -> float:
@@ -159,8 +173,12 @@ def flights_efficiency(
     """The best EE (bits/J) of ``flights`` on ``config``, each scored by ``score_plan(config, flight,
     paths=paths)``: on the node's true path ``paths`` (N, 1, 2) of a moving node, the reference of
     the energy reward of a mobile env (``IOSUAVEnv``, "Energy"). Feasible flights, so at most the
-    best EE on those paths. With :func:`reference_flights` and ``paths`` None (or static), the
-    value of :func:`reference_efficiency` (:func:`loiter_efficiency` with ``loiter``)."""
+    best EE on those paths. With ``paths`` None or static, each by :func:`flight_ee` (``score_plan``'s
+    EE to rounding): with :func:`reference_flights`, the value of :func:`reference_efficiency` bit
+    for bit (of :func:`loiter_efficiency` with ``loiter``, to rounding: it takes the loiter
+    flight's ``score_plan`` EE, as ``baselines.loiter`` reports it)."""
+    if paths is None or is_static(config, np.asarray(paths, dtype=float)):
+        return max(flight_ee(config, flight) for flight in flights)
     return max(float(score_plan(config, flight, paths=paths).energy_efficiency) for flight in flights)
 
 
