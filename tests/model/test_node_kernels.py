@@ -61,3 +61,24 @@ def test_the_multinode_draw_is_the_scenario_draw_with_its_nodes():
             drawn = sample_scenario(theirs, r)
             expected = drawn.replace(ground_nodes=tuple(_off_plane(p, r.base, drawn.surface) for p in points))
             assert config == expected and config.K == k
+
+
+def test_the_scenario_draw_is_the_stream_of_scalar_draws():
+    """``sample_scenario`` draws q0 and qF in one call: the values and the generator's state after are
+    those of one scalar draw each, in the documented order (the scenarios of every seed unchanged)."""
+    ranges = ScenarioRanges(T=(40.0, 80.0), start_x=(-450.0, -350.0), end_y=(5.0, 5.0))
+    for seed in range(40):
+        ours, theirs = np.random.default_rng(seed), np.random.default_rng(seed)
+        config = sample_scenario(ours, ranges)
+        ground = (float(theirs.uniform(*ranges.ground_x)), float(theirs.uniform(*ranges.ground_y)))
+        slots = int(theirs.integers(*ranges.slot_range, endpoint=True))
+        rows = int(theirs.integers(*ranges.ios_rows, endpoint=True))
+        surface = ranges.surfaces[int(theirs.integers(len(ranges.surfaces)))]
+        ends = [
+            float(theirs.uniform(*p)) for p in (ranges.start_x, ranges.start_y, ranges.end_x, ranges.end_y)
+        ]
+        expected = ranges.base.replace(
+            ground_node=ground, T=slots * ranges.base.dt, ios_shape=ranges.shape(rows), surface=surface,
+            q0=tuple(ends[:2]), qF=tuple(ends[2:]),
+        )  # fmt: skip
+        assert config == expected and ours.uniform() == theirs.uniform()
