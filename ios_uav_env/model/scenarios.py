@@ -231,8 +231,7 @@ def _draw(rng: np.random.Generator, r: ScenarioRanges) -> dict[str, Any]:
     slots = int(rng.integers(n_lo, n_hi, endpoint=True))
     rows = int(rng.integers(r.ios_rows[0], r.ios_rows[1], endpoint=True))
     surface = r.surfaces[int(rng.integers(len(r.surfaces)))]
-    # (one call draws the four in order, each low + (high - low) U: the stream of four calls)
-    x0, y0, xf, yf = rng.uniform(*zip(r.start_x, r.start_y, r.end_x, r.end_y, strict=True)).tolist()
+    x0, y0, xf, yf = (float(rng.uniform(*pair)) for pair in (r.start_x, r.start_y, r.end_x, r.end_y))
     return {
         "ground_node": _off_plane(ground, r.base, surface),
         "T": slots * r.base.dt,
@@ -257,10 +256,7 @@ def sample_multinode(
     replace). One config is made: the one ``sample_scenario(rng, ranges).replace(ground_nodes=...)``
     would give (tested)."""
     k = int(rng.integers(nodes[0], nodes[1], endpoint=True))
-    # x_1, y_1, x_2, ... in one call: the stream of 2 K scalar draws (sample_scenario's rule)
-    (x_lo, x_hi), (y_lo, y_hi) = ranges.ground_x, ranges.ground_y
-    flat = rng.uniform([x_lo, y_lo] * k, [x_hi, y_hi] * k).tolist()
-    points = list(zip(flat[0::2], flat[1::2], strict=True))
+    points = [(float(rng.uniform(*ranges.ground_x)), float(rng.uniform(*ranges.ground_y))) for _ in range(k)]
     changes = _draw(rng, ranges)
     del changes["ground_node"]
     # (a walking node drawn next to the IOS plane starts at its margin: sample_scenario's rule)

@@ -64,8 +64,8 @@ def test_the_multinode_draw_is_the_scenario_draw_with_its_nodes():
 
 
 def test_the_scenario_draw_is_the_stream_of_scalar_draws():
-    """``sample_scenario`` draws q0 and qF in one call: the values and the generator's state after are
-    those of one scalar draw each, in the documented order (the scenarios of every seed unchanged)."""
+    """``sample_scenario`` (one config made from ``_draw``'s changes) draws as documented: one
+    scalar draw each, in order, and the generator's state after them (the scenarios of every seed)."""
     ranges = ScenarioRanges(T=(40.0, 80.0), start_x=(-450.0, -350.0), end_y=(5.0, 5.0))
     for seed in range(40):
         ours, theirs = np.random.default_rng(seed), np.random.default_rng(seed)
