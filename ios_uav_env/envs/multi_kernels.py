@@ -1,27 +1,10 @@
-"""The multi-node env's transition as array kernels over B rows: one implementation for
-``MultiNodeEnv`` (a batch of one) and ``MultiNodeVectorEnv`` (B rows).
-
-Row i of a few arrays is episode i (:class:`NodeRows` holds them; their columns:
-``ios_uav_env.envs.multi_table``): ``state`` (``STATE``), ``episode`` (``EPISODE``: the
-scenario's constants), ``points`` (B, K_max, 6: each node's
-x, y, its side of the IOS and, with ``peak_hint``, its reachable rate peak x, y and rate),
-``served`` (B, K_max: S_k) and, per node, the arrays of its rate kernel
-(``ios_uav_env.model.channel.RateKernel`` of ``config.node_config(k)``: ``nodes`` (B, K_max, 3, Q),
-``params`` (B, K_max, P)). :func:`reset_rows` and :func:`step_rows` write the observations,
-rewards and the ``info`` table (``multi_table.info_columns``, read by ``info_arrays``) of the
-rows they touch: node k's rate is ``channel.rate_point``, the move goes through
-``guard.guarded_position``, the shares are the softmax of ``share_sharpness`` x the scores of
-the scenario's K nodes, and the reward terms are those of ``MultiNodeEnv``'s docstring.
-Compiled with numba when installed (``ios_uav_env.jit``). The kernels index every column by
-name (``multi_table``'s module docstring), never by number.
-
-Two options of ``flags`` (``single_kernels.flags_of``) change the step: ``energy`` (the
-objective ``"energy_efficiency"``) adds the reward's energy term -(lambda_ref / B) P(V_n) and the
-energy features after the node blocks; ``rician`` serves each node its faded rate of the slot
-(``channel.faded_point`` with the two standard normal draws of ``normals[i, k]``), while
-``expected`` (B, K_max) keeps the expected-gain sums sum_n alpha_k[n] r_k(q[n]) that the score
-and the energy efficiency are taken on. Every step books the move's propulsion energy
-(``single_kernels.slot_power``) whatever the flags.
+"""The multi-node envs' rows: :class:`NodeRows` holds the arrays of B multi-node episodes (row i =
+episode i), loads each row's scenario and calls the compiled kernels of
+``ios_uav_env.envs.multi_step`` on them (re-exported here: ``reset_rows``, ``step_rows``,
+``step_rows_batched``, ``fly_rows``, ``soft_minimum``), one implementation for ``MultiNodeEnv`` (a
+batch of one) and ``MultiNodeVectorEnv`` (B rows); :func:`episode_best_values` scores the rows
+whose episodes end, :func:`move_norms` the moves' lengths the kernels take. The arrays' layout
+and the kernels' contract: ``multi_step``'s docstring.
 """
 
 from __future__ import annotations
@@ -32,99 +15,24 @@ from typing import Any
 
 import numpy as np
 
+from ios_uav_env.envs.multi_step import (  # noqa: F401 (the kernels, re-exported)
+    fly_rows,
+    keep_rates,
+    reset_rows,
+    soft_minimum,
+    step_rows,
+    step_rows_batched,
+)
 from ios_uav_env.envs.multi_table import (
     ACT_MOVE,
     ACT_MOVE_X,
     ACT_MOVE_Y,
     ACT_SCORES,
     EPISODE,
-    MEP_BITS_SCALE,
-    MEP_BLADE_K,
-    MEP_BUDGET,
-    MEP_CX,
-    MEP_CY,
-    MEP_D,
-    MEP_DRAG,
-    MEP_DT,
-    MEP_ELEMENTS,
-    MEP_ENERGY_COST,
-    MEP_ENERGY_WEIGHT,
-    MEP_HORIZON,
-    MEP_INDUCED_K,
-    MEP_INV_L,
-    MEP_IS_IOS,
-    MEP_IS_RIS,
-    MEP_K,
-    MEP_MIN_POWER_MOVE,
-    MEP_MOVES,
-    MEP_N,
-    MEP_P_BLADE,
-    MEP_P_INDUCED,
-    MEP_PEAK_HINT,
-    MEP_QFX,
-    MEP_QFY,
-    MEP_SERVED_CLIP,
-    MEP_SHARPNESS,
-    MEP_SOFTMIN_BETA,
-    MINFO_BEST_SCHEDULE_RATE,
-    MINFO_DISTANCE_TO_FINAL,
-    MINFO_FEASIBLE,
-    MINFO_MIN_RATE,
-    MINFO_POSITION_X,
-    MINFO_POSITION_Y,
-    MINFO_REWARD_RATE,
-    MINFO_REWARD_REACH,
-    MINFO_REWARD_TERMINAL,
-    MINFO_SLOT,
-    MINFO_TERMINAL_MISS,
-    MINFO_WORST_VIOLATION,
-    MOBS_DX_FINAL,
-    MOBS_DX_IOS,
-    MOBS_DY_FINAL,
-    MOBS_DY_IOS,
-    MOBS_ELEMENTS,
-    MOBS_HORIZON,
-    MOBS_IS_IOS,
-    MOBS_IS_RIS,
-    MOBS_SLACK,
-    MOBS_TIME_LEFT,
-    MOBS_X,
-    MOBS_Y,
-    MORE_ENERGY,
-    MORE_ENERGY_EFFICIENCY,
-    MORE_EXPECTED_MIN_RATE,
-    MORE_POWER,
-    MORE_REWARD_ENERGY,
-    MST_ENERGY,
-    MST_EXCESS,
-    MST_MIN_RATE,
-    MST_MOVE_X,
-    MST_MOVE_Y,
     MST_MOVES_MADE,
-    MST_POTENTIAL,
     MST_X,
     MST_Y,
-    N_MINFO,
-    N_MOBS,
-    N_MORE,
-    N_NODE,
-    N_NODE_PEAK,
-    NODE_DX_NODE,
-    NODE_DX_PEAK,
-    NODE_DY_NODE,
-    NODE_DY_PEAK,
-    NODE_MASK,
-    NODE_RATE,
-    NODE_RATE_PEAK,
-    NODE_SERVED,
-    NODE_SIDE,
     POINT,
-    PT_PEAK_RATE,
-    PT_PEAK_X,
-    PT_PEAK_Y,
-    PT_SIDE,
-    PT_X,
-    PT_Y,
     STATE,
     episode_row,
     node_peaks,
@@ -132,320 +40,12 @@ from ios_uav_env.envs.multi_table import (
     set_reference,
 )
 from ios_uav_env.envs.options import EnvOptions
-from ios_uav_env.envs.single_kernels import (
-    FLAG_ARRIVAL_GUARD,
-    FLAG_ENERGY,
-    FLAG_REACH_WEIGHT,
-    FLAG_RICIAN,
-    FLAG_TERMINAL_WEIGHT,
-    OBS_ENERGY_WEIGHT,
-    OBS_MIN_POWER_MOVE,
-    OBS_MOVE_X,
-    OBS_MOVE_Y,
-    flags_of,
-    fly_entry_out_of_range,
-    penalties,
-    slot_power,
-    toward,
-)
-from ios_uav_env.jit import jit, prange, run_batched
-from ios_uav_env.model.channel import PARAMS, faded_point, rate_kernel, rate_point
-from ios_uav_env.model.config import ENERGY_RTOL, FEASIBILITY_TOL, ScenarioConfig
-from ios_uav_env.model.guard import guarded_position
+from ios_uav_env.envs.single_kernels import flags_of
+from ios_uav_env.jit import run_batched
+from ios_uav_env.model.channel import PARAMS
+from ios_uav_env.model.config import ScenarioConfig
 from ios_uav_env.model.maxmin_paths import path_values
-
-
-@jit(fastmath=False)
-def soft_minimum(served: np.ndarray, k_n: int, n_slots: float, beta: float) -> float:
-    """The potential of the rate term (``multi.rate_potential``) of the served rates
-    v_k = ``served[k]`` / ``n_slots`` of the first ``k_n`` nodes: min_k v_k for ``beta`` = 0,
-    else -(1/beta) log((1/K) sum_k exp(-beta v_k)), computed from the minimum."""
-    low = math.inf
-    for k in range(k_n):
-        low = min(low, served[k] / n_slots)
-    if beta == 0.0:
-        return low
-    total = 0.0
-    for k in range(k_n):
-        total += math.exp(-beta * (served[k] / n_slots - low))
-    return low - math.log(total / k_n) / beta
-
-
-@jit(inline=True, fastmath=False)
-def _rates(
-    i: int, x: float, y: float, k_n: int, nodes: np.ndarray, params: np.ndarray, rates: np.ndarray
-) -> None:
-    """r_k(x, y) of row ``i``'s K nodes into ``rates[i]``."""
-    for k in range(k_n):
-        rates[i, k] = rate_point(x, y, nodes[i, k], params[i, k])
-
-
-@jit(inline=True, fastmath=False)
-def _observe(obs: np.ndarray, i: int, x: float, y: float, left: float, dist: float, episode: np.ndarray,
-             points: np.ndarray, served: np.ndarray, rates: np.ndarray, state: np.ndarray,
-             flags: np.ndarray) -> None:  # fmt: skip
-    """Write observation row ``i`` (the layout of ``MultiNodeEnv``'s docstring; with the energy
-    objective the last move / D, the energy weight and the minimum-power move after the blocks)."""
-    ep, o = episode[i], obs[i]
-    inv_l, n_slots, k_n = ep[MEP_INV_L], ep[MEP_N], int(ep[MEP_K])
-    width = N_NODE_PEAK if ep[MEP_PEAK_HINT] != 0.0 else N_NODE
-    s = left - dist / ep[MEP_D]
-    o[MOBS_X], o[MOBS_Y] = x * inv_l, y * inv_l
-    o[MOBS_DX_FINAL], o[MOBS_DY_FINAL] = (ep[MEP_QFX] - x) * inv_l, (ep[MEP_QFY] - y) * inv_l
-    o[MOBS_DX_IOS], o[MOBS_DY_IOS] = (ep[MEP_CX] - x) * inv_l, (ep[MEP_CY] - y) * inv_l
-    o[MOBS_TIME_LEFT], o[MOBS_SLACK] = left / (n_slots - 1.0), s / (1.0 + abs(s))
-    o[MOBS_ELEMENTS], o[MOBS_IS_IOS] = ep[MEP_ELEMENTS], ep[MEP_IS_IOS]
-    o[MOBS_IS_RIS], o[MOBS_HORIZON] = ep[MEP_IS_RIS], ep[MEP_HORIZON]
-    for k in range(points.shape[1]):
-        j = N_MOBS + width * k
-        if k < k_n:
-            o[j + NODE_MASK] = 1.0
-            o[j + NODE_DX_NODE] = (points[i, k, PT_X] - x) * inv_l
-            o[j + NODE_DY_NODE] = (points[i, k, PT_Y] - y) * inv_l
-            o[j + NODE_SIDE], o[j + NODE_RATE] = points[i, k, PT_SIDE], rates[i, k]
-            o[j + NODE_SERVED] = min(served[i, k] / n_slots, ep[MEP_SERVED_CLIP])
-            if width == N_NODE_PEAK:
-                o[j + NODE_DX_PEAK] = (points[i, k, PT_PEAK_X] - x) * inv_l
-                o[j + NODE_DY_PEAK] = (points[i, k, PT_PEAK_Y] - y) * inv_l
-                o[j + NODE_RATE_PEAK] = points[i, k, PT_PEAK_RATE]
-        else:
-            for c in range(width):
-                o[j + c] = 0.0
-    if flags[FLAG_ENERGY] != 0.0:
-        j = N_MOBS + width * points.shape[1]
-        o[j + OBS_MOVE_X], o[j + OBS_MOVE_Y] = state[i, MST_MOVE_X], state[i, MST_MOVE_Y]
-        o[j + OBS_ENERGY_WEIGHT], o[j + OBS_MIN_POWER_MOVE] = ep[MEP_ENERGY_WEIGHT], ep[MEP_MIN_POWER_MOVE]
-
-
-@jit(inline=True, fastmath=False)
-def _info(info: np.ndarray, i: int, state: np.ndarray, episode: np.ndarray, shares: np.ndarray,
-          served: np.ndarray, dist: float, left: float, r_rate: float, r_reach: float,
-          r_terminal: float, expected: np.ndarray, power: float, r_energy: float) -> None:  # fmt: skip
-    """Write ``info`` row ``i`` (``best_schedule_rate`` 0: the caller's, at episode end); with an
-    energy budget, ``feasible`` also asks E <= E_max (1 + ENERGY_RTOL) of the energy so far, as
-    ``check_trajectory`` does. Then :data:`MORE`: the move's ``power`` (W), the ``energy`` so far
-    (J), the bits per joule so far B dt min_k sum_n alpha_k[n] r_k(q[n]) / E (expected-gain
-    rates; 0 before the first move), the energy term, min_k of ``expected`` / N, and each node's
-    ``expected`` / N."""
-    st, ep, row = state[i], episode[i], info[i]
-    k_max = served.shape[1]
-    k_n, n_slots = int(ep[MEP_K]), ep[MEP_N]
-    deficit = max(0.0, dist - left * ep[MEP_D])
-    worst = max(st[MST_EXCESS], deficit)
-    feasible = worst <= FEASIBILITY_TOL and st[MST_ENERGY] <= ep[MEP_BUDGET] * (1.0 + ENERGY_RTOL)
-    row[MINFO_POSITION_X], row[MINFO_POSITION_Y] = st[MST_X], st[MST_Y]
-    row[MINFO_SLOT], row[MINFO_DISTANCE_TO_FINAL] = st[MST_MOVES_MADE] + 1.0, dist
-    row[MINFO_MIN_RATE], row[MINFO_BEST_SCHEDULE_RATE] = st[MST_MIN_RATE], 0.0
-    row[MINFO_REWARD_RATE], row[MINFO_REWARD_REACH], row[MINFO_REWARD_TERMINAL] = r_rate, r_reach, r_terminal
-    row[MINFO_FEASIBLE] = 1.0 if feasible else 0.0
-    row[MINFO_WORST_VIOLATION], row[MINFO_TERMINAL_MISS] = worst, deficit
-    # the blocks after INFO: shares, node_rates, MORE, expected_node_rates (multi_table.info_arrays)
-    node_rates, more = N_MINFO + k_max, N_MINFO + 2 * k_max
-    expected_rates = more + N_MORE
-    # MORE and expected_node_rates only where the table has them (the energy objective, channel
-    # "rician": multi_table.info_columns)
-    extended = row.shape[0] > more
-    low = math.inf
-    for k in range(k_max):
-        row[N_MINFO + k] = shares[i, k] if k < k_n else 0.0
-        row[node_rates + k] = served[i, k] / n_slots if k < k_n else 0.0
-        if extended:
-            row[expected_rates + k] = expected[i, k] / n_slots if k < k_n else 0.0
-        if k < k_n:
-            low = min(low, expected[i, k])
-    if extended:
-        energy = st[MST_ENERGY]
-        row[more + MORE_POWER], row[more + MORE_ENERGY] = power, energy
-        row[more + MORE_REWARD_ENERGY], row[more + MORE_EXPECTED_MIN_RATE] = r_energy, low / n_slots
-        row[more + MORE_ENERGY_EFFICIENCY] = ep[MEP_BITS_SCALE] * low / energy if energy > 0.0 else 0.0
-
-
-@jit(inline=True, fastmath=False)
-def _served(i: int, x: float, y: float, k_n: int, nodes: np.ndarray, params: np.ndarray, rates: np.ndarray,
-            normals: np.ndarray, flags: np.ndarray, k: int) -> float:  # fmt: skip
-    """Node ``k``'s rate of row ``i``'s slot as served: its expected-gain rate ``rates[i, k]``, or
-    with channel "rician" (``flags[FLAG_RICIAN]``) one faded sample drawn from ``normals[i, k]``."""
-    if flags[FLAG_RICIAN] != 0.0:
-        return faded_point(x, y, normals[i, k, 0], normals[i, k, 1], nodes[i, k], params[i, k])
-    return rates[i, k]
-
-
-@jit(fastmath=False)
-def reset_rows(
-    rows: np.ndarray, state: np.ndarray, episode: np.ndarray, points: np.ndarray, nodes: np.ndarray,
-    params: np.ndarray, served: np.ndarray, shares: np.ndarray, rates: np.ndarray, obs: np.ndarray,
-    info: np.ndarray, share_path: np.ndarray, expected: np.ndarray, normals: np.ndarray, flags: np.ndarray,
-) -> None:  # fmt: skip
-    """Start the episodes of ``rows`` at the position already in ``state[:, 0:2]`` (q0): slot 1
-    shared equally (``shares`` (B, K_max) holds each row's current shares; ``expected`` and
-    ``normals`` as in :func:`step_rows_batched`)."""
-    for i in rows:
-        ep, st = episode[i], state[i]
-        x, y, k_n = st[MST_X], st[MST_Y], int(ep[MEP_K])
-        _rates(i, x, y, k_n, nodes, params, rates)
-        low = math.inf
-        for k in range(k_n):
-            shares[i, k] = 1.0 / k_n
-            served[i, k] = shares[i, k] * _served(i, x, y, k_n, nodes, params, rates, normals, flags, k)
-            expected[i, k] = shares[i, k] * rates[i, k]
-            share_path[i, 0, k] = shares[i, k]
-            low = min(low, served[i, k])
-        st[MST_MOVES_MADE], st[MST_EXCESS] = 0.0, 0.0
-        st[MST_MIN_RATE], st[MST_POTENTIAL] = low / ep[MEP_N], 0.0  # potential before slot 1: 0
-        st[MST_ENERGY], st[MST_MOVE_X], st[MST_MOVE_Y] = 0.0, 0.0, 0.0
-        dist = math.hypot(ep[MEP_QFX] - x, ep[MEP_QFY] - y)
-        left = ep[MEP_MOVES]
-        _observe(obs, i, x, y, left, dist, episode, points, served, rates, state, flags)
-        _info(info, i, state, episode, shares, served, dist, left, 0.0, 0.0, 0.0, expected, 0.0, 0.0)
-
-
-@jit(inline=True, fastmath=False)
-def _softmax(i: int, actions: np.ndarray, sharpness: float, k_n: int, shares: np.ndarray) -> None:
-    """Row ``i``'s shares: the softmax of ``sharpness`` x its K node scores (``actions[i, ACT_SCORES + k]``),
-    each clipped to the action space's [-1, 1] first (so any finite score gives finite shares)."""
-    top = -math.inf
-    for k in range(k_n):
-        top = max(top, sharpness * min(1.0, max(-1.0, actions[i, ACT_SCORES + k])))
-    total = 0.0
-    for k in range(k_n):
-        shares[i, k] = math.exp(sharpness * min(1.0, max(-1.0, actions[i, ACT_SCORES + k])) - top)
-        total += shares[i, k]
-    for k in range(k_n):
-        shares[i, k] /= total
-
-
-@jit(inline=True, fastmath=False)
-def _step_row(
-    i: int, actions: np.ndarray, state: np.ndarray, episode: np.ndarray, points: np.ndarray,
-    nodes: np.ndarray, params: np.ndarray, served: np.ndarray, shares: np.ndarray, rates: np.ndarray,
-    flags: np.ndarray, obs: np.ndarray, reward: np.ndarray, terminated: np.ndarray, info: np.ndarray,
-    path: np.ndarray, share_path: np.ndarray, norms: np.ndarray, expected: np.ndarray, normals: np.ndarray,
-) -> None:  # fmt: skip
-    """One slot of row ``i`` (see :func:`step_rows`); a row whose episode is over (or whose
-    ``path`` is full) is left as it is: nothing is written past its slot N."""
-    ep, st = episode[i], state[i]
-    n_max = min(path.shape[1], share_path.shape[1])
-    if st[MST_MOVES_MADE] >= ep[MEP_MOVES] or st[MST_MOVES_MADE] + 1.0 >= n_max:
-        return  # (the envs never step such a row: they check first)
-    d, n_slots, k_n = ep[MEP_D], ep[MEP_N], int(ep[MEP_K])
-    ax, ay = actions[i, ACT_MOVE_X], actions[i, ACT_MOVE_Y]
-    norm = norms[i]
-    if norm > 1.0:
-        ax, ay = ax / norm, ay / norm
-    _softmax(i, actions, ep[MEP_SHARPNESS], k_n, shares)
-    x0, y0, n = st[MST_X], st[MST_Y], st[MST_MOVES_MADE]
-    left = ep[MEP_MOVES] - n - 1.0  # moves left after this one
-    x, y = x0 + d * ax, y0 + d * ay
-    if flags[FLAG_ARRIVAL_GUARD] != 0.0:
-        x, y = guarded_position((x0, y0), (x, y), (ep[MEP_QFX], ep[MEP_QFY]), d, int(left))
-    st[MST_X], st[MST_Y], st[MST_MOVES_MADE] = x, y, n + 1.0
-    length = math.hypot(x - x0, y - y0)
-    st[MST_EXCESS] = max(st[MST_EXCESS], length - d)
-    power = slot_power(length, ep[MEP_DT], ep[MEP_P_BLADE], ep[MEP_BLADE_K], ep[MEP_P_INDUCED],
-                       ep[MEP_INDUCED_K], ep[MEP_DRAG])  # fmt: skip
-    st[MST_ENERGY] += ep[MEP_DT] * power
-    st[MST_MOVE_X], st[MST_MOVE_Y] = (x - x0) / d, (y - y0) / d
-    path[i, int(n) + 1, 0], path[i, int(n) + 1, 1] = x, y
-    _rates(i, x, y, k_n, nodes, params, rates)
-    low = math.inf
-    for k in range(k_n):
-        rate = _served(i, x, y, k_n, nodes, params, rates, normals, flags, k)
-        served[i, k] = served[i, k] + shares[i, k] * rate
-        expected[i, k] = expected[i, k] + shares[i, k] * rates[i, k]
-        share_path[i, int(n) + 1, k] = shares[i, k]
-        low = min(low, served[i, k])
-    st[MST_MIN_RATE] = low / n_slots
-    beta = ep[MEP_SOFTMIN_BETA]
-    previous, st[MST_POTENTIAL] = st[MST_POTENTIAL], soft_minimum(served[i], k_n, n_slots, beta)
-    dist = math.hypot(ep[MEP_QFX] - x, ep[MEP_QFY] - y)
-    r_reach, r_terminal = penalties(dist, left, d, flags[FLAG_REACH_WEIGHT], flags[FLAG_TERMINAL_WEIGHT])
-    done = left == 0.0
-    r_rate = n_slots * (st[MST_POTENTIAL] - previous)
-    if done and beta != 0.0:
-        r_rate += n_slots * (st[MST_MIN_RATE] - st[MST_POTENTIAL])
-    r_energy = 0.0
-    if flags[FLAG_ENERGY] != 0.0:
-        r_energy = -ep[MEP_ENERGY_COST] * power
-        reward[i] = r_rate + r_energy + r_reach + r_terminal
-    else:
-        reward[i] = r_rate + r_reach + r_terminal
-    terminated[i] = done
-    _observe(obs, i, x, y, left, dist, episode, points, served, rates, state, flags)
-    _info(info, i, state, episode, shares, served, dist, left, r_rate, r_reach, r_terminal, expected, power,
-          r_energy)  # fmt: skip
-
-
-@jit(fastmath=False)
-def step_rows(
-    actions: np.ndarray, state: np.ndarray, episode: np.ndarray, points: np.ndarray, nodes: np.ndarray,
-    params: np.ndarray, served: np.ndarray, shares: np.ndarray, rates: np.ndarray, flags: np.ndarray,
-    obs: np.ndarray, reward: np.ndarray, terminated: np.ndarray, info: np.ndarray, path: np.ndarray,
-    share_path: np.ndarray, active: np.ndarray, norms: np.ndarray, expected: np.ndarray, normals: np.ndarray,
-) -> None:  # fmt: skip
-    """:func:`step_rows_batched` one row after the other (where numba's threads cannot run:
-    ``ios_uav_env.jit.parallel_safe``)."""
-    for i in range(actions.shape[0]):
-        if active[i]:
-            _step_row(i, actions, state, episode, points, nodes, params, served, shares, rates, flags, obs,
-                      reward, terminated, info, path, share_path, norms, expected, normals)  # fmt: skip
-
-
-@jit(fastmath=False, parallel=True)
-def step_rows_batched(
-    actions: np.ndarray, state: np.ndarray, episode: np.ndarray, points: np.ndarray, nodes: np.ndarray,
-    params: np.ndarray, served: np.ndarray, shares: np.ndarray, rates: np.ndarray, flags: np.ndarray,
-    obs: np.ndarray, reward: np.ndarray, terminated: np.ndarray, info: np.ndarray, path: np.ndarray,
-    share_path: np.ndarray, active: np.ndarray, norms: np.ndarray, expected: np.ndarray, normals: np.ndarray,
-) -> None:  # fmt: skip
-    """One slot of every active row: move (unit-disk projection, then the arrival guard), shares,
-    node rates, served rates, reward, observation and info. ``actions`` (B, 2 + K_max) must be
-    finite (the caller checks); ``flags`` as ``single_kernels.flags_of``; ``path`` (B, N_max, 2)
-    and ``share_path`` (B, N_max, K_max) receive the new way-point and shares (at ``moves
-    made``). ``norms`` (B,): |move| of each row whose move may leave the unit disk, 0 for the
-    others (:func:`move_norms`: Python's ``math.hypot``, which the compiled one does not match
-    bit for bit). ``expected`` (B, K_max): each node's expected-gain sum sum_n alpha_k[n]
-    r_k(q[n]); ``normals`` (B, K_max, 2): the slot's draws of h_SS per node (channel "rician"
-    only). The rows run in parallel on numba's threads
-    (``MultiNodeVectorEnv(num_threads=...)``). IEEE arithmetic (no fused multiply-add) in the
-    kernel's own code, rounded as plain Python rounds it: the arrival guard amplifies a
-    last-bit difference when it pulls the UAV home along the reach circle."""
-    for i in prange(actions.shape[0]):  # rows are independent, on numba's threads
-        if active[i]:
-            _step_row(i, actions, state, episode, points, nodes, params, served, shares, rates, flags, obs,
-                      reward, terminated, info, path, share_path, norms, expected, normals)  # fmt: skip
-
-
-@jit(fastmath=False)
-def fly_rows(
-    rows: np.ndarray, targets: np.ndarray, moves: np.ndarray, actions: np.ndarray, state: np.ndarray,
-    episode: np.ndarray, points: np.ndarray, nodes: np.ndarray, params: np.ndarray, served: np.ndarray,
-    shares: np.ndarray, rates: np.ndarray, flags: np.ndarray, obs: np.ndarray, reward: np.ndarray,
-    terminated: np.ndarray, info: np.ndarray, path: np.ndarray, share_path: np.ndarray, norms: np.ndarray,
-    expected: np.ndarray, normals: np.ndarray,
-) -> int:  # fmt: skip
-    """``moves[r]`` slots of row ``rows[r]``, each a full-speed move towards ``targets[r]`` (the rest
-    of the way once within D; the arrival guard as always) with equal shares: the steps of
-    :func:`step_rows` with those actions (``actions`` and ``norms`` are scratch, (B, 2 + K_max)
-    and (B,); no fading draws: the batched env steps Rician rows instead); a row given more than
-    once flies its entries in order. Returns -1, or, flying
-    nothing, the first entry ``r`` that is out of range: a row outside 0..B-1, a move count
-    < 0, or a row whose moves (summed over its entries) would finish its episode or pass the
-    end of ``path``."""
-    bad = fly_entry_out_of_range(
-        rows, targets, moves, state, episode, min(path.shape[1], share_path.shape[1])
-    )
-    if bad >= 0:
-        return bad
-    for r in range(rows.size):
-        i = rows[r]
-        for k in range(actions.shape[1]):
-            actions[i, k] = 0.0  # node scores 0: equal shares
-        norms[i] = 0.0  # the move below is on the unit disk already
-        for _ in range(moves[r]):
-            toward(i, targets[r, 0], targets[r, 1], state, episode, actions)
-            _step_row(i, actions, state, episode, points, nodes, params, served, shares, rates, flags, obs,
-                      reward, terminated, info, path, share_path, norms, expected, normals)  # fmt: skip
-    return -1
+from ios_uav_env.model.node_kernels import node_kernels
 
 
 def move_norms(actions: np.ndarray) -> np.ndarray:
@@ -501,19 +101,17 @@ class NodeRows:
         """Copy the scenario ``cfg`` into row ``i`` (unless it is already there) and put the UAV at q0
         (the energy reward's lambda_ref: :meth:`set_reference`)."""
         if self.loaded[i] is not cfg:
-            kernels = [rate_kernel(cfg.node_config(k)) for k in range(cfg.K)]
-            width = max(kn.nodes.shape[1] for kn in kernels)
+            nodes, params = node_kernels(cfg)  # each node's rate kernel, no config per node
+            width = nodes.shape[2]
             if width > self.nodes.shape[3]:
                 self._grow("nodes", 3, width, fill=(0.0, 1.0, 0.0))  # padded nodes: zero weight
             if cfg.N > self.path.shape[1]:
                 self._grow("path", 1, cfg.N)
                 self._grow("share_path", 1, cfg.N)
                 self._grow("rate_path", 1, cfg.N)
-            for k, kn in enumerate(kernels):
-                q = kn.nodes.shape[1]
-                self.nodes[i, k, :, :q] = kn.nodes
-                self.nodes[i, k, :, q:] = ((0.0,), (1.0,), (0.0,))
-                self.params[i, k] = kn.params
+            self.nodes[i, : cfg.K, :, :width] = nodes
+            self.nodes[i, : cfg.K, :, width:] = ((0.0,), (1.0,), (0.0,))
+            self.params[i, : cfg.K] = params
             length_scale, sharpness, softmin_beta, peak_hint, clip = self.settings
             self.points[i, : cfg.K] = node_points(cfg, node_peaks(cfg) if peak_hint else None)
             self.episode[i] = episode_row(cfg, length_scale, sharpness, softmin_beta, peak_hint, 0.0, clip)
@@ -532,7 +130,7 @@ class NodeRows:
         reset_rows(rows, self.state, self.episode, self.points, self.nodes, self.params, self.served,
                    self.shares, self.rates, obs, info, self.share_path, self.expected, self.normals,
                    self.flags)  # fmt: skip
-        self.rate_path[rows, 0] = self.rates[rows]
+        keep_rates(rows, self.state, self.rates, self.rate_path)
         self.stored[rows] = True
 
     def step(self, actions: np.ndarray, active: np.ndarray, outputs: tuple[np.ndarray, ...],
@@ -550,8 +148,7 @@ class NodeRows:
             step_rows(*args)
         else:
             run_batched(step_rows_batched, step_rows, num_threads, *args)
-        stepped = np.flatnonzero(active)
-        self.rate_path[stepped, self.state[stepped, MST_MOVES_MADE].astype(np.int64)] = self.rates[stepped]
+        keep_rates(np.flatnonzero(active), self.state, self.rates, self.rate_path)
 
     def fly(self, rows: np.ndarray, targets: np.ndarray, moves: np.ndarray, obs: np.ndarray,
             info: np.ndarray) -> None:  # fmt: skip

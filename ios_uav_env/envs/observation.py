@@ -30,14 +30,17 @@ from ios_uav_env.envs.observation_layout import (  # noqa: F401 (the layouts, re
     observation_names,
     require_features,
 )
+from ios_uav_env.jit import HAVE_NUMBA
 from ios_uav_env.model.channel import RateKernel, rate_kernel
 from ios_uav_env.model.config import ScenarioConfig
-from ios_uav_env.model.guard import guarded_position
+from ios_uav_env.model.hover_reference import flight_efficiency, hover_path
+from ios_uav_env.model.motion import is_static
 from ios_uav_env.model.peak import Peak, rate_peak
 from ios_uav_env.model.propulsion import min_power_speed, propulsion_power
 from ios_uav_env.model.scenarios import ScenarioRanges
-from ios_uav_env.model.score import score_plan
+from ios_uav_env.model.score import bits_per_joule, score_plan
 from ios_uav_env.model.surface import _axes
+from ios_uav_env.model.trajectory import average_rate, energy
 
 #: The largest finite float32, the observation's dtype: every bound of a space must stay within it.
 F32_MAX = float(np.finfo(np.float32).max)
@@ -101,47 +104,38 @@ def instance_values(config: ScenarioConfig) -> tuple[float, float, float, float,
     )
 
 
-#: ``hover_flight`` skips the guard where qF is within (moves left) D / _SLACK: a relative 2e-9
-#: inside the guard's reach disk ((moves left) D (1 - 1e-12)), far beyond any rounding of its
-#: distances (a few ulps), so the guard's answer (the target itself) is certain.
-_SLACK = (1.0 + 1e-9) / (1.0 - 1e-9)
-
-
 def hover_flight(config: ScenarioConfig, peak: Peak | None = None) -> np.ndarray:
     """The (N, 2) flight (m) of "fly to the reachable rate peak P at full speed and hover there"
     through the env's arrival guard (``guard.guarded_position``), which brings it to qF at slot
-    N: the flight of ``policies.HoverAt("peak")`` in the env, feasible for every scenario.
-    ``peak``: P if known, else ``rate_peak(config)``."""
+    N: the flight of ``policies.HoverAt("peak")`` in the env, feasible for every scenario
+    (compiled: ``hover_reference.hover_path``). ``peak``: P if known, else ``rate_peak(config)``."""
     p = rate_peak(config) if peak is None else peak
-    d, final, slots = config.D, (float(config.qF[0]), float(config.qF[1])), config.N
-    (px, py), (fx, fy) = (p.x, p.y), final
-    x, y = float(config.q0[0]), float(config.q0[1])
-    path = np.empty((slots, 2))
-    path[0] = x, y
-    for n in range(1, slots):
-        dx, dy = px - x, py - y
-        left = slots - 1 - n
-        if dx == 0.0 and dy == 0.0 and left > 0 and _SLACK * math.hypot(x - fx, y - fy) < left * d:
-            # hovering on P with qF within reach by far more than rounding: the guard would
-            # return its target (inside both of its disks), so skip the call
-            x, y = x + dx, y + dy
-            path[n] = x, y
-            continue
-        norm = math.hypot(dx, dy)
-        if norm > d:  # full speed towards P, then stop on it
-            dx, dy = dx * d / norm, dy * d / norm
-        x, y = guarded_position((x, y), (x + dx, y + dy), final, d, left)
-        path[n] = x, y
-    return path
+    (x, y), (fx, fy) = config.q0, config.qF
+    return hover_path(float(x), float(y), float(fx), float(fy), float(p.x), float(p.y), config.D, config.N)
+
+
+def flight_ee(config: ScenarioConfig, flight: np.ndarray) -> float:
+    """The EE (bits/J) of one node's ``flight`` (N, 2) on ``config``'s static node: ``score_plan``'s
+    to rounding, ~1e-15 relative (with numba, the compiled ``hover_reference.flight_efficiency``;
+    without, ``bits_per_joule`` of ``average_rate`` and the flight's ``energy``, as ``score_plan``
+    computes it, without its checks). The reference flights' scorer: one function, so each
+    lambda_ref below is the same number whichever of them computes it."""
+    if not HAVE_NUMBA:
+        return float(bits_per_joule(config, average_rate(config, flight), energy(config, flight)))
+    kernel, m = rate_kernel(config), config.propulsion
+    constants = np.array([m.P0, m.U_tip, m.P_i, m.v0, m.drag_coefficient])
+    q = np.ascontiguousarray(flight, dtype=np.float64)
+    dt, bandwidth = config.dt, config.bandwidth_hz
+    return float(flight_efficiency(q, kernel.nodes, kernel.params, dt, bandwidth, config.T, constants))
 
 
 def reference_efficiency(config: ScenarioConfig, peak: Peak | None = None) -> float:
     """lambda_ref (bits/J), the default reference energy efficiency of the energy reward: the EE
-    (``score_plan``) of :func:`hover_flight`, the rate objective's "fly to the peak and hover"
-    plan. A feasible plan, so lambda_ref <= EE* (the best EE), and a plan that maximises the
-    energy reward's return has an EE of at least lambda_ref (``IOSUAVEnv``, "Energy").
-    ``peak``: the reachable rate peak if known, else ``rate_peak(config)``'s."""
-    return float(score_plan(config, hover_flight(config, peak)).energy_efficiency)
+    (:func:`flight_ee`, ``score_plan``'s) of :func:`hover_flight`, the rate objective's "fly to the
+    peak and hover" plan. A feasible plan, so lambda_ref <= EE* (the best EE), and a plan that
+    maximises the energy reward's return has an EE of at least lambda_ref (``IOSUAVEnv``,
+    "Energy"). ``peak``: the reachable rate peak if known, else ``rate_peak(config)``'s."""
+    return flight_ee(config, hover_flight(config, peak))
 
 
 def loiter_efficiency(config: ScenarioConfig, peak: Peak | None = None) -> float:
@@ -179,8 +173,12 @@ def flights_efficiency(
     """The best EE (bits/J) of ``flights`` on ``config``, each scored by ``score_plan(config, flight,
     paths=paths)``: on the node's true path ``paths`` (N, 1, 2) of a moving node, the reference of
     the energy reward of a mobile env (``IOSUAVEnv``, "Energy"). Feasible flights, so at most the
-    best EE on those paths. With :func:`reference_flights` and ``paths`` None (or static), the
-    value of :func:`reference_efficiency` (:func:`loiter_efficiency` with ``loiter``)."""
+    best EE on those paths. With ``paths`` None or static, each by :func:`flight_ee` (``score_plan``'s
+    EE to rounding): with :func:`reference_flights`, the value of :func:`reference_efficiency` bit
+    for bit (of :func:`loiter_efficiency` with ``loiter``, to rounding: it takes the loiter
+    flight's ``score_plan`` EE, as ``baselines.loiter`` reports it)."""
+    if paths is None or is_static(config, np.asarray(paths, dtype=float)):
+        return max(flight_ee(config, flight) for flight in flights)
     return max(float(score_plan(config, flight, paths=paths).energy_efficiency) for flight in flights)
 
 

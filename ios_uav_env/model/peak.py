@@ -25,7 +25,7 @@ import numpy as np
 from ios_uav_env.jit import HAVE_NUMBA, jit
 from ios_uav_env.model.channel import rate_kernel, slot_rates
 from ios_uav_env.model.config import ScenarioConfig, moves_needed, scene_box
-from ios_uav_env.model.surface import _axes
+from ios_uav_env.model.peak_search import candidate, search_grids
 
 #: Least metres searched around G and the IOS centre (see :func:`search_margin`).
 PEAK_MARGIN = 200.0
@@ -49,23 +49,27 @@ def reachable(config: ScenarioConfig, points: np.ndarray) -> np.ndarray:
 
 def search_margin(config: ScenarioConfig) -> float:
     """The default margin (m) of the search box: max(200 m, 2 sqrt(3) h_max), with h_max the
-    UAV's height above the lowest surface element (twice where an element's link peaks)."""
+    UAV's height above the lowest surface element (twice where an element's link peaks). The
+    lowest element is the first row of ``surface._axes``, z_c + (0 - (M_z - 1) / 2) s, in its
+    operations (tested equal)."""
     if config.surface == "none":
         return PEAK_MARGIN
-    _, zs = _axes(config)
-    return max(PEAK_MARGIN, 2.0 * math.sqrt(3.0) * (config.uav_altitude - float(np.min(zs))))
+    lowest = config.ios_center[2] + (0 - 0.5 * (config.ios_shape[1] - 1)) * config.element_spacing
+    return max(PEAK_MARGIN, 2.0 * math.sqrt(3.0) * (config.uav_altitude - lowest))
 
 
-def _ellipse_box(config: ScenarioConfig) -> tuple[np.ndarray, np.ndarray]:
-    """(lo, hi) corners of the bounding box of the reachable ellipse (plus one move)."""
-    q0, qf = np.asarray(config.q0, float), np.asarray(config.qF, float)
+def _ellipse_box(config: ScenarioConfig) -> tuple[tuple[float, float], tuple[float, float]]:
+    """(lo, hi) corners of the bounding box of the reachable ellipse (plus one move), each (x, y)."""
+    (x0, y0), (xf, yf) = config.q0, config.qF
+    dx, dy = xf - x0, yf - y0
     a = 0.5 * (config.N - 1) * config.D + config.D  # semi-major axis, one move of slack
-    c = 0.5 * float(np.linalg.norm(qf - q0))
+    c = 0.5 * float(np.linalg.norm((dx, dy)))
     b = math.sqrt(max(a * a - c * c, 0.0))
-    u = (qf - q0) / (2.0 * c) if c > 0 else np.array([1.0, 0.0])
-    half = np.sqrt((a * u) ** 2 + (b * u[::-1]) ** 2)
-    centre = 0.5 * (q0 + qf)
-    return centre - half, centre + half
+    ux, uy = (dx / (2.0 * c), dy / (2.0 * c)) if c > 0 else (1.0, 0.0)
+    (ax, ay), (bx, by) = (a * ux, a * uy), (b * uy, b * ux)  # (numpy's square of an array is x * x)
+    hx, hy = math.sqrt(ax * ax + bx * bx), math.sqrt(ay * ay + by * by)
+    cx, cy = 0.5 * (x0 + xf), 0.5 * (y0 + yf)
+    return (cx - hx, cy - hy), (cx + hx, cy + hy)
 
 
 def _axis(lo: float, hi: float, step: float) -> np.ndarray:
@@ -95,19 +99,7 @@ def _candidates(
     out = np.empty(points.shape[0], dtype=np.bool_)
     g_sign = np.sign(g_x - x_c)
     for i in range(points.shape[0]):
-        x, y = points[i, 0], points[i, 1]
-        ax, ay, bx, by = x - q0[0], y - q0[1], qf[0] - x, qf[1] - y
-        there = np.ceil(math.sqrt(ax * ax + ay * ay) / d - 1e-9)
-        back = np.ceil(math.sqrt(bx * bx + by * by) / d - 1e-9)
-        if there < 0.0:
-            there = 0.0
-        if back < 0.0:
-            back = 0.0
-        ok = there + back <= moves
-        if side != 0:
-            facing = np.sign(x - x_c) * g_sign
-            ok = ok and (facing > 0.0 if side > 0 else facing < 0.0)
-        out[i] = ok
+        out[i] = candidate(points[i, 0], points[i, 1], q0, qf, d, moves, x_c, g_sign, side)
     return out
 
 
@@ -132,6 +124,28 @@ def _best(config: ScenarioConfig, points: np.ndarray, side: str | None, compiled
     return Peak(float(points[i, 0]), float(points[i, 1]), float(rates[i]))
 
 
+_NO_LINE = np.zeros((0, 2))
+#: ``side`` as the compiled searches take it: 0 anywhere, 1 G's side, -1 the other one.
+_SIDE_CODES = {None: 0, "front": 1, "behind": -1}
+#: Points a side of ``peak_search``'s blocks on the coarse grid and on the fine one (measured
+#: fastest: one bound per block, then the points of the blocks that could hold the peak).
+_BLOCKS = (8, 4)
+
+
+def _exhaustive(
+    config: ScenarioConfig,
+    xs: np.ndarray,
+    ys: np.ndarray,
+    line: np.ndarray,
+    side: str | None,
+    compiled: bool,
+) -> Peak | None:
+    """The best reachable point on ``side`` of the grid ``xs`` x ``ys`` (``np.meshgrid``'s order)
+    and the ``line``, every point's rate evaluated."""
+    xx, yy = np.meshgrid(xs, ys)
+    return _best(config, np.vstack([np.column_stack([xx.ravel(), yy.ravel()]), line]), side, compiled)
+
+
 def rate_peak(
     config: ScenarioConfig,
     resolution: float = 10.0,
@@ -149,7 +163,9 @@ def rate_peak(
     if no reachable point of the grid lies there); ``compiled``: evaluate the grids with the
     compiled rate kernel (``RateKernel.rates``, several times faster with numba; the rates
     agree with ``slot_rates`` to rounding, so only an exact tie between two grid points could
-    pick the other one). Deterministic.
+    pick the other one; with numba both grids are searched in one compiled call by branch and
+    bound, ``peak_search.search_grids``, which returns the exhaustive search's point and rate
+    while evaluating a few percent of the points). Deterministic.
     """
     if side not in SIDES:
         raise ValueError(f"side must be one of {SIDES}, got {side!r}")
@@ -163,13 +179,21 @@ def rate_peak(
     box_lo, box_hi = _ellipse_box(config)
     lo = np.maximum((x0, y0), box_lo)
     hi = np.minimum((x1, y1), box_hi)
-    xx, yy = np.meshgrid(_axis(lo[0], hi[0], resolution), _axis(lo[1], hi[1], resolution))
+    xs, ys = _axis(lo[0], hi[0], resolution), _axis(lo[1], hi[1], resolution)
+    if compiled and HAVE_NUMBA:  # both grids in one compiled call, by branch and bound
+        half = math.floor(resolution / refine) if refine > 0 else 0
+        kernel = rate_kernel(config)
+        x, y, rate = search_grids(
+            xs, ys, np.asarray(config.q0, float), np.asarray(config.qF, float), config.D, config.N,
+            config.ios_center[0], config.ground_node[0], _SIDE_CODES[side], kernel.nodes, kernel.params, half,
+            float(refine), *_BLOCKS,
+        )  # fmt: skip
+        return None if rate == -math.inf else Peak(float(x), float(y), float(rate))
     line = np.linspace(config.q0, config.qF, config.N)  # a straight flight: every point reachable
-    best = _best(config, np.vstack([np.column_stack([xx.ravel(), yy.ravel()]), line]), side, compiled)
+    best = _exhaustive(config, xs, ys, line, side, compiled)
     if best is not None and refine > 0:
         offsets = np.arange(-math.floor(resolution / refine), math.floor(resolution / refine) + 1) * refine
-        fx, fy = np.meshgrid(best.x + offsets, best.y + offsets)
-        fine = _best(config, np.column_stack([fx.ravel(), fy.ravel()]), side, compiled)
+        fine = _exhaustive(config, best.x + offsets, best.y + offsets, _NO_LINE, side, compiled)
         if fine is not None and fine.rate > best.rate:
             best = fine
     return best

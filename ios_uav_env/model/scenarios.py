@@ -221,21 +221,25 @@ def sample_scenario(
     """
     if not isinstance(rng, np.random.Generator):
         rng = np.random.default_rng(rng)
-    r = ranges
+    return ranges.base.replace(**_draw(rng, ranges))
+
+
+def _draw(rng: np.random.Generator, r: ScenarioRanges) -> dict[str, Any]:
+    """:func:`sample_scenario`'s draws, in its order, as the changes of ``r.base``."""
     ground = (float(rng.uniform(*r.ground_x)), float(rng.uniform(*r.ground_y)))
     n_lo, n_hi = r.slot_range
     slots = int(rng.integers(n_lo, n_hi, endpoint=True))
     rows = int(rng.integers(r.ios_rows[0], r.ios_rows[1], endpoint=True))
     surface = r.surfaces[int(rng.integers(len(r.surfaces)))]
     x0, y0, xf, yf = (float(rng.uniform(*pair)) for pair in (r.start_x, r.start_y, r.end_x, r.end_y))
-    return r.base.replace(
-        ground_node=_off_plane(ground, r.base, surface),
-        T=slots * r.base.dt,
-        ios_shape=r.shape(rows),
-        surface=surface,
-        q0=(x0, y0),
-        qF=(xf, yf),
-    )
+    return {
+        "ground_node": _off_plane(ground, r.base, surface),
+        "T": slots * r.base.dt,
+        "ios_shape": r.shape(rows),
+        "surface": surface,
+        "q0": (x0, y0),
+        "qF": (xf, yf),
+    }
 
 
 #: The multi-node family (the ranges of ``ios_uav_env/IOSUAV-MultiNode-Random-v0``): G's ranges
@@ -248,9 +252,13 @@ def sample_multinode(
     rng: np.random.Generator, ranges: ScenarioRanges = MULTINODE_RANGES, nodes: tuple[int, int] = (2, 4)
 ) -> ScenarioConfig:
     """A scenario of ``ranges`` with K nodes, K uniform in ``nodes``, each node uniform in the
-    ranges of G (draws: K, the nodes, then ``sample_scenario``'s own draws)."""
+    ranges of G (draws: K, the nodes, then ``sample_scenario``'s own draws, whose G the nodes
+    replace). One config is made: the one ``sample_scenario(rng, ranges).replace(ground_nodes=...)``
+    would give (tested)."""
     k = int(rng.integers(nodes[0], nodes[1], endpoint=True))
     points = [(float(rng.uniform(*ranges.ground_x)), float(rng.uniform(*ranges.ground_y))) for _ in range(k)]
-    drawn = sample_scenario(rng, ranges)
+    changes = _draw(rng, ranges)
+    del changes["ground_node"]
     # (a walking node drawn next to the IOS plane starts at its margin: sample_scenario's rule)
-    return drawn.replace(ground_nodes=tuple(_off_plane(p, ranges.base, drawn.surface) for p in points))
+    changes["ground_nodes"] = tuple(_off_plane(p, ranges.base, changes["surface"]) for p in points)
+    return ranges.base.replace(**changes)

@@ -63,6 +63,17 @@ MODULES = {
             "grown", "shape",  # NodeRows._grow's
         },
     ),
+    "ios_uav_env/envs/multi_step.py": (
+        {"state", "st", "episode", "ep", "info", "row", "obs", "o", "points", "flags", "actions"},
+        {
+            "rates", "served", "shares", "expected", "share_path", "rate_path",  # one entry per node
+            "nodes", "params",  # the nodes' rate kernels (channel's layout), passed whole
+            "normals", "path", "targets",  # (re, im) draws and (x, y) pairs
+            "rows", "moves", "active", "norms", "reward", "terminated", "stored", "loaded",  # per row
+            "ended", "envs", "ok", "values",  # episode_best_values' per ended row
+            "grown", "shape",  # NodeRows._grow's
+        },
+    ),
     "ios_uav_env/envs/multi_table.py": (
         {"row", "table"},
         {"columns", "out"},  # info_arrays' columns of the table and its dict

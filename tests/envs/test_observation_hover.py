@@ -21,7 +21,7 @@ def _guarded_every_slot(config: ScenarioConfig, p: Peak) -> np.ndarray:
     path[0] = x, y
     for n in range(1, config.N):
         dx, dy = p.x - x, p.y - y
-        norm = math.hypot(dx, dy)
+        norm = math.sqrt(dx * dx + dy * dy)  # (hover_flight's length, the same compiled or not)
         if norm > d:
             dx, dy = dx * d / norm, dy * d / norm
         x, y = guarded_position((x, y), (x + dx, y + dy), final, d, config.N - 1 - n)
