@@ -57,17 +57,19 @@ def test_held_kernels_are_returned_as_copies_while_their_handle_lives(projection
 def test_the_episode_score_reuses_the_tracks_kernels(projections):
     env = MultiNodeEnv(CONFIG, knowledge="reports")
     env.reset(seed=3)
-    assert len(projections) == CONFIG.K  # the track's kernels, one projection per node
+    # the scenario's static node kernels (every node from one projection: model.node_kernels),
+    # then the track's kernels, one projection per node
+    assert len(projections) == 1 + CONFIG.K
     actions = np.random.default_rng(3).uniform(-1.0, 1.0, (CONFIG.N, 2 + CONFIG.K))
     terminated, t = False, 0
     while not terminated:
         _, _, terminated, _, info = env.step(actions[t])
         t += 1
-    assert len(projections) == CONFIG.K  # the episode's best schedule projected nothing new
+    assert len(projections) == 1 + CONFIG.K  # the episode's best schedule projected nothing new
     kept = env.track.held
     env.track.held = ()  # (drop the handles: the score then projects the paths again)
     del kept
     gc.collect()
     fresh = reported_maxmin_rate(env.config, env.trajectory, env.truth)
-    assert len(projections) == 2 * CONFIG.K
+    assert len(projections) == 1 + 2 * CONFIG.K
     assert info["best_schedule_rate"] == fresh  # bit for bit
