@@ -164,7 +164,7 @@ def objective_value(rates: np.ndarray, objective: str) -> float:
 
 
 def check_beams(beams: np.ndarray, shape: tuple[int, int]) -> np.ndarray:
-    """``beams`` as a complex (N_t, K) array of total power <= 1 (+ :data:`POWER_TOL`), else ``ValueError``."""
+    """``beams`` as a complex (N_t, K) array of total power <= 1 (+ :data:`POWER_TOL`), else ValueError."""
     W = np.asarray(beams, dtype=complex)
     K, n_t = shape
     if W.shape != (n_t, K) or not np.all(np.isfinite(W)):
