@@ -156,10 +156,15 @@ def user_rates(H: np.ndarray, beams: np.ndarray) -> np.ndarray:
     return np.log2(1.0 + sinr(H, beams))
 
 
-def objective_value(rates: np.ndarray, objective: str) -> float:
-    """The slot's objective of the users' ``rates``: their sum, or their minimum ("maxmin")."""
+def check_objective(objective: str) -> None:
+    """``ValueError`` unless ``objective`` is one of :data:`SLOT_OBJECTIVES`."""
     if objective not in SLOT_OBJECTIVES:
         raise ValueError(f"objective must be one of {SLOT_OBJECTIVES}, got {objective!r}")
+
+
+def objective_value(rates: np.ndarray, objective: str) -> float:
+    """The slot's objective of the users' ``rates``: their sum, or their minimum ("maxmin")."""
+    check_objective(objective)
     return float(np.sum(rates) if objective == "sum" else np.min(rates))
 
 
@@ -237,7 +242,7 @@ class SlotBounds:
 
     def of(self, objective: str) -> float:
         """The bound of ``objective`` ("sum" or "maxmin")."""
-        objective_value(np.zeros(1), objective)
+        check_objective(objective)
         return self.sum_rate if objective == "sum" else self.maxmin_rate
 
 

@@ -24,10 +24,14 @@ IEEE TSP 2006): the dual uplink powers lambda (sum lambda = 1) are the fixed poi
 lambda = f(lambda) / sum f(lambda), f_k = 1 / (h_k (I + sum_{j != k} lambda_j h_j^H h_j)^-1 h_k^H), the
 balanced SINR is 1 / sum_k f_k, the beams point along the MMSE filters (I + sum_j lambda_j h_j^H
 h_j)^-1 h_k^H and their downlink powers solve the K x K linear system that equalises the SINRs
-(:func:`maxmin_beams`); a new beam set is kept only if it does not lower the minimum. The phases
-are then improved one element at a time by a 1-D search of min_k SINR_k over the element's phase (a
-coarse grid, then halving steps about the best), keeping the current phase unless a candidate is
-strictly better, so the max-min rate never decreases either.
+(:func:`maxmin_beams`); a new beam set is kept only if it raises the minimum. The phases are then
+improved one element at a time by a 1-D search over the element's phase (a coarse grid of 16, then
+10 halving steps about the best) of min_k SINR_k at the beams' directions, the K powers rebalanced
+for each candidate by a few normalised rounds p_k proportional to (sum_{j != k} g_kj p_j + 1) / g_kk
+(g_kj = |h_k d_j|^2, d_j the unit directions; the fixed point equalises the SINRs). Each candidate
+is scored by the exact min SINR of its powers, and the state moves only to a strictly better one,
+so the max-min rate never decreases either. (With the powers fixed, the balanced optimum is a
+corner: a phase that helps one user hurts another, and a plain min-SINR search would stall.)
 """
 
 from __future__ import annotations
@@ -41,6 +45,7 @@ from ios_uav_env.model.miso import (
     SLOT_OBJECTIVES,
     SlotChannel,
     aligned_phases,
+    check_objective,
     mrt_beams,
     objective_value,
     random_phases,
@@ -75,7 +80,7 @@ def optimise_slot(
     """The best of :func:`alternate` over the starts: each user's aligned phases with MRT and (when
     N_t >= K) ZF beams, and ``random_starts`` random phase draws (from ``rng``, default seed 0)
     with MRT beams."""
-    objective_value(np.zeros(1), objective)
+    check_objective(objective)
     if not (isinstance(random_starts, (int, np.integer)) and random_starts >= 0):
         raise ValueError(f"random_starts must be an integer >= 0, got {random_starts!r}")
     rng = np.random.default_rng(0) if rng is None else rng
@@ -112,7 +117,7 @@ def alternate(
     """AO from (``phases``, ``beams``): beams then phases per iteration (the module docstring), until
     an iteration gains less than ``tol`` (relative) or after ``max_iter`` iterations. The objective
     never decreases (up to rounding): ``history`` records it."""
-    objective_value(np.zeros(1), objective)
+    check_objective(objective)
     if not (isinstance(max_iter, (int, np.integer)) and max_iter >= 0):
         raise ValueError(f"max_iter must be an integer >= 0, got {max_iter!r}")
     if not (tol >= 0):
