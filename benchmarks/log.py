@@ -59,7 +59,6 @@ REGISTRY: dict[str, Measurement] = {
         ("sca_bench", "sca_bench.py", (), "SCA against the DP optimum, tiles, solvers, DPP"),
         ("ppo_speed", "ppo_speed.py", (), "PPO (ppo_fast.yml), batched env: time to 99.5% of DP"),
         ("multinode", "multinode.py", (), "several nodes: tour, SCA, the DP's plan and bound"),
-        ("miso_slot", "miso_slot.py", (), "multi-antenna slot: AO vs bound, MRT/ZF, TDMA; a power sweep"),
         (
             "train_speed",
             "train_speed.py",
@@ -93,6 +92,7 @@ REGISTRY: dict[str, Measurement] = {
         ),
         ("replay_tolerance", "replay_tolerance.py", (), "shipped models' replays under float32 noise"),
         ("energy", "energy.py", ("--budgets", "0.8", "0.9"), "energy planners: EE, % of the bound"),
+        ("miso_slot", "miso_slot.py", (), "multi-antenna slot: AO vs bound, MRT/ZF, TDMA; a power sweep"),
         (
             "mobile",
             "mobile.py",
