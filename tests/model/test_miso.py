@@ -11,6 +11,7 @@ from ios_uav_env import ScenarioConfig
 from ios_uav_env.model import channel as ch
 from ios_uav_env.model import miso
 from ios_uav_env.model.array import ArrayConfig
+from ios_uav_env.model.surface import element_positions
 
 DEFAULT = ScenarioConfig()
 SPOTS = [(-100.0, -20.0), (100.0, 0.0), (0.0, 0.0), (37.0, -250.0), (-420.0, 180.0)]
@@ -212,3 +213,32 @@ def test_bad_inputs_name_the_field_and_the_range():
         miso.slot_channel(DEFAULT, ArrayConfig(), np.zeros((2, 2)))
     with pytest.raises(TypeError, match="array must be an ArrayConfig"):
         miso.slot_channel(DEFAULT, 2, (0, 1))
+
+
+def test_the_far_field_channel_matches_exact_antenna_distances():
+    """Each antenna's exact distance to every element and user, the amplitudes kept: the
+    per-element steering (far field per link) is within its ~k a^2 / (2 d) phase error."""
+    config = DEFAULT.replace(ground_nodes=((-60.0, 20.0), (70.0, -30.0)), ios_shape=(12, 8), g_element=1e4)
+    array = ArrayConfig(n_t=4, orientation_rad=0.4, steering="element")
+    q = np.array([-40.0, 35.0])
+    slot = miso.slot_channel(config, array, q)
+    phases = np.random.default_rng(1).uniform(0, 2 * np.pi, config.M)
+    k_w = 2 * np.pi / config.wavelength
+    antennas = np.array([q[0], q[1], config.uav_altitude]) + np.outer(
+        array.offsets * config.wavelength, array.axis
+    )
+    elements = element_positions(config)
+    exact = np.empty((config.K, array.n_t), dtype=complex)
+    for k in range(config.K):
+        user = config.node_config(k)
+        a = ch.element_amplitudes(user, q)[0]
+        d_mk = np.linalg.norm(elements - np.array([*user.ground_node, 0.0]), axis=1)
+        for n, p in enumerate(antennas):
+            d_nm = np.linalg.norm(elements - p, axis=1)
+            d_nk = np.linalg.norm(p - np.array([*user.ground_node, 0.0]))
+            via = np.sum(a * np.exp(-1j * (k_w * (d_nm + d_mk) + phases)))
+            exact[k, n] = via + ch.direct_amplitude(user, q)[0] * np.exp(-1j * k_w * d_nk)
+    exact *= np.sqrt(config.eta)
+    assert np.max(np.abs(slot.matrix(phases) - exact)) < 5e-3 * np.max(np.abs(exact))  # 8e-4 here
+    flipped = miso.SlotChannel(slot.coef, slot.to_elements.conj(), slot.direct, False)  # the other sign
+    assert np.max(np.abs(flipped.matrix(phases) - exact)) > 0.1 * np.max(np.abs(exact))
