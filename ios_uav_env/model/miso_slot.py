@@ -26,8 +26,8 @@ balanced SINR is 1 / sum_k f_k, the beams point along the MMSE filters (I + sum_
 h_j)^-1 h_k^H and their downlink powers solve the K x K linear system that equalises the SINRs
 (:func:`maxmin_beams`); a new beam set is kept only if it raises the minimum. The phases are then
 improved one element at a time by a 1-D search over the element's phase (a coarse grid of 16, then
-10 halving steps about the best) of min_k SINR_k at the beams' directions, the K powers rebalanced
-for each candidate by a few normalised rounds p_k proportional to (sum_{j != k} g_kj p_j + 1) / g_kk
+8 halving steps about the best) of min_k SINR_k at the beams' directions, the K powers rebalanced
+for each candidate by 4 normalised rounds p_k proportional to (sum_{j != k} g_kj p_j + 1) / g_kk
 (g_kj = |h_k d_j|^2, d_j the unit directions; the fixed point equalises the SINRs). Each candidate
 is scored by the exact min SINR of its powers, and the state moves only to a strictly better one,
 so the max-min rate never decreases either. (With the powers fixed, the balanced optimum is a
@@ -271,7 +271,7 @@ def _maxmin_phases(
     live = norms > 0
     directions = np.where(live, W / np.where(live, norms, 1.0), mrt_beams(H) * np.sqrt(H.shape[0]))
     powers = norms**2
-    v, powers = _maxmin_sweep(v.copy(), _cascade(channel, directions), H @ directions, powers, 16, 10, 8)
+    v, powers = _maxmin_sweep(v.copy(), _cascade(channel, directions), H @ directions, powers, 16, 8, 4)
     return v, directions * np.sqrt(powers)
 
 
