@@ -93,6 +93,7 @@ REGISTRY: dict[str, Measurement] = {
         ),
         ("replay_tolerance", "replay_tolerance.py", (), "shipped models' replays under float32 noise"),
         ("energy", "energy.py", ("--budgets", "0.8", "0.9"), "energy planners: EE, % of the bound"),
+        ("miso_slot", "miso_slot.py", (), "multi-antenna slot: AO vs bound, MRT/ZF, TDMA; a power sweep"),
         (
             "mobile",
             "mobile.py",

@@ -9,7 +9,9 @@ a trajectory, on numpy arrays, knowing nothing of Gymnasium.
 - ``schedule``: K >= 1 ground nodes, the TDMA shares and the max-min rate;
 - ``peak``: the rate peak; ``scenarios``: the scenario families (random scenarios, one node or
   several) and their draws;
-- ``guard``: the arrival guard; ``flights``: pure flight rules (the loiter flight).
+- ``guard``: the arrival guard; ``flights``: pure flight rules (the loiter flight);
+- ``array``, ``miso``, ``miso_slot``: the multi-antenna UAV (a ULA serving K users at once), its
+  slot channel, bounds and baselines, and the per-slot optimum over the beams and the phases.
 
 Users import these names from ``ios_uav_env`` itself.
 """

@@ -1,0 +1,360 @@
+"""The per-slot optimum of the multi-antenna UAV: the surface's phases and the K beams, jointly.
+
+For a :class:`~ios_uav_env.model.miso.SlotChannel` (K users, N_t antennas, M elements; powers in
+units of P, noise 1) this maximises the sum rate or the max-min rate over the shared phase shifts
+psi (M,) and the beams W (N_t, K), sum_k ||w_k||^2 <= 1, by alternating optimisation (AO) from
+several starts. Each block update never lowers the objective, so every start ends at least where it
+began; the starts include MRT and ZF with each user's aligned phases, so the result is never below
+those baselines, and :func:`~ios_uav_env.model.miso.slot_bounds` bounds it from above.
+
+**Sum rate: WMMSE** (Shi, Razaviyayn, Luo & He, IEEE TSP 2011). With MMSE receivers
+u_k = h_k w_k / T_k, T_k = sum_j |h_k w_j|^2 + 1, the MSE e_k = 1 / (1 + SINR_k) and weights
+omega_k = 1 / e_k, the augmented objective f = sum_k (omega_k e_k - ln omega_k) satisfies
+min_{u, omega} f = K - sum_k ln(1 + SINR_k). The beams' update is
+its exact minimiser under the power constraint, w_j = omega_j u_j (Q + mu I)^-1 h_j^H with
+Q = sum_k omega_k |u_k|^2 h_k^H h_k and mu >= 0 the power's multiplier (bisection); the phases' update
+minimises f one element at a time in closed form: with r_kj = h_k w_j = rho_kj + v_m B_mkj
+(B_mkj = c_km g_m^T w_j, rho without element m), f = Re{v_m z} + const with
+z = sum_k omega_k (2 |u_k|^2 sum_j conj(rho_kj) B_mkj - 2 conj(u_k) B_mkk), least at v_m = -conj(z)/|z|
+(psi_m = -arg v_m). u and omega are refreshed before each block, so the sum rate never decreases.
+
+**Max-min rate.** Given the phases, the max-min SINR under a sum-power constraint is solved
+exactly through uplink-downlink duality (Schubert & Boche, IEEE TVT 2004; Wiesel, Eldar & Shamai,
+IEEE TSP 2006): the dual uplink powers lambda (sum lambda = 1) are the fixed point of
+lambda = f(lambda) / sum f(lambda), f_k = 1 / (h_k (I + sum_{j != k} lambda_j h_j^H h_j)^-1 h_k^H), the
+balanced SINR is 1 / sum_k f_k, the beams point along the MMSE filters (I + sum_j lambda_j h_j^H
+h_j)^-1 h_k^H and their downlink powers solve the K x K linear system that equalises the SINRs
+(:func:`maxmin_beams`); a new beam set is kept only if it raises the minimum. The phases are then
+improved one element at a time by a 1-D search over the element's phase (a coarse grid of 16, then
+8 halving steps about the best) of min_k SINR_k at the beams' directions, the K powers rebalanced
+for each candidate by 4 normalised rounds p_k proportional to (sum_{j != k} g_kj p_j + 1) / g_kk
+(g_kj = |h_k d_j|^2, d_j the unit directions; the fixed point equalises the SINRs). Each candidate
+is scored by the exact min SINR of its powers, and the state moves only to a strictly better one,
+so the max-min rate never decreases either. (With the powers fixed, the balanced optimum is a
+corner: a phase that helps one user hurts another, and a plain min-SINR search would stall.)
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ios_uav_env.jit import jit
+from ios_uav_env.model.miso import (
+    SLOT_OBJECTIVES,
+    SlotChannel,
+    aligned_phases,
+    check_objective,
+    mrt_beams,
+    objective_value,
+    random_phases,
+    sinr,
+    user_rates,
+    zf_beams,
+)
+
+
+@dataclass(frozen=True, eq=False)
+class SlotSolution:
+    """The best AO run of a slot: its objective value, rates, phases and beams."""
+
+    objective: str  # "sum" or "maxmin"
+    value: float  # bps/Hz, the objective at (phases, beams)
+    rates: np.ndarray  # (K,) bps/Hz, each user's rate
+    phases: np.ndarray  # (M,) rad, the surface's shared phase shifts psi
+    beams: np.ndarray  # (N_t, K), total power <= 1 (units of P)
+    start: str  # the start it came from ("aligned k MRT", "aligned k ZF", "random i MRT")
+    history: np.ndarray = field(repr=False)  # objective at the start and after each AO iteration
+
+
+def optimise_slot(
+    channel: SlotChannel,
+    objective: str = "sum",
+    *,
+    random_starts: int = 2,
+    rng: np.random.Generator | None = None,
+    max_iter: int = 100,
+    tol: float = 1e-7,
+) -> SlotSolution:
+    """The best of :func:`alternate` over the starts: each user's aligned phases with MRT and (when
+    N_t >= K) ZF beams, and ``random_starts`` random phase draws (from ``rng``, default seed 0)
+    with MRT beams."""
+    check_objective(objective)
+    if not (isinstance(random_starts, (int, np.integer)) and random_starts >= 0):
+        raise ValueError(f"random_starts must be an integer >= 0, got {random_starts!r}")
+    rng = np.random.default_rng(0) if rng is None else rng
+    starts = []
+    for k in range(channel.K):
+        psi = aligned_phases(channel, k)
+        H = channel.matrix(psi)
+        starts.append((f"aligned {k} MRT", psi, mrt_beams(H)))
+        if channel.n_t >= channel.K:
+            try:
+                starts.append((f"aligned {k} ZF", psi, zf_beams(H)))
+            except ValueError:  # dependent channels: no ZF start
+                pass
+    for i in range(random_starts):
+        psi = random_phases(channel, rng)
+        starts.append((f"random {i} MRT", psi, mrt_beams(channel.matrix(psi))))
+    runs = [
+        alternate(channel, objective, psi, W, max_iter=max_iter, tol=tol, start=name)
+        for name, psi, W in starts
+    ]
+    return max(runs, key=lambda run: run.value)
+
+
+def alternate(
+    channel: SlotChannel,
+    objective: str,
+    phases: np.ndarray,
+    beams: np.ndarray,
+    *,
+    max_iter: int = 100,
+    tol: float = 1e-7,
+    start: str = "given",
+) -> SlotSolution:
+    """AO from (``phases``, ``beams``): beams then phases per iteration (the module docstring), until
+    an iteration gains less than ``tol`` (relative) or after ``max_iter`` iterations. The objective
+    never decreases (up to rounding): ``history`` records it."""
+    check_objective(objective)
+    if not (isinstance(max_iter, (int, np.integer)) and max_iter >= 0):
+        raise ValueError(f"max_iter must be an integer >= 0, got {max_iter!r}")
+    if not (tol >= 0):
+        raise ValueError(f"tol must be a number >= 0, got {tol!r}")
+    psi = channel.check_phases(phases).copy()
+    H = channel.matrix(psi)
+    W = np.array(beams, dtype=complex)
+    value = objective_value(user_rates(H, W), objective)
+    history = [value]
+    for _ in range(max_iter):
+        if objective == "sum":
+            W = wmmse_beams(H, W)
+            v = _sum_rate_phases(channel, H, W, np.exp(-1j * psi))
+        else:
+            candidate = maxmin_beams(H)
+            if np.min(sinr(H, candidate)) > np.min(sinr(H, W)):
+                W = candidate
+            v, W = _maxmin_phases(channel, H, W, np.exp(-1j * psi))
+        psi = np.mod(-np.angle(v), 2 * np.pi)
+        H = channel.matrix(psi)
+        new = objective_value(user_rates(H, W), objective)
+        history.append(new)
+        gain, value = new - value, new
+        if gain <= tol * max(1.0, abs(value)):
+            break
+    rates = user_rates(H, W)
+    return SlotSolution(objective, objective_value(rates, objective), rates, psi, W, start, np.array(history))
+
+
+# --- the sum rate: WMMSE ------------------------------------------------------------------------
+
+
+def _receivers(H: np.ndarray, W: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """MMSE receivers u_k = h_k w_k / T_k and weights omega_k = 1 / e_k = 1 + SINR_k."""
+    r = H @ W
+    total = np.sum(np.abs(r) ** 2, axis=1) + 1.0
+    signal = np.diag(r)
+    return signal / total, 1.0 / (1.0 - np.abs(signal) ** 2 / total)
+
+
+def wmmse_beams(H: np.ndarray, W: np.ndarray) -> np.ndarray:
+    """One WMMSE beam update at the receivers and weights of (``H``, ``W``): the exact minimiser of
+    the weighted MSE over sum_k ||w_k||^2 <= 1 (shape (N_t, K))."""
+    u, omega = _receivers(H, W)
+    Q = H.conj().T @ ((omega * np.abs(u) ** 2)[:, None] * H)
+    rhs = H.conj().T * (omega * u)[None, :]
+    lam, U = np.linalg.eigh(Q)
+    Z = U.conj().T @ rhs
+    null = lam <= 1e-12 * max(lam.max(), 1e-300)  # rhs lies in Q's range: zero there in exact arithmetic
+    Z[null] = 0.0
+    lam = np.where(null, 0.0, lam)
+    energy = np.sum(np.abs(Z) ** 2, axis=1)
+
+    def power(mu: float) -> float:
+        live = energy > 0
+        return float(np.sum(energy[live] / (lam[live] + mu) ** 2))
+
+    if np.any((energy > 0) & null) or power(0.0) > 1.0:
+        lo, hi = 0.0, float(np.sqrt(energy.sum()))  # power(hi) <= 1
+        for _ in range(200):
+            mu = 0.5 * (lo + hi)
+            lo, hi = (mu, hi) if power(mu) > 1.0 else (lo, mu)
+            if hi - lo <= 1e-15 * hi:
+                break
+        mu = hi
+    else:
+        mu = 0.0
+    scale = np.zeros_like(lam)
+    live = energy > 0
+    scale[live] = 1.0 / (lam[live] + mu)
+    out = U @ (scale[:, None] * Z)
+    power_out = float(np.sum(np.abs(out) ** 2))
+    return out / np.sqrt(power_out) if power_out > 1.0 else out
+
+
+def _cascade(channel: SlotChannel, W: np.ndarray) -> np.ndarray:
+    """B (M, K, K): B[m, k, j] = c_km g_m^T w_j, element m's term of h_k w_j per unit v_m."""
+    return np.ascontiguousarray(channel.coef.T[:, :, None] * (channel.to_elements @ W)[:, None, :])
+
+
+def _sum_rate_phases(channel: SlotChannel, H: np.ndarray, W: np.ndarray, v: np.ndarray) -> np.ndarray:
+    u, omega = _receivers(H, W)
+    return _wmmse_sweep(v.copy(), _cascade(channel, W), H @ W, omega.astype(float), u.astype(complex))
+
+
+@jit(fastmath=False)
+def _wmmse_sweep(v: np.ndarray, B: np.ndarray, r: np.ndarray, omega: np.ndarray, u: np.ndarray) -> np.ndarray:
+    """One pass of the closed-form element updates of the weighted MSE (the module docstring);
+    ``r`` (K, K) = H W is kept current in place."""
+    M, K = B.shape[0], B.shape[1]
+    for m in range(M):
+        z = 0j
+        for k in range(K):
+            acc = 0j
+            for j in range(K):
+                rho = r[k, j] - v[m] * B[m, k, j]
+                acc += np.conj(rho) * B[m, k, j]
+            z += omega[k] * (2.0 * abs(u[k]) ** 2 * acc - 2.0 * np.conj(u[k]) * B[m, k, k])
+        size = abs(z)
+        if size > 0.0:
+            new = -np.conj(z) / size
+            step = new - v[m]
+            for k in range(K):
+                for j in range(K):
+                    r[k, j] += step * B[m, k, j]
+            v[m] = new
+    return v
+
+
+# --- the max-min rate: SINR balancing and a 1-D phase search -------------------------------------
+
+
+def maxmin_beams(H: np.ndarray, *, max_iter: int = 2000, tol: float = 1e-13) -> np.ndarray:
+    """Beams (N_t, K) of total power 1 balancing the K SINRs at the max-min optimum for ``H`` (the
+    module docstring: the normalised uplink fixed point, then the downlink powers)."""
+    K, n_t = H.shape
+    outer = H.conj()[:, :, None] * H[:, None, :]  # (K, N_t, N_t): h_k^H h_k
+    lam = np.full(K, 1.0 / K)
+    eye = np.eye(n_t)
+    for _ in range(max_iter):
+        S = eye + np.tensordot(lam, outer, axes=1)
+        X = np.linalg.solve(S, H.conj().T)  # (N_t, K): S^-1 h_k^H
+        y = np.real(np.sum(H * X.T, axis=1))  # h_k S^-1 h_k^H
+        f = (1.0 - lam * y) / y  # 1 / (h_k S_{-k}^-1 h_k^H)
+        new = f / f.sum()
+        done = np.max(np.abs(new - lam)) <= tol
+        lam = new
+        if done:
+            break
+    S = eye + np.tensordot(lam, outer, axes=1)
+    X = np.linalg.solve(S, H.conj().T)
+    directions = X / np.linalg.norm(X, axis=0)
+    gains = np.abs(H @ directions) ** 2
+    y = np.real(np.sum(H * X.T, axis=1))
+    gamma = 1.0 / np.sum((1.0 - lam * y) / y)
+    system = np.diag(np.diag(gains)) / gamma - (gains - np.diag(np.diag(gains)))
+    try:
+        p = np.linalg.solve(system, np.ones(K))
+    except np.linalg.LinAlgError:
+        p = lam
+    if not np.all(np.isfinite(p)) or np.any(p <= 0):
+        p = lam
+    return directions * np.sqrt(p / p.sum())
+
+
+def _maxmin_phases(
+    channel: SlotChannel, H: np.ndarray, W: np.ndarray, v: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
+    """One max-min phase pass at the beams' directions; returns the phases' v and the new beams."""
+    norms = np.linalg.norm(W, axis=0)
+    live = norms > 0
+    directions = np.where(live, W / np.where(live, norms, 1.0), mrt_beams(H) * np.sqrt(H.shape[0]))
+    powers = norms**2
+    v, powers = _maxmin_sweep(v.copy(), _cascade(channel, directions), H @ directions, powers, 16, 8, 4)
+    return v, directions * np.sqrt(powers)
+
+
+@jit(fastmath=False)
+def _balanced(
+    r: np.ndarray,
+    B: np.ndarray,
+    m: int,
+    step: complex,
+    p: np.ndarray,
+    rounds: int,
+    g: np.ndarray,
+    q: np.ndarray,
+) -> float:
+    """Element m's factor moved by ``step`` (``r`` = H D unchanged, D the unit directions): writes
+    into ``q`` the powers after ``rounds`` normalised balancing rounds from ``p`` (sum 1),
+    q_k proportional to (sum_{j != k} g_kj q_j + 1) / g_kk, and returns their exact min SINR
+    (``g`` (K, K + 1) is work space: the gains |h_k d_j|^2 and a column)."""
+    K = r.shape[0]
+    for k in range(K):
+        q[k] = p[k]
+        for j in range(K):
+            g[k, j] = abs(r[k, j] + step * B[m, k, j]) ** 2
+    for _ in range(rounds):
+        size = 0.0
+        for k in range(K):  # a Jacobi round: the new values in g's last column first
+            total = 1.0
+            for j in range(K):
+                if j != k:
+                    total += g[k, j] * q[j]
+            g[k, K] = total / g[k, k] if g[k, k] > 0.0 else 0.0
+            size += g[k, K]
+        if not size > 0.0:
+            break
+        for k in range(K):
+            q[k] = g[k, K] / size
+    worst = np.inf
+    for k in range(K):
+        total = 1.0
+        for j in range(K):
+            if j != k:
+                total += g[k, j] * q[j]
+        worst = min(worst, g[k, k] * q[k] / total)
+    return worst
+
+
+@jit(fastmath=False)
+def _maxmin_sweep(
+    v: np.ndarray, B: np.ndarray, r: np.ndarray, p: np.ndarray, n_grid: int, n_halvings: int, rounds: int
+) -> tuple[np.ndarray, np.ndarray]:
+    """One pass of 1-D searches over each element's phase (a coarse grid, then halving steps about
+    the best) of the min SINR at the beams' directions, the powers ``p`` rebalanced for each
+    candidate; the state moves only to a strictly better one. ``r`` = H D is kept current."""
+    M, K = B.shape[0], B.shape[1]
+    g, q, best_p = np.empty((K, K + 1)), np.empty(K), p.copy()
+    current = _balanced(r, B, 0, 0j, p, 0, g, q)
+    for m in range(M):
+        now = v[m]
+        base = np.angle(now)
+        best, best_angle = current, base
+        best_p[:] = p
+        for c in range(n_grid + 2 * n_halvings):
+            if c < n_grid:  # the current phase (rebalanced) and the coarse grid
+                angle = base + 2.0 * np.pi * c / n_grid
+            else:  # halving steps about the best so far
+                h = 2.0 * np.pi / n_grid * 0.5 ** ((c - n_grid) // 2 + 1)
+                angle = best_angle + (2 * (c % 2) - 1) * h
+            step = 0j if c == 0 else np.exp(1j * angle) - now
+            value = _balanced(r, B, m, step, p, rounds, g, q)
+            if value > best:
+                best, best_angle = value, angle
+                best_p[:] = q
+        if best > current:
+            current = best
+            p[:] = best_p
+            if best_angle != base:
+                new = np.exp(1j * best_angle)
+                step = new - now
+                for k in range(K):
+                    for j in range(K):
+                        r[k, j] += step * B[m, k, j]
+                v[m] = new
+    return v, p
+
+
+__all__ = ["SLOT_OBJECTIVES", "SlotSolution", "alternate", "maxmin_beams", "optimise_slot", "wmmse_beams"]
