@@ -33,6 +33,7 @@ master's rounding (weak duality; an inexact pricer only loosens ``upper``).
 from __future__ import annotations
 
 import dataclasses
+import math
 from collections.abc import Callable
 
 import numpy as np
@@ -42,7 +43,7 @@ from ios_uav_env.model.lp import solve_lp
 #: A pricer: weights w (K,) on the simplex -> (a point of S (K,), an upper bound of g(w)).
 Pricer = Callable[[np.ndarray], tuple[np.ndarray, float]]
 
-__all__ = ["Pricer", "RegionSchedule", "broadcast_pricer", "maxmin_regions", "tdma_pricer"]
+__all__ = ["Pricer", "RegionSchedule", "broadcast_pricer", "maxmin_regions", "tdma_pricer", "weighted_noma"]
 
 
 @dataclasses.dataclass(frozen=True)
@@ -158,22 +159,27 @@ def tdma_pricer(rates: np.ndarray) -> Pricer:
     return price
 
 
-def _broadcast_best(w_s: float, w_w: float, a: float, b: float) -> tuple[float, float, float]:
-    """(value, stronger's rate, weaker's rate) of max_p w_s log2(1 + p a) + w_w log2((1 + b) /
-    (1 + p b)) over p in [0, 1] (:func:`broadcast_pricer`): the best of p = 0, 1 and the stationary
-    point w_s a (1 + p b) = w_w b (1 + p a), the only one in (0, 1) when it exists."""
-    cands = [0.0, 1.0]
-    den = a * b * (w_w - w_s)
-    if den != 0.0:
-        p = (w_s * a - w_w * b) / den
-        if 0.0 < p < 1.0:
-            cands.append(p)
-    best = (-np.inf, 0.0, 0.0)
-    for p in cands:
-        r_s, r_w = np.log2(1.0 + p * a), np.log2((1.0 + b) / (1.0 + p * b))
-        v = w_s * r_s + w_w * r_w
-        if v > best[0]:
-            best = (v, r_s, r_w)
+def weighted_noma(g_r: float, g_t: float, w: float) -> tuple[float, float, float, float]:
+    """max over the power split of w R_r + (1 - w) R_t for two users' SNRs (g_r, g_t) served by
+    superposition (:func:`broadcast_pricer`; in a STAR slot r and t are the two sides' users):
+    (value, R_r, R_t, split), split the power share of user r.
+    The strong user's power fraction x enters as c_s log(1 + x g_s) - c_w log(1 + x g_w) + const,
+    whose derivative vanishes once, at x = (c_w g_w - c_s g_s) / (g_s g_w (c_s - c_w)): the
+    maximum is at x = 0, 1 or there."""
+    r_strong = g_r >= g_t
+    g_s, g_w = (g_r, g_t) if r_strong else (g_t, g_r)
+    c_s, c_w = (w, 1 - w) if r_strong else (1 - w, w)
+    xs = [0.0, 1.0]
+    if c_s != c_w and g_s > 0 and g_w > 0:
+        x = (c_w * g_w - c_s * g_s) / (g_s * g_w * (c_s - c_w))
+        if 0 < x < 1:
+            xs.append(x)
+    best = None
+    for x in xs:
+        r_s, r_w = math.log2(1 + x * g_s), math.log2((1 + g_w) / (1 + x * g_w))
+        value = c_s * r_s + c_w * r_w
+        if best is None or value > best[0]:
+            best = (value, r_s, r_w, x) if r_strong else (value, r_w, r_s, 1 - x)
     return best
 
 
@@ -186,20 +192,17 @@ def broadcast_pricer(snr: np.ndarray) -> Pricer:
     the boundary of the capacity region of the degraded Gaussian broadcast channel (Cover and
     Thomas, "Elements of Information Theory", 2nd ed., section 15.6.3), which contains the TDMA
     region (p = 1 or 0 gives each user alone). The weighted-sum maximum over p is exact
-    (:func:`_broadcast_best`), so the bound is g(w)."""
+    (:func:`weighted_noma`), so the bound is g(w)."""
     g = np.asarray(snr, dtype=float)
     if g.ndim != 2 or g.shape[0] != 2 or not np.all(np.isfinite(g)) or np.any(g < 0):
         raise ValueError(f"snr must be a (2, N) array of finite SNRs >= 0, got shape {g.shape}")
-    strong = np.argmax(g, axis=0)  # the user who decodes the other's signal first
 
     def price(w: np.ndarray) -> tuple[np.ndarray, float]:
         point, total = np.zeros(2), 0.0
         for n in range(g.shape[1]):
-            s = int(strong[n])
-            v, r_s, r_w = _broadcast_best(w[s], w[1 - s], g[s, n], g[1 - s, n])
-            point[s] += r_s
-            point[1 - s] += r_w
-            total += v
+            value, r_0, r_1, _ = weighted_noma(float(g[0, n]), float(g[1, n]), float(w[0]))
+            point += (r_0, r_1)
+            total += value
         return point / g.shape[1], total / g.shape[1]
 
     return price

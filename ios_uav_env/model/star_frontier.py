@@ -46,6 +46,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from ios_uav_env.model.regions import weighted_noma
 from ios_uav_env.model.star import (
     StarChannels,
     StarSurface,
@@ -159,28 +160,6 @@ def discrete_sides(ch: StarChannels, bits: int, u_r: np.ndarray, u_t: np.ndarray
     amp_r, th_r = side_best(ch, "r", u_r, bits)
     amp_t, th_t = side_best(ch, "t", u_t, bits)
     return amp_r, amp_t, th_r, th_t
-
-
-def weighted_noma(g_r: float, g_t: float, w: float) -> tuple[float, float, float, float]:
-    """max over the split of w R_r + (1 - w) R_t for SNRs (g_r, g_t): (value, R_r, R_t, split).
-    The strong user's power fraction x enters as c_s log(1 + x g_s) - c_w log(1 + x g_w) + const,
-    whose derivative vanishes once, at x = (c_w g_w - c_s g_s) / (g_s g_w (c_s - c_w)): the
-    maximum is at x = 0, 1 or there."""
-    r_strong = g_r >= g_t
-    g_s, g_w = (g_r, g_t) if r_strong else (g_t, g_r)
-    c_s, c_w = (w, 1 - w) if r_strong else (1 - w, w)
-    xs = [0.0, 1.0]
-    if c_s != c_w and g_s > 0 and g_w > 0:
-        x = (c_w * g_w - c_s * g_s) / (g_s * g_w * (c_s - c_w))
-        if 0 < x < 1:
-            xs.append(x)
-    best = None
-    for x in xs:
-        r_s, r_w = math.log2(1 + x * g_s), math.log2((1 + g_w) / (1 + x * g_w))
-        value = c_s * r_s + c_w * r_w
-        if best is None or value > best[0]:
-            best = (value, r_s, r_w, x) if r_strong else (value, r_w, r_s, 1 - x)
-    return best
 
 
 def ts_noma(ch: StarChannels, surface: StarSurface) -> SlotOptimum:

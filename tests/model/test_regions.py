@@ -6,7 +6,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from ios_uav_env.model.regions import _broadcast_best, broadcast_pricer, maxmin_regions, tdma_pricer
+from ios_uav_env.model.regions import broadcast_pricer, maxmin_regions, tdma_pricer, weighted_noma
 from ios_uav_env.model.schedule import maxmin_schedule
 
 
@@ -60,12 +60,17 @@ def test_one_slot_against_a_brute_force_of_the_power_split():
 
 
 @pytest.mark.parametrize(
-    ("w_s", "w_w", "a", "b"), [(0.5, 0.5, 10.0, 2.0), (0.2, 0.8, 50.0, 1.0), (0.9, 0.1, 4.0, 4.0)]
+    ("w", "g_r", "g_t"), [(0.5, 10.0, 2.0), (0.2, 50.0, 1.0), (0.9, 4.0, 4.0), (0.7, 1.0, 30.0)]
 )
-def test_the_weighted_sum_split_is_the_best_power_share(w_s, w_w, a, b):
-    p = np.linspace(0.0, 1.0, 100_001)
-    values = w_s * np.log2(1 + p * a) + w_w * np.log2((1 + b) / (1 + p * b))
-    assert _broadcast_best(w_s, w_w, a, b)[0] == pytest.approx(values.max(), rel=1e-9, abs=1e-12)
+def test_the_weighted_sum_split_is_the_best_power_share(w, g_r, g_t):
+    x = np.linspace(0.0, 1.0, 100_001)  # the power share of user r
+    if g_r >= g_t:  # the stronger user decodes the weaker's signal first
+        r_r, r_t = np.log2(1 + x * g_r), np.log2((1 + g_t) / (1 + x * g_t))
+    else:
+        r_r, r_t = np.log2((1 + g_r) / (1 + (1 - x) * g_r)), np.log2(1 + (1 - x) * g_t)
+    value, rate_r, rate_t, split = weighted_noma(g_r, g_t, w)
+    assert value == pytest.approx(np.max(w * r_r + (1 - w) * r_t), rel=1e-9, abs=1e-12)
+    assert value == pytest.approx(w * rate_r + (1 - w) * rate_t, rel=1e-12) and 0.0 <= split <= 1.0
 
 
 def test_a_pricer_whose_bound_is_not_one_is_refused():
