@@ -42,7 +42,9 @@ from __future__ import annotations
 
 import heapq
 import math
+from collections.abc import Callable
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 
@@ -123,17 +125,22 @@ def frontier_point(ch: StarChannels, w: float) -> tuple[float, float, np.ndarray
     return ch.direct_r + float(ch.a_r @ u_r), ch.direct_t + float(ch.a_t @ u_t), u_r, u_t
 
 
-def es_frontier_bb(ch: StarChannels, tol: float = DEFAULT_TOL) -> tuple[float, float, float]:
+def es_frontier_bb(
+    ch: StarChannels, tol: float = DEFAULT_TOL, objective: Callable[..., Any] | None = None
+) -> tuple[float, float, float]:
     """Branch and bound on the ES frontier weight (``star_slot``'s docstring): (value, upper, w*).
 
     The interval of largest bound is halved until its bound is within ``tol`` (relative) of the
     best value; the bound over an interval is first order in its width, so the count of
     evaluations grows like tol^(-1/2) (about 1300 at 1e-6). After 4000 the current bound is
-    returned, still certified, with a wider gap."""
+    returned, still certified, with a wider gap. ``objective(ch, A_r, A_t)``: the slot's value of
+    the two amplitudes, nondecreasing in both (default: the NOMA max-min, :func:`maxmin_of`; the
+    box bound over an interval needs only that monotonicity)."""
+    value_of = objective or maxmin_of
     pts = {w: frontier_point(ch, w)[:2] for w in (0.0, 1.0)}
-    best_w = max(pts, key=lambda w: float(maxmin_of(ch, *pts[w])))
-    lower = float(maxmin_of(ch, *pts[best_w]))
-    heap = [(-float(maxmin_of(ch, pts[0.0][0], pts[1.0][1])), 0.0, 1.0)]
+    best_w = max(pts, key=lambda w: float(value_of(ch, *pts[w])))
+    lower = float(value_of(ch, *pts[best_w]))
+    heap = [(-float(value_of(ch, pts[0.0][0], pts[1.0][1])), 0.0, 1.0)]
     for _ in range(_MAX_NODES):
         bound, w1, w2 = heap[0]
         if -bound - lower <= tol * max(lower, 1e-300):
@@ -141,11 +148,11 @@ def es_frontier_bb(ch: StarChannels, tol: float = DEFAULT_TOL) -> tuple[float, f
         heapq.heappop(heap)
         mid = 0.5 * (w1 + w2)
         pts[mid] = frontier_point(ch, mid)[:2]
-        value = float(maxmin_of(ch, *pts[mid]))
+        value = float(value_of(ch, *pts[mid]))
         if value > lower:
             lower, best_w = value, mid
         for a, b in ((w1, mid), (mid, w2)):
-            heapq.heappush(heap, (-float(maxmin_of(ch, pts[a][0], pts[b][1])), a, b))
+            heapq.heappush(heap, (-float(value_of(ch, pts[a][0], pts[b][1])), a, b))
     return lower, max(lower, -heap[0][0]), best_w
 
 
