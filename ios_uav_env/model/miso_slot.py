@@ -76,11 +76,13 @@ def optimise_slot(
     rng: np.random.Generator | None = None,
     max_iter: int = 100,
     tol: float = 1e-7,
+    weights: np.ndarray | None = None,
 ) -> SlotSolution:
     """The best of :func:`alternate` over the starts: each user's aligned phases with MRT and (when
     N_t >= K) ZF beams, and ``random_starts`` random phase draws (from ``rng``, default seed 0)
-    with MRT beams."""
+    with MRT beams. ``weights``: the weighted sum rate (:func:`alternate`)."""
     check_objective(objective)
+    _check_weights(weights, channel.K, objective)
     if not (isinstance(random_starts, (int, np.integer)) and random_starts >= 0):
         raise ValueError(f"random_starts must be an integer >= 0, got {random_starts!r}")
     rng = np.random.default_rng(0) if rng is None else rng
@@ -98,7 +100,7 @@ def optimise_slot(
         psi = random_phases(channel, rng)
         starts.append((f"random {i} MRT", psi, mrt_beams(channel.matrix(psi))))
     runs = [
-        alternate(channel, objective, psi, W, max_iter=max_iter, tol=tol, start=name)
+        alternate(channel, objective, psi, W, max_iter=max_iter, tol=tol, start=name, weights=weights)
         for name, psi, W in starts
     ]
     return max(runs, key=lambda run: run.value)
@@ -113,11 +115,14 @@ def alternate(
     max_iter: int = 100,
     tol: float = 1e-7,
     start: str = "given",
+    weights: np.ndarray | None = None,
 ) -> SlotSolution:
     """AO from (``phases``, ``beams``): beams then phases per iteration (the module docstring), until
     an iteration gains less than ``tol`` (relative) or after ``max_iter`` iterations. The objective
-    never decreases (up to rounding): ``history`` records it."""
+    never decreases (up to rounding): ``history`` records it. ``weights`` (K,) >= 0 (objective
+    "sum" only): the weighted sum rate sum_k alpha_k R_k instead (WMMSE with the alpha_k)."""
     check_objective(objective)
+    alpha = _check_weights(weights, channel.K, objective)
     if not (isinstance(max_iter, (int, np.integer)) and max_iter >= 0):
         raise ValueError(f"max_iter must be an integer >= 0, got {max_iter!r}")
     if not (tol >= 0):
@@ -125,12 +130,12 @@ def alternate(
     psi = channel.check_phases(phases).copy()
     H = channel.matrix(psi)
     W = np.array(beams, dtype=complex)
-    value = objective_value(user_rates(H, W), objective)
+    value = _value(user_rates(H, W), objective, alpha)
     history = [value]
     for _ in range(max_iter):
         if objective == "sum":
-            W = wmmse_beams(H, W)
-            v = _sum_rate_phases(channel, H, W, np.exp(-1j * psi))
+            W = wmmse_beams(H, W, alpha)
+            v = _sum_rate_phases(channel, H, W, np.exp(-1j * psi), alpha)
         else:
             candidate = maxmin_beams(H)
             if np.min(sinr(H, candidate)) > np.min(sinr(H, W)):
@@ -138,30 +143,52 @@ def alternate(
             v, W = _maxmin_phases(channel, H, W, np.exp(-1j * psi))
         psi = np.mod(-np.angle(v), 2 * np.pi)
         H = channel.matrix(psi)
-        new = objective_value(user_rates(H, W), objective)
+        new = _value(user_rates(H, W), objective, alpha)
         history.append(new)
         gain, value = new - value, new
         if gain <= tol * max(1.0, abs(value)):
             break
     rates = user_rates(H, W)
-    return SlotSolution(objective, objective_value(rates, objective), rates, psi, W, start, np.array(history))
+    return SlotSolution(objective, _value(rates, objective, alpha), rates, psi, W, start, np.array(history))
+
+
+def _check_weights(weights: np.ndarray | None, k: int, objective: str) -> np.ndarray | None:
+    """``weights`` as a float (K,) array of finite numbers >= 0 (or None), for the sum rate only."""
+    if weights is None:
+        return None
+    if objective != "sum":
+        raise ValueError(f"weights weigh the sum rate: they need objective 'sum', got {objective!r}")
+    w = np.asarray(weights, dtype=float)
+    if w.shape != (k,) or not np.all(np.isfinite(w)) or np.any(w < 0):
+        raise ValueError(f"weights must be K = {k} finite numbers >= 0, got {weights!r}")
+    return w
+
+
+def _value(rates: np.ndarray, objective: str, alpha: np.ndarray | None) -> float:
+    """The objective of ``rates``; with ``alpha`` the weighted sum sum_k alpha_k R_k."""
+    return objective_value(rates, objective) if alpha is None else float(alpha @ rates)
 
 
 # --- the sum rate: WMMSE ------------------------------------------------------------------------
 
 
-def _receivers(H: np.ndarray, W: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """MMSE receivers u_k = h_k w_k / T_k and weights omega_k = 1 / e_k = 1 + SINR_k."""
+def _receivers(
+    H: np.ndarray, W: np.ndarray, weights: np.ndarray | None = None
+) -> tuple[np.ndarray, np.ndarray]:
+    """MMSE receivers u_k = h_k w_k / T_k and weights omega_k = 1 / e_k = 1 + SINR_k, times the
+    users' ``weights`` alpha_k when given (the weighted sum rate's WMMSE)."""
     r = H @ W
     total = np.sum(np.abs(r) ** 2, axis=1) + 1.0
     signal = np.diag(r)
-    return signal / total, 1.0 / (1.0 - np.abs(signal) ** 2 / total)
+    omega = 1.0 / (1.0 - np.abs(signal) ** 2 / total)
+    return signal / total, omega if weights is None else weights * omega
 
 
-def wmmse_beams(H: np.ndarray, W: np.ndarray) -> np.ndarray:
+def wmmse_beams(H: np.ndarray, W: np.ndarray, weights: np.ndarray | None = None) -> np.ndarray:
     """One WMMSE beam update at the receivers and weights of (``H``, ``W``): the exact minimiser of
-    the weighted MSE over sum_k ||w_k||^2 <= 1 (shape (N_t, K))."""
-    u, omega = _receivers(H, W)
+    the weighted MSE over sum_k ||w_k||^2 <= 1 (shape (N_t, K)); ``weights`` alpha_k (default 1)
+    weigh the users' rates (the weighted sum rate)."""
+    u, omega = _receivers(H, W, weights)
     Q = H.conj().T @ ((omega * np.abs(u) ** 2)[:, None] * H)
     rhs = H.conj().T * (omega * u)[None, :]
     lam, U = np.linalg.eigh(Q)
@@ -198,8 +225,10 @@ def _cascade(channel: SlotChannel, W: np.ndarray) -> np.ndarray:
     return np.ascontiguousarray(channel.coef.T[:, :, None] * (channel.to_elements @ W)[:, None, :])
 
 
-def _sum_rate_phases(channel: SlotChannel, H: np.ndarray, W: np.ndarray, v: np.ndarray) -> np.ndarray:
-    u, omega = _receivers(H, W)
+def _sum_rate_phases(
+    channel: SlotChannel, H: np.ndarray, W: np.ndarray, v: np.ndarray, weights: np.ndarray | None = None
+) -> np.ndarray:
+    u, omega = _receivers(H, W, weights)
     return _wmmse_sweep(v.copy(), _cascade(channel, W), H @ W, omega.astype(float), u.astype(complex))
 
 
