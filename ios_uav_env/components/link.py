@@ -102,11 +102,7 @@ class SingleAntennaLink(Link):
         q = channel.as_positions(positions)
         if phases is None:
             return channel.slot_rates(config, q)
-        k = config.kappa
-        los = channel.los_channel(config, q, phases)
-        amp = channel.element_amplitudes(config, q).sum(axis=1) + channel.direct_amplitude(config, q)
-        gain = k / (1 + k) * np.abs(los) ** 2 + amp**2 / (1 + k)
-        return np.log2(1.0 + config.eta * gain)
+        return channel.phased_rates(config, q, phases)
 
     def region_pricer(
         self, config: ScenarioConfig, trajectory: np.ndarray, paths: np.ndarray | None = None

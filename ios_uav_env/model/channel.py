@@ -317,6 +317,16 @@ def slot_rates(config: ScenarioConfig, positions: np.ndarray) -> np.ndarray:
     return np.log2(1.0 + config.eta * z * z)
 
 
+def phased_rates(config: ScenarioConfig, positions: np.ndarray, phases: np.ndarray) -> np.ndarray:
+    """Expected-gain rate (bps/Hz) at each position with the surface's ``phases`` (K, M) given:
+    E|h|^2 = kappa/(1+kappa) |h^LoS(psi)|^2 + 1/(1+kappa) (sum_m a_m + a_D)^2 (eqs. (4)-(8)), which
+    is zeta^2, and the rate ``slot_rates``, at the closed-form phases; shape (K,)."""
+    k = config.kappa
+    gain = k / (1 + k) * np.abs(los_channel(config, positions, phases)) ** 2
+    amp = element_amplitudes(config, positions).sum(axis=1) + direct_amplitude(config, positions)
+    return np.log2(1.0 + config.eta * (gain + amp**2 / (1 + k)))
+
+
 def small_scale_term(config: ScenarioConfig, positions: np.ndarray, rng: np.random.Generator) -> np.ndarray:
     """sqrt(kappa/(1+kappa)) exp(-j 2 pi d_UG / lambda) + sqrt(1/(1+kappa)) h_SS, h_SS ~ CN(0, 1)."""
     config.require_single_node("small_scale_term")

@@ -1,0 +1,69 @@
+"""Several UAVs in orthogonal bands sharing one surface (``model.fleet``): one UAV is the frame's
+max-min schedule, a second UAV only helps, the misaligned links are the link component's rates,
+and the pricer's enumeration against brute force."""
+
+from __future__ import annotations
+
+import itertools
+
+import numpy as np
+import pytest
+
+from ios_uav_env import ScenarioConfig, maxmin_rate, slot_rates
+from ios_uav_env.components import SingleAntennaLink
+from ios_uav_env.model import channel
+from ios_uav_env.model.fleet import fleet_maxmin, fleet_pricer, link_rates
+
+CONFIG = ScenarioConfig(
+    T=40.0, ios_shape=(10, 6), ground_nodes=((-100.0, -20.0), (60.0, 30.0), (-30.0, 80.0))
+)
+FLIGHT = np.linspace(CONFIG.q0, CONFIG.qF, CONFIG.N)
+
+
+def test_one_uav_is_the_frames_schedule():
+    got = fleet_maxmin(CONFIG, FLIGHT[None])
+    assert got.value == pytest.approx(maxmin_rate(CONFIG, FLIGHT), rel=1e-9) and got.gap <= 1e-9
+
+
+def test_a_second_uav_only_helps():
+    back = FLIGHT[::-1].copy()
+    both = fleet_maxmin(CONFIG, np.stack([FLIGHT, back])).value
+    assert both >= max(maxmin_rate(CONFIG, FLIGHT), maxmin_rate(CONFIG, back)) * (1 + 0.5)
+
+
+def test_the_link_rates_are_the_link_components():
+    q = FLIGHT[[3, 30]]
+    r = link_rates(CONFIG, q)
+    link = SingleAntennaLink()
+    for us, ks, u, k in itertools.product(range(2), range(3), range(2), range(3)):
+        phases = channel.phase_shifts(CONFIG.node_config(ks), q[us : us + 1])
+        want = link.rates(CONFIG.node_config(k), q[u : u + 1], phases=phases)[0]
+        assert r[us, ks, u, k] == pytest.approx(want, rel=1e-12)
+        if (us, ks) == (u, k):  # the aligned link is the env's rate, and no alignment beats it
+            assert r[us, ks, u, k] == pytest.approx(
+                slot_rates(CONFIG.node_config(k), q[u : u + 1])[0], rel=1e-12
+            )
+        assert r[us, ks, u, k] <= r[u, k, u, k] * (1 + 1e-12)
+
+
+def test_the_pricer_is_the_enumerated_maximum():
+    t = np.stack([FLIGHT[:3], FLIGHT[::-1][:3]])
+    price = fleet_pricer(CONFIG, t)
+    w = np.array([0.5, 0.3, 0.2])
+    point, bound = price(w)
+    brute = 0.0
+    for n in range(3):
+        r = link_rates(CONFIG, t[:, n])
+        brute += max(  # every alignment and every assignment of a node to each UAV
+            sum(w[a[u]] * r[us, ks, u, a[u]] for u in range(2))
+            for us, ks in itertools.product(range(2), range(3))
+            for a in itertools.product(range(3), repeat=2)
+        )
+    assert bound == pytest.approx(brute / 3, rel=1e-12) and float(w @ point) == pytest.approx(
+        bound, rel=1e-12
+    )
+
+
+def test_bad_trajectories_are_refused():
+    with pytest.raises(ValueError, match=r"trajectories must be a finite \(U, N, 2\)"):
+        fleet_maxmin(CONFIG, FLIGHT)
