@@ -96,16 +96,20 @@ class _Nodes:
         return grid
 
 
-def _cut(config: ScenarioConfig, traj: np.ndarray, w: np.ndarray, lam: float, value: float) -> np.ndarray:
-    """The minorant's slope a of the path at w (module docstring), after checking the DP's value."""
+def _cut(
+    config: ScenarioConfig, traj: np.ndarray, w: np.ndarray, lam: float, value: float
+) -> tuple[np.ndarray, float]:
+    """The minorant of the path at w (module docstring): its slope a and its offset lam E(q),
+    after checking the DP's value against them."""
     bits = config.bandwidth_hz * config.dt * ie.node_rates(config, traj)  # (K, N)
     choice = np.argmax(w[:, None] * bits, axis=0)
-    own = float(np.sum(bits[choice, np.arange(config.N)] * w[choice])) - lam * ie.energy(config, traj)
-    if abs(own - value) > 1e-9 * max(1.0, abs(own), lam * ie.energy(config, traj)):
+    offset = lam * ie.energy(config, traj)
+    own = float(np.sum(bits[choice, np.arange(config.N)] * w[choice])) - offset
+    if abs(own - value) > 1e-9 * max(1.0, abs(own), offset):
         raise RuntimeError(
             f"multi-node energy DP value {value!r} != the model's B dt sum f_w - lam E {own!r}"
         )
-    return np.bincount(choice, weights=bits[choice, np.arange(config.N)], minlength=config.K)
+    return np.bincount(choice, weights=bits[choice, np.arange(config.N)], minlength=config.K), offset
 
 
 def loiter_hovers(config: ScenarioConfig, traj: np.ndarray, direction: float) -> np.ndarray:
@@ -179,8 +183,9 @@ def solve(
         slopes, costs, least_g, lower, step_best = [], [], math.inf, -math.inf, -math.inf
         for _ in range(max_cuts):
             traj, value = parametric_path(nodes.weighted(w), lam)
-            slopes.append(_cut(config, traj, w, lam, value))
-            costs.append(lam * ie.energy(config, traj))
+            slope, offset = _cut(config, traj, w, lam, value)
+            slopes.append(slope)
+            costs.append(offset)
             ee = ie.score_plan(config, traj).energy_efficiency
             step_best = max(step_best, ee)
             if ee > best_ee:
