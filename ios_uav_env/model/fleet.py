@@ -37,13 +37,15 @@ def link_rates(config: ScenarioConfig, positions: np.ndarray) -> np.ndarray:
     q = channel.as_positions(positions, "positions")
     nodes = [config.node_config(k) for k in range(config.K)]
     u_n, k_n = len(q), config.K
+    # every alignment's phases, row (u*, k*) = u* K + k*: node k*'s eq. (13) from each UAV u*
+    aligned = np.stack([channel.phase_shifts(nodes[ks], q) for ks in range(k_n)], axis=1).reshape(
+        u_n * k_n, -1
+    )
     out = np.empty((u_n, k_n, u_n, k_n))
-    for us in range(u_n):
-        for ks in range(k_n):
-            phases = channel.phase_shifts(nodes[ks], q[us : us + 1])[0]
-            for u in range(u_n):
-                for k in range(k_n):
-                    out[us, ks, u, k] = channel.phased_rates(nodes[k], q[u : u + 1], phases[None, :])[0]
+    for u in range(u_n):
+        at_u = np.repeat(q[u : u + 1], u_n * k_n, axis=0)
+        for k in range(k_n):  # link (u, k) under every alignment at once
+            out[:, :, u, k] = channel.phased_rates(nodes[k], at_u, aligned).reshape(u_n, k_n)
     return out
 
 
