@@ -2,7 +2,7 @@
 name (the module constants derived from ``STATE``, ``EPISODE``, ``INFO``, ``FLAGS`` and the
 observation's layout in ``ios_uav_env.envs.single_kernels``; from ``STATE``, ``EPISODE``,
 ``POINT``, ``ACTION``, ``INFO``, ``MORE`` and the observation's features in
-``ios_uav_env.envs.multi_table`` for ``multi_kernels``; from ``PARAMS`` in
+``ios_uav_env.envs.multi_table`` for ``multi_kernels`` and ``multi_step``; from ``PARAMS`` in
 ``ios_uav_env.model.channel``; from ``SIZES`` and ``OUT`` in ``ios_uav_env.model.maxmin_paths``;
 from ``LAYER``, ``SETTINGS`` and ``STATS`` in ``agents.fast.kernel``), never by number
 (``ep[i, 29]``, ``flags[6]``, ``ep[i, 13 + j]``).
@@ -31,6 +31,20 @@ from ios_uav_env.model import channel, maxmin_paths
 
 ROOT = Path(__file__).resolve().parents[2]
 
+#: The multi-node kernels' arrays (the row table of ``multi_kernels`` and the step of ``multi_step``
+#: share their names).
+MULTI_NODE = (
+    {"state", "st", "episode", "ep", "info", "row", "obs", "o", "points", "flags", "actions"},
+    {
+        "rates", "served", "shares", "expected", "share_path", "rate_path",  # one entry per node
+        "nodes", "params",  # the nodes' rate kernels (channel's layout), passed whole
+        "normals", "path", "targets",  # (re, im) draws and (x, y) pairs
+        "rows", "moves", "active", "norms", "reward", "terminated", "stored", "loaded",  # per row
+        "ended", "envs", "ok", "values",  # episode_best_values' per ended row
+        "grown", "shape",  # NodeRows._grow's
+    },
+)  # fmt: skip
+
 #: Per kernel module: (the names its functions give the arrays whose columns are named, the names
 #: of arrays without named columns, whose indices are free).
 MODULES = {
@@ -52,28 +66,8 @@ MODULES = {
             "values",  # update_settings' keyword arguments
         },
     ),
-    "ios_uav_env/envs/multi_kernels.py": (
-        {"state", "st", "episode", "ep", "info", "row", "obs", "o", "points", "flags", "actions"},
-        {
-            "rates", "served", "shares", "expected", "share_path", "rate_path",  # one entry per node
-            "nodes", "params",  # the nodes' rate kernels (channel's layout), passed whole
-            "normals", "path", "targets",  # (re, im) draws and (x, y) pairs
-            "rows", "moves", "active", "norms", "reward", "terminated", "stored", "loaded",  # per row
-            "ended", "envs", "ok", "values",  # episode_best_values' per ended row
-            "grown", "shape",  # NodeRows._grow's
-        },
-    ),
-    "ios_uav_env/envs/multi_step.py": (
-        {"state", "st", "episode", "ep", "info", "row", "obs", "o", "points", "flags", "actions"},
-        {
-            "rates", "served", "shares", "expected", "share_path", "rate_path",  # one entry per node
-            "nodes", "params",  # the nodes' rate kernels (channel's layout), passed whole
-            "normals", "path", "targets",  # (re, im) draws and (x, y) pairs
-            "rows", "moves", "active", "norms", "reward", "terminated", "stored", "loaded",  # per row
-            "ended", "envs", "ok", "values",  # episode_best_values' per ended row
-            "grown", "shape",  # NodeRows._grow's
-        },
-    ),
+    "ios_uav_env/envs/multi_kernels.py": MULTI_NODE,
+    "ios_uav_env/envs/multi_step.py": MULTI_NODE,
     "ios_uav_env/envs/multi_table.py": (
         {"row", "table"},
         {"columns", "out"},  # info_arrays' columns of the table and its dict
