@@ -15,6 +15,8 @@ needs only numpy; the envs (``ios_uav_env.envs``) need Gymnasium; the benchmark
 matplotlib lazily.
 """
 
+from typing import Any
+
 from ios_uav_env.model.channel import (
     RateKernel,
     faded_rates,
@@ -131,6 +133,14 @@ if _HAS_GYMNASIUM:
     from ios_uav_env.envs.single import INFO_KEYS, IOSUAVEnv
 
     register_envs()
+
+    def parallel_env(config: Any = None, **kwargs: Any) -> Any:
+        """Several UAVs on PettingZoo's Parallel API (``ios_uav_env.envs.fleet.FleetParallelEnv``;
+        needs the ``marl`` extra: pettingzoo)."""
+        from ios_uav_env.envs.fleet import FleetParallelEnv
+
+        return FleetParallelEnv(config, **kwargs)
+
     __all__ += [
         "ENERGY_ID",
         "ENERGY_IDS",
@@ -147,5 +157,6 @@ if _HAS_GYMNASIUM:
         "MultiNodeEnv",
         "RANDOM_ENV_ID",
         "RandomIOSUAVEnv",
+        "parallel_env",
         "register_envs",
     ]

@@ -28,7 +28,7 @@ from ios_uav_env.model import channel
 from ios_uav_env.model.config import ScenarioConfig
 from ios_uav_env.model.regions import Pricer, RegionSchedule, maxmin_regions
 
-__all__ = ["fleet_maxmin", "fleet_pricer", "link_rates"]
+__all__ = ["fleet_maxmin", "fleet_pricer", "link_rates", "slot_service"]
 
 
 def link_rates(config: ScenarioConfig, positions: np.ndarray) -> np.ndarray:
@@ -47,6 +47,31 @@ def link_rates(config: ScenarioConfig, positions: np.ndarray) -> np.ndarray:
         for k in range(k_n):  # link (u, k) under every alignment at once
             out[:, :, u, k] = channel.phased_rates(nodes[k], at_u, aligned).reshape(u_n, k_n)
     return out
+
+
+def slot_service(rates: np.ndarray, shares: np.ndarray, surface_shares: np.ndarray) -> np.ndarray:
+    """(K,) bps/Hz: each node's rate over one slot in which UAV u serves node k a fraction
+    ``shares[u, k]`` of the slot (rows sum to 1) and the surface lines up with UAV u's link a
+    fraction ``surface_shares[u]`` (sum 1), the two time shares independent: while the surface
+    serves UAV u* it is aligned to the node u* serves at that moment. ``rates`` (U, K, U, K) as
+    :func:`link_rates`. Node k gets
+
+        sum_u shares[u, k] (beta_u r[u, k, u, k]
+                            + sum_{u* != u} beta_{u*} sum_{k*} shares[u*, k*] r[u*, k*, u, k]),
+
+    a time-shared mix of the slot's choices (alignment, one node per UAV), hence a point of the
+    region :func:`fleet_pricer` prices (tested): the flight's rates from these shares are at most
+    :func:`fleet_maxmin`'s. With U = 1: node k gets ``shares[0, k] r[0, k, 0, k]``."""
+    r = np.asarray(rates, dtype=float)
+    alpha = np.asarray(shares, dtype=float)
+    beta = np.asarray(surface_shares, dtype=float)
+    u_n = alpha.shape[0]
+    # seen[a, u, k]: link (u, k)'s rate while the surface serves UAV a (aligned to a's node mix)
+    seen = np.einsum("ab,abuk->auk", alpha, r)
+    for u in range(u_n):
+        seen[u, u] = r[u, np.arange(r.shape[1]), u, np.arange(r.shape[1])]
+    effective = np.einsum("a,auk->uk", beta, seen)
+    return (alpha * effective).sum(axis=0)
 
 
 def fleet_pricer(config: ScenarioConfig, trajectories: np.ndarray) -> Pricer:

@@ -12,7 +12,7 @@ import pytest
 from ios_uav_env import ScenarioConfig, maxmin_rate, slot_rates
 from ios_uav_env.components import SingleAntennaLink
 from ios_uav_env.model import channel
-from ios_uav_env.model.fleet import fleet_maxmin, fleet_pricer, link_rates
+from ios_uav_env.model.fleet import fleet_maxmin, fleet_pricer, link_rates, slot_service
 
 CONFIG = ScenarioConfig(
     T=40.0, ios_shape=(10, 6), ground_nodes=((-100.0, -20.0), (60.0, 30.0), (-30.0, 80.0))
@@ -67,3 +67,29 @@ def test_the_pricer_is_the_enumerated_maximum():
 def test_bad_trajectories_are_refused():
     with pytest.raises(ValueError, match=r"trajectories must be a finite \(U, N, 2\)"):
         fleet_maxmin(CONFIG, FLIGHT)
+
+
+def test_slot_service_of_one_uav_is_its_shares_of_its_aligned_rates():
+    q = FLIGHT[[7]]
+    r = link_rates(CONFIG, q)
+    shares = np.array([[0.2, 0.5, 0.3]])
+    want = shares[0] * np.array([r[0, k, 0, k] for k in range(3)])
+    np.testing.assert_array_equal(slot_service(r, shares, np.ones(1)), want)
+
+
+def test_slot_service_is_a_point_of_the_priced_region():
+    """The env's time shares give a mix of the slot's choices, so no weighting of its rates
+    beats the pricer's best choice (else it would not be a point of the region)."""
+    rng = np.random.default_rng(3)
+    q = np.stack([FLIGHT[5], FLIGHT[::-1][9]])
+    price = fleet_pricer(CONFIG, q[:, None, :])  # one slot
+    r = link_rates(CONFIG, q)
+    for _ in range(20):
+        shares = rng.dirichlet(np.ones(3), size=2)
+        beta = rng.dirichlet(np.ones(2))
+        point = slot_service(r, shares, beta)
+        w = rng.dirichlet(np.ones(3))
+        assert w @ point <= price(w)[1] * (1 + 1e-12)
+    # a surface given wholly to UAV 0, each UAV serving one node: the enumerated choice itself
+    one = slot_service(r, np.eye(3)[[0, 2]], np.array([1.0, 0.0]))
+    np.testing.assert_allclose(one, [r[0, 0, 0, 0], 0.0, r[0, 0, 1, 2]], rtol=1e-15)

@@ -1,0 +1,405 @@
+"""Several UAVs on PettingZoo's Parallel API: one surface, K ground nodes, a team objective.
+
+:class:`FleetParallelEnv` (made by ``ios_uav_env.parallel_env``) flies U UAVs, agents
+``uav_0 .. uav_{U-1}``, over the same N slots of one scenario: each UAV is a row of the multi-node
+env (``MultiNodeEnv`` on the scenario with that UAV's start and final point: its move, arrival
+guard, node shares, propulsion and observation), and the fleet couples them through the nodes'
+service and the surface (``ios_uav_env.model.fleet``) and through the separation guard
+(``ios_uav_env.model.separation``). With U = 1 the env is ``MultiNodeEnv`` itself, step for step
+(tested bit for bit).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+from typing import Any
+
+import gymnasium as gym
+import numpy as np
+from gymnasium import spaces
+
+from ios_uav_env.envs.multi import DEFAULT_NODES, MultiNodeEnv
+from ios_uav_env.envs.observation import pad
+from ios_uav_env.model.config import ScenarioConfig, as_config
+from ios_uav_env.model.fleet import fleet_maxmin, link_rates, slot_service
+from ios_uav_env.model.guard import guarded_position
+from ios_uav_env.model.separation import check_separated, min_distance, separated_moves
+
+try:
+    from pettingzoo import ParallelEnv
+except ImportError as exc:  # pragma: no cover - exercised in an env without the extra
+    raise ImportError(
+        "ios_uav_env.parallel_env needs PettingZoo: pip install 'ios-uav-env[marl]' (pettingzoo>=1.24)"
+    ) from exc
+
+__all__ = ["DEFAULT_SEPARATION", "FleetCentralEnv", "FleetParallelEnv", "default_points"]
+
+#: m, the default minimum separation d_min between two UAVs.
+DEFAULT_SEPARATION = 10.0
+#: m, the default offset in y between consecutive UAVs' starts and final points.
+LANE_OFFSET = 80.0
+#: The guard keeps the UAVs this relative margin (plus 1e-9 m) beyond d_min, so that the
+#: kernels' rounding of a guarded move (~1e-13 m) never brings two of them within d_min.
+GUARD_MARGIN = 1e-9
+#: The info keys that are each UAV's own (the rest are the team's: ``node_rates``, ``min_rate``,
+#: ``reward_rate``, ``best_schedule_rate``).
+OWN_KEYS = (
+    "position", "slot", "distance_to_final", "shares", "reward_reach", "reward_terminal", "feasible",
+    "worst_violation", "terminal_miss",
+)  # fmt: skip
+
+
+def default_points(config: ScenarioConfig, uavs: int) -> tuple[np.ndarray, np.ndarray]:
+    """(starts, finals), (U, 2) m each: UAV u flies the scenario's q0 -> qF moved ``LANE_OFFSET`` x u
+    m in -y (lanes of parallel flights)."""
+    shift = np.zeros((uavs, 2))
+    shift[:, 1] = -LANE_OFFSET * np.arange(uavs)
+    return np.asarray(config.q0) + shift, np.asarray(config.qF) + shift
+
+
+def _points(value: Any, uavs: int, name: str) -> np.ndarray:
+    p = np.asarray(value, dtype=float) if value is not None else None
+    if p is None or p.shape != (uavs, 2) or not np.all(np.isfinite(p)):
+        raise ValueError(f"{name} must be a finite ({uavs}, 2) array of points in m per UAV, got {value!r}")
+    return p
+
+
+def _finite(value: Any) -> bool:
+    return isinstance(value, (int, float)) and not isinstance(value, bool) and math.isfinite(value)
+
+
+class FleetParallelEnv(ParallelEnv):
+    """U UAVs serving K ground nodes through one IOS, as a PettingZoo ``ParallelEnv``.
+
+    ## Description
+
+    UAV u flies from ``starts[u]`` to ``finals[u]`` in the scenario's N slots (its speed limit D
+    per slot, its arrival guard) and transmits in a band of its own (orthogonal bands: no
+    interference). Each slot it shares its time between the nodes (softmax of its node scores, as
+    in ``MultiNodeEnv``), and the surface shares its alignment between the UAVs (softmax of
+    ``surface_sharpness`` x their surface bids): while it serves UAV u it is lined up with the
+    node u serves, and every other UAV sees misaligned phases
+    (``ios_uav_env.model.fleet.slot_service``). The team's objective is the nodes' max-min
+    rate over the flight, the rates summed over the UAVs.
+
+    ## Action Space
+
+    Per agent, ``Box(-1, 1, (2 + K_max + 1,))``: the move / D (projected on the unit disk), one
+    score per node slot, and the surface bid. With U = 1 there is no bid (``MultiNodeEnv``'s
+    action, ``(2 + K_max,)``).
+
+    ## Observation Space
+
+    Per agent, ``MultiNodeEnv``'s observation of its own UAV (``observation_names``), with each
+    node block's ``served`` the team's served rate so far / N, then for each other UAV v (in
+    agent order) its position relative to this one, (q_v - q_u) / L (``dx_uav_<v>``,
+    ``dy_uav_<v>``). ``state()``: the agents' observations, concatenated.
+
+    ## Rewards
+
+    Every agent gets the team reward: N x the change of min_k (served_k / N) (as
+    ``MultiNodeEnv`` with ``softmin_beta`` = 0) plus every UAV's reach and terminal terms.
+
+    ## Separation
+
+    No two UAVs come closer than ``min_separation`` m, between way-points included: the slot's
+    moves are flown to the first contact they would make (``model.separation``), whatever the
+    actions. A UAV held back may miss its final point (``terminal_miss``, penalised).
+
+    ## Episode End
+
+    Every agent terminates after slot N. ``info``'s ``best_schedule_rate`` is then the flown
+    trajectories' best schedule (``fleet_maxmin``; bps/Hz; 0 before), at least the team's
+    ``min_rate``: the gap says how much better the same flights could have shared the time.
+
+    ## Arguments
+
+    ``config`` (K ground nodes; default ``MultiNodeEnv``'s three), ``uavs`` (U >= 1, default 2),
+    ``starts`` / ``finals`` ((U, 2) m; default lanes ``LANE_OFFSET`` m apart), ``min_separation``
+    (m, default 10), ``surface_sharpness`` (> 0), ``best_schedule`` (compute the episode-end
+    schedule, default True), and ``MultiNodeEnv``'s keywords (``share_sharpness``, ``max_nodes``,
+    the env options). With U >= 2 the nodes are static and exactly known, the channel is
+    ``"expected"`` and the objective is the rate (refused otherwise, naming the field).
+    """
+
+    metadata = {"name": "ios_uav_fleet_v0", "render_modes": [], "is_parallelizable": True}
+
+    def __init__(
+        self,
+        config: ScenarioConfig | Mapping[str, Any] | None = None,
+        *,
+        uavs: int = 2,
+        starts: Any = None,
+        finals: Any = None,
+        min_separation: float = DEFAULT_SEPARATION,
+        surface_sharpness: float = 5.0,
+        best_schedule: bool = True,
+        **kwargs: Any,
+    ) -> None:
+        if isinstance(uavs, bool) or not isinstance(uavs, (int, np.integer)) or uavs < 1:
+            raise ValueError(f"uavs must be an integer >= 1, got {uavs!r}")
+        if not (_finite(min_separation) and min_separation >= 0):
+            raise ValueError(f"min_separation must be a finite number >= 0 (m), got {min_separation!r}")
+        if not (_finite(surface_sharpness) and surface_sharpness > 0):
+            raise ValueError(f"surface_sharpness must be a finite number > 0, got {surface_sharpness!r}")
+        base = as_config(config if config is not None else ScenarioConfig(ground_nodes=DEFAULT_NODES))
+        u_n = int(uavs)
+        lanes = default_points(base, u_n)
+        self.starts = _points(lanes[0] if starts is None else starts, u_n, "starts")
+        self.finals = _points(lanes[1] if finals is None else finals, u_n, "finals")
+        self.min_separation = float(min_separation)
+        self._guard = self.min_separation * (1.0 + GUARD_MARGIN) + GUARD_MARGIN if u_n > 1 else 0.0
+        if u_n > 1:
+            check_separated(self.starts, self._guard, "starts")
+            check_separated(self.finals, self._guard, "finals")
+            self._check_team_world(base, kwargs)
+            kwargs = {**kwargs, "arrival_guard": False}  # the fleet guards the moves (both guards)
+        self.surface_sharpness = float(surface_sharpness)
+        self.best_schedule = bool(best_schedule)
+        self.config = base
+        self.uav_envs: list[MultiNodeEnv] = []
+        for u in range(u_n):
+            try:
+                cfg = base.replace(q0=tuple(self.starts[u]), qF=tuple(self.finals[u]))
+            except ValueError as err:
+                raise ValueError(f"starts[{u}] / finals[{u}]: {err}") from None
+            self.uav_envs.append(MultiNodeEnv(cfg, **kwargs))
+        self.possible_agents = [f"uav_{u}" for u in range(u_n)]
+        self.agents: list[str] = []
+        first = self.uav_envs[0]
+        self.max_nodes = first.max_nodes
+        self._served_at = [first.observation_names.index(f"served_{k}") for k in range(self.max_nodes)]
+        self.observation_spaces = {a: self._observation_space(u) for u, a in enumerate(self.possible_agents)}
+        width = 2 + self.max_nodes + (1 if u_n > 1 else 0)
+        self.action_spaces = {a: spaces.Box(-1.0, 1.0, (width,), np.float32) for a in self.possible_agents}
+        self.team_served = np.zeros(self.max_nodes)
+        self.surface_shares = np.ones(u_n) / u_n
+        self.separation_fraction = 1.0
+        self._state = np.zeros(sum(s.shape[0] for s in self.observation_spaces.values()), dtype=np.float32)
+
+    # --- construction -----------------------------------------------------------------------
+    @staticmethod
+    def _check_team_world(config: ScenarioConfig, kwargs: Mapping[str, Any]) -> None:
+        """Refuse, naming the field, what several UAVs do not model yet."""
+        if config.motion is not None:
+            raise ValueError("config.motion: several UAVs serve static nodes (motion=None); one UAV: uavs=1")
+        if config.objective != "rate":
+            raise ValueError(
+                f"config.objective={config.objective!r}: several UAVs have the rate objective (max-min); "
+                "one UAV: uavs=1"
+            )
+        refused = {"channel": "expected", "knowledge": "exact", "softmin_beta": 0.0, "peak_hint": False}
+        for name, allowed in refused.items():
+            if name in kwargs and kwargs[name] != allowed:
+                raise ValueError(
+                    f"{name}={kwargs[name]!r}: several UAVs take {name}={allowed!r} (one UAV: uavs=1)"
+                )
+        if "arrival_guard" in kwargs and not kwargs["arrival_guard"]:
+            raise ValueError("arrival_guard=False: several UAVs always fly the arrival and separation guards")
+
+    def _observation_space(self, u: int) -> spaces.Box:
+        space = self.uav_envs[u].observation_space
+        if len(self.uav_envs) == 1:
+            return space
+        low, high = space.low.astype(np.float64), space.high.astype(np.float64)
+        high[self._served_at] *= len(self.uav_envs)  # the team's served rates: at most U x one UAV's
+        cfg, scale = self.config, self.uav_envs[u].options.length_scale
+        reach = (cfg.N - 1) * cfg.D
+        for v in range(len(self.uav_envs)):
+            if v != u:
+                far = pad((float(np.abs(self.starts[v] - self.starts[u]).max()) + 2.0 * reach) / scale)
+                low, high = np.append(low, [-far, -far]), np.append(high, [far, far])
+        return spaces.Box(low.astype(np.float32), high.astype(np.float32), dtype=np.float32)
+
+    def observation_space(self, agent: str) -> spaces.Box:
+        return self.observation_spaces[agent]
+
+    def action_space(self, agent: str) -> spaces.Box:
+        return self.action_spaces[agent]
+
+    @property
+    def observation_names(self) -> tuple[str, ...]:
+        """uav_0's observation components, in order (each agent's: ``dx_uav_<v>`` for its others)."""
+        names = self.uav_envs[0].observation_names
+        others = [f"{c}_uav_{v}" for v in range(1, len(self.uav_envs)) for c in ("dx", "dy")]
+        return names + tuple(others)
+
+    # --- API ---------------------------------------------------------------------------------
+    def reset(
+        self, seed: int | None = None, options: dict[str, Any] | None = None
+    ) -> tuple[dict[str, np.ndarray], dict[str, dict[str, Any]]]:
+        if options is not None and "config" in options:
+            raise ValueError('options["config"] is not taken: make a fleet on it, parallel_env(cfg)')
+        self.agents = list(self.possible_agents)
+        results = [env.reset(seed=None if seed is None else seed + u) for u, env in enumerate(self.uav_envs)]
+        if len(self.uav_envs) == 1:
+            obs, info = results[0]
+            self._state = obs.copy()
+            return {self.agents[0]: obs}, {self.agents[0]: info}
+        self.team_served = np.zeros(self.max_nodes)
+        k_n = self.config.K
+        shares = np.full((len(self.uav_envs), k_n), 1.0 / k_n)  # slot 1: equal shares, as each row
+        self.surface_shares = np.ones(len(self.uav_envs)) / len(self.uav_envs)
+        self.separation_fraction = 1.0
+        self._serve(shares)
+        self._previous = self.team_served[:k_n].min() / self.config.N
+        return self._team_outputs(results, 0.0)[0::4]  # (obs, infos)
+
+    def step(self, actions: Mapping[str, Any]) -> tuple[dict, dict, dict, dict, dict]:
+        if not self.agents:
+            raise RuntimeError("the episode is over (or was never started): call reset()")
+        acts = self._check_actions(actions)
+        if len(self.uav_envs) == 1:
+            obs, reward, term, trunc, info = self.uav_envs[0].step(acts[0])
+            agent = self.agents[0]
+            self._state = obs.copy()
+            if term or trunc:
+                self.agents = []
+            return {agent: obs}, {agent: reward}, {agent: term}, {agent: trunc}, {agent: info}
+        moves = self._guarded_moves(acts)
+        results = []
+        for u, env in enumerate(self.uav_envs):
+            a = acts[u, : 2 + self.max_nodes].copy()
+            a[:2] = moves[u]
+            results.append(env.step(a))
+        bids = np.clip(acts[:, -1], -1.0, 1.0) * self.surface_sharpness
+        beta = np.exp(bids - bids.max())
+        self.surface_shares = beta / beta.sum()
+        k_n = self.config.K
+        self._serve(np.array([env.shares[:, -1] for env in self.uav_envs]))
+        low = self.team_served[:k_n].min() / self.config.N
+        r_rate = self.config.N * (low - self._previous)
+        self._previous = low
+        out = self._team_outputs(results, r_rate)
+        if all(r[2] for r in results):
+            self.agents = []
+        return out
+
+    def _check_actions(self, actions: Mapping[str, Any]) -> np.ndarray:
+        if not isinstance(actions, Mapping) or set(actions) != set(self.agents):
+            got = sorted(actions) if isinstance(actions, Mapping) else type(actions).__name__
+            raise ValueError(f"actions must map each live agent {self.agents} to an action, got {got}")
+        width = self.action_spaces[self.agents[0]].shape[0]
+        out = np.empty((len(self.agents), width))
+        for u, agent in enumerate(self.agents):
+            a = np.asarray(actions[agent], dtype=np.float64)
+            if a.shape != (width,):
+                raise ValueError(f"actions[{agent!r}] must have shape ({width},), got {a.shape}")
+            if not np.isfinite(a).all():
+                raise ValueError(f"actions[{agent!r}] must be finite (no NaN or inf), got {actions[agent]!r}")
+            out[u] = a
+        return out
+
+    def _guarded_moves(self, acts: np.ndarray) -> np.ndarray:
+        """(U, 2): each UAV's move / D after its unit-disk projection, its arrival guard and the
+        team's separation guard."""
+        cfg, d = self.config, self.config.D
+        q = np.array([env.trajectory[-1] for env in self.uav_envs])
+        left = cfg.N - len(self.uav_envs[0].trajectory) - 1  # moves left after this one
+        proposed = np.empty_like(q)
+        for u in range(len(q)):
+            ax, ay = acts[u, 0], acts[u, 1]
+            norm = math.hypot(ax, ay)
+            if norm > 1.0:
+                ax, ay = ax / norm, ay / norm
+            target = (q[u, 0] + d * ax, q[u, 1] + d * ay)
+            proposed[u] = guarded_position(tuple(q[u]), target, tuple(self.finals[u]), d, left)
+        self.separation_fraction, reached = separated_moves(q, proposed, self._guard)
+        return (reached - q) / d
+
+    def _serve(self, shares: np.ndarray) -> None:
+        """Add the slot's service of the nodes (``slot_service``) to the team's served sums."""
+        k_n = self.config.K
+        q = np.array([env.trajectory[-1] for env in self.uav_envs])
+        rates = link_rates(self.config, q)
+        self.team_served[:k_n] += slot_service(rates, shares[:, :k_n], self.surface_shares)
+
+    def _team_outputs(self, results: list[tuple], r_rate: float) -> tuple[dict, dict, dict, dict, dict]:
+        """The agents' (obs, rewards, terminations, truncations, infos) of the UAVs' ``results``
+        (each UAV env's reset or step output) and the team's rate term ``r_rate``."""
+        cfg, n_agents = self.config, len(self.possible_agents)
+        infos = [r[-1] for r in results]
+        penalty = sum(float(i["reward_reach"]) + float(i["reward_terminal"]) for i in infos)
+        reward = r_rate + penalty
+        done = len(results[0]) == 5 and all(r[2] for r in results)
+        best = 0.0
+        if done and self.best_schedule:
+            flights = np.array([env.trajectory for env in self.uav_envs])
+            best = fleet_maxmin(cfg, flights).value
+        q = np.array([i["position"] for i in infos])
+        node_rates = self.team_served / cfg.N
+        obs, rewards, terms, truncs, out = {}, {}, {}, {}, {}
+        for u, agent in enumerate(self.possible_agents):
+            o = results[u][0].astype(np.float64)
+            o[self._served_at] = node_rates
+            scale = self.uav_envs[u].options.length_scale
+            others = [(q[v] - q[u]) / scale for v in range(n_agents) if v != u]
+            obs[agent] = np.concatenate([o, *others]).astype(np.float32)
+            rewards[agent] = reward
+            terms[agent], truncs[agent] = done, False
+            info = {key: infos[u][key] for key in OWN_KEYS}
+            info.update(
+                node_rates=node_rates.copy(), min_rate=float(node_rates[: cfg.K].min()), reward_rate=r_rate,
+                best_schedule_rate=best, surface_share=float(self.surface_shares[u]),
+                separation_fraction=self.separation_fraction, min_distance=min_distance(q),
+            )  # fmt: skip
+            out[agent] = info
+        self._state = np.concatenate([obs[a] for a in self.possible_agents])
+        return obs, rewards, terms, truncs, out
+
+    def state(self) -> np.ndarray:
+        """The agents' observations of the last reset or step, concatenated (for centralised critics)."""
+        return self._state
+
+    def close(self) -> None:
+        for env in self.uav_envs:
+            env.close()
+
+    @property
+    def trajectories(self) -> np.ndarray:
+        """(U, n + 1, 2) m: the UAVs' way-points so far."""
+        return np.array([env.trajectory for env in self.uav_envs])
+
+
+class FleetCentralEnv(gym.Env):
+    """The fleet as one Gymnasium env, for single-agent learners (a centralised controller).
+
+    The observation is :meth:`FleetParallelEnv.state` (the agents' observations, concatenated in
+    agent order), the action the agents' actions concatenated, the reward the team reward, and
+    ``info`` maps each agent to its info. Arguments: those of :class:`FleetParallelEnv`.
+    """
+
+    metadata = {"render_modes": []}
+
+    def __init__(self, config: ScenarioConfig | Mapping[str, Any] | None = None, **kwargs: Any) -> None:
+        self.fleet = FleetParallelEnv(config, **kwargs)
+        agents = self.fleet.possible_agents
+        obs = [self.fleet.observation_space(a) for a in agents]
+        acts = [self.fleet.action_space(a) for a in agents]
+        self.observation_space = spaces.Box(
+            np.concatenate([s.low for s in obs]), np.concatenate([s.high for s in obs]), dtype=np.float32
+        )
+        self.action_space = spaces.Box(
+            np.concatenate([s.low for s in acts]), np.concatenate([s.high for s in acts]), dtype=np.float32
+        )
+        self._widths = np.cumsum([s.shape[0] for s in acts])[:-1]
+
+    def reset(
+        self, *, seed: int | None = None, options: dict[str, Any] | None = None
+    ) -> tuple[np.ndarray, dict[str, Any]]:
+        super().reset(seed=seed)
+        _, infos = self.fleet.reset(seed=seed, options=options)
+        return self.fleet.state().copy(), infos
+
+    def step(self, action: Any) -> tuple[np.ndarray, float, bool, bool, dict[str, Any]]:
+        a = np.asarray(action, dtype=np.float64)
+        if a.shape != self.action_space.shape:
+            raise ValueError(f"action must have shape {self.action_space.shape}, got {a.shape}")
+        parts = np.split(a, self._widths)
+        _, rewards, terms, truncs, infos = self.fleet.step(dict(zip(self.fleet.agents, parts, strict=True)))
+        reward = float(next(iter(rewards.values())))
+        return self.fleet.state().copy(), reward, all(terms.values()), any(truncs.values()), infos
+
+    def close(self) -> None:
+        self.fleet.close()

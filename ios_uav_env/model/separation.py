@@ -1,0 +1,94 @@
+r"""The separation guard: U UAVs never come closer than a minimum distance d_min.
+
+Every UAV flies its slot's move at constant speed over the same slot, so between way-points UAV
+u is at q_u + s (p_u - q_u) for s in [0, 1] (q: this slot's way-points, p: the next ones as
+proposed). The distance of a pair (u, v) is then |c + s w| with c = q_u - q_v and
+w = (p_u - q_u) - (p_v - q_v), a quadratic in s:
+
+    |c + s w|^2 = d_min^2   <=>   |w|^2 s^2 + 2 (c . w) s + (|c|^2 - d_min^2) = 0.
+
+If the pair is separated at s = 0 (|c| >= d_min), it stays separated up to the smaller root s_1
+of that quadratic (none in [0, 1], or the pair moves apart: all of the slot). The guard flies
+every UAV the same fraction t = min over the pairs of s_1, clipped to [0, 1]: the way-points
+q + t (p - q). So every pair keeps d_min along the whole flight, between way-points included,
+whatever the proposed moves, by induction from separated starts (:func:`check_separated`).
+
+The common fraction is the simple rule that is provably safe: the team stops at the first contact
+a slot's moves would make (a UAV not involved stops short too). It never lengthens a move, so the
+speed limit holds; it can cost a UAV its arrival at its final point (the moves it lost), which the
+env reports as a terminal miss, as for a single UAV whose arrival guard is off. Rounding: the root
+is taken a relative 1e-9 short, then the new way-points are checked, and t halves until they are
+separated (t = 0, staying put, always is).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+__all__ = ["check_separated", "min_distance", "separated_moves"]
+
+#: Relative margin of the fraction t below the first contact (rounding of the root and of the
+#: way-points q + t (p - q)).
+CONTACT_MARGIN = 1e-9
+
+
+def min_distance(positions: np.ndarray) -> float:
+    """m: the smallest distance between two of the (U, 2) ``positions`` (inf for U < 2)."""
+    q = np.asarray(positions, dtype=float)
+    best = math.inf
+    for u in range(len(q)):
+        for v in range(u + 1, len(q)):
+            best = min(best, math.hypot(q[u, 0] - q[v, 0], q[u, 1] - q[v, 1]))
+    return best
+
+
+def check_separated(positions: np.ndarray, d_min: float, name: str) -> None:
+    """``ValueError`` naming ``name`` unless every two of the (U, 2) ``positions`` are at least
+    ``d_min`` m apart."""
+    q = np.asarray(positions, dtype=float)
+    for u in range(len(q)):
+        for v in range(u + 1, len(q)):
+            d = math.hypot(q[u, 0] - q[v, 0], q[u, 1] - q[v, 1])
+            if d < d_min:
+                raise ValueError(
+                    f"{name}: UAVs {u} and {v} are {d:.6g} m apart, closer than min_separation = "
+                    f"{d_min:g} m: give points at least min_separation apart"
+                )
+
+
+def _first_contact(c: np.ndarray, w: np.ndarray, d_min: float) -> float:
+    """The smallest s >= 0 with |c + s w| = d_min for a pair separated at s = 0 (inf: never)."""
+    a = float(w @ w)
+    b = float(c @ w)  # half the linear coefficient
+    cc = float(c @ c) - d_min * d_min
+    if a == 0.0 or b >= 0.0:  # not moving relative to each other, or moving apart
+        return math.inf
+    disc = b * b - a * cc
+    if disc < 0.0:  # the closest approach stays beyond d_min
+        return math.inf
+    # the smaller root (-b - sqrt(disc)) / a, written without cancellation (b < 0)
+    return cc / (-b + math.sqrt(disc)) if cc > 0.0 else 0.0
+
+
+def separated_moves(positions: np.ndarray, proposed: np.ndarray, d_min: float) -> tuple[float, np.ndarray]:
+    """(t, way-points): t in [0, 1], the fraction of the moves ``positions`` -> ``proposed`` (both
+    (U, 2) m) every UAV flies so that every pair stays ``d_min`` m apart all along (module
+    docstring), and the way-points it reaches, (U, 2) m (``proposed`` itself when t = 1).
+    ``positions`` must be separated (the guard keeps them so)."""
+    q = np.asarray(positions, dtype=float)
+    p = np.asarray(proposed, dtype=float)
+    moves = p - q
+    t = 1.0
+    for u in range(len(q)):
+        for v in range(u + 1, len(q)):
+            s = _first_contact(q[u] - q[v], moves[u] - moves[v], d_min)
+            if s <= 1.0:
+                t = min(t, s * (1.0 - CONTACT_MARGIN))
+    t = max(t, 0.0)
+    while True:  # rounding: back off to a separated point (t = 0, staying put, always is)
+        reached = p.copy() if t == 1.0 else q + t * moves
+        if t == 0.0 or min_distance(reached) >= d_min:
+            return t, reached
+        t = t / 2.0 if t > 1e-12 else 0.0

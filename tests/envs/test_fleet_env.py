@@ -1,0 +1,153 @@
+"""Several UAVs on PettingZoo's Parallel API (``envs.fleet``): the API and seeding checks, one
+UAV is the multi-node env bit for bit, the separation guard holds against adversarial actions,
+the team's rates are a schedule of the fleet model (at most its best schedule), and bad input
+is refused by name."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+pytest.importorskip("pettingzoo")
+from pettingzoo.test import parallel_api_test, parallel_seed_test  # noqa: E402
+
+import ios_uav_env  # noqa: E402
+from ios_uav_env import MultiNodeEnv, ScenarioConfig  # noqa: E402
+from ios_uav_env.model.fleet import fleet_maxmin  # noqa: E402
+from ios_uav_env.model.separation import min_distance  # noqa: E402
+
+# small surface and horizon: the physics of the paper's scenario at test speed
+CONFIG = ScenarioConfig(
+    ground_nodes=((-100.0, -20.0), (150.0, -60.0), (-40.0, 90.0)), ios_shape=(8, 6), T=24.0, v_max=50.0
+)
+
+
+@pytest.mark.parametrize("uavs", [1, 2, 3])
+def test_parallel_api_and_seeding(uavs):
+    parallel_api_test(ios_uav_env.parallel_env(CONFIG, uavs=uavs), num_cycles=40)
+    parallel_seed_test(lambda: ios_uav_env.parallel_env(CONFIG, uavs=uavs))
+
+
+def test_one_uav_is_the_multi_node_env_bit_for_bit():
+    fleet = ios_uav_env.parallel_env(CONFIG, uavs=1)
+    single = MultiNodeEnv(CONFIG)
+    obs, info = fleet.reset(seed=4)
+    want_obs, want_info = single.reset(seed=4)
+    rng = np.random.default_rng(4)
+    while True:
+        np.testing.assert_array_equal(obs["uav_0"], want_obs)
+        assert info["uav_0"].keys() == want_info.keys()
+        for key, value in want_info.items():
+            np.testing.assert_array_equal(info["uav_0"][key], value)
+        if not fleet.agents:
+            break
+        a = rng.uniform(-1.5, 1.5, 2 + CONFIG.K).astype(np.float32)
+        obs, reward, term, _, info = fleet.step({"uav_0": a})
+        want_obs, want_reward, want_term, _, want_info = single.step(a)
+        assert reward["uav_0"] == want_reward and term["uav_0"] == want_term
+    np.testing.assert_array_equal(fleet.state(), want_obs)
+
+
+def _fly(env, policy, seed=0):
+    obs, infos = env.reset(seed=seed)
+    closest, last = np.inf, infos
+    while env.agents:
+        obs, rewards, terms, truncs, last = env.step({a: policy(env, a, obs[a]) for a in env.agents})
+        closest = min(closest, min_distance(env.trajectories[:, -1]))
+        assert len(set(rewards.values())) == 1  # the team reward
+    return closest, last
+
+
+def test_separation_holds_against_uavs_steered_at_each_other():
+    starts = np.array([[-60.0, 0.0], [60.0, 0.0], [0.0, 70.0]])
+    finals = np.array([[60.0, 5.0], [-60.0, -5.0], [0.0, -70.0]])
+    env = ios_uav_env.parallel_env(CONFIG, uavs=3, starts=starts, finals=finals, min_separation=15.0)
+    centre = starts.mean(axis=0)
+
+    def charge(env, agent, obs):  # everyone flies at full speed to the same point, then at the others
+        u = int(agent.split("_")[1])
+        q = env.trajectories[u, -1]
+        aim = centre if len(env.trajectories[0]) < 5 else env.trajectories[(u + 1) % 3, -1]
+        move = (aim - q) / max(np.hypot(*(aim - q)), 1e-9)
+        return np.concatenate([move, np.zeros(CONFIG.K), [1.0]]).astype(np.float32)
+
+    closest, last = _fly(env, charge)
+    assert closest >= 15.0
+    flights = env.trajectories
+    for s in np.linspace(0.0, 1.0, 11):  # between way-points too
+        between = flights[:, :-1] + s * (flights[:, 1:] - flights[:, :-1])
+        assert min(min_distance(between[:, n]) for n in range(between.shape[1])) >= 15.0
+    assert all(np.all(np.hypot(*np.diff(f, axis=0).T) <= CONFIG.D * (1 + 1e-9)) for f in flights)
+
+
+def test_random_flights_arrive_and_score_below_their_best_schedule():
+    env = ios_uav_env.parallel_env(CONFIG, uavs=2)
+    closest, last = _fly(env, lambda env, a, o: env.action_space(a).sample(), seed=1)
+    assert closest >= env.min_separation
+    flights = env.trajectories
+    np.testing.assert_allclose(flights[:, -1], env.finals, atol=1e-9)  # the lanes never cross
+    info = last["uav_0"]
+    best = fleet_maxmin(CONFIG, flights)
+    assert info["best_schedule_rate"] == best.value
+    assert info["min_rate"] <= best.upper * (1 + 1e-9) and info["min_rate"] > 0.0
+    assert info["feasible"] and last["uav_1"]["feasible"]
+
+
+def test_the_team_served_rate_is_in_the_observation():
+    env = ios_uav_env.parallel_env(CONFIG, uavs=2)
+    obs, _ = env.reset(seed=0)
+    obs, _, _, _, infos = env.step({a: env.action_space(a).sample() for a in env.agents})
+    names = env.observation_names
+    served = [names.index(f"served_{k}") for k in range(CONFIG.K)]
+    for agent in env.possible_agents:
+        np.testing.assert_allclose(obs[agent][served], infos[agent]["node_rates"], rtol=1e-6)
+        assert env.observation_space(agent).contains(obs[agent])
+    assert obs["uav_0"][-2:] == pytest.approx(-obs["uav_1"][-2:])  # each sees the other
+
+
+@pytest.mark.parametrize(
+    ("kwargs", "message"),
+    [
+        ({"uavs": 0}, "uavs must be an integer >= 1"),
+        ({"uavs": 2, "starts": [[0.0, 0.0]]}, r"starts must be a finite \(2, 2\) array"),
+        ({"uavs": 2, "starts": [[-400.0, 20.0], [-400.0, 25.0]]}, "starts: UAVs 0 and 1 are 5 m apart"),
+        ({"uavs": 2, "min_separation": -1.0}, "min_separation must be a finite number >= 0"),
+        ({"uavs": 2, "channel": "rician"}, "channel='rician': several UAVs take channel='expected'"),
+        ({"uavs": 2, "arrival_guard": False}, "arrival_guard=False"),
+        ({"uavs": 2, "surface_sharpness": 0.0}, "surface_sharpness must be a finite number > 0"),
+    ],
+)
+def test_bad_arguments_are_refused_by_name(kwargs, message):
+    with pytest.raises(ValueError, match=message):
+        ios_uav_env.parallel_env(CONFIG, **kwargs)
+
+
+def test_bad_actions_are_refused_by_name():
+    env = ios_uav_env.parallel_env(CONFIG, uavs=2)
+    env.reset(seed=0)
+    good = {a: np.zeros(env.action_space(a).shape, np.float32) for a in env.agents}
+    with pytest.raises(ValueError, match="must map each live agent"):
+        env.step({"uav_0": good["uav_0"]})
+    with pytest.raises(ValueError, match=r"actions\['uav_1'\] must have shape \(6,\)"):
+        env.step({**good, "uav_1": np.zeros(3)})
+    with pytest.raises(ValueError, match=r"actions\['uav_0'\] must be finite"):
+        env.step({**good, "uav_0": np.full(6, np.nan)})
+
+
+def test_the_centralised_form_passes_gymnasiums_checker_and_is_the_fleet():
+    from gymnasium.utils.env_checker import check_env
+
+    from ios_uav_env.envs.fleet import FleetCentralEnv
+
+    check_env(FleetCentralEnv(CONFIG, uavs=2), skip_render_check=True)
+    central, fleet = FleetCentralEnv(CONFIG, uavs=2), ios_uav_env.parallel_env(CONFIG, uavs=2)
+    obs, _ = central.reset(seed=3)
+    fleet.reset(seed=3)
+    rng = np.random.default_rng(3)
+    done = False
+    while not done:
+        a = rng.uniform(-1, 1, central.action_space.shape).astype(np.float32)
+        obs, reward, done, _, _ = central.step(a)
+        _, rewards, _, _, _ = fleet.step({"uav_0": a[:6], "uav_1": a[6:]})
+        np.testing.assert_array_equal(obs, fleet.state())
+        assert reward == rewards["uav_0"]
