@@ -19,12 +19,13 @@ import gymnasium as gym
 import numpy as np
 from gymnasium import spaces
 
-from ios_uav_env.envs.multi import DEFAULT_NODES, MultiNodeEnv
+from ios_uav_env.envs.multi import MultiNodeEnv
 from ios_uav_env.envs.observation import pad
 from ios_uav_env.model.config import ScenarioConfig, as_config
-from ios_uav_env.model.fleet import fleet_maxmin, link_rates, slot_service
+from ios_uav_env.model.fleet import default_lanes, fleet_maxmin, link_rates, slot_service
 from ios_uav_env.model.guard import guarded_position
-from ios_uav_env.model.separation import check_separated, min_distance, separated_moves
+from ios_uav_env.model.scenarios import DEFAULT_NODES
+from ios_uav_env.model.separation import DEFAULT_SEPARATION, check_separated, min_distance, separated_moves
 
 try:
     from pettingzoo import ParallelEnv
@@ -33,12 +34,8 @@ except ImportError as exc:  # pragma: no cover - exercised in an env without the
         "ios_uav_env.parallel_env needs PettingZoo: pip install 'ios-uav-env[marl]' (pettingzoo>=1.24)"
     ) from exc
 
-__all__ = ["DEFAULT_SEPARATION", "FleetCentralEnv", "FleetParallelEnv", "default_points"]
+__all__ = ["FleetCentralEnv", "FleetParallelEnv"]
 
-#: m, the default minimum separation d_min between two UAVs.
-DEFAULT_SEPARATION = 10.0
-#: m, the default offset in y between consecutive UAVs' starts and final points.
-LANE_OFFSET = 80.0
 #: The guard keeps the UAVs this relative margin (plus 1e-9 m) beyond d_min, so that the
 #: kernels' rounding of a guarded move (~1e-13 m) never brings two of them within d_min.
 GUARD_MARGIN = 1e-9
@@ -48,14 +45,6 @@ OWN_KEYS = (
     "position", "slot", "distance_to_final", "shares", "reward_reach", "reward_terminal", "feasible",
     "worst_violation", "terminal_miss",
 )  # fmt: skip
-
-
-def default_points(config: ScenarioConfig, uavs: int) -> tuple[np.ndarray, np.ndarray]:
-    """(starts, finals), (U, 2) m each: UAV u flies the scenario's q0 -> qF moved ``LANE_OFFSET`` x u
-    m in -y (lanes of parallel flights)."""
-    shift = np.zeros((uavs, 2))
-    shift[:, 1] = -LANE_OFFSET * np.arange(uavs)
-    return np.asarray(config.q0) + shift, np.asarray(config.qF) + shift
 
 
 def _points(value: Any, uavs: int, name: str) -> np.ndarray:
@@ -116,11 +105,12 @@ class FleetParallelEnv(ParallelEnv):
     ## Arguments
 
     ``config`` (K ground nodes; default ``MultiNodeEnv``'s three), ``uavs`` (U >= 1, default 2),
-    ``starts`` / ``finals`` ((U, 2) m; default lanes ``LANE_OFFSET`` m apart), ``min_separation``
-    (m, default 10), ``surface_sharpness`` (> 0), ``best_schedule`` (compute the episode-end
-    schedule, default True), and ``MultiNodeEnv``'s keywords (``share_sharpness``, ``max_nodes``,
-    the env options). With U >= 2 the nodes are static and exactly known, the channel is
-    ``"expected"`` and the objective is the rate (refused otherwise, naming the field).
+    ``starts`` / ``finals`` ((U, 2) m; default ``model.fleet.default_lanes``), ``min_separation``
+    (m, default ``model.separation.DEFAULT_SEPARATION``), ``surface_sharpness`` (> 0),
+    ``best_schedule`` (compute the episode-end schedule, default True), and ``MultiNodeEnv``'s
+    keywords (``share_sharpness``, ``max_nodes``, the env options). With U >= 2 the nodes are
+    static and exactly known, the channel is ``"expected"`` and the objective is the rate
+    (refused otherwise, naming the field).
     """
 
     metadata = {"name": "ios_uav_fleet_v0", "render_modes": [], "is_parallelizable": True}
@@ -145,7 +135,7 @@ class FleetParallelEnv(ParallelEnv):
             raise ValueError(f"surface_sharpness must be a finite number > 0, got {surface_sharpness!r}")
         base = as_config(config if config is not None else ScenarioConfig(ground_nodes=DEFAULT_NODES))
         u_n = int(uavs)
-        lanes = default_points(base, u_n)
+        lanes = default_lanes(base, u_n)
         self.starts = _points(lanes[0] if starts is None else starts, u_n, "starts")
         self.finals = _points(lanes[1] if finals is None else finals, u_n, "finals")
         self.min_separation = float(min_separation)

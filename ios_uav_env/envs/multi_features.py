@@ -11,14 +11,11 @@ import numpy as np
 
 from ios_uav_env.envs.multi_kernels import soft_minimum
 from ios_uav_env.envs.multi_table import BASE_FEATURES, NODE_FEATURES, NODE_PEAK_FEATURES
+from ios_uav_env.model.scenarios import DEFAULT_NODES
 
 __all__ = [
     "BASE_FEATURES", "DEFAULT_NODES", "NODE_FEATURES", "NODE_PEAK_FEATURES", "rate_potential", "share_scores",
 ]  # fmt: skip
-
-#: The default multi-node scenario: three nodes, two on the reflecting side of the IOS and one
-#: across it, every other parameter at the paper's defaults.
-DEFAULT_NODES = ((-100.0, -20.0), (150.0, -60.0), (-40.0, 90.0))
 
 
 def rate_potential(rates: np.ndarray, beta: float = 0.0) -> float:

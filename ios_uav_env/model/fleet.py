@@ -28,7 +28,18 @@ from ios_uav_env.model import channel
 from ios_uav_env.model.config import ScenarioConfig
 from ios_uav_env.model.regions import Pricer, RegionSchedule, maxmin_regions
 
-__all__ = ["fleet_maxmin", "fleet_pricer", "link_rates", "slot_service"]
+__all__ = ["LANE_OFFSET", "default_lanes", "fleet_maxmin", "fleet_pricer", "link_rates", "slot_service"]
+
+#: m, the offset in y between consecutive UAVs' default lanes (:func:`default_lanes`).
+LANE_OFFSET = 80.0
+
+
+def default_lanes(config: ScenarioConfig, uavs: int) -> tuple[np.ndarray, np.ndarray]:
+    """(starts, finals), (U, 2) m each: UAV u flies the scenario's q0 -> qF moved
+    :data:`LANE_OFFSET` x u m in -y (parallel lanes; the fleet env's and planner's default)."""
+    shift = np.zeros((uavs, 2))
+    shift[:, 1] = -LANE_OFFSET * np.arange(uavs)
+    return np.asarray(config.q0, dtype=float) + shift, np.asarray(config.qF, dtype=float) + shift
 
 
 def link_rates(config: ScenarioConfig, positions: np.ndarray) -> np.ndarray:

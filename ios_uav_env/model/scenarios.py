@@ -245,6 +245,10 @@ def _draw(rng: np.random.Generator, r: ScenarioRanges) -> dict[str, Any]:
 #: The multi-node family (the ranges of ``ios_uav_env/IOSUAV-MultiNode-Random-v0``): G's ranges
 #: of the single-node family for every node, T in [100, 200] s, IOS or RIS, q0 and qF as in the
 #: single-node family.
+#: The default multi-node scenario: three nodes, two on the reflecting side of the IOS and one
+#: across it, every other parameter at the paper's defaults (the multi-node env's and the fleet's).
+DEFAULT_NODES = ((-100.0, -20.0), (150.0, -60.0), (-40.0, 90.0))
+
 MULTINODE_RANGES = ScenarioRanges(T=(100.0, 200.0))
 
 

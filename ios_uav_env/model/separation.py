@@ -27,8 +27,10 @@ import math
 
 import numpy as np
 
-__all__ = ["check_separated", "min_distance", "separated_moves"]
+__all__ = ["DEFAULT_SEPARATION", "check_separated", "flights_separated", "min_distance", "separated_moves"]
 
+#: m, the default minimum separation d_min (the fleet env's and planner's).
+DEFAULT_SEPARATION = 10.0
 #: Relative margin of the fraction t below the first contact (rounding of the root and of the
 #: way-points q + t (p - q)).
 CONTACT_MARGIN = 1e-9
@@ -92,3 +94,21 @@ def separated_moves(positions: np.ndarray, proposed: np.ndarray, d_min: float) -
         if t == 0.0 or min_distance(reached) >= d_min:
             return t, reached
         t = t / 2.0 if t > 1e-12 else 0.0
+
+
+def flights_separated(trajectories: np.ndarray, d_min: float) -> bool:
+    """Whether the U flights ``trajectories`` (U, N, 2) m, each flown at constant speed in every
+    slot, keep every pair at least ``d_min`` m apart all along (way-points and between)."""
+    t = np.asarray(trajectories, dtype=float)
+    if min_distance(t[:, 0]) < d_min:
+        return False
+    for n in range(t.shape[1] - 1):
+        q, p = t[:, n], t[:, n + 1]
+        moves = p - q
+        for u in range(len(q)):
+            for v in range(u + 1, len(q)):
+                if _first_contact(q[u] - q[v], moves[u] - moves[v], d_min) < 1.0:
+                    return False
+        if min_distance(p) < d_min:
+            return False
+    return True

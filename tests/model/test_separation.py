@@ -6,7 +6,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from ios_uav_env.model.separation import check_separated, min_distance, separated_moves
+from ios_uav_env.model.separation import check_separated, flights_separated, min_distance, separated_moves
 
 
 def _closest_along(q: np.ndarray, p: np.ndarray, samples: int = 2001) -> float:
@@ -58,3 +58,11 @@ def test_check_separated_names_the_field_and_the_pair():
     check_separated(np.array([[0.0, 0.0], [10.0, 0.0]]), 10.0, "starts")
     with pytest.raises(ValueError, match=r"starts: UAVs 0 and 1 are 5 m apart.*min_separation = 10"):
         check_separated(np.array([[0.0, 0.0], [5.0, 0.0]]), 10.0, "starts")
+
+
+def test_flights_separated_sees_between_the_way_points():
+    passing = np.array([[[0.0, 0.0], [40.0, 0.0]], [[40.0, 4.0], [0.0, 4.0]]])  # cross mid-slot
+    assert min_distance(passing[:, 0]) >= 10.0 and min_distance(passing[:, 1]) >= 10.0
+    assert not flights_separated(passing, 10.0)
+    lanes = np.array([[[0.0, 0.0], [40.0, 0.0]], [[0.0, 12.0], [40.0, 12.0]]])
+    assert flights_separated(lanes, 10.0) and not flights_separated(lanes, 12.5)

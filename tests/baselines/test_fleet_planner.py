@@ -1,0 +1,94 @@
+"""The fleet planner (``baselines.fleet``): its plan is feasible and separated, its bound is
+above every separated fleet of the same scenario (the plan, the straight lanes, the env's
+random flights), one UAV meets the single-UAV planners, and bad input is refused by name."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from baselines import fleet
+from baselines.dp_bound import solve_multinode
+from ios_uav_env import ScenarioConfig, check_trajectory
+from ios_uav_env.model.fleet import default_lanes, fleet_maxmin
+from ios_uav_env.model.separation import flights_separated
+
+CONFIG = ScenarioConfig(
+    ground_nodes=((-100.0, -20.0), (150.0, -60.0), (-40.0, 90.0)), ios_shape=(10, 6), T=40.0,
+    q0=(-200.0, 20.0), qF=(200.0, 20.0),
+)  # fmt: skip
+
+
+@pytest.fixture(scope="module")
+def two() -> fleet.FleetPlan:
+    return fleet.solve(CONFIG, uavs=2, resolution=10.0)
+
+
+def test_the_plan_is_feasible_separated_and_scored_by_the_one_scorer(two):
+    starts, finals = np.array(two.info["starts"]), np.array(two.info["finals"])
+    for c, flight in zip(fleet.fleet_configs(CONFIG, starts, finals), two.trajectories, strict=True):
+        assert check_trajectory(c, flight).feasible
+    assert flights_separated(two.trajectories, fleet.DEFAULT_SEPARATION)
+    assert two.value == fleet_maxmin(CONFIG, two.trajectories).value
+    assert two.value <= two.upper_bound and two.gap < 0.5
+
+
+def test_the_bound_is_above_every_separated_fleet(two):
+    starts, finals = default_lanes(CONFIG, 2)
+    straight = np.stack([np.linspace(s, f, CONFIG.N) for s, f in zip(starts, finals, strict=True)])
+    assert fleet_maxmin(CONFIG, straight).upper <= two.upper_bound
+    rng = np.random.default_rng(0)
+    for _ in range(3):  # random separated flights within the speed limit and arriving
+        wobble = straight.copy()
+        wobble[:, 1:-1, 1] += rng.uniform(-15.0, 15.0, (2, CONFIG.N - 2))
+        assert flights_separated(wobble, 10.0)
+        assert fleet_maxmin(CONFIG, wobble).upper <= two.upper_bound
+    # a second UAV helps: more than any one UAV's certified bound (the sum, not one term, bounds it)
+    one_bound = solve_multinode(CONFIG, resolution=10.0).info["upper_bound"]
+    assert two.value > one_bound
+
+
+def test_one_uav_meets_the_single_uav_planners():
+    one = fleet.solve(CONFIG, uavs=1, resolution=10.0)
+    dp = solve_multinode(CONFIG, resolution=10.0)
+    assert one.value >= dp.mean_rate * (1 - 0.02)  # the tour competes in both; the DP's grid plans too
+    assert one.upper_bound >= dp.mean_rate and one.upper_bound == pytest.approx(
+        dp.info["upper_bound"], rel=2e-3
+    )
+
+
+@pytest.mark.parametrize(
+    ("kwargs", "message"),
+    [
+        ({"uavs": 0}, "uavs must be an integer >= 1"),
+        ({"starts": [[0.0, 0.0]]}, r"starts must be a finite \(2, 2\) array"),
+        ({"finals": [[200.0, 20.0], [200.0, 25.0]]}, "finals: UAVs 0 and 1 are 5 m apart"),
+        ({"min_separation": float("nan")}, "min_separation must be a finite number >= 0"),
+        ({"finals": [[200.0, 20.0], [2000.0, 25.0]]}, r"starts\[1\] / finals\[1\]"),
+    ],
+)
+def test_bad_input_is_refused_by_name(kwargs, message):
+    with pytest.raises(ValueError, match=message):
+        fleet.solve(CONFIG, **kwargs)
+
+
+def test_another_problem_is_refused():
+    with pytest.raises(ValueError, match="objective='rate', motion=None"):
+        fleet.solve(CONFIG.replace(objective="energy_efficiency"))
+
+
+def test_a_fleet_that_would_meet_is_never_returned(monkeypatch):
+    """Every candidate meets at the surface's centre: each is feasible alone, none is separated."""
+
+    def to_the_centre(config, nodes):
+        legs = [
+            np.linspace(config.q0, (0.0, 0.0), 11),
+            np.zeros((18, 2)),
+            np.linspace((0.0, 0.0), config.qF, 11),
+        ]
+        return np.concatenate(legs)
+
+    monkeypatch.setattr(fleet, "_tour_flight", to_the_centre)
+    monkeypatch.setattr(fleet, "_dual_flights", lambda *args: None)
+    with pytest.raises(ValueError, match="no candidate fleet keeps min_separation = 10 m all along"):
+        fleet.solve(CONFIG, uavs=2, resolution=10.0, max_cuts=2)
