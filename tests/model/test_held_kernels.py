@@ -11,7 +11,7 @@ import pytest
 
 import ios_uav_env as ie
 from ios_uav_env.envs.multi import MultiNodeEnv
-from ios_uav_env.model import channel, surface
+from ios_uav_env.model import channel, rate_kernels, surface
 from ios_uav_env.model.config import ScenarioConfig
 from ios_uav_env.model.motion import node_paths
 from ios_uav_env.model.schedule import reported_maxmin_rate
@@ -30,7 +30,7 @@ def projections(monkeypatch):
         calls.append(1)
         return real(*args)
 
-    monkeypatch.setattr(channel, "ground_weights", counted)
+    monkeypatch.setattr(rate_kernels, "ground_weights", counted)
     return calls
 
 
