@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -46,6 +46,9 @@ from ios_uav_env.model.channel import PARAMS
 from ios_uav_env.model.config import ScenarioConfig
 from ios_uav_env.model.maxmin_paths import path_values
 from ios_uav_env.model.node_kernels import node_kernels
+
+if TYPE_CHECKING:
+    from ios_uav_env.envs.knowledge import NodesTrack
 
 
 def move_norms(actions: np.ndarray) -> np.ndarray:
@@ -183,8 +186,9 @@ def episode_best_values(rows: NodeRows, ended: np.ndarray, envs: Sequence[Any],
     """``info["best_schedule_rate"]`` of the rows ``ended`` (their episodes just ended; ``envs[j]``
     the env of row ``ended[j]``): static nodes by :meth:`NodeRows.best_values` (compiled, all
     rows at once, no scipy); moving nodes, and a row whose certificate failed, by
-    ``schedule.reported_maxmin_rate`` of the env's flight on its true paths (``maxmin_rate``:
-    NaN where that falls back to HiGHS without scipy, ``schedule.scipy_or_warn``)."""
+    ``schedule.reported_maxmin_rate`` of the env's flight on its true paths, with the kernels its
+    node track holds (:func:`track_kernels`; ``maxmin_rate``: NaN where that falls back to HiGHS
+    without scipy, ``schedule.scipy_or_warn``)."""
     from ios_uav_env.model.schedule import reported_maxmin_rate
 
     values = np.full(len(ended), np.nan)
@@ -194,5 +198,15 @@ def episode_best_values(rows: NodeRows, ended: np.ndarray, envs: Sequence[Any],
         values[static], ok[static] = rows.best_values(ended[static], num_threads)
     for j in np.flatnonzero(~ok):
         i, env = ended[j], envs[j]
-        values[j] = reported_maxmin_rate(env.config, rows.path[i, : env.config.N], env.truth)
+        path = rows.path[i, : env.config.N]
+        values[j] = reported_maxmin_rate(env.config, path, env.truth, track_kernels(env.track))
     return values
+
+
+def track_kernels(track: NodesTrack | None) -> list[tuple[np.ndarray, np.ndarray]] | None:
+    """Each node's rate kernels along its true path as ``track`` holds them (``NodesTrack.held``:
+    views of its arrays, each node's own surface width), for ``schedule.node_rates``' ``kernels``;
+    None without a track or held kernels (the score then builds them)."""
+    if track is None or not track.held:
+        return None
+    return [(held.nodes, held.params) for held in track.held]
