@@ -40,7 +40,7 @@ MULTI_NODE = (
         "nodes", "params",  # the nodes' rate kernels (rate_kernels' layout), passed whole
         "normals", "path", "targets",  # (re, im) draws and (x, y) pairs
         "rows", "moves", "active", "norms", "reward", "terminated", "stored", "loaded",  # per row
-        "ended", "envs", "ok", "values",  # episode_best_values' per ended row
+        "ended", "envs", "ok", "values", "bare",  # episode_best_values' per ended row, NodeRows.load's
         "grown", "shape",  # NodeRows._grow's
     },
 )  # fmt: skip

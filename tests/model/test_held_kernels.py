@@ -1,7 +1,9 @@
 """``channel.hold_path_kernels``: while its handle lives, ``path_kernels`` of the same config and
 path returns copies of the held kernels instead of projecting the surface again (the multi-node
-env's score of an episode finds its track's kernels), the same arrays bit for bit. The batched env's score
-takes the track's kernels as they are (``schedule.node_rates``' ``kernels``)."""
+env's score of an episode finds its track's kernels), the same arrays bit for bit. A moving-node
+episode projects the surface once per node at reset (its track's kernels; no static kernels that
+the track overwrites), and the batched env's score takes the track's kernels as they are
+(``schedule.node_rates``' ``kernels``)."""
 
 from __future__ import annotations
 
@@ -16,6 +18,7 @@ from ios_uav_env.envs.multi_vector import MultiNodeVectorEnv
 from ios_uav_env.model import channel, rate_kernels, schedule, surface
 from ios_uav_env.model.config import ScenarioConfig
 from ios_uav_env.model.motion import node_paths
+from ios_uav_env.model.scenarios import ScenarioRanges
 from ios_uav_env.model.schedule import node_rates, reported_maxmin_rate
 
 WALK = {"kind": "gauss_markov"}
@@ -73,22 +76,37 @@ def test_held_kernels_are_returned_as_copies_while_their_handle_lives(projection
 def test_the_episode_score_reuses_the_tracks_kernels(projections):
     env = MultiNodeEnv(CONFIG, knowledge="reports")
     env.reset(seed=3)
-    # the scenario's static node kernels (every node from one projection: model.node_kernels),
-    # then the track's kernels, one projection per node
-    assert len(projections) == 1 + CONFIG.K
+    assert len(projections) == CONFIG.K  # the track's kernels, one projection per node, and no other
     actions = np.random.default_rng(3).uniform(-1.0, 1.0, (CONFIG.N, 2 + CONFIG.K))
     terminated, t = False, 0
     while not terminated:
         _, _, terminated, _, info = env.step(actions[t])
         t += 1
-    assert len(projections) == 1 + CONFIG.K  # the episode's best schedule projected nothing new
+    assert len(projections) == CONFIG.K  # the episode's best schedule projected nothing new
     kept = env.track.held
     env.track.held = ()  # (drop the handles: the score then projects the paths again)
     del kept
     gc.collect()
     fresh = reported_maxmin_rate(env.config, env.trajectory, env.truth)
-    assert len(projections) == 1 + 2 * CONFIG.K
+    assert len(projections) == 2 * CONFIG.K
     assert info["best_schedule_rate"] == fresh  # bit for bit
+
+
+def test_a_moving_episode_projects_once_per_node_at_each_reset(projections):
+    """Every reset of moving nodes on a new scenario (a drawn one, or a new config pinned) builds
+    its track's kernels only: K projections, in the single env and in each row of the batch."""
+    ranges = ScenarioRanges(T=(40.0, 60.0), base=ScenarioConfig(motion=WALK))
+    env = MultiNodeEnv(random_nodes=(2, 4), ranges=ranges, knowledge="reports")
+    for seed in range(3):
+        env.reset(seed=seed)
+        assert len(projections) == env.config.K
+        projections.clear()
+    env.reset(options={"config": CONFIG.replace(T=50.0)})
+    assert len(projections) == CONFIG.K
+    projections.clear()
+    vec = MultiNodeVectorEnv(3, random_nodes=(2, 4), ranges=ranges, knowledge="rates")
+    vec.reset(seed=4)
+    assert len(projections) == sum(cfg.K for cfg in vec.configs)
 
 
 def test_the_batched_score_takes_the_tracks_kernels(projections, built):
@@ -97,11 +115,11 @@ def test_the_batched_score_takes_the_tracks_kernels(projections, built):
     bit for bit to the score that builds them."""
     vec = MultiNodeVectorEnv(2, CONFIG, knowledge="reports")
     vec.reset(seed=5)
-    assert len(projections) == 2 * (1 + CONFIG.K)
+    assert len(projections) == 2 * CONFIG.K
     rng = np.random.default_rng(5)
     for _ in range(CONFIG.N - 1):
         _, _, terminated, _, info = vec.step(rng.uniform(-1.0, 1.0, vec.action_space.shape))
-    assert terminated.all() and not built and len(projections) == 2 * (1 + CONFIG.K)
+    assert terminated.all() and not built and len(projections) == 2 * CONFIG.K
     for i, env in enumerate(vec.envs):
         env.track.held = ()  # (no handles: the score below builds the kernels again)
         fresh = reported_maxmin_rate(env.config, vec.trajectories[i], env.truth)
