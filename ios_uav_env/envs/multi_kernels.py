@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -45,7 +45,10 @@ from ios_uav_env.jit import run_batched
 from ios_uav_env.model.channel import PARAMS
 from ios_uav_env.model.config import ScenarioConfig
 from ios_uav_env.model.maxmin_paths import path_values
-from ios_uav_env.model.node_kernels import node_kernels
+from ios_uav_env.model.node_kernels import kernel_width, node_kernels
+
+if TYPE_CHECKING:
+    from ios_uav_env.envs.knowledge import NodesTrack
 
 
 def move_norms(actions: np.ndarray) -> np.ndarray:
@@ -84,6 +87,8 @@ class NodeRows:
         # not flown by fly(), which skips slots): the episode's best schedule needs no new rates
         self.rate_path, self.stored = np.zeros((b, 1, k)), np.zeros(b, dtype=np.bool_)
         self.loaded: list[ScenarioConfig | None] = [None] * b
+        # the rows whose scenario was loaded without its static node kernels (load(kernels=False))
+        self.bare = np.zeros(b, dtype=np.bool_)
 
     def _grow(self, name: str, axis: int, size: int, fill: tuple[float, ...] = (0.0,)) -> None:
         """Grow array ``self.<name>`` along ``axis`` to ``size``; new entries 0, or ``fill`` over the
@@ -97,21 +102,25 @@ class NodeRows:
         grown[tuple(slice(0, n) for n in old.shape)] = old
         setattr(self, name, grown)
 
-    def load(self, i: int, cfg: ScenarioConfig) -> None:
+    def load(self, i: int, cfg: ScenarioConfig, kernels: bool = True) -> None:
         """Copy the scenario ``cfg`` into row ``i`` (unless it is already there) and put the UAV at q0
-        (the energy reward's lambda_ref: :meth:`set_reference`)."""
-        if self.loaded[i] is not cfg:
-            nodes, params = node_kernels(cfg)  # each node's rate kernel, no config per node
-            width = nodes.shape[2]
+        (the energy reward's lambda_ref: :meth:`set_reference`). ``kernels=False`` leaves the row's
+        node kernels to the caller, who puts its own at once (moving nodes: the track's of slot 1):
+        the arrays still grow to the scenario's surface width, but no surface is projected."""
+        if self.loaded[i] is not cfg or (kernels and self.bare[i]):
+            width = kernel_width(cfg)
             if width > self.nodes.shape[3]:
                 self._grow("nodes", 3, width, fill=(0.0, 1.0, 0.0))  # padded nodes: zero weight
             if cfg.N > self.path.shape[1]:
                 self._grow("path", 1, cfg.N)
                 self._grow("share_path", 1, cfg.N)
                 self._grow("rate_path", 1, cfg.N)
-            self.nodes[i, : cfg.K, :, :width] = nodes
-            self.nodes[i, : cfg.K, :, width:] = ((0.0,), (1.0,), (0.0,))
-            self.params[i, : cfg.K] = params
+            if kernels:
+                nodes, params = node_kernels(cfg)  # each node's rate kernel, no config per node
+                self.nodes[i, : cfg.K, :, :width] = nodes
+                self.nodes[i, : cfg.K, :, width:] = ((0.0,), (1.0,), (0.0,))
+                self.params[i, : cfg.K] = params
+            self.bare[i] = not kernels
             length_scale, sharpness, softmin_beta, peak_hint, clip = self.settings
             self.points[i, : cfg.K] = node_points(cfg, node_peaks(cfg) if peak_hint else None)
             self.episode[i] = episode_row(cfg, length_scale, sharpness, softmin_beta, peak_hint, 0.0, clip)
@@ -183,8 +192,9 @@ def episode_best_values(rows: NodeRows, ended: np.ndarray, envs: Sequence[Any],
     """``info["best_schedule_rate"]`` of the rows ``ended`` (their episodes just ended; ``envs[j]``
     the env of row ``ended[j]``): static nodes by :meth:`NodeRows.best_values` (compiled, all
     rows at once, no scipy); moving nodes, and a row whose certificate failed, by
-    ``schedule.reported_maxmin_rate`` of the env's flight on its true paths (``maxmin_rate``:
-    NaN where that falls back to HiGHS without scipy, ``schedule.scipy_or_warn``)."""
+    ``schedule.reported_maxmin_rate`` of the env's flight on its true paths, with the kernels its
+    node track holds (:func:`track_kernels`; ``maxmin_rate``: NaN where that falls back to HiGHS
+    without scipy, ``schedule.scipy_or_warn``)."""
     from ios_uav_env.model.schedule import reported_maxmin_rate
 
     values = np.full(len(ended), np.nan)
@@ -194,5 +204,15 @@ def episode_best_values(rows: NodeRows, ended: np.ndarray, envs: Sequence[Any],
         values[static], ok[static] = rows.best_values(ended[static], num_threads)
     for j in np.flatnonzero(~ok):
         i, env = ended[j], envs[j]
-        values[j] = reported_maxmin_rate(env.config, rows.path[i, : env.config.N], env.truth)
+        path = rows.path[i, : env.config.N]
+        values[j] = reported_maxmin_rate(env.config, path, env.truth, track_kernels(env.track))
     return values
+
+
+def track_kernels(track: NodesTrack | None) -> list[tuple[np.ndarray, np.ndarray]] | None:
+    """Each node's rate kernels along its true path as ``track`` holds them (``NodesTrack.held``:
+    views of its arrays, each node's own surface width), for ``schedule.node_rates``' ``kernels``;
+    None without a track or held kernels (the score then builds them)."""
+    if track is None or not track.held:
+        return None
+    return [(held.nodes, held.params) for held in track.held]

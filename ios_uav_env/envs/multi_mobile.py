@@ -55,8 +55,9 @@ class MobileNodes:
     def load_row(self, rows: NodeRows, i: int) -> None:
         """Put the episode just begun (``begin_episode``) in row ``i`` of ``rows``: its scenario,
         the node paths and slot 1's kernels (moving or roughly known nodes: drawn from
-        ``np_random``), the episode's lambda_ref (energy objective) and slot 1's fading (Rician)."""
-        rows.load(i, self.config)
+        ``np_random``), the episode's lambda_ref (energy objective) and slot 1's fading (Rician).
+        Moving or roughly known nodes: the row gets its track's kernels only (no static ones first)."""
+        rows.load(i, self.config, kernels=not self.mobile)
         if self.mobile:
             self._start_track(rows, i)
         self._prepare(rows, i)

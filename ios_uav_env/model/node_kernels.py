@@ -46,6 +46,12 @@ def kernel_config(config: ScenarioConfig) -> ScenarioConfig:
     return held
 
 
+def kernel_width(config: ScenarioConfig) -> int:
+    """Q, the surface nodes of each node's rate kernel of ``config`` (the width of
+    :func:`node_kernels`' and of its nodes' ``path_kernels``), without projecting the surface."""
+    return int(rate_kernel(kernel_config(config)).nodes.shape[1])
+
+
 def node_kernels(config: ScenarioConfig) -> tuple[np.ndarray, np.ndarray]:
     """(``nodes`` (K, 3, Q), ``params`` (K, P)): row k the ``RateKernel.nodes`` and ``.params`` of
     ``rate_kernel(config.node_config(k))``, bit for bit (``channel.path_kernels`` of

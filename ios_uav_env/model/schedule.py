@@ -1,84 +1,52 @@
-r"""Several ground nodes: TDMA shares and the max-min average rate (the scorer for K >= 1).
+r"""Several ground nodes: their rates along a flight, TDMA shares and the max-min average rate
+(the scorer for K >= 1).
 
 Contract (model.md, "Several ground nodes"): node k's rate in slot n is the single-node
 expected-gain rate r_k(q[n]) with G = w_k (``config.node_config(k)``: phases (13) and the
-reflect/transmit side for node k); slot n is shared by TDMA, alpha_k[n] >= 0,
-sum_k alpha_k[n] <= 1; node k's average rate is R_k = (1/N) sum_n alpha_k[n] r_k(q[n]) and
-the score of a trajectory is its best schedule,
+reflect/transmit side for node k; :func:`node_rates`, on moving nodes' paths too); slot n is
+shared by TDMA, alpha_k[n] >= 0, sum_k alpha_k[n] <= 1; node k's average rate is
+R_k = (1/N) sum_n alpha_k[n] r_k(q[n]) and the score of a trajectory is its best schedule,
 
     V(q) = max_alpha min_k R_k                                                        (P)
 
-a linear programme in (alpha, t): max t s.t. (1/N) sum_n alpha_k[n] r_k[n] >= t for all k,
-sum_k alpha_k[n] <= 1, alpha >= 0. Its dual is
-
-    V(q) = min_{w in simplex} g(w),   g(w) = (1/N) sum_n max_k w_k r_k[n]             (D)
-
-(weak duality is one line: for feasible alpha, min_k R_k <= sum_k w_k R_k
-= (1/N) sum_n sum_k alpha_k[n] w_k r_k[n] <= g(w)).
+a linear programme whose dual (D) certifies it: :mod:`ios_uav_env.model.schedule_lp` (the LP,
+its dual, the certificate and how every scale is handled; its names are importable from here
+too).
 
 **The scorer's solver.** :func:`schedule` (and so :func:`maxmin_rate`, ``score_plan`` and the
 multi-node envs' ``best_schedule_rate``) takes :func:`certified_schedule`: for 2 <= K <= 8 the
 exact column generation of :mod:`ios_uav_env.model.maxmin` (compiled, no LP solver), certified
-to ``maxmin.FAST_TOL`` relative; HiGHS below for more nodes or when that certificate fails.
-
-**Certified value.** :func:`maxmin_schedule` solves (P) with HiGHS, cleans the shares
-(clipped to [0, 1], each slot's column scaled down to sum <= 1) and computes the primal
-value min_k R_k of those shares exactly; it takes the dual weights w of the K rate rows
-(projected on the simplex) and computes g(w). By weak duality primal <= V <= g(w); the two
-are independent computations and must agree to ``CERTIFY_TOL`` (else ``RuntimeError``).
-The value returned is the primal one (achieved by the returned shares).
-
-**Any scale.** HiGHS's tolerances are absolute and it drops matrix entries below 1e-9, so
-far nodes (rates of 1e-10 bps/Hz and less) need care; every step below is relative to
-B = min_k B_k, B_k = R_k with every free slot given to node k (V <= B <= K V):
-
-- B = 0: some node can never be served, V = 0 (certified by w on that node, g(w) = 0).
-- B < ``SCALE_BELOW``: the LP is solved on the rates divided by the power of two that brings
-  B into [1/2, 1) (an exact scaling), and certified in those units: the tolerance is
-  ``CERTIFY_TOL`` x max(scale, value) (scale 1 above ``SCALE_BELOW``: the rates as given).
-- A node with B < ``FREE_RATIO`` x B_k is served outside the LP: the same share of every free
-  slot, just enough for R_k >= B >= V (at most ``FREE_RATIO`` of the slot; the LP shares the
-  rest), which costs the others at most a fraction ``FREE_RATIO`` per such node.
-- A node left with less than ``SMALL_SHARE`` of the free time, whose LP shares are at the
-  level of the solver's tolerances, is topped up to the smallest R_k of the other nodes
-  (its shares scaled, the slots' columns scaled back to sum <= 1) when that raises the value.
-
-**Continuation.** ``maxmin_schedule(rates, fixed)`` keeps the shares ``fixed`` (K, n0) of the
-first n0 slots (already served) and chooses the rest: the same LP with the fixed slots' rates
-P_k = (1/N) sum_{n < n0} alpha_k[n] r_k[n] on the right-hand side, certified by
-g(w) = sum_k w_k P_k + (1/N) sum_{n >= n0} max_k w_k r_k[n] (``dual_value(rates, w, fixed)``).
-The imitation expert labels shares with it (``agents.expert.hindsight_shares``).
+to ``maxmin.FAST_TOL`` relative; HiGHS (``schedule_lp.maxmin_schedule``) below for more nodes or
+when that certificate fails.
 
 For K = 1 nothing is solved: the shares are all ones and the score is
 :func:`ios_uav_env.average_rate` (no scipy needed). scipy (and HiGHS, ``ios_uav_env.model.lp``) is
-imported only by :func:`maxmin_schedule` for K > 1: the certified column generation needs none.
+imported only by ``maxmin_schedule`` for K > 1: the certified column generation needs none.
 """
 
 from __future__ import annotations
 
-import math
-from dataclasses import dataclass
+from collections.abc import Sequence
 
 import numpy as np
 
-from ios_uav_env.model.channel import as_positions, path_kernels, rates_of_rows, slot_rates
+from ios_uav_env.model.channel import slot_rates
 from ios_uav_env.model.config import ScenarioConfig
-from ios_uav_env.model.lp import solve_lp
 from ios_uav_env.model.maxmin import MAX_NODES, fast_schedule
 from ios_uav_env.model.motion import check_paths, is_static
+from ios_uav_env.model.rate_kernels import PARAMS, as_positions, path_kernels, rates_of_rows
+from ios_uav_env.model.schedule_lp import (
+    CERTIFY_TOL,
+    FREE_RATIO,
+    SCALE_BELOW,
+    SHARE_TOL,
+    SMALL_SHARE,
+    Schedule,
+    check_rates,
+    dual_value,
+    maxmin_schedule,
+)
 from ios_uav_env.model.trajectory import as_trajectory, average_rate
-
-#: Largest |primal - dual| a certified score may have, in units of max(scale, value) (bps/Hz;
-#: scale: 1, or the power of two of a rate matrix scaled below ``SCALE_BELOW``).
-CERTIFY_TOL = 1e-9
-#: Below this bound B (bps/Hz) the LP is solved on the rates scaled by a power of two.
-SCALE_BELOW = 2.0**-16
-#: A node whose bound B_k is above B / ``FREE_RATIO`` is served outside the LP.
-FREE_RATIO = 1e-12
-#: A node with less than this fraction of the free time has its LP shares topped up.
-SMALL_SHARE = 1e-6
-#: Column sums of given shares may exceed 1 by this much (rounding).
-SHARE_TOL = 1e-9
 
 __all__ = [
     "CERTIFY_TOL",
@@ -96,179 +64,59 @@ __all__ = [
     "scheduled_rates",
 ]
 
-
-@dataclass(frozen=True)
-class Schedule:
-    """The best TDMA schedule of a rate matrix, with its duality certificate."""
-
-    shares: np.ndarray  # (K, N) alpha_k[n], >= 0, column sums <= 1
-    weights: np.ndarray  # (K,) dual weights w on the simplex
-    value: float  # min_k R_k of ``shares`` (the primal value; bps/Hz)
-    dual_value: float  # g(weights) >= V >= value
-    node_rates: np.ndarray  # (K,) R_k of ``shares``
-
-    @property
-    def gap(self) -> float:
-        """dual_value - value (>= 0 up to rounding)."""
-        return self.dual_value - self.value
+#: Each node's rate kernels along its path: entry k is node k's (``nodes`` (n, 3, Q), ``params``
+#: (n, len(PARAMS))), as ``rate_kernels.path_kernels(config.node_config(k), paths[:, k])`` returns
+#: them (e.g. the views a moving-node episode's track holds, ``knowledge.NodesTrack.held``).
+PathKernels = Sequence[tuple[np.ndarray, np.ndarray]]
 
 
-def node_rates(config: ScenarioConfig, positions: np.ndarray, paths: np.ndarray | None = None) -> np.ndarray:
+def node_rates(
+    config: ScenarioConfig,
+    positions: np.ndarray,
+    paths: np.ndarray | None = None,
+    kernels: PathKernels | None = None,
+) -> np.ndarray:
     """r_k(q) (bps/Hz) of every node k at every position, shape (K, n) (``slot_rates`` per node).
 
     With ``paths`` (n, K, 2) m (moving nodes, ``ios_uav_env.model.motion``) position i is slot i
     and node k's rate there is r_k(q[i]; w_k[i]), the single-node model with G = w_k[i]
     (``motion.node_config_at``). Paths with every node at its configured position (the static
-    model) give the arrays of ``paths=None`` bit for bit.
+    model) give the arrays of ``paths=None`` bit for bit. ``kernels`` (``PathKernels``), the
+    kernels of moving ``paths`` that the caller already has, are used instead of building them
+    again (the same rates bit for bit; only their shapes are checked).
     """
     q = as_positions(positions)
     if paths is not None:
         w = check_paths(config, paths, len(q))
         if not is_static(config, w):
-            return _moving_rates(config, q, w)
+            return _moving_rates(config, q, w, kernels)
     return np.stack([slot_rates(config.node_config(k), q) for k in range(config.K)])
 
 
-def _moving_rates(config: ScenarioConfig, q: np.ndarray, w: np.ndarray) -> np.ndarray:
-    """(K, n): r_k(q[i]; w_k[i]), slot i under node k's kernel at w_k[i] (``path_kernels``: one
-    surface projection for every slot, no config per position; the compiled sum of
-    ``rates_of_rows``, equal to ``slot_rates`` of ``node_config_at`` to rounding)."""
+def _moving_rates(
+    config: ScenarioConfig, q: np.ndarray, w: np.ndarray, kernels: PathKernels | None = None
+) -> np.ndarray:
+    """(K, n): r_k(q[i]; w_k[i]), slot i under node k's kernel at w_k[i]: ``kernels[k]`` when
+    given, else ``path_kernels`` (one surface projection for every slot, no config per position);
+    the compiled sum of ``rates_of_rows``, equal to ``slot_rates`` of ``node_config_at`` to rounding."""
+    if kernels is not None and len(kernels) != config.K:
+        raise ValueError(
+            f"kernels must hold one (nodes, params) pair per node (K = {config.K}), got {len(kernels)}"
+        )
     out = np.empty((config.K, len(q)))
     points = np.ascontiguousarray(q, dtype=np.float64)
     for k in range(config.K):
-        nodes, params = path_kernels(config.node_config(k), w[:, k])
+        if kernels is None:
+            nodes, params = path_kernels(config.node_config(k), w[:, k])
+        else:  # (C-contiguous float64, as path_kernels returns them: the same compiled sum)
+            nodes, params = (np.ascontiguousarray(a, dtype=np.float64) for a in kernels[k])
+            if nodes.ndim != 3 or nodes.shape[:2] != (len(q), 3) or params.shape != (len(q), len(PARAMS)):
+                raise ValueError(
+                    f"node {k}'s kernels must have shapes ({len(q)}, 3, Q) and ({len(q)}, {len(PARAMS)}), "
+                    f"got {nodes.shape} and {params.shape}"
+                )
         out[k] = rates_of_rows(points, nodes, params)
     return out
-
-
-def dual_value(rates: np.ndarray, weights: np.ndarray, fixed: np.ndarray | None = None) -> float:
-    """g(w) = (1/N) sum_n max_k w_k r_k[n] for a (K, N) rate matrix: >= V for every w in the
-    simplex (weak duality; see the module docstring). ``weights`` must be >= 0 and sum to 1.
-    With ``fixed`` shares (K, n0) of the first n0 slots those slots add (1/N) sum_k w_k alpha_k[n]
-    r_k[n] instead of the max: the bound of :func:`maxmin_schedule` with ``fixed``."""
-    r = np.asarray(rates, dtype=float)
-    w = np.asarray(weights, dtype=float)
-    if r.ndim != 2 or w.shape != (r.shape[0],):
-        raise ValueError(f"weights must have shape (K,) = ({r.shape[0]},), got {w.shape}")
-    if not (np.all(np.isfinite(w)) and np.all(w >= 0) and abs(w.sum() - 1.0) <= 1e-12):
-        raise ValueError(f"weights must be >= 0 and sum to 1 (the simplex), got {w!r}")
-    a = _check_fixed(r, fixed)
-    n0 = a.shape[1]
-    past = np.sum(w[:, None] * a * r[:, :n0])
-    return float((past + np.sum(np.max(w[:, None] * r[:, n0:], axis=0))) / r.shape[1])
-
-
-def _check_fixed(r: np.ndarray, fixed: np.ndarray | None) -> np.ndarray:
-    """``fixed`` shares as a (K, n0) array, n0 < N (``ValueError`` naming what is wrong)."""
-    if fixed is None:
-        return np.zeros((r.shape[0], 0))
-    a = np.asarray(fixed, dtype=float)
-    if a.ndim != 2 or a.shape[0] != r.shape[0] or a.shape[1] >= r.shape[1]:
-        raise ValueError(
-            f"fixed must be the shares (K, n0) of the first n0 < N slots (K = {r.shape[0]}, "
-            f"N = {r.shape[1]}), got shape {a.shape}"
-        )
-    if not (np.all(np.isfinite(a)) and np.all(a >= 0) and np.all(a.sum(axis=0) <= 1.0 + SHARE_TOL)):
-        raise ValueError("fixed shares must be finite, >= 0, with column sums <= 1")
-    return a
-
-
-def _check_rates(rates: np.ndarray) -> np.ndarray:
-    r = np.asarray(rates, dtype=float)
-    if r.ndim != 2 or r.shape[0] < 1 or r.shape[1] < 1:
-        raise ValueError(f"rates must be a (K, N) array with K, N >= 1, got shape {r.shape}")
-    if not (np.all(np.isfinite(r)) and np.all(r >= 0)):
-        raise ValueError("rates must be finite and >= 0")
-    return r
-
-
-def maxmin_schedule(rates: np.ndarray, fixed: np.ndarray | None = None) -> Schedule:
-    """The best schedule (P) of a (K, N) rate matrix, certified by its dual (D).
-
-    With ``fixed`` (K, n0) the first n0 slots keep those shares (already served) and only the
-    later ones are chosen: the best continuation, max min_k R_k over the whole horizon, with
-    the bound :func:`dual_value` (``fixed``) as its certificate; ``shares`` holds both parts.
-
-    Raises ``RuntimeError`` when the LP fails or its primal and dual values differ by more
-    than ``CERTIFY_TOL`` (times max(scale, value): the module docstring, "Any scale").
-    """
-    r = _check_rates(rates)
-    a = _check_fixed(r, fixed)
-    k_nodes, n = r.shape
-    n0 = a.shape[1]
-    if k_nodes == 1:
-        shares = np.ones_like(r)
-        shares[:, :n0] = a
-        value = float(np.mean(shares[0] * r[0]))
-        return Schedule(shares, np.ones(1), value, value, np.array([value]))
-    from scipy.sparse import csc_array
-
-    free, m = r[:, n0:], n - n0
-    past = np.sum(a * r[:, :n0], axis=1) / n  # (K,) served in the fixed slots
-    later = np.sum(free, axis=1) / n  # (K,) R_k - past_k with every free slot given to node k
-    reach = past + later  # (K,) B_k >= R_k of any schedule
-    low = int(np.argmin(reach))
-    bound = float(reach[low])  # B: V <= B <= K V
-    if bound == 0.0:  # node `low` can never be served: V = 0, and g(e_low) = B = 0
-        shares = np.concatenate([a, np.full((k_nodes, m), 1.0 / k_nodes)], axis=1)
-        w = np.zeros(k_nodes)
-        w[low] = 1.0
-        per_node = np.mean(shares * r, axis=1)
-        return Schedule(shares, w, float(per_node.min()), dual_value(r, w, fixed), per_node)
-    # nodes served outside the LP: theta_k of every free slot gives R_k >= B
-    cheap = bound < FREE_RATIO * reach
-    theta = np.zeros(k_nodes)
-    need = cheap & (past < bound)
-    theta[need] = (bound - past[need]) / later[need]
-    cap = 1.0 - float(theta.sum())  # what the LP may share of each free slot
-    lp = np.flatnonzero(~cheap)
-    k_lp = lp.size
-    scale = 2.0 ** math.frexp(bound)[1] if bound < SCALE_BELOW else 1.0  # exact: a power of two
-
-    # variables: alpha of the LP's nodes in the free slots (k-major, k_lp * m) then t / scale;
-    # minimise -t / scale
-    # rows: the k_lp rate rows, then the m slot rows; built column by column (CSC, as HiGHS
-    # takes it): column (k, j) holds -r_k[j] / (n scale) in row k and 1 in slot row j, then t's
-    # column holds 1 in every rate row
-    n_lp = k_lp * m
-    scaled = (free[lp] / scale).ravel() / n
-    col_rows = np.stack([np.repeat(np.arange(k_lp), m), k_lp + np.tile(np.arange(m), k_lp)], axis=1)
-    col_vals = np.stack([-scaled, np.ones(n_lp)], axis=1)
-    keep = col_vals.ravel() != 0.0  # as a sparse constructor drops them
-    per_col = np.concatenate([keep.reshape(n_lp, 2).sum(axis=1), [k_lp]])
-    a_ub = csc_array(
-        (
-            np.concatenate([col_vals.ravel()[keep], np.ones(k_lp)]),
-            np.concatenate([col_rows.ravel()[keep], np.arange(k_lp)]),
-            np.concatenate([[0], np.cumsum(per_col)]),
-        ),
-        shape=(k_lp + m, n_lp + 1),
-    )
-    b_ub = np.concatenate([past[lp] / scale, np.full(m, cap)])
-    c = np.zeros(n_lp + 1)
-    c[-1] = -1.0
-    res = solve_lp(c, a_ub, b_ub, np.append(np.ones(n_lp), np.inf), dual_simplex=True, feasibility_tol=1e-10)
-    if not res.optimal:
-        raise RuntimeError(f"max-min schedule LP failed: {res.message}")
-    chosen = np.clip(res.x[:-1].reshape(k_lp, m), 0.0, 1.0)
-    shares = np.zeros((k_nodes, n))
-    shares[:, :n0] = a
-    shares[lp, n0:] = chosen / np.maximum(chosen.sum(axis=0) / cap, 1.0)
-    shares[cheap, n0:] = theta[cheap, None]
-    per_node = np.mean(shares * r, axis=1)
-    shares, per_node = _top_up(shares, per_node, r, n0, past, later)
-    value = float(per_node.min())
-    w = np.zeros(k_nodes)
-    w[lp] = np.maximum(-res.ub_duals[:k_lp], 0.0)
-    if not w.sum() > 0:
-        raise RuntimeError(f"max-min schedule LP returned no dual weights ({res.ub_duals[:k_lp]})")
-    w /= w.sum()
-    dual = dual_value(r, w, fixed)
-    if abs(dual - value) > CERTIFY_TOL * max(scale, abs(value)):
-        raise RuntimeError(
-            f"max-min schedule not certified: primal {value!r} vs dual {dual!r} (gap {dual - value:.3g})"
-        )
-    return Schedule(shares, w, value, dual, per_node)
 
 
 def certified_schedule(rates: np.ndarray) -> Schedule:
@@ -276,7 +124,7 @@ def certified_schedule(rates: np.ndarray) -> Schedule:
     <ios_uav_env.model.maxmin.fast_schedule>` for 2 <= K <= ``MAX_NODES`` when every node can be
     served (its primal and dual values within ``maxmin.FAST_TOL`` relative), else
     :func:`maxmin_schedule` (HiGHS; K = 1 and a node that cannot be served included)."""
-    r = _check_rates(rates)
+    r = check_rates(rates)
     if 2 <= r.shape[0] <= MAX_NODES and np.all(np.sum(r, axis=1) > 0):
         found = fast_schedule(r)
         if found is not None:
@@ -286,49 +134,29 @@ def certified_schedule(rates: np.ndarray) -> Schedule:
     return maxmin_schedule(r)
 
 
-def _top_up(
-    shares: np.ndarray, per_node: np.ndarray, r: np.ndarray, n0: int, past: np.ndarray, later: np.ndarray
-) -> tuple[np.ndarray, np.ndarray]:
-    """The shares (and R_k) with every node of less than ``SMALL_SHARE`` of the free time raised
-    to the smallest R_k of the other nodes (its free shares scaled, or a uniform share if the LP
-    gave it none; then each free slot's column scaled back to sum <= 1), if that raises min_k
-    R_k; else ``shares`` and ``per_node`` as given."""
-    small = shares[:, n0:].mean(axis=1) < SMALL_SHARE
-    if small.all() or not small.any():
-        return shares, per_node
-    target = float(per_node[~small].min())
-    short = np.flatnonzero(small & (per_node < target))
-    if not short.size:
-        return shares, per_node
-    out = shares.copy()
-    for k in short:
-        got = per_node[k] - past[k]
-        if got > 0:
-            out[k, n0:] = np.minimum(out[k, n0:] * ((target - past[k]) / got), 1.0)
-        elif later[k] > 0:
-            out[k, n0:] = min((target - past[k]) / later[k], 1.0)
-    out[:, n0:] /= np.maximum(out[:, n0:].sum(axis=0), 1.0)
-    raised = np.mean(out * r, axis=1)
-    return (out, raised) if raised.min() > per_node.min() else (shares, per_node)
-
-
 def _moving(config: ScenarioConfig, paths: np.ndarray | None) -> np.ndarray | None:
-    """``paths`` checked as (N, K, 2), or None when absent or static (today's computation)."""
+    """``paths`` checked as (N, K, 2), or None when absent or static (the static nodes' computation)."""
     if paths is None:
         return None
     w = check_paths(config, paths)
     return None if is_static(config, w) else w
 
 
-def schedule(config: ScenarioConfig, trajectory: np.ndarray, paths: np.ndarray | None = None) -> Schedule:
+def schedule(
+    config: ScenarioConfig,
+    trajectory: np.ndarray,
+    paths: np.ndarray | None = None,
+    kernels: PathKernels | None = None,
+) -> Schedule:
     """The certified best schedule of ``trajectory`` (:func:`certified_schedule`), on the node
-    ``paths`` (N, K, 2) when given (:func:`node_rates`)."""
+    ``paths`` (N, K, 2) when given (:func:`node_rates`; with their ``kernels`` when the caller
+    has them)."""
     q = as_trajectory(config, trajectory)
     w = _moving(config, paths)
     if config.K == 1:  # the single-node score, exactly: average_rate (static nodes)
-        value = average_rate(config, q) if w is None else float(np.mean(node_rates(config, q, w)[0]))
+        value = average_rate(config, q) if w is None else float(np.mean(node_rates(config, q, w, kernels)[0]))
         return Schedule(np.ones((1, len(q))), np.ones(1), value, value, np.array([value]))
-    return certified_schedule(node_rates(config, q, w))
+    return certified_schedule(node_rates(config, q, w, kernels))
 
 
 def best_schedule(
@@ -338,14 +166,20 @@ def best_schedule(
     return schedule(config, trajectory, paths).shares
 
 
-def maxmin_rate(config: ScenarioConfig, trajectory: np.ndarray, paths: np.ndarray | None = None) -> float:
+def maxmin_rate(
+    config: ScenarioConfig,
+    trajectory: np.ndarray,
+    paths: np.ndarray | None = None,
+    kernels: PathKernels | None = None,
+) -> float:
     """Score V(q) = max_alpha min_k R_k (bps/Hz) of a trajectory with its best schedule (on the
-    node ``paths`` (N, K, 2) when given).
+    node ``paths`` (N, K, 2) when given, with their ``kernels`` when the caller has them:
+    :func:`node_rates`).
 
     For K = 1 this is :func:`ios_uav_env.average_rate` exactly (static nodes). For K > 1 the
-    value is certified by its dual (:func:`certified_schedule`; module docstring).
+    value is certified by its dual (:func:`certified_schedule`; ``schedule_lp``'s docstring).
     """
-    return schedule(config, trajectory, paths).value
+    return schedule(config, trajectory, paths, kernels).value
 
 
 def scheduled_rates(
@@ -401,14 +235,17 @@ def scipy_or_warn() -> bool:
 
 
 def reported_maxmin_rate(
-    config: ScenarioConfig, trajectory: np.ndarray, paths: np.ndarray | None = None
+    config: ScenarioConfig,
+    trajectory: np.ndarray,
+    paths: np.ndarray | None = None,
+    kernels: PathKernels | None = None,
 ) -> float:
-    """:func:`maxmin_rate` (on the node ``paths`` when given) for the envs'
+    """:func:`maxmin_rate` (on the node ``paths`` when given, with their ``kernels``) for the envs'
     ``info["best_schedule_rate"]``. scipy is needed only where :func:`certified_schedule` falls
     back to HiGHS (K > ``maxmin.MAX_NODES``, or a failed certificate): without it such a flight
     gets NaN (:func:`scipy_or_warn`); K = 1 and the certified column generation need no scipy."""
     try:
-        return maxmin_rate(config, trajectory, paths)
+        return maxmin_rate(config, trajectory, paths, kernels)
     except ImportError:  # scipy, imported by the HiGHS fallback only (maxmin_schedule, lp.solve_lp)
         if scipy_or_warn():
             raise

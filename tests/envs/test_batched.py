@@ -1,7 +1,8 @@
-"""The batched-env base (ios_uav_env/envs/batched.py) on a toy subclass: seeding, both autoreset
-modes, advance masks, restart and fly are the base's, whatever the subclass's kernel; both
-batched envs of the package extend it without redefining them, and use their row envs through
-the public row protocol only (ios_uav_env/envs/row_protocol.py)."""
+"""The batched-env base (ios_uav_env/envs/batched.py, its fly and restart in batched_calls.py) on
+a toy subclass: seeding, both autoreset modes, advance masks, restart and fly are the base's,
+whatever the subclass's kernel; both batched envs of the package extend it without redefining
+them, and use their row envs through the public row protocol only
+(ios_uav_env/envs/row_protocol.py)."""
 
 from __future__ import annotations
 
@@ -186,7 +187,7 @@ def test_the_batched_envs_extend_the_base_without_redefining_it(cls):
 
 
 # --- the row protocol ------------------------------------------------------------------------
-BATCHED_MODULES = ("batched.py", "single_vector.py", "multi_vector.py", "row_protocol.py")
+BATCHED_MODULES = ("batched.py", "batched_calls.py", "single_vector.py", "multi_vector.py", "row_protocol.py")
 #: (module, attribute) pairs a batched module may take from another object although private:
 #: none (numpy's private API never); add one only with the reason next to it.
 ALLOWED_PRIVATE: frozenset[tuple[str, str]] = frozenset()

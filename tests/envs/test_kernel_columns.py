@@ -3,7 +3,7 @@ name (the module constants derived from ``STATE``, ``EPISODE``, ``INFO``, ``FLAG
 observation's layout in ``ios_uav_env.envs.single_kernels``; from ``STATE``, ``EPISODE``,
 ``POINT``, ``ACTION``, ``INFO``, ``MORE`` and the observation's features in
 ``ios_uav_env.envs.multi_table`` for ``multi_kernels`` and ``multi_step``; from ``PARAMS`` in
-``ios_uav_env.model.channel``; from ``SIZES`` and ``OUT`` in ``ios_uav_env.model.maxmin_paths``;
+``ios_uav_env.model.rate_kernels``; from ``SIZES`` and ``OUT`` in ``ios_uav_env.model.maxmin_paths``;
 from ``LAYER``, ``SETTINGS`` and ``STATS`` in ``agents.fast.kernel``), never by number
 (``ep[i, 29]``, ``flags[6]``, ``ep[i, 13 + j]``).
 
@@ -12,7 +12,7 @@ counts as ``<name>``) is either one whose columns have names (its column index m
 literal at all: ``ep[i, EP_ELEMENTS + j]``, ``obs[i, k + OBS_MOVE_X]``) or one listed as having
 none (actions, paths, the nets' activations, ...). An array name in neither list fails the test
 until it is classified, so that a kernel cannot slip a literal index past the check under a new
-name. In ``model/channel.py`` only the compiled functions count (the rest is numpy on (K, 2)
+name. In ``model/rate_kernels.py`` only the compiled functions count (the rest is numpy on (K, 2)
 positions).
 """
 
@@ -27,7 +27,7 @@ from agents.fast import kernel as fast_kernel
 from ios_uav_env.envs import multi_table as mt
 from ios_uav_env.envs import observation_layout as layout
 from ios_uav_env.envs import single_kernels as sk
-from ios_uav_env.model import channel, maxmin_paths
+from ios_uav_env.model import maxmin_paths, rate_kernels
 
 ROOT = Path(__file__).resolve().parents[2]
 
@@ -37,10 +37,10 @@ MULTI_NODE = (
     {"state", "st", "episode", "ep", "info", "row", "obs", "o", "points", "flags", "actions"},
     {
         "rates", "served", "shares", "expected", "share_path", "rate_path",  # one entry per node
-        "nodes", "params",  # the nodes' rate kernels (channel's layout), passed whole
+        "nodes", "params",  # the nodes' rate kernels (rate_kernels' layout), passed whole
         "normals", "path", "targets",  # (re, im) draws and (x, y) pairs
         "rows", "moves", "active", "norms", "reward", "terminated", "stored", "loaded",  # per row
-        "ended", "envs", "ok", "values",  # episode_best_values' per ended row
+        "ended", "envs", "ok", "values", "bare",  # episode_best_values' per ended row, NodeRows.load's
         "grown", "shape",  # NodeRows._grow's
     },
 )  # fmt: skip
@@ -72,7 +72,7 @@ MODULES = {
         {"row", "table"},
         {"columns", "out"},  # info_arrays' columns of the table and its dict
     ),
-    "ios_uav_env/model/channel.py": (
+    "ios_uav_env/model/rate_kernels.py": (
         {"params"},
         {"nodes", "points", "out"},  # the (3, K) surface nodes per row, (x, y) pairs, one per point
     ),
@@ -82,7 +82,7 @@ MODULES = {
     ),
 }  # fmt: skip
 #: The modules in which only the compiled functions (decorated with ``jit``) count.
-JIT_ONLY = {"ios_uav_env/model/channel.py"}
+JIT_ONLY = {"ios_uav_env/model/rate_kernels.py"}
 
 
 def _array_name(node: ast.expr) -> str | None:
@@ -208,7 +208,7 @@ def test_the_check_reads_the_multi_kernels_and_self() -> None:
         (mt, mt.MORE, "MORE_"),
         (mt, mt.BASE_FEATURES, "MOBS_"),
         (mt, mt.NODE_FEATURES + mt.NODE_PEAK_FEATURES, "NODE_"),
-        (channel, channel.PARAMS, "PARAM_"),
+        (rate_kernels, rate_kernels.PARAMS, "PARAM_"),
         (maxmin_paths, maxmin_paths.SIZES, "SIZE_"),
         (maxmin_paths, maxmin_paths.OUT, "OUT_"),
         (fast_kernel, fast_kernel.SETTINGS, "SETTING_"),

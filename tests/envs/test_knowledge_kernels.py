@@ -9,21 +9,8 @@ import pytest
 
 from ios_uav_env.envs.random_env import RandomIOSUAVEnv
 from ios_uav_env.envs.single_vector import RandomIOSUAVVectorEnv
+from tests.envs.batch_rows import CASES, same, step_batch_and_singles
 from tests.processes import run_without_numba
-
-CASES = [
-    {"knowledge": "reports"},
-    {"knowledge": "reports", "filter_estimate": True},
-    {"knowledge": "rates"},
-    {"knowledge": "exact"},
-    {"knowledge": "exact", "channel": "rician"},
-    {"knowledge": "reports", "report_sigma": 40.0, "filter_estimate": True},
-]
-
-
-def same(a: np.ndarray, b: np.ndarray) -> bool:
-    """Equal bit for bit (NaN where the other is NaN)."""
-    return a.shape == b.shape and a.dtype == b.dtype and a.tobytes() == b.tobytes()
 
 
 def check_rows(kwargs: dict, rows: int = 3, steps: int = 90, seed: int = 11) -> int:
@@ -37,25 +24,8 @@ def check_rows(kwargs: dict, rows: int = 3, steps: int = 90, seed: int = 11) -> 
     obs, _ = vec.reset(seed=seed)
     for i, env in enumerate(singles):
         assert same(env.reset(seed=seed + i)[0], obs[i])
-    pending, ends = [False] * rows, 0
-    for t in range(steps):
-        obs, reward, terminated, _, _ = vec.step(actions[t])
-        for i, env in enumerate(singles):
-            if pending[i]:
-                o, r = env.reset()[0], 0.0
-                pending[i] = False
-            else:
-                o, r, term, _, _ = env.step(actions[t, i])
-                pending[i], ends = term, ends + term
-            assert same(o, obs[i]), (t, i, o, obs[i])
-            # (the reward is the step kernel's, not the observation's: the batch's parallel kernel on
-            # padded rows and the single env's agree to rounding, as test_single_vector checks)
-            assert abs(r - reward[i]) <= 1e-9
-            mine, theirs = vec.envs[i].track, env.track
-            assert same(mine.reports, theirs.reports) and same(mine.measured, theirs.measured)
-            if kwargs.get("filter_estimate"):
-                assert same(mine.filter.position, theirs.filter.position)
-    return ends
+    records = ("reports", "measured")
+    return step_batch_and_singles(vec, singles, actions, records, bool(kwargs.get("filter_estimate")))
 
 
 @pytest.mark.parametrize("kwargs", CASES)

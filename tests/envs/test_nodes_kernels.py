@@ -16,24 +16,12 @@ from ios_uav_env.envs.multi_vector import MultiNodeVectorEnv
 from ios_uav_env.envs.nodes_kernels import draws
 from ios_uav_env.model.config import ScenarioConfig
 from ios_uav_env.model.scenarios import ScenarioRanges
+from tests.envs.batch_rows import CASES, same, step_batch_and_singles
 from tests.processes import run_without_numba
 
-CASES = [
-    {"knowledge": "reports"},
-    {"knowledge": "reports", "filter_estimate": True},
-    {"knowledge": "rates"},
-    {"knowledge": "exact"},
-    {"knowledge": "exact", "channel": "rician"},
-    {"knowledge": "reports", "report_sigma": 40.0, "filter_estimate": True},
-]
 #: Scenarios of different surface widths (an exact 60-element sum, the 64 compressed nodes)
 #: pinned at the first reset: the narrower rows' kernels are padded in the batch's arrays.
 WIDTHS = [{"ios_shape": (10, 6)}, {"ios_shape": (100, 20)}, {"ios_shape": (12, 5)}]
-
-
-def same(a: np.ndarray, b: np.ndarray) -> bool:
-    """Equal bit for bit (NaN where the other is NaN)."""
-    return a.shape == b.shape and a.dtype == b.dtype and a.tobytes() == b.tobytes()
 
 
 def check_rows(kwargs: dict[str, Any], rows: int = 3, steps: int = 90, seed: int = 11) -> int:
@@ -54,27 +42,9 @@ def check_rows(kwargs: dict[str, Any], rows: int = 3, steps: int = 90, seed: int
     obs, _ = vec.reset(seed=seed, options={"configs": configs})
     for i, env in enumerate(singles):
         assert same(env.reset(seed=seed + i, options={"config": configs[i]})[0], obs[i])
-    pending, ends = [False] * rows, 0
-    for _ in range(steps):
-        actions = draw.uniform(-1.2, 1.2, vec.action_space.shape)
-        obs, reward, terminated, _, _ = vec.step(actions)
-        for i, env in enumerate(singles):
-            if pending[i]:
-                o, r = env.reset()[0], 0.0
-                pending[i] = False
-            else:
-                o, r, term, _, _ = env.step(actions[i])
-                pending[i], ends = term, ends + term
-            assert same(o, obs[i]), (i, o, obs[i])
-            # (the reward is the step kernel's: the batch's parallel kernel and the single env's
-            # agree to rounding, as test_multi_vector checks)
-            assert abs(r - reward[i]) <= 1e-9
-            mine, theirs = vec.envs[i].track, env.track
-            for name in ("paths", "reports", "measured", "tally"):
-                assert same(getattr(mine, name), getattr(theirs, name)), name
-            if kwargs.get("filter_estimate"):
-                assert same(mine.filter.position, theirs.filter.position)
-    return ends
+    actions = (draw.uniform(-1.2, 1.2, vec.action_space.shape) for _ in range(steps))
+    records = ("paths", "reports", "measured", "tally")
+    return step_batch_and_singles(vec, singles, actions, records, bool(kwargs.get("filter_estimate")))
 
 
 @pytest.mark.parametrize("kwargs", CASES)

@@ -1,6 +1,9 @@
 """``channel.hold_path_kernels``: while its handle lives, ``path_kernels`` of the same config and
 path returns copies of the held kernels instead of projecting the surface again (the multi-node
-env's score of an episode finds its track's kernels), the same arrays bit for bit."""
+env's score of an episode finds its track's kernels), the same arrays bit for bit. A moving-node
+episode projects the surface once per node at reset (its track's kernels; no static kernels that
+the track overwrites), and the batched env's score takes the track's kernels as they are
+(``schedule.node_rates``' ``kernels``)."""
 
 from __future__ import annotations
 
@@ -11,10 +14,12 @@ import pytest
 
 import ios_uav_env as ie
 from ios_uav_env.envs.multi import MultiNodeEnv
-from ios_uav_env.model import channel, surface
+from ios_uav_env.envs.multi_vector import MultiNodeVectorEnv
+from ios_uav_env.model import channel, rate_kernels, schedule, surface
 from ios_uav_env.model.config import ScenarioConfig
 from ios_uav_env.model.motion import node_paths
-from ios_uav_env.model.schedule import reported_maxmin_rate
+from ios_uav_env.model.scenarios import ScenarioRanges
+from ios_uav_env.model.schedule import node_rates, reported_maxmin_rate
 
 WALK = {"kind": "gauss_markov"}
 CONFIG = ScenarioConfig(T=40.0, ios_shape=(100, 20), ground_nodes=((40.0, 30.0), (-50.0, 60.0)), motion=WALK)
@@ -30,7 +35,21 @@ def projections(monkeypatch):
         calls.append(1)
         return real(*args)
 
-    monkeypatch.setattr(channel, "ground_weights", counted)
+    monkeypatch.setattr(rate_kernels, "ground_weights", counted)
+    return calls
+
+
+@pytest.fixture
+def built(monkeypatch):
+    """The paths whose kernels ``schedule`` asked ``path_kernels`` for so far (held or projected)."""
+    calls = []
+    real = schedule.path_kernels
+
+    def counted(config, grounds):
+        calls.append(1)
+        return real(config, grounds)
+
+    monkeypatch.setattr(schedule, "path_kernels", counted)
     return calls
 
 
@@ -57,19 +76,75 @@ def test_held_kernels_are_returned_as_copies_while_their_handle_lives(projection
 def test_the_episode_score_reuses_the_tracks_kernels(projections):
     env = MultiNodeEnv(CONFIG, knowledge="reports")
     env.reset(seed=3)
-    # the scenario's static node kernels (every node from one projection: model.node_kernels),
-    # then the track's kernels, one projection per node
-    assert len(projections) == 1 + CONFIG.K
+    assert len(projections) == CONFIG.K  # the track's kernels, one projection per node, and no other
     actions = np.random.default_rng(3).uniform(-1.0, 1.0, (CONFIG.N, 2 + CONFIG.K))
     terminated, t = False, 0
     while not terminated:
         _, _, terminated, _, info = env.step(actions[t])
         t += 1
-    assert len(projections) == 1 + CONFIG.K  # the episode's best schedule projected nothing new
+    assert len(projections) == CONFIG.K  # the episode's best schedule projected nothing new
     kept = env.track.held
     env.track.held = ()  # (drop the handles: the score then projects the paths again)
     del kept
     gc.collect()
     fresh = reported_maxmin_rate(env.config, env.trajectory, env.truth)
-    assert len(projections) == 1 + 2 * CONFIG.K
+    assert len(projections) == 2 * CONFIG.K
     assert info["best_schedule_rate"] == fresh  # bit for bit
+
+
+def test_a_moving_episode_projects_once_per_node_at_each_reset(projections):
+    """Every reset of moving nodes on a new scenario (a drawn one, or a new config pinned) builds
+    its track's kernels only: K projections, in the single env and in each row of the batch."""
+    ranges = ScenarioRanges(T=(40.0, 60.0), base=ScenarioConfig(motion=WALK))
+    env = MultiNodeEnv(random_nodes=(2, 4), ranges=ranges, knowledge="reports")
+    for seed in range(3):
+        env.reset(seed=seed)
+        assert len(projections) == env.config.K
+        projections.clear()
+    env.reset(options={"config": CONFIG.replace(T=50.0)})
+    assert len(projections) == CONFIG.K
+    projections.clear()
+    vec = MultiNodeVectorEnv(3, random_nodes=(2, 4), ranges=ranges, knowledge="rates")
+    vec.reset(seed=4)
+    assert len(projections) == sum(cfg.K for cfg in vec.configs)
+
+
+def test_the_batched_score_takes_the_tracks_kernels(projections, built):
+    """At each episode end the batched env scores a moving row on its track's kernels as they are:
+    no surface projected and no kernels asked of ``path_kernels`` (held or not), the value equal
+    bit for bit to the score that builds them."""
+    vec = MultiNodeVectorEnv(2, CONFIG, knowledge="reports")
+    vec.reset(seed=5)
+    assert len(projections) == 2 * CONFIG.K
+    rng = np.random.default_rng(5)
+    for _ in range(CONFIG.N - 1):
+        _, _, terminated, _, info = vec.step(rng.uniform(-1.0, 1.0, vec.action_space.shape))
+    assert terminated.all() and not built and len(projections) == 2 * CONFIG.K
+    for i, env in enumerate(vec.envs):
+        env.track.held = ()  # (no handles: the score below builds the kernels again)
+        fresh = reported_maxmin_rate(env.config, vec.trajectories[i], env.truth)
+        assert info["best_schedule_rate"][i] == fresh  # bit for bit
+    assert len(built) == 2 * CONFIG.K
+
+
+def test_node_rates_take_given_kernels_as_they_are(built):
+    """``node_rates(..., kernels)``: the rates of the built kernels bit for bit, without building
+    them (views of padded arrays included); kernels of the wrong count or shape are refused."""
+    q = np.linspace((-100.0, 0.0), (100.0, 50.0), CONFIG.N)
+    paths = node_paths(CONFIG, np.random.default_rng(6))
+    expected = node_rates(CONFIG, q, paths)
+    assert len(built) == CONFIG.K
+    kernels = [ie.path_kernels(CONFIG.node_config(k), paths[:, k]) for k in range(CONFIG.K)]
+    padded = []
+    for nodes, params in kernels:  # (a track's layout: wider arrays, each node's view of its own width)
+        wide = np.zeros((*nodes.shape[:2], nodes.shape[2] + 5))
+        wide[..., : nodes.shape[2]] = nodes
+        padded.append((wide[..., : nodes.shape[2]], params))
+    built.clear()
+    for given in (kernels, padded):
+        assert node_rates(CONFIG, q, paths, given).tobytes() == expected.tobytes()
+    assert not built
+    with pytest.raises(ValueError, match="one \\(nodes, params\\) pair per node"):
+        node_rates(CONFIG, q, paths, kernels[:1])
+    with pytest.raises(ValueError, match="node 1's kernels must have shapes"):
+        node_rates(CONFIG, q, paths, [kernels[0], (kernels[1][0][:-1], kernels[1][1])])

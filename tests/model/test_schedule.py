@@ -232,7 +232,7 @@ def test_an_uncertified_lp_answer_raises(monkeypatch):
     """The primal-dual check: corrupt the LP's dual weights and the scorer must refuse."""
     import dataclasses
 
-    from ios_uav_env.model import lp, schedule
+    from ios_uav_env.model import lp, schedule_lp
 
     def corrupted(*args, **kwargs):
         res = lp.solve_lp(*args, **kwargs)
@@ -240,7 +240,7 @@ def test_an_uncertified_lp_answer_raises(monkeypatch):
         duals[:3] = [-1.0, 0.0, 0.0]  # w = e_1: g(w) = mean r_1 > V
         return dataclasses.replace(res, ub_duals=duals)
 
-    monkeypatch.setattr(schedule, "solve_lp", corrupted)
+    monkeypatch.setattr(schedule_lp, "solve_lp", corrupted)
     r = np.array([[2.0, 2.0], [0.0, 1.0], [1.0, 0.0]])
     with pytest.raises(RuntimeError, match="not certified"):
         maxmin_schedule(r)

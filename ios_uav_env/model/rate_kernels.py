@@ -1,0 +1,266 @@
+"""The rate model of one ground node as compiled scalar kernels, and the kernels of a moving node.
+
+:func:`rate_kernel` packs a config's constants of zeta(q) (the surface's weighted nodes, G's
+coordinates and side, the path-loss and power terms) into two arrays, ``nodes`` (3, Q) and
+``params`` (columns :data:`PARAMS`), and the compiled functions here evaluate the rate model of
+:mod:`ios_uav_env.model.channel` on them one position at a time: :func:`zeta_row`,
+:func:`rate_row` and :func:`faded_row` inlined into the env's kernels, :func:`rate_point` and
+:func:`rates_at` for one kernel, :func:`rates_of_rows` for one kernel per point (equal to
+``channel.zeta`` / ``channel.slot_rates`` / ``channel.faded_rates`` to rounding; tested).
+:func:`path_kernels` builds a moving node's kernel per slot from one surface projection, and
+:func:`hold_path_kernels` lets a caller that keeps such kernels (a moving-node episode's track)
+have :func:`path_kernels` return copies of them instead of projecting again. Every name here
+is importable from :mod:`ios_uav_env.model.channel` too.
+"""
+
+from __future__ import annotations
+
+import math
+import weakref
+from dataclasses import dataclass
+from functools import lru_cache
+
+import numpy as np
+
+from ios_uav_env.jit import jit
+from ios_uav_env.model.config import ScenarioConfig
+from ios_uav_env.model.surface import ground_weights, surface_nodes
+
+
+def as_positions(positions: np.ndarray, name: str = "positions") -> np.ndarray:
+    """Validate and return positions as a float (K, 2) array."""
+    arr = np.asarray(positions, dtype=float)
+    if arr.ndim == 1:
+        arr = arr.reshape(1, -1)
+    if arr.ndim != 2 or arr.shape[1] != 2:
+        raise ValueError(f"{name} must have shape (K, 2) (horizontal x, y in m), got {np.shape(positions)}")
+    if not np.all(np.isfinite(arr)):
+        raise ValueError(f"{name} must be finite (no NaN or inf)")
+    return arr
+
+
+#: Layout of ``RateKernel.params`` (the scalars of :func:`zeta_point`), by name.
+PARAMS = (
+    "x_c", "g_side", "t_factor", "has_surface", "gx", "gy", "z_u2", "k_direct", "d_exp", "eta",
+    "wavelength", "los_gain", "nlos_gain",
+)  # fmt: skip
+# Its columns by name, as the env's kernels name theirs (``envs.single_kernels``' docstring):
+# plain ints, constants in the compiled code.
+PARAM_X_C = PARAMS.index("x_c")
+PARAM_G_SIDE = PARAMS.index("g_side")
+PARAM_T_FACTOR = PARAMS.index("t_factor")
+PARAM_HAS_SURFACE = PARAMS.index("has_surface")
+PARAM_GX = PARAMS.index("gx")
+PARAM_GY = PARAMS.index("gy")
+PARAM_Z_U2 = PARAMS.index("z_u2")
+PARAM_K_DIRECT = PARAMS.index("k_direct")
+PARAM_D_EXP = PARAMS.index("d_exp")
+PARAM_ETA = PARAMS.index("eta")
+PARAM_WAVELENGTH = PARAMS.index("wavelength")
+PARAM_LOS_GAIN = PARAMS.index("los_gain")
+PARAM_NLOS_GAIN = PARAMS.index("nlos_gain")
+
+
+@jit(inline=True)
+def zeta_row(x: float, y: float, nodes: np.ndarray, params: np.ndarray, i: int) -> float:
+    """zeta at one position: the formula of ``channel.zeta`` as a loop over the surface nodes, for
+    row ``i`` of a batch of rate kernels (``nodes`` (B, 3, K): y_k, (z_U - z_k)^2, J w_k;
+    ``params`` (B, P): the scalars of :data:`PARAMS`). Inlined into the compiled kernels that
+    call it (the env's hot path) and indexed in place: no per-row array views, which cost more
+    than the sum itself."""
+    dxg, dyg = x - params[i, PARAM_GX], y - params[i, PARAM_GY]
+    direct = (
+        params[i, PARAM_K_DIRECT] * (dxg * dxg + dyg * dyg + params[i, PARAM_Z_U2]) ** params[i, PARAM_D_EXP]
+    )
+    dx = x - params[i, PARAM_X_C]
+    if params[i, PARAM_HAS_SURFACE] == 0.0 or dx == 0.0:
+        return direct
+    side = 1.0 if dx * params[i, PARAM_G_SIDE] > 0.0 else params[i, PARAM_T_FACTOR]
+    dx2, total = dx * dx, 0.0
+    for k in range(nodes.shape[2]):
+        dy = y - nodes[i, 0, k]
+        d2 = dy * dy + nodes[i, 1, k] + dx2
+        total += nodes[i, 2, k] / (d2 * d2)
+    return side * abs(dx) ** 3 * total + direct
+
+
+@jit(inline=True)
+def rate_row(x: float, y: float, nodes: np.ndarray, params: np.ndarray, i: int) -> float:
+    """Expected-gain rate log2(1 + eta zeta^2) at one position, row ``i`` (see :func:`zeta_row`)."""
+    z = zeta_row(x, y, nodes, params, i)
+    return math.log2(1.0 + params[i, PARAM_ETA] * z * z)
+
+
+@jit(inline=True)
+def faded_row(
+    x: float, y: float, n_re: float, n_im: float, nodes: np.ndarray, params: np.ndarray, i: int
+) -> float:
+    """One faded-rate sample log2(1 + eta |h|^2) at one position, row ``i``, given the two
+    standard normal draws of h_SS (real, then imaginary part): the scalar form of ``channel.faded_rates``."""
+    z = zeta_row(x, y, nodes, params, i)
+    dxg, dyg = x - params[i, PARAM_GX], y - params[i, PARAM_GY]
+    phase = (
+        2.0 * math.pi * math.sqrt(dxg * dxg + dyg * dyg + params[i, PARAM_Z_U2]) / params[i, PARAM_WAVELENGTH]
+    )
+    re = params[i, PARAM_LOS_GAIN] * math.cos(phase) + params[i, PARAM_NLOS_GAIN] * n_re
+    im = -params[i, PARAM_LOS_GAIN] * math.sin(phase) + params[i, PARAM_NLOS_GAIN] * n_im
+    return math.log2(1.0 + params[i, PARAM_ETA] * z * z * (re * re + im * im))
+
+
+@jit
+def zeta_point(x: float, y: float, nodes: np.ndarray, params: np.ndarray) -> float:
+    """zeta at one position for one rate kernel (``nodes`` (3, K), ``params`` (P,)): :func:`zeta_row`."""
+    return zeta_row(x, y, nodes[np.newaxis], params[np.newaxis], 0)
+
+
+@jit
+def rate_point(x: float, y: float, nodes: np.ndarray, params: np.ndarray) -> float:
+    """Expected-gain rate log2(1 + eta zeta^2) at one position: :func:`rate_row` of one kernel."""
+    return rate_row(x, y, nodes[np.newaxis], params[np.newaxis], 0)
+
+
+@jit
+def rates_at(points: np.ndarray, nodes: np.ndarray, params: np.ndarray) -> np.ndarray:
+    """:func:`rate_point` at each of the (n, 2) ``points`` (one compiled loop): the
+    expected-gain rates of ``channel.slot_rates`` for the kernel's config, without its (n, nodes)
+    numpy temporaries."""
+    out = np.empty(points.shape[0])
+    for i in range(points.shape[0]):
+        out[i] = rate_point(points[i, 0], points[i, 1], nodes, params)
+    return out
+
+
+@jit
+def faded_point(x: float, y: float, n_re: float, n_im: float, nodes: np.ndarray, params: np.ndarray) -> float:
+    """One faded-rate sample at one position: :func:`faded_row` of one kernel."""
+    return faded_row(x, y, n_re, n_im, nodes[np.newaxis], params[np.newaxis], 0)
+
+
+@dataclass(frozen=True, eq=False)
+class RateKernel:
+    """Per-config constants of zeta(q) (the surface's weighted nodes and the rest), with the
+    scalar form of ``channel.zeta`` for hot loops: hold one and call :meth:`zeta` / :meth:`rate`."""
+
+    node_y: np.ndarray  # (K,) m, node y coordinates
+    dz2: np.ndarray  # (K,) m^2, (z_U - z_node)^2
+    jw: np.ndarray  # (K,) J * node weight
+    x_c: float  # m, surface plane x = x_c
+    g_side: float  # sign(x_G - x_c): the reflecting side
+    t_factor: float  # side factor on the transmitting side
+    has_surface: bool
+    ground: np.ndarray  # (2,) m, w_G
+    gx: float  # m, x_G
+    gy: float  # m, y_G
+    z_u2: float  # m^2, z_U^2
+    k_direct: float  # sqrt(G_tx G_rx)
+    d_exp: float  # -alpha / 4 (applied to d_UG^2)
+    eta: float  # P / sigma^2
+    wavelength: float  # m, lambda
+    los_gain: float  # sqrt(kappa / (1 + kappa))
+    nlos_gain: float  # sqrt(1 / (1 + kappa)) / sqrt(2): per real/imaginary part of h_SS
+
+    nodes: np.ndarray  # (3, K): node_y, dz2, jw stacked (the arrays of zeta_point)
+    params: np.ndarray  # (10,): the scalars of zeta_point, in the order of PARAMS
+
+    def zeta(self, x: float, y: float) -> float:
+        """zeta at one position (x, y): :func:`zeta_point`, tested equal to ``channel.zeta``."""
+        return zeta_point(float(x), float(y), self.nodes, self.params)
+
+    def rate(self, x: float, y: float) -> float:
+        """Expected-gain rate log2(1 + eta zeta^2) at one position (x, y)."""
+        return rate_point(float(x), float(y), self.nodes, self.params)
+
+    def rates(self, points: np.ndarray) -> np.ndarray:
+        """Expected-gain rates at the (n, 2) ``points``: :func:`rates_at` (``channel.slot_rates``)."""
+        return rates_at(np.ascontiguousarray(points, dtype=np.float64), self.nodes, self.params)
+
+    def faded_rate(self, x: float, y: float, rng: np.random.Generator) -> float:
+        """One faded-rate sample log2(1 + eta |h|^2) at (x, y): :func:`faded_point` with h_SS
+        drawn from ``rng`` in the order of ``channel.faded_rates`` (real, then imaginary part)."""
+        n_re, n_im = rng.standard_normal(2)
+        return faded_point(float(x), float(y), float(n_re), float(n_im), self.nodes, self.params)
+
+
+@lru_cache(maxsize=64)
+def rate_kernel(config: ScenarioConfig) -> RateKernel:
+    """The (cached) :class:`RateKernel` of ``config`` (one ground node: ``ValueError`` if K > 1)."""
+    config.require_single_node("the single-node rate model (slot_rates, average_rate, rate_peak, the env)")
+    nodes = surface_nodes(config)
+    fields = dict(
+        node_y=nodes.y,
+        dz2=(config.uav_altitude - nodes.z) ** 2,
+        jw=config.J * nodes.weight,
+        x_c=config.ios_center[0],
+        g_side=float(np.sign(config.ground_node[0] - config.ios_center[0])),
+        t_factor=config.transmit_factor,
+        has_surface=config.surface != "none",
+        ground=np.asarray(config.ground_node, dtype=float),
+        gx=config.ground_node[0],
+        gy=config.ground_node[1],
+        z_u2=config.uav_altitude**2,
+        k_direct=float(np.sqrt(config.g_tx * config.g_rx)),
+        d_exp=-config.alpha / 4.0,
+        eta=config.eta,
+        wavelength=config.wavelength,
+        los_gain=math.sqrt(config.kappa / (1.0 + config.kappa)),
+        nlos_gain=math.sqrt(1.0 / (1.0 + config.kappa)) / math.sqrt(2.0),
+    )
+    packed = np.vstack([fields["node_y"], fields["dz2"], fields["jw"]])
+    params = np.array([float(fields[name]) for name in PARAMS])
+    return RateKernel(**fields, nodes=packed, params=params)
+
+
+class HeldKernels:
+    """A path's kernels, which :func:`path_kernels` copies while this object lives."""
+
+    __slots__ = ("__weakref__", "nodes", "params")
+
+    def __init__(self, nodes: np.ndarray, params: np.ndarray) -> None:
+        self.nodes, self.params = nodes, params
+
+
+#: (config, the path's bytes) -> the kernels some live object holds (weak: gone with their holder)
+_HELD: weakref.WeakValueDictionary[tuple[ScenarioConfig, bytes], HeldKernels] = weakref.WeakValueDictionary()
+
+
+def hold_path_kernels(
+    config: ScenarioConfig, grounds: np.ndarray, nodes: np.ndarray, params: np.ndarray
+) -> HeldKernels:
+    """Let :func:`path_kernels` of ``config`` and ``grounds`` return copies of ``nodes`` and ``params``
+    (its own result, which the caller keeps, e.g. in a moving-node episode's track; views are fine)
+    instead of computing them again, as long as the returned object lives (e.g. the multi-node env's
+    score of an episode builds the kernels of the paths its track holds)."""
+    held = HeldKernels(nodes, params)
+    _HELD[(config, as_positions(grounds, "grounds").tobytes())] = held
+    return held
+
+
+def path_kernels(config: ScenarioConfig, grounds: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The rate kernels of one ground node at each of the (P, 2) ``grounds`` (m): ``nodes``
+    (P, 3, n) and ``params`` (P, len(PARAMS)), row p equal bit for bit to
+    ``rate_kernel(config.replace(ground_node=grounds[p]))``'s ``nodes`` and ``params``. A
+    moving node's kernel per slot (``ios_uav_env.model.motion``) without a config per slot:
+    only the surface weights and G's coordinates and side depend on G
+    (:func:`~ios_uav_env.model.surface.ground_weights`). ``config`` has one node (K = 1).
+    New arrays: copies of the held ones when the path's kernels are held (:func:`hold_path_kernels`)."""
+    points = as_positions(grounds, "grounds")
+    held = _HELD.get((config, points.tobytes()))
+    if held is not None:
+        return held.nodes.copy(), held.params.copy()
+    base = rate_kernel(config)
+    nodes = np.repeat(base.nodes[None], len(points), axis=0)
+    nodes[:, 2] = config.J * ground_weights(config, points)
+    params = np.repeat(base.params[None], len(points), axis=0)
+    params[:, PARAMS.index("g_side")] = np.sign(points[:, 0] - config.ios_center[0])
+    params[:, PARAMS.index("gx")], params[:, PARAMS.index("gy")] = points[:, 0], points[:, 1]
+    return nodes, params
+
+
+@jit
+def rates_of_rows(points: np.ndarray, nodes: np.ndarray, params: np.ndarray) -> np.ndarray:
+    """Expected-gain rate at each of the (n, 2) ``points``, point i under kernel row i
+    (:func:`rate_row`; ``nodes`` (n, 3, K), ``params`` (n, P), e.g. :func:`path_kernels`)."""
+    out = np.empty(points.shape[0])
+    for i in range(points.shape[0]):
+        out[i] = rate_row(points[i, 0], points[i, 1], nodes, params, i)
+    return out

@@ -1,0 +1,56 @@
+"""What the batch-equals-singles tests of the moving-node batched envs share
+(tests/envs/test_knowledge_kernels.py: one node, tests/envs/test_nodes_kernels.py: K nodes): the
+knowledge cases, the bit-for-bit comparison and the loop that steps a batch and its rows' single
+envs with the same actions and compares them."""
+
+from __future__ import annotations
+
+from collections.abc import Iterable, Sequence
+from typing import Any
+
+import numpy as np
+
+#: The moving nodes' knowledge settings both tests run.
+CASES = [
+    {"knowledge": "reports"},
+    {"knowledge": "reports", "filter_estimate": True},
+    {"knowledge": "rates"},
+    {"knowledge": "exact"},
+    {"knowledge": "exact", "channel": "rician"},
+    {"knowledge": "reports", "report_sigma": 40.0, "filter_estimate": True},
+]
+
+
+def same(a: np.ndarray, b: np.ndarray) -> bool:
+    """Equal bit for bit (NaN where the other is NaN)."""
+    return a.shape == b.shape and a.dtype == b.dtype and a.tobytes() == b.tobytes()
+
+
+def step_batch_and_singles(
+    vec: Any, singles: Sequence[Any], actions: Iterable[np.ndarray], records: Sequence[str], filtered: bool
+) -> int:
+    """Step the batch ``vec`` and its rows' single envs ``singles`` (both just reset alike) with
+    each (B, A) array of ``actions`` in turn, the singles reset as the batch's NEXT_STEP autoreset
+    does, and assert after every step: each row's observation equal bit for bit, its reward to
+    1e-9 (the step kernel's, not the observation's: the batch's parallel kernel and the single
+    env's agree to rounding, as test_single_vector and test_multi_vector check), its track's
+    ``records`` equal bit for bit and, when ``filtered``, its Kalman filter's position. Returns the
+    number of episode ends seen."""
+    pending, ends = [False] * len(singles), 0
+    for t, step in enumerate(actions):
+        obs, reward, _, _, _ = vec.step(step)
+        for i, env in enumerate(singles):
+            if pending[i]:
+                o, r = env.reset()[0], 0.0
+                pending[i] = False
+            else:
+                o, r, term, _, _ = env.step(step[i])
+                pending[i], ends = term, ends + term
+            assert same(o, obs[i]), (t, i, o, obs[i])
+            assert abs(r - reward[i]) <= 1e-9
+            mine, theirs = vec.envs[i].track, env.track
+            for name in records:
+                assert same(getattr(mine, name), getattr(theirs, name)), (t, i, name)
+            if filtered:
+                assert same(mine.filter.position, theirs.filter.position)
+    return ends
