@@ -34,6 +34,11 @@ A heuristic optimises nothing: it flies a fixed rule, and its plan is scored by 
 on the config as it is (objective and budget included), so it takes any objective; it still
 refuses moving nodes, whose score it would not see.
 
+A STAR surface serving both sides' nodes at once (``ScenarioConfig(surface="star",
+star_access="noma")``) is scored by ``score_plan`` (``star_regions.scenario_maxmin``); every
+planner and bound above but the heuristics optimises the one-node-per-slot-share (TDMA) schedule,
+so only the heuristics take it.
+
 A caller that plans one problem and scores the plan on another on purpose (the rate DP's plan
 under the energy objective, say) says so: it plans on ``config.replace(objective="rate")`` and
 scores with :meth:`baselines.plan.Plan.scored_on`.
@@ -106,6 +111,11 @@ class PlannerSpec:
                 return "motion (moving nodes; it plans for static nodes)"
             if self.motion == "paths" and paths is None:
                 return "motion without paths= (it plans on the nodes' true paths given in advance)"
+        if config.surface == "star" and config.star_access == "noma" and self.kind != "heuristic":
+            return (
+                "star_access='noma' (it optimises the one-node-per-slot-share schedule, TDMA; "
+                "score_plan scores a NOMA flight)"
+            )
         return None
 
     def load(self) -> Callable[..., Any]:

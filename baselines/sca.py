@@ -42,7 +42,7 @@ import numpy as np
 import ios_uav_env as ie
 from baselines.plan import Plan
 from baselines.registry import check as check_planner
-from baselines.sca_problem import PLANE_TOL, STEP_MARGIN, Surrogate, tiled_config
+from baselines.sca_problem import PLANE_TOL, SCHEME_NAMES, STEP_MARGIN, Surrogate, tiled_config
 from ios_uav_env import ScenarioConfig
 from ios_uav_env.model import channel as ch
 from ios_uav_env.model.peak import rate_peak
@@ -55,7 +55,6 @@ DEFAULT_MAX_ITERS = 50
 DECREASE_TOL = 1e-9
 #: DP resolution (m) of the "DP + SCA polish" start.
 DP_START_RESOLUTION = 5.0
-SCHEME_NAMES = {"ios": "ia", "ris": "ra", "none": "cuc"}
 
 __all__ = ["DEFAULT_TILES", "PLANE_TOL", "STEP_MARGIN", "default_starts", "solve", "tiling_error"]
 

@@ -63,6 +63,7 @@ from baselines.registry import check as check_planner
 from baselines.sca_problem import (
     LENGTH_SCALE,
     OK_STATUSES,
+    SCHEME_NAMES,
     SLACK_BOUND,
     U_BOUND,
     Surrogate,
@@ -390,7 +391,7 @@ def solve(
             best = (score, q, shares, name)
     assert best is not None
     info = {"start": best[3], "starts": summaries, "tiles": tiles, "solver": solver.upper()}
-    scheme = {"ios": "ia", "ris": "ra", "none": "cuc"}[config.surface]
+    scheme = SCHEME_NAMES[config.surface]
     if moving is None:
         return Plan.from_trajectory(
             scheme, config, best[1], time.perf_counter() - t_start, history=history, info=info

@@ -43,6 +43,8 @@ SLACK_BOUND = 10.0
 U_BOUND = 10.0
 #: Solver statuses whose solution is used (it is still checked for feasibility).
 OK_STATUSES = ("optimal", "optimal_inaccurate")
+#: A plan's scheme name by surface: the paper's IA, RA and CUC, and "sta" (a STAR surface).
+SCHEME_NAMES = {"ios": "ia", "ris": "ra", "none": "cuc", "star": "sta"}
 
 
 def tiled_config(config: ScenarioConfig, tiles: int) -> ScenarioConfig:

@@ -88,7 +88,7 @@ def plot_scene(ax: Any, config: ScenarioConfig, *, labels: bool = True) -> None:
     for (x, y), marker, _ in marks:
         ax.plot([x], [y], marker=marker, ms=8, mfc="w", mec="k", ls="none", **style)
     if labels:
-        name = {"ios": "IOS", "ris": "RIS", "none": ""}[config.surface]
+        name = {"ios": "IOS", "ris": "RIS", "none": "", "star": "STAR"}[config.surface]
         texts = [*(((x, y), text) for (x, y), _, text in marks), ((x_c, y_c + half), name)]
         for (x, y), text in texts:
             ax.annotate(text, (x, y), xytext=(0, 7), textcoords="offset points", ha="center",

@@ -18,12 +18,12 @@ from ios_uav_env.components.knowledge import KNOWLEDGE, Exact, Filtered, Knowled
 from ios_uav_env.components.link import LINKS, Link, SingleAntennaLink
 from ios_uav_env.components.motion import MOTIONS, GaussMarkovMotion, Motion, StaticMotion
 from ios_uav_env.components.objective import OBJECTIVES, EnergyEfficiency, Objective, Rate
-from ios_uav_env.components.surface import SURFACES, IOSSurface, NoSurface, RISSurface, Surface
+from ios_uav_env.components.surface import SURFACES, IOSSurface, NoSurface, RISSurface, STARSurface, Surface
 from ios_uav_env.components.world import FAMILIES, UnsupportedWorld, World, combinations
 
 __all__ = [
     "FAMILIES", "KNOWLEDGE", "LINKS", "MOTIONS", "OBJECTIVES", "SURFACES", "Component", "EnergyEfficiency",
     "Exact", "Filtered", "GaussMarkovMotion", "IOSSurface", "Knowledge", "Link", "MeasuredRates", "Motion",
-    "NoSurface", "Objective", "RISSurface", "Rate", "Registry", "Reports", "SingleAntennaLink",
+    "NoSurface", "Objective", "RISSurface", "Rate", "Registry", "Reports", "STARSurface", "SingleAntennaLink",
     "StaticMotion", "Surface", "UnsupportedWorld", "World", "combinations",
 ]  # fmt: skip

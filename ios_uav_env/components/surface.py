@@ -2,11 +2,13 @@
 
 ``ios`` (the paper's intelligent omni-surface: it reflects to the UAV's side and transmits
 through to the other, the transmitted power scaled by ``epsilon``), ``ris`` (a reflect-only
-surface: a node across it gets the direct link only) and ``none`` (the direct link alone). The
-physics is ``ios_uav_env.model.channel`` on ``ScenarioConfig.surface``; a surface component
-says which sides it serves and which controls it takes. Today's surfaces take one control, their
-closed-form phases (eq. (13), ``channel.phase_shifts``): a link given ``phases=None`` applies it,
-and any (K, M) phase array is accepted by the link's per-element model.
+surface: a node across it gets the direct link only), ``none`` (the direct link alone) and
+``star`` (a STAR surface: reflects and transmits, each element's split between the sides and its
+phases set for the node served; ``docs/model.md``, "STAR surfaces"). The physics is
+``ios_uav_env.model.channel`` on ``ScenarioConfig.surface``; a surface component says which
+sides it serves and which controls it takes. The surfaces take one control, their closed-form
+phases (eq. (13), ``channel.phase_shifts``): a link given ``phases=None`` applies it, and any
+(K, M) phase array is accepted by the link's per-element model.
 """
 
 from __future__ import annotations
@@ -15,8 +17,9 @@ import dataclasses
 from typing import Any, ClassVar
 
 from ios_uav_env.components.base import Component, Registry
+from ios_uav_env.model.config import STAR_FIELDS, ScenarioConfig, check_star
 
-__all__ = ["SURFACES", "IOSSurface", "NoSurface", "RISSurface", "Surface"]
+__all__ = ["SURFACES", "IOSSurface", "NoSurface", "RISSurface", "STARSurface", "Surface", "surface_of"]
 
 
 @dataclasses.dataclass(frozen=True)
@@ -62,3 +65,44 @@ class NoSurface(Surface):
     """No surface: the direct UAV-node link only."""
 
     kind: ClassVar[str] = "none"
+
+
+@SURFACES.register("star")
+@dataclasses.dataclass(frozen=True)
+class STARSurface(Surface):
+    """A STAR surface: reflects and transmits, with the choices of
+    ``ios_uav_env.model.star.StarSurface`` (``protocol``, ``phases``, ``bits``) and the ``access``
+    scheme, the ``ScenarioConfig`` fields ``star_*``. Under TDMA the node served gets the whole
+    surface on its side (``ScenarioConfig.transmit_factor``: 1); under NOMA both sides' nodes are
+    served at once, which ``score_plan`` scores (``star_regions.star_maxmin``) and the envs refuse."""
+
+    kind: ClassVar[str] = "star"
+    reflects: ClassVar[bool] = True
+    transmits: ClassVar[bool] = True
+
+    protocol: str = "es"
+    phases: str = "independent"
+    bits: int | None = None
+    access: str = "tdma"
+
+    def __post_init__(self) -> None:
+        check_star(self.protocol, self.phases, self.bits, self.access, prefix="surface.")
+
+    @classmethod
+    def variants(cls) -> tuple[Surface, ...]:
+        """Each access scheme: TDMA (the envs run it) and NOMA (``score_plan`` scores it)."""
+        return (cls(), cls(access="noma"))
+
+    def config_fields(self) -> dict[str, Any]:
+        """``surface="star"`` and the ``star_*`` fields."""
+        return {
+            "surface": self.kind,
+            **{name: getattr(self, name.removeprefix("star_")) for name in STAR_FIELDS},
+        }
+
+
+def surface_of(config: ScenarioConfig) -> Surface:
+    """The surface component of ``config`` (with a STAR surface's ``star_*`` fields)."""
+    if config.surface != "star":
+        return SURFACES.make(config.surface)
+    return STARSurface(**{name.removeprefix("star_"): getattr(config, name) for name in STAR_FIELDS})

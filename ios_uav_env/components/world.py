@@ -22,7 +22,7 @@ from ios_uav_env.components.knowledge import KNOWLEDGE, Knowledge
 from ios_uav_env.components.link import LINKS, Link
 from ios_uav_env.components.motion import MOTIONS, Motion
 from ios_uav_env.components.objective import OBJECTIVES, Objective
-from ios_uav_env.components.surface import SURFACES, Surface
+from ios_uav_env.components.surface import SURFACES, Surface, surface_of
 from ios_uav_env.model.config import ScenarioConfig
 
 __all__ = ["FAMILIES", "UnsupportedWorld", "World", "combinations"]
@@ -78,7 +78,7 @@ class World:
         if knowledge == "reports" and report_sigma is not None:
             know["sigma"] = report_sigma
         return cls(
-            surface=config.surface,
+            surface=surface_of(config),
             link={"kind": "single_antenna", "fading": channel},
             objective={"kind": config.objective, "budget_j": config.energy_budget_j},
             motion=motion,
@@ -103,6 +103,8 @@ class World:
         out: dict[str, Any] = {family: getattr(self, family).kind for family in FAMILIES}
         if self.link.fading != "expected":
             out["link"] += f" ({self.link.fading})"
+        if getattr(self.surface, "access", "tdma") != "tdma":
+            out["surface"] += f" ({self.surface.access})"
         if self.objective.budget_j is not None:
             out["objective"] += " within a budget"
         return {**out, "nodes": f"K = {self.nodes}"}
@@ -123,6 +125,12 @@ class World:
 #: The combinations the simulator does not run: (applies to a world, why). Each names the
 #: components involved and, where one exists, what to use instead.
 RULES: tuple[tuple[Any, str], ...] = (
+    (
+        lambda w: w.surface.kind == "star" and w.surface.access == "noma",
+        "surface star with access 'noma': it serves the nodes on both sides in one slot, and the envs "
+        "serve one node per slot share (TDMA); score a NOMA flight with ios_uav_env.score_plan "
+        "(ios_uav_env.model.star_regions.star_maxmin), or use access 'tdma' in an env",
+    ),
     (
         lambda w: w.link.fading != "expected" and not w.knowledge.exact,
         "link fading 'rician' with measured rates (knowledge reports, filtered or rates): a measured rate is "

@@ -176,7 +176,8 @@ def check_scenario_overrides(
     """Refuse scenario fields given as env keywords (``overrides``) that would do nothing in the
     env ``env_id``, whose scenarios have the ``surfaces`` given: ``kappa`` unless the env samples
     faded rates (``fades``: channel "rician", or measured rates), ``epsilon`` without an IOS, the
-    surface's channel fields without a surface (:data:`SURFACE_CHANNEL_FIELDS`), and in the
+    surface's channel fields without a surface (:data:`SURFACE_CHANNEL_FIELDS`), a STAR surface's
+    protocol and phase model (one node per slot share: neither enters its rate), and in the
     multi-node env with the max-min rate objective (no energy in its reward, info or score; not
     with ``energy``, the objective ``"energy_efficiency"``) ``bandwidth_hz``, and ``propulsion``
     unless an energy budget (``budget``) makes the flight's energy count. (A field of a config
@@ -189,6 +190,13 @@ def check_scenario_overrides(
         )
     if "ios" not in surfaces:
         inert["epsilon"] = f"the IOS's transmissive factor: it needs surface 'ios' (this env's: {surfaces})"
+    if "star" in surfaces:
+        for name, what in (("star_protocol", "protocol"), ("star_phases", "phase model")):
+            inert[name] = (
+                f"the STAR surface's {what}: an env serves one node per slot share, which gets the whole "
+                f"surface on its side at its aligned phases whatever the {what} "
+                "(ScenarioConfig.transmit_factor)"
+            )
     if set(surfaces) == {"none"}:
         for name in SURFACE_CHANNEL_FIELDS:
             inert[name] = "a field of the surface's channel: it needs a surface (this env has surface 'none')"

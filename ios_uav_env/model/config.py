@@ -21,8 +21,22 @@ import numpy as np
 from ios_uav_env.model.mobility import GaussMarkov, as_motion, rectangles
 from ios_uav_env.model.propulsion import PropulsionModel, least_energy_speed, propulsion_power
 
-Surface = Literal["ios", "ris", "none"]
+Surface = Literal["ios", "ris", "none", "star"]
+#: The paper's surfaces, one env id each (``envs.registration.ENV_IDS``; the figures' schemes).
 SURFACES: tuple[str, ...] = ("ios", "ris", "none")
+#: Every surface a scenario may have: the paper's and ``"star"``, a STAR surface (``docs/model.md``,
+#: "STAR surfaces"; its fields are :data:`STAR_FIELDS`).
+SURFACE_KINDS: tuple[str, ...] = (*SURFACES, "star")
+#: A STAR surface's protocols (``ios_uav_env.model.star.PROTOCOLS`` but the configured surface's own
+#: split ``"fixed"``, which is surface ``"ios"`` or ``"ris"`` itself), phase models and access schemes.
+STAR_PROTOCOLS: tuple[str, ...] = ("es", "ms", "ts")
+STAR_PHASES: tuple[str, ...] = ("independent", "coupled", "shared")
+STAR_ACCESS: tuple[str, ...] = ("tdma", "noma")
+#: Most phase bits of a STAR element (``ios_uav_env.model.star.MAX_BITS``).
+STAR_MAX_BITS = 8
+#: The STAR surface's fields: set only with ``surface="star"``, left out of ``to_dict()`` at their
+#: defaults (the dicts of every other scenario, their suite hashes and cache keys, hold).
+STAR_FIELDS: tuple[str, ...] = ("star_protocol", "star_phases", "star_bits", "star_access")
 
 #: Tolerance (m) within which a trajectory constraint of eq. (10) counts as met.
 FEASIBILITY_TOL = 1e-6
@@ -61,7 +75,7 @@ def _is_int(value: Any) -> bool:
 class ScenarioConfig:
     """One instance of the IOS-aided UAV downlink of the paper (defaults: its Section IV)."""
 
-    surface: Surface = "ios"  # "ios" (reflect + transmit), "ris" (reflect only), "none" (direct link)
+    surface: Surface = "ios"  # "ios" (reflect + transmit), "ris" (reflect only), "none" (direct link), "star"
     T: float = 150.0  # s, mission duration T = N * delta_t
     dt: float = 1.0  # s, slot length delta_t
     v_max: float = 25.0  # m/s, maximum UAV speed v_max
@@ -105,10 +119,18 @@ class ScenarioConfig:
     # paper's static nodes, or a GaussMarkov model (a dict of it is accepted); left out of
     # ``to_dict()`` when None. The configured nodes are the positions of slot 1.
     motion: GaussMarkov | None = None
+    # The STAR surface (surface "star"; ``docs/model.md``, "STAR surfaces"): its protocol, phase
+    # model, phase bits and access scheme, the choices of ``ios_uav_env.model.star.StarSurface``.
+    # Refused with any other surface unless at their defaults; left out of ``to_dict()`` there.
+    star_protocol: str = "es"  # one of STAR_PROTOCOLS: energy splitting, mode or time switching
+    star_phases: str = "independent"  # one of STAR_PHASES: the phase model
+    star_bits: int | None = None  # phase bits b; None: continuous phases (the only one modelled here)
+    star_access: str = "tdma"  # one of STAR_ACCESS: one node per slot share, or both sides' at once
 
     def __post_init__(self) -> None:
-        if self.surface not in SURFACES:
-            raise ValueError(f"surface must be one of {SURFACES}, got {self.surface!r}")
+        if self.surface not in SURFACE_KINDS:
+            raise ValueError(f"surface must be one of {SURFACE_KINDS}, got {self.surface!r}")
+        self._check_star()
         object.__setattr__(self, "q0", _pair(self.q0, "q0"))
         object.__setattr__(self, "qF", _pair(self.qF, "qF"))
         object.__setattr__(self, "ground_node", _pair(self.ground_node, "ground_node"))
@@ -177,6 +199,20 @@ class ScenarioConfig:
             )
         self._check_objective()
         self._check_motion()
+
+    def _check_star(self) -> None:
+        """Validate the STAR fields (:func:`check_star`) and refuse them away from their defaults
+        with another surface than ``"star"``: they would do nothing."""
+        check_star(self.star_protocol, self.star_phases, self.star_bits, self.star_access)
+        if self.surface == "star":
+            return
+        for name in STAR_FIELDS:
+            value, default = getattr(self, name), _STAR_DEFAULTS[name]
+            if value != default:
+                raise ValueError(
+                    f"{name}={value!r} is a field of the STAR surface: it needs surface='star' (this "
+                    f"config has surface={self.surface!r}); leave it at its default {default!r}"
+                )
 
     def _check_motion(self) -> None:
         """Validate ``motion`` (a dict becomes the model): every node inside its motion rectangle
@@ -334,8 +370,22 @@ class ScenarioConfig:
 
     @property
     def transmit_factor(self) -> float:
-        """Factor of the transmissive power pattern: epsilon (IOS), 0 (RIS and no surface)."""
-        return self.epsilon if self.surface == "ios" else 0.0
+        """Factor of the transmissive power pattern: epsilon (IOS), 1 (STAR), 0 (RIS and no surface).
+
+        The rate kernel is a node's rate served alone. A STAR surface serving one node (TDMA,
+        ``star_access="tdma"``; under NOMA these are the single-user rates c_s) is set for it:
+        with energy splitting, mode or time switching the node gets the whole surface on its side,
+        u^s = sqrt(beta^s) = 1 on every element, at phases aligned to it (where one side alone
+        carries power the coupled and shared phase models bind nothing:
+        ``ios_uav_env.model.star_slot``, "TDMA"). Its element is a unit
+        element on either side, so its channel is the IOS's geometry with factor 1 on both sides.
+        The IOS's epsilon (eq. (2), 3.55 by default) enters the amplitude linearly and is not
+        energy-normalised, so on the transmission side the IOS's amplitude is epsilon times the
+        STAR's: the IOS is above a STAR surface there when epsilon > 1 (the paper's value), equal
+        at epsilon = 1 and below when epsilon < 1; on the reflection side they are equal."""
+        if self.surface == "ios":
+            return self.epsilon
+        return 1.0 if self.surface == "star" else 0.0
 
     def min_horizon(self) -> float:
         """Shortest T (s) that still lets the UAV reach qF from q0 at v_max."""
@@ -365,10 +415,14 @@ class ScenarioConfig:
 
     def replace(self, **changes: Any) -> ScenarioConfig:
         """A copy with ``changes`` applied (an unknown field raises ``TypeError`` worded as
-        Python's own); re-validated."""
+        Python's own); re-validated. A change of ``surface`` to another than ``"star"`` resets
+        the STAR fields not given (:data:`STAR_FIELDS`) to their defaults: a STAR scenario's
+        ``replace(surface="ios")`` is the IOS one."""
         for name in changes:
             if name not in SCENARIO_FIELDS:
                 raise TypeError(f"ScenarioConfig.replace() got an unexpected keyword argument {name!r}")
+        if changes.get("surface", "star") != "star":
+            changes = {**_STAR_DEFAULTS, **changes}
         if "ground_nodes" in changes:
             if changes["ground_nodes"] is None:  # back to one node: keep the first one
                 changes.setdefault("ground_node", self.ground_node)
@@ -385,8 +439,9 @@ class ScenarioConfig:
         ``ScenarioConfig(**d)``).
 
         ``ground_nodes`` is omitted when None (one node), and each objective field
-        (``propulsion``, ``bandwidth_hz``, ``objective``, ``energy_budget_j``) and ``motion`` at
-        its default, so the dicts of the static rate scenarios are unchanged."""
+        (``propulsion``, ``bandwidth_hz``, ``objective``, ``energy_budget_j``), ``motion`` and each
+        STAR field (:data:`STAR_FIELDS`) at its default, so the dicts of the static rate scenarios
+        are unchanged."""
         out = {k: list(v) if isinstance(v, tuple) else v for k, v in dataclasses.asdict(self).items()}
         if self.ground_nodes:
             out["ground_nodes"] = [list(p) for p in self.ground_nodes]
@@ -409,9 +464,50 @@ class ScenarioConfig:
 
 #: The names of the ``ScenarioConfig`` fields (the scenario's keyword arguments everywhere).
 SCENARIO_FIELDS: frozenset[str] = frozenset(f.name for f in dataclasses.fields(ScenarioConfig))
-#: The objective's fields and ``motion``, left out of ``to_dict()`` at their defaults.
-_OMITTED_AT_DEFAULT = ("propulsion", "bandwidth_hz", "objective", "energy_budget_j", "motion")
+#: The objective's fields, ``motion`` and the STAR fields, left out of ``to_dict()`` at their defaults.
+_OMITTED_AT_DEFAULT = ("propulsion", "bandwidth_hz", "objective", "energy_budget_j", "motion", *STAR_FIELDS)
 _DEFAULTS = {f.name: f.default for f in dataclasses.fields(ScenarioConfig) if f.name in _OMITTED_AT_DEFAULT}
+_STAR_DEFAULTS = {name: _DEFAULTS[name] for name in STAR_FIELDS}
+
+
+def check_star(protocol: Any, phases: Any, bits: Any, access: Any, prefix: str = "star_") -> None:
+    """``ValueError`` naming the field (``prefix`` + protocol, phases, bits or access) and its
+    allowed values unless these are a STAR surface the scenario's rate model runs: a protocol of
+    :data:`STAR_PROTOCOLS`, a phase model of :data:`STAR_PHASES`, continuous phases (bits None) and
+    an access scheme of :data:`STAR_ACCESS` (NOMA with energy splitting and independent phases,
+    the case whose flight optimum ``star_regions.star_maxmin`` certifies).
+
+    b-bit phases are refused: the best b-bit phases of the served node depend on the UAV's
+    position element by element (``star.best_discrete_phases``), which the rate kernel's
+    compressed element sum does not hold; ``star_slot.slot_optimum`` computes b-bit per-slot rates."""
+    if not (isinstance(protocol, str) and protocol in STAR_PROTOCOLS):
+        raise ValueError(
+            f"{prefix}protocol must be one of {STAR_PROTOCOLS}, got {protocol!r} (the configured "
+            "surface's own split, star.py's 'fixed', is surface='ios' or 'ris')"
+        )
+    if not (isinstance(phases, str) and phases in STAR_PHASES):
+        raise ValueError(f"{prefix}phases must be one of {STAR_PHASES}, got {phases!r}")
+    if bits is not None:
+        if not (_is_int(bits) and 1 <= bits <= STAR_MAX_BITS):
+            raise ValueError(
+                f"{prefix}bits must be None (continuous phases) or an integer in [1, {STAR_MAX_BITS}], "
+                f"got {bits!r}"
+            )
+        raise ValueError(
+            f"{prefix}bits={bits!r}: b-bit phases are not modelled in a scenario (the served node's "
+            "best b-bit phases vary with the UAV position element by element, outside the rate "
+            f"kernel); use {prefix}bits=None (continuous phases), and for b-bit per-slot rates "
+            "ios_uav_env.model.star_slot.slot_optimum with star.StarSurface(bits=b) and access 'tdma'"
+        )
+    if not (isinstance(access, str) and access in STAR_ACCESS):
+        raise ValueError(f"{prefix}access must be one of {STAR_ACCESS}, got {access!r}")
+    if access == "noma" and (protocol, phases) != ("es", "independent"):
+        raise ValueError(
+            f"{prefix}access='noma' is modelled for {prefix}protocol='es' with {prefix}phases="
+            f"'independent' (the flight's optimum of ios_uav_env.model.star_regions.star_maxmin), got "
+            f"{prefix}protocol={protocol!r}, {prefix}phases={phases!r}; "
+            "ios_uav_env.model.star_slot.slot_optimum has every protocol's per-slot NOMA max-min"
+        )
 
 
 def moves_needed(distance: Any, D: float) -> Any:

@@ -18,7 +18,7 @@ from typing import Any
 
 import numpy as np
 
-from ios_uav_env.model.config import SURFACES, ScenarioConfig, as_config
+from ios_uav_env.model.config import SURFACE_KINDS, ScenarioConfig, as_config
 
 #: ``ScenarioConfig`` fields that the ranges draw (the others come from ``ScenarioRanges.base``).
 RANGED_FIELDS: frozenset[str] = frozenset({"ground_node", "T", "ios_shape", "surface", "q0", "qF"})
@@ -100,8 +100,8 @@ class ScenarioRanges:
             raise ValueError(f"ios_columns must be an integer >= 1, got {self.ios_columns!r}")
         object.__setattr__(self, "ios_columns", int(self.ios_columns))
         surfaces = (self.surfaces,) if isinstance(self.surfaces, str) else tuple(self.surfaces)
-        if not surfaces or len(set(surfaces)) != len(surfaces) or not set(surfaces) <= set(SURFACES):
-            raise ValueError(f"surfaces must be distinct values of {SURFACES}, got {self.surfaces!r}")
+        if not surfaces or len(set(surfaces)) != len(surfaces) or not set(surfaces) <= set(SURFACE_KINDS):
+            raise ValueError(f"surfaces must be distinct values of {SURFACE_KINDS}, got {self.surfaces!r}")
         object.__setattr__(self, "surfaces", surfaces)
         object.__setattr__(self, "base", as_config(self.base, "base"))
         lo, hi = self.slot_range

@@ -24,6 +24,12 @@ A plan is a trajectory q (N, 2) and, for K > 1 nodes, optionally its own TDMA sh
 Moving nodes: ``score_plan(config, q, shares, paths)`` scores the plan on the true node paths
 (N, K, 2) (``docs/model.md``, "Node motion"), whatever the planner or agent knew of them.
 
+A STAR surface serving both sides' nodes at once (``ScenarioConfig(surface="star",
+star_access="noma")``, two static nodes, one on each side): ``rate`` and ``best_schedule_rate`` are
+the flight's max-min with the best power splits and time sharing of its trajectory,
+``ios_uav_env.model.star_regions.scenario_maxmin`` (certified to its tolerance; the plan gives no
+shares). Under TDMA a STAR scenario is scored as every other surface's.
+
 A new objective extends this function and :class:`PlanScore` (``docs/development.md``), so
 that every caller (planners, envs, the benchmark) scores it alike.
 """
@@ -36,6 +42,7 @@ import numpy as np
 
 from ios_uav_env.model.config import ScenarioConfig
 from ios_uav_env.model.schedule import Schedule, schedule, scheduled_rates
+from ios_uav_env.model.star_regions import scenario_maxmin
 from ios_uav_env.model.trajectory import TrajectoryReport, check_trajectory
 
 
@@ -100,6 +107,8 @@ def score_plan(
     """
     q = np.asarray(trajectory, dtype=np.float64)
     report = check_trajectory(config, q)
+    if config.surface == "star" and config.star_access == "noma":
+        return _star_noma(config, q, report, shares, paths)
     if config.K == 1:
         if shares is not None:
             raise ValueError("shares are for K > 1 ground nodes; this scenario has one")
@@ -113,6 +122,26 @@ def score_plan(
         return _score(config, own, float("nan"), True, report, None)
     best = schedule(config, q, paths)
     return _score(config, own, best.value, True, report, best)
+
+
+def _star_noma(
+    config: ScenarioConfig,
+    q: np.ndarray,
+    report: TrajectoryReport,
+    shares: np.ndarray | None,
+    paths: np.ndarray | None,
+) -> PlanScore:
+    """The score of a STAR scenario under NOMA (module docstring)."""
+    if shares is not None:
+        raise ValueError(
+            "shares are TDMA shares; a STAR scenario with star_access='noma' is scored with the best "
+            "power splits and time sharing of its trajectory "
+            "(ios_uav_env.model.star_regions.scenario_maxmin): give none"
+        )
+    if paths is not None:
+        raise ValueError("paths: a STAR scenario with star_access='noma' is scored for static nodes only")
+    best = scenario_maxmin(config, q).value
+    return _score(config, best, best, False, report, None)
 
 
 def energy_efficiency(

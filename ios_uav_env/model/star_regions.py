@@ -24,6 +24,10 @@ flight's max-min over the two users, with time sharing inside each slot, is solv
 
 Other protocols, phase models and phase resolutions under NOMA are refused (their weighted-sum
 optima are not built yet; ``star_slot`` has their per-slot max-min).
+
+**As a scenario.** :func:`scenario_maxmin` is :func:`star_maxmin` of a ``ScenarioConfig`` of
+surface ``"star"`` with two ground nodes, one on each side (its ``star_*`` fields the surface and
+the access): ``ios_uav_env.score_plan`` scores a NOMA scenario (``star_access="noma"``) with it.
 """
 
 from __future__ import annotations
@@ -35,7 +39,7 @@ from ios_uav_env.model.regions import Pricer, RegionSchedule, maxmin_regions, we
 from ios_uav_env.model.star import ACCESS, StarChannels, StarSurface, star_channels
 from ios_uav_env.model.star_frontier import DEFAULT_TOL, es_frontier_bb, frontier_point, full_side, rate_of
 
-__all__ = ["star_maxmin", "star_pricer"]
+__all__ = ["scenario_maxmin", "star_maxmin", "star_pricer"]
 
 
 def _roles(config: ScenarioConfig, trajectory: np.ndarray, users: np.ndarray) -> tuple[np.ndarray, list]:
@@ -124,3 +128,28 @@ def star_maxmin(
     """The flight's max-min rate of the two ``users`` (bps/Hz) with time sharing in every slot, and
     its certified upper bound (module docstring; ``RegionSchedule.value`` <= V <= ``.upper``)."""
     return maxmin_regions(star_pricer(config, trajectory, users, surface, access, tol), 2, tol=max(tol, 1e-9))
+
+
+def scenario_maxmin(
+    config: ScenarioConfig, trajectory: np.ndarray, tol: float = DEFAULT_TOL
+) -> RegionSchedule:
+    """:func:`star_maxmin` of a STAR scenario: ``config.surface == "star"``, its two static ground
+    nodes (one on each side of the surface plane) the users in the order of ``config.nodes``, its
+    ``star_protocol``, ``star_phases`` and ``star_access``. Under TDMA this is the frame's two-node
+    schedule (``maxmin_rate``); ``score_plan`` scores NOMA scenarios with it."""
+    if config.surface != "star":
+        raise ValueError(f"scenario_maxmin scores surface 'star' scenarios, got surface={config.surface!r}")
+    x_c = config.ios_center[0]
+    if config.K != 2:
+        raise ValueError(
+            f"a STAR scenario with star_access={config.star_access!r} is scored over two ground_nodes, one "
+            f"on each side of the surface plane x = {x_c:g} m (star_regions.star_maxmin), got K = {config.K}"
+        )
+    if config.motion is not None:
+        raise ValueError(
+            f"a STAR scenario with star_access={config.star_access!r} is scored for static nodes "
+            "(star_regions.star_maxmin), got a motion model"
+        )
+    surface = StarSurface(config.star_protocol, config.star_phases, config.star_bits)
+    users = np.asarray(config.nodes, dtype=float)
+    return star_maxmin(config, trajectory, users, surface, config.star_access, tol)

@@ -77,7 +77,7 @@ def test_min_horizon_is_the_boundary():
 @pytest.mark.parametrize(
     ("changes", "field"),
     [
-        ({"surface": "star"}, "surface"),
+        ({"surface": "stars"}, "surface"),
         ({"T": -1.0}, "T"),
         ({"T": float("nan")}, "T"),
         ({"dt": 0.0}, "dt"),
