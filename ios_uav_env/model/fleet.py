@@ -22,11 +22,14 @@ band, where the UAVs interfere at the nodes, is not modelled here.
 
 from __future__ import annotations
 
+from functools import lru_cache
+
 import numpy as np
 
 from ios_uav_env.model import channel
 from ios_uav_env.model.config import ScenarioConfig
 from ios_uav_env.model.regions import Pricer, RegionSchedule, maxmin_regions
+from ios_uav_env.model.surface import element_positions, element_to_ground
 
 __all__ = ["LANE_OFFSET", "default_lanes", "fleet_maxmin", "fleet_pricer", "link_rates", "slot_service"]
 
@@ -42,22 +45,51 @@ def default_lanes(config: ScenarioConfig, uavs: int) -> tuple[np.ndarray, np.nda
     return np.asarray(config.q0, dtype=float) + shift, np.asarray(config.qF, dtype=float) + shift
 
 
+@lru_cache(maxsize=32)
+def _node_geometry(config: ScenarioConfig) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """(elements (M, 3), d_mG (K, M), the departure cosines cubed (K, M), e^{-j 2 pi d_mG / lambda}
+    (K, M)) of ``config``'s surface and nodes (the per-element model's, ``channel``)."""
+    w = element_positions(config)
+    per_node = [element_to_ground(config.node_config(k)) for k in range(config.K)]
+    d_mg = np.array([d for d, _ in per_node])
+    cos3 = np.array([c for _, c in per_node]) ** 3
+    return w, d_mg, cos3, np.exp(-1j * (2 * np.pi / config.wavelength) * d_mg)
+
+
 def link_rates(config: ScenarioConfig, positions: np.ndarray) -> np.ndarray:
     """(U, K, U, K) bps/Hz: r[u*, k*, u, k], node k's rate from UAV u at ``positions`` (U, 2) m when
-    the surface's phases line up the link (u*, k*) (eq. (13) for node k* seen from UAV u*)."""
+    the surface's phases line up the link (u*, k*) (eq. (13) for node k* seen from UAV u*).
+
+    The per-element model of ``channel.phased_rates``, factorised: with the element phases
+    E_m^u = e^{-j 2 pi d_Um^u / lambda} and F_m^k = e^{-j 2 pi d_mG^k / lambda}, the surface term of
+    link (u, k) under alignment l = (u*, k*) is e^{-j 2 pi d_UG^l / lambda} sum_m a_m^{uk} E_m^u F_m^k
+    conj(E_m^{u*} F_m^{k*}), so every link under every alignment is one complex matrix product
+    (U K x M by M x U K). Equal to ``phased_rates`` with ``phase_shifts`` of the aligned link to
+    about 1e-11 relative (the phases, ~2 pi d / lambda ~ 1e5 rad, round differently; tested)."""
     q = channel.as_positions(positions, "positions")
-    nodes = [config.node_config(k) for k in range(config.K)]
     u_n, k_n = len(q), config.K
-    # every alignment's phases, row (u*, k*) = u* K + k*: node k*'s eq. (13) from each UAV u*
-    aligned = np.stack([channel.phase_shifts(nodes[ks], q) for ks in range(k_n)], axis=1).reshape(
-        u_n * k_n, -1
+    w, d_mg, cos3, f = _node_geometry(config)
+    wave = 2 * np.pi / config.wavelength
+    d_um = np.sqrt(
+        (q[:, 0:1] - w[:, 0]) ** 2 + (q[:, 1:2] - w[:, 1]) ** 2 + (config.uav_altitude - w[:, 2]) ** 2
     )
-    out = np.empty((u_n, k_n, u_n, k_n))
-    for u in range(u_n):
-        at_u = np.repeat(q[u : u + 1], u_n * k_n, axis=0)
-        for k in range(k_n):  # link (u, k) under every alignment at once
-            out[:, :, u, k] = channel.phased_rates(nodes[k], at_u, aligned).reshape(u_n, k_n)
-    return out
+    k_a = np.abs((q[:, 0:1] - w[:, 0]) / d_um) ** 3  # (U, M)
+    nodes = [config.node_config(k) for k in range(k_n)]
+    side = np.array([channel.side_factor(nodes[k], q[:, 0]) for k in range(k_n)]).T  # (U, K)
+    amp = config.J * k_a[:, None, :] * (side[:, :, None] * cos3[None]) / (d_um[:, None, :] * d_mg[None])
+    phase = np.exp(-1j * wave * d_um)[:, None, :] * f[None]  # (U, K, M): E^u F^k
+    sums = (amp * phase).reshape(u_n * k_n, -1) @ phase.reshape(u_n * k_n, -1).conj().T  # [(u, k), l]
+    d_ug = np.array([[np.sqrt(((q[u] - nodes[k].ground_node) ** 2).sum() + config.uav_altitude**2)
+                      for k in range(k_n)] for u in range(u_n)]).reshape(-1)  # fmt: skip
+    a_d = np.array(
+        [channel.direct_amplitude(nodes[k], q[u : u + 1])[0] for u in range(u_n) for k in range(k_n)]
+    )
+    los = sums + (a_d[:, None] * np.exp(-1j * wave * (d_ug[:, None] - d_ug[None, :])))
+    kappa = config.kappa
+    total = amp.sum(axis=2).reshape(-1) + a_d  # sum_m a_m + a_D of each link
+    gain = kappa / (1 + kappa) * np.abs(los) ** 2 + (total**2 / (1 + kappa))[:, None]
+    rates = np.log2(1.0 + config.eta * gain)  # [(u, k), (u*, k*)]
+    return rates.T.reshape(u_n, k_n, u_n, k_n)
 
 
 def slot_service(rates: np.ndarray, shares: np.ndarray, surface_shares: np.ndarray) -> np.ndarray:
