@@ -34,7 +34,7 @@ from ios_uav_env.envs.multi_features import (
     rate_potential,
     share_scores,
 )
-from ios_uav_env.envs.multi_kernels import NodeRows
+from ios_uav_env.envs.multi_kernels import NodeRows, track_kernels
 from ios_uav_env.envs.multi_mobile import MobileNodes
 from ios_uav_env.envs.multi_space import multinode_bounds, rate_high
 from ios_uav_env.envs.multi_table import (
@@ -448,7 +448,9 @@ class MultiNodeEnv(MobileNodes, EnergyChannel, gym.Env):
         terminated = bool(self._terminated[0])
         if terminated:
             start = time.perf_counter()
-            self._table[0, BEST] = reported_maxmin_rate(self.config, self.trajectory, self.truth)
+            self._table[0, BEST] = reported_maxmin_rate(
+                self.config, self.trajectory, self.truth, track_kernels(self.track)
+            )
             self.score_seconds = time.perf_counter() - start
         return self._obs[0].copy(), float(self._reward[0]), terminated, False, self._info()
 

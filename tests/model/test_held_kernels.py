@@ -73,7 +73,9 @@ def test_held_kernels_are_returned_as_copies_while_their_handle_lives(projection
     assert len(projections) == 4 and np.array_equal(fresh, nodes)
 
 
-def test_the_episode_score_reuses_the_tracks_kernels(projections):
+def test_the_episode_score_reuses_the_tracks_kernels(projections, built):
+    """The single env's episode score takes its track's kernels as they are (no ``path_kernels``
+    call, held or not), equal bit for bit to the score that builds them."""
     env = MultiNodeEnv(CONFIG, knowledge="reports")
     env.reset(seed=3)
     assert len(projections) == CONFIG.K  # the track's kernels, one projection per node, and no other
@@ -82,7 +84,7 @@ def test_the_episode_score_reuses_the_tracks_kernels(projections):
     while not terminated:
         _, _, terminated, _, info = env.step(actions[t])
         t += 1
-    assert len(projections) == CONFIG.K  # the episode's best schedule projected nothing new
+    assert len(projections) == CONFIG.K and not built  # the best schedule projected nor asked nothing
     kept = env.track.held
     env.track.held = ()  # (drop the handles: the score then projects the paths again)
     del kept
