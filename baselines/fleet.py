@@ -14,9 +14,10 @@ maximise the link's amplitude, a triangle inequality), so
 
 with UB_u(w) the single-UAV bound of ``baselines.dp_bound`` on UAV u's start and final point (the
 relaxed DP over grid cells, certified for continuous trajectories). Dropping the surface's
-coupling and the separation only relaxes the problem, and by weak duality V <= min_w sum_u
-UB_u(w), a convex function of w minimised by Kelley's cuts (``dp_bound.kelley_step``; the cut of
-each UAV's relaxed path is linear in w, so their sum is the fleet's cut).
+coupling and the separation only relaxes the problem, and so does dropping a shared band's
+interference (it only lowers rates), so by weak duality V <= min_w sum_u UB_u(w) in either band,
+a convex function of w minimised by Kelley's cuts (``dp_bound.kelley_step``; the cut of each
+UAV's relaxed path is linear in w, so their sum is the fleet's cut).
 
 **The plans.** Candidates, each scored by ``fleet_maxmin`` and kept only if separated all along
 (``flights_separated``) and feasible for every UAV:
@@ -43,7 +44,7 @@ from baselines.dp_bound import kelley_step
 from baselines.dp_relaxed import RelaxedDP, check_relaxed_grid
 from baselines.grid import DEFAULT_MARGIN, grid_axes, grid_path, validate_grid_args
 from ios_uav_env import ScenarioConfig
-from ios_uav_env.model.fleet import default_lanes, fleet_maxmin
+from ios_uav_env.model.fleet import ACCESS, default_lanes, fleet_maxmin
 from ios_uav_env.model.separation import DEFAULT_SEPARATION, check_separated, flights_separated
 
 __all__ = ["FleetPlan", "fleet_bound", "fleet_configs", "solve"]
@@ -174,6 +175,7 @@ def solve(
     max_cuts: int = 15,
     tol: float = 1e-3,
     local_moves: int = 12,
+    access: str = "orthogonal",
     progress: bool = False,
 ) -> FleetPlan:
     """The best separated fleet found and the certified bound (module docstring).
@@ -181,7 +183,9 @@ def solve(
     ``uavs``, ``starts``, ``finals``, ``min_separation``: the fleet (defaults: the env's lanes,
     ``ios_uav_env.parallel_env``); ``resolution``: the plain DP grid (m); ``bound_resolution``: the
     relaxed DP's cells (default ``resolution``); ``max_cuts``, ``tol``: Kelley's iterations and
-    relative gap; ``local_moves``: most node reassignments tried. ``info``: ``source`` (which
+    relative gap; ``local_moves``: most node reassignments tried; ``access``: orthogonal bands or
+    one shared band (the plans are scored with its interference; the bound, interference-free, holds
+    for both). ``info``: ``source`` (which
     candidate won), ``assignment`` (each node's UAV, for a tour candidate), ``weights`` (the
     bound's w), ``kelley_lower``, ``cuts``, ``candidates`` (scored, separated), ``rejected``
     (candidates that were not separated)."""
@@ -194,6 +198,8 @@ def solve(
             f"energy_budget_j=None; got objective={config.objective!r}, motion={config.motion!r}, "
             f"energy_budget_j={config.energy_budget_j!r}"
         )
+    if access not in ACCESS:
+        raise ValueError(f"access must be one of {ACCESS}, got {access!r}")
     if isinstance(uavs, bool) or not isinstance(uavs, int) or uavs < 1:
         raise ValueError(f"uavs must be an integer >= 1, got {uavs!r}")
     if not (
@@ -228,7 +234,7 @@ def solve(
         if not (feasible and flights_separated(flights, min_separation)):
             rejected.append(source)
             return -math.inf
-        value = fleet_maxmin(config, flights).value
+        value = fleet_maxmin(config, flights, access=access).value
         scored.append((value, source, flights, assignment))
         if progress:
             print(f"[fleet] {source}: {value:.6f} bps/Hz")
@@ -299,15 +305,19 @@ def main(argv: list[str] | None = None) -> None:
         "--resolution", type=float, default=5.0, help="DP grid and bound cells, m (default: 5)"
     )
     parser.add_argument("--separation", type=float, default=DEFAULT_SEPARATION, help="min_separation, m")
+    parser.add_argument("--access", choices=ACCESS, nargs="+", default=["orthogonal"], help="spectrum access")
     args = parser.parse_args(argv)
     config = ScenarioConfig(ground_nodes=DEFAULT_NODES)
-    print("| U | plan (bps/Hz) | bound | gap | source | s |\n|---|---:|---:|---:|---|---:|")
+    print("| U | access | plan (bps/Hz) | bound | gap | source | s |\n|---|---|---:|---:|---:|---|---:|")
     for u in args.uavs:
-        plan = solve(config, uavs=u, resolution=args.resolution, min_separation=args.separation)
-        print(
-            f"| {u} | {plan.value:.4f} | {plan.upper_bound:.4f} | {100 * plan.gap:.1f} % "
-            f"| {plan.info['source']} | {plan.solve_seconds:.1f} |"
-        )
+        for access in args.access:
+            plan = solve(
+                config, uavs=u, resolution=args.resolution, min_separation=args.separation, access=access
+            )
+            print(
+                f"| {u} | {access} | {plan.value:.4f} | {plan.upper_bound:.4f} | {100 * plan.gap:.1f} % "
+                f"| {plan.info['source']} | {plan.solve_seconds:.1f} |"
+            )
 
 
 if __name__ == "__main__":

@@ -22,7 +22,15 @@ from gymnasium import spaces
 from ios_uav_env.envs.multi import MultiNodeEnv
 from ios_uav_env.envs.observation import pad
 from ios_uav_env.model.config import ScenarioConfig, as_config
-from ios_uav_env.model.fleet import default_lanes, fleet_maxmin, link_rates, slot_service
+from ios_uav_env.model.fleet import (
+    ACCESS,
+    default_lanes,
+    fleet_maxmin,
+    link_gains,
+    link_rates,
+    shared_slot_service,
+    slot_service,
+)
 from ios_uav_env.model.guard import guarded_position
 from ios_uav_env.model.scenarios import DEFAULT_NODES
 from ios_uav_env.model.separation import DEFAULT_SEPARATION, check_separated, min_distance, separated_moves
@@ -64,13 +72,14 @@ class FleetParallelEnv(ParallelEnv):
     ## Description
 
     UAV u flies from ``starts[u]`` to ``finals[u]`` in the scenario's N slots (its speed limit D
-    per slot, its arrival guard) and transmits in a band of its own (orthogonal bands: no
-    interference). Each slot it shares its time between the nodes (softmax of its node scores, as
-    in ``MultiNodeEnv``), and the surface shares its alignment between the UAVs (softmax of
-    ``surface_sharpness`` x their surface bids): while it serves UAV u it is lined up with the
-    node u serves, and every other UAV sees misaligned phases
-    (``ios_uav_env.model.fleet.slot_service``). The team's objective is the nodes' max-min
-    rate over the flight, the rates summed over the UAVs.
+    per slot, its arrival guard) and transmits in a band of its own (``access="orthogonal"``: no
+    interference) or in one band with the others (``"shared"``: the other UAVs' signals are
+    interference at the nodes, ``model.fleet``). Each slot it shares its time between the nodes
+    (softmax of its node scores, as in ``MultiNodeEnv``), and the surface shares its alignment
+    between the UAVs (softmax of ``surface_sharpness`` x their surface bids): while it serves UAV
+    u it is lined up with the node u serves, and every other UAV sees misaligned phases
+    (``ios_uav_env.model.fleet.slot_service``, ``shared_slot_service``). The team's objective is
+    the nodes' max-min rate over the flight, the rates summed over the UAVs.
 
     ## Action Space
 
@@ -106,7 +115,7 @@ class FleetParallelEnv(ParallelEnv):
 
     ``config`` (K ground nodes; default ``MultiNodeEnv``'s three), ``uavs`` (U >= 1, default 2),
     ``starts`` / ``finals`` ((U, 2) m; default ``model.fleet.default_lanes``), ``min_separation``
-    (m, default ``model.separation.DEFAULT_SEPARATION``), ``surface_sharpness`` (> 0),
+    (m, default ``model.separation.DEFAULT_SEPARATION``), ``surface_sharpness`` (> 0), ``access``,
     ``best_schedule`` (compute the episode-end schedule, default True), and ``MultiNodeEnv``'s
     keywords (``share_sharpness``, ``max_nodes``, the env options). With U >= 2 the nodes are
     static and exactly known, the channel is ``"expected"`` and the objective is the rate
@@ -124,6 +133,7 @@ class FleetParallelEnv(ParallelEnv):
         finals: Any = None,
         min_separation: float = DEFAULT_SEPARATION,
         surface_sharpness: float = 5.0,
+        access: str = "orthogonal",
         best_schedule: bool = True,
         **kwargs: Any,
     ) -> None:
@@ -133,6 +143,9 @@ class FleetParallelEnv(ParallelEnv):
             raise ValueError(f"min_separation must be a finite number >= 0 (m), got {min_separation!r}")
         if not (_finite(surface_sharpness) and surface_sharpness > 0):
             raise ValueError(f"surface_sharpness must be a finite number > 0, got {surface_sharpness!r}")
+        if access not in ACCESS:
+            raise ValueError(f"access must be one of {ACCESS}, got {access!r}")
+        self.access = access
         base = as_config(config if config is not None else ScenarioConfig(ground_nodes=DEFAULT_NODES))
         u_n = int(uavs)
         lanes = default_lanes(base, u_n)
@@ -302,8 +315,12 @@ class FleetParallelEnv(ParallelEnv):
         """Add the slot's service of the nodes (``slot_service``) to the team's served sums."""
         k_n = self.config.K
         q = np.array([env.trajectory[-1] for env in self.uav_envs])
-        rates = link_rates(self.config, q)
-        self.team_served[:k_n] += slot_service(rates, shares[:, :k_n], self.surface_shares)
+        if self.access == "shared":
+            gains = link_gains(self.config, q)
+            slot = shared_slot_service(gains, self.config.eta, shares[:, :k_n], self.surface_shares)
+        else:
+            slot = slot_service(link_rates(self.config, q), shares[:, :k_n], self.surface_shares)
+        self.team_served[:k_n] += slot
 
     def _team_outputs(self, results: list[tuple], r_rate: float) -> tuple[dict, dict, dict, dict, dict]:
         """The agents' (obs, rewards, terminations, truncations, infos) of the UAVs' ``results``
@@ -316,7 +333,7 @@ class FleetParallelEnv(ParallelEnv):
         best = 0.0
         if done and self.best_schedule:
             flights = np.array([env.trajectory for env in self.uav_envs])
-            best = fleet_maxmin(cfg, flights).value
+            best = fleet_maxmin(cfg, flights, access=self.access).value
         q = np.array([i["position"] for i in infos])
         node_rates = self.team_served / cfg.N
         obs, rewards, terms, truncs, out = {}, {}, {}, {}, {}

@@ -16,12 +16,25 @@ priced exactly by enumeration: for weights w, max over l of sum_u max_k w_k r_{u
 alignments, each with U K link rates per slot).
 
 With U = 1 the surface best serves the link the UAV serves, so the value is the frame's max-min
-schedule of ``maxmin_rate`` (tested); each UAV added can only help (its band is its own). A shared
-band, where the UAVs interfere at the nodes, is not modelled here.
+schedule of ``maxmin_rate`` (tested); each UAV added can only help (its band is its own).
+
+**A shared band** (``access="shared"``): the UAVs transmit in the same band, so at node k the
+other transmitting UAVs' signals are interference. With the expected gains g_{u,k}(l) = E|h|^2 of
+the links under alignment l (:func:`link_gains`; the rate of a lone link is log2(1 + eta g)), UAV
+u serving node k while the UAVs of the set T transmit gives it
+
+    log2(1 + eta g_{u,k}(l) / (1 + eta sum_{v in T, v != u} g_{v,k}(l))),
+
+interference treated as noise (a node does not decode the others' signals). A slot's choices
+then also let a UAV stay silent (a_u = none), which a shared band can make worth it, and the
+pricer enumerates them all, (K + 1)^U per alignment. Interference only lowers rates, so the
+shared band's value is at most the orthogonal bands' (tested), which is the interference-free
+relaxation a bound of the shared band may use.
 """
 
 from __future__ import annotations
 
+import itertools
 from functools import lru_cache
 
 import numpy as np
@@ -31,7 +44,13 @@ from ios_uav_env.model.config import ScenarioConfig
 from ios_uav_env.model.regions import Pricer, RegionSchedule, maxmin_regions
 from ios_uav_env.model.surface import element_positions, element_to_ground
 
-__all__ = ["LANE_OFFSET", "default_lanes", "fleet_maxmin", "fleet_pricer", "link_rates", "slot_service"]
+__all__ = [
+    "ACCESS", "LANE_OFFSET", "default_lanes", "fleet_maxmin", "fleet_pricer", "link_gains", "link_rates",
+    "choice_rates", "shared_slot_service", "slot_service",
+]  # fmt: skip
+
+#: How the UAVs share the spectrum: a band each, or one band (interference at the nodes).
+ACCESS: tuple[str, ...] = ("orthogonal", "shared")
 
 #: m, the offset in y between consecutive UAVs' default lanes (:func:`default_lanes`).
 LANE_OFFSET = 80.0
@@ -58,14 +77,21 @@ def _node_geometry(config: ScenarioConfig) -> tuple[np.ndarray, np.ndarray, np.n
 
 def link_rates(config: ScenarioConfig, positions: np.ndarray) -> np.ndarray:
     """(U, K, U, K) bps/Hz: r[u*, k*, u, k], node k's rate from UAV u at ``positions`` (U, 2) m when
-    the surface's phases line up the link (u*, k*) (eq. (13) for node k* seen from UAV u*).
+    the surface's phases line up the link (u*, k*) (eq. (13) for node k* seen from UAV u*), alone
+    in its band: log2(1 + eta g) of :func:`link_gains`."""
+    return np.log2(1.0 + config.eta * link_gains(config, positions))
+
+
+def link_gains(config: ScenarioConfig, positions: np.ndarray) -> np.ndarray:
+    """(U, K, U, K): g[u*, k*, u, k], the expected gain E|h|^2 of the link (u, k) from UAV u at
+    ``positions`` (U, 2) m to node k when the surface's phases line up the link (u*, k*).
 
     The per-element model of ``channel.phased_rates``, factorised: with the element phases
     E_m^u = e^{-j 2 pi d_Um^u / lambda} and F_m^k = e^{-j 2 pi d_mG^k / lambda}, the surface term of
     link (u, k) under alignment l = (u*, k*) is e^{-j 2 pi d_UG^l / lambda} sum_m a_m^{uk} E_m^u F_m^k
     conj(E_m^{u*} F_m^{k*}), so every link under every alignment is one complex matrix product
-    (U K x M by M x U K). Equal to ``phased_rates`` with ``phase_shifts`` of the aligned link to
-    about 1e-11 relative (the phases, ~2 pi d / lambda ~ 1e5 rad, round differently; tested)."""
+    (U K x M by M x U K). Its rate log2(1 + eta g) equals ``phased_rates`` with ``phase_shifts`` of
+    the aligned link to 1e-12 relative (tested)."""
     q = channel.as_positions(positions, "positions")
     u_n, k_n = len(q), config.K
     w, d_mg, cos3, f = _node_geometry(config)
@@ -87,9 +113,8 @@ def link_rates(config: ScenarioConfig, positions: np.ndarray) -> np.ndarray:
     los = sums + (a_d[:, None] * np.exp(-1j * wave * (d_ug[:, None] - d_ug[None, :])))
     kappa = config.kappa
     total = amp.sum(axis=2).reshape(-1) + a_d  # sum_m a_m + a_D of each link
-    gain = kappa / (1 + kappa) * np.abs(los) ** 2 + (total**2 / (1 + kappa))[:, None]
-    rates = np.log2(1.0 + config.eta * gain)  # [(u, k), (u*, k*)]
-    return rates.T.reshape(u_n, k_n, u_n, k_n)
+    gain = kappa / (1 + kappa) * np.abs(los) ** 2 + (total**2 / (1 + kappa))[:, None]  # [(u, k), l]
+    return gain.T.reshape(u_n, k_n, u_n, k_n)
 
 
 def slot_service(rates: np.ndarray, shares: np.ndarray, surface_shares: np.ndarray) -> np.ndarray:
@@ -117,14 +142,64 @@ def slot_service(rates: np.ndarray, shares: np.ndarray, surface_shares: np.ndarr
     return (alpha * effective).sum(axis=0)
 
 
-def fleet_pricer(config: ScenarioConfig, trajectories: np.ndarray) -> Pricer:
-    """The exact weighted-sum pricer of the slots' regions for the U UAVs' ``trajectories``
-    (U, N, 2) m (module docstring), for ``maxmin_regions(price, config.K)``."""
+def _trajectories(trajectories: np.ndarray) -> np.ndarray:
     t = np.asarray(trajectories, dtype=float)
     if t.ndim != 3 or t.shape[2] != 2 or t.shape[0] < 1 or not np.all(np.isfinite(t)):
         raise ValueError(
             f"trajectories must be a finite (U, N, 2) array in m with U >= 1, got shape {t.shape}"
         )
+    return t
+
+
+def _check_access(access: str) -> None:
+    if access not in ACCESS:
+        raise ValueError(f"access must be one of {ACCESS}, got {access!r}")
+
+
+def choice_rates(gains: np.ndarray, eta: float, access: str = "shared") -> np.ndarray:
+    """(U K (K + 1)^U, K) bps/Hz: the nodes' rates of every choice of a slot, alignment l (row
+    block l) times each UAV's node or silence (``itertools.product(range(-1, K), repeat=U)``, -1
+    silent), from the slot's :func:`link_gains` ``gains``; ``access`` (:data:`ACCESS`) says whether
+    the other transmitting UAVs interfere (module docstring)."""
+    _check_access(access)
+    g = np.asarray(gains, dtype=float)
+    u_n, k_n = g.shape[2], g.shape[3]
+    g = g.reshape(u_n * k_n, u_n, k_n)  # (alignment, u, k)
+    choices = np.array(list(itertools.product(range(-1, k_n), repeat=u_n)), dtype=np.int64)
+    active = (choices >= 0).astype(float)
+    out = np.zeros((g.shape[0], len(choices), k_n))
+    for u in range(u_n):
+        rows = np.flatnonzero(choices[:, u] >= 0)
+        node = choices[rows, u]
+        signal = g[:, u, node]  # (alignment, choice)
+        if access == "shared":  # the other active UAVs at the node this one serves
+            heard = np.einsum("cv,lvc->lc", active[rows], g[:, :, node]) - signal
+            out[:, rows, node] += np.log2(1.0 + eta * signal / (1.0 + eta * heard))
+        else:
+            out[:, rows, node] += np.log2(1.0 + eta * signal)
+    return out.reshape(-1, k_n)
+
+
+def fleet_pricer(config: ScenarioConfig, trajectories: np.ndarray, access: str = "orthogonal") -> Pricer:
+    """The exact weighted-sum pricer of the slots' regions for the U UAVs' ``trajectories``
+    (U, N, 2) m (module docstring), for ``maxmin_regions(price, config.K)``: in orthogonal bands
+    each UAV's best node under each alignment; in a shared band every choice enumerated
+    (:func:`choice_rates`)."""
+    _check_access(access)
+    t = _trajectories(trajectories)
+    if access == "shared":
+        tables = [choice_rates(link_gains(config, t[:, n]), config.eta, "shared") for n in range(t.shape[1])]
+
+        def price_enumerated(w: np.ndarray) -> tuple[np.ndarray, float]:
+            point, total = np.zeros(config.K), 0.0
+            for table in tables:
+                values = table @ w
+                best = int(np.argmax(values))
+                point += table[best]
+                total += float(values[best])
+            return point / len(tables), total / len(tables)
+
+        return price_enumerated
     rates = [link_rates(config, t[:, n]) for n in range(t.shape[1])]  # per slot (U, K, U, K)
     u_n, k_n = t.shape[0], config.K
 
@@ -145,8 +220,36 @@ def fleet_pricer(config: ScenarioConfig, trajectories: np.ndarray) -> Pricer:
     return price
 
 
-def fleet_maxmin(config: ScenarioConfig, trajectories: np.ndarray, *, tol: float = 1e-9) -> RegionSchedule:
-    """The flight's max-min rate of ``config``'s K nodes served by U UAVs in orthogonal bands
-    sharing the surface, with time sharing in every slot, and its bound (module docstring; the
-    pricer is exact, so the two meet to ``tol``)."""
-    return maxmin_regions(fleet_pricer(config, trajectories), config.K, tol=tol)
+def shared_slot_service(
+    gains: np.ndarray, eta: float, shares: np.ndarray, surface_shares: np.ndarray
+) -> np.ndarray:
+    """(K,) bps/Hz: :func:`slot_service`'s schedule (UAV u serves node k a fraction ``shares[u, k]``,
+    the surface serves UAV u a fraction ``surface_shares[u]``, independent) in a shared band: every
+    UAV transmits all the slot, so each moment is the choice (alignment to the served node of the
+    surface's UAV, each UAV's node) with the probability of the product of the shares, and node k
+    gets its expected rate with the others' interference (:func:`choice_rates`)."""
+    g = np.asarray(gains, dtype=float)
+    alpha = np.asarray(shares, dtype=float)
+    beta = np.asarray(surface_shares, dtype=float)
+    u_n, k_n = alpha.shape
+    out = np.zeros(k_n)
+    for nodes in itertools.product(range(k_n), repeat=u_n):
+        p = float(np.prod(alpha[np.arange(u_n), nodes]))
+        if p == 0.0:
+            continue
+        for us in range(u_n):
+            gl = g[us, nodes[us]]  # (U, K): every link under this alignment
+            for u in range(u_n):
+                k = nodes[u]
+                heard = sum(gl[v, k] for v in range(u_n) if v != u)
+                out[k] += p * beta[us] * np.log2(1.0 + eta * gl[u, k] / (1.0 + eta * heard))
+    return out
+
+
+def fleet_maxmin(
+    config: ScenarioConfig, trajectories: np.ndarray, *, access: str = "orthogonal", tol: float = 1e-9
+) -> RegionSchedule:
+    """The flight's max-min rate of ``config``'s K nodes served by U UAVs sharing the surface, in
+    orthogonal bands or one shared band (``access``), with time sharing in every slot, and its bound
+    (module docstring; the pricer is exact, so the two meet to ``tol``)."""
+    return maxmin_regions(fleet_pricer(config, trajectories, access), config.K, tol=tol)

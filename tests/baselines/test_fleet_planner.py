@@ -92,3 +92,14 @@ def test_a_fleet_that_would_meet_is_never_returned(monkeypatch):
     monkeypatch.setattr(fleet, "_dual_flights", lambda *args: None)
     with pytest.raises(ValueError, match="no candidate fleet keeps min_separation = 10 m all along"):
         fleet.solve(CONFIG, uavs=2, resolution=10.0, max_cuts=2)
+
+
+def test_a_shared_band_is_planned_below_the_same_bound(two):
+    shared = fleet.solve(CONFIG, uavs=2, resolution=10.0, access="shared")
+    assert shared.value == fleet_maxmin(CONFIG, shared.trajectories, access="shared").value
+    assert shared.value <= fleet_maxmin(CONFIG, shared.trajectories).value * (1 + 1e-9)  # interference
+    assert (
+        shared.upper_bound == pytest.approx(two.upper_bound, rel=1e-12) and shared.value <= shared.upper_bound
+    )
+    with pytest.raises(ValueError, match="access must be one of"):
+        fleet.solve(CONFIG, access="tdma")

@@ -155,3 +155,20 @@ def test_the_centralised_form_passes_gymnasiums_checker_and_is_the_fleet():
         _, rewards, _, _, _ = fleet.step({"uav_0": a[:6], "uav_1": a[6:]})
         np.testing.assert_array_equal(obs, fleet.state())
         assert reward == rewards["uav_0"]
+
+
+def test_a_shared_band_serves_the_same_flights_less_and_below_its_best_schedule():
+    rates = {}
+    for access in ("orthogonal", "shared"):
+        env = ios_uav_env.parallel_env(CONFIG, uavs=2, access=access)
+        rng = np.random.default_rng(7)
+        _, last, _ = _fly(
+            env, lambda env, a, o, rng=rng: rng.uniform(-1, 1, env.action_space(a).shape), seed=7
+        )
+        info = last["uav_0"]
+        assert info["min_rate"] <= info["best_schedule_rate"] * (1 + 1e-9)
+        rates[access] = (info["node_rates"], env.trajectories)
+    np.testing.assert_array_equal(rates["orthogonal"][1], rates["shared"][1])  # the same flights
+    assert np.all(rates["shared"][0] < rates["orthogonal"][0])  # interference at every node
+    with pytest.raises(ValueError, match="access must be one of"):
+        ios_uav_env.parallel_env(CONFIG, uavs=2, access="tdma")

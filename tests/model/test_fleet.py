@@ -12,7 +12,15 @@ import pytest
 from ios_uav_env import ScenarioConfig, maxmin_rate, slot_rates
 from ios_uav_env.components import SingleAntennaLink
 from ios_uav_env.model import channel
-from ios_uav_env.model.fleet import fleet_maxmin, fleet_pricer, link_rates, slot_service
+from ios_uav_env.model.fleet import (
+    choice_rates,
+    fleet_maxmin,
+    fleet_pricer,
+    link_gains,
+    link_rates,
+    shared_slot_service,
+    slot_service,
+)
 
 CONFIG = ScenarioConfig(
     T=40.0, ios_shape=(10, 6), ground_nodes=((-100.0, -20.0), (60.0, 30.0), (-30.0, 80.0))
@@ -93,3 +101,59 @@ def test_slot_service_is_a_point_of_the_priced_region():
     # a surface given wholly to UAV 0, each UAV serving one node: the enumerated choice itself
     one = slot_service(r, np.eye(3)[[0, 2]], np.array([1.0, 0.0]))
     np.testing.assert_allclose(one, [r[0, 0, 0, 0], 0.0, r[0, 0, 1, 2]], rtol=1e-15)
+
+
+def _enumerated_value(config, trajectories, w, access):
+    """The weighted-sum price of the slots by brute force over choice_rates' table."""
+    t = np.asarray(trajectories)
+    tables = [choice_rates(link_gains(config, t[:, n]), config.eta, access) for n in range(t.shape[1])]
+    return np.mean([np.max(table @ w) for table in tables])
+
+
+def test_the_orthogonal_pricer_is_the_enumeration_with_silence_allowed():
+    t = np.stack([FLIGHT[:4], FLIGHT[::-1][:4]])
+    price = fleet_pricer(CONFIG, t)
+    for w in np.random.default_rng(2).dirichlet(np.ones(3), size=5):
+        assert price(w)[1] == pytest.approx(_enumerated_value(CONFIG, t, w, "orthogonal"), rel=1e-12)
+
+
+def test_a_shared_band_choice_is_the_sinr_of_its_links():
+    q = np.stack([FLIGHT[6], FLIGHT[::-1][6]])
+    g = link_gains(CONFIG, q)
+    np.testing.assert_allclose(np.log2(1 + CONFIG.eta * g), link_rates(CONFIG, q), rtol=1e-15)
+    table = choice_rates(g, CONFIG.eta, "shared").reshape(2 * 3, 16, 3)
+    choices = list(itertools.product(range(-1, 3), repeat=2))
+    aligned, c = 1 * 3 + 2, choices.index((0, 2))  # surface on UAV 1's link to node 2; UAV 0 serves node 0
+    gl = g[1, 2]
+    eta = CONFIG.eta
+    want = [
+        np.log2(1 + eta * gl[0, 0] / (1 + eta * gl[1, 0])),
+        0.0,
+        np.log2(1 + eta * gl[1, 2] / (1 + eta * gl[0, 2])),
+    ]
+    np.testing.assert_allclose(table[aligned, c], want, rtol=1e-14)
+    alone = choices.index((-1, 2))  # UAV 0 silent: UAV 1 is heard alone
+    assert table[aligned, alone, 2] == pytest.approx(np.log2(1 + eta * gl[1, 2]), rel=1e-14)
+
+
+def test_a_shared_band_is_never_better_than_bands_of_their_own():
+    two = np.stack([FLIGHT, FLIGHT[::-1]])
+    shared, own = fleet_maxmin(CONFIG, two, access="shared"), fleet_maxmin(CONFIG, two)
+    assert shared.value <= own.value * (1 + 1e-9) and shared.gap <= 1e-9
+    one = fleet_maxmin(CONFIG, FLIGHT[None], access="shared")  # no one to interfere
+    assert one.value == pytest.approx(maxmin_rate(CONFIG, FLIGHT), rel=1e-9)
+    with pytest.raises(ValueError, match=r"access must be one of \('orthogonal', 'shared'\)"):
+        fleet_maxmin(CONFIG, two, access="common")
+
+
+def test_the_shared_slot_service_is_a_point_of_the_shared_region():
+    q = np.stack([FLIGHT[5], FLIGHT[::-1][9]])
+    g = link_gains(CONFIG, q)
+    price = fleet_pricer(CONFIG, q[:, None, :], "shared")
+    rng = np.random.default_rng(4)
+    for _ in range(10):
+        shares, beta = rng.dirichlet(np.ones(3), size=2), rng.dirichlet(np.ones(2))
+        point = shared_slot_service(g, CONFIG.eta, shares, beta)
+        assert np.all(point <= slot_service(link_rates(CONFIG, q), shares, beta) * (1 + 1e-12))
+        w = rng.dirichlet(np.ones(3))
+        assert w @ point <= price(w)[1] * (1 + 1e-12)
