@@ -135,9 +135,9 @@ def test_a_policys_plan_time_leaves_out_the_envs_scoring_lp(suite, monkeypatch):
 
     real = multinode_env.reported_maxmin_rate
 
-    def slow(config, trajectory, paths=None):
+    def slow(config, trajectory, paths=None, kernels=None):
         time.sleep(1.0)
-        return real(config, trajectory, paths)
+        return real(config, trajectory, paths, kernels)
 
     evaluate(StraightEqualShares(), suite, n=1)  # compiled first: the timed episode is warm
     monkeypatch.setattr(multinode_env, "reported_maxmin_rate", slow)
