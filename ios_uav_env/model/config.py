@@ -14,61 +14,34 @@ import math
 import numbers
 from collections.abc import Mapping
 from dataclasses import dataclass
-from typing import Any, Literal
+from typing import Any
 
 import numpy as np
 
-from ios_uav_env.model.mobility import GaussMarkov, as_motion, rectangles
+from ios_uav_env.model.config_checks import (  # noqa: F401 (the schema, re-exported)
+    ENERGY_RTOL,
+    FEASIBILITY_TOL,
+    OBJECTIVES,
+    STAR_ACCESS,
+    STAR_FIELDS,
+    STAR_MAX_BITS,
+    STAR_PHASES,
+    STAR_PROTOCOLS,
+    SURFACE_KINDS,
+    SURFACES,
+    Surface,
+    as_pair,
+    canonical_nodes,
+    check_motion,
+    check_nodes_off_the_plane,
+    check_objective,
+    check_star,
+    check_star_fields,
+    is_int,
+    is_real,
+)
+from ios_uav_env.model.mobility import GaussMarkov
 from ios_uav_env.model.propulsion import PropulsionModel, least_energy_speed, propulsion_power
-
-Surface = Literal["ios", "ris", "none", "star"]
-#: The paper's surfaces, one env id each (``envs.registration.ENV_IDS``; the figures' schemes).
-SURFACES: tuple[str, ...] = ("ios", "ris", "none")
-#: Every surface a scenario may have: the paper's and ``"star"``, a STAR surface (``docs/model.md``,
-#: "STAR surfaces"; its fields are :data:`STAR_FIELDS`).
-SURFACE_KINDS: tuple[str, ...] = (*SURFACES, "star")
-#: A STAR surface's protocols (``ios_uav_env.model.star.PROTOCOLS`` but the configured surface's own
-#: split ``"fixed"``, which is surface ``"ios"`` or ``"ris"`` itself), phase models and access schemes.
-STAR_PROTOCOLS: tuple[str, ...] = ("es", "ms", "ts")
-STAR_PHASES: tuple[str, ...] = ("independent", "coupled", "shared")
-STAR_ACCESS: tuple[str, ...] = ("tdma", "noma")
-#: Most phase bits of a STAR element (``ios_uav_env.model.star.MAX_BITS``).
-STAR_MAX_BITS = 8
-#: The STAR surface's fields: set only with ``surface="star"``, left out of ``to_dict()`` at their
-#: defaults (the dicts of every other scenario, their suite hashes and cache keys, hold).
-STAR_FIELDS: tuple[str, ...] = ("star_protocol", "star_phases", "star_bits", "star_access")
-
-#: Tolerance (m) within which a trajectory constraint of eq. (10) counts as met.
-FEASIBILITY_TOL = 1e-6
-#: Relative tolerance of the energy budget: a plan of energy E meets ``energy_budget_j`` when
-#: E <= energy_budget_j * (1 + ENERGY_RTOL) (rounding of the sum over N - 1 moves).
-ENERGY_RTOL = 1e-9
-#: What a plan's score is (``ScenarioConfig.objective``): the average rate of eq. (9) (max-min
-#: for K > 1 nodes), or the energy efficiency B T R / E (bits/J). The average rate under an
-#: energy budget is ``"rate"`` with ``energy_budget_j`` set.
-OBJECTIVES: tuple[str, ...] = ("rate", "energy_efficiency")
-
-
-def _pair(value: Any, name: str, length: int = 2) -> tuple[float, ...]:
-    if isinstance(value, (str, bytes)):
-        raise ValueError(f"{name} must be a sequence of {length} numbers, got {value!r}")
-    try:
-        out = tuple(float(v) for v in value)
-    except (TypeError, ValueError) as exc:
-        raise ValueError(f"{name} must be a sequence of {length} numbers, got {value!r}") from exc
-    if len(out) != length:
-        raise ValueError(f"{name} must have {length} entries, got {len(out)}: {value!r}")
-    if not all(math.isfinite(v) for v in out):
-        raise ValueError(f"{name} must be finite, got {value!r}")
-    return out
-
-
-def _is_real(value: Any) -> bool:  # (a plain float first: the ABC check is slow, per field and config)
-    return type(value) is float or (isinstance(value, numbers.Real) and not isinstance(value, bool))
-
-
-def _is_int(value: Any) -> bool:
-    return type(value) is int or (isinstance(value, numbers.Integral) and not isinstance(value, bool))
 
 
 @dataclass(frozen=True)
@@ -130,14 +103,14 @@ class ScenarioConfig:
     def __post_init__(self) -> None:
         if self.surface not in SURFACE_KINDS:
             raise ValueError(f"surface must be one of {SURFACE_KINDS}, got {self.surface!r}")
-        self._check_star()
-        object.__setattr__(self, "q0", _pair(self.q0, "q0"))
-        object.__setattr__(self, "qF", _pair(self.qF, "qF"))
-        object.__setattr__(self, "ground_node", _pair(self.ground_node, "ground_node"))
-        self._canonical_nodes()
-        object.__setattr__(self, "ios_center", _pair(self.ios_center, "ios_center", 3))
-        self._nodes_off_the_plane()
-        shape = _pair(self.ios_shape, "ios_shape")
+        check_star_fields(self, _STAR_DEFAULTS)
+        object.__setattr__(self, "q0", as_pair(self.q0, "q0"))
+        object.__setattr__(self, "qF", as_pair(self.qF, "qF"))
+        object.__setattr__(self, "ground_node", as_pair(self.ground_node, "ground_node"))
+        canonical_nodes(self)
+        object.__setattr__(self, "ios_center", as_pair(self.ios_center, "ios_center", 3))
+        check_nodes_off_the_plane(self)
+        shape = as_pair(self.ios_shape, "ios_shape")
         if any(isinstance(v, (bool, np.bool_)) for v in self.ios_shape) or not all(
             s == int(s) and s >= 1 for s in shape
         ):
@@ -150,17 +123,17 @@ class ScenarioConfig:
             "element_spacing_wl": self.element_spacing_wl, "element_size_wl": self.element_size_wl,
         }  # fmt: skip
         for name, value in positive.items():
-            if not (_is_real(value) and math.isfinite(value) and value > 0):
+            if not (is_real(value) and math.isfinite(value) and value > 0):
                 raise ValueError(f"{name} must be a finite number > 0, got {value!r}")
         nonneg = {"epsilon": self.epsilon, "kappa": self.kappa, "gamma": self.gamma}
         for name, value in nonneg.items():
-            if not (_is_real(value) and math.isfinite(value) and value >= 0):
+            if not (is_real(value) and math.isfinite(value) and value >= 0):
                 raise ValueError(f"{name} must be a finite number >= 0, got {value!r}")
-        if not (_is_real(self.noise_dbm) and math.isfinite(self.noise_dbm)):
+        if not (is_real(self.noise_dbm) and math.isfinite(self.noise_dbm)):
             raise ValueError(f"noise_dbm must be finite, got {self.noise_dbm!r}")
-        if not (_is_int(self.quadrature_nodes) and 0 <= self.quadrature_nodes <= 64):
+        if not (is_int(self.quadrature_nodes) and 0 <= self.quadrature_nodes <= 64):
             raise ValueError(f"quadrature_nodes must be an integer in [0, 64], got {self.quadrature_nodes!r}")
-        if not (_is_real(self.quadrature_tol) and self.quadrature_tol > 0):
+        if not (is_real(self.quadrature_tol) and self.quadrature_tol > 0):
             raise ValueError(f"quadrature_tol must be a number > 0 (inf: none), got {self.quadrature_tol!r}")
         # plain Python numbers (numpy scalars accepted): stable hashing, equality and JSON
         for name in (*positive, *nonneg, "noise_dbm", "quadrature_tol"):
@@ -197,100 +170,8 @@ class ScenarioConfig:
                 f"T={self.T} s is too short to fly from q0={self.q0} to qF={self.qF} at "
                 f"v_max={self.v_max} m/s: T must be >= {t_min:g} s (N - 1 >= ceil(|qF - q0| / D) moves)"
             )
-        self._check_objective()
-        self._check_motion()
-
-    def _check_star(self) -> None:
-        """Validate the STAR fields (:func:`check_star`) and refuse them away from their defaults
-        with another surface than ``"star"``: they would do nothing."""
-        check_star(self.star_protocol, self.star_phases, self.star_bits, self.star_access)
-        if self.surface == "star":
-            return
-        for name in STAR_FIELDS:
-            value, default = getattr(self, name), _STAR_DEFAULTS[name]
-            if value != default:
-                raise ValueError(
-                    f"{name}={value!r} is a field of the STAR surface: it needs surface='star' (this "
-                    f"config has surface={self.surface!r}); leave it at its default {default!r}"
-                )
-
-    def _check_motion(self) -> None:
-        """Validate ``motion`` (a dict becomes the model): every node inside its motion rectangle
-        (``ios_uav_env.model.mobility.rectangles``: the box, off the IOS plane's strip)."""
-        object.__setattr__(self, "motion", as_motion(self.motion))
-        if self.motion is not None:
-            rectangles(self.motion, np.asarray(self.nodes, dtype=float), self.ios_center, self.surface)
-
-    def _check_objective(self) -> None:
-        """Validate the objective's fields (``propulsion`` given as a dict becomes the model)."""
-        model = self.propulsion
-        if isinstance(model, Mapping):
-            unknown = set(model) - {f.name for f in dataclasses.fields(PropulsionModel)}
-            if unknown:
-                raise ValueError(
-                    f"propulsion has unknown constants {sorted(unknown)}; allowed: "
-                    f"{[f.name for f in dataclasses.fields(PropulsionModel)]}"
-                )
-            object.__setattr__(self, "propulsion", PropulsionModel(**model))
-        elif not isinstance(model, PropulsionModel):
-            raise ValueError(
-                f"propulsion must be a PropulsionModel (or a dict of its constants), got {model!r}"
-            )
-        b = self.bandwidth_hz
-        if not (_is_real(b) and math.isfinite(b) and b > 0):
-            raise ValueError(f"bandwidth_hz must be a finite number > 0 (Hz), got {b!r}")
-        object.__setattr__(self, "bandwidth_hz", float(b))
-        if self.objective not in OBJECTIVES:
-            raise ValueError(f"objective must be one of {OBJECTIVES}, got {self.objective!r}")
-        budget = self.energy_budget_j
-        if budget is None:
-            return
-        if not (_is_real(budget) and math.isfinite(budget) and budget > 0):
-            raise ValueError(f"energy_budget_j must be None or a finite number > 0 (J), got {budget!r}")
-        object.__setattr__(self, "energy_budget_j", float(budget))
-        least = self.least_energy()
-        if budget < least:
-            raise ValueError(
-                f"energy_budget_j={budget!r} J is below the least energy of any feasible flight of "
-                f"this scenario, {least:.10g} J (N - 1 = {self.N - 1} moves from q0 to qF at "
-                f"{self.least_energy_speed():.4g} m/s): it must be None or a number >= {least:.10g} J"
-            )
-
-    def _canonical_nodes(self) -> None:
-        """Validate ``ground_nodes``; set ``ground_node`` to its first node; K = 1 -> None."""
-        nodes = self.ground_nodes
-        if nodes is None:
-            return
-        if isinstance(nodes, (str, bytes)) or not hasattr(nodes, "__len__") or len(nodes) == 0:
-            raise ValueError(
-                f"ground_nodes must be a sequence of K >= 1 (x, y) pairs in m (None: the single "
-                f"ground_node), got {nodes!r}"
-            )
-        pairs = tuple(_pair(p, f"ground_nodes[{i}]") for i, p in enumerate(nodes))
-        default = ScenarioConfig.__dataclass_fields__["ground_node"].default
-        if self.ground_node not in (pairs[0], default):
-            raise ValueError(
-                f"ground_node={self.ground_node} conflicts with ground_nodes[0]={pairs[0]}: give only "
-                "ground_nodes (ground_node is set to its first node)"
-            )
-        object.__setattr__(self, "ground_node", pairs[0])
-        object.__setattr__(self, "ground_nodes", pairs if len(pairs) > 1 else None)
-
-    def _nodes_off_the_plane(self) -> None:
-        """With a surface, no ground node may lie on its plane x = x_c: which side the node is on
-        (reflection or transmission) is what the surface's channel depends on, and on the plane
-        it is undefined."""
-        if self.surface == "none":
-            return
-        plane = self.ios_center[0]
-        for i, node in enumerate(self.nodes):
-            if node[0] == plane:
-                name = "ground_node" if self.K == 1 else f"ground_nodes[{i}]"
-                raise ValueError(
-                    f"{name}={node} lies on the IOS plane x = ios_center[0] = {plane:g} m, where its "
-                    f"side of the surface (reflect or transmit, surface={self.surface!r}) is undefined: "
-                    f"move the node off the plane (x != {plane:g} m) or use surface='none'"
-                )
+        check_objective(self)
+        check_motion(self)
 
     # --- derived quantities -------------------------------------------------------
     @property
@@ -468,46 +349,6 @@ SCENARIO_FIELDS: frozenset[str] = frozenset(f.name for f in dataclasses.fields(S
 _OMITTED_AT_DEFAULT = ("propulsion", "bandwidth_hz", "objective", "energy_budget_j", "motion", *STAR_FIELDS)
 _DEFAULTS = {f.name: f.default for f in dataclasses.fields(ScenarioConfig) if f.name in _OMITTED_AT_DEFAULT}
 _STAR_DEFAULTS = {name: _DEFAULTS[name] for name in STAR_FIELDS}
-
-
-def check_star(protocol: Any, phases: Any, bits: Any, access: Any, prefix: str = "star_") -> None:
-    """``ValueError`` naming the field (``prefix`` + protocol, phases, bits or access) and its
-    allowed values unless these are a STAR surface the scenario's rate model runs: a protocol of
-    :data:`STAR_PROTOCOLS`, a phase model of :data:`STAR_PHASES`, continuous phases (bits None) and
-    an access scheme of :data:`STAR_ACCESS` (NOMA with energy splitting and independent phases,
-    the case whose flight optimum ``star_regions.star_maxmin`` certifies).
-
-    b-bit phases are refused: the best b-bit phases of the served node depend on the UAV's
-    position element by element (``star.best_discrete_phases``), which the rate kernel's
-    compressed element sum does not hold; ``star_slot.slot_optimum`` computes b-bit per-slot rates."""
-    if not (isinstance(protocol, str) and protocol in STAR_PROTOCOLS):
-        raise ValueError(
-            f"{prefix}protocol must be one of {STAR_PROTOCOLS}, got {protocol!r} (the configured "
-            "surface's own split, star.py's 'fixed', is surface='ios' or 'ris')"
-        )
-    if not (isinstance(phases, str) and phases in STAR_PHASES):
-        raise ValueError(f"{prefix}phases must be one of {STAR_PHASES}, got {phases!r}")
-    if bits is not None:
-        if not (_is_int(bits) and 1 <= bits <= STAR_MAX_BITS):
-            raise ValueError(
-                f"{prefix}bits must be None (continuous phases) or an integer in [1, {STAR_MAX_BITS}], "
-                f"got {bits!r}"
-            )
-        raise ValueError(
-            f"{prefix}bits={bits!r}: b-bit phases are not modelled in a scenario (the served node's "
-            "best b-bit phases vary with the UAV position element by element, outside the rate "
-            f"kernel); use {prefix}bits=None (continuous phases), and for b-bit per-slot rates "
-            "ios_uav_env.model.star_slot.slot_optimum with star.StarSurface(bits=b) and access 'tdma'"
-        )
-    if not (isinstance(access, str) and access in STAR_ACCESS):
-        raise ValueError(f"{prefix}access must be one of {STAR_ACCESS}, got {access!r}")
-    if access == "noma" and (protocol, phases) != ("es", "independent"):
-        raise ValueError(
-            f"{prefix}access='noma' is modelled for {prefix}protocol='es' with {prefix}phases="
-            f"'independent' (the flight's optimum of ios_uav_env.model.star_regions.star_maxmin), got "
-            f"{prefix}protocol={protocol!r}, {prefix}phases={phases!r}; "
-            "ios_uav_env.model.star_slot.slot_optimum has every protocol's per-slot NOMA max-min"
-        )
 
 
 def moves_needed(distance: Any, D: float) -> Any:

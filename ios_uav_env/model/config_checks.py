@@ -1,0 +1,207 @@
+"""The scenario's schema: the allowed values of ``ScenarioConfig``'s fields and their checks.
+
+``ios_uav_env.model.config`` holds the dataclass (its fields, units and derived quantities); this
+module holds what it validates against, each check a function of the config that raises a
+``ValueError`` naming the field and the allowed values (and, where a field is normalised, sets it
+with ``object.__setattr__`` on the frozen dataclass, as ``__post_init__`` does).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+import numbers
+from collections.abc import Mapping
+from typing import Any, Literal
+
+import numpy as np
+
+from ios_uav_env.model.mobility import as_motion, rectangles
+from ios_uav_env.model.propulsion import PropulsionModel
+
+Surface = Literal["ios", "ris", "none", "star"]
+#: The paper's surfaces, one env id each (``envs.registration.ENV_IDS``; the figures' schemes).
+SURFACES: tuple[str, ...] = ("ios", "ris", "none")
+#: Every surface a scenario may have: the paper's and ``"star"``, a STAR surface (``docs/model.md``,
+#: "STAR surfaces"; its fields are :data:`STAR_FIELDS`).
+SURFACE_KINDS: tuple[str, ...] = (*SURFACES, "star")
+#: A STAR surface's protocols (``ios_uav_env.model.star.PROTOCOLS`` but the configured surface's own
+#: split ``"fixed"``, which is surface ``"ios"`` or ``"ris"`` itself), phase models and access schemes.
+STAR_PROTOCOLS: tuple[str, ...] = ("es", "ms", "ts")
+STAR_PHASES: tuple[str, ...] = ("independent", "coupled", "shared")
+STAR_ACCESS: tuple[str, ...] = ("tdma", "noma")
+#: Most phase bits of a STAR element (``ios_uav_env.model.star.MAX_BITS``).
+STAR_MAX_BITS = 8
+#: The STAR surface's fields: set only with ``surface="star"``, left out of ``to_dict()`` at their
+#: defaults (the dicts of every other scenario, their suite hashes and cache keys, hold).
+STAR_FIELDS: tuple[str, ...] = ("star_protocol", "star_phases", "star_bits", "star_access")
+
+#: Tolerance (m) within which a trajectory constraint of eq. (10) counts as met.
+FEASIBILITY_TOL = 1e-6
+#: Relative tolerance of the energy budget: a plan of energy E meets ``energy_budget_j`` when
+#: E <= energy_budget_j * (1 + ENERGY_RTOL) (rounding of the sum over N - 1 moves).
+ENERGY_RTOL = 1e-9
+#: What a plan's score is (``ScenarioConfig.objective``): the average rate of eq. (9) (max-min
+#: for K > 1 nodes), or the energy efficiency B T R / E (bits/J). The average rate under an
+#: energy budget is ``"rate"`` with ``energy_budget_j`` set.
+OBJECTIVES: tuple[str, ...] = ("rate", "energy_efficiency")
+
+
+def as_pair(value: Any, name: str, length: int = 2) -> tuple[float, ...]:
+    """``value`` as a tuple of ``length`` finite floats (``ValueError`` naming ``name``)."""
+    if isinstance(value, (str, bytes)):
+        raise ValueError(f"{name} must be a sequence of {length} numbers, got {value!r}")
+    try:
+        out = tuple(float(v) for v in value)
+    except (TypeError, ValueError) as exc:
+        raise ValueError(f"{name} must be a sequence of {length} numbers, got {value!r}") from exc
+    if len(out) != length:
+        raise ValueError(f"{name} must have {length} entries, got {len(out)}: {value!r}")
+    if not all(math.isfinite(v) for v in out):
+        raise ValueError(f"{name} must be finite, got {value!r}")
+    return out
+
+
+def is_real(value: Any) -> bool:  # (a plain float first: the ABC check is slow, per field and config)
+    """Whether ``value`` is a real number (not a bool)."""
+    return type(value) is float or (isinstance(value, numbers.Real) and not isinstance(value, bool))
+
+
+def is_int(value: Any) -> bool:
+    """Whether ``value`` is an integer (not a bool)."""
+    return type(value) is int or (isinstance(value, numbers.Integral) and not isinstance(value, bool))
+
+
+def check_star_fields(cfg: Any, defaults: Mapping[str, Any]) -> None:
+    """Validate the STAR fields (:func:`check_star`) and refuse them away from their defaults
+    with another surface than ``"star"``: they would do nothing."""
+    check_star(cfg.star_protocol, cfg.star_phases, cfg.star_bits, cfg.star_access)
+    if cfg.surface == "star":
+        return
+    for name in STAR_FIELDS:
+        value, default = getattr(cfg, name), defaults[name]
+        if value != default:
+            raise ValueError(
+                f"{name}={value!r} is a field of the STAR surface: it needs surface='star' (this "
+                f"config has surface={cfg.surface!r}); leave it at its default {default!r}"
+            )
+
+
+def check_motion(cfg: Any) -> None:
+    """Validate ``motion`` (a dict becomes the model): every node inside its motion rectangle
+    (``ios_uav_env.model.mobility.rectangles``: the box, off the IOS plane's strip)."""
+    object.__setattr__(cfg, "motion", as_motion(cfg.motion))
+    if cfg.motion is not None:
+        rectangles(cfg.motion, np.asarray(cfg.nodes, dtype=float), cfg.ios_center, cfg.surface)
+
+
+def check_objective(cfg: Any) -> None:
+    """Validate the objective's fields (``propulsion`` given as a dict becomes the model)."""
+    model = cfg.propulsion
+    if isinstance(model, Mapping):
+        unknown = set(model) - {f.name for f in dataclasses.fields(PropulsionModel)}
+        if unknown:
+            raise ValueError(
+                f"propulsion has unknown constants {sorted(unknown)}; allowed: "
+                f"{[f.name for f in dataclasses.fields(PropulsionModel)]}"
+            )
+        object.__setattr__(cfg, "propulsion", PropulsionModel(**model))
+    elif not isinstance(model, PropulsionModel):
+        raise ValueError(f"propulsion must be a PropulsionModel (or a dict of its constants), got {model!r}")
+    b = cfg.bandwidth_hz
+    if not (is_real(b) and math.isfinite(b) and b > 0):
+        raise ValueError(f"bandwidth_hz must be a finite number > 0 (Hz), got {b!r}")
+    object.__setattr__(cfg, "bandwidth_hz", float(b))
+    if cfg.objective not in OBJECTIVES:
+        raise ValueError(f"objective must be one of {OBJECTIVES}, got {cfg.objective!r}")
+    budget = cfg.energy_budget_j
+    if budget is None:
+        return
+    if not (is_real(budget) and math.isfinite(budget) and budget > 0):
+        raise ValueError(f"energy_budget_j must be None or a finite number > 0 (J), got {budget!r}")
+    object.__setattr__(cfg, "energy_budget_j", float(budget))
+    least = cfg.least_energy()
+    if budget < least:
+        raise ValueError(
+            f"energy_budget_j={budget!r} J is below the least energy of any feasible flight of "
+            f"this scenario, {least:.10g} J (N - 1 = {cfg.N - 1} moves from q0 to qF at "
+            f"{cfg.least_energy_speed():.4g} m/s): it must be None or a number >= {least:.10g} J"
+        )
+
+
+def canonical_nodes(cfg: Any) -> None:
+    """Validate ``ground_nodes``; set ``ground_node`` to its first node; K = 1 -> None."""
+    nodes = cfg.ground_nodes
+    if nodes is None:
+        return
+    if isinstance(nodes, (str, bytes)) or not hasattr(nodes, "__len__") or len(nodes) == 0:
+        raise ValueError(
+            f"ground_nodes must be a sequence of K >= 1 (x, y) pairs in m (None: the single "
+            f"ground_node), got {nodes!r}"
+        )
+    pairs = tuple(as_pair(p, f"ground_nodes[{i}]") for i, p in enumerate(nodes))
+    default = type(cfg).__dataclass_fields__["ground_node"].default
+    if cfg.ground_node not in (pairs[0], default):
+        raise ValueError(
+            f"ground_node={cfg.ground_node} conflicts with ground_nodes[0]={pairs[0]}: give only "
+            "ground_nodes (ground_node is set to its first node)"
+        )
+    object.__setattr__(cfg, "ground_node", pairs[0])
+    object.__setattr__(cfg, "ground_nodes", pairs if len(pairs) > 1 else None)
+
+
+def check_nodes_off_the_plane(cfg: Any) -> None:
+    """With a surface, no ground node may lie on its plane x = x_c: which side the node is on
+    (reflection or transmission) is what the surface's channel depends on, and on the plane
+    it is undefined."""
+    if cfg.surface == "none":
+        return
+    plane = cfg.ios_center[0]
+    for i, node in enumerate(cfg.nodes):
+        if node[0] == plane:
+            name = "ground_node" if cfg.K == 1 else f"ground_nodes[{i}]"
+            raise ValueError(
+                f"{name}={node} lies on the IOS plane x = ios_center[0] = {plane:g} m, where its "
+                f"side of the surface (reflect or transmit, surface={cfg.surface!r}) is undefined: "
+                f"move the node off the plane (x != {plane:g} m) or use surface='none'"
+            )
+
+
+def check_star(protocol: Any, phases: Any, bits: Any, access: Any, prefix: str = "star_") -> None:
+    """``ValueError`` naming the field (``prefix`` + protocol, phases, bits or access) and its
+    allowed values unless these are a STAR surface the scenario's rate model runs: a protocol of
+    :data:`STAR_PROTOCOLS`, a phase model of :data:`STAR_PHASES`, continuous phases (bits None) and
+    an access scheme of :data:`STAR_ACCESS` (NOMA with energy splitting and independent phases,
+    the case whose flight optimum ``star_regions.star_maxmin`` certifies).
+
+    b-bit phases are refused: the best b-bit phases of the served node depend on the UAV's
+    position element by element (``star.best_discrete_phases``), which the rate kernel's
+    compressed element sum does not hold; ``star_slot.slot_optimum`` computes b-bit per-slot rates."""
+    if not (isinstance(protocol, str) and protocol in STAR_PROTOCOLS):
+        raise ValueError(
+            f"{prefix}protocol must be one of {STAR_PROTOCOLS}, got {protocol!r} (the configured "
+            "surface's own split, star.py's 'fixed', is surface='ios' or 'ris')"
+        )
+    if not (isinstance(phases, str) and phases in STAR_PHASES):
+        raise ValueError(f"{prefix}phases must be one of {STAR_PHASES}, got {phases!r}")
+    if bits is not None:
+        if not (is_int(bits) and 1 <= bits <= STAR_MAX_BITS):
+            raise ValueError(
+                f"{prefix}bits must be None (continuous phases) or an integer in [1, {STAR_MAX_BITS}], "
+                f"got {bits!r}"
+            )
+        raise ValueError(
+            f"{prefix}bits={bits!r}: b-bit phases are not modelled in a scenario (the served node's "
+            "best b-bit phases vary with the UAV position element by element, outside the rate "
+            f"kernel); use {prefix}bits=None (continuous phases), and for b-bit per-slot rates "
+            "ios_uav_env.model.star_slot.slot_optimum with star.StarSurface(bits=b) and access 'tdma'"
+        )
+    if not (isinstance(access, str) and access in STAR_ACCESS):
+        raise ValueError(f"{prefix}access must be one of {STAR_ACCESS}, got {access!r}")
+    if access == "noma" and (protocol, phases) != ("es", "independent"):
+        raise ValueError(
+            f"{prefix}access='noma' is modelled for {prefix}protocol='es' with {prefix}phases="
+            f"'independent' (the flight's optimum of ios_uav_env.model.star_regions.star_maxmin), got "
+            f"{prefix}protocol={protocol!r}, {prefix}phases={phases!r}; "
+            "ios_uav_env.model.star_slot.slot_optimum has every protocol's per-slot NOMA max-min"
+        )
