@@ -40,14 +40,14 @@ from typing import Any
 import numpy as np
 
 import ios_uav_env as ie
-from baselines.dp_bound import kelley_step
+from baselines.dp_bound import kelley_step, weighted_dp_path
 from baselines.dp_relaxed import RelaxedDP, check_relaxed_grid
-from baselines.grid import DEFAULT_MARGIN, grid_axes, grid_path, validate_grid_args
+from baselines.grid import DEFAULT_MARGIN, validate_grid_args
 from ios_uav_env import ScenarioConfig
-from ios_uav_env.model.fleet import ACCESS, default_lanes, fleet_maxmin
-from ios_uav_env.model.separation import DEFAULT_SEPARATION, check_separated, flights_separated
+from ios_uav_env.model.fleet import ACCESS, fleet_maxmin, fleet_setup
+from ios_uav_env.model.separation import DEFAULT_SEPARATION, flights_separated
 
-__all__ = ["FleetPlan", "fleet_bound", "fleet_configs", "solve"]
+__all__ = ["FleetPlan", "fleet_bound", "solve"]
 
 
 @dataclass
@@ -69,18 +69,6 @@ class FleetPlan:
         if self.value > 0:
             return self.upper_bound / self.value - 1.0
         return 0.0 if self.upper_bound <= 0 else math.inf
-
-
-def fleet_configs(config: ScenarioConfig, starts: np.ndarray, finals: np.ndarray) -> list[ScenarioConfig]:
-    """Each UAV's scenario: ``config`` with its start and final point (``ValueError`` naming the UAV
-    if its final point is out of reach)."""
-    out = []
-    for u, (s, f) in enumerate(zip(starts, finals, strict=True)):
-        try:
-            out.append(config.replace(q0=(float(s[0]), float(s[1])), qF=(float(f[0]), float(f[1]))))
-        except ValueError as err:
-            raise ValueError(f"starts[{u}] / finals[{u}]: {err}") from None
-    return out
 
 
 def fleet_bound(
@@ -121,21 +109,10 @@ def fleet_bound(
 def _dual_flights(
     configs: list[ScenarioConfig], w: np.ndarray, resolution: float, margin: float
 ) -> np.ndarray | None:
-    """Every UAV's plain grid DP path on f_w (None if one has no grid path in time)."""
-    flights = []
-    for c in configs:
-        xs, ys, _ = grid_axes(c, resolution, margin)
-        xx, yy = np.meshgrid(xs, ys)
-        rates = ie.node_rates(c, np.column_stack([xx.ravel(), yy.ravel()])).reshape(c.K, *xx.shape)
-        rf = ie.node_rates(c, np.array([c.qF]))[:, 0]
-        try:
-            path, _ = grid_path(
-                c, np.max(w[:, None, None] * rates, axis=0), float(np.max(w * rf)), resolution, margin
-            )
-        except ValueError:
-            return None
-        flights.append(path)
-    return np.array(flights)
+    """Every UAV's plain grid DP path on f_w (``dp_bound.weighted_dp_path``; None if one has no grid
+    path in time)."""
+    flights = [weighted_dp_path(c, w, resolution, margin) for c in configs]
+    return None if any(f is None for f in flights) else np.array(flights)
 
 
 def _tour_flight(config: ScenarioConfig, nodes: tuple[int, ...]) -> np.ndarray:
@@ -184,11 +161,11 @@ def solve(
     ``ios_uav_env.parallel_env``); ``resolution``: the plain DP grid (m); ``bound_resolution``: the
     relaxed DP's cells (default ``resolution``); ``max_cuts``, ``tol``: Kelley's iterations and
     relative gap; ``local_moves``: most node reassignments tried; ``access``: orthogonal bands or
-    one shared band (the plans are scored with its interference; the bound, interference-free, holds
-    for both). ``info``: ``source`` (which
-    candidate won), ``assignment`` (each node's UAV, for a tour candidate), ``weights`` (the
-    bound's w), ``kelley_lower``, ``cuts``, ``candidates`` (scored, separated), ``rejected``
-    (candidates that were not separated)."""
+    one shared band (the plans are scored with its interference; the bound, interference-free,
+    holds for both). The fleet's arguments are checked by ``model.fleet.fleet_setup``. ``info``:
+    ``source`` (which candidate won), ``assignment`` (each node's UAV, for a tour candidate),
+    ``weights`` (the bound's w), ``kelley_lower``, ``cuts``, ``candidates`` (scored, separated),
+    ``rejected`` (candidates that were not separated)."""
     t0 = time.perf_counter()
     if not isinstance(config, ScenarioConfig):
         raise TypeError(f"config must be a ScenarioConfig, got {type(config).__name__}")
@@ -198,43 +175,29 @@ def solve(
             f"energy_budget_j=None; got objective={config.objective!r}, motion={config.motion!r}, "
             f"energy_budget_j={config.energy_budget_j!r}"
         )
-    if access not in ACCESS:
-        raise ValueError(f"access must be one of {ACCESS}, got {access!r}")
-    if isinstance(uavs, bool) or not isinstance(uavs, int) or uavs < 1:
-        raise ValueError(f"uavs must be an integer >= 1, got {uavs!r}")
-    if not (
-        isinstance(min_separation, (int, float)) and math.isfinite(min_separation) and min_separation >= 0
-    ):
-        raise ValueError(f"min_separation must be a finite number >= 0 (m), got {min_separation!r}")
-    default = default_lanes(config, uavs)
-    points = []
-    for name, value, fallback in (("starts", starts, default[0]), ("finals", finals, default[1])):
-        p = np.asarray(fallback if value is None else value, dtype=float)
-        if p.shape != (uavs, 2) or not np.all(np.isfinite(p)):
-            raise ValueError(f"{name} must be a finite ({uavs}, 2) array of points in m, got {value!r}")
-        check_separated(p, min_separation, name)
-        points.append(p)
-    configs = fleet_configs(config, *points)
+    starts_, finals_, configs = fleet_setup(config, uavs, starts, finals, min_separation, access)
+    points = [starts_, finals_]
     for c in configs:
         validate_grid_args(c, resolution, margin)
     h = resolution if bound_resolution is None else bound_resolution
 
     scored: list[tuple[float, str, np.ndarray, tuple[int, ...] | None]] = []
     rejected: list[str] = []
-    seen: set[bytes] = set()
+    seen: dict[bytes, float] = {}  # each candidate's value (-inf: rejected), by its flights' bytes
 
     def consider(source: str, flights: np.ndarray | None, assignment: tuple[int, ...] | None = None) -> float:
         if flights is None:
             return -math.inf
         key = flights.tobytes()
         if key in seen:
-            return next(v for v, _, f, _ in scored if f.tobytes() == key) if scored else -math.inf
-        seen.add(key)
+            return seen[key]
+        seen[key] = -math.inf
         feasible = all(ie.check_trajectory(c, f).feasible for c, f in zip(configs, flights, strict=True))
         if not (feasible and flights_separated(flights, min_separation)):
             rejected.append(source)
             return -math.inf
         value = fleet_maxmin(config, flights, access=access).value
+        seen[key] = value
         scored.append((value, source, flights, assignment))
         if progress:
             print(f"[fleet] {source}: {value:.6f} bps/Hz")
@@ -265,7 +228,7 @@ def solve(
     improved = True
     while improved and tried < local_moves:
         improved = False
-        for k, u in itertools.product(range(config.K), range(uavs)):
+        for k, u in itertools.product(range(config.K), range(len(configs))):
             if current[k] == u or tried >= local_moves:
                 continue
             trial = current[:k] + (u,) + current[k + 1 :]

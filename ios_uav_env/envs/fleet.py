@@ -21,11 +21,10 @@ from gymnasium import spaces
 
 from ios_uav_env.envs.multi import MultiNodeEnv
 from ios_uav_env.envs.observation import pad
-from ios_uav_env.model.config import ScenarioConfig, as_config
+from ios_uav_env.model.config import SCENARIO_FIELDS, ScenarioConfig, as_config
 from ios_uav_env.model.fleet import (
-    ACCESS,
-    default_lanes,
     fleet_maxmin,
+    fleet_setup,
     link_gains,
     link_rates,
     shared_slot_service,
@@ -33,7 +32,7 @@ from ios_uav_env.model.fleet import (
 )
 from ios_uav_env.model.guard import guarded_position
 from ios_uav_env.model.scenarios import DEFAULT_NODES
-from ios_uav_env.model.separation import DEFAULT_SEPARATION, check_separated, min_distance, separated_moves
+from ios_uav_env.model.separation import DEFAULT_SEPARATION, min_distance, separated_moves
 
 try:
     from pettingzoo import ParallelEnv
@@ -53,13 +52,6 @@ OWN_KEYS = (
     "position", "slot", "distance_to_final", "shares", "reward_reach", "reward_terminal", "feasible",
     "worst_violation", "terminal_miss",
 )  # fmt: skip
-
-
-def _points(value: Any, uavs: int, name: str) -> np.ndarray:
-    p = np.asarray(value, dtype=float) if value is not None else None
-    if p is None or p.shape != (uavs, 2) or not np.all(np.isfinite(p)):
-        raise ValueError(f"{name} must be a finite ({uavs}, 2) array of points in m per UAV, got {value!r}")
-    return p
 
 
 def _finite(value: Any) -> bool:
@@ -101,15 +93,18 @@ class FleetParallelEnv(ParallelEnv):
 
     ## Separation
 
-    No two UAVs come closer than ``min_separation`` m, between way-points included: the slot's
-    moves are flown to the first contact they would make (``model.separation``), whatever the
-    actions. A UAV held back may miss its final point (``terminal_miss``, penalised).
+    No two UAVs come closer than ``min_separation`` m, between way-points included, whatever the
+    actions: a pair that would meet flies up to its contact, the other UAVs fly on
+    (``model.separation``; each agent's ``separation_fraction`` is the share of its move it flew).
+    A pair in contact that keeps pushing together stays put, so the agents have to go round each
+    other; a UAV held back may miss its final point (``terminal_miss``, penalised).
 
     ## Episode End
 
     Every agent terminates after slot N. ``info``'s ``best_schedule_rate`` is then the flown
     trajectories' best schedule (``fleet_maxmin``; bps/Hz; 0 before), at least the team's
-    ``min_rate``: the gap says how much better the same flights could have shared the time.
+    ``min_rate``: the gap says how much better the same flights could have shared the time (in a
+    shared band the best schedule may also keep a UAV silent, which the actions cannot).
 
     ## Arguments
 
@@ -117,9 +112,12 @@ class FleetParallelEnv(ParallelEnv):
     ``starts`` / ``finals`` ((U, 2) m; default ``model.fleet.default_lanes``), ``min_separation``
     (m, default ``model.separation.DEFAULT_SEPARATION``), ``surface_sharpness`` (> 0), ``access``,
     ``best_schedule`` (compute the episode-end schedule, default True), and ``MultiNodeEnv``'s
-    keywords (``share_sharpness``, ``max_nodes``, the env options). With U >= 2 the nodes are
-    static and exactly known, the channel is ``"expected"`` and the objective is the rate
-    (refused otherwise, naming the field).
+    keywords (``share_sharpness``, ``max_nodes``, the env options); a ``ScenarioConfig`` field
+    as a keyword changes the fleet's scenario (every UAV's). The fleet's arguments are checked by
+    ``model.fleet.fleet_setup``. With U >= 2 the nodes are static and exactly known, the channel
+    is ``"expected"`` and the objective is the rate (refused otherwise, naming the field);
+    ``reset(options={"config": ...})`` is ``MultiNodeEnv``'s with U = 1 and refused with more
+    (other keys are ignored: PettingZoo's API test passes some).
     """
 
     metadata = {"name": "ios_uav_fleet_v0", "render_modes": [], "is_parallelizable": True}
@@ -137,37 +135,22 @@ class FleetParallelEnv(ParallelEnv):
         best_schedule: bool = True,
         **kwargs: Any,
     ) -> None:
-        if isinstance(uavs, bool) or not isinstance(uavs, (int, np.integer)) or uavs < 1:
-            raise ValueError(f"uavs must be an integer >= 1, got {uavs!r}")
-        if not (_finite(min_separation) and min_separation >= 0):
-            raise ValueError(f"min_separation must be a finite number >= 0 (m), got {min_separation!r}")
         if not (_finite(surface_sharpness) and surface_sharpness > 0):
             raise ValueError(f"surface_sharpness must be a finite number > 0, got {surface_sharpness!r}")
-        if access not in ACCESS:
-            raise ValueError(f"access must be one of {ACCESS}, got {access!r}")
-        self.access = access
         base = as_config(config if config is not None else ScenarioConfig(ground_nodes=DEFAULT_NODES))
-        u_n = int(uavs)
-        lanes = default_lanes(base, u_n)
-        self.starts = _points(lanes[0] if starts is None else starts, u_n, "starts")
-        self.finals = _points(lanes[1] if finals is None else finals, u_n, "finals")
-        self.min_separation = float(min_separation)
+        overrides = {name: kwargs.pop(name) for name in list(kwargs) if name in SCENARIO_FIELDS}
+        base = base.replace(**overrides) if overrides else base  # the fleet's scenario, and each UAV's
+        self.starts, self.finals, configs = fleet_setup(base, uavs, starts, finals, min_separation, access)
+        self.access, self.min_separation = access, float(min_separation)
+        u_n = len(configs)
         self._guard = self.min_separation * (1.0 + GUARD_MARGIN) + GUARD_MARGIN if u_n > 1 else 0.0
         if u_n > 1:
-            check_separated(self.starts, self._guard, "starts")
-            check_separated(self.finals, self._guard, "finals")
             self._check_team_world(base, kwargs)
             kwargs = {**kwargs, "arrival_guard": False}  # the fleet guards the moves (both guards)
         self.surface_sharpness = float(surface_sharpness)
         self.best_schedule = bool(best_schedule)
         self.config = base
-        self.uav_envs: list[MultiNodeEnv] = []
-        for u in range(u_n):
-            try:
-                cfg = base.replace(q0=tuple(self.starts[u]), qF=tuple(self.finals[u]))
-            except ValueError as err:
-                raise ValueError(f"starts[{u}] / finals[{u}]: {err}") from None
-            self.uav_envs.append(MultiNodeEnv(cfg, **kwargs))
+        self.uav_envs: list[MultiNodeEnv] = [MultiNodeEnv(cfg, **kwargs) for cfg in configs]
         self.possible_agents = [f"uav_{u}" for u in range(u_n)]
         self.agents: list[str] = []
         first = self.uav_envs[0]
@@ -178,8 +161,16 @@ class FleetParallelEnv(ParallelEnv):
         self.action_spaces = {a: spaces.Box(-1.0, 1.0, (width,), np.float32) for a in self.possible_agents}
         self.team_served = np.zeros(self.max_nodes)
         self.surface_shares = np.ones(u_n) / u_n
-        self.separation_fraction = 1.0
-        self._state = np.zeros(sum(s.shape[0] for s in self.observation_spaces.values()), dtype=np.float32)
+        #: Each UAV's fraction of its last move the separation guard let it fly (1: all of it).
+        self.separation_fractions = np.ones(u_n)
+        spaces_ = [self.observation_spaces[a] for a in self.possible_agents]
+        #: The space of :meth:`state`: the agents' observation spaces, concatenated.
+        self.state_space = spaces.Box(
+            np.concatenate([b.low for b in spaces_]),
+            np.concatenate([b.high for b in spaces_]),
+            dtype=np.float32,
+        )
+        self._state = np.zeros(self.state_space.shape, dtype=np.float32)
 
     # --- construction -----------------------------------------------------------------------
     @staticmethod
@@ -192,6 +183,8 @@ class FleetParallelEnv(ParallelEnv):
                 f"config.objective={config.objective!r}: several UAVs have the rate objective (max-min); "
                 "one UAV: uavs=1"
             )
+        if kwargs.get("random_nodes") is not None:
+            raise ValueError("random_nodes: several UAVs fly one scenario (its K nodes); one UAV: uavs=1")
         refused = {"channel": "expected", "knowledge": "exact", "softmin_beta": 0.0, "peak_hint": False}
         for name, allowed in refused.items():
             if name in kwargs and kwargs[name] != allowed:
@@ -232,21 +225,26 @@ class FleetParallelEnv(ParallelEnv):
     def reset(
         self, seed: int | None = None, options: dict[str, Any] | None = None
     ) -> tuple[dict[str, np.ndarray], dict[str, dict[str, Any]]]:
-        if options is not None and "config" in options:
-            raise ValueError('options["config"] is not taken: make a fleet on it, parallel_env(cfg)')
-        self.agents = list(self.possible_agents)
-        results = [env.reset(seed=None if seed is None else seed + u) for u, env in enumerate(self.uav_envs)]
-        if len(self.uav_envs) == 1:
-            obs, info = results[0]
+        pinned = {"config": options["config"]} if options and "config" in options else None
+        if len(self.uav_envs) == 1:  # MultiNodeEnv's reset with its pinned scenario, if any
+            obs, info = self.uav_envs[0].reset(seed=seed, options=pinned)
+            self.agents = list(self.possible_agents)
             self._state = obs.copy()
             return {self.agents[0]: obs}, {self.agents[0]: info}
+        if pinned is not None:
+            raise ValueError(
+                'options["config"]: several UAVs fly the fleet\'s scenario; make a fleet on another '
+                "with parallel_env(config)"
+            )
+        self.agents = list(self.possible_agents)
+        results = [env.reset(seed=None if seed is None else seed + u) for u, env in enumerate(self.uav_envs)]
         self.team_served = np.zeros(self.max_nodes)
         k_n = self.config.K
         shares = np.full((len(self.uav_envs), k_n), 1.0 / k_n)  # slot 1: equal shares, as each row
         self.surface_shares = np.ones(len(self.uav_envs)) / len(self.uav_envs)
-        self.separation_fraction = 1.0
+        self.separation_fractions = np.ones(len(self.uav_envs))
         self._serve(shares)
-        self._previous = self.team_served[:k_n].min() / self.config.N
+        self._previous = 0.0  # the potential before slot 1, as MultiNodeEnv's: the return is N x min rate
         return self._team_outputs(results, 0.0)[0::4]  # (obs, infos)
 
     def step(self, actions: Mapping[str, Any]) -> tuple[dict, dict, dict, dict, dict]:
@@ -308,7 +306,7 @@ class FleetParallelEnv(ParallelEnv):
                 ax, ay = ax / norm, ay / norm
             target = (q[u, 0] + d * ax, q[u, 1] + d * ay)
             proposed[u] = guarded_position(tuple(q[u]), target, tuple(self.finals[u]), d, left)
-        self.separation_fraction, reached = separated_moves(q, proposed, self._guard)
+        self.separation_fractions, reached = separated_moves(q, proposed, self._guard)
         return (reached - q) / d
 
     def _serve(self, shares: np.ndarray) -> None:
@@ -349,7 +347,7 @@ class FleetParallelEnv(ParallelEnv):
             info.update(
                 node_rates=node_rates.copy(), min_rate=float(node_rates[: cfg.K].min()), reward_rate=r_rate,
                 best_schedule_rate=best, surface_share=float(self.surface_shares[u]),
-                separation_fraction=self.separation_fraction, min_distance=min_distance(q),
+                separation_fraction=float(self.separation_fractions[u]), min_distance=min_distance(q),
             )  # fmt: skip
             out[agent] = info
         self._state = np.concatenate([obs[a] for a in self.possible_agents])
@@ -400,6 +398,8 @@ class FleetCentralEnv(gym.Env):
         return self.fleet.state().copy(), infos
 
     def step(self, action: Any) -> tuple[np.ndarray, float, bool, bool, dict[str, Any]]:
+        if not self.fleet.agents:
+            raise RuntimeError("the episode is over (or was never started): call reset()")
         a = np.asarray(action, dtype=np.float64)
         if a.shape != self.action_space.shape:
             raise ValueError(f"action must have shape {self.action_space.shape}, got {a.shape}")

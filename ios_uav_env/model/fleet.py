@@ -35,18 +35,22 @@ relaxation a bound of the shared band may use.
 from __future__ import annotations
 
 import itertools
+import math
+import numbers
 from functools import lru_cache
+from typing import Any
 
 import numpy as np
 
 from ios_uav_env.model import channel
 from ios_uav_env.model.config import ScenarioConfig
 from ios_uav_env.model.regions import Pricer, RegionSchedule, maxmin_regions
+from ios_uav_env.model.separation import DEFAULT_SEPARATION, check_separated
 from ios_uav_env.model.surface import element_positions, element_to_ground
 
 __all__ = [
-    "ACCESS", "LANE_OFFSET", "default_lanes", "fleet_maxmin", "fleet_pricer", "link_gains", "link_rates",
-    "choice_rates", "shared_slot_service", "slot_service",
+    "ACCESS", "LANE_OFFSET", "MAX_SHARED_CHOICES", "choice_rates", "default_lanes", "fleet_maxmin",
+    "fleet_pricer", "fleet_setup", "link_gains", "link_rates", "shared_slot_service", "slot_service",
 ]  # fmt: skip
 
 #: How the UAVs share the spectrum: a band each, or one band (interference at the nodes).
@@ -54,6 +58,9 @@ ACCESS: tuple[str, ...] = ("orthogonal", "shared")
 
 #: m, the offset in y between consecutive UAVs' default lanes (:func:`default_lanes`).
 LANE_OFFSET = 80.0
+#: Most choices a shared band's slot may have (U K alignments x (K + 1)^U node-or-silence
+#: choices): the pricer stores them all per slot (:func:`choice_rates`).
+MAX_SHARED_CHOICES = 200_000
 
 
 def default_lanes(config: ScenarioConfig, uavs: int) -> tuple[np.ndarray, np.ndarray]:
@@ -73,6 +80,59 @@ def _node_geometry(config: ScenarioConfig) -> tuple[np.ndarray, np.ndarray, np.n
     d_mg = np.array([d for d, _ in per_node])
     cos3 = np.array([c for _, c in per_node]) ** 3
     return w, d_mg, cos3, np.exp(-1j * (2 * np.pi / config.wavelength) * d_mg)
+
+
+def _number(value: Any) -> bool:
+    return isinstance(value, numbers.Real) and not isinstance(value, bool) and math.isfinite(value)
+
+
+def fleet_setup(
+    config: ScenarioConfig,
+    uavs: Any = 2,
+    starts: Any = None,
+    finals: Any = None,
+    min_separation: Any = DEFAULT_SEPARATION,
+    access: Any = "orthogonal",
+) -> tuple[np.ndarray, np.ndarray, list[ScenarioConfig]]:
+    """(starts, finals, each UAV's scenario): the fleet's arguments checked, ``ValueError`` naming
+    the argument and its allowed values otherwise. ``uavs`` U >= 1; ``starts`` / ``finals`` (U, 2)
+    m (default :func:`default_lanes`), every two at least ``min_separation`` m (>= 0) apart; each
+    UAV's scenario is ``config`` with its start and final point (reachable in N slots);
+    ``access`` one of :data:`ACCESS`, a shared band at most :data:`MAX_SHARED_CHOICES` choices."""
+    if isinstance(uavs, bool) or not isinstance(uavs, numbers.Integral) or uavs < 1:
+        raise ValueError(f"uavs must be an integer >= 1, got {uavs!r}")
+    u_n = int(uavs)
+    if not (_number(min_separation) and min_separation >= 0):
+        raise ValueError(f"min_separation must be a finite number >= 0 (m), got {min_separation!r}")
+    if access not in ACCESS:
+        raise ValueError(f"access must be one of {ACCESS}, got {access!r}")
+    choices = u_n * config.K * (config.K + 1) ** u_n
+    if access == "shared" and u_n > 1 and choices > MAX_SHARED_CHOICES:
+        raise ValueError(
+            f"access='shared' with uavs={u_n} and K={config.K} nodes has {choices} choices per slot, more "
+            f"than {MAX_SHARED_CHOICES} (the enumeration's limit): use fewer UAVs or nodes"
+        )
+    lanes = default_lanes(config, u_n)
+    points = []
+    for name, value, default in (("starts", starts, lanes[0]), ("finals", finals, lanes[1])):
+        try:
+            p = np.asarray(default if value is None else value, dtype=float)
+        except (TypeError, ValueError):
+            p = np.empty(0)
+        if p.shape != (u_n, 2) or not np.all(np.isfinite(p)):
+            raise ValueError(
+                f"{name} must be a finite ({u_n}, 2) array of points in m, one per UAV, got {value!r}"
+            )
+        check_separated(p, float(min_separation), name)
+        points.append(p)
+    configs = []
+    for u in range(u_n):
+        (sx, sy), (fx, fy) = points[0][u], points[1][u]
+        try:
+            configs.append(config.replace(q0=(float(sx), float(sy)), qF=(float(fx), float(fy))))
+        except ValueError as err:
+            raise ValueError(f"starts[{u}] / finals[{u}]: {err}") from None
+    return points[0], points[1], configs
 
 
 def link_rates(config: ScenarioConfig, positions: np.ndarray) -> np.ndarray:

@@ -9,16 +9,21 @@ w = (p_u - q_u) - (p_v - q_v), a quadratic in s:
 
 If the pair is separated at s = 0 (|c| >= d_min), it stays separated up to the smaller root s_1
 of that quadratic (none in [0, 1], or the pair moves apart: all of the slot). The guard flies
-every UAV the same fraction t = min over the pairs of s_1, clipped to [0, 1]: the way-points
-q + t (p - q). So every pair keeps d_min along the whole flight, between way-points included,
-whatever the proposed moves, by induction from separated starts (:func:`check_separated`).
+every UAV the same fraction t = min over the pairs of s_1, clipped to [0, 1] (the common
+fraction): the way-points q + t (p - q). So every pair keeps d_min along the whole flight,
+between way-points included, whatever the proposed moves, by induction from separated starts
+(:func:`check_separated`).
 
-The common fraction is the simple rule that is provably safe: the team stops at the first contact
-a slot's moves would make (a UAV not involved stops short too). It never lengthens a move, so the
-speed limit holds; it can cost a UAV its arrival at its final point (the moves it lost), which the
-env reports as a terminal miss, as for a single UAV whose arrival guard is off. Rounding: the root
-is taken a relative 1e-9 short, then the new way-points are checked, and t halves until they are
-separated (t = 0, staying put, always is).
+The common fraction is the simple rule that is provably safe, but it stops every UAV at the first
+contact a slot's moves would make, a bystander far from it too. So the guard first tries per-UAV
+fractions: the pair that would meet first flies up to that moment (both its fractions scaled by
+the contact time), the others fly on, until no pair meets within the slot; the result is checked
+all along (:func:`flights_separated`), and only if it fails does the common fraction apply. A pair
+in contact that keeps pushing together stays put: the UAVs have to go round each other. The guard
+never lengthens a move, so the speed limit holds; it can cost a UAV its arrival at its final
+point (the moves it lost), which the env reports as a terminal miss, as for a single UAV whose
+arrival guard is off. Rounding: each root is taken a relative 1e-9 short, the way-points are
+checked, and a fraction halves until they are separated (t = 0, staying put, always is).
 """
 
 from __future__ import annotations
@@ -74,26 +79,71 @@ def _first_contact(c: np.ndarray, w: np.ndarray, d_min: float) -> float:
     return cc / (-b + math.sqrt(disc)) if cc > 0.0 else 0.0
 
 
-def separated_moves(positions: np.ndarray, proposed: np.ndarray, d_min: float) -> tuple[float, np.ndarray]:
-    """(t, way-points): t in [0, 1], the fraction of the moves ``positions`` -> ``proposed`` (both
-    (U, 2) m) every UAV flies so that every pair stays ``d_min`` m apart all along (module
-    docstring), and the way-points it reaches, (U, 2) m (``proposed`` itself when t = 1).
-    ``positions`` must be separated (the guard keeps them so)."""
-    q = np.asarray(positions, dtype=float)
-    p = np.asarray(proposed, dtype=float)
-    moves = p - q
+def _common_fraction(q: np.ndarray, moves: np.ndarray, d_min: float) -> float:
+    """The one fraction t of every move that keeps every pair ``d_min`` apart all along: the
+    earliest first contact over the pairs, a relative ``CONTACT_MARGIN`` short (1 if none)."""
     t = 1.0
     for u in range(len(q)):
         for v in range(u + 1, len(q)):
             s = _first_contact(q[u] - q[v], moves[u] - moves[v], d_min)
             if s <= 1.0:
                 t = min(t, s * (1.0 - CONTACT_MARGIN))
-    t = max(t, 0.0)
-    while True:  # rounding: back off to a separated point (t = 0, staying put, always is)
-        reached = p.copy() if t == 1.0 else q + t * moves
-        if t == 0.0 or min_distance(reached) >= d_min:
+    return max(t, 0.0)
+
+
+def _pairwise_fractions(q: np.ndarray, moves: np.ndarray, d_min: float) -> np.ndarray | None:
+    """Per-UAV fractions t_u: while some pair would meet within the slot, the pair that meets
+    first flies only up to that moment (both its fractions scaled by the contact time), the
+    others keep theirs; None if that does not settle within U^2 rounds."""
+    u_n = len(q)
+    t = np.ones(u_n)
+    for _ in range(u_n * u_n + 1):
+        first = (math.inf, -1, -1)
+        for u in range(u_n):
+            for v in range(u + 1, u_n):
+                s = _first_contact(q[u] - q[v], t[u] * moves[u] - t[v] * moves[v], d_min)
+                if s <= 1.0 and s < first[0]:
+                    first = (s, u, v)
+        s, u, v = first
+        if u < 0:
+            return t
+        scale = max(s * (1.0 - CONTACT_MARGIN), 0.0)
+        t[u], t[v] = t[u] * scale, t[v] * scale
+    return None
+
+
+def _separated_all_along(q: np.ndarray, reached: np.ndarray, d_min: float) -> bool:
+    return flights_separated(np.stack([q, reached], axis=1), d_min)
+
+
+def separated_moves(
+    positions: np.ndarray, proposed: np.ndarray, d_min: float
+) -> tuple[np.ndarray, np.ndarray]:
+    """(t, way-points): t (U,) in [0, 1], the fraction of its move ``positions`` -> ``proposed``
+    (both (U, 2) m) each UAV flies so that every pair stays ``d_min`` m apart all along (module
+    docstring), and the way-points reached, (U, 2) m (a UAV's proposed point itself at t = 1).
+
+    First the pairs that would meet stop at their contact, the other UAVs flying on (checked all
+    along); if that does not settle or does not check out, the common fraction of every move
+    (provably safe); then, for rounding, halving until the way-points are separated (staying
+    put, t = 0, always is). ``positions`` must be separated (the guard keeps them so)."""
+    q = np.asarray(positions, dtype=float)
+    p = np.asarray(proposed, dtype=float)
+    moves = p - q
+
+    def reach(t: np.ndarray) -> np.ndarray:
+        return np.where((t == 1.0)[:, None], p, q + t[:, None] * moves)
+
+    t = _pairwise_fractions(q, moves, d_min)
+    if t is not None and _separated_all_along(q, reach(t), d_min):
+        return t, reach(t)
+    common = _common_fraction(q, moves, d_min)
+    while True:
+        t = np.full(len(q), common)
+        reached = reach(t)
+        if common == 0.0 or _separated_all_along(q, reached, d_min):
             return t, reached
-        t = t / 2.0 if t > 1e-12 else 0.0
+        common = common / 2.0 if common > 1e-12 else 0.0
 
 
 def flights_separated(trajectories: np.ndarray, d_min: float) -> bool:

@@ -10,7 +10,7 @@ import pytest
 from baselines import fleet
 from baselines.dp_bound import solve_multinode
 from ios_uav_env import ScenarioConfig, check_trajectory
-from ios_uav_env.model.fleet import default_lanes, fleet_maxmin
+from ios_uav_env.model.fleet import default_lanes, fleet_maxmin, fleet_setup
 from ios_uav_env.model.separation import flights_separated
 
 CONFIG = ScenarioConfig(
@@ -26,7 +26,7 @@ def two() -> fleet.FleetPlan:
 
 def test_the_plan_is_feasible_separated_and_scored_by_the_one_scorer(two):
     starts, finals = np.array(two.info["starts"]), np.array(two.info["finals"])
-    for c, flight in zip(fleet.fleet_configs(CONFIG, starts, finals), two.trajectories, strict=True):
+    for c, flight in zip(fleet_setup(CONFIG, 2, starts, finals)[2], two.trajectories, strict=True):
         assert check_trajectory(c, flight).feasible
     assert flights_separated(two.trajectories, fleet.DEFAULT_SEPARATION)
     assert two.value == fleet_maxmin(CONFIG, two.trajectories).value
@@ -40,7 +40,9 @@ def test_the_bound_is_above_every_separated_fleet(two):
     rng = np.random.default_rng(0)
     for _ in range(3):  # random separated flights within the speed limit and arriving
         wobble = straight.copy()
-        wobble[:, 1:-1, 1] += rng.uniform(-15.0, 15.0, (2, CONFIG.N - 2))
+        wobble[:, 1:-1, 1] += rng.uniform(-5.0, 5.0, (2, CONFIG.N - 2))
+        for c, flight in zip(fleet_setup(CONFIG, 2)[2], wobble, strict=True):
+            assert check_trajectory(c, flight).feasible
         assert flights_separated(wobble, 10.0)
         assert fleet_maxmin(CONFIG, wobble).upper <= two.upper_bound
     # a second UAV helps: more than any one UAV's certified bound (the sum, not one term, bounds it)
@@ -103,3 +105,15 @@ def test_a_shared_band_is_planned_below_the_same_bound(two):
     )
     with pytest.raises(ValueError, match="access must be one of"):
         fleet.solve(CONFIG, access="tdma")
+
+
+def test_candidates_met_again_after_a_rejection_are_not_scored_again():
+    """A large separation rejects most candidates, and nearby Kelley weights give the same dual
+    paths again: each is looked at once, and the plan (if any) is separated."""
+    try:
+        plan = fleet.solve(CONFIG, uavs=2, resolution=10.0, min_separation=70.0)
+    except ValueError as err:
+        assert "no candidate fleet keeps min_separation = 70 m" in str(err)
+    else:
+        assert flights_separated(plan.trajectories, 70.0)
+        assert len(plan.info["rejected"]) == len(set(plan.info["rejected"]))

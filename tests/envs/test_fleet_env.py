@@ -5,6 +5,8 @@ is refused by name."""
 
 from __future__ import annotations
 
+import importlib
+
 import numpy as np
 import pytest
 
@@ -13,7 +15,7 @@ from pettingzoo.test import parallel_api_test, parallel_seed_test  # noqa: E402
 
 import ios_uav_env  # noqa: E402
 from ios_uav_env import MultiNodeEnv, ScenarioConfig  # noqa: E402
-from ios_uav_env.model.fleet import fleet_maxmin  # noqa: E402
+from ios_uav_env.model.fleet import fleet_maxmin, link_rates, slot_service  # noqa: E402
 from ios_uav_env.model.separation import min_distance  # noqa: E402
 
 # small surface and horizon: the physics of the paper's scenario at test speed
@@ -172,3 +174,74 @@ def test_a_shared_band_serves_the_same_flights_less_and_below_its_best_schedule(
     assert np.all(rates["shared"][0] < rates["orthogonal"][0])  # interference at every node
     with pytest.raises(ValueError, match="access must be one of"):
         ios_uav_env.parallel_env(CONFIG, uavs=2, access="tdma")
+
+
+def test_the_state_passes_pettingzoos_state_test():
+    state_test = importlib.import_module("pettingzoo.test.state_test")
+    for uavs in (1, 2):
+        state_test.test_parallel_env(ios_uav_env.parallel_env(CONFIG, uavs=uavs))
+
+
+def test_scenario_keywords_are_the_fleets_scenario():
+    env = ios_uav_env.parallel_env(CONFIG, uavs=2, T=30.0, noise_dbm=-70.0)
+    assert env.config == CONFIG.replace(T=30.0, noise_dbm=-70.0)
+    assert all(u.config == env.config.replace(q0=tuple(s), qF=tuple(f))
+               for u, s, f in zip(env.uav_envs, env.starts, env.finals, strict=True))  # fmt: skip
+    rng = np.random.default_rng(2)
+    _, last, _ = _fly(env, lambda env, a, o: rng.uniform(-1, 1, env.action_space(a).shape), seed=2)
+    assert env.trajectories.shape[1] == 30 and last["uav_0"]["feasible"] and last["uav_1"]["feasible"]
+    with pytest.raises(ValueError, match="several UAVs have the rate objective"):
+        ios_uav_env.parallel_env(CONFIG, uavs=2, objective="energy_efficiency")
+
+
+def test_the_team_return_is_n_times_the_min_rate_and_the_service_is_the_models():
+    """Sum of the rate terms = N x the final min rate (the potential starts at 0, as MultiNodeEnv's);
+    the team's served sums are slot_service of the shares, surface shares and way-points, the
+    surface shares the softmax of surface_sharpness x the clipped bids."""
+    env = ios_uav_env.parallel_env(CONFIG, uavs=2, surface_sharpness=3.0)
+    env.reset(seed=5)
+    rng = np.random.default_rng(5)
+    k_n = CONFIG.K
+    served = slot_service(
+        link_rates(CONFIG, env.trajectories[:, 0]), np.full((2, k_n), 1 / k_n), np.full(2, 0.5)
+    )
+    total = 0.0
+    while env.agents:
+        acts = {a: rng.uniform(-1.5, 1.5, env.action_space(a).shape) for a in env.agents}
+        _, _, _, _, infos = env.step(acts)
+        bids = 3.0 * np.clip([acts["uav_0"][-1], acts["uav_1"][-1]], -1, 1)
+        beta = np.exp(bids - bids.max()) / np.exp(bids - bids.max()).sum()
+        assert [infos[a]["surface_share"] for a in ("uav_0", "uav_1")] == pytest.approx(beta, rel=1e-12)
+        shares = np.array([infos[a]["shares"] for a in ("uav_0", "uav_1")])
+        served = served + slot_service(link_rates(CONFIG, env.trajectories[:, -1]), shares, beta)
+        total += infos["uav_0"]["reward_rate"]
+    np.testing.assert_allclose(infos["uav_0"]["node_rates"], served / CONFIG.N, rtol=1e-12)
+    assert total == pytest.approx(CONFIG.N * infos["uav_0"]["min_rate"], rel=1e-12)
+
+
+def test_reset_options():
+    one, single = ios_uav_env.parallel_env(CONFIG, uavs=1), MultiNodeEnv(CONFIG)
+    pinned = {"config": CONFIG.replace(ground_nodes=((-90.0, -20.0), (150.0, -60.0), (-40.0, 90.0)))}
+    np.testing.assert_array_equal(
+        one.reset(seed=1, options=pinned)[0]["uav_0"], single.reset(seed=1, options=pinned)[0]
+    )
+    two = ios_uav_env.parallel_env(CONFIG, uavs=2)
+    two.reset(seed=0, options={"anything": 1})  # PettingZoo's API test passes such options: ignored
+    with pytest.raises(ValueError, match=r'options\["config"\]: several UAVs fly the fleet'):
+        two.reset(seed=0, options=pinned)
+
+
+def test_a_bystander_keeps_flying_while_two_uavs_meet():
+    starts = np.array([[-60.0, 0.0], [60.0, 0.0], [-60.0, 150.0]])
+    finals = np.array([[60.0, 0.0], [-60.0, 0.0], [60.0, 150.0]])  # two head-on, one on a clear lane
+    env = ios_uav_env.parallel_env(CONFIG, uavs=3, starts=starts, finals=finals)
+
+    def home(env, agent, obs):
+        u = int(agent.split("_")[1])
+        move = (env.finals[u] - env.trajectories[u, -1]) / CONFIG.D
+        return np.concatenate([move, np.zeros(CONFIG.K), [0.0]])
+
+    closest, last, held = _fly(env, home)
+    assert held < 1.0 and closest >= env.min_separation
+    np.testing.assert_allclose(env.trajectories[2, -1], finals[2], atol=1e-9)  # the bystander arrives
+    assert last["uav_2"]["terminal_miss"] == 0.0 and last["uav_0"]["terminal_miss"] > 0.0

@@ -16,6 +16,7 @@ from ios_uav_env.model.fleet import (
     choice_rates,
     fleet_maxmin,
     fleet_pricer,
+    fleet_setup,
     link_gains,
     link_rates,
     shared_slot_service,
@@ -157,3 +158,38 @@ def test_the_shared_slot_service_is_a_point_of_the_shared_region():
         assert np.all(point <= slot_service(link_rates(CONFIG, q), shares, beta) * (1 + 1e-12))
         w = rng.dirichlet(np.ones(3))
         assert w @ point <= price(w)[1] * (1 + 1e-12)
+
+
+def test_the_shared_slot_service_of_one_choice_is_its_sinr_rates():
+    """One-hot shares and surface: the slot is one choice, each node's rate its SINR rate."""
+    q = np.stack([FLIGHT[5], FLIGHT[::-1][9]])
+    g = link_gains(CONFIG, q)
+    shares = np.array([[0.0, 1.0, 0.0], [0.0, 0.0, 1.0]])  # UAV 0 serves node 1, UAV 1 node 2
+    got = shared_slot_service(g, CONFIG.eta, shares, np.array([0.0, 1.0]))  # surface on UAV 1's link
+    table = choice_rates(g, CONFIG.eta, "shared").reshape(2 * 3, 16, 3)
+    choice = list(itertools.product(range(-1, 3), repeat=2)).index((1, 2))
+    np.testing.assert_allclose(got, table[1 * 3 + 2, choice], rtol=1e-14)
+    assert got[1] < link_rates(CONFIG, q)[1, 2, 0, 1]  # UAV 1's signal is interference at node 1
+
+
+@pytest.mark.parametrize(
+    ("kwargs", "message"),
+    [
+        ({"uavs": 0}, "uavs must be an integer >= 1"),
+        ({"uavs": 2.0}, "uavs must be an integer >= 1"),
+        ({"uavs": 2, "starts": "here"}, r"starts must be a finite \(2, 2\) array"),
+        ({"uavs": 2, "finals": [[200.0, 20.0], [200.0, np.nan]]}, r"finals must be a finite \(2, 2\) array"),
+        ({"uavs": 2, "min_separation": -1.0}, "min_separation must be a finite number >= 0"),
+        ({"uavs": 2, "access": "cdma"}, r"access must be one of \('orthogonal', 'shared'\)"),
+        ({"uavs": 8, "access": "shared"}, "has 1572864 choices per slot, more than 200000"),
+        ({"uavs": 2, "finals": [[200.0, 20.0], [5000.0, 0.0]]}, r"starts\[1\] / finals\[1\]: .*T"),
+    ],
+)
+def test_fleet_setup_refuses_bad_input_by_name(kwargs, message):
+    with pytest.raises(ValueError, match=message):
+        fleet_setup(CONFIG, **kwargs)
+
+
+def test_fleet_setup_takes_numpy_numbers():
+    starts, finals, configs = fleet_setup(CONFIG, np.int64(2), min_separation=np.float32(10.0))
+    assert len(configs) == 2 and configs[1].q0 == (CONFIG.q0[0], CONFIG.q0[1] - 80.0)
