@@ -19,20 +19,19 @@ import gymnasium as gym
 import numpy as np
 from gymnasium import spaces
 
+from ios_uav_env.envs.fleet_rules import (
+    agent_observations,
+    guard_distance,
+    guarded_moves,
+    slots_of,
+    surface_shares,
+)
 from ios_uav_env.envs.multi import MultiNodeEnv
 from ios_uav_env.envs.observation import pad
 from ios_uav_env.model.config import SCENARIO_FIELDS, ScenarioConfig, as_config
-from ios_uav_env.model.fleet import (
-    fleet_maxmin,
-    fleet_setup,
-    link_gains,
-    link_rates,
-    shared_slot_service,
-    slot_service,
-)
-from ios_uav_env.model.guard import guarded_position
+from ios_uav_env.model.fleet import fleet_maxmin, fleet_setup
 from ios_uav_env.model.scenarios import DEFAULT_NODES
-from ios_uav_env.model.separation import DEFAULT_SEPARATION, min_distance, separated_moves
+from ios_uav_env.model.separation import DEFAULT_SEPARATION, min_distance
 
 try:
     from pettingzoo import ParallelEnv
@@ -43,9 +42,6 @@ except ImportError as exc:  # pragma: no cover - exercised in an env without the
 
 __all__ = ["FleetCentralEnv", "FleetParallelEnv"]
 
-#: The guard keeps the UAVs this relative margin (plus 1e-9 m) beyond d_min, so that the
-#: kernels' rounding of a guarded move (~1e-13 m) never brings two of them within d_min.
-GUARD_MARGIN = 1e-9
 #: The info keys that are each UAV's own (the rest are the team's: ``node_rates``, ``min_rate``,
 #: ``reward_rate``, ``best_schedule_rate``).
 OWN_KEYS = (
@@ -143,7 +139,8 @@ class FleetParallelEnv(ParallelEnv):
         self.starts, self.finals, configs = fleet_setup(base, uavs, starts, finals, min_separation, access)
         self.access, self.min_separation = access, float(min_separation)
         u_n = len(configs)
-        self._guard = self.min_separation * (1.0 + GUARD_MARGIN) + GUARD_MARGIN if u_n > 1 else 0.0
+        #: m: the distance the separation guard keeps (``fleet_rules.guard_distance``; 0 for one UAV).
+        self.guard = guard_distance(self.min_separation) if u_n > 1 else 0.0
         if u_n > 1:
             self._check_team_world(base, kwargs)
             kwargs = {**kwargs, "arrival_guard": False}  # the fleet guards the moves (both guards)
@@ -155,7 +152,8 @@ class FleetParallelEnv(ParallelEnv):
         self.agents: list[str] = []
         first = self.uav_envs[0]
         self.max_nodes = first.max_nodes
-        self._served_at = [first.observation_names.index(f"served_{k}") for k in range(self.max_nodes)]
+        #: The observation's columns of the node blocks' ``served`` (the team's, with several UAVs).
+        self.served_at = [first.observation_names.index(f"served_{k}") for k in range(self.max_nodes)]
         self.observation_spaces = {a: self._observation_space(u) for u, a in enumerate(self.possible_agents)}
         width = 2 + self.max_nodes + (1 if u_n > 1 else 0)
         self.action_spaces = {a: spaces.Box(-1.0, 1.0, (width,), np.float32) for a in self.possible_agents}
@@ -199,7 +197,7 @@ class FleetParallelEnv(ParallelEnv):
         if len(self.uav_envs) == 1:
             return space
         low, high = space.low.astype(np.float64), space.high.astype(np.float64)
-        high[self._served_at] *= len(self.uav_envs)  # the team's served rates: at most U x one UAV's
+        high[self.served_at] *= len(self.uav_envs)  # the team's served rates: at most U x one UAV's
         cfg, scale = self.config, self.uav_envs[u].options.length_scale
         reach = (cfg.N - 1) * cfg.D
         for v in range(len(self.uav_envs)):
@@ -264,9 +262,7 @@ class FleetParallelEnv(ParallelEnv):
             a = acts[u, : 2 + self.max_nodes].copy()
             a[:2] = moves[u]
             results.append(env.step(a))
-        bids = np.clip(acts[:, -1], -1.0, 1.0) * self.surface_sharpness
-        beta = np.exp(bids - bids.max())
-        self.surface_shares = beta / beta.sum()
+        self.surface_shares = surface_shares(acts[:, -1], self.surface_sharpness)
         k_n = self.config.K
         self._serve(np.array([env.shares[:, -1] for env in self.uav_envs]))
         low = self.team_served[:k_n].min() / self.config.N
@@ -294,36 +290,25 @@ class FleetParallelEnv(ParallelEnv):
 
     def _guarded_moves(self, acts: np.ndarray) -> np.ndarray:
         """(U, 2): each UAV's move / D after its unit-disk projection, its arrival guard and the
-        team's separation guard."""
-        cfg, d = self.config, self.config.D
+        team's separation guard (``fleet_rules.guarded_moves``)."""
         q = np.array([env.trajectory[-1] for env in self.uav_envs])
-        left = cfg.N - len(self.uav_envs[0].trajectory) - 1  # moves left after this one
-        proposed = np.empty_like(q)
-        for u in range(len(q)):
-            ax, ay = acts[u, 0], acts[u, 1]
-            norm = math.hypot(ax, ay)
-            if norm > 1.0:
-                ax, ay = ax / norm, ay / norm
-            target = (q[u, 0] + d * ax, q[u, 1] + d * ay)
-            proposed[u] = guarded_position(tuple(q[u]), target, tuple(self.finals[u]), d, left)
-        self.separation_fractions, reached = separated_moves(q, proposed, self._guard)
-        return (reached - q) / d
+        left = self.config.N - len(self.uav_envs[0].trajectory) - 1  # moves left after this one
+        moves, self.separation_fractions = guarded_moves(
+            q, acts[:, :2], self.finals, self.config.D, left, self.guard
+        )
+        return moves
 
     def _serve(self, shares: np.ndarray) -> None:
-        """Add the slot's service of the nodes (``slot_service``) to the team's served sums."""
+        """Add the slot's service of the nodes (``fleet_rules.slots_of``) to the team's served sums."""
         k_n = self.config.K
         q = np.array([env.trajectory[-1] for env in self.uav_envs])
-        if self.access == "shared":
-            gains = link_gains(self.config, q)
-            slot = shared_slot_service(gains, self.config.eta, shares[:, :k_n], self.surface_shares)
-        else:
-            slot = slot_service(link_rates(self.config, q), shares[:, :k_n], self.surface_shares)
-        self.team_served[:k_n] += slot
+        slot = slots_of(self.config, self.access, q[None], shares[None, :, :k_n], self.surface_shares[None])
+        self.team_served[:k_n] += slot[0]
 
     def _team_outputs(self, results: list[tuple], r_rate: float) -> tuple[dict, dict, dict, dict, dict]:
         """The agents' (obs, rewards, terminations, truncations, infos) of the UAVs' ``results``
         (each UAV env's reset or step output) and the team's rate term ``r_rate``."""
-        cfg, n_agents = self.config, len(self.possible_agents)
+        cfg = self.config
         infos = [r[-1] for r in results]
         penalty = sum(float(i["reward_reach"]) + float(i["reward_terminal"]) for i in infos)
         reward = r_rate + penalty
@@ -334,13 +319,11 @@ class FleetParallelEnv(ParallelEnv):
             best = fleet_maxmin(cfg, flights, access=self.access).value
         q = np.array([i["position"] for i in infos])
         node_rates = self.team_served / cfg.N
+        scale = self.uav_envs[0].options.length_scale
+        rows = agent_observations(np.array([r[0] for r in results]), node_rates, q, self.served_at, scale)
         obs, rewards, terms, truncs, out = {}, {}, {}, {}, {}
         for u, agent in enumerate(self.possible_agents):
-            o = results[u][0].astype(np.float64)
-            o[self._served_at] = node_rates
-            scale = self.uav_envs[u].options.length_scale
-            others = [(q[v] - q[u]) / scale for v in range(n_agents) if v != u]
-            obs[agent] = np.concatenate([o, *others]).astype(np.float32)
+            obs[agent] = rows[u]
             rewards[agent] = reward
             terms[agent], truncs[agent] = done, False
             info = {key: infos[u][key] for key in OWN_KEYS}

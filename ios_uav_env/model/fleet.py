@@ -50,7 +50,8 @@ from ios_uav_env.model.surface import element_positions, element_to_ground
 
 __all__ = [
     "ACCESS", "LANE_OFFSET", "MAX_SHARED_CHOICES", "choice_rates", "default_lanes", "fleet_maxmin",
-    "fleet_pricer", "fleet_setup", "link_gains", "link_rates", "shared_slot_service", "slot_service",
+    "fleet_pricer", "fleet_setup", "link_gains", "link_gains_batch", "link_rates", "shared_slot_service",
+    "slot_service",
 ]  # fmt: skip
 
 #: How the UAVs share the spectrum: a band each, or one band (interference at the nodes).
@@ -144,37 +145,57 @@ def link_rates(config: ScenarioConfig, positions: np.ndarray) -> np.ndarray:
 
 def link_gains(config: ScenarioConfig, positions: np.ndarray) -> np.ndarray:
     """(U, K, U, K): g[u*, k*, u, k], the expected gain E|h|^2 of the link (u, k) from UAV u at
-    ``positions`` (U, 2) m to node k when the surface's phases line up the link (u*, k*).
+    ``positions`` (U, 2) m to node k when the surface's phases line up the link (u*, k*)
+    (:func:`link_gains_batch` of one fleet)."""
+    q = channel.as_positions(positions, "positions")
+    return link_gains_batch(config, q[None])[0]
+
+
+@lru_cache(maxsize=32)
+def _node_constants(config: ScenarioConfig) -> tuple[np.ndarray, ...]:
+    """Per node k (K,) arrays of its rate kernel's constants: x_c, the reflecting side's sign, the
+    transmitting side's factor, whether there is a surface, k_direct, z_U^2, the direct exponent,
+    and its (K, 2) positions (``channel.side_factor``'s and ``direct_amplitude``'s)."""
+    kernels = [channel.rate_kernel(config.node_config(k)) for k in range(config.K)]
+    columns = [[getattr(k, name) for k in kernels] for name in
+               ("x_c", "g_side", "t_factor", "has_surface", "k_direct", "z_u2", "d_exp")]  # fmt: skip
+    return (*(np.array(c, dtype=float) for c in columns), np.array([k.ground for k in kernels], dtype=float))
+
+
+def link_gains_batch(config: ScenarioConfig, positions: np.ndarray) -> np.ndarray:
+    """(B, U, K, U, K): :func:`link_gains` of B fleets at ``positions`` (B, U, 2) m at once.
 
     The per-element model of ``channel.phased_rates``, factorised: with the element phases
     E_m^u = e^{-j 2 pi d_Um^u / lambda} and F_m^k = e^{-j 2 pi d_mG^k / lambda}, the surface term of
     link (u, k) under alignment l = (u*, k*) is e^{-j 2 pi d_UG^l / lambda} sum_m a_m^{uk} E_m^u F_m^k
     conj(E_m^{u*} F_m^{k*}), so every link under every alignment is one complex matrix product
-    (U K x M by M x U K). Its rate log2(1 + eta g) equals ``phased_rates`` with ``phase_shifts`` of
-    the aligned link to 1e-12 relative (tested)."""
-    q = channel.as_positions(positions, "positions")
-    u_n, k_n = len(q), config.K
+    (U K x M by M x U K) per fleet. Its rate log2(1 + eta g) equals ``phased_rates`` with
+    ``phase_shifts`` of the aligned link to 1e-12 relative (tested); the side factors and the
+    direct amplitudes are ``channel.side_factor``'s and ``direct_amplitude``'s expressions."""
+    q = np.asarray(positions, dtype=float)
+    if q.ndim != 3 or q.shape[2] != 2 or not np.all(np.isfinite(q)):
+        raise ValueError(f"positions must be a finite (B, U, 2) array in m, got shape {q.shape}")
+    b_n, u_n, k_n = q.shape[0], q.shape[1], config.K
     w, d_mg, cos3, f = _node_geometry(config)
+    x_c, g_side, t_factor, has_surface, k_direct, z_u2, d_exp, ground = _node_constants(config)
     wave = 2 * np.pi / config.wavelength
-    d_um = np.sqrt(
-        (q[:, 0:1] - w[:, 0]) ** 2 + (q[:, 1:2] - w[:, 1]) ** 2 + (config.uav_altitude - w[:, 2]) ** 2
-    )
-    k_a = np.abs((q[:, 0:1] - w[:, 0]) / d_um) ** 3  # (U, M)
-    nodes = [config.node_config(k) for k in range(k_n)]
-    side = np.array([channel.side_factor(nodes[k], q[:, 0]) for k in range(k_n)]).T  # (U, K)
-    amp = config.J * k_a[:, None, :] * (side[:, :, None] * cos3[None]) / (d_um[:, None, :] * d_mg[None])
-    phase = np.exp(-1j * wave * d_um)[:, None, :] * f[None]  # (U, K, M): E^u F^k
-    sums = (amp * phase).reshape(u_n * k_n, -1) @ phase.reshape(u_n * k_n, -1).conj().T  # [(u, k), l]
-    d_ug = np.array([[np.sqrt(((q[u] - nodes[k].ground_node) ** 2).sum() + config.uav_altitude**2)
-                      for k in range(k_n)] for u in range(u_n)]).reshape(-1)  # fmt: skip
-    a_d = np.array(
-        [channel.direct_amplitude(nodes[k], q[u : u + 1])[0] for u in range(u_n) for k in range(k_n)]
-    )
-    los = sums + (a_d[:, None] * np.exp(-1j * wave * (d_ug[:, None] - d_ug[None, :])))
+    dx = q[..., 0:1] - w[:, 0]  # (B, U, M)
+    d_um = np.sqrt(dx**2 + (q[..., 1:2] - w[:, 1]) ** 2 + (config.uav_altitude - w[:, 2]) ** 2)
+    k_a = np.abs(dx / d_um) ** 3
+    rel = q[..., 0:1] - x_c  # (B, U, K)
+    side = np.where(rel * g_side > 0, 1.0, np.where(rel == 0, 0.0, t_factor)) * (has_surface != 0)
+    amp = config.J * k_a[:, :, None, :] * (side[..., None] * cos3) / (d_um[:, :, None, :] * d_mg)
+    phase = np.exp(-1j * wave * d_um)[:, :, None, :] * f  # (B, U, K, M): E^u F^k
+    flat = phase.reshape(b_n, u_n * k_n, -1)
+    sums = np.matmul((amp * phase).reshape(b_n, u_n * k_n, -1), flat.conj().transpose(0, 2, 1))
+    apart = ((q[:, :, None, :] - ground) ** 2).sum(axis=-1)  # (B, U, K): |q_u - w_k|^2
+    d_ug = np.sqrt(apart + config.uav_altitude**2).reshape(b_n, -1)
+    a_d = (k_direct * (apart + z_u2) ** d_exp).reshape(b_n, -1)
+    los = sums + a_d[:, :, None] * np.exp(-1j * wave * (d_ug[:, :, None] - d_ug[:, None, :]))
     kappa = config.kappa
-    total = amp.sum(axis=2).reshape(-1) + a_d  # sum_m a_m + a_D of each link
-    gain = kappa / (1 + kappa) * np.abs(los) ** 2 + (total**2 / (1 + kappa))[:, None]  # [(u, k), l]
-    return gain.T.reshape(u_n, k_n, u_n, k_n)
+    total = amp.sum(axis=3).reshape(b_n, -1) + a_d  # sum_m a_m + a_D of each link
+    gain = kappa / (1 + kappa) * np.abs(los) ** 2 + (total**2 / (1 + kappa))[:, :, None]  # [b, (u, k), l]
+    return gain.transpose(0, 2, 1).reshape(b_n, u_n, k_n, u_n, k_n)
 
 
 def slot_service(rates: np.ndarray, shares: np.ndarray, surface_shares: np.ndarray) -> np.ndarray:

@@ -1,0 +1,90 @@
+"""The fleet's rules on one fleet's arrays: what the parallel env and its batched form both apply.
+
+A fleet is U rows of the multi-node env (one per UAV: its move, node shares, propulsion and
+observation); these functions couple them, for one fleet at a time, the same code whether the
+rows are single envs (``envs.fleet.FleetParallelEnv``) or rows of batched ones
+(``envs.fleet_vector.FleetVectorEnv``): the surface's shares between the UAVs, the guarded moves
+(unit disk, arrival guard, separation), the slot's service of the nodes and each agent's
+observation.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from ios_uav_env.model.config import ScenarioConfig
+from ios_uav_env.model.fleet import link_gains_batch, shared_slot_service, slot_service
+from ios_uav_env.model.guard import guarded_position
+from ios_uav_env.model.separation import separated_moves
+
+__all__ = ["GUARD_MARGIN", "agent_observations", "guarded_moves", "slots_of", "surface_shares"]
+
+#: The guard keeps the UAVs this relative margin (plus 1e-9 m) beyond d_min, so that the
+#: kernels' rounding of a guarded move (~1e-13 m) never brings two of them within d_min.
+GUARD_MARGIN = 1e-9
+
+
+def guard_distance(min_separation: float) -> float:
+    """m: the distance the separation guard keeps (``min_separation`` and the margin)."""
+    return min_separation * (1.0 + GUARD_MARGIN) + GUARD_MARGIN
+
+
+def surface_shares(bids: np.ndarray, sharpness: float) -> np.ndarray:
+    """(U,): the surface's shares of the slot, the softmax of ``sharpness`` x the bids clipped to
+    [-1, 1]."""
+    scaled = np.clip(np.asarray(bids, dtype=float), -1.0, 1.0) * sharpness
+    beta = np.exp(scaled - scaled.max())
+    return beta / beta.sum()
+
+
+def guarded_moves(
+    q: np.ndarray, moves: np.ndarray, finals: np.ndarray, d: float, left: int, guard: float
+) -> tuple[np.ndarray, np.ndarray]:
+    """((U, 2) moves / D, (U,) fractions): the UAVs at ``q`` (U, 2) m asked to move ``moves`` (U, 2)
+    / D: each projected on the unit disk, then through its arrival guard to its final point
+    (``left``: moves left after this one), then the fleet's separation guard at ``guard`` m
+    (``model.separation.separated_moves``; the fractions of the moves it flies)."""
+    proposed = np.empty_like(q)
+    for u in range(len(q)):
+        ax, ay = moves[u, 0], moves[u, 1]
+        norm = math.hypot(ax, ay)
+        if norm > 1.0:
+            ax, ay = ax / norm, ay / norm
+        target = (q[u, 0] + d * ax, q[u, 1] + d * ay)
+        proposed[u] = guarded_position((q[u, 0], q[u, 1]), target, (finals[u, 0], finals[u, 1]), d, left)
+    fractions, reached = separated_moves(q, proposed, guard)
+    return (reached - q) / d, fractions
+
+
+def slots_of(
+    config: ScenarioConfig, access: str, q: np.ndarray, shares: np.ndarray, beta: np.ndarray
+) -> np.ndarray:
+    """(B, K) bps/Hz: the nodes' rates of the slot of B fleets at their way-points ``q`` (B, U, 2)
+    m, with their node shares (B, U, K) and surface shares ``beta`` (B, U): the links' gains of all
+    fleets at once (``model.fleet.link_gains_batch``), then ``model.fleet.slot_service`` (or in a
+    shared band ``shared_slot_service``) per fleet."""
+    gains = link_gains_batch(config, q)
+    if access == "shared":
+        return np.array(
+            [shared_slot_service(g, config.eta, a, c) for g, a, c in zip(gains, shares, beta, strict=True)]
+        )
+    rates = np.log2(1.0 + config.eta * gains)
+    return np.array([slot_service(r, a, c) for r, a, c in zip(rates, shares, beta, strict=True)])
+
+
+def agent_observations(
+    obs: np.ndarray, node_rates: np.ndarray, q: np.ndarray, served_at: list[int], scale: float
+) -> np.ndarray:
+    """(U, d + 2 (U - 1)) float32: each UAV's row observation ``obs`` (U, d) with its node blocks'
+    ``served`` (columns ``served_at``) the team's ``node_rates`` (K_max,), then the other UAVs'
+    positions relative to it, (q_v - q_u) / ``scale``, in agent order."""
+    u_n = len(q)
+    out = np.empty((u_n, obs.shape[1] + 2 * (u_n - 1)))
+    for u in range(u_n):
+        o = obs[u].astype(np.float64)
+        o[served_at] = node_rates
+        others = [(q[v] - q[u]) / scale for v in range(u_n) if v != u]
+        out[u] = np.concatenate([o, *others])
+    return out.astype(np.float32)
