@@ -22,11 +22,12 @@ UAV's relaxed path is linear in w, so their sum is the fleet's cut).
 **The plans.** Candidates, each scored by ``fleet_maxmin`` and kept only if separated all along
 (``flights_separated``) and feasible for every UAV:
 (i) at each Kelley w, every UAV's plain grid DP path on f_w = max_k w_k r_k (the bound's dual
-plans, as ``dp_bound.solve_multinode``'s); (ii) node assignments: each UAV flies the tour
-heuristic (``baselines.tour``) over the nodes assigned to it (straight to its final point if
-none), starting from each node's nearest lane and improved by moving one node at a time while
-the score rises. The best candidate is returned with the bound; ``gap`` says how far it may be
-from the optimum. Not yet: block-coordinate SCA polishing of the trajectories, a shared band.
+plans, as ``dp_bound.solve_multinode``'s); (ii) node covers: each UAV flies the tour
+heuristic (``baselines.tour``) over the nodes it covers (straight to its final point if none;
+a node may be covered by several UAVs, which then share it), starting from each node's nearest
+lane and improved by adding a node to or taking one from one UAV at a time while the score
+rises (every node covered). The best candidate is returned with the bound; ``gap`` says how far
+it may be from the optimum. Not yet: block-coordinate SCA polishing of the trajectories.
 """
 
 from __future__ import annotations
@@ -115,6 +116,28 @@ def _dual_flights(
     return None if any(f is None for f in flights) else np.array(flights)
 
 
+def guarded_flights(
+    config: ScenarioConfig, flights: np.ndarray, finals: np.ndarray, min_separation: float
+) -> np.ndarray | None:
+    """The U ``flights`` (U, N, 2) m flown through the fleet env's guards (``envs.fleet_rules``:
+    each UAV heads for its next way-point, then its arrival guard and the separation guard at
+    ``min_separation``), or None if a UAV then misses its final point: a separated flight near
+    a plan whose UAVs come too close."""
+    from ios_uav_env.envs.fleet_rules import guard_distance, guarded_moves
+
+    guard, d, n = guard_distance(min_separation), config.D, flights.shape[1]
+    out = np.empty_like(flights)
+    out[:, 0] = flights[:, 0]
+    for t in range(1, n):
+        wanted = (flights[:, t] - out[:, t - 1]) / d
+        moves, _ = guarded_moves(out[:, t - 1], wanted, finals, d, n - t - 1, guard)
+        out[:, t] = out[:, t - 1] + d * moves
+    if np.max(np.hypot(*(out[:, -1] - finals).T)) > 1e-6:
+        return None
+    out[:, -1] = finals
+    return out
+
+
 def _tour_flight(config: ScenarioConfig, nodes: tuple[int, ...]) -> np.ndarray:
     """One UAV's flight: the tour over ``nodes`` of ``config`` (its own start and final point), or
     straight to its final point for no node."""
@@ -151,7 +174,7 @@ def solve(
     margin: float = DEFAULT_MARGIN,
     max_cuts: int = 15,
     tol: float = 1e-3,
-    local_moves: int = 12,
+    local_moves: int = 30,
     access: str = "orthogonal",
     progress: bool = False,
 ) -> FleetPlan:
@@ -160,10 +183,10 @@ def solve(
     ``uavs``, ``starts``, ``finals``, ``min_separation``: the fleet (defaults: the env's lanes,
     ``ios_uav_env.parallel_env``); ``resolution``: the plain DP grid (m); ``bound_resolution``: the
     relaxed DP's cells (default ``resolution``); ``max_cuts``, ``tol``: Kelley's iterations and
-    relative gap; ``local_moves``: most node reassignments tried; ``access``: orthogonal bands or
+    relative gap; ``local_moves``: most covers tried after the first; ``access``: orthogonal bands or
     one shared band (the plans are scored with its interference; the bound, interference-free,
     holds for both). The fleet's arguments are checked by ``model.fleet.fleet_setup``. ``info``:
-    ``source`` (which candidate won), ``assignment`` (each node's UAV, for a tour candidate),
+    ``source`` (which candidate won), ``cover`` (the nodes each UAV tours, for a tour candidate),
     ``weights`` (the bound's w), ``kelley_lower``, ``cuts``, ``candidates`` (scored, separated),
     ``rejected`` (candidates that were not separated)."""
     t0 = time.perf_counter()
@@ -181,11 +204,11 @@ def solve(
         validate_grid_args(c, resolution, margin)
     h = resolution if bound_resolution is None else bound_resolution
 
-    scored: list[tuple[float, str, np.ndarray, tuple[int, ...] | None]] = []
+    scored: list[tuple[float, str, np.ndarray, Any]] = []
     rejected: list[str] = []
     seen: dict[bytes, float] = {}  # each candidate's value (-inf: rejected), by its flights' bytes
 
-    def consider(source: str, flights: np.ndarray | None, assignment: tuple[int, ...] | None = None) -> float:
+    def consider(source: str, flights: np.ndarray | None, assignment: Any = None) -> float:
         if flights is None:
             return -math.inf
         key = flights.tobytes()
@@ -193,7 +216,12 @@ def solve(
             return seen[key]
         seen[key] = -math.inf
         feasible = all(ie.check_trajectory(c, f).feasible for c, f in zip(configs, flights, strict=True))
-        if not (feasible and flights_separated(flights, min_separation)):
+        if feasible and not flights_separated(flights, min_separation):
+            repaired = guarded_flights(config, flights, points[1], min_separation)
+            if repaired is not None and not np.array_equal(repaired, flights):
+                consider(f"{source}-guarded", repaired, assignment)
+            feasible = False
+        if not feasible:
             rejected.append(source)
             return -math.inf
         value = fleet_maxmin(config, flights, access=access).value
@@ -210,30 +238,46 @@ def solve(
     )
     for i, w in enumerate(weights_tried):
         consider(f"dual-dp{i}", _dual_flights(configs, w, resolution, margin))
-    # (ii) tours over node assignments, from the nearest lanes, one node moved at a time
+    # (ii) tours over the nodes each UAV covers (a node may be covered by several), from the
+    # nearest lanes' partition, one node added to or taken from one UAV at a time
     tours: dict[tuple[int, tuple[int, ...]], np.ndarray] = {}
 
-    def assigned(assignment: tuple[int, ...]) -> np.ndarray:
-        flights = []
-        for u, c in enumerate(configs):
-            nodes = tuple(k for k, a in enumerate(assignment) if a == u)
+    def covering(cover: tuple[tuple[int, ...], ...]) -> np.ndarray:
+        for u, nodes in enumerate(cover):
             if (u, nodes) not in tours:
-                tours[(u, nodes)] = _tour_flight(c, nodes)
-            flights.append(tours[(u, nodes)])
-        return np.array(flights)
+                tours[(u, nodes)] = _tour_flight(configs[u], nodes)
+        return np.array([tours[(u, nodes)] for u, nodes in enumerate(cover)])
 
-    current = _nearest_lanes(configs)
-    value = consider(f"tour{current}", assigned(current), current)
+    lanes_of = _nearest_lanes(configs)
+    current = tuple(tuple(k for k in range(config.K) if lanes_of[k] == u) for u in range(len(configs)))
+    value = consider(f"tour{current}", covering(current), current)
+    u_n, everyone = len(configs), set(range(config.K))
+
+    def neighbours(cover: tuple[tuple[int, ...], ...]) -> list[tuple[tuple[int, ...], ...]]:
+        """Covers one step away: node k moved from one UAV to another, added or taken away."""
+        out = []
+        for k, u, v in itertools.product(range(config.K), range(u_n), range(u_n)):
+            sets = [set(nodes) for nodes in cover]
+            if u == v:
+                sets[u] ^= {k}  # add or take away
+            elif k in sets[u] and k not in sets[v]:
+                sets[u].discard(k)
+                sets[v].add(k)  # move
+            else:
+                continue
+            if set().union(*sets) >= everyone:  # every node covered by some UAV
+                out.append(tuple(tuple(sorted(nodes)) for nodes in sets))
+        return out
+
     tried = 0
     improved = True
     while improved and tried < local_moves:
         improved = False
-        for k, u in itertools.product(range(config.K), range(len(configs))):
-            if current[k] == u or tried >= local_moves:
-                continue
-            trial = current[:k] + (u,) + current[k + 1 :]
+        for trial in neighbours(current):
+            if tried >= local_moves:
+                break
             tried += 1
-            got = consider(f"tour{trial}", assigned(trial), trial)
+            got = consider(f"tour{trial}", covering(trial), trial)
             if got > value:
                 current, value, improved = trial, got, True
                 break
@@ -244,7 +288,7 @@ def solve(
         )
     best = max(scored, key=lambda s: s[0])
     info = {
-        "source": best[1], "assignment": None if best[3] is None else list(best[3]),
+        "source": best[1], "cover": None if best[3] is None else [list(nodes) for nodes in best[3]],
         "weights": w_best.tolist(),
         "kelley_lower": lower, "cuts": records, "candidates": {s: v for v, s, _, _ in scored},
         "rejected": rejected, "resolution": float(resolution), "bound_resolution": float(h),

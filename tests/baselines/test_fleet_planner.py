@@ -117,3 +117,20 @@ def test_candidates_met_again_after_a_rejection_are_not_scored_again():
     else:
         assert flights_separated(plan.trajectories, 70.0)
         assert len(plan.info["rejected"]) == len(set(plan.info["rejected"]))
+
+
+def test_a_plan_whose_uavs_meet_is_flown_through_the_envs_guards():
+    """Both UAVs detour through the same point: the guarded flights keep the separation all along,
+    keep the speed limit and still arrive (or the repair gives up with None)."""
+    starts, finals, configs = fleet_setup(CONFIG, 2)
+    meet = np.array([(-50.0, -20.0)])
+    flights = np.stack([
+        np.concatenate([np.linspace(s, meet[0], 12), np.linspace(meet[0], f, CONFIG.N - 12)])
+        for s, f in zip(starts, finals, strict=True)
+    ])  # fmt: skip
+    assert not flights_separated(flights, 10.0)
+    repaired = fleet.guarded_flights(CONFIG, flights, finals, 10.0)
+    assert repaired is not None
+    assert flights_separated(repaired, 10.0)
+    for c, flight in zip(configs, repaired, strict=True):
+        assert check_trajectory(c, flight).feasible
