@@ -60,7 +60,12 @@ REGISTRY: dict[str, Measurement] = {
         ("ppo_speed", "ppo_speed.py", (), "PPO (ppo_fast.yml), batched env: time to 99.5% of DP"),
         ("multinode", "multinode.py", (), "several nodes: tour, SCA, the DP's plan and bound"),
         ("star_slot", "star_slot.py", (), "STAR surfaces, one slot: each protocol and access, the gaps"),
-        ("fleet", "fleet.py", (), "several UAVs: the centralised plan's max-min against its bound"),
+        (
+            "fleet",
+            "fleet.py",
+            ("--access", "orthogonal", "shared"),
+            "several UAVs: the centralised plan's max-min against its bound",
+        ),
         (
             "train_speed",
             "train_speed.py",
