@@ -143,7 +143,8 @@ class FleetParallelEnv(ParallelEnv):
         self.guard = guard_distance(self.min_separation) if u_n > 1 else 0.0
         if u_n > 1:
             self._check_team_world(base, kwargs)
-            kwargs = {**kwargs, "arrival_guard": False}  # the fleet guards the moves (both guards)
+            # the fleet guards the moves (both guards) and scores the flights (fleet_maxmin)
+            kwargs = {**kwargs, "arrival_guard": False, "best_schedule": False}
         self.surface_sharpness = float(surface_sharpness)
         self.best_schedule = bool(best_schedule)
         self.config = base

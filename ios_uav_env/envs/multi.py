@@ -210,6 +210,9 @@ class MultiNodeEnv(MobileNodes, EnergyChannel, gym.Env):
     - ``max_nodes`` (K of ``config``, 4 for the randomised id): K_max of the spaces.
     - ``share_sharpness`` (5.0): the softmax's inverse temperature.
     - ``softmin_beta`` (0.0): beta of the shaped rate term (Rewards); 0 is the plain minimum.
+    - ``best_schedule`` (True): compute ``info["best_schedule_rate"]`` at the episode's end (False:
+      NaN there, as the batched env's ``best_schedule=False``; the schedule scores, it does not
+      train).
     - ``random_nodes`` ((2, 4) for the randomised id, None otherwise): draw a new scenario with
       that many nodes at every reset.
     - ``peak_hint`` (False): append each node's reachable rate peak (Observation Space; one
@@ -256,10 +259,15 @@ class MultiNodeEnv(MobileNodes, EnergyChannel, gym.Env):
         random_nodes: tuple[int, int] | None = None,
         ranges: ScenarioRanges = MULTINODE_RANGES,
         render_mode: str | None = None,
+        best_schedule: bool = True,
         **kwargs: Any,
     ) -> None:
         options, overrides = split_kwargs(kwargs, f"{type(self).__name__}.__init__")
         self.options = EnvOptions(**options)
+        if not isinstance(best_schedule, (bool, np.bool_)):
+            raise ValueError(f"best_schedule must be True or False, got {best_schedule!r}")
+        #: Whether an episode's end computes ``info["best_schedule_rate"]`` (else NaN there).
+        self.best_schedule = bool(best_schedule)
         if render_mode not in (None, "rgb_array"):
             raise ValueError(f"render_mode must be None or 'rgb_array', got {render_mode!r}")
         check_multinode_arguments(config, random_nodes, ranges, MULTINODE_RANGES, overrides)
@@ -446,7 +454,9 @@ class MultiNodeEnv(MobileNodes, EnergyChannel, gym.Env):
         self._rows.step(self._action, self._active, outputs, self._norm, serial=True)
         self.observe_slot(self._rows, 0, self._obs[0])
         terminated = bool(self._terminated[0])
-        if terminated:
+        if terminated and not self.best_schedule:
+            self._table[0, BEST] = np.nan  # (as the batched env's best_schedule=False)
+        elif terminated:
             start = time.perf_counter()
             self._table[0, BEST] = reported_maxmin_rate(
                 self.config, self.trajectory, self.truth, track_kernels(self.track)

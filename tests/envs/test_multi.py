@@ -271,3 +271,19 @@ def test_a_step_needs_a_running_episode():
         env.step(np.zeros(4))
     env.reset()
     assert env.trajectory.shape == (1, 2) and env.shares.shape == (2, 1)
+
+
+def test_best_schedule_false_skips_the_episode_end_schedule():
+    """best_schedule=False: NaN at the end (as the batched env's), nothing timed; True: the value."""
+    cfg = ScenarioConfig(ground_nodes=((-100.0, -20.0), (150.0, -60.0)), T=40.0, ios_shape=(8, 6))
+    ends = {}
+    for flag in (True, False):
+        env = MultiNodeEnv(cfg, best_schedule=flag)
+        env.reset(seed=0)
+        terminated = False
+        while not terminated:
+            _, _, terminated, _, info = env.step(np.zeros(4))
+        ends[flag] = (info["best_schedule_rate"], env.score_seconds)
+    assert np.isnan(ends[False][0]) and ends[False][1] == 0.0 and ends[True][0] > 0.0
+    with pytest.raises(ValueError, match="best_schedule must be True or False"):
+        MultiNodeEnv(cfg, best_schedule="no")
