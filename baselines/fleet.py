@@ -46,7 +46,7 @@ from baselines.dp_relaxed import RelaxedDP, check_relaxed_grid
 from baselines.grid import DEFAULT_MARGIN, validate_grid_args
 from ios_uav_env import ScenarioConfig
 from ios_uav_env.model.fleet import ACCESS, fleet_maxmin, fleet_setup
-from ios_uav_env.model.separation import DEFAULT_SEPARATION, flights_separated
+from ios_uav_env.model.separation import DEFAULT_SEPARATION, flights_separated, guard_distance, guarded_moves
 
 __all__ = ["FleetPlan", "fleet_bound", "solve"]
 
@@ -123,8 +123,6 @@ def guarded_flights(
     each UAV heads for its next way-point, then its arrival guard and the separation guard at
     ``min_separation``), or None if a UAV then misses its final point: a separated flight near
     a plan whose UAVs come too close."""
-    from ios_uav_env.envs.fleet_rules import guard_distance, guarded_moves
-
     guard, d, n = guard_distance(min_separation), config.D, flights.shape[1]
     out = np.empty_like(flights)
     out[:, 0] = flights[:, 0]

@@ -13,10 +13,11 @@ takes is in one of four classes:
   (``share_sharpness``): another value is another task. :func:`check_overrides` refuses it
   unless ``allow_task_change`` is given, and the results then carry the change
   (``Results.task_changes``), printed and saved as another task (``Results.task``);
-- :data:`PINNED`: what a reset draws (``config``, ``ranges``, ``focus``, ``focus_prob``) and
-  every ``ScenarioConfig`` field: the suite pins each scenario at reset, so they would be
-  ignored. :func:`check_overrides` refuses them; :func:`policy_env_kwargs` drops them from a
-  policy's own ``env_kwargs`` (its training draw), which the suite replaces by its scenarios.
+- :data:`PINNED`: what a reset draws (``config``, ``ranges``, ``focus``, ``focus_prob``), what
+  the suite's scoring computes (``best_schedule``) and every ``ScenarioConfig`` field: the suite
+  pins each scenario at reset and scores each episode, so they would be ignored.
+  :func:`check_overrides` refuses them; :func:`policy_env_kwargs` drops them from a policy's own
+  ``env_kwargs`` (its training draw), which the suite replaces by its scenarios.
 
 An argument the env takes that is in none of them is taken as a task change (tests check that
 every argument of every suite's env is classified).
@@ -50,7 +51,10 @@ TASK: dict[str, str] = {
 }
 #: What a reset draws: the suite pins every scenario instead. Refused (dropped from a policy's own).
 DRAW: frozenset[str] = frozenset({"config", "ranges", "focus", "focus_prob"})
-PINNED: frozenset[str] = DRAW | SCENARIO_FIELDS
+#: What the suite's scoring fixes: the episode-end schedule it reports (``best_schedule``; a
+#: training run may skip it). Refused (dropped from a policy's own), as the draws are.
+SCORING: frozenset[str] = frozenset({"best_schedule"})
+PINNED: frozenset[str] = DRAW | SCORING | SCENARIO_FIELDS
 #: Presentation arguments a policy's own ``env_kwargs`` fix: the observations it was trained on.
 OBSERVATION: frozenset[str] = PRESENTATION - {"render_mode"}
 

@@ -139,7 +139,7 @@ class FleetParallelEnv(ParallelEnv):
         self.starts, self.finals, configs = fleet_setup(base, uavs, starts, finals, min_separation, access)
         self.access, self.min_separation = access, float(min_separation)
         u_n = len(configs)
-        #: m: the distance the separation guard keeps (``fleet_rules.guard_distance``; 0 for one UAV).
+        #: m: the distance the separation guard keeps (``model.separation.guard_distance``; 0 for one UAV).
         self.guard = guard_distance(self.min_separation) if u_n > 1 else 0.0
         if u_n > 1:
             self._check_team_world(base, kwargs)
@@ -291,7 +291,7 @@ class FleetParallelEnv(ParallelEnv):
 
     def _guarded_moves(self, acts: np.ndarray) -> np.ndarray:
         """(U, 2): each UAV's move / D after its unit-disk projection, its arrival guard and the
-        team's separation guard (``fleet_rules.guarded_moves``)."""
+        team's separation guard (``model.separation.guarded_moves``)."""
         q = np.array([env.trajectory[-1] for env in self.uav_envs])
         left = self.config.N - len(self.uav_envs[0].trajectory) - 1  # moves left after this one
         moves, self.separation_fractions = guarded_moves(

@@ -3,32 +3,22 @@
 A fleet is U rows of the multi-node env (one per UAV: its move, node shares, propulsion and
 observation); these functions couple them, for one fleet at a time, the same code whether the
 rows are single envs (``envs.fleet.FleetParallelEnv``) or rows of batched ones
-(``envs.fleet_vector.FleetVectorEnv``): the surface's shares between the UAVs, the guarded moves
-(unit disk, arrival guard, separation), the slot's service of the nodes and each agent's
-observation.
+(``envs.fleet_vector.FleetVectorEnv``): the surface's shares between the UAVs, the slot's service
+of the nodes and each agent's observation; the guarded moves (unit disk, arrival guard,
+separation) are the model's flight rule, ``model.separation.guarded_moves``, re-exported here.
 """
 
 from __future__ import annotations
-
-import math
 
 import numpy as np
 
 from ios_uav_env.model.config import ScenarioConfig
 from ios_uav_env.model.fleet import link_gains_batch, shared_slot_service, slot_service
-from ios_uav_env.model.guard import guarded_position
-from ios_uav_env.model.separation import separated_moves
+from ios_uav_env.model.separation import GUARD_MARGIN, guard_distance, guarded_moves  # noqa: F401
 
-__all__ = ["GUARD_MARGIN", "agent_observations", "guarded_moves", "slots_of", "surface_shares"]
-
-#: The guard keeps the UAVs this relative margin (plus 1e-9 m) beyond d_min, so that the
-#: kernels' rounding of a guarded move (~1e-13 m) never brings two of them within d_min.
-GUARD_MARGIN = 1e-9
-
-
-def guard_distance(min_separation: float) -> float:
-    """m: the distance the separation guard keeps (``min_separation`` and the margin)."""
-    return min_separation * (1.0 + GUARD_MARGIN) + GUARD_MARGIN
+__all__ = [
+    "GUARD_MARGIN", "agent_observations", "guard_distance", "guarded_moves", "slots_of", "surface_shares",
+]  # fmt: skip
 
 
 def surface_shares(bids: np.ndarray, sharpness: float) -> np.ndarray:
@@ -37,25 +27,6 @@ def surface_shares(bids: np.ndarray, sharpness: float) -> np.ndarray:
     scaled = np.clip(np.asarray(bids, dtype=float), -1.0, 1.0) * sharpness
     beta = np.exp(scaled - scaled.max())
     return beta / beta.sum()
-
-
-def guarded_moves(
-    q: np.ndarray, moves: np.ndarray, finals: np.ndarray, d: float, left: int, guard: float
-) -> tuple[np.ndarray, np.ndarray]:
-    """((U, 2) moves / D, (U,) fractions): the UAVs at ``q`` (U, 2) m asked to move ``moves`` (U, 2)
-    / D: each projected on the unit disk, then through its arrival guard to its final point
-    (``left``: moves left after this one), then the fleet's separation guard at ``guard`` m
-    (``model.separation.separated_moves``; the fractions of the moves it flies)."""
-    proposed = np.empty_like(q)
-    for u in range(len(q)):
-        ax, ay = moves[u, 0], moves[u, 1]
-        norm = math.hypot(ax, ay)
-        if norm > 1.0:
-            ax, ay = ax / norm, ay / norm
-        target = (q[u, 0] + d * ax, q[u, 1] + d * ay)
-        proposed[u] = guarded_position((q[u, 0], q[u, 1]), target, (finals[u, 0], finals[u, 1]), d, left)
-    fractions, reached = separated_moves(q, proposed, guard)
-    return (reached - q) / d, fractions
 
 
 def slots_of(

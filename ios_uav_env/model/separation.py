@@ -32,7 +32,22 @@ import math
 
 import numpy as np
 
-__all__ = ["DEFAULT_SEPARATION", "check_separated", "flights_separated", "min_distance", "separated_moves"]
+from ios_uav_env.model.guard import guarded_position
+
+__all__ = [
+    "DEFAULT_SEPARATION", "GUARD_MARGIN", "check_separated", "flights_separated", "guard_distance",
+    "guarded_moves", "min_distance", "separated_moves",
+]  # fmt: skip
+
+#: The guard keeps the UAVs this relative margin (plus 1e-9 m) beyond d_min, so that the
+#: kernels' rounding of a guarded move (~1e-13 m) never brings two of them within d_min.
+GUARD_MARGIN = 1e-9
+
+
+def guard_distance(min_separation: float) -> float:
+    """m: the distance the separation guard keeps (``min_separation`` and the margin)."""
+    return min_separation * (1.0 + GUARD_MARGIN) + GUARD_MARGIN
+
 
 #: m, the default minimum separation d_min (the fleet env's and planner's).
 DEFAULT_SEPARATION = 10.0
@@ -144,6 +159,25 @@ def separated_moves(
         if common == 0.0 or _separated_all_along(q, reached, d_min):
             return t, reached
         common = common / 2.0 if common > 1e-12 else 0.0
+
+
+def guarded_moves(
+    q: np.ndarray, moves: np.ndarray, finals: np.ndarray, d: float, left: int, guard: float
+) -> tuple[np.ndarray, np.ndarray]:
+    """((U, 2) moves / D, (U,) fractions): the UAVs at ``q`` (U, 2) m asked to move ``moves`` (U, 2)
+    / D: each projected on the unit disk, then through its arrival guard to its final point
+    (``left``: moves left after this one), then the fleet's separation guard at ``guard`` m
+    (``model.separation.separated_moves``; the fractions of the moves it flies)."""
+    proposed = np.empty_like(q)
+    for u in range(len(q)):
+        ax, ay = moves[u, 0], moves[u, 1]
+        norm = math.hypot(ax, ay)
+        if norm > 1.0:
+            ax, ay = ax / norm, ay / norm
+        target = (q[u, 0] + d * ax, q[u, 1] + d * ay)
+        proposed[u] = guarded_position((q[u, 0], q[u, 1]), target, (finals[u, 0], finals[u, 1]), d, left)
+    fractions, reached = separated_moves(q, proposed, guard)
+    return (reached - q) / d, fractions
 
 
 def flights_separated(trajectories: np.ndarray, d_min: float) -> bool:
