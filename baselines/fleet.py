@@ -117,19 +117,20 @@ def _dual_flights(
 
 
 def guarded_flights(
-    config: ScenarioConfig, flights: np.ndarray, finals: np.ndarray, min_separation: float
+    configs: list[ScenarioConfig], flights: np.ndarray, finals: np.ndarray, min_separation: float
 ) -> np.ndarray | None:
-    """The U ``flights`` (U, N, 2) m flown through the fleet env's guards (``envs.fleet_rules``:
-    each UAV heads for its next way-point, then its arrival guard and the separation guard at
-    ``min_separation``), or None if a UAV then misses its final point: a separated flight near
-    a plan whose UAVs come too close."""
-    guard, d, n = guard_distance(min_separation), config.D, flights.shape[1]
+    """The U ``flights`` (U, N, 2) m of the UAVs' scenarios ``configs`` flown through the fleet
+    env's guards (``model.separation.guarded_moves``: each UAV heads for its next way-point at its
+    own speed limit, then its arrival guard and the separation guard at ``min_separation``), or
+    None if a UAV then misses its final point: a separated flight near a plan whose UAVs come too
+    close."""
+    guard, d, n = guard_distance(min_separation), np.array([c.D for c in configs]), flights.shape[1]
     out = np.empty_like(flights)
     out[:, 0] = flights[:, 0]
     for t in range(1, n):
-        wanted = (flights[:, t] - out[:, t - 1]) / d
+        wanted = (flights[:, t] - out[:, t - 1]) / d[:, None]
         moves, _ = guarded_moves(out[:, t - 1], wanted, finals, d, n - t - 1, guard)
-        out[:, t] = out[:, t - 1] + d * moves
+        out[:, t] = out[:, t - 1] + d[:, None] * moves
     if np.max(np.hypot(*(out[:, -1] - finals).T)) > 1e-6:
         return None
     out[:, -1] = finals
@@ -174,11 +175,12 @@ def solve(
     tol: float = 1e-3,
     local_moves: int = 30,
     access: str = "orthogonal",
+    speeds: Any = None,
     progress: bool = False,
 ) -> FleetPlan:
     """The best separated fleet found and the certified bound (module docstring).
 
-    ``uavs``, ``starts``, ``finals``, ``min_separation``: the fleet (defaults: the env's lanes,
+    ``uavs``, ``starts``, ``finals``, ``min_separation``, ``speeds``: the fleet (defaults: the env's lanes,
     ``ios_uav_env.parallel_env``); ``resolution``: the plain DP grid (m); ``bound_resolution``: the
     relaxed DP's cells (default ``resolution``); ``max_cuts``, ``tol``: Kelley's iterations and
     relative gap; ``local_moves``: most covers tried after the first; ``access``: orthogonal bands or
@@ -196,7 +198,7 @@ def solve(
             f"energy_budget_j=None; got objective={config.objective!r}, motion={config.motion!r}, "
             f"energy_budget_j={config.energy_budget_j!r}"
         )
-    starts_, finals_, configs = fleet_setup(config, uavs, starts, finals, min_separation, access)
+    starts_, finals_, configs = fleet_setup(config, uavs, starts, finals, min_separation, access, speeds)
     points = [starts_, finals_]
     for c in configs:
         validate_grid_args(c, resolution, margin)
@@ -215,7 +217,7 @@ def solve(
         seen[key] = -math.inf
         feasible = all(ie.check_trajectory(c, f).feasible for c, f in zip(configs, flights, strict=True))
         if feasible and not flights_separated(flights, min_separation):
-            repaired = guarded_flights(config, flights, points[1], min_separation)
+            repaired = guarded_flights(configs, flights, points[1], min_separation)
             if repaired is not None and not np.array_equal(repaired, flights):
                 consider(f"{source}-guarded", repaired, assignment)
             feasible = False

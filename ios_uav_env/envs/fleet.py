@@ -107,6 +107,7 @@ class FleetParallelEnv(ParallelEnv):
     ``config`` (K ground nodes; default ``MultiNodeEnv``'s three), ``uavs`` (U >= 1, default 2),
     ``starts`` / ``finals`` ((U, 2) m; default ``model.fleet.default_lanes``), ``min_separation``
     (m, default ``model.separation.DEFAULT_SEPARATION``), ``surface_sharpness`` (> 0), ``access``,
+    ``speeds`` ((U,) m/s, each UAV's speed limit; default the scenario's ``v_max``),
     ``best_schedule`` (compute the episode-end schedule, default True), and ``MultiNodeEnv``'s
     keywords (``share_sharpness``, ``max_nodes``, the env options); a ``ScenarioConfig`` field
     as a keyword changes the fleet's scenario (every UAV's). The fleet's arguments are checked by
@@ -128,6 +129,7 @@ class FleetParallelEnv(ParallelEnv):
         min_separation: float = DEFAULT_SEPARATION,
         surface_sharpness: float = 5.0,
         access: str = "orthogonal",
+        speeds: Any = None,
         best_schedule: bool = True,
         **kwargs: Any,
     ) -> None:
@@ -136,7 +138,11 @@ class FleetParallelEnv(ParallelEnv):
         base = as_config(config if config is not None else ScenarioConfig(ground_nodes=DEFAULT_NODES))
         overrides = {name: kwargs.pop(name) for name in list(kwargs) if name in SCENARIO_FIELDS}
         base = base.replace(**overrides) if overrides else base  # the fleet's scenario, and each UAV's
-        self.starts, self.finals, configs = fleet_setup(base, uavs, starts, finals, min_separation, access)
+        self.starts, self.finals, configs = fleet_setup(
+            base, uavs, starts, finals, min_separation, access, speeds
+        )
+        #: m: each UAV's largest move per slot (its speed limit x dt).
+        self.moves_per_slot = np.array([c.D for c in configs])
         self.access, self.min_separation = access, float(min_separation)
         u_n = len(configs)
         #: m: the distance the separation guard keeps (``model.separation.guard_distance``; 0 for one UAV).
@@ -200,7 +206,7 @@ class FleetParallelEnv(ParallelEnv):
         low, high = space.low.astype(np.float64), space.high.astype(np.float64)
         high[self.served_at] *= len(self.uav_envs)  # the team's served rates: at most U x one UAV's
         cfg, scale = self.config, self.uav_envs[u].options.length_scale
-        reach = (cfg.N - 1) * cfg.D
+        reach = (cfg.N - 1) * float(self.moves_per_slot.max())
         for v in range(len(self.uav_envs)):
             if v != u:
                 far = pad((float(np.abs(self.starts[v] - self.starts[u]).max()) + 2.0 * reach) / scale)
@@ -295,7 +301,7 @@ class FleetParallelEnv(ParallelEnv):
         q = np.array([env.trajectory[-1] for env in self.uav_envs])
         left = self.config.N - len(self.uav_envs[0].trajectory) - 1  # moves left after this one
         moves, self.separation_fractions = guarded_moves(
-            q, acts[:, :2], self.finals, self.config.D, left, self.guard
+            q, acts[:, :2], self.finals, self.moves_per_slot, left, self.guard
         )
         return moves
 

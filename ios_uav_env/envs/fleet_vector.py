@@ -151,7 +151,9 @@ class FleetVectorEnv(gym.vector.VectorEnv):
         moves, fractions = np.empty((self.num_fleets, self.uavs, 2)), np.empty((self.num_fleets, self.uavs))
         beta = np.empty((self.num_fleets, self.uavs))
         for b in range(self.num_fleets):
-            moves[b], fractions[b] = guarded_moves(self._q[b], a[b, :, :2], t.finals, cfg.D, left, t.guard)
+            moves[b], fractions[b] = guarded_moves(
+                self._q[b], a[b, :, :2], t.finals, t.moves_per_slot, left, t.guard
+            )
             beta[b] = surface_shares(a[b, :, -1], t.surface_sharpness)
         outs = []
         for u, rows in enumerate(self.rows):

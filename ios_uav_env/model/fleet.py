@@ -94,12 +94,14 @@ def fleet_setup(
     finals: Any = None,
     min_separation: Any = DEFAULT_SEPARATION,
     access: Any = "orthogonal",
+    speeds: Any = None,
 ) -> tuple[np.ndarray, np.ndarray, list[ScenarioConfig]]:
     """(starts, finals, each UAV's scenario): the fleet's arguments checked, ``ValueError`` naming
     the argument and its allowed values otherwise. ``uavs`` U >= 1; ``starts`` / ``finals`` (U, 2)
     m (default :func:`default_lanes`), every two at least ``min_separation`` m (>= 0) apart; each
-    UAV's scenario is ``config`` with its start and final point (reachable in N slots);
-    ``access`` one of :data:`ACCESS`, a shared band at most :data:`MAX_SHARED_CHOICES` choices."""
+    UAV's scenario is ``config`` with its start and final point (reachable in N slots) and its
+    speed limit ``speeds[u]`` (m/s, > 0; default ``config.v_max`` for every UAV); ``access`` one of
+    :data:`ACCESS`, a shared band at most :data:`MAX_SHARED_CHOICES` choices."""
     if isinstance(uavs, bool) or not isinstance(uavs, numbers.Integral) or uavs < 1:
         raise ValueError(f"uavs must be an integer >= 1, got {uavs!r}")
     u_n = int(uavs)
@@ -126,13 +128,22 @@ def fleet_setup(
             )
         check_separated(p, float(min_separation), name)
         points.append(p)
+    try:
+        v = np.broadcast_to(np.asarray(config.v_max if speeds is None else speeds, dtype=float), (u_n,))
+    except (TypeError, ValueError):
+        v = np.array([np.nan])
+    if v.shape != (u_n,) or not np.all(np.isfinite(v) & (v > 0)):
+        raise ValueError(f"speeds must be None or {u_n} finite speeds > 0 (m/s, one per UAV), got {speeds!r}")
     configs = []
     for u in range(u_n):
         (sx, sy), (fx, fy) = points[0][u], points[1][u]
+        fields = {"q0": (float(sx), float(sy)), "qF": (float(fx), float(fy))}
+        if speeds is not None:
+            fields["v_max"] = float(v[u])
         try:
-            configs.append(config.replace(q0=(float(sx), float(sy)), qF=(float(fx), float(fy))))
+            configs.append(config.replace(**fields))
         except ValueError as err:
-            raise ValueError(f"starts[{u}] / finals[{u}]: {err}") from None
+            raise ValueError(f"starts[{u}] / finals[{u}] / speeds: {err}") from None
     return points[0], points[1], configs
 
 

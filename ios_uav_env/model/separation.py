@@ -29,6 +29,7 @@ checked, and a fraction halves until they are separated (t = 0, staying put, alw
 from __future__ import annotations
 
 import math
+from typing import Any
 
 import numpy as np
 
@@ -162,22 +163,25 @@ def separated_moves(
 
 
 def guarded_moves(
-    q: np.ndarray, moves: np.ndarray, finals: np.ndarray, d: float, left: int, guard: float
+    q: np.ndarray, moves: np.ndarray, finals: np.ndarray, d: Any, left: int, guard: float
 ) -> tuple[np.ndarray, np.ndarray]:
     """((U, 2) moves / D, (U,) fractions): the UAVs at ``q`` (U, 2) m asked to move ``moves`` (U, 2)
     / D: each projected on the unit disk, then through its arrival guard to its final point
     (``left``: moves left after this one), then the fleet's separation guard at ``guard`` m
-    (``model.separation.separated_moves``; the fractions of the moves it flies)."""
+    (``model.separation.separated_moves``; the fractions of the moves it flies). ``d``: D (m),
+    one for every UAV or one per UAV."""
+    d = np.broadcast_to(np.asarray(d, dtype=float), (len(q),))
     proposed = np.empty_like(q)
     for u in range(len(q)):
         ax, ay = moves[u, 0], moves[u, 1]
         norm = math.hypot(ax, ay)
         if norm > 1.0:
             ax, ay = ax / norm, ay / norm
-        target = (q[u, 0] + d * ax, q[u, 1] + d * ay)
-        proposed[u] = guarded_position((q[u, 0], q[u, 1]), target, (finals[u, 0], finals[u, 1]), d, left)
+        du = float(d[u])
+        target = (q[u, 0] + du * ax, q[u, 1] + du * ay)
+        proposed[u] = guarded_position((q[u, 0], q[u, 1]), target, (finals[u, 0], finals[u, 1]), du, left)
     fractions, reached = separated_moves(q, proposed, guard)
-    return (reached - q) / d, fractions
+    return (reached - q) / d[:, None], fractions
 
 
 def flights_separated(trajectories: np.ndarray, d_min: float) -> bool:

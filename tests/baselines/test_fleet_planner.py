@@ -129,8 +129,17 @@ def test_a_plan_whose_uavs_meet_is_flown_through_the_envs_guards():
         for s, f in zip(starts, finals, strict=True)
     ])  # fmt: skip
     assert not flights_separated(flights, 10.0)
-    repaired = fleet.guarded_flights(CONFIG, flights, finals, 10.0)
+    repaired = fleet.guarded_flights(configs, flights, finals, 10.0)
     assert repaired is not None
     assert flights_separated(repaired, 10.0)
     for c, flight in zip(configs, repaired, strict=True):
         assert check_trajectory(c, flight).feasible
+
+
+def test_each_uav_is_planned_at_its_own_speed_limit():
+    plan = fleet.solve(CONFIG, uavs=2, speeds=[25.0, 15.0], resolution=10.0)
+    _, _, configs = fleet_setup(CONFIG, 2, speeds=[25.0, 15.0])
+    for c, flight in zip(configs, plan.trajectories, strict=True):
+        assert check_trajectory(c, flight).feasible
+    assert np.hypot(*np.diff(plan.trajectories[1], axis=0).T).max() <= 15.0 * (1 + 1e-9)
+    assert plan.value <= plan.upper_bound

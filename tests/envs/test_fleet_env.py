@@ -245,3 +245,13 @@ def test_a_bystander_keeps_flying_while_two_uavs_meet():
     assert held < 1.0 and closest >= env.min_separation
     np.testing.assert_allclose(env.trajectories[2, -1], finals[2], atol=1e-9)  # the bystander arrives
     assert last["uav_2"]["terminal_miss"] == 0.0 and last["uav_0"]["terminal_miss"] > 0.0
+
+
+def test_each_uav_keeps_its_own_speed_limit():
+    env = ios_uav_env.parallel_env(CONFIG, uavs=2, speeds=[50.0, 40.0])
+    assert [u.config.v_max for u in env.uav_envs] == [50.0, 40.0]
+    rng = np.random.default_rng(9)
+    _fly(env, lambda env, a, o: rng.uniform(-1.5, 1.5, env.action_space(a).shape), seed=9)
+    steps = np.hypot(*np.diff(env.trajectories, axis=1).transpose(2, 0, 1))  # (U, N - 1) m
+    assert steps[1].max() <= 40.0 * CONFIG.dt * (1 + 1e-9) < steps[0].max()
+    np.testing.assert_allclose(env.trajectories[:, -1], env.finals, atol=1e-9)

@@ -182,7 +182,9 @@ def test_the_shared_slot_service_of_one_choice_is_its_sinr_rates():
         ({"uavs": 2, "min_separation": -1.0}, "min_separation must be a finite number >= 0"),
         ({"uavs": 2, "access": "cdma"}, r"access must be one of \('orthogonal', 'shared'\)"),
         ({"uavs": 8, "access": "shared"}, "has 1572864 choices per slot, more than 200000"),
-        ({"uavs": 2, "finals": [[200.0, 20.0], [5000.0, 0.0]]}, r"starts\[1\] / finals\[1\]: .*T"),
+        ({"uavs": 2, "finals": [[200.0, 20.0], [5000.0, 0.0]]}, r"starts\[1\] / finals\[1\] / speeds: .*T"),
+        ({"uavs": 2, "speeds": [25.0, 0.0]}, r"speeds must be None or 2 finite speeds > 0"),
+        ({"uavs": 2, "speeds": [25.0, 5.0]}, r"starts\[1\] / finals\[1\] / speeds: .*v_max=5"),
     ],
 )
 def test_fleet_setup_refuses_bad_input_by_name(kwargs, message):
