@@ -48,7 +48,7 @@ from ios_uav_env import ScenarioConfig
 from ios_uav_env.model.fleet import ACCESS, fleet_maxmin, fleet_setup
 from ios_uav_env.model.separation import DEFAULT_SEPARATION, flights_separated, guard_distance, guarded_moves
 
-__all__ = ["FleetPlan", "fleet_bound", "solve"]
+__all__ = ["MARL_SCENARIO", "FleetPlan", "fleet_bound", "learner_report", "solve"]
 
 
 @dataclass
@@ -295,6 +295,28 @@ def solve(
         "starts": points[0].tolist(), "finals": points[1].tolist(), "min_separation": float(min_separation),
     }  # fmt: skip
     return FleetPlan(config, best[2], best[0], upper, time.perf_counter() - t0, info)
+
+
+#: The MARL recipes' scenario (``examples/torchrl_mappo_fleet.py``, ``sb3_ippo_fleet.py``,
+#: ``sb3_fleet_central.py``): the multi-node env's three nodes, a 20 x 12 surface and a 60-slot
+#: mission, so that a recipe trains in minutes on a laptop CPU.
+MARL_SCENARIO = ScenarioConfig(
+    ground_nodes=((-100.0, -20.0), (150.0, -60.0), (-40.0, 90.0)), ios_shape=(20, 12), T=60.0,
+    q0=(-200.0, 20.0), qF=(200.0, 20.0),
+)  # fmt: skip
+
+
+def learner_report(
+    label: str, config: ScenarioConfig, uavs: int, min_rate: float, feasible: bool, trained: str
+) -> str:
+    """The line a learner's recipe prints: its team max-min rate as a share of this planner's plan
+    and of its certified bound on the same fleet (``solve(config, uavs=uavs)``)."""
+    plan = solve(config, uavs=uavs)
+    return (
+        f"{label}, U = {uavs}: min rate {min_rate:.4f} bps/Hz (feasible {bool(feasible)}), "
+        f"{100 * min_rate / plan.value:.1f} % of the planner ({plan.value:.4f}), "
+        f"{100 * min_rate / plan.upper_bound:.1f} % of the bound ({plan.upper_bound:.4f}); {trained}"
+    )
 
 
 def main(argv: list[str] | None = None) -> None:

@@ -25,14 +25,13 @@ from stable_baselines3 import PPO
 from stable_baselines3.common.vec_env import VecEnv, VecNormalize
 
 import ios_uav_env
-from ios_uav_env import ScenarioConfig
 from ios_uav_env.envs.fleet_vector import FleetVectorEnv
-from ios_uav_env.model.scenarios import DEFAULT_NODES
 
-#: The scenario of the MARL recipe (``examples/torchrl_mappo_fleet.py``).
-CONFIG = ScenarioConfig(
-    ground_nodes=DEFAULT_NODES, ios_shape=(20, 12), T=60.0, q0=(-200.0, 20.0), qF=(200.0, 20.0)
-)
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # baselines/ runs from a checkout
+from baselines.fleet import MARL_SCENARIO, learner_report  # noqa: E402
+
+#: The MARL recipes' scenario (``baselines.fleet.MARL_SCENARIO``).
+CONFIG = MARL_SCENARIO
 
 
 class VecAdapter(VecEnv):
@@ -103,17 +102,9 @@ def main(argv: list[str] | None = None) -> dict:
         acts = {a: model.predict(venv.normalize_obs(obs[a]), deterministic=True)[0] for a in env.agents}
         obs, _, _, _, infos = env.step(acts)
     info, feasible = infos["uav_0"], all(bool(i["feasible"]) for i in infos.values())
-    sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # baselines/ runs from a checkout
-    from baselines import fleet
-
-    plan = fleet.solve(CONFIG, uavs=args.uavs)
-    print(
-        f"IPPO (SB3, shared), U = {args.uavs}: min rate {info['min_rate']:.4f} bps/Hz (feasible "
-        f"{feasible}), {100 * info['min_rate'] / plan.value:.1f} % of the planner "
-        f"({plan.value:.4f}), {100 * info['min_rate'] / plan.upper_bound:.1f} % of the bound "
-        f"({plan.upper_bound:.4f}); trained {args.steps} agent steps in {seconds:.0f} s"
-    )
-    return {"min_rate": info["min_rate"], "planner": plan.value, "bound": plan.upper_bound}
+    trained = f"trained {args.steps} agent steps in {seconds:.0f} s"
+    print(learner_report("IPPO (SB3, shared)", CONFIG, args.uavs, info["min_rate"], feasible, trained))
+    return {"min_rate": info["min_rate"]}
 
 
 if __name__ == "__main__":

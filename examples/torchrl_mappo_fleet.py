@@ -30,13 +30,12 @@ from torchrl.modules import MultiAgentMLP, ProbabilisticActor, TanhNormal
 from torchrl.objectives import ClipPPOLoss, ValueEstimators
 
 import ios_uav_env
-from ios_uav_env import ScenarioConfig
-from ios_uav_env.model.scenarios import DEFAULT_NODES
 
-#: The recipe's scenario: the multi-node env's nodes, a small surface and a 60-slot mission.
-CONFIG = ScenarioConfig(
-    ground_nodes=DEFAULT_NODES, ios_shape=(20, 12), T=60.0, q0=(-200.0, 20.0), qF=(200.0, 20.0)
-)
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # baselines/ runs from a checkout
+from baselines.fleet import MARL_SCENARIO, learner_report  # noqa: E402
+
+#: The MARL recipes' scenario (``baselines.fleet.MARL_SCENARIO``).
+CONFIG = MARL_SCENARIO
 GROUP = "uav"
 
 
@@ -118,18 +117,9 @@ def main(argv: list[str] | None = None) -> dict:
     parser.add_argument("--ippo", action="store_true", help="a critic per agent instead of a centralised one")
     args = parser.parse_args(argv)
     info, seconds = train(args.frames, args.uavs, args.seed, not args.ippo, args.batch)
-    sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # baselines/ runs from a checkout
-    from baselines import fleet
-
-    plan = fleet.solve(CONFIG, uavs=args.uavs)
-    share, bound = info["min_rate"] / plan.value, info["min_rate"] / plan.upper_bound
-    print(
-        f"{'IPPO' if args.ippo else 'MAPPO'}, U = {args.uavs}: min rate {info['min_rate']:.4f} bps/Hz "
-        f"(feasible {bool(info['feasible'])}), {100 * share:.1f} % of the planner ({plan.value:.4f}), "
-        f"{100 * bound:.1f} % of the bound ({plan.upper_bound:.4f}); "
-        f"trained {args.frames} steps in {seconds:.0f} s"
-    )
-    return {**info, "planner": plan.value, "bound": plan.upper_bound, "seconds": seconds}
+    label, trained = ("IPPO" if args.ippo else "MAPPO"), f"trained {args.frames} steps in {seconds:.0f} s"
+    print(learner_report(label, CONFIG, args.uavs, info["min_rate"], info["feasible"], trained))
+    return {**info, "seconds": seconds}
 
 
 if __name__ == "__main__":
