@@ -17,7 +17,7 @@ CONSTRAINTS ?= .ci/constraints.txt
 # Gymnasium 0.29, 2.3.0 being yanked), tested in a venv of their own.
 OLDEST_VENV ?= .venv-oldest
 OLDEST_PINS ?= numpy==1.24.4 gymnasium==0.29.1 stable-baselines3==2.3.2 pytest
-OLDEST_TESTS ?= tests/envs/test_single.py tests/envs/test_registration.py tests/envs/test_random_env.py \
+OLDEST_TESTS ?= tests/envs/test_single.py tests/envs/test_registration.py tests/envs/test_random_env.py tests/envs/test_checkers.py \
 	tests/model/test_config.py tests/model/test_channel.py tests/envs/test_policies.py tests/model/test_trajectory.py \
 	tests/model/test_peak.py tests/envs/test_rendering.py tests/test_optional.py \
 	tests/examples/test_example_sb3.py tests/examples/test_example_cleanrl.py

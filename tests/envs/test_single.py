@@ -5,13 +5,10 @@ from __future__ import annotations
 
 import math
 import pickle
-import warnings
 
 import numpy as np
 import pytest
-from gymnasium.utils.env_checker import check_env
 
-import ios_uav_env
 from ios_uav_env import ScenarioConfig, average_rate, check_trajectory, faded_rates, slot_rates
 from ios_uav_env.envs.guard import guarded_position, project_to_disks
 from ios_uav_env.envs.observation import rate_upper_bound
@@ -48,28 +45,6 @@ def towards(point):
 def away_from_final(env):
     move = env.trajectory[-1] - np.asarray(env.config.qF)
     return move / np.hypot(*move)
-
-
-# --- the checkers -------------------------------------------------------------------------
-@pytest.mark.parametrize("env_id", sorted(ios_uav_env.ENV_IDS))
-@pytest.mark.parametrize("channel", CHANNELS)
-def test_gymnasium_check_env_without_warnings(env_id, channel):
-    import gymnasium as gym
-
-    env = gym.make(env_id, channel=channel)
-    with warnings.catch_warnings():
-        warnings.simplefilter("error")
-        check_env(env.unwrapped)
-
-
-@pytest.mark.parametrize("env_id", sorted(ios_uav_env.ENV_IDS))
-def test_sb3_check_env_without_warnings(env_id):
-    import gymnasium as gym
-
-    sb3_checker = pytest.importorskip("stable_baselines3.common.env_checker")
-    with warnings.catch_warnings():
-        warnings.simplefilter("error")
-        sb3_checker.check_env(gym.make(env_id).unwrapped, warn=True)
 
 
 # --- spaces and observation -------------------------------------------------------------------
