@@ -36,6 +36,7 @@ import itertools
 import math
 import time
 from dataclasses import dataclass, field
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -335,7 +336,12 @@ def main(argv: list[str] | None = None) -> None:
     )
     parser.add_argument("--separation", type=float, default=DEFAULT_SEPARATION, help="min_separation, m")
     parser.add_argument("--access", choices=ACCESS, nargs="+", default=["orthogonal"], help="spectrum access")
+    parser.add_argument(
+        "--plot", type=Path, default=None, help="draw the last plan here (PNG; not overwritten)"
+    )
     args = parser.parse_args(argv)
+    if args.plot is not None and args.plot.exists():
+        parser.error(f"--plot {args.plot} exists: give a new path (shipped figures are never overwritten)")
     config = ScenarioConfig(ground_nodes=DEFAULT_NODES)
     print("| U | access | plan (bps/Hz) | bound | gap | source | s |\n|---|---|---:|---:|---:|---|---:|")
     for u in args.uavs:
@@ -347,6 +353,21 @@ def main(argv: list[str] | None = None) -> None:
                 f"| {u} | {access} | {plan.value:.4f} | {plan.upper_bound:.4f} | {100 * plan.gap:.1f} % "
                 f"| {plan.info['source']} | {plan.solve_seconds:.1f} |"
             )
+    if args.plot is not None:
+        from ios_uav_env.plotting import figure_classes, plot_fleet, save_png
+
+        figure_cls, canvas_cls = figure_classes()
+        fig = figure_cls(figsize=(7.2, 3.6), dpi=100)
+        canvas = canvas_cls(fig)
+        ax = fig.add_subplot()
+        plot_fleet(ax, config, plan.trajectories)
+        ax.set_title(
+            f"U = {len(plan.trajectories)}, {plan.value:.4f} bps/Hz (bound {plan.upper_bound:.4f})",
+            fontsize=9,
+        )
+        fig.tight_layout()
+        canvas.draw()
+        print(f"plot: {save_png(np.array(canvas.buffer_rgba())[:, :, :3], args.plot)}")
 
 
 if __name__ == "__main__":

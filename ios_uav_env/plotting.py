@@ -14,7 +14,7 @@ pyplot or the user's backend. The helpers take an ``ax`` so every figure has the
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from functools import lru_cache
 from pathlib import Path
 from typing import Any
@@ -26,8 +26,9 @@ from ios_uav_env.model.config import ScenarioConfig, scene_box
 from ios_uav_env.model.schedule import best_schedule, node_rates
 
 __all__ = [
-    "NODE_COLORS", "Extent", "default_extent", "figure_classes", "plot_multinode_map", "plot_rate_map",
-    "plot_scene", "plot_served_trajectories", "plot_trajectories", "rate_grid", "save_png", "served_node",
+    "NODE_COLORS", "Extent", "default_extent", "figure_classes", "plot_fleet", "plot_multinode_map",
+    "plot_rate_map", "plot_scene", "plot_served_trajectories", "plot_trajectories", "rate_grid", "save_png",
+    "served_node",
 ]  # fmt: skip
 
 _INSTALL = "pip install ios-uav-env[render]"
@@ -228,3 +229,28 @@ def plot_served_trajectories(
     for k in range(config.K):
         ax.plot([], [], color=NODE_COLORS[k % len(NODE_COLORS)], lw=3, label=f"serves G{k + 1}")
     ax.legend(loc="lower right", fontsize=8, framealpha=0.7)
+
+
+def plot_fleet(
+    ax: Any,
+    config: ScenarioConfig,
+    flights: np.ndarray,
+    shares: Sequence[np.ndarray] | None = None,
+    *,
+    resolution: tuple[int, int] = (120, 60),
+) -> None:
+    """Several UAVs' ``flights`` (U, n, 2) m over the best node's rate map, each UAV's moves
+    coloured by the node it serves (``shares[u]``: (K, n) its node shares, or each flight's own
+    best schedule), the view widened to every flight."""
+    flights = np.asarray(flights, dtype=float)
+    plot_multinode_map(ax, config, resolution=resolution)
+    labels = [f"uav_{u}" for u in range(len(flights))]
+    plot_served_trajectories(
+        ax, config, dict(zip(labels, flights, strict=True)),
+        None if shares is None else dict(zip(labels, shares, strict=True)),
+    )  # fmt: skip
+    x0, x1, y0, y1 = default_extent(config)
+    pts = flights.reshape(-1, 2)
+    pad = 0.05 * max(x1 - x0, y1 - y0)
+    ax.set_xlim(min(x0, pts[:, 0].min() - pad), max(x1, pts[:, 0].max() + pad))
+    ax.set_ylim(min(y0, pts[:, 1].min() - pad), max(y1, pts[:, 1].max() + pad))

@@ -117,7 +117,7 @@ class FleetParallelEnv(ParallelEnv):
     (other keys are ignored: PettingZoo's API test passes some).
     """
 
-    metadata = {"name": "ios_uav_fleet_v0", "render_modes": [], "is_parallelizable": True}
+    metadata = {"name": "ios_uav_fleet_v0", "render_modes": ["rgb_array"], "is_parallelizable": True}
 
     def __init__(
         self,
@@ -131,8 +131,12 @@ class FleetParallelEnv(ParallelEnv):
         access: str = "orthogonal",
         speeds: Any = None,
         best_schedule: bool = True,
+        render_mode: str | None = None,
         **kwargs: Any,
     ) -> None:
+        if render_mode not in (None, "rgb_array"):
+            raise ValueError(f"render_mode must be None or 'rgb_array', got {render_mode!r}")
+        self.render_mode = render_mode
         if not (_finite(surface_sharpness) and surface_sharpness > 0):
             raise ValueError(f"surface_sharpness must be a finite number > 0, got {surface_sharpness!r}")
         base = as_config(config if config is not None else ScenarioConfig(ground_nodes=DEFAULT_NODES))
@@ -176,6 +180,7 @@ class FleetParallelEnv(ParallelEnv):
             dtype=np.float32,
         )
         self._state = np.zeros(self.state_space.shape, dtype=np.float32)
+        self._min_rate = 0.0  # the team's min rate so far (render's title)
 
     # --- construction -----------------------------------------------------------------------
     @staticmethod
@@ -234,6 +239,7 @@ class FleetParallelEnv(ParallelEnv):
         if len(self.uav_envs) == 1:  # MultiNodeEnv's reset with its pinned scenario, if any
             obs, info = self.uav_envs[0].reset(seed=seed, options=pinned)
             self.agents = list(self.possible_agents)
+            self._min_rate = float(info["min_rate"])
             self._state = obs.copy()
             return {self.agents[0]: obs}, {self.agents[0]: info}
         if pinned is not None:
@@ -259,6 +265,7 @@ class FleetParallelEnv(ParallelEnv):
         if len(self.uav_envs) == 1:
             obs, reward, term, trunc, info = self.uav_envs[0].step(acts[0])
             agent = self.agents[0]
+            self._min_rate = float(info["min_rate"])
             self._state = obs.copy()
             if term or trunc:
                 self.agents = []
@@ -326,6 +333,7 @@ class FleetParallelEnv(ParallelEnv):
             best = fleet_maxmin(cfg, flights, access=self.access).value
         q = np.array([i["position"] for i in infos])
         node_rates = self.team_served / cfg.N
+        self._min_rate = float(node_rates[: cfg.K].min())
         scale = self.uav_envs[0].options.length_scale
         rows = agent_observations(np.array([r[0] for r in results]), node_rates, q, self.served_at, scale)
         obs, rewards, terms, truncs, out = {}, {}, {}, {}, {}
@@ -342,6 +350,31 @@ class FleetParallelEnv(ParallelEnv):
             out[agent] = info
         self._state = np.concatenate([obs[a] for a in self.possible_agents])
         return obs, rewards, terms, truncs, out
+
+    def render(self) -> np.ndarray | None:
+        """The UAVs' flights so far over the best node's rate map, each move coloured by the node
+        its UAV serves (``plotting.plot_fleet``), an (H, W, 3) uint8 array (``"rgb_array"``)."""
+        if self.render_mode is None:
+            gym.logger.warn('render() needs render_mode="rgb_array" at construction; returning None')
+            return None
+        from ios_uav_env.plotting import figure_classes, plot_fleet
+
+        figure_cls, canvas_cls = figure_classes()
+        fig = figure_cls(figsize=(7.2, 3.6), dpi=100)
+        canvas = canvas_cls(fig)
+        ax = fig.add_subplot()
+        flights = self.trajectories
+        if flights.shape[1]:
+            plot_fleet(ax, self.config, flights, [env.shares for env in self.uav_envs])
+            low = float(self.team_served[: self.config.K].min()) / self.config.N
+            ax.set_title(
+                f"slot {flights.shape[1]}/{self.config.N}, team min rate so far {low:.3f} bps/Hz", fontsize=9
+            )
+        else:
+            plot_fleet(ax, self.config, np.stack([self.starts, self.finals], axis=1))
+        fig.tight_layout()
+        canvas.draw()
+        return np.array(canvas.buffer_rgba())[:, :, :3]
 
     def state(self) -> np.ndarray:
         """The agents' observations of the last reset or step, concatenated (for centralised critics)."""

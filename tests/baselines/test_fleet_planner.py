@@ -143,3 +143,13 @@ def test_each_uav_is_planned_at_its_own_speed_limit():
         assert check_trajectory(c, flight).feasible
     assert np.hypot(*np.diff(plan.trajectories[1], axis=0).T).max() <= 15.0 * (1 + 1e-9)
     assert plan.value <= plan.upper_bound
+
+
+def test_the_cli_prints_the_table_and_draws_the_plan_once(tmp_path, capsys):
+    pytest.importorskip("matplotlib")
+    out = tmp_path / "plan.png"
+    fleet.main(["--uavs", "1", "--resolution", "10", "--plot", str(out)])
+    printed = capsys.readouterr().out
+    assert "| 1 | orthogonal | " in printed and out.stat().st_size > 1000
+    with pytest.raises(SystemExit):  # an existing figure is never overwritten
+        fleet.main(["--uavs", "1", "--plot", str(out)])

@@ -255,3 +255,21 @@ def test_each_uav_keeps_its_own_speed_limit():
     steps = np.hypot(*np.diff(env.trajectories, axis=1).transpose(2, 0, 1))  # (U, N - 1) m
     assert steps[1].max() <= 40.0 * CONFIG.dt * (1 + 1e-9) < steps[0].max()
     np.testing.assert_allclose(env.trajectories[:, -1], env.finals, atol=1e-9)
+
+
+@pytest.mark.parametrize("uavs", [1, 2])
+def test_render_draws_the_flights_so_far(uavs):
+    pytest.importorskip("matplotlib")
+    env = ios_uav_env.parallel_env(CONFIG, uavs=uavs, render_mode="rgb_array")
+    env.reset(seed=0)
+    before = env.render()
+    rng = np.random.default_rng(0)
+    for _ in range(5):
+        env.step({a: rng.uniform(-1, 1, env.action_space(a).shape) for a in env.agents})
+    after = env.render()
+    assert before.shape == after.shape and before.dtype == np.uint8 and before.shape[2] == 3
+    assert not np.array_equal(before, after)  # the flights (and the title) moved on
+    with pytest.warns(UserWarning, match="render_mode"):
+        assert ios_uav_env.parallel_env(CONFIG, uavs=uavs).render() is None
+    with pytest.raises(ValueError, match="render_mode must be None or 'rgb_array'"):
+        ios_uav_env.parallel_env(CONFIG, uavs=uavs, render_mode="human")
