@@ -21,7 +21,7 @@ from stable_baselines3 import PPO
 from stable_baselines3.common.env_util import make_vec_env
 from stable_baselines3.common.vec_env import VecNormalize
 
-from ios_uav_env.envs.fleet import FleetCentralEnv
+from ios_uav_env.envs.fleet_central import FleetCentralEnv
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # baselines/ runs from a checkout
 from baselines.fleet import MARL_SCENARIO, learner_report  # noqa: E402

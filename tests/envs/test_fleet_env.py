@@ -143,7 +143,7 @@ def test_bad_actions_are_refused_by_name():
 def test_the_centralised_form_passes_gymnasiums_checker_and_is_the_fleet():
     from gymnasium.utils.env_checker import check_env
 
-    from ios_uav_env.envs.fleet import FleetCentralEnv
+    from ios_uav_env.envs.fleet_central import FleetCentralEnv
 
     check_env(FleetCentralEnv(CONFIG, uavs=2), skip_render_check=True)
     central, fleet = FleetCentralEnv(CONFIG, uavs=2), ios_uav_env.parallel_env(CONFIG, uavs=2)
