@@ -26,8 +26,10 @@ plans, as ``dp_bound.solve_multinode``'s); (ii) node covers: each UAV flies the 
 heuristic (``baselines.tour``) over the nodes it covers (straight to its final point if none;
 a node may be covered by several UAVs, which then share it), starting from each node's nearest
 lane and improved by adding a node to or taking one from one UAV at a time while the score
-rises (every node covered). The best candidate is returned with the bound; ``gap`` says how far
-it may be from the optimum. Not yet: block-coordinate SCA polishing of the trajectories.
+rises (every node covered); (iii) the best cover's tours polished by a pattern search on their
+hover points (one point of one UAV moved 40, 20, 10 then 5 m along an axis or a diagonal while
+the fleet's value rises). The best candidate is returned with the bound; ``gap`` says how far
+it may be from the optimum. Not yet: block-coordinate SCA of the trajectories.
 """
 
 from __future__ import annotations
@@ -138,15 +140,72 @@ def guarded_flights(
     return out
 
 
-def _tour_flight(config: ScenarioConfig, nodes: tuple[int, ...]) -> np.ndarray:
-    """One UAV's flight: the tour over ``nodes`` of ``config`` (its own start and final point), or
-    straight to its final point for no node."""
+def _tour_flight(
+    config: ScenarioConfig, nodes: tuple[int, ...]
+) -> tuple[np.ndarray, tuple[np.ndarray, np.ndarray] | None]:
+    """One UAV's flight and its route: the tour over ``nodes`` of ``config`` (its own start and
+    final point) with its hover points and hover slots, or the straight flight to its final point
+    (no route) for no node."""
     from baselines import tour
 
     if not nodes:
-        return np.linspace(config.q0, config.qF, config.N)
-    sub = config.replace(ground_nodes=tuple(config.nodes[k] for k in nodes))
-    return tour.solve(sub).trajectory
+        return np.linspace(config.q0, config.qF, config.N), None
+    plan = tour.solve(config.replace(ground_nodes=tuple(config.nodes[k] for k in nodes)))
+    points = np.array(plan.info["hover_points"], dtype=float).reshape(-1, 2)
+    return plan.trajectory, (points, np.array(plan.info["hover_slots"], dtype=float))
+
+
+def _route_flight(config: ScenarioConfig, points: np.ndarray, slots: np.ndarray) -> np.ndarray | None:
+    """The flight through hover ``points`` with hover slots in the proportions of ``slots``
+    (``baselines.tour.route_trajectory``), or None if the route needs more than N - 1 moves."""
+    from baselines import tour
+
+    legs = tour._legs(config, points)
+    if legs is None:
+        return None
+    hover = tour._round(np.maximum(slots, 0.0) + 1e-9, config.N - len(legs[0]))
+    return tour.route_trajectory(config, points, hover)
+
+
+#: Directions of the hover points' pattern search (:func:`_polish`): the axes and the diagonals.
+_DIRECTIONS = np.array([(1, 0), (-1, 0), (0, 1), (0, -1), (1, 1), (-1, 1), (1, -1), (-1, -1)], dtype=float)
+_DIRECTIONS /= np.hypot(*_DIRECTIONS.T)[:, None]
+
+
+def _polish(
+    flights: np.ndarray,
+    routes: list[Any],
+    configs: list[ScenarioConfig],
+    steps: tuple[float, ...],
+    score: Any,
+) -> tuple[float, np.ndarray]:
+    """Pattern search on the tours' hover points: move one point of one UAV by a step along one
+    of :data:`_DIRECTIONS`, keep the move if the fleet's value (``score(flights)``, -inf when not
+    feasible and separated) rises, halve the step when none does. Returns (value, flights)."""
+    best = score(flights)
+    routes = list(routes)
+    for step in steps:
+        improved = True
+        while improved:
+            improved = False
+            for u, route in enumerate(routes):
+                if route is None:
+                    continue
+                points, slots = route
+                for i in range(len(points)):
+                    for direction in _DIRECTIONS:
+                        moved = points.copy()
+                        moved[i] += step * direction
+                        flight = _route_flight(configs[u], moved, slots)
+                        if flight is None:
+                            continue
+                        trial = flights.copy()
+                        trial[u] = flight
+                        value = score(trial)
+                        if value > best:
+                            best, flights, points, improved = value, trial, moved, True
+                            routes[u] = (points, slots)
+    return best, flights
 
 
 def _nearest_lanes(configs: list[ScenarioConfig]) -> tuple[int, ...]:
@@ -177,6 +236,7 @@ def solve(
     local_moves: int = 30,
     access: str = "orthogonal",
     speeds: Any = None,
+    polish_steps: tuple[float, ...] = (40.0, 20.0, 10.0, 5.0),
     progress: bool = False,
 ) -> FleetPlan:
     """The best separated fleet found and the certified bound (module docstring).
@@ -184,7 +244,8 @@ def solve(
     ``uavs``, ``starts``, ``finals``, ``min_separation``, ``speeds``: the fleet (defaults: the env's lanes,
     ``ios_uav_env.parallel_env``); ``resolution``: the plain DP grid (m); ``bound_resolution``: the
     relaxed DP's cells (default ``resolution``); ``max_cuts``, ``tol``: Kelley's iterations and
-    relative gap; ``local_moves``: most covers tried after the first; ``access``: orthogonal bands or
+    relative gap; ``local_moves``: most covers tried after the first; ``polish_steps``: the steps
+    (m) of the pattern search on the best cover's hover points (empty: none); ``access``: orthogonal bands or
     one shared band (the plans are scored with its interference; the bound, interference-free,
     holds for both). The fleet's arguments are checked by ``model.fleet.fleet_setup``. ``info``:
     ``source`` (which candidate won), ``cover`` (the nodes each UAV tours, for a tour candidate),
@@ -241,13 +302,13 @@ def solve(
         consider(f"dual-dp{i}", _dual_flights(configs, w, resolution, margin))
     # (ii) tours over the nodes each UAV covers (a node may be covered by several), from the
     # nearest lanes' partition, one node added to or taken from one UAV at a time
-    tours: dict[tuple[int, tuple[int, ...]], np.ndarray] = {}
+    tours: dict[tuple[int, tuple[int, ...]], tuple[np.ndarray, Any]] = {}
 
     def covering(cover: tuple[tuple[int, ...], ...]) -> np.ndarray:
         for u, nodes in enumerate(cover):
             if (u, nodes) not in tours:
                 tours[(u, nodes)] = _tour_flight(configs[u], nodes)
-        return np.array([tours[(u, nodes)] for u, nodes in enumerate(cover)])
+        return np.array([tours[(u, nodes)][0] for u, nodes in enumerate(cover)])
 
     lanes_of = _nearest_lanes(configs)
     current = tuple(tuple(k for k in range(config.K) if lanes_of[k] == u) for u in range(len(configs)))
@@ -282,6 +343,19 @@ def solve(
             if got > value:
                 current, value, improved = trial, got, True
                 break
+    # (iii) the best cover's tours polished: their hover points moved while the value rises
+    if polish_steps and current is not None:
+        polished_from = value
+
+        tries = itertools.count()
+
+        def score(flights: np.ndarray) -> float:
+            return consider(f"polished{next(tries)}", flights, current)
+
+        routes = [tours[(u, nodes)][1] for u, nodes in enumerate(current)]
+        _polish(covering(current), routes, configs, tuple(polish_steps), score)
+    else:
+        polished_from = None
     if not scored:
         raise ValueError(
             f"no candidate fleet keeps min_separation = {min_separation:g} m all along ({len(rejected)} "
@@ -293,6 +367,7 @@ def solve(
         "weights": w_best.tolist(),
         "kelley_lower": lower, "cuts": records, "candidates": {s: v for v, s, _, _ in scored},
         "rejected": rejected, "resolution": float(resolution), "bound_resolution": float(h),
+        "polished_from": polished_from,
         "starts": points[0].tolist(), "finals": points[1].tolist(), "min_separation": float(min_separation),
     }  # fmt: skip
     return FleetPlan(config, best[2], best[0], upper, time.perf_counter() - t0, info)
@@ -339,7 +414,11 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument(
         "--plot", type=Path, default=None, help="draw the last plan here (PNG; not overwritten)"
     )
+    parser.add_argument(
+        "--no-polish", action="store_true", help="skip the pattern search on the hover points"
+    )
     args = parser.parse_args(argv)
+    steps = () if args.no_polish else (40.0, 20.0, 10.0, 5.0)
     if args.plot is not None and args.plot.exists():
         parser.error(f"--plot {args.plot} exists: give a new path (shipped figures are never overwritten)")
     config = ScenarioConfig(ground_nodes=DEFAULT_NODES)
@@ -347,8 +426,9 @@ def main(argv: list[str] | None = None) -> None:
     for u in args.uavs:
         for access in args.access:
             plan = solve(
-                config, uavs=u, resolution=args.resolution, min_separation=args.separation, access=access
-            )
+                config, uavs=u, resolution=args.resolution, min_separation=args.separation, access=access,
+                polish_steps=steps,
+            )  # fmt: skip
             print(
                 f"| {u} | {access} | {plan.value:.4f} | {plan.upper_bound:.4f} | {100 * plan.gap:.1f} % "
                 f"| {plan.info['source']} | {plan.solve_seconds:.1f} |"

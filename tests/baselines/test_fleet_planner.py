@@ -51,7 +51,7 @@ def test_the_bound_is_above_every_separated_fleet(two):
 
 
 def test_one_uav_meets_the_single_uav_planners():
-    one = fleet.solve(CONFIG, uavs=1, resolution=10.0)
+    one = fleet.solve(CONFIG, uavs=1, resolution=10.0, polish_steps=())
     dp = solve_multinode(CONFIG, resolution=10.0)
     assert one.value >= dp.mean_rate * (1 - 0.02)  # the tour competes in both; the DP's grid plans too
     assert one.upper_bound >= dp.mean_rate and one.upper_bound == pytest.approx(
@@ -88,7 +88,7 @@ def test_a_fleet_that_would_meet_is_never_returned(monkeypatch):
             np.zeros((18, 2)),
             np.linspace((0.0, 0.0), config.qF, 11),
         ]
-        return np.concatenate(legs)
+        return np.concatenate(legs), None  # (no route: nothing to polish)
 
     monkeypatch.setattr(fleet, "_tour_flight", to_the_centre)
     monkeypatch.setattr(fleet, "_dual_flights", lambda *args: None)
@@ -97,7 +97,7 @@ def test_a_fleet_that_would_meet_is_never_returned(monkeypatch):
 
 
 def test_a_shared_band_is_planned_below_the_same_bound(two):
-    shared = fleet.solve(CONFIG, uavs=2, resolution=10.0, access="shared")
+    shared = fleet.solve(CONFIG, uavs=2, resolution=10.0, access="shared", polish_steps=(20.0,))
     assert shared.value == fleet_maxmin(CONFIG, shared.trajectories, access="shared").value
     assert shared.value <= fleet_maxmin(CONFIG, shared.trajectories).value * (1 + 1e-9)  # interference
     assert (
@@ -111,7 +111,7 @@ def test_candidates_met_again_after_a_rejection_are_not_scored_again():
     """A large separation rejects most candidates, and nearby Kelley weights give the same dual
     paths again: each is looked at once, and the plan (if any) is separated."""
     try:
-        plan = fleet.solve(CONFIG, uavs=2, resolution=10.0, min_separation=70.0)
+        plan = fleet.solve(CONFIG, uavs=2, resolution=10.0, min_separation=70.0, polish_steps=())
     except ValueError as err:
         assert "no candidate fleet keeps min_separation = 70 m" in str(err)
     else:
@@ -137,7 +137,7 @@ def test_a_plan_whose_uavs_meet_is_flown_through_the_envs_guards():
 
 
 def test_each_uav_is_planned_at_its_own_speed_limit():
-    plan = fleet.solve(CONFIG, uavs=2, speeds=[25.0, 15.0], resolution=10.0)
+    plan = fleet.solve(CONFIG, uavs=2, speeds=[25.0, 15.0], resolution=10.0, polish_steps=(20.0,))
     _, _, configs = fleet_setup(CONFIG, 2, speeds=[25.0, 15.0])
     for c, flight in zip(configs, plan.trajectories, strict=True):
         assert check_trajectory(c, flight).feasible
@@ -148,8 +148,18 @@ def test_each_uav_is_planned_at_its_own_speed_limit():
 def test_the_cli_prints_the_table_and_draws_the_plan_once(tmp_path, capsys):
     pytest.importorskip("matplotlib")
     out = tmp_path / "plan.png"
-    fleet.main(["--uavs", "1", "--resolution", "10", "--plot", str(out)])
+    fleet.main(["--uavs", "1", "--resolution", "10", "--no-polish", "--plot", str(out)])
     printed = capsys.readouterr().out
     assert "| 1 | orthogonal | " in printed and out.stat().st_size > 1000
     with pytest.raises(SystemExit):  # an existing figure is never overwritten
         fleet.main(["--uavs", "1", "--plot", str(out)])
+
+
+def test_polishing_the_hover_points_raises_the_value(two):
+    """The best cover's tours, their hover points moved while the value rises: the plan is at
+    least the cover's, and here strictly better (no polishing: the cover's own value)."""
+    plain = fleet.solve(CONFIG, uavs=2, resolution=10.0, polish_steps=())
+    assert plain.info["polished_from"] is None
+    assert two.info["polished_from"] == plain.value  # (the same cover search before it)
+    assert two.value > plain.value and two.info["source"].startswith("polished")
+    assert flights_separated(two.trajectories, 10.0)
