@@ -14,6 +14,7 @@ pyplot or the user's backend. The helpers take an ``ax`` so every figure has the
 
 from __future__ import annotations
 
+import io
 from collections.abc import Mapping, Sequence
 from functools import lru_cache
 from pathlib import Path
@@ -147,18 +148,20 @@ def plot_trajectories(
 
 
 def save_png(image: np.ndarray, path: str | Path, *, colors: int | None = None) -> Path:
-    """Write an (H, W, 3) uint8 image as PNG (``colors``: quantise to a palette, for small files)."""
+    """Write an (H, W, 3) uint8 image as PNG (``colors``: quantise to a palette, for small files),
+    atomically (``io.atomic_write_bytes``: an interrupted write leaves the old file or none)."""
     try:
         from PIL import Image
     except ImportError as exc:
         raise ImportError(f"saving PNGs needs Pillow (a matplotlib dependency): {_INSTALL}") from exc
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
+    from ios_uav_env.io import atomic_write_bytes
+
     img = Image.fromarray(np.ascontiguousarray(image, dtype=np.uint8))
     if colors is not None:
         img = img.quantize(colors=colors, method=Image.Quantize.MEDIANCUT)
-    img.save(path, optimize=True)
-    return path
+    buffer = io.BytesIO()
+    img.save(buffer, format="PNG", optimize=True)
+    return atomic_write_bytes(Path(path), buffer.getvalue())
 
 
 # --- several ground nodes: the best-node rate map, trajectories coloured by the node served ---

@@ -109,6 +109,23 @@ def test_frame_renderer_and_png(tmp_path):
     renderer.close()
 
 
+def test_a_png_is_written_atomically(tmp_path, monkeypatch):
+    """An interrupted save (the rename fails) leaves the previous file whole and no temp file."""
+    import os
+
+    frame = np.zeros((20, 30, 3), dtype=np.uint8)
+    path = save_png(frame, tmp_path / "frame.png")
+    before = path.read_bytes()
+
+    def fail(*args, **kwargs):
+        raise OSError("interrupted")
+
+    monkeypatch.setattr(os, "replace", fail)
+    with pytest.raises(OSError, match="interrupted"):
+        save_png(np.full((20, 30, 3), 255, dtype=np.uint8), path)
+    assert path.read_bytes() == before and [p.name for p in tmp_path.iterdir()] == ["frame.png"]
+
+
 def test_missing_matplotlib_says_what_to_install(monkeypatch):
     for name in ("matplotlib", "matplotlib.figure", "matplotlib.backends", "matplotlib.backends.backend_agg"):
         monkeypatch.setitem(sys.modules, name, None)
