@@ -434,20 +434,14 @@ def main(argv: list[str] | None = None) -> None:
                 f"| {plan.info['source']} | {plan.solve_seconds:.1f} |"
             )
     if args.plot is not None:
-        from ios_uav_env.plotting import figure_classes, plot_fleet, save_png
+        from ios_uav_env.plotting import figure_image, plot_fleet, save_png
 
-        figure_cls, canvas_cls = figure_classes()
-        fig = figure_cls(figsize=(7.2, 3.6), dpi=100)
-        canvas = canvas_cls(fig)
-        ax = fig.add_subplot()
-        plot_fleet(ax, config, plan.trajectories)
-        ax.set_title(
-            f"U = {len(plan.trajectories)}, {plan.value:.4f} bps/Hz (bound {plan.upper_bound:.4f})",
-            fontsize=9,
-        )
-        fig.tight_layout()
-        canvas.draw()
-        print(f"plot: {save_png(np.array(canvas.buffer_rgba())[:, :, :3], args.plot)}")
+        def draw(ax: Any) -> None:
+            plot_fleet(ax, config, plan.trajectories)
+            title = f"U = {len(plan.trajectories)}, {plan.value:.4f} bps/Hz (bound {plan.upper_bound:.4f})"
+            ax.set_title(title, fontsize=9)
+
+        print(f"plot: {save_png(figure_image(draw), args.plot)}")
 
 
 if __name__ == "__main__":

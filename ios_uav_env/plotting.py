@@ -15,7 +15,7 @@ pyplot or the user's backend. The helpers take an ``ax`` so every figure has the
 from __future__ import annotations
 
 import io
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from functools import lru_cache
 from pathlib import Path
 from typing import Any
@@ -27,9 +27,9 @@ from ios_uav_env.model.config import ScenarioConfig, scene_box
 from ios_uav_env.model.schedule import best_schedule, node_rates
 
 __all__ = [
-    "NODE_COLORS", "Extent", "default_extent", "figure_classes", "plot_fleet", "plot_multinode_map",
-    "plot_rate_map", "plot_scene", "plot_served_trajectories", "plot_trajectories", "rate_grid", "save_png",
-    "served_node",
+    "NODE_COLORS", "Extent", "default_extent", "figure_classes", "figure_image", "plot_fleet",
+    "plot_multinode_map", "plot_rate_map", "plot_scene", "plot_served_trajectories", "plot_trajectories",
+    "rate_grid", "save_png", "served_node",
 ]  # fmt: skip
 
 _INSTALL = "pip install ios-uav-env[render]"
@@ -44,6 +44,20 @@ def figure_classes() -> tuple[Any, Any]:
     except ImportError as exc:
         raise ImportError(f"rendering needs matplotlib: {_INSTALL}") from exc
     return Figure, FigureCanvasAgg
+
+
+def figure_image(
+    draw: Callable[[Any], None], figsize: tuple[float, float] = (7.2, 3.6), dpi: int = 100
+) -> np.ndarray:
+    """An (H, W, 3) uint8 image of a one-axes figure that ``draw(ax)`` fills (laid out tightly): the
+    envs' ``rgb_array`` frames and the tools' pictures."""
+    figure_cls, canvas_cls = figure_classes()
+    fig = figure_cls(figsize=figsize, dpi=dpi)
+    canvas = canvas_cls(fig)
+    draw(fig.add_subplot())
+    fig.tight_layout()
+    canvas.draw()
+    return np.array(canvas.buffer_rgba())[:, :, :3]
 
 
 def default_extent(config: ScenarioConfig, aspect: float = 0.5) -> Extent:

@@ -357,24 +357,20 @@ class FleetParallelEnv(ParallelEnv):
         if self.render_mode is None:
             gym.logger.warn('render() needs render_mode="rgb_array" at construction; returning None')
             return None
-        from ios_uav_env.plotting import figure_classes, plot_fleet
+        from ios_uav_env.plotting import figure_image, plot_fleet
 
-        figure_cls, canvas_cls = figure_classes()
-        fig = figure_cls(figsize=(7.2, 3.6), dpi=100)
-        canvas = canvas_cls(fig)
-        ax = fig.add_subplot()
-        flights = self.trajectories
-        if flights.shape[1]:
+        def draw(ax: Any) -> None:
+            flights = self.trajectories
+            if not flights.shape[1]:  # before the first reset: the lanes
+                plot_fleet(ax, self.config, np.stack([self.starts, self.finals], axis=1))
+                return
             plot_fleet(ax, self.config, flights, [env.shares for env in self.uav_envs])
-            low = float(self.team_served[: self.config.K].min()) / self.config.N
-            ax.set_title(
-                f"slot {flights.shape[1]}/{self.config.N}, team min rate so far {low:.3f} bps/Hz", fontsize=9
+            title = (
+                f"slot {flights.shape[1]}/{self.config.N}, team min rate so far {self._min_rate:.3f} bps/Hz"
             )
-        else:
-            plot_fleet(ax, self.config, np.stack([self.starts, self.finals], axis=1))
-        fig.tight_layout()
-        canvas.draw()
-        return np.array(canvas.buffer_rgba())[:, :, :3]
+            ax.set_title(title, fontsize=9)
+
+        return figure_image(draw)
 
     def state(self) -> np.ndarray:
         """The agents' observations of the last reset or step, concatenated (for centralised critics)."""

@@ -483,18 +483,13 @@ class MultiNodeEnv(MobileNodes, EnergyChannel, gym.Env):
         if self.render_mode is None:
             gym.logger.warn('render() needs render_mode="rgb_array" at construction; returning None')
             return None
-        from ios_uav_env.envs.rendering import _matplotlib
-        from ios_uav_env.plotting import plot_multinode_map, plot_served_trajectories
+        from ios_uav_env.plotting import figure_image, plot_multinode_map, plot_served_trajectories
 
-        figure_cls, canvas_cls = _matplotlib()
-        fig = figure_cls(figsize=(7.2, 3.6), dpi=100)
-        canvas = canvas_cls(fig)
-        ax = fig.add_subplot()
-        plot_multinode_map(ax, self.config, resolution=(120, 60))
-        if self._started:
-            plot_served_trajectories(ax, self.config, {"UAV": self.trajectory}, {"UAV": self.shares})
-            slot, low = len(self.trajectory), self._rows.state[0, 4]  # (min_rate so far)
-            ax.set_title(f"slot {slot}/{self.config.N}, min rate so far {low:.3f} bps/Hz", fontsize=9)
-        fig.tight_layout()
-        canvas.draw()
-        return np.array(canvas.buffer_rgba())[:, :, :3]
+        def draw(ax: Any) -> None:
+            plot_multinode_map(ax, self.config, resolution=(120, 60))
+            if self._started:
+                plot_served_trajectories(ax, self.config, {"UAV": self.trajectory}, {"UAV": self.shares})
+                slot, low = len(self.trajectory), self._rows.state[0, 4]  # (min_rate so far)
+                ax.set_title(f"slot {slot}/{self.config.N}, min rate so far {low:.3f} bps/Hz", fontsize=9)
+
+        return figure_image(draw)
