@@ -9,6 +9,7 @@ b`` step for step (tested bit for bit).
 
 from __future__ import annotations
 
+import inspect
 from collections.abc import Mapping
 from typing import Any
 
@@ -200,16 +201,7 @@ class FleetVectorEnv(gym.vector.VectorEnv):
         self.template.close()
 
 
-#: The fleet's own keywords (not the UAV rows'); the arrival guard is the fleet's too.
-_FLEET_KEYWORDS = frozenset(
-    {
-        "uavs",
-        "starts",
-        "finals",
-        "min_separation",
-        "surface_sharpness",
-        "access",
-        "best_schedule",
-        "arrival_guard",
-    }
-)
+#: The fleet's own keywords (``FleetParallelEnv``'s named parameters, not the UAV rows'); the
+#: arrival guard is the fleet's too.
+_OWN = frozenset(inspect.signature(FleetParallelEnv.__init__).parameters) - {"self", "config", "kwargs"}
+_FLEET_KEYWORDS = _OWN | {"arrival_guard"}
