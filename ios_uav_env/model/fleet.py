@@ -280,7 +280,9 @@ def fleet_pricer(config: ScenarioConfig, trajectories: np.ndarray, access: str =
     _check_access(access)
     t = _trajectories(trajectories)
     if access == "shared":
-        tables = [choice_rates(link_gains(config, t[:, n]), config.eta, "shared") for n in range(t.shape[1])]
+        tables = [
+            choice_rates(g, config.eta, "shared") for g in link_gains_batch(config, t.transpose(1, 0, 2))
+        ]
 
         def price_enumerated(w: np.ndarray) -> tuple[np.ndarray, float]:
             point, total = np.zeros(config.K), 0.0
@@ -292,7 +294,7 @@ def fleet_pricer(config: ScenarioConfig, trajectories: np.ndarray, access: str =
             return point / len(tables), total / len(tables)
 
         return price_enumerated
-    rates = [link_rates(config, t[:, n]) for n in range(t.shape[1])]  # per slot (U, K, U, K)
+    rates = np.log2(1.0 + config.eta * link_gains_batch(config, t.transpose(1, 0, 2)))  # (N, U, K, U, K)
     u_n, k_n = t.shape[0], config.K
 
     def price(w: np.ndarray) -> tuple[np.ndarray, float]:
