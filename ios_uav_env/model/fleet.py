@@ -44,6 +44,7 @@ import numpy as np
 
 from ios_uav_env.model import channel
 from ios_uav_env.model.config import ScenarioConfig
+from ios_uav_env.model.fleet_horizons import active_slots, check_horizons, check_slots
 from ios_uav_env.model.regions import Pricer, RegionSchedule, maxmin_regions
 from ios_uav_env.model.separation import DEFAULT_SEPARATION, check_separated
 from ios_uav_env.model.surface import element_positions, element_to_ground
@@ -95,13 +96,17 @@ def fleet_setup(
     min_separation: Any = DEFAULT_SEPARATION,
     access: Any = "orthogonal",
     speeds: Any = None,
+    horizons: Any = None,
 ) -> tuple[np.ndarray, np.ndarray, list[ScenarioConfig]]:
     """(starts, finals, each UAV's scenario): the fleet's arguments checked, ``ValueError`` naming
     the argument and its allowed values otherwise. ``uavs`` U >= 1; ``starts`` / ``finals`` (U, 2)
     m (default :func:`default_lanes`), every two at least ``min_separation`` m (>= 0) apart; each
-    UAV's scenario is ``config`` with its start and final point (reachable in N slots) and its
-    speed limit ``speeds[u]`` (m/s, > 0; default ``config.v_max`` for every UAV); ``access`` one of
-    :data:`ACCESS`, a shared band at most :data:`MAX_SHARED_CHOICES` choices."""
+    UAV's scenario is ``config`` with its start and final point, its speed limit ``speeds[u]``
+    (m/s, > 0; default ``config.v_max`` for every UAV) and its horizon ``horizons[u]`` as its T
+    (s, a multiple of dt within [2 dt, T]; default the scenario's T for every UAV;
+    ``model.fleet_horizons``), the final point reachable by then; ``access`` one of
+    :data:`ACCESS`, a shared band at most :data:`MAX_SHARED_CHOICES` choices. Each UAV's slot
+    count N_u is its scenario's N (``fleet_horizons.horizon_slots``)."""
     if isinstance(uavs, bool) or not isinstance(uavs, numbers.Integral) or uavs < 1:
         raise ValueError(f"uavs must be an integer >= 1, got {uavs!r}")
     u_n = int(uavs)
@@ -134,6 +139,7 @@ def fleet_setup(
         v = np.array([np.nan])
     if v.shape != (u_n,) or not np.all(np.isfinite(v) & (v > 0)):
         raise ValueError(f"speeds must be None or {u_n} finite speeds > 0 (m/s, one per UAV), got {speeds!r}")
+    slots = check_horizons(config, u_n, horizons)
     configs = []
     for u in range(u_n):
         (sx, sy), (fx, fy) = points[0][u], points[1][u]
@@ -144,6 +150,11 @@ def fleet_setup(
             configs.append(config.replace(**fields))
         except ValueError as err:
             raise ValueError(f"starts[{u}] / finals[{u}] / speeds: {err}") from None
+        if slots[u] < config.N:  # its own horizon (the scenario's T itself otherwise)
+            try:
+                configs[u] = configs[u].replace(T=float(slots[u]) * config.dt)
+            except ValueError as err:
+                raise ValueError(f"horizons[{u}] = {slots[u] * config.dt:g} s: {err}") from None
     return points[0], points[1], configs
 
 
@@ -272,16 +283,32 @@ def choice_rates(gains: np.ndarray, eta: float, access: str = "shared") -> np.nd
     return out.reshape(-1, k_n)
 
 
-def fleet_pricer(config: ScenarioConfig, trajectories: np.ndarray, access: str = "orthogonal") -> Pricer:
+def _slot_arrays(table: np.ndarray, active: np.ndarray) -> np.ndarray:
+    """A slot's (U, K, U, K) gains or rates restricted to its ``active`` UAVs (U,) bool: the links
+    of the UAVs still flying under the alignments to them (the array itself when all are)."""
+    if active.all():
+        return table
+    return table[active][:, :, active]
+
+
+def fleet_pricer(
+    config: ScenarioConfig, trajectories: np.ndarray, access: str = "orthogonal", slots: Any = None
+) -> Pricer:
     """The exact weighted-sum pricer of the slots' regions for the U UAVs' ``trajectories``
     (U, N, 2) m (module docstring), for ``maxmin_regions(price, config.K)``: in orthogonal bands
     each UAV's best node under each alignment; in a shared band every choice enumerated
-    (:func:`choice_rates`)."""
+    (:func:`choice_rates`). ``slots``: each UAV's slot count N_u (default N each): UAV u takes part
+    in slots 0 .. N_u - 1 only (``model.fleet_horizons``); a slot none flies serves nothing, and
+    the rates are averaged over all N slots."""
     _check_access(access)
     t = _trajectories(trajectories)
+    n_slots = t.shape[1]
+    active = active_slots(check_slots(slots, t.shape[0], n_slots), n_slots).T  # (N, U)
+    gains = link_gains_batch(config, t.transpose(1, 0, 2))  # (N, U, K, U, K)
     if access == "shared":
         tables = [
-            choice_rates(g, config.eta, "shared") for g in link_gains_batch(config, t.transpose(1, 0, 2))
+            choice_rates(_slot_arrays(g, a), config.eta, "shared") if a.any() else np.zeros((1, config.K))
+            for g, a in zip(gains, active, strict=True)
         ]
 
         def price_enumerated(w: np.ndarray) -> tuple[np.ndarray, float]:
@@ -291,25 +318,26 @@ def fleet_pricer(config: ScenarioConfig, trajectories: np.ndarray, access: str =
                 best = int(np.argmax(values))
                 point += table[best]
                 total += float(values[best])
-            return point / len(tables), total / len(tables)
+            return point / n_slots, total / n_slots
 
         return price_enumerated
-    rates = np.log2(1.0 + config.eta * link_gains_batch(config, t.transpose(1, 0, 2)))  # (N, U, K, U, K)
-    u_n, k_n = t.shape[0], config.K
+    rates = np.log2(1.0 + config.eta * gains)  # (N, U, K, U, K)
+    flying = [_slot_arrays(r, a) for r, a in zip(rates, active, strict=True) if a.any()]
+    k_n = config.K
 
     def price(w: np.ndarray) -> tuple[np.ndarray, float]:
         point, total = np.zeros(k_n), 0.0
-        for r in rates:
+        for r in flying:
             weighted = w[None, None, None, :] * r  # (u*, k*, u, k)
             per_uav = weighted.max(axis=3)  # each UAV's best node under each alignment
             values = per_uav.sum(axis=2).reshape(-1)
             best = int(np.argmax(values))
             us, ks = divmod(best, k_n)
-            for u in range(u_n):
+            for u in range(r.shape[0]):
                 k = int(np.argmax(weighted[us, ks, u]))
                 point[k] += r[us, ks, u, k]
             total += float(values[best])
-        return point / len(rates), total / len(rates)
+        return point / n_slots, total / n_slots
 
     return price
 
@@ -341,9 +369,16 @@ def shared_slot_service(
 
 
 def fleet_maxmin(
-    config: ScenarioConfig, trajectories: np.ndarray, *, access: str = "orthogonal", tol: float = 1e-9
+    config: ScenarioConfig,
+    trajectories: np.ndarray,
+    *,
+    access: str = "orthogonal",
+    tol: float = 1e-9,
+    slots: Any = None,
 ) -> RegionSchedule:
     """The flight's max-min rate of ``config``'s K nodes served by U UAVs sharing the surface, in
     orthogonal bands or one shared band (``access``), with time sharing in every slot, and its bound
-    (module docstring; the pricer is exact, so the two meet to ``tol``)."""
-    return maxmin_regions(fleet_pricer(config, trajectories, access), config.K, tol=tol)
+    (module docstring; the pricer is exact, so the two meet to ``tol``). ``slots``: each UAV's slot
+    count N_u (its horizon; default every UAV all N slots): UAV u serves in its slots 0 .. N_u - 1
+    only, its held way-points after are not read (``model.fleet_horizons``)."""
+    return maxmin_regions(fleet_pricer(config, trajectories, access, slots), config.K, tol=tol)

@@ -163,14 +163,16 @@ def separated_moves(
 
 
 def guarded_moves(
-    q: np.ndarray, moves: np.ndarray, finals: np.ndarray, d: Any, left: int, guard: float
+    q: np.ndarray, moves: np.ndarray, finals: np.ndarray, d: Any, left: Any, guard: float
 ) -> tuple[np.ndarray, np.ndarray]:
     """((U, 2) moves / D, (U,) fractions): the UAVs at ``q`` (U, 2) m asked to move ``moves`` (U, 2)
     / D: each projected on the unit disk, then through its arrival guard to its final point
-    (``left``: moves left after this one), then the fleet's separation guard at ``guard`` m
-    (``model.separation.separated_moves``; the fractions of the moves it flies). ``d``: D (m),
-    one for every UAV or one per UAV."""
+    (``left``: moves left after this one, one for every UAV or one per UAV: its own horizon's),
+    then the fleet's separation guard at ``guard`` m (``model.separation.separated_moves``; the
+    fractions of the moves it flies). ``d``: D (m), one for every UAV or one per UAV. The UAVs
+    given are the ones flying this slot (a UAV past its horizon is no longer guarded)."""
     d = np.broadcast_to(np.asarray(d, dtype=float), (len(q),))
+    left = np.broadcast_to(np.asarray(left), (len(q),))
     proposed = np.empty_like(q)
     for u in range(len(q)):
         ax, ay = moves[u, 0], moves[u, 1]
@@ -179,19 +181,24 @@ def guarded_moves(
             ax, ay = ax / norm, ay / norm
         du = float(d[u])
         target = (q[u, 0] + du * ax, q[u, 1] + du * ay)
-        proposed[u] = guarded_position((q[u, 0], q[u, 1]), target, (finals[u, 0], finals[u, 1]), du, left)
+        own = int(left[u])
+        proposed[u] = guarded_position((q[u, 0], q[u, 1]), target, (finals[u, 0], finals[u, 1]), du, own)
     fractions, reached = separated_moves(q, proposed, guard)
     return (reached - q) / d[:, None], fractions
 
 
-def flights_separated(trajectories: np.ndarray, d_min: float) -> bool:
+def flights_separated(trajectories: np.ndarray, d_min: float, slots: Any = None) -> bool:
     """Whether the U flights ``trajectories`` (U, N, 2) m, each flown at constant speed in every
-    slot, keep every pair at least ``d_min`` m apart all along (way-points and between)."""
+    slot, keep every pair at least ``d_min`` m apart all along (way-points and between).
+    ``slots``: each UAV's slot count N_u (default N each): a pair is checked while both fly, up
+    to the earlier of their last slots (``model.fleet_horizons``)."""
     t = np.asarray(trajectories, dtype=float)
+    last = np.full(len(t), t.shape[1]) if slots is None else np.asarray(slots)
     if min_distance(t[:, 0]) < d_min:
         return False
     for n in range(t.shape[1] - 1):
-        q, p = t[:, n], t[:, n + 1]
+        flying = last > n + 1  # the UAVs that fly the move into slot n + 1
+        q, p = t[flying, n], t[flying, n + 1]
         moves = p - q
         for u in range(len(q)):
             for v in range(u + 1, len(q)):
