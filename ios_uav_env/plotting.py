@@ -251,15 +251,16 @@ def plot_served_trajectories(
 def plot_fleet(
     ax: Any,
     config: ScenarioConfig,
-    flights: np.ndarray,
+    flights: np.ndarray | Sequence[np.ndarray],
     shares: Sequence[np.ndarray] | None = None,
     *,
     resolution: tuple[int, int] = (120, 60),
 ) -> None:
-    """Several UAVs' ``flights`` (U, n, 2) m over the best node's rate map, each UAV's moves
-    coloured by the node it serves (``shares[u]``: (K, n) its node shares, or each flight's own
-    best schedule), the view widened to every flight."""
-    flights = np.asarray(flights, dtype=float)
+    """Several UAVs' ``flights`` (U, n, 2) m, or one (n_u, 2) array each (UAVs of their own
+    horizons), over the best node's rate map, each UAV's moves coloured by the node it serves
+    (``shares[u]``: (K, n_u) its node shares, or each flight's own best schedule), the view
+    widened to every flight."""
+    flights = [np.asarray(f, dtype=float).reshape(-1, 2) for f in flights]
     plot_multinode_map(ax, config, resolution=resolution)
     labels = [f"uav_{u}" for u in range(len(flights))]
     plot_served_trajectories(
@@ -267,7 +268,7 @@ def plot_fleet(
         None if shares is None else dict(zip(labels, shares, strict=True)),
     )  # fmt: skip
     x0, x1, y0, y1 = default_extent(config)
-    pts = flights.reshape(-1, 2)
+    pts = np.concatenate(flights)
     pad = 0.05 * max(x1 - x0, y1 - y0)
     ax.set_xlim(min(x0, pts[:, 0].min() - pad), max(x1, pts[:, 0].max() + pad))
     ax.set_ylim(min(y0, pts[:, 1].min() - pad), max(y1, pts[:, 1].max() + pad))

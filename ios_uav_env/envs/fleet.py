@@ -21,6 +21,7 @@ from gymnasium import spaces
 
 from ios_uav_env.envs.fleet_rules import (
     agent_observations,
+    check_team_world,
     guard_distance,
     guarded_moves,
     slots_of,
@@ -30,6 +31,7 @@ from ios_uav_env.envs.multi import MultiNodeEnv
 from ios_uav_env.envs.observation import pad
 from ios_uav_env.model.config import SCENARIO_FIELDS, ScenarioConfig, as_config
 from ios_uav_env.model.fleet import fleet_maxmin, fleet_setup
+from ios_uav_env.model.fleet_horizons import hold_flights, horizon_slots
 from ios_uav_env.model.scenarios import DEFAULT_NODES
 from ios_uav_env.model.separation import DEFAULT_SEPARATION, min_distance
 
@@ -95,20 +97,34 @@ class FleetParallelEnv(ParallelEnv):
     A pair in contact that keeps pushing together stays put, so the agents have to go round each
     other; a UAV held back may miss its final point (``terminal_miss``, penalised).
 
+    ## Horizons
+
+    ``horizons`` (s, one per UAV; default every UAV the scenario's T): UAV u flies the slots 0 ..
+    N_u - 1 (N_u = its horizon / dt, its row a ``MultiNodeEnv`` with that T) and its arrival
+    guard brings it to its final point by its horizon. It then leaves: its agent terminates with
+    that step's team reward and leaves ``env.agents``; from then on it serves no node, takes no
+    share of the surface, causes no interference and is not guarded against. The rates are still
+    averaged over the scenario's N slots. :attr:`trajectories` holds it at its final point after
+    its horizon (``model.fleet_horizons``); the others still observe that point, and ``state()``
+    keeps its last row (the team's rates and the others' positions updated).
+
     ## Episode End
 
-    Every agent terminates after slot N. ``info``'s ``best_schedule_rate`` is then the flown
-    trajectories' best schedule (``fleet_maxmin``; bps/Hz; 0 before), at least the team's
-    ``min_rate``: the gap says how much better the same flights could have shared the time (in a
-    shared band the best schedule may also keep a UAV silent, which the actions cannot).
+    Every agent terminates after its last slot, N_u (slot N when every horizon is T); the episode
+    ends when the last one does. ``info``'s ``best_schedule_rate`` is then the flown
+    trajectories' best schedule (``fleet_maxmin`` with the UAVs' slot counts; bps/Hz; 0 before),
+    at least the team's ``min_rate``: the gap says how much better the same flights could have
+    shared the time (in a shared band the best schedule may also keep a UAV silent, which the
+    actions cannot).
 
     ## Arguments
 
     ``config`` (K ground nodes; default ``MultiNodeEnv``'s three), ``uavs`` (U >= 1, default 2),
     ``starts`` / ``finals`` ((U, 2) m; default ``model.fleet.default_lanes``), ``min_separation``
     (m, default ``model.separation.DEFAULT_SEPARATION``), ``surface_sharpness`` (> 0), ``access``,
-    ``speeds`` ((U,) m/s, each UAV's speed limit; default the scenario's ``v_max``),
-    ``best_schedule`` (compute the episode-end schedule, default True), and ``MultiNodeEnv``'s
+    ``speeds`` ((U,) m/s, each UAV's speed limit; default the scenario's ``v_max``), ``horizons``
+    ((U,) s, each UAV's horizon, a multiple of dt within [2 dt, T]; default the scenario's T; one
+    UAV flies T), ``best_schedule`` (compute the episode-end schedule, default True), and ``MultiNodeEnv``'s
     keywords (``share_sharpness``, ``max_nodes``, the env options); a ``ScenarioConfig`` field
     as a keyword changes the fleet's scenario (every UAV's). The fleet's arguments are checked by
     ``model.fleet.fleet_setup``. With U >= 2 the nodes are static and exactly known, the channel
@@ -130,6 +146,7 @@ class FleetParallelEnv(ParallelEnv):
         surface_sharpness: float = 5.0,
         access: str = "orthogonal",
         speeds: Any = None,
+        horizons: Any = None,
         best_schedule: bool = True,
         render_mode: str | None = None,
         **kwargs: Any,
@@ -143,8 +160,15 @@ class FleetParallelEnv(ParallelEnv):
         overrides = {name: kwargs.pop(name) for name in list(kwargs) if name in SCENARIO_FIELDS}
         base = base.replace(**overrides) if overrides else base  # the fleet's scenario, and each UAV's
         self.starts, self.finals, configs = fleet_setup(
-            base, uavs, starts, finals, min_separation, access, speeds
+            base, uavs, starts, finals, min_separation, access, speeds, horizons
         )
+        #: Each UAV's slot count N_u (its horizon / dt; ``model.fleet_horizons``).
+        self.horizon_slots = horizon_slots(configs)
+        if len(configs) == 1 and self.horizon_slots[0] < base.N:
+            raise ValueError(
+                f"horizons: one UAV flies the scenario's T = {base.T:g} s (give it T={configs[0].T:g} "
+                "for a shorter flight)"
+            )
         #: m: each UAV's largest move per slot (its speed limit x dt).
         self.moves_per_slot = np.array([c.D for c in configs])
         self.access, self.min_separation = access, float(min_separation)
@@ -152,7 +176,7 @@ class FleetParallelEnv(ParallelEnv):
         #: m: the distance the separation guard keeps (``model.separation.guard_distance``; 0 for one UAV).
         self.guard = guard_distance(self.min_separation) if u_n > 1 else 0.0
         if u_n > 1:
-            self._check_team_world(base, kwargs)
+            check_team_world(base, kwargs)
             # the fleet guards the moves (both guards) and scores the flights (fleet_maxmin)
             kwargs = {**kwargs, "arrival_guard": False, "best_schedule": False}
         self.surface_sharpness = float(surface_sharpness)
@@ -183,27 +207,6 @@ class FleetParallelEnv(ParallelEnv):
         self._min_rate = 0.0  # the team's min rate so far (render's title)
 
     # --- construction -----------------------------------------------------------------------
-    @staticmethod
-    def _check_team_world(config: ScenarioConfig, kwargs: Mapping[str, Any]) -> None:
-        """Refuse, naming the field, what several UAVs do not model yet."""
-        if config.motion is not None:
-            raise ValueError("config.motion: several UAVs serve static nodes (motion=None); one UAV: uavs=1")
-        if config.objective != "rate":
-            raise ValueError(
-                f"config.objective={config.objective!r}: several UAVs have the rate objective (max-min); "
-                "one UAV: uavs=1"
-            )
-        if kwargs.get("random_nodes") is not None:
-            raise ValueError("random_nodes: several UAVs fly one scenario (its K nodes); one UAV: uavs=1")
-        refused = {"channel": "expected", "knowledge": "exact", "softmin_beta": 0.0, "peak_hint": False}
-        for name, allowed in refused.items():
-            if name in kwargs and kwargs[name] != allowed:
-                raise ValueError(
-                    f"{name}={kwargs[name]!r}: several UAVs take {name}={allowed!r} (one UAV: uavs=1)"
-                )
-        if "arrival_guard" in kwargs and not kwargs["arrival_guard"]:
-            raise ValueError("arrival_guard=False: several UAVs always fly the arrival and separation guards")
-
     def _observation_space(self, u: int) -> spaces.Box:
         space = self.uav_envs[u].observation_space
         if len(self.uav_envs) == 1:
@@ -249,14 +252,17 @@ class FleetParallelEnv(ParallelEnv):
             )
         self.agents = list(self.possible_agents)
         results = [env.reset(seed=None if seed is None else seed + u) for u, env in enumerate(self.uav_envs)]
+        u_n, k_n = len(self.uav_envs), self.config.K
+        self._slot = 0
+        self._rows = np.array([r[0] for r in results])
         self.team_served = np.zeros(self.max_nodes)
-        k_n = self.config.K
-        shares = np.full((len(self.uav_envs), k_n), 1.0 / k_n)  # slot 1: equal shares, as each row
-        self.surface_shares = np.ones(len(self.uav_envs)) / len(self.uav_envs)
-        self.separation_fractions = np.ones(len(self.uav_envs))
-        self._serve(shares)
+        shares = np.full((u_n, k_n), 1.0 / k_n)  # slot 1: equal shares, as each row
+        self.surface_shares = np.ones(u_n) / u_n
+        self.separation_fractions = np.ones(u_n)
+        live = np.arange(u_n)
+        self._serve(live, shares)
         self._previous = 0.0  # the potential before slot 1, as MultiNodeEnv's: the return is N x min rate
-        return self._team_outputs(results, 0.0)[0::4]  # (obs, infos)
+        return self._team_outputs(live, results, 0.0)[0::4]  # (obs, infos)
 
     def step(self, actions: Mapping[str, Any]) -> tuple[dict, dict, dict, dict, dict]:
         if not self.agents:
@@ -270,21 +276,24 @@ class FleetParallelEnv(ParallelEnv):
             if term or trunc:
                 self.agents = []
             return {agent: obs}, {agent: reward}, {agent: term}, {agent: trunc}, {agent: info}
-        moves = self._guarded_moves(acts)
+        live = np.array([self.possible_agents.index(a) for a in self.agents])  # the UAVs still flying
+        moves = self._guarded_moves(live, acts)
         results = []
-        for u, env in enumerate(self.uav_envs):
-            a = acts[u, : 2 + self.max_nodes].copy()
-            a[:2] = moves[u]
-            results.append(env.step(a))
-        self.surface_shares = surface_shares(acts[:, -1], self.surface_sharpness)
+        for i, u in enumerate(live):
+            a = acts[i, : 2 + self.max_nodes].copy()
+            a[:2] = moves[i]
+            results.append(self.uav_envs[u].step(a))
+        self.surface_shares = np.zeros(len(self.uav_envs))  # a UAV past its horizon takes none
+        self.surface_shares[live] = surface_shares(acts[:, -1], self.surface_sharpness)
+        self._slot += 1
         k_n = self.config.K
-        self._serve(np.array([env.shares[:, -1] for env in self.uav_envs]))
+        self._serve(live, np.array([self.uav_envs[u].shares[:, -1] for u in live]))
         low = self.team_served[:k_n].min() / self.config.N
         r_rate = self.config.N * (low - self._previous)
         self._previous = low
-        out = self._team_outputs(results, r_rate)
-        if all(r[2] for r in results):
-            self.agents = []
+        out = self._team_outputs(live, results, r_rate)
+        # an agent leaves at its horizon (its row's last slot): its termination is reported now
+        self.agents = [self.possible_agents[u] for u, r in zip(live, results, strict=True) if not r[2]]
         return out
 
     def _check_actions(self, actions: Mapping[str, Any]) -> np.ndarray:
@@ -302,53 +311,64 @@ class FleetParallelEnv(ParallelEnv):
             out[u] = a
         return out
 
-    def _guarded_moves(self, acts: np.ndarray) -> np.ndarray:
-        """(U, 2): each UAV's move / D after its unit-disk projection, its arrival guard and the
-        team's separation guard (``model.separation.guarded_moves``)."""
-        q = np.array([env.trajectory[-1] for env in self.uav_envs])
-        left = self.config.N - len(self.uav_envs[0].trajectory) - 1  # moves left after this one
-        moves, self.separation_fractions = guarded_moves(
-            q, acts[:, :2], self.finals, self.moves_per_slot, left, self.guard
+    def _guarded_moves(self, live: np.ndarray, acts: np.ndarray) -> np.ndarray:
+        """(len(live), 2): the ``live`` UAVs' moves / D after their unit-disk projection, their
+        arrival guards (each to its own horizon) and the separation guard between them
+        (``model.separation.guarded_moves``)."""
+        q = np.array([self.uav_envs[u].trajectory[-1] for u in live])
+        left = self.horizon_slots[live] - self._slot - 2  # each UAV's moves left after this one
+        moves, fractions = guarded_moves(
+            q, acts[:, :2], self.finals[live], self.moves_per_slot[live], left, self.guard
         )
+        self.separation_fractions = np.ones(len(self.uav_envs))
+        self.separation_fractions[live] = fractions
         return moves
 
-    def _serve(self, shares: np.ndarray) -> None:
-        """Add the slot's service of the nodes (``fleet_rules.slots_of``) to the team's served sums."""
+    def _serve(self, live: np.ndarray, shares: np.ndarray) -> None:
+        """Add the slot's service of the nodes by the ``live`` UAVs with their node ``shares``
+        (``fleet_rules.slots_of``) to the team's served sums."""
         k_n = self.config.K
-        q = np.array([env.trajectory[-1] for env in self.uav_envs])
-        slot = slots_of(self.config, self.access, q[None], shares[None, :, :k_n], self.surface_shares[None])
+        q = np.array([self.uav_envs[u].trajectory[-1] for u in live])
+        beta = self.surface_shares[live]
+        slot = slots_of(self.config, self.access, q[None], shares[None, :, :k_n], beta[None])
         self.team_served[:k_n] += slot[0]
 
-    def _team_outputs(self, results: list[tuple], r_rate: float) -> tuple[dict, dict, dict, dict, dict]:
-        """The agents' (obs, rewards, terminations, truncations, infos) of the UAVs' ``results``
-        (each UAV env's reset or step output) and the team's rate term ``r_rate``."""
+    def _team_outputs(
+        self, live: np.ndarray, results: list[tuple], r_rate: float
+    ) -> tuple[dict, dict, dict, dict, dict]:
+        """The ``live`` agents' (obs, rewards, terminations, truncations, infos) of their UAVs'
+        ``results`` (each UAV env's reset or step output) and the team's rate term ``r_rate``."""
         cfg = self.config
         infos = [r[-1] for r in results]
         penalty = sum(float(i["reward_reach"]) + float(i["reward_terminal"]) for i in infos)
         reward = r_rate + penalty
-        done = len(results[0]) == 5 and all(r[2] for r in results)
+        stepped = len(results[0]) == 5
+        done = stepped and all(r[2] for r in results)  # the last agents leave: the episode's end
         best = 0.0
         if done and self.best_schedule:
-            flights = np.array([env.trajectory for env in self.uav_envs])
-            best = fleet_maxmin(cfg, flights, access=self.access).value
-        q = np.array([i["position"] for i in infos])
+            best = fleet_maxmin(cfg, self.trajectories, access=self.access, slots=self.horizon_slots).value
+        self._rows[live] = [r[0] for r in results]
+        q_live = np.array([i["position"] for i in infos])
+        q = np.array([env.trajectory[-1] for env in self.uav_envs])  # a finished UAV: its final point
+        q[live] = q_live
         node_rates = self.team_served / cfg.N
         self._min_rate = float(node_rates[: cfg.K].min())
         scale = self.uav_envs[0].options.length_scale
-        rows = agent_observations(np.array([r[0] for r in results]), node_rates, q, self.served_at, scale)
+        rows = agent_observations(self._rows, node_rates, q, self.served_at, scale)
         obs, rewards, terms, truncs, out = {}, {}, {}, {}, {}
-        for u, agent in enumerate(self.possible_agents):
+        for i, u in enumerate(live):
+            agent = self.possible_agents[u]
             obs[agent] = rows[u]
             rewards[agent] = reward
-            terms[agent], truncs[agent] = done, False
-            info = {key: infos[u][key] for key in OWN_KEYS}
+            terms[agent], truncs[agent] = stepped and bool(results[i][2]), False
+            info = {key: infos[i][key] for key in OWN_KEYS}
             info.update(
                 node_rates=node_rates.copy(), min_rate=float(node_rates[: cfg.K].min()), reward_rate=r_rate,
                 best_schedule_rate=best, surface_share=float(self.surface_shares[u]),
-                separation_fraction=float(self.separation_fractions[u]), min_distance=min_distance(q),
+                separation_fraction=float(self.separation_fractions[u]), min_distance=min_distance(q_live),
             )  # fmt: skip
             out[agent] = info
-        self._state = np.concatenate([obs[a] for a in self.possible_agents])
+        self._state = np.concatenate(rows)
         return obs, rewards, terms, truncs, out
 
     def render(self) -> np.ndarray | None:
@@ -360,14 +380,13 @@ class FleetParallelEnv(ParallelEnv):
         from ios_uav_env.plotting import figure_image, plot_fleet
 
         def draw(ax: Any) -> None:
-            flights = self.trajectories
-            if not flights.shape[1]:  # before the first reset: the lanes
+            flights = [env.trajectory for env in self.uav_envs]  # each UAV's own, up to its horizon
+            if not len(flights[0]):  # before the first reset: the lanes
                 plot_fleet(ax, self.config, np.stack([self.starts, self.finals], axis=1))
                 return
             plot_fleet(ax, self.config, flights, [env.shares for env in self.uav_envs])
-            title = (
-                f"slot {flights.shape[1]}/{self.config.N}, team min rate so far {self._min_rate:.3f} bps/Hz"
-            )
+            slot = max(len(f) for f in flights)
+            title = f"slot {slot}/{self.config.N}, team min rate so far {self._min_rate:.3f} bps/Hz"
             ax.set_title(title, fontsize=9)
 
         return figure_image(draw)
@@ -382,5 +401,8 @@ class FleetParallelEnv(ParallelEnv):
 
     @property
     def trajectories(self) -> np.ndarray:
-        """(U, n + 1, 2) m: the UAVs' way-points so far."""
-        return np.array([env.trajectory for env in self.uav_envs])
+        """(U, n + 1, 2) m: the UAVs' way-points so far, a UAV past its horizon held at its final
+        point (``model.fleet_horizons.hold_flights``; the slot counts: :attr:`horizon_slots`)."""
+        flights = [env.trajectory for env in self.uav_envs]
+        n = max(len(f) for f in flights)
+        return hold_flights(flights, n) if n else np.zeros((len(flights), 0, 2))

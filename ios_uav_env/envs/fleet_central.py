@@ -21,7 +21,10 @@ class FleetCentralEnv(gym.Env):
 
     The observation is :meth:`FleetParallelEnv.state` (the agents' observations, concatenated in
     agent order), the action the agents' actions concatenated, the reward the team reward, and
-    ``info`` maps each agent to its info. Arguments: those of :class:`FleetParallelEnv`.
+    ``info`` maps each agent still flying to its info. With ``horizons``, a UAV past its horizon
+    keeps its place in the observation (its last row, the team's rates and the others' positions
+    updated) and in the action, whose part for it is ignored; the episode ends when the last UAV's
+    horizon does. Arguments: those of :class:`FleetParallelEnv`.
     """
 
     metadata = {"render_modes": []}
@@ -52,10 +55,11 @@ class FleetCentralEnv(gym.Env):
         a = np.asarray(action, dtype=np.float64)
         if a.shape != self.action_space.shape:
             raise ValueError(f"action must have shape {self.action_space.shape}, got {a.shape}")
-        parts = np.split(a, self._widths)
-        _, rewards, terms, truncs, infos = self.fleet.step(dict(zip(self.fleet.agents, parts, strict=True)))
+        parts = dict(zip(self.fleet.possible_agents, np.split(a, self._widths), strict=True))
+        live = {agent: parts[agent] for agent in self.fleet.agents}  # a finished UAV's part is ignored
+        _, rewards, _, truncs, infos = self.fleet.step(live)
         reward = float(next(iter(rewards.values())))
-        return self.fleet.state().copy(), reward, all(terms.values()), any(truncs.values()), infos
+        return self.fleet.state().copy(), reward, not self.fleet.agents, any(truncs.values()), infos
 
     def close(self) -> None:
         self.fleet.close()

@@ -4,11 +4,14 @@ A fleet is U rows of the multi-node env (one per UAV: its move, node shares, pro
 observation); these functions couple them, for one fleet at a time, the same code whether the
 rows are single envs (``envs.fleet.FleetParallelEnv``) or rows of batched ones
 (``envs.fleet_vector.FleetVectorEnv``): the surface's shares between the UAVs, the slot's service
-of the nodes and each agent's observation; the guarded moves (unit disk, arrival guard,
+of the nodes, each agent's observation and what a fleet refuses; the guarded moves (unit disk, arrival guard,
 separation) are the model's flight rule, ``model.separation.guarded_moves``, re-exported here.
 """
 
 from __future__ import annotations
+
+from collections.abc import Mapping
+from typing import Any
 
 import numpy as np
 
@@ -17,8 +20,31 @@ from ios_uav_env.model.fleet import link_gains_batch, shared_slot_service, slot_
 from ios_uav_env.model.separation import GUARD_MARGIN, guard_distance, guarded_moves  # noqa: F401
 
 __all__ = [
-    "GUARD_MARGIN", "agent_observations", "guard_distance", "guarded_moves", "slots_of", "surface_shares",
+    "GUARD_MARGIN", "agent_observations", "check_team_world", "guard_distance", "guarded_moves", "slots_of",
+    "surface_shares",
 ]  # fmt: skip
+
+
+def check_team_world(config: ScenarioConfig, kwargs: Mapping[str, Any]) -> None:
+    """Refuse, naming the field, what several UAVs do not model yet (``config`` the fleet's
+    scenario, ``kwargs`` the UAV rows' keywords)."""
+    if config.motion is not None:
+        raise ValueError("config.motion: several UAVs serve static nodes (motion=None); one UAV: uavs=1")
+    if config.objective != "rate":
+        raise ValueError(
+            f"config.objective={config.objective!r}: several UAVs have the rate objective (max-min); "
+            "one UAV: uavs=1"
+        )
+    if kwargs.get("random_nodes") is not None:
+        raise ValueError("random_nodes: several UAVs fly one scenario (its K nodes); one UAV: uavs=1")
+    refused = {"channel": "expected", "knowledge": "exact", "softmin_beta": 0.0, "peak_hint": False}
+    for name, allowed in refused.items():
+        if name in kwargs and kwargs[name] != allowed:
+            raise ValueError(
+                f"{name}={kwargs[name]!r}: several UAVs take {name}={allowed!r} (one UAV: uavs=1)"
+            )
+    if "arrival_guard" in kwargs and not kwargs["arrival_guard"]:
+        raise ValueError("arrival_guard=False: several UAVs always fly the arrival and separation guards")
 
 
 def surface_shares(bids: np.ndarray, sharpness: float) -> np.ndarray:
@@ -35,7 +61,10 @@ def slots_of(
     """(B, K) bps/Hz: the nodes' rates of the slot of B fleets at their way-points ``q`` (B, U, 2)
     m, with their node shares (B, U, K) and surface shares ``beta`` (B, U): the links' gains of all
     fleets at once (``model.fleet.link_gains_batch``), then ``model.fleet.slot_service`` (or in a
-    shared band ``shared_slot_service``) per fleet."""
+    shared band ``shared_slot_service``) per fleet. The arrays are taken C-contiguous, so that a
+    fleet's rates do not depend on how the caller sliced them (numpy's sums may round differently
+    on strided views)."""
+    q, shares, beta = (np.ascontiguousarray(x, dtype=float) for x in (q, shares, beta))
     gains = link_gains_batch(config, q)
     if access == "shared":
         return np.array(

@@ -27,7 +27,7 @@ __all__ = ["FleetVectorEnv"]
 #: The keys of ``info`` (arrays over the rows; ``final_obs`` / ``final_info`` at an episode's end).
 INFO_KEYS = (
     "position", "shares", "node_rates", "min_rate", "reward_rate", "reward_reach", "reward_terminal",
-    "surface_share", "separation_fraction", "feasible", "terminal_miss",
+    "surface_share", "separation_fraction", "feasible", "terminal_miss", "active",
 )  # fmt: skip
 
 
@@ -35,11 +35,20 @@ class FleetVectorEnv(gym.vector.VectorEnv):
     """``num_fleets`` fleets of ``ios_uav_env.parallel_env`` (same arguments) as one vector env of
     ``num_fleets`` x U rows, agent ``uav_u`` of fleet b in row ``b U + u``: its observation, its
     action, the team reward of its fleet. Autoreset is Gymnasium's ``SAME_STEP`` (what SB3 and
-    array trainers expect): every fleet ends at slot N together and starts its next episode in the
-    same step, ``info["final_obs"]`` / ``info["final_info"]`` holding the last ones. Fleets of
-    several UAVs (U >= 2; one UAV is ``MultiNodeVectorEnv`` itself). ``num_threads``: the UAV
-    rows' kernel threads (default 1: a few dozen fleets are faster on one thread than woken
-    threads)."""
+    array trainers expect): every fleet ends at the last UAV horizon together (slot N when every
+    horizon is T) and starts its next episode in the same step, ``info["final_obs"]`` /
+    ``info["final_info"]`` holding the last ones. Fleets of several UAVs (U >= 2; one UAV is
+    ``MultiNodeVectorEnv`` itself). ``num_threads``: the UAV rows' kernel threads (default 1: a
+    few dozen fleets are faster on one thread than woken threads).
+
+    **Horizons** (``horizons``, one per UAV): the row of a UAV whose horizon comes before its
+    fleet's end reports ``terminated`` True at the step it reaches its final point (its last
+    observation and info under ``final_obs`` / ``final_info``, masked by ``_final_obs`` /
+    ``_final_info``, beside the step's own keys), then idles until its fleet ends: its last
+    observation (the team's served rates and the others' positions updated), reward 0,
+    ``terminated`` False, ``info["active"]`` False (its action is ignored, it serves nothing and
+    is not guarded). When the fleet ends every row terminates, an idle row's zero-return stretch
+    included, and every row starts the next episode in the same step, as with equal horizons."""
 
     metadata = {
         "autoreset_mode": getattr(getattr(gym.vector, "AutoresetMode", None), "SAME_STEP", "same_step")
@@ -92,6 +101,12 @@ class FleetVectorEnv(gym.vector.VectorEnv):
         self._previous = np.zeros(self.num_fleets)
         self._q = np.zeros((self.num_fleets, self.uavs, 2))
         self._moves = 0
+        #: Each UAV's rows' last observations (a row past its horizon: its last, held).
+        self._rows_obs: list[np.ndarray] = []
+        #: Each UAV's rows' first observations of the next episode (its rows restart at its horizon).
+        self._first: list[np.ndarray] = [np.empty(0)] * self.uavs
+        #: Each UAV's rows' ``feasible`` and ``terminal_miss`` as last reported (held past its horizon).
+        self._held: list[dict[str, np.ndarray]] = [{} for _ in range(self.uavs)]
 
     # --- the fleets' state --------------------------------------------------------------------
     def _start(self, obs: list[np.ndarray], positions: np.ndarray) -> np.ndarray:
@@ -99,6 +114,7 @@ class FleetVectorEnv(gym.vector.VectorEnv):
         t, k_n = self.template, self.config.K
         self._q = positions
         self._moves, self._previous = 0, np.zeros(self.num_fleets)
+        self._rows_obs = list(obs)
         self._served[:] = 0.0
         shares = np.full((self.uavs, k_n), 1.0 / k_n)
         beta = np.full(self.uavs, 1.0 / self.uavs)
@@ -148,52 +164,93 @@ class FleetVectorEnv(gym.vector.VectorEnv):
                 f"actions must be a finite array of shape {self.action_space.shape}, got shape {a.shape}"
             )
         a = a.reshape(self.num_fleets, self.uavs, -1)
-        left = cfg.N - self._moves - 2  # moves left after this one
-        moves, fractions = np.empty((self.num_fleets, self.uavs, 2)), np.empty((self.num_fleets, self.uavs))
-        beta = np.empty((self.num_fleets, self.uavs))
-        for b in range(self.num_fleets):
-            moves[b], fractions[b] = guarded_moves(
-                self._q[b], a[b, :, :2], t.finals, t.moves_per_slot, left, t.guard
+        slots = t.horizon_slots
+        live = np.flatnonzero(slots > self._moves + 1)  # the UAVs flying the move into the next slot
+        ends = slots[live] == self._moves + 2  # ... of which those whose horizon this slot is
+        left = slots[live] - self._moves - 2  # each one's moves left after this one
+        b_n, u_n = self.num_fleets, self.uavs
+        moves, fractions = np.zeros((b_n, u_n, 2)), np.ones((b_n, u_n))
+        beta = np.zeros((b_n, u_n))  # a UAV past its horizon takes no share of the surface
+        for b in range(b_n):
+            moves[b, live], fractions[b, live] = guarded_moves(
+                self._q[b, live], a[b, live, :2], t.finals[live], t.moves_per_slot[live], left, t.guard
             )
-            beta[b] = surface_shares(a[b, :, -1], t.surface_sharpness)
-        outs = []
-        for u, rows in enumerate(self.rows):
+            beta[b, live] = surface_shares(a[b, live, -1], t.surface_sharpness)
+        infos = {}
+        for u, ended in zip(live, ends, strict=True):
             act = a[:, u, : 2 + t.max_nodes].copy()
             act[:, :2] = moves[:, u]
-            outs.append(rows.step(act))
-        done = outs[0][2]
-        infos = [o[4]["final_info"] if done.all() else o[4] for o in outs]
-        positions = np.stack([i["position"] for i in infos], axis=1)
-        shares = np.stack([i["shares"] for i in infos], axis=1)[:, :, :k_n]
-        self._served[:, :k_n] += slots_of(cfg, t.access, positions, shares, beta)
+            row_obs, _, done, _, row_info = self.rows[u].step(act)
+            if ended != bool(done.all()):  # (the rows end at their own N_u, as the fleet counts)
+                raise RuntimeError(f"uav_{u}'s rows and the fleet disagree on its horizon")
+            if ended:  # its rows restarted (same step): their next episode's first observations
+                self._first[u], row_obs, row_info = row_obs, row_info["final_obs"], row_info["final_info"]
+            self._rows_obs[u], infos[u] = row_obs, row_info
+            self._q[:, u] = row_info["position"]
+        positions = self._q.copy()
+        shares = np.stack([infos[u]["shares"] for u in live], axis=1)[:, :, :k_n]
+        self._served[:, :k_n] += slots_of(cfg, t.access, positions[:, live], shares, beta[:, live])
         low = self._served[:, :k_n].min(axis=1) / cfg.N
         r_rate = cfg.N * (low - self._previous)
         self._previous = low
-        penalty = sum(i["reward_reach"] + i["reward_terminal"] for i in infos)
-        reward = np.repeat(r_rate + penalty, self.uavs)
-        obs = self._observe([o[4]["final_obs"] if done.all() else o[0] for o in outs], positions)
-        info = {
-            "position": positions.reshape(-1, 2), "shares": np.stack([i["shares"] for i in infos], 1).reshape(
-                self.num_envs, -1), "node_rates": np.repeat(self._served / cfg.N, self.uavs, axis=0),
-            "min_rate": np.repeat(low, self.uavs), "reward_rate": np.repeat(r_rate, self.uavs),
-            "reward_reach": np.stack([i["reward_reach"] for i in infos], 1).reshape(-1),
-            "reward_terminal": np.stack([i["reward_terminal"] for i in infos], 1).reshape(-1),
-            "surface_share": beta.reshape(-1), "separation_fraction": fractions.reshape(-1),
-            "feasible": np.stack([i["feasible"] for i in infos], 1).reshape(-1),
-            "terminal_miss": np.stack([i["terminal_miss"] for i in infos], 1).reshape(-1),
-        }  # fmt: skip
+        penalty = sum(infos[u]["reward_reach"] + infos[u]["reward_terminal"] for u in live)
+        active = np.zeros((b_n, u_n), dtype=np.bool_)
+        active[:, live] = True
+        reward = np.where(active, (r_rate + penalty)[:, None], 0.0).reshape(-1)
+        obs = self._observe(self._rows_obs, positions)
+        info = self._info(infos, positions, active, low, r_rate, beta, fractions)
         self._moves += 1
-        terminated = np.repeat(done, self.uavs)
+        ended_rows = np.zeros((b_n, u_n), dtype=np.bool_)
+        ended_rows[:, live[ends]] = True
         truncated = np.zeros(self.num_envs, dtype=np.bool_)
-        if done.all():  # every fleet ends at slot N: the next episodes start now (SAME_STEP)
+        if self._moves == slots.max() - 1:  # every UAV's horizon is over: the next episodes start now
+            terminated = np.ones(self.num_envs, dtype=np.bool_)  # (an idle row's zero-return stretch too)
+            starts = np.broadcast_to(t.starts, (b_n, u_n, 2)).copy()
             final_obs, final_info = obs, info
-            starts = np.broadcast_to(t.starts, (self.num_fleets, self.uavs, 2)).copy()
-            obs = self._start([o[0] for o in outs], starts)
+            obs = self._start(list(self._first), starts)
             info = {"final_obs": final_obs, "_final_obs": terminated.copy(), "final_info": final_info,
                     "_final_info": terminated.copy()}  # fmt: skip
         else:
-            self._q = positions
+            terminated = ended_rows.reshape(-1)
+            if terminated.any():  # agents leaving at their horizon: their rows idle from now on
+                info.update(final_obs=obs.copy(), _final_obs=terminated.copy(), final_info=dict(info),
+                            _final_info=terminated.copy())  # fmt: skip
         return obs, reward, terminated, truncated, info
+
+    def _info(
+        self,
+        infos: dict[int, dict[str, Any]],
+        positions: np.ndarray,
+        active: np.ndarray,
+        low: np.ndarray,
+        r_rate: np.ndarray,
+        beta: np.ndarray,
+        fractions: np.ndarray,
+    ) -> dict[str, Any]:
+        """The step's ``info`` arrays over the rows: the UAVs' own from their rows' ``infos`` (a row
+        past its horizon: its final point, no shares, no reward terms, its feasibility and miss as
+        at its end), the team's repeated over its fleet's rows."""
+        b_n, u_n, width = self.num_fleets, self.uavs, self.template.max_nodes
+        for u, row_info in infos.items():
+            self._held[u] = {key: row_info[key] for key in ("feasible", "terminal_miss")}
+
+        def own(key: str, idle: Any) -> np.ndarray:
+            return np.stack(
+                [infos[u][key] if u in infos else np.full(b_n, idle) for u in range(u_n)], axis=1
+            ).reshape(-1)
+
+        idle_shares = np.zeros((b_n, width))
+        shares = np.stack([infos[u]["shares"] if u in infos else idle_shares for u in range(u_n)], axis=1)
+        return {
+            "position": positions.reshape(-1, 2), "shares": shares.reshape(self.num_envs, -1),
+            "node_rates": np.repeat(self._served / self.config.N, u_n, axis=0),
+            "min_rate": np.repeat(low, u_n), "reward_rate": np.repeat(r_rate, u_n),
+            "reward_reach": own("reward_reach", 0.0), "reward_terminal": own("reward_terminal", 0.0),
+            "surface_share": beta.reshape(-1), "separation_fraction": fractions.reshape(-1),
+            "feasible": np.stack([self._held[u]["feasible"] for u in range(u_n)], 1).reshape(-1),
+            "terminal_miss": np.stack([self._held[u]["terminal_miss"] for u in range(u_n)], 1).reshape(-1),
+            "active": active.reshape(-1),
+        }  # fmt: skip
 
     def close(self, **kwargs: Any) -> None:
         for rows in self.rows:
