@@ -1,41 +1,51 @@
 r"""Several UAVs: a centralised plan of U separated flights and a certified bound of their max-min.
 
 The problem is ``ios_uav_env.model.fleet``'s: U UAVs in orthogonal bands share one IOS and serve
-the scenario's K static nodes; UAV u flies from ``starts[u]`` to ``finals[u]`` in the scenario's N
-slots at most D per slot, no two UAVs closer than ``min_separation`` (``model.separation``), and
-the team maximises the nodes' max-min rate with time sharing in every slot (``fleet_maxmin``, the
-one scorer of a fleet's flights, whoever planned them).
+the scenario's K static nodes; UAV u flies from ``starts[u]`` to ``finals[u]`` in its own N_u
+slots (its horizon, ``horizons[u]`` = N_u dt; default the scenario's N) at most D_u per slot, no
+two UAVs closer than ``min_separation`` while both fly (``model.separation``), and the team
+maximises the nodes' max-min rate over the scenario's N slots with time sharing in every slot
+(``fleet_maxmin``, the one scorer of a fleet's flights, whoever planned them); a UAV past its
+horizon serves nothing (``model.fleet_horizons``).
 
 **The bound.** For any weights w in the simplex and any schedule of a slot, node k's rate from UAV
 u is at most the rate of the link (u, k) with the surface aligned to it (the closed-form phases
-maximise the link's amplitude, a triangle inequality), so
+maximise the link's amplitude, a triangle inequality), and slot n's rates are a time-shared mix
+of the choices of the UAVs flying it (u with n < N_u), so with f_w^u(q) = max_k w_k r_{u,k}(q)
 
-    sum_k w_k R_k  <=  (1/N) sum_n sum_u max_k w_k r_{u,k}(q_u[n])  <=  sum_u UB_u(w),
+    sum_k w_k R_k  <=  (1/N) sum_{n < N} sum_{u: n < N_u} f_w^u(q_u[n])
+                    =  sum_u (N_u / N) (1/N_u) sum_{n < N_u} f_w^u(q_u[n])
+                   <=  sum_u (N_u / N) UB_u(w),
 
-with UB_u(w) the single-UAV bound of ``baselines.dp_bound`` on UAV u's start and final point (the
-relaxed DP over grid cells, certified for continuous trajectories). Dropping the surface's
-coupling and the separation only relaxes the problem, and so does dropping a shared band's
-interference (it only lowers rates), so by weak duality V <= min_w sum_u UB_u(w) in either band,
-a convex function of w minimised by Kelley's cuts (``dp_bound.kelley_step``; the cut of each
-UAV's relaxed path is linear in w, so their sum is the fleet's cut).
+with UB_u(w) the single-UAV bound of ``baselines.dp_bound`` on UAV u's own scenario (its start,
+final point, speed limit and T = its horizon: the relaxed DP over grid cells, certified for every
+continuous trajectory of that scenario, and UAV u's flight over its slots 0 .. N_u - 1 is one).
+Dropping the surface's coupling and the separation only relaxes the problem, and so does dropping
+a shared band's interference (it only lowers rates), so by weak duality (V = min_k R_k <=
+sum_k w_k R_k for every w) V <= min_w sum_u (N_u / N) UB_u(w) in either band. Each UB_u is convex
+in w with the cut UB_u(w') >= G_u . w' of its relaxed path, and N_u / N > 0 keeps both, so the
+sum is convex and sum_u (N_u / N) G_u is the fleet's cut: Kelley's cuts (``dp_bound.kelley_step``)
+minimise a certified bound. With every horizon T the factors are 1: the bound is the plain sum.
 
 **The plans.** Candidates, each scored by ``fleet_maxmin`` and kept only if separated all along
-(``flights_separated``) and feasible for every UAV:
-(i) at each Kelley w, every UAV's plain grid DP path on f_w = max_k w_k r_k (the bound's dual
+(``flights_separated``) and feasible for every UAV over its own slots:
+(i) at each Kelley w, every UAV's plain grid DP path on f_w over its N_u slots (the bound's dual
 plans, as ``dp_bound.solve_multinode``'s); (ii) node covers: each UAV flies the tour
-heuristic (``baselines.tour``) over the nodes it covers (straight to its final point if none;
-a node may be covered by several UAVs, which then share it), starting from each node's nearest
-lane and improved by adding a node to or taking one from one UAV at a time while the score
-rises (every node covered); (iii) the best cover's tours polished by a pattern search on their
-hover points (one point of one UAV moved 40, 20, 10 then 5 m along an axis or a diagonal while
-the fleet's value rises). The best candidate is returned with the bound; ``gap`` says how far
-it may be from the optimum. Not yet: block-coordinate SCA of the trajectories.
+heuristic (``baselines.tour``) over the nodes it covers on its own scenario (straight to its
+final point if none; a node may be covered by several UAVs, which then share it), starting from
+each node's nearest lane and improved by adding a node to or taking one from one UAV at a time
+while the score rises (every node covered); (iii) the best cover's tours polished by a pattern
+search on their hover points (one point of one UAV moved 40, 20, 10 then 5 m along an axis or a
+diagonal while the fleet's value rises; ``baselines.fleet_candidates``). The best candidate is
+returned with the bound; ``gap`` says how far it may be from the optimum. Not yet:
+block-coordinate SCA of the trajectories.
 """
 
 from __future__ import annotations
 
 import itertools
 import math
+import numbers
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -46,12 +56,14 @@ import numpy as np
 import ios_uav_env as ie
 from baselines.dp_bound import kelley_step, weighted_dp_path
 from baselines.dp_relaxed import RelaxedDP, check_relaxed_grid
+from baselines.fleet_candidates import guarded_flights, nearest_lanes, polish_routes
 from baselines.grid import DEFAULT_MARGIN, validate_grid_args
 from ios_uav_env import ScenarioConfig
 from ios_uav_env.model.fleet import ACCESS, fleet_maxmin, fleet_setup
-from ios_uav_env.model.separation import DEFAULT_SEPARATION, flights_separated, guard_distance, guarded_moves
+from ios_uav_env.model.fleet_horizons import hold_flights, horizon_slots
+from ios_uav_env.model.separation import DEFAULT_SEPARATION, flights_separated
 
-__all__ = ["MARL_SCENARIO", "FleetPlan", "fleet_bound", "learner_report", "solve"]
+__all__ = ["MARL_SCENARIO", "FleetPlan", "fleet_bound", "guarded_flights", "learner_report", "solve"]
 
 
 @dataclass
@@ -84,21 +96,29 @@ def fleet_bound(
     tol: float = 1e-3,
     start_weights: np.ndarray | None = None,
     on_weights: Any = None,
+    slots: int | None = None,
 ) -> tuple[float, np.ndarray, float, list[dict[str, Any]]]:
     """(upper bound, its w, Kelley's lower value, per-iteration records): min over w of
-    sum_u UB_u(w) for the UAVs' scenarios ``configs`` (module docstring). ``on_weights(w)`` is
-    called at every w tried (the planner's dual plans)."""
+    sum_u (N_u / N) UB_u(w) for the UAVs' scenarios ``configs`` (each over its own N_u slots, its
+    horizon; module docstring). ``slots``: the scenario's N, over which the nodes' rates are
+    averaged (default the longest horizon's N_u). ``on_weights(w)`` is called at every w tried
+    (the planner's dual plans)."""
     k = configs[0].K
     for c in configs:
         check_relaxed_grid(c, resolution, margin, False)
+    longest = int(horizon_slots(configs).max())
+    n_slots = longest if slots is None else slots
+    if isinstance(n_slots, bool) or not isinstance(n_slots, numbers.Integral) or n_slots < longest:
+        raise ValueError(f"slots must be an integer >= every UAV's N_u (>= {longest}), got {slots!r}")
+    scale = [c.N / n_slots for c in configs]  # each UAV's share of the N slots (1: the whole flight)
     relaxed = [RelaxedDP(c, resolution, margin) for c in configs]
     w = np.full(k, 1.0 / k) if start_weights is None else np.asarray(start_weights, dtype=float)
     cuts, records = [], []
     best, best_w, lower = math.inf, w, -math.inf
     for it in range(max_cuts):
         values = [r.value(w) for r in relaxed]
-        ub = float(sum(v for v, _ in values))
-        cuts.append(np.sum([g for _, g in values], axis=0))
+        ub = float(sum(s * v for s, (v, _) in zip(scale, values, strict=True)))
+        cuts.append(np.sum([s * g for s, (_, g) in zip(scale, values, strict=True)], axis=0))
         if ub < best:
             best, best_w = ub, w
         if on_weights is not None:
@@ -111,41 +131,21 @@ def fleet_bound(
 
 
 def _dual_flights(
-    configs: list[ScenarioConfig], w: np.ndarray, resolution: float, margin: float
+    configs: list[ScenarioConfig], w: np.ndarray, resolution: float, margin: float, n_slots: int
 ) -> np.ndarray | None:
-    """Every UAV's plain grid DP path on f_w (``dp_bound.weighted_dp_path``; None if one has no grid
-    path in time)."""
+    """Every UAV's plain grid DP path on f_w over its own N_u slots (``dp_bound.weighted_dp_path``;
+    None if one has no grid path in time), in one (U, ``n_slots``, 2) array (each held at its
+    final point after its horizon)."""
     flights = [weighted_dp_path(c, w, resolution, margin) for c in configs]
-    return None if any(f is None for f in flights) else np.array(flights)
-
-
-def guarded_flights(
-    configs: list[ScenarioConfig], flights: np.ndarray, finals: np.ndarray, min_separation: float
-) -> np.ndarray | None:
-    """The U ``flights`` (U, N, 2) m of the UAVs' scenarios ``configs`` flown through the fleet
-    env's guards (``model.separation.guarded_moves``: each UAV heads for its next way-point at its
-    own speed limit, then its arrival guard and the separation guard at ``min_separation``), or
-    None if a UAV then misses its final point: a separated flight near a plan whose UAVs come too
-    close."""
-    guard, d, n = guard_distance(min_separation), np.array([c.D for c in configs]), flights.shape[1]
-    out = np.empty_like(flights)
-    out[:, 0] = flights[:, 0]
-    for t in range(1, n):
-        wanted = (flights[:, t] - out[:, t - 1]) / d[:, None]
-        moves, _ = guarded_moves(out[:, t - 1], wanted, finals, d, n - t - 1, guard)
-        out[:, t] = out[:, t - 1] + d[:, None] * moves
-    if np.max(np.hypot(*(out[:, -1] - finals).T)) > 1e-6:
-        return None
-    out[:, -1] = finals
-    return out
+    return None if any(f is None for f in flights) else hold_flights(flights, n_slots)
 
 
 def _tour_flight(
     config: ScenarioConfig, nodes: tuple[int, ...]
 ) -> tuple[np.ndarray, tuple[np.ndarray, np.ndarray] | None]:
-    """One UAV's flight and its route: the tour over ``nodes`` of ``config`` (its own start and
-    final point) with its hover points and hover slots, or the straight flight to its final point
-    (no route) for no node."""
+    """One UAV's flight and its route: the tour over ``nodes`` of ``config`` (its own start, final
+    point and horizon) with its hover points and hover slots, or the straight flight to its final
+    point (no route) for no node."""
     from baselines import tour
 
     if not nodes:
@@ -153,72 +153,6 @@ def _tour_flight(
     plan = tour.solve(config.replace(ground_nodes=tuple(config.nodes[k] for k in nodes)))
     points = np.array(plan.info["hover_points"], dtype=float).reshape(-1, 2)
     return plan.trajectory, (points, np.array(plan.info["hover_slots"], dtype=float))
-
-
-def _route_flight(config: ScenarioConfig, points: np.ndarray, slots: np.ndarray) -> np.ndarray | None:
-    """The flight through hover ``points`` with hover slots in the proportions of ``slots``
-    (``baselines.tour.route_trajectory``), or None if the route needs more than N - 1 moves."""
-    from baselines import tour
-
-    legs = tour._legs(config, points)
-    if legs is None:
-        return None
-    hover = tour._round(np.maximum(slots, 0.0) + 1e-9, config.N - len(legs[0]))
-    return tour.route_trajectory(config, points, hover)
-
-
-#: Directions of the hover points' pattern search (:func:`_polish`): the axes and the diagonals.
-_DIRECTIONS = np.array([(1, 0), (-1, 0), (0, 1), (0, -1), (1, 1), (-1, 1), (1, -1), (-1, -1)], dtype=float)
-_DIRECTIONS /= np.hypot(*_DIRECTIONS.T)[:, None]
-
-
-def _polish(
-    flights: np.ndarray,
-    routes: list[Any],
-    configs: list[ScenarioConfig],
-    steps: tuple[float, ...],
-    score: Any,
-) -> tuple[float, np.ndarray]:
-    """Pattern search on the tours' hover points: move one point of one UAV by a step along one
-    of :data:`_DIRECTIONS`, keep the move if the fleet's value (``score(flights)``, -inf when not
-    feasible and separated) rises, halve the step when none does. Returns (value, flights)."""
-    best = score(flights)
-    routes = list(routes)
-    for step in steps:
-        improved = True
-        while improved:
-            improved = False
-            for u, route in enumerate(routes):
-                if route is None:
-                    continue
-                points, slots = route
-                for i in range(len(points)):
-                    for direction in _DIRECTIONS:
-                        moved = points.copy()
-                        moved[i] += step * direction
-                        flight = _route_flight(configs[u], moved, slots)
-                        if flight is None:
-                            continue
-                        trial = flights.copy()
-                        trial[u] = flight
-                        value = score(trial)
-                        if value > best:
-                            best, flights, points, improved = value, trial, moved, True
-                            routes[u] = (points, slots)
-    return best, flights
-
-
-def _nearest_lanes(configs: list[ScenarioConfig]) -> tuple[int, ...]:
-    """Each node's UAV: the one whose straight flight passes nearest to it."""
-    out = []
-    for g in np.asarray(configs[0].nodes, dtype=float):
-        dists = []
-        for c in configs:
-            a, b = np.asarray(c.q0), np.asarray(c.qF)
-            s = np.clip(np.dot(g - a, b - a) / max(np.dot(b - a, b - a), 1e-12), 0.0, 1.0)
-            dists.append(float(np.hypot(*(a + s * (b - a) - g))))
-        out.append(int(np.argmin(dists)))
-    return tuple(out)
 
 
 def solve(
@@ -236,21 +170,25 @@ def solve(
     local_moves: int = 30,
     access: str = "orthogonal",
     speeds: Any = None,
+    horizons: Any = None,
     polish_steps: tuple[float, ...] = (40.0, 20.0, 10.0, 5.0),
     progress: bool = False,
 ) -> FleetPlan:
     """The best separated fleet found and the certified bound (module docstring).
 
-    ``uavs``, ``starts``, ``finals``, ``min_separation``, ``speeds``: the fleet (defaults: the env's lanes,
-    ``ios_uav_env.parallel_env``); ``resolution``: the plain DP grid (m); ``bound_resolution``: the
-    relaxed DP's cells (default ``resolution``); ``max_cuts``, ``tol``: Kelley's iterations and
-    relative gap; ``local_moves``: most covers tried after the first; ``polish_steps``: the steps
-    (m) of the pattern search on the best cover's hover points (empty: none); ``access``: orthogonal bands or
-    one shared band (the plans are scored with its interference; the bound, interference-free,
-    holds for both). The fleet's arguments are checked by ``model.fleet.fleet_setup``. ``info``:
-    ``source`` (which candidate won), ``cover`` (the nodes each UAV tours, for a tour candidate),
-    ``weights`` (the bound's w), ``kelley_lower``, ``cuts``, ``candidates`` (scored, separated),
-    ``rejected`` (candidates that were not separated)."""
+    ``uavs``, ``starts``, ``finals``, ``min_separation``, ``speeds``, ``horizons``: the fleet
+    (defaults: the env's lanes, every UAV the scenario's T; ``ios_uav_env.parallel_env``); the
+    returned ``trajectories`` are (U, N, 2), each UAV held at its final point after its horizon
+    (``model.fleet_horizons``), scored with its slot count; ``resolution``: the plain DP grid
+    (m); ``bound_resolution``: the relaxed DP's cells (default ``resolution``); ``max_cuts``,
+    ``tol``: Kelley's iterations and relative gap; ``local_moves``: most covers tried after the
+    first; ``polish_steps``: the steps (m) of the pattern search on the best cover's hover points
+    (empty: none); ``access``: orthogonal bands or one shared band (the plans are scored with its
+    interference; the bound, interference-free, holds for both). The fleet's arguments are
+    checked by ``model.fleet.fleet_setup``. ``info``: ``source`` (which candidate won), ``cover``
+    (the nodes each UAV tours, for a tour candidate), ``weights`` (the bound's w),
+    ``kelley_lower``, ``cuts``, ``candidates`` (scored, separated), ``rejected`` (candidates that
+    were not separated), ``horizons`` (s, each UAV's)."""
     t0 = time.perf_counter()
     if not isinstance(config, ScenarioConfig):
         raise TypeError(f"config must be a ScenarioConfig, got {type(config).__name__}")
@@ -260,8 +198,10 @@ def solve(
             f"energy_budget_j=None; got objective={config.objective!r}, motion={config.motion!r}, "
             f"energy_budget_j={config.energy_budget_j!r}"
         )
-    starts_, finals_, configs = fleet_setup(config, uavs, starts, finals, min_separation, access, speeds)
-    points = [starts_, finals_]
+    starts_, finals_, configs = fleet_setup(
+        config, uavs, starts, finals, min_separation, access, speeds, horizons
+    )
+    points, slots, n_slots = [starts_, finals_], horizon_slots(configs), config.N
     for c in configs:
         validate_grid_args(c, resolution, margin)
     h = resolution if bound_resolution is None else bound_resolution
@@ -277,8 +217,11 @@ def solve(
         if key in seen:
             return seen[key]
         seen[key] = -math.inf
-        feasible = all(ie.check_trajectory(c, f).feasible for c, f in zip(configs, flights, strict=True))
-        if feasible and not flights_separated(flights, min_separation):
+        feasible = all(  # each UAV over its own slots (held at its final point after)
+            ie.check_trajectory(c, f[: c.N]).feasible and np.all(f[c.N :] == f[c.N - 1])
+            for c, f in zip(configs, flights, strict=True)
+        )
+        if feasible and not flights_separated(flights, min_separation, slots):
             repaired = guarded_flights(configs, flights, points[1], min_separation)
             if repaired is not None and not np.array_equal(repaired, flights):
                 consider(f"{source}-guarded", repaired, assignment)
@@ -286,7 +229,7 @@ def solve(
         if not feasible:
             rejected.append(source)
             return -math.inf
-        value = fleet_maxmin(config, flights, access=access).value
+        value = fleet_maxmin(config, flights, access=access, slots=slots).value
         seen[key] = value
         scored.append((value, source, flights, assignment))
         if progress:
@@ -296,10 +239,11 @@ def solve(
     # (i) the bound's dual plans, at every w Kelley tries
     weights_tried: list[np.ndarray] = []
     upper, w_best, lower, records = fleet_bound(
-        configs, resolution=h, margin=margin, max_cuts=max_cuts, tol=tol, on_weights=weights_tried.append
-    )
+        configs, resolution=h, margin=margin, max_cuts=max_cuts, tol=tol, on_weights=weights_tried.append,
+        slots=n_slots,
+    )  # fmt: skip
     for i, w in enumerate(weights_tried):
-        consider(f"dual-dp{i}", _dual_flights(configs, w, resolution, margin))
+        consider(f"dual-dp{i}", _dual_flights(configs, w, resolution, margin, n_slots))
     # (ii) tours over the nodes each UAV covers (a node may be covered by several), from the
     # nearest lanes' partition, one node added to or taken from one UAV at a time
     tours: dict[tuple[int, tuple[int, ...]], tuple[np.ndarray, Any]] = {}
@@ -308,9 +252,9 @@ def solve(
         for u, nodes in enumerate(cover):
             if (u, nodes) not in tours:
                 tours[(u, nodes)] = _tour_flight(configs[u], nodes)
-        return np.array([tours[(u, nodes)][0] for u, nodes in enumerate(cover)])
+        return hold_flights([tours[(u, nodes)][0] for u, nodes in enumerate(cover)], n_slots)
 
-    lanes_of = _nearest_lanes(configs)
+    lanes_of = nearest_lanes(configs)
     current = tuple(tuple(k for k in range(config.K) if lanes_of[k] == u) for u in range(len(configs)))
     value = consider(f"tour{current}", covering(current), current)
     u_n, everyone = len(configs), set(range(config.K))
@@ -353,7 +297,7 @@ def solve(
             return consider(f"polished{next(tries)}", flights, current)
 
         routes = [tours[(u, nodes)][1] for u, nodes in enumerate(current)]
-        _polish(covering(current), routes, configs, tuple(polish_steps), score)
+        polish_routes(covering(current), routes, configs, tuple(polish_steps), score)
     else:
         polished_from = None
     if not scored:
@@ -369,6 +313,7 @@ def solve(
         "rejected": rejected, "resolution": float(resolution), "bound_resolution": float(h),
         "polished_from": polished_from,
         "starts": points[0].tolist(), "finals": points[1].tolist(), "min_separation": float(min_separation),
+        "horizons": [c.T for c in configs],
     }  # fmt: skip
     return FleetPlan(config, best[2], best[0], upper, time.perf_counter() - t0, info)
 
@@ -417,17 +362,28 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument(
         "--no-polish", action="store_true", help="skip the pattern search on the hover points"
     )
+    parser.add_argument(
+        "--horizons", type=float, nargs="+", default=None, metavar="S",
+        help="each UAV's horizon, s (one per UAV, or one for every UAV; default: the scenario's T)",
+    )  # fmt: skip
     args = parser.parse_args(argv)
     steps = () if args.no_polish else (40.0, 20.0, 10.0, 5.0)
     if args.plot is not None and args.plot.exists():
         parser.error(f"--plot {args.plot} exists: give a new path (shipped figures are never overwritten)")
     config = ScenarioConfig(ground_nodes=DEFAULT_NODES)
+    if args.horizons is not None:
+        for u in args.uavs:
+            try:
+                fleet_setup(config, u, horizons=args.horizons)
+            except ValueError as err:
+                parser.error(f"--horizons with --uavs {u}: {err}")
+        print(f"horizons: {' '.join(f'{h:g}' for h in args.horizons)} s (the scenario's T = {config.T:g} s)")
     print("| U | access | plan (bps/Hz) | bound | gap | source | s |\n|---|---|---:|---:|---:|---|---:|")
     for u in args.uavs:
         for access in args.access:
             plan = solve(
                 config, uavs=u, resolution=args.resolution, min_separation=args.separation, access=access,
-                polish_steps=steps,
+                polish_steps=steps, horizons=args.horizons,
             )  # fmt: skip
             print(
                 f"| {u} | {access} | {plan.value:.4f} | {plan.upper_bound:.4f} | {100 * plan.gap:.1f} % "
@@ -437,7 +393,8 @@ def main(argv: list[str] | None = None) -> None:
         from ios_uav_env.plotting import figure_image, plot_fleet, save_png
 
         def draw(ax: Any) -> None:
-            plot_fleet(ax, config, plan.trajectories)
+            slots = [round(h / config.dt) for h in plan.info["horizons"]]
+            plot_fleet(ax, config, [f[:n] for f, n in zip(plan.trajectories, slots, strict=True)])
             title = f"U = {len(plan.trajectories)}, {plan.value:.4f} bps/Hz (bound {plan.upper_bound:.4f})"
             ax.set_title(title, fontsize=9)
 
