@@ -30,6 +30,12 @@ then also let a UAV stay silent (a_u = none), which a shared band can make worth
 pricer enumerates them all, (K + 1)^U per alignment. Interference only lowers rates, so the
 shared band's value is at most the orthogonal bands' (tested), which is the interference-free
 relaxation a bound of the shared band may use.
+
+**Horizons** (``horizons`` of :func:`fleet_setup`, ``slots`` of :func:`fleet_maxmin`): UAV u flies
+only its slots 0 .. N_u - 1; in a slot it no longer flies it is no link and no alignment of the
+enumeration (it serves nothing, takes no surface share, causes no interference), and the rates
+are still averaged over the N slots. The (U, N, 2) arrays hold it at its final point after its
+horizon, masked by N_u: ``model.fleet_horizons``.
 """
 
 from __future__ import annotations

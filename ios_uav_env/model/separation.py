@@ -22,8 +22,10 @@ all along (:func:`flights_separated`), and only if it fails does the common frac
 in contact that keeps pushing together stays put: the UAVs have to go round each other. The guard
 never lengthens a move, so the speed limit holds; it can cost a UAV its arrival at its final
 point (the moves it lost), which the env reports as a terminal miss, as for a single UAV whose
-arrival guard is off. Rounding: each root is taken a relative 1e-9 short, the way-points are
-checked, and a fraction halves until they are separated (t = 0, staying put, always is).
+arrival guard is off. A UAV past its own horizon has left (``model.fleet_horizons``): the guard
+and :func:`flights_separated` consider only the UAVs still flying. Rounding: each root is taken a
+relative 1e-9 short, the way-points are checked, and a fraction halves until they are separated
+(t = 0, staying put, always is).
 """
 
 from __future__ import annotations
