@@ -43,9 +43,8 @@ def guarded_flights(
     reached = out[np.arange(len(configs)), slots - 1]
     if np.max(np.hypot(*(reached - finals).T)) > 1e-6:
         return None
-    for u, last in enumerate(slots):
-        out[u, last - 1 :] = finals[u]
-    return out
+    flown = [np.vstack([out[u, : last - 1], finals[u]]) for u, last in enumerate(slots)]
+    return hold_flights(flown, n)
 
 
 def route_flight(config: ScenarioConfig, points: np.ndarray, slots: np.ndarray) -> np.ndarray | None:
