@@ -45,7 +45,7 @@ from ios_uav_env.model.separation import DEFAULT_SEPARATION
 __all__ = ["FLEET_RANGES", "FLEET_SIZE", "check_fleet_record", "fleet_content", "fleet_tasks", "solve_fleet"]
 
 #: The several-UAV suite's spawn key (its entropy is ``draws.ENTROPY`` unless given) and size.
-FLEET_SPAWN_KEY = (23,)
+FLEET_SPAWN_KEY = (31,)
 FLEET_SIZE = 40
 #: The family: the multi-node family's ranges with horizons of 60 to 100 s.
 FLEET_RANGES = dataclasses.replace(MULTINODE_RANGES, T=(60.0, 100.0))

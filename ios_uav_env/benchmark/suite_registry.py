@@ -67,6 +67,13 @@ row's own shares on the true paths (:data:`MULTI_MOBILE_REFERENCES`: ``optimum``
 from ``dp_moving.solve(paths=...)``, i.e. ``dp_bound.solve_multinode``'s plan and certified
 bound; the MPC rows; ``straight``, ``StraightEqualShares`` in the env), scored as % of the
 optimum and of the bound, with the best schedule.
+
+A several-UAV suite (``"kind": "multi-uav"``, ``multi-uav-v1``; frozen by ``python -m
+baselines.references multi-uav``) runs in ``ios_uav_env.parallel_env`` (:data:`FLEET_ENV_ID`):
+each scenario holds its fleet (``uavs``, ``starts``, ``finals``, ``speeds``, ``access``,
+``min_separation``) and the team's max-min rates (``fleet_maxmin``) of :data:`FLEET_REFERENCES`:
+``planner`` (``baselines.fleet.solve``, the normaliser), ``bound`` (its certified upper bound),
+``tour``, ``dual`` and ``straight`` (:mod:`ios_uav_env.benchmark.fleet_suite`).
 """
 
 from __future__ import annotations
