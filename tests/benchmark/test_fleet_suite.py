@@ -39,6 +39,16 @@ def suite(frozen):
     return load_suite(frozen)
 
 
+def test_the_draws_are_a_stream_of_their_own():
+    from baselines.references.draws import ENERGY_SPAWN_KEY, SPAWN_KEY
+    from baselines.references.fleet import FLEET_SPAWN_KEY
+    from baselines.references.mobile import MOBILE_SPAWN_KEY
+    from baselines.references.online import MULTI_MOBILE_SPAWN_KEY
+
+    keys = [SPAWN_KEY, ENERGY_SPAWN_KEY, MOBILE_SPAWN_KEY, MULTI_MOBILE_SPAWN_KEY, FLEET_SPAWN_KEY]
+    assert len(set(keys)) == len(keys)
+
+
 def test_the_draws_cover_both_access_modes_and_the_stated_ranges():
     tasks = fleet_tasks(40, 7)
     assert [t["fleet"]["access"] for t in tasks[:4]] == ["orthogonal", "shared"] * 2
