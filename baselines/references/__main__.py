@@ -19,6 +19,7 @@ from baselines.references.content import (
     write_plans,
 )
 from baselines.references.draws import ENERGY_RANGES, ENERGY_SIZE, ENTROPY, energy_configs, multinode_configs
+from baselines.references.fleet import FLEET_SIZE
 from baselines.references.mobile import (
     MOBILE_RANGES,
     MOBILE_SIZE,
@@ -52,6 +53,11 @@ ONLINE_QUICK_DIR = {False: MOBILE_QUICK_DIR, True: Path("out/multi-node-mobile-q
 ONLINE_QUICK = {"n": 2, "dp_resolution": 2.5, "resolution": 12.5}
 ONLINE_QUICK_RANGES = {"T": (20.0, 22.0), "start_x": (-100.0, -100.0), "end_x": (100.0, 100.0),
                        "ios_rows": (4, 4), "ios_columns": 10}  # fmt: skip
+#: ``multi-uav``: its cache; ``--quick``: 2 scenarios of :data:`ONLINE_QUICK_RANGES`, the planner's
+#: grids 12.5 m and no polishing, named multi-uav-quick-v1, cached and written under out/multi-uav-quick.
+FLEET_CACHE = Path("out/multi-uav-v1")
+FLEET_QUICK = {"n": 2, "resolution": 12.5, "bound_resolution": 12.5, "polish": False}
+FLEET_QUICK_DIR = Path("out/multi-uav-quick")
 
 
 def _drawn_parser(
@@ -105,7 +111,15 @@ def _parser() -> argparse.ArgumentParser:
         ONLINE_CACHE[True],
         "a tiny check suite: 2 short scenarios, coarse grids, in out/multi-node-mobile-quick",
     )
-    for sub in (single, multi, energy, mobile, multi_mobile):
+    fleets = _drawn_parser(
+        kinds,
+        "multi-uav",
+        "plan the several-UAV held-out scenarios (planner, bound, rows) and freeze them",
+        FLEET_SIZE,
+        FLEET_CACHE,
+        "a tiny check suite: 2 short scenarios, coarse grids, in out/multi-uav-quick",
+    )
+    for sub in (single, multi, energy, mobile, multi_mobile, fleets):
         sub.add_argument("--name", default=None, help="suite name (default <kind>-v<version>)")
         sub.add_argument(
             "--version", type=int, default=1, help="mobile: 2 is the suite normalised by the optimum"
@@ -116,7 +130,7 @@ def _parser() -> argparse.ArgumentParser:
 
 def main(argv: Sequence[str] | None = None) -> int:
     args = _parser().parse_args(argv)
-    quick = args.kind in ("energy", "mobile", "multi-node-mobile") and args.quick
+    quick = args.kind in ("energy", "mobile", "multi-node-mobile", "multi-uav") and args.quick
     name = args.name or (f"{args.kind}-quick-v{args.version}" if quick else f"{args.kind}-v{args.version}")
     quick_dir = MOBILE_QUICK_DIR if args.kind == "mobile" else QUICK_DIR
     directory = args.dir or (quick_dir if quick else SUITE_DIR)
@@ -128,6 +142,8 @@ def main(argv: Sequence[str] | None = None) -> int:
         raise SystemExit(str(err)) from None
     if args.kind == "energy":
         return _energy(args, name, directory)
+    if args.kind == "multi-uav":
+        return _fleet(args, name, args.dir or (FLEET_QUICK_DIR if quick else SUITE_DIR))
     if args.kind == "multi-node-mobile" or (args.kind == "mobile" and args.version >= 2):
         multi = args.kind == "multi-node-mobile"
         return _online(args, name, args.dir or (ONLINE_QUICK_DIR[multi] if quick else SUITE_DIR), multi)
@@ -262,6 +278,38 @@ def _online(args: argparse.Namespace, name: str, directory: Path, multi: bool) -
         records, name, args.version, seed=args.seed, ranges=ranges, multi=multi, settings=settings
     )
     return _finish(args, records, online.check_online_record, passed, build, directory)
+
+
+def _fleet(args: argparse.Namespace, name: str, directory: Path) -> int:
+    """``multi-uav``: draw, plan (cached, resumable), check and freeze the several-UAV suite
+    (:mod:`baselines.references.fleet`); a scenario that fails a check stops the freeze, named."""
+    import dataclasses
+    import functools
+
+    from baselines.references import fleet
+    from baselines.runner import run_tasks
+
+    n = _size(args, FLEET_SIZE, FLEET_QUICK["n"])
+    ranges = (
+        dataclasses.replace(fleet.FLEET_RANGES, **ONLINE_QUICK_RANGES) if args.quick else fleet.FLEET_RANGES
+    )
+    settings = (
+        {k: FLEET_QUICK[k] for k in ("resolution", "bound_resolution", "polish")}
+        if args.quick
+        else {"resolution": fleet.RESOLUTION, "bound_resolution": fleet.BOUND_RESOLUTION, "polish": True}
+    )
+    cache = args.cache or (FLEET_QUICK_DIR / "cache" if args.quick else FLEET_CACHE)
+    records = run_tasks(
+        functools.partial(fleet.solve_fleet, **settings), fleet.fleet_tasks(n, args.seed, ranges), cache,
+        key=functools.partial(fleet.fleet_key, **settings), jobs=args.jobs, order=fleet.longest_first,
+        progress=not args.quick, desc=name, unit="scenario", describe=fleet.describe,
+        required=("config", "fleet", *fleet.FLEET_REFERENCES),
+    )  # fmt: skip
+    passed = "checks: every planner plan feasible, no row above the planner, every row <= bound"
+    build = lambda: fleet.fleet_content(  # noqa: E731
+        records, name, args.version, seed=args.seed, ranges=ranges, settings=settings
+    )
+    return _finish(args, records, fleet.check_fleet_record, passed, build, directory)
 
 
 if __name__ == "__main__":

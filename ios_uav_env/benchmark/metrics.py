@@ -18,7 +18,10 @@ By suite kind:
   clairvoyant optimum (``pct_optimum``, the DP on the true path) and of the bound;
 - ``multi-node-mobile``: the max-min rate with the plan's own shares on the nodes' true paths as
   % of the clairvoyant optimum (the normaliser) and of the bound, and the best schedule's % of
-  the optimum.
+  the optimum;
+- ``multi-uav``: the team's max-min rate of U flights (``fleet_maxmin``, the best time sharing of
+  every slot) as % of the centralised planner's (the normaliser, ``baselines.fleet``) and of its
+  certified bound; a plan is feasible when every flight is and the UAVs stay separated.
 """
 
 from __future__ import annotations
@@ -32,13 +35,15 @@ from ios_uav_env.benchmark.suite_registry import (
     MOBILE,
     MULTI_NODE,
     MULTI_NODE_MOBILE,
+    MULTI_UAV,
     SCORED,
     SINGLE_NODE,
     TIMED,
 )
 
 #: How a reference is named in summaries and tables.
-LABELS = {"dp": "DP", "sca": "SCA", "bound": "bound", "mpc_k1": "MPC(k=1)", "optimum": "optimum"}
+LABELS = {"dp": "DP", "sca": "SCA", "bound": "bound", "mpc_k1": "MPC(k=1)", "optimum": "optimum",
+          "planner": "planner"}  # fmt: skip
 
 
 @dataclass(frozen=True)
@@ -74,6 +79,7 @@ METRICS = {
     ENERGY: Metrics(SCORED[ENERGY], False, energy=True),
     MOBILE: Metrics(SCORED[MOBILE], False, timed=TIMED[MOBILE]),
     MULTI_NODE_MOBILE: Metrics(SCORED[MULTI_NODE_MOBILE], True, timed=TIMED[MULTI_NODE_MOBILE]),
+    MULTI_UAV: Metrics(SCORED[MULTI_UAV], False, timed=TIMED[MULTI_UAV]),
 }
 
 

@@ -48,30 +48,44 @@ TASK: dict[str, str] = {
     "channel": "the channel the rates are drawn from",
     "arrival_guard": "the projection of every move onto the moves that still reach qF",
     "share_sharpness": "the shares an action can give (the softmax of its scores)",
+    "surface_sharpness": "the surface's time shares the UAVs' bids can give (the softmax of the bids)",
 }
 #: What a reset draws: the suite pins every scenario instead. Refused (dropped from a policy's own).
 DRAW: frozenset[str] = frozenset({"config", "ranges", "focus", "focus_prob"})
 #: What the suite's scoring fixes: the episode-end schedule it reports (``best_schedule``; a
 #: training run may skip it). Refused (dropped from a policy's own), as the draws are.
 SCORING: frozenset[str] = frozenset({"best_schedule"})
-PINNED: frozenset[str] = DRAW | SCORING | SCENARIO_FIELDS
+#: A several-UAV suite's fleet (``fleet_suite.FLEET_FIELDS``): each scenario fixes it.
+FLEET: frozenset[str] = frozenset({"uavs", "starts", "finals", "speeds", "access", "min_separation"})
+PINNED: frozenset[str] = DRAW | SCORING | FLEET | SCENARIO_FIELDS
 #: Presentation arguments a policy's own ``env_kwargs`` fix: the observations it was trained on.
 OBSERVATION: frozenset[str] = PRESENTATION - {"render_mode"}
 
 
-def _env_class(env_id: str) -> type:
+def _env_classes(env_id: str) -> tuple[type, ...]:
+    """The env class of ``env_id``; for a several-UAV suite's parallel env, it and the class of
+    its UAVs' rows (``MultiNodeEnv``), whose arguments it passes on."""
+    from ios_uav_env.benchmark.suite_registry import FLEET_ENV_ID
+
+    if env_id == FLEET_ENV_ID:
+        from ios_uav_env.envs.fleet import FleetParallelEnv
+        from ios_uav_env.envs.multi import MultiNodeEnv
+
+        return FleetParallelEnv, MultiNodeEnv
     import gymnasium as gym
 
     import ios_uav_env  # noqa: F401  (registers the ids)
 
     module, _, attr = str(gym.spec(env_id).entry_point).partition(":")
-    return getattr(importlib.import_module(module), attr)  # type: ignore[no-any-return]
+    return (getattr(importlib.import_module(module), attr),)
 
 
-def _own_inits(cls: type) -> list[Any]:
-    """The ``__init__`` of ``cls`` and of its bases in this package, subclass first."""
-    own = [c for c in cls.__mro__ if c.__module__.startswith("ios_uav_env.") and "__init__" in vars(c)]
-    return [c.__init__ for c in own]
+def _own_inits(env_id: str) -> list[Any]:
+    """The ``__init__`` of the env classes of ``env_id`` and of their bases in this package,
+    subclass first (the first class's first)."""
+    own = [c for cls in _env_classes(env_id) for c in cls.__mro__
+           if c.__module__.startswith("ios_uav_env.") and "__init__" in vars(c)]  # fmt: skip
+    return [c.__init__ for c in dict.fromkeys(own)]
 
 
 @functools.cache
@@ -82,7 +96,7 @@ def env_arguments(env_id: str) -> frozenset[str]:
 
     named = {
         p.name
-        for init in _own_inits(_env_class(env_id))
+        for init in _own_inits(env_id)
         for p in inspect.signature(init).parameters.values()
         if p.name != "self" and p.kind not in (p.VAR_KEYWORD, p.VAR_POSITIONAL)
     }
@@ -96,11 +110,12 @@ def _id_defaults(env_id: str) -> dict[str, Any]:
     from ios_uav_env.envs.options import EnvOptions
 
     defaults: dict[str, Any] = {f.name: f.default for f in dataclasses.fields(EnvOptions)}
-    for init in reversed(_own_inits(_env_class(env_id))):  # a subclass's default wins
+    for init in reversed(_own_inits(env_id)):  # a subclass's (and the fleet's) default wins
         for p in inspect.signature(init).parameters.values():
             if p.default is not p.empty:
                 defaults[p.name] = p.default
-    return {**defaults, **dict(gym.spec(env_id).kwargs or {})}
+    spec = gym.registry.get(env_id)
+    return {**defaults, **dict((spec.kwargs if spec is not None else None) or {})}
 
 
 def env_defaults(suite: Any) -> dict[str, Any]:
@@ -161,7 +176,9 @@ def check_overrides(
     pinned = sorted(k for k in kwargs if k in PINNED)
     if pinned:
         fields = [k for k in pinned if k in SCENARIO_FIELDS]
+        fleet = [k for k in pinned if k in FLEET]
         what = (f"the scenario fields {fields} come from each scenario" if fields
+                else f"the fleet's {fleet} come from each scenario" if fleet
                 else "no reset draws a scenario")  # fmt: skip
         raise ValueError(
             f"env_kwargs {pinned} would be ignored on suite {suite.name}: every scenario's ScenarioConfig is "

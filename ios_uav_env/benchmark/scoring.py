@@ -29,6 +29,11 @@ first calls (with ``at_once``: the warm batch's wall time divided by the number 
 >>> results.aggregate.feasible, round(results.aggregate.mean_pct_dp, 2)
 (3, 99.77)
 
+A several-UAV suite (``suite="multi-uav-v1"``) rolls each scenario's fleet out in
+``ios_uav_env.parallel_env``, the policy acting for every agent (or, with ``team = True``, for
+the team), and scores the flights with ``fleet_maxmin``
+(:mod:`ios_uav_env.benchmark.fleet_suite`).
+
 On a multi-node suite (``suite="multi-node-v1"``) the env is ``MultiNodeEnv``
 (``ios_uav_env/IOSUAV-MultiNode-Random-v0``), one env pinned per scenario (a batched policy sees
 a batch of one): the action is the move and one score per node, and each plan is scored by the
@@ -176,6 +181,16 @@ def check_env_kwargs(
 def _check_env_takes(suite: Suite, env_kwargs: Mapping[str, Any], policy: Any) -> None:
     """:func:`check_env_kwargs` after its ``check_overrides`` (for a caller that ran it already)."""
     kwargs = {**suite.env_kwargs, **dict(env_kwargs)}
+    if suite.fleets:  # a fleet on the first scenario (an agent's observations depend on its U)
+        from ios_uav_env.benchmark.fleet_suite import make_fleet_env
+
+        try:
+            make_fleet_env(suite[0].config, suite[0].fleet, kwargs).close()
+        except (TypeError, ValueError) as err:
+            raise ValueError(
+                f"{suite.env_id} does not take the env_kwargs {dict(env_kwargs)}: {err}"
+            ) from None
+        return
     try:
         env, _ = _make_env(suite.env_id, kwargs, False)
     except (TypeError, ValueError) as err:
@@ -225,6 +240,13 @@ def evaluate(
     results then name the changed task (``Results.task``) wherever they are printed or saved.
     """
     suite = suite_of(suite)
+    if suite.fleets:  # several UAVs: episodes of PettingZoo's parallel env (benchmark.fleet_suite)
+        from ios_uav_env.benchmark.fleet_suite import evaluate_fleet
+
+        if batched or at_once:
+            raise ValueError(f"batched and at_once are for single-UAV suites; {suite.name} flies fleets")
+        return evaluate_fleet(policy, suite, env_kwargs=env_kwargs, n=n, seed=seed, name=name,
+                              allow_task_change=allow_task_change)  # fmt: skip
     own = policy_env_kwargs(suite, policy, env_kwargs)
     check_overrides(suite, own, allow_task_change=allow_task_change)  # once: the calls below skip it
     if getattr(policy, "observation_space", None) is not None:

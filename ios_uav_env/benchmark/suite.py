@@ -24,6 +24,8 @@ from ios_uav_env.benchmark.suite_registry import (  # noqa: F401 (the registry, 
     DEFAULT_SUITE,
     ENERGY,
     ENERGY_REFERENCES,
+    FLEET_ENV_ID,
+    FLEET_REFERENCES,
     FORMAT,
     KIND_REFERENCES,
     MOBILE,
@@ -34,6 +36,7 @@ from ios_uav_env.benchmark.suite_registry import (  # noqa: F401 (the registry, 
     MULTI_NODE,
     MULTI_NODE_MOBILE,
     MULTI_REFERENCES,
+    MULTI_UAV,
     NAME_PATTERN,
     NORMALISERS,
     REFERENCES,
@@ -63,6 +66,7 @@ class SuiteScenario:
     reference: Mapping[str, Mapping[str, Any]]
     kind: str = SINGLE_NODE  # the suite's kind: what value() reads (VALUE_KEY)
     seed: int | None = None  # a mobile suite's episode seed: the node's path and the reports' noise
+    fleet: Mapping[str, Any] | None = None  # a several-UAV suite's fleet (benchmark.fleet_suite)
 
     def paths(self) -> Any:
         """(N, 1, 2) m: the node's true path of a mobile scenario (drawn from ``seed`` as the env
@@ -137,6 +141,11 @@ class Suite:
     def mobile(self) -> bool:
         """The nodes move: each scenario's episode seed fixes their paths and the reports' noise."""
         return self.kind in MOBILE_KINDS
+
+    @property
+    def fleets(self) -> bool:
+        """Several UAVs: each scenario flies its fleet in ``ios_uav_env.parallel_env``."""
+        return self.kind == MULTI_UAV
 
     @property
     def schedules(self) -> bool:
@@ -264,6 +273,7 @@ def _check_header(path: Path, data: Mapping[str, Any]) -> tuple[str, tuple[str, 
         ENERGY: ENERGY_IDS,
         MOBILE: MOBILE_IDS,
         MULTI_NODE_MOBILE: MULTINODE_MOBILE_IDS,
+        MULTI_UAV: {FLEET_ENV_ID: {}},
     }
     env_ids = list(ids[kind]) if kind in ids else [*ENV_IDS, RANDOM_ENV_ID]
     if data.get("env_id") not in env_ids:
@@ -321,8 +331,15 @@ def _scenario(
             f"{path}: scenario {index}: an energy suite's config has the objective 'energy_efficiency', "
             f"got {config.objective!r}"
         )
-    if kind == MULTI_NODE_MOBILE and config.K < 2:
+    if kind in (MULTI_NODE_MOBILE, MULTI_UAV) and config.K < 2:
         raise ValueError(f"{path}: scenario {index}: a {kind} suite's config has K >= 2 nodes, got K = 1")
+    fleet = None
+    if kind == MULTI_UAV:
+        from ios_uav_env.benchmark.fleet_suite import check_fleet
+
+        fleet = check_fleet(config, rec.get("fleet"), f"{path}: scenario {index}")
+    elif "fleet" in rec:
+        raise ValueError(f"{path}: scenario {index}: only a several-UAV suite's scenarios have a fleet")
     seed = rec.get("seed")
     if kind in MOBILE_KINDS:
         if config.motion is None:
@@ -354,7 +371,7 @@ def _scenario(
                     f"{path}: scenario {index}: {r}.{field} must be true or false, got {values[field]!r}"
                 )
         reference[r] = dict(values)
-    if kind in (ENERGY, *MOBILE_KINDS) and "bound" in reference:
+    if kind in (ENERGY, MULTI_UAV, *MOBILE_KINDS) and "bound" in reference:
         bound = float(reference["bound"]["upper_bound"])
         above = [f"{r} {reference[r][VALUE_KEY[kind]]!r}" for r in references if r != "bound"
                  and float(reference[r][VALUE_KEY[kind]]) > bound * (1.0 + BOUND_REL)]  # fmt: skip
@@ -364,7 +381,7 @@ def _scenario(
                 f"{path}: scenario {index}: the certified bound.upper_bound {bound!r} {UNIT[kind]} is below "
                 f"{', '.join(above)}: no plan's {what} may exceed it"
             )
-    return SuiteScenario(index, config, reference, kind, seed if kind in MOBILE_KINDS else None)
+    return SuiteScenario(index, config, reference, kind, seed if kind in MOBILE_KINDS else None, fleet)
 
 
 def _number(value: Any, where: str, above: float | None) -> None:

@@ -67,6 +67,13 @@ row's own shares on the true paths (:data:`MULTI_MOBILE_REFERENCES`: ``optimum``
 from ``dp_moving.solve(paths=...)``, i.e. ``dp_bound.solve_multinode``'s plan and certified
 bound; the MPC rows; ``straight``, ``StraightEqualShares`` in the env), scored as % of the
 optimum and of the bound, with the best schedule.
+
+A several-UAV suite (``"kind": "multi-uav"``, ``multi-uav-v1``; frozen by ``python -m
+baselines.references multi-uav``) runs in ``ios_uav_env.parallel_env`` (:data:`FLEET_ENV_ID`):
+each scenario holds its fleet (``uavs``, ``starts``, ``finals``, ``speeds``, ``access``,
+``min_separation``) and the team's max-min rates (``fleet_maxmin``) of :data:`FLEET_REFERENCES`:
+``planner`` (``baselines.fleet.solve``, the normaliser), ``bound`` (its certified upper bound),
+``tour``, ``dual`` and ``straight`` (:mod:`ios_uav_env.benchmark.fleet_suite`).
 """
 
 from __future__ import annotations
@@ -97,8 +104,15 @@ MOBILE_V2_REFERENCES = ("optimum", "bound", "mpc_dp_k1", "mpc_dp_k10", "track_ex
 #: Those of a multi-node mobile suite (no tracking heuristic: HoverAt needs one node).
 MULTI_MOBILE_REFERENCES = ("optimum", "bound", "mpc_dp_k1", "mpc_dp_k10", "mpc_k1", "mpc_k10", "plan_once",
                            "clairvoyant", "straight")  # fmt: skip
+#: Those of a several-UAV suite: the centralised planner's plan (the normaliser), the certified
+#: bound, and the planner's best tour cover before its polishing, its best dual DP flights and
+#: the straight flights along the UAVs' lanes.
+FLEET_REFERENCES = ("planner", "bound", "tour", "dual", "straight")
 SINGLE_NODE, MULTI_NODE, ENERGY, MOBILE = "single-node", "multi-node", "energy", "mobile"
-MULTI_NODE_MOBILE = "multi-node-mobile"
+MULTI_NODE_MOBILE, MULTI_UAV = "multi-node-mobile", "multi-uav"
+#: The env a several-UAV suite runs in: PettingZoo's parallel env of the package (not a
+#: Gymnasium id), ``ios_uav_env.parallel_env``.
+FLEET_ENV_ID = "ios_uav_env.parallel_env"
 #: The kinds whose scenarios hold an episode seed (moving nodes, scored on their true paths).
 MOBILE_KINDS = (MOBILE, MULTI_NODE_MOBILE)
 #: By suite kind: the references it may hold, and those its scores are percentages of (the
@@ -109,6 +123,7 @@ KIND_REFERENCES = {
     ENERGY: ENERGY_REFERENCES,
     MOBILE: tuple(dict.fromkeys((*MOBILE_REFERENCES, *MOBILE_V2_REFERENCES))),
     MULTI_NODE_MOBILE: MULTI_MOBILE_REFERENCES,
+    MULTI_UAV: FLEET_REFERENCES,
 }
 SCORED = {
     SINGLE_NODE: ("dp", "sca"),
@@ -116,22 +131,25 @@ SCORED = {
     ENERGY: ("dp", "bound"),
     MOBILE: ("bound", "mpc_k1"),
     MULTI_NODE_MOBILE: ("optimum", "bound"),
+    MULTI_UAV: ("planner", "bound"),
 }
 #: By suite kind and normaliser (the file's ``normalizer``): the references scored, the normaliser
 #: first. A kind's default is :data:`SCORED`'s; a mobile suite may be normalised by the optimum.
 NORMALISERS: dict[str, dict[str, tuple[str, ...]]] = {kind: {refs[0]: refs} for kind, refs in SCORED.items()}
 NORMALISERS[MOBILE]["optimum"] = ("optimum", "bound")
 #: By suite kind: the reference whose planning time a policy's is compared with.
-TIMED = {SINGLE_NODE: "sca", MULTI_NODE: "sca", ENERGY: "sca", MOBILE: "mpc_k1", MULTI_NODE_MOBILE: "mpc_k1"}
+TIMED = {SINGLE_NODE: "sca", MULTI_NODE: "sca", ENERGY: "sca", MOBILE: "mpc_k1", MULTI_NODE_MOBILE: "mpc_k1",
+         MULTI_UAV: "planner"}  # fmt: skip
 #: By suite kind: the key of a plan reference's value (a bound's is ``"upper_bound"``) and its unit.
 VALUE_KEY = {SINGLE_NODE: "rate", MULTI_NODE: "rate", ENERGY: "energy_efficiency", MOBILE: "rate",
-             MULTI_NODE_MOBILE: "rate"}  # fmt: skip
+             MULTI_NODE_MOBILE: "rate", MULTI_UAV: "rate"}  # fmt: skip
 UNIT = {
     SINGLE_NODE: "bps/Hz",
     MULTI_NODE: "bps/Hz",
     ENERGY: "bits/J",
     MOBILE: "bps/Hz",
     MULTI_NODE_MOBILE: "bps/Hz",
+    MULTI_UAV: "bps/Hz",
 }
 
 

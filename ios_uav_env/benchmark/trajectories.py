@@ -92,8 +92,11 @@ def _read_npz(path: Path) -> Plans:
     seconds: dict[int, float] = {}
     shares: dict[int, np.ndarray] = {}
     for index, (key, array) in arrays["scenario"].items():
-        if array.ndim != 2 or array.shape[1] != 2:
-            raise ValueError(f"{path}: scenario {index}: {key} must have shape (N, 2), got {array.shape}")
+        if array.ndim not in (2, 3) or array.shape[-1] != 2:  # (U, N, 2): a fleet's flights
+            raise ValueError(
+                f"{path}: scenario {index}: {key} must have shape (N, 2) (a fleet's: (U, N, 2)), "
+                f"got {array.shape}"
+            )
         trajectories[index] = _numbers(array, path, key)
     for index, (key, array) in arrays["seconds"].items():
         if array.size != 1:

@@ -38,6 +38,12 @@ def score_trajectories(
     a time to plan that is not a finite number of seconds >= 0 (NaN: unknown).
     """
     suite = suite_of(suite)
+    if suite.fleets:  # U flights (U, N, 2) per scenario, scored by fleet_maxmin
+        from ios_uav_env.benchmark.fleet_suite import score_fleet_flights
+
+        if shares:
+            raise ValueError(f"shares are for multi-node suites; {suite.name} is a {suite.kind} suite")
+        return score_fleet_flights(trajectories, suite, seconds=seconds, name=name)
     indices = sorted(int(i) for i in trajectories)
     if not indices:
         raise ValueError("no trajectories to score")

@@ -43,17 +43,15 @@ from __future__ import annotations
 import itertools
 import math
 import numbers
-from functools import lru_cache
 from typing import Any
 
 import numpy as np
 
-from ios_uav_env.model import channel
 from ios_uav_env.model.config import ScenarioConfig
 from ios_uav_env.model.fleet_horizons import active_slots, check_horizons, check_slots
+from ios_uav_env.model.fleet_links import cached_link_gains, link_gains, link_gains_batch, link_rates
 from ios_uav_env.model.regions import Pricer, RegionSchedule, maxmin_regions
 from ios_uav_env.model.separation import DEFAULT_SEPARATION, check_separated
-from ios_uav_env.model.surface import element_positions, element_to_ground
 
 __all__ = [
     "ACCESS", "LANE_OFFSET", "MAX_SHARED_CHOICES", "choice_rates", "default_lanes", "fleet_maxmin",
@@ -77,17 +75,6 @@ def default_lanes(config: ScenarioConfig, uavs: int) -> tuple[np.ndarray, np.nda
     shift = np.zeros((uavs, 2))
     shift[:, 1] = -LANE_OFFSET * np.arange(uavs)
     return np.asarray(config.q0, dtype=float) + shift, np.asarray(config.qF, dtype=float) + shift
-
-
-@lru_cache(maxsize=32)
-def _node_geometry(config: ScenarioConfig) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    """(elements (M, 3), d_mG (K, M), the departure cosines cubed (K, M), e^{-j 2 pi d_mG / lambda}
-    (K, M)) of ``config``'s surface and nodes (the per-element model's, ``channel``)."""
-    w = element_positions(config)
-    per_node = [element_to_ground(config.node_config(k)) for k in range(config.K)]
-    d_mg = np.array([d for d, _ in per_node])
-    cos3 = np.array([c for _, c in per_node]) ** 3
-    return w, d_mg, cos3, np.exp(-1j * (2 * np.pi / config.wavelength) * d_mg)
 
 
 def _number(value: Any) -> bool:
@@ -164,68 +151,6 @@ def fleet_setup(
     return points[0], points[1], configs
 
 
-def link_rates(config: ScenarioConfig, positions: np.ndarray) -> np.ndarray:
-    """(U, K, U, K) bps/Hz: r[u*, k*, u, k], node k's rate from UAV u at ``positions`` (U, 2) m when
-    the surface's phases line up the link (u*, k*) (eq. (13) for node k* seen from UAV u*), alone
-    in its band: log2(1 + eta g) of :func:`link_gains`."""
-    return np.log2(1.0 + config.eta * link_gains(config, positions))
-
-
-def link_gains(config: ScenarioConfig, positions: np.ndarray) -> np.ndarray:
-    """(U, K, U, K): g[u*, k*, u, k], the expected gain E|h|^2 of the link (u, k) from UAV u at
-    ``positions`` (U, 2) m to node k when the surface's phases line up the link (u*, k*)
-    (:func:`link_gains_batch` of one fleet)."""
-    q = channel.as_positions(positions, "positions")
-    return link_gains_batch(config, q[None])[0]
-
-
-@lru_cache(maxsize=32)
-def _node_constants(config: ScenarioConfig) -> tuple[np.ndarray, ...]:
-    """Per node k (K,) arrays of its rate kernel's constants: x_c, the reflecting side's sign, the
-    transmitting side's factor, whether there is a surface, k_direct, z_U^2, the direct exponent,
-    and its (K, 2) positions (``channel.side_factor``'s and ``direct_amplitude``'s)."""
-    kernels = [channel.rate_kernel(config.node_config(k)) for k in range(config.K)]
-    columns = [[getattr(k, name) for k in kernels] for name in
-               ("x_c", "g_side", "t_factor", "has_surface", "k_direct", "z_u2", "d_exp")]  # fmt: skip
-    return (*(np.array(c, dtype=float) for c in columns), np.array([k.ground for k in kernels], dtype=float))
-
-
-def link_gains_batch(config: ScenarioConfig, positions: np.ndarray) -> np.ndarray:
-    """(B, U, K, U, K): :func:`link_gains` of B fleets at ``positions`` (B, U, 2) m at once.
-
-    The per-element model of ``channel.phased_rates``, factorised: with the element phases
-    E_m^u = e^{-j 2 pi d_Um^u / lambda} and F_m^k = e^{-j 2 pi d_mG^k / lambda}, the surface term of
-    link (u, k) under alignment l = (u*, k*) is e^{-j 2 pi d_UG^l / lambda} sum_m a_m^{uk} E_m^u F_m^k
-    conj(E_m^{u*} F_m^{k*}), so every link under every alignment is one complex matrix product
-    (U K x M by M x U K) per fleet. Its rate log2(1 + eta g) equals ``phased_rates`` with
-    ``phase_shifts`` of the aligned link to 1e-12 relative (tested); the side factors and the
-    direct amplitudes are ``channel.side_factor``'s and ``direct_amplitude``'s expressions."""
-    q = np.asarray(positions, dtype=float)
-    if q.ndim != 3 or q.shape[2] != 2 or not np.all(np.isfinite(q)):
-        raise ValueError(f"positions must be a finite (B, U, 2) array in m, got shape {q.shape}")
-    b_n, u_n, k_n = q.shape[0], q.shape[1], config.K
-    w, d_mg, cos3, f = _node_geometry(config)
-    x_c, g_side, t_factor, has_surface, k_direct, z_u2, d_exp, ground = _node_constants(config)
-    wave = 2 * np.pi / config.wavelength
-    dx = q[..., 0:1] - w[:, 0]  # (B, U, M)
-    d_um = np.sqrt(dx**2 + (q[..., 1:2] - w[:, 1]) ** 2 + (config.uav_altitude - w[:, 2]) ** 2)
-    k_a = np.abs(dx / d_um) ** 3
-    rel = q[..., 0:1] - x_c  # (B, U, K)
-    side = np.where(rel * g_side > 0, 1.0, np.where(rel == 0, 0.0, t_factor)) * (has_surface != 0)
-    amp = config.J * k_a[:, :, None, :] * (side[..., None] * cos3) / (d_um[:, :, None, :] * d_mg)
-    phase = np.exp(-1j * wave * d_um)[:, :, None, :] * f  # (B, U, K, M): E^u F^k
-    flat = phase.reshape(b_n, u_n * k_n, -1)
-    sums = np.matmul((amp * phase).reshape(b_n, u_n * k_n, -1), flat.conj().transpose(0, 2, 1))
-    apart = ((q[:, :, None, :] - ground) ** 2).sum(axis=-1)  # (B, U, K): |q_u - w_k|^2
-    d_ug = np.sqrt(apart + config.uav_altitude**2).reshape(b_n, -1)
-    a_d = (k_direct * (apart + z_u2) ** d_exp).reshape(b_n, -1)
-    los = sums + a_d[:, :, None] * np.exp(-1j * wave * (d_ug[:, :, None] - d_ug[:, None, :]))
-    kappa = config.kappa
-    total = amp.sum(axis=3).reshape(b_n, -1) + a_d  # sum_m a_m + a_D of each link
-    gain = kappa / (1 + kappa) * np.abs(los) ** 2 + (total**2 / (1 + kappa))[:, :, None]  # [b, (u, k), l]
-    return gain.transpose(0, 2, 1).reshape(b_n, u_n, k_n, u_n, k_n)
-
-
 def slot_service(rates: np.ndarray, shares: np.ndarray, surface_shares: np.ndarray) -> np.ndarray:
     """(K,) bps/Hz: each node's rate over one slot in which UAV u serves node k a fraction
     ``shares[u, k]`` of the slot (rows sum to 1) and the surface lines up with UAV u's link a
@@ -297,6 +222,16 @@ def _slot_arrays(table: np.ndarray, active: np.ndarray) -> np.ndarray:
     return table[active][:, :, active]
 
 
+def _slot_groups(active: np.ndarray) -> list[tuple[np.ndarray, np.ndarray]]:
+    """The slots some UAV flies, grouped by which UAVs fly (``active`` (N, U) bool): [(their slot
+    indices, the (U,) mask)], so each group is priced as one array (one group with equal horizons)."""
+    groups: dict[bytes, list[int]] = {}
+    for n, mask in enumerate(active):
+        if mask.any():
+            groups.setdefault(mask.tobytes(), []).append(n)
+    return [(np.array(idx), active[idx[0]]) for idx in groups.values()]
+
+
 def fleet_pricer(
     config: ScenarioConfig, trajectories: np.ndarray, access: str = "orthogonal", slots: Any = None
 ) -> Pricer:
@@ -310,39 +245,39 @@ def fleet_pricer(
     t = _trajectories(trajectories)
     n_slots = t.shape[1]
     active = active_slots(check_slots(slots, t.shape[0], n_slots), n_slots).T  # (N, U)
-    gains = link_gains_batch(config, t.transpose(1, 0, 2))  # (N, U, K, U, K)
+    gains = cached_link_gains(config, t.transpose(1, 0, 2))  # (N, U, K, U, K)
+    groups = _slot_groups(active)
     if access == "shared":
         tables = [
-            choice_rates(_slot_arrays(g, a), config.eta, "shared") if a.any() else np.zeros((1, config.K))
-            for g, a in zip(gains, active, strict=True)
-        ]
+            np.array([choice_rates(_slot_arrays(gains[n], mask), config.eta, "shared") for n in idx])
+            for idx, mask in groups
+        ]  # per group, (slots, choices, K)
 
         def price_enumerated(w: np.ndarray) -> tuple[np.ndarray, float]:
             point, total = np.zeros(config.K), 0.0
             for table in tables:
                 values = table @ w
-                best = int(np.argmax(values))
-                point += table[best]
-                total += float(values[best])
+                rows, best = np.arange(len(table)), np.argmax(values, axis=1)
+                point += table[rows, best].sum(axis=0)
+                total += float(values[rows, best].sum())
             return point / n_slots, total / n_slots
 
         return price_enumerated
-    rates = np.log2(1.0 + config.eta * gains)  # (N, U, K, U, K)
-    flying = [_slot_arrays(r, a) for r, a in zip(rates, active, strict=True) if a.any()]
+    rates = np.log2(1.0 + config.eta * gains)  # (N, U*, K*, U, K): under alignment (u*, k*)
+    flying = [np.array([_slot_arrays(rates[n], mask) for n in idx]) for idx, mask in groups]
     k_n = config.K
 
     def price(w: np.ndarray) -> tuple[np.ndarray, float]:
         point, total = np.zeros(k_n), 0.0
-        for r in flying:
-            weighted = w[None, None, None, :] * r  # (u*, k*, u, k)
-            per_uav = weighted.max(axis=3)  # each UAV's best node under each alignment
-            values = per_uav.sum(axis=2).reshape(-1)
-            best = int(np.argmax(values))
-            us, ks = divmod(best, k_n)
-            for u in range(r.shape[0]):
-                k = int(np.argmax(weighted[us, ks, u]))
-                point[k] += r[us, ks, u, k]
-            total += float(values[best])
+        for r in flying:  # the slots of one set of flying UAVs, (slots, U*, K*, U, K) of those
+            rows, uavs = np.arange(r.shape[0]), np.arange(r.shape[3])
+            weighted = r * w
+            values = weighted.max(axis=4).sum(axis=3).reshape(len(r), -1)  # each UAV its best node
+            best = np.argmax(values, axis=1)
+            us, ks = np.divmod(best, k_n)
+            nodes = np.argmax(weighted[rows, us, ks], axis=2)  # (slots, U)
+            np.add.at(point, nodes.ravel(), r[rows, us, ks][rows[:, None], uavs, nodes].ravel())
+            total += float(values[rows, best].sum())
         return point / n_slots, total / n_slots
 
     return price

@@ -92,9 +92,8 @@ def test_an_npz_time_or_shares_without_its_trajectory_is_refused(tmp_path, good)
 def test_an_npz_trajectory_of_width_other_than_two_is_refused(tmp_path, good, width):
     path = tmp_path / "plans.npz"
     np.savez(path, scenario_0=np.zeros((good[0].shape[0], width)))
-    with pytest.raises(
-        ValueError, match=rf"scenario 0: scenario_0 must have shape \(N, 2\), got \(\d+, {width}\)"
-    ):
+    shape = r"must have shape \(N, 2\) \(a fleet.s: \(U, N, 2\)\)"
+    with pytest.raises(ValueError, match=rf"scenario 0: scenario_0 {shape}, got \(\d+, {width}\)"):
         read_trajectories(path)
 
 

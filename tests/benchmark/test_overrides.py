@@ -47,7 +47,8 @@ def no_scenario_runs(monkeypatch):
 def _other(name: str, default):
     """A value of the task argument ``name`` other than ``default``."""
     return {"knowledge": "exact" if default != "exact" else "reports", "report_sigma": 3.0,
-            "channel": "rician", "arrival_guard": not default, "share_sharpness": 9.0}[name]  # fmt: skip
+            "channel": "rician", "arrival_guard": not default, "share_sharpness": 9.0,
+            "surface_sharpness": 9.0}[name]  # fmt: skip
 
 
 def test_the_classes_are_disjoint_and_cover_every_argument_of_every_suite_env(suites):
