@@ -53,14 +53,13 @@ from typing import Any
 
 import numpy as np
 
-import ios_uav_env as ie
 from baselines.dp_bound import kelley_step, weighted_dp_path
 from baselines.dp_relaxed import RelaxedDP, check_relaxed_grid
 from baselines.fleet_candidates import guarded_flights, nearest_lanes, polish_routes
 from baselines.grid import DEFAULT_MARGIN, validate_grid_args
 from ios_uav_env import ScenarioConfig
 from ios_uav_env.model.fleet import ACCESS, fleet_maxmin, fleet_setup
-from ios_uav_env.model.fleet_horizons import hold_flights, horizon_slots
+from ios_uav_env.model.fleet_horizons import flights_feasibility, hold_flights, horizon_slots
 from ios_uav_env.model.separation import DEFAULT_SEPARATION, flights_separated
 
 __all__ = ["MARL_SCENARIO", "FleetPlan", "fleet_bound", "guarded_flights", "learner_report", "solve"]
@@ -172,6 +171,7 @@ def solve(
     speeds: Any = None,
     horizons: Any = None,
     polish_steps: tuple[float, ...] = (40.0, 20.0, 10.0, 5.0),
+    polish_budget: int | None = None,
     progress: bool = False,
 ) -> FleetPlan:
     """The best separated fleet found and the certified bound (module docstring).
@@ -183,8 +183,9 @@ def solve(
     (m); ``bound_resolution``: the relaxed DP's cells (default ``resolution``); ``max_cuts``,
     ``tol``: Kelley's iterations and relative gap; ``local_moves``: most covers tried after the
     first; ``polish_steps``: the steps (m) of the pattern search on the best cover's hover points
-    (empty: none); ``access``: orthogonal bands or one shared band (the plans are scored with its
-    interference; the bound, interference-free, holds for both). The fleet's arguments are
+    (empty: none), ``polish_budget`` the most flights it scores (None: until no step helps);
+    ``access``: orthogonal bands or one shared band (the plans are scored with its interference;
+    the bound, interference-free, holds for both). The fleet's arguments are
     checked by ``model.fleet.fleet_setup``. ``info``: ``source`` (which candidate won), ``cover``
     (the nodes each UAV tours, for a tour candidate), ``weights`` (the bound's w),
     ``kelley_lower``, ``cuts``, ``candidates`` (scored, separated), ``rejected`` (candidates that
@@ -192,6 +193,12 @@ def solve(
     t0 = time.perf_counter()
     if not isinstance(config, ScenarioConfig):
         raise TypeError(f"config must be a ScenarioConfig, got {type(config).__name__}")
+    if polish_budget is not None and (
+        isinstance(polish_budget, bool) or not isinstance(polish_budget, int) or polish_budget < 0
+    ):
+        raise ValueError(
+            f"polish_budget must be None or an integer >= 0 (flights scored), got {polish_budget!r}"
+        )
     if config.objective != "rate" or config.motion is not None or config.energy_budget_j is not None:
         raise ValueError(
             "the fleet planner maximises the max-min rate of static nodes: objective='rate', motion=None, "
@@ -217,10 +224,7 @@ def solve(
         if key in seen:
             return seen[key]
         seen[key] = -math.inf
-        feasible = all(  # each UAV over its own slots (held at its final point after)
-            ie.check_trajectory(c, f[: c.N]).feasible and np.all(f[c.N :] == f[c.N - 1])
-            for c, f in zip(configs, flights, strict=True)
-        )
+        feasible = flights_feasibility(configs, flights)[0]  # each UAV over its own slots
         if feasible and not flights_separated(flights, min_separation, slots):
             repaired = guarded_flights(configs, flights, points[1], min_separation)
             if repaired is not None and not np.array_equal(repaired, flights):
@@ -297,7 +301,7 @@ def solve(
             return consider(f"polished{next(tries)}", flights, current)
 
         routes = [tours[(u, nodes)][1] for u, nodes in enumerate(current)]
-        polish_routes(covering(current), routes, configs, tuple(polish_steps), score)
+        polish_routes(covering(current), routes, configs, tuple(polish_steps), score, polish_budget)
     else:
         polished_from = None
     if not scored:

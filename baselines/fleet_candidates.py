@@ -9,6 +9,7 @@ slots; a fleet's flights are one (U, N, 2) array, a UAV held at its final point 
 
 from __future__ import annotations
 
+import math
 from typing import Any
 
 import numpy as np
@@ -70,15 +71,18 @@ def polish_routes(
     configs: list[ScenarioConfig],
     steps: tuple[float, ...],
     score: Any,
+    budget: int | None = None,
 ) -> tuple[float, np.ndarray]:
     """Pattern search on the tours' hover points: move one point of one UAV by a step along one
     of :data:`DIRECTIONS`, keep the move if the fleet's value (``score(flights)``, -inf when not
-    feasible and separated) rises, halve the step when none does. Returns (value, flights)."""
+    feasible and separated) rises, halve the step when none does; at most ``budget`` moved
+    flights scored (None: until no step helps). Returns (value, flights)."""
     best = score(flights)
     routes = list(routes)
+    left = math.inf if budget is None else int(budget)
     for step in steps:
         improved = True
-        while improved:
+        while improved and left > 0:
             improved = False
             for u, route in enumerate(routes):
                 if route is None:
@@ -91,6 +95,9 @@ def polish_routes(
                         flight = route_flight(configs[u], moved, slots)
                         if flight is None:
                             continue
+                        if left <= 0:
+                            return best, flights
+                        left -= 1
                         trial = flights.copy()
                         trial[u] = hold_flights([flight], flights.shape[1])[0]
                         value = score(trial)

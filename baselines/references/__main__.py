@@ -56,7 +56,7 @@ ONLINE_QUICK_RANGES = {"T": (20.0, 22.0), "start_x": (-100.0, -100.0), "end_x": 
 #: ``multi-uav``: its cache; ``--quick``: 2 scenarios of :data:`ONLINE_QUICK_RANGES`, the planner's
 #: grids 12.5 m and no polishing, named multi-uav-quick-v1, cached and written under out/multi-uav-quick.
 FLEET_CACHE = Path("out/multi-uav-v1")
-FLEET_QUICK = {"n": 2, "resolution": 12.5, "bound_resolution": 12.5, "polish": False}
+FLEET_QUICK = {"n": 2, "resolution": 12.5, "bound_resolution": 12.5, "polish_budget": 0}
 FLEET_QUICK_DIR = Path("out/multi-uav-quick")
 
 
@@ -294,9 +294,13 @@ def _fleet(args: argparse.Namespace, name: str, directory: Path) -> int:
         dataclasses.replace(fleet.FLEET_RANGES, **ONLINE_QUICK_RANGES) if args.quick else fleet.FLEET_RANGES
     )
     settings = (
-        {k: FLEET_QUICK[k] for k in ("resolution", "bound_resolution", "polish")}
+        {k: FLEET_QUICK[k] for k in ("resolution", "bound_resolution", "polish_budget")}
         if args.quick
-        else {"resolution": fleet.RESOLUTION, "bound_resolution": fleet.BOUND_RESOLUTION, "polish": True}
+        else {
+            "resolution": fleet.RESOLUTION,
+            "bound_resolution": fleet.BOUND_RESOLUTION,
+            "polish_budget": fleet.POLISH_BUDGET,
+        }  # fmt: skip
     )
     cache = args.cache or (FLEET_QUICK_DIR / "cache" if args.quick else FLEET_CACHE)
     records = run_tasks(

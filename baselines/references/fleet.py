@@ -7,7 +7,9 @@ nodes=FLEET_NODES)`` (3 to 6 static nodes; the random id's ranges, IOS and RIS, 
 :data:`FLEET_RANGES`), then U uniform in :data:`FLEET_UAVS`; the access alternates with the index
 (even: orthogonal bands, odd: one shared band), so both are equally represented. The UAVs fly the
 default lanes (``model.fleet.default_lanes``: the scenario's q0 -> qF moved 80 m in -y per UAV) at
-the scenario's v_max, at least ``DEFAULT_SEPARATION`` apart.
+the scenario's v_max, at least ``DEFAULT_SEPARATION`` apart. UAV 0 flies the scenario's T; each
+other UAV has a horizon of its own, uniform over the whole slots in [:data:`HORIZON_SHARE` T, T]
+(``model.fleet_horizons``: after it the UAV is gone).
 
 **References** (:func:`solve_fleet`; every rate is ``fleet_suite.score_flights``, i.e.
 ``fleet_maxmin``, the one scorer of a fleet):
@@ -29,6 +31,7 @@ from __future__ import annotations
 import dataclasses
 import hashlib
 import json
+import math
 import time
 from collections.abc import Mapping, Sequence
 from typing import Any
@@ -36,9 +39,10 @@ from typing import Any
 import numpy as np
 
 from ios_uav_env import ScenarioConfig, ScenarioRanges, sample_multinode
-from ios_uav_env.benchmark.fleet_suite import FLEET_FIELDS, score_flights
+from ios_uav_env.benchmark.fleet_suite import FLEET_FIELDS, fleet_configs, score_flights
 from ios_uav_env.benchmark.suite_registry import BOUND_REL, FLEET_ENV_ID, FLEET_REFERENCES, FORMAT, MULTI_UAV
 from ios_uav_env.model.fleet import ACCESS, default_lanes
+from ios_uav_env.model.fleet_horizons import hold_flights, horizon_slots
 from ios_uav_env.model.scenarios import MULTINODE_RANGES
 from ios_uav_env.model.separation import DEFAULT_SEPARATION
 
@@ -50,10 +54,15 @@ FLEET_SIZE = 40
 #: The family: the multi-node family's ranges with horizons of 60 to 100 s.
 FLEET_RANGES = dataclasses.replace(MULTINODE_RANGES, T=(60.0, 100.0))
 FLEET_NODES = (3, 6)
+#: The shortest horizon of a UAV after the first, as a share of the scenario's T (the first flies T).
+HORIZON_SHARE = 0.75
 FLEET_UAVS = (2, 3)
 #: The planner's grids (m): the plain DP's and the relaxed DP's (the bound's) cells.
 RESOLUTION = 5.0
 BOUND_RESOLUTION = 5.0
+#: The most flights the planner's pattern search scores per scenario (it otherwise chases gains of
+#: 1e-6 for tens of minutes on a three-UAV shared band).
+POLISH_BUDGET = 200
 #: The rows that are plans (every reference but the bound).
 PLANS = tuple(r for r in FLEET_REFERENCES if r != "bound")
 
@@ -68,33 +77,42 @@ def fleet_tasks(n: int, seed: int, ranges: ScenarioRanges = FLEET_RANGES) -> lis
         config = sample_multinode(rng, ranges, nodes=FLEET_NODES)
         uavs = int(rng.integers(FLEET_UAVS[0], FLEET_UAVS[1], endpoint=True))
         starts, finals = default_lanes(config, uavs)
+        n_slots = round(config.T / config.dt)
+        low = math.ceil(HORIZON_SHARE * n_slots)
+        horizons = [config.T] + [
+            float(rng.integers(low, n_slots, endpoint=True)) * config.dt for _ in range(uavs - 1)
+        ]
         fleet = {"uavs": uavs, "starts": starts.tolist(), "finals": finals.tolist(), "speeds": None,
-                 "access": ACCESS[i % 2], "min_separation": DEFAULT_SEPARATION}  # fmt: skip
+                 "access": ACCESS[i % 2], "min_separation": DEFAULT_SEPARATION,
+                 "horizons": horizons}  # fmt: skip
         tasks.append({"index": i, "config": config.to_dict(), "fleet": fleet})
     return tasks
 
 
 def straight_flights(config: ScenarioConfig, fleet: Mapping[str, Any]) -> np.ndarray:
-    """(U, N, 2) m: every UAV from its start to its final point at constant speed."""
+    """(U, N, 2) m: every UAV from its start to its final point at constant speed over its own
+    horizon, held there after it (``model.fleet_horizons.hold_flights``)."""
     s, f = np.asarray(fleet["starts"], dtype=float), np.asarray(fleet["finals"], dtype=float)
-    t = np.linspace(0.0, 1.0, config.N)[None, :, None]
-    return s[:, None, :] + t * (f - s)[:, None, :]
+    slots = horizon_slots(fleet_configs(config, fleet))
+    flights = [a + np.linspace(0.0, 1.0, n)[:, None] * (b - a) for a, b, n in zip(s, f, slots, strict=True)]
+    return hold_flights(flights, config.N)
 
 
 def solve_fleet(
     task: Mapping[str, Any],
     resolution: float = RESOLUTION,
     bound_resolution: float = BOUND_RESOLUTION,
-    polish: bool = True,
+    polish_budget: int = POLISH_BUDGET,
 ) -> dict[str, Any]:
-    """The reference record of a several-UAV task (module docstring, "References"); ``polish``:
-    the planner's pattern search (off: quick check suites)."""
+    """The reference record of a several-UAV task (module docstring, "References");
+    ``polish_budget``: the most flights the planner's pattern search scores (0: no search, for
+    quick check suites)."""
     from baselines.fleet import solve
 
     config, fleet = ScenarioConfig(**task["config"]), dict(task["fleet"])
     record: dict[str, Any] = {"index": int(task["index"]), "config": config.to_dict(), "fleet": fleet}
     t0 = time.perf_counter()
-    steps = {} if polish else {"polish_steps": ()}
+    steps = {"polish_budget": polish_budget} if polish_budget else {"polish_steps": ()}
     plan = solve(config, **fleet, resolution=resolution, bound_resolution=bound_resolution, **steps)
     seconds = time.perf_counter() - t0
     rate, feasible, _ = score_flights(config, fleet, plan.trajectories)
@@ -123,12 +141,12 @@ def fleet_key(
     task: Mapping[str, Any],
     resolution: float = RESOLUTION,
     bound_resolution: float = BOUND_RESOLUTION,
-    polish: bool = True,
+    polish_budget: int = POLISH_BUDGET,
 ) -> str:
     """A task's cache file stem: ``fleet_``, its index and a hash of its config, fleet and the
     planner's settings."""
-    blob = json.dumps([task["config"], task["fleet"], resolution, bound_resolution, bool(polish), "fleet:v1"],
-                      sort_keys=True)  # fmt: skip
+    settings = [resolution, bound_resolution, int(polish_budget), "fleet:v1"]
+    blob = json.dumps([task["config"], task["fleet"], *settings], sort_keys=True)
     return f"fleet_{int(task['index']):03d}_{hashlib.sha1(blob.encode()).hexdigest()[:16]}"
 
 
@@ -198,12 +216,14 @@ def fleet_content(
                 "nodes) (the random id's ranges, IOS and RIS, horizons of 60 to 100 s), then U, drawn in",
                 f"turn from default_rng(SeedSequence(entropy={int(seed)}, spawn_key={FLEET_SPAWN_KEY}));",
                 "the access alternates (even index: orthogonal bands, odd: one shared band); the UAVs fly",
-                f"the default lanes (80 m apart in y) at v_max, at least {DEFAULT_SEPARATION:g} m apart.",
+                f"the default lanes (80 m apart in y) at v_max, at least {DEFAULT_SEPARATION:g} m apart;",
+                f"UAV 0 flies T, each other UAV a horizon of whole slots in [{HORIZON_SHARE:g} T, T].",
                 "Values are the team's max-min rates (bps/Hz, ios_uav_env.model.fleet.fleet_maxmin of the",
                 "U flights, the best time sharing of every slot), with feasibility (every flight eq. (10),",
                 f"separated all along). planner: baselines.fleet.solve with {settings['resolution']:g} m",
-                "grids (the normaliser; seconds: its wall time, bound included, one process on a busy",
-                "2-core machine); bound: its certified upper bound (the relaxed DP's cells of",
+                f"grids and a pattern search of at most {settings['polish_budget']} flights (the",
+                "normaliser; seconds: its wall time, bound included, one process on a busy 2-core",
+                "machine); bound: its certified upper bound (the relaxed DP's cells of",
                 f"{settings['bound_resolution']:g} m); tour: its best tour cover before the polishing;",
                 "dual: its best dual DP flights; straight: every UAV straight along its lane at constant",
                 "speed.",

@@ -3,7 +3,7 @@ scorer of its flights, and a policy's episodes in ``ios_uav_env.parallel_env``.
 
 A scenario holds its ``ScenarioConfig`` (K static nodes, the rate objective) and its ``fleet``:
 ``parallel_env``'s arguments :data:`FLEET_FIELDS` (``uavs``, ``starts``, ``finals``, ``speeds``,
-``access``, ``min_separation``), checked at load by ``ios_uav_env.model.fleet.fleet_setup``, the
+``access``, ``min_separation``, ``horizons``), checked at load by ``ios_uav_env.model.fleet.fleet_setup``, the
 check the env and the planner share. A plan is U flights (U, N, 2) m:
 
 - **Rate**: the team's max-min rate with the best time sharing in every slot,
@@ -38,13 +38,13 @@ import numpy as np
 
 from ios_uav_env.model.config import ScenarioConfig
 from ios_uav_env.model.fleet import fleet_maxmin, fleet_setup
+from ios_uav_env.model.fleet_horizons import flights_feasibility, horizon_slots
 from ios_uav_env.model.separation import flights_separated
-from ios_uav_env.model.trajectory import check_trajectory
 
 __all__ = ["FLEET_FIELDS", "check_fleet", "fleet_configs", "fleet_episode", "score_flights"]
 
 #: A several-UAV scenario's fleet: ``parallel_env``'s arguments that the scenario fixes.
-FLEET_FIELDS = ("uavs", "starts", "finals", "speeds", "access", "min_separation")
+FLEET_FIELDS = ("uavs", "starts", "finals", "speeds", "access", "min_separation", "horizons")
 #: Most steps of one episode before it is declared stuck.
 MAX_STEPS = 100_000
 
@@ -83,6 +83,7 @@ def fleet_configs(config: ScenarioConfig, fleet: Mapping[str, Any]) -> list[Scen
         fleet["min_separation"],
         fleet["access"],
         fleet["speeds"],
+        fleet["horizons"],
     )[2]
 
 
@@ -90,7 +91,8 @@ def score_flights(
     config: ScenarioConfig, fleet: Mapping[str, Any], flights: Any
 ) -> tuple[float, bool, float]:
     """(the team's max-min rate in bps/Hz, feasible, the worst breach of eq. (10) in m) of U
-    flights (U, N, 2) m on a scenario and its fleet (module docstring): ``ValueError`` for
+    flights (U, N, 2) m on a scenario and its fleet (module docstring; a UAV whose horizon ends
+    before T is held at its final point after it: ``model.fleet_horizons``): ``ValueError`` for
     another shape or a value that is not finite."""
     configs = fleet_configs(config, fleet)
     q = np.asarray(flights, dtype=np.float64)
@@ -101,10 +103,10 @@ def score_flights(
         )
     if not np.isfinite(q).all():
         raise ValueError("the flights have NaN or infinite values")
-    reports = [check_trajectory(c, f) for c, f in zip(configs, q, strict=True)]
-    feasible = all(r.feasible for r in reports) and flights_separated(q, float(fleet["min_separation"]))
-    worst = max(float(r.worst_violation) for r in reports)
-    rate = float(fleet_maxmin(config, q, access=fleet["access"]).value)
+    slots = horizon_slots(configs)
+    own, worst = flights_feasibility(configs, q)
+    feasible = own and flights_separated(q, float(fleet["min_separation"]), slots)
+    rate = float(fleet_maxmin(config, q, access=fleet["access"], slots=slots).value)
     return rate, bool(feasible), worst
 
 
@@ -125,7 +127,8 @@ def fleet_episode(env: Any, act: Callable, seed: int | None, team: bool) -> tupl
     for _ in range(MAX_STEPS):
         if not env.agents:
             break
-        actions = act(obs) if team else {agent: act(obs[agent]) for agent in env.agents}
+        live = {agent: obs[agent] for agent in env.agents}  # (an agent past its horizon is gone)
+        actions = act(live) if team else {agent: act(o) for agent, o in live.items()}
         obs, *_ = env.step(actions)
     else:
         raise RuntimeError(f"the episode did not end in {MAX_STEPS} steps")

@@ -56,7 +56,9 @@ DRAW: frozenset[str] = frozenset({"config", "ranges", "focus", "focus_prob"})
 #: training run may skip it). Refused (dropped from a policy's own), as the draws are.
 SCORING: frozenset[str] = frozenset({"best_schedule"})
 #: A several-UAV suite's fleet (``fleet_suite.FLEET_FIELDS``): each scenario fixes it.
-FLEET: frozenset[str] = frozenset({"uavs", "starts", "finals", "speeds", "access", "min_separation"})
+FLEET: frozenset[str] = frozenset(
+    {"uavs", "starts", "finals", "speeds", "access", "min_separation", "horizons"}
+)
 PINNED: frozenset[str] = DRAW | SCORING | FLEET | SCENARIO_FIELDS
 #: Presentation arguments a policy's own ``env_kwargs`` fix: the observations it was trained on.
 OBSERVATION: frozenset[str] = PRESENTATION - {"render_mode"}

@@ -31,7 +31,9 @@ import numpy as np
 
 from ios_uav_env.model.config import ScenarioConfig
 
-__all__ = ["active_slots", "check_horizons", "check_slots", "hold_flights", "horizon_slots"]
+__all__ = [
+    "active_slots", "check_horizons", "check_slots", "flights_feasibility", "hold_flights", "horizon_slots",
+]  # fmt: skip
 
 
 def check_horizons(config: ScenarioConfig, uavs: int, horizons: Any) -> np.ndarray:
@@ -99,3 +101,17 @@ def hold_flights(flights: Sequence[np.ndarray], n: int) -> np.ndarray:
         out[u, : len(f)] = f
         out[u, len(f) :] = f[-1]
     return out
+
+
+def flights_feasibility(configs: Sequence[ScenarioConfig], flights: np.ndarray) -> tuple[bool, float]:
+    """(whether every UAV's flight meets eq. (10) over its own slots, each on its own scenario
+    ``configs[u]``, and is held at its final point after them; the worst breach of eq. (10) in m).
+    Separation is the other half of a fleet's feasibility (``separation.flights_separated``)."""
+    from ios_uav_env.model.trajectory import check_trajectory
+
+    feasible, worst = True, 0.0
+    for c, f in zip(configs, np.asarray(flights, dtype=float), strict=True):
+        report = check_trajectory(c, f[: c.N])
+        worst = max(worst, float(report.worst_violation))
+        feasible = feasible and report.feasible and bool(np.all(f[c.N :] == f[c.N - 1]))
+    return feasible, worst

@@ -67,6 +67,8 @@ def test_one_uav_meets_the_single_uav_planners():
         ({"finals": [[200.0, 20.0], [200.0, 25.0]]}, "finals: UAVs 0 and 1 are 5 m apart"),
         ({"min_separation": float("nan")}, "min_separation must be a finite number >= 0"),
         ({"finals": [[200.0, 20.0], [2000.0, 25.0]]}, r"starts\[1\] / finals\[1\]"),
+        ({"polish_budget": -1}, "polish_budget must be None or an integer >= 0"),
+        ({"polish_budget": 2.5}, "polish_budget must be None or an integer >= 0"),
     ],
 )
 def test_bad_input_is_refused_by_name(kwargs, message):
@@ -163,3 +165,13 @@ def test_polishing_the_hover_points_raises_the_value(two):
     assert two.info["polished_from"] == plain.value  # (the same cover search before it)
     assert two.value > plain.value and two.info["source"].startswith("polished")
     assert flights_separated(two.trajectories, 10.0)
+
+
+def test_the_polish_scores_at_most_its_budget_of_flights(two):
+    """A budget of b moved flights: b + 1 polished candidates at most (the cover's own first)."""
+    polished = [s for s in two.info["candidates"] if s.startswith("polished")]
+    assert len(polished) > 4  # unbounded, it scores more than the budget below
+    capped = fleet.solve(CONFIG, uavs=2, resolution=10.0, polish_budget=3)
+    scored = [s for s in capped.info["candidates"] if s.startswith("polished")]
+    assert 1 <= len(scored) <= 4 and capped.value <= two.value
+    assert capped.info["polished_from"] == two.info["polished_from"]

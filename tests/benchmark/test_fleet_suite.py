@@ -9,8 +9,6 @@ import json
 import numpy as np
 import pytest
 
-import ios_uav_env as ie
-
 pytest.importorskip("pettingzoo")
 
 from baselines.references.__main__ import main as references_main  # noqa: E402
@@ -21,6 +19,7 @@ from ios_uav_env.benchmark.fleet_policies import NearestWorstNode  # noqa: E402
 from ios_uav_env.benchmark.fleet_suite import fleet_configs, score_flights  # noqa: E402
 from ios_uav_env.benchmark.results import reference_results  # noqa: E402
 from ios_uav_env.model.fleet import fleet_maxmin  # noqa: E402
+from ios_uav_env.model.fleet_horizons import flights_feasibility, hold_flights, horizon_slots  # noqa: E402
 from ios_uav_env.model.separation import flights_separated  # noqa: E402
 from tests.benchmark.quick_suites import tampered  # noqa: E402
 
@@ -55,6 +54,10 @@ def test_the_draws_cover_both_access_modes_and_the_stated_ranges():
     assert {t["fleet"]["uavs"] for t in tasks} == {2, 3}
     assert {len(t["config"]["ground_nodes"]) for t in tasks} == {3, 4, 5, 6}
     assert all(60.0 <= t["config"]["T"] <= 100.0 for t in tasks)
+    for t in tasks:  # UAV 0 flies T, the others a horizon of their own in [0.75 T, T]
+        h, big_t = t["fleet"]["horizons"], t["config"]["T"]
+        assert h[0] == big_t and all(0.75 * big_t <= x <= big_t for x in h) and len(h) == t["fleet"]["uavs"]
+    assert any(x < t["config"]["T"] for t in tasks for x in t["fleet"]["horizons"])
     assert fleet_tasks(3, 7) == tasks[:3]  # a prefix: the draws are in turn
     with pytest.raises(ValueError, match="n must be an integer >= 1"):
         fleet_tasks(0, 7)
@@ -78,7 +81,10 @@ def test_the_stored_rows_are_the_one_scorers_values(suite):
         assert feasible and worst < 1e-9
         # same machine, same arithmetic: the scorer gives the stored value to the last bits
         assert rate == pytest.approx(s.value("straight"), rel=1e-12)
-        assert rate == fleet_maxmin(s.config, flights, access=s.fleet["access"]).value
+        slots = horizon_slots(fleet_configs(s.config, s.fleet))
+        assert rate == fleet_maxmin(s.config, flights, access=s.fleet["access"], slots=slots).value
+        if slots.min() < s.config.N:  # a UAV gone before T serves nothing after its horizon
+            assert rate < fleet_maxmin(s.config, flights, access=s.fleet["access"]).value
 
 
 def test_a_shared_policy_and_the_same_policy_as_a_team_fly_the_same_flights(suite):
@@ -107,15 +113,18 @@ def test_flights_that_meet_score_zero_and_a_wrong_shape_names_the_scenario(suite
     flights = straight_flights(s.config, s.fleet)
     results = score_trajectories({0: flights}, suite, name="straight")
     assert results.scenarios[0].rate == pytest.approx(s.value("straight"), rel=1e-12)
-    # UAV 1 leaves its lane for UAV 0's (within its speed limit) and flies on top of it a while
-    n_points, lane = flights.shape[1], flights[0, 0, 1] - flights[1, 0, 1]
-    ramp = np.clip(np.minimum(np.arange(n_points), n_points - 1 - np.arange(n_points)) / 5.0, 0.0, 1.0)
-    met = flights.copy()
-    met[1, :, 1] += lane * ramp
-    assert all(
-        ie.check_trajectory(c, f).feasible for c, f in zip(fleet_configs(s.config, s.fleet), met, strict=True)
-    )
-    assert not flights_separated(met, s.fleet["min_separation"])
+    # both UAVs fly to the point between their lanes, meet there at slot m, then go on to their
+    # final points in time (each within its speed limit): feasible flights that are not separated
+    configs = fleet_configs(s.config, s.fleet)
+    slots = horizon_slots(configs)
+    m, meet = int(slots.min()) // 2, flights[:, 0].mean(axis=0) + [100.0, 0.0]
+    legs = [
+        np.array([np.interp(np.arange(n), [0, m, n - 1], [f[0, j], meet[j], f[n - 1, j]]) for j in (0, 1)]).T
+        for f, n in zip(flights, slots, strict=True)
+    ]
+    met = hold_flights(legs, s.config.N)
+    assert flights_feasibility(configs, met)[0]
+    assert not flights_separated(met, s.fleet["min_separation"], slots)
     row = score_trajectories({0: met}, suite).scenarios[0]
     assert not row.feasible and row.pct["planner"] == 0.0 and row.rate > 0
     with pytest.raises(ValueError, match=r"scenario 0: the flights must have shape \(U, N, 2\)"):
