@@ -19,6 +19,7 @@ from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # agents/ and baselines/ run from a checkout
 from agents.fast.fleet_run import FleetSettings, train_fleet  # noqa: E402
+from agents.training.interrupt import TrainingInterrupted  # noqa: E402
 from baselines.fleet import learner_report  # noqa: E402
 
 
@@ -41,7 +42,11 @@ def main(argv: list[str] | None = None) -> dict:
         hyperparams_file=args.hyperparams, env_threads=args.env_threads, threads=args.threads,
         eval_freq=args.eval_freq, progress_bar=not args.no_progress,
     )  # fmt: skip
-    result = train_fleet(settings)
+    try:
+        result = train_fleet(settings)
+    except TrainingInterrupted as exc:  # its checkpoint is saved; a fleet run is not resumed
+        print(f"stopped at step {exc.steps_at_signal}: saved checkpoint {exc.checkpoint}", file=sys.stderr)
+        raise SystemExit(exc.exit_status) from None
     summary, final = result.summary, result.summary["final_eval"]
     env = settings.hyperparams()[2].parallel_env()
     config, uavs = env.config, len(env.possible_agents)

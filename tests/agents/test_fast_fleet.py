@@ -148,3 +148,25 @@ def test_what_the_fleets_do_not_take_is_refused(tiny, tmp_path):
         FleetSettings(hyperparams_file=str(tiny), n_envs=1).hyperparams()  # 236 > 1 x 2 x 59
     with pytest.raises(ValueError, match="eval_freq must be an integer >= 0"):
         FleetSettings(eval_freq=-1).validate()
+
+
+def test_the_fast_trainer_imports_without_pettingzoo_and_the_fleets_name_the_extra():
+    import subprocess
+    import sys
+    import textwrap
+
+    code = textwrap.dedent(
+        """
+        import sys
+        sys.modules["pettingzoo"] = None
+        from agents.fast import FastPPO
+        from agents.fast.fleet import FleetSpec
+        try:
+            FleetSpec({"uavs": 2}).vector_env(1)
+        except ImportError as exc:
+            print(exc)
+        """
+    )
+    proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
+    assert proc.returncode == 0, proc.stderr
+    assert "ios-uav-env[marl]" in proc.stdout
