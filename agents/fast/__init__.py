@@ -4,6 +4,8 @@ See ``docs/fast-training.md``. :class:`~agents.fast.ppo.FastPPO` is the algorith
 GAE, update), :class:`~agents.fast.recipe.FastRecipe` its settings read from a zoo-format
 entry, and :mod:`agents.fast.run` the training run (the run folder, checkpoints, resume,
 interrupts) that ``agents.training.train`` calls for ``TrainSettings(trainer="fast")``.
+:mod:`agents.fast.fleet` runs it as IPPO with shared parameters on B fleets of U UAVs
+(``FastPPO(FleetSpec(...), ...)``) and :mod:`agents.fast.fleet_run` writes such a run's folder.
 """
 
 from agents.fast.gae import gae

@@ -30,22 +30,22 @@ per-op cost; the rollout's forward passes then run compiled too. The two agree t
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import time
 from collections.abc import Mapping
 from typing import Any
 
-import gymnasium as gym
 import numpy as np
 import torch
 
 import ios_uav_env  # noqa: F401  (registers the ids)
+from agents.fast.fleet import FleetSpec
 from agents.fast.gae import gae
 from agents.fast.kernel import STATS
 from agents.fast.kernel_policy import KernelUpdate
-from agents.fast.network import new_model, new_statistics, template_venv
+from agents.fast.network import new_model, new_statistics
 from agents.fast.recipe import FastRecipe
-from agents.scores import score_label
 from agents.tricks import ExploringStarts, FrameStack, RewardShift, scheduled_prob
 from ios_uav_env.jit import HAVE_NUMBA, prefer_passive_threads
 
@@ -59,7 +59,9 @@ STAT_KEYS = STATS
 
 
 class FastPPO:
-    """PPO of ``recipe`` on ``n_envs`` rows of ``env_id`` (its batched form), for ``total`` env steps.
+    """PPO of ``recipe`` on ``n_envs`` rows of ``env_id`` (its batched form), for ``total`` env steps;
+    ``env_id`` an ``agents.fast.fleet.FleetSpec``: IPPO with shared parameters on ``n_envs`` fleets,
+    every agent a row (:mod:`agents.fast.fleet`; ``total`` and the steps count agent steps).
 
     ``model``: an SB3 PPO to go on training (its policy and Adam state, e.g. a checkpoint's),
     default a new one seeded ``seed``; ``vecnormalize``: its statistics (a ``VecNormalize``),
@@ -72,7 +74,7 @@ class FastPPO:
 
     def __init__(
         self,
-        env_id: str,
+        env_id: str | FleetSpec,
         recipe: FastRecipe,
         total: int,
         *,
@@ -85,32 +87,17 @@ class FastPPO:
         update: str = "auto",
         init_from: str | None = None,
     ) -> None:
-        from agents.vec_env import BatchedVecEnv
+        from agents.fast.envs import run_env
 
-        spec = gym.registry.get(env_id)
-        if spec is None or not env_id.startswith("ios_uav_env/") or spec.vector_entry_point is None:
-            batched = sorted(
-                i for i, s in gym.registry.items() if i.startswith("ios_uav_env/") and s.vector_entry_point
-            )
-            raise ValueError(
-                f"env_id must be an id of this package with a batched form ({', '.join(batched)}), "
-                f"got {env_id!r}"
-            )
+        run = run_env(env_id, recipe.n_envs, env_kwargs or {}, recipe, env_threads)
+        if run.rows != recipe.n_envs:  # fleets: n_envs counts fleets, the rollout counts agent rows
+            recipe = dataclasses.replace(recipe, n_envs=run.rows)
         self.env_id, self.recipe, self.total, self.seed = env_id, recipe, int(total), int(seed)
         self.env_kwargs = dict(env_kwargs or {})
         self.steps, self.updates = int(steps), 0
-        vector_kwargs = dict(self.env_kwargs)
-        if env_threads is not None:
-            vector_kwargs["num_threads"] = env_threads
-        self.base = BatchedVecEnv(env_id, recipe.n_envs, vector_kwargs, stagger=True)
+        self.base, template, self.score = run.base, run.template, run.score  # score: the episodes' scores
         self.vec = self.base.vector_env
-        template = template_venv(env_id, self.env_kwargs, recipe)
-        self.score = score_label(template.envs[0])  # what the finished episodes' scores are
-        if self.score.name not in self.vec.info_keys:
-            raise ValueError(
-                f"env_id {env_id!r}: its batched form does not report the score {self.score.name!r} of "
-                f"its objective {self.score.objective!r} (it reports {', '.join(self.vec.info_keys)})"
-            )
+        self._scored = np.arange(run.rows) % run.episode_rows == 0  # one row per episode (per fleet)
         self.model = model if model is not None else new_model(recipe, template, self.seed)
         self.vecnormalize = vecnormalize
         if vecnormalize is not None and getattr(vecnormalize, "venv", None) is None:
@@ -303,7 +290,7 @@ class FastPPO:
         final = info.get("final_info", {})
         mask = info.get("_final_info", terminated | truncated)
         if self.score.name in final:
-            self.scores.extend(np.asarray(final[self.score.name])[mask].tolist())
+            self.scores.extend(np.asarray(final[self.score.name])[mask & self._scored].tolist())
         cut = truncated & ~terminated
         if cut.any():
             last = np.asarray(info["final_obs"])[cut]

@@ -34,6 +34,7 @@ from __future__ import annotations
 import json
 import pickle
 import sys
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -138,7 +139,6 @@ def train_fast(
     """Train (or continue) the fast run of ``settings`` in ``run_dir`` (its lock held) to ``total``
     steps; ``agents.training.TrainResult``. Raises ``TrainingInterrupted`` after saving a
     checkpoint if ``stop`` is set."""
-    import numpy as np
     import torch
     from stable_baselines3.common.utils import set_random_seed
 
@@ -175,25 +175,33 @@ def train_fast(
         algo.reset()
         algo._rng.bit_generator.state = loaded.state["rng"]
     start.venv = algo
+
+    def evaluate() -> dict[str, Any]:
+        from agents.callbacks import evaluate_agent
+        from agents.loading import Agent
+
+        agent = Agent(algo.model, algo.vecnormalize, settings.env_id, settings.env_kwargs,
+                      memory=algo.recipe.frames)  # fmt: skip
+        return evaluate_agent(agent, algo.steps, start.clock.seconds())
+
     try:
-        return _loop(settings, hp, run_dir, algo, start, total, stop, np)
+        return run_loop(settings, run_dir, algo, start, total, stop, evaluate)
     finally:
         algo.close()
 
 
-def _loop(
-    settings: TrainSettings, hp: Hyperparams, run_dir: Path, algo: FastPPO, start: RunStart, total: int,
-    stop: StopFlag, np: Any,
-) -> Any:  # fmt: skip
+def run_loop(
+    settings: Any, run_dir: Path, algo: FastPPO, start: RunStart, total: int, stop: StopFlag,
+    evaluate: Callable[[], dict[str, Any]],
+) -> TrainResult:  # fmt: skip
+    """Train ``algo`` from its steps to ``total`` in ``run_dir`` (``progress.csv``, checkpoints every
+    ``settings.checkpoint_freq`` steps, ``evaluate()``'s record every ``settings.eval_freq``, a
+    progress bar if ``settings.progress_bar``), then save the model and ``summary.json``."""
+    import numpy as np
     from tqdm.auto import tqdm
 
-    from agents.callbacks import evaluate_agent
-    from agents.loading import Agent
-
-    def evaluate() -> dict[str, Any]:
-        agent = Agent(algo.model, algo.vecnormalize, settings.env_id, settings.env_kwargs,
-                      memory=algo.recipe.frames)  # fmt: skip
-        record = evaluate_agent(agent, algo.steps, start.clock.seconds())
+    def evaluated() -> dict[str, Any]:
+        record = evaluate()
         start.history.append(record)
         return record
 
@@ -219,7 +227,7 @@ def _loop(
             append_line(log, json.dumps({"steps": algo.steps, "wall_time_s": round(start.clock.seconds(), 3),
                                          **stats}))  # fmt: skip
             if settings.eval_freq and algo.steps // settings.eval_freq > before // settings.eval_freq:
-                record = evaluate()
+                record = evaluated()
                 bar.set_postfix_str(algo.score.text(record["score"]))
             if algo.steps // settings.checkpoint_freq > before // settings.checkpoint_freq:
                 _save(run_dir, algo, start)
@@ -229,7 +237,6 @@ def _loop(
     seconds = start.clock.seconds()
     model_path = _save_model(run_dir, algo)
     final = evaluate()
-    start.history.pop()
     summary = {
         "steps": int(algo.steps),
         "wall_time_s": round(seconds, 2),

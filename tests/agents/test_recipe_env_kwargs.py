@@ -43,12 +43,23 @@ def test_the_documented_commands_alone_train_the_documented_recipes():
 
 
 def test_every_shipped_recipes_env_kwargs_make_its_env():
+    import importlib.util
+
+    from agents.fast.fleet import FLEET_KEY, FleetSpec
     from agents.training import check_env_kwargs
 
+    fleets = 0
     for path in sorted(HYPERPARAMS_DIR.glob("*.yml")):
         algo = "sac" if path.stem == "sac" else "ppo"
         for env_id in yaml.safe_load(path.read_text()):
-            check_env_kwargs(env_id, load_hyperparams(algo, env_id, path).env_kwargs)
+            kwargs = load_hyperparams(algo, env_id, path).env_kwargs
+            if env_id == FLEET_KEY:  # the fleets' recipe: the arguments of ios_uav_env.parallel_env
+                fleets += 1
+                if importlib.util.find_spec("pettingzoo") is not None:
+                    FleetSpec(kwargs).parallel_env().reset(seed=0)
+                continue
+            check_env_kwargs(env_id, kwargs)
+    assert fleets == 1  # agents/hyperparams/fast_ippo_fleet.yml
 
 
 def test_a_run_records_the_resolved_env_kwargs_and_resumes_with_them(tmp_path, monkeypatch):
