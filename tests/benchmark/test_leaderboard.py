@@ -47,6 +47,12 @@ MOBILE_SUMMARY = re.compile(
 )
 MOBILE_COLUMNS = {"mean % of bound": "mean", "p10": "p10", "min": "min", "mean % of MPC(k=1)": "mpc",
                   "feasible": "feasible"}  # fmt: skip
+FLEET_SUMMARY = re.compile(
+    r"% of planner mean (?P<mean>-?[\d.]+) \| p10 (?P<p10>-?[\d.]+) \| min (?P<min>-?[\d.]+); "
+    r"% of bound mean (?P<bound>-?[\d.]+) \| p10 -?[\d.]+ \| min -?[\d.]+; feasible (?P<feasible>\d+/\d+)"
+)
+FLEET_COLUMNS = {"mean % of planner": "mean", "p10": "p10", "min": "min", "mean % of bound": "bound",
+                 "feasible": "feasible"}  # fmt: skip
 
 
 def task_changes_of(argv: list[str]) -> dict:
@@ -80,18 +86,21 @@ ROWS = _rows()
 MULTI_ROWS = _rows("multi-node-v1")
 ENERGY_ROWS = _rows("energy-v1")
 MOBILE_ROWS = _rows("mobile-v1")
+FLEET_ROWS = _rows("multi-uav-v1")
 #: Every row to run: (summary pattern, columns, row) of every suite's table.
 ALL_ROWS = (
     [(SUMMARY, COLUMNS, row) for row in ROWS]
     + [(MULTI_SUMMARY, MULTI_COLUMNS, row) for row in MULTI_ROWS]
     + [(ENERGY_SUMMARY, ENERGY_COLUMNS, row) for row in ENERGY_ROWS]
     + [(MOBILE_SUMMARY, MOBILE_COLUMNS, row) for row in MOBILE_ROWS]
+    + [(FLEET_SUMMARY, FLEET_COLUMNS, row) for row in FLEET_ROWS]
 )
 KINDS = {
     id(COLUMNS): "single",
     id(MULTI_COLUMNS): "multi",
     id(ENERGY_COLUMNS): "energy",
     id(MOBILE_COLUMNS): "mobile",
+    id(FLEET_COLUMNS): "fleet",
 }
 
 
@@ -122,6 +131,16 @@ def test_the_energy_and_mobile_tables_are_sorted_and_on_their_suites():
         assert means == sorted(means, reverse=True), f"{suite}: rows must be in order of {column}"
         assert rows and all(f"--suite {suite}" in row["command"] for row in rows)
     assert any("evaluate" in row["command"] for row in MOBILE_ROWS)  # a policy, not only references
+
+
+def test_the_several_uav_table_has_the_references_and_a_policy_and_is_sorted():
+    policies = " ".join(row["policy"] for row in FLEET_ROWS)
+    for name in ("upper bound", "centralised planner", "straight", "least-served"):
+        assert name in policies, name
+    means = [float(row["mean % of planner"]) for row in FLEET_ROWS]
+    assert means == sorted(means, reverse=True), "rows must be in order of mean % of the planner"
+    assert all("--suite multi-uav-v1" in row["command"] for row in FLEET_ROWS)
+    assert any("evaluate" in row["command"] for row in FLEET_ROWS)
 
 
 @pytest.mark.parametrize(
