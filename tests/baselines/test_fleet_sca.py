@@ -166,3 +166,13 @@ def test_zero_iterations_return_the_start(lanes):
         and result.value == result.start_value
         and np.array_equal(result.trajectories, lanes)
     )
+
+
+def test_a_shared_band_is_refined_with_its_interference(lanes):
+    """The same lanes in one shared band: the value is the shared band's (interference from the
+    fixed UAVs a constant per slot in each step), it rises, and stays at most the orthogonal one."""
+    result = fleet_sca.refine(CONFIG, lanes, access="shared", iterations=2)
+    assert result.value == fleet_maxmin(CONFIG, result.trajectories, access="shared").value
+    assert result.value > result.start_value
+    assert result.value <= fleet_maxmin(CONFIG, result.trajectories).value * (1 + 1e-9)
+    assert flights_separated(result.trajectories, fleet.DEFAULT_SEPARATION)
