@@ -160,18 +160,29 @@ def test_the_cli_prints_the_table_and_draws_the_plan_once(tmp_path, capsys):
 def test_polishing_the_hover_points_raises_the_value(two):
     """The best cover's tours, their hover points moved while the value rises: the plan is at
     least the cover's, and here strictly better (no polishing: the cover's own value)."""
-    plain = fleet.solve(CONFIG, uavs=2, resolution=10.0, polish_steps=())
-    assert plain.info["polished_from"] is None
+    plain = fleet.solve(CONFIG, uavs=2, resolution=10.0, polish_steps=(), sca_iterations=0)
+    assert plain.info["polished_from"] is None and plain.info["sca"] is None
     assert two.info["polished_from"] == plain.value  # (the same cover search before it)
-    assert two.value > plain.value and two.info["source"].startswith("polished")
+    assert two.info["sca"]["from"] > plain.value and two.info["source"].startswith("polished")
     assert flights_separated(two.trajectories, 10.0)
+
+
+def test_block_coordinate_sca_refines_the_best_plan(two):
+    """The last step: SCA from the best polished plan, recorded in ``info``; the plan is the better
+    of the two (here the refined one), feasible, separated and under the bound."""
+    sca = two.info["sca"]
+    assert (
+        sca["rounds"] >= 1 and sca["value"] > sca["from"] == two.info["candidates"][two.info["source"][:-4]]
+    )
+    assert two.value == sca["value"] == fleet_maxmin(CONFIG, two.trajectories).value
+    assert two.info["source"].endswith("-sca") and two.value <= two.upper_bound
 
 
 def test_the_polish_scores_at_most_its_budget_of_flights(two):
     """A budget of b moved flights: b + 1 polished candidates at most (the cover's own first)."""
     polished = [s for s in two.info["candidates"] if s.startswith("polished")]
     assert len(polished) > 4  # unbounded, it scores more than the budget below
-    capped = fleet.solve(CONFIG, uavs=2, resolution=10.0, polish_budget=3)
+    capped = fleet.solve(CONFIG, uavs=2, resolution=10.0, polish_budget=3, sca_iterations=0)
     scored = [s for s in capped.info["candidates"] if s.startswith("polished")]
-    assert 1 <= len(scored) <= 4 and capped.value <= two.value
+    assert 1 <= len(scored) <= 4 and capped.value <= two.info["sca"]["from"]
     assert capped.info["polished_from"] == two.info["polished_from"]

@@ -1,0 +1,408 @@
+r"""Several UAVs: block-coordinate SCA of the fleet's flights (the last step of ``baselines.fleet``).
+
+The problem is ``ios_uav_env.model.fleet``'s. :func:`refine` alternates two blocks from separated
+flights (the planner's polished tours):
+
+1. **The schedule**, exact: the pricer's LP of ``fleet_maxmin`` with every column j's choice in
+   every slot kept (``baselines.fleet_schedule``): slot n time-shares the choices
+   (l, a_1 .. a_U) of the columns, lambda_j each, l = (u*, k*) the link the surface lines up
+   with, a_u the node UAV u serves (-1 silent: a shared band's choice).
+2. **One SCA step on q_u** for each UAV u in turn, the others' flights and the schedule fixed:
+
+       max  t + MU sum_k w_k R~_k   s.t.  R~_k >= t for every node k,
+
+   u's speed limit (``STEP_MARGIN`` inward), start and final point, the separation (below) and
+   a trust region (each way-point within ``trust`` m of its iterate, per axis); w the LP's dual
+   weights, R~_k node k's flight rate with the schedule's shares: R_k(q^l) plus, for each slot n
+   and column j in which u serves k, lambda_j / N times the increment of a concave lower bound of
+   u's rate to k. With fixed shares the LP leaves every node at the value, so t cannot rise when
+   u does not serve them all (a node served by the others only is a constant); t is then that
+   constant and the step raises the dual-weighted rates with every node kept at t, which block
+   1's next LP turns into max-min rate (the envelope theorem: the value's first-order change is
+   w . dR).
+
+**u's rate.** With the surface lined up with u's own link (l = (u, k)) the gain is zeta^2,
+zeta = a_D + sum_m a_m (all paths in phase, whatever the Rician factor): the single-UAV model,
+whose log2(1 + eta' zeta^2) is convex in the log-amplitudes, so its tangent in the slacks of
+``sca_problem.Surrogate`` ((16)-(19): s for |x - x_c|^3, u_j for the tiles, v for the direct
+path) is a lower bound, tight at q^l and anchored to the exact model. (17)'s log z (z = 1 at
+q^l) is replaced on the trust region by its interpolation through five points, which lies below
+it (linear rows, no exponential cone). With the surface lined up with another link, the surface
+sum adds to the direct path with a phase that turns with q_u and can cancel it, so the direct link
+alone bounds nothing; the step takes that rate at its exact value at q^l plus the tangent
+increment of the direct link's log2(1 + eta' a_D^2) (the misaligned sum's change is not
+modelled). eta' = eta in orthogonal bands; in a shared band the others are fixed in u's block,
+so the interference I at u's node under column j's choice in slot n is a constant and
+eta' = eta / (1 + eta I).
+
+**Frozen terms and acceptance.** The others' service is a constant in u's block except where
+the surface follows u's link (its phases move with q_u) and, in a shared band, through u's
+interference at their nodes: both are taken at q^l, a local model, not a bound. The exact
+rescoring guards it: a step is accepted only if u's flight is feasible (``check_trajectory``),
+the fleet is separated all along (``flights_separated``) and block 1's value does not decrease;
+a failed or rejected step is tried once more in half the trust region, then u keeps its flight
+for the round. The refinement stops when a round accepts no step or gains less than ``tol``, or
+after ``iterations`` rounds; the flights returned are rescored by ``fleet_maxmin``.
+
+**Separation.** ||q_u(s) - q_v(s)|| >= d on slot n's segment (both at constant speed): with p*
+the point of the iterate's relative segment [r^l[n], r^l[n+1]] nearest 0 and e = p* / |p*|,
+e . r[n] >= d and e . r[n+1] >= d keep e . r(s) >= d all along it (a convex combination), so
+||r(s)|| >= d: the first-order bound of ||r||^2 at p*, an inner approximation, which q^l meets
+(p* is 0's projection on the segment: e . r >= |p*| there). d is raised by
+``SEPARATION_MARGIN`` where q^l allows; half-planes the trust region keeps clear of are left out.
+"""
+
+from __future__ import annotations
+
+import math
+import numbers
+import time
+import warnings
+from dataclasses import dataclass, field
+from typing import Any
+
+import cvxpy as cp
+import numpy as np
+
+import ios_uav_env as ie
+from baselines.fleet_schedule import FleetSchedule, fleet_schedule
+from baselines.sca_problem import LENGTH_SCALE, OK_STATUSES, SLACK_BOUND, STEP_MARGIN, U_BOUND, Surrogate
+from ios_uav_env import ScenarioConfig
+from ios_uav_env.model import channel as ch
+from ios_uav_env.model.fleet import ACCESS, fleet_maxmin, fleet_setup
+from ios_uav_env.model.separation import DEFAULT_SEPARATION, flights_separated
+
+__all__ = ["MU", "NOTHING_TO_GAIN", "RETRIES", "SEPARATION_MARGIN", "TRUST", "Refinement", "refine"]
+
+#: Weight of the dual-weighted rates in a UAV's step (module docstring).
+MU = 0.1
+#: m, the default half-side of a step's trust region (each way-point's box around its iterate).
+TRUST = 50.0
+#: Retries of a UAV's failed or rejected step, each in half the previous trust region.
+RETRIES = 1
+#: A step's status when u serves no node the dual weights value (no retry).
+NOTHING_TO_GAIN = "serves no node the dual weights value"
+#: m, added to the separation in a step where the iterate allows (the solver's tolerance).
+SEPARATION_MARGIN = 1e-3
+
+
+@dataclass
+class Refinement:
+    """:func:`refine`'s answer: the flights (U, N, 2) m, their ``value`` (``fleet_maxmin``) and the
+    start's, the rounds run, why it stopped and every step (``history``)."""
+
+    trajectories: np.ndarray
+    value: float
+    start_value: float
+    rounds: int
+    stop: str
+    seconds: float
+    history: list[dict[str, Any]] = field(default_factory=list)
+
+
+class _Pieces:
+    """Node k's surrogate pieces at one UAV's interior way-points (``Surrogate.linearise``): the
+    direct amplitude a_d (m,), the anchored tile terms (m, tiles) and their sum s_sum."""
+
+    def __init__(self, surrogate: Surrogate, q: np.ndarray):
+        lin = surrogate.linearise(q)
+        self.values, self.a_d = lin.values, ch.direct_amplitude(surrogate.config, q[1:-1])
+        terms = (
+            ch.surface_terms(surrogate.tiled, q[1:-1]) if surrogate.has_surface else np.zeros((len(q) - 2, 0))
+        )
+        self.terms = np.where(lin.active[:, None], terms * lin.anchor[:, None], 0.0)
+        self.s_sum = self.terms.sum(axis=1)
+
+
+def _slope(eta: np.ndarray, amplitude: np.ndarray) -> np.ndarray:
+    """d log2(1 + eta z^2) / d ln z, divided by z: the tangent's coefficient per unit amplitude."""
+    return 2.0 * eta * amplitude / ((1.0 + eta * amplitude**2) * math.log(2.0))
+
+
+def _coefficients(
+    config: ScenarioConfig, sched: FleetSchedule, u: int, pieces: list[_Pieces], access: str
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(cd (m, K), cb (m, K), cc (m, K, tiles)): the tangent coefficients of node k's flight rate
+    in UAV u's slacks v, s, u_j with the schedule's shares (module docstring)."""
+    k_n, n_n = config.K, sched.gains.shape[0]
+    m, inner = n_n - 2, np.arange(1, n_n - 1)
+    aligned, direct = np.zeros((m, k_n)), np.zeros((m, k_n))
+    for j, lam in enumerate(sched.mix):
+        if lam <= 0:
+            continue
+        align, nodes = sched.align[j, inner], sched.nodes[j, inner]
+        node = nodes[:, u]
+        serving = node >= 0
+        eta = np.full(m, config.eta)
+        if access == "shared":  # the other transmitting UAVs at u's node: a constant in u's block
+            g = sched.gains[inner, align // k_n, align % k_n]  # (m, U, K)
+            heard = g[np.arange(m)[:, None], np.arange(g.shape[1]), np.maximum(node, 0)[:, None]]
+            others = (nodes >= 0) & (np.arange(nodes.shape[1]) != u)
+            eta = config.eta / (1.0 + config.eta * (heard * others).sum(axis=1))
+        own = align == u * k_n + node
+        for k in range(k_n):
+            p = pieces[k]
+            zeta = p.a_d + p.s_sum
+            here = serving & (node == k)
+            aligned[:, k] += np.where(here & own, lam * _slope(eta, zeta), 0.0)
+            direct[:, k] += np.where(here & ~own, lam * _slope(eta, p.a_d), 0.0)
+    cd = np.column_stack([(aligned[:, k] + direct[:, k]) * pieces[k].a_d for k in range(k_n)]) / n_n
+    cb = np.column_stack([aligned[:, k] * pieces[k].s_sum for k in range(k_n)]) / n_n
+    cc = np.stack([-aligned[:, k, None] * pieces[k].terms for k in range(k_n)], axis=1) / n_n
+    return cd, cb, cc
+
+
+def _separation_rows(q: np.ndarray, others: np.ndarray, d_min: float) -> list[tuple[int, np.ndarray, float]]:
+    """(slot, e, rhs): e . q_u[slot] >= rhs, the half-planes of the separation's restriction to the
+    others' flights ``others`` (V, N, 2) at UAV u's iterate ``q`` (N, 2) (module docstring)."""
+    rows = []
+    last = len(q) - 1
+    for other in others:
+        rel = q - other
+        for n in range(last):
+            a, b = rel[n], rel[n + 1]
+            w = b - a
+            s = 0.0 if not w @ w else float(np.clip(-(a @ w) / (w @ w), 0.0, 1.0))
+            p = a + s * w
+            dist = float(np.hypot(*p))
+            if dist == 0.0:
+                continue
+            e = p / dist
+            need = min(d_min + SEPARATION_MARGIN, dist)
+            for slot in (n, n + 1):
+                if 0 < slot < last:
+                    rows.append((slot, e, need + float(e @ other[slot])))
+    return rows
+
+
+def _chords(s: cp.Variable, z: Any, span: np.ndarray) -> list[Any]:
+    """s <= log z for z in [1 - span, 1 + span] (z = 1 at q^l; (17)), restricted to s below the
+    interpolation of log through five points of that range (a concave function's chords lie below
+    it): linear rows instead of an exponential cone; z stays >= its lowest point (> 0)."""
+    low = np.maximum(1.0 - span, 1e-2)
+    points = np.stack([low, (low + 1.0) / 2, np.ones_like(low), 1.0 + span / 2, 1.0 + span], axis=1)
+    logs = np.log(points)
+    slope = np.diff(logs, axis=1) / np.diff(points, axis=1)
+    rows = [s <= cp.multiply(slope[:, i], z) + (logs[:, i] - slope[:, i] * points[:, i]) for i in range(4)]
+    return [*rows, z >= low]
+
+
+def _step(
+    config: ScenarioConfig,
+    uav: ScenarioConfig,
+    sched: FleetSchedule,
+    u: int,
+    flights: np.ndarray,
+    surrogates: list[Surrogate],
+    d_min: float,
+    access: str,
+    solver: str,
+    trust: float,
+) -> tuple[np.ndarray | None, float, str]:
+    """One SCA step on UAV u's flight (module docstring): (flight or None, surrogate t, status)."""
+    q = flights[u]
+    n_n, k_n, scale = q.shape[0], config.K, LENGTH_SCALE
+    m = n_n - 2
+    if m <= 0:
+        return None, math.nan, "no interior slot"
+    pieces = [_Pieces(s, q) for s in surrogates]
+    cd, cb, cc = (c * n_n for c in _coefficients(config, sched, u, pieces, access))  # per-slot units
+    xc, yc = config.ios_center[0], config.ios_center[1]
+    xi, psi = cp.Variable(m), cp.Variable(m)
+    ends = (q[[0, -1]] - (xc, yc)) / scale
+    xs = cp.hstack([ends[:1, 0], xi, ends[1:, 0]])
+    ys = cp.hstack([ends[:1, 1], psi, ends[1:, 1]])
+    dmax = (uav.D - STEP_MARGIN) / scale  # inward, so the solver's rounding keeps every step <= D
+    cons = [
+        cp.norm(cp.vstack([cp.diff(xs), cp.diff(ys)]), 2, axis=0) <= dmax,
+    ]
+    # the slacks only where they count: the surface's in the slots whose aligned terms do, the
+    # direct path's where u serves the node, the squares' epigraphs X2 >= xi^2, Y2 >= psi^2 in
+    # those slots (an idle slack or epigraph is unbounded: a degenerate problem for the solver)
+    surf = np.flatnonzero((cb > 0).any(axis=1)) if config.surface != "none" else np.zeros(0, dtype=int)
+    x2, y2 = cp.Variable(m), cp.Variable(m)
+    needed = np.union1d(surf, np.flatnonzero((cd > 0).any(axis=1)))
+    cons += [cp.square(xi[needed]) <= x2[needed], cp.square(psi[needed]) <= y2[needed]]
+    idle = np.setdiff1d(np.arange(m), needed)
+    if len(idle):
+        cons += [x2[idle] == 0, y2[idle] == 0]
+    s = uu = None
+    if len(surf):
+        first = surrogates[0]
+        x_l = (q[1:-1, 0][surf] - xc) / scale
+        s, uu = cp.Variable(len(surf)), cp.Variable((len(surf), first.n_tiles))
+        yk = (first.node_y - yc) / scale
+        const = yk**2 + ((config.uav_altitude - first.node_z) / scale) ** 2
+        r2 = x2[surf] + y2[surf]
+        d_j2 = cp.reshape(r2, (len(surf), 1), order="C") @ np.ones((1, first.n_tiles))
+        d_j2 = d_j2 - cp.reshape(psi[surf], (len(surf), 1), order="C") @ (2 * yk)[None, :]
+        d_j2 = d_j2 + np.ones((len(surf), 1)) @ const[None, :]
+        dl2 = pieces[0].values["dl2"][surf]
+        cons += [
+            *_chords(s, cp.multiply(3.0 / x_l, xi[surf]) - 2.0, 3.0 * trust / scale / np.abs(x_l)),  # (17)
+            d_j2 <= dl2 + 0.5 * cp.multiply(dl2, uu),  # (18)
+            s >= -SLACK_BOUND,
+            uu <= U_BOUND,
+        ]
+    zu = config.uav_altitude / scale
+    rates = []
+    for k, (gx, gy) in enumerate(config.nodes):
+        rate: Any = n_n * float(sched.rates[k])
+        used = np.flatnonzero(cd[:, k] > 0)
+        if len(used):
+            v = cp.Variable(len(used))
+            xg, yg = (gx - xc) / scale, (gy - yc) / scale
+            d_ug2 = x2[used] - 2 * xg * xi[used] + y2[used] - 2 * yg * psi[used] + (xg**2 + yg**2 + zu**2)
+            gl2 = pieces[k].values["gl2"][used]
+            cons += [d_ug2 <= gl2 - (4.0 / config.alpha) * cp.multiply(gl2, v), v >= -SLACK_BOUND]  # (19)
+            rate = rate + cd[used, k] @ v
+        if s is not None and np.any(cb[surf, k] > 0):
+            rate = rate + cb[surf, k] @ s + cp.sum(cp.multiply(cc[surf, k], uu))
+        rates.append(rate)
+    # a node u does not serve keeps its rate: t is capped there and, if the others are at or
+    # above that cap, t = cap is reached at q^l already; t is then that constant (a free t
+    # pinned by a constant row leaves the interior-point solver a degenerate problem)
+    served = [k for k in range(k_n) if not isinstance(rates[k], float)]
+    if not np.any(sched.dual[served] > 0):  # u serves no node the dual weights value
+        return None, math.nan, NOTHING_TO_GAIN
+    fixed = [rates[k] for k in range(k_n) if k not in served]
+    moving = [rates[k] for k in served]
+    lowest = n_n * float(np.min(sched.rates[served], initial=np.inf))
+    if fixed and min(fixed) <= lowest * (1 + 1e-6):
+        t: Any = min(fixed + [lowest])
+    else:
+        t = cp.Variable()
+        cons += [t <= r for r in fixed]
+    cons += [r >= t for r in moving]
+    # the trust region: each way-point within a box of half-side ``trust`` m of its iterate; a
+    # separation half-plane that the box keeps clear of cannot bind and is left out
+    interior_l = (q[1:-1] - (xc, yc)) / scale
+    box = trust / scale
+    cons += [xi >= interior_l[:, 0] - box, xi <= interior_l[:, 0] + box]
+    cons += [psi >= interior_l[:, 1] - box, psi <= interior_l[:, 1] + box]
+    rows = [r for r in _separation_rows(q, np.delete(flights, u, axis=0), d_min)
+            if float(r[1] @ q[r[0]]) - r[2] <= math.sqrt(2.0) * trust + 1.0]  # fmt: skip
+    if rows:
+        slot = np.array([r[0] for r in rows]) - 1
+        e = np.array([r[1] for r in rows])
+        rhs = (np.array([r[2] for r in rows]) - e @ np.array([xc, yc])) / scale
+        cons.append(cp.multiply(e[:, 0], xi[slot]) + cp.multiply(e[:, 1], psi[slot]) >= rhs)
+    weighted = sum(float(sched.dual[k]) * rates[k] for k in served)
+    objective = weighted if isinstance(t, float) else t + MU * weighted
+    problem = cp.Problem(cp.Maximize(objective), cons)
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", UserWarning)
+            problem.solve(solver=solver, warm_start=False)
+    except cp.error.SolverError as err:
+        return None, math.nan, f"solver_error: {err}"
+    status = str(problem.status)
+    if status not in OK_STATUSES or xi.value is None or psi.value is None:
+        return None, math.nan, status
+    interior = np.column_stack([xi.value, psi.value]) * scale + (xc, yc)
+    return np.vstack([q[:1], interior, q[-1:]]), float(getattr(t, "value", t)) / n_n, status
+
+
+def _count(value: Any, name: str, low: int) -> int:
+    if isinstance(value, bool) or not isinstance(value, numbers.Integral) or value < low:
+        raise ValueError(f"{name} must be an integer >= {low}, got {value!r}")
+    return int(value)
+
+
+def refine(
+    config: ScenarioConfig,
+    trajectories: np.ndarray,
+    *,
+    access: str = "orthogonal",
+    min_separation: float = DEFAULT_SEPARATION,
+    speeds: Any = None,
+    iterations: int = 5,
+    tol: float = 1e-4,
+    trust: float = TRUST,
+    tiles: int = 2,
+    solver: str = "CLARABEL",
+    progress: bool = False,
+) -> Refinement:
+    """Block-coordinate SCA of the U separated ``trajectories`` (U, N, 2) m (module docstring):
+    at most ``iterations`` rounds (>= 0) of one step per UAV, stopped when a round gains less than
+    ``tol`` (relative, > 0). Each UAV flies from its first to its last way-point at its speed
+    limit (``speeds``, as ``fleet_setup``'s); ``tiles`` x ``tiles`` surface tiles model the
+    surrogate's curvature (``sca_problem``); ``trust`` (m) is a step's trust region and ``solver``
+    cvxpy's solver. The flights must be feasible and separated by ``min_separation`` m all along;
+    the value never decreases."""
+    t0 = time.perf_counter()
+    if not isinstance(config, ScenarioConfig):
+        raise TypeError(f"config must be a ScenarioConfig, got {type(config).__name__}")
+    if access not in ACCESS:
+        raise ValueError(f"access must be one of {ACCESS}, got {access!r}")
+    rounds = _count(iterations, "iterations", 0)
+    tiles = _count(tiles, "tiles", 1)
+    if not (isinstance(trust, numbers.Real) and not isinstance(trust, bool) and 0 < trust < math.inf):
+        raise ValueError(f"trust must be a finite number > 0 (m), got {trust!r}")
+    if not (isinstance(tol, numbers.Real) and not isinstance(tol, bool) and 0 < tol < 1):
+        raise ValueError(f"tol must be a number in (0, 1), got {tol!r}")
+    flights = np.array(trajectories, dtype=float)
+    if flights.ndim != 3 or flights.shape[1:] != (config.N, 2) or not np.all(np.isfinite(flights)):
+        raise ValueError(
+            f"trajectories must be a finite (U, N={config.N}, 2) array in m, got shape {flights.shape}"
+        )
+    u_n = flights.shape[0]
+    _, _, configs = fleet_setup(config, u_n, flights[:, 0], flights[:, -1], min_separation, access, speeds)
+    for u, (c, f) in enumerate(zip(configs, flights, strict=True)):
+        if not ie.check_trajectory(c, f).feasible:
+            raise ValueError(
+                f"trajectories[{u}] is not a feasible flight of UAV {u} (speed limit, endpoints)"
+            )
+    if not flights_separated(flights, float(min_separation)):
+        raise ValueError(f"trajectories are not separated by min_separation = {min_separation:g} m all along")
+    start_value = fleet_maxmin(config, flights, access=access).value
+    history: list[dict[str, Any]] = []
+    stop, done = "iterations", 0
+    if rounds:
+        surrogates = [
+            Surrogate(config.node_config(k), tiles, solver.upper(), dpp=False) for k in range(config.K)
+        ]
+        sched = fleet_schedule(config, flights, access)
+    for it in range(rounds):
+        done, before, accepted = it + 1, sched.value, 0
+        for u in range(u_n):
+            rho = float(trust)
+            for _ in range(1 + RETRIES):  # a failed or rejected step is tried again in half the box
+                record: dict[str, Any] = {"round": it, "uav": u, "trust": rho, "value": None,
+                                          "accepted": False}  # fmt: skip
+                history.append(record)
+                q_new, record["surrogate"], record["status"] = _step(
+                    config, configs[u], sched, u, flights, surrogates, float(min_separation), access,
+                    solver.upper(), rho,
+                )  # fmt: skip
+                rho /= 2.0
+                if q_new is None:
+                    if record["status"] == NOTHING_TO_GAIN:
+                        break
+                    continue
+                trial = flights.copy()
+                trial[u] = q_new
+                if not ie.check_trajectory(configs[u], q_new).feasible:
+                    record["status"] += ", infeasible"
+                    continue
+                if not flights_separated(trial, float(min_separation)):
+                    record["status"] += ", not separated"
+                    continue
+                new = fleet_schedule(config, trial, access)
+                record["value"] = new.value
+                if progress:
+                    print(f"[fleet-sca] round {it} UAV {u}: {sched.value:.6f} -> {new.value:.6f}", flush=True)
+                if new.value >= sched.value:
+                    flights, sched, record["accepted"] = trial, new, True
+                    accepted += 1
+                    break
+        if not accepted:
+            stop = "no step accepted"
+            break
+        if sched.value - before < tol * max(before, 1e-300):
+            stop = "converged"
+            break
+    value = fleet_maxmin(config, flights, access=access).value if done else start_value
+    if value < start_value:  # rounding between the two pricings' sums: keep the start
+        flights, value, stop = np.array(trajectories, dtype=float), start_value, f"{stop}, start kept"
+    return Refinement(flights, value, start_value, done, stop, time.perf_counter() - t0, history)
