@@ -11,28 +11,13 @@ fleet, whose rows share their fleet's episode and score: the score is counted on
 from __future__ import annotations
 
 from collections.abc import Mapping
-from dataclasses import dataclass
 from typing import Any
 
 import gymnasium as gym
 
 from agents.fast.recipe import FastRecipe
-from agents.scores import ScoreLabel, score_label
-
-
-@dataclass
-class RunEnv:
-    """What a fast run steps and builds its model on (module docstring)."""
-
-    base: Any  # the rows: vector_env, seed(s), reset() -> (rows, obs), close()
-    template: Any  # a one-env DummyVecEnv of a row's spaces (the model's and the statistics')
-    score: ScoreLabel  # the finished episodes' score (a key of the vector env's final info)
-    episode_rows: int = 1  # rows of one episode (U for a fleet): its score is counted once
-
-    @property
-    def rows(self) -> int:
-        """The number of rows (env steps per slot)."""
-        return int(self.base.vector_env.num_envs)
+from agents.fast.rows import RunEnv
+from agents.scores import score_label
 
 
 def run_env(

@@ -26,8 +26,8 @@ from typing import Any
 import gymnasium as gym
 import numpy as np
 
-from agents.fast.envs import RunEnv
 from agents.fast.recipe import FastRecipe
+from agents.fast.rows import RunEnv
 from agents.scores import ScoreLabel
 
 #: The recipe's key of the fleets in a zoo-format file (``agents/hyperparams/fast_ippo_fleet.yml``).
@@ -120,7 +120,7 @@ class FleetRows:
 
 
 def fleet_run_env(spec: FleetSpec, n_envs: int, recipe: FastRecipe, env_threads: int | None) -> RunEnv:
-    """The :class:`agents.fast.envs.RunEnv` of ``n_envs`` fleets of ``spec`` for ``recipe``
+    """The :class:`agents.fast.rows.RunEnv` of ``n_envs`` fleets of ``spec`` for ``recipe``
     (``ValueError`` naming a trick the fleets do not take)."""
     from stable_baselines3.common.vec_env import DummyVecEnv
 

@@ -6,7 +6,7 @@ them the team has served least so far and gives it the slot (its score 1, the ot
 neutral bid (0) for the surface; a UAV with no node of its own flies toward its final point. The
 arrival guard brings every UAV to its final point in time and the separation guard keeps them
 apart. It reads the parallel env's observation by name (``bind(env.observation_names)``, as
-:func:`~ios_uav_env.benchmark.fleet_suite.evaluate_fleet` does for every scenario): qF's offset,
+:func:`~ios_uav_env.benchmark.fleet_scoring.evaluate_fleet` does for every scenario): qF's offset,
 the node blocks (``mask_<k>``, ``dx_node_<k>``, ``dy_node_<k>``, ``served_<k>``) and the other
 UAVs' offsets (``dx_uav_<v>``, ``dy_uav_<v>``), all in units of the length scale.
 

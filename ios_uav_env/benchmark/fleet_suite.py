@@ -29,9 +29,7 @@ suite and scoring flights do not.
 
 from __future__ import annotations
 
-import math
-import time
-from collections.abc import Callable, Mapping
+from collections.abc import Mapping
 from typing import Any
 
 import numpy as np
@@ -41,12 +39,10 @@ from ios_uav_env.model.fleet import fleet_maxmin, fleet_setup
 from ios_uav_env.model.fleet_horizons import flights_feasibility, horizon_slots
 from ios_uav_env.model.separation import flights_separated
 
-__all__ = ["FLEET_FIELDS", "check_fleet", "fleet_configs", "fleet_episode", "score_flights"]
+__all__ = ["FLEET_FIELDS", "check_fleet", "fleet_configs", "score_flights"]
 
 #: A several-UAV scenario's fleet: ``parallel_env``'s arguments that the scenario fixes.
 FLEET_FIELDS = ("uavs", "starts", "finals", "speeds", "access", "min_separation", "horizons")
-#: Most steps of one episode before it is declared stuck.
-MAX_STEPS = 100_000
 
 
 def check_fleet(config: ScenarioConfig, fleet: Any, where: str) -> dict[str, Any]:
@@ -108,106 +104,3 @@ def score_flights(
     feasible = own and flights_separated(q, float(fleet["min_separation"]), slots)
     rate = float(fleet_maxmin(config, q, access=fleet["access"], slots=slots).value)
     return rate, bool(feasible), worst
-
-
-def make_fleet_env(config: ScenarioConfig, fleet: Mapping[str, Any], env_kwargs: Mapping[str, Any]) -> Any:
-    """The parallel env of a scenario and its fleet, with ``env_kwargs`` (its own flights are
-    scored by :func:`score_flights`, so the env's episode-end scoring is off)."""
-    from ios_uav_env import parallel_env
-
-    return parallel_env(config, **dict(fleet), **{**dict(env_kwargs), "best_schedule": False})
-
-
-def fleet_episode(env: Any, act: Callable, seed: int | None, team: bool) -> tuple[np.ndarray, float]:
-    """One episode in the parallel env ``env`` reset with ``seed``: (the flights (U, N, 2) m, its
-    wall time in s). ``act`` maps one agent's observation to its action (the same function for
-    every agent) or, with ``team``, the dict of the live agents' observations to their actions."""
-    start = time.perf_counter()
-    obs, _ = env.reset(seed=seed)
-    for _ in range(MAX_STEPS):
-        if not env.agents:
-            break
-        live = {agent: obs[agent] for agent in env.agents}  # (an agent past its horizon is gone)
-        actions = act(live) if team else {agent: act(o) for agent, o in live.items()}
-        obs, *_ = env.step(actions)
-    else:
-        raise RuntimeError(f"the episode did not end in {MAX_STEPS} steps")
-    return env.trajectories, time.perf_counter() - start
-
-
-def reference_row(rate: float, feasible: bool = True) -> tuple[float, float, bool, float, bool]:
-    """A stored reference's values as a scored row's (rate, best rate, feasible, violation, own)."""
-    return (float(rate), float(rate), bool(feasible), math.nan, True)
-
-
-def evaluate_fleet(
-    policy: Any,
-    suite: Any,
-    *,
-    env_kwargs: Mapping[str, Any] | None = None,
-    n: int | None = None,
-    seed: int | None = 0,
-    name: str | None = None,
-    allow_task_change: bool = False,
-) -> Any:
-    """Score ``policy`` on the first ``n`` scenarios of the several-UAV ``suite`` (module
-    docstring): a ``Results`` (% of the planner and of the bound). ``env_kwargs`` are added to
-    the suite's and checked as on every suite (``overrides.check_overrides``: the fleet and the
-    scenario fields are pinned, a task change needs ``allow_task_change``)."""
-    from ios_uav_env.benchmark.metrics import metrics_of
-    from ios_uav_env.benchmark.overrides import check_overrides, policy_env_kwargs
-    from ios_uav_env.benchmark.policy_errors import NamedPolicy
-    from ios_uav_env.benchmark.results import Results, ScenarioResult
-    from ios_uav_env.benchmark.scoring import action_function, check_seed, policy_name
-
-    check_seed(seed)
-    own = policy_env_kwargs(suite, policy, env_kwargs)
-    check_overrides(suite, own, allow_task_change=allow_task_change)
-    team = bool(getattr(policy, "team", False))
-    name = name or policy_name(policy)
-    bind = getattr(policy, "bind", None)
-    kwargs = {**suite.env_kwargs, **own}
-    scenarios, metrics = suite.subset(n), metrics_of(suite)
-    rows = []
-    for i, s in enumerate((scenarios[0], *scenarios)):  # the first: a warm-up, not scored
-        env = make_fleet_env(s.config, s.fleet, kwargs)
-        try:
-            chosen = bind(env.observation_names) if callable(bind) else policy  # a policy reading by name
-            act = NamedPolicy(chosen if team else action_function(chosen), suite.name, name)
-            act.at(s, warm_up=i == 0)
-            flights, seconds = fleet_episode(env, act, seed, team)
-        finally:
-            env.close()
-        if i:
-            rate, feasible, worst = score_flights(s.config, s.fleet, flights)
-            rows.append(ScenarioResult.of(s, metrics, (rate, rate, feasible, worst, True), seconds, flights))
-    return Results.of(suite, name, kwargs, rows, scenarios)
-
-
-def score_fleet_flights(
-    flights: Mapping[int, Any],
-    suite: Any,
-    *,
-    seconds: Mapping[int, float] | None = None,
-    name: str = "flights",
-) -> Any:
-    """Score one plan of U flights per scenario (``{index: (U, N, 2) m}``, the suite's first n) by
-    :func:`score_flights`; ``seconds``: each plan's time, if known (``ValueError`` naming the
-    scenario for a missing index or a wrong shape)."""
-    from ios_uav_env.benchmark.metrics import metrics_of
-    from ios_uav_env.benchmark.results import Results, ScenarioResult
-
-    indices = sorted(int(i) for i in flights)
-    if not indices or indices != list(range(len(indices))) or indices[-1] >= len(suite):
-        raise ValueError(
-            f"the flights must cover scenarios 0..n-1 of {suite.name} ({len(suite)} scenarios), got {indices}"
-        )
-    scenarios, metrics, rows = suite.subset(len(indices)), metrics_of(suite), []
-    for s in scenarios:
-        try:
-            rate, feasible, worst = score_flights(s.config, s.fleet, flights[s.index])
-        except ValueError as err:
-            raise ValueError(f"scenario {s.index}: {err}") from None
-        t = float((seconds or {}).get(s.index, math.nan))
-        rows.append(ScenarioResult.of(s, metrics, (rate, rate, feasible, worst, True), t))
-    return Results.of(suite, name, {}, rows, scenarios)

@@ -59,6 +59,7 @@ import numpy as np
 
 from ios_uav_env.benchmark.metrics import Metrics, metrics_of
 from ios_uav_env.benchmark.overrides import check_overrides, policy_env_kwargs
+from ios_uav_env.benchmark.policy_calls import action_function, check_seed, policy_name  # noqa: F401
 from ios_uav_env.benchmark.policy_errors import NamedPolicy
 from ios_uav_env.benchmark.results import Results, ScenarioResult
 from ios_uav_env.benchmark.suite import Suite, SuiteScenario, suite_of
@@ -68,34 +69,6 @@ from ios_uav_env.envs.rollout import decision_interval
 from ios_uav_env.model.score import score_plan
 
 MAX_STEPS = 100_000
-
-
-def _as_array(action: Any) -> np.ndarray:
-    """An action as a numpy array (a tensor is detached and moved to the CPU first)."""
-    if hasattr(action, "detach"):
-        action = action.detach().cpu().numpy()
-    return np.asarray(action)
-
-
-def action_function(policy: Any) -> Callable[[np.ndarray], np.ndarray]:
-    """The deterministic observation -> action function of ``policy`` (see the module doc)."""
-    predict = getattr(policy, "predict", None)
-    if callable(predict):
-        return lambda obs: _as_array(predict(obs, deterministic=True)[0])
-    if callable(policy):
-        return lambda obs: _as_array(policy(obs))
-    raise TypeError(
-        f"a policy must be callable (obs -> action) or have predict(obs, deterministic=True); "
-        f"got {type(policy).__name__}"
-    )
-
-
-def policy_name(policy: Any) -> str:
-    """A display name: the policy's ``name`` attribute, else its function or class name."""
-    name = getattr(policy, "name", None)
-    if isinstance(name, str) and name:
-        return name
-    return getattr(policy, "__name__", None) or type(policy).__name__
 
 
 def play(
@@ -182,7 +155,7 @@ def _check_env_takes(suite: Suite, env_kwargs: Mapping[str, Any], policy: Any) -
     """:func:`check_env_kwargs` after its ``check_overrides`` (for a caller that ran it already)."""
     kwargs = {**suite.env_kwargs, **dict(env_kwargs)}
     if suite.fleets:  # a fleet on the first scenario (an agent's observations depend on its U)
-        from ios_uav_env.benchmark.fleet_suite import make_fleet_env
+        from ios_uav_env.benchmark.fleet_scoring import make_fleet_env
 
         try:
             make_fleet_env(suite[0].config, suite[0].fleet, kwargs).close()
@@ -206,12 +179,6 @@ def _check_env_takes(suite: Suite, env_kwargs: Mapping[str, Any], policy: Any) -
             f"{kwargs} gives {tuple(shape)}: pass the env arguments it was trained with (e.g. "
             "instance_features:false for a specialist of a fixed id, peak_hint:true for a hinted agent)"
         )
-
-
-def check_seed(seed: Any) -> None:
-    """``ValueError`` unless ``seed`` is None or an integer >= 0 (a Gymnasium reset seed)."""
-    if seed is not None and (isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0):
-        raise ValueError(f"seed must be an integer >= 0 or None, got {seed!r}")
 
 
 def evaluate(
@@ -241,7 +208,7 @@ def evaluate(
     """
     suite = suite_of(suite)
     if suite.fleets:  # several UAVs: episodes of PettingZoo's parallel env (benchmark.fleet_suite)
-        from ios_uav_env.benchmark.fleet_suite import evaluate_fleet
+        from ios_uav_env.benchmark.fleet_scoring import evaluate_fleet
 
         if batched or at_once:
             raise ValueError(f"batched and at_once are for single-UAV suites; {suite.name} flies fleets")

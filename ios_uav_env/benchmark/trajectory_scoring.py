@@ -39,7 +39,7 @@ def score_trajectories(
     """
     suite = suite_of(suite)
     if suite.fleets:  # U flights (U, N, 2) per scenario, scored by fleet_maxmin
-        from ios_uav_env.benchmark.fleet_suite import score_fleet_flights
+        from ios_uav_env.benchmark.fleet_scoring import score_fleet_flights
 
         if shares:
             raise ValueError(f"shares are for multi-node suites; {suite.name} is a {suite.kind} suite")
