@@ -72,10 +72,13 @@ from ios_uav_env.io import atomic_write_text
 ROOT = Path(__file__).resolve().parents[1]
 #: The shipped sweep of the figures (the DP optimum of each fixed id's default scenario).
 DP_RESULTS = ROOT / "results" / "sweep.csv"
+#: The DP scheme (``baselines.schemes``) of each fixed id; a scheme without a row in ``DP_RESULTS``
+#: (the STAR id's ``dp-sta``: the paper's figures have no STAR surface) gives no % of DP.
 DP_SCHEME = {
     "ios_uav_env/IOSUAV-v0": "dp-ia",
     "ios_uav_env/RISUAV-v0": "dp-ra",
     "ios_uav_env/UAV-v0": "dp-cuc",
+    "ios_uav_env/STARUAV-v0": "dp-sta",
 }
 CSV_COLUMNS = (
     "trial", "algo", "env_id", "seed", "overrides", "average_rate", "pct_of_dp", "feasible", "steps",

@@ -11,6 +11,7 @@ scheme     surface  planner
 ``dp-ia``  IOS      DP
 ``dp-ra``  RIS      DP
 ``dp-cuc`` none     DP
+``dp-sta`` STAR     DP (a STAR surface, TDMA: ``ScenarioConfig(surface="star")``)
 ``tour``   config's tour heuristic (``baselines.tour``), for several ground nodes
 =========  =======  ==========================================================
 
@@ -46,7 +47,7 @@ class Scheme:
     """A named benchmark: which surface, which planner."""
 
     name: str
-    surface: str | None  # "ios", "ris", "none"; None keeps the config's surface
+    surface: str | None  # "ios", "ris", "none", "star"; None keeps the config's surface
     planner: str  # a name of baselines.registry.PLANNERS: "sca", "dp", "fixed" or "tour"
     description: str
 
@@ -65,6 +66,7 @@ SCHEMES: dict[str, Scheme] = {
         Scheme("dp-ia", "ios", "dp", "IOS, global optimum on a grid (DP)"),
         Scheme("dp-ra", "ris", "dp", "RIS, global optimum on a grid (DP)"),
         Scheme("dp-cuc", "none", "dp", "no surface, global optimum on a grid (DP)"),
+        Scheme("dp-sta", "star", "dp", "STAR surface (TDMA), global optimum on a grid (DP)"),
         Scheme(
             "tour", None, "tour", "tour heuristic over hover points (several nodes), the config's surface"
         ),
@@ -116,7 +118,7 @@ def run_scheme(name: str, config: ScenarioConfig, **kwargs: Any) -> Plan:
     ----------
     name : str
         One of :data:`SCHEMES` (``ia``, ``ra``, ``ia-ft``, ``cuc``, ``dp``, ``dp-ia``,
-        ``dp-ra``, ``dp-cuc``).
+        ``dp-ra``, ``dp-cuc``, ``dp-sta``).
     config : ScenarioConfig
         The scenario; only its ``surface`` is overridden by the scheme.
     **kwargs

@@ -128,6 +128,9 @@ if _HAS_GYMNASIUM:
         MULTINODE_MOBILE_ID,
         MULTINODE_MOBILE_IDS,
         RANDOM_ENV_ID,
+        RANDOM_IDS,
+        STAR_ID,
+        STAR_RANDOM_ID,
         register_envs,
     )
     from ios_uav_env.envs.single import INFO_KEYS, IOSUAVEnv
@@ -156,7 +159,10 @@ if _HAS_GYMNASIUM:
         "MULTINODE_MOBILE_IDS",
         "MultiNodeEnv",
         "RANDOM_ENV_ID",
+        "RANDOM_IDS",
         "RandomIOSUAVEnv",
+        "STAR_ID",
+        "STAR_RANDOM_ID",
         "parallel_env",
         "register_envs",
     ]

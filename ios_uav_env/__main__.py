@@ -22,7 +22,7 @@ from ios_uav_env.envs.policies import HoverAt
 from ios_uav_env.envs.registration import ENV_IDS
 from ios_uav_env.envs.rendering import save_png
 from ios_uav_env.envs.rollout import Episode, run_episode
-from ios_uav_env.model.config import SURFACES, ScenarioConfig
+from ios_uav_env.model.config import ScenarioConfig
 from ios_uav_env.model.trajectory import average_rate, check_trajectory
 
 ID_OF_SURFACE = {kwargs["surface"]: env_id for env_id, kwargs in ENV_IDS.items()}
@@ -47,7 +47,9 @@ def demo_episode(env_id: str, seed: int) -> tuple[Episode, np.ndarray]:
 
 def main(argv: Sequence[str] | None = None) -> int:
     parser = argparse.ArgumentParser(prog="python -m ios_uav_env", description=__doc__.splitlines()[0])
-    parser.add_argument("--surface", choices=SURFACES, default="ios", help="which env id (default: ios)")
+    parser.add_argument(
+        "--surface", choices=tuple(ID_OF_SURFACE), default="ios", help="which fixed env id (default: ios)"
+    )
     parser.add_argument("--seed", type=int, default=0, help="reset seed (default: 0)")
     parser.add_argument("--out", type=Path, default=Path("out/demo.png"), help="PNG of the last frame")
     parser.add_argument(

@@ -41,3 +41,9 @@ def test_main_job_writes_the_docs_frame_on_request(tmp_path):
 def test_step_speed_benchmark_runs(tmp_path):
     out = run([str(ROOT / "benchmarks" / "step_speed.py"), "--steps", "300", "--repeats", "1"], tmp_path)
     assert "CartPole-v1" in out.stdout and "raw ratio" in out.stdout
+
+
+def test_main_job_runs_every_fixed_ids_surface_star_included(tmp_path):
+    pytest.importorskip("matplotlib")
+    out = run(["-m", "ios_uav_env", "--surface", "star", "--out", "demo.png"], tmp_path)
+    assert "ios_uav_env/STARUAV-v0" in out.stdout and "feasible: start error 0 m" in out.stdout

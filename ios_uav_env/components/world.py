@@ -127,9 +127,9 @@ class World:
 RULES: tuple[tuple[Any, str], ...] = (
     (
         lambda w: w.surface.kind == "star" and w.surface.access == "noma",
-        "surface star with access 'noma': it serves the nodes on both sides in one slot, and the envs "
-        "serve one node per slot share (TDMA); score a NOMA flight with ios_uav_env.score_plan "
-        "(ios_uav_env.model.star_regions.star_maxmin), or use access 'tdma' in an env",
+        "surface star with access 'noma', the field star_access: it serves the nodes on both sides in one "
+        "slot, and the envs serve one node per slot share (TDMA); score a NOMA flight with "
+        "ios_uav_env.score_plan (ios_uav_env.model.star_regions.star_maxmin), or use access 'tdma' in an env",
     ),
     (
         lambda w: w.link.fading != "expected" and not w.knowledge.exact,

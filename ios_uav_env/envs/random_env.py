@@ -3,6 +3,8 @@
 ``RandomIOSUAVEnv`` (registered as ``ios_uav_env/IOSUAV-Random-v0``) draws a new scenario
 at every reset from a family ``ios_uav_env.model.scenarios.ScenarioRanges`` with its
 ``np_random``, observing the instance through the 6 instance features of ``IOSUAVEnv``.
+``ios_uav_env/STARUAV-Random-v0`` is the same family with every scenario on a STAR surface
+(``surface="star"``: ``ScenarioRanges.with_surface``).
 ``ios_uav_env/IOSUAV-Energy-Random-v0`` is the same family with the objective
 ``"energy_efficiency"`` (``objective`` applied to ``ranges.base``): the energy features, reward
 and score of ``IOSUAVEnv``'s "Energy", with lambda_ref the reference of each drawn scenario.
@@ -19,7 +21,12 @@ import dataclasses
 from collections.abc import Mapping
 from typing import Any
 
-from ios_uav_env.envs.settings import several_nodes_error, single_node_id
+from ios_uav_env.envs.settings import (
+    check_config_keywords,
+    check_ranges_surface,
+    several_nodes_error,
+    single_node_id,
+)
 from ios_uav_env.envs.single import IOSUAVEnv
 from ios_uav_env.model.config import SCENARIO_FIELDS, ScenarioConfig, as_config
 from ios_uav_env.model.scenarios import (
@@ -57,7 +64,7 @@ class RandomIOSUAVEnv(IOSUAVEnv):
     ``ranges`` (a :class:`ScenarioRanges`, default :data:`DEFAULT_RANGES`), so a policy has
     to plan for scenarios it has never seen. Default ranges (uniform): G at x in
     [-250, 250] m, y in [-150, 150] m; T in [60, 200] s (whole slots); M_z in [20, 60] IOS
-    rows of M_y = 100 columns (M = 2000 ... 6000); surface "ios" or "ris"; q0 = (-400, y0),
+    rows of M_y = 100 columns (M = 2000 ... 6000); surface "ios" or "ris" (or ``surface``); q0 = (-400, y0),
     qF = (400, yF) with y0, yF in [-100, 100] m; every other field at the paper's default.
     Everything else (the model, the arrival guard, the rewards, ``info``, the trajectory
     checks) is ``IOSUAVEnv``'s, on the episode's scenario ``env.unwrapped.config``.
@@ -139,9 +146,13 @@ class RandomIOSUAVEnv(IOSUAVEnv):
     - ``instance_features`` (True), ``peak_hint`` (False: with True, 3 more components,
       the reachable rate peak; see ``IOSUAVEnv``), ``channel``, ``arrival_guard``, ``reach_weight``,
       ``terminal_weight``, ``length_scale``, ``render_mode``: as ``IOSUAVEnv``.
+    - ``surface`` (None): every drawn scenario's surface (``ranges.with_surface(surface)``; the
+      id ``ios_uav_env/STARUAV-Random-v0`` sets ``"star"``), and a pinned ``config``'s: as a fixed
+      id's keyword, ranges (or a config) left at the default surfaces take it, and ranges (or a
+      config) that chose another are refused with ``ValueError`` (``settings.check_ranges_surface``).
     - ``**overrides``: ``ScenarioConfig`` fields that the ranges do not draw (e.g.
       ``v_max``, ``alpha``), applied to ``ranges.base``; a drawn field (``T``,
-      ``ground_node``, ``q0``, ``qF``, ``ios_shape``, ``surface``) raises ``ValueError``:
+      ``ground_node``, ``q0``, ``qF``, ``ios_shape``) raises ``ValueError``:
       change ``ranges`` instead.
 
     ```python
@@ -175,6 +186,9 @@ class RandomIOSUAVEnv(IOSUAVEnv):
     ) -> None:
         ranges = _as_ranges(DEFAULT_RANGES if ranges is None else ranges, "ranges")
         overrides = {k: kwargs.pop(k) for k in list(kwargs) if k in SCENARIO_FIELDS}
+        surface, chosen = overrides.pop("surface", None), ranges  # every drawn scenario's surface
+        if surface is not None:  # (before the overrides: a STAR surface's fields need it on base)
+            ranges = ranges.with_surface(surface)
         drawn = sorted(set(overrides) & RANGED_FIELDS)
         if drawn:
             raise ValueError(
@@ -188,6 +202,10 @@ class RandomIOSUAVEnv(IOSUAVEnv):
                 raise several_nodes_error(single_node_id(base, knowledge, random=True), base, "ground_nodes")
             ranges = dataclasses.replace(ranges, base=base)
         self.ranges: ScenarioRanges = ranges
+        knowledge = kwargs.get("knowledge", "exact")
+        own = single_node_id(ranges.base, knowledge, random=True)
+        if surface is not None:
+            check_ranges_surface(own, chosen, surface, DEFAULT_RANGES.surfaces)
         if not (isinstance(focus_prob, (int, float)) and 0.0 <= focus_prob <= 1.0):
             raise ValueError(f"focus_prob must be a probability in [0, 1], got {focus_prob!r}")
         _check_focus(focus, focus_prob, config)
@@ -201,6 +219,10 @@ class RandomIOSUAVEnv(IOSUAVEnv):
                 raise ValueError(f"focus must lie inside ranges, got {dict(fields)!r}")
         self.focus_prob = float(focus_prob) if self.focus is not None else 0.0
         self.pinned: ScenarioConfig | None = None if config is None else as_config(config)
+        if surface is not None and self.pinned is not None:  # the keyword's surface, as IOSUAVEnv's
+            other = single_node_id(self.pinned, knowledge, random=True)
+            check_config_keywords(own, self.pinned, {"surface": surface}, other if other != own else None)
+            self.pinned = self.pinned.replace(surface=surface)
         super().__init__(self.pinned or ranges.base, instance_features=instance_features, **kwargs)
         self._check_overrides(overrides, ranges.surfaces)
         if self.pinned is not None:

@@ -7,15 +7,25 @@ from typing import Any
 
 import gymnasium as gym
 
-#: id -> keyword arguments of ``IOSUAVEnv`` for that id.
+#: The STAR id: the paper's scenario with a STAR surface (``star_protocol``, ``star_phases`` and
+#: ``star_access`` at their defaults: energy splitting, independent phases, TDMA).
+STAR_ID = "ios_uav_env/STARUAV-v0"
+
+#: id -> keyword arguments of ``IOSUAVEnv`` for that id (the fixed ids).
 ENV_IDS: dict[str, dict[str, Any]] = {
     "ios_uav_env/IOSUAV-v0": {"surface": "ios"},  # the paper's scenario (IA)
     "ios_uav_env/RISUAV-v0": {"surface": "ris"},  # the IOS replaced by a reflect-only RIS (RA)
     "ios_uav_env/UAV-v0": {"surface": "none"},  # no surface: direct link only (CUC)
+    STAR_ID: {"surface": "star"},  # the IOS replaced by a STAR surface, one node per slot share (TDMA)
 }
 
 #: The randomised id: every reset draws a scenario from ``scenarios.DEFAULT_RANGES``.
 RANDOM_ENV_ID = "ios_uav_env/IOSUAV-Random-v0"
+#: The randomised STAR id: scenarios drawn as :data:`RANDOM_ENV_ID`'s, every one with the STAR
+#: surface (``RandomIOSUAVEnv``'s ``surface`` keyword narrows the ranges' surfaces to it).
+STAR_RANDOM_ID = "ios_uav_env/STARUAV-Random-v0"
+#: id -> keyword arguments of the randomised single-node ids of the rate objective (``RandomIOSUAVEnv``).
+RANDOM_IDS: dict[str, dict[str, Any]] = {RANDOM_ENV_ID: {}, STAR_RANDOM_ID: {"surface": "star"}}
 
 #: Several ground nodes (``multinode_env.MultiNodeEnv``): id -> its keyword arguments.
 MULTINODE_IDS: dict[str, dict[str, Any]] = {
@@ -57,7 +67,7 @@ def _vector(entry_point: str) -> dict[str, str]:
 
 
 def register_envs() -> None:
-    """Register every id of :data:`ENV_IDS`, :data:`RANDOM_ENV_ID`, :data:`MULTINODE_IDS`,
+    """Register every id of :data:`ENV_IDS`, :data:`RANDOM_IDS`, :data:`MULTINODE_IDS`,
     :data:`ENERGY_IDS`, :data:`MOBILE_IDS` and :data:`MULTINODE_MOBILE_IDS` not registered yet.
 
     No ``max_episode_steps``: the env ends every episode itself at slot N of its scenario
@@ -68,7 +78,7 @@ def register_envs() -> None:
     families = (
         (ENV_IDS, "ios_uav_env.envs.single:IOSUAVEnv", "ios_uav_env.envs.single_vector:IOSUAVVectorEnv"),
         (
-            {RANDOM_ENV_ID: {}},
+            RANDOM_IDS,
             "ios_uav_env.envs.random_env:RandomIOSUAVEnv",
             "ios_uav_env.envs.single_vector:RandomIOSUAVVectorEnv",
         ),

@@ -21,6 +21,7 @@ from ios_uav_env.envs.registration import (
     MULTINODE_IDS,
     MULTINODE_MOBILE_ID,
     RANDOM_ENV_ID,
+    STAR_RANDOM_ID,
 )
 from ios_uav_env.model.config import ScenarioConfig
 from ios_uav_env.model.scenarios import RANGED_FIELDS
@@ -28,6 +29,7 @@ from ios_uav_env.model.scenarios import RANGED_FIELDS
 __all__ = [
     "check_world",
     "check_config_keywords",
+    "check_ranges_surface",
     "check_multinode_arguments",
     "check_scenario_overrides",
     "multinode_id",
@@ -48,7 +50,9 @@ def single_node_id(config: ScenarioConfig, knowledge: str = "exact", random: boo
     if random:
         if mobile:
             return MOBILE_ID
-        return ENERGY_RANDOM_ID if config.objective == "energy_efficiency" else RANDOM_ENV_ID
+        if config.objective == "energy_efficiency":
+            return ENERGY_RANDOM_ID
+        return STAR_RANDOM_ID if config.surface == "star" else RANDOM_ENV_ID
     if config.objective == "energy_efficiency":
         return ENERGY_ID
     return next((i for i, kw in ENV_IDS.items() if kw["surface"] == config.surface), "IOSUAVEnv")
@@ -104,6 +108,20 @@ def check_config_keywords(
             f"{env_id}: {said} (the keyword wins, so the config's choice would be dropped). Pass the "
             f"value once, as the keyword (gym.make(id, config=..., {clashes[0]}=...))"
             + (f", or use {alternative}, whose setting the config's is" if alternative else "")
+        )
+
+
+def check_ranges_surface(env_id: str, ranges: Any, surface: str, default_surfaces: tuple[str, ...]) -> None:
+    """``ValueError`` when the keyword ``surface`` (the user's or the id's, as ``surface="star"`` of
+    ``STARUAV-Random-v0``) would replace the surfaces that ``ranges`` (a ``ScenarioRanges``) chose,
+    i.e. set to another tuple than ``default_surfaces`` and than ``(surface,)``: the rule of
+    :func:`check_config_keywords` for a family (ranges left at the default surfaces take the keyword's)."""
+    chosen = tuple(ranges.surfaces)
+    if chosen != tuple(default_surfaces) and chosen != (surface,):
+        raise ValueError(
+            f"{env_id}: ranges.surfaces={chosen!r} but the keyword surface={surface!r} (the keyword wins, "
+            "so the ranges' choice would be dropped). Pass the surfaces once: the keyword (with ranges at "
+            f"the default surfaces), or the ranges alone in {RANDOM_ENV_ID}, which draws from any surfaces"
         )
 
 

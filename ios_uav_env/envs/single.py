@@ -66,8 +66,9 @@ class IOSUAVEnv(MobileNode, gym.Env):
     only. The agent plans the trajectory: one step is one slot (N - 1 steps from
     ``q[1] = q0``), and the paper's objective is the average rate of eq. (9) subject to
     eq. (10): arrive at ``qF`` at slot N with at most D = v_max dt per move. Ids:
-    ``ios_uav_env/IOSUAV-v0`` (IOS), ``ios_uav_env/RISUAV-v0`` (reflect-only RIS) and
-    ``ios_uav_env/UAV-v0`` (no surface); ``ios_uav_env/IOSUAV-Energy-v0`` is the IOS scenario
+    ``ios_uav_env/IOSUAV-v0`` (IOS), ``ios_uav_env/RISUAV-v0`` (reflect-only RIS),
+    ``ios_uav_env/UAV-v0`` (no surface) and ``ios_uav_env/STARUAV-v0`` (a STAR surface, one node
+    per slot share); ``ios_uav_env/IOSUAV-Energy-v0`` is the IOS scenario
     with the objective ``"energy_efficiency"`` (bits per joule of propulsion energy; see
     "Energy"). ``env.unwrapped.trajectory`` is the (n, 2) array of the way-points so far (m).
 

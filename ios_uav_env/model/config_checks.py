@@ -20,7 +20,8 @@ from ios_uav_env.model.mobility import as_motion, rectangles
 from ios_uav_env.model.propulsion import PropulsionModel
 
 Surface = Literal["ios", "ris", "none", "star"]
-#: The paper's surfaces, one env id each (``envs.registration.ENV_IDS``; the figures' schemes).
+#: The paper's surfaces, one env id each (``envs.registration.ENV_IDS``, which adds the STAR id;
+#: the figures' schemes).
 SURFACES: tuple[str, ...] = ("ios", "ris", "none")
 #: Every surface a scenario may have: the paper's and ``"star"``, a STAR surface (``docs/model.md``,
 #: "STAR surfaces"; its fields are :data:`STAR_FIELDS`).

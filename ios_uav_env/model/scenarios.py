@@ -151,6 +151,14 @@ class ScenarioRanges:
             end_y=(yf, yf), base=config,
         )  # fmt: skip
 
+    def with_surface(self, surface: str) -> ScenarioRanges:
+        """The family with every scenario's surface ``surface`` (one of ``SURFACE_KINDS``): the
+        ``surfaces`` drawn from narrowed to it, and ``base`` on it (so the fields that need the
+        surface, a STAR surface's ``star_*``, can be set on ``base``)."""
+        if not (isinstance(surface, str) and surface in SURFACE_KINDS):
+            raise ValueError(f"surface must be one of {SURFACE_KINDS}, got {surface!r}")
+        return dataclasses.replace(self, surfaces=(surface,), base=_variant(self.base, surface=surface))
+
     @property
     def fixed_ground(self) -> bool:
         """Whether every scenario of the family has the same ground node."""

@@ -54,3 +54,17 @@ def test_sweep_resumes_and_extends(tmp_path):
     assert again == longer
     path = sweep.write_csv(again, tmp_path / "sweep.csv")
     assert path.read_text().splitlines()[0].split(",") == list(sweep.CSV_COLUMNS)
+
+
+def test_every_fixed_id_has_the_dp_scheme_of_its_surface():
+    """``DP_SCHEME`` maps each fixed id to the DP scheme on its surface; the shipped sweep holds the
+    paper's three (the STAR id's ``dp-sta`` has no row: no % of DP, rather than another surface's)."""
+    import ios_uav_env
+    from baselines.schemes import get_scheme
+
+    assert set(sweep.DP_SCHEME) == set(ios_uav_env.ENV_IDS)
+    for env_id, scheme in sweep.DP_SCHEME.items():
+        assert get_scheme(scheme).planner == "dp"
+        assert get_scheme(scheme).surface == ios_uav_env.ENV_IDS[env_id]["surface"]
+    assert sweep.dp_rate("ios_uav_env/IOSUAV-v0", {}) == pytest.approx(2.404, abs=1e-3)
+    assert sweep.dp_rate("ios_uav_env/STARUAV-v0", {}) is None

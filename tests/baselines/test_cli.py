@@ -81,7 +81,7 @@ def test_run_scheme_sets_the_surface() -> None:
     config = ScenarioConfig(T=40, ios_shape=(10, 6), surface="ris")
     assert schemes.run_scheme("ia-ft", config).config.surface == "ios"
     assert schemes.run_scheme("dp", config, resolution=5.0).config.surface == "ris"
-    for name, surface in (("dp-ia", "ios"), ("dp-ra", "ris"), ("dp-cuc", "none")):
+    for name, surface in (("dp-ia", "ios"), ("dp-ra", "ris"), ("dp-cuc", "none"), ("dp-sta", "star")):
         plan = schemes.run_scheme(name, config, resolution=5.0)
         assert plan.scheme == name and plan.config.surface == surface and plan.feasible
     for name, surface in (("ia", "ios"), ("ra", "ris"), ("cuc", "none")):

@@ -21,21 +21,22 @@ IDS = sorted(
     env_id
     for env_id in gym.registry
     if env_id.startswith("ios_uav_env/")
-    and (not OLD_GYMNASIUM or env_id in {*ios_uav_env.ENV_IDS, ios_uav_env.RANDOM_ENV_ID})
+    and (not OLD_GYMNASIUM or env_id in {*ios_uav_env.ENV_IDS, *ios_uav_env.RANDOM_IDS})
 )
 #: The ids on which the Rician channel is checked too (the others' channel tests are their own).
-RICIAN_IDS = {*ios_uav_env.ENV_IDS, ios_uav_env.RANDOM_ENV_ID}
+RICIAN_IDS = {*ios_uav_env.ENV_IDS, *ios_uav_env.RANDOM_IDS}
 #: The ids whose render check runs here (the energy and moving-node ids render as these do).
-RENDERED = {*ios_uav_env.ENV_IDS, ios_uav_env.RANDOM_ENV_ID, *ios_uav_env.MULTINODE_IDS}
+RENDERED = {*ios_uav_env.ENV_IDS, *ios_uav_env.RANDOM_IDS, *ios_uav_env.MULTINODE_IDS}
 CASES = [(env_id, "expected") for env_id in IDS] + [(env_id, "rician") for env_id in sorted(RICIAN_IDS)]
 
 
 @pytest.mark.skipif(OLD_GYMNASIUM, reason="Gymnasium < 1.0: the single-node ids only")
 def test_the_ids_are_all_here():
     ie = ios_uav_env
-    expected = {*ie.ENV_IDS, ie.RANDOM_ENV_ID, *ie.MULTINODE_IDS, *ie.ENERGY_IDS, *ie.MOBILE_IDS,
+    expected = {*ie.ENV_IDS, *ie.RANDOM_IDS, *ie.MULTINODE_IDS, *ie.ENERGY_IDS, *ie.MOBILE_IDS,
                 *ie.MULTINODE_MOBILE_IDS}  # fmt: skip
     assert set(IDS) == expected and set(CHANNELS) == {"expected", "rician"}
+    assert {ie.STAR_ID, ie.STAR_RANDOM_ID} <= expected
 
 
 @pytest.mark.parametrize(("env_id", "channel"), CASES, ids=[f"{i}-{c}" for i, c in CASES])

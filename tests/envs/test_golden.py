@@ -160,3 +160,23 @@ def test_only_the_ids_that_observe_measured_rates_get_the_looser_observation_bou
     loose = sorted(env_id for env_id, bound in bounds.items() if bound == GOLDEN_OBS_ABS)
     assert loose == ["ios_uav_env/IOSUAV-Mobile-v0", "ios_uav_env/IOSUAV-MultiNode-Mobile-v0"], loose
     assert bounds[PAPER_ID] == GOLDEN_EXACT_OBS_ABS < GOLDEN_OBS_ABS
+
+
+def test_the_recorder_adds_only_the_ids_its_index_lacks(tmp_path, capsys) -> None:
+    """``--new``: the index without one id gets that id's golden and entry (the shipped ones), and
+    nothing else is written; another machine's versions are refused before anything runs."""
+    new_id = "ios_uav_env/STARUAV-v0"
+    shipped = json.loads((GOLDEN_DIR / INDEX_NAME).read_text(encoding="utf-8"))
+    lacking = {**shipped, "ids": {i: e for i, e in shipped["ids"].items() if i != new_id}}
+    (tmp_path / INDEX_NAME).write_text(json.dumps(lacking), encoding="utf-8")
+    assert main(["--new", "--out", str(tmp_path)]) == 0
+    assert json.loads((tmp_path / INDEX_NAME).read_text(encoding="utf-8")) == shipped
+    written = sorted(path.name for path in tmp_path.iterdir())
+    assert written == sorted([INDEX_NAME, shipped["ids"][new_id]["file"]])
+    with np.load(tmp_path / shipped["ids"][new_id]["file"]) as data:
+        assert not mismatches(_stored(new_id), {key: data[key] for key in data.files})
+    other = {**lacking, "versions": {**shipped["versions"], "numpy": "0.0"}}
+    (tmp_path / INDEX_NAME).write_text(json.dumps(other), encoding="utf-8")
+    (tmp_path / shipped["ids"][new_id]["file"]).unlink()
+    assert main(["--new", "--out", str(tmp_path)]) == 1
+    assert "recorded with" in capsys.readouterr().err and len(list(tmp_path.iterdir())) == 1

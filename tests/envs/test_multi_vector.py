@@ -246,7 +246,7 @@ def test_bad_actions_are_refused_naming_the_field():
 def test_every_id_of_the_package_has_a_batched_env():
     ids = [
         *ios_uav_env.ENV_IDS,
-        ios_uav_env.RANDOM_ENV_ID,
+        *ios_uav_env.RANDOM_IDS,
         *ios_uav_env.MULTINODE_IDS,
         *ios_uav_env.ENERGY_IDS,
         *ios_uav_env.MOBILE_IDS,

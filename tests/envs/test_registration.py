@@ -15,6 +15,7 @@ from ios_uav_env import ScenarioConfig
 from ios_uav_env.envs.single import IOSUAVEnv
 
 IOS_ID = "ios_uav_env/IOSUAV-v0"
+STAR_RANDOM_ID = "ios_uav_env/STARUAV-Random-v0"
 
 
 def run_to_end(env: gym.Env) -> tuple[int, bool, bool, dict]:
@@ -124,6 +125,10 @@ def test_sb3_make_vec_env():
         (IOS_ID, ScenarioConfig(surface="ris"), "surface", "ios_uav_env/RISUAV-v0"),
         ("ios_uav_env/UAV-v0", ScenarioConfig(surface="ris"), "surface", "ios_uav_env/RISUAV-v0"),
         ("ios_uav_env/IOSUAV-Energy-v0", ScenarioConfig(objective="rate", surface="ris"), "surface", None),
+        (IOS_ID, ScenarioConfig(surface="star"), "surface", "ios_uav_env/STARUAV-v0"),
+        (IOS_ID, ScenarioConfig(surface="star", star_protocol="ms"), "surface", "ios_uav_env/STARUAV-v0"),
+        ("ios_uav_env/STARUAV-v0", ScenarioConfig(surface="ris"), "surface", "ios_uav_env/RISUAV-v0"),
+        (STAR_RANDOM_ID, ScenarioConfig(surface="ris"), "surface", "ios_uav_env/IOSUAV-Random-v0"),
     ],
 )
 def test_a_config_field_the_id_would_replace_is_refused(env_id, config, field, alternative):

@@ -15,7 +15,7 @@ REGISTERED = sorted(env_id for env_id in gym.registry if env_id.startswith("ios_
 def test_registered_ids_are_the_package_ids():
     assert set(REGISTERED) == {
         *ios_uav_env.ENV_IDS,
-        ios_uav_env.RANDOM_ENV_ID,
+        *ios_uav_env.RANDOM_IDS,
         *ios_uav_env.MULTINODE_IDS,
         *ios_uav_env.ENERGY_IDS,
         *ios_uav_env.MOBILE_IDS,

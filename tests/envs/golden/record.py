@@ -3,7 +3,12 @@
 Run it from the repository root, as a module (``tests`` is a namespace package there)::
 
     python -m tests.envs.golden.record              # refuses to replace existing goldens
+    python -m tests.envs.golden.record --new        # only the ids the index lacks (a new id)
     python -m tests.envs.golden.record --overwrite  # re-record (say why in the commit)
+
+``--new`` records the ids registered but not in ``index.json`` and adds their entries, leaving
+every other file and entry as it is; it refuses when this machine's versions (:func:`versions`)
+are not the index's, which the index states for every golden.
 
 For every id registered on ``import ios_uav_env`` it records, in one ``<id>.npz`` file
 (``np.savez_compressed``; the id's ``/`` written ``__``):
@@ -217,6 +222,48 @@ def versions() -> dict[str, str]:
     return out
 
 
+def _entry(env_id: str) -> dict[str, Any]:
+    """The ``index.json`` entry of ``env_id`` (its file, seed, kwargs and batch)."""
+    entry = {"file": file_name(env_id), "seed": SEED, "kwargs": golden_kwargs(env_id)}
+    entry["batched"] = has_vector(env_id)
+    if entry["batched"]:
+        entry["num_envs"] = NUM_ENVS
+    return entry
+
+
+def _write_golden(out: Path, env_id: str, entry: dict[str, Any]) -> None:
+    buffer = io.BytesIO()
+    np.savez_compressed(buffer, **golden_arrays(env_id, entry))
+    atomic_write_bytes(out / entry["file"], buffer.getvalue())
+    print(f"{env_id}: {entry['file']} {entry['kwargs']}")
+
+
+def record_new(out: Path = GOLDEN_DIR) -> dict[str, Any]:
+    """Record the golden file of every registered id that ``out``'s index lacks and add its entry,
+    leaving the other goldens and entries as they are. Refuses (before running anything):
+    ``FileNotFoundError`` without an index, ``FileExistsError`` when a new id's file exists, and
+    ``ValueError`` when this machine's :func:`versions` are not the index's. Returns the index."""
+    path = out / INDEX_NAME
+    if not path.is_file():
+        raise FileNotFoundError(f"no {INDEX_NAME} in {out}: record every id first (without --new)")
+    index = json.loads(path.read_text(encoding="utf-8"))
+    if index["versions"] != versions():
+        raise ValueError(
+            f"the goldens in {out} were recorded with {index['versions']}, this machine has {versions()}: "
+            "a new golden must come from the versions the index states"
+        )
+    new = [env_id for env_id in registered_ids() if env_id not in index["ids"]]
+    existing = [file_name(env_id) for env_id in new if (out / file_name(env_id)).exists()]
+    if existing:
+        raise FileExistsError(f"files of ids the index lacks exist in {out} ({', '.join(existing)})")
+    for env_id in new:
+        entry = _entry(env_id)
+        _write_golden(out, env_id, entry)
+        index["ids"][env_id] = entry
+    atomic_write_text(path, json.dumps(index, indent=2, sort_keys=True) + "\n")
+    return index
+
+
 def record(out: Path = GOLDEN_DIR, overwrite: bool = False) -> dict[str, Any]:
     """Record the golden file of every registered id and the index into ``out``; refuse (``FileExistsError``,
     before running anything) to replace goldens unless ``overwrite``. Returns the index."""
@@ -228,15 +275,9 @@ def record(out: Path = GOLDEN_DIR, overwrite: bool = False) -> dict[str, Any]:
         raise FileExistsError(f"goldens exist in {out} ({names}): pass --overwrite to re-record")
     entries = {}
     for env_id in ids:
-        entry = {"file": file_name(env_id), "seed": SEED, "kwargs": golden_kwargs(env_id)}
-        entry["batched"] = has_vector(env_id)
-        if entry["batched"]:
-            entry["num_envs"] = NUM_ENVS
-        buffer = io.BytesIO()
-        np.savez_compressed(buffer, **golden_arrays(env_id, entry))
-        atomic_write_bytes(out / entry["file"], buffer.getvalue())
+        entry = _entry(env_id)
+        _write_golden(out, env_id, entry)
         entries[env_id] = entry
-        print(f"{env_id}: {entry['file']} {entry['kwargs']}")
     index = {"ids": entries, "versions": versions(), "package": ios_uav_env.__version__}
     atomic_write_text(out / INDEX_NAME, json.dumps(index, indent=2, sort_keys=True) + "\n")
     stale = {path.name for path in out.glob("*.npz")} - {entry["file"] for entry in entries.values()}
@@ -247,12 +288,17 @@ def record(out: Path = GOLDEN_DIR, overwrite: bool = False) -> dict[str, Any]:
 
 def main(argv: Sequence[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--overwrite", action="store_true", help="replace the existing goldens")
+    which = parser.add_mutually_exclusive_group()
+    which.add_argument("--overwrite", action="store_true", help="replace the existing goldens")
+    which.add_argument("--new", action="store_true", help="record only the ids the index lacks")
     parser.add_argument("--out", type=Path, default=GOLDEN_DIR, help="the folder of the goldens")
     args = parser.parse_args(argv)
     try:
-        record(args.out, args.overwrite)
-    except FileExistsError as error:
+        if args.new:
+            record_new(args.out)
+        else:
+            record(args.out, args.overwrite)
+    except (FileExistsError, FileNotFoundError, ValueError) as error:
         print(error, file=sys.stderr)
         return 1
     print(f"ios_uav_env from {Path(ios_uav_env.__file__).parent}")
