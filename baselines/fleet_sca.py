@@ -50,6 +50,19 @@ e . r[n] >= d and e . r[n+1] >= d keep e . r(s) >= d all along it (a convex comb
 ||r(s)|| >= d: the first-order bound of ||r||^2 at p*, an inner approximation, which q^l meets
 (p* is 0's projection on the segment: e . r >= |p*| there). d is raised by
 ``SEPARATION_MARGIN`` where q^l allows; half-planes the trust region keeps clear of are left out.
+
+**Horizons** (``horizons``, s per UAV, as ``fleet_setup``'s; ``model.fleet_horizons``). UAV u
+flies its slots 0 .. N_u - 1 and is held at its final point after them, so in u's block only its
+way-points 1 .. N_u - 2 are variables (its start and its final point at slot N_u - 1 fixed, the
+held points follow the final one). Block 1 prices with the slot counts (``fleet_schedule(...,
+slots=)``): after its horizon a UAV serves nothing, is no alignment of the surface and causes no
+interference, so it is no term of any slot's choice there. The rates are still averaged over the
+scenario's N slots (the factor 1/N of R~_k), a pair has separation half-planes only on the
+segments both UAVs fly, and the acceptance and the final rescoring use the slot counts
+(``check_trajectory`` on u's own scenario, ``flights_separated(..., slots=)``,
+``fleet_maxmin(..., slots=)``). With every horizon T (the default) every slot is flown and the
+refinement is the plain one. The step's pieces (the tangent coefficients, the separation's
+half-planes, the chords of (17)) are ``baselines.fleet_sca_terms``.
 """
 
 from __future__ import annotations
