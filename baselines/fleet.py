@@ -39,8 +39,9 @@ search on their hover points (one point of one UAV moved 40, 20, 10 then 5 m alo
 diagonal while the fleet's value rises; ``baselines.fleet_candidates``); (iv) the best of them
 refined by block-coordinate SCA (``baselines.fleet_sca.refine``: the exact schedule, then one SCA
 step per UAV's flight with the others and the schedule fixed, accepted only if feasible,
-separated and not worse; every UAV flying all N slots), kept if it scores higher. The best
-candidate is returned with the bound; ``gap`` says how far it may be from the optimum.
+separated and not worse; each UAV's way-points over its own N_u slots), kept if it scores
+higher. The best candidate is returned with the bound; ``gap`` says how far it may be from the
+optimum.
 """
 
 from __future__ import annotations
@@ -191,8 +192,8 @@ def solve(
     ``tol``: Kelley's iterations and relative gap; ``local_moves``: most covers tried after the
     first; ``polish_steps``: the steps (m) of the pattern search on the best cover's hover points
     (empty: none), ``polish_budget`` the most flights it scores (None: until no step helps);
-    ``sca_iterations``: most rounds of block-coordinate SCA on the best plan (0: none; skipped
-    when a UAV's horizon is shorter than the scenario's T);
+    ``sca_iterations``: most rounds of block-coordinate SCA on the best plan (0: none; each UAV's
+    way-points over its own horizon);
     ``access``: orthogonal bands or one shared band (the plans are scored with its interference;
     the bound, interference-free, holds for both). The fleet's arguments are
     checked by ``model.fleet.fleet_setup``. ``info``: ``source`` (which candidate won), ``cover``
@@ -323,11 +324,11 @@ def solve(
         )
     best = max(scored, key=lambda s: s[0])
     sca = None
-    if sca_iterations and np.all(slots == n_slots):  # (iv) block-coordinate SCA of the best plan
+    if sca_iterations:  # (iv) block-coordinate SCA of the best plan, each UAV over its own slots
         from baselines.fleet_sca import refine
 
         got = refine(config, best[2], access=access, min_separation=min_separation, speeds=speeds,
-                     iterations=sca_iterations, progress=progress)  # fmt: skip
+                     horizons=horizons, iterations=sca_iterations, progress=progress)  # fmt: skip
         sca = {"from": best[0], "value": got.value, "rounds": got.rounds, "stop": got.stop,
                "seconds": got.seconds}  # fmt: skip
         if got.value > best[0]:

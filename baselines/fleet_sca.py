@@ -50,6 +50,19 @@ e . r[n] >= d and e . r[n+1] >= d keep e . r(s) >= d all along it (a convex comb
 ||r(s)|| >= d: the first-order bound of ||r||^2 at p*, an inner approximation, which q^l meets
 (p* is 0's projection on the segment: e . r >= |p*| there). d is raised by
 ``SEPARATION_MARGIN`` where q^l allows; half-planes the trust region keeps clear of are left out.
+
+**Horizons** (``horizons``, s per UAV, as ``fleet_setup``'s; ``model.fleet_horizons``). UAV u
+flies its slots 0 .. N_u - 1 and is held at its final point after them, so in u's block only its
+way-points 1 .. N_u - 2 are variables (its start and its final point at slot N_u - 1 fixed, the
+held points follow the final one). Block 1 prices with the slot counts (``fleet_schedule(...,
+slots=)``): after its horizon a UAV serves nothing, is no alignment of the surface and causes no
+interference, so it is no term of any slot's choice there. The rates are still averaged over the
+scenario's N slots (the factor 1/N of R~_k), a pair has separation half-planes only on the
+segments both UAVs fly, and the acceptance and the final rescoring use the slot counts
+(``check_trajectory`` on u's own scenario, ``flights_separated(..., slots=)``,
+``fleet_maxmin(..., slots=)``). With every horizon T (the default) every slot is flown and the
+refinement is the plain one. The step's pieces (the tangent coefficients, the separation's
+half-planes, the chords of (17)) are ``baselines.fleet_sca_terms``.
 """
 
 from __future__ import annotations
@@ -65,11 +78,12 @@ import cvxpy as cp
 import numpy as np
 
 import ios_uav_env as ie
+from baselines.fleet_sca_terms import SEPARATION_MARGIN, Pieces, chords, coefficients, separation_rows
 from baselines.fleet_schedule import FleetSchedule, fleet_schedule
 from baselines.sca_problem import LENGTH_SCALE, OK_STATUSES, SLACK_BOUND, STEP_MARGIN, U_BOUND, Surrogate
 from ios_uav_env import ScenarioConfig
-from ios_uav_env.model import channel as ch
 from ios_uav_env.model.fleet import ACCESS, fleet_maxmin, fleet_setup
+from ios_uav_env.model.fleet_horizons import horizon_slots
 from ios_uav_env.model.separation import DEFAULT_SEPARATION, flights_separated
 
 __all__ = ["MU", "NOTHING_TO_GAIN", "RETRIES", "SEPARATION_MARGIN", "TRUST", "Refinement", "refine"]
@@ -82,8 +96,6 @@ TRUST = 50.0
 RETRIES = 1
 #: A step's status when u serves no node the dual weights value (no retry).
 NOTHING_TO_GAIN = "serves no node the dual weights value"
-#: m, added to the separation in a step where the iterate allows (the solver's tolerance).
-SEPARATION_MARGIN = 1e-3
 
 
 @dataclass
@@ -100,93 +112,6 @@ class Refinement:
     history: list[dict[str, Any]] = field(default_factory=list)
 
 
-class _Pieces:
-    """Node k's surrogate pieces at one UAV's interior way-points (``Surrogate.linearise``): the
-    direct amplitude a_d (m,), the anchored tile terms (m, tiles) and their sum s_sum."""
-
-    def __init__(self, surrogate: Surrogate, q: np.ndarray):
-        lin = surrogate.linearise(q)
-        self.values, self.a_d = lin.values, ch.direct_amplitude(surrogate.config, q[1:-1])
-        terms = (
-            ch.surface_terms(surrogate.tiled, q[1:-1]) if surrogate.has_surface else np.zeros((len(q) - 2, 0))
-        )
-        self.terms = np.where(lin.active[:, None], terms * lin.anchor[:, None], 0.0)
-        self.s_sum = self.terms.sum(axis=1)
-
-
-def _slope(eta: np.ndarray, amplitude: np.ndarray) -> np.ndarray:
-    """d log2(1 + eta z^2) / d ln z, divided by z: the tangent's coefficient per unit amplitude."""
-    return 2.0 * eta * amplitude / ((1.0 + eta * amplitude**2) * math.log(2.0))
-
-
-def _coefficients(
-    config: ScenarioConfig, sched: FleetSchedule, u: int, pieces: list[_Pieces], access: str
-) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """(cd (m, K), cb (m, K), cc (m, K, tiles)): the tangent coefficients of node k's flight rate
-    in UAV u's slacks v, s, u_j with the schedule's shares (module docstring)."""
-    k_n, n_n = config.K, sched.gains.shape[0]
-    m, inner = n_n - 2, np.arange(1, n_n - 1)
-    aligned, direct = np.zeros((m, k_n)), np.zeros((m, k_n))
-    for j, lam in enumerate(sched.mix):
-        if lam <= 0:
-            continue
-        align, nodes = sched.align[j, inner], sched.nodes[j, inner]
-        node = nodes[:, u]
-        serving = node >= 0
-        eta = np.full(m, config.eta)
-        if access == "shared":  # the other transmitting UAVs at u's node: a constant in u's block
-            g = sched.gains[inner, align // k_n, align % k_n]  # (m, U, K)
-            heard = g[np.arange(m)[:, None], np.arange(g.shape[1]), np.maximum(node, 0)[:, None]]
-            others = (nodes >= 0) & (np.arange(nodes.shape[1]) != u)
-            eta = config.eta / (1.0 + config.eta * (heard * others).sum(axis=1))
-        own = align == u * k_n + node
-        for k in range(k_n):
-            p = pieces[k]
-            zeta = p.a_d + p.s_sum
-            here = serving & (node == k)
-            aligned[:, k] += np.where(here & own, lam * _slope(eta, zeta), 0.0)
-            direct[:, k] += np.where(here & ~own, lam * _slope(eta, p.a_d), 0.0)
-    cd = np.column_stack([(aligned[:, k] + direct[:, k]) * pieces[k].a_d for k in range(k_n)]) / n_n
-    cb = np.column_stack([aligned[:, k] * pieces[k].s_sum for k in range(k_n)]) / n_n
-    cc = np.stack([-aligned[:, k, None] * pieces[k].terms for k in range(k_n)], axis=1) / n_n
-    return cd, cb, cc
-
-
-def _separation_rows(q: np.ndarray, others: np.ndarray, d_min: float) -> list[tuple[int, np.ndarray, float]]:
-    """(slot, e, rhs): e . q_u[slot] >= rhs, the half-planes of the separation's restriction to the
-    others' flights ``others`` (V, N, 2) at UAV u's iterate ``q`` (N, 2) (module docstring)."""
-    rows = []
-    last = len(q) - 1
-    for other in others:
-        rel = q - other
-        for n in range(last):
-            a, b = rel[n], rel[n + 1]
-            w = b - a
-            s = 0.0 if not w @ w else float(np.clip(-(a @ w) / (w @ w), 0.0, 1.0))
-            p = a + s * w
-            dist = float(np.hypot(*p))
-            if dist == 0.0:
-                continue
-            e = p / dist
-            need = min(d_min + SEPARATION_MARGIN, dist)
-            for slot in (n, n + 1):
-                if 0 < slot < last:
-                    rows.append((slot, e, need + float(e @ other[slot])))
-    return rows
-
-
-def _chords(s: cp.Variable, z: Any, span: np.ndarray) -> list[Any]:
-    """s <= log z for z in [1 - span, 1 + span] (z = 1 at q^l; (17)), restricted to s below the
-    interpolation of log through five points of that range (a concave function's chords lie below
-    it): linear rows instead of an exponential cone; z stays >= its lowest point (> 0)."""
-    low = np.maximum(1.0 - span, 1e-2)
-    points = np.stack([low, (low + 1.0) / 2, np.ones_like(low), 1.0 + span / 2, 1.0 + span], axis=1)
-    logs = np.log(points)
-    slope = np.diff(logs, axis=1) / np.diff(points, axis=1)
-    rows = [s <= cp.multiply(slope[:, i], z) + (logs[:, i] - slope[:, i] * points[:, i]) for i in range(4)]
-    return [*rows, z >= low]
-
-
 def _step(
     config: ScenarioConfig,
     uav: ScenarioConfig,
@@ -198,15 +123,18 @@ def _step(
     access: str,
     solver: str,
     trust: float,
+    slots: np.ndarray | None = None,
 ) -> tuple[np.ndarray | None, float, str]:
-    """One SCA step on UAV u's flight (module docstring): (flight or None, surrogate t, status)."""
-    q = flights[u]
-    n_n, k_n, scale = q.shape[0], config.K, LENGTH_SCALE
-    m = n_n - 2
+    """One SCA step on UAV u's flight over its own N_u = ``uav.N`` slots (module docstring; the
+    others' slot counts ``slots`` (U,), default N each): (its (N_u, 2) flight or None, surrogate t,
+    status)."""
+    n_n, n_u, k_n, scale = config.N, uav.N, config.K, LENGTH_SCALE  # rates averaged over N slots
+    q = flights[u, :n_u]
+    m = n_u - 2
     if m <= 0:
         return None, math.nan, "no interior slot"
-    pieces = [_Pieces(s, q) for s in surrogates]
-    cd, cb, cc = (c * n_n for c in _coefficients(config, sched, u, pieces, access))  # per-slot units
+    pieces = [Pieces(s, flights[u], m) for s in surrogates]
+    cd, cb, cc = (c * n_n for c in coefficients(config, sched, u, pieces, access))  # per-slot units
     xc, yc = config.ios_center[0], config.ios_center[1]
     xi, psi = cp.Variable(m), cp.Variable(m)
     ends = (q[[0, -1]] - (xc, yc)) / scale
@@ -239,7 +167,7 @@ def _step(
         d_j2 = d_j2 + np.ones((len(surf), 1)) @ const[None, :]
         dl2 = pieces[0].values["dl2"][surf]
         cons += [
-            *_chords(s, cp.multiply(3.0 / x_l, xi[surf]) - 2.0, 3.0 * trust / scale / np.abs(x_l)),  # (17)
+            *chords(s, cp.multiply(3.0 / x_l, xi[surf]) - 2.0, 3.0 * trust / scale / np.abs(x_l)),  # (17)
             d_j2 <= dl2 + 0.5 * cp.multiply(dl2, uu),  # (18)
             s >= -SLACK_BOUND,
             uu <= U_BOUND,
@@ -280,7 +208,8 @@ def _step(
     box = trust / scale
     cons += [xi >= interior_l[:, 0] - box, xi <= interior_l[:, 0] + box]
     cons += [psi >= interior_l[:, 1] - box, psi <= interior_l[:, 1] + box]
-    rows = [r for r in _separation_rows(q, np.delete(flights, u, axis=0), d_min)
+    others = None if slots is None else np.delete(slots, u)
+    rows = [r for r in separation_rows(q, np.delete(flights, u, axis=0), d_min, others)
             if float(r[1] @ q[r[0]]) - r[2] <= math.sqrt(2.0) * trust + 1.0]  # fmt: skip
     if rows:
         slot = np.array([r[0] for r in rows]) - 1
@@ -316,6 +245,7 @@ def refine(
     access: str = "orthogonal",
     min_separation: float = DEFAULT_SEPARATION,
     speeds: Any = None,
+    horizons: Any = None,
     iterations: int = 5,
     tol: float = 1e-4,
     trust: float = TRUST,
@@ -325,11 +255,13 @@ def refine(
 ) -> Refinement:
     """Block-coordinate SCA of the U separated ``trajectories`` (U, N, 2) m (module docstring):
     at most ``iterations`` rounds (>= 0) of one step per UAV, stopped when a round gains less than
-    ``tol`` (relative, > 0). Each UAV flies from its first to its last way-point at its speed
-    limit (``speeds``, as ``fleet_setup``'s); ``tiles`` x ``tiles`` surface tiles model the
-    surrogate's curvature (``sca_problem``); ``trust`` (m) is a step's trust region and ``solver``
-    cvxpy's solver. The flights must be feasible and separated by ``min_separation`` m all along;
-    the value never decreases."""
+    ``tol`` (relative, > 0). Each UAV flies from its first way-point to its final point at its
+    speed limit (``speeds``) within its horizon (``horizons``, s; both as ``fleet_setup``'s:
+    UAV u flies slots 0 .. N_u - 1 and is held at its final point after, ``model.fleet_horizons``);
+    ``tiles`` x ``tiles`` surface tiles model the surrogate's curvature (``sca_problem``);
+    ``trust`` (m) is a step's trust region and ``solver`` cvxpy's solver. The flights must be
+    feasible, held after each horizon and separated by ``min_separation`` m all along while both
+    UAVs of a pair fly; the value (``fleet_maxmin`` with each UAV's slot count) never decreases."""
     t0 = time.perf_counter()
     if not isinstance(config, ScenarioConfig):
         raise TypeError(f"config must be a ScenarioConfig, got {type(config).__name__}")
@@ -347,22 +279,29 @@ def refine(
             f"trajectories must be a finite (U, N={config.N}, 2) array in m, got shape {flights.shape}"
         )
     u_n = flights.shape[0]
-    _, _, configs = fleet_setup(config, u_n, flights[:, 0], flights[:, -1], min_separation, access, speeds)
+    _, _, configs = fleet_setup(
+        config, u_n, flights[:, 0], flights[:, -1], min_separation, access, speeds, horizons
+    )
+    slots = horizon_slots(configs)  # each UAV's N_u
     for u, (c, f) in enumerate(zip(configs, flights, strict=True)):
-        if not ie.check_trajectory(c, f).feasible:
+        if not (ie.check_trajectory(c, f[: c.N]).feasible and np.all(f[c.N :] == f[c.N - 1])):
             raise ValueError(
-                f"trajectories[{u}] is not a feasible flight of UAV {u} (speed limit, endpoints)"
+                f"trajectories[{u}] is not a feasible flight of UAV {u} (speed limit, endpoints, "
+                f"held at its final point after its N_u = {c.N} slots)"
             )
-    if not flights_separated(flights, float(min_separation)):
-        raise ValueError(f"trajectories are not separated by min_separation = {min_separation:g} m all along")
-    start_value = fleet_maxmin(config, flights, access=access).value
+    if not flights_separated(flights, float(min_separation), slots):
+        raise ValueError(
+            f"trajectories are not separated by min_separation = {min_separation:g} m all along "
+            "(each pair while both fly)"
+        )
+    start_value = fleet_maxmin(config, flights, access=access, slots=slots).value
     history: list[dict[str, Any]] = []
     stop, done = "iterations", 0
     if rounds:
         surrogates = [
             Surrogate(config.node_config(k), tiles, solver.upper(), dpp=False) for k in range(config.K)
         ]
-        sched = fleet_schedule(config, flights, access)
+        sched = fleet_schedule(config, flights, access, slots)
     for it in range(rounds):
         done, before, accepted = it + 1, sched.value, 0
         for u in range(u_n):
@@ -373,7 +312,7 @@ def refine(
                 history.append(record)
                 q_new, record["surrogate"], record["status"] = _step(
                     config, configs[u], sched, u, flights, surrogates, float(min_separation), access,
-                    solver.upper(), rho,
+                    solver.upper(), rho, slots,
                 )  # fmt: skip
                 rho /= 2.0
                 if q_new is None:
@@ -381,14 +320,14 @@ def refine(
                         break
                     continue
                 trial = flights.copy()
-                trial[u] = q_new
+                trial[u, : len(q_new)], trial[u, len(q_new) :] = q_new, q_new[-1]  # held after N_u
                 if not ie.check_trajectory(configs[u], q_new).feasible:
                     record["status"] += ", infeasible"
                     continue
-                if not flights_separated(trial, float(min_separation)):
+                if not flights_separated(trial, float(min_separation), slots):
                     record["status"] += ", not separated"
                     continue
-                new = fleet_schedule(config, trial, access)
+                new = fleet_schedule(config, trial, access, slots)
                 record["value"] = new.value
                 if progress:
                     print(f"[fleet-sca] round {it} UAV {u}: {sched.value:.6f} -> {new.value:.6f}", flush=True)
@@ -402,7 +341,7 @@ def refine(
         if sched.value - before < tol * max(before, 1e-300):
             stop = "converged"
             break
-    value = fleet_maxmin(config, flights, access=access).value if done else start_value
+    value = fleet_maxmin(config, flights, access=access, slots=slots).value if done else start_value
     if value < start_value:  # rounding between the two pricings' sums: keep the start
         flights, value, stop = np.array(trajectories, dtype=float), start_value, f"{stop}, start kept"
     return Refinement(flights, value, start_value, done, stop, time.perf_counter() - t0, history)

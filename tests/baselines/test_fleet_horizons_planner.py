@@ -36,7 +36,9 @@ def test_each_uav_is_planned_over_its_own_slots(plan):
     assert flights_separated(plan.trajectories, fleet.DEFAULT_SEPARATION, slots)
     assert plan.value == fleet_maxmin(CONFIG, plan.trajectories, slots=slots).value
     assert 0.0 < plan.value <= plan.upper_bound
-    assert plan.info["sca"] is None  # block-coordinate SCA models every UAV over all N slots
+    sca = plan.info["sca"]  # block-coordinate SCA ran, each UAV over its own slots
+    assert sca is not None and sca["rounds"] >= 1
+    assert sca["from"] <= sca["value"] <= plan.value
 
 
 def test_the_bound_is_above_random_separated_flights_with_unequal_horizons(plan):
