@@ -20,13 +20,7 @@ ENV = "ios_uav_env/IOSUAV-v0"
 MULTI = "ios_uav_env/IOSUAV-MultiNode-v0"
 
 
-@pytest.fixture(autouse=True)
-def one_torch_thread():
-    """The trainer's default (train_fast sets it; FastPPO used directly here does not)."""
-    before = torch.get_num_threads()
-    torch.set_num_threads(1)
-    yield
-    torch.set_num_threads(before)
+pytestmark = pytest.mark.usefixtures("one_torch_thread")
 
 
 def entry(**overrides):

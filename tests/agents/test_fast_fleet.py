@@ -25,12 +25,7 @@ from ios_uav_env.model.separation import DEFAULT_SEPARATION  # noqa: E402
 FLEETS, STEPS = 4, 3 * 4 * 2 * 59
 
 
-@pytest.fixture(autouse=True)
-def one_torch_thread():
-    before = torch.get_num_threads()
-    torch.set_num_threads(1)
-    yield
-    torch.set_num_threads(before)
+pytestmark = pytest.mark.usefixtures("one_torch_thread")
 
 
 @pytest.fixture(scope="module")
