@@ -1,7 +1,7 @@
 """The fixed-UAV power sweep: every scheme below the certified bound and AO above the aligned
 baselines at every power, AO non-decreasing in P, K streams' slope for ZF at high power and MRT's
 saturation, the low-power limits (TDMA and AO attain the bound, equal-power MRT's predicted share),
-N_t = K = 1 as today's single-antenna rate at every power, and bad inputs refused."""
+N_t = K = 1 as the single-antenna model's rate at every power, and bad inputs refused."""
 
 from __future__ import annotations
 
@@ -125,7 +125,7 @@ def test_at_low_power_the_matched_filter_on_the_best_user_is_optimal(K):
     assert maxmin.values["TDMA"][0] == pytest.approx(maxmin.bound[0], rel=1e-3)
 
 
-def test_one_antenna_and_one_user_is_today_s_rate_at_every_power():
+def test_one_antenna_and_one_user_is_the_single_antenna_rate_at_every_power():
     """N_t = K = 1: AO, MRT and ZF with aligned phases, TDMA and the bound are all
     ``channel.slot_rates`` at the power P, to 1e-12 (the same sums in another order); 20 dBm is
     the scenario's own 0.1 W."""
@@ -133,11 +133,11 @@ def test_one_antenna_and_one_user_is_today_s_rate_at_every_power():
     q = np.array([-60.0, 10.0])
     powers = [-10.0, 20.0, 50.0]
     sweep = miso_sweep.power_sweep(config, ArrayConfig(), q, powers, "sum", random_starts=1, max_iter=20)
-    today = [ch.slot_rates(config.replace(power_w=10 ** (p / 10) * 1e-3), q)[0] for p in powers]
-    np.testing.assert_allclose(today[1], ch.slot_rates(config, q)[0], rtol=1e-14)
+    single = [ch.slot_rates(config.replace(power_w=10 ** (p / 10) * 1e-3), q)[0] for p in powers]
+    np.testing.assert_allclose(single[1], ch.slot_rates(config, q)[0], rtol=1e-14)
     for name in ("AO", "MRT aligned", "ZF aligned", "TDMA"):
-        np.testing.assert_allclose(sweep.values[name], today, rtol=1e-12, err_msg=name)
-    np.testing.assert_allclose(sweep.bound, today, rtol=1e-12)
+        np.testing.assert_allclose(sweep.values[name], single, rtol=1e-12, err_msg=name)
+    np.testing.assert_allclose(sweep.bound, single, rtol=1e-12)
     assert np.all(sweep.values["MRT random"] < 0.95 * sweep.bound)  # the phases matter here
     np.testing.assert_array_equal(sweep.snr_db, np.array(powers) - config.noise_dbm)
 
