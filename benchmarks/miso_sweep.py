@@ -9,7 +9,8 @@ The default: the paper's scenario (noise -80 dBm, UAV altitude 100 m, the IOS ce
 at (-60, 0) m with a 4-antenna ULA along x (lambda / 2, ``steering="centre"``), and the users
 (-120, -20), (110, -10), (-40, -40), (40, 30) m (the first K): on the UAV's side (served by
 reflection) and across the IOS (by transmission). The surface's paths there are 0.05 to 1.9 times
-the direct ones in amplitude; a 10 x 10 surface would add under 1 % and make the phases moot.
+the direct ones in amplitude; a 10 x 10 surface's would be 0.004 to 0.16 times (at most 1.3 dB
+of gain when aligned), too weak for the phases to matter much.
 
 For each K and objective it prints, per power P (dBm; eta = P / sigma^2, in dB P - noise_dbm):
 the largest single-user receive SNR max_k G_k (dB), the rates (bps/Hz) of AO (the per-slot optimum
