@@ -71,8 +71,8 @@ from ios_uav_env.model.config import ScenarioConfig
 from ios_uav_env.model.miso_slot import SlotSolution, alternate, optimise_slot
 
 __all__ = [
-    "POWER_RANGE_DBM", "SCHEMES", "PowerSweep", "dof_slope", "low_power_mrt_ratio", "power_sweep",
-    "sweep_channel",
+    "POWER_RANGE_DBM", "SCHEMES", "PowerSweep", "check_powers", "dof_slope", "low_power_mrt_ratio",
+    "power_sweep", "sweep_channel",
 ]  # fmt: skip
 
 #: The schemes of a sweep, in the table's order (the module docstring).
