@@ -101,6 +101,12 @@ REGISTRY: dict[str, Measurement] = {
         ("energy", "energy.py", ("--budgets", "0.8", "0.9"), "energy planners: EE, % of the bound"),
         ("miso_slot", "miso_slot.py", (), "multi-antenna slot: AO vs bound, MRT/ZF, TDMA; a power sweep"),
         (
+            "miso_sweep",
+            "miso_sweep.py",
+            (),
+            "fixed-UAV MISO, N_t = 4, K = 2 and 4: sum and max-min rate vs P, each scheme's gap to the bound",
+        ),
+        (
             "mobile",
             "mobile.py",
             ("--quick",),

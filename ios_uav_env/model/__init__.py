@@ -11,7 +11,8 @@ a trajectory, on numpy arrays, knowing nothing of Gymnasium.
   several) and their draws;
 - ``guard``: the arrival guard; ``flights``: pure flight rules (the loiter flight);
 - ``array``, ``miso``, ``miso_slot``: the multi-antenna UAV (a ULA serving K users at once), its
-  slot channel, bounds and baselines, and the per-slot optimum over the beams and the phases.
+  slot channel, bounds and baselines, and the per-slot optimum over the beams and the phases;
+  ``miso_sweep``: the UAV hovering, every scheme's rate and the bound against the transmit power.
 
 Users import these names from ``ios_uav_env`` itself.
 """
