@@ -194,6 +194,9 @@ SUITES: dict[str, RegisteredSuite] = {
     "mobile-v2": RegisteredSuite(
         "mobile-v2.json", "a20d796bb79315b07bb072d961092fae9accb88fcc24a911873b0a5ba9d06944"
     ),
+    "multi-uav-v1": RegisteredSuite(
+        "multi-uav-v1.json", "f91bfffa79084d1d9a6723050209a3a840c32cf908fd8c4632a4bb3473be7999"
+    ),
 }
 DEFAULT_SUITE = "single-node-v1"
 #: A suite's name: words of lowercase ASCII letters and digits joined by one "-", "." or "_"

@@ -16,6 +16,7 @@ from ios_uav_env.benchmark import figures as figures_module
 from ios_uav_env.benchmark.cli import main
 from ios_uav_env.benchmark.overrides import (
     DRAW,
+    FLEET,
     PINNED,
     PRESENTATION,
     REWARD,
@@ -84,7 +85,8 @@ def test_every_pinned_argument_is_refused_as_ignored_even_with_the_opt_in(name, 
     suite = suites[name]
     config = suite[0].config
     taken = sorted(k for k in env_arguments(suite.env_id) if k in PINNED)
-    assert "motion" in taken and "focus" in taken or suite.multi_node
+    assert "motion" in taken and ("focus" in taken or suite.multi_node or suite.fleets)
+    assert FLEET <= set(taken) if suite.fleets else not FLEET & set(taken)  # a fleet suite pins its fleet
     for k in taken:
         value = getattr(config, k) if k in SCENARIO_FIELDS else 0.5
         for allow in (False, True):

@@ -26,14 +26,30 @@ class Breaks:
 
 
 def _width(suite) -> int:
+    if suite.fleets:  # the move, one score per node slot and the surface bid
+        return 2 + suite.env_kwargs["max_nodes"] + 1
     return 2 + (4 if suite.multi_node else 0)
 
 
-@pytest.mark.parametrize("batched", [False, True])
-@pytest.mark.parametrize("name", sorted(SUITES))
+def _calls(suite) -> int:
+    """The policy's calls in one episode of scenario 0: one per step, per live agent of a fleet."""
+    if suite.fleets:
+        from ios_uav_env.benchmark.fleet_suite import fleet_configs
+
+        return sum(c.N - 1 for c in fleet_configs(suite[0].config, suite[0].fleet))
+    return suite[0].config.N - 1
+
+
+#: Every suite, batched or not (a fleet's agents are called one by one: a batched policy is refused
+#: there, by test_fleet_suite).
+CASES = [(name, batched) for name in sorted(SUITES) for batched in (False, True)
+         if not (batched and load_suite(name).fleets)]  # fmt: skip
+
+
+@pytest.mark.parametrize(("name", "batched"), CASES)
 def test_the_error_names_the_suite_the_scenario_and_the_policy(name, batched):
     suite = load_suite(name)
-    steps = suite[0].config.N - 1  # one call per step; the warm-up episode plays scenario 0 first
+    steps = _calls(suite)  # the warm-up episode plays scenario 0 first
     policy = Breaks(2 * steps + 1, _width(suite), batched)  # the first call of scenario 1
     with pytest.raises(PolicyError) as err:
         evaluate(policy, suite, n=2, batched=batched)
