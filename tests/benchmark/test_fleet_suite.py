@@ -13,7 +13,7 @@ pytest.importorskip("pettingzoo")
 
 from baselines.references.__main__ import main as references_main  # noqa: E402
 from baselines.references.fleet import fleet_tasks, straight_flights  # noqa: E402
-from ios_uav_env.benchmark import evaluate, load_suite, score_trajectories  # noqa: E402
+from ios_uav_env.benchmark import SUITES, evaluate, load_suite, score_trajectories  # noqa: E402
 from ios_uav_env.benchmark.cli import main as benchmark_main  # noqa: E402
 from ios_uav_env.benchmark.fleet_policies import NearestWorstNode  # noqa: E402
 from ios_uav_env.benchmark.fleet_suite import fleet_configs, score_flights  # noqa: E402
@@ -203,3 +203,17 @@ def test_saved_flights_score_again_from_their_file(suite, tmp_path):
         benchmark_main(["evaluate", "--suite", str(suite.path), "--trajectories", str(paths["trajectories"])])
         == 0
     )
+
+
+def test_the_shipped_suite_loads_and_its_straight_rows_reproduce():
+    """multi-uav-v1: registered, both bands, 2 and 3 UAVs; the straight flights scored again by
+    fleet_maxmin give the stored values (1e-9 relative: another CPU's BLAS sums the surface's
+    complex products in another order, ~1e-15; a changed scorer moves them by far more)."""
+    shipped = load_suite("multi-uav-v1")
+    assert len(shipped) == 40 and shipped.sha256 == SUITES["multi-uav-v1"].sha256
+    assert {s.fleet["access"] for s in shipped} == {"orthogonal", "shared"}
+    assert {s.fleet["uavs"] for s in shipped} == {2, 3} and {s.config.K for s in shipped} == {3, 4, 5, 6}
+    for s in shipped.subset(4):
+        rate, feasible, _ = score_flights(s.config, s.fleet, straight_flights(s.config, s.fleet))
+        assert feasible and rate == pytest.approx(s.value("straight"), rel=1e-9)
+        assert s.value("straight") <= s.value("planner") <= s.value("bound")
