@@ -27,16 +27,19 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from ios_uav_env.envs.policies import move_toward
+from ios_uav_env.envs.policies import FeatureReader, move_toward
 
 __all__ = ["NearestWorstNode"]
 
 
-class NearestWorstNode:
+class NearestWorstNode(FeatureReader):
     """Each UAV to the least-served of its nearest nodes (module docstring). ``D`` and
-    ``length_scale``: the env's D = v_max dt and L (m)."""
+    ``length_scale``: the env's D = v_max dt and L (m). On one UAV (``MultiNodeEnv``'s layout: no
+    other UAV, no bid) it flies to the least-served node."""
 
     name = "each UAV to the least-served of its nearest nodes (heuristic)"
+    #: The features it needs (it reads every node block and every other UAV the layout has).
+    observation_features = ("dx_final", "dy_final", "mask_0", "dx_node_0", "dy_node_0", "served_0")
 
     def __init__(self, D: float = 25.0, length_scale: float = 400.0) -> None:
         for label, value in (("D", D), ("length_scale", length_scale)):
@@ -45,26 +48,19 @@ class NearestWorstNode:
             ):
                 raise ValueError(f"{label} must be a finite number > 0 (m), got {value!r}")
         self.D, self.length_scale = float(D), float(length_scale)
-        self.layout: tuple[str, ...] | None = None
 
     def bind(self, names: Sequence[str]) -> NearestWorstNode:
-        """A copy that reads the parallel env's layout ``names`` (``ValueError`` naming what is
-        missing: it needs qF's offset and at least one node block)."""
+        """A copy that reads the layout ``names`` (``FeatureReader.bind``: ``ValueError`` naming a
+        missing feature): its node blocks and the other UAVs' offsets, by name."""
+        bound: NearestWorstNode = super().bind(names)
         layout = tuple(names)
         nodes = sorted(int(m.group(1)) for n in layout if (m := re.fullmatch(r"mask_(\d+)", n)))
         others = sorted(int(m.group(1)) for n in layout if (m := re.fullmatch(r"dx_uav_(\d+)", n)))
-        needed = ["dx_final", "dy_final"] + [
-            f"{c}_{k}" for k in nodes for c in ("dx_node", "dy_node", "served")
-        ]
+        needed = [f"{c}_{k}" for k in nodes for c in ("dx_node", "dy_node", "served")]
         needed += [f"dy_uav_{v}" for v in others]
         missing = [n for n in needed if n not in layout]
-        if not nodes or missing:
-            raise ValueError(
-                f"{self!r} reads the several-UAV env's observation (dx_final, dy_final and node blocks "
-                f"mask_k, dx_node_k, dy_node_k, served_k); the layout lacks {missing or ['mask_0']}"
-            )
-        bound = NearestWorstNode(self.D, self.length_scale)
-        bound.layout = layout
+        if missing:
+            raise ValueError(f"{self!r}: the layout has node or UAV blocks without {missing}")
         at = layout.index
         bound._final = [at("dx_final"), at("dy_final")]
         bound._mask = [at(f"mask_{k}") for k in nodes]
@@ -78,8 +74,7 @@ class NearestWorstNode:
         if self.layout is None:
             raise ValueError(f"{self!r} is unbound: bind it to the env (policy.bind(env.observation_names))")
         o = np.asarray(obs, dtype=np.float64)
-        if o.shape != (len(self.layout),):
-            raise ValueError(f"{self!r} is bound to a layout of {len(self.layout)} features, got {o.shape}")
+        self._columns(o)  # the layout's width (ValueError otherwise)
         live = o[self._mask] > 0.5
         nodes = o[np.array(self._node)]  # (K_max, 2): each node relative to this UAV
         mine = live.copy()

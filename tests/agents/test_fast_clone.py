@@ -11,7 +11,9 @@ import torch
 
 from agents.fast import FastPPO
 from agents.fast.clone import CloneSettings, clone
-from tests.agents.test_fast import ENV, one_torch_thread, recipe  # noqa: F401  (an autouse fixture)
+from tests.agents.test_fast import ENV, recipe
+
+pytestmark = pytest.mark.usefixtures("one_torch_thread")
 
 EXPERT = "ios_uav_env.envs.policies:HoverAt('ground')"
 CLONE = {"agents.callbacks.CloneStart": {"expert": EXPERT, "rounds": 2, "slots": 32, "epochs": 6,

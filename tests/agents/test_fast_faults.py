@@ -8,8 +8,11 @@ import json
 import os
 from pathlib import Path
 
+import pytest
+
 from tests.agents import test_fast
-from tests.agents.test_fast import one_torch_thread  # noqa: F401  (an autouse fixture)
+
+pytestmark = pytest.mark.usefixtures("one_torch_thread")
 
 fast_file = test_fast.fast_file  # a tiny recipe file (a fixture)
 

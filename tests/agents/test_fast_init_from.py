@@ -16,7 +16,9 @@ import yaml
 import ios_uav_env  # noqa: F401
 from agents.fast import FastPPO
 from agents.imitation import ImitationSettings, _new_model, _save, model_config
-from tests.agents.test_fast import entry, one_torch_thread, recipe  # noqa: F401  (an autouse fixture)
+from tests.agents.test_fast import entry, recipe
+
+pytestmark = pytest.mark.usefixtures("one_torch_thread")
 
 RANDOM = "ios_uav_env/IOSUAV-MultiNode-Random-v0"
 HINTED = {"softmin_beta": 20, "peak_hint": True}  # agents.imitation's default env arguments

@@ -20,7 +20,9 @@ from agents.fast import FastPPO, FastRecipe  # noqa: E402
 from agents.fast.kernel import SETTINGS, minibatch_gradient, update_settings  # noqa: E402
 from agents.fast.kernel_policy import KernelUpdate  # noqa: E402
 from agents.hyperparams import check_entry, resolve  # noqa: E402
-from tests.agents.test_fast import ENV, MULTI, entry, one_torch_thread  # noqa: E402, F401  (an autouse fixture)
+from tests.agents.test_fast import ENV, MULTI, entry  # noqa: E402
+
+pytestmark = pytest.mark.usefixtures("one_torch_thread")
 
 
 def recipe(**overrides) -> FastRecipe:

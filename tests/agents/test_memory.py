@@ -19,7 +19,9 @@ from agents.fast import FastPPO, FastRecipe
 from agents.tricks import FrameStack as Stack
 from agents.tricks import History
 from agents.wrappers import FrameStack, memory_frames
-from tests.agents.test_fast import one_torch_thread, recipe  # noqa: F401  (an autouse fixture)
+from tests.agents.test_fast import recipe
+
+pytestmark = pytest.mark.usefixtures("one_torch_thread")
 
 MOBILE = "ios_uav_env/IOSUAV-Mobile-v0"
 MEMORY = [{"agents.wrappers.FrameStack": {"frames": 3}}]

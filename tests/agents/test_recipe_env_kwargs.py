@@ -13,7 +13,9 @@ import yaml
 import train
 from agents.hyperparams import HYPERPARAMS_DIR, load_hyperparams
 from ios_uav_env import ENERGY_ID, ENERGY_RANDOM_ID
-from tests.agents.test_fast import ENV, MULTI, entry, one_torch_thread  # noqa: F401  (an autouse fixture)
+from tests.agents.test_fast import ENV, MULTI, entry
+
+pytestmark = pytest.mark.usefixtures("one_torch_thread")
 
 #: What the documented commands passed with --env-kwargs before the recipes carried them.
 DOCUMENTED = {

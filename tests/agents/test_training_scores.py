@@ -11,7 +11,9 @@ import numpy as np
 import pytest
 
 from ios_uav_env import ENERGY_ID
-from tests.agents.test_fast import ENV, MULTI, entry, one_torch_thread  # noqa: F401  (an autouse fixture)
+from tests.agents.test_fast import ENV, MULTI, entry
+
+pytestmark = pytest.mark.usefixtures("one_torch_thread")
 
 #: id -> (the score's name, its unit)
 LABELS = {ENV: ("average_rate", "bps/Hz"), ENERGY_ID: ("energy_efficiency", "bits/J"),

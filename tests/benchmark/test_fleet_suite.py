@@ -217,3 +217,11 @@ def test_the_shipped_suite_loads_and_its_straight_rows_reproduce():
         rate, feasible, _ = score_flights(s.config, s.fleet, straight_flights(s.config, s.fleet))
         assert feasible and rate == pytest.approx(s.value("straight"), rel=1e-9)
         assert s.value("straight") <= s.value("planner") <= s.value("bound")
+
+
+def test_the_heuristics_docstring_example_holds():
+    import doctest
+
+    from ios_uav_env.benchmark import fleet_policies
+
+    assert doctest.testmod(fleet_policies).failed == 0

@@ -10,6 +10,7 @@ import numpy as np
 import pytest
 
 from ios_uav_env import ENERGY_ID, ENERGY_RANDOM_ID, MOBILE_ID, ScenarioConfig
+from ios_uav_env.benchmark.fleet_policies import NearestWorstNode
 from ios_uav_env.benchmark.multi_policies import StraightEqualShares
 from ios_uav_env.envs.observation import SINGLE_LAYOUTS, feature_source, require_features
 from ios_uav_env.envs.policies import FeatureReader, HoverAt, Loiter
@@ -18,12 +19,14 @@ from ios_uav_env.envs.rollout import bind_policy, run_episode, run_episodes
 from ios_uav_env.envs.single import IOSUAVEnv
 
 IDS = sorted(i for i in gym.registry if i.startswith("ios_uav_env/"))
-#: Every shipped policy (``ios_uav_env.envs.policies``, ``ios_uav_env.benchmark.multi_policies``).
+#: Every shipped policy (``ios_uav_env.envs.policies``, ``ios_uav_env.benchmark.multi_policies``,
+#: ``ios_uav_env.benchmark.fleet_policies``).
 POLICIES = {
     "hover-peak": lambda: HoverAt("peak"),
     "hover-ground": lambda: HoverAt("ground"),
     "loiter": Loiter,
     "straight": StraightEqualShares,
+    "nearest": NearestWorstNode,
 }
 SHORT = {"T": 40.0}  # the fixed ids' episodes, shortened (the randomised ids draw theirs)
 
@@ -62,7 +65,7 @@ def test_every_shipped_policy_is_a_feature_reader():
 
     # (the scorer's wrapper of an action function, which evaluate makes of the policy once bound)
     shipped -= {NamedPolicy}
-    assert shipped == {HoverAt, Loiter, StraightEqualShares}
+    assert shipped == {HoverAt, Loiter, StraightEqualShares, NearestWorstNode}
     assert all(issubclass(cls, FeatureReader) for cls in shipped)
     assert {type(make()) for make in POLICIES.values()} == shipped
 
@@ -115,16 +118,17 @@ def test_a_bound_policy_reads_by_name_wherever_the_layout_puts_a_feature(policy_
     """On a shuffled layout (and the observation shuffled alike) the bound policy acts as the
     unbound one does on its own layout: it reads names, not positions."""
     policy = POLICIES[policy_name]()
-    env_id = {"loiter": ENERGY_RANDOM_ID, "straight": "ios_uav_env/IOSUAV-MultiNode-v0"}.get(
+    multi = "ios_uav_env/IOSUAV-MultiNode-v0"
+    env_id = {"loiter": ENERGY_RANDOM_ID, "straight": multi, "nearest": multi}.get(
         policy_name, "ios_uav_env/IOSUAV-Random-v0"
     )
-    env = gym.make(env_id, **({"peak_hint": True} if policy_name != "straight" else {}))
+    env = gym.make(env_id, **({"peak_hint": True} if env_id != multi else {}))
     obs, _ = env.reset(seed=1)
     names = env.unwrapped.observation_names
     order = np.random.default_rng(0).permutation(len(names))
     shuffled = policy.bind(tuple(names[i] for i in order))
     np.testing.assert_array_equal(shuffled(obs[order]), policy.bind(names)(obs))
-    if policy_name != "straight":
+    if env_id != multi:
         np.testing.assert_array_equal(policy.bind(names)(obs), policy(obs))  # unbound: the same layout
     with pytest.raises(ValueError, match=f"bound to a layout of {len(names)} features, got 5"):
         policy.bind(names)(np.zeros(5))
