@@ -23,12 +23,16 @@ from ios_uav_env.model.star_slot import evaluate, slot_optimum
 #: The small-surface STAR scenario: a surface low on a facade (centre 5 m up, plane x = 0), the
 #: paper's UAV altitude (100 m) and radio but for the noise: -110 dBm, the thermal noise of 1 MHz
 #: with a 4 dB noise figure (the paper's -80 dBm leaves 16 elements at ~1e-5 bps/Hz); lambda / 2.
-BASE_CONFIG = ScenarioConfig(ios_center=(0.0, 0.0, 5.0), ios_shape=(8, 8), noise_dbm=-110.0)
+#: Its nodes are the two users and its q0 -> qF the line of an episode (x replaced at every reset).
 USER_R = (-5.0, 2.0)  # m, the reflection user (the UAV's side of the plane)
 USER_T = (5.0, -2.0)  # m, the transmission user (the other side)
-N_SLOTS = 16  # slots of an episode (dt = 1 s; 20 m per slot <= v_max dt = 25 m)
 Y_SPAN = (-150.0, 150.0)  # m, the line's start and end y
 X_RANGE = (-250.0, -100.0)  # m, the line's x, drawn per episode
+BASE_CONFIG = ScenarioConfig(
+    ios_center=(0.0, 0.0, 5.0), ios_shape=(8, 8), noise_dbm=-110.0, T=16.0, ground_nodes=(USER_R, USER_T),
+    q0=(X_RANGE[0], Y_SPAN[0]), qF=(X_RANGE[0], Y_SPAN[1]),
+)  # fmt: skip
+N_SLOTS = BASE_CONFIG.N  # slots of an episode (dt = 1 s; 20 m per slot <= v_max dt = 25 m)
 LENGTH_SCALE = 400.0  # m, lengths in the observation are divided by it
 M_RANGE = (16, 256)  # the surface sizes the env takes (element by element control)
 PROTOCOLS = ("es", "ms")
@@ -121,7 +125,9 @@ class STARControlEnv(gym.Env):
     ## Starting State
 
     The UAV at (x, -150) m, x ~ U[-250, -100] m from ``reset(seed=...)``'s generator (the only
-    draw).
+    draw). ``env.unwrapped.config`` is the episode's scenario (the ``ScenarioConfig`` with the
+    users as its nodes and the line as q0 -> qF), ``env.unwrapped.positions`` the UAV's (N, 2)
+    way-points and ``env.unwrapped.channels`` each slot's ``StarChannels``.
 
     ## Episode End
 
@@ -184,7 +190,7 @@ class STARControlEnv(gym.Env):
         self.surface = StarSurface(protocol, "independent", bits)  # checks bits, naming it
         self.access, self.group, self.channel_phases = access, int(group), channel_phases
         self.direct_link = direct_link
-        self.config = BASE_CONFIG.replace(ios_shape=shape)
+        self.config = self._base = BASE_CONFIG.replace(ios_shape=shape)
         self.M = shape[0] * shape[1]
         self.G = self.M // self.group
         width = 2 * self.G + 1 if access == "tdma" else 3 * self.G + 1
@@ -206,6 +212,7 @@ class STARControlEnv(gym.Env):
         if options:
             raise ValueError(f"options must be None or empty (this env takes none), got {options!r}")
         x = float(self.np_random.uniform(*X_RANGE))
+        self.config = self._base.replace(q0=(x, Y_SPAN[0]), qF=(x, Y_SPAN[1]))  # the episode's line
         self.positions = np.column_stack([np.full(N_SLOTS, x), np.linspace(*Y_SPAN, N_SLOTS)])
         self.channels = [star_channels(self.config, q, USER_R, USER_T) for q in self.positions]
         if not self.direct_link:  # blocked: the users hear the UAV through the surface only

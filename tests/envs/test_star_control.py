@@ -44,6 +44,9 @@ def test_the_id_makes_the_env_and_its_info_keys_stay_fixed():
     assert isinstance(env.unwrapped, STARControlEnv) and env.spec.max_episode_steps is None
     _, info = env.reset(seed=0)
     assert tuple(info) == INFO_KEYS and info["pct_of_optimum"] == 0.0
+    base = env.unwrapped  # the episode's scenario: the users as nodes, the drawn line as q0 -> qF
+    assert base.config.N == N_SLOTS and base.config.nodes == ((-5.0, 2.0), (5.0, -2.0))
+    assert base.config.q0 == tuple(base.positions[0]) and base.config.qF == tuple(base.positions[-1])
     for n in range(N_SLOTS):
         _, _, terminated, truncated, info = env.step(env.action_space.sample())
         assert tuple(info) == INFO_KEYS and info["slot"] == n and terminated == (n == N_SLOTS - 1)
