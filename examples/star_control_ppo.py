@@ -78,14 +78,14 @@ def references(kwargs: dict, episodes: int) -> dict[str, float]:
 
 
 def train_and_score(
-    kwargs: dict, steps: int, episodes: int, seed: int, learning_rate: float = PPO_KWARGS["learning_rate"]
+    kwargs: dict, steps: int, episodes: int, seed: int, **overrides: float | None
 ) -> tuple[float, float]:
     """PPO for ``steps`` slots, then its % of the per-slot optimum on the held-out episodes; and
-    the training time (s)."""
+    the training time (s). ``overrides``: PPO arguments in place of the recipe's."""
     venv = DummyVecEnv([lambda: gym.make(ID, **kwargs) for _ in range(N_ENVS)])
     venv.seed(seed)
     venv = VecNormalize(venv, norm_obs=False, norm_reward=True, gamma=0.99)
-    model = PPO("MlpPolicy", venv, seed=seed, device="cpu", **{**PPO_KWARGS, "learning_rate": learning_rate})
+    model = PPO("MlpPolicy", venv, seed=seed, device="cpu", **{**PPO_KWARGS, **overrides})
     start = time.perf_counter()
     model.learn(total_timesteps=steps)
     seconds = time.perf_counter() - start
@@ -110,6 +110,7 @@ def main(argv: list[str] | None = None) -> list[dict]:
     parser.add_argument("--group", type=int, default=1, help="elements per group (a divisor of sqrt(M))")
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--learning-rate", type=float, default=PPO_KWARGS["learning_rate"])
+    parser.add_argument("--target-kl", type=float, default=None, help="PPO's early stop (None: off)")
     args = parser.parse_args(argv)
     torch.set_num_threads(1)
     rows = []
@@ -122,7 +123,14 @@ def main(argv: list[str] | None = None) -> list[dict]:
         for b in args.bits:
             bits = None if b == "none" else int(b)
             kwargs = env_kwargs(m, bits, args.group)
-            ppo, seconds = train_and_score(kwargs, args.steps, args.episodes, args.seed, args.learning_rate)
+            ppo, seconds = train_and_score(
+                kwargs,
+                args.steps,
+                args.episodes,
+                args.seed,
+                learning_rate=args.learning_rate,
+                target_kl=args.target_kl,
+            )
             ref = references(kwargs, args.episodes)
             row = {"M": m, "bits": bits, "ppo": ppo, **ref, "seconds": seconds}
             rows.append(row)
