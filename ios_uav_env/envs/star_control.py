@@ -88,9 +88,9 @@ class STARControlEnv(gym.Env):
     A ``Box(-1, 1, (A,), float32)``; the action is used in float64 as given (so a setting given
     as a float64 action, e.g. the optimum's through :meth:`action_of`, is scored to rounding).
     G = M / ``group`` groups; group k is elements k ``group`` ... (k + 1) ``group`` - 1
-    (``surface.element_positions``' order: ``group`` adjacent elements of one column, along z),
-    all set alike. Phases: theta = pi a, then
-    ``star.quantise(theta, bits)`` (the nearest of the 2^b levels; unchanged with ``bits=None``).
+    (``model.surface.element_positions``' order: ``group`` adjacent elements of one column, along
+    z), all set alike. Phases: theta = pi a, then ``star.quantise(theta, bits)`` (the nearest of
+    the 2^b levels; unchanged with ``bits=None``).
 
     | Num       | Action                                            | access | Min | Max |
     |-----------|---------------------------------------------------|--------|-----|-----|
@@ -111,7 +111,7 @@ class STARControlEnv(gym.Env):
     TDMA optimum's 1 - tau); and, with ``channel_phases=True`` (default), per group and side the
     phase of the group's channel, arg(sum_{m in k} a_m^s e^{j phi_m^s}) / pi in [-1, 1): with
     continuous phases and TDMA the optimal action is that feature itself. Without them the
-    per-element phases, which wrap every half wavelength of path difference, must be inferred
+    per-element phases, which wrap every wavelength (5 cm) of path difference, must be inferred
     from the UAV position: not learnable at a sensible budget, which is why they are on.
 
     ## Rewards

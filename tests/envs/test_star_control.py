@@ -219,7 +219,7 @@ def test_the_layout_is_published_and_every_feature_is_known():
 @pytest.mark.parametrize(
     "change",
     [{"elements": (4, 8)}, {"bits": 2}, {"group": 2}, {"access": "noma"}, {"protocol": "ms"},
-     {"channel_phases": False}],
+     {"channel_phases": False}, {"direct_link": True}],
     ids=str,
 )  # fmt: skip
 def test_every_keyword_changes_the_episode(change):
