@@ -80,6 +80,9 @@ _SINGLE_IDS = "a single-node id (e.g. ios_uav_env/IOSUAV-v0, -Random-v0, -Energy
 
 def feature_source(name: str) -> str:
     """Which env argument (or id) publishes the observation feature ``name`` (for error messages)."""
+    if name.startswith("star_"):  # (ios_uav_env.envs.star_control's layout)
+        phases = name.startswith("star_phase_")
+        return "ios_uav_env/STARControl-v0" + (" with channel_phases=True" if phases else "")
     node = re.fullmatch(r"(.+)_(\d+)", name)
     if node and node.group(1) in ("dx_peak", "dy_peak", "rate_peak"):
         return f"peak_hint=True on {_MULTI_IDS}"

@@ -59,6 +59,12 @@ MULTINODE_MOBILE_IDS: dict[str, dict[str, Any]] = {
     MULTINODE_MOBILE_ID: {"random_nodes": (2, 4), "motion": {"kind": "gauss_markov"}, "knowledge": "reports"},
 }
 
+#: The surface as the agent's control (``ios_uav_env.envs.star_control``): the UAV flies a given
+#: line past a small STAR surface and the agent sets the surface's coefficients in every slot. No
+#: batched form (no ``vector_entry_point``).
+STAR_CONTROL_ID = "ios_uav_env/STARControl-v0"
+STAR_CONTROL_IDS: dict[str, dict[str, Any]] = {STAR_CONTROL_ID: {}}
+
 
 def _vector(entry_point: str) -> dict[str, str]:
     """The ``vector_entry_point`` argument where Gymnasium has it (1.0 and later)."""
@@ -68,12 +74,13 @@ def _vector(entry_point: str) -> dict[str, str]:
 
 def register_envs() -> None:
     """Register every id of :data:`ENV_IDS`, :data:`RANDOM_IDS`, :data:`MULTINODE_IDS`,
-    :data:`ENERGY_IDS`, :data:`MOBILE_IDS` and :data:`MULTINODE_MOBILE_IDS` not registered yet.
+    :data:`ENERGY_IDS`, :data:`MOBILE_IDS`, :data:`MULTINODE_MOBILE_IDS` and
+    :data:`STAR_CONTROL_IDS` not registered yet.
 
     No ``max_episode_steps``: the env ends every episode itself at slot N of its scenario
     (``terminated=True``), whatever T is, so no ``TimeLimit`` can cut a mission short. Each id
     also names its natively batched env (``gym.make_vec(id, num_envs=B,
-    vectorization_mode="vector_entry_point")``, Gymnasium >= 1.0).
+    vectorization_mode="vector_entry_point")``, Gymnasium >= 1.0), except :data:`STAR_CONTROL_IDS`.
     """
     families = (
         (ENV_IDS, "ios_uav_env.envs.single:IOSUAVEnv", "ios_uav_env.envs.single_vector:IOSUAVVectorEnv"),
@@ -109,3 +116,7 @@ def register_envs() -> None:
                 gym.register(
                     id=env_id, entry_point=entry_point, kwargs=dict(kwargs), **_vector(vector_entry_point)
                 )
+    for env_id, kwargs in STAR_CONTROL_IDS.items():
+        if env_id not in gym.registry:
+            entry_point = "ios_uav_env.envs.star_control:STARControlEnv"
+            gym.register(id=env_id, entry_point=entry_point, kwargs=dict(kwargs))

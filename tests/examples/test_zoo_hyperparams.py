@@ -20,6 +20,7 @@ def test_registered_ids_are_the_package_ids():
         *ios_uav_env.ENERGY_IDS,
         *ios_uav_env.MOBILE_IDS,
         *ios_uav_env.MULTINODE_MOBILE_IDS,
+        *ios_uav_env.STAR_CONTROL_IDS,
     }
 
 

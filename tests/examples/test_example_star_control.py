@@ -1,0 +1,19 @@
+"""examples/star_control_ppo.py: PPO setting the STAR surface, its table of % of the per-slot optimum."""
+
+import re
+
+from conftest import require
+
+
+def test_star_control_ppo_prints_its_table(run_example):
+    require("stable_baselines3", "torch")
+    out = run_example("star_control_ppo.py", "--elements", "16", "--bits", "none", "1", "--steps", "512",
+                      "--episodes", "1")  # fmt: skip
+    rows = re.findall(r"^\s+16\s+(none|1)\s+([0-9.]+)\s+([0-9.]+)\s+([0-9.]+)\s+([0-9.]+)\s+\d+$", out, re.M)
+    assert [row[0] for row in rows] == ["none", "1"], out
+    for bits, ppo, random, quantised, grid in rows:
+        assert 0 < float(ppo) <= 100 and 0 < float(random) < 100, out
+        if bits == "none":  # continuous phases: nothing to round, no grid loss
+            assert float(quantised) == 100.0 and float(grid) == 100.0, out
+        else:  # rounded phases fall short of the exact b-bit optimum, which falls short of continuous
+            assert float(quantised) <= 100.0 and float(grid) < 100.0, out
