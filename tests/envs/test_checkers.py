@@ -58,7 +58,7 @@ def test_sb3s_checker_without_warnings(env_id):
 
 def test_only_the_surface_control_ids_have_no_batched_form():
     unbatched = {i for i in IDS if getattr(gym.spec(i), "vector_entry_point", None) is None}
-    assert unbatched == (set(IDS) if OLD_GYMNASIUM else set(IDS) & set(ios_uav_env.STAR_CONTROL_IDS))
+    assert unbatched == set(IDS) & set(ios_uav_env.STAR_CONTROL_IDS)
 
 
 @pytest.mark.parametrize("env_id", [i for i in IDS if i not in ios_uav_env.STAR_CONTROL_IDS])
