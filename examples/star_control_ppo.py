@@ -17,7 +17,10 @@ episodes (100 sum_n R_n / sum_n R*_n, R* = ``star_slot.slot_optimum`` of the env
 With ``--group g`` the policy sets groups of g elements (``random`` and ``quantised`` stay
 per element) and the optimum stays the per-element one: what grouping costs is in the score.
 
-Needs the ``rl`` extra. The models are not saved.
+``--plot PATH`` draws the rows (% of the per-slot optimum against M, one colour per b: PPO solid,
+random phases dashed, the rounded optimum dotted); an existing file is never overwritten.
+
+Needs the ``rl`` extra (and matplotlib for ``--plot``). The models are not saved.
 """
 
 from __future__ import annotations
@@ -25,6 +28,7 @@ from __future__ import annotations
 import argparse
 import math
 import time
+from pathlib import Path
 
 import gymnasium as gym
 import numpy as np
@@ -101,6 +105,33 @@ def train_and_score(
     return 100 * total / best, seconds
 
 
+def plot_rows(rows: list[dict], path: Path, title: str) -> Path:
+    """The rows' % of the per-slot optimum against M (log scale), one colour per phase resolution."""
+    from ios_uav_env.plotting import figure_image, save_png
+
+    def draw(ax) -> None:
+        for i, bits in enumerate(dict.fromkeys(r["bits"] for r in rows)):
+            mine = sorted((r for r in rows if r["bits"] == bits), key=lambda r: r["M"])
+            ms = [r["M"] for r in mine]
+            label = "continuous" if bits is None else f"{bits}-bit"
+            colour = f"C{i}"
+            ax.plot(ms, [r["ppo"] for r in mine], "o-", color=colour, label=f"PPO, {label}")
+            ax.plot(ms, [r["random"] for r in mine], "s--", color=colour, alpha=0.6, label=f"random, {label}")
+            if bits is not None:
+                ax.plot(ms, [r["quantised"] for r in mine], "^:", color=colour, alpha=0.6,
+                        label=f"optimum rounded, {label}")  # fmt: skip
+        ax.set_xscale("log", base=2)
+        ax.set_xticks(sorted({r["M"] for r in rows}), [str(m) for m in sorted({r["M"] for r in rows})])
+        ax.set_xlabel("elements M")
+        ax.set_ylabel("% of the per-slot optimum")
+        ax.set_ylim(0, 105)
+        ax.set_title(title, fontsize=9)
+        ax.grid(alpha=0.3)
+        ax.legend(fontsize=7, ncol=2)
+
+    return save_png(figure_image(draw, figsize=(7.2, 4.2)), path, colors=64)
+
+
 def main(argv: list[str] | None = None) -> list[dict]:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--elements", type=int, nargs="+", default=[16, 64], help="surface sizes M (squares)")
@@ -111,7 +142,10 @@ def main(argv: list[str] | None = None) -> list[dict]:
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--learning-rate", type=float, default=PPO_KWARGS["learning_rate"])
     parser.add_argument("--target-kl", type=float, default=None, help="PPO's early stop (None: off)")
+    parser.add_argument("--plot", type=Path, default=None, help="draw the rows here (PNG; never overwritten)")
     args = parser.parse_args(argv)
+    if args.plot is not None and args.plot.exists():
+        parser.error(f"--plot {args.plot} exists: give a new path (shipped figures are never overwritten)")
     torch.set_num_threads(1)
     rows = []
     print(
@@ -136,6 +170,11 @@ def main(argv: list[str] | None = None) -> list[dict]:
             rows.append(row)
             cells = f"{ppo:7.1f} {ref['random']:7.1f} {ref['quantised']:9.1f} {ref['cont']:10.1f}"
             print(f"{m:>4} {b:>5} {cells} {seconds:8.0f}", flush=True)
+    if args.plot is not None:
+        title = (
+            f"PPO setting the STAR surface ({args.steps} slots a run, seed {args.seed}, group {args.group})"
+        )
+        print(f"figure: {plot_rows(rows, args.plot, title)}")
     return rows
 
 

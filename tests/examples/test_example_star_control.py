@@ -5,10 +5,12 @@ import re
 from conftest import require
 
 
-def test_star_control_ppo_prints_its_table(run_example):
-    require("stable_baselines3", "torch")
+def test_star_control_ppo_prints_its_table(run_example, tmp_path):
+    require("stable_baselines3", "torch", "matplotlib")
+    figure = tmp_path / "mxb.png"
     out = run_example("star_control_ppo.py", "--elements", "16", "--bits", "none", "1", "--steps", "512",
-                      "--episodes", "1")  # fmt: skip
+                      "--episodes", "1", "--plot", str(figure))  # fmt: skip
+    assert figure.stat().st_size > 1000 and f"figure: {figure}" in out
     rows = re.findall(r"^\s+16\s+(none|1)\s+([0-9.]+)\s+([0-9.]+)\s+([0-9.]+)\s+([0-9.]+)\s+\d+$", out, re.M)
     assert [row[0] for row in rows] == ["none", "1"], out
     for bits, ppo, random, quantised, grid in rows:
@@ -17,3 +19,17 @@ def test_star_control_ppo_prints_its_table(run_example):
             assert float(quantised) == 100.0 and float(grid) == 100.0, out
         else:  # rounded phases fall short of the exact b-bit optimum, which falls short of continuous
             assert float(quantised) <= 100.0 and float(grid) < 100.0, out
+
+
+def test_star_control_ppo_never_overwrites_a_figure(tmp_path):
+    import subprocess
+    import sys
+
+    from conftest import EXAMPLES, ROOT
+
+    require("stable_baselines3", "torch")
+    figure = tmp_path / "taken.png"
+    figure.write_bytes(b"not ours")
+    proc = subprocess.run([sys.executable, str(EXAMPLES / "star_control_ppo.py"), "--plot", str(figure)],
+                          cwd=ROOT, capture_output=True, text=True, timeout=300)  # fmt: skip
+    assert proc.returncode == 2 and "exists" in proc.stderr and figure.read_bytes() == b"not ours"
