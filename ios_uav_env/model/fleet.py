@@ -233,43 +233,67 @@ def _slot_groups(active: np.ndarray) -> list[tuple[np.ndarray, np.ndarray]]:
 
 
 def fleet_pricer(
-    config: ScenarioConfig, trajectories: np.ndarray, access: str = "orthogonal", slots: Any = None
+    config: ScenarioConfig,
+    trajectories: np.ndarray,
+    access: str = "orthogonal",
+    slots: Any = None,
+    record: list[tuple[np.ndarray, np.ndarray]] | None = None,
 ) -> Pricer:
     """The exact weighted-sum pricer of the slots' regions for the U UAVs' ``trajectories``
     (U, N, 2) m (module docstring), for ``maxmin_regions(price, config.K)``: in orthogonal bands
     each UAV's best node under each alignment; in a shared band every choice enumerated
     (:func:`choice_rates`). ``slots``: each UAV's slot count N_u (default N each): UAV u takes part
     in slots 0 .. N_u - 1 only (``model.fleet_horizons``); a slot none flies serves nothing, and
-    the rates are averaged over all N slots."""
+    the rates are averaged over all N slots. ``record``: a list each call appends its choices to,
+    (align (N,), nodes (N, U)): the surface's link u* K + k* (-1 in a slot no UAV flies) and each
+    UAV's node (-1 silent or past its horizon) in every slot."""
     _check_access(access)
     t = _trajectories(trajectories)
-    n_slots = t.shape[1]
-    active = active_slots(check_slots(slots, t.shape[0], n_slots), n_slots).T  # (N, U)
+    u_n, n_slots, k_n = t.shape[0], t.shape[1], config.K
+    active = active_slots(check_slots(slots, u_n, n_slots), n_slots).T  # (N, U)
     gains = cached_link_gains(config, t.transpose(1, 0, 2))  # (N, U, K, U, K)
     groups = _slot_groups(active)
+    uavs_of = [np.flatnonzero(mask) for _, mask in groups]  # each group's flying UAVs
+
+    def keep(align: list[np.ndarray], nodes: list[np.ndarray]) -> None:
+        """Record one call's choices, each group's in the fleet's own slot and UAV indices."""
+        if record is None:
+            return
+        full_align, full_nodes = np.full(n_slots, -1, np.int64), np.full((n_slots, u_n), -1, np.int64)
+        for (idx, _), flying, a, n in zip(groups, uavs_of, align, nodes, strict=True):
+            full_align[idx] = flying[a // k_n] * k_n + a % k_n
+            full_nodes[idx[:, None], flying] = n
+        record.append((full_align, full_nodes))
+
     if access == "shared":
         tables = [
             np.array([choice_rates(_slot_arrays(gains[n], mask), config.eta, "shared") for n in idx])
             for idx, mask in groups
-        ]  # per group, (slots, choices, K)
+        ]  # per group, (slots, alignments x choices, K)
+        choices = [
+            np.array(list(itertools.product(range(-1, k_n), repeat=len(flying))), dtype=np.int64)
+            for flying in uavs_of
+        ]
 
         def price_enumerated(w: np.ndarray) -> tuple[np.ndarray, float]:
-            point, total = np.zeros(config.K), 0.0
-            for table in tables:
+            point, total, align, nodes = np.zeros(k_n), 0.0, [], []
+            for table, each in zip(tables, choices, strict=True):
                 values = table @ w
                 rows, best = np.arange(len(table)), np.argmax(values, axis=1)
                 point += table[rows, best].sum(axis=0)
                 total += float(values[rows, best].sum())
+                align.append(best // len(each))
+                nodes.append(each[best % len(each)])
+            keep(align, nodes)
             return point / n_slots, total / n_slots
 
         return price_enumerated
     rates = np.log2(1.0 + config.eta * gains)  # (N, U*, K*, U, K): under alignment (u*, k*)
-    flying = [np.array([_slot_arrays(rates[n], mask) for n in idx]) for idx, mask in groups]
-    k_n = config.K
+    flying_rates = [np.array([_slot_arrays(rates[n], mask) for n in idx]) for idx, mask in groups]
 
     def price(w: np.ndarray) -> tuple[np.ndarray, float]:
-        point, total = np.zeros(k_n), 0.0
-        for r in flying:  # the slots of one set of flying UAVs, (slots, U*, K*, U, K) of those
+        point, total, align, served = np.zeros(k_n), 0.0, [], []
+        for r in flying_rates:  # the slots of one set of flying UAVs, (slots, U*, K*, U, K) of those
             rows, uavs = np.arange(r.shape[0]), np.arange(r.shape[3])
             weighted = r * w
             values = weighted.max(axis=4).sum(axis=3).reshape(len(r), -1)  # each UAV its best node
@@ -278,6 +302,9 @@ def fleet_pricer(
             nodes = np.argmax(weighted[rows, us, ks], axis=2)  # (slots, U)
             np.add.at(point, nodes.ravel(), r[rows, us, ks][rows[:, None], uavs, nodes].ravel())
             total += float(values[rows, best].sum())
+            align.append(best)
+            served.append(nodes)
+        keep(align, served)
         return point / n_slots, total / n_slots
 
     return price
