@@ -11,7 +11,6 @@ service and the surface (``ios_uav_env.model.fleet``) and through the separation
 
 from __future__ import annotations
 
-import math
 from collections.abc import Mapping
 from typing import Any
 
@@ -19,6 +18,7 @@ import gymnasium as gym
 import numpy as np
 from gymnasium import spaces
 
+from ios_uav_env.components.base import finite_number
 from ios_uav_env.envs.fleet_rules import (
     agent_observations,
     check_team_world,
@@ -50,10 +50,6 @@ OWN_KEYS = (
     "position", "slot", "distance_to_final", "shares", "reward_reach", "reward_terminal", "feasible",
     "worst_violation", "terminal_miss",
 )  # fmt: skip
-
-
-def _finite(value: Any) -> bool:
-    return isinstance(value, (int, float)) and not isinstance(value, bool) and math.isfinite(value)
 
 
 class FleetParallelEnv(ParallelEnv):
@@ -154,8 +150,9 @@ class FleetParallelEnv(ParallelEnv):
         if render_mode not in (None, "rgb_array"):
             raise ValueError(f"render_mode must be None or 'rgb_array', got {render_mode!r}")
         self.render_mode = render_mode
-        if not (_finite(surface_sharpness) and surface_sharpness > 0):
-            raise ValueError(f"surface_sharpness must be a finite number > 0, got {surface_sharpness!r}")
+        surface_sharpness = finite_number(
+            surface_sharpness, "surface_sharpness", positive=True, unit="the bids' softmax scale"
+        )
         base = as_config(config if config is not None else ScenarioConfig(ground_nodes=DEFAULT_NODES))
         overrides = {name: kwargs.pop(name) for name in list(kwargs) if name in SCENARIO_FIELDS}
         base = base.replace(**overrides) if overrides else base  # the fleet's scenario, and each UAV's
