@@ -19,6 +19,7 @@ from ios_uav_env.benchmark.overrides import check_overrides, policy_env_kwargs
 from ios_uav_env.benchmark.policy_calls import action_function, check_seed, policy_name
 from ios_uav_env.benchmark.policy_errors import NamedPolicy
 from ios_uav_env.benchmark.results import Results, ScenarioResult
+from ios_uav_env.benchmark.trajectories import check_plan_time
 from ios_uav_env.model.config import ScenarioConfig
 
 __all__ = ["evaluate_fleet", "fleet_episode", "make_fleet_env", "score_fleet_flights"]
@@ -111,6 +112,6 @@ def score_fleet_flights(
             rate, feasible, worst = score_flights(s.config, s.fleet, flights[s.index])
         except ValueError as err:
             raise ValueError(f"scenario {s.index}: {err}") from None
-        t = float((seconds or {}).get(s.index, math.nan))
+        t = check_plan_time((seconds or {}).get(s.index, math.nan), f"scenario {s.index}", unknown=True)
         rows.append(ScenarioResult.of(s, metrics, (rate, rate, feasible, worst, True), t))
     return Results.of(suite, name, {}, rows, scenarios)

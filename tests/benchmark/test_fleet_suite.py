@@ -131,6 +131,8 @@ def test_flights_that_meet_score_zero_and_a_wrong_shape_names_the_scenario(suite
         score_trajectories({0: flights[:1]}, suite)
     with pytest.raises(ValueError, match="cover scenarios 0..n-1"):
         score_trajectories({1: flights}, suite)
+    with pytest.raises(ValueError, match="scenario 0: the time to plan must be a finite number of seconds"):
+        score_trajectories({0: flights}, suite, seconds={0: -1.0})
 
 
 def test_the_fleet_and_the_scenario_are_pinned_and_a_task_change_is_refused(suite):
