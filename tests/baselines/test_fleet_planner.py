@@ -93,7 +93,7 @@ def test_a_fleet_that_would_meet_is_never_returned(monkeypatch):
         return np.concatenate(legs), None  # (no route: nothing to polish)
 
     monkeypatch.setattr(fleet, "_tour_flight", to_the_centre)
-    monkeypatch.setattr(fleet, "_dual_flights", lambda *args: None)
+    monkeypatch.setattr(fleet, "dual_flights", lambda *args: None)
     with pytest.raises(ValueError, match="no candidate fleet keeps min_separation = 10 m all along"):
         fleet.solve(CONFIG, uavs=2, resolution=10.0, max_cuts=2)
 
