@@ -222,8 +222,10 @@ def sample_scenario(
 
     The draws, in this order: x_G, y_G (uniform), N (integer, uniform over
     ``ranges.slot_range``; T = N dt), M_z (integer, uniform), the surface (uniform over
-    ``ranges.surfaces``), then q0's x and y and qF's x and y (uniform); a fixed value still
-    takes its draw, so the stream does not depend on which ranges are degenerate. With a
+    ``ranges.surfaces``), then q0's x and y and qF's x and y (uniform). A fixed real value (a
+    uniform range of one point) still takes its draw; a fixed integer (one N, one M_z, a single
+    surface) takes none, as numpy draws nothing from a one-value integer range, so narrowing
+    ``surfaces`` to one surface changes the later draws of the same seed. With a
     motion model on ``ranges.base`` and a surface, a node drawn within ``plane_margin`` of the
     IOS plane (where it may not walk) is moved out to that margin on its side: no extra draw.
     """

@@ -106,6 +106,19 @@ def test_the_scenario_is_the_seeded_draw():
     assert sample_scenario(123) == sample_scenario(np.random.default_rng(123))
 
 
+def test_a_fixed_real_range_takes_its_draw_and_a_fixed_integer_one_takes_none():
+    """sample_scenario's documented stream: pinning x_G to one point keeps every later draw (a
+    uniform draw is still taken), pinning the surface to one kind shifts them (numpy draws nothing
+    from a one-value integer range)."""
+    free = sample_scenario(3)
+    pinned_x = sample_scenario(3, ScenarioRanges(ground_x=(50.0, 50.0)))
+    assert pinned_x.ground_node[0] == 50.0 and pinned_x.ground_node[1] == free.ground_node[1]
+    assert (pinned_x.q0, pinned_x.qF, pinned_x.T) == (free.q0, free.qF, free.T)
+    one_surface = sample_scenario(3, ScenarioRanges(surfaces=(free.surface,)))
+    assert one_surface.surface == free.surface and one_surface.ground_node == free.ground_node
+    assert one_surface.q0 != free.q0  # the surface's draw was not taken: the ends moved
+
+
 def test_pickle_round_trip_continues_identically():
     env = RandomIOSUAVEnv()
     env.reset(seed=5)
