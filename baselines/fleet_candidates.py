@@ -53,10 +53,10 @@ def route_flight(config: ScenarioConfig, points: np.ndarray, slots: np.ndarray) 
     (``baselines.tour.route_trajectory``), or None if the route needs more than N - 1 moves."""
     from baselines import tour
 
-    legs = tour._legs(config, points)
+    legs = tour.route_legs(config, points)
     if legs is None:
         return None
-    hover = tour._round(np.maximum(slots, 0.0) + 1e-9, config.N - len(legs[0]))
+    hover = tour.round_slots(np.maximum(slots, 0.0) + 1e-9, config.N - len(legs[0]))
     return tour.route_trajectory(config, points, hover)
 
 

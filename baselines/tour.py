@@ -70,6 +70,8 @@ __all__ = [
     "node_rate_maps",
     "plan_on_paths",
     "proxy_config",
+    "round_slots",
+    "route_legs",
     "route_lp",
     "route_trajectory",
     "solve",
@@ -143,7 +145,7 @@ def hover_candidates(
     return unique
 
 
-def _legs(config: ScenarioConfig, points: np.ndarray) -> tuple[np.ndarray, list[int]] | None:
+def route_legs(config: ScenarioConfig, points: np.ndarray) -> tuple[np.ndarray, list[int]] | None:
     """The route's path without hovering (L, 2) and the index of each hover point in it;
     None when it needs more than N - 1 moves."""
     stops = [np.asarray(config.q0, float), *points, np.asarray(config.qF, float)]
@@ -165,7 +167,7 @@ def route_trajectory(config: ScenarioConfig, points: np.ndarray, hover_slots: np
     """The (N, 2) trajectory of a route: its legs with ``hover_slots[i]`` extra slots at P_i.
 
     ``hover_slots`` are integers >= 0 summing to N - L (``ValueError`` otherwise)."""
-    legs = _legs(config, np.asarray(points, float).reshape(-1, 2))
+    legs = route_legs(config, np.asarray(points, float).reshape(-1, 2))
     if legs is None:
         raise ValueError("the route needs more than N - 1 moves")
     path, where = legs
@@ -181,7 +183,7 @@ def route_lp(config: ScenarioConfig, points: np.ndarray) -> tuple[float, np.ndar
     """The route LP (module doc): (LP value, hover slots x (m,), continuous), or None when the
     route is infeasible."""
     points = np.asarray(points, float).reshape(-1, 2)
-    legs = _legs(config, points)
+    legs = route_legs(config, points)
     if legs is None:
         return None
     path, where = legs
@@ -235,7 +237,7 @@ def route_bound(config: ScenarioConfig, r_path: np.ndarray, where: list[int], we
     return float(values.min() / config.N)
 
 
-def _round(x: np.ndarray, total: int) -> np.ndarray:
+def round_slots(x: np.ndarray, total: int) -> np.ndarray:
     """Integers >= 0 summing to ``total``, by largest remainders of ``x`` scaled to ``total``."""
     x = x * (total / x.sum()) if x.sum() > 0 else np.full(len(x), total / len(x))
     base = np.floor(x + 1e-9).astype(int)
@@ -418,8 +420,8 @@ def _route(
     best: tuple[float, tuple[int, ...], np.ndarray, float] | None = None
     for lp_value, order, x in results[:keep]:
         route = pts[list(order)]
-        spare = config.N - len(_legs(config, route)[0])  # type: ignore[index]
-        slots = _round(x, spare)
+        spare = config.N - len(route_legs(config, route)[0])  # type: ignore[index]
+        slots = round_slots(x, spare)
         value = ie.maxmin_rate(truth, route_trajectory(config, route, slots), moving)
         if best is None or value > best[3]:
             best = (lp_value, order, slots, value)

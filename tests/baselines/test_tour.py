@@ -79,7 +79,7 @@ def test_coinciding_hover_points_keep_n_slots(config):
 def test_route_bound_is_above_the_route_lp(config):
     """The pruning bound (weak duality) never cuts a route that could be better."""
     points = np.array([[-100.0, -20.0], [150.0, -60.0], [-40.0, 90.0]])
-    path, where = tour._legs(config, points)
+    path, where = tour.route_legs(config, points)
     r_path = ie.node_rates(config, path)
     value, _, w_star = tour._solve_route(config, r_path, where)
     rng = np.random.default_rng(2)
@@ -94,7 +94,7 @@ def test_route_lp_is_the_documented_lp(config, count):
     it (each is a feasible point of the relaxation), its hover slots sum to H, and its dual
     weights certify it (route_bound at them, which counts H slots, equals it)."""
     points = np.array([[-100.0, -20.0], [150.0, -60.0], [-40.0, 90.0]])[:count]
-    path, where = tour._legs(config, points)
+    path, where = tour.route_legs(config, points)
     r_path = ie.node_rates(config, path)
     value, x, w = tour._solve_route(config, r_path, where)
     spare = config.N - len(path)
@@ -102,14 +102,14 @@ def test_route_lp_is_the_documented_lp(config, count):
     assert w.sum() == pytest.approx(1.0) and np.all(w >= 0)
     assert tour.route_bound(config, r_path, where, w[None]) == pytest.approx(value, rel=1e-7)
     rng = np.random.default_rng(count)
-    for split in [tour._round(x, spare), *rng.multinomial(spare, np.full(count, 1 / count), size=4)]:
+    for split in [tour.round_slots(x, spare), *rng.multinomial(spare, np.full(count, 1 / count), size=4)]:
         assert ie.maxmin_rate(config, tour.route_trajectory(config, points, split)) <= value + 1e-9
 
 
 def test_route_lp_reports_an_infeasible_route(config):
     """A route with more path points than slots has no hover slots to give (H < 0): None."""
     points = np.array([[-100.0, -20.0]])
-    path, where = tour._legs(config, points)
+    path, where = tour.route_legs(config, points)
     r_path = ie.node_rates(config, path)
     too_long = np.hstack([r_path] * (config.N // r_path.shape[1] + 1))
     assert tour._solve_route(config, too_long, where) is None
