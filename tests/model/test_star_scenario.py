@@ -317,7 +317,8 @@ def test_the_tdma_planners_refuse_noma_naming_dp_star():
     from baselines import registry
 
     with pytest.raises(
-        registry.PlannerMismatch, match=r"planner 'dp' does not handle this config: star_access='noma'.*dp-star"
+        registry.PlannerMismatch,
+        match=r"planner 'dp' does not handle this config: star_access='noma'.*dp-star",
     ):
         registry.solve("dp", NOMA)
     handlers = registry.handlers(NOMA)
