@@ -28,6 +28,17 @@ grid's dual. Every w's path is a candidate, and so is the TDMA plan of the same 
 vertices (each user alone with the whole surface and all the power), so the TDMA plan's NOMA score
 is at least its TDMA score, and the plan returned is never below either.
 
+**Refinement** (``refine`` levels, ``refine_rounds`` rounds; :func:`refine_plan`): alternating
+optimisation of the best candidate between the schedule's dual weights and the trajectory. A round
+takes the weights w* of the flight's certified max-min (``scenario_maxmin``'s ``dual_weights``:
+the weights at which the flight's own dual bound is least), then moves the way-points to maximise
+(1/N) sum_n f_{w*}(q[n]) by corridor DPs (``grid.corridor_path``: each way-point among the 5 x 5
+points of spacing ``resolution`` / 2^j around it, j = 1..``refine``, moves <= D, repeated while
+the path changes), and keeps the new flight only if ``score_plan`` scores it higher; the rounds
+stop at the first that does not gain. The plan therefore never scores below the best candidate.
+It is a local search on the grid's refinement, not SCA: a flight between grid points is reached,
+the surface setting and the power split of every slot stay the scorer's own optimum.
+
 **The certified bound.** Over a cell, f_w needs an upper bound the relaxed DP
 (``baselines.dp_relaxed``) can use. Let c_k(q) = log2(1 + g_k(q)), g_k = eta (a_D^k + sum_m
 a_m^k)^2, be user k's rate with the whole surface on its side and all the power (the ``dp-sta``
@@ -78,17 +89,30 @@ import numpy as np
 
 from baselines.dp_bound import CUT_TOL, kelley_step
 from baselines.dp_relaxed import RelaxedDP, check_plain_grid, check_relaxed_grid
-from baselines.grid import DEFAULT_MARGIN, grid_axes, grid_path, validate_grid_args
+from baselines.grid import DEFAULT_MARGIN, corridor_path, grid_axes, grid_path, validate_grid_args
 from baselines.plan import Plan
 from baselines.registry import check as check_planner
 from ios_uav_env import ScenarioConfig, score_plan
 from ios_uav_env.model.regions import weighted_noma_array
 from ios_uav_env.model.star_maps import FRONTIER_POINTS, frontier_maps
+from ios_uav_env.model.star_regions import scenario_maxmin
 
 #: Default cap on Kelley iterations (of the grid DP's dual and of the bound, each).
 MAX_CUTS = 15
+#: Default refinement: corridor levels (spacing resolution / 2^j) and alternating rounds.
+REFINE_LEVELS = 3
+REFINE_ROUNDS = 3
+_REFINE_SWEEPS = 10  # corridor DPs per level at most (repeated while the path changes)
 
-__all__ = ["MAX_CUTS", "NomaRelaxedDP", "noma_bound", "solve"]
+__all__ = [
+    "MAX_CUTS",
+    "REFINE_LEVELS",
+    "REFINE_ROUNDS",
+    "NomaRelaxedDP",
+    "noma_bound",
+    "refine_plan",
+    "solve",
+]
 
 
 class NomaRelaxedDP(RelaxedDP):
@@ -154,6 +178,46 @@ def noma_bound(
     return best, best_w, lower, records
 
 
+def refine_plan(
+    config: ScenarioConfig,
+    trajectory: np.ndarray,
+    score: float,
+    resolution: float,
+    levels: int = REFINE_LEVELS,
+    rounds: int = REFINE_ROUNDS,
+    frontier_points: int = FRONTIER_POINTS,
+) -> tuple[np.ndarray, float, list[dict[str, Any]]]:
+    """The feasible flight ``trajectory`` (N, 2) m of ``score_plan`` rate ``score``, refined by
+    ``rounds`` alternating rounds of ``levels`` corridor levels (module docstring, "Refinement"):
+    (trajectory, its score, one record per round tried: weights, score)."""
+    users = np.asarray(config.nodes, dtype=float)
+    q = np.asarray(trajectory, dtype=float)
+    records: list[dict[str, Any]] = []
+    for _ in range(rounds):
+        w = scenario_maxmin(config, q).dual_weights
+
+        def rewards_of(cand: np.ndarray, w: np.ndarray = w) -> np.ndarray:
+            maps = frontier_maps(config, cand.reshape(-1, 2), users, frontier_points)
+            return maps.weighted_sum(w)[0].reshape(cand.shape[:2])
+
+        ends = frontier_maps(config, q[[0, -1]], users, frontier_points).weighted_sum(w)[0]
+        new = q
+        for level in range(1, levels + 1):
+            for _ in range(_REFINE_SWEEPS):
+                moved, _ = corridor_path(config, new, resolution / 2**level, rewards_of, ends)
+                if np.array_equal(moved, new):
+                    break
+                new = moved
+        if np.array_equal(new, q):
+            break
+        new_score = score_plan(config, new).rate
+        records.append({"weights": w.tolist(), "score": new_score})
+        if new_score <= score:
+            break
+        q, score = new, new_score
+    return q, score, records
+
+
 def solve(
     config: ScenarioConfig,
     resolution: float = 5.0,
@@ -164,6 +228,8 @@ def solve(
     max_cuts: int = MAX_CUTS,
     tol: float = CUT_TOL,
     tdma_plan: bool = True,
+    refine: int = REFINE_LEVELS,
+    refine_rounds: int = REFINE_ROUNDS,
     progress: bool = False,
 ) -> Plan:
     """The best plan found for a NOMA STAR scenario and its certified bound (module docstring).
@@ -172,20 +238,25 @@ def solve(
     side (default ``resolution`` / 2: the grid relaxation is the looser side); ``frontier_points``:
     the ES frontier's angles per grid point (``model.star_maps``); ``max_cuts``, ``tol``: each
     Kelley run's iterations and relative stopping gap; ``tdma_plan``: also score the TDMA
-    scenario's DP plan (``dp-sta``) as a candidate.
+    scenario's DP plan (``dp-sta``) as a candidate; ``refine``, ``refine_rounds``: the best
+    candidate's refinement (module docstring; 0 skips it).
 
     ``info``: ``upper_bound`` (>= every feasible flight's max-min), ``bound_weights``,
     ``bound_lower`` (no w gives a bound below it at this cell side), ``gap`` (upper_bound /
     mean_rate - 1), ``grid_dual`` (min over the w tried of the grid DP's value D(w): no grid path
     scores more), ``plan_source`` (``"dp<i>"``: the i-th w's path; ``"tdma"``), ``candidates``
     (each's score), ``cuts`` (per w: weights, D(w), score), ``tdma_rate`` (the TDMA plan's TDMA
-    score), ``resolution``, ``bound_resolution``, ``margin``, ``frontier_points``.
+    score), ``candidate_rate`` (the best candidate's score before the refinement), ``refine``
+    (a record per round), ``resolution``, ``bound_resolution``, ``margin``, ``frontier_points``.
     """
     t0 = time.perf_counter()
     check_planner("dp-star", config)
     validate_grid_args(config, resolution, margin)
     _check_scenario(config)
     _check_cuts(max_cuts, tol)
+    for name, value in (("refine", refine), ("refine_rounds", refine_rounds)):
+        if isinstance(value, bool) or not (isinstance(value, int) and value >= 0):
+            raise ValueError(f"{name} must be an integer >= 0, got {value!r}")
     h = resolution / 2 if bound_resolution is None else bound_resolution
     if isinstance(h, bool) or not (isinstance(h, (int, float)) and math.isfinite(h) and h > 0):
         raise ValueError(f"bound_resolution must be a finite number > 0 (m), got {h!r}")
@@ -229,7 +300,12 @@ def solve(
     best_w = np.array(records[int(np.argmin([r["dp_value"] for r in records]))]["weights"])
     ub, ub_w, ub_lower, ub_records = noma_bound(config, h, margin, max_cuts=max_cuts, tol=tol,
                                                 start_weights=best_w)  # fmt: skip
-    score = scores[source]
+    candidate_rate = scores[source]
+    best, score, refined = candidates[source], candidate_rate, []
+    if refine > 0 and refine_rounds > 0:
+        best, score, refined = refine_plan(
+            config, best, score, resolution, refine, refine_rounds, frontier_points
+        )
     info = {
         "upper_bound": ub,
         "bound_weights": ub_w.tolist(),
@@ -241,9 +317,11 @@ def solve(
         "candidates": scores,
         "cuts": records,
         "tdma_rate": tdma_rate,
+        "candidate_rate": candidate_rate,
+        "refine": refined,
         "resolution": float(resolution),
         "bound_resolution": float(h),
         "margin": float(margin),
         "frontier_points": int(frontier_points),
     }
-    return Plan.from_trajectory("dp-star", config, candidates[source], time.perf_counter() - t0, info=info)
+    return Plan.from_trajectory("dp-star", config, best, time.perf_counter() - t0, info=info)

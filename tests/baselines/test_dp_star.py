@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 from baselines import registry, schemes
-from baselines.dp_star import NomaRelaxedDP, noma_bound, solve
+from baselines.dp_star import NomaRelaxedDP, noma_bound, refine_plan, solve
 from baselines.grid import disk_offsets, grid_axes, grid_path
 from baselines.registry import PlannerMismatch
 from ios_uav_env import ScenarioConfig, check_trajectory, score_plan
@@ -64,8 +64,10 @@ def test_the_plan_is_feasible_below_its_bound_and_not_below_tdma(small_plan):
     on_noma = score_plan(SMALL, tdma.trajectory).rate
     assert plan.info["tdma_rate"] == pytest.approx(tdma.mean_rate, rel=1e-12)
     assert plan.mean_rate >= on_noma >= tdma.mean_rate * (1 - 1e-9)
-    # every candidate was scored by the one scorer, and the best was returned
-    assert plan.mean_rate == max(plan.info["candidates"].values())
+    # every candidate was scored by the one scorer; the best, refined, never scores less
+    assert plan.info["candidate_rate"] == max(plan.info["candidates"].values())
+    assert plan.mean_rate >= plan.info["candidate_rate"]
+    assert all(r["score"] <= plan.mean_rate for r in plan.info["refine"])
 
 
 def test_the_bound_is_above_random_flights_and_the_grid_dual(small_plan):
@@ -96,9 +98,20 @@ def test_a_cells_reward_bounds_the_slot_optimum_at_every_point_of_it(config):
             assert f_w <= rewards[iy, ix]
 
 
+def test_the_refinement_keeps_a_flight_feasible_and_never_loses():
+    line = np.linspace(UNEQUAL.q0, UNEQUAL.qF, UNEQUAL.N)
+    start = score_plan(UNEQUAL, line).rate
+    q, score, records = refine_plan(UNEQUAL, line, start, 12.5, levels=2, rounds=2)
+    assert check_trajectory(UNEQUAL, q).feasible and score == score_plan(UNEQUAL, q).rate
+    assert score > start  # the straight line is no local optimum here
+    assert max(r["score"] for r in records) == score  # the rounds kept are those that gained
+    same, same_score, tried = refine_plan(UNEQUAL, line, start, 12.5, levels=0)  # nothing to try
+    assert np.array_equal(same, line) and same_score == start and tried == []
+
+
 def test_the_grid_dp_against_a_brute_force_of_grid_paths():
     h = 12.5
-    plan = solve(TINY, resolution=h, margin=0.0, tdma_plan=False)
+    plan = solve(TINY, resolution=h, margin=0.0, tdma_plan=False, refine=0)  # a grid path
     xs, ys, (iy0, ix0) = grid_axes(TINY, h, 0.0)
     users = np.array(TINY.nodes)
     offsets = disk_offsets(h, TINY.D)
@@ -151,6 +164,8 @@ def test_the_registry_dispatches_a_noma_config_to_it_and_the_others_name_it():
         ({"max_cuts": 0}, "max_cuts must be"),
         ({"tol": 1.5}, "tol must be"),
         ({"frontier_points": 1}, "frontier angles"),
+        ({"refine": -1}, "refine must be"),
+        ({"refine_rounds": 1.5}, "refine_rounds must be"),
     ],
 )
 def test_bad_arguments_are_refused_by_name(kwargs, match):

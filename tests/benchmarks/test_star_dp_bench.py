@@ -18,7 +18,7 @@ def test_quick_run_prints_a_row_below_the_bound() -> None:
     ).stdout  # fmt: skip
     rows = [row for row in map(str.split, out.splitlines()) if row[:1] == ["star-control"]]
     assert len(rows) == 1
-    _, m, plan, _, tdma, tdma_noma, bound, gap, _, random, _ = rows[0]
+    _, m, plan, candidate, _, tdma, tdma_noma, bound, gap, _, random, _ = rows[0]
     assert int(m) == 16
-    assert float(tdma) <= float(tdma_noma) <= float(plan) <= float(bound)
+    assert float(tdma) <= float(tdma_noma) <= float(candidate) <= float(plan) <= float(bound)
     assert float(random) <= float(bound) and float(gap) >= 0
