@@ -6,6 +6,10 @@ Examples
 ``python -m baselines --scheme ia ra ia-ft cuc dp --T 100 --resolution 5 --out results/plans``
 ``python -m baselines --nodes="-100,-20;150,-60;-40,90" --scheme tour ia dp`` (several ground
 nodes: max-min rates; ``dp`` also prints its certified upper bound and gap)
+``python -m baselines --nodes="-5,2;5,-2" --ios-shape 8 8 --scheme dp-star dp-sta ...`` (a STAR
+surface serving a user on each side at once, NOMA: ``dp-star`` sets ``--surface star --star-access
+noma`` itself; ``--surface star --star-access noma`` runs the other schemes on that scenario, where
+the TDMA planners refuse it, naming ``dp-star``)
 ``python -m baselines --objective energy_efficiency`` (the energy planners of
 :data:`ENERGY_SCHEMES` that handle the scenario: ``dp-ee``, ``sca-ee``, ``loiter``, ``hover``;
 each row gives the energy efficiency in bits/J, the energy, the average rate and the time, and
@@ -36,7 +40,8 @@ from baselines import registry
 from baselines.plan import Plan
 from baselines.runner import check_writable
 from baselines.schemes import SCHEMES, get_scheme, run_scheme, sca_unavailable_reason
-from ios_uav_env import OBJECTIVES, SURFACES, ScenarioConfig, io
+from ios_uav_env import OBJECTIVES, ScenarioConfig, io
+from ios_uav_env.model.config import STAR_ACCESS, SURFACE_KINDS
 
 _HEADER = ("scheme", "T (s)", "M", "rate (bps/Hz)", "feasible", "worst viol. (m)", "seconds")
 _WIDTHS = (8, 7, 6, 14, 9, 16, 8)
@@ -105,7 +110,14 @@ def build_parser() -> argparse.ArgumentParser:
         "--M", type=_elements, help="IOS elements, a multiple of 100: ios_shape = (100, M/100)"
     )
     shape.add_argument("--ios-shape", type=int, nargs=2, metavar=("MY", "MZ"), help="IOS columns and rows")
-    p.add_argument("--surface", choices=SURFACES, default="ios", help="surface of scheme 'dp' and the map")
+    p.add_argument(
+        "--surface", choices=SURFACE_KINDS, default="ios", help="surface of scheme 'dp' and the map"
+    )
+    p.add_argument(
+        "--star-access", choices=STAR_ACCESS, default="tdma",
+        help="with --surface star: one node per slot share (tdma, default) or both sides' users at once "
+        "(noma)",
+    )  # fmt: skip
     p.add_argument("--q0", type=float, nargs=2, metavar=("X", "Y"), help="initial position (m)")
     p.add_argument("--qF", type=float, nargs=2, metavar=("X", "Y"), help="final position (m)")
     nodes = p.add_mutually_exclusive_group()
@@ -129,6 +141,10 @@ def build_parser() -> argparse.ArgumentParser:
 
 def _config(args: argparse.Namespace, parser: argparse.ArgumentParser) -> ScenarioConfig:
     changes: dict = {"T": args.T, "surface": args.surface, "objective": args.objective}
+    if args.star_access != "tdma":
+        if args.surface != "star":
+            parser.error(f"argument --star-access: {args.star_access} needs --surface star")
+        changes["star_access"] = args.star_access
     if args.M is not None:
         changes["ios_shape"] = (100, args.M // 100)
     elif args.ios_shape is not None:
@@ -183,6 +199,11 @@ def plot_plans(path: Path, config: ScenarioConfig, plans: Sequence[Plan]) -> Pat
 
     fig = Figure(figsize=(10, 5.5), layout="constrained")
     ax = fig.add_subplot()
+    if config.K > 1 and config.star_access == "noma":  # both users served at once: no TDMA schedule
+        plot_multinode_map(ax, config)
+        plot_trajectories(ax, config, {f"{p.scheme}: {p.mean_rate:.3f} bps/Hz": p.trajectory for p in plans})
+        ax.set_title(f"STAR, two users at once (NOMA, max-min), T = {config.T:g} s, M = {config.M}")
+        return io.save_figure(fig, path, dpi=120)
     if config.K > 1:  # every node, trajectories coloured by the node served in each slot
         plot_multinode_map(ax, config)
         labels = {f"{p.scheme}: {p.mean_rate:.3f} bps/Hz": p.trajectory for p in plans}
@@ -316,7 +337,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     for name in names:
         scheme = get_scheme(name)
         kwargs: dict = {"progress": args.progress} if scheme.planner not in ("fixed", "tour") else {}
-        if scheme.planner == "dp":
+        if scheme.planner in ("dp", "dp-star"):
             kwargs = {"resolution": args.resolution, "margin": args.margin, "progress": args.progress}
         if scheme.planner == "sca" and (reason := sca_unavailable_reason()) is not None:
             print(f"{name}: skipped: {reason}", file=sys.stderr)

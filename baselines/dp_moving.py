@@ -59,7 +59,7 @@ import numpy as np
 
 import ios_uav_env as ie
 from baselines.dp_bound import check_plain_grid, clairvoyant_bound, moving_dp_path, solve_multinode
-from baselines.grid import DEFAULT_MARGIN, disk_offsets, grid_axes, validate_grid_args
+from baselines.grid import DEFAULT_MARGIN, corridor_path, disk_offsets, grid_axes, validate_grid_args
 from baselines.plan import Plan
 from baselines.registry import check as check_planner
 from ios_uav_env import ScenarioConfig
@@ -166,31 +166,10 @@ def refine_path(
     so the value never decreases and an unimproved path is returned unchanged."""
     q = np.asarray(trajectory, dtype=float)
     w = np.ones(1) if weights is None else np.asarray(weights, dtype=float)
-    n_slots, reach = config.N, config.D * (1.0 + 1e-12)
     ends = _slot_rewards(config, paths[[0, -1]], q[[0, -1], None], w)[:, 0]
-    if n_slots == 2:
-        return q.copy(), float(ends.sum()) / 2
-    i, j = np.meshgrid(np.arange(-cells, cells + 1), np.arange(-cells, cells + 1))
-    off = np.column_stack([i.ravel(), j.ravel()])
-    off = spacing * off[np.lexsort((off[:, 1], off[:, 0], (off * off).sum(axis=1)))]  # (0, 0) first
-    cand = q[1:-1, None, :] + off[None]  # (N - 2, P, 2): slots 1..N-2
-    rewards = _slot_rewards(config, paths[1:-1], cand, w)
-    value = np.where(np.hypot(*(cand[-1] - q[-1]).T) <= reach, rewards[-1] + ends[1], -np.inf)
-    choice = np.empty((n_slots - 3, len(off)), dtype=int)
-    for m in range(n_slots - 4, -1, -1):  # value of slot m + 1 from slot m + 2's
-        gap = np.linalg.norm(cand[m][:, None] - cand[m + 1][None], axis=2)
-        nxt = np.where(gap <= reach, value[None], -np.inf)
-        choice[m] = np.argmax(nxt, axis=1)
-        value = rewards[m] + nxt[np.arange(len(off)), choice[m]]
-    value = np.where(np.hypot(*(cand[0] - q[0]).T) <= reach, value, -np.inf)
-    at = int(np.argmax(value))
-    if not np.isfinite(value[at]):
-        raise ValueError(f"trajectory must be a feasible flight (q0 to qF, moves <= D={config.D:g} m)")
-    out, idx = q.copy(), [at]
-    for m in range(n_slots - 3):
-        idx.append(int(choice[m, idx[-1]]))
-    out[1:-1] = cand[np.arange(n_slots - 2), idx]
-    return out, float(ends[0] + value[at]) / n_slots
+    return corridor_path(
+        config, q, spacing, lambda cand: _slot_rewards(config, paths[1:-1], cand, w), ends, cells
+    )
 
 
 def refine_plan(

@@ -57,7 +57,6 @@ from ios_uav_env import ScenarioConfig, scene_box
 from ios_uav_env.model.motion import node_config_at
 
 #: Relative slack on the amplitude bound (floating-point rounding of the model's sums).
-#: Relative slack on the amplitude bound (floating-point rounding of the model's sums).
 ZETA_SLACK = 1e-9
 
 __all__ = ["RelaxedDP", "check_plain_grid", "check_relaxed_grid", "region_rate_bound", "relaxed_offsets"]
@@ -204,17 +203,18 @@ class RelaxedDP:
         return (self.d0 <= reach0) & (self.df <= reachf), bool(self.o0 <= reach0 and self.of <= reachf)
 
     def value(self, w: np.ndarray) -> tuple[float, np.ndarray]:
-        """(UB(w) >= every feasible trajectory's score, the cut G with UB(w') >= G . w')."""
+        """(UB(w) >= every feasible trajectory's score, the cut G with UB(w') >= G . w'); the
+        states' rewards are :meth:`reward`'s."""
         c = self.config
         w = np.asarray(w, dtype=float)
-        rewards = np.max(w[None, :, None, None] * self.cell_bounds, axis=1)  # (1 or N, ny, nx)
-        r_outs = np.max(w * self.out_bounds, axis=1)  # (1 or N,)
+        rewards = self.reward(w, np.moveaxis(self.cell_bounds, 1, 0))  # (1 or N, ny, nx)
+        r_outs = self.reward(w, self.out_bounds.T)  # (1 or N,)
 
         def at(n: int) -> tuple[np.ndarray, float]:  # the rewards of 0-based slot n
             j = 0 if self.paths is None else n
             return rewards[j], float(r_outs[j])
 
-        f0, ff = np.max(w[:, None] * self.end_rates, axis=0)
+        f0, ff = self.reward(w, self.end_rates)
         if c.N == 2:
             return (f0 + ff) / 2, self._cut(w, [])
         n_layers = c.N - 2  # slots 2..N-1
@@ -260,13 +260,26 @@ class RelaxedDP:
         return path
 
     def _cut(self, w: np.ndarray, path: list[tuple[int, int] | None]) -> np.ndarray:
-        """G with G . w' = (1/N) sum_n w'_{k_n} Rbar_{k_n}(s_n) (k_n best at w) <= UB(w')."""
+        """G = (1/N) sum_n p_n (:meth:`point` of state s_n at w), G . w' <= UB(w')."""
         g = np.zeros(self.config.K)
         rewards = [self.end_rates[:, 0], self.end_rates[:, 1]]
         for i, s in enumerate(path):  # layer i is 0-based slot i + 1
             j = 0 if self.paths is None else i + 1
             rewards.append(self.out_bounds[j] if s is None else self.cell_bounds[j][:, s[0], s[1]])
         for r in rewards:
-            k = int(np.argmax(w * r))
-            g[k] += r[k]
+            g += self.point(w, r)
         return g / self.config.N
+
+    def reward(self, w: np.ndarray, bounds: np.ndarray) -> np.ndarray:
+        """A state's reward at w from its K rate bounds ``bounds`` (K, ...): max_k w_k Rbar_k, the
+        bound of f_w = max_k w_k r_k (one node per slot share). A subclass with another slot model
+        overrides this and :meth:`point` (``baselines.dp_star``)."""
+        return np.max(w.reshape((-1,) + (1,) * (bounds.ndim - 1)) * bounds, axis=0)
+
+    def point(self, w: np.ndarray, bounds: np.ndarray) -> np.ndarray:
+        """A state's cut vector p (K,) from its rate bounds (K,): w . p is its reward at w and
+        w' . p <= its reward at every w' (here Rbar_k on the node k of largest w_k Rbar_k)."""
+        k = int(np.argmax(w * bounds))
+        p = np.zeros_like(bounds)
+        p[k] = bounds[k]
+        return p

@@ -10,12 +10,14 @@ allocated. Moves are the grid offsets inside the Euclidean disk of radius D. The
 maximum is computed, per layer and vectorised, as the maximum over the disk's rows of 1-D
 running maxima (``scipy.ndimage.maximum_filter1d``), which equals ``maximum_filter`` with
 the disk footprint (tested). Ties are broken in the forward pass towards the shortest move,
-then the smallest (dy, dx) offset: when indifferent the UAV stays put.
+then the smallest (dy, dx) offset: when indifferent the UAV stays put. :func:`corridor_path` is
+the local form: the best path through small grids centred on a flight's way-points.
 """
 
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 
 import numpy as np
 from scipy.ndimage import maximum_filter1d
@@ -235,6 +237,47 @@ def grid_path(
     idx = np.array(path)
     traj = np.vstack([np.column_stack([xs[idx[:, 1]], ys[idx[:, 0]]]), q_f])
     return traj, total / n_slots
+
+
+def corridor_path(
+    config: ScenarioConfig,
+    trajectory: np.ndarray,
+    spacing: float,
+    rewards_of: Callable[[np.ndarray], np.ndarray],
+    ends: np.ndarray,
+    cells: int = 2,
+) -> tuple[np.ndarray, float]:
+    """One corridor DP: the best path whose way-point n (slots 2..N-1) is one of the (2 ``cells`` +
+    1)^2 points q[n] + ``spacing`` (i, j), |i|, |j| <= ``cells``, around the feasible ``trajectory``
+    q (N, 2) m, moves <= D, q0 and qF fixed: (trajectory (N, 2) m, its mean reward).
+    ``rewards_of(cand)`` gives the rewards (N - 2, P) of the candidate points ``cand`` (N - 2, P, 2)
+    (row m: slot m + 2), ``ends`` the rewards of slots 1 and N. q itself is a candidate (offset 0
+    first in the ties), so the value never decreases and an unimproved path is returned unchanged."""
+    q = np.asarray(trajectory, dtype=float)
+    n_slots, reach = config.N, config.D * (1.0 + 1e-12)
+    if n_slots == 2:
+        return q.copy(), float(ends.sum()) / 2
+    i, j = np.meshgrid(np.arange(-cells, cells + 1), np.arange(-cells, cells + 1))
+    off = np.column_stack([i.ravel(), j.ravel()])
+    off = spacing * off[np.lexsort((off[:, 1], off[:, 0], (off * off).sum(axis=1)))]  # (0, 0) first
+    cand = q[1:-1, None, :] + off[None]  # (N - 2, P, 2): slots 1..N-2
+    rewards = rewards_of(cand)
+    value = np.where(np.hypot(*(cand[-1] - q[-1]).T) <= reach, rewards[-1] + ends[1], -np.inf)
+    choice = np.empty((n_slots - 3, len(off)), dtype=int)
+    for m in range(n_slots - 4, -1, -1):  # value of slot m + 1 from slot m + 2's
+        gap = np.linalg.norm(cand[m][:, None] - cand[m + 1][None], axis=2)
+        nxt = np.where(gap <= reach, value[None], -np.inf)
+        choice[m] = np.argmax(nxt, axis=1)
+        value = rewards[m] + nxt[np.arange(len(off)), choice[m]]
+    value = np.where(np.hypot(*(cand[0] - q[0]).T) <= reach, value, -np.inf)
+    at = int(np.argmax(value))
+    if not np.isfinite(value[at]):
+        raise ValueError(f"trajectory must be a feasible flight (q0 to qF, moves <= D={config.D:g} m)")
+    out, idx = q.copy(), [at]
+    for m in range(n_slots - 3):
+        idx.append(int(choice[m, idx[-1]]))
+    out[1:-1] = cand[np.arange(n_slots - 2), idx]
+    return out, float(ends[0] + value[at]) / n_slots
 
 
 def _best_move(layer: np.ndarray, cell: tuple[int, int], offsets: np.ndarray) -> tuple[int, int] | None:

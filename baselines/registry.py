@@ -23,6 +23,7 @@ name                      objectives           budget  K      motion      kind
 ``fixed``                 any (scored)         yes     >= 1   static      heuristic
 ``loiter``, ``hover``     any (scored)         yes     >= 1   static      heuristic
 ``mpc``                   rate                 no      >= 1   online      online
+``dp-star``               rate                 no      2      static      optimum
 ``dp-bound``              rate                 no      >= 1   paths       bound
 ``energy-bound``          energy_efficiency    no      1      static      bound
 ========================  ===================  ======  =====  ==========  =========
@@ -34,10 +35,11 @@ A heuristic optimises nothing: it flies a fixed rule, and its plan is scored by 
 on the config as it is (objective and budget included), so it takes any objective; it still
 refuses moving nodes, whose score it would not see.
 
-A STAR surface serving both sides' nodes at once (``ScenarioConfig(surface="star",
-star_access="noma")``) is scored by ``score_plan`` (``star_regions.scenario_maxmin``); every
-planner and bound above but the heuristics optimises the one-node-per-slot-share (TDMA) schedule,
-so only the heuristics take it.
+Access: a STAR surface serving both sides' nodes at once (``ScenarioConfig(surface="star",
+star_access="noma")``) is scored by ``score_plan`` (``star_regions.scenario_maxmin``). ``dp-star``
+plans it (and only it: ``accesses`` = ("noma",)); every other planner and bound above optimises
+the one-node-per-slot-share (TDMA) schedule and refuses it, naming ``dp-star``; the heuristics,
+which optimise nothing, fly it and are scored on it.
 
 A caller that plans one problem and scores the plan on another on purpose (the rate DP's plan
 under the energy objective, say) says so: it plans on ``config.replace(objective="rate")`` and
@@ -56,6 +58,7 @@ from dataclasses import dataclass
 from typing import Any
 
 from ios_uav_env import OBJECTIVES, ScenarioConfig
+from ios_uav_env.model.config import STAR_ACCESS
 
 #: What a planner does with moving nodes (module docstring).
 MOTIONS: tuple[str, ...] = ("static", "paths", "online")
@@ -80,6 +83,9 @@ class PlannerSpec:
     motion: str  # one of MOTIONS
     kind: str  # one of KINDS
     description: str
+    # the STAR access schemes it plans or scores (``ScenarioConfig.star_access``; every other surface's
+    # is "tdma", one node per slot share)
+    accesses: tuple[str, ...] = ("tdma",)
 
     def __post_init__(self) -> None:
         if bad := [o for o in self.objectives if o not in OBJECTIVES]:
@@ -88,6 +94,8 @@ class PlannerSpec:
             raise ValueError(f"{self.name}: motion must be one of {MOTIONS}, got {self.motion!r}")
         if self.kind not in KINDS:
             raise ValueError(f"{self.name}: kind must be one of {KINDS}, got {self.kind!r}")
+        if not self.accesses or (bad := [a for a in self.accesses if a not in STAR_ACCESS]):
+            raise ValueError(f"{self.name}: accesses must be among {STAR_ACCESS}, got {list(self.accesses)}")
         if ":" not in self.entry:
             raise ValueError(f"{self.name}: entry must be 'module:function', got {self.entry!r}")
 
@@ -111,10 +119,15 @@ class PlannerSpec:
                 return "motion (moving nodes; it plans for static nodes)"
             if self.motion == "paths" and paths is None:
                 return "motion without paths= (it plans on the nodes' true paths given in advance)"
-        if config.surface == "star" and config.star_access == "noma" and self.kind != "heuristic":
+        if config.star_access not in self.accesses:
+            if config.star_access == "noma":
+                return (
+                    "star_access='noma' (it optimises the one-node-per-slot-share schedule, TDMA; "
+                    "score_plan scores a NOMA flight)"
+                )
             return (
-                "star_access='noma' (it optimises the one-node-per-slot-share schedule, TDMA; "
-                "score_plan scores a NOMA flight)"
+                f"surface={config.surface!r} with star_access={config.star_access!r} (it plans a STAR "
+                "surface serving both sides' users at once: surface='star', star_access='noma')"
             )
         return None
 
@@ -125,6 +138,7 @@ class PlannerSpec:
 
 
 _ANY = OBJECTIVES
+_BOTH = STAR_ACCESS
 PLANNERS: dict[str, PlannerSpec] = {
     p.name: p
     for p in (
@@ -148,13 +162,17 @@ PLANNERS: dict[str, PlannerSpec] = {
         PlannerSpec("tour", "baselines.tour:solve", ("rate",), False, 1, None, "paths", "heuristic",
                     "tour over hover points with an LP schedule, on given node paths"),
         PlannerSpec("fixed", "baselines.fixed:fly_hover_fly", _ANY, True, 1, None, "static", "heuristic",
-                    "fly-hover-fly over the first node (scored on the config)"),
+                    "fly-hover-fly over the first node (scored on the config)", accesses=_BOTH),
         PlannerSpec("loiter", "baselines.loiter:loiter", _ANY, True, 1, None, "static", "heuristic",
-                    "fly to the rate peak at V_mr, circle it at V_mp, back to qF (scored on the config)"),
+                    "fly to the rate peak at V_mr, circle it at V_mp, back to qF (scored on the config)",
+                    accesses=_BOTH),
         PlannerSpec("hover", "baselines.loiter:hover", _ANY, True, 1, None, "static", "heuristic",
-                    "fly to the rate peak at v_max and hover there (scored on the config)"),
+                    "fly to the rate peak at v_max and hover there (scored on the config)", accesses=_BOTH),
         PlannerSpec("mpc", "baselines.mpc:run_online", ("rate",), False, 1, None, "online", "online",
                     "MPC (the tour or the receding-horizon DP) on the Kalman filter's predicted paths"),
+        PlannerSpec("dp-star", "baselines.dp_star:solve", ("rate",), False, 2, 2, "static", "optimum",
+                    "STAR surface serving both sides' users at once (NOMA): best DP plan over the user "
+                    "weights and a certified max-min bound", accesses=("noma",)),
         PlannerSpec("dp-bound", "baselines.dp_bound:clairvoyant_bound", ("rate",), False, 1, None, "paths",
                     "bound", "certified upper bound of the rate (max-min for K > 1), given node paths"),
         PlannerSpec("energy-bound", "baselines.energy_bound:solve", ("energy_efficiency",), False, 1, 1,

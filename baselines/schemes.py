@@ -12,6 +12,7 @@ scheme     surface  planner
 ``dp-ra``  RIS      DP
 ``dp-cuc`` none     DP
 ``dp-sta`` STAR     DP (a STAR surface, TDMA: ``ScenarioConfig(surface="star")``)
+``dp-star`` STAR    DP over the user weights (NOMA: both sides' users at once, ``baselines.dp_star``)
 ``tour``   config's tour heuristic (``baselines.tour``), for several ground nodes
 =========  =======  ==========================================================
 
@@ -50,6 +51,7 @@ class Scheme:
     surface: str | None  # "ios", "ris", "none", "star"; None keeps the config's surface
     planner: str  # a name of baselines.registry.PLANNERS: "sca", "dp", "fixed" or "tour"
     description: str
+    access: str | None = None  # the STAR access it sets ("noma" for dp-star); None keeps the config's
 
     def __post_init__(self) -> None:
         registry.get(self.planner)
@@ -67,6 +69,14 @@ SCHEMES: dict[str, Scheme] = {
         Scheme("dp-ra", "ris", "dp", "RIS, global optimum on a grid (DP)"),
         Scheme("dp-cuc", "none", "dp", "no surface, global optimum on a grid (DP)"),
         Scheme("dp-sta", "star", "dp", "STAR surface (TDMA), global optimum on a grid (DP)"),
+        Scheme(
+            "dp-star",
+            "star",
+            "dp-star",
+            "STAR surface serving both users at once (NOMA): best DP plan "
+            "over the user weights, certified bound",
+            access="noma",
+        ),
         Scheme(
             "tour", None, "tour", "tour heuristic over hover points (several nodes), the config's surface"
         ),
@@ -104,11 +114,15 @@ def _planner(kind: str) -> Callable[..., Plan]:
 
 
 def scheme_config(name: str, config: ScenarioConfig) -> ScenarioConfig:
-    """``config`` with the surface of scheme ``name`` (unchanged for ``"dp"`` and ``"tour"``)."""
+    """``config`` with the surface of scheme ``name`` (unchanged for ``"dp"`` and ``"tour"``) and,
+    for ``"dp-star"``, its access (``star_access="noma"``)."""
     scheme = get_scheme(name)
-    if scheme.surface is None or scheme.surface == config.surface:
-        return config
-    return config.replace(surface=scheme.surface)
+    changes = {}
+    if scheme.surface is not None and scheme.surface != config.surface:
+        changes["surface"] = scheme.surface
+    if scheme.access is not None and scheme.access != config.star_access:
+        changes["star_access"] = scheme.access
+    return config.replace(**changes) if changes else config
 
 
 def run_scheme(name: str, config: ScenarioConfig, **kwargs: Any) -> Plan:
@@ -118,9 +132,10 @@ def run_scheme(name: str, config: ScenarioConfig, **kwargs: Any) -> Plan:
     ----------
     name : str
         One of :data:`SCHEMES` (``ia``, ``ra``, ``ia-ft``, ``cuc``, ``dp``, ``dp-ia``,
-        ``dp-ra``, ``dp-cuc``, ``dp-sta``).
+        ``dp-ra``, ``dp-cuc``, ``dp-sta``, ``dp-star``, ``tour``).
     config : ScenarioConfig
-        The scenario; only its ``surface`` is overridden by the scheme.
+        The scenario; only its ``surface`` (and, for ``dp-star``, ``star_access``) is overridden
+        by the scheme.
     **kwargs
         Passed to the planner: ``resolution``, ``margin``, ``progress`` (DP), ``hover``
         (ia-ft), whatever ``baselines.sca.solve`` takes (SCA).

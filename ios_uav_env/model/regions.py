@@ -43,7 +43,15 @@ from ios_uav_env.model.lp import solve_lp
 #: A pricer: weights w (K,) on the simplex -> (a point of S (K,), an upper bound of g(w)).
 Pricer = Callable[[np.ndarray], tuple[np.ndarray, float]]
 
-__all__ = ["Pricer", "RegionSchedule", "broadcast_pricer", "maxmin_regions", "tdma_pricer", "weighted_noma"]
+__all__ = [
+    "Pricer",
+    "RegionSchedule",
+    "broadcast_pricer",
+    "maxmin_regions",
+    "tdma_pricer",
+    "weighted_noma",
+    "weighted_noma_array",
+]
 
 
 @dataclasses.dataclass(frozen=True)
@@ -181,6 +189,31 @@ def weighted_noma(g_r: float, g_t: float, w: float) -> tuple[float, float, float
         if best is None or value > best[0]:
             best = (value, r_s, r_w, x) if r_strong else (value, r_w, r_s, 1 - x)
     return best
+
+
+def weighted_noma_array(
+    g_r: np.ndarray, g_t: np.ndarray, w: np.ndarray | float
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """:func:`weighted_noma` elementwise over broadcast arrays of SNRs and weights: (value, R_r, R_t)
+    of max over the power split of w R_r + (1 - w) R_t, with the same candidates (x = 0, 1 and the
+    stationary point), formulas and order, so its values equal the scalar function's (tested; the
+    scalar one is the fast path of a branch and bound's single evaluations)."""
+    g_r, g_t, w = np.broadcast_arrays(*(np.asarray(v, dtype=float) for v in (g_r, g_t, w)))
+    r_strong = g_r >= g_t
+    g_s, g_w = np.where(r_strong, g_r, g_t), np.where(r_strong, g_t, g_r)
+    c_s, c_w = np.where(r_strong, w, 1 - w), np.where(r_strong, 1 - w, w)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        stationary = (c_w * g_w - c_s * g_s) / (g_s * g_w * (c_s - c_w))
+    inside = (c_s != c_w) & (g_s > 0) & (g_w > 0) & (stationary > 0) & (stationary < 1)
+    best = np.full(g_r.shape, -np.inf)
+    rate_s, rate_w = np.zeros(g_r.shape), np.zeros(g_r.shape)
+    for x, allowed in ((0.0, True), (1.0, True), (np.where(inside, stationary, 0.0), inside)):
+        r_s, r_w = np.log2(1 + x * g_s), np.log2((1 + g_w) / (1 + x * g_w))
+        value = np.where(allowed, c_s * r_s + c_w * r_w, -np.inf)
+        take = value > best
+        best = np.where(take, value, best)
+        rate_s, rate_w = np.where(take, r_s, rate_s), np.where(take, r_w, rate_w)
+    return best, np.where(r_strong, rate_s, rate_w), np.where(r_strong, rate_w, rate_s)
 
 
 def broadcast_pricer(snr: np.ndarray) -> Pricer:

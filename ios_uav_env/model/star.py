@@ -122,6 +122,16 @@ def _unit_config(config: ScenarioConfig, user: tuple[float, float]) -> ScenarioC
     return config.replace(ground_nodes=None, ground_node=user, surface="ios", epsilon=1.0)
 
 
+def unit_amplitudes(
+    config: ScenarioConfig, positions: np.ndarray, user: tuple[float, float]
+) -> tuple[np.ndarray, np.ndarray]:
+    """(a (P, M), a_D (P,)): the LoS amplitude via each unit element (side factor 1 on either side of
+    the plane) and the direct amplitude of ``user`` from the UAV at each of ``positions`` (P, 2) m
+    (altitude ``config.uav_altitude``), the amplitudes of :class:`StarChannels` at many positions."""
+    cfg = _unit_config(config, user)
+    return channel.element_amplitudes(cfg, positions), channel.direct_amplitude(cfg, positions)
+
+
 def star_channels(config: ScenarioConfig, position: object, user_r: object, user_t: object) -> StarChannels:
     """The :class:`StarChannels` of a UAV at ``position`` (m, horizontal; altitude
     ``config.uav_altitude``) serving ``user_r`` on its side of the plane x = x_c and ``user_t``
@@ -144,14 +154,8 @@ def star_channels(config: ScenarioConfig, position: object, user_r: object, user
     pos = np.array([q])
     per_user = []
     for user in (ur, ut):
-        cfg = _unit_config(config, user)
-        per_user.append(
-            (
-                channel.element_amplitudes(cfg, pos)[0],
-                channel.phase_shifts(cfg, pos)[0],
-                float(channel.direct_amplitude(cfg, pos)[0]),
-            )
-        )
+        amps, direct = unit_amplitudes(config, pos, user)
+        per_user.append((amps[0], channel.phase_shifts(_unit_config(config, user), pos)[0], float(direct[0])))
     (a_r, phi_r, d_r), (a_t, phi_t, d_t) = per_user
     return StarChannels(
         a_r, a_t, phi_r, phi_t, d_r, d_t, config.eta,

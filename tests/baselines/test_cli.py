@@ -52,12 +52,27 @@ def test_cli_writes_plans_table_and_figure(tmp_path: Path) -> None:
         (["--scheme", "dp", "--M", "abc"], "argument --M"),
         (["--scheme", "dp", "--T", "40", "--resolution", "30"], "argument --resolution"),
         (["--scheme", "dp", "--T", "10"], "T must be >= 33 s"),
+        (["--scheme", "dp", "--star-access", "noma"], "argument --star-access: noma needs --surface star"),
     ],
 )
 def test_cli_bad_arguments(args: list[str], needle: str) -> None:
     res = _cli(*args, "--no-plot")
     assert res.returncode == 2
     assert needle in res.stderr
+
+
+def test_cli_plans_a_noma_star_scenario_and_the_tdma_planners_name_dp_star(tmp_path: Path, capsys) -> None:
+    args = ["--nodes=-5,2;5,-2", "--T", "16", "--q0", "-150", "-100", "--qF", "-150", "100", "--ios-shape",
+            "4", "4", "--resolution", "12.5", "--surface", "star", "--star-access", "noma"]  # fmt: skip
+    status = cli.main(["--scheme", "dp-star", "dp-sta", "ia-ft", *args, "--out", str(tmp_path)])
+    assert status == 1  # dp-sta (the TDMA DP) refuses the NOMA scenario
+    captured = capsys.readouterr()
+    assert "dp-sta: failed" in captured.err and "use dp-star (baselines.dp_star:solve)" in captured.err
+    assert "dp-star: certified upper bound" in captured.out
+    saved = json.loads((tmp_path / "dp-star_T16_M16.json").read_text())
+    assert saved["feasible"] and saved["mean_rate"] <= saved["info"]["upper_bound"]
+    assert saved["config"]["star_access"] == "noma"
+    assert (tmp_path / "plans_T16_M16_dp-star_ia-ft.png").exists()
 
 
 def test_cli_m_sets_the_ios_shape(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
@@ -86,6 +101,9 @@ def test_run_scheme_sets_the_surface() -> None:
         assert plan.scheme == name and plan.config.surface == surface and plan.feasible
     for name, surface in (("ia", "ios"), ("ra", "ris"), ("cuc", "none")):
         assert schemes.scheme_config(name, config).surface == surface
+    star = schemes.scheme_config("dp-star", config)  # a STAR surface serving both sides at once
+    assert (star.surface, star.star_access) == ("star", "noma")
+    assert schemes.scheme_config("dp-sta", config).star_access == "tdma"
 
 
 def test_unknown_scheme_lists_the_valid_ones() -> None:

@@ -31,17 +31,18 @@ PROBLEMS: dict[str, ScenarioConfig] = {
     "moving": RATE.replace(motion=GaussMarkov(speed=3.0, sigma=1.0)),
     "moving-maxmin": RATE.replace(ground_nodes=TWO, motion=GaussMarkov(speed=3.0, sigma=1.0)),
     "moving-ee": RATE.replace(objective="energy_efficiency", motion=GaussMarkov(speed=3.0, sigma=1.0)),
+    "noma": RATE.replace(surface="star", star_access="noma", ground_nodes=TWO),
 }
 #: The arguments each entry point takes after the config.
 EXTRA = {"mpc": (MPC(k=None), 0), "dp-bound": (None,), "dp-clairvoyant": (None, 10.0)}
 #: The entries cheap enough to run here on every problem they accept (the others, SCA and the
 #: energy bound, are run on their problems by their own tests).
-CHEAP = ("dp", "dp-ee", "dp-budget", "dp-clairvoyant", "tour", "fixed", "loiter", "hover", "mpc")
+CHEAP = ("dp", "dp-ee", "dp-budget", "dp-clairvoyant", "dp-star", "tour", "fixed", "loiter", "hover", "mpc")
 
 
 def _call(name: str, config: ScenarioConfig, **kwargs):
     spec = PLANNERS[name]
-    grid = {"resolution": 10.0} if name in ("dp", "dp-ee", "dp-budget") else {}
+    grid = {"resolution": 10.0} if name in ("dp", "dp-ee", "dp-budget", "dp-star") else {}
     return spec.load()(config, *EXTRA.get(name, ()), **grid, **kwargs)
 
 
@@ -93,6 +94,14 @@ def test_the_named_examples_are_refused_with_the_planner_that_handles_them():
         _call("energy-bound", PROBLEMS["moving-ee"])
     with pytest.raises(PlannerMismatch, match="no registered planner handles it|use fixed"):
         registry.solve("dp-budget", PROBLEMS["ee-budget"])
+    with pytest.raises(
+        PlannerMismatch, match=r"star_access='noma'.*use dp-star \(baselines\.dp_star:solve\)"
+    ):
+        _call("dp", PROBLEMS["noma"])
+    with pytest.raises(
+        PlannerMismatch, match=r"planner 'dp-star'.*surface='ios'.*use dp \(baselines\.dp:solve\)"
+    ):
+        _call("dp-star", PROBLEMS["maxmin"])
 
 
 def test_dp_energy_dispatches_on_the_config():

@@ -6,7 +6,13 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from ios_uav_env.model.regions import broadcast_pricer, maxmin_regions, tdma_pricer, weighted_noma
+from ios_uav_env.model.regions import (
+    broadcast_pricer,
+    maxmin_regions,
+    tdma_pricer,
+    weighted_noma,
+    weighted_noma_array,
+)
 from ios_uav_env.model.schedule import maxmin_schedule
 
 
@@ -71,6 +77,16 @@ def test_the_weighted_sum_split_is_the_best_power_share(w, g_r, g_t):
     value, rate_r, rate_t, split = weighted_noma(g_r, g_t, w)
     assert value == pytest.approx(np.max(w * r_r + (1 - w) * r_t), rel=1e-9, abs=1e-12)
     assert value == pytest.approx(w * rate_r + (1 - w) * rate_t, rel=1e-12) and 0.0 <= split <= 1.0
+
+
+def test_the_array_form_is_the_scalar_weighted_sum_elementwise():
+    rng = np.random.default_rng(3)
+    g_r, g_t, w = np.exp(rng.uniform(-6, 7, 500)), np.exp(rng.uniform(-6, 7, 500)), rng.uniform(0, 1, 500)
+    g_r[:20], g_t[10:30], g_t[40:50], w[60:70], w[70:80] = 0.0, 0.0, g_r[40:50], 0.5, 1.0  # the edge cases
+    value, rate_r, rate_t = weighted_noma_array(g_r.reshape(20, 25), g_t.reshape(20, 25), w.reshape(20, 25))
+    want = np.array([weighted_noma(a, b, c)[:3] for a, b, c in zip(g_r, g_t, w, strict=True)])
+    got = np.column_stack([value.ravel(), rate_r.ravel(), rate_t.ravel()])
+    np.testing.assert_allclose(got, want, rtol=1e-14, atol=1e-15)  # math.log2 against numpy's
 
 
 def test_a_pricer_whose_bound_is_not_one_is_refused():

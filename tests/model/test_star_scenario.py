@@ -313,14 +313,17 @@ def test_what_score_plan_does_not_score_under_noma_is_refused():
         score_plan(NOMA.replace(ground_nodes=((-30.0, 0.0), (-60.0, 10.0))), HOVER)
 
 
-def test_planners_but_the_heuristics_refuse_noma():
+def test_the_tdma_planners_refuse_noma_naming_dp_star():
     from baselines import registry
 
     with pytest.raises(
-        registry.PlannerMismatch, match=r"planner 'dp' does not handle this config: star_access='noma'.*hover"
+        registry.PlannerMismatch,
+        match=r"planner 'dp' does not handle this config: star_access='noma'.*dp-star",
     ):
         registry.solve("dp", NOMA)
-    assert {p.kind for p in registry.handlers(NOMA)} == {"heuristic"}
+    handlers = registry.handlers(NOMA)
+    assert {p.kind for p in handlers} == {"heuristic", "optimum"}
+    assert [p.name for p in handlers if p.kind != "heuristic"] == ["dp-star"]
     plan = registry.solve("hover", NOMA)
     assert plan.mean_rate == pytest.approx(score_plan(NOMA, plan.trajectory).rate, rel=1e-12)
 
