@@ -44,6 +44,7 @@ class MISOControlVectorEnv(gym.vector.VectorEnv):
     or "same_step"). No rendering (``render_mode=None``)."""
 
     metadata = {"autoreset_mode": NEXT_STEP, "render_modes": []}
+    info_keys = INFO_KEYS  # the keys of ``info`` (before the ``_key`` masks), as the other batched envs'
 
     def __init__(
         self, num_envs: int = 1, *, autoreset_mode: Any = "next_step", render_mode: None = None, **kwargs: Any
