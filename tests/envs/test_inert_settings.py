@@ -17,9 +17,8 @@ from ios_uav_env.model.config import SCENARIO_FIELDS
 
 #: The flight ids (the surface control ids' UAV flies a given line and takes none of their settings;
 #: their own checks: ``test_star_control.py``, ``test_miso_control.py``).
-IDS = sorted(
-    i for i in gym.registry if i.startswith("ios_uav_env/") and i not in {*STAR_CONTROL_IDS, *MISO_CONTROL_IDS}
-)
+CONTROL_IDS = {*STAR_CONTROL_IDS, *MISO_CONTROL_IDS}
+IDS = sorted(i for i in gym.registry if i.startswith("ios_uav_env/") and i not in CONTROL_IDS)
 #: Short episodes: the fixed ids' T, and the randomised ids' families (small surfaces too).
 FIXED = {"T": 40.0}
 RANGES = ScenarioRanges(T=(40.0, 50.0), ios_rows=(20, 22))

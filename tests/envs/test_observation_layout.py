@@ -27,9 +27,8 @@ from ios_uav_env.envs.single import IOSUAVEnv
 
 #: The flight ids (the surface control ids' UAV flies a given line and takes none of their settings;
 #: their own checks: ``test_star_control.py``, ``test_miso_control.py``).
-IDS = sorted(
-    i for i in gym.registry if i.startswith("ios_uav_env/") and i not in {*STAR_CONTROL_IDS, *MISO_CONTROL_IDS}
-)
+CONTROL_IDS = {*STAR_CONTROL_IDS, *MISO_CONTROL_IDS}
+IDS = sorted(i for i in gym.registry if i.startswith("ios_uav_env/") and i not in CONTROL_IDS)
 #: Every shipped policy (``ios_uav_env.envs.policies``, ``ios_uav_env.benchmark.multi_policies``,
 #: ``ios_uav_env.benchmark.fleet_policies``).
 POLICIES = {
