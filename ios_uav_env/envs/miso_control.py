@@ -149,9 +149,9 @@ class MISOControlEnv(gym.Env):
     - ``users``: K in [1, 4]; default 2.
     - ``elements``: the surface shape (M_y, M_z), M in [4, 64]; default (4, 4).
     - ``objective``: ``"sum"`` (default) or ``"maxmin"`` (``miso.SLOT_OBJECTIVES``).
-    - ``optimum``: whether ``info`` carries the per-slot AO value and the baselines (default True; AO costs
-      ~0.04 s a slot at N_t = 2, K = 2, M = 16 and ~0.25 s at N_t = 8, K = 4, M = 64; training
-      runs without it, scoring with it).
+    - ``optimum``: whether ``info`` carries the scoring references, the per-slot AO value and the
+      baselines (default True). The AO costs hundredths to tenths of a second a slot, far more
+      than the step (``benchmarks/miso_control.py`` prints both): train without it, score with it.
 
     >>> import gymnasium as gym
     >>> import ios_uav_env
