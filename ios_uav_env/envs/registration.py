@@ -65,6 +65,12 @@ MULTINODE_MOBILE_IDS: dict[str, dict[str, Any]] = {
 STAR_CONTROL_ID = "ios_uav_env/STARControl-v0"
 STAR_CONTROL_IDS: dict[str, dict[str, Any]] = {STAR_CONTROL_ID: {}}
 
+#: The multi-antenna UAV's beams and the surface's phases as the agent's control
+#: (``ios_uav_env.envs.miso_control``): the UAV flies a given line past a small IOS and the agent
+#: sets the K beams and the M phases in every slot. Batched form: ``miso_control_vector``.
+MISO_CONTROL_ID = "ios_uav_env/MISOControl-v0"
+MISO_CONTROL_IDS: dict[str, dict[str, Any]] = {MISO_CONTROL_ID: {}}
+
 
 def _vector(entry_point: str) -> dict[str, str]:
     """The ``vector_entry_point`` argument where Gymnasium has it (1.0 and later)."""
@@ -75,7 +81,7 @@ def _vector(entry_point: str) -> dict[str, str]:
 def register_envs() -> None:
     """Register every id of :data:`ENV_IDS`, :data:`RANDOM_IDS`, :data:`MULTINODE_IDS`,
     :data:`ENERGY_IDS`, :data:`MOBILE_IDS`, :data:`MULTINODE_MOBILE_IDS` and
-    :data:`STAR_CONTROL_IDS` not registered yet.
+    :data:`STAR_CONTROL_IDS` and :data:`MISO_CONTROL_IDS` not registered yet.
 
     No ``max_episode_steps``: the env ends every episode itself at slot N of its scenario
     (``terminated=True``), whatever T is, so no ``TimeLimit`` can cut a mission short. Each id
@@ -120,3 +126,11 @@ def register_envs() -> None:
         if env_id not in gym.registry:
             entry_point = "ios_uav_env.envs.star_control:STARControlEnv"
             gym.register(id=env_id, entry_point=entry_point, kwargs=dict(kwargs))
+    for env_id, kwargs in MISO_CONTROL_IDS.items():
+        if env_id not in gym.registry:
+            gym.register(
+                id=env_id,
+                entry_point="ios_uav_env.envs.miso_control:MISOControlEnv",
+                kwargs=dict(kwargs),
+                **_vector("ios_uav_env.envs.miso_control_vector:MISOControlVectorEnv"),
+            )

@@ -109,33 +109,48 @@ class SlotChannel:
 
 def slot_channel(config: ScenarioConfig, array: ArrayConfig, position: np.ndarray) -> SlotChannel:
     """The :class:`SlotChannel` of ``config``'s K nodes for the UAV at horizontal ``position``
-    (2,) m, built from the single-node channel's per-element functions of each node's config."""
+    (2,) m, built from the single-node channel's per-element functions of each node's config
+    (:func:`slot_channels` of one position)."""
     q = ch.as_positions(position, "position")
     if len(q) != 1:
         raise ValueError(
             f"position must be one horizontal position (x, y) in m, got shape {np.shape(position)}"
         )
+    return slot_channels(config, array, q)[0]
+
+
+def slot_channels(config: ScenarioConfig, array: ArrayConfig, trajectory: np.ndarray) -> list[SlotChannel]:
+    """The :class:`SlotChannel` of each horizontal position of ``trajectory`` (P, 2) m, all P at once:
+    the per-element functions of ``ios_uav_env.model.channel`` and the steering vectors take arrays
+    of positions. Each channel is :func:`slot_channel`'s at that position to rounding (the steering
+    cosines are dot products, summed as the matrix product of P rows sums them)."""
+    q = ch.as_positions(trajectory, "trajectory")
     if not isinstance(array, ArrayConfig):
         raise TypeError(f"array must be an ArrayConfig, got {array!r}")
-    uav = np.array([q[0, 0], q[0, 1], config.uav_altitude])
+    P = len(q)
+    uav = np.column_stack([q, np.full(P, config.uav_altitude)])  # (P, 3)
     k_w, root = 2.0 * np.pi / config.wavelength, np.sqrt(config.eta)
-    coef = np.empty((config.K, config.M), dtype=complex)
-    direct = np.empty((config.K, array.n_t), dtype=complex)
-    for k in range(config.K):  # K configs, each vectorised over the M elements
+    coef = np.empty((P, config.K, config.M), dtype=complex)
+    direct = np.empty((P, config.K, array.n_t), dtype=complex)
+    for k in range(config.K):  # K configs, each vectorised over the P positions and M elements
         user = config.node_config(k)
         geometry = _geometry(user, q)
-        amplitude = ch.element_amplitudes(user, q)[0]
-        coef[k] = root * amplitude * np.exp(-1j * k_w * (geometry["d_um"][0] + geometry["d_mg"]))
+        amplitude = ch.element_amplitudes(user, q)  # (P, M)
+        coef[:, k] = root * amplitude * np.exp(-1j * k_w * (geometry["d_um"] + geometry["d_mg"]))
         ground = np.array([*user.ground_node, 0.0])
-        phase = np.exp(-1j * k_w * geometry["d_ug"][0])
-        direct[k] = root * ch.direct_amplitude(user, q)[0] * phase * link_response(array, uav, ground)
+        phase = np.exp(-1j * k_w * geometry["d_ug"])  # (P,)
+        scale = root * ch.direct_amplitude(user, q) * phase
+        direct[:, k] = scale[:, None] * link_response(array, uav, ground)
     if array.steering == "centre":
-        to_elements = np.broadcast_to(
-            link_response(array, uav, np.asarray(config.ios_center)), (config.M, array.n_t)
-        )
+        centre = link_response(array, uav, np.asarray(config.ios_center))  # (P, N_t)
+        to_elements = np.broadcast_to(centre[:, None, :], (P, config.M, array.n_t))
     else:
-        to_elements = link_response(array, uav, element_positions(config))
-    return SlotChannel(coef, np.ascontiguousarray(to_elements), direct, rank_one=array.steering == "centre")
+        to_elements = link_response(array, uav[:, None, :], element_positions(config))  # (P, M, N_t)
+    rank_one = array.steering == "centre"
+    return [
+        SlotChannel(coef[p], np.ascontiguousarray(to_elements[p]), direct[p], rank_one=rank_one)
+        for p in range(P)
+    ]
 
 
 def _geometry(config: ScenarioConfig, q: np.ndarray) -> dict[str, np.ndarray]:

@@ -46,6 +46,7 @@ from ios_uav_env.model.miso import (
     SlotChannel,
     aligned_phases,
     check_objective,
+    mrt_beam,
     mrt_beams,
     objective_value,
     random_phases,
@@ -104,6 +105,42 @@ def optimise_slot(
         for name, psi, W in starts
     ]
     return max(runs, key=lambda run: run.value)
+
+
+def alone_starts(channel: SlotChannel) -> list[tuple[str, np.ndarray, np.ndarray]]:
+    """Each user k alone at full power: its aligned phases, MRT on its row, the other beams zero
+    (TDMA's sum-rate points as simultaneous settings; WMMSE keeps a zero beam zero), as
+    (name, phases, beams) starts of :func:`alternate`."""
+    starts = []
+    for k in range(channel.K):
+        phases = aligned_phases(channel, k)
+        beams = np.zeros((channel.n_t, channel.K), dtype=complex)
+        beams[:, k] = mrt_beam(channel.matrix(phases)[k])
+        starts.append((f"user {k} alone", phases, beams))
+    return starts
+
+
+def slot_optimum(
+    channel: SlotChannel,
+    objective: str = "sum",
+    *,
+    warm: SlotSolution | None = None,
+    max_iter: int = 100,
+    tol: float = 1e-7,
+) -> SlotSolution:
+    """The per-slot AO value of a slot without random draws: :func:`optimise_slot` with no random
+    start, then :func:`alternate` from each user alone (:func:`alone_starts`; the sum rate only,
+    so its value is at least TDMA's, one user all the slot) and from ``warm`` (a setting of
+    another slot, e.g. the previous one's optimum: its phases and beams are feasible here too).
+    Deterministic: the same channel and ``warm`` give the same solution bit for bit."""
+    best = optimise_slot(channel, objective, random_starts=0, max_iter=max_iter, tol=tol)
+    extra = alone_starts(channel) if objective == "sum" else []
+    if warm is not None:
+        extra.append(("warm", warm.phases, warm.beams))
+    for name, phases, beams in extra:
+        run = alternate(channel, objective, phases, beams, max_iter=max_iter, tol=tol, start=name)
+        best = run if run.value > best.value else best
+    return best
 
 
 def alternate(
@@ -386,4 +423,7 @@ def _maxmin_sweep(
     return v, p
 
 
-__all__ = ["SLOT_OBJECTIVES", "SlotSolution", "alternate", "maxmin_beams", "optimise_slot", "wmmse_beams"]
+__all__ = [
+    "SLOT_OBJECTIVES", "SlotSolution", "alone_starts", "alternate", "maxmin_beams", "optimise_slot",
+    "slot_optimum", "wmmse_beams",
+]  # fmt: skip

@@ -68,7 +68,7 @@ import numpy as np
 from ios_uav_env.model import miso
 from ios_uav_env.model.array import ArrayConfig
 from ios_uav_env.model.config import ScenarioConfig
-from ios_uav_env.model.miso_slot import SlotSolution, alternate, optimise_slot
+from ios_uav_env.model.miso_slot import SlotSolution, alone_starts, alternate, optimise_slot
 
 __all__ = [
     "POWER_RANGE_DBM", "SCHEMES", "PowerSweep", "check_powers", "dof_slope", "low_power_mrt_ratio",
@@ -152,18 +152,6 @@ def low_power_mrt_ratio(channel: miso.SlotChannel) -> float:
     return best / channel.K / float(np.max(miso.slot_bounds(channel).gains))
 
 
-def _alone_starts(channel: miso.SlotChannel) -> list[tuple[str, np.ndarray, np.ndarray]]:
-    """Each user k alone at full power: its aligned phases, MRT on its row, the other beams zero
-    (TDMA's points as simultaneous ones; WMMSE keeps a zero beam zero)."""
-    starts = []
-    for k in range(channel.K):
-        phases = miso.aligned_phases(channel, k)
-        beams = np.zeros((channel.n_t, channel.K), dtype=complex)
-        beams[:, k] = miso.mrt_beam(channel.matrix(phases)[k])
-        starts.append((f"user {k} alone", phases, beams))
-    return starts
-
-
 def power_sweep(
     config: ScenarioConfig,
     array: ArrayConfig,
@@ -198,7 +186,7 @@ def power_sweep(
             channel, objective, random_starts=random_starts, rng=np.random.default_rng(seed),
             max_iter=max_iter, tol=tol,
         )  # fmt: skip
-        extra = _alone_starts(channel) if objective == "sum" else []
+        extra = alone_starts(channel) if objective == "sum" else []
         if previous is not None:
             extra.append((f"previous power ({powers[i - 1]:g} dBm)", previous.phases, previous.beams))
         for name, phases, beams in extra:

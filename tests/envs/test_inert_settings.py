@@ -10,14 +10,15 @@ import gymnasium as gym
 import numpy as np
 import pytest
 
-from ios_uav_env import STAR_CONTROL_IDS, ScenarioConfig, ScenarioRanges
+from ios_uav_env import MISO_CONTROL_IDS, STAR_CONTROL_IDS, ScenarioConfig, ScenarioRanges
 from ios_uav_env.envs.multi import MULTINODE_RANGES
 from ios_uav_env.envs.options import EnvOptions
 from ios_uav_env.model.config import SCENARIO_FIELDS
 
-#: The flight ids (the STAR control id's UAV flies a given line and takes none of their settings;
-#: its own checks: ``test_star_control.py``).
-IDS = sorted(i for i in gym.registry if i.startswith("ios_uav_env/") and i not in STAR_CONTROL_IDS)
+#: The flight ids (the surface control ids' UAV flies a given line and takes none of their settings;
+#: their own checks: ``test_star_control.py``, ``test_miso_control.py``).
+CONTROL_IDS = {*STAR_CONTROL_IDS, *MISO_CONTROL_IDS}
+IDS = sorted(i for i in gym.registry if i.startswith("ios_uav_env/") and i not in CONTROL_IDS)
 #: Short episodes: the fixed ids' T, and the randomised ids' families (small surfaces too).
 FIXED = {"T": 40.0}
 RANGES = ScenarioRanges(T=(40.0, 50.0), ios_rows=(20, 22))

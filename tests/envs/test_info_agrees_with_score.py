@@ -13,11 +13,11 @@ from ios_uav_env import ScenarioConfig, score_plan
 from ios_uav_env.envs.multi import DEFAULT_NODES, MultiNodeEnv
 from ios_uav_env.envs.single import IOSUAVEnv
 
-#: Every registered id of the package that flies a plan (the STAR control id's UAV flies a given
-#: line: its info is scored against ``star_slot``'s optimum, ``test_star_control.py``).
-IDS = sorted(
-    i for i in gym.registry if i.startswith("ios_uav_env/") and i not in ios_uav_env.STAR_CONTROL_IDS
-)
+#: Every registered id of the package that flies a plan (the surface control ids' UAV flies a given
+#: line: their info is scored against the per-slot optimum, ``test_star_control.py``,
+#: ``test_miso_control.py``).
+CONTROL_IDS = {*ios_uav_env.STAR_CONTROL_IDS, *ios_uav_env.MISO_CONTROL_IDS}
+IDS = sorted(i for i in gym.registry if i.startswith("ios_uav_env/") and i not in CONTROL_IDS)
 RTOL = 1e-9  # the kernels' float64 sums against the model's, in another order
 #: Budget factors on the scenario's least energy: just above it (any flight of random moves
 #: exceeds it) and three times it (no flight reaches it), and no budget.

@@ -9,7 +9,14 @@ import gymnasium as gym
 import numpy as np
 import pytest
 
-from ios_uav_env import ENERGY_ID, ENERGY_RANDOM_ID, MOBILE_ID, STAR_CONTROL_IDS, ScenarioConfig
+from ios_uav_env import (
+    ENERGY_ID,
+    ENERGY_RANDOM_ID,
+    MISO_CONTROL_IDS,
+    MOBILE_ID,
+    STAR_CONTROL_IDS,
+    ScenarioConfig,
+)
 from ios_uav_env.benchmark.fleet_policies import NearestWorstNode
 from ios_uav_env.benchmark.multi_policies import StraightEqualShares
 from ios_uav_env.envs.observation import SINGLE_LAYOUTS, feature_source, require_features
@@ -18,9 +25,10 @@ from ios_uav_env.envs.random_env import RandomIOSUAVEnv
 from ios_uav_env.envs.rollout import bind_policy, run_episode, run_episodes
 from ios_uav_env.envs.single import IOSUAVEnv
 
-#: The flight ids (the STAR control id's UAV flies a given line and takes none of their settings;
-#: its own checks: ``test_star_control.py``).
-IDS = sorted(i for i in gym.registry if i.startswith("ios_uav_env/") and i not in STAR_CONTROL_IDS)
+#: The flight ids (the surface control ids' UAV flies a given line and takes none of their settings;
+#: their own checks: ``test_star_control.py``, ``test_miso_control.py``).
+CONTROL_IDS = {*STAR_CONTROL_IDS, *MISO_CONTROL_IDS}
+IDS = sorted(i for i in gym.registry if i.startswith("ios_uav_env/") and i not in CONTROL_IDS)
 #: Every shipped policy (``ios_uav_env.envs.policies``, ``ios_uav_env.benchmark.multi_policies``,
 #: ``ios_uav_env.benchmark.fleet_policies``).
 POLICIES = {

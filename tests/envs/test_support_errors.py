@@ -9,11 +9,10 @@ import pytest
 
 import ios_uav_env
 
-#: The flight ids (the STAR control id's UAV flies a given line and takes none of their settings;
-#: its own checks: ``test_star_control.py``).
-IDS = sorted(
-    i for i in gym.registry if i.startswith("ios_uav_env/") and i not in ios_uav_env.STAR_CONTROL_IDS
-)
+#: The flight ids (the surface control ids' UAV flies a given line and takes none of their settings;
+#: their own checks: ``test_star_control.py``, ``test_miso_control.py``).
+CONTROL_IDS = {*ios_uav_env.STAR_CONTROL_IDS, *ios_uav_env.MISO_CONTROL_IDS}
+IDS = sorted(i for i in gym.registry if i.startswith("ios_uav_env/") and i not in CONTROL_IDS)
 MULTI_IDS = {*ios_uav_env.MULTINODE_IDS, *ios_uav_env.MULTINODE_MOBILE_IDS}
 SINGLE_IDS = [i for i in IDS if i not in MULTI_IDS]
 NODES = ((-100.0, -20.0), (150.0, -60.0))

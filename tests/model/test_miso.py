@@ -242,3 +242,21 @@ def test_the_far_field_channel_matches_exact_antenna_distances():
     assert np.max(np.abs(slot.matrix(phases) - exact)) < 5e-3 * np.max(np.abs(exact))  # 8e-4 here
     flipped = miso.SlotChannel(slot.coef, slot.to_elements.conj(), slot.direct, False)  # the other sign
     assert np.max(np.abs(flipped.matrix(phases) - exact)) > 0.1 * np.max(np.abs(exact))
+
+
+@pytest.mark.parametrize("steering", ["centre", "element"])
+def test_a_paths_channels_are_each_positions(steering):
+    """``slot_channels`` computes every position of a path at once (the MISO control env builds its
+    episode's slots so) as ``slot_channel`` does each alone: to rounding, as the steering vectors'
+    cosines are dot products of (P, 3) rows, whose summation may differ with P."""
+    config = DEFAULT.replace(ios_shape=(4, 6), ground_nodes=((-100.0, -20.0), (50.0, 9.0), (-30.0, 60.0)))
+    array = ArrayConfig(n_t=3, orientation_rad=0.7, steering=steering)
+    path = np.array(SPOTS)
+    for q, many in zip(path, miso.slot_channels(config, array, path), strict=True):
+        one = miso.slot_channel(config, array, q)
+        for name in ("coef", "to_elements", "direct"):
+            x, y = getattr(many, name), getattr(one, name)
+            assert np.allclose(x, y, rtol=1e-12, atol=1e-12 * np.abs(y).max()), name
+        assert many.rank_one == one.rank_one == (steering == "centre")
+    with pytest.raises(ValueError, match=r"trajectory must have shape \(K, 2\)"):
+        miso.slot_channels(config, array, np.zeros((2, 3)))

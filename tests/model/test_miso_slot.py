@@ -174,3 +174,23 @@ def test_bad_arguments_name_the_field_and_the_range():
         miso_slot.alternate(slot, "sum", phases, W, tol=float("nan"))
     with pytest.raises(ValueError, match=r"beams must have total power"):
         miso_slot.alternate(slot, "sum", phases, 2 * W)
+
+
+@pytest.mark.parametrize("objective", miso.SLOT_OBJECTIVES)
+def test_slot_optimum_beats_its_starts_and_repeats(objective):
+    """``slot_optimum``: at least the plain AO without random starts, at least each user alone (the
+    sum rate: TDMA's value, one user all the slot) and the warm setting's own value; below the
+    bound; the same inputs give the same solution bit for bit."""
+    rng = np.random.default_rng(21)
+    for _ in range(3):
+        slot, other = random_slot(rng, n_t=3, K=3, shape=(4, 6)), random_slot(rng, n_t=3, K=3, shape=(4, 6))
+        warm = miso_slot.slot_optimum(other, objective)  # another slot's setting: feasible here too
+        best = miso_slot.slot_optimum(slot, objective, warm=warm)
+        plain = miso_slot.optimise_slot(slot, objective, random_starts=0)
+        here = miso.objective_value(miso.user_rates(slot.matrix(warm.phases), warm.beams), objective)
+        assert best.value >= max(plain.value, here) * (1 - ROUNDING)
+        if objective == "sum":
+            assert best.value >= miso.tdma_value(miso.tdma_rates(slot), "sum") * (1 - ROUNDING)
+        assert best.value <= miso.slot_bounds(slot).of(objective) * (1 + 1e-9)
+        again = miso_slot.slot_optimum(slot, objective, warm=warm)
+        assert again.value == best.value and np.array_equal(again.beams, best.beams)
