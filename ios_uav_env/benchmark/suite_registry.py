@@ -215,6 +215,9 @@ SUITES: dict[str, RegisteredSuite] = {
     "multi-uav-v1": RegisteredSuite(
         "multi-uav-v1.json", "f91bfffa79084d1d9a6723050209a3a840c32cf908fd8c4632a4bb3473be7999"
     ),
+    "star-v1": RegisteredSuite(
+        "star-v1.json", "18ca1f8e909449fa879528d00d6896762ad752f2b702aa979800a6ed7deb671f"
+    ),
 }
 DEFAULT_SUITE = "single-node-v1"
 #: A suite's name: words of lowercase ASCII letters and digits joined by one "-", "." or "_"
