@@ -189,10 +189,14 @@ def check_overrides(
                 else f"the STAR keywords {star} come from each scenario" if star
                 else f"the fleet's {fleet} come from each scenario" if fleet
                 else "no reset draws a scenario")  # fmt: skip
+        pins = (
+            "every scenario's keywords and episode seed are pinned"
+            if getattr(suite, "star_control", False)
+            else "every scenario's ScenarioConfig is pinned at reset (options={'config': ...})"
+        )
         raise ValueError(
-            f"env_kwargs {pinned} would be ignored on suite {suite.name}: every scenario's ScenarioConfig is "
-            f"pinned at reset (options={{'config': ...}}), so {what}; drop them (another scenario is "
-            "another suite: a suite file)"
+            f"env_kwargs {pinned} would be ignored on suite {suite.name}: {pins}, so {what}; drop them "
+            "(another scenario is another suite: a suite file)"
         )
     changes = task_changes(suite, kwargs)
     if changes and not allow_task_change:

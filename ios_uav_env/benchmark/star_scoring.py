@@ -19,17 +19,19 @@ __all__ = ["bound_policy", "evaluate_star"]
 
 def bound_policy(policy: Any, task: StarTask, where: str) -> Any:
     """``policy`` bound to ``task`` (``policy.bind(task)`` if it has ``bind``, else itself);
-    ``ValueError`` naming ``where`` if the result declares an ``observation_space`` (an SB3 model)
-    of another shape than the scenario's observation."""
+    ``ValueError`` naming ``where`` if the result declares an ``observation_space`` or an
+    ``action_space`` (an SB3 model) of another shape than the scenario's."""
     bind = getattr(policy, "bind", None)
     chosen = bind(task) if callable(bind) else policy
-    wanted = getattr(getattr(chosen, "observation_space", None), "shape", None)
-    if wanted is not None and tuple(wanted) != (len(task.observation_names),):
-        raise ValueError(
-            f"{where}: the policy takes observations of shape {tuple(wanted)}, the scenario's env gives "
-            f"({len(task.observation_names)},) (M = {task.M}, group {task.group}, access {task.access!r}): "
-            "give the policy a bind(task) that picks one for each scenario (ios_uav_env.benchmark.star_suite)"
-        )
+    for what, space, width in (("takes observations", "observation_space", len(task.observation_names)),
+                               ("gives actions", "action_space", task.action_dim)):  # fmt: skip
+        wanted = getattr(getattr(chosen, space, None), "shape", None)
+        if wanted is not None and tuple(wanted) != (width,):
+            raise ValueError(
+                f"{where}: the policy {what} of shape {tuple(wanted)}, the scenario's env ({width},) (M = "
+                f"{task.M}, group {task.group}, access {task.access!r}): give the policy a bind(task) that "
+                "picks one for each scenario (ios_uav_env.benchmark.star_suite)"
+            )
     return chosen
 
 

@@ -204,6 +204,28 @@ def test_a_policy_is_bound_per_scenario_and_one_of_another_width_fails_naming_th
         evaluate(ChannelPhases().__call__, suite)
 
 
+def test_sb3_models_bound_per_scenario_are_scored(copy):
+    """Real SB3 models (untrained PPO, one made on each scenario's env by ``bind``), through the
+    same scorer: each row is the env's reward sum of the model's deterministic actions."""
+    sb3 = pytest.importorskip("stable_baselines3")
+
+    class PPOPerScenario:
+        name = "PPO per scenario"
+
+        def bind(self, task):
+            env = gym.make("ios_uav_env/STARControl-v0", elements=task.elements, bits=task.bits,
+                           access=task.access, protocol=task.protocol)  # fmt: skip
+            return sb3.PPO("MlpPolicy", env, seed=0, device="cpu", n_steps=16, batch_size=16)
+
+    suite = load_suite(copy)
+    results = evaluate(PPOPerScenario(), suite)
+    assert len(results) == FIRST and all(0 <= r.pct["optimum"] <= 100 + 1e-9 for r in results)
+    # scenario 1 (ES-NOMA) has scenario 0's observation (M = 16) but another action width
+    with pytest.raises(ValueError, match=r"scenario 1: the policy gives actions of shape \(33,\)"):
+        evaluate(PPOPerScenario().bind(StarTask.of(suite[0].star, gym.make("ios_uav_env/STARControl-v0",
+                 elements=(4, 4)))), suite, n=2)  # fmt: skip
+
+
 def test_the_keywords_are_pinned_and_hiding_the_channel_phases_is_another_task(copy):
     suite = load_suite(copy)
     with pytest.raises(ValueError, match=r"\['bits'\] would be ignored .* the STAR keywords"):
