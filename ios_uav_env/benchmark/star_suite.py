@@ -11,9 +11,10 @@ every slot. It holds:
 - ``seed``: the episode's ``reset(seed=...)``, whose only draw is the line's x;
 - ``config``: the episode's scenario as the env builds it after that reset (``env.config``: the
   users as its nodes, the line as q0 -> qF). At load it must be the env's base scenario on the
-  surface ``elements`` with a line of the env's range; at every rollout the env reset with
-  ``seed`` must build exactly it, else the episode is refused by name (:func:`star_episode`):
-  the env's draw changed, and scoring it would score another task.
+  surface ``elements`` with the line the seed draws (a 16-element env reset with ``seed``: the
+  line is the reset's only draw); at every rollout the env reset with ``seed`` must build
+  exactly it, else the episode is refused by name (:func:`star_episode`): the env's draw
+  changed, and scoring it would score another task.
 
 **The one scorer** of an episode is the env's own reward sum: a policy's value on a scenario is
 ``info["return"] / N`` at the last slot (the mean slot value min(R_r, R_t) in bps/Hz of
@@ -117,7 +118,8 @@ def _expected_config(star: Mapping[str, Any], x: float) -> ScenarioConfig:
 def check_star(config: ScenarioConfig, star: Any, seed: Any, where: str) -> dict[str, Any]:
     """``star`` as stored, checked with its ``seed`` and ``config`` (``ValueError`` naming ``where``
     and the field): exactly the keys :data:`STAR_FIELDS`, accepted by the env's constructor; a seed
-    >= 0; the config the env builds on that surface for a line of its range (module docstring)."""
+    >= 0; the config the env builds on that surface for a line of its range, the line the env's
+    reset draws for ``seed`` (module docstring)."""
     from ios_uav_env.envs.star_control import X_RANGE, STARControlEnv
 
     if not isinstance(star, Mapping):
@@ -140,6 +142,14 @@ def check_star(config: ScenarioConfig, star: Any, seed: Any, where: str) -> dict
             f"{where}: config must be STARControl-v0's episode scenario on the surface {star['elements']} "
             f"with a line x in {list(X_RANGE)} m (q0 = (x, -150), qF = (x, 150)), got q0 = {config.q0}, "
             f"ios_shape = {config.ios_shape}"
+        )
+    probe = STARControlEnv(elements=(4, 4))  # the reset's only draw is the line: the smallest surface
+    probe.reset(seed=seed)
+    if probe.config.q0 != config.q0:
+        raise ValueError(
+            f"{where}: seed {seed} draws the line x = {probe.config.q0[0]!r} m in STARControl-v0, not the "
+            f"config's x = {x!r} m: the pair was edited or the env's draw changed; either way it is not "
+            "this suite's task"
         )
     return {k: star[k] for k in STAR_FIELDS}
 

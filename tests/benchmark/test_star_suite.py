@@ -16,7 +16,7 @@ from ios_uav_env.benchmark import SUITES, evaluate, load_suite, score_trajectori
 from ios_uav_env.benchmark.cli import main as benchmark_main
 from ios_uav_env.benchmark.policy_errors import PolicyError
 from ios_uav_env.benchmark.star_policies import ChannelPhases
-from ios_uav_env.benchmark.star_suite import StarTask, star_kwargs
+from ios_uav_env.benchmark.star_suite import StarTask, star_episode, star_kwargs
 from ios_uav_env.benchmark.suite_registry import suite_path
 from tests.benchmark.quick_suites import tampered
 from tests.tolerances import PLANNER_REL, RATE_REL
@@ -113,13 +113,16 @@ def test_the_score_is_the_envs_reward_sum_and_the_heuristic_reproduces_its_store
         assert row.rate == pytest.approx(s.value("phases"), rel=RATE_REL)
 
 
-def test_a_wrong_seed_line_pair_is_refused_by_name_at_the_rollout(copy, tmp_path):
+def test_a_wrong_seed_line_pair_is_refused_by_name_at_load_and_at_the_rollout(copy, tmp_path):
     def other_seed(data):
-        data["scenarios"][0]["seed"] += 1  # the config (the line) stays: the pair no longer matches
+        data["scenarios"][1]["seed"] += 1  # the config (the line) stays: the pair no longer matches
 
-    suite = load_suite(tampered(copy, tmp_path, other_seed))
-    with pytest.raises(RuntimeError, match=r"scenario 0: the env reset with seed \d+ drew the line x = "):
-        evaluate(ChannelPhases(), suite, n=1)
+    with pytest.raises(ValueError, match=r"scenario 1: seed \d+ draws the line x = .* not the config's"):
+        load_suite(tampered(copy, tmp_path, other_seed))
+    s = load_suite(copy)[1]  # a rollout whose env builds another episode than the scenario's
+    env = gym.make("ios_uav_env/STARControl-v0", **star_kwargs(s.star))
+    with pytest.raises(RuntimeError, match=r"scenario 1: the env reset with seed \d+ drew the line x = "):
+        star_episode(env, ChannelPhases().bind(StarTask.of(s.star, env)), s.seed + 1, s.config, "scenario 1")
 
 
 @pytest.mark.parametrize(
