@@ -262,6 +262,13 @@ def test_the_pipeline_freezes_a_suite_the_loader_takes_and_the_command_line_show
     assert "on star-quick-v1 (1 scenarios): % of optimum mean 100.00" in line and "feasible 1/1" in line
 
 
+def test_the_pipeline_never_overwrites_the_shipped_suite(tmp_path):
+    before = suite_path("star-v1").read_bytes()
+    with pytest.raises(SystemExit, match="'star-v1' is a registered suite"):  # 1 scenario: other content
+        references_main(["star", "--n", "1", "--cache", str(tmp_path / "cache")])
+    assert suite_path("star-v1").read_bytes() == before
+
+
 def test_the_heuristics_docstring_example_holds():
     import doctest
 
