@@ -1,4 +1,5 @@
-"""``python -m baselines.references {single-node,multi-node,energy,mobile}``: freeze a suite
+"""``python -m baselines.references {single-node,multi-node,energy,mobile,multi-node-mobile,multi-uav,star}``:
+freeze a suite
 (module docstring of :mod:`baselines.references`)."""
 
 from __future__ import annotations
@@ -29,6 +30,7 @@ from baselines.references.mobile import (
 )
 from baselines.references.online import MULTI_MOBILE_RANGES, MULTI_MOBILE_SIZE
 from baselines.references.solve import BOUND_RESOLUTION, DP_RESOLUTION, ENERGY_BOUND_RESOLUTION, solve_all
+from baselines.references.star import STAR_SIZE
 from ios_uav_env.benchmark.suite_registry import SUITE_DIR, check_suite_name
 
 HELDOUT = Path("agents/suite/heldout.json")
@@ -58,6 +60,11 @@ ONLINE_QUICK_RANGES = {"T": (20.0, 22.0), "start_x": (-100.0, -100.0), "end_x": 
 FLEET_CACHE = Path("out/multi-uav-v1")
 FLEET_QUICK = {"n": 2, "resolution": 12.5, "bound_resolution": 12.5, "polish_budget": 0}
 FLEET_QUICK_DIR = Path("out/multi-uav-quick")
+#: ``star``: its cache; ``--quick``: the first 3 scenarios (M = 16, continuous phases: TDMA, ES-NOMA,
+#: MS-NOMA) with one random episode each, named star-quick-v1, cached and written under out/star-quick.
+STAR_CACHE = Path("out/star-v1")
+STAR_QUICK = {"n": 3, "random_episodes": 1}
+STAR_QUICK_DIR = Path("out/star-quick")
 
 
 def _drawn_parser(
@@ -119,7 +126,15 @@ def _parser() -> argparse.ArgumentParser:
         FLEET_CACHE,
         "a tiny check suite: 2 short scenarios, coarse grids, in out/multi-uav-quick",
     )
-    for sub in (single, multi, energy, mobile, multi_mobile, fleets):
+    stars = _drawn_parser(
+        kinds,
+        "star",
+        "play the STAR-control held-out episodes (optimum, bound, rows) and freeze them",
+        STAR_SIZE,
+        STAR_CACHE,
+        "a tiny check suite: 3 scenarios of 16 elements, one random episode, in out/star-quick",
+    )
+    for sub in (single, multi, energy, mobile, multi_mobile, fleets, stars):
         sub.add_argument("--name", default=None, help="suite name (default <kind>-v<version>)")
         sub.add_argument(
             "--version", type=int, default=1, help="mobile: 2 is the suite normalised by the optimum"
@@ -130,7 +145,7 @@ def _parser() -> argparse.ArgumentParser:
 
 def main(argv: Sequence[str] | None = None) -> int:
     args = _parser().parse_args(argv)
-    quick = args.kind in ("energy", "mobile", "multi-node-mobile", "multi-uav") and args.quick
+    quick = args.kind in ("energy", "mobile", "multi-node-mobile", "multi-uav", "star") and args.quick
     name = args.name or (f"{args.kind}-quick-v{args.version}" if quick else f"{args.kind}-v{args.version}")
     quick_dir = MOBILE_QUICK_DIR if args.kind == "mobile" else QUICK_DIR
     directory = args.dir or (quick_dir if quick else SUITE_DIR)
@@ -144,6 +159,8 @@ def main(argv: Sequence[str] | None = None) -> int:
         return _energy(args, name, directory)
     if args.kind == "multi-uav":
         return _fleet(args, name, args.dir or (FLEET_QUICK_DIR if quick else SUITE_DIR))
+    if args.kind == "star":
+        return _star(args, name, args.dir or (STAR_QUICK_DIR if quick else SUITE_DIR))
     if args.kind == "multi-node-mobile" or (args.kind == "mobile" and args.version >= 2):
         multi = args.kind == "multi-node-mobile"
         return _online(args, name, args.dir or (ONLINE_QUICK_DIR[multi] if quick else SUITE_DIR), multi)
@@ -314,6 +331,29 @@ def _fleet(args: argparse.Namespace, name: str, directory: Path) -> int:
         records, name, args.version, seed=args.seed, ranges=ranges, settings=settings
     )
     return _finish(args, records, fleet.check_fleet_record, passed, build, directory)
+
+
+def _star(args: argparse.Namespace, name: str, directory: Path) -> int:
+    """``star``: draw, play (cached, resumable), check and freeze the STAR-control suite
+    (:mod:`baselines.references.star`); a scenario that fails a check stops the freeze, named."""
+    import functools
+
+    from baselines.references import star
+    from baselines.runner import run_tasks
+
+    n = _size(args, STAR_SIZE, STAR_QUICK["n"])
+    episodes = STAR_QUICK["random_episodes"] if args.quick else star.RANDOM_EPISODES
+    settings = {"entropy": args.seed, "random_episodes": episodes}
+    cache = args.cache or (STAR_QUICK_DIR / "cache" if args.quick else STAR_CACHE)
+    records = run_tasks(
+        functools.partial(star.solve_star, **settings), star.star_tasks(n, args.seed), cache,
+        key=functools.partial(star.star_key, **settings), jobs=args.jobs, order=star.longest_first,
+        progress=not args.quick, desc=name, unit="scenario", describe=star.describe,
+        required=("config", "star", "seed", *star.STAR_REFERENCES),
+    )  # fmt: skip
+    passed = "checks: optimum > 0 and <= bound (= under TDMA), replayed to rounding, no row above the optimum"
+    build = lambda: star.star_content(records, name, args.version, seed=args.seed, random_episodes=episodes)  # noqa: E731
+    return _finish(args, records, star.check_star_record, passed, build, directory)
 
 
 if __name__ == "__main__":

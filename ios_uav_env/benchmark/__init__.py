@@ -29,6 +29,8 @@ alone (no planner, no deep-learning library):
   scenario: the suites' policy rows) and :func:`hover_episode` (``HoverAt``'s);
 - :mod:`~ios_uav_env.benchmark.trajectories`: trajectory files (``.npz`` or CSV; multi-node
   plans may carry their shares: :func:`read_plans`);
+- :mod:`~ios_uav_env.benchmark.star_suite`: the STAR-control suites (the agent sets the surface;
+  a policy bound to each scenario, scored by the env's reward sum as % of the per-slot optimum);
 - ``python -m ios_uav_env.benchmark {list,show,evaluate}``: the command line
   (:mod:`~ios_uav_env.benchmark.cli`).
 """

@@ -31,6 +31,10 @@ bound and the best schedule's % of SCA (``ios_uav_env.benchmark.results``), the 
 ``pct_sca.png`` and ``shares.png``, and a trajectories file may hold each plan's shares
 (``shares_<index>`` in ``.npz``, ``share_<k>`` columns in CSV); without them a plan is scored
 with its best schedule.
+
+On a STAR-control suite (``--suite star-v1``) the line has % of the per-slot optimum and of its
+certified bound; the policy is bound to each scenario's widths if it has ``bind``
+(``ios_uav_env.benchmark.star_suite``), and ``--trajectories`` does not apply.
 """
 
 from __future__ import annotations

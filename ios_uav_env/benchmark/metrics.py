@@ -21,7 +21,10 @@ By suite kind:
   the optimum;
 - ``multi-uav``: the team's max-min rate of U flights (``fleet_maxmin``, the best time sharing of
   every slot) as % of the centralised planner's (the normaliser, ``baselines.fleet``) and of its
-  certified bound; a plan is feasible when every flight is and the UAVs stay separated.
+  certified bound; a plan is feasible when every flight is and the UAVs stay separated;
+- ``star-control``: the mean slot value of the surface's settings (the env's reward sum / N) as %
+  of the per-slot optimum (the normaliser, ``star_slot.slot_optimum``) and of its certified bound;
+  every episode is feasible (the UAV's line is given), and a plan's time is the policy's own calls.
 """
 
 from __future__ import annotations
@@ -38,6 +41,7 @@ from ios_uav_env.benchmark.suite_registry import (
     MULTI_UAV,
     SCORED,
     SINGLE_NODE,
+    STAR_CONTROL,
     TIMED,
 )
 
@@ -80,6 +84,7 @@ METRICS = {
     MOBILE: Metrics(SCORED[MOBILE], False, timed=TIMED[MOBILE]),
     MULTI_NODE_MOBILE: Metrics(SCORED[MULTI_NODE_MOBILE], True, timed=TIMED[MULTI_NODE_MOBILE]),
     MULTI_UAV: Metrics(SCORED[MULTI_UAV], False, timed=TIMED[MULTI_UAV]),
+    STAR_CONTROL: Metrics(SCORED[STAR_CONTROL], False, timed=TIMED[STAR_CONTROL]),
 }
 
 

@@ -8,13 +8,15 @@ takes is in one of four classes:
   instance features, the rate-peak hint, the length scale, the energy weight, the Kalman
   estimate of the reports it receives, the padding of the node blocks) or how the env renders;
 - :data:`REWARD`: the shaping of the per-step reward, which no score reads;
-- :data:`TASK`: what the UAV knows (``knowledge``, ``report_sigma``), the channel it flies in,
+- :data:`TASK`: what the UAV knows (``knowledge``, ``report_sigma``; a STAR surface's controller:
+  ``channel_phases``), the channel it flies in,
   the projection of its moves (``arrival_guard``) and the shares its actions can give
   (``share_sharpness``): another value is another task. :func:`check_overrides` refuses it
   unless ``allow_task_change`` is given, and the results then carry the change
   (``Results.task_changes``), printed and saved as another task (``Results.task``);
 - :data:`PINNED`: what a reset draws (``config``, ``ranges``, ``focus``, ``focus_prob``), what
-  the suite's scoring computes (``best_schedule``) and every ``ScenarioConfig`` field: the suite
+  the suite's scoring computes (``best_schedule``), a fleet's and a STAR scenario's keywords
+  (:data:`FLEET`, :data:`STAR`) and every ``ScenarioConfig`` field: the suite
   pins each scenario at reset and scores each episode, so they would be ignored.
   :func:`check_overrides` refuses them; :func:`policy_env_kwargs` drops them from a policy's own
   ``env_kwargs`` (its training draw), which the suite replaces by its scenarios.
@@ -49,6 +51,7 @@ TASK: dict[str, str] = {
     "arrival_guard": "the projection of every move onto the moves that still reach qF",
     "share_sharpness": "the shares an action can give (the softmax of its scores)",
     "surface_sharpness": "the surface's time shares the UAVs' bids can give (the softmax of the bids)",
+    "channel_phases": "what the surface's controller is told of the channels each slot",
 }
 #: What a reset draws: the suite pins every scenario instead. Refused (dropped from a policy's own).
 DRAW: frozenset[str] = frozenset({"config", "ranges", "focus", "focus_prob"})
@@ -59,7 +62,9 @@ SCORING: frozenset[str] = frozenset({"best_schedule"})
 FLEET: frozenset[str] = frozenset(
     {"uavs", "starts", "finals", "speeds", "access", "min_separation", "horizons"}
 )
-PINNED: frozenset[str] = DRAW | SCORING | FLEET | SCENARIO_FIELDS
+#: A STAR-control suite's env keywords (``star_suite.STAR_FIELDS``): each scenario fixes them.
+STAR: frozenset[str] = frozenset({"elements", "bits", "group", "protocol", "access", "direct_link"})
+PINNED: frozenset[str] = DRAW | SCORING | FLEET | STAR | SCENARIO_FIELDS
 #: Presentation arguments a policy's own ``env_kwargs`` fix: the observations it was trained on.
 OBSERVATION: frozenset[str] = PRESENTATION - {"render_mode"}
 
@@ -179,13 +184,19 @@ def check_overrides(
     if pinned:
         fields = [k for k in pinned if k in SCENARIO_FIELDS]
         fleet = [k for k in pinned if k in FLEET]
+        star = [k for k in pinned if k in STAR] if getattr(suite, "star_control", False) else []
         what = (f"the scenario fields {fields} come from each scenario" if fields
+                else f"the STAR keywords {star} come from each scenario" if star
                 else f"the fleet's {fleet} come from each scenario" if fleet
                 else "no reset draws a scenario")  # fmt: skip
+        pins = (
+            "every scenario's keywords and episode seed are pinned"
+            if getattr(suite, "star_control", False)
+            else "every scenario's ScenarioConfig is pinned at reset (options={'config': ...})"
+        )
         raise ValueError(
-            f"env_kwargs {pinned} would be ignored on suite {suite.name}: every scenario's ScenarioConfig is "
-            f"pinned at reset (options={{'config': ...}}), so {what}; drop them (another scenario is "
-            "another suite: a suite file)"
+            f"env_kwargs {pinned} would be ignored on suite {suite.name}: {pins}, so {what}; drop them "
+            "(another scenario is another suite: a suite file)"
         )
     changes = task_changes(suite, kwargs)
     if changes and not allow_task_change:

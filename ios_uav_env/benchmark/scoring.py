@@ -29,6 +29,11 @@ first calls (with ``at_once``: the warm batch's wall time divided by the number 
 >>> results.aggregate.feasible, round(results.aggregate.mean_pct_dp, 2)
 (3, 99.77)
 
+A STAR-control suite (``suite="star-v1"``) plays each scenario's episode of
+``ios_uav_env/STARControl-v0`` with the policy bound to the scenario (``policy.bind(task)``, if it
+has ``bind``) and scores it by the env's reward sum as % of the per-slot optimum and of its bound
+(:mod:`ios_uav_env.benchmark.star_suite`).
+
 A several-UAV suite (``suite="multi-uav-v1"``) rolls each scenario's fleet out in
 ``ios_uav_env.parallel_env``, the policy acting for every agent (or, with ``team = True``, for
 the team), and scores the flights with ``fleet_maxmin``
@@ -164,6 +169,16 @@ def _check_env_takes(suite: Suite, env_kwargs: Mapping[str, Any], policy: Any) -
                 f"{suite.env_id} does not take the env_kwargs {dict(env_kwargs)}: {err}"
             ) from None
         return
+    if suite.star_control:  # the first scenario's env (the widths are each scenario's: bound per scenario)
+        from ios_uav_env.benchmark.star_suite import make_star_env
+
+        try:
+            make_star_env(suite[0].star, kwargs).close()
+        except (TypeError, ValueError) as err:
+            raise ValueError(
+                f"{suite.env_id} does not take the env_kwargs {dict(env_kwargs)}: {err}"
+            ) from None
+        return
     try:
         env, _ = _make_env(suite.env_id, kwargs, False)
     except (TypeError, ValueError) as err:
@@ -214,6 +229,13 @@ def evaluate(
             raise ValueError(f"batched and at_once are for single-UAV suites; {suite.name} flies fleets")
         return evaluate_fleet(policy, suite, env_kwargs=env_kwargs, n=n, seed=seed, name=name,
                               allow_task_change=allow_task_change)  # fmt: skip
+    if suite.star_control:  # the surface's settings: episodes of STARControl-v0 (benchmark.star_suite)
+        from ios_uav_env.benchmark.star_scoring import evaluate_star
+
+        if batched or at_once:
+            raise ValueError(f"batched and at_once are for UAV-flight suites; {suite.name} sets a surface")
+        return evaluate_star(policy, suite, env_kwargs=env_kwargs, n=n, seed=seed, name=name,
+                             allow_task_change=allow_task_change)  # fmt: skip
     own = policy_env_kwargs(suite, policy, env_kwargs)
     check_overrides(suite, own, allow_task_change=allow_task_change)  # once: the calls below skip it
     if getattr(policy, "observation_space", None) is not None:

@@ -42,6 +42,9 @@ from ios_uav_env.benchmark.suite_registry import (  # noqa: F401 (the registry, 
     REFERENCES,
     SCORED,
     SINGLE_NODE,
+    STAR_CONTROL,
+    STAR_ENV_ID,
+    STAR_REFERENCES,
     SUITE_DIR,
     SUITES,
     TIMED,
@@ -65,13 +68,14 @@ class SuiteScenario:
     config: ScenarioConfig
     reference: Mapping[str, Mapping[str, Any]]
     kind: str = SINGLE_NODE  # the suite's kind: what value() reads (VALUE_KEY)
-    seed: int | None = None  # a mobile suite's episode seed: the node's path and the reports' noise
+    seed: int | None = None  # a mobile or STAR-control suite's episode seed (the node's path, the line)
     fleet: Mapping[str, Any] | None = None  # a several-UAV suite's fleet (benchmark.fleet_suite)
+    star: Mapping[str, Any] | None = None  # a STAR-control suite's env keywords (benchmark.star_suite)
 
     def paths(self) -> Any:
         """(N, 1, 2) m: the node's true path of a mobile scenario (drawn from ``seed`` as the env
         and ``run_online`` draw it); None for a static suite."""
-        if self.seed is None:
+        if self.seed is None or self.kind not in MOBILE_KINDS:
             return None
         import numpy as np
 
@@ -148,6 +152,11 @@ class Suite:
         return self.kind == MULTI_UAV
 
     @property
+    def star_control(self) -> bool:
+        """The surface as the agent's control: each scenario's episode in ``STARControl-v0``."""
+        return self.kind == STAR_CONTROL
+
+    @property
     def schedules(self) -> bool:
         """K > 1 nodes: plans carry TDMA shares (a multi-node or multi-node mobile suite)."""
         return self.kind in (MULTI_NODE, MULTI_NODE_MOBILE)
@@ -189,6 +198,8 @@ def load_suite(suite: str | Path = DEFAULT_SUITE) -> Suite:
     (rates >= 0, the scored references' > 0, times >= 0); JSON's NaN and Infinity are refused.
     An energy suite's scenarios have one node and the objective ``"energy_efficiency"``, every
     reference's EE (bits/J) > 0, and none above the bound (by more than :data:`BOUND_REL`).
+    A STAR-control suite's scenarios hold the env's keywords, an episode seed and the episode's
+    config (``star_suite.check_star``), and no value above the bound.
     """
     path = Path(suite) if isinstance(suite, Path) or str(suite).endswith(".json") else suite_path(str(suite))
     data = _read_json(path)
@@ -274,6 +285,7 @@ def _check_header(path: Path, data: Mapping[str, Any]) -> tuple[str, tuple[str, 
         MOBILE: MOBILE_IDS,
         MULTI_NODE_MOBILE: MULTINODE_MOBILE_IDS,
         MULTI_UAV: {FLEET_ENV_ID: {}},
+        STAR_CONTROL: {STAR_ENV_ID: {}},
     }
     env_ids = list(ids[kind]) if kind in ids else [*ENV_IDS, RANDOM_ENV_ID]
     if data.get("env_id") not in env_ids:
@@ -341,6 +353,13 @@ def _scenario(
     elif "fleet" in rec:
         raise ValueError(f"{path}: scenario {index}: only a several-UAV suite's scenarios have a fleet")
     seed = rec.get("seed")
+    star = None
+    if kind == STAR_CONTROL:
+        from ios_uav_env.benchmark.star_suite import check_star
+
+        star = check_star(config, rec.get("star"), seed, f"{path}: scenario {index}")
+    elif "star" in rec:
+        raise ValueError(f"{path}: scenario {index}: only a STAR-control suite's scenarios have a star")
     if kind in MOBILE_KINDS:
         if config.motion is None:
             raise ValueError(
@@ -350,8 +369,11 @@ def _scenario(
             raise ValueError(
                 f"{path}: scenario {index}: seed must be an integer >= 0 (the episode's), got {seed!r}"
             )
-    elif seed is not None:
-        raise ValueError(f"{path}: scenario {index}: only a mobile suite's scenarios have a seed")
+    elif seed is not None and kind != STAR_CONTROL:
+        raise ValueError(
+            f"{path}: scenario {index}: only a mobile suite's scenarios have a seed (and a STAR-control "
+            "suite's)"
+        )
     reference = {}
     for r in references:
         values = rec[r]
@@ -371,7 +393,7 @@ def _scenario(
                     f"{path}: scenario {index}: {r}.{field} must be true or false, got {values[field]!r}"
                 )
         reference[r] = dict(values)
-    if kind in (ENERGY, MULTI_UAV, *MOBILE_KINDS) and "bound" in reference:
+    if kind in (ENERGY, MULTI_UAV, STAR_CONTROL, *MOBILE_KINDS) and "bound" in reference:
         bound = float(reference["bound"]["upper_bound"])
         above = [f"{r} {reference[r][VALUE_KEY[kind]]!r}" for r in references if r != "bound"
                  and float(reference[r][VALUE_KEY[kind]]) > bound * (1.0 + BOUND_REL)]  # fmt: skip
@@ -381,7 +403,8 @@ def _scenario(
                 f"{path}: scenario {index}: the certified bound.upper_bound {bound!r} {UNIT[kind]} is below "
                 f"{', '.join(above)}: no plan's {what} may exceed it"
             )
-    return SuiteScenario(index, config, reference, kind, seed if kind in MOBILE_KINDS else None, fleet)
+    seeded = kind in (*MOBILE_KINDS, STAR_CONTROL)
+    return SuiteScenario(index, config, reference, kind, seed if seeded else None, fleet, star)
 
 
 def _number(value: Any, where: str, above: float | None) -> None:

@@ -74,6 +74,15 @@ each scenario holds its fleet (``uavs``, ``starts``, ``finals``, ``speeds``, ``a
 ``min_separation``) and the team's max-min rates (``fleet_maxmin``) of :data:`FLEET_REFERENCES`:
 ``planner`` (``baselines.fleet.solve``, the normaliser), ``bound`` (its certified upper bound),
 ``tour``, ``dual`` and ``straight`` (:mod:`ios_uav_env.benchmark.fleet_suite`).
+
+A STAR-control suite (``"kind": "star-control"``, ``star-v1``; frozen by ``python -m
+baselines.references star``) runs in ``ios_uav_env/STARControl-v0``, the agent setting a small STAR
+surface in every slot: each scenario holds the env's keywords (``star``: ``elements``, ``bits``,
+``group``, ``protocol``, ``access``, ``direct_link``), its episode ``seed`` and the episode's
+``config`` (the line that seed draws, checked at every rollout), and episode values (the mean slot
+value, bps/Hz: the return / N) of :data:`STAR_REFERENCES`: ``optimum`` (the per-slot optima, the
+normaliser), ``bound`` (their certified upper bounds), ``quantised``, ``aligned``, ``phases`` and
+``random`` (:mod:`ios_uav_env.benchmark.star_suite`).
 """
 
 from __future__ import annotations
@@ -108,8 +117,14 @@ MULTI_MOBILE_REFERENCES = ("optimum", "bound", "mpc_dp_k1", "mpc_dp_k10", "mpc_k
 #: bound, and the planner's best tour cover before its polishing, its best dual DP flights and
 #: the straight flights along the UAVs' lanes.
 FLEET_REFERENCES = ("planner", "bound", "tour", "dual", "straight")
+#: Those of a STAR-control suite: the per-slot optimum (the normaliser), its certified bound, the
+#: continuous optimum's setting on the env's phase grid, the aligned closed form, the channel-phase
+#: heuristic policy and uniform random actions.
+STAR_REFERENCES = ("optimum", "bound", "quantised", "aligned", "phases", "random")
 SINGLE_NODE, MULTI_NODE, ENERGY, MOBILE = "single-node", "multi-node", "energy", "mobile"
-MULTI_NODE_MOBILE, MULTI_UAV = "multi-node-mobile", "multi-uav"
+MULTI_NODE_MOBILE, MULTI_UAV, STAR_CONTROL = "multi-node-mobile", "multi-uav", "star-control"
+#: The env a STAR-control suite runs in (``ios_uav_env.envs.registration.STAR_CONTROL_ID``).
+STAR_ENV_ID = "ios_uav_env/STARControl-v0"
 #: The env a several-UAV suite runs in: PettingZoo's parallel env of the package (not a
 #: Gymnasium id), ``ios_uav_env.parallel_env``.
 FLEET_ENV_ID = "ios_uav_env.parallel_env"
@@ -124,6 +139,7 @@ KIND_REFERENCES = {
     MOBILE: tuple(dict.fromkeys((*MOBILE_REFERENCES, *MOBILE_V2_REFERENCES))),
     MULTI_NODE_MOBILE: MULTI_MOBILE_REFERENCES,
     MULTI_UAV: FLEET_REFERENCES,
+    STAR_CONTROL: STAR_REFERENCES,
 }
 SCORED = {
     SINGLE_NODE: ("dp", "sca"),
@@ -132,6 +148,7 @@ SCORED = {
     MOBILE: ("bound", "mpc_k1"),
     MULTI_NODE_MOBILE: ("optimum", "bound"),
     MULTI_UAV: ("planner", "bound"),
+    STAR_CONTROL: ("optimum", "bound"),
 }
 #: By suite kind and normaliser (the file's ``normalizer``): the references scored, the normaliser
 #: first. A kind's default is :data:`SCORED`'s; a mobile suite may be normalised by the optimum.
@@ -139,10 +156,10 @@ NORMALISERS: dict[str, dict[str, tuple[str, ...]]] = {kind: {refs[0]: refs} for 
 NORMALISERS[MOBILE]["optimum"] = ("optimum", "bound")
 #: By suite kind: the reference whose planning time a policy's is compared with.
 TIMED = {SINGLE_NODE: "sca", MULTI_NODE: "sca", ENERGY: "sca", MOBILE: "mpc_k1", MULTI_NODE_MOBILE: "mpc_k1",
-         MULTI_UAV: "planner"}  # fmt: skip
+         MULTI_UAV: "planner", STAR_CONTROL: "optimum"}  # fmt: skip
 #: By suite kind: the key of a plan reference's value (a bound's is ``"upper_bound"``) and its unit.
 VALUE_KEY = {SINGLE_NODE: "rate", MULTI_NODE: "rate", ENERGY: "energy_efficiency", MOBILE: "rate",
-             MULTI_NODE_MOBILE: "rate", MULTI_UAV: "rate"}  # fmt: skip
+             MULTI_NODE_MOBILE: "rate", MULTI_UAV: "rate", STAR_CONTROL: "rate"}  # fmt: skip
 UNIT = {
     SINGLE_NODE: "bps/Hz",
     MULTI_NODE: "bps/Hz",
@@ -150,6 +167,7 @@ UNIT = {
     MOBILE: "bps/Hz",
     MULTI_NODE_MOBILE: "bps/Hz",
     MULTI_UAV: "bps/Hz",
+    STAR_CONTROL: "bps/Hz",
 }
 
 
@@ -196,6 +214,9 @@ SUITES: dict[str, RegisteredSuite] = {
     ),
     "multi-uav-v1": RegisteredSuite(
         "multi-uav-v1.json", "f91bfffa79084d1d9a6723050209a3a840c32cf908fd8c4632a4bb3473be7999"
+    ),
+    "star-v1": RegisteredSuite(
+        "star-v1.json", "18ca1f8e909449fa879528d00d6896762ad752f2b702aa979800a6ed7deb671f"
     ),
 }
 DEFAULT_SUITE = "single-node-v1"

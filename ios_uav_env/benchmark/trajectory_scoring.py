@@ -38,6 +38,11 @@ def score_trajectories(
     a time to plan that is not a finite number of seconds >= 0 (NaN: unknown).
     """
     suite = suite_of(suite)
+    if suite.star_control:
+        raise ValueError(
+            f"{suite.name} scores the surface's settings, not flights: the UAV's line is given; "
+            "score a policy with evaluate"
+        )
     if suite.fleets:  # U flights (U, N, 2) per scenario, scored by fleet_maxmin
         from ios_uav_env.benchmark.fleet_scoring import score_fleet_flights
 

@@ -5,6 +5,11 @@ Each command (``python -m ios_uav_env.benchmark ...``) runs in this process. The
 percentile and minimum % of SCA, mean % of the bound, the best schedule's mean % of SCA) must equal
 the row's to two decimals, and its feasible count must equal the row's. Plan times depend on the
 machine and are not compared.
+
+A policy row of ``star-v1`` whose rollout the suite stores (:data:`STAR_STORED`; an episode costs
+the env's per-slot optimum, seconds under ES-NOMA) is reproduced from that stored rollout instead:
+the command run on the first scenarios must give the stored values there, and ``show --reference``
+of them must print the row's numbers. Any other row of it runs in full.
 Rows that load an SB3 agent need the ``rl`` extra (skipped without it, a failure under CI).
 """
 
@@ -53,6 +58,16 @@ FLEET_SUMMARY = re.compile(
 )
 FLEET_COLUMNS = {"mean % of planner": "mean", "p10": "p10", "min": "min", "mean % of bound": "bound",
                  "feasible": "feasible"}  # fmt: skip
+STAR_SUMMARY = re.compile(
+    r"% of optimum mean (?P<mean>-?[\d.]+) \| p10 (?P<p10>-?[\d.]+) \| min (?P<min>-?[\d.]+); "
+    r"% of bound mean (?P<bound>-?[\d.]+) \| p10 -?[\d.]+ \| min -?[\d.]+; feasible (?P<feasible>\d+/\d+)"
+)
+STAR_COLUMNS = {"mean % of optimum": "mean", "p10": "p10", "min": "min", "mean % of bound": "bound",
+                "feasible": "feasible"}  # fmt: skip
+#: The policies of star-v1's rows whose rollouts the suite stores, by the reference that holds them.
+STAR_STORED = {"ios_uav_env.benchmark.star_policies:ChannelPhases": "phases"}
+#: The first scenarios a star-v1 policy row is run on (M = 16, continuous: TDMA, ES-NOMA, MS-NOMA).
+STAR_FIRST = 3
 
 
 def task_changes_of(argv: list[str]) -> dict:
@@ -87,6 +102,9 @@ MULTI_ROWS = _rows("multi-node-v1")
 ENERGY_ROWS = _rows("energy-v1")
 MOBILE_ROWS = _rows("mobile-v1")
 FLEET_ROWS = _rows("multi-uav-v1")
+STAR_ROWS = _rows("star-v1")
+STAR_POLICY_ROWS = [row for row in STAR_ROWS if " evaluate " in row["command"]
+                    and any(f"--policy {policy}" in row["command"] for policy in STAR_STORED)]  # fmt: skip
 #: Every row to run: (summary pattern, columns, row) of every suite's table.
 ALL_ROWS = (
     [(SUMMARY, COLUMNS, row) for row in ROWS]
@@ -94,6 +112,7 @@ ALL_ROWS = (
     + [(ENERGY_SUMMARY, ENERGY_COLUMNS, row) for row in ENERGY_ROWS]
     + [(MOBILE_SUMMARY, MOBILE_COLUMNS, row) for row in MOBILE_ROWS]
     + [(FLEET_SUMMARY, FLEET_COLUMNS, row) for row in FLEET_ROWS]
+    + [(STAR_SUMMARY, STAR_COLUMNS, row) for row in STAR_ROWS if row not in STAR_POLICY_ROWS]
 )
 KINDS = {
     id(COLUMNS): "single",
@@ -101,6 +120,7 @@ KINDS = {
     id(ENERGY_COLUMNS): "energy",
     id(MOBILE_COLUMNS): "mobile",
     id(FLEET_COLUMNS): "fleet",
+    id(STAR_COLUMNS): "star",
 }
 
 
@@ -141,6 +161,37 @@ def test_the_several_uav_table_has_the_references_and_a_policy_and_is_sorted():
     assert means == sorted(means, reverse=True), "rows must be in order of mean % of the planner"
     assert all("--suite multi-uav-v1" in row["command"] for row in FLEET_ROWS)
     assert any("evaluate" in row["command"] for row in FLEET_ROWS)
+
+
+def test_the_star_table_has_the_references_and_a_policy_and_is_sorted():
+    policies = " ".join(row["policy"] for row in STAR_ROWS)
+    for name in ("per-slot optimum", "certified bound", "rounded", "aligned", "ChannelPhases", "random"):
+        assert name in policies, name
+    means = [float(row["mean % of optimum"]) for row in STAR_ROWS]
+    assert means == sorted(means, reverse=True), "rows must be in order of mean % of the optimum"
+    assert all("--suite star-v1" in row["command"] for row in STAR_ROWS) and STAR_POLICY_ROWS
+
+
+@pytest.mark.parametrize("row", STAR_POLICY_ROWS, ids=[row["#"] for row in STAR_POLICY_ROWS])
+def test_a_star_policy_row_reproduces_from_its_stored_rollout(row, capsys, tmp_path):
+    import json
+
+    from ios_uav_env.benchmark import load_suite
+    from tests.tolerances import RATE_REL
+
+    words = shlex.split(row["command"].strip("`"))
+    assert words[:3] == PREFIX and words[3] == "evaluate", row["command"]
+    argv = words[3:]
+    reference = STAR_STORED[argv[argv.index("--policy") + 1]]
+    assert main([*argv, "--n", str(STAR_FIRST), "--out", str(tmp_path)]) == 0
+    capsys.readouterr()
+    rates = [r["rate"] for r in json.loads((tmp_path / "results.json").read_text())["scenarios"]]
+    stored = [s.value(reference) for s in load_suite("star-v1").subset(STAR_FIRST)]
+    assert rates == pytest.approx(stored, rel=RATE_REL), f"{row['command']}: not the stored {reference} rows"
+    assert main(["show", "--suite", "star-v1", "--reference", reference]) == 0
+    match = STAR_SUMMARY.search(capsys.readouterr().out)
+    table = {key: row[column] for column, key in STAR_COLUMNS.items()}
+    assert match and match.groupdict() == table, f"{row['command']}: the table says {table}"
 
 
 @pytest.mark.parametrize(

@@ -20,6 +20,7 @@ from ios_uav_env.benchmark.overrides import (
     PINNED,
     PRESENTATION,
     REWARD,
+    STAR,
     TASK,
     check_overrides,
     classify,
@@ -49,7 +50,7 @@ def _other(name: str, default):
     """A value of the task argument ``name`` other than ``default``."""
     return {"knowledge": "exact" if default != "exact" else "reports", "report_sigma": 3.0,
             "channel": "rician", "arrival_guard": not default, "share_sharpness": 9.0,
-            "surface_sharpness": 9.0}[name]  # fmt: skip
+            "surface_sharpness": 9.0, "channel_phases": not default}[name]  # fmt: skip
 
 
 def test_the_classes_are_disjoint_and_cover_every_argument_of_every_suite_env(suites):
@@ -58,7 +59,10 @@ def test_the_classes_are_disjoint_and_cover_every_argument_of_every_suite_env(su
     assert SCENARIO_FIELDS <= PINNED and DRAW <= PINNED
     for name, suite in suites.items():
         arguments = env_arguments(suite.env_id)
-        assert {"peak_hint", "arrival_guard", "knowledge", "config", "T"} <= arguments, name
+        assert {"arrival_guard", "knowledge", "T"} <= arguments, name
+        # a UAV-flight env's own arguments, or the STAR-control env's keywords
+        own = STAR | {"channel_phases"} if suite.star_control else {"peak_hint", "config"}
+        assert own <= arguments, name
         unclassified = sorted(k for k in arguments if classify(k) == "unclassified")
         assert not unclassified, f"{name}: classify {unclassified} in ios_uav_env.benchmark.overrides"
 
@@ -85,8 +89,10 @@ def test_every_pinned_argument_is_refused_as_ignored_even_with_the_opt_in(name, 
     suite = suites[name]
     config = suite[0].config
     taken = sorted(k for k in env_arguments(suite.env_id) if k in PINNED)
-    assert "motion" in taken and ("focus" in taken or suite.multi_node or suite.fleets)
-    assert FLEET <= set(taken) if suite.fleets else not FLEET & set(taken)  # a fleet suite pins its fleet
+    assert "motion" in taken and ("focus" in taken or suite.multi_node or suite.fleets or suite.star_control)
+    # a fleet suite pins its fleet, a STAR-control suite its keywords (access is both)
+    assert FLEET <= set(taken) if suite.fleets else not (FLEET - STAR) & set(taken)
+    assert STAR <= set(taken) if suite.star_control else not (STAR - FLEET) & set(taken)
     for k in taken:
         value = getattr(config, k) if k in SCENARIO_FIELDS else 0.5
         for allow in (False, True):

@@ -26,13 +26,23 @@ class Breaks:
 
 
 def _width(suite) -> int:
+    if suite.star_control:  # scenario 0's surface (the policy raises on scenario 1's first call)
+        return _star_width(suite)
     if suite.fleets:  # the move, one score per node slot and the surface bid
         return 2 + suite.env_kwargs["max_nodes"] + 1
     return 2 + (4 if suite.multi_node else 0)
 
 
+def _star_width(suite) -> int:
+    star = suite[0].star
+    g = star["elements"][0] * star["elements"][1] // star["group"]
+    return 2 * g + 1 if star["access"] == "tdma" else 3 * g + 1
+
+
 def _calls(suite) -> int:
     """The policy's calls in one episode of scenario 0: one per step, per live agent of a fleet."""
+    if suite.star_control:  # one per slot: the surface is set in every slot of the episode
+        return suite[0].config.N
     if suite.fleets:
         from ios_uav_env.benchmark.fleet_suite import fleet_configs
 
@@ -43,7 +53,7 @@ def _calls(suite) -> int:
 #: Every suite, batched or not (a fleet's agents are called one by one: a batched policy is refused
 #: there, by test_fleet_suite).
 CASES = [(name, batched) for name in sorted(SUITES) for batched in (False, True)
-         if not (batched and load_suite(name).fleets)]  # fmt: skip
+         if not (batched and (load_suite(name).fleets or load_suite(name).star_control))]  # fmt: skip
 
 
 @pytest.mark.parametrize(("name", "batched"), CASES)
@@ -57,7 +67,7 @@ def test_the_error_names_the_suite_the_scenario_and_the_policy(name, batched):
     assert f"suite {name}" in message and "scenario 1" in message and "'breaks'" in message, message
     assert "ZeroDivisionError" in message and "the policy's own bug" in message
     assert isinstance(err.value.__cause__, ZeroDivisionError)
-    if suite.mobile:
+    if suite.mobile or suite.star_control:
         assert f"(episode seed {suite[1].seed})" in message
 
 
