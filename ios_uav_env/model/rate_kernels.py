@@ -15,6 +15,7 @@ is importable from :mod:`ios_uav_env.model.channel` too.
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import weakref
 from dataclasses import dataclass
@@ -210,6 +211,31 @@ def rate_kernel(config: ScenarioConfig) -> RateKernel:
     return RateKernel(**fields, nodes=packed, params=params)
 
 
+#: The ``ScenarioConfig`` fields no rate kernel reads and a scenario draw changes: a kernel's
+#: rows and scalars other than G's (its surface weights, coordinates and side) depend on none.
+DRAWN_FIELDS: frozenset[str] = frozenset({"ground_node", "ground_nodes", "T", "q0", "qF"})
+_KERNEL_FIELDS: tuple[str, ...] = tuple(
+    f.name for f in dataclasses.fields(ScenarioConfig) if f.name not in DRAWN_FIELDS
+)
+#: Kernel geometries whose base kernel :func:`path_kernels` holds at most.
+BASES_HELD = 256
+_BASES: dict[tuple, RateKernel] = {}
+
+
+def _base_kernel(config: ScenarioConfig) -> RateKernel:
+    """A single-node config's :class:`RateKernel` of ``config``'s kernel geometry (its fields outside
+    :data:`DRAWN_FIELDS`): what :func:`path_kernels` copies besides G's parts. The first config
+    seen with those fields gives it (``config``'s own when cached), so a new config per scenario
+    (e.g. each node's of a drawn multi-node scenario) builds no kernel of its own."""
+    key = tuple(getattr(config, name) for name in _KERNEL_FIELDS)
+    base = _BASES.get(key)
+    if base is None:
+        if len(_BASES) >= BASES_HELD:
+            _BASES.clear()
+        base = _BASES[key] = rate_kernel(config)
+    return base
+
+
 class HeldKernels:
     """A path's kernels, which :func:`path_kernels` copies while this object lives."""
 
@@ -247,12 +273,15 @@ def path_kernels(config: ScenarioConfig, grounds: np.ndarray) -> tuple[np.ndarra
     held = _HELD.get((config, points.tobytes()))
     if held is not None:
         return held.nodes.copy(), held.params.copy()
-    base = rate_kernel(config)
-    nodes = np.repeat(base.nodes[None], len(points), axis=0)
+    config.require_single_node("path_kernels")
+    base = _base_kernel(config)
+    nodes = np.empty((len(points), *base.nodes.shape))
+    nodes[:, :2] = base.nodes[:2]
     nodes[:, 2] = config.J * ground_weights(config, points)
-    params = np.repeat(base.params[None], len(points), axis=0)
-    params[:, PARAMS.index("g_side")] = np.sign(points[:, 0] - config.ios_center[0])
-    params[:, PARAMS.index("gx")], params[:, PARAMS.index("gy")] = points[:, 0], points[:, 1]
+    params = np.empty((len(points), base.params.size))
+    params[:] = base.params
+    params[:, PARAM_G_SIDE] = np.sign(points[:, 0] - config.ios_center[0])
+    params[:, PARAM_GX], params[:, PARAM_GY] = points[:, 0], points[:, 1]
     return nodes, params
 
 
