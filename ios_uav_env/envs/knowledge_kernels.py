@@ -170,11 +170,14 @@ def gather_slot_kernels(
 ) -> None:
     """Copy each row's rate kernel of the slot it flies to (``state[i, 2] + 1``) out of its track
     (``track_nodes[i]`` (N, 3, k), ``track_params[i]`` (N, P)) into ``nodes[i, :, :k]`` /
-    ``params[i]``; a row at its episode's end is left as it is (the step refuses it)."""
+    ``params[i]``; a row at its episode's end is left as it is (the step refuses it). Only the
+    surface weights (``nodes[i, 2]``) and the scalars are copied: a track's node coordinates
+    (rows 0 and 1) are its kernel geometry's in every slot (``channel.path_kernels``), already in
+    the row since its episode began (its slot-1 kernel, copied whole)."""
     for j in range(rows.size):
         i = rows[j]
         slot = int(state[i, 2]) + 1
         kernel = track_nodes[i]
         if slot < kernel.shape[0]:
-            nodes[i, :, : kernel.shape[2]] = kernel[slot]
+            nodes[i, 2, : kernel.shape[2]] = kernel[slot, 2]
             params[i, :] = track_params[i][slot]
