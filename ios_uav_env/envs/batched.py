@@ -174,8 +174,14 @@ class BatchedEnv(RowCalls, gym.vector.VectorEnv):
         self._terminated = np.zeros(b, dtype=np.bool_)
         self._info = np.zeros((b, self._info_width))
 
+    def _end_rows(self, rows: np.ndarray, seeds: Sequence[int | None]) -> None:
+        """Before ``rows`` begin new episodes with ``seeds`` (None: none), at every reset, autoreset
+        and restart: the rows' generators as the single envs' would be (e.g. draws made ahead
+        of the episode's slots taken back). Nothing by default."""
+
     def _reset_rows(self, rows: np.ndarray, seeds: Sequence[int | None], options: Sequence[Any]) -> None:
         """New episodes on ``rows``: each row's env chooses its scenario (with its seed and options)."""
+        self._end_rows(rows, seeds)
         for i, seed, row_options in zip(rows, seeds, options, strict=True):
             env = self.envs[i]
             env.begin_episode(seed, row_options)
