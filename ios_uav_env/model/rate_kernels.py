@@ -182,10 +182,52 @@ class RateKernel:
         return faded_point(float(x), float(y), float(n_re), float(n_im), self.nodes, self.params)
 
 
+#: The ``ScenarioConfig`` fields no rate kernel reads and a scenario draw changes: a kernel's
+#: rows and scalars other than G's (its surface weights, coordinates and side) depend on none.
+DRAWN_FIELDS: frozenset[str] = frozenset({"ground_node", "ground_nodes", "T", "q0", "qF"})
+_KERNEL_FIELDS: tuple[str, ...] = tuple(
+    f.name for f in dataclasses.fields(ScenarioConfig) if f.name not in DRAWN_FIELDS
+)
+#: Kernel geometries whose base kernel :func:`rate_kernel` and :func:`path_kernels` hold at most.
+BASES_HELD = 256
+_BASES: dict[tuple, RateKernel] = {}
+
+
+def _kernel_key(config: ScenarioConfig) -> tuple:
+    """``config``'s kernel geometry: its fields outside :data:`DRAWN_FIELDS`."""
+    return tuple(getattr(config, name) for name in _KERNEL_FIELDS)
+
+
 @lru_cache(maxsize=64)
 def rate_kernel(config: ScenarioConfig) -> RateKernel:
-    """The (cached) :class:`RateKernel` of ``config`` (one ground node: ``ValueError`` if K > 1)."""
+    """The (cached) :class:`RateKernel` of ``config`` (one ground node: ``ValueError`` if K > 1).
+
+    Built from the kernel of the first config seen with ``config``'s kernel geometry
+    (:func:`_base_kernel`) with G's parts (the surface weights, G's coordinates and side) its
+    own: the arrays and scalars of :func:`_own_kernel`, bit for bit (tested), without building
+    the rest again (a randomised env's reset draws a config per episode)."""
     config.require_single_node("the single-node rate model (slot_rates, average_rate, rate_peak, the env)")
+    key = _kernel_key(config)
+    base = _BASES.get(key)
+    if base is None:
+        if len(_BASES) >= BASES_HELD:
+            _BASES.clear()
+        base = _BASES[key] = _own_kernel(config)
+        return base
+    jw = config.J * surface_nodes(config).weight
+    gx, gy = config.ground_node
+    g_side = float(np.sign(gx - config.ios_center[0]))
+    nodes, params = base.nodes.copy(), base.params.copy()
+    nodes[2] = jw
+    params[PARAM_G_SIDE], params[PARAM_GX], params[PARAM_GY] = g_side, gx, gy
+    ground = np.asarray(config.ground_node, dtype=float)
+    return dataclasses.replace(
+        base, jw=jw, g_side=g_side, ground=ground, gx=gx, gy=gy, nodes=nodes, params=params
+    )
+
+
+def _own_kernel(config: ScenarioConfig) -> RateKernel:
+    """The :class:`RateKernel` of the single-node ``config`` built from its fields alone."""
     nodes = surface_nodes(config)
     fields = dict(
         node_y=nodes.y,
@@ -211,29 +253,13 @@ def rate_kernel(config: ScenarioConfig) -> RateKernel:
     return RateKernel(**fields, nodes=packed, params=params)
 
 
-#: The ``ScenarioConfig`` fields no rate kernel reads and a scenario draw changes: a kernel's
-#: rows and scalars other than G's (its surface weights, coordinates and side) depend on none.
-DRAWN_FIELDS: frozenset[str] = frozenset({"ground_node", "ground_nodes", "T", "q0", "qF"})
-_KERNEL_FIELDS: tuple[str, ...] = tuple(
-    f.name for f in dataclasses.fields(ScenarioConfig) if f.name not in DRAWN_FIELDS
-)
-#: Kernel geometries whose base kernel :func:`path_kernels` holds at most.
-BASES_HELD = 256
-_BASES: dict[tuple, RateKernel] = {}
-
-
 def _base_kernel(config: ScenarioConfig) -> RateKernel:
-    """A single-node config's :class:`RateKernel` of ``config``'s kernel geometry (its fields outside
-    :data:`DRAWN_FIELDS`): what :func:`path_kernels` copies besides G's parts. The first config
-    seen with those fields gives it (``config``'s own when cached), so a new config per scenario
-    (e.g. each node's of a drawn multi-node scenario) builds no kernel of its own."""
-    key = tuple(getattr(config, name) for name in _KERNEL_FIELDS)
-    base = _BASES.get(key)
-    if base is None:
-        if len(_BASES) >= BASES_HELD:
-            _BASES.clear()
-        base = _BASES[key] = rate_kernel(config)
-    return base
+    """A single-node config's :class:`RateKernel` of ``config``'s kernel geometry: what
+    :func:`rate_kernel` and :func:`path_kernels` copy besides G's parts, the first config's seen
+    with those fields, so a new config per scenario (e.g. each node's of a drawn multi-node
+    scenario) builds no kernel of its own."""
+    base = _BASES.get(_kernel_key(config))
+    return rate_kernel(config) if base is None else base
 
 
 class HeldKernels:

@@ -224,3 +224,27 @@ def test_a_one_scenario_family_makes_no_config():
     )
     with pytest.raises(ValueError, match="invalid scenario"):  # the checks still run on a change
         ScenarioRanges(T=(20.0, 200.0), base=config)
+
+
+def test_a_geometrys_rate_kernels_are_built_from_its_first_bit_for_bit():
+    """``rate_kernel`` of a drawn scenario copies what its kernel geometry's first kernel shares and
+    sets G's parts: every array and scalar of the kernel built from the config alone, bit for bit
+    (drawn families of both surfaces, no surface, the exact sum, several nodes' configs)."""
+    import dataclasses
+
+    from ios_uav_env.model import rate_kernels
+    from ios_uav_env.model.scenarios import MULTINODE_RANGES, sample_multinode
+
+    configs = _drawn(8, 5) + _drawn(3, 6, ScenarioRanges(surfaces=("none",)))
+    configs += [c.replace(ios_shape=(12, 9), quadrature_nodes=0) for c in _drawn(3, 7)]
+    multi = sample_multinode(np.random.default_rng(8), MULTINODE_RANGES, (3, 3))
+    configs += [multi.node_config(k) for k in range(3)]
+    for config in configs:
+        mine, own = rate_kernels.rate_kernel(config), rate_kernels._own_kernel(config)
+        for field in dataclasses.fields(own):
+            a, b = getattr(mine, field.name), getattr(own, field.name)
+            assert type(a) is type(b) and np.array_equal(a, b), field.name
+            if isinstance(b, np.ndarray):
+                assert a.dtype == b.dtype and a.tobytes() == b.tobytes(), field.name
+    shared = {rate_kernels._kernel_key(c) for c in configs}
+    assert len(shared) < len(configs)  # (kernels were built from a geometry's first)
