@@ -287,24 +287,35 @@ def hold_path_kernels(
     return held
 
 
-def path_kernels(config: ScenarioConfig, grounds: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def path_kernels(
+    config: ScenarioConfig, grounds: np.ndarray, out: tuple[np.ndarray, np.ndarray] | None = None
+) -> tuple[np.ndarray, np.ndarray]:
     """The rate kernels of one ground node at each of the (P, 2) ``grounds`` (m): ``nodes``
     (P, 3, n) and ``params`` (P, len(PARAMS)), row p equal bit for bit to
     ``rate_kernel(config.replace(ground_node=grounds[p]))``'s ``nodes`` and ``params``. A
     moving node's kernel per slot (``ios_uav_env.model.motion``) without a config per slot:
     only the surface weights and G's coordinates and side depend on G
     (:func:`~ios_uav_env.model.surface.ground_weights`). ``config`` has one node (K = 1).
-    New arrays: copies of the held ones when the path's kernels are held (:func:`hold_path_kernels`)."""
+    New arrays (copies of the held ones when the path's kernels are held, :func:`hold_path_kernels`),
+    or written into ``out``, a (``nodes``, ``params``) pair of those shapes (e.g. views of a
+    track's arrays), and returned."""
     points = as_positions(grounds, "grounds")
-    held = _HELD.get((config, points.tobytes()))
-    if held is not None:
-        return held.nodes.copy(), held.params.copy()
     config.require_single_node("path_kernels")
     base = _base_kernel(config)
-    nodes = np.empty((len(points), *base.nodes.shape))
+    shapes = ((len(points), *base.nodes.shape), (len(points), base.params.size))
+    if out is None:
+        nodes, params = np.empty(shapes[0]), np.empty(shapes[1])
+    else:
+        nodes, params = out
+        if (nodes.shape, params.shape) != shapes:
+            raise ValueError(f"out must hold arrays of shapes {shapes[0]} and {shapes[1]}, got "
+                             f"{nodes.shape} and {params.shape}")  # fmt: skip
+    held = _HELD.get((config, points.tobytes()))
+    if held is not None:
+        nodes[:], params[:] = held.nodes, held.params
+        return nodes, params
     nodes[:, :2] = base.nodes[:2]
     nodes[:, 2] = config.J * ground_weights(config, points)
-    params = np.empty((len(points), base.params.size))
     params[:] = base.params
     params[:, PARAM_G_SIDE] = np.sign(points[:, 0] - config.ios_center[0])
     params[:, PARAM_GX], params[:, PARAM_GY] = points[:, 0], points[:, 1]
