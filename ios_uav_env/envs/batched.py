@@ -27,7 +27,9 @@ and ``observe_slot``; ``MultiNodeVectorEnv`` calls ``load_row``, ``prepare_slot`
 - ``_load_row(i, env)``: copy the scenario of row ``i``'s env into the row arrays;
   ``_start_rows(rows)``: the kernel that starts those rows' episodes;
 - ``_check_actions(actions)`` and ``_step_kernel(actions, active)``: the kernel of one slot;
-- ``_info_arrays(table)``: ``info`` (``info_keys``) as views of the info table.
+- ``_info_arrays(table)``: ``info`` (``info_keys``) as views of the info table;
+- optionally ``_end_rows(rows, seeds)``: called before rows begin new episodes (reset, autoreset,
+  restart), e.g. to give back draws a row made ahead of its episode's slots.
 
 Autoreset follows Gymnasium's default ``NEXT_STEP`` mode: the step after an episode ends
 resets that row and returns its first observation with reward 0. With
