@@ -57,6 +57,28 @@ def test_compiled_nodes_equal_the_per_row_path(kwargs):
     assert check_rows(kwargs) > 0  # (the episodes end: the autoreset's observations are compared too)
 
 
+def test_a_row_whose_arrays_grow_mid_episode_measures_on_its_track():
+    """The measured rates come from a row's own copy of the slot's kernels while it has its track's
+    width; when another row's wider scenario grows the batch's arrays mid-episode, from its track:
+    the single env's rates bit for bit either way (a 48-node row still flying when a drawn
+    64-node scenario is loaded beside it)."""
+    ranges = ScenarioRanges(
+        T=(40.0, 60.0), ios_rows=(20, 30), base=ScenarioConfig(motion={"kind": "gauss_markov"})
+    )
+    kwargs = {"random_nodes": (2, 4), "ranges": ranges, "knowledge": "reports"}
+    vec = MultiNodeVectorEnv(2, **kwargs)
+    singles = [MultiNodeEnv(**kwargs) for _ in range(2)]
+    nodes = ((40.0, 30.0), (-50.0, 60.0))
+    configs = [ranges.base.replace(T=T, ground_nodes=nodes, ios_shape=(12, 5)) for T in (40.0, 60.0)]
+    obs, _ = vec.reset(seed=3, options={"configs": configs})
+    for i, env in enumerate(singles):
+        assert same(env.reset(seed=3 + i, options={"config": configs[i]})[0], obs[i])
+    draw = np.random.default_rng(3)
+    actions = [draw.uniform(-1.2, 1.2, vec.action_space.shape) for _ in range(58)]
+    assert step_batch_and_singles(vec, singles, actions, ("paths", "reports", "measured", "tally"), False)
+    assert vec.envs[1].track.nodes.shape[3] < vec._rows.nodes.shape[3]  # (it flew on past the growth)
+
+
 @pytest.mark.parametrize("kwargs", CASES)
 def test_episodes_cut_short_leave_each_rows_generator_as_its_single_envs(kwargs):
     check_rows(kwargs, steps=10, cut=True)
