@@ -75,29 +75,21 @@ def gather_node_kernels(
 def measure_nodes(
     rows: np.ndarray, state: np.ndarray, shares: np.ndarray, measured: Any, track_nodes: Any,
     track_params: Any, normals: np.ndarray, reported: bool, rate_high: float, told: np.ndarray,
-    nodes: np.ndarray, params: np.ndarray,
 ) -> None:  # fmt: skip
     """Each served node's measured rate of the slot (``share > SERVED_SHARE``; node k's normals
     ``normals[i, f + 2k : f + 2k + 2]``, f = 2 K after the reports' normals when ``reported``, else
     0), recorded unclipped in ``measured[i][k, slot]`` and told clipped to ``rate_high`` in
-    ``told[i, k]`` (NaN: not served). The slot's kernels are read from the row's own copy
-    (``nodes[i]``, ``params[i]``: what the step just used, :func:`gather_node_kernels`) where it
-    has the track's width, the same numbers in arrays of the same type and width, so the same
-    rates; from the track where the row's arrays grew wider during the episode."""
+    ``told[i, k]`` (NaN: not served)."""
     for j in range(rows.size):
         i = rows[j]
         slot = int(state[i, 2])
         kernel, scalars, record = track_nodes[i], track_params[i], measured[i]
         first = 2 * kernel.shape[0] if reported else 0
-        own = kernel.shape[3] == nodes.shape[3]
         for k in range(kernel.shape[0]):
             told[i, k] = np.nan
             if shares[i, k] > SERVED_SHARE:
                 n_re, n_im = normals[i, first + 2 * k], normals[i, first + 2 * k + 1]
-                if own:
-                    rate = faded_row(state[i, 0], state[i, 1], n_re, n_im, nodes[i], params[i], k)
-                else:
-                    rate = faded_row(state[i, 0], state[i, 1], n_re, n_im, kernel[k], scalars[k], slot)
+                rate = faded_row(state[i, 0], state[i, 1], n_re, n_im, kernel[k], scalars[k], slot)
                 record[k, slot] = rate
                 told[i, k] = rate_high if rate_high < rate else rate
 

@@ -57,11 +57,11 @@ def test_compiled_nodes_equal_the_per_row_path(kwargs):
     assert check_rows(kwargs) > 0  # (the episodes end: the autoreset's observations are compared too)
 
 
-def test_a_row_whose_arrays_grow_mid_episode_measures_on_its_track():
-    """The measured rates come from a row's own copy of the slot's kernels while it has its track's
-    width; when another row's wider scenario grows the batch's arrays mid-episode, from its track:
-    the single env's rates bit for bit either way (a 48-node row still flying when a drawn
-    64-node scenario is loaded beside it)."""
+def test_a_row_whose_arrays_grow_mid_episode_keeps_its_tracks_kernels():
+    """When another row's wider scenario grows the batch's arrays mid-episode, a row still flying
+    on its narrower track swaps in and measures on its own kernels: the single env's observations
+    and records bit for bit (a 48-node row still flying when a drawn 64-node scenario is loaded
+    beside it)."""
     ranges = ScenarioRanges(
         T=(40.0, 60.0), ios_rows=(20, 30), base=ScenarioConfig(motion={"kind": "gauss_markov"})
     )
