@@ -27,7 +27,9 @@ and ``observe_slot``; ``MultiNodeVectorEnv`` calls ``load_row``, ``prepare_slot`
 - ``_load_row(i, env)``: copy the scenario of row ``i``'s env into the row arrays;
   ``_start_rows(rows)``: the kernel that starts those rows' episodes;
 - ``_check_actions(actions)`` and ``_step_kernel(actions, active)``: the kernel of one slot;
-- ``_info_arrays(table)``: ``info`` (``info_keys``) as views of the info table.
+- ``_info_arrays(table)``: ``info`` (``info_keys``) as views of the info table;
+- optionally ``_end_rows(rows, seeds)``: called before rows begin new episodes (reset, autoreset,
+  restart), e.g. to give back draws a row made ahead of its episode's slots.
 
 Autoreset follows Gymnasium's default ``NEXT_STEP`` mode: the step after an episode ends
 resets that row and returns its first observation with reward 0. With
@@ -174,8 +176,14 @@ class BatchedEnv(RowCalls, gym.vector.VectorEnv):
         self._terminated = np.zeros(b, dtype=np.bool_)
         self._info = np.zeros((b, self._info_width))
 
+    def _end_rows(self, rows: np.ndarray, seeds: Sequence[int | None]) -> None:
+        """Before ``rows`` begin new episodes with ``seeds`` (None: none), at every reset, autoreset
+        and restart: the rows' generators as the single envs' would be (e.g. draws made ahead
+        of the episode's slots taken back). Nothing by default."""
+
     def _reset_rows(self, rows: np.ndarray, seeds: Sequence[int | None], options: Sequence[Any]) -> None:
         """New episodes on ``rows``: each row's env chooses its scenario (with its seed and options)."""
+        self._end_rows(rows, seeds)
         for i, seed, row_options in zip(rows, seeds, options, strict=True):
             env = self.envs[i]
             env.begin_episode(seed, row_options)

@@ -48,11 +48,12 @@ from ios_uav_env.envs.observation import (
 )
 from ios_uav_env.envs.observation_layout import observation_names
 from ios_uav_env.envs.options import KNOWLEDGE, EnvOptions
-from ios_uav_env.model.channel import HeldKernels, faded_row, hold_path_kernels, path_kernels
+from ios_uav_env.model.channel import PARAMS, HeldKernels, faded_row, hold_path_kernels, path_kernels
 from ios_uav_env.model.config import ScenarioConfig
 from ios_uav_env.model.kalman import NodeFilter
 from ios_uav_env.model.mobility import BOX_MARGIN
 from ios_uav_env.model.motion import node_bounds, node_paths
+from ios_uav_env.model.node_kernels import kernel_width
 from ios_uav_env.model.reports import SERVED_SHARE, position_reports
 from ios_uav_env.model.scenarios import ScenarioRanges
 
@@ -252,16 +253,16 @@ def start_nodes_track(
     """Draw the episode's K node paths from ``rng`` and build every node's kernel per slot
     (``path_kernels`` of ``config.node_config(k)``), padded to ``width`` surface nodes (at least)."""
     paths = node_paths(config, rng)
-    kernels = [path_kernels(config.node_config(k), paths[:, k]) for k in range(config.K)]
-    q = max(width, *(nodes.shape[2] for nodes, _ in kernels))
-    nodes = np.zeros((config.K, config.N, 3, q))
-    nodes[:, :, 1, :] = 1.0  # padded surface nodes (0, 1, 0): zero weight
-    for k, (kernel, _) in enumerate(kernels):
-        nodes[k, :, :, : kernel.shape[2]] = kernel
-    params = np.stack([p for _, p in kernels])
+    own = kernel_width(config)  # (every node's kernel geometry is the scenario's)
+    q = max(width, own)
+    nodes = np.empty((config.K, config.N, 3, q))
+    nodes[:, :, 0, own:], nodes[:, :, 1, own:], nodes[:, :, 2, own:] = 0.0, 1.0, 0.0  # zero weight
+    params = np.empty((config.K, config.N, len(PARAMS)))
+    for k in range(config.K):  # (each node's kernels written into the track's arrays)
+        path_kernels(config.node_config(k), paths[:, k], out=(nodes[k, :, :, :own], params[k]))
     held = tuple(
-        hold_path_kernels(config.node_config(k), paths[:, k], nodes[k, :, :, : kernel.shape[2]], params[k])
-        for k, (kernel, _) in enumerate(kernels)
+        hold_path_kernels(config.node_config(k), paths[:, k], nodes[k, :, :, :own], params[k])
+        for k in range(config.K)
     )  # (views of the track's arrays: no copy)
     lo, hi = _rectangles(config)
     margin = REPORT_CLIP * sigma

@@ -16,6 +16,13 @@ it flies to out of its track.
 The rows' tracks are held as lists of their arrays (:func:`row_list`: a numba typed list, or a
 plain list without numba), set once per episode and row; the kernels write the track records
 (``reports``, ``measured``) in place.
+
+:class:`EpisodeDraws` draws a row's normals of every slot of its episode in ONE call of its
+generator when the episode begins (both batched envs, channel "expected": nothing else draws
+from a row's generator between its slots), then hands them out slot by slot, and rewinds the
+generator to where the slots so far leave it when an episode is cut short (a reset or restart
+without a seed): a Python call per row and episode instead of one per row and slot, the same
+stream (``standard_normal`` of n x d is the stream of n calls of d).
 """
 
 from __future__ import annotations
@@ -30,6 +37,7 @@ from ios_uav_env.model.channel import faded_row
 __all__ = [
     "DRAWS",
     "MODES",
+    "EpisodeDraws",
     "gather_slot_kernels",
     "measure_rates",
     "observe_rows",
@@ -54,6 +62,47 @@ def row_list(template: np.ndarray, size: int) -> Any:
     for _ in range(size):
         out.append(template)
     return out
+
+
+class EpisodeDraws:
+    """Each row's standard normals for every slot of its episode, drawn when the episode begins
+    (module docstring). ``normals`` (B, S, W): row i's slot n in ``normals[i, n, :width[i]]``."""
+
+    def __init__(self, rows: int, slots: int, width: int) -> None:
+        self.normals = np.zeros((rows, max(slots, 1), width))
+        self.width = np.zeros(rows, dtype=np.int64)  # normals per slot of the row's episode (0: none drawn)
+        self.slots = np.zeros(rows, dtype=np.int64)  # N of the row's episode
+        self.taken = np.zeros(rows, dtype=np.int64)  # slots handed out so far
+        self._before: list[Any] = [None] * rows  # each row's generator and its state before the draw
+
+    def draw(self, i: int, generator: np.random.Generator, slots: int, width: int) -> None:
+        """Draw row ``i``'s episode of ``slots`` slots, ``width`` normals each, from ``generator``
+        (one call: the stream of ``slots`` calls of ``width``), after what it drew so far."""
+        if slots > self.normals.shape[1]:
+            grown = np.zeros((self.normals.shape[0], slots, self.normals.shape[2]))
+            grown[:, : self.normals.shape[1]] = self.normals
+            self.normals = grown
+        self._before[i] = (generator, generator.bit_generator.state)
+        self.normals[i, :slots, :width] = generator.standard_normal(slots * width).reshape(slots, width)
+        self.width[i], self.slots[i], self.taken[i] = width, slots, 0
+
+    def take(self, rows: np.ndarray, slots: np.ndarray, out: np.ndarray) -> None:
+        """``out[i] = normals[i, slot]`` for each row ``i`` of ``rows`` at its ``slots`` entry (the
+        slot it observes), in one gather; each row has taken one slot more."""
+        out[rows] = self.normals[rows, slots]
+        self.taken[rows] += 1
+
+    def rewind(self, rows: np.ndarray, seeds: Any) -> None:
+        """Before ``rows`` begin new episodes (``seeds``: each row's seed, None for none): a row whose
+        episode was cut short and keeps its generator (no seed) gets the generator as the slots it
+        took leave it (its state before the draw, then those slots' normals drawn again); every
+        row forgets its draw."""
+        for i, seed in zip(rows.tolist(), seeds, strict=True):
+            if seed is None and self.width[i] and self.taken[i] < self.slots[i]:
+                generator, state = self._before[i]
+                generator.bit_generator.state = state
+                generator.standard_normal(int(self.taken[i] * self.width[i]))
+            self.width[i], self._before[i] = 0, None
 
 
 def observe_rows(
@@ -170,11 +219,14 @@ def gather_slot_kernels(
 ) -> None:
     """Copy each row's rate kernel of the slot it flies to (``state[i, 2] + 1``) out of its track
     (``track_nodes[i]`` (N, 3, k), ``track_params[i]`` (N, P)) into ``nodes[i, :, :k]`` /
-    ``params[i]``; a row at its episode's end is left as it is (the step refuses it)."""
+    ``params[i]``; a row at its episode's end is left as it is (the step refuses it). Only the
+    surface weights (``nodes[i, 2]``) and the scalars are copied: a track's node coordinates
+    (rows 0 and 1) are its kernel geometry's in every slot (``channel.path_kernels``), already in
+    the row since its episode began (its slot-1 kernel, copied whole)."""
     for j in range(rows.size):
         i = rows[j]
         slot = int(state[i, 2]) + 1
         kernel = track_nodes[i]
         if slot < kernel.shape[0]:
-            nodes[i, :, : kernel.shape[2]] = kernel[slot]
+            nodes[i, 2, : kernel.shape[2]] = kernel[slot, 2]
             params[i, :] = track_params[i][slot]

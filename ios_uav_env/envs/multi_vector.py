@@ -31,7 +31,7 @@ import numpy as np
 
 from ios_uav_env.envs.batched import BatchedEnv
 from ios_uav_env.envs.knowledge import filter_report
-from ios_uav_env.envs.knowledge_kernels import row_list
+from ios_uav_env.envs.knowledge_kernels import EpisodeDraws, row_list
 from ios_uav_env.envs.multi import MultiNodeEnv
 from ios_uav_env.envs.multi_kernels import NodeRows, episode_best_values, move_norms
 from ios_uav_env.envs.multi_table import BEST, MULTI_INFO_KEYS, info_arrays, info_columns
@@ -103,6 +103,8 @@ class MultiNodeVectorEnv(BatchedEnv):
         # of _slot_normals (set at each episode: a seeded reset makes a new generator, K changes)
         self._draw: list[Any] = [None] * b
         self._draw_out: list[Any] = [None] * b
+        # channel "expected": every slot's normals at the episode's start, in one call per row
+        self._episode_draws = None if self._rician else EpisodeDraws(b, 1, 4 * k)
 
     @property
     def _path(self) -> np.ndarray:
@@ -121,6 +123,12 @@ class MultiNodeVectorEnv(BatchedEnv):
             self._lo[i, :k], self._hi[i, :k] = track.lo, track.hi
             self._draw[i] = env.np_random.standard_normal
             self._draw_out[i] = self._slot_normals[i, : draws(self._kind, k)]
+            if self._episode_draws is not None and self._knowledge != 0:
+                self._episode_draws.draw(i, env.np_random, env.config.N, draws(self._kind, k))
+
+    def _end_rows(self, rows: np.ndarray, seeds: Any) -> None:
+        if self._mobile and self._episode_draws is not None:  # (a row's generator as its slots left it)
+            self._episode_draws.rewind(rows, seeds)
 
     def _start_rows(self, rows: np.ndarray) -> None:
         self._rows.start(rows, self._obs, self._info)
@@ -129,16 +137,20 @@ class MultiNodeVectorEnv(BatchedEnv):
 
     def _observe_rows(self, rows: np.ndarray) -> None:
         """What each row's UAV is told of its nodes in its current slot, as the single env's
-        ``observe_slot`` (``knowledge.observe_nodes``), bit for bit: per row, the slot's normals in
-        one draw of its generator, then compiled calls for all ``rows``
+        ``observe_slot`` (``knowledge.observe_nodes``), bit for bit: per row, the slot's normals
+        (from the episode's draw, ``knowledge_kernels.EpisodeDraws``; channel "rician": one draw of
+        its generator per slot), then compiled calls for all ``rows``
         (``nodes_kernels.measure_nodes`` and ``tell_nodes``); the Kalman filter (``filter_estimate``)
         per row."""
         rows = np.asarray(rows, dtype=np.int64)
         normals, envs, counts, draw, out = self._slot_normals, self.envs, self._k, self._draw, self._draw_out
         state, shares = self._rows.state, self._rows.shares
-        if self._knowledge != 0:
+        if self._knowledge != 0 and self._episode_draws is not None:
+            self._episode_draws.take(rows, state[rows, 2].astype(np.int64), normals)
+        elif self._knowledge != 0:
             for i in rows.tolist():
                 draw[i](out=out[i])
+        if self._knowledge != 0:
             measure_nodes(rows, state, shares, self._track_measured, self._track_nodes, self._track_params,
                           normals, self._knowledge == 1, self._rate_high, self._told)  # fmt: skip
         tell_nodes(rows, state, shares, self._track_paths, self._track_reports, self._track_tally, self._lo,

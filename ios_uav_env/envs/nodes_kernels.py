@@ -54,8 +54,11 @@ def gather_node_kernels(
     params: np.ndarray,
 ) -> None:  # fmt: skip
     """Copy each row's node kernels of the slot it flies to (``state[i, 2] + 1``) out of its track
-    into ``nodes[i, :K]`` (the row's surface nodes beyond the track's: padding (0, 1, 0), of zero
-    weight) and ``params[i, :K]``; a row at its episode's end is left as it is."""
+    into ``nodes[i, :K]`` and ``params[i, :K]``; a row at its episode's end is left as it is. Only
+    the surface weights (``nodes[i, k, 2]``) and the scalars are copied: the rest of a node's
+    kernel, its surface nodes' coordinates (rows 0 and 1, ``channel.path_kernels``: its kernel
+    geometry's in every slot) and the padding beyond the track's width ((0, 1, 0), of zero weight),
+    is the same in every slot of the episode, in the row since its first (``MobileNodes._put``)."""
     for j in range(rows.size):
         i = rows[j]
         slot = int(state[i, 2]) + 1
@@ -64,9 +67,7 @@ def gather_node_kernels(
             continue
         q = kernel.shape[3]
         for k in range(kernel.shape[0]):
-            nodes[i, k, :, :q] = kernel[k, slot]
-            for m in range(q, nodes.shape[3]):
-                nodes[i, k, 0, m], nodes[i, k, 1, m], nodes[i, k, 2, m] = 0.0, 1.0, 0.0
+            nodes[i, k, 2, :q] = kernel[k, slot, 2]
             params[i, k, :] = scalars[k, slot]
 
 

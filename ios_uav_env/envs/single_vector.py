@@ -24,7 +24,14 @@ import numpy as np
 
 from ios_uav_env.envs.batched import AUTORESET_MODES, BatchedEnv, check_threads
 from ios_uav_env.envs.knowledge import filter_report
-from ios_uav_env.envs.knowledge_kernels import DRAWS, MODES, gather_slot_kernels, observe_rows, row_list
+from ios_uav_env.envs.knowledge_kernels import (
+    DRAWS,
+    MODES,
+    EpisodeDraws,
+    gather_slot_kernels,
+    observe_rows,
+    row_list,
+)
 from ios_uav_env.envs.random_env import RandomIOSUAVEnv
 from ios_uav_env.envs.single import INFO_KEYS, IOSUAVEnv
 from ios_uav_env.envs.single_kernels import INFO, STATE, fly_rows, reset_rows, step_rows, step_rows_batched
@@ -87,9 +94,11 @@ class IOSUAVVectorEnv(BatchedEnv):
             self._track_nodes = row_list(np.zeros((1, 3, 1)), b)
             self._track_params = row_list(np.zeros((1, template.kernel.params.size)), b)
             # each row's draw of the slot's normals: its generator's standard_normal and the row's
-            # slice of _slot_normals (set at each episode: a seeded reset makes a new generator)
+            # slice of _slot_normals (set at each episode: a seeded reset makes a new generator);
+            # channel "expected": every slot's at the episode's start, in one call per row
             self._draw: list[Any] = [None] * b
             self._draw_out = [self._slot_normals[i, : self._draws] for i in range(b)]
+            self._episode_draws = None if self._rician else EpisodeDraws(b, template.max_slots, 4)
 
     # --- rows -----------------------------------------------------------------------
     def _load_row(self, i: int, env: IOSUAVEnv) -> None:
@@ -115,6 +124,8 @@ class IOSUAVVectorEnv(BatchedEnv):
             self._track_params[i] = track.params
             self._lo[i], self._hi[i] = track.lo, track.hi
             self._draw[i] = env.np_random.standard_normal
+            if self._episode_draws is not None and self._draws:
+                self._episode_draws.draw(i, env.np_random, env.config.N, self._draws)
         self._episode[i] = env.episode_row
         self._state[i, 0:2] = self._path[i, 0] = env.config.q0
         # the env's own scenario object (a fixed id's): a plain reset keeps it. A pinned
@@ -132,12 +143,15 @@ class IOSUAVVectorEnv(BatchedEnv):
 
     def _observe_rows(self, rows: np.ndarray) -> None:
         """What each row's UAV is told of its node in its current slot, as the single env's
-        ``observe_slot`` (``knowledge.observe_slot``), bit for bit: per row, the slot's normals in
-        one draw of its generator, then one compiled call for all ``rows``
+        ``observe_slot`` (``knowledge.observe_slot``), bit for bit: per row, the slot's normals
+        (from the episode's draw, ``knowledge_kernels.EpisodeDraws``; channel "rician": one draw
+        of its generator per slot), then one compiled call for all ``rows``
         (``knowledge_kernels.observe_rows``); the Kalman filter (``filter_estimate``) per row."""
         rows = np.asarray(rows, dtype=np.int64)
         normals, envs, draw, out = self._slot_normals, self.envs, self._draw, self._draw_out
-        if self._draws:
+        if self._draws and self._episode_draws is not None:
+            self._episode_draws.take(rows, self._state[rows, 2].astype(np.int64), normals)
+        elif self._draws:
             for i in rows.tolist():
                 draw[i](out=out[i])
         observe_rows(rows, self._state, self._track_paths, self._track_reports, self._track_measured,
@@ -148,6 +162,10 @@ class IOSUAVVectorEnv(BatchedEnv):
             for i in rows.tolist():
                 told = filter_report(envs[i].track, self._raw[i : i + 1].copy(), self._sigma)
                 self._obs[i, 4:6] = (told[0] - self._state[i, 0:2]) / self._scale
+
+    def _end_rows(self, rows: np.ndarray, seeds: Any) -> None:
+        if self._mobile and self._episode_draws is not None:  # (a row's generator as its slots left it)
+            self._episode_draws.rewind(rows, seeds)
 
     def _restart_rows(self, rows: np.ndarray) -> None:
         """New episodes on ``rows`` without a seed or options (autoreset, :meth:`restart`). A row

@@ -195,9 +195,22 @@ class ScenarioConfig:
 
     @functools.cached_property
     def _node_configs(self) -> tuple[ScenarioConfig, ...]:
-        """Every node's single-node config, made (and validated) once per config: the planners
-        ask for them per leg and per slot. Not a field: equality, hashing and ``to_dict`` ignore it."""
-        return tuple(dataclasses.replace(self, ground_nodes=None, ground_node=w) for w in self.nodes)
+        """Every node's single-node config, made once per config: the planners ask for them per
+        leg and per slot, a drawn multi-node scenario's moving nodes at every reset. Each equals
+        ``dataclasses.replace(self, ground_nodes=None, ground_node=w_k)`` field for field (tested)
+        without running the checks again: every field is this config's, checked and normalised,
+        and each node passed here what a one-node config checks of its node (its side of the IOS
+        plane, its motion rectangle). Not a field: equality, hashing and ``to_dict`` ignore it."""
+        values = [(f.name, getattr(self, f.name)) for f in dataclasses.fields(self)]
+        out = []
+        for w in self.nodes:
+            node = object.__new__(type(self))
+            for name, value in values:
+                object.__setattr__(node, name, value)
+            object.__setattr__(node, "ground_node", w)
+            object.__setattr__(node, "ground_nodes", None)
+            out.append(node)
+        return tuple(out)
 
     def require_single_node(self, what: str) -> None:
         """Raise ``ValueError`` when K > 1: ``what`` models one ground node only."""

@@ -19,9 +19,9 @@ import numpy as np
 
 from ios_uav_env.model.channel import path_kernels, rate_kernel
 from ios_uav_env.model.config import ScenarioConfig
+from ios_uav_env.model.rate_kernels import DRAWN_FIELDS
 
-#: The ``ScenarioConfig`` fields no rate kernel reads and a scenario draw changes.
-DRAWN_FIELDS: frozenset[str] = frozenset({"ground_node", "ground_nodes", "T", "q0", "qF"})
+__all__ = ["CACHE_SIZE", "DRAWN_FIELDS", "kernel_config", "kernel_width", "node_kernels"]
 _KEY_FIELDS: tuple[str, ...] = tuple(
     f.name for f in dataclasses.fields(ScenarioConfig) if f.name not in DRAWN_FIELDS
 )

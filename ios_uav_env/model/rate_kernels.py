@@ -15,6 +15,7 @@ is importable from :mod:`ios_uav_env.model.channel` too.
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import weakref
 from dataclasses import dataclass
@@ -181,10 +182,52 @@ class RateKernel:
         return faded_point(float(x), float(y), float(n_re), float(n_im), self.nodes, self.params)
 
 
+#: The ``ScenarioConfig`` fields no rate kernel reads and a scenario draw changes: a kernel's
+#: rows and scalars other than G's (its surface weights, coordinates and side) depend on none.
+DRAWN_FIELDS: frozenset[str] = frozenset({"ground_node", "ground_nodes", "T", "q0", "qF"})
+_KERNEL_FIELDS: tuple[str, ...] = tuple(
+    f.name for f in dataclasses.fields(ScenarioConfig) if f.name not in DRAWN_FIELDS
+)
+#: Kernel geometries whose base kernel :func:`rate_kernel` and :func:`path_kernels` hold at most.
+BASES_HELD = 256
+_BASES: dict[tuple, RateKernel] = {}
+
+
+def _kernel_key(config: ScenarioConfig) -> tuple:
+    """``config``'s kernel geometry: its fields outside :data:`DRAWN_FIELDS`."""
+    return tuple(getattr(config, name) for name in _KERNEL_FIELDS)
+
+
 @lru_cache(maxsize=64)
 def rate_kernel(config: ScenarioConfig) -> RateKernel:
-    """The (cached) :class:`RateKernel` of ``config`` (one ground node: ``ValueError`` if K > 1)."""
+    """The (cached) :class:`RateKernel` of ``config`` (one ground node: ``ValueError`` if K > 1).
+
+    Built from the kernel of the first config seen with ``config``'s kernel geometry
+    (:func:`_base_kernel`) with G's parts (the surface weights, G's coordinates and side) its
+    own: the arrays and scalars of :func:`_own_kernel`, bit for bit (tested), without building
+    the rest again (a randomised env's reset draws a config per episode)."""
     config.require_single_node("the single-node rate model (slot_rates, average_rate, rate_peak, the env)")
+    key = _kernel_key(config)
+    base = _BASES.get(key)
+    if base is None:
+        if len(_BASES) >= BASES_HELD:
+            _BASES.clear()
+        base = _BASES[key] = _own_kernel(config)
+        return base
+    jw = config.J * surface_nodes(config).weight
+    gx, gy = config.ground_node
+    g_side = float(np.sign(gx - config.ios_center[0]))
+    nodes, params = base.nodes.copy(), base.params.copy()
+    nodes[2] = jw
+    params[PARAM_G_SIDE], params[PARAM_GX], params[PARAM_GY] = g_side, gx, gy
+    ground = np.asarray(config.ground_node, dtype=float)
+    return dataclasses.replace(
+        base, jw=jw, g_side=g_side, ground=ground, gx=gx, gy=gy, nodes=nodes, params=params
+    )
+
+
+def _own_kernel(config: ScenarioConfig) -> RateKernel:
+    """The :class:`RateKernel` of the single-node ``config`` built from its fields alone."""
     nodes = surface_nodes(config)
     fields = dict(
         node_y=nodes.y,
@@ -208,6 +251,15 @@ def rate_kernel(config: ScenarioConfig) -> RateKernel:
     packed = np.vstack([fields["node_y"], fields["dz2"], fields["jw"]])
     params = np.array([float(fields[name]) for name in PARAMS])
     return RateKernel(**fields, nodes=packed, params=params)
+
+
+def _base_kernel(config: ScenarioConfig) -> RateKernel:
+    """A single-node config's :class:`RateKernel` of ``config``'s kernel geometry: what
+    :func:`rate_kernel` and :func:`path_kernels` copy besides G's parts, the first config's seen
+    with those fields, so a new config per scenario (e.g. each node's of a drawn multi-node
+    scenario) builds no kernel of its own."""
+    base = _BASES.get(_kernel_key(config))
+    return rate_kernel(config) if base is None else base
 
 
 class HeldKernels:
@@ -235,24 +287,38 @@ def hold_path_kernels(
     return held
 
 
-def path_kernels(config: ScenarioConfig, grounds: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def path_kernels(
+    config: ScenarioConfig, grounds: np.ndarray, out: tuple[np.ndarray, np.ndarray] | None = None
+) -> tuple[np.ndarray, np.ndarray]:
     """The rate kernels of one ground node at each of the (P, 2) ``grounds`` (m): ``nodes``
     (P, 3, n) and ``params`` (P, len(PARAMS)), row p equal bit for bit to
     ``rate_kernel(config.replace(ground_node=grounds[p]))``'s ``nodes`` and ``params``. A
     moving node's kernel per slot (``ios_uav_env.model.motion``) without a config per slot:
     only the surface weights and G's coordinates and side depend on G
     (:func:`~ios_uav_env.model.surface.ground_weights`). ``config`` has one node (K = 1).
-    New arrays: copies of the held ones when the path's kernels are held (:func:`hold_path_kernels`)."""
+    New arrays (copies of the held ones when the path's kernels are held, :func:`hold_path_kernels`),
+    or written into ``out``, a (``nodes``, ``params``) pair of those shapes (e.g. views of a
+    track's arrays), and returned."""
     points = as_positions(grounds, "grounds")
+    config.require_single_node("path_kernels")
+    base = _base_kernel(config)
+    shapes = ((len(points), *base.nodes.shape), (len(points), base.params.size))
+    if out is None:
+        nodes, params = np.empty(shapes[0]), np.empty(shapes[1])
+    else:
+        nodes, params = out
+        if (nodes.shape, params.shape) != shapes:
+            raise ValueError(f"out must hold arrays of shapes {shapes[0]} and {shapes[1]}, got "
+                             f"{nodes.shape} and {params.shape}")  # fmt: skip
     held = _HELD.get((config, points.tobytes()))
     if held is not None:
-        return held.nodes.copy(), held.params.copy()
-    base = rate_kernel(config)
-    nodes = np.repeat(base.nodes[None], len(points), axis=0)
+        nodes[:], params[:] = held.nodes, held.params
+        return nodes, params
+    nodes[:, :2] = base.nodes[:2]
     nodes[:, 2] = config.J * ground_weights(config, points)
-    params = np.repeat(base.params[None], len(points), axis=0)
-    params[:, PARAMS.index("g_side")] = np.sign(points[:, 0] - config.ios_center[0])
-    params[:, PARAMS.index("gx")], params[:, PARAMS.index("gy")] = points[:, 0], points[:, 1]
+    params[:] = base.params
+    params[:, PARAM_G_SIDE] = np.sign(points[:, 0] - config.ios_center[0])
+    params[:, PARAM_GX], params[:, PARAM_GY] = points[:, 0], points[:, 1]
     return nodes, params
 
 

@@ -23,6 +23,24 @@ sum in the tests), and the exact sum once n reaches the grid size: a UAV close a
 surface gets more nodes, never a silently wrong amplitude. At the paper's geometry n = 8 and
 the error is ~1e-16. ``quadrature_nodes = 0`` always sums over the elements;
 ``quadrature_tol = inf`` uses exactly ``quadrature_nodes`` (the planners' coarse surrogates).
+
+**The ground side.** The node weights ly beta lz^T need the M element weights beta_m of G,
+one division each, for every G: a moving node's kernel per slot paid M divisions and an
+(n x M) projection. beta is smooth over the grid too: as a function of y_m it has poles at
+y_G +- i sqrt((x_G - x_c)^2 + z_m^2), at least z_bottom (the lowest row's height) from the
+grid, and as a function of z_m at +- i times G's horizontal distance to the element, in the
+worst case (G at the foot of the surface) at z = 0 below it. So the node weights are taken
+from beta at p x p Chebyshev points of the grid instead, ly Py^T B Pz lz^T with Py, Pz the
+Lagrange interpolation matrices of those points at the elements (``ky = ly Py^T`` and ``kz =
+lz Pz^T`` fixed per geometry): p^2 divisions per G. :func:`ground_count` takes the fewest
+p >= ``quadrature_nodes`` whose bound of the same form, (p + 1)^2 rho^-p at the worst-case G
+(rho_y = c/a_y + sqrt(1 + (c/a_y)^2) with c = z_bottom, rho_z = w + sqrt(w^2 - 1) with
+w = z_c / a_z), is <= ``GROUND_TOL_SHARE`` x ``quadrature_tol``, and the element weights
+themselves (the exact beta) once p would reach the grid size, with the exact sum
+(``quadrature_nodes = 0``, or the nodes reaching the grid) or with ``quadrature_tol = inf``.
+At the paper's geometry p = 9 and the bound is ~6e-15. Every G, a configured node's
+(:func:`surface_nodes`) or a moving node's (:func:`ground_weights`), goes through the same
+arithmetic, point by point, so the two are equal bit for bit.
 """
 
 from __future__ import annotations
@@ -35,6 +53,10 @@ import numpy as np
 
 from ios_uav_env.jit import HAVE_NUMBA, jit
 from ios_uav_env.model.config import ScenarioConfig
+
+#: Share of ``quadrature_tol`` that the ground side's interpolation of beta may take (module
+#: docstring): the amplitude's relative error stays within (1 + this) x ``quadrature_tol``.
+GROUND_TOL_SHARE = 0.01
 
 
 def element_positions(config: ScenarioConfig) -> np.ndarray:
@@ -118,15 +140,55 @@ def node_count(config: ScenarioConfig) -> int:
     return 0 if n >= largest else n
 
 
+def ground_error_bound(config: ScenarioConfig, p: int) -> float:
+    """A-priori bound (p + 1)^2 rho^-p of the relative error of beta's interpolation at p x p
+    Chebyshev points of the grid, for any ground node (the module docstring's worst case); 0
+    when p covers the grid."""
+    ys, zs = _axes(config)
+    if p >= ys.size and p >= zs.size:
+        return 0.0
+    a_y, a_z = 0.5 * (ys[-1] - ys[0]), 0.5 * (zs[-1] - zs[0])
+    c = zs[0]
+    if c <= 0.0:  # (a row at or below the ground: G can sit on a pole)
+        return math.inf
+    rho_y = c / a_y + math.sqrt(1.0 + (c / a_y) ** 2) if a_y > 0 else math.inf
+    w = 0.5 * (zs[0] + zs[-1]) / a_z if a_z > 0 else math.inf
+    rho_z = w + math.sqrt(w * w - 1.0) if a_z > 0 else math.inf
+    rho = min(rho_y if p < ys.size else math.inf, rho_z if p < zs.size else math.inf)
+    return (p + 1) ** 2 * rho ** (-p) if rho > 1 else math.inf
+
+
+def ground_count(config: ScenarioConfig) -> int:
+    """Points per axis of the ground side's interpolation of beta (module docstring; 0: the
+    element weights themselves, e.g. with the exact sum or ``quadrature_tol = inf``)."""
+    n = config.quadrature_nodes
+    if n == 0 or math.isinf(config.quadrature_tol) or node_count(config) == 0:
+        return 0
+    largest, tol = max(config.ios_shape), GROUND_TOL_SHARE * config.quadrature_tol
+    p = n
+    while p < largest and ground_error_bound(config, p) > tol:
+        p += 1
+    return 0 if p >= largest else p
+
+
 @dataclass(frozen=True, eq=False)
 class _Projection:
     """The ground-free part of the compression: node coordinates and the Lagrange projections
-    (``ly`` (ny, M_y), ``lz`` (nz, M_z); None when the nodes are the elements themselves)."""
+    (``ly`` (ny, M_y), ``lz`` (nz, M_z); None when the nodes are the elements themselves), and
+    the ground side's (module docstring): the interpolation points' y (``gy`` (py,)) and squared
+    z (``gz2`` (pz,)), ``ky = ly Py^T`` (ny, py) and ``kz = lz Pz^T`` (nz, pz); None when the
+    weights take the element weights themselves."""
 
     y: np.ndarray
     z: np.ndarray
     ly: np.ndarray | None
     lz: np.ndarray | None
+    gy: np.ndarray | None = None
+    gz2: np.ndarray | None = None
+    ky: np.ndarray | None = None
+    kz: np.ndarray | None = None
+    ky_t: np.ndarray | None = None  # (py, ny): ky^T, C order (the compiled loops' rows)
+    kz_t: np.ndarray | None = None  # (pz, nz)
 
 
 class _Geometry:
@@ -170,7 +232,16 @@ def _geometry_projection(geometry: _Geometry) -> _Projection:
     ly = np.eye(ny) if ny == ys.size else _lagrange_matrix(node_y, ys)
     lz = np.eye(nz) if nz == zs.size else _lagrange_matrix(node_z, zs)
     yy, zz = np.meshgrid(node_y, node_z, indexing="ij")
-    return _Projection(yy.ravel(), zz.ravel(), ly, lz)
+    p = ground_count(config)
+    if p == 0:
+        return _Projection(yy.ravel(), zz.ravel(), ly, lz)
+    py, pz = min(p, ys.size), min(p, zs.size)
+    gy = ys if py == ys.size else _chebyshev(ys[0], ys[-1], py)
+    gz = zs if pz == zs.size else _chebyshev(zs[0], zs[-1], pz)
+    ky = ly if py == ys.size else ly @ _lagrange_matrix(gy, ys).T
+    kz = lz if pz == zs.size else lz @ _lagrange_matrix(gz, zs).T
+    return _Projection(yy.ravel(), zz.ravel(), ly, lz, gy, gz * gz, ky, kz, np.ascontiguousarray(ky.T),
+                       np.ascontiguousarray(kz.T))  # fmt: skip
 
 
 def _weights(projection: _Projection, beta: np.ndarray) -> np.ndarray:
@@ -213,7 +284,11 @@ def surface_nodes(config: ScenarioConfig) -> SurfaceNodes:
     """Weighted nodes of the element sum for ``config`` (cached per config)."""
     config.require_single_node("surface_nodes")
     projection = _projection(config)
-    weight = _weights(projection, _betas(config, np.array([config.ground_node], dtype=float))[0])
+    ground = np.array([config.ground_node], dtype=float)
+    if projection.ky is not None:
+        weight = _ground_weights(config, projection, ground)[0]
+    else:
+        weight = _weights(projection, _betas(config, ground)[0])
     return SurfaceNodes(projection.y, projection.z, weight, exact=projection.ly is None)
 
 
@@ -228,8 +303,69 @@ def ground_weights(config: ScenarioConfig, grounds: np.ndarray) -> np.ndarray:
     points = np.asarray(grounds, dtype=float)
     if points.ndim != 2 or points.shape[1] != 2:
         raise ValueError(f"grounds must have shape (P, 2) (m), got {points.shape}")
+    if projection.ky is not None:
+        return _ground_weights(config, projection, points)
     betas = _betas(config, points)
     if projection.ly is None:
         return betas.reshape(len(points), -1)
     # one stacked product: numpy's matmul runs the same BLAS product on each slice as _weights
     return np.matmul(np.matmul(projection.ly, betas), projection.lz.T).reshape(len(points), -1)
+
+
+def _ground_weights(config: ScenarioConfig, projection: _Projection, grounds: np.ndarray) -> np.ndarray:
+    """(P, ny nz) node weights ky B kz^T of the (P, 2) ``grounds``, B (py, pz) beta at the
+    ground side's points (module docstring): :func:`_interpolated_weights` compiled, or the same
+    IEEE operations in the same order as numpy (without numba), so the same bits either way."""
+    assert projection.gy is not None and projection.gz2 is not None
+    assert projection.ky is not None and projection.kz is not None
+    dx2 = (grounds[:, 0] - config.ios_center[0]) ** 2
+    dy2 = (grounds[:, 1, None] - projection.gy[None, :]) ** 2  # (P, py)
+    ky, kz = projection.ky, projection.kz
+    if HAVE_NUMBA:
+        weights = _interpolated_weights(dx2**1.5, dx2, dy2, projection.gz2, projection.ky_t, projection.kz_t)
+        return weights.reshape(len(grounds), -1)
+    d2 = (dx2[:, None, None] + dy2[:, :, None]) + projection.gz2[None, None, :]
+    beta = (dx2**1.5)[:, None, None] / (d2 * d2)  # (P, py, pz)
+    half = np.zeros((len(grounds), ky.shape[0], kz.shape[1]))
+    for c in range(ky.shape[1]):  # (the compiled loops' order: a sum from 0 over c, then over d)
+        half += ky[None, :, c, None] * beta[:, None, c, :]
+    out = np.zeros((len(grounds), ky.shape[0], kz.shape[0]))
+    for d in range(kz.shape[1]):
+        out += half[:, :, d, None] * kz[None, None, :, d]
+    return out.reshape(len(grounds), -1)
+
+
+@jit(fastmath=False)
+def _interpolated_weights(
+    scale: np.ndarray, dx2: np.ndarray, dy2: np.ndarray, z2: np.ndarray, ky_t: np.ndarray, kz_t: np.ndarray
+) -> np.ndarray:
+    """out[p] = ky B kz^T, (ny, nz), with B[c, d] = scale[p] / d2^2, d2 = (dx2[p] + dy2[p, c]) +
+    z2[d] (``ky_t`` = ky^T, ``kz_t`` = kz^T): :func:`_ground_weights`' numpy form element by
+    element, in IEEE arithmetic (no fused multiply-add, no reassociation; each sum from 0 in index
+    order, the inner loops over independent sums on rows, which vectorise), so bit for bit the same."""
+    py, ny, pz, nz = ky_t.shape[0], ky_t.shape[1], kz_t.shape[0], kz_t.shape[1]
+    out = np.empty((dy2.shape[0], ny, nz))
+    beta = np.empty((py, pz))
+    half = np.empty((pz, ny))  # (ky B)^T
+    for p in range(dy2.shape[0]):
+        for c in range(py):
+            row, beta_c = dx2[p] + dy2[p, c], beta[c]
+            for d in range(pz):
+                d2 = row + z2[d]
+                beta_c[d] = scale[p] / (d2 * d2)
+        half[:] = 0.0
+        for c in range(py):
+            ky_c, beta_c = ky_t[c], beta[c]
+            for d in range(pz):
+                b, half_d = beta_c[d], half[d]
+                for a in range(ny):
+                    half_d[a] += ky_c[a] * b
+        weights = out[p]
+        weights[:] = 0.0
+        for d in range(pz):
+            kz_d, half_d = kz_t[d], half[d]
+            for a in range(ny):
+                h, weights_a = half_d[a], weights[a]
+                for b in range(nz):
+                    weights_a[b] += h * kz_d[b]
+    return out

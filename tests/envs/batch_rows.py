@@ -54,3 +54,22 @@ def step_batch_and_singles(
             if filtered:
                 assert same(mine.filter.position, theirs.filter.position)
     return ends
+
+
+def cut_episodes(
+    vec: Any, singles: Sequence[Any], actions: Iterable[np.ndarray], records: Sequence[str], filtered: bool
+) -> None:
+    """After the batch and its singles were reset alike: step them, restart row 0 (its single env's
+    ``reset()``), step, reset every row without a seed, step, comparing as
+    :func:`step_batch_and_singles` does. Each cut episode has drawn only part of its slots' normals
+    (the batch draws an episode's at its start): the next episode must see each row's generator
+    as the single env leaves it."""
+    steps = iter(actions)
+    step_batch_and_singles(vec, singles, [next(steps) for _ in range(4)], records, filtered)
+    obs = vec.restart([0])
+    assert same(singles[0].reset()[0], obs[0])
+    step_batch_and_singles(vec, singles, [next(steps) for _ in range(3)], records, filtered)
+    obs, _ = vec.reset()
+    for i, env in enumerate(singles):
+        assert same(env.reset()[0], obs[i]), i
+    step_batch_and_singles(vec, singles, [next(steps) for _ in range(3)], records, filtered)

@@ -66,6 +66,31 @@ def test_node_configs_are_made_once_and_leave_the_config_as_it_was():
         c.node_config(3)
 
 
+def test_node_configs_are_the_validated_replacements_field_for_field():
+    """The node configs are made without running the checks again: each must still be the config
+    that ``dataclasses.replace`` makes and validates, every field equal and of the same type (drawn
+    scenarios with moving nodes, the energy objective with a budget, a motion box, a dict given for
+    the propulsion model, a RIS, STAR's defaults)."""
+    from ios_uav_env.model.mobility import GaussMarkov
+    from ios_uav_env.model.scenarios import MULTINODE_RANGES, ScenarioRanges, sample_multinode
+
+    rng = np.random.default_rng(4)
+    walk = GaussMarkov(box=((-400.0, 400.0), (-300.0, 300.0)))
+    base = ScenarioConfig(motion={"kind": "gauss_markov"}, objective="energy_efficiency", energy_budget_j=4e5)
+    ranges = ScenarioRanges(T=MULTINODE_RANGES.T, base=base)
+    configs = [sample_multinode(rng, ranges, (2, 4)) for _ in range(4)]
+    configs += [sample_multinode(rng, MULTINODE_RANGES, (2, 4)).replace(motion=walk, surface="ris",
+                                                                        propulsion={"rho": 1.2})]  # fmt: skip
+    for c in configs:
+        for k, w in enumerate(c.nodes):
+            single, made = c.node_config(k), dataclasses.replace(c, ground_nodes=None, ground_node=w)
+            assert single == made and hash(single) == hash(made) and single.to_dict() == made.to_dict()
+            for field in dataclasses.fields(made):
+                mine, theirs = getattr(single, field.name), getattr(made, field.name)
+                assert type(mine) is type(theirs) and mine == theirs, field.name
+            assert single.node_config(0) is single and pickle.loads(pickle.dumps(single)) == made
+
+
 def test_min_horizon_is_the_boundary():
     c = ScenarioConfig()
     assert c.min_horizon() == 33.0  # 800 m at 25 m per move: 32 moves, 33 slots

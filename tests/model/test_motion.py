@@ -239,6 +239,13 @@ def test_path_kernels_are_each_slots_rate_kernel_bit_for_bit(fields):
     )  # compiled vs numpy sums
     with pytest.raises(ValueError, match="grounds"):
         ie.path_kernels(config.node_config(1), np.zeros((3, 3)))
+    # written into given arrays (a wider track's views): the same bits, its padding left alone
+    wide, scalars = np.full((config.N, 3, nodes.shape[2] + 2), 7.0), np.zeros_like(params)
+    got = ie.path_kernels(config.node_config(1), path, out=(wide[:, :, : nodes.shape[2]], scalars))
+    assert np.array_equal(got[0], nodes) and got[1] is scalars and np.array_equal(scalars, params)
+    assert np.all(wide[:, :, nodes.shape[2] :] == 7.0)
+    with pytest.raises(ValueError, match="out must hold arrays of shapes"):
+        ie.path_kernels(config.node_config(1), path, out=(wide, scalars))
 
 
 def test_bad_paths_are_refused():

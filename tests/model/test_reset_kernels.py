@@ -39,6 +39,24 @@ def _drawn(n: int, seed: int, ranges: ScenarioRanges = DEFAULT_RANGES) -> list[S
     return [sample_scenario(rng, ranges) for _ in range(n)]
 
 
+def _numpy_interpolated(config: ScenarioConfig, grounds: np.ndarray) -> np.ndarray:
+    """The ground side's node weights ky B kz^T (``surface`` module docstring) as plain numpy
+    loops: B[c, d] = |x_G - x_c|^3 / d^4 at the interpolation points, each sum from 0 in order."""
+    projection = surface._projection(config)
+    dx2 = (grounds[:, 0] - config.ios_center[0]) ** 2
+    out = np.zeros((len(grounds), projection.ky.shape[0], projection.kz.shape[0]))
+    scale = dx2**1.5  # (numpy's array power, as the weights take it: a scalar's may round otherwise)
+    for p, (x2, y) in enumerate(zip(dx2, grounds[:, 1], strict=True)):
+        d2 = (x2 + (y - projection.gy)[:, None] ** 2) + projection.gz2[None, :]
+        beta = scale[p] / (d2 * d2)
+        half = np.zeros((projection.ky.shape[0], beta.shape[1]))
+        for c in range(beta.shape[0]):
+            half += projection.ky[:, c, None] * beta[c][None, :]
+        for d in range(beta.shape[1]):
+            out[p] += half[:, d, None] * projection.kz[None, :, d]
+    return out.reshape(len(grounds), -1)
+
+
 @pytest.mark.parametrize("exact", [False, True])
 def test_ground_weights_are_the_numpy_weights_bit_for_bit(exact):
     rng = np.random.default_rng(0)
@@ -52,10 +70,72 @@ def test_ground_weights_are_the_numpy_weights_bit_for_bit(exact):
         assert np.array_equal(surface._beta_grid(dx2**1.5, dx2, dy2, zs * zs), betas)
         assert np.array_equal(surface._betas(config, grounds), betas)
         projection = surface._projection(config)
-        rows = np.stack([surface._weights(projection, beta) for beta in betas])
+        assert (projection.ky is None) == exact  # the drawn families' grids: beta interpolated
+        if exact:
+            rows = np.stack([surface._weights(projection, beta) for beta in betas])
+        else:
+            rows = _numpy_interpolated(config, grounds)
         assert np.array_equal(surface.ground_weights(config, grounds), rows)
         single = surface.surface_nodes(config.replace(ground_node=tuple(grounds[3])))
         assert np.array_equal(single.weight, rows[3])
+
+
+#: Geometries of the ground side's interpolation: the paper's, a low surface (more points), a
+#: large one (more nodes and points), few rows, one just above the ground (points along y only,
+#: z's rows themselves) and one whose bound asks for the whole grid (beta itself).
+GEOMETRIES = [
+    {},
+    {"ios_center": (0.0, 0.0, 5.0)},
+    {"ios_shape": (300, 120), "uav_altitude": 60.0},
+    {"ios_shape": (100, 20), "ios_center": (30.0, -10.0, 40.0)},
+    {"ios_center": (0.0, 0.0, 1.5)},
+    {"ios_center": (0.0, 0.0, 0.5), "ios_shape": (30, 20)},
+]
+
+
+@pytest.mark.parametrize(
+    "fields", GEOMETRIES, ids=["paper", "low", "large", "few-rows", "near-ground", "on-ground"]
+)
+def test_the_interpolated_beta_keeps_the_amplitude_within_the_tolerance(fields):
+    """Against the element weights themselves (the exact beta, projected as before), at ground
+    nodes anywhere, right at the foot of the surface and up to 1e-3 m from its plane: the surface
+    amplitude of the nodes moves by at most GROUND_TOL_SHARE x quadrature_tol relative (what
+    ground_count's bound promises), on both sides of the plane."""
+    config = ScenarioConfig(**fields)
+    projection = surface._projection(config)
+    p = surface.ground_count(config)
+    ys, zs = surface._axes(config)
+    assert (p == 0) == (projection.ky is None) and (p == 0) == (fields == GEOMETRIES[-1])
+    rng = np.random.default_rng(3)
+    x_c, y_c = config.ios_center[0], config.ios_center[1]
+    grounds = np.column_stack([x_c + rng.uniform(-300.0, 300.0, 60), y_c + rng.uniform(-200.0, 200.0, 60)])
+    grounds[:30, 0] = x_c + rng.choice([-1.0, 1.0], 30) * 10.0 ** rng.uniform(-3.0, 0.0, 30)
+    grounds[:20, 1] = rng.uniform(ys[0], ys[-1], 20)  # at the foot of the surface
+    exact = np.stack([surface._weights(projection, beta) for beta in surface._betas(config, grounds)])
+    got = surface.ground_weights(config, grounds)
+    # the amplitude is a positive combination of the UAV-side values d_Um^-4 over the nodes: bound
+    # the error of any such sum by |w - w_exact| summed against the sum of the exact element weights
+    elements = surface._betas(config, grounds).reshape(len(grounds), -1).sum(axis=1)
+    error = np.abs(got - exact).sum(axis=1) / elements
+    tol = surface.GROUND_TOL_SHARE * config.quadrature_tol
+    assert error.max() <= tol, error.max()
+    if p:
+        assert surface.ground_error_bound(config, p) <= tol < surface.ground_error_bound(config, p - 1)
+        assert projection.ky.shape == (min(surface.node_count(config), ys.size), min(p, ys.size))
+
+
+def test_the_ground_side_keeps_the_element_weights_where_asked():
+    """The exact sum (quadrature_nodes = 0), the planners' coarse surrogates (quadrature_tol = inf)
+    and a tolerance no interpolation reaches keep beta itself (the weights as before, bit for bit)."""
+    config = ScenarioConfig()
+    assert surface.ground_count(config) == 9  # the paper's geometry: 9 x 9 points of beta
+    for fields in ({"quadrature_nodes": 0}, {"quadrature_tol": math.inf}, {"quadrature_tol": 1e-300}):
+        changed = config.replace(**fields)
+        assert surface.ground_count(changed) == 0 and surface._projection(changed).ky is None
+        grounds = np.array([[-100.0, -20.0], [3.0, 1.0]])
+        projection = surface._projection(changed)
+        rows = [surface._weights(projection, beta) for beta in surface._betas(changed, grounds)]
+        assert np.array_equal(surface.ground_weights(changed, grounds), np.stack(rows))
 
 
 def test_the_projection_is_shared_by_scenarios_of_one_geometry():
@@ -144,3 +224,27 @@ def test_a_one_scenario_family_makes_no_config():
     )
     with pytest.raises(ValueError, match="invalid scenario"):  # the checks still run on a change
         ScenarioRanges(T=(20.0, 200.0), base=config)
+
+
+def test_a_geometrys_rate_kernels_are_built_from_its_first_bit_for_bit():
+    """``rate_kernel`` of a drawn scenario copies what its kernel geometry's first kernel shares and
+    sets G's parts: every array and scalar of the kernel built from the config alone, bit for bit
+    (drawn families of both surfaces, no surface, the exact sum, several nodes' configs)."""
+    import dataclasses
+
+    from ios_uav_env.model import rate_kernels
+    from ios_uav_env.model.scenarios import MULTINODE_RANGES, sample_multinode
+
+    configs = _drawn(8, 5) + _drawn(3, 6, ScenarioRanges(surfaces=("none",)))
+    configs += [c.replace(ios_shape=(12, 9), quadrature_nodes=0) for c in _drawn(3, 7)]
+    multi = sample_multinode(np.random.default_rng(8), MULTINODE_RANGES, (3, 3))
+    configs += [multi.node_config(k) for k in range(3)]
+    for config in configs:
+        mine, own = rate_kernels.rate_kernel(config), rate_kernels._own_kernel(config)
+        for field in dataclasses.fields(own):
+            a, b = getattr(mine, field.name), getattr(own, field.name)
+            assert type(a) is type(b) and np.array_equal(a, b), field.name
+            if isinstance(b, np.ndarray):
+                assert a.dtype == b.dtype and a.tobytes() == b.tobytes(), field.name
+    shared = {rate_kernels._kernel_key(c) for c in configs}
+    assert len(shared) < len(configs)  # (kernels were built from a geometry's first)
