@@ -91,7 +91,7 @@ class UAVEnv(gym.Env):
     preset: dict[str, Any] = {}
 
     @classmethod
-    def stepper_class(cls, config: Any = None, **kwargs: Any) -> type:
+    def stepper_class(cls, **kwargs: Any) -> type:
         """The stepper class an env of this class made with these keywords runs (the arguments it
         takes besides this class's own: e.g. for tools that read an id's arguments)."""
         kwargs = {**cls.preset, **kwargs}
