@@ -98,12 +98,14 @@ class NodeBlockRows:
         return self._rows.path
 
     def load(self, i: int, env: Any) -> None:
-        """Put the episode just begun by row ``i``'s env (``begin_episode``) in row ``i``."""
+        """Put the episode just begun by row ``i``'s env (``begin_episode``) in row ``i`` (the row
+        protocol's names read on the env's stepper, ``UAVEnv.stepper``, whose calls the env forwards)."""
+        row = env.stepper
         # the scenario, node paths, lambda_ref, the first slot's fading: as the single env's reset
-        env.load_row(self._rows, i)
-        track = env.track if self._mobile else None
+        row.load_row(self._rows, i)
+        track = row.track if self._mobile else None
         if track is not None:
-            k = self._k[i] = env.config.K
+            k = self._k[i] = row.config.K
             self._track_paths[i], self._track_reports[i] = track.paths, track.reports
             self._track_measured[i], self._track_tally[i] = track.measured, track.tally
             self._track_nodes[i], self._track_params[i] = track.nodes, track.params
@@ -141,7 +143,7 @@ class NodeBlockRows:
         if self._estimate:
             for i in rows.tolist():
                 k = int(counts[i])
-                told = filter_report(envs[i].track, self._raw[i, :k].copy(), self._sigma)
+                told = filter_report(envs[i].stepper.track, self._raw[i, :k].copy(), self._sigma)
                 for node in range(k):
                     at = N_BASE + self._width * node
                     obs[i, at + 1 : at + 3] = (told[node] - state[i, 0:2]) / self._scale
@@ -175,7 +177,7 @@ class NodeBlockRows:
         stepping = np.flatnonzero(active)
         if self._rician:  # each row's node kernels and fading of the slot it flies to (its draws)
             for i in stepping:
-                self.envs[i].prepare_slot(self._rows, i)
+                self.envs[i].stepper.prepare_slot(self._rows, i)
         elif self._mobile:  # each row's node kernels of the slot it flies to, in one call
             rows = self._rows
             gather_node_kernels(stepping, rows.state, self._track_nodes, self._track_params, rows.nodes,

@@ -90,8 +90,11 @@ class SingleNodeRows:
         return self._path
 
     def load(self, i: int, env: Any) -> None:
-        """Copy the current scenario of ``env`` into row ``i`` (growing the node arrays if needed)."""
-        nodes = env.kernel.nodes
+        """Copy the current scenario of ``env`` into row ``i`` (growing the node arrays if needed).
+        The row protocol's names are read on the env's stepper (``UAVEnv.stepper``, whose calls the
+        env forwards), once per row reset."""
+        row = env.stepper
+        nodes = row.kernel.nodes
         k = nodes.shape[1]
         if k > self._nodes.shape[2]:
             grown = np.zeros((self.num_envs, 3, k))
@@ -100,24 +103,24 @@ class SingleNodeRows:
             self._nodes = grown
         self._nodes[i, :, :k] = nodes
         self._nodes[i, :, k:] = ((0.0,), (1.0,), (0.0,))  # padded nodes: zero weight
-        self._params[i] = env.kernel.params
+        self._params[i] = row.kernel.params
         # a mobile row: its node path (drawn as the single env's reset does), slot 1's kernel and, with
-        # the energy objective, the episode's lambda_ref in env.episode_row (copied below)
+        # the energy objective, the episode's lambda_ref in the row's episode_row (copied below)
         if self._mobile:
-            env.start_track(env.config)
-            track = env.track
+            row.start_track(row.config)
+            track = row.track
             self._nodes[i, :, :k], self._params[i] = track.nodes[0], track.params[0]
             self._track_paths[i], self._track_reports[i] = track.paths, track.reports
             self._track_measured[i], self._track_nodes[i] = track.measured, track.nodes
             self._track_params[i] = track.params
             self._lo[i], self._hi[i] = track.lo, track.hi
             self._draw[i] = env.np_random.standard_normal
-        self._episode[i] = env.episode_row
-        self._state[i, 0:2] = self._path[i, 0] = env.config.q0
+        self._episode[i] = row.episode_row
+        self._state[i, 0:2] = self._path[i, 0] = row.config.q0
         # the env's own scenario object (a fixed id's): a plain reset keeps it. A pinned
         # scenario, or a random env's draw (always a new object), is another object. A mobile
         # row draws a new path at every episode: never plain.
-        self._plain[i] = env.config is env.base_config and not self._mobile
+        self._plain[i] = row.config is row.base_config and not self._mobile
         if self._rician:
             self._normals[i] = env.np_random.standard_normal(2)
 
@@ -144,7 +147,7 @@ class SingleNodeRows:
                      self._raw)  # fmt: skip
         if self._estimate:
             for i in rows.tolist():
-                told = filter_report(envs[i].track, self._raw[i : i + 1].copy(), self._sigma)
+                told = filter_report(envs[i].stepper.track, self._raw[i : i + 1].copy(), self._sigma)
                 obs[i, 4:6] = (told[0] - self._state[i, 0:2]) / self._scale
 
     def restart(self, rows: np.ndarray, obs: np.ndarray, info: np.ndarray) -> np.ndarray:

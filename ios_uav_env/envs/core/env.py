@@ -120,6 +120,10 @@ class UAVEnv(gym.Env):
         self.action_space = self.stepper.action_space
         self.render_mode = render_mode
 
+    def begin_episode(self, seed: int | None, options: dict[str, Any] | None) -> ScenarioConfig:
+        """The scenario part of ``reset`` (the row protocol's first call: the stepper's)."""
+        return self.stepper.begin_episode(seed, options)
+
     def reset(
         self, *, seed: int | None = None, options: dict[str, Any] | None = None
     ) -> tuple[np.ndarray, dict[str, Any]]:
