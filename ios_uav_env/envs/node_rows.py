@@ -88,6 +88,11 @@ class NodeBlockRows:
         self._draw_out: list[Any] = [None] * b
 
     @property
+    def kernel_rows(self) -> NodeRows:
+        """The kernels' row arrays and calls (``multi_kernels.NodeRows``)."""
+        return self._rows
+
+    @property
     def state(self) -> np.ndarray:
         """(B, S): each row's kernel state (the UAV's x, y and moves made in columns 0-2)."""
         return self._rows.state

@@ -38,8 +38,9 @@ class UAVVectorEnv(BatchedEnv):
     ``reset(seed=s)`` seeds row i with ``s + i`` (a list of B seeds works too);
     ``options={"config": cfg}`` pins every row's episode to ``cfg``, ``options={"configs":
     [cfg_0, ...]}`` row i's to ``cfg_i``. ``observation_names``: a row's, the single env's;
-    ``rows``: the view's rows (every attribute this class does not hold is theirs, e.g. the
-    node-block view's ``schedules`` and ``max_nodes``).
+    ``rows``: the view's rows (the node-block view's ``max_nodes`` and ``schedules`` are theirs).
+    (No attribute forwarding: a class with ``__getattr__`` makes every attribute of its instances
+    slower to read, and the step reads many.)
     """
 
     env_class = UAVEnv
@@ -58,11 +59,15 @@ class UAVVectorEnv(BatchedEnv):
         self.info_keys = self.rows.info_keys  # (the node blocks': more with the energy objective, Rician)
         self._info_width = self.rows.info_width
 
-    def __getattr__(self, name: str) -> Any:
-        """Every attribute this class does not hold is its rows' (class docstring)."""
-        if name.startswith("__") or name == "rows":  # (no rows yet: construction, copying)
-            raise AttributeError(name)
-        return getattr(self.rows, name)
+    @property
+    def max_nodes(self) -> int:
+        """K_max of the node-block view's spaces (its rows'; ``AttributeError`` for the v0 view)."""
+        return self.rows.max_nodes
+
+    @property
+    def schedules(self) -> list[np.ndarray]:
+        """Each row's shares so far, (K, n + 1) arrays (the node-block view's rows')."""
+        return self.rows.schedules
 
     @property
     def _state(self) -> np.ndarray:
