@@ -258,8 +258,9 @@ class MultiNodeStepper(MobileNodes, EnergyChannel):
         table = self._table.copy()
         return {key: value[0] for key, value in info_arrays(table, self.max_nodes, self.info_keys).items()}
 
-    def step(self, action: Any) -> tuple[np.ndarray, float, bool, dict[str, Any]]:
-        """One slot: (observation, reward, terminated, ``info``) of the move and node scores ``action``."""
+    def step(self, action: Any) -> tuple[np.ndarray, float, bool, bool, dict[str, Any]]:
+        """One slot of the move and node scores ``action``: Gymnasium's (observation, reward,
+        terminated, truncated (never), ``info``)."""
         if not self._started:
             raise RuntimeError("call reset() before step()")
         if self._rows.state[0, 2] >= self._rows.episode[0, 3]:
@@ -284,7 +285,7 @@ class MultiNodeStepper(MobileNodes, EnergyChannel):
                 self.config, self.trajectory, self.truth, track_kernels(self.track)
             )
             self.score_seconds = time.perf_counter() - start
-        return self._obs[0].copy(), float(self._reward[0]), terminated, self._info()
+        return self._obs[0].copy(), float(self._reward[0]), terminated, False, self._info()
 
     @property
     def trajectory(self) -> np.ndarray:

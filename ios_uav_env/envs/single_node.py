@@ -290,8 +290,9 @@ class SingleNodeStepper(MobileNode):
         self._started = True
         return self._obs[0].copy(), self._info()
 
-    def step(self, action: Any) -> tuple[np.ndarray, float, bool, dict[str, Any]]:
-        """One slot: (observation, reward, terminated, ``info``) of the move ``action``."""
+    def step(self, action: Any) -> tuple[np.ndarray, float, bool, bool, dict[str, Any]]:
+        """One slot of the move ``action``: Gymnasium's (observation, reward, terminated, truncated
+        (never), ``info``)."""
         if not self._started:
             raise RuntimeError("call reset() before step()")
         if self._state[0, 2] >= self._episode[0, 3]:
@@ -312,7 +313,7 @@ class SingleNodeStepper(MobileNode):
                   self._active)  # fmt: skip
         if self.mobile:
             self.observe_slot(slot, self._state[0, 0:2], self._obs[0])
-        return self._obs[0].copy(), float(self._reward[0]), bool(self._terminated[0]), self._info()
+        return self._obs[0].copy(), float(self._reward[0]), bool(self._terminated[0]), False, self._info()
 
     def _parse_action(self, action: Any) -> tuple[float, float]:
         try:

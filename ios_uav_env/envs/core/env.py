@@ -131,8 +131,7 @@ class UAVEnv(gym.Env):
         return self.stepper.start()
 
     def step(self, action: Any) -> tuple[np.ndarray, float, bool, bool, dict[str, Any]]:
-        obs, reward, terminated, info = self.stepper.step(action)
-        return obs, reward, terminated, False, info
+        return self.stepper.step(action)
 
     def render(self) -> np.ndarray | None:
         """The episode so far as an (H, W, 3) uint8 array (``render_mode="rgb_array"``; the view's

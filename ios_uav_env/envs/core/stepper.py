@@ -59,8 +59,8 @@ class Stepper(Protocol):
         """The rest of ``reset``: the episode's first observation and ``info``."""
         ...
 
-    def step(self, action: Any) -> tuple[np.ndarray, float, bool, dict[str, Any]]:
-        """One slot: observation, reward, terminated and ``info``."""
+    def step(self, action: Any) -> tuple[np.ndarray, float, bool, bool, dict[str, Any]]:
+        """One slot: Gymnasium's (observation, reward, terminated, truncated, ``info``)."""
         ...
 
     @property
