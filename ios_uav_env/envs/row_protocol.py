@@ -22,14 +22,15 @@ Every row env (:class:`ScenarioRow`; what ``BatchedEnv`` calls):
   ``cfg`` can be an episode of the env. ``BatchedEnv`` checks every scenario a ``reset``
   pins with it before any row resets; an env without it takes pinned scenarios as given.
 
-A row env is a ``UAVEnv`` (``ios_uav_env.envs.core.env``): the calls below are its stepper's,
-made through it. One ground node (:class:`SingleNodeRow`: the view ``"v0"``; what
-``single_rows.SingleNodeRows`` calls): the current scenario as one kernel row (``kernel``,
-``episode_row``, ``flags``, ``base_config``, ``max_slots``, ``options``) and, for a ``mobile``
-env only, after ``begin_episode``: ``start_track(cfg)`` draws the episode's node path, ``track``
-holds each slot's rate kernel and the records, ``observe_slot(slot, q, obs)`` writes what the UAV
-is told after the slot (the batched env tells all its rows in compiled calls on their ``track``
-arrays instead, ``knowledge_kernels``, with ``rate_clip``).
+A row env is a ``UAVEnv`` (``ios_uav_env.envs.core.env``): the calls below are its stepper's
+(``UAVEnv.stepper``; the env forwards them, and the batched rows read them on the stepper). One
+ground node (:class:`SingleNodeRow`: the view ``"v0"``; what ``single_rows.SingleNodeRows``
+calls): the current scenario as one kernel row (``kernel``, ``episode_row``, ``flags``,
+``base_config``, ``max_slots``, ``options``) and, for a ``mobile`` env only, after
+``begin_episode``: ``start_track(cfg)`` draws the episode's node path, ``track`` holds each slot's
+rate kernel and the records, ``observe_slot(slot, q, obs)`` writes what the UAV is told after the
+slot (the batched env tells all its rows in compiled calls on their ``track`` arrays instead,
+``knowledge_kernels``, with ``rate_clip``).
 
 K >= 1 nodes (:class:`MultiNodeRow`: the view ``"node_blocks"``; what ``node_rows.NodeBlockRows``
 calls): the settings of the kernels' rows (``max_nodes``, ``options``, ``share_sharpness``,
