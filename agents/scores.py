@@ -29,12 +29,11 @@ class ScoreLabel:
 
 def score_label(env: Any) -> ScoreLabel:
     """The :class:`ScoreLabel` of a (single, possibly wrapped) env of this package: its objective
-    (``env.unwrapped.config.objective``) and whether it serves several nodes."""
-    from ios_uav_env.envs.multi import MultiNodeEnv
-
+    (``env.unwrapped.config.objective``) and whether it serves several nodes (the node-block view of
+    ``UAVEnv``: ``MultiNodeEnv``'s ids)."""
     base = env.unwrapped
     objective = base.config.objective
     if objective not in SCORES:
         raise ValueError(f"objective must be one of {', '.join(SCORES)}, got {objective!r}")
     one, several, unit = SCORES[objective]
-    return ScoreLabel(objective, several if isinstance(base, MultiNodeEnv) else one, unit)
+    return ScoreLabel(objective, several if getattr(base, "view", None) == "node_blocks" else one, unit)

@@ -114,6 +114,8 @@ else:
     _HAS_GYMNASIUM = True
 
 if _HAS_GYMNASIUM:
+    from ios_uav_env.envs.core.env import UAVEnv
+    from ios_uav_env.envs.core.vector import UAVVectorEnv
     from ios_uav_env.envs.multi import MultiNodeEnv
     from ios_uav_env.envs.options import EnvOptions
     from ios_uav_env.envs.random_env import RandomIOSUAVEnv
@@ -171,6 +173,8 @@ if _HAS_GYMNASIUM:
         "STAR_CONTROL_IDS",
         "STAR_ID",
         "STAR_RANDOM_ID",
+        "UAVEnv",
+        "UAVVectorEnv",
         "parallel_env",
         "register_envs",
     ]

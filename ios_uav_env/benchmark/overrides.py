@@ -52,6 +52,9 @@ TASK: dict[str, str] = {
     "share_sharpness": "the shares an action can give (the softmax of its scores)",
     "surface_sharpness": "the surface's time shares the UAVs' bids can give (the softmax of the bids)",
     "channel_phases": "what the surface's controller is told of the channels each slot",
+    "view": "the observation view and the action type it is read with (the id's preset)",
+    "action": "the action type (the view's)",
+    "draws": "whether each reset draws its scenario (the v0 view's randomised ids)",
 }
 #: What a reset draws: the suite pins every scenario instead. Refused (dropped from a policy's own).
 DRAW: frozenset[str] = frozenset({"config", "ranges", "focus", "focus_prob"})
@@ -78,13 +81,22 @@ def _env_classes(env_id: str) -> tuple[type, ...]:
         from ios_uav_env.envs.fleet import FleetParallelEnv
         from ios_uav_env.envs.multi import MultiNodeEnv
 
-        return FleetParallelEnv, MultiNodeEnv
+        return (FleetParallelEnv, *_with_stepper(MultiNodeEnv, {}))
     import gymnasium as gym
 
     import ios_uav_env  # noqa: F401  (registers the ids)
 
-    module, _, attr = str(gym.spec(env_id).entry_point).partition(":")
-    return (getattr(importlib.import_module(module), attr),)
+    spec = gym.spec(env_id)
+    module, _, attr = str(spec.entry_point).partition(":")
+    cls = getattr(importlib.import_module(module), attr)
+    return _with_stepper(cls, spec.kwargs or {})
+
+
+def _with_stepper(cls: type, kwargs: Mapping[str, Any]) -> tuple[type, ...]:
+    """``cls`` and, for a ``UAVEnv`` (``stepper_class``), the stepper class it runs with ``kwargs``,
+    whose constructor takes the env's arguments besides ``UAVEnv``'s own."""
+    stepper = getattr(cls, "stepper_class", None)
+    return (cls,) if stepper is None else (cls, stepper(**kwargs))
 
 
 def _own_inits(env_id: str) -> list[Any]:
@@ -105,7 +117,7 @@ def env_arguments(env_id: str) -> frozenset[str]:
         p.name
         for init in _own_inits(env_id)
         for p in inspect.signature(init).parameters.values()
-        if p.name != "self" and p.kind not in (p.VAR_KEYWORD, p.VAR_POSITIONAL)
+        if p.name not in ("self", "env") and p.kind not in (p.VAR_KEYWORD, p.VAR_POSITIONAL)
     }
     return frozenset(named | OPTION_FIELDS | SCENARIO_FIELDS)
 

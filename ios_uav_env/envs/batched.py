@@ -1,7 +1,8 @@
 """What the batched envs share: B episodes as rows of arrays, stepped by one kernel call.
 
-:class:`BatchedEnv` is the base of ``single_vector.IOSUAVVectorEnv`` (one ground node) and
-``multi_vector.MultiNodeVectorEnv`` (K nodes). It holds one template env per row (the single
+:class:`BatchedEnv` is the base of ``core.vector.UAVVectorEnv``, the batched env of every single-
+and multi-node id (its rows: ``single_rows.SingleNodeRows`` for one ground node,
+``node_rows.NodeBlockRows`` for K nodes). It holds one template env per row (the single
 env's own code chooses each row's scenario at reset: its ``np_random``, its draws, pinned
 configs and their checks), the seeding, the reset and step skeleton, both autoreset modes,
 ``info`` as a dict of arrays with Gymnasium's ``_key`` masks, and the batch-level calls
@@ -13,9 +14,9 @@ through public calls only, the ones the single env's own ``reset`` and ``step`` 
 ``BatchedEnv`` calls ``begin_episode(seed, options) -> ScenarioConfig`` (the scenario part of
 ``reset``: seed, choose, check, make current; no step) at every reset, autoreset and restart,
 and ``check_scenario(cfg, field)`` (optional) on every pinned scenario before any row resets;
-it reads ``config`` and gives each row its own ``np_random``. ``IOSUAVVectorEnv`` adds the
+it reads ``config`` and gives each row its own ``np_random``. ``SingleNodeRows`` adds the
 kernel row (``kernel``, ``episode_row``, ...) and, for moving nodes, ``start_track``, ``track``
-and ``observe_slot``; ``MultiNodeVectorEnv`` calls ``load_row``, ``prepare_slot`` and
+and ``observe_slot``; ``NodeBlockRows`` calls ``load_row``, ``prepare_slot`` and
 ``observe_slot`` on its ``NodeRows``. No batched module touches a private name of another object
 (tested). A subclass holds its rows' arrays and its kernels, and supplies:
 

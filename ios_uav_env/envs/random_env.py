@@ -1,6 +1,7 @@
 """Randomised scenarios: one policy for every instance of a family, drawn at each reset.
 
-``RandomIOSUAVEnv`` (registered as ``ios_uav_env/IOSUAV-Random-v0``) draws a new scenario
+``RandomIOSUAVEnv`` (a preset of ``UAVEnv``: ``view="v0"``, ``draws=True``; the id
+``ios_uav_env/IOSUAV-Random-v0`` is ``UAVEnv`` with those keywords) draws a new scenario
 at every reset from a family ``ios_uav_env.model.scenarios.ScenarioRanges`` with its
 ``np_random``, observing the instance through the 6 instance features of ``IOSUAVEnv``.
 ``ios_uav_env/STARUAV-Random-v0`` is the same family with every scenario on a STAR surface
@@ -17,45 +18,21 @@ flights scored on the node's drawn path (``IOSUAVEnv``'s "Energy").
 
 from __future__ import annotations
 
-import dataclasses
 from collections.abc import Mapping
 from typing import Any
 
-from ios_uav_env.envs.settings import (
-    check_config_keywords,
-    check_ranges_surface,
-    several_nodes_error,
-    single_node_id,
-)
-from ios_uav_env.envs.single import IOSUAVEnv
-from ios_uav_env.model.config import SCENARIO_FIELDS, ScenarioConfig, as_config
-from ios_uav_env.model.scenarios import (
-    DEFAULT_RANGES,
-    RANGED_FIELDS,
-    ScenarioRanges,
-    _as_ranges,
-    sample_scenario,
-)
+from ios_uav_env.envs.core.env import UAVEnv
+from ios_uav_env.model.scenarios import DEFAULT_RANGES, RANGED_FIELDS, ScenarioRanges, sample_scenario
 
 __all__ = ["DEFAULT_RANGES", "RANGED_FIELDS", "RandomIOSUAVEnv", "ScenarioRanges", "sample_scenario"]
 
 
-def _check_focus(focus: Any, focus_prob: float, config: Any) -> None:
-    """Refuse a ``focus`` that would never be drawn (``focus_prob`` 0, or ``config`` pinning every
-    episode) and a ``focus_prob`` without a ``focus`` to draw from."""
-    if focus is None:
-        if focus_prob != 0.0:
-            raise ValueError(
-                f"focus_prob={focus_prob!r} is the probability of drawing from focus: it needs focus=..."
-            )
-    elif config is not None:
-        raise ValueError("focus is never drawn when config pins every episode: drop focus or config")
-    elif focus_prob == 0.0:
-        raise ValueError("focus is drawn with probability focus_prob: it needs focus_prob > 0 (0: never)")
-
-
-class RandomIOSUAVEnv(IOSUAVEnv):
+class RandomIOSUAVEnv(UAVEnv):
     r"""``IOSUAVEnv`` on a new scenario at every reset, drawn from documented ranges.
+
+    ``UAVEnv`` with the view ``"v0"`` and ``draws=True`` (a preset: the randomised single-node
+    ids are ``UAVEnv`` with these keywords, ``registration``); the stepper is
+    ``single_drawn.DrawnSingleNodeStepper``.
 
     ## Description
 
@@ -174,71 +151,7 @@ class RandomIOSUAVEnv(IOSUAVEnv):
     * v0: Initial version.
     """
 
-    def __init__(
-        self,
-        ranges: ScenarioRanges | Mapping[str, Any] | None = None,
-        *,
-        config: ScenarioConfig | Mapping[str, Any] | None = None,
-        instance_features: bool = True,
-        focus: ScenarioRanges | Mapping[str, Any] | None = None,
-        focus_prob: float = 0.0,
-        **kwargs: Any,
-    ) -> None:
-        ranges = _as_ranges(DEFAULT_RANGES if ranges is None else ranges, "ranges")
-        overrides = {k: kwargs.pop(k) for k in list(kwargs) if k in SCENARIO_FIELDS}
-        surface, chosen = overrides.pop("surface", None), ranges  # every drawn scenario's surface
-        if surface is not None:  # (before the overrides: a STAR surface's fields need it on base)
-            ranges = ranges.with_surface(surface)
-        drawn = sorted(set(overrides) & RANGED_FIELDS)
-        if drawn:
-            raise ValueError(
-                f"{drawn} are drawn from the ranges at every reset: pass ranges=ScenarioRanges(...) "
-                "to change them, config=... to pin every episode, or reset(options={'config': ...})"
-            )
-        if overrides:
-            base = ranges.base.replace(**overrides)
-            if base.K != 1:  # (the ranges draw one node)
-                knowledge = kwargs.get("knowledge", "exact")
-                raise several_nodes_error(single_node_id(base, knowledge, random=True), base, "ground_nodes")
-            ranges = dataclasses.replace(ranges, base=base)
-        self.ranges: ScenarioRanges = ranges
-        knowledge = kwargs.get("knowledge", "exact")
-        own = single_node_id(ranges.base, knowledge, random=True)
-        if surface is not None:
-            check_ranges_surface(own, chosen, surface, DEFAULT_RANGES.surfaces)
-        if not (isinstance(focus_prob, (int, float)) and 0.0 <= focus_prob <= 1.0):
-            raise ValueError(f"focus_prob must be a probability in [0, 1], got {focus_prob!r}")
-        _check_focus(focus, focus_prob, config)
-        self.focus: ScenarioRanges | None = None
-        if focus is not None:
-            # narrower ranges (filled in from ``ranges``), drawn with probability focus_prob:
-            # a training distribution that visits the scenarios where the decision matters
-            fields = focus if isinstance(focus, Mapping) else focus.to_dict()
-            self.focus = _as_ranges({**ranges.to_dict(), **dict(fields)}, "focus")
-            if not ranges.contains(self.focus):
-                raise ValueError(f"focus must lie inside ranges, got {dict(fields)!r}")
-        self.focus_prob = float(focus_prob) if self.focus is not None else 0.0
-        self.pinned: ScenarioConfig | None = None if config is None else as_config(config)
-        if surface is not None and self.pinned is not None:  # the keyword's surface, as IOSUAVEnv's
-            other = single_node_id(self.pinned, knowledge, random=True)
-            check_config_keywords(own, self.pinned, {"surface": surface}, other if other != own else None)
-            self.pinned = self.pinned.replace(surface=surface)
-        super().__init__(self.pinned or ranges.base, instance_features=instance_features, **kwargs)
-        self._check_overrides(overrides, ranges.surfaces)
-        if self.pinned is not None:
-            self.check_scenario(self.pinned, "config")
+    preset = {"view": "v0", "draws": True}
 
-    _draws = True
-
-    def _ranges(self) -> ScenarioRanges:
-        """The observation space holds every scenario of the ranges (focus lies inside them)."""
-        return self.ranges
-
-    def _episode_config(self, pinned: ScenarioConfig | None) -> ScenarioConfig:
-        if pinned is not None:
-            return pinned
-        if self.pinned is not None:
-            return self.pinned
-        if self.focus_prob > 0.0 and self.np_random.random() < self.focus_prob:
-            return sample_scenario(self.np_random, self.focus)
-        return sample_scenario(self.np_random, self.ranges)
+    def __init__(self, ranges: ScenarioRanges | Mapping[str, Any] | None = None, **kwargs: Any) -> None:
+        super().__init__(**self.preset, ranges=ranges, **kwargs)

@@ -11,7 +11,7 @@ import gymnasium as gym
 #: ``star_access`` at their defaults: energy splitting, independent phases, TDMA).
 STAR_ID = "ios_uav_env/STARUAV-v0"
 
-#: id -> keyword arguments of ``IOSUAVEnv`` for that id (the fixed ids).
+#: id -> keyword arguments of the fixed single-node ids (``IOSUAVEnv``'s: the view ``"v0"``).
 ENV_IDS: dict[str, dict[str, Any]] = {
     "ios_uav_env/IOSUAV-v0": {"surface": "ios"},  # the paper's scenario (IA)
     "ios_uav_env/RISUAV-v0": {"surface": "ris"},  # the IOS replaced by a reflect-only RIS (RA)
@@ -78,50 +78,50 @@ def _vector(entry_point: str) -> dict[str, str]:
     return {"vector_entry_point": entry_point} if has_vector else {}
 
 
+#: The presets of the views (``ios_uav_env.envs.core.stepper.VIEWS``, each read with its action
+#: type): each id is ``UAVEnv`` (and ``UAVVectorEnv``) with its view's preset and its own keywords.
+#: The v0 view is ``UAVEnv``'s default, so the fixed single-node ids register their world only.
+V0: dict[str, Any] = {}
+V0_DRAWN: dict[str, Any] = {"draws": True}
+NODE_BLOCKS: dict[str, Any] = {"view": "node_blocks"}
+
+#: The one env class and the one vector class of every single- and multi-node id.
+ENTRY_POINT = "ios_uav_env.envs.core.env:UAVEnv"
+VECTOR_ENTRY_POINT = "ios_uav_env.envs.core.vector:UAVVectorEnv"
+
+
+def presets() -> dict[str, dict[str, Any]]:
+    """id -> the keywords ``UAVEnv`` is registered with for each single- and multi-node id: its
+    view's preset (:data:`V0`, :data:`V0_DRAWN`, :data:`NODE_BLOCKS`), then its own (the world's
+    scenario fields and options, ``random_nodes``)."""
+    families = (
+        (ENV_IDS, V0),
+        ({ENERGY_ID: ENERGY_IDS[ENERGY_ID]}, V0),
+        (RANDOM_IDS, V0_DRAWN),
+        ({ENERGY_RANDOM_ID: ENERGY_IDS[ENERGY_RANDOM_ID]}, V0_DRAWN),
+        (MOBILE_IDS, V0_DRAWN),
+        ({**MULTINODE_IDS, **MULTINODE_MOBILE_IDS}, NODE_BLOCKS),
+    )
+    return {env_id: {**view, **kwargs} for ids, view in families for env_id, kwargs in ids.items()}
+
+
 def register_envs() -> None:
     """Register every id of :data:`ENV_IDS`, :data:`RANDOM_IDS`, :data:`MULTINODE_IDS`,
-    :data:`ENERGY_IDS`, :data:`MOBILE_IDS`, :data:`MULTINODE_MOBILE_IDS` and
-    :data:`STAR_CONTROL_IDS` and :data:`MISO_CONTROL_IDS` not registered yet.
+    :data:`ENERGY_IDS`, :data:`MOBILE_IDS`, :data:`MULTINODE_MOBILE_IDS`,
+    :data:`STAR_CONTROL_IDS` and :data:`MISO_CONTROL_IDS` not registered yet: each single- and
+    multi-node id as ``UAVEnv`` with its keywords (:func:`presets`) and ``UAVVectorEnv`` as its
+    batched env.
 
     No ``max_episode_steps``: the env ends every episode itself at slot N of its scenario
     (``terminated=True``), whatever T is, so no ``TimeLimit`` can cut a mission short. Each id
     also names its natively batched env (``gym.make_vec(id, num_envs=B,
     vectorization_mode="vector_entry_point")``, Gymnasium >= 1.0), except :data:`STAR_CONTROL_IDS`.
     """
-    families = (
-        (ENV_IDS, "ios_uav_env.envs.single:IOSUAVEnv", "ios_uav_env.envs.single_vector:IOSUAVVectorEnv"),
-        (
-            RANDOM_IDS,
-            "ios_uav_env.envs.random_env:RandomIOSUAVEnv",
-            "ios_uav_env.envs.single_vector:RandomIOSUAVVectorEnv",
-        ),
-        (
-            {ENERGY_ID: ENERGY_IDS[ENERGY_ID]},
-            "ios_uav_env.envs.single:IOSUAVEnv",
-            "ios_uav_env.envs.single_vector:IOSUAVVectorEnv",
-        ),
-        (
-            {ENERGY_RANDOM_ID: ENERGY_IDS[ENERGY_RANDOM_ID]},
-            "ios_uav_env.envs.random_env:RandomIOSUAVEnv",
-            "ios_uav_env.envs.single_vector:RandomIOSUAVVectorEnv",
-        ),
-        (
-            MOBILE_IDS,
-            "ios_uav_env.envs.random_env:RandomIOSUAVEnv",
-            "ios_uav_env.envs.single_vector:RandomIOSUAVVectorEnv",
-        ),
-        (
-            {**MULTINODE_IDS, **MULTINODE_MOBILE_IDS},
-            "ios_uav_env.envs.multi:MultiNodeEnv",
-            "ios_uav_env.envs.multi_vector:MultiNodeVectorEnv",
-        ),
-    )
-    for ids, entry_point, vector_entry_point in families:
-        for env_id, kwargs in ids.items():
-            if env_id not in gym.registry:
-                gym.register(
-                    id=env_id, entry_point=entry_point, kwargs=dict(kwargs), **_vector(vector_entry_point)
-                )
+    for env_id, kwargs in presets().items():
+        if env_id not in gym.registry:
+            gym.register(
+                id=env_id, entry_point=ENTRY_POINT, kwargs=dict(kwargs), **_vector(VECTOR_ENTRY_POINT)
+            )
     for env_id, kwargs in STAR_CONTROL_IDS.items():
         if env_id not in gym.registry:
             entry_point = "ios_uav_env.envs.star_control:STARControlEnv"

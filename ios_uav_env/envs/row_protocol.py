@@ -22,21 +22,23 @@ Every row env (:class:`ScenarioRow`; what ``BatchedEnv`` calls):
   ``cfg`` can be an episode of the env. ``BatchedEnv`` checks every scenario a ``reset``
   pins with it before any row resets; an env without it takes pinned scenarios as given.
 
-One ground node (:class:`SingleNodeRow`: ``IOSUAVEnv``, ``RandomIOSUAVEnv``; what
-``IOSUAVVectorEnv`` calls): the current scenario as one kernel row (``kernel``, ``episode_row``,
-``flags``, ``base_config``, ``max_slots``, ``options``) and, for a ``mobile`` env only, after
-``begin_episode``: ``start_track(cfg)`` draws the episode's node path, ``track`` holds each
-slot's rate kernel and the records, ``observe_slot(slot, q, obs)`` writes what the UAV is told
-after the slot (the batched env tells all its rows in compiled calls on their ``track`` arrays
-instead, ``knowledge_kernels``, with ``rate_clip``).
+A row env is a ``UAVEnv`` (``ios_uav_env.envs.core.env``): the calls below are its stepper's
+(``UAVEnv.stepper``; the env forwards them, and the batched rows read them on the stepper). One
+ground node (:class:`SingleNodeRow`: the view ``"v0"``; what ``single_rows.SingleNodeRows``
+calls): the current scenario as one kernel row (``kernel``, ``episode_row``, ``flags``,
+``base_config``, ``max_slots``, ``options``) and, for a ``mobile`` env only, after
+``begin_episode``: ``start_track(cfg)`` draws the episode's node path, ``track`` holds each slot's
+rate kernel and the records, ``observe_slot(slot, q, obs)`` writes what the UAV is told after the
+slot (the batched env tells all its rows in compiled calls on their ``track`` arrays instead,
+``knowledge_kernels``, with ``rate_clip``).
 
-K >= 1 nodes (:class:`MultiNodeRow`: ``MultiNodeEnv``; what ``MultiNodeVectorEnv`` calls): the
-settings of the kernels' rows (``max_nodes``, ``options``, ``share_sharpness``,
+K >= 1 nodes (:class:`MultiNodeRow`: the view ``"node_blocks"``; what ``node_rows.NodeBlockRows``
+calls): the settings of the kernels' rows (``max_nodes``, ``options``, ``share_sharpness``,
 ``softmin_beta``, ``energy_objective``, ``served_clip``, ``info_keys``) and, on row ``i`` of a
 ``multi_kernels.NodeRows``: ``load_row(rows, i)`` after ``begin_episode``, ``prepare_slot(rows,
 i)`` before each step, ``observe_slot(rows, i, obs)`` after the start and each step (moving or
 roughly known nodes; nothing otherwise), and ``mobile`` and ``truth`` for the episode's score.
-``MultiNodeVectorEnv`` makes ``prepare_slot`` only where it draws (channel "rician"): it swaps
+``NodeBlockRows`` makes ``prepare_slot`` only where it draws (channel "rician"): it swaps
 in its moving rows' kernels and tells them what they observe in compiled calls on their
 ``track`` arrays (``nodes_kernels``, with ``rate_clip`` and ``node_features``).
 
@@ -79,7 +81,7 @@ class ScenarioRow(Protocol):
 
 @runtime_checkable
 class SingleNodeRow(ScenarioRow, Protocol):
-    """A one-node row env (``IOSUAVEnv``, ``RandomIOSUAVEnv``), as ``IOSUAVVectorEnv`` uses it."""
+    """A one-node row env (``UAVEnv`` of the view ``"v0"``), as ``SingleNodeRows`` uses it."""
 
     config: ScenarioConfig
     kernel: RateKernel
@@ -127,7 +129,7 @@ class SingleNodeRow(ScenarioRow, Protocol):
 
 @runtime_checkable
 class MultiNodeRow(ScenarioRow, Protocol):
-    """A K-node row env (``MultiNodeEnv``), as ``MultiNodeVectorEnv`` uses it."""
+    """A K-node row env (``UAVEnv`` of the view ``"node_blocks"``), as ``NodeBlockRows`` uses it."""
 
     config: ScenarioConfig
     options: EnvOptions

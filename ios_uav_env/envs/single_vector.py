@@ -1,249 +1,39 @@
-"""Natively batched envs: B episodes stepped as one array computation, registered on every id.
+"""The v0 view batched: ``IOSUAVVectorEnv`` and ``RandomIOSUAVVectorEnv``, presets of ``UAVVectorEnv``.
 
-``gym.make_vec(id, num_envs=B, vectorization_mode="vector_entry_point")`` returns an
-:class:`IOSUAVVectorEnv` (the fixed ids) or a :class:`RandomIOSUAVVectorEnv` (the randomised
-id). They run the kernels of ``ios_uav_env.envs.single_kernels``, the ones the single env runs on a batch
-of one, on B rows: the same physics, the same arrival guard and the same reward. Row i is the
-single env reset with seed ``seed + i``: the same scenarios, and with channel "rician" the
-same fading draws, so a batch reproduces B single envs exactly (tested).
-
-The batch-level conventions are ``ios_uav_env.envs.batched.BatchedEnv``'s: scenario choice at
-reset in one template env per row (the single env's own code, through the public row protocol
-of ``ios_uav_env.envs.row_protocol``), autoreset ``NEXT_STEP`` by
-default or ``autoreset_mode="same_step"`` with ``final_obs`` / ``final_info``, ``advance``,
-``fly``, ``restart``. ``info`` is a dict of arrays (``INFO_KEYS``, ``position`` of shape
-(B, 2)) with Gymnasium's ``_key`` masks (all True: every row has every key).
-:attr:`trajectories` holds each row's way-points so far.
+``gym.make_vec(id, num_envs=B, vectorization_mode="vector_entry_point")`` returns a
+``UAVVectorEnv`` (``ios_uav_env.envs.core.vector``) for every id; these classes make the same
+batched env for code that names them: ``IOSUAVVectorEnv`` the fixed single-node ids' (the view
+``"v0"``), ``RandomIOSUAVVectorEnv`` the randomised ones' (``draws=True``; ``ranges`` its first
+argument after ``num_envs``). The rows are ``single_rows.SingleNodeRows``: the kernels of
+``single_kernels``, the ones the single env runs on a batch of one, on B rows, so row i is the
+single env reset with seed ``seed + i`` (tested). ``info`` is a dict of arrays (``INFO_KEYS``,
+``position`` of shape (B, 2)) with Gymnasium's ``_key`` masks (all True: every row has every key).
 """
 
 from __future__ import annotations
 
 from typing import Any
 
-import numpy as np
-
-from ios_uav_env.envs.batched import AUTORESET_MODES, BatchedEnv, check_threads
-from ios_uav_env.envs.knowledge import filter_report
-from ios_uav_env.envs.knowledge_kernels import (
-    DRAWS,
-    MODES,
-    EpisodeDraws,
-    gather_slot_kernels,
-    observe_rows,
-    row_list,
-)
-from ios_uav_env.envs.random_env import RandomIOSUAVEnv
-from ios_uav_env.envs.single import INFO_KEYS, IOSUAVEnv
-from ios_uav_env.envs.single_kernels import INFO, STATE, fly_rows, reset_rows, step_rows, step_rows_batched
-from ios_uav_env.jit import run_batched
+from ios_uav_env.envs.batched import AUTORESET_MODES, check_threads
+from ios_uav_env.envs.core.vector import UAVVectorEnv
 
 __all__ = ["AUTORESET_MODES", "IOSUAVVectorEnv", "RandomIOSUAVVectorEnv", "check_threads"]
 
-#: ``info``'s keys in ``INFO_KEYS`` order, each with its column of the info array
-_INFO_COLUMNS = [(key, INFO.index("position_x" if key == "position" else key)) for key in INFO_KEYS]
+
+class IOSUAVVectorEnv(UAVVectorEnv):
+    """``num_envs`` episodes of :class:`~ios_uav_env.envs.single.IOSUAVEnv`: ``UAVVectorEnv`` with
+    the view ``"v0"``. Arguments: the single env's (``config``, ``EnvOptions`` and
+    ``ScenarioConfig`` keywords) plus ``num_envs``, ``autoreset_mode`` and ``num_threads``."""
+
+    def __init__(self, num_envs: int = 1, config: Any = None, **kwargs: Any):
+        super().__init__(num_envs, config, view="v0", **kwargs)
 
 
-class IOSUAVVectorEnv(BatchedEnv):
-    """``num_envs`` episodes of :class:`~ios_uav_env.envs.single.IOSUAVEnv` in one array computation.
-
-    Arguments are the single env's (``config``, ``EnvOptions`` and ``ScenarioConfig`` keywords)
-    plus ``num_envs``; rendering is not supported (``render_mode=None``). Observations are
-    (B, obs_dim) float32, rewards (B,) float64, ``terminated`` (B,) bool, ``truncated`` all
-    False. ``reset(seed=s)`` seeds row i with ``s + i`` (a list of B seeds works too);
-    ``options={"config": cfg}`` pins every row's episode to ``cfg``, ``options={"configs":
-    [cfg_0, ...]}`` row i's to ``cfg_i`` (a batch of different scenarios, e.g. a held-out suite).
-    ``observation_names``: the names of a row's observation components (the single env's).
-    """
-
-    env_class = IOSUAVEnv
-    info_keys = INFO_KEYS
-
-    def _init_rows(self, template: IOSUAVEnv) -> None:
-        b = self.num_envs
-        self._flags = template.flags
-        self._rician = template.options.channel == "rician"
-        self._state = np.zeros((b, len(STATE)))
-        self._episode = np.zeros((b, template.episode_row.size))
-        self._nodes = np.zeros((b, 3, template.kernel.nodes.shape[1]))
-        self._params = np.zeros((b, template.kernel.params.size))
-        self._normals = np.zeros((b, 2))
-        self._info_width = len(INFO)
-        self._path = np.zeros((b, template.max_slots, 2))
-        # rows whose scenario is the env's own (not pinned, not drawn): see _load_row
-        self._plain = np.zeros(b, dtype=np.bool_)
-        self._q0 = np.asarray(template.base_config.q0, dtype=np.float64)
-        # a moving or roughly known node: each row's track (its kernels per slot, its truth and
-        # records) and what its UAV is told per slot, for all rows in one compiled call
-        # (ios_uav_env.envs.knowledge_kernels; the draws from each row's template env)
-        self._mobile = template.mobile
-        if self._mobile:
-            options = template.options
-            self._knowledge = MODES[options.knowledge]
-            self._draws = DRAWS[options.knowledge]
-            self._sigma = float(options.report_sigma)
-            self._rate_high = float(template.rate_clip)
-            self._scale = float(options.length_scale)
-            self._estimate = options.knowledge == "reports" and options.filter_estimate
-            self._slot_normals = np.zeros((b, 4))
-            self._raw = np.zeros((b, 2))
-            self._lo = np.zeros((b, 2))
-            self._hi = np.zeros((b, 2))
-            self._track_paths = row_list(np.zeros((1, 1, 2)), b)
-            self._track_reports = row_list(np.zeros((1, 1, 2)), b)
-            self._track_measured = row_list(np.zeros(1), b)
-            self._track_nodes = row_list(np.zeros((1, 3, 1)), b)
-            self._track_params = row_list(np.zeros((1, template.kernel.params.size)), b)
-            # each row's draw of the slot's normals: its generator's standard_normal and the row's
-            # slice of _slot_normals (set at each episode: a seeded reset makes a new generator);
-            # channel "expected": every slot's at the episode's start, in one call per row
-            self._draw: list[Any] = [None] * b
-            self._draw_out = [self._slot_normals[i, : self._draws] for i in range(b)]
-            self._episode_draws = None if self._rician else EpisodeDraws(b, template.max_slots, 4)
-
-    # --- rows -----------------------------------------------------------------------
-    def _load_row(self, i: int, env: IOSUAVEnv) -> None:
-        """Copy the current scenario of ``env`` into row ``i`` (growing the node arrays if needed)."""
-        nodes = env.kernel.nodes
-        k = nodes.shape[1]
-        if k > self._nodes.shape[2]:
-            grown = np.zeros((self.num_envs, 3, k))
-            grown[:, 1, :] = 1.0
-            grown[:, :, : self._nodes.shape[2]] = self._nodes
-            self._nodes = grown
-        self._nodes[i, :, :k] = nodes
-        self._nodes[i, :, k:] = ((0.0,), (1.0,), (0.0,))  # padded nodes: zero weight
-        self._params[i] = env.kernel.params
-        # a mobile row: its node path (drawn as the single env's reset does), slot 1's kernel and, with
-        # the energy objective, the episode's lambda_ref in env.episode_row (copied below)
-        if self._mobile:
-            env.start_track(env.config)
-            track = env.track
-            self._nodes[i, :, :k], self._params[i] = track.nodes[0], track.params[0]
-            self._track_paths[i], self._track_reports[i] = track.paths, track.reports
-            self._track_measured[i], self._track_nodes[i] = track.measured, track.nodes
-            self._track_params[i] = track.params
-            self._lo[i], self._hi[i] = track.lo, track.hi
-            self._draw[i] = env.np_random.standard_normal
-            if self._episode_draws is not None and self._draws:
-                self._episode_draws.draw(i, env.np_random, env.config.N, self._draws)
-        self._episode[i] = env.episode_row
-        self._state[i, 0:2] = self._path[i, 0] = env.config.q0
-        # the env's own scenario object (a fixed id's): a plain reset keeps it. A pinned
-        # scenario, or a random env's draw (always a new object), is another object. A mobile
-        # row draws a new path at every episode: never plain.
-        self._plain[i] = env.config is env.base_config and not self._mobile
-        if self._rician:
-            self._normals[i] = env.np_random.standard_normal(2)
-
-    def _start_rows(self, rows: np.ndarray) -> None:
-        reset_rows(rows, self._state, self._episode, self._nodes, self._params, self._normals, self._flags,
-                   self._obs, self._info)  # fmt: skip
-        if self._mobile:
-            self._observe_rows(rows)
-
-    def _observe_rows(self, rows: np.ndarray) -> None:
-        """What each row's UAV is told of its node in its current slot, as the single env's
-        ``observe_slot`` (``knowledge.observe_slot``), bit for bit: per row, the slot's normals
-        (from the episode's draw, ``knowledge_kernels.EpisodeDraws``; channel "rician": one draw
-        of its generator per slot), then one compiled call for all ``rows``
-        (``knowledge_kernels.observe_rows``); the Kalman filter (``filter_estimate``) per row."""
-        rows = np.asarray(rows, dtype=np.int64)
-        normals, envs, draw, out = self._slot_normals, self.envs, self._draw, self._draw_out
-        if self._draws and self._episode_draws is not None:
-            self._episode_draws.take(rows, self._state[rows, 2].astype(np.int64), normals)
-        elif self._draws:
-            for i in rows.tolist():
-                draw[i](out=out[i])
-        observe_rows(rows, self._state, self._track_paths, self._track_reports, self._track_measured,
-                     self._track_nodes, self._track_params, self._lo, self._hi, normals, self._knowledge,
-                     self._sigma, self._rate_high, self._scale, not self._estimate, self._obs,
-                     self._raw)  # fmt: skip
-        if self._estimate:
-            for i in rows.tolist():
-                told = filter_report(envs[i].track, self._raw[i : i + 1].copy(), self._sigma)
-                self._obs[i, 4:6] = (told[0] - self._state[i, 0:2]) / self._scale
-
-    def _end_rows(self, rows: np.ndarray, seeds: Any) -> None:
-        if self._mobile and self._episode_draws is not None:  # (a row's generator as its slots left it)
-            self._episode_draws.rewind(rows, seeds)
-
-    def _restart_rows(self, rows: np.ndarray) -> None:
-        """New episodes on ``rows`` without a seed or options (autoreset, :meth:`restart`). A row
-        that keeps its scenario (the fixed ids' own) only goes back to q0, without the Python
-        reset of its template env: the same episode, at no per-row Python cost."""
-        plain = self._plain[rows]
-        quick, rest = rows[plain], rows[~plain]
-        if quick.size:
-            self._state[quick, 0:2] = self._path[quick, 0] = self._q0
-            if self._rician:
-                for i in quick:
-                    self._normals[i] = self.envs[i].np_random.standard_normal(2)
-            self._start_rows(quick)
-        if rest.size:
-            self._reset_rows(rest, [None] * rest.size, [None] * rest.size)
-
-    def _info_arrays(self, table: np.ndarray) -> dict[str, Any]:
-        """``info`` as column views of the info array (``INFO_KEYS``)."""
-        columns = table.T
-        out: dict[str, Any] = {}
-        for key, column in _INFO_COLUMNS:
-            out[key] = table[:, 2:4] if key == "position" else columns[column]
-        out["slot"] = out["slot"].astype(np.int64)
-        out["feasible"] = out["feasible"] != 0.0
-        return out
-
-    # --- API ------------------------------------------------------------------------
-    def _fly_compiled(
-        self, rows: np.ndarray, targets: np.ndarray, moves: np.ndarray, obs: np.ndarray, info: np.ndarray
-    ) -> bool:
-        """:meth:`BatchedEnv.fly` in one call of ``single_kernels.fly_rows`` (not for mobile or
-        rician rows: each slot's track or fading draw steps slot by slot)."""
-        if self._mobile or self._rician:
-            return False
-        actions = np.zeros((self.num_envs, 2))
-        bad = fly_rows(rows, targets, moves, actions, self._state, self._episode, self._nodes, self._params,
-                       self._normals, self._flags, obs, np.zeros(self.num_envs),
-                       np.zeros(self.num_envs, dtype=np.bool_), info, self._path)  # fmt: skip
-        if bad >= 0:  # (the arguments were checked by fly: a kernel refusal is a bug)
-            raise RuntimeError(f"fly_rows refused entry {bad} of checked arguments")
-        return True
-
-    # --- the step -------------------------------------------------------------------
-    def _check_actions(self, actions: Any) -> np.ndarray:
-        # one array type for the compiled kernel (C order, writeable float64): a view, a float32 or
-        # a read-only batch would each compile another version of it
-        actions = np.require(actions, dtype=np.float64, requirements=["C", "W"])
-        if actions.shape != (self.num_envs, 2):
-            raise ValueError(f"actions must have shape ({self.num_envs}, 2), got {actions.shape}")
-        return actions
-
-    def _step_kernel(self, actions: np.ndarray, active: np.ndarray) -> None:
-        """One slot of the ``active`` rows (the kernel checks that their actions are finite)."""
-        stepping = np.flatnonzero(active)
-        if self._mobile:  # each row's kernel of the slot it flies to (a row at its end is refused below)
-            gather_slot_kernels(stepping, self._state, self._track_nodes, self._track_params, self._nodes,
-                                self._params)  # fmt: skip
-        if self._rician:
-            for i in stepping:
-                self._normals[i] = self.envs[i].np_random.standard_normal(2)
-        bad = run_batched(step_rows_batched, step_rows, self.num_threads, actions, self._state, self._episode,
-                          self._nodes, self._params, self._normals, self._flags, self._obs, self._reward,
-                          self._terminated, self._info, self._path, active)  # fmt: skip
-        if bad >= self.num_envs:  # nothing stepped (the autoreset restarts ended rows first)
-            raise RuntimeError(f"row {bad - self.num_envs}'s episode is over: it cannot step")
-        if bad >= 0:  # nothing stepped
-            rows = np.flatnonzero(~np.isfinite(actions).all(axis=1))
-            raise ValueError(f"actions must be finite (no NaN or inf); rows {rows.tolist()[:10]} are not")
-        if self._mobile:
-            self._observe_rows(stepping)
-
-
-class RandomIOSUAVVectorEnv(IOSUAVVectorEnv):
+class RandomIOSUAVVectorEnv(UAVVectorEnv):
     """``num_envs`` episodes of :class:`~ios_uav_env.envs.random_env.RandomIOSUAVEnv`: every row
-    draws its own scenarios (row i as the single env seeded ``seed + i``). Arguments: the
-    single env's (``ranges``, ``focus``, ...) plus ``num_envs``."""
-
-    env_class = RandomIOSUAVEnv
+    draws its own scenarios (row i as the single env seeded ``seed + i``); ``UAVVectorEnv`` with the
+    view ``"v0"`` and ``draws=True``. Arguments: the single env's (``ranges``, ``focus``, ...) plus
+    ``num_envs``."""
 
     def __init__(self, num_envs: int = 1, ranges: Any = None, **kwargs: Any):
-        super().__init__(num_envs, ranges, **kwargs)
+        super().__init__(num_envs, view="v0", draws=True, ranges=ranges, **kwargs)

@@ -4,9 +4,6 @@
 components the simulator runs).
 
 >>> from ios_uav_env.components import World
-from ios_uav_env.envs.multi_features import DEFAULT_NODES
-from ios_uav_env.envs.multi_vector import MultiNodeVectorEnv
-from ios_uav_env.envs.single_vector import IOSUAVVectorEnv
 >>> env = make_world(World(surface="ris", motion="gauss_markov", knowledge="reports"))
 >>> env.unwrapped.config.surface, env.unwrapped.options.knowledge
 ('ris', 'reports')
@@ -19,9 +16,9 @@ from typing import Any
 import gymnasium as gym
 
 from ios_uav_env.components import World
+from ios_uav_env.envs.core.vector import UAVVectorEnv
 from ios_uav_env.envs.multi_features import DEFAULT_NODES
-from ios_uav_env.envs.multi_vector import MultiNodeVectorEnv
-from ios_uav_env.envs.single_vector import IOSUAVVectorEnv
+from ios_uav_env.envs.registration import presets
 from ios_uav_env.model.config import ScenarioConfig, as_config
 
 __all__ = ["default_scenario", "make_world"]
@@ -49,9 +46,9 @@ def make_world(
 ) -> Any:
     """The env that runs ``world`` on ``config`` (its other fields; default:
     :func:`default_scenario`), single (``gym.make``: the registered id's wrappers) or, with
-    ``num_envs``, batched (the id's vector class, B rows). ``kwargs``: more ``EnvOptions`` (the
-    view: ``instance_features``, ``peak_hint``, ...) or the env's own arguments. An unsupported
-    world raises ``UnsupportedWorld`` before anything is built."""
+    ``num_envs``, batched (``UAVVectorEnv`` with the id's preset, B rows). ``kwargs``: more
+    ``EnvOptions`` (the view: ``instance_features``, ``peak_hint``, ...) or the env's own arguments.
+    An unsupported world raises ``UnsupportedWorld`` before anything is built."""
     if not isinstance(world, World):
         raise TypeError(f"world must be an ios_uav_env.components.World, got {world!r}")
     world.check()
@@ -68,5 +65,4 @@ def make_world(
         arguments["surface"] = cfg.surface
     if num_envs is None:
         return gym.make(env_id, **arguments)
-    vector = IOSUAVVectorEnv if world.nodes == 1 else MultiNodeVectorEnv
-    return vector(num_envs=num_envs, **arguments)
+    return UAVVectorEnv(num_envs=num_envs, **{**presets()[env_id], **arguments})

@@ -131,7 +131,7 @@ def test_a_policys_plan_time_leaves_out_the_envs_scoring_lp(suite, monkeypatch):
     before the env's best-schedule LP of the last step (``score_seconds``)."""
     import time
 
-    from ios_uav_env.envs import multi as multinode_env
+    from ios_uav_env.envs import multi_node as multinode_env
 
     real = multinode_env.reported_maxmin_rate
 

@@ -50,7 +50,10 @@ def _other(name: str, default):
     """A value of the task argument ``name`` other than ``default``."""
     return {"knowledge": "exact" if default != "exact" else "reports", "report_sigma": 3.0,
             "channel": "rician", "arrival_guard": not default, "share_sharpness": 9.0,
-            "surface_sharpness": 9.0, "channel_phases": not default}[name]  # fmt: skip
+            "surface_sharpness": 9.0, "channel_phases": not default,
+            "view": "v0" if default == "node_blocks" else "node_blocks",
+            "action": "move" if default == "move_scores" else "move_scores",
+            "draws": not default}[name]  # fmt: skip
 
 
 def test_the_classes_are_disjoint_and_cover_every_argument_of_every_suite_env(suites):

@@ -16,6 +16,7 @@ import pytest
 
 import ios_uav_env.envs as envs_package
 from ios_uav_env.envs.batched import BatchedEnv
+from ios_uav_env.envs.core.vector import UAVVectorEnv
 from ios_uav_env.envs.multi import MultiNodeEnv
 from ios_uav_env.envs.multi_vector import MultiNodeVectorEnv
 from ios_uav_env.envs.policies import full_speed_move
@@ -176,7 +177,14 @@ def test_the_batch_arguments_are_checked_by_the_base(cls):
     assert cls(2, autoreset_mode="SameStep").same_step and not cls(2, autoreset_mode="NextStep").same_step
 
 
-@pytest.mark.parametrize("cls", [IOSUAVVectorEnv, MultiNodeVectorEnv])
+def test_the_presets_are_the_one_vector_class():
+    assert issubclass(IOSUAVVectorEnv, UAVVectorEnv) and issubclass(MultiNodeVectorEnv, UAVVectorEnv)
+    assert issubclass(RandomIOSUAVVectorEnv, UAVVectorEnv)
+    for cls in (IOSUAVVectorEnv, RandomIOSUAVVectorEnv, MultiNodeVectorEnv):  # presets: an __init__ only
+        assert [name for name in vars(cls) if not name.startswith("__")] == [], cls
+
+
+@pytest.mark.parametrize("cls", [UAVVectorEnv])
 def test_the_batched_envs_extend_the_base_without_redefining_it(cls):
     shared = ("reset", "step", "advance", "restart", "trajectories", "configs", "close", "_begin_step",
               "_end_step", "_reset_rows", "_fly_args", "_outputs", "_infos")  # fmt: skip
@@ -187,7 +195,8 @@ def test_the_batched_envs_extend_the_base_without_redefining_it(cls):
 
 
 # --- the row protocol ------------------------------------------------------------------------
-BATCHED_MODULES = ("batched.py", "batched_calls.py", "single_vector.py", "multi_vector.py", "row_protocol.py")
+BATCHED_MODULES = ("batched.py", "batched_calls.py", "single_vector.py", "multi_vector.py", "row_protocol.py",
+                   "core/vector.py", "single_rows.py", "node_rows.py")  # fmt: skip
 #: (module, attribute) pairs a batched module may take from another object although private:
 #: none (numpy's private API never); add one only with the reason next to it.
 ALLOWED_PRIVATE: frozenset[tuple[str, str]] = frozenset()

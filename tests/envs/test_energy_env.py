@@ -12,6 +12,8 @@ import pytest
 
 import ios_uav_env
 from ios_uav_env import ENERGY_ID, ENERGY_IDS, ENERGY_RANDOM_ID, ScenarioConfig, propulsion_power, score_plan
+from ios_uav_env.envs.core.env import UAVEnv
+from ios_uav_env.envs.core.vector import UAVVectorEnv
 from ios_uav_env.envs.observation import (
     ENERGY_NAMES,
     hover_flight,
@@ -290,13 +292,14 @@ def test_ids_are_registered_with_their_scenarios():
     assert fixed.unwrapped.config == ScenarioConfig(objective="energy_efficiency")
     assert fixed.unwrapped.config.to_dict() != ScenarioConfig().to_dict()
     random_env = gym.make(ENERGY_RANDOM_ID)
-    assert isinstance(random_env.unwrapped, RandomIOSUAVEnv)
+    assert isinstance(random_env.unwrapped, UAVEnv) and random_env.unwrapped.draws
     random_env.reset(seed=0)
     assert random_env.unwrapped.config.objective == "energy_efficiency"
     assert random_env.observation_space.shape == (11 + 6 + 4,)
-    assert type(gym.make_vec(ENERGY_ID, 2, vectorization_mode="vector_entry_point")) is IOSUAVVectorEnv
+    vec = gym.make_vec(ENERGY_ID, 2, vectorization_mode="vector_entry_point")
+    assert type(vec) is UAVVectorEnv and not vec.envs[0].draws
     vec = gym.make_vec(ENERGY_RANDOM_ID, 2, vectorization_mode="vector_entry_point")
-    assert type(vec) is RandomIOSUAVVectorEnv
+    assert type(vec) is UAVVectorEnv and vec.envs[0].draws
 
 
 def test_seeded_episodes_reproduce():

@@ -60,7 +60,7 @@ def test_the_compiled_flight_checks_the_sum_itself():
     before = snapshot(vec, 1)
     rows, targets = np.array([0, 0]), np.array([[50.0, 0.0], [50.0, 0.0]])
     with pytest.raises(ValueError, match="out of range"):
-        vec._rows.fly(rows, targets, np.array([n - 2, n - 2]), vec._obs.copy(), vec._info.copy())
+        vec.rows.kernel_rows.fly(rows, targets, np.array([n - 2, n - 2]), vec._obs.copy(), vec._info.copy())
     assert vec._state[0, 2] == 0
     assert_untouched(vec, 1, before)
 
@@ -92,8 +92,8 @@ def test_a_step_kernel_never_writes_past_a_rows_last_slot(cls):
             vec._step_kernel(actions, active)
     else:
         outputs = (vec._obs.copy(), np.zeros(2), np.zeros(2, dtype=np.bool_), vec._info.copy())
-        vec._rows.step(actions, active, outputs, np.zeros(2), serial=True)
-        vec._rows.step(actions, active, outputs, np.zeros(2))
+        vec.rows.kernel_rows.step(actions, active, outputs, np.zeros(2), serial=True)
+        vec.rows.kernel_rows.step(actions, active, outputs, np.zeros(2))
     assert_untouched(vec, 0, rows[0])
     assert_untouched(vec, 1, rows[1])
 

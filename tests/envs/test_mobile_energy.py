@@ -13,6 +13,7 @@ import pytest
 from gymnasium.utils.env_checker import check_env, data_equivalence
 
 from ios_uav_env import MOBILE_ID, ScenarioConfig, score_plan
+from ios_uav_env.envs.core.vector import UAVVectorEnv
 from ios_uav_env.envs.observation import (
     ENERGY_NAMES,
     flights_efficiency,
@@ -253,7 +254,7 @@ def test_checkers_pass_single_and_batched():
             check_env(IOSUAVEnv(SHORT, knowledge=knowledge), skip_render_check=True)
         check_env(IOSUAVEnv(SHORT.replace(motion=None), knowledge="rates"), skip_render_check=True)
         vec = gym.make_vec(MOBILE_ID, num_envs=3, vectorization_mode="vector_entry_point", **ENERGY)
-    assert isinstance(vec, RandomIOSUAVVectorEnv)
+    assert isinstance(vec, UAVVectorEnv) and vec.envs[0].draws
     assert vec.single_observation_space == env.observation_space and env.observation_space.shape == (21,)
     assert env.unwrapped.observation_names[17:] == ENERGY_NAMES
     obs, info = vec.reset(seed=0)

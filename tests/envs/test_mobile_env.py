@@ -46,7 +46,7 @@ def test_the_mobile_id_is_registered_with_its_batched_form_and_has_its_batched_f
     assert env.unwrapped.mobile and env.unwrapped.config.motion is not None
     assert env.unwrapped.options.knowledge == "reports"
     vec = gym.make_vec(MOBILE_ID, num_envs=2, vectorization_mode="vector_entry_point")
-    assert isinstance(vec, RandomIOSUAVVectorEnv) and vec.single_observation_space == env.observation_space
+    assert vec.envs[0].draws and vec.single_observation_space == env.observation_space
     assert MOBILE_ID in ios_uav_env.MOBILE_IDS
 
 

@@ -48,7 +48,7 @@ def test_the_id_is_registered_with_its_batched_form_and_has_its_batched_form():
     assert env.unwrapped.mobile and env.unwrapped.ranges.base.motion == WALK
     assert env.unwrapped.options.knowledge == "reports" and env.unwrapped.random_nodes == (2, 4)
     vec = gym.make_vec(MULTINODE_MOBILE_ID, num_envs=2, vectorization_mode="vector_entry_point")
-    assert isinstance(vec, MultiNodeVectorEnv) and vec.single_observation_space == env.observation_space
+    assert vec.envs[0].view == "node_blocks" and vec.single_observation_space == env.observation_space
     assert MULTINODE_MOBILE_ID in ios_uav_env.MULTINODE_MOBILE_IDS
     assert len(ios_uav_env.envs.multi.BASE_FEATURES) == N_BASE
 

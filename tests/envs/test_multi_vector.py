@@ -14,6 +14,7 @@ from gymnasium.vector import AutoresetMode
 
 import ios_uav_env
 from ios_uav_env import ScenarioConfig, maxmin_rate
+from ios_uav_env.envs.core.vector import UAVVectorEnv
 from ios_uav_env.envs.multi import DEFAULT_NODES, MULTI_INFO_KEYS, MultiNodeEnv
 from ios_uav_env.envs.multi_vector import MultiNodeVectorEnv
 from ios_uav_env.model.scenarios import ScenarioRanges
@@ -106,7 +107,7 @@ def info_gap(info: dict, ref: dict, rows: np.ndarray) -> float:
 def test_make_vec_gives_the_batched_env_for_both_ids(env_id):
     vec = make_vec(env_id, 3)
     single = gym.make(env_id)
-    assert type(vec) is MultiNodeVectorEnv and vec.num_envs == 3
+    assert type(vec) is UAVVectorEnv and vec.num_envs == 3 and vec.envs[0].view == "node_blocks"
     assert vec.single_observation_space == single.observation_space
     assert vec.single_action_space == single.action_space
     obs, info = vec.reset(seed=0)

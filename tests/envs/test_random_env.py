@@ -23,6 +23,7 @@ from ios_uav_env import (
     sample_scenario,
     slot_rates,
 )
+from ios_uav_env.envs.core.env import UAVEnv
 from ios_uav_env.envs.observation import ground_free_rate_bound
 from ios_uav_env.envs.rendering import rate_grid
 from ios_uav_env.envs.single import CHANNELS, INSTANCE_NAMES, OBS_NAMES, IOSUAVEnv
@@ -64,7 +65,7 @@ POLICIES = {
 def test_registration_and_episode_lengths_follow_the_drawn_horizon():
     assert RANDOM_ENV_ID not in ios_uav_env.ENV_IDS  # the fixed ids' table is unchanged
     env = gym.make(RANDOM_ENV_ID)
-    assert isinstance(env.unwrapped, RandomIOSUAVEnv)
+    assert isinstance(env.unwrapped, UAVEnv) and env.unwrapped.draws and env.unwrapped.view == "v0"
     assert env.spec.max_episode_steps is None and DEFAULT_RANGES.max_moves == 199
     env.reset(seed=4)
     lengths = set()
@@ -314,9 +315,7 @@ def test_bad_options_name_the_problem(env_id, options, error, match):
 def test_drawn_fields_cannot_be_overridden_but_the_others_can():
     with pytest.raises(ValueError, match=r"\['T'\] are drawn from the ranges"):
         gym.make(RANDOM_ENV_ID, T=100.0)
-    with pytest.raises(
-        TypeError, match=r"RandomIOSUAVEnv.__init__\(\) got an unexpected keyword argument 'nope'"
-    ):
+    with pytest.raises(TypeError, match=r"UAVEnv.__init__\(\) got an unexpected keyword argument 'nope'"):
         gym.make(RANDOM_ENV_ID, nope=1)
     env = gym.make(RANDOM_ENV_ID, v_max=20.0, arrival_guard=False)
     env.reset(seed=0)

@@ -12,7 +12,7 @@ import pytest
 
 import ios_uav_env
 from ios_uav_env import ScenarioConfig
-from ios_uav_env.envs.single import IOSUAVEnv
+from ios_uav_env.envs.core.env import UAVEnv
 
 IOS_ID = "ios_uav_env/IOSUAV-v0"
 STAR_RANDOM_ID = "ios_uav_env/STARUAV-Random-v0"
@@ -37,13 +37,13 @@ def test_make_with_module_prefix_in_a_fresh_interpreter():
     )
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=60)
     assert out.returncode == 0, out.stderr
-    assert out.stdout.split() == ["IOSUAVEnv", "ios", "(11,)"]
+    assert out.stdout.split() == ["UAVEnv", "ios", "(11,)"]
 
 
 @pytest.mark.parametrize("env_id", sorted(ios_uav_env.ENV_IDS))
 def test_each_id_has_its_surface_and_the_paper_horizon(env_id):
     env = gym.make(env_id)
-    assert isinstance(env.unwrapped, IOSUAVEnv)
+    assert isinstance(env.unwrapped, UAVEnv) and env.unwrapped.view == "v0" and not env.unwrapped.draws
     assert env.unwrapped.config == ScenarioConfig(surface=ios_uav_env.ENV_IDS[env_id]["surface"])
     assert env.spec.max_episode_steps is None  # the env ends the episode itself, at slot N
     steps, terminated, truncated, info = run_to_end(env)

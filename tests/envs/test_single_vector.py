@@ -13,6 +13,7 @@ import pytest
 
 import ios_uav_env
 from ios_uav_env import INFO_KEYS, RANDOM_ENV_ID, ScenarioConfig
+from ios_uav_env.envs.core.vector import UAVVectorEnv
 from ios_uav_env.envs.random_env import RandomIOSUAVEnv
 from ios_uav_env.envs.single import IOSUAVEnv
 from ios_uav_env.envs.single_vector import IOSUAVVectorEnv, RandomIOSUAVVectorEnv
@@ -57,11 +58,11 @@ def replay(vec, singles, actions: np.ndarray, seed: int) -> float:
 @pytest.mark.parametrize("env_id", sorted(ios_uav_env.ENV_IDS))
 def test_make_vec_gives_the_batched_env_for_every_id(env_id):
     vec = make_vec(env_id, 3)
-    assert type(vec) is IOSUAVVectorEnv and vec.num_envs == 3
+    assert type(vec) is UAVVectorEnv and vec.num_envs == 3 and vec.envs[0].view == "v0"
     assert vec.single_observation_space == gym.make(env_id).observation_space
     obs, info = vec.reset(seed=0)
     assert obs.shape == (3, 11) and obs.dtype == np.float32 and vec.observation_space.contains(obs)
-    assert type(make_vec(RANDOM_ENV_ID, 2)) is RandomIOSUAVVectorEnv
+    assert make_vec(RANDOM_ENV_ID, 2).envs[0].draws
 
 
 @pytest.mark.parametrize(

@@ -249,7 +249,7 @@ def test_the_batched_env_keeps_each_slots_rates_and_recomputes_after_a_flight(no
                        T=40.0)  # fmt: skip
     vec.reset(seed=0)
     vec.fly([1], [[0.0, 0.0]], [5])
-    rows, rng = vec._rows, np.random.default_rng(3)
+    rows, rng = vec.rows.kernel_rows, np.random.default_rng(3)
     assert rows.stored.tolist() == [True, False]
     checked = set()
     for _ in range(2 * vec.configs[0].N):  # row 1 ends 5 steps before row 0

@@ -1,0 +1,8 @@
+"""One env class and one vector class for every single- and multi-node world.
+
+- ``env``: ``UAVEnv``, the Gymnasium env; its world and view choose a stepper (``stepper``);
+- ``vector``: ``UAVVectorEnv``, the natively batched env; its template's view chooses a row batch
+  (``ios_uav_env.envs.single_rows``, ``ios_uav_env.envs.node_rows``);
+- ``stepper``: the stepper's interface, the views and their actions, and the one choice of a
+  stepper from the arguments.
+"""

@@ -1,0 +1,229 @@
+"""The rows of the node-block view's batched env: B multi-node episodes as arrays, one compiled step.
+
+``UAVVectorEnv`` (``ios_uav_env.envs.core.vector``) holds a :class:`NodeBlockRows` when its
+template's view is ``"node_blocks"`` (the ids of ``MultiNodeVectorEnv``). Each step runs the
+kernel of ``ios_uav_env.envs.multi_kernels`` that the multi-node stepper runs on a batch of one,
+on B rows (compiled with numba when installed), so row i reproduces the single env reset with
+seed ``seed + i`` (tested). The last step of an episode also reports ``best_schedule_rate``:
+``maxmin_rate`` of the row's trajectory, the certified best schedule
+(``ios_uav_env.model.schedule``; the ended static rows in one compiled call);
+``best_schedule=False`` skips it (NaN at episode ends). The rows read their template envs through
+the multi-node row protocol (``row_protocol.MultiNodeRow``: ``load_row``; moving nodes: each
+slot's kernels and what the rows observe in compiled calls over the rows,
+``ios_uav_env.envs.nodes_kernels``). With the energy objective each row's lambda_ref is its
+template env's; with channel "rician" each row draws its slots' fading from its template env's
+``np_random`` (so row i is the single env of seed ``seed + i``, draw for draw).
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+from ios_uav_env.envs.knowledge import filter_report
+from ios_uav_env.envs.knowledge_kernels import EpisodeDraws, row_list
+from ios_uav_env.envs.multi_kernels import NodeRows, episode_best_values, move_norms
+from ios_uav_env.envs.multi_table import BEST, info_arrays, info_columns
+from ios_uav_env.envs.nodes_kernels import (
+    MODES,
+    N_BASE,
+    draws,
+    gather_node_kernels,
+    measure_nodes,
+    tell_nodes,
+)
+from ios_uav_env.envs.single_rows import Outputs
+
+__all__ = ["NodeBlockRows"]
+
+
+class NodeBlockRows:
+    """B episodes of the node-block view as rows of arrays (module docstring): the rows of
+    ``UAVVectorEnv`` (``template``: its template env; ``envs``: its row envs; ``num_threads``: the
+    kernel's; ``best_schedule``: whether an episode's end computes the best schedule)."""
+
+    def __init__(self, template: Any, envs: list[Any], num_threads: int | None, best_schedule: bool) -> None:
+        self.num_envs, self.envs, self.num_threads = len(envs), envs, num_threads
+        #: Whether an episode's end computes ``best_schedule_rate`` (else NaN there).
+        self.best_schedule = best_schedule
+        self.max_nodes = template.max_nodes
+        self.action_width = 2 + self.max_nodes
+        self._rows = NodeRows(
+            self.num_envs, self.max_nodes, template.options, template.share_sharpness, template.softmin_beta,
+            template.energy_objective, template.served_clip,
+        )  # fmt: skip
+        self.info_keys = template.info_keys  # (more with the energy objective, channel "rician")
+        # Rician rows draw each slot's fading from their template env's np_random (Python per row)
+        self._rician = template.options.channel == "rician"
+        self._state = self._rows.state
+        self.info_width = info_columns(self.max_nodes, template.energy_objective or self._rician)
+        # moving or roughly known nodes: each row's tracks (its nodes' kernels per slot, the truth
+        # and the records), drawn by its template env at reset, and what its UAV is told per slot,
+        # for all rows in one compiled call (ios_uav_env.envs.nodes_kernels)
+        self._mobile = template.mobile
+        if self._mobile:
+            self._init_tracks(template)
+
+    def _init_tracks(self, template: Any) -> None:
+        """The arrays and the row lists of the rows' node tracks (moving or roughly known nodes)."""
+        b, k, o = self.num_envs, self.max_nodes, template.options
+        self._knowledge, self._kind = MODES[o.knowledge], o.knowledge  # (exact: nothing drawn)
+        self._sigma, self._scale = float(o.report_sigma), float(o.length_scale)
+        self._rate_high = float(template.rate_clip)
+        self._estimate = o.knowledge == "reports" and o.filter_estimate
+        self._width = len(template.node_features)
+        self._k = np.zeros(b, dtype=np.int64)
+        self._slot_normals, self._told = np.zeros((b, 4 * k)), np.zeros((b, k))
+        self._raw, self._lo, self._hi = np.zeros((b, k, 2)), np.zeros((b, k, 2)), np.zeros((b, k, 2))
+        self._track_paths = row_list(np.zeros((1, 1, 2)), b)
+        self._track_reports = row_list(np.zeros((1, 1, 2)), b)
+        self._track_measured = row_list(np.zeros((1, 1)), b)
+        self._track_tally = row_list(np.zeros(1), b)
+        self._track_nodes = row_list(np.zeros((1, 1, 3, 1)), b)
+        self._track_params = row_list(np.zeros((1, 1, self._rows.params.shape[2])), b)
+        # each row's draw of the slot's normals: its generator's standard_normal and the row's slice
+        # of _slot_normals (set at each episode: a seeded reset makes a new generator, K changes)
+        self._draw: list[Any] = [None] * b
+        self._draw_out: list[Any] = [None] * b
+        # channel "expected": every slot's normals at the episode's start, in one call per row
+        self._episode_draws = None if self._rician else EpisodeDraws(b, 1, 4 * k)
+
+    @property
+    def kernel_rows(self) -> NodeRows:
+        """The kernels' row arrays and calls (``multi_kernels.NodeRows``)."""
+        return self._rows
+
+    @property
+    def state(self) -> np.ndarray:
+        """(B, S): each row's kernel state (the UAV's x, y and moves made in columns 0-2)."""
+        return self._rows.state
+
+    @property
+    def path(self) -> np.ndarray:
+        """(B, N_max, 2) m: each row's way-points (grows with the longest episode loaded)."""
+        return self._rows.path
+
+    def load(self, i: int, env: Any) -> None:
+        """Put the episode just begun by row ``i``'s env (``begin_episode``) in row ``i`` (the row
+        protocol's names read on the env's stepper, ``UAVEnv.stepper``, whose calls the env forwards)."""
+        row = env.stepper
+        # the scenario, node paths, lambda_ref, the first slot's fading: as the single env's reset
+        row.load_row(self._rows, i)
+        track = row.track if self._mobile else None
+        if track is not None:
+            k = self._k[i] = row.config.K
+            self._track_paths[i], self._track_reports[i] = track.paths, track.reports
+            self._track_measured[i], self._track_tally[i] = track.measured, track.tally
+            self._track_nodes[i], self._track_params[i] = track.nodes, track.params
+            self._lo[i, :k], self._hi[i, :k] = track.lo, track.hi
+            self._draw[i] = env.np_random.standard_normal
+            self._draw_out[i] = self._slot_normals[i, : draws(self._kind, k)]
+            if self._episode_draws is not None and self._knowledge != 0:
+                self._episode_draws.draw(i, env.np_random, row.config.N, draws(self._kind, k))
+
+    def start(self, rows: np.ndarray, obs: np.ndarray, info: np.ndarray) -> None:
+        """Start the episodes of ``rows`` (loaded): their first observations and ``info`` rows."""
+        self._rows.start(rows, obs, info)
+        if self._mobile:
+            self._observe_rows(rows, obs)
+
+    def end(self, rows: np.ndarray, seeds: Any) -> None:
+        """Before ``rows`` begin new episodes with ``seeds`` (``BatchedEnv._end_rows``): a moving
+        row's generator as its slots left it (``EpisodeDraws.rewind``)."""
+        if self._mobile and self._episode_draws is not None:
+            self._episode_draws.rewind(rows, seeds)
+
+    def restart(self, rows: np.ndarray, obs: np.ndarray, info: np.ndarray) -> np.ndarray:
+        """The rows of an autoreset or ``restart`` left to reset through their template envs: all."""
+        return rows
+
+    def _observe_rows(self, rows: np.ndarray, obs: np.ndarray) -> None:
+        """What each row's UAV is told of its nodes in its current slot, as the single env's
+        ``observe_slot`` (``knowledge.observe_nodes``), bit for bit: per row, the slot's normals
+        (from the episode's draw, ``knowledge_kernels.EpisodeDraws``; channel "rician": one draw of
+        its generator per slot), then compiled calls for all ``rows``
+        (``nodes_kernels.measure_nodes`` and ``tell_nodes``); the Kalman filter (``filter_estimate``)
+        per row."""
+        rows = np.asarray(rows, dtype=np.int64)
+        normals, envs, counts, draw, out = self._slot_normals, self.envs, self._k, self._draw, self._draw_out
+        state, shares = self._rows.state, self._rows.shares
+        if self._knowledge != 0 and self._episode_draws is not None:
+            self._episode_draws.take(rows, state[rows, 2].astype(np.int64), normals)
+        elif self._knowledge != 0:
+            for i in rows.tolist():
+                draw[i](out=out[i])
+        if self._knowledge != 0:
+            measure_nodes(rows, state, shares, self._track_measured, self._track_nodes, self._track_params,
+                          normals, self._knowledge == 1, self._rate_high, self._told)  # fmt: skip
+        tell_nodes(rows, state, shares, self._track_paths, self._track_reports, self._track_tally, self._lo,
+                   self._hi, normals, self._knowledge, self._sigma, self._scale, not self._estimate,
+                   self._width, self._told, obs, self._raw)  # fmt: skip
+        if self._estimate:
+            for i in rows.tolist():
+                k = int(counts[i])
+                told = filter_report(envs[i].stepper.track, self._raw[i, :k].copy(), self._sigma)
+                for node in range(k):
+                    at = N_BASE + self._width * node
+                    obs[i, at + 1 : at + 3] = (told[node] - state[i, 0:2]) / self._scale
+
+    def info_arrays(self, table: np.ndarray) -> dict[str, Any]:
+        return info_arrays(table, self.max_nodes, self.info_keys)
+
+    def check_actions(self, actions: Any) -> np.ndarray:
+        """``actions`` as the kernel's array type, checked (shape, finite; ``ValueError`` naming them)."""
+        a = np.require(actions, dtype=np.float64, requirements=["C", "W"])  # one kernel signature
+        shape = (self.num_envs, self.action_width)
+        if a.shape != shape:
+            raise ValueError(
+                f"actions must have shape {shape} (the move, then {self.max_nodes} node scores), "
+                f"got {a.shape}"
+            )
+        finite = np.isfinite(a)
+        if not finite.all():
+            rows = np.flatnonzero(~finite.all(axis=1))
+            names = ["move_x", "move_y", *(f"score_{k}" for k in range(self.max_nodes))]
+            bad = [names[c] for c in np.flatnonzero(~finite.all(axis=0))]
+            raise ValueError(
+                f"actions must be finite (no NaN or inf); rows {rows.tolist()[:10]} are not (fields {bad})"
+            )
+        return a
+
+    def step(self, actions: np.ndarray, active: np.ndarray, outputs: Outputs) -> None:
+        """One slot of the ``active`` rows into ``outputs``, then the best schedule of each flight
+        that ended."""
+        obs, _, terminated, info = outputs
+        stepping = np.flatnonzero(active)
+        if self._rician:  # each row's node kernels and fading of the slot it flies to (its draws)
+            for i in stepping:
+                self.envs[i].stepper.prepare_slot(self._rows, i)
+        elif self._mobile:  # each row's node kernels of the slot it flies to, in one call
+            rows = self._rows
+            gather_node_kernels(stepping, rows.state, self._track_nodes, self._track_params, rows.nodes,
+                                rows.params)  # fmt: skip
+        self._rows.step(actions, active, outputs, move_norms(actions), self.num_threads)
+        if self._mobile:
+            self._observe_rows(stepping, obs)
+        ended = np.flatnonzero(terminated)
+        if ended.size:
+            info[ended, BEST] = (
+                episode_best_values(self._rows, ended, [self.envs[i] for i in ended], self.num_threads)
+                if self.best_schedule
+                else np.nan
+            )
+
+    def fly(
+        self, rows: np.ndarray, targets: np.ndarray, moves: np.ndarray, obs: np.ndarray, info: np.ndarray
+    ) -> bool:
+        """``BatchedEnv.fly`` in one compiled call, with equal shares (not for mobile or Rician
+        rows: the compiled flight keeps each row's kernels and draws no fading, so they step slot
+        by slot)."""
+        if self._mobile or self._rician:
+            return False
+        self._rows.fly(rows, targets, moves, obs, info)
+        return True
+
+    @property
+    def schedules(self) -> list[np.ndarray]:
+        """Each row's shares so far, (K, n + 1) arrays (the single env's ``shares``)."""
+        return [self._rows.schedule(i, env.config.K) for i, env in enumerate(self.envs)]

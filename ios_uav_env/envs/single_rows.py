@@ -1,0 +1,241 @@
+"""The rows of the v0 view's batched env: B single-node episodes as arrays, one compiled step.
+
+``UAVVectorEnv`` (``ios_uav_env.envs.core.vector``) holds a :class:`SingleNodeRows` when its
+template's view is ``"v0"`` (the ids of ``IOSUAVVectorEnv`` and ``RandomIOSUAVVectorEnv``). It
+runs the kernels of ``ios_uav_env.envs.single_kernels``, the ones the single-node stepper runs on
+a batch of one, on B rows: the same physics, arrival guard and reward. Row i is the single env
+reset with seed ``seed + i``: the same scenarios, and with channel "rician" the same fading
+draws, so a batch reproduces B single envs exactly (tested). The rows read their template envs
+through the single-node row protocol (``row_protocol.SingleNodeRow``); a moving or roughly known
+node's observations are made for all rows in compiled calls on their ``track`` arrays
+(``knowledge_kernels``). The vector env passes the output arrays of each call (``Outputs``).
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+from ios_uav_env.envs.knowledge import filter_report
+from ios_uav_env.envs.knowledge_kernels import (
+    DRAWS,
+    MODES,
+    EpisodeDraws,
+    gather_slot_kernels,
+    observe_rows,
+    row_list,
+)
+from ios_uav_env.envs.single_kernels import INFO, STATE, fly_rows, reset_rows, step_rows, step_rows_batched
+from ios_uav_env.envs.single_node import INFO_KEYS
+from ios_uav_env.jit import run_batched
+
+__all__ = ["Outputs", "SingleNodeRows"]
+
+#: One call's output arrays: observations, rewards, terminated, the info table.
+Outputs = tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]
+
+#: ``info``'s keys in ``INFO_KEYS`` order, each with its column of the info array
+_INFO_COLUMNS = [(key, INFO.index("position_x" if key == "position" else key)) for key in INFO_KEYS]
+
+
+class SingleNodeRows:
+    """B episodes of the v0 view as rows of arrays (module docstring): the rows of ``UAVVectorEnv``
+    (``template``: its template env; ``envs``: its row envs; ``num_threads``: the kernel's)."""
+
+    info_keys = INFO_KEYS
+
+    def __init__(self, template: Any, envs: list[Any], num_threads: int | None) -> None:
+        b = self.num_envs = len(envs)
+        self.envs, self.num_threads = envs, num_threads
+        self._flags = template.flags
+        self._rician = template.options.channel == "rician"
+        self._state = np.zeros((b, len(STATE)))
+        self._episode = np.zeros((b, template.episode_row.size))
+        self._nodes = np.zeros((b, 3, template.kernel.nodes.shape[1]))
+        self._params = np.zeros((b, template.kernel.params.size))
+        self._normals = np.zeros((b, 2))
+        self.info_width = len(INFO)
+        self._path = np.zeros((b, template.max_slots, 2))
+        # rows whose scenario is the env's own (not pinned, not drawn): see _load_row
+        self._plain = np.zeros(b, dtype=np.bool_)
+        self._q0 = np.asarray(template.base_config.q0, dtype=np.float64)
+        # a moving or roughly known node: each row's track (its kernels per slot, its truth and
+        # records) and what its UAV is told per slot, for all rows in one compiled call
+        # (ios_uav_env.envs.knowledge_kernels; the draws from each row's template env)
+        self._mobile = template.mobile
+        if self._mobile:
+            options = template.options
+            self._knowledge = MODES[options.knowledge]
+            self._draws = DRAWS[options.knowledge]
+            self._sigma = float(options.report_sigma)
+            self._rate_high = float(template.rate_clip)
+            self._scale = float(options.length_scale)
+            self._estimate = options.knowledge == "reports" and options.filter_estimate
+            self._slot_normals = np.zeros((b, 4))
+            self._raw = np.zeros((b, 2))
+            self._lo = np.zeros((b, 2))
+            self._hi = np.zeros((b, 2))
+            self._track_paths = row_list(np.zeros((1, 1, 2)), b)
+            self._track_reports = row_list(np.zeros((1, 1, 2)), b)
+            self._track_measured = row_list(np.zeros(1), b)
+            self._track_nodes = row_list(np.zeros((1, 3, 1)), b)
+            self._track_params = row_list(np.zeros((1, template.kernel.params.size)), b)
+            # each row's draw of the slot's normals: its generator's standard_normal and the row's
+            # slice of _slot_normals (set at each episode: a seeded reset makes a new generator);
+            # channel "expected": every slot's at the episode's start, in one call per row
+            self._draw: list[Any] = [None] * b
+            self._draw_out = [self._slot_normals[i, : self._draws] for i in range(b)]
+            self._episode_draws = None if self._rician else EpisodeDraws(b, template.max_slots, 4)
+
+    @property
+    def state(self) -> np.ndarray:
+        """(B, S): each row's kernel state (the UAV's x, y and moves made in columns 0-2)."""
+        return self._state
+
+    @property
+    def path(self) -> np.ndarray:
+        """(B, N_max, 2) m: each row's way-points."""
+        return self._path
+
+    def load(self, i: int, env: Any) -> None:
+        """Copy the current scenario of ``env`` into row ``i`` (growing the node arrays if needed).
+        The row protocol's names are read on the env's stepper (``UAVEnv.stepper``, whose calls the
+        env forwards), once per row reset."""
+        row = env.stepper
+        nodes = row.kernel.nodes
+        k = nodes.shape[1]
+        if k > self._nodes.shape[2]:
+            grown = np.zeros((self.num_envs, 3, k))
+            grown[:, 1, :] = 1.0
+            grown[:, :, : self._nodes.shape[2]] = self._nodes
+            self._nodes = grown
+        self._nodes[i, :, :k] = nodes
+        self._nodes[i, :, k:] = ((0.0,), (1.0,), (0.0,))  # padded nodes: zero weight
+        self._params[i] = row.kernel.params
+        # a mobile row: its node path (drawn as the single env's reset does), slot 1's kernel and, with
+        # the energy objective, the episode's lambda_ref in the row's episode_row (copied below)
+        if self._mobile:
+            row.start_track(row.config)
+            track = row.track
+            self._nodes[i, :, :k], self._params[i] = track.nodes[0], track.params[0]
+            self._track_paths[i], self._track_reports[i] = track.paths, track.reports
+            self._track_measured[i], self._track_nodes[i] = track.measured, track.nodes
+            self._track_params[i] = track.params
+            self._lo[i], self._hi[i] = track.lo, track.hi
+            self._draw[i] = env.np_random.standard_normal
+            if self._episode_draws is not None and self._draws:
+                self._episode_draws.draw(i, env.np_random, row.config.N, self._draws)
+        self._episode[i] = row.episode_row
+        self._state[i, 0:2] = self._path[i, 0] = row.config.q0
+        # the env's own scenario object (a fixed id's): a plain reset keeps it. A pinned
+        # scenario, or a random env's draw (always a new object), is another object. A mobile
+        # row draws a new path at every episode: never plain.
+        self._plain[i] = row.config is row.base_config and not self._mobile
+        if self._rician:
+            self._normals[i] = env.np_random.standard_normal(2)
+
+    def start(self, rows: np.ndarray, obs: np.ndarray, info: np.ndarray) -> None:
+        """Start the episodes of ``rows`` (loaded): their first observations and ``info`` rows."""
+        reset_rows(rows, self._state, self._episode, self._nodes, self._params, self._normals, self._flags,
+                   obs, info)  # fmt: skip
+        if self._mobile:
+            self._observe_rows(rows, obs)
+
+    def _observe_rows(self, rows: np.ndarray, obs: np.ndarray) -> None:
+        """What each row's UAV is told of its node in its current slot, as the single env's
+        ``observe_slot`` (``knowledge.observe_slot``), bit for bit: per row, the slot's normals
+        (from the episode's draw, ``knowledge_kernels.EpisodeDraws``; channel "rician": one draw
+        of its generator per slot), then one compiled call for all ``rows``
+        (``knowledge_kernels.observe_rows``); the Kalman filter (``filter_estimate``) per row."""
+        rows = np.asarray(rows, dtype=np.int64)
+        normals, envs, draw, out = self._slot_normals, self.envs, self._draw, self._draw_out
+        if self._draws and self._episode_draws is not None:
+            self._episode_draws.take(rows, self._state[rows, 2].astype(np.int64), normals)
+        elif self._draws:
+            for i in rows.tolist():
+                draw[i](out=out[i])
+        observe_rows(rows, self._state, self._track_paths, self._track_reports, self._track_measured,
+                     self._track_nodes, self._track_params, self._lo, self._hi, normals, self._knowledge,
+                     self._sigma, self._rate_high, self._scale, not self._estimate, obs,
+                     self._raw)  # fmt: skip
+        if self._estimate:
+            for i in rows.tolist():
+                told = filter_report(envs[i].stepper.track, self._raw[i : i + 1].copy(), self._sigma)
+                obs[i, 4:6] = (told[0] - self._state[i, 0:2]) / self._scale
+
+    def end(self, rows: np.ndarray, seeds: Any) -> None:
+        """Before ``rows`` begin new episodes with ``seeds`` (``BatchedEnv._end_rows``): a moving
+        row's generator as its slots left it (``EpisodeDraws.rewind``)."""
+        if self._mobile and self._episode_draws is not None:
+            self._episode_draws.rewind(rows, seeds)
+
+    def restart(self, rows: np.ndarray, obs: np.ndarray, info: np.ndarray) -> np.ndarray:
+        """New episodes on ``rows`` without a seed or options (autoreset, ``restart``): a row that
+        keeps its scenario (the fixed ids' own) only goes back to q0, without the Python reset of
+        its template env (the same episode, at no per-row Python cost). The rows left to reset
+        through their template envs (the others)."""
+        plain = self._plain[rows]
+        quick, rest = rows[plain], rows[~plain]
+        if quick.size:
+            self._state[quick, 0:2] = self._path[quick, 0] = self._q0
+            if self._rician:
+                for i in quick:
+                    self._normals[i] = self.envs[i].np_random.standard_normal(2)
+            self.start(quick, obs, info)
+        return rest
+
+    def info_arrays(self, table: np.ndarray) -> dict[str, Any]:
+        """``info`` as column views of the info array (``INFO_KEYS``)."""
+        columns = table.T
+        out: dict[str, Any] = {}
+        for key, column in _INFO_COLUMNS:
+            out[key] = table[:, 2:4] if key == "position" else columns[column]
+        out["slot"] = out["slot"].astype(np.int64)
+        out["feasible"] = out["feasible"] != 0.0
+        return out
+
+    def fly(
+        self, rows: np.ndarray, targets: np.ndarray, moves: np.ndarray, obs: np.ndarray, info: np.ndarray
+    ) -> bool:
+        """``BatchedEnv.fly`` in one call of ``single_kernels.fly_rows`` (not for mobile or
+        rician rows: each slot's track or fading draw steps slot by slot)."""
+        if self._mobile or self._rician:
+            return False
+        actions = np.zeros((self.num_envs, 2))
+        bad = fly_rows(rows, targets, moves, actions, self._state, self._episode, self._nodes, self._params,
+                       self._normals, self._flags, obs, np.zeros(self.num_envs),
+                       np.zeros(self.num_envs, dtype=np.bool_), info, self._path)  # fmt: skip
+        if bad >= 0:  # (the arguments were checked by fly: a kernel refusal is a bug)
+            raise RuntimeError(f"fly_rows refused entry {bad} of checked arguments")
+        return True
+
+    def check_actions(self, actions: Any) -> np.ndarray:
+        # one array type for the compiled kernel (C order, writeable float64): a view, a float32 or
+        # a read-only batch would each compile another version of it
+        actions = np.require(actions, dtype=np.float64, requirements=["C", "W"])
+        if actions.shape != (self.num_envs, 2):
+            raise ValueError(f"actions must have shape ({self.num_envs}, 2), got {actions.shape}")
+        return actions
+
+    def step(self, actions: np.ndarray, active: np.ndarray, outputs: Outputs) -> None:
+        """One slot of the ``active`` rows into ``outputs`` (the kernel checks that their actions
+        are finite)."""
+        obs, reward, terminated, info = outputs
+        stepping = np.flatnonzero(active)
+        if self._mobile:  # each row's kernel of the slot it flies to (a row at its end is refused below)
+            gather_slot_kernels(stepping, self._state, self._track_nodes, self._track_params, self._nodes,
+                                self._params)  # fmt: skip
+        if self._rician:
+            for i in stepping:
+                self._normals[i] = self.envs[i].np_random.standard_normal(2)
+        bad = run_batched(step_rows_batched, step_rows, self.num_threads, actions, self._state, self._episode,
+                          self._nodes, self._params, self._normals, self._flags, obs, reward,
+                          terminated, info, self._path, active)  # fmt: skip
+        if bad >= self.num_envs:  # nothing stepped (the autoreset restarts ended rows first)
+            raise RuntimeError(f"row {bad - self.num_envs}'s episode is over: it cannot step")
+        if bad >= 0:  # nothing stepped
+            rows = np.flatnonzero(~np.isfinite(actions).all(axis=1))
+            raise ValueError(f"actions must be finite (no NaN or inf); rows {rows.tolist()[:10]} are not")
+        if self._mobile:
+            self._observe_rows(stepping, obs)
