@@ -115,3 +115,16 @@ def test_a_copy_or_a_pickle_has_a_stepper_of_its_own_bound_to_it():
     loaded = pickle.loads(pickle.dumps(env))
     assert loaded.stepper.env is loaded and loaded.config == env.config
     np.testing.assert_array_equal(loaded.trajectory, env.trajectory)
+
+
+@pytest.mark.parametrize("env_id", ["ios_uav_env/IOSUAV-v0", "ios_uav_env/IOSUAV-MultiNode-v0"])
+def test_the_base_env_has_no_env_attribute_so_a_walk_down_the_wrappers_ends(env_id):
+    """Tools walk ``.env`` down to the base env (TorchRL's pixel check, Gymnasium's wrappers): the
+    stepper's back-reference ``env`` must not be forwarded, or the walk never ends."""
+    env = gym.make(env_id)
+    assert not hasattr(env.unwrapped, "env")
+    layer, depth = env, 0
+    while hasattr(layer, "env"):
+        layer, depth = layer.env, depth + 1
+        assert depth < 20
+    assert layer is env.unwrapped and env.unwrapped.stepper.env is env.unwrapped

@@ -76,7 +76,8 @@ def test_a_row_whose_arrays_grow_mid_episode_keeps_its_tracks_kernels():
     draw = np.random.default_rng(3)
     actions = [draw.uniform(-1.2, 1.2, vec.action_space.shape) for _ in range(58)]
     assert step_batch_and_singles(vec, singles, actions, ("paths", "reports", "measured", "tally"), False)
-    assert vec.envs[1].track.nodes.shape[3] < vec.rows.kernel_rows.nodes.shape[3]  # (it flew on past the growth)
+    # (it flew on past the growth)
+    assert vec.envs[1].track.nodes.shape[3] < vec.rows.kernel_rows.nodes.shape[3]
 
 
 @pytest.mark.parametrize("kwargs", CASES)

@@ -142,8 +142,10 @@ class UAVEnv(gym.Env):
         self.stepper.close()
 
     def __getattr__(self, name: str) -> Any:
-        """Every attribute this class does not hold is its stepper's (class docstring)."""
-        if name.startswith("__") or name == "stepper":  # (unpickling, copying: no stepper yet)
+        """Every attribute this class does not hold is its stepper's (class docstring), but for
+        ``env``: the stepper's ``env`` is this env, and wrappers and tools walk ``.env`` down to the
+        base env (a base env has none), so forwarding it would make the walk endless."""
+        if name.startswith("__") or name in ("stepper", "env"):  # (unpickling, copying: no stepper yet)
             raise AttributeError(name)
         return getattr(self.stepper, name)
 
