@@ -48,6 +48,12 @@ import numpy as np
 
 from ios_uav_env.model import channel
 from ios_uav_env.model.config import ScenarioConfig
+from ios_uav_env.model.star_rows import (
+    discrete_phases,
+    side_amplitudes,
+    tdma_maxmin_rows,
+    tdma_rates_rows,
+)
 
 PROTOCOLS = ("es", "ms", "ts", "fixed")
 PHASE_MODELS = ("independent", "coupled", "shared")
@@ -160,8 +166,9 @@ def star_channels(config: ScenarioConfig, position: object, user_r: object, user
 
 
 def side_amplitude(amps: np.ndarray, phi: np.ndarray, direct: float, theta: np.ndarray) -> float:
-    """|h| = |a_D + sum_m amps_m e^{j (phi_m - theta_m)}| of one side (``amps`` = u^s a^s)."""
-    return float(abs(direct + np.sum(amps * np.exp(1j * (phi - theta)))))
+    """|h| = |a_D + sum_m amps_m e^{j (phi_m - theta_m)}| of one side (``amps`` = u^s a^s):
+    ``star_rows.side_amplitudes`` on one row."""
+    return float(side_amplitudes(amps, phi, direct, theta))
 
 
 def phase_grid(bits: int) -> np.ndarray:
@@ -181,32 +188,12 @@ def quantise(theta: np.ndarray, bits: int | None) -> np.ndarray:
 def best_discrete_phases(
     amps: np.ndarray, phi: np.ndarray, direct: float, bits: int
 ) -> tuple[np.ndarray, float]:
-    """The b-bit phases maximising |a_D + sum_m amps_m e^{j (phi_m - theta_m)}|, exactly, and that |h|.
-
-    For a direction psi of the sum, the best level of each element is the one nearest to
-    phi_m - psi; the optimum's own direction psi* gives a setting at least as good as the
-    optimum (|s| >= Re(s e^{-j psi*})), so scanning psi over [0, 2 pi) finds it. Element m's level
-    changes at 2^b breakpoints of psi, each change a known increment of the sum: the M 2^b
-    breakpoints sorted and the increments summed in order visit every candidate (O(M 2^b log)).
-    """
-    amps = np.asarray(amps, dtype=float)
-    phi = np.mod(np.asarray(phi, dtype=float), 2 * np.pi)
-    levels = 2**bits
-    step = 2 * np.pi / levels
-    l0 = np.round(phi / step)  # the levels at psi = 0
-    t0 = amps * np.exp(1j * (phi - l0 * step))
-    s0 = direct + t0.sum()
-    first = phi - l0 * step + step / 2  # in [0, step]: the first breakpoint of each element
-    k = np.arange(levels)
-    psi = (first[:, None] + k * step).ravel()  # (M * levels,)
-    delta = (t0[:, None] * np.exp(1j * k * step) * (np.exp(1j * step) - 1)).ravel()
-    order = np.argsort(psi, kind="stable")
-    sums = s0 + np.concatenate([[0.0], np.cumsum(delta[order])])
-    best = int(np.argmax(np.abs(sums)))
-    changes = np.zeros(amps.size, dtype=np.int64)  # level decrements applied up to candidate best
-    np.add.at(changes, order[:best] // levels, 1)
-    theta = np.mod(l0 - changes, levels) * step
-    return theta, side_amplitude(amps, phi, direct, theta)
+    """The b-bit phases maximising |a_D + sum_m amps_m e^{j (phi_m - theta_m)}|, exactly, and that |h|:
+    ``star_rows.discrete_phases`` on one row (its docstring has the derivation: the optimum's own
+    direction psi* makes every element's nearest level optimal, and the M 2^b breakpoints of psi,
+    sorted, visit every candidate in O(M 2^b log))."""
+    theta, amp = discrete_phases(amps, phi, direct, bits)
+    return theta, float(amp)
 
 
 def noma_rates(g_r: np.ndarray, g_t: np.ndarray, split: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -240,16 +227,18 @@ def noma_maxmin(g_r: np.ndarray, g_t: np.ndarray) -> tuple[np.ndarray, np.ndarra
 
 def tdma_rates(c_r: float, c_t: float, share: float) -> tuple[float, float]:
     """TDMA rates (share c_r, (1 - share) c_t): user r served for a fraction ``share`` of the slot
-    at its rate c_r, user t for the rest at c_t (bps/Hz)."""
+    at its rate c_r, user t for the rest at c_t (bps/Hz); ``star_rows.tdma_rates_rows`` of one pair."""
     if not (math.isfinite(share) and 0 <= share <= 1):
         raise ValueError(f"share (the time fraction of user r) must be in [0, 1], got {share!r}")
-    return share * c_r, (1 - share) * c_t
+    rate_r, rate_t = tdma_rates_rows(c_r, c_t, share)
+    return float(rate_r), float(rate_t)
 
 
 def tdma_maxmin(c_r: float, c_t: float) -> tuple[float, float]:
-    """Max-min TDMA rate c_r c_t / (c_r + c_t) and its share c_t / (c_r + c_t) (equal rates)."""
-    total = c_r + c_t
-    return (c_r * c_t / total, c_t / total) if total > 0 else (0.0, 0.5)
+    """Max-min TDMA rate c_r c_t / (c_r + c_t) and its share c_t / (c_r + c_t) (equal rates):
+    ``star_rows.tdma_maxmin_rows`` of one pair."""
+    value, share = tdma_maxmin_rows(c_r, c_t)
+    return float(value), float(share)
 
 
 def ts_rates(
