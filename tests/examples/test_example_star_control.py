@@ -9,16 +9,20 @@ def test_star_control_ppo_prints_its_table(run_example, tmp_path):
     require("stable_baselines3", "torch", "matplotlib")
     figure = tmp_path / "mxb.png"
     out = run_example("star_control_ppo.py", "--elements", "16", "--bits", "none", "1", "--steps", "512",
-                      "--episodes", "1", "--plot", str(figure))  # fmt: skip
+                      "--episodes", "1", "--control", "direct", "residual", "--imitate", "1",
+                      "--plot", str(figure))  # fmt: skip
     assert figure.stat().st_size > 1000 and f"figure: {figure}" in out
-    rows = re.findall(r"^\s+16\s+(none|1)\s+([0-9.]+)\s+([0-9.]+)\s+([0-9.]+)\s+([0-9.]+)\s+\d+$", out, re.M)
-    assert [row[0] for row in rows] == ["none", "1"], out
-    for bits, ppo, random, quantised, grid in rows:
-        assert 0 < float(ppo) <= 100 and 0 < float(random) < 100, out
-        if bits == "none":  # continuous phases: nothing to round, no grid loss
-            assert float(quantised) == 100.0 and float(grid) == 100.0, out
+    number = r"\s+([0-9.]+)"
+    rows = re.findall(rf"^\s+16\s+(none|1)\s+(direct|residual)\s+0{number * 6}\s+\d+$", out, re.M)
+    assert [row[:2] for row in rows] == [(b, c) for b in ("none", "1") for c in ("direct", "residual")], out
+    for bits, _, ppo, imitated, zero, random, quantised, grid in rows:
+        assert 0 < float(ppo) <= 100 and 0 < float(imitated) <= 100 and 0 < float(random) < 100, out
+        if (
+            bits == "none"
+        ):  # continuous phases: nothing to round, no grid loss; the residual's zero is the optimum
+            assert float(quantised) == 100.0 and float(grid) == 100.0 and float(zero) == 100.0, out
         else:  # rounded phases fall short of the exact b-bit optimum, which falls short of continuous
-            assert float(quantised) <= 100.0 and float(grid) < 100.0, out
+            assert float(quantised) <= 100.0 and float(grid) < 100.0 and float(zero) < 100.0, out
 
 
 def test_star_control_ppo_never_overwrites_a_figure(tmp_path):
