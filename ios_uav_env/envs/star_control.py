@@ -1,9 +1,11 @@
 """The STAR surface as the agent's control: each step the agent sets the surface's coefficients.
 
 A thin adapter over ``ios_uav_env.model.star`` and ``.star_slot``: the action is mapped to a
-setting (phases quantised by ``star.quantise``), the reward is ``star_slot.evaluate``'s max-min
-rate of that setting, and ``info`` carries ``star_slot.slot_optimum``'s value and certified bound
-of the same slot, so a policy is scored as a share of the per-slot optimum.
+setting (``star_control_rows.ControlMap``; phases quantised by ``star.quantise``), the reward is
+the max-min rate of that setting (``star_slot.evaluate_rows`` on the slot's row, which is
+``star_slot.evaluate``), and ``info`` carries the slot's optimum (``star_slot.slot_optima``: the
+value and certified bound of ``slot_optimum``), so a policy is scored as a share of the per-slot
+optimum. The batched form (``star_control_vector``) makes the same calls on B rows.
 """
 
 from __future__ import annotations
@@ -97,7 +99,11 @@ class STARControlEnv(gym.Env):
     G = M / ``group`` groups; group k is elements k ``group`` ... (k + 1) ``group`` - 1
     (``model.surface.element_positions``' order: ``group`` adjacent elements of one column, along
     z), all set alike. Phases: theta = pi a, then ``star.quantise(theta, bits)`` (the nearest of
-    the 2^b levels; unchanged with ``bits=None``).
+    the 2^b levels; unchanged with ``bits=None``). The table is ``control="direct"``'s; with
+    ``control="residual"`` the phases are theta_m^s = phi_m^s + pi a (the aligned phases plus the
+    action, then quantised) and the TDMA share tau = tau* + a / 2 clipped to [0, 1] (tau* the
+    aligned sides' max-min share), so that a zero action is the aligned surface
+    (``star_control_rows``' docstring).
 
     | Num       | Action                                            | access | Min | Max |
     |-----------|---------------------------------------------------|--------|-----|-----|
@@ -149,6 +155,10 @@ class STARControlEnv(gym.Env):
     - ``access``: ``"tdma"`` (default) or ``"noma"``.
     - ``channel_phases``: whether the per-group channel phases are observed (default True).
     - ``direct_link``: whether the UAV-user LoS links exist (default False: blocked).
+    - ``control``: ``"direct"`` (default) or ``"residual"`` (the action offsets the aligned surface).
+    - ``optimum``: whether the per-slot optimum is computed for ``info`` (default True; False: its
+      keys ``optimum``, ``optimum_upper``, ``optimum_return`` and ``pct_of_optimum`` are NaN, and
+      NOMA's per-slot search, ~0.1 s a slot with ES, is skipped).
 
     >>> import gymnasium as gym
     >>> import ios_uav_env
