@@ -23,6 +23,11 @@ deterministic policy plays ``--episodes`` held-out episodes (seeds 1000, 1001, .
   None);
 - ``b-bit/cont``: the b-bit optimum as % of the continuous one (what the grid itself costs).
 
+``--policy element`` (TDMA with the channel phases observed) replaces the recipe's linear actor
+by one small network shared by every group (:class:`ElementPolicy`): it maps a group's own two
+phase features and the 8 scalar features to that group's two phase actions, so its weights do not
+grow with M and every group's step trains the same weights.
+
 With ``--group g`` the policy sets groups of g elements (``random`` and ``quantised`` stay
 per element) and the optimum stays the per-element one: what grouping costs is in the score.
 
@@ -44,7 +49,9 @@ import gymnasium as gym
 import numpy as np
 import torch
 from stable_baselines3 import PPO
+from stable_baselines3.common.policies import ActorCriticPolicy
 from stable_baselines3.common.vec_env import DummyVecEnv, VecNormalize
+from torch import nn
 
 import ios_uav_env
 from ios_uav_env.envs.star_control import N_SLOTS
@@ -63,6 +70,60 @@ N_ENVS = 4
 IMITATION_SEED = 5000
 #: The imitation fit: passes over the labels, batch size, Adam's learning rate.
 FIT_EPOCHS, FIT_BATCH, FIT_LR = 60, 256, 3e-3
+
+
+#: The policies of ``--policy``: SB3's MlpPolicy (the recipe's linear actor), or the shared network.
+POLICIES = ("mlp", "element")
+#: The scalar features at the head of the observation (before the per-group phases).
+HEAD = 8
+
+
+class ElementExtractor(nn.Module):
+    """The actor: one MLP (``HEAD`` + 2 -> width -> width -> 2) shared by the G groups, applied to
+    (group k's phase features theta^r_k, theta^t_k, the head) for group k's two phase actions, and
+    a linear map of the head for the TDMA share: the A = 2G + 1 action means themselves (the
+    policy's ``action_net`` is the identity). The critic: an MLP (64, 64) of the whole observation."""
+
+    def __init__(self, obs_dim: int, width: int = 32) -> None:
+        super().__init__()
+        self.groups = (obs_dim - HEAD) // 2
+        self.element = nn.Sequential(
+            nn.Linear(HEAD + 2, width), nn.Tanh(), nn.Linear(width, width), nn.Tanh(), nn.Linear(width, 2)
+        )  # fmt: skip
+        self.share = nn.Linear(HEAD, 1)
+        self.policy_net = nn.ModuleList([self.element, self.share])  # the actor's weights (as MlpExtractor's)
+        self.value = nn.Sequential(nn.Linear(obs_dim, 64), nn.Tanh(), nn.Linear(64, 64), nn.Tanh())
+        self.latent_dim_pi, self.latent_dim_vf = 2 * self.groups + 1, 64
+
+    def forward_actor(self, x: torch.Tensor) -> torch.Tensor:
+        g, head = self.groups, x[:, :HEAD]
+        phases = torch.stack([x[:, HEAD : HEAD + g], x[:, HEAD + g :]], dim=-1)  # (B, G, 2)
+        inputs = torch.cat([phases, head[:, None, :].expand(-1, g, -1)], dim=-1)
+        out = self.element(inputs)
+        return torch.cat([out[..., 0], out[..., 1], self.share(head)], dim=-1)
+
+    def forward_critic(self, x: torch.Tensor) -> torch.Tensor:
+        return self.value(x)
+
+    def forward(self, x: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
+        return self.forward_actor(x), self.forward_critic(x)
+
+
+class ElementPolicy(ActorCriticPolicy):
+    """SB3's actor-critic with :class:`ElementExtractor`; its action means are the extractor's
+    outputs (``action_net`` the identity), their last layers initialised small (gain 0.01, as SB3
+    does its ``action_net``) so that the first actions are near zero."""
+
+    def _build_mlp_extractor(self) -> None:
+        self.mlp_extractor = ElementExtractor(self.features_dim)
+
+    def _build(self, lr_schedule) -> None:
+        super()._build(lr_schedule)
+        self.action_net = nn.Identity()
+        for layer in (self.mlp_extractor.element[-1], self.mlp_extractor.share):
+            nn.init.orthogonal_(layer.weight, gain=0.01)
+            nn.init.zeros_(layer.bias)
+        self.optimizer = self.optimizer_class(self.parameters(), lr=lr_schedule(1), **self.optimizer_kwargs)
 
 
 def env_kwargs(m: int, bits: int | None, group: int = 1, control: str = "direct") -> dict:
@@ -143,8 +204,9 @@ def score(model: PPO, kwargs: dict, episodes: int) -> float:
 
 
 def train_and_score(
-    kwargs: dict, steps: int, episodes: int, seed: int, imitation: int = 0, **overrides: float | None
-) -> tuple[float, float | None, float]:
+    kwargs: dict, steps: int, episodes: int, seed: int, imitation: int = 0, policy: str = "mlp",
+    **overrides: float | None,
+) -> tuple[float, float | None, float]:  # fmt: skip
     """PPO for ``steps`` slots (after imitation on ``imitation`` episodes if > 0), then its % of
     the per-slot optimum on the held-out episodes; the imitated policy's (None without
     imitation); the training time (s, imitation included). ``overrides``: PPO arguments in place
@@ -152,7 +214,14 @@ def train_and_score(
     venv = DummyVecEnv([lambda: gym.make(ID, **kwargs) for _ in range(N_ENVS)])
     venv.seed(seed)
     venv = VecNormalize(venv, norm_obs=False, norm_reward=True, gamma=0.99)
-    model = PPO("MlpPolicy", venv, seed=seed, device="cpu", **{**PPO_KWARGS, **overrides})
+    ppo_kwargs = {**PPO_KWARGS, **overrides}
+    if policy == "element":
+        if kwargs.get("access", "tdma") != "tdma" or not kwargs.get("channel_phases", True):
+            raise ValueError("--policy element needs access='tdma' and the channel phases observed")
+        ppo_kwargs["policy_kwargs"] = dict(log_std_init=PPO_KWARGS["policy_kwargs"]["log_std_init"])
+    model = PPO(
+        ElementPolicy if policy == "element" else "MlpPolicy", venv, seed=seed, device="cpu", **ppo_kwargs
+    )
     start = time.perf_counter()
     imitated = None
     if imitation > 0:
@@ -219,6 +288,7 @@ def main(argv: list[str] | None = None) -> list[dict]:
     parser.add_argument("--episodes", type=int, default=20, help="held-out evaluation episodes")
     parser.add_argument("--group", type=int, default=1, help="elements per group (a divisor of sqrt(M))")
     parser.add_argument("--seed", type=int, nargs="+", default=[0], help="one run per seed")
+    parser.add_argument("--policy", default="mlp", choices=POLICIES, help="the actor (element: shared)")
     parser.add_argument("--imitate", type=int, default=0, help="imitation episodes before PPO (0: none)")
     parser.add_argument("--learning-rate", type=float, default=PPO_KWARGS["learning_rate"])
     parser.add_argument("--target-kl", type=float, default=None, help="PPO's early stop (None: off)")
@@ -231,8 +301,8 @@ def main(argv: list[str] | None = None) -> list[dict]:
     torch.set_num_threads(1)
     rows = []
     print(
-        f"PPO on {ID} (group {args.group}): {args.steps} slots a run, {args.episodes} held-out episodes, "
-        f"imitation on {args.imitate} episodes, % of the per-slot optimum"
+        f"PPO ({args.policy} actor) on {ID} (group {args.group}): {args.steps} slots a run, "
+        f"{args.episodes} held-out episodes, imitation on {args.imitate} episodes, % of the per-slot optimum"
     )
     heads = (
         ("M", 4),
@@ -253,7 +323,7 @@ def main(argv: list[str] | None = None) -> list[dict]:
                 kwargs = env_kwargs(m, bits, args.group, control)
                 for seed in args.seed:
                     ppo, imitated, seconds = train_and_score(
-                        kwargs, args.steps, args.episodes, seed, args.imitate,
+                        kwargs, args.steps, args.episodes, seed, args.imitate, args.policy,
                         learning_rate=args.learning_rate, target_kl=args.target_kl,
                     )  # fmt: skip
                     row = {"M": m, "bits": bits, "control": control, "seed": seed, "ppo": ppo,
@@ -265,7 +335,10 @@ def main(argv: list[str] | None = None) -> list[dict]:
                     print(f"{m:>4} {b:>5} {control:>8} {seed:>4} {cells} {seconds:8.0f}", flush=True)
     if args.plot is not None:
         seeds = ", ".join(str(s) for s in args.seed)
-        title = f"PPO setting the STAR surface ({args.steps} slots a run, seeds {seeds}, group {args.group})"
+        title = (
+            f"PPO ({args.policy} actor) setting the STAR surface ({args.steps} slots a run, seeds {seeds}, "
+            f"group {args.group})"
+        )
         print(f"figure: {plot_rows(rows, args.plot, title)}")
     return rows
 
