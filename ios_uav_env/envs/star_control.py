@@ -19,7 +19,7 @@ from gymnasium import spaces
 
 from ios_uav_env.envs.star_control_rows import CONTROLS, ControlMap
 from ios_uav_env.model.config import ScenarioConfig
-from ios_uav_env.model.star import StarChannels, StarSurface, star_channels
+from ios_uav_env.model.star import StarChannels, StarSurface, path_channels
 from ios_uav_env.model.star_rows import StarRows
 from ios_uav_env.model.star_slot import evaluate_rows, slot_optima
 
@@ -246,7 +246,7 @@ class STARControlEnv(gym.Env):
         x = float(self.np_random.uniform(*X_RANGE))
         self.config = self._base.replace(q0=(x, Y_SPAN[0]), qF=(x, Y_SPAN[1]))  # the episode's line
         self.positions = np.column_stack([np.full(N_SLOTS, x), np.linspace(*Y_SPAN, N_SLOTS)])
-        self.channels = [star_channels(self.config, q, USER_R, USER_T) for q in self.positions]
+        self.channels = path_channels(self.config, self.positions, USER_R, USER_T)
         if not self.direct_link:  # blocked: the users hear the UAV through the surface only
             self.channels = [dataclasses.replace(ch, direct_r=0.0, direct_t=0.0) for ch in self.channels]
         self.rows = StarRows.of(self.channels)

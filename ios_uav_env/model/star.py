@@ -132,9 +132,22 @@ def star_channels(config: ScenarioConfig, position: object, user_r: object, user
     """The :class:`StarChannels` of a UAV at ``position`` (m, horizontal; altitude
     ``config.uav_altitude``) serving ``user_r`` on its side of the plane x = x_c and ``user_t``
     on the other; every other field of ``config`` (the surface's grid, the radio) is kept.
-    Built from ``channel.element_amplitudes``, ``channel.direct_amplitude`` and
-    ``channel.phase_shifts``: no second copy of the geometry."""
-    q = _point(position, "position")
+    :func:`path_channels` of one position."""
+    return path_channels(config, [_point(position, "position")], user_r, user_t)[0]
+
+
+def path_channels(
+    config: ScenarioConfig, positions: object, user_r: object, user_t: object
+) -> list[StarChannels]:
+    """:func:`star_channels` at each of ``positions`` ((P, 2) m), the geometry computed once for
+    all of them (each position's row is the same arithmetic as alone). Built from
+    ``channel.element_amplitudes``, ``channel.direct_amplitude`` and ``channel.phase_shifts``: no
+    second copy of the geometry."""
+    pos = np.asarray(positions, dtype=float)
+    if pos.ndim != 2 or pos.shape[1] != 2 or not np.all(np.isfinite(pos)):
+        raise ValueError(
+            f"positions must be finite horizontal (x, y) pairs in m, shape (P, 2), got {positions!r}"
+        )
     ur, ut = _point(user_r, "user_r"), _point(user_t, "user_t")
     x_c = config.ios_center[0]
     if (ur[0] - x_c) * (ut[0] - x_c) >= 0:
@@ -142,27 +155,38 @@ def star_channels(config: ScenarioConfig, position: object, user_r: object, user
             f"user_r and user_t must lie on opposite sides of the surface plane x = {x_c:g} m (off it), "
             f"got x = {ur[0]:g} and {ut[0]:g} m"
         )
-    if (q[0] - x_c) * (ur[0] - x_c) < 0:
-        raise ValueError(
-            f"user_r must be on the UAV's side of the plane x = {x_c:g} m (the reflection side), got "
-            f"user_r x = {ur[0]:g} m with the UAV at x = {q[0]:g} m (swap the users)"
-        )
-    pos = np.array([q])
+    for x in pos[:, 0]:
+        if (x - x_c) * (ur[0] - x_c) < 0:
+            raise ValueError(
+                f"user_r must be on the UAV's side of the plane x = {x_c:g} m (the reflection side), got "
+                f"user_r x = {ur[0]:g} m with the UAV at x = {x:g} m (swap the users)"
+            )
     per_user = []
     for user in (ur, ut):
         cfg = _unit_config(config, user)
         per_user.append(
             (
-                channel.element_amplitudes(cfg, pos)[0],
-                channel.phase_shifts(cfg, pos)[0],
-                float(channel.direct_amplitude(cfg, pos)[0]),
+                channel.element_amplitudes(cfg, pos),
+                channel.phase_shifts(cfg, pos),
+                channel.direct_amplitude(cfg, pos),
             )
         )
     (a_r, phi_r, d_r), (a_t, phi_t, d_t) = per_user
-    return StarChannels(
-        a_r, a_t, phi_r, phi_t, d_r, d_t, config.eta,
-        fixed_r=0.0 if config.surface == "none" else 1.0, fixed_t=config.transmit_factor,
-    )  # fmt: skip
+    fixed_r = 0.0 if config.surface == "none" else 1.0
+    return [
+        StarChannels(
+            a_r[i],
+            a_t[i],
+            phi_r[i],
+            phi_t[i],
+            float(d_r[i]),
+            float(d_t[i]),
+            config.eta,
+            fixed_r=fixed_r,
+            fixed_t=config.transmit_factor,
+        )  # fmt: skip
+        for i in range(pos.shape[0])
+    ]
 
 
 def side_amplitude(amps: np.ndarray, phi: np.ndarray, direct: float, theta: np.ndarray) -> float:

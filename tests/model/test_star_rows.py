@@ -103,3 +103,17 @@ def test_a_bad_row_refuses_the_batch_by_name():
         evaluate_rows(rows, StarSurface("es"), "noma", noma)
     with pytest.raises(ValueError, match="one surface size"):
         StarRows.of(_channels(rng, 4, 1) + _channels(rng, 5, 1))
+
+
+def test_a_path_s_channels_are_each_positions_alone_bit_for_bit():
+    from ios_uav_env.model.config import ScenarioConfig
+
+    cfg = ScenarioConfig(ios_center=(0.0, 0.0, 5.0), ios_shape=(4, 4))
+    path = np.column_stack([np.full(5, -120.0), np.linspace(-150, 150, 5)])
+    chans = star.path_channels(cfg, path, (-5.0, 2.0), (5.0, -2.0))
+    for q, ch in zip(path, chans, strict=True):
+        alone = star.star_channels(cfg, q, (-5.0, 2.0), (5.0, -2.0))
+        for name in ("a_r", "a_t", "phi_r", "phi_t", "direct_r", "direct_t", "eta", "fixed_r", "fixed_t"):
+            assert np.array_equal(getattr(ch, name), getattr(alone, name)), name
+    with pytest.raises(ValueError, match="user_r must be on the UAV's side"):
+        star.path_channels(cfg, [[-120.0, 0.0], [30.0, 0.0]], (-5.0, 2.0), (5.0, -2.0))
