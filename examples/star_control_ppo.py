@@ -160,15 +160,38 @@ def references(kwargs: dict, episodes: int) -> dict[str, float]:
     return {**out, "cont": 100 * sums["opt"] / sums["cont"]}
 
 
+def aligned_label(setting: dict, ch, bits: int | None) -> dict:
+    """The optimum's ``setting`` with each side's phases turned as a whole by the multiple of
+    2 pi / 2^b that brings them nearest to the aligned phases phi^s (largest sum_m cos(theta_m -
+    phi_m)). Without direct links (the env's default) a side's |h| is the same under any common
+    turn of its phases, and 2 pi / 2^b keeps them on the grid, so this is an optimum too: the one
+    whose action is the smallest offset from the aligned surface. The exact b-bit search returns
+    whichever turn its sweep meets first, an offset that changes from slot to slot and cannot be
+    read from the observation. Unchanged with continuous phases (the optimum is phi itself) or a
+    direct link."""
+    if bits is None or ch.direct_r != 0 or ch.direct_t != 0:
+        return setting
+    turns = 2 * np.pi * np.arange(2**bits) / 2**bits
+    out = dict(setting)
+    for key, phi in (("theta_r", ch.phi_r), ("theta_t", ch.phi_t)):
+        theta = np.asarray(setting[key])
+        k = int(np.argmax(np.cos(theta[None] + turns[:, None] - phi[None]).sum(axis=1)))
+        out[key] = quantise(theta + turns[k], bits)
+    return out
+
+
 def imitate(model: PPO, kwargs: dict, episodes: int, seed: int) -> None:
-    """Fit ``model``'s action mean to the optimum's own action on the slots of ``episodes``
-    episodes (seeds ``IMITATION_SEED``, ...): squared error, Adam, ``FIT_EPOCHS`` passes."""
+    """Fit ``model``'s action mean to the optimum's own action (:func:`aligned_label`) on the slots
+    of ``episodes`` episodes (seeds ``IMITATION_SEED``, ...): squared error, Adam, ``FIT_EPOCHS``
+    passes."""
     env = gym.make(ID, **kwargs).unwrapped
     obs_rows, labels = [], []
     for k in range(episodes):
         obs, _ = env.reset(seed=IMITATION_SEED + k)
         for _ in range(N_SLOTS):
-            action = env.action_of(slot_optimum(env.channels[env.slot], env.surface, env.access).setting)
+            ch = env.channels[env.slot]
+            best = slot_optimum(ch, env.surface, env.access)
+            action = env.action_of(aligned_label(best.setting, ch, env.surface.bits))
             obs_rows.append(obs)
             labels.append(action)
             obs = env.step(action)[0]
