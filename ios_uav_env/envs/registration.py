@@ -60,8 +60,8 @@ MULTINODE_MOBILE_IDS: dict[str, dict[str, Any]] = {
 }
 
 #: The surface as the agent's control (``ios_uav_env.envs.star_control``): the UAV flies a given
-#: line past a small STAR surface and the agent sets the surface's coefficients in every slot. No
-#: batched form (no ``vector_entry_point``).
+#: line past a small STAR surface and the agent sets the surface's coefficients in every slot; its
+#: batched form is ``ios_uav_env.envs.star_control_vector.STARControlVectorEnv``.
 STAR_CONTROL_ID = "ios_uav_env/STARControl-v0"
 STAR_CONTROL_IDS: dict[str, dict[str, Any]] = {STAR_CONTROL_ID: {}}
 
@@ -115,7 +115,7 @@ def register_envs() -> None:
     No ``max_episode_steps``: the env ends every episode itself at slot N of its scenario
     (``terminated=True``), whatever T is, so no ``TimeLimit`` can cut a mission short. Each id
     also names its natively batched env (``gym.make_vec(id, num_envs=B,
-    vectorization_mode="vector_entry_point")``, Gymnasium >= 1.0), except :data:`STAR_CONTROL_IDS`.
+    vectorization_mode="vector_entry_point")``, Gymnasium >= 1.0).
     """
     for env_id, kwargs in presets().items():
         if env_id not in gym.registry:
@@ -125,7 +125,8 @@ def register_envs() -> None:
     for env_id, kwargs in STAR_CONTROL_IDS.items():
         if env_id not in gym.registry:
             entry_point = "ios_uav_env.envs.star_control:STARControlEnv"
-            gym.register(id=env_id, entry_point=entry_point, kwargs=dict(kwargs))
+            vector = _vector("ios_uav_env.envs.star_control_vector:STARControlVectorEnv")
+            gym.register(id=env_id, entry_point=entry_point, kwargs=dict(kwargs), **vector)
     for env_id, kwargs in MISO_CONTROL_IDS.items():
         if env_id not in gym.registry:
             gym.register(

@@ -1,24 +1,27 @@
 """The STAR surface as the agent's control: each step the agent sets the surface's coefficients.
 
 A thin adapter over ``ios_uav_env.model.star`` and ``.star_slot``: the action is mapped to a
-setting (phases quantised by ``star.quantise``), the reward is ``star_slot.evaluate``'s max-min
-rate of that setting, and ``info`` carries ``star_slot.slot_optimum``'s value and certified bound
-of the same slot, so a policy is scored as a share of the per-slot optimum.
+setting (``star_control_rows.ControlMap``; phases quantised by ``star.quantise``), the reward is
+the max-min rate of that setting (``star_slot.evaluate_rows`` on the slot's row, which is
+``star_slot.evaluate``), and ``info`` carries the slot's optimum (``star_slot.slot_optima``: the
+value and certified bound of ``slot_optimum``), so a policy is scored as a share of the per-slot
+optimum. The batched form (``star_control_vector``) makes the same calls on B rows.
 """
 
 from __future__ import annotations
 
 import dataclasses
-import math
 from typing import Any
 
 import gymnasium as gym
 import numpy as np
 from gymnasium import spaces
 
+from ios_uav_env.envs.star_control_rows import CONTROLS, ControlMap
 from ios_uav_env.model.config import ScenarioConfig
-from ios_uav_env.model.star import StarChannels, StarSurface, quantise, star_channels
-from ios_uav_env.model.star_slot import evaluate, slot_optimum
+from ios_uav_env.model.star import StarChannels, StarSurface, path_channels
+from ios_uav_env.model.star_rows import StarRows
+from ios_uav_env.model.star_slot import evaluate_rows, slot_optima
 
 #: The small-surface STAR scenario: a surface low on a facade (centre 5 m up, plane x = 0), the
 #: paper's UAV altitude (100 m) and radio but for the noise: -110 dBm, the thermal noise of 1 MHz
@@ -37,6 +40,12 @@ LENGTH_SCALE = 400.0  # m, lengths in the observation are divided by it
 M_RANGE = (16, 256)  # the surface sizes the env takes (element by element control)
 PROTOCOLS = ("es", "ms")
 ACCESS = ("tdma", "noma")
+#: The users' features of the observation: each user relative to the surface's centre, scaled.
+USERS_FEATURES = np.concatenate(
+    [(np.asarray(user) - np.asarray(BASE_CONFIG.ios_center[:2])) / LENGTH_SCALE for user in (USER_R, USER_T)]
+)
+#: The keys of a setting the action expresses.
+_SETTING = ("u_r", "u_t", "theta_r", "theta_t", "share", "split")
 INFO_KEYS = (
     "slot", "uav_x", "uav_y", "rate_r", "rate_t", "value", "optimum", "optimum_upper", "return",
     "optimum_return", "pct_of_optimum",
@@ -90,7 +99,11 @@ class STARControlEnv(gym.Env):
     G = M / ``group`` groups; group k is elements k ``group`` ... (k + 1) ``group`` - 1
     (``model.surface.element_positions``' order: ``group`` adjacent elements of one column, along
     z), all set alike. Phases: theta = pi a, then ``star.quantise(theta, bits)`` (the nearest of
-    the 2^b levels; unchanged with ``bits=None``).
+    the 2^b levels; unchanged with ``bits=None``). The table is ``control="direct"``'s; with
+    ``control="residual"`` the phases are theta_m^s = phi_m^s + pi a (the aligned phases plus the
+    action, then quantised) and the TDMA share tau = tau* + a / 2 clipped to [0, 1] (tau* the
+    aligned sides' max-min share), so that a zero action is the aligned surface
+    (``star_control_rows``' docstring).
 
     | Num       | Action                                            | access | Min | Max |
     |-----------|---------------------------------------------------|--------|-----|-----|
@@ -142,6 +155,10 @@ class STARControlEnv(gym.Env):
     - ``access``: ``"tdma"`` (default) or ``"noma"``.
     - ``channel_phases``: whether the per-group channel phases are observed (default True).
     - ``direct_link``: whether the UAV-user LoS links exist (default False: blocked).
+    - ``control``: ``"direct"`` (default) or ``"residual"`` (the action offsets the aligned surface).
+    - ``optimum``: whether the per-slot optimum is computed for ``info`` (default True; False: its
+      keys ``optimum``, ``optimum_upper``, ``optimum_return`` and ``pct_of_optimum`` are NaN, and
+      NOMA's per-slot search, ~0.1 s a slot with ES, is skipped).
 
     >>> import gymnasium as gym
     >>> import ios_uav_env
@@ -166,6 +183,8 @@ class STARControlEnv(gym.Env):
         access: str = "tdma",
         channel_phases: bool = True,
         direct_link: bool = False,
+        control: str = "direct",
+        optimum: bool = True,
     ) -> None:
         shape = _elements(elements)
         if access not in ACCESS:
@@ -184,17 +203,26 @@ class STARControlEnv(gym.Env):
             or shape[1] % group
         ):
             raise ValueError(f"group must be an integer >= 1 dividing M_z = {shape[1]}, got {group!r}")
-        for name, flag in (("channel_phases", channel_phases), ("direct_link", direct_link)):
+        if control not in CONTROLS:
+            raise ValueError(f"control must be one of {CONTROLS}, got {control!r}")
+        for name, flag in (
+            ("channel_phases", channel_phases),
+            ("direct_link", direct_link),
+            ("optimum", optimum),
+        ):
             if not isinstance(flag, bool):
                 raise ValueError(f"{name} must be True or False, got {flag!r}")
         self.surface = StarSurface(protocol, "independent", bits)  # checks bits, naming it
         self.access, self.group, self.channel_phases = access, int(group), channel_phases
-        self.direct_link = direct_link
+        self.direct_link, self.control, self.optimum = direct_link, control, optimum
         self.config = self._base = BASE_CONFIG.replace(ios_shape=shape)
         self.M = shape[0] * shape[1]
         self.G = self.M // self.group
-        width = 2 * self.G + 1 if access == "tdma" else 3 * self.G + 1
-        self.action_space = spaces.Box(-1.0, 1.0, (width,), np.float32)
+        #: The action and observation maps (one row here, B rows in the batched form).
+        self.map = ControlMap(
+            self.M, self.group, access, protocol, self.surface.bits, control, channel_phases
+        )
+        self.action_space = spaces.Box(-1.0, 1.0, (self.map.width,), np.float32)
         names = ["star_uav_x", "star_uav_y", "star_user_r_dx", "star_user_r_dy", "star_user_t_dx",
                  "star_user_t_dy", "star_slot", "star_rate_share_r"]  # fmt: skip
         if channel_phases:
@@ -202,112 +230,97 @@ class STARControlEnv(gym.Env):
         self.observation_names = tuple(names)
         self.observation_space = spaces.Box(-1.0, 1.0, (len(names),), np.float32)
         self.channels: list[StarChannels] = []
+        #: The episode's channels as rows, one per slot ((N, M) arrays).
+        self.rows: StarRows | None = None
         self.positions = np.zeros((N_SLOTS, 2))
         self.slot = 0
         self._totals = np.zeros(2)  # return, optimum return
 
     # -- the episode --------------------------------------------------------------------------
-    def reset(self, *, seed: int | None = None, options: dict | None = None) -> tuple[np.ndarray, dict]:
+    def begin_episode(self, seed: int | None, options: dict | None) -> ScenarioConfig:
+        """The scenario part of :meth:`reset` (the row protocol of the batched form): seed, draw
+        the line, build its slots' channels; no observation. Returns the episode's scenario."""
         super().reset(seed=seed)
         if options:
             raise ValueError(f"options must be None or empty (this env takes none), got {options!r}")
         x = float(self.np_random.uniform(*X_RANGE))
         self.config = self._base.replace(q0=(x, Y_SPAN[0]), qF=(x, Y_SPAN[1]))  # the episode's line
         self.positions = np.column_stack([np.full(N_SLOTS, x), np.linspace(*Y_SPAN, N_SLOTS)])
-        self.channels = [star_channels(self.config, q, USER_R, USER_T) for q in self.positions]
+        self.channels = path_channels(self.config, self.positions, USER_R, USER_T)
         if not self.direct_link:  # blocked: the users hear the UAV through the surface only
             self.channels = [dataclasses.replace(ch, direct_r=0.0, direct_t=0.0) for ch in self.channels]
+        self.rows = StarRows.of(self.channels)
+        return self.config
+
+    def reset(self, *, seed: int | None = None, options: dict | None = None) -> tuple[np.ndarray, dict]:
+        self.begin_episode(seed, options)
         self.slot = 0
         self._totals = np.zeros(2)
         return self._observation(), self._info(0.0, 0.0, 0.0, 0.0)
 
     def step(self, action: Any) -> tuple[np.ndarray, float, bool, bool, dict]:
-        if not self.channels:
+        if self.rows is None:
             raise RuntimeError("call reset() before step()")
         if self.slot >= N_SLOTS:
             raise RuntimeError("the episode has ended: call reset()")
-        ch = self.channels[self.slot]
-        setting = self.setting(action)
-        rate_r, rate_t = evaluate(ch, self.surface, self.access, setting)
-        best = slot_optimum(ch, self.surface, self.access)
+        base = self.rows.take([self.slot])
+        rates = evaluate_rows(base, self.surface, self.access, self.map.settings(self._action(action), base))
+        rate_r, rate_t = float(rates[0][0]), float(rates[1][0])
+        if self.optimum:
+            best, upper = (float(v[0]) for v in slot_optima(base, self.surface, self.access))
+        else:
+            best = upper = float("nan")
         value = min(rate_r, rate_t)
-        self._totals += (value, best.value)
-        info = self._info(rate_r, rate_t, best.value, best.upper)
+        self._totals += (value, best)
+        info = self._info(rate_r, rate_t, best, upper)
         self.slot += 1
         return self._observation(), float(value), self.slot == N_SLOTS, False, info
 
     # -- the action ---------------------------------------------------------------------------
-    def setting(self, action: Any) -> dict[str, Any]:
-        """The surface setting of ``action`` (``star_slot.evaluate``'s keys), phases quantised."""
+    def _action(self, action: Any) -> np.ndarray:
+        """``action`` as a checked (1, A) float64 row."""
         a = np.asarray(action, dtype=np.float64)
         if a.shape != self.action_space.shape or not np.all(np.isfinite(a)):
             raise ValueError(
                 f"action must be a finite array of shape {self.action_space.shape}, got {action!r}"
             )
-        a = np.clip(a, -1.0, 1.0)
-        G, grow = self.G, lambda v: np.repeat(v, self.group)
-        theta_r = self._phase(grow(a[:G]))
-        theta_t = self._phase(grow(a[G : 2 * G]))
-        if self.access == "tdma":
-            ones = np.ones(self.M)
-            return dict(u_r=ones, u_t=ones, theta_r=theta_r, theta_t=theta_t, share=(a[2 * G] + 1) / 2)
-        if self.surface.protocol == "es":
-            gamma = grow((a[2 * G : 3 * G] + 1) * (np.pi / 4))
-            u_r, u_t = np.cos(gamma), np.sin(gamma)
-        else:
-            u_t = grow(a[2 * G : 3 * G] > 0).astype(np.float64)
-            u_r = 1.0 - u_t
-        return dict(u_r=u_r, u_t=u_t, theta_r=theta_r, theta_t=theta_t, split=(a[3 * G] + 1) / 2)
+        return a[None]
+
+    def _slot_rows(self) -> StarRows:
+        if self.rows is None:
+            raise RuntimeError("call reset() before setting() or action_of()")
+        return self.rows.take([min(self.slot, N_SLOTS - 1)])
+
+    def setting(self, action: Any) -> dict[str, Any]:
+        """The surface setting of ``action`` at the current slot (``star_slot.evaluate``'s keys),
+        phases quantised."""
+        out = self.map.settings(self._action(action), self._slot_rows())
+        return {key: value[0] if value.ndim > 1 else float(value[0]) for key, value in out.items()}
 
     def action_of(self, setting: dict[str, Any]) -> np.ndarray:
-        """The action that gives ``setting`` (one value per group: its first element's), the
-        inverse of :meth:`setting` on settings it can express (e.g. ``slot_optimum``'s at group 1)."""
-        pick = slice(None, None, self.group)
-        parts = [self._unphase(setting["theta_r"][pick]), self._unphase(setting["theta_t"][pick])]
-        if self.access == "tdma":
-            parts.append([2 * setting["share"] - 1])
-        else:
-            u_r, u_t = np.asarray(setting["u_r"])[pick], np.asarray(setting["u_t"])[pick]
-            if self.surface.protocol == "es":
-                parts.append(np.arctan2(u_t, u_r) * (4 / np.pi) - 1)
-            else:
-                parts.append(np.where(u_t > 0.5, 1.0, -1.0))
-            parts.append([2 * setting["split"] - 1])
-        return np.clip(np.concatenate([np.asarray(p, dtype=np.float64) for p in parts]), -1.0, 1.0)
-
-    def _phase(self, a: np.ndarray) -> np.ndarray:
-        return quantise(np.pi * a, self.surface.bits)
-
-    @staticmethod
-    def _unphase(theta: np.ndarray) -> np.ndarray:
-        """theta (rad) as an action in [-1, 1): the angle wrapped to [-pi, pi), / pi."""
-        return (np.mod(np.asarray(theta, dtype=np.float64) + np.pi, 2 * np.pi) - np.pi) / np.pi
+        """The action that gives ``setting`` at the current slot (one value per group: its first
+        element's), the inverse of :meth:`setting` on settings it can express (e.g.
+        ``slot_optimum``'s at group 1)."""
+        one = {
+            key: np.asarray(value, dtype=np.float64)[None]
+            for key, value in setting.items()
+            if key in _SETTING
+        }
+        return self.map.actions_of(one, self._slot_rows())[0]
 
     # -- what the agent sees ------------------------------------------------------------------
     def _observation(self) -> np.ndarray:
         n = min(self.slot, N_SLOTS - 1)
-        ch, q = self.channels[n], self.positions[n]
-        centre = np.asarray(self.config.ios_center[:2])
-        c = [
-            math.log2(1 + ch.eta * (d + a.sum()) ** 2)
-            for d, a in ((ch.direct_r, ch.a_r), (ch.direct_t, ch.a_t))
-        ]
-        share = c[0] / (c[0] + c[1]) if c[0] + c[1] > 0 else 0.5
-        head = [*(q / LENGTH_SCALE), *((np.asarray(USER_R) - centre) / LENGTH_SCALE),
-                *((np.asarray(USER_T) - centre) / LENGTH_SCALE), n / (N_SLOTS - 1), share]  # fmt: skip
-        parts = [np.asarray(head)]
-        if self.channel_phases:
-            for a, phi in ((ch.a_r, ch.phi_r), (ch.a_t, ch.phi_t)):
-                summed = (a * np.exp(1j * phi)).reshape(self.G, self.group).sum(axis=1)
-                parts.append(self._unphase(np.angle(summed)))
-        return np.clip(np.concatenate(parts), -1.0, 1.0).astype(np.float32)
+        head = np.concatenate([self.positions[n] / LENGTH_SCALE, USERS_FEATURES, [n / (N_SLOTS - 1)]])
+        return self.map.observations(self.rows.take([n]), head[None])[0]
 
     def _info(self, rate_r: float, rate_t: float, optimum: float, upper: float) -> dict[str, Any]:
         q = self.positions[min(self.slot, N_SLOTS - 1)]
         ret, best = (float(v) for v in self._totals)
+        pct = 100.0 * ret / best if best > 0 else (float("nan") if np.isnan(best) else 0.0)
         return {
             "slot": int(self.slot), "uav_x": float(q[0]), "uav_y": float(q[1]), "rate_r": float(rate_r),
             "rate_t": float(rate_t), "value": float(min(rate_r, rate_t)), "optimum": float(optimum),
             "optimum_upper": float(upper), "return": ret, "optimum_return": best,
-            "pct_of_optimum": 100.0 * ret / best if best > 0 else 0.0,
+            "pct_of_optimum": pct,
         }  # fmt: skip

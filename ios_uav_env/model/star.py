@@ -48,6 +48,12 @@ import numpy as np
 
 from ios_uav_env.model import channel
 from ios_uav_env.model.config import ScenarioConfig
+from ios_uav_env.model.star_rows import (
+    discrete_phases,
+    side_amplitudes,
+    tdma_maxmin_rows,
+    tdma_rates_rows,
+)
 
 PROTOCOLS = ("es", "ms", "ts", "fixed")
 PHASE_MODELS = ("independent", "coupled", "shared")
@@ -136,9 +142,22 @@ def star_channels(config: ScenarioConfig, position: object, user_r: object, user
     """The :class:`StarChannels` of a UAV at ``position`` (m, horizontal; altitude
     ``config.uav_altitude``) serving ``user_r`` on its side of the plane x = x_c and ``user_t``
     on the other; every other field of ``config`` (the surface's grid, the radio) is kept.
-    Built from ``channel.element_amplitudes``, ``channel.direct_amplitude`` and
-    ``channel.phase_shifts``: no second copy of the geometry."""
-    q = _point(position, "position")
+    :func:`path_channels` of one position."""
+    return path_channels(config, [_point(position, "position")], user_r, user_t)[0]
+
+
+def path_channels(
+    config: ScenarioConfig, positions: object, user_r: object, user_t: object
+) -> list[StarChannels]:
+    """:func:`star_channels` at each of ``positions`` ((P, 2) m), the geometry computed once for
+    all of them (each position's row is the same arithmetic as alone). Built from
+    ``channel.element_amplitudes``, ``channel.direct_amplitude`` and ``channel.phase_shifts``: no
+    second copy of the geometry."""
+    pos = np.asarray(positions, dtype=float)
+    if pos.ndim != 2 or pos.shape[1] != 2 or not np.all(np.isfinite(pos)):
+        raise ValueError(
+            f"positions must be finite horizontal (x, y) pairs in m, shape (P, 2), got {positions!r}"
+        )
     ur, ut = _point(user_r, "user_r"), _point(user_t, "user_t")
     x_c = config.ios_center[0]
     if (ur[0] - x_c) * (ut[0] - x_c) >= 0:
@@ -146,26 +165,38 @@ def star_channels(config: ScenarioConfig, position: object, user_r: object, user
             f"user_r and user_t must lie on opposite sides of the surface plane x = {x_c:g} m (off it), "
             f"got x = {ur[0]:g} and {ut[0]:g} m"
         )
-    if (q[0] - x_c) * (ur[0] - x_c) < 0:
-        raise ValueError(
-            f"user_r must be on the UAV's side of the plane x = {x_c:g} m (the reflection side), got "
-            f"user_r x = {ur[0]:g} m with the UAV at x = {q[0]:g} m (swap the users)"
-        )
-    pos = np.array([q])
+    for x in pos[:, 0]:
+        if (x - x_c) * (ur[0] - x_c) < 0:
+            raise ValueError(
+                f"user_r must be on the UAV's side of the plane x = {x_c:g} m (the reflection side), got "
+                f"user_r x = {ur[0]:g} m with the UAV at x = {x:g} m (swap the users)"
+            )
     per_user = []
     for user in (ur, ut):
         amps, direct = unit_amplitudes(config, pos, user)
-        per_user.append((amps[0], channel.phase_shifts(_unit_config(config, user), pos)[0], float(direct[0])))
+        per_user.append((amps, channel.phase_shifts(_unit_config(config, user), pos), direct))
     (a_r, phi_r, d_r), (a_t, phi_t, d_t) = per_user
-    return StarChannels(
-        a_r, a_t, phi_r, phi_t, d_r, d_t, config.eta,
-        fixed_r=0.0 if config.surface == "none" else 1.0, fixed_t=config.transmit_factor,
-    )  # fmt: skip
+    fixed_r = 0.0 if config.surface == "none" else 1.0
+    return [
+        StarChannels(
+            a_r[i],
+            a_t[i],
+            phi_r[i],
+            phi_t[i],
+            float(d_r[i]),
+            float(d_t[i]),
+            config.eta,
+            fixed_r=fixed_r,
+            fixed_t=config.transmit_factor,
+        )  # fmt: skip
+        for i in range(pos.shape[0])
+    ]
 
 
 def side_amplitude(amps: np.ndarray, phi: np.ndarray, direct: float, theta: np.ndarray) -> float:
-    """|h| = |a_D + sum_m amps_m e^{j (phi_m - theta_m)}| of one side (``amps`` = u^s a^s)."""
-    return float(abs(direct + np.sum(amps * np.exp(1j * (phi - theta)))))
+    """|h| = |a_D + sum_m amps_m e^{j (phi_m - theta_m)}| of one side (``amps`` = u^s a^s):
+    ``star_rows.side_amplitudes`` on one row."""
+    return float(side_amplitudes(amps, phi, direct, theta))
 
 
 def phase_grid(bits: int) -> np.ndarray:
@@ -185,32 +216,12 @@ def quantise(theta: np.ndarray, bits: int | None) -> np.ndarray:
 def best_discrete_phases(
     amps: np.ndarray, phi: np.ndarray, direct: float, bits: int
 ) -> tuple[np.ndarray, float]:
-    """The b-bit phases maximising |a_D + sum_m amps_m e^{j (phi_m - theta_m)}|, exactly, and that |h|.
-
-    For a direction psi of the sum, the best level of each element is the one nearest to
-    phi_m - psi; the optimum's own direction psi* gives a setting at least as good as the
-    optimum (|s| >= Re(s e^{-j psi*})), so scanning psi over [0, 2 pi) finds it. Element m's level
-    changes at 2^b breakpoints of psi, each change a known increment of the sum: the M 2^b
-    breakpoints sorted and the increments summed in order visit every candidate (O(M 2^b log)).
-    """
-    amps = np.asarray(amps, dtype=float)
-    phi = np.mod(np.asarray(phi, dtype=float), 2 * np.pi)
-    levels = 2**bits
-    step = 2 * np.pi / levels
-    l0 = np.round(phi / step)  # the levels at psi = 0
-    t0 = amps * np.exp(1j * (phi - l0 * step))
-    s0 = direct + t0.sum()
-    first = phi - l0 * step + step / 2  # in [0, step]: the first breakpoint of each element
-    k = np.arange(levels)
-    psi = (first[:, None] + k * step).ravel()  # (M * levels,)
-    delta = (t0[:, None] * np.exp(1j * k * step) * (np.exp(1j * step) - 1)).ravel()
-    order = np.argsort(psi, kind="stable")
-    sums = s0 + np.concatenate([[0.0], np.cumsum(delta[order])])
-    best = int(np.argmax(np.abs(sums)))
-    changes = np.zeros(amps.size, dtype=np.int64)  # level decrements applied up to candidate best
-    np.add.at(changes, order[:best] // levels, 1)
-    theta = np.mod(l0 - changes, levels) * step
-    return theta, side_amplitude(amps, phi, direct, theta)
+    """The b-bit phases maximising |a_D + sum_m amps_m e^{j (phi_m - theta_m)}|, exactly, and that |h|:
+    ``star_rows.discrete_phases`` on one row (its docstring has the derivation: the optimum's own
+    direction psi* makes every element's nearest level optimal, and the M 2^b breakpoints of psi,
+    sorted, visit every candidate in O(M 2^b log))."""
+    theta, amp = discrete_phases(amps, phi, direct, bits)
+    return theta, float(amp)
 
 
 def noma_rates(g_r: np.ndarray, g_t: np.ndarray, split: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -244,16 +255,18 @@ def noma_maxmin(g_r: np.ndarray, g_t: np.ndarray) -> tuple[np.ndarray, np.ndarra
 
 def tdma_rates(c_r: float, c_t: float, share: float) -> tuple[float, float]:
     """TDMA rates (share c_r, (1 - share) c_t): user r served for a fraction ``share`` of the slot
-    at its rate c_r, user t for the rest at c_t (bps/Hz)."""
+    at its rate c_r, user t for the rest at c_t (bps/Hz); ``star_rows.tdma_rates_rows`` of one pair."""
     if not (math.isfinite(share) and 0 <= share <= 1):
         raise ValueError(f"share (the time fraction of user r) must be in [0, 1], got {share!r}")
-    return share * c_r, (1 - share) * c_t
+    rate_r, rate_t = tdma_rates_rows(c_r, c_t, share)
+    return float(rate_r), float(rate_t)
 
 
 def tdma_maxmin(c_r: float, c_t: float) -> tuple[float, float]:
-    """Max-min TDMA rate c_r c_t / (c_r + c_t) and its share c_t / (c_r + c_t) (equal rates)."""
-    total = c_r + c_t
-    return (c_r * c_t / total, c_t / total) if total > 0 else (0.0, 0.5)
+    """Max-min TDMA rate c_r c_t / (c_r + c_t) and its share c_t / (c_r + c_t) (equal rates):
+    ``star_rows.tdma_maxmin_rows`` of one pair."""
+    value, share = tdma_maxmin_rows(c_r, c_t)
+    return float(value), float(share)
 
 
 def ts_rates(

@@ -51,7 +51,6 @@ from ios_uav_env.model.star import (
     quantise,
     side_amplitude,
     tdma_maxmin,
-    tdma_rates,
     ts_rates,
 )
 from ios_uav_env.model.star_frontier import (
@@ -70,8 +69,19 @@ from ios_uav_env.model.star_frontier import (
     ts_amplitudes,
     ts_noma,
 )
+from ios_uav_env.model.star_rows import (
+    StarRows,
+    rates_of,
+    side_amplitudes,
+    tdma_maxmin_rows,
+    tdma_rates_rows,
+    tdma_sides,
+)
 
-__all__ = ["DEFAULT_TOL", "SlotOptimum", "evaluate", "random_phase_value", "slot_optimum"]
+__all__ = [
+    "DEFAULT_TOL", "SlotOptimum", "evaluate", "evaluate_rows", "random_phase_value", "slot_optima",
+    "slot_optimum",
+]  # fmt: skip
 
 
 def _check(access: str, objective: str, tol: float) -> None:
@@ -84,9 +94,10 @@ def _check(access: str, objective: str, tol: float) -> None:
 
 
 def _tdma(ch: StarChannels, surface: StarSurface, objective: str) -> SlotOptimum:
-    amp_r, u_r, th_r = full_side(ch, surface, "r")
-    amp_t, u_t, th_t = full_side(ch, surface, "t")
-    c_r, c_t = rate_of(ch, amp_r), rate_of(ch, amp_t)
+    amp_r, u_r, th_r, amp_t, u_t, th_t = (
+        v[0] for v in tdma_sides(StarRows.of([ch]), surface.protocol, surface.bits)
+    )
+    c_r, c_t = float(rates_of(ch.eta, amp_r)), float(rates_of(ch.eta, amp_t))
     if objective == "maxmin":
         value, share = tdma_maxmin(c_r, c_t)
     else:
@@ -185,7 +196,8 @@ def evaluate(ch: StarChannels, surface: StarSurface, access: str, setting: dict)
     """Rates (R_r, R_t) of a ``setting`` (as :attr:`SlotOptimum.setting`), checked against the
     surface (``star.check_setting``): TDMA (``u_*``, ``theta_*``, ``share``: each user served by its
     side's part), TS with NOMA (``theta_*``, ``lam``, ``split_reflect``, ``split_transmit``) or one
-    NOMA setting (``u_*``, ``theta_*``, ``split``)."""
+    NOMA setting (``u_*``, ``theta_*``, ``split``). Other than TS with NOMA, :func:`evaluate_rows`
+    on one row."""
     if access not in ACCESS:
         raise ValueError(f"access must be one of {ACCESS}, got {access!r}")
     theta_r, theta_t = setting["theta_r"], setting["theta_t"]
@@ -204,12 +216,70 @@ def evaluate(ch: StarChannels, surface: StarSurface, access: str, setting: dict)
     check_setting(
         surface, u_r, u_t, theta_r, theta_t, (ch.fixed_r, ch.fixed_t), simultaneous=access == "noma"
     )
-    amp_r = side_amplitude(u_r * ch.a_r, ch.phi_r, ch.direct_r, theta_r)
-    amp_t = side_amplitude(u_t * ch.a_t, ch.phi_t, ch.direct_t, theta_t)
+    key = "share" if access == "tdma" else "split"
+    one = {name: np.asarray(setting[name], dtype=np.float64)[None] for name in (*_SETTING, key)}
+    rate_r, rate_t = _rates(StarRows.of([ch]), access, one)
+    return float(rate_r[0]), float(rate_t[0])
+
+
+#: The element arrays of a setting (besides its share or split).
+_SETTING = ("u_r", "u_t", "theta_r", "theta_t")
+
+
+def _rates(rows: StarRows, access: str, setting: dict) -> tuple[np.ndarray, np.ndarray]:
+    """(R_r, R_t) per row of a checked setting (TDMA: ``share``; NOMA: ``split``)."""
+    amp_r = side_amplitudes(setting["u_r"] * rows.a_r, rows.phi_r, rows.direct_r, setting["theta_r"])
+    amp_t = side_amplitudes(setting["u_t"] * rows.a_t, rows.phi_t, rows.direct_t, setting["theta_t"])
     if access == "tdma":
-        return tdma_rates(rate_of(ch, amp_r), rate_of(ch, amp_t), setting["share"])
-    rates = noma_rates(ch.eta * amp_r**2, ch.eta * amp_t**2, setting["split"])
-    return float(rates[0]), float(rates[1])
+        return tdma_rates_rows(rates_of(rows.eta, amp_r), rates_of(rows.eta, amp_t), setting["share"])
+    return noma_rates(rows.eta * amp_r**2, rows.eta * amp_t**2, setting["split"])
+
+
+def evaluate_rows(
+    rows: StarRows, surface: StarSurface, access: str, setting: dict
+) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`evaluate` of one setting per row, as arrays: ``setting``'s ``u_*`` and ``theta_*``
+    with shape (..., M), its ``share`` (TDMA) or ``split`` (NOMA) with shape (...), checked
+    against the surface as :func:`evaluate` checks one (any bad row refuses the whole call).
+    Row i of the result is :func:`evaluate` of row i, bit for bit. Not for TS with NOMA."""
+    if access not in ACCESS:
+        raise ValueError(f"access must be one of {ACCESS}, got {access!r}")
+    if surface.protocol == "ts" and access == "noma":
+        raise ValueError("protocol 'ts' with access 'noma' is evaluated slot by slot (evaluate), not by rows")
+    key = "share" if access == "tdma" else "split"
+    arrays = {name: np.asarray(setting[name], dtype=np.float64) for name in (*_SETTING, key)}
+    fixed = (rows.fixed_r[..., None], rows.fixed_t[..., None])
+    check_setting(surface, *(arrays[name] for name in _SETTING), fixed, simultaneous=access == "noma")
+    return _rates(rows, access, arrays)
+
+
+def slot_optima(
+    rows: StarRows,
+    surface: StarSurface,
+    access: str = "noma",
+    objective: str = "maxmin",
+    tol: float = DEFAULT_TOL,
+) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`slot_optimum`'s value and upper bound of every row, as arrays (shape: the rows').
+    TDMA (closed form) is computed over the rows at once, and row i is :func:`slot_optimum` of
+    row i bit for bit; the other cases run :func:`slot_optimum` row by row."""
+    _check(access, objective, tol)
+    shape = rows.direct_r.shape
+    if access == "tdma":
+        amp_r, _, _, amp_t, _, _ = tdma_sides(rows, surface.protocol, surface.bits)
+        c_r, c_t = rates_of(rows.eta, amp_r), rates_of(rows.eta, amp_t)
+        value = tdma_maxmin_rows(c_r, c_t)[0] if objective == "maxmin" else np.maximum(c_r, c_t)
+        return value, value.copy()
+    value, upper = np.zeros(shape), np.zeros(shape)
+    for index in np.ndindex(shape):
+        part = rows.take(index)
+        fields = {name: getattr(part, name) for name in ("a_r", "a_t", "phi_r", "phi_t")}
+        scalars = {
+            name: float(getattr(part, name)) for name in ("direct_r", "direct_t", "eta", "fixed_r", "fixed_t")
+        }
+        best = slot_optimum(StarChannels(**fields, **scalars), surface, access, objective, tol)
+        value[index], upper[index] = best.value, best.upper
+    return value, upper
 
 
 def random_phase_value(

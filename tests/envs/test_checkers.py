@@ -56,12 +56,13 @@ def test_sb3s_checker_without_warnings(env_id):
         sb3_checker.check_env(gym.make(env_id).unwrapped, warn=True)
 
 
-def test_only_the_surface_control_ids_have_no_batched_form():
+@pytest.mark.skipif(OLD_GYMNASIUM, reason="Gymnasium < 1.0: no vector_entry_point")
+def test_every_id_has_a_batched_form():
     unbatched = {i for i in IDS if getattr(gym.spec(i), "vector_entry_point", None) is None}
-    assert unbatched == set(IDS) & set(ios_uav_env.STAR_CONTROL_IDS)
+    assert not unbatched
 
 
-@pytest.mark.parametrize("env_id", [i for i in IDS if i not in ios_uav_env.STAR_CONTROL_IDS])
+@pytest.mark.parametrize("env_id", IDS)
 def test_the_batched_form_has_the_envs_spaces(env_id):
     if OLD_GYMNASIUM:  # pragma: no cover - Gymnasium 0.29's make_vec has no vector_entry_point mode
         pytest.skip("Gymnasium < 1.0: no vector_entry_point mode")
