@@ -55,12 +55,15 @@ TASK: dict[str, str] = {
     "view": "the observation view and the action type it is read with (the id's preset)",
     "action": "the action type (the view's)",
     "draws": "whether each reset draws its scenario (the v0 view's randomised ids)",
+    "control": "how the surface control's action sets the surface (phases, or offsets to the aligned)",
 }
 #: What a reset draws: the suite pins every scenario instead. Refused (dropped from a policy's own).
 DRAW: frozenset[str] = frozenset({"config", "ranges", "focus", "focus_prob"})
 #: What the suite's scoring fixes: the episode-end schedule it reports (``best_schedule``; a
-#: training run may skip it). Refused (dropped from a policy's own), as the draws are.
-SCORING: frozenset[str] = frozenset({"best_schedule"})
+#: training run may skip it) and the surface control's per-slot optimum in ``info`` (``optimum``:
+#: a STAR-control suite holds it as a reference and rolls policies out without it). Refused
+#: (dropped from a policy's own), as the draws are.
+SCORING: frozenset[str] = frozenset({"best_schedule", "optimum"})
 #: A several-UAV suite's fleet (``fleet_suite.FLEET_FIELDS``): each scenario fixes it.
 FLEET: frozenset[str] = frozenset(
     {"uavs", "starts", "finals", "speeds", "access", "min_separation", "horizons"}

@@ -60,7 +60,7 @@ def evaluate_star(
     rows = []
     for i, s in enumerate((scenarios[0], *scenarios)):  # the first: a warm-up, not scored
         where = f"{suite.name} scenario {s.index}"
-        env = make_star_env(s.star, kwargs)
+        env = make_star_env(s.star, {**kwargs, "optimum": False})  # (the reference holds it)
         try:
             chosen = bound_policy(policy, StarTask.of(s.star, env), where)
             act = NamedPolicy(action_function(chosen), suite.name, name)

@@ -53,7 +53,8 @@ def _other(name: str, default):
             "surface_sharpness": 9.0, "channel_phases": not default,
             "view": "v0" if default == "node_blocks" else "node_blocks",
             "action": "move" if default == "move_scores" else "move_scores",
-            "draws": not default}[name]  # fmt: skip
+            "draws": not default,
+            "control": "residual" if default != "residual" else "direct"}[name]  # fmt: skip
 
 
 def test_the_classes_are_disjoint_and_cover_every_argument_of_every_suite_env(suites):
