@@ -79,6 +79,26 @@ def check_threads(num_threads: Any) -> int | None:
     return int(num_threads)
 
 
+def check_batch(env: gym.vector.VectorEnv, num_envs: Any, autoreset_mode: Any, render_mode: Any) -> None:
+    """Check ``num_envs`` (an integer >= 1), ``autoreset_mode`` (:data:`AUTORESET_MODES` or an
+    ``AutoresetMode``) and ``render_mode`` (None) of a batched ``env`` and set its ``num_envs``,
+    ``same_step``, ``render_mode`` and the ``metadata``'s autoreset mode (``ValueError`` naming
+    the argument otherwise): every batched env of the package takes these three alike."""
+    if isinstance(num_envs, bool) or not isinstance(num_envs, (int, np.integer)) or num_envs < 1:
+        raise ValueError(f"num_envs must be an integer >= 1, got {num_envs!r}")
+    mode = str(getattr(autoreset_mode, "value", autoreset_mode)).lower().replace("step", "_step")
+    mode = mode.replace("__", "_")  # "NextStep", "next_step", AutoresetMode.NEXT_STEP, ...
+    if mode not in AUTORESET_MODES:
+        raise ValueError(f"autoreset_mode must be one of {AUTORESET_MODES}, got {autoreset_mode!r}")
+    env.same_step = mode == "same_step"
+    if render_mode is not None:
+        raise ValueError(f"render_mode must be None for the batched env, got {render_mode!r}")
+    env.num_envs = int(num_envs)
+    env.render_mode = None
+    if env.same_step and _SAME_STEP is not None:
+        env.metadata = {**env.metadata, "autoreset_mode": _SAME_STEP}
+
+
 class BatchedEnv(RowCalls, gym.vector.VectorEnv):
     """``num_envs`` episodes of ``env_class`` as rows of arrays (see the module's docstring).
 
@@ -108,9 +128,9 @@ class BatchedEnv(RowCalls, gym.vector.VectorEnv):
         num_threads: int | None = None,
         **kwargs: Any,
     ):
-        self._check_batch(num_envs, autoreset_mode, render_mode)
+        check_batch(self, num_envs, autoreset_mode, render_mode)
         self.num_threads = check_threads(num_threads)
-        template = self.env_class(config, **kwargs)
+        template = self._make_template(config, kwargs)
         self._copy_template(template)
         self._init_rows(template)
         self._outputs()
@@ -120,21 +140,10 @@ class BatchedEnv(RowCalls, gym.vector.VectorEnv):
         for mask in self._masks.values():
             mask.setflags(write=False)
 
-    def _check_batch(self, num_envs: Any, autoreset_mode: Any, render_mode: Any) -> None:
-        """Check and set ``num_envs``, the autoreset mode (``same_step``) and ``render_mode`` (None)."""
-        if isinstance(num_envs, bool) or not isinstance(num_envs, (int, np.integer)) or num_envs < 1:
-            raise ValueError(f"num_envs must be an integer >= 1, got {num_envs!r}")
-        mode = str(getattr(autoreset_mode, "value", autoreset_mode)).lower().replace("step", "_step")
-        mode = mode.replace("__", "_")  # "NextStep", "next_step", AutoresetMode.NEXT_STEP, ...
-        if mode not in AUTORESET_MODES:
-            raise ValueError(f"autoreset_mode must be one of {AUTORESET_MODES}, got {autoreset_mode!r}")
-        self.same_step = mode == "same_step"
-        if render_mode is not None:
-            raise ValueError(f"render_mode must be None for the batched env, got {render_mode!r}")
-        self.num_envs = int(num_envs)
-        self.render_mode = None
-        if self.same_step and _SAME_STEP is not None:
-            self.metadata = {**self.metadata, "autoreset_mode": _SAME_STEP}
+    def _make_template(self, config: Any, kwargs: dict[str, Any]) -> gym.Env:
+        """The template env of the rows: ``env_class(config, **kwargs)`` (a subclass whose env takes
+        no scenario builds it from the keywords alone)."""
+        return self.env_class(config, **kwargs)
 
     def _copy_template(self, template: gym.Env) -> None:
         """The spaces of ``template`` (single and batched) and one copy of it per row (``envs``:

@@ -24,17 +24,9 @@ import gymnasium as gym
 import numpy as np
 from gymnasium.vector.utils import batch_space
 
-from ios_uav_env.envs.batched import AUTORESET_MODES
+from ios_uav_env.envs.batched import BatchedEnv, check_batch
 from ios_uav_env.envs.miso_control import INFO_KEYS, MISOControlEnv
 from ios_uav_env.envs.row_protocol import row_seeds
-
-try:  # Gymnasium >= 1.1 names the autoreset modes
-    from gymnasium.vector import AutoresetMode
-
-    NEXT_STEP: Any = AutoresetMode.NEXT_STEP
-    SAME_STEP: Any = AutoresetMode.SAME_STEP
-except ImportError:  # pragma: no cover - Gymnasium 1.0: next-step is the only mode
-    NEXT_STEP, SAME_STEP = "NextStep", None
 
 
 class MISOControlVectorEnv(gym.vector.VectorEnv):
@@ -43,23 +35,13 @@ class MISOControlVectorEnv(gym.vector.VectorEnv):
     Arguments: the single env's keywords plus ``num_envs`` and ``autoreset_mode`` ("next_step"
     or "same_step"). No rendering (``render_mode=None``)."""
 
-    metadata = {"autoreset_mode": NEXT_STEP, "render_modes": []}
+    metadata = BatchedEnv.metadata
     info_keys = INFO_KEYS  # the keys of ``info`` (before the ``_key`` masks), as the other batched envs'
 
     def __init__(
         self, num_envs: int = 1, *, autoreset_mode: Any = "next_step", render_mode: None = None, **kwargs: Any
     ) -> None:
-        if isinstance(num_envs, bool) or not isinstance(num_envs, (int, np.integer)) or num_envs < 1:
-            raise ValueError(f"num_envs must be an integer >= 1, got {num_envs!r}")
-        mode = str(getattr(autoreset_mode, "value", autoreset_mode)).lower().replace("step", "_step")
-        mode = mode.replace("__", "_")  # "NextStep", "next_step", AutoresetMode.NEXT_STEP, ...
-        if mode not in AUTORESET_MODES:
-            raise ValueError(f"autoreset_mode must be one of {AUTORESET_MODES}, got {autoreset_mode!r}")
-        if render_mode is not None:
-            raise ValueError(f"render_mode must be None for the batched env, got {render_mode!r}")
-        self.same_step, self.render_mode, self.num_envs = mode == "same_step", None, int(num_envs)
-        if self.same_step and SAME_STEP is not None:
-            self.metadata = {**self.metadata, "autoreset_mode": SAME_STEP}
+        check_batch(self, num_envs, autoreset_mode, render_mode)
         self.envs = [MISOControlEnv(**kwargs) for _ in range(self.num_envs)]
         template = self.envs[0]
         self.single_observation_space = template.observation_space

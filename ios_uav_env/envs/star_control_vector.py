@@ -14,7 +14,7 @@ from typing import Any
 
 import numpy as np
 
-from ios_uav_env.envs.batched import BatchedEnv, check_threads
+from ios_uav_env.envs.batched import BatchedEnv
 from ios_uav_env.envs.star_control import INFO_KEYS, LENGTH_SCALE, N_SLOTS, USERS_FEATURES, STARControlEnv
 from ios_uav_env.model.star_rows import StarRows
 from ios_uav_env.model.star_slot import evaluate_rows, slot_optima
@@ -47,19 +47,15 @@ class STARControlVectorEnv(BatchedEnv):
         num_threads: int | None = None,
         **kwargs: Any,
     ) -> None:
-        # BatchedEnv.__init__ with the template built from the keywords alone (this env takes no
-        # scenario: its line is drawn at every reset)
-        self._check_batch(num_envs, autoreset_mode, render_mode)
-        self.num_threads = check_threads(num_threads)
-        template = STARControlEnv(**kwargs)
-        self._copy_template(template)
-        self._init_rows(template)
-        self._outputs()
-        self._autoreset = np.zeros(self.num_envs, dtype=np.bool_)
-        self._started = False
-        self._masks = {f"_{key}": np.ones(self.num_envs, dtype=np.bool_) for key in self.info_keys}
-        for mask in self._masks.values():
-            mask.setflags(write=False)
+        super().__init__(
+            num_envs, None, autoreset_mode=autoreset_mode, render_mode=render_mode, num_threads=num_threads,
+            **kwargs,
+        )  # fmt: skip
+
+    def _make_template(self, config: Any, kwargs: dict[str, Any]) -> STARControlEnv:
+        """The template from the keywords alone: this env takes no scenario (its line is drawn at
+        every reset)."""
+        return STARControlEnv(**kwargs)
 
     # --- the rows -------------------------------------------------------------------
     def _init_rows(self, template: STARControlEnv) -> None:
