@@ -41,7 +41,7 @@ from ios_uav_env.envs.multi_table import (
     info_keys,
 )
 from ios_uav_env.envs.observation_layout import node_block_names
-from ios_uav_env.envs.options import EnvOptions, split_kwargs
+from ios_uav_env.envs.options import EnvOptions, EnvViews, split_kwargs
 from ios_uav_env.envs.settings import (
     check_config_keywords,
     check_multinode_arguments,
@@ -57,7 +57,7 @@ from ios_uav_env.model.schedule import reported_maxmin_rate
 __all__ = ["MultiNodeStepper"]
 
 
-class MultiNodeStepper(MobileNodes, EnergyChannel):
+class MultiNodeStepper(MobileNodes, EnergyChannel, EnvViews):
     """The multi-node stepper (module docstring; the arguments: ``MultiNodeEnv``'s)."""
 
     #: The observation view and the action type of this stepper (``core.stepper.VIEWS``).
@@ -175,16 +175,6 @@ class MultiNodeStepper(MobileNodes, EnergyChannel):
         more = self.energy_objective or self.options.channel == "rician"  # (their info columns)
         self._table = np.zeros((1, info_columns(self.max_nodes, more)))
         self._started = False
-
-    @property
-    def np_random(self) -> np.random.Generator:
-        """The env's generator (``gym.Env.np_random``), the one every draw of the episode uses."""
-        return self.env.np_random
-
-    # --- options (read-only views of self.options, as on the single-node stepper) ------------
-    channel = property(lambda self: self.options.channel)
-    arrival_guard = property(lambda self: self.options.arrival_guard)
-    length_scale = property(lambda self: self.options.length_scale)
 
     # --- spaces ---------------------------------------------------------------------------
     def _bounds(self, config: ScenarioConfig | None = None) -> tuple[np.ndarray, np.ndarray]:

@@ -128,3 +128,21 @@ def split_kwargs(kwargs: Mapping[str, Any], owner: str) -> tuple[dict[str, Any],
         else:
             raise TypeError(f"{owner}() got an unexpected keyword argument {name!r}")
     return options, scenario
+
+
+class EnvViews:
+    """What a stepper reads through its env and its options (the steppers' common read-only
+    views): ``np_random``, the env's generator (``gym.Env.np_random``, the one every draw of the
+    episode uses), and the options every view has, from ``self.options``."""
+
+    env: Any
+    options: EnvOptions
+
+    @property
+    def np_random(self) -> np.random.Generator:
+        """The env's generator, the one every draw of the episode uses."""
+        return self.env.np_random
+
+    channel = property(lambda self: self.options.channel)
+    arrival_guard = property(lambda self: self.options.arrival_guard)
+    length_scale = property(lambda self: self.options.length_scale)

@@ -24,7 +24,7 @@ from gymnasium import spaces
 from ios_uav_env.envs.knowledge import NodeTrack, mobile_bounds
 from ios_uav_env.envs.observation import check_fits, space_bounds
 from ios_uav_env.envs.observation_layout import observation_names
-from ios_uav_env.envs.options import EnvOptions, split_kwargs
+from ios_uav_env.envs.options import EnvOptions, EnvViews, split_kwargs
 from ios_uav_env.envs.settings import (
     check_config_keywords,
     check_scenario_overrides,
@@ -51,7 +51,7 @@ INFO_KEYS: tuple[str, ...] = (
 __all__ = ["INFO_KEYS", "SingleNodeStepper"]
 
 
-class SingleNodeStepper(MobileNode):
+class SingleNodeStepper(MobileNode, EnvViews):
     """The single-node stepper: one node, the v0 observation view and the 2-d move (module docstring)."""
 
     metadata = {"render_modes": ["rgb_array"], "render_fps": 10}
@@ -131,15 +131,7 @@ class SingleNodeStepper(MobileNode):
         self._path = np.zeros((1, self.config.N, 2))
         self._started = False
 
-    @property
-    def np_random(self) -> np.random.Generator:
-        """The env's generator (``gym.Env.np_random``), the one every draw of the episode uses."""
-        return self.env.np_random
-
-    # --- options (read-only views of self.options) ---------------------------------------
-    channel = property(lambda self: self.options.channel)
-    arrival_guard = property(lambda self: self.options.arrival_guard)
-    length_scale = property(lambda self: self.options.length_scale)
+    # --- options (read-only views of self.options; the common ones: EnvViews) ---------------
     instance_features = property(lambda self: self.options.instance_features)
     peak_hint = property(lambda self: self.options.peak_hint)
 
