@@ -54,6 +54,7 @@ from __future__ import annotations
 
 import math
 import time
+from collections.abc import Callable
 from typing import Any
 
 import numpy as np
@@ -87,7 +88,7 @@ CUT_TOL = 1e-4
 
 __all__ = [
     "RelaxedDP", "ZETA_SLACK", "check_plain_grid", "check_relaxed_grid", "clairvoyant_bound",
-    "kelley_step", "region_rate_bound", "relaxed_offsets", "solve_multinode",
+    "kelley_minimise", "kelley_step", "region_rate_bound", "relaxed_offsets", "solve_multinode",
 ]  # fmt: skip
 
 
@@ -188,6 +189,38 @@ def kelley_step(slopes: np.ndarray, offsets: np.ndarray | None = None) -> tuple[
         raise RuntimeError(f"Kelley LP failed: {res.message}")
     w = np.maximum(res.x[:k], 0.0)
     return w / w.sum(), float(res.fun)
+
+
+def kelley_minimise(
+    value: Callable[[np.ndarray], tuple[float, np.ndarray]],
+    start: np.ndarray,
+    *,
+    max_cuts: int,
+    tol: float,
+    on_weights: Callable[[np.ndarray], Any] | None = None,
+) -> tuple[float, np.ndarray, float, list[dict[str, Any]]]:
+    """Kelley's cutting planes on a convex function of the weights over the simplex, given as
+    ``value(w) -> (f(w), g)`` with the cut f(w') >= g . w' for every w': from ``start``, each
+    iteration evaluates f, adds the cut and moves to :func:`kelley_step`'s point, until ``max_cuts``
+    evaluations or the best value minus Kelley's lower value is at most ``tol`` times the best.
+    (the best value, its w, Kelley's lower value, per-iteration records: weights, upper_bound);
+    ``on_weights(w)`` is called at every w evaluated."""
+    w = start
+    cuts: list[np.ndarray] = []
+    records: list[dict[str, Any]] = []
+    best, best_w, lower = math.inf, w, -math.inf
+    for it in range(max_cuts):
+        ub, g = value(w)
+        cuts.append(g)
+        if ub < best:
+            best, best_w = ub, w
+        if on_weights is not None:
+            on_weights(w)
+        records.append({"iteration": it, "weights": w.tolist(), "upper_bound": ub})
+        w, lower = kelley_step(np.array(cuts))
+        if best - lower <= tol * best:
+            break
+    return best, best_w, lower, records
 
 
 def solve_multinode(

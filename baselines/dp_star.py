@@ -87,7 +87,7 @@ from typing import Any
 
 import numpy as np
 
-from baselines.dp_bound import CUT_TOL, kelley_step
+from baselines.dp_bound import CUT_TOL, kelley_minimise, kelley_step
 from baselines.dp_relaxed import RelaxedDP, check_plain_grid, check_relaxed_grid
 from baselines.grid import DEFAULT_MARGIN, corridor_path, grid_axes, grid_path, validate_grid_args
 from baselines.plan import Plan
@@ -164,18 +164,7 @@ def noma_bound(
     w = np.full(2, 0.5) if start_weights is None else np.asarray(start_weights, dtype=float)
     if w.shape != (2,) or np.any(w < 0) or abs(w.sum() - 1) > 1e-9:
         raise ValueError(f"start_weights must be two numbers >= 0 summing to 1, got {w!r}")
-    cuts, records = [], []
-    best, best_w, lower = math.inf, w, -math.inf
-    for it in range(max_cuts):
-        ub, g = relaxed.value(w)
-        cuts.append(g)
-        if ub < best:
-            best, best_w = ub, w
-        records.append({"iteration": it, "weights": w.tolist(), "upper_bound": ub})
-        w, lower = kelley_step(np.array(cuts))
-        if best - lower <= tol * best:
-            break
-    return best, best_w, lower, records
+    return kelley_minimise(relaxed.value, w, max_cuts=max_cuts, tol=tol)
 
 
 def refine_plan(

@@ -17,19 +17,18 @@ Dropping the surface's coupling and the separation only relaxes the problem, and
 a shared band's interference (it only lowers rates), so by weak duality (V = min_k R_k <=
 sum_k w_k R_k for every w) V <= min_w sum_u (N_u / N) UB_u(w) in either band. Each UB_u is convex
 in w with the cut UB_u(w') >= G_u . w' of its relaxed path, and N_u / N > 0 keeps both, so the
-sum is convex and sum_u (N_u / N) G_u is the fleet's cut: Kelley's cuts (``dp_bound.kelley_step``)
+sum is convex and sum_u (N_u / N) G_u is the fleet's cut: Kelley's cuts (``dp_bound.kelley_minimise``)
 minimise a certified bound. With every horizon T the factors are 1: the bound is the plain sum.
 """
 
 from __future__ import annotations
 
-import math
 import numbers
 from typing import Any
 
 import numpy as np
 
-from baselines.dp_bound import kelley_step, weighted_dp_path
+from baselines.dp_bound import kelley_minimise, weighted_dp_path
 from baselines.dp_relaxed import RelaxedDP, check_relaxed_grid
 from baselines.grid import DEFAULT_MARGIN
 from ios_uav_env import ScenarioConfig
@@ -64,21 +63,13 @@ def fleet_bound(
     scale = [c.N / n_slots for c in configs]  # each UAV's share of the N slots (1: the whole flight)
     relaxed = [RelaxedDP(c, resolution, margin) for c in configs]
     w = np.full(k, 1.0 / k) if start_weights is None else np.asarray(start_weights, dtype=float)
-    cuts, records = [], []
-    best, best_w, lower = math.inf, w, -math.inf
-    for it in range(max_cuts):
+
+    def value(w: np.ndarray) -> tuple[float, np.ndarray]:
         values = [r.value(w) for r in relaxed]
         ub = float(sum(s * v for s, (v, _) in zip(scale, values, strict=True)))
-        cuts.append(np.sum([s * g for s, (_, g) in zip(scale, values, strict=True)], axis=0))
-        if ub < best:
-            best, best_w = ub, w
-        if on_weights is not None:
-            on_weights(w)
-        records.append({"iteration": it, "weights": w.tolist(), "upper_bound": ub})
-        w, lower = kelley_step(np.array(cuts))
-        if best - lower <= tol * best:
-            break
-    return best, best_w, lower, records
+        return ub, np.sum([s * g for s, (_, g) in zip(scale, values, strict=True)], axis=0)
+
+    return kelley_minimise(value, w, max_cuts=max_cuts, tol=tol, on_weights=on_weights)
 
 
 def dual_flights(
