@@ -28,7 +28,10 @@ from stable_baselines3.common.vec_env.base_vec_env import (
 import ios_uav_env  # registers the ids
 from agents import tricks
 from agents.tricks import EXPLORE_BOX, StartsField
+from ios_uav_env.envs.registration import presets
 from ios_uav_env.jit import prefer_passive_threads
+
+FLIGHT_IDS = frozenset(presets())  # the ids this wrapper takes: the agent flies the UAV
 
 prefer_passive_threads()  # numba's threads must not spin while torch trains (see the function)
 
@@ -60,6 +63,12 @@ class BatchedVecEnv(VecEnv):
         seed: int | None = None,
         stagger: bool = False,
     ):
+        if env_id not in FLIGHT_IDS:
+            raise ValueError(
+                f"env_id: BatchedVecEnv wraps the flight ids (ios_uav_env.envs.registration.presets(): "
+                f"the agent flies, episodes end with average_rate); {env_id!r} is not one. Wrap its "
+                "single env in SB3's DummyVecEnv instead (examples/star_control_ppo.py does)"
+            )
         self.env_id, self.stagger = env_id, bool(stagger)
         kwargs = dict(env_kwargs or {})
         if env_id in ios_uav_env.MULTINODE_IDS:

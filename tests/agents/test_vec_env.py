@@ -263,3 +263,11 @@ def test_exploring_starts_on_the_single_node_batched_env() -> None:
             assert infos[i]["feasible"]
             starts.append(obs[i, 8])  # time_left of the next episode's first observation
     assert len(starts) >= 2 and all(0.45 <= s < 1.0 for s in starts)  # 1-20 of 39 moves gone
+
+
+@pytest.mark.parametrize("env_id", ["ios_uav_env/STARControl-v0", "ios_uav_env/MISOControl-v0"])
+def test_a_control_id_is_refused_with_what_to_use(env_id: str) -> None:
+    """The control ids' batched envs do not fly the UAV (no ``advance``): the wrapper says so and
+    names what to use, instead of failing at the first step."""
+    with pytest.raises(ValueError, match=r"env_id: BatchedVecEnv wraps the flight ids.*DummyVecEnv"):
+        BatchedVecEnv(env_id, 2)
