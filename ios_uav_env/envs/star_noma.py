@@ -270,15 +270,7 @@ class StarNomaStepper(EnvViews):
 
     def step(self, action: Any) -> tuple[np.ndarray, float, bool, bool, dict[str, Any]]:
         """One slot of the move and weight ``action``: Gymnasium's five outputs."""
-        if not self._started:
-            raise RuntimeError("call reset() before step()")
-        if self.rows.state[0, 2] >= self.config.N - 1:
-            raise RuntimeError(f"the episode ended at slot N = {self.config.N}; call reset()")
-        a = np.asarray(action, dtype=np.float64)
-        if a.shape != self.action_space.shape:
-            raise ValueError(f"action must have shape {self.action_space.shape}, got {a.shape}")
-        if not np.isfinite(a).all():
-            raise ValueError(f"action must be finite (no NaN or inf), got {action!r}")
+        a = self.checked_action(action, self._started, self.rows.state[0, 2] >= self.config.N - 1)
         outputs = (self._obs, self._reward, self._terminated, self._table)
         self.rows.step(a[None], self._active, outputs)
         terminated = bool(self._terminated[0])
@@ -288,6 +280,12 @@ class StarNomaStepper(EnvViews):
     def trajectory(self) -> np.ndarray:
         """The way-points so far, (n + 1, 2) m."""
         return self.rows.trajectory(0) if self._started else np.zeros((0, 2))
+
+    @property
+    def shares(self) -> None:
+        """None: no TDMA shares (``score_plan`` scores a NOMA flight with the best time sharing of
+        its trajectory; ``rollout.run_episode`` reads this as the multi-node envs' shares)."""
+        return None
 
     @property
     def weights(self) -> np.ndarray:

@@ -12,6 +12,7 @@ import pytest
 
 from ios_uav_env import STAR_ID, STAR_NOMA_ID, STAR_NOMA_RANDOM_ID, score_plan
 from ios_uav_env.components import UnsupportedWorld, World
+from ios_uav_env.envs.rollout import run_episode
 from ios_uav_env.envs.star_noma import NOMA_CONFIG
 from ios_uav_env.model.star_maps import frontier_maps
 from tests.tolerances import PLANNER_REL
@@ -195,3 +196,13 @@ def test_the_batched_rows_are_the_single_env_seeded_seed_plus_i(env_id, mode):
             if b_rew is not None:
                 assert b_rew[i] == s_rew and bool(b_term[i]) == s_term
             assert all(np.array_equal(b_info[k][i], v, equal_nan=True) for k, v in s_info.items())
+
+
+def test_run_episode_scores_a_policy_with_score_plan():
+    """The rollout every agent is evaluated by (``rollout.run_episode``) scores a NOMA flight as the
+    env's final info does: ``score_plan`` of the trajectory, no TDMA shares."""
+    env = gym.make(STAR_NOMA_ID, config=SMALL)
+    episode = run_episode(env, lambda obs: np.array([0.3, 1.0, obs[10] > obs[14]], dtype=np.float32), seed=0)
+    assert env.unwrapped.shares is None and episode.feasible and episode.steps == SMALL.N - 1
+    assert episode.average_rate == score_plan(SMALL, env.unwrapped.trajectory).rate
+    assert episode.average_rate == env.unwrapped.rows.flight_score(0)
