@@ -161,7 +161,8 @@ class StarNomaStepper(EnvViews):
     ) -> None:
         self.env = env
         options, overrides = split_kwargs(kwargs, f"{_NAME}.__init__")
-        inert = sorted(set(options) - {"length_scale"})
+        default = EnvOptions()
+        inert = sorted(k for k, v in options.items() if k != "length_scale" and v != getattr(default, k))
         if inert:
             raise ValueError(
                 f"{inert[0]} is an option this env does not have: the NOMA STAR flight runs the expected-"

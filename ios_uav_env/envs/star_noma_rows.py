@@ -84,7 +84,6 @@ class StarNomaRows:
             self.path[i] = 0.0
             self.path[i, 0] = ep[0:2]
             self.served[i] = 0.0
-            info[i] = 0.0
             self._serve(i, _HALF, info[i])
             self._observe(i, obs[i])
 

@@ -12,8 +12,10 @@ import pytest
 
 from ios_uav_env import STAR_ID, STAR_NOMA_ID, STAR_NOMA_RANDOM_ID, score_plan
 from ios_uav_env.components import UnsupportedWorld, World
+from ios_uav_env.envs.policies import full_speed_move
 from ios_uav_env.envs.rollout import run_episode
 from ios_uav_env.envs.star_noma import NOMA_CONFIG
+from ios_uav_env.envs.worlds import make_world
 from ios_uav_env.model.star_maps import frontier_maps
 from tests.tolerances import PLANNER_REL
 
@@ -206,3 +208,29 @@ def test_run_episode_scores_a_policy_with_score_plan():
     assert env.unwrapped.shares is None and episode.feasible and episode.steps == SMALL.N - 1
     assert episode.average_rate == score_plan(SMALL, env.unwrapped.trajectory).rate
     assert episode.average_rate == env.unwrapped.rows.flight_score(0)
+
+
+def test_fly_steps_the_rows_at_weight_one_half():
+    """``fly`` (hidden full-speed moves) on the NOMA batch: the rows flown are the single env given
+    the same moves with a_w = 0 (w = 1/2), bit for bit; the other rows do not move."""
+    vec = gym.make_vec(STAR_NOMA_ID, num_envs=2, vectorization_mode="vector_entry_point", config=SMALL)
+    vec.reset(seed=0)
+    target = np.array([-120.0, -40.0])
+    obs = vec.unwrapped.fly([1], [target], [2])
+    env = gym.make(STAR_NOMA_ID, config=SMALL)
+    single, _ = env.reset(seed=1)
+    for _ in range(2):
+        move = full_speed_move((target - env.unwrapped.trajectory[-1])[None], np.array([[SMALL.D]]))[0]
+        single, *_ = env.step(np.array([*move, 0.0]))
+    assert np.array_equal(vec.unwrapped.trajectories[1], env.unwrapped.trajectory)
+    assert np.array_equal(obs[1], single) and len(vec.unwrapped.trajectories[0]) == 1
+
+
+def test_make_world_runs_a_noma_world_in_the_noma_id():
+    world = World(surface={"kind": "star", "access": "noma"}, nodes=2)
+    env = make_world(world)
+    assert env.spec.id == STAR_NOMA_ID and env.unwrapped.config == NOMA_CONFIG
+    batch = make_world(world, SMALL, num_envs=2)
+    assert batch.envs[0].view == "star_noma" and batch.configs[0] == SMALL
+    with pytest.raises(UnsupportedWorld, match=r"surface star \(noma\)"):
+        make_world(World(surface={"kind": "star", "access": "noma"}, nodes=3))
