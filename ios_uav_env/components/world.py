@@ -25,7 +25,7 @@ from ios_uav_env.components.objective import OBJECTIVES, Objective
 from ios_uav_env.components.surface import SURFACES, Surface, surface_of
 from ios_uav_env.model.config import ScenarioConfig
 
-__all__ = ["FAMILIES", "UnsupportedWorld", "World", "combinations"]
+__all__ = ["FAMILIES", "UnsupportedWorld", "World", "combinations", "noma_runs"]
 
 #: family name -> its registry, in the order of ``World``'s fields.
 FAMILIES = {
@@ -122,14 +122,30 @@ class World:
         return self
 
 
+def noma_runs(world: World) -> bool:
+    """Whether an env runs ``world``'s NOMA STAR surface (``envs.star_noma``, the view
+    ``"star_noma"``): two static, exactly known nodes, the expected-gain link, the rate objective
+    without a budget (the other envs refuse NOMA by their own check, ``settings.check_world``)."""
+    return (
+        world.nodes == 2
+        and world.motion.kind == "static"
+        and world.knowledge.exact
+        and world.link.fading == "expected"
+        and world.objective.kind == "rate"
+        and world.objective.budget_j is None
+    )
+
+
 #: The combinations the simulator does not run: (applies to a world, why). Each names the
 #: components involved and, where one exists, what to use instead.
 RULES: tuple[tuple[Any, str], ...] = (
     (
-        lambda w: w.surface.kind == "star" and w.surface.access == "noma",
-        "surface star with access 'noma', the field star_access: it serves the nodes on both sides in one "
-        "slot, and the envs serve one node per slot share (TDMA); score a NOMA flight with "
-        "ios_uav_env.score_plan (ios_uav_env.model.star_regions.star_maxmin), or use access 'tdma' in an env",
+        lambda w: w.surface.kind == "star" and w.surface.access == "noma" and not noma_runs(w),
+        "surface star with access 'noma', the field star_access: it serves a node on each side in one slot, "
+        "which the envs run for two static, exactly known nodes (one on each side of the surface plane) "
+        "with fading 'expected' and the rate objective without a budget (ios_uav_env/STARUAV-NOMA-v0); "
+        "score another NOMA flight with ios_uav_env.score_plan (ios_uav_env.model.star_regions.star_maxmin), "
+        "or use access 'tdma' in an env",
     ),
     (
         lambda w: w.link.fading != "expected" and not w.knowledge.exact,

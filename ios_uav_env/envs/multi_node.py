@@ -251,15 +251,8 @@ class MultiNodeStepper(MobileNodes, EnergyChannel, EnvViews):
     def step(self, action: Any) -> tuple[np.ndarray, float, bool, bool, dict[str, Any]]:
         """One slot of the move and node scores ``action``: Gymnasium's (observation, reward,
         terminated, truncated (never), ``info``)."""
-        if not self._started:
-            raise RuntimeError("call reset() before step()")
-        if self._rows.state[0, 2] >= self._rows.episode[0, 3]:
-            raise RuntimeError(f"the episode ended at slot N = {self.config.N}; call reset()")
-        a = np.asarray(action, dtype=np.float64)
-        if a.shape != self.action_space.shape:
-            raise ValueError(f"action must have shape {self.action_space.shape}, got {a.shape}")
-        if not np.isfinite(a).all():
-            raise ValueError(f"action must be finite (no NaN or inf), got {action!r}")
+        ended = self._started and self._rows.state[0, 2] >= self._rows.episode[0, 3]
+        a = self.checked_action(action, self._started, ended)
         self._action[0] = a
         self._norm[0] = math.hypot(a[0], a[1])  # (Python's hypot: see multi_kernels.move_norms)
         outputs = (self._obs, self._reward, self._terminated, self._table)

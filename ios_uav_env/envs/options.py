@@ -133,15 +133,33 @@ def split_kwargs(kwargs: Mapping[str, Any], owner: str) -> tuple[dict[str, Any],
 class EnvViews:
     """What a stepper reads through its env and its options (the steppers' common read-only
     views): ``np_random``, the env's generator (``gym.Env.np_random``, the one every draw of the
-    episode uses), and the options every view has, from ``self.options``."""
+    episode uses), the options every view has, from ``self.options``, and the check of a step's
+    action."""
 
     env: Any
     options: EnvOptions
+    config: Any
+    action_space: Any
 
     @property
     def np_random(self) -> np.random.Generator:
         """The env's generator, the one every draw of the episode uses."""
         return self.env.np_random
+
+    def checked_action(self, action: Any, started: bool, ended: bool) -> np.ndarray:
+        """``action`` as float64 for a step: ``RuntimeError`` before a reset (``started`` False) or
+        after the episode's end (``ended``), ``ValueError`` unless it is finite and of the action
+        space's shape."""
+        if not started:
+            raise RuntimeError("call reset() before step()")
+        if ended:
+            raise RuntimeError(f"the episode ended at slot N = {self.config.N}; call reset()")
+        a = np.asarray(action, dtype=np.float64)
+        if a.shape != self.action_space.shape:
+            raise ValueError(f"action must have shape {self.action_space.shape}, got {a.shape}")
+        if not np.isfinite(a).all():
+            raise ValueError(f"action must be finite (no NaN or inf), got {action!r}")
+        return a
 
     channel = property(lambda self: self.options.channel)
     arrival_guard = property(lambda self: self.options.arrival_guard)

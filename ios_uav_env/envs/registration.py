@@ -59,6 +59,13 @@ MULTINODE_MOBILE_IDS: dict[str, dict[str, Any]] = {
     MULTINODE_MOBILE_ID: {"random_nodes": (2, 4), "motion": {"kind": "gauss_markov"}, "knowledge": "reports"},
 }
 
+#: A STAR surface serving a user on each side at once (NOMA; ``ios_uav_env.envs.star_noma``): the
+#: agent flies and weighs the two users, the env sets the slot's weighted-sum optimum; scored by
+#: ``score_plan`` as ``dp-star``'s plans. The Random id draws the line's x at every reset.
+STAR_NOMA_ID = "ios_uav_env/STARUAV-NOMA-v0"
+STAR_NOMA_RANDOM_ID = "ios_uav_env/STARUAV-NOMA-Random-v0"
+STAR_NOMA_IDS: dict[str, dict[str, Any]] = {STAR_NOMA_ID: {}, STAR_NOMA_RANDOM_ID: {"random_line": True}}
+
 #: The surface as the agent's control (``ios_uav_env.envs.star_control``): the UAV flies a given
 #: line past a small STAR surface and the agent sets the surface's coefficients in every slot; its
 #: batched form is ``ios_uav_env.envs.star_control_vector.STARControlVectorEnv``.
@@ -84,6 +91,7 @@ def _vector(entry_point: str) -> dict[str, str]:
 V0: dict[str, Any] = {}
 V0_DRAWN: dict[str, Any] = {"draws": True}
 NODE_BLOCKS: dict[str, Any] = {"view": "node_blocks"}
+STAR_NOMA: dict[str, Any] = {"view": "star_noma"}
 
 #: The one env class and the one vector class of every single- and multi-node id.
 ENTRY_POINT = "ios_uav_env.envs.core.env:UAVEnv"
@@ -92,8 +100,8 @@ VECTOR_ENTRY_POINT = "ios_uav_env.envs.core.vector:UAVVectorEnv"
 
 def presets() -> dict[str, dict[str, Any]]:
     """id -> the keywords ``UAVEnv`` is registered with for each single- and multi-node id: its
-    view's preset (:data:`V0`, :data:`V0_DRAWN`, :data:`NODE_BLOCKS`), then its own (the world's
-    scenario fields and options, ``random_nodes``)."""
+    view's preset (:data:`V0`, :data:`V0_DRAWN`, :data:`NODE_BLOCKS`, :data:`STAR_NOMA`), then its
+    own (the world's scenario fields and options, ``random_nodes``, ``random_line``)."""
     families = (
         (ENV_IDS, V0),
         ({ENERGY_ID: ENERGY_IDS[ENERGY_ID]}, V0),
@@ -101,13 +109,14 @@ def presets() -> dict[str, dict[str, Any]]:
         ({ENERGY_RANDOM_ID: ENERGY_IDS[ENERGY_RANDOM_ID]}, V0_DRAWN),
         (MOBILE_IDS, V0_DRAWN),
         ({**MULTINODE_IDS, **MULTINODE_MOBILE_IDS}, NODE_BLOCKS),
+        (STAR_NOMA_IDS, STAR_NOMA),
     )
     return {env_id: {**view, **kwargs} for ids, view in families for env_id, kwargs in ids.items()}
 
 
 def register_envs() -> None:
     """Register every id of :data:`ENV_IDS`, :data:`RANDOM_IDS`, :data:`MULTINODE_IDS`,
-    :data:`ENERGY_IDS`, :data:`MOBILE_IDS`, :data:`MULTINODE_MOBILE_IDS`,
+    :data:`ENERGY_IDS`, :data:`MOBILE_IDS`, :data:`MULTINODE_MOBILE_IDS`, :data:`STAR_NOMA_IDS`,
     :data:`STAR_CONTROL_IDS` and :data:`MISO_CONTROL_IDS` not registered yet: each single- and
     multi-node id as ``UAVEnv`` with its keywords (:func:`presets`) and ``UAVVectorEnv`` as its
     batched env.

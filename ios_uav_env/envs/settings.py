@@ -21,6 +21,7 @@ from ios_uav_env.envs.registration import (
     MULTINODE_IDS,
     MULTINODE_MOBILE_ID,
     RANDOM_ENV_ID,
+    STAR_NOMA_ID,
     STAR_RANDOM_ID,
 )
 from ios_uav_env.model.config import ScenarioConfig
@@ -65,11 +66,15 @@ def multinode_id(random_nodes: Any, mobile: bool) -> str:
     return _MULTI_RANDOM_ID if random_nodes else _MULTI_ID
 
 
-def check_world(config: ScenarioConfig, options: Any, env_id: str, field: str = "config") -> World:
+def check_world(
+    config: ScenarioConfig, options: Any, env_id: str, field: str = "config", noma: bool = False
+) -> World:
     """The world of ``config`` (the env's scenario, or its family's base, named ``field``) and
     ``options`` (``EnvOptions``), checked (``ios_uav_env.components.World.check``, the one place
     that says which combinations of components the simulator runs): ``UnsupportedWorld`` (a
-    ``ValueError``) naming ``env_id``, ``field``, the components and why."""
+    ``ValueError``) naming ``env_id``, ``field``, the components and why. ``noma``: the env runs a
+    STAR surface under NOMA (the view ``"star_noma"``); every other env refuses one, naming
+    :data:`STAR_NOMA_ID`."""
     world = World.of(
         config,
         channel=options.channel,
@@ -77,11 +82,19 @@ def check_world(config: ScenarioConfig, options: Any, env_id: str, field: str = 
         report_sigma=options.report_sigma,
         filter_estimate=options.filter_estimate,
     )
+    options_set = ", ".join(f"{name}={value!r}" for name, value in world.option_fields().items())
     try:
-        return world.check()
+        world.check()
     except UnsupportedWorld as err:  # (naming the env's own fields too: the options that set the world)
-        options_set = ", ".join(f"{name}={value!r}" for name, value in world.option_fields().items())
         raise UnsupportedWorld(f"{env_id} ({field}; {options_set}): {err}") from None
+    if world.surface.kind == "star" and world.surface.access == "noma" and not noma:
+        named = ", ".join(f"{family} {kind}" for family, kind in world.names().items())
+        raise UnsupportedWorld(
+            f"{env_id} ({field}; {options_set}): surface star with access 'noma' (star_access='noma', "
+            f"{named}) serves a node on each side in one slot; this env serves one node per slot share "
+            f"(TDMA): use {STAR_NOMA_ID}, or access 'tdma'"
+        )
+    return world
 
 
 def check_config_keywords(

@@ -34,7 +34,8 @@ CASES = [(env_id, "expected") for env_id in IDS] + [(env_id, "rician") for env_i
 def test_the_ids_are_all_here():
     ie = ios_uav_env
     expected = {*ie.ENV_IDS, *ie.RANDOM_IDS, *ie.MULTINODE_IDS, *ie.ENERGY_IDS, *ie.MOBILE_IDS,
-                *ie.MULTINODE_MOBILE_IDS, *ie.STAR_CONTROL_IDS, *ie.MISO_CONTROL_IDS}  # fmt: skip
+                *ie.MULTINODE_MOBILE_IDS, *ie.STAR_CONTROL_IDS, *ie.MISO_CONTROL_IDS,
+                *ie.STAR_NOMA_IDS}  # fmt: skip
     assert set(IDS) == expected and set(CHANNELS) == {"expected", "rician"}
     assert {ie.STAR_ID, ie.STAR_RANDOM_ID} <= expected
 

@@ -25,6 +25,7 @@ from ios_uav_env.envs.single import IOSUAVEnv
 from ios_uav_env.envs.single_drawn import DrawnSingleNodeStepper
 from ios_uav_env.envs.single_node import SingleNodeStepper
 from ios_uav_env.envs.single_vector import IOSUAVVectorEnv, RandomIOSUAVVectorEnv
+from ios_uav_env.envs.star_noma import StarNomaStepper
 
 ie = ios_uav_env
 IDS = {
@@ -34,6 +35,7 @@ IDS = {
     *ie.MOBILE_IDS,
     *ie.MULTINODE_IDS,
     *ie.MULTINODE_MOBILE_IDS,
+    *ie.STAR_NOMA_IDS,
 }
 DRAWN = {*ie.RANDOM_IDS, ie.ENERGY_RANDOM_ID, *ie.MOBILE_IDS}
 NODE_BLOCKS = {*ie.MULTINODE_IDS, *ie.MULTINODE_MOBILE_IDS}
@@ -45,10 +47,11 @@ def test_every_single_and_multi_node_id_is_the_one_class_with_its_preset():
         spec = gym.spec(env_id)
         assert spec.entry_point == ENTRY_POINT and spec.vector_entry_point == VECTOR_ENTRY_POINT, env_id
         env = gym.make(env_id).unwrapped
-        view = "node_blocks" if env_id in NODE_BLOCKS else "v0"
+        view = "node_blocks" if env_id in NODE_BLOCKS else "star_noma" if env_id in ie.STAR_NOMA_IDS else "v0"
         assert type(env) is UAVEnv and (env.view, env.action) == (view, VIEWS[view]), env_id
         assert env.draws == (env_id in DRAWN) and isinstance(env.stepper, Stepper), env_id
-        expected = MultiNodeStepper if view == "node_blocks" else SingleNodeStepper
+        steppers = {"node_blocks": MultiNodeStepper, "star_noma": StarNomaStepper}
+        expected = steppers.get(view, SingleNodeStepper)
         expected = DrawnSingleNodeStepper if env_id in DRAWN else expected
         assert type(env.stepper) is expected and env.stepper_class(**spec.kwargs) is expected, env_id
     assert gym.spec("ios_uav_env/IOSUAV-v0").kwargs == {"surface": "ios"}  # the v0 view is the default

@@ -65,6 +65,8 @@ def test_every_setting_is_walked():
 
 
 def _base_kwargs(env_id: str) -> dict:
+    if "NOMA" in env_id:  # (the NOMA ids' scenario is their own; the Random one draws its line only)
+        return {"ios_shape": (4, 4), "score": False}
     if "MultiNode-v0" in env_id:
         return {"T": 40.0}
     if "MultiNode" in env_id:
@@ -94,6 +96,8 @@ def _value(env_id: str, name: str, default_env: gym.Env) -> object:
         return _first_config(default_env).least_energy() * (1.0 + 1e-6)
     if name == "surface" and base.config.surface == "ris":
         return "ios"
+    if name == "star_access" and base.config.star_access == value:
+        return "tdma"
     if name == "objective" and base.config.objective == value:
         return "rate"
     return value

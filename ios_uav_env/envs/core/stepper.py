@@ -13,7 +13,9 @@ Each observation view comes with the action type it is read with (:data:`VIEWS`)
   the instance features, the energy features and the peak hint (``observation_names``);
 - ``"node_blocks"``, read with ``"move_scores"`` (``Box(-1, 1, (2 + K_max,))``):
   ``multi_node.MultiNodeStepper``; ``BASE_FEATURES``, one block per node slot
-  (``node_block_names``), then the energy features.
+  (``node_block_names``), then the energy features;
+- ``"star_noma"``, read with ``"move_weight"`` (``Box(-1, 1, (3,))``: the move and user 0's weight):
+  ``star_noma.StarNomaStepper``; a STAR surface serving a user on each side by NOMA.
 
 :func:`choose_view` checks the view (``"v0"`` when none is given) and :func:`make_stepper` builds
 the stepper: the only branching on the kind of world in the env
@@ -30,12 +32,13 @@ import numpy as np
 from ios_uav_env.envs.multi_node import MultiNodeStepper
 from ios_uav_env.envs.single_drawn import DrawnSingleNodeStepper
 from ios_uav_env.envs.single_node import SingleNodeStepper
+from ios_uav_env.envs.star_noma import StarNomaStepper
 from ios_uav_env.model.config import ScenarioConfig
 
 __all__ = ["VIEWS", "Stepper", "choose_view", "make_stepper", "stepper_class"]
 
 #: view -> the action type it is read with.
-VIEWS: dict[str, str] = {"v0": "move", "node_blocks": "move_scores"}
+VIEWS: dict[str, str] = {"v0": "move", "node_blocks": "move_scores", "star_noma": "move_weight"}
 
 
 @runtime_checkable
@@ -91,6 +94,8 @@ def stepper_class(view: str, draws: bool = False) -> type:
     """The stepper class of a view (one of :data:`VIEWS`; ``draws``: the v0 view's draws)."""
     if view == "node_blocks":
         return MultiNodeStepper
+    if view == "star_noma":
+        return StarNomaStepper
     return DrawnSingleNodeStepper if draws else SingleNodeStepper
 
 
@@ -105,9 +110,10 @@ def make_stepper(
         raise ValueError(f"action must be {VIEWS[view]!r}, the action of the view {view!r}, got {action!r}")
     if not isinstance(draws, (bool, np.bool_)):
         raise ValueError(f"draws must be True or False, got {draws!r}")
-    if view == "node_blocks" and draws:
+    if view != "v0" and draws:
         raise ValueError(
-            "draws is the v0 view's scenario draw; the node-block view draws with random_nodes=(low, high)"
+            "draws is the v0 view's scenario draw; the node-block view draws with random_nodes=(low, high), "
+            "the star_noma view with random_line=True"
         )
     cls = stepper_class(view, draws)
     if cls is DrawnSingleNodeStepper:  # (its first argument is the family it draws from)
