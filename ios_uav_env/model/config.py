@@ -100,10 +100,9 @@ class ScenarioConfig:
     star_phases: str = "independent"  # one of STAR_PHASES: the phase model
     star_bits: int | None = None  # phase bits b; None: continuous phases (the only one modelled here)
     star_access: str = "tdma"  # one of STAR_ACCESS: one node per slot share, or both sides' at once
-    # The UAV's antennas N_t (``docs/model.md``, "Multi-antenna UAV"): a ULA of ``model.array``'s
-    # defaults (lambda/2 along x, steered at the surface's centre), the surface's phases and the beam
-    # set in closed form for the node served (``model.miso``: aligned phases and MRT, rate
-    # log2(1 + G)); 1 is the paper's single antenna. Left out of ``to_dict()`` at 1.
+    # The UAV's antennas N_t (``docs/model.md``, "Multi-antenna UAV"; ``model.array.scenario_array``),
+    # the phases and the beam in closed form for the node served (``model.miso``); left out of
+    # ``to_dict()`` at 1, the paper's single antenna.
     antennas: int = 1  # N_t, an integer in [1, MAX_ANTENNAS]
 
     def __post_init__(self) -> None:

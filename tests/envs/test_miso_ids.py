@@ -14,36 +14,10 @@ import ios_uav_env
 from ios_uav_env import MISO_ID, ScenarioConfig, score_plan
 from ios_uav_env.components import UnsupportedWorld
 from ios_uav_env.model.channel import slot_rates
+from tests.envs.test_star_ids import episode, same  # (one seeded episode, and bit-for-bit equality)
 
 IOS_ID = "ios_uav_env/IOSUAV-v0"
 SHORT = ScenarioConfig(T=40.0, antennas=4)  # a short mission of the paper's scenario, four antennas
-
-
-def episode(env: gym.Env, seed: int = 3) -> dict:
-    """One episode of seeded uniform actions: every output and the flight."""
-    rng = np.random.default_rng(seed)
-    obs, info = env.reset(seed=seed)
-    out = {"obs": [obs], "rewards": [], "infos": [info]}
-    done = False
-    while not done:
-        obs, reward, terminated, truncated, info = env.step(rng.uniform(-1.0, 1.0, 2).astype(np.float32))
-        out["obs"].append(obs)
-        out["rewards"].append(reward)
-        out["infos"].append(info)
-        done = terminated or truncated
-    out["trajectory"] = env.unwrapped.trajectory
-    out["config"] = env.unwrapped.config
-    return out
-
-
-def same(a: dict, b: dict) -> bool:
-    """Whether two episodes are equal bit for bit (observations, rewards, every info value, flight)."""
-    if len(a["obs"]) != len(b["obs"]):
-        return False
-    pairs = [*zip(a["obs"], b["obs"], strict=True), *zip(a["rewards"], b["rewards"], strict=True)]
-    pairs += [(x[k], y[k]) for x, y in zip(a["infos"], b["infos"], strict=True) for k in x]
-    pairs.append((a["trajectory"], b["trajectory"]))
-    return all(np.array_equal(np.asarray(x), np.asarray(y)) for x, y in pairs)
 
 
 def test_the_id_is_the_papers_scenario_with_four_antennas():
