@@ -111,3 +111,13 @@ def test_several_nodes_with_antennas_are_refused_by_name_in_the_multi_node_env()
 def test_bad_antennas_are_refused_naming_the_field_and_range(value):
     with pytest.raises(ValueError, match=r"antennas must be an integer in \[1, 64\]"):
         gym.make(MISO_ID, antennas=value)
+
+
+def test_the_randomised_family_takes_the_antennas_and_its_score_is_score_plans():
+    env = gym.make("ios_uav_env/IOSUAV-Random-v0", antennas=4)
+    out = episode(env, seed=2)
+    assert out["config"].antennas == 4
+    final = out["infos"][-1]
+    assert float(final["average_rate"]) == pytest.approx(
+        score_plan(out["config"], out["trajectory"]).rate, rel=1e-12
+    )
