@@ -126,3 +126,23 @@ def test_the_multi_antenna_links_region_of_one_node_is_its_mean_rate():
     q = np.linspace(cfg.q0, cfg.qF, cfg.N)
     got = maxmin_regions(MultiAntennaLink().region_pricer(cfg, q), 1)
     assert got.value == pytest.approx(score_plan(cfg, q).rate, rel=1e-9) and got.gap <= 1e-9
+
+
+def test_the_multi_antenna_links_region_of_several_nodes_is_miso_pricers():
+    """Several nodes are served at once (SDMA with the per-slot AO beams): the link prices the
+    slots' regions as ``miso_regions.miso_pricer`` (what ``miso_maxmin`` solves from), each point
+    below its certified bound; static nodes only."""
+    from ios_uav_env.model.array import scenario_array
+    from ios_uav_env.model.miso_regions import miso_pricer
+
+    cfg = ScenarioConfig(
+        ground_nodes=((-30.0, -20.0), (40.0, 30.0)), antennas=2, ios_shape=(3, 2), T=5.0,
+        q0=(-50.0, 20.0), qF=(50.0, 20.0),
+    )  # fmt: skip
+    q = np.linspace(cfg.q0, cfg.qF, cfg.N)
+    w = np.array([0.3, 0.7])
+    point, bound = MultiAntennaLink(antennas=2).region_pricer(cfg, q)(w)
+    want_point, want_bound = miso_pricer(cfg, scenario_array(cfg), q)(w)
+    assert np.array_equal(point, want_point) and bound == want_bound and float(w @ point) <= bound
+    with pytest.raises(ValueError, match="static nodes"):
+        MultiAntennaLink().region_pricer(cfg, q, paths=np.zeros((cfg.N, 2, 2)))
