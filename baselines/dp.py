@@ -29,6 +29,11 @@ of problem (10).
 **Ties** (equal values, e.g. cells of equal rate) are broken in the forward pass towards
 the shortest move, then the smallest (dy, dx) offset: when indifferent the UAV stays put.
 
+**A multi-antenna UAV** (``config.antennas`` = N_t) serving one node has the slot rate
+log2(1 + G) of its phases and beam at their closed-form joint optimum (``ios_uav_env.model.miso``),
+again a function of the position alone: :func:`solve_miso` (planner ``dp-miso``) runs the same DP
+on that rate map.
+
 **Parity.** The plan's ``mean_rate`` is ``ios_uav_env.average_rate`` of the trajectory; the
 DP's own optimum is in ``plan.info["dp_objective"]`` and is checked equal to it (1e-9).
 """
@@ -57,7 +62,7 @@ from ios_uav_env import ScenarioConfig, slot_rates
 
 __all__ = [
     "DEFAULT_MARGIN", "MAX_TABLE_BYTES", "disk_max", "disk_offsets", "grid_axes", "grid_box", "grid_path",
-    "rate_map", "solve",
+    "rate_map", "solve", "solve_miso",
 ]  # fmt: skip
 
 
@@ -98,20 +103,43 @@ def solve(
         Bad ``resolution``/``margin``; a value table above ``MAX_TABLE_BYTES``; or no grid
         path reaches qF in N - 1 moves (horizon too tight for this grid: refine it).
     """
-    t0 = time.perf_counter()
     check_planner("dp", config)
-    validate_grid_args(config, resolution, margin)
     if config.K > 1:  # several ground nodes: best plan found + certified upper bound
+        validate_grid_args(config, resolution, margin)
         from baselines.dp_bound import solve_multinode
 
         return solve_multinode(config, resolution=resolution, margin=margin, progress=progress)
+    return _solve_one_node("dp", config, resolution, margin, progress)
+
+
+def solve_miso(
+    config: ScenarioConfig,
+    resolution: float = 2.5,
+    margin: float = DEFAULT_MARGIN,
+    progress: bool = False,
+) -> Plan:
+    """Globally optimal grid trajectory of a multi-antenna UAV serving one node (``config.antennas``
+    = N_t, any N_t >= 1): the grid DP of :func:`solve` on the slot rate log2(1 + G) of the phases
+    and the beam at their closed-form joint optimum (aligned phases and MRT; ``channel.slot_rates``,
+    ``ios_uav_env.model.miso``), which depends on the UAV's position only. Arguments, result and
+    errors: :func:`solve`'s (scheme ``"dp-miso"``); N_t = 1 is ``dp``'s plan."""
+    check_planner("dp-miso", config)
+    return _solve_one_node("dp-miso", config, resolution, margin, progress)
+
+
+def _solve_one_node(
+    scheme: str, config: ScenarioConfig, resolution: float, margin: float, progress: bool
+) -> Plan:
+    """The grid DP of one node on ``config``'s rate map (module docstring), as planner ``scheme``."""
+    t0 = time.perf_counter()
+    validate_grid_args(config, resolution, margin)
     n_slots, d_max = config.N, config.D
     q0, q_f = np.asarray(config.q0), np.asarray(config.qF)
     info = {"resolution": float(resolution), "margin": float(margin), "box": list(grid_box(config, margin))}
     if n_slots == 2:  # no free way-point: q = [q0, qF] (feasible by ScenarioConfig's check)
         traj = np.array([q0, q_f])
         info.update(dp_objective=float(slot_rates(config, traj).sum() / n_slots), grid_shape=[0, 0])
-        return _finish(config, traj, info, t0)
+        return _finish(scheme, config, traj, info, t0)
 
     check_grid_bytes(
         config, resolution, margin, 8 * (n_slots - 2), "value table (N - 2 float64 layers)", largest=d_max
@@ -121,11 +149,11 @@ def solve(
     r_f = float(slot_rates(config, q_f)[0])
     info.update(grid_shape=[len(ys), len(xs)], n_offsets=len(disk_offsets(resolution, d_max)))
     traj, info["dp_objective"] = grid_path(config, rates, r_f, resolution, margin, progress)
-    return _finish(config, traj, info, t0)
+    return _finish(scheme, config, traj, info, t0)
 
 
-def _finish(config: ScenarioConfig, traj: np.ndarray, info: dict, t0: float) -> Plan:
-    plan = Plan.from_trajectory("dp", config, traj, time.perf_counter() - t0, info=info)
+def _finish(scheme: str, config: ScenarioConfig, traj: np.ndarray, info: dict, t0: float) -> Plan:
+    plan = Plan.from_trajectory(scheme, config, traj, time.perf_counter() - t0, info=info)
     gap = abs(plan.mean_rate - info["dp_objective"])
     if gap > 1e-9 * max(1.0, abs(plan.mean_rate)):
         raise RuntimeError(

@@ -24,6 +24,7 @@ name                      objectives           budget  K      motion      kind
 ``loiter``, ``hover``     any (scored)         yes     >= 1   static      heuristic
 ``mpc``                   rate                 no      >= 1   online      online
 ``dp-star``               rate                 no      2      static      optimum
+``dp-miso``               rate                 no      1      static      optimum
 ``dp-bound``              rate                 no      >= 1   paths       bound
 ``energy-bound``          energy_efficiency    no      1      static      bound
 ========================  ===================  ======  =====  ==========  =========
@@ -40,6 +41,11 @@ star_access="noma")``) is scored by ``score_plan`` (``star_regions.scenario_maxm
 plans it (and only it: ``accesses`` = ("noma",)); every other planner and bound above optimises
 the one-node-per-slot-share (TDMA) schedule and refuses it, naming ``dp-star``; the heuristics,
 which optimise nothing, fly it and are scored on it.
+
+Antennas: a multi-antenna UAV (``ScenarioConfig(antennas=N_t)``, N_t > 1) has the closed-form
+rate of its aligned phases and MRT (``channel.slot_rates``). ``dp-miso`` plans it (one node, any
+N_t, ``antennas`` true); the heuristics fly it and are scored on it; every other planner and bound
+plans the single-antenna UAV and refuses it, naming ``dp-miso``.
 
 A caller that plans one problem and scores the plan on another on purpose (the rate DP's plan
 under the energy objective, say) says so: it plans on ``config.replace(objective="rate")`` and
@@ -86,6 +92,9 @@ class PlannerSpec:
     # the STAR access schemes it plans or scores (``ScenarioConfig.star_access``; every other surface's
     # is "tdma", one node per slot share)
     accesses: tuple[str, ...] = ("tdma",)
+    # plans (or, a heuristic, flies and is scored on) a multi-antenna UAV (``ScenarioConfig.antennas``
+    # > 1: the closed-form rate of the aligned phases and MRT); every planner takes one antenna
+    antennas: bool = False
 
     def __post_init__(self) -> None:
         if bad := [o for o in self.objectives if o not in OBJECTIVES]:
@@ -119,6 +128,11 @@ class PlannerSpec:
                 return "motion (moving nodes; it plans for static nodes)"
             if self.motion == "paths" and paths is None:
                 return "motion without paths= (it plans on the nodes' true paths given in advance)"
+        if config.antennas > 1 and not self.antennas:
+            return (
+                f"antennas={config.antennas} (it plans the single-antenna UAV; a multi-antenna UAV's rate is "
+                "the closed form of its aligned phases and MRT)"
+            )
         if config.star_access not in self.accesses:
             if config.star_access == "noma":
                 return (
@@ -162,17 +176,22 @@ PLANNERS: dict[str, PlannerSpec] = {
         PlannerSpec("tour", "baselines.tour:solve", ("rate",), False, 1, None, "paths", "heuristic",
                     "tour over hover points with an LP schedule, on given node paths"),
         PlannerSpec("fixed", "baselines.fixed:fly_hover_fly", _ANY, True, 1, None, "static", "heuristic",
-                    "fly-hover-fly over the first node (scored on the config)", accesses=_BOTH),
+                    "fly-hover-fly over the first node (scored on the config)", accesses=_BOTH,
+                    antennas=True),
         PlannerSpec("loiter", "baselines.loiter:loiter", _ANY, True, 1, None, "static", "heuristic",
                     "fly to the rate peak at V_mr, circle it at V_mp, back to qF (scored on the config)",
-                    accesses=_BOTH),
+                    accesses=_BOTH, antennas=True),
         PlannerSpec("hover", "baselines.loiter:hover", _ANY, True, 1, None, "static", "heuristic",
-                    "fly to the rate peak at v_max and hover there (scored on the config)", accesses=_BOTH),
+                    "fly to the rate peak at v_max and hover there (scored on the config)", accesses=_BOTH,
+                    antennas=True),
         PlannerSpec("mpc", "baselines.mpc:run_online", ("rate",), False, 1, None, "online", "online",
                     "MPC (the tour or the receding-horizon DP) on the Kalman filter's predicted paths"),
         PlannerSpec("dp-star", "baselines.dp_star:solve", ("rate",), False, 2, 2, "static", "optimum",
                     "STAR surface serving both sides' users at once (NOMA): best DP plan over the user "
                     "weights and a certified max-min bound", accesses=("noma",)),
+        PlannerSpec("dp-miso", "baselines.dp:solve_miso", ("rate",), False, 1, 1, "static", "optimum",
+                    "global optimum on a grid of the multi-antenna UAV's closed-form rate (aligned phases "
+                    "and MRT, any N_t)", antennas=True),
         PlannerSpec("dp-bound", "baselines.dp_bound:clairvoyant_bound", ("rate",), False, 1, None, "paths",
                     "bound", "certified upper bound of the rate (max-min for K > 1), given node paths"),
         PlannerSpec("energy-bound", "baselines.energy_bound:solve", ("energy_efficiency",), False, 1, 1,

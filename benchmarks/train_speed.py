@@ -13,7 +13,8 @@ rows), SB3 its ``agents/hyperparams/ppo_fast.yml`` entry (its own ``n_envs``, un
 env and the model and loading numba's kernels count) and every ``--eval-every`` updates rolls
 out the deterministic policy for one episode of the id (seed 0), until its score reaches
 ``--bar`` x the reference (the default scenario's DP rate for one node, SCA's max-min rate for
-the multi-node id, DP-EE's energy efficiency on the energy id) or ``--time-cap`` seconds; one
+the multi-node id, DP-EE's energy efficiency on the energy id, dp-miso's rate on the
+multi-antenna id) or ``--time-cap`` seconds; one
 line per seed, then the count that made it.
 
     python benchmarks/train_speed.py throughput --n-envs 1024          # multi-node id, B = 1024
@@ -21,6 +22,7 @@ line per seed, then the count that made it.
     python benchmarks/train_speed.py race --env ios_uav_env/IOSUAV-v0   # bar 99.5 % of DP
     python benchmarks/train_speed.py race --seeds 0 1 2                 # multi-node: 97 % of SCA
     python benchmarks/train_speed.py race --env ios_uav_env/IOSUAV-Energy-v0   # 99 % of DP-EE
+    python benchmarks/train_speed.py race --env ios_uav_env/MISOUAV-v0   # 99.5 % of dp-miso
 """
 
 from __future__ import annotations
@@ -55,18 +57,22 @@ SINGLE_ID = "ios_uav_env/IOSUAV-v0"
 #: On the energy id: DP-EE's energy efficiency on the paper's scenario (``baselines.dp_energy.solve_ee``,
 #: 2.5 m grid; ``python benchmarks/energy.py``), bits/J.
 ENERGY_ID = "ios_uav_env/IOSUAV-Energy-v0"
-REFERENCES = {SINGLE_ID: 2.404068, MULTI_ID: 0.471001, ENERGY_ID: 17155.06}
-BARS = {SINGLE_ID: 0.995, MULTI_ID: 0.97, ENERGY_ID: 0.99}
+#: On the multi-antenna id (four antennas): dp-miso's average rate (``baselines.dp.solve_miso``, 2.5 m
+#: grid), bps/Hz.
+MISO_ID = "ios_uav_env/MISOUAV-v0"
+REFERENCES = {SINGLE_ID: 2.404068, MULTI_ID: 0.471001, ENERGY_ID: 17155.06, MISO_ID: 4.077300}
+BARS = {SINGLE_ID: 0.995, MULTI_ID: 0.97, ENERGY_ID: 0.99, MISO_ID: 0.995}
 #: The wall times the races are judged against (s): 5 s for one node, 3 minutes for several; the
-#: energy id has a quality bar only (5 minutes as a cap).
-TIME_BARS = {SINGLE_ID: 5.0, MULTI_ID: 180.0, ENERGY_ID: 300.0}
+#: energy and multi-antenna ids have a quality bar only (5 minutes as a cap).
+TIME_BARS = {SINGLE_ID: 5.0, MULTI_ID: 180.0, ENERGY_ID: 300.0, MISO_ID: 300.0}
 #: The env arguments the shipped multi-node recipes train with; on the energy id the reward's
 #: lambda_ref is DP-EE's value (docs/envs.md, "Energy efficiency": the return's argmax is then
 #: the EE argmax).
 ENV_KWARGS = {SINGLE_ID: {}, MULTI_ID: {"softmin_beta": 20, "peak_hint": True},
-              ENERGY_ID: {"energy_reference": REFERENCES[ENERGY_ID]}}  # fmt: skip
+              ENERGY_ID: {"energy_reference": REFERENCES[ENERGY_ID]}, MISO_ID: {}}  # fmt: skip
 #: The episode's score a race compares with its reference (``rollout.Episode``'s field).
-SCORES = {SINGLE_ID: "average_rate", MULTI_ID: "average_rate", ENERGY_ID: "energy_efficiency"}
+SCORES = {SINGLE_ID: "average_rate", MULTI_ID: "average_rate", ENERGY_ID: "energy_efficiency",
+          MISO_ID: "average_rate"}  # fmt: skip
 SB3_FILE = ROOT / "agents" / "hyperparams" / "ppo_fast.yml"
 
 

@@ -15,7 +15,7 @@ place that says which combinations the simulator runs. Adding a component kind:
 
 from ios_uav_env.components.base import Component, Registry
 from ios_uav_env.components.knowledge import KNOWLEDGE, Exact, Filtered, Knowledge, MeasuredRates, Reports
-from ios_uav_env.components.link import LINKS, Link, SingleAntennaLink
+from ios_uav_env.components.link import LINKS, Link, MultiAntennaLink, SingleAntennaLink
 from ios_uav_env.components.motion import MOTIONS, GaussMarkovMotion, Motion, StaticMotion
 from ios_uav_env.components.objective import OBJECTIVES, EnergyEfficiency, Objective, Rate
 from ios_uav_env.components.surface import SURFACES, IOSSurface, NoSurface, RISSurface, STARSurface, Surface
@@ -24,6 +24,7 @@ from ios_uav_env.components.world import FAMILIES, UnsupportedWorld, World, comb
 __all__ = [
     "FAMILIES", "KNOWLEDGE", "LINKS", "MOTIONS", "OBJECTIVES", "SURFACES", "Component", "EnergyEfficiency",
     "Exact", "Filtered", "GaussMarkovMotion", "IOSSurface", "Knowledge", "Link", "MeasuredRates", "Motion",
+    "MultiAntennaLink",
     "NoSurface", "Objective", "RISSurface", "Rate", "Registry", "Reports", "STARSurface", "SingleAntennaLink",
     "StaticMotion", "Surface", "UnsupportedWorld", "World", "combinations",
 ]  # fmt: skip

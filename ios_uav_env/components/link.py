@@ -12,6 +12,13 @@ one Rician faded sample (the env option ``channel``). ``region_pricer`` is the l
 weighted-sum problem along a flight, from which the flight's max-min over several users is solved
 (``ios_uav_env.model.regions``): TDMA here, equal to the frame's schedule; a link that serves
 several users at once gives its own.
+
+:class:`MultiAntennaLink` is an N_t-antenna UAV (``ios_uav_env.model.miso``; the scenario field
+``antennas``): the env sets the surface's phases and the beam at their joint optimum for the node
+served, the aligned phases and MRT, whose rate is log2(1 + G) in closed form
+(``channel.aligned_gain``; the derivation is ``model.miso``'s module docstring). At N_t = 1 it is
+:class:`SingleAntennaLink` exactly. Its region serves several users at once (SDMA with the per-slot
+AO beams, ``model.miso_regions.miso_pricer``).
 """
 
 from __future__ import annotations
@@ -23,11 +30,14 @@ import numpy as np
 
 from ios_uav_env.components.base import Component, Registry
 from ios_uav_env.model import channel
+from ios_uav_env.model.array import MAX_ANTENNAS, scenario_array
 from ios_uav_env.model.config import ScenarioConfig
+from ios_uav_env.model.config_checks import is_int
+from ios_uav_env.model.miso_regions import miso_pricer
 from ios_uav_env.model.regions import Pricer, tdma_pricer
 from ios_uav_env.model.schedule import node_rates
 
-__all__ = ["FADINGS", "LINKS", "Link", "SingleAntennaLink"]
+__all__ = ["FADINGS", "LINKS", "Link", "MultiAntennaLink", "SingleAntennaLink"]
 
 #: What the env samples each slot (the env option ``channel``).
 FADINGS: tuple[str, ...] = ("expected", "rician")
@@ -53,6 +63,10 @@ class Link(Component):
     def option_fields(self) -> dict[str, Any]:
         """The env options this link sets."""
         return {"channel": self.fading}
+
+    def config_fields(self) -> dict[str, Any]:
+        """The ``ScenarioConfig`` fields this link sets (the UAV's ``antennas``)."""
+        return {"antennas": self.antennas}
 
     def rates(
         self,
@@ -110,3 +124,58 @@ class SingleAntennaLink(Link):
         """TDMA: one node per slot at its expected-gain rate (``schedule.node_rates``), so the
         regions' max-min is the frame's schedule (``maxmin_rate``)."""
         return tdma_pricer(node_rates(config, channel.as_positions(trajectory, "trajectory"), paths))
+
+
+#: The antennas of :class:`MultiAntennaLink` by default (the multi-antenna id's).
+DEFAULT_ANTENNAS = 4
+
+
+@LINKS.register("multi_antenna")
+@dataclasses.dataclass(frozen=True)
+class MultiAntennaLink(Link):
+    """An N_t-antenna UAV (``antennas``, an integer in [1, ``array.MAX_ANTENNAS``]), the beam and the
+    surface's phases at their closed-form joint optimum for the node served (module docstring)."""
+
+    kind: ClassVar[str] = "multi_antenna"
+    antennas: int = DEFAULT_ANTENNAS  # type: ignore[misc]  # (a field here, the base's class constant)
+
+    def __post_init__(self) -> None:
+        super().__post_init__()
+        n = self.antennas
+        if not (is_int(n) and 1 <= n <= MAX_ANTENNAS):
+            raise ValueError(f"link.antennas must be an integer in [1, {MAX_ANTENNAS}] (N_t), got {n!r}")
+        object.__setattr__(self, "antennas", int(n))
+
+    def _config(self, config: ScenarioConfig) -> ScenarioConfig:
+        """``config`` with this link's antennas."""
+        return config if config.antennas == self.antennas else config.replace(antennas=self.antennas)
+
+    def rates(
+        self,
+        config: ScenarioConfig,
+        positions: np.ndarray,
+        phases: np.ndarray | None = None,
+        beam: np.ndarray | None = None,
+    ) -> np.ndarray:
+        """The closed-form rate log2(1 + G) at each position (``channel.slot_rates`` with this link's
+        antennas: aligned phases and MRT), (K,). Other phases or beams are the per-slot control of
+        ``ios_uav_env.model.miso`` (``SlotChannel``; the env ``MISOControl-v0``): refused here."""
+        config.require_single_node("MultiAntennaLink.rates")
+        if phases is not None or beam is not None:
+            raise ValueError(
+                "link 'multi_antenna' sets the phases and the beam at their closed-form optimum: pass "
+                "phases=None and beam=None (any other setting: ios_uav_env.model.miso.SlotChannel)"
+            )
+        return channel.slot_rates(self._config(config), channel.as_positions(positions))
+
+    def region_pricer(
+        self, config: ScenarioConfig, trajectory: np.ndarray, paths: np.ndarray | None = None
+    ) -> Pricer:
+        """One node: its closed-form rate per slot (``tdma_pricer``, the mean rate). Several: served
+        at once with the per-slot AO beams (``model.miso_regions.miso_pricer``; static nodes)."""
+        cfg, q = self._config(config), channel.as_positions(trajectory, "trajectory")
+        if cfg.K == 1:
+            return tdma_pricer(node_rates(cfg, q, paths))
+        if paths is not None:
+            raise ValueError("paths: the multi-antenna link's region of several users is for static nodes")
+        return miso_pricer(cfg, scenario_array(cfg), q)

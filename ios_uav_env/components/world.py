@@ -79,7 +79,7 @@ class World:
             know["sigma"] = report_sigma
         return cls(
             surface=surface_of(config),
-            link={"kind": "single_antenna", "fading": channel},
+            link=_link_of(config.antennas, channel),
             objective={"kind": config.objective, "budget_j": config.energy_budget_j},
             motion=motion,
             knowledge=know,
@@ -87,9 +87,11 @@ class World:
         )
 
     def config_fields(self) -> dict[str, Any]:
-        """The ``ScenarioConfig`` fields of the surface, the objective and the motion."""
+        """The ``ScenarioConfig`` fields of the surface, the link (its antennas), the objective and
+        the motion."""
         return {
             **self.surface.config_fields(),
+            **self.link.config_fields(),
             **self.objective.config_fields(),
             **self.motion.config_fields(),
         }
@@ -101,6 +103,8 @@ class World:
     def names(self) -> dict[str, str]:
         """family -> kind, and ``nodes``: the world in one line (for messages and tables)."""
         out: dict[str, Any] = {family: getattr(self, family).kind for family in FAMILIES}
+        if self.link.kind == "multi_antenna":
+            out["link"] += f" (antennas={self.link.antennas})"
         if self.link.fading != "expected":
             out["link"] += f" ({self.link.fading})"
         if getattr(self.surface, "access", "tdma") != "tdma":
@@ -153,7 +157,27 @@ RULES: tuple[tuple[Any, str], ...] = (
         "the slot's own faded sample, so a second faded rate of the same slot would contradict it; use "
         "fading 'expected' with measured rates, or knowledge exact with fading 'rician'",
     ),
+    (
+        lambda w: w.link.kind == "multi_antenna" and (w.link.fading != "expected" or not w.knowledge.exact),
+        "link multi_antenna with fading 'rician' or measured rates (knowledge reports, filtered or rates): "
+        "the multi-antenna UAV's rate is the closed form of its aligned phases and MRT (model.miso), with "
+        "no faded sample modelled; use fading 'expected' (channel='expected') with knowledge exact, or the "
+        "single_antenna link for faded or measured rates",
+    ),
+    (
+        lambda w: w.link.kind == "multi_antenna" and w.nodes > 1,
+        "link multi_antenna with several nodes: the multi-antenna UAV serves them at once (SDMA with the "
+        "per-slot beams), which ios_uav_env.model.miso_regions.miso_maxmin scores and the envs do not run; "
+        "use one node (K = 1), or the single_antenna link for one node per slot share (TDMA)",
+    ),
 )
+
+
+def _link_of(antennas: int, fading: str) -> dict[str, Any]:
+    """The link of a scenario's ``antennas`` and the env's ``channel``: one antenna or several."""
+    if antennas == 1:
+        return {"kind": "single_antenna", "fading": fading}
+    return {"kind": "multi_antenna", "antennas": antennas, "fading": fading}
 
 
 def combinations(

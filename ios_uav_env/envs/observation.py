@@ -57,13 +57,14 @@ def rate_upper_bound(kernel: RateKernel) -> float:
     """An upper bound of the expected-gain rate anywhere at the UAV altitude (bps/Hz).
 
     Uses d_UG >= z_U and, per node, |dx|^3 / (dx^2 + h^2)^2 <= 3 sqrt(3) / (16 h) with h the
-    smallest vertical UAV-node gap; it bounds the observation's ``rate`` component.
+    smallest vertical UAV-node gap; it bounds the observation's ``rate`` component. N_t antennas
+    gain at most N_t zeta^2 (``channel.aligned_gain``: the array factor is at most N_t).
     """
     zeta = kernel.k_direct * kernel.z_u2**kernel.d_exp
     if kernel.has_surface:
         h = math.sqrt(float(np.min(kernel.dz2)))
         zeta += max(1.0, kernel.t_factor) * float(np.abs(kernel.jw).sum()) * _C / h
-    return math.log2(1.0 + kernel.eta * zeta * zeta)
+    return math.log2(1.0 + kernel.eta * kernel.antennas * zeta * zeta)
 
 
 def ground_free_rate_bound(config: ScenarioConfig) -> float:
@@ -72,14 +73,15 @@ def ground_free_rate_bound(config: ScenarioConfig) -> float:
     Element m at height z_m contributes J s |dx|^3 / d_Um^4 * |x_G - x_c|^3 / d_mG^4, and each
     factor is at most 3 sqrt(3) / (16 c) with c = z_U - z_m (the UAV side) or z_m (the G
     side), whatever the UAV and G positions: so one bound serves every ground position (the
-    randomised env's ranges). O(M_z): the elements of a row share z_m.
+    randomised env's ranges). O(M_z): the elements of a row share z_m. N_t antennas: at most
+    N_t zeta^2, as :func:`rate_upper_bound`.
     """
     zeta = math.sqrt(config.g_tx * config.g_rx) * config.uav_altitude ** (-config.alpha / 2.0)
     if config.surface != "none":
         ys, zs = _axes(config)
         rows = float(np.sum(1.0 / (zs * (config.uav_altitude - zs))))
         zeta += max(1.0, config.transmit_factor) * config.J * _C * _C * ys.size * rows
-    return math.log2(1.0 + config.eta * zeta * zeta)
+    return math.log2(1.0 + config.eta * config.antennas * zeta * zeta)
 
 
 def rate_bound(config: ScenarioConfig) -> float:

@@ -66,6 +66,13 @@ STAR_NOMA_ID = "ios_uav_env/STARUAV-NOMA-v0"
 STAR_NOMA_RANDOM_ID = "ios_uav_env/STARUAV-NOMA-Random-v0"
 STAR_NOMA_IDS: dict[str, dict[str, Any]] = {STAR_NOMA_ID: {}, STAR_NOMA_RANDOM_ID: {"random_line": True}}
 
+#: The multi-antenna UAV that flies (``UAVEnv``, the v0 view): the paper's scenario with an
+#: N_t-antenna UAV (the scenario field ``antennas``, 4 here), the agent flying as in ``IOSUAV-v0``
+#: and the env setting the beam and the surface's phases at their closed-form joint optimum for the
+#: node (aligned phases and MRT, ``ios_uav_env.model.miso``); ``antennas=1`` is ``IOSUAV-v0``.
+MISO_ID = "ios_uav_env/MISOUAV-v0"
+MISO_IDS: dict[str, dict[str, Any]] = {MISO_ID: {"antennas": 4}}
+
 #: The surface as the agent's control (``ios_uav_env.envs.star_control``): the UAV flies a given
 #: line past a small STAR surface and the agent sets the surface's coefficients in every slot; its
 #: batched form is ``ios_uav_env.envs.star_control_vector.STARControlVectorEnv``.
@@ -101,7 +108,7 @@ VECTOR_ENTRY_POINT = "ios_uav_env.envs.core.vector:UAVVectorEnv"
 def presets() -> dict[str, dict[str, Any]]:
     """id -> the keywords ``UAVEnv`` is registered with for each single- and multi-node id: its
     view's preset (:data:`V0`, :data:`V0_DRAWN`, :data:`NODE_BLOCKS`, :data:`STAR_NOMA`), then its
-    own (the world's scenario fields and options, ``random_nodes``, ``random_line``)."""
+    own (the world's scenario fields and options, ``random_nodes``, ``random_line``, ``antennas``)."""
     families = (
         (ENV_IDS, V0),
         ({ENERGY_ID: ENERGY_IDS[ENERGY_ID]}, V0),
@@ -110,6 +117,7 @@ def presets() -> dict[str, dict[str, Any]]:
         (MOBILE_IDS, V0_DRAWN),
         ({**MULTINODE_IDS, **MULTINODE_MOBILE_IDS}, NODE_BLOCKS),
         (STAR_NOMA_IDS, STAR_NOMA),
+        (MISO_IDS, V0),
     )
     return {env_id: {**view, **kwargs} for ids, view in families for env_id, kwargs in ids.items()}
 
@@ -117,6 +125,7 @@ def presets() -> dict[str, dict[str, Any]]:
 def register_envs() -> None:
     """Register every id of :data:`ENV_IDS`, :data:`RANDOM_IDS`, :data:`MULTINODE_IDS`,
     :data:`ENERGY_IDS`, :data:`MOBILE_IDS`, :data:`MULTINODE_MOBILE_IDS`, :data:`STAR_NOMA_IDS`,
+    :data:`MISO_IDS`,
     :data:`STAR_CONTROL_IDS` and :data:`MISO_CONTROL_IDS` not registered yet: each single- and
     multi-node id as ``UAVEnv`` with its keywords (:func:`presets`) and ``UAVVectorEnv`` as its
     batched env.

@@ -17,6 +17,7 @@ from ios_uav_env.envs.registration import (
     ENERGY_ID,
     ENERGY_RANDOM_ID,
     ENV_IDS,
+    MISO_ID,
     MOBILE_ID,
     MULTINODE_IDS,
     MULTINODE_MOBILE_ID,
@@ -56,6 +57,8 @@ def single_node_id(config: ScenarioConfig, knowledge: str = "exact", random: boo
         return STAR_RANDOM_ID if config.surface == "star" else RANDOM_ENV_ID
     if config.objective == "energy_efficiency":
         return ENERGY_ID
+    if config.antennas > 1:
+        return MISO_ID
     return next((i for i, kw in ENV_IDS.items() if kw["surface"] == config.surface), "IOSUAVEnv")
 
 

@@ -1,10 +1,10 @@
 """The v0 contract: one ground node on one scenario (``IOSUAVEnv``, a preset of ``UAVEnv``).
 
 ``IOSUAVEnv`` is ``ios_uav_env.envs.core.env.UAVEnv`` with the view ``"v0"`` and the move action:
-the ids ``IOSUAV-v0``, ``RISUAV-v0``, ``UAV-v0``, ``STARUAV-v0`` and ``IOSUAV-Energy-v0`` are
-``UAVEnv`` with those keywords, and this class makes the same env for code that names it. The
-episode runs in ``single_node.SingleNodeStepper``; the class docstring below is the contract of
-the view (its spaces, rewards, ``info``).
+the ids ``IOSUAV-v0``, ``RISUAV-v0``, ``UAV-v0``, ``STARUAV-v0``, ``MISOUAV-v0`` and
+``IOSUAV-Energy-v0`` are ``UAVEnv`` with those keywords, and this class makes the same env for code
+that names it. The episode runs in ``single_node.SingleNodeStepper``; the class docstring below is
+the contract of the view (its spaces, rewards, ``info``).
 """
 
 from __future__ import annotations
@@ -41,7 +41,8 @@ class IOSUAVEnv(UAVEnv):
     eq. (10): arrive at ``qF`` at slot N with at most D = v_max dt per move. Ids:
     ``ios_uav_env/IOSUAV-v0`` (IOS), ``ios_uav_env/RISUAV-v0`` (reflect-only RIS),
     ``ios_uav_env/UAV-v0`` (no surface) and ``ios_uav_env/STARUAV-v0`` (a STAR surface, one node
-    per slot share); ``ios_uav_env/IOSUAV-Energy-v0`` is the IOS scenario
+    per slot share); ``ios_uav_env/MISOUAV-v0`` is the IOS scenario with an N_t-antenna UAV
+    (``antennas``, 4; a multi-antenna UAV below); ``ios_uav_env/IOSUAV-Energy-v0`` is the IOS scenario
     with the objective ``"energy_efficiency"`` (bits per joule of propulsion energy; see
     "Energy"). ``env.unwrapped.trajectory`` is the (n, 2) array of the way-points so far (m).
 
@@ -116,13 +117,16 @@ class IOSUAVEnv(UAVEnv):
         reach    = max(0, |qF - q'| - m D - tol) / D
         terminal = e + sqrt(e),  e = max(0, |qF - q'| - tol) / D   (last step only; else 0)
 
-    with tol = ``FEASIBILITY_TOL`` (1e-6 m). ``rate`` is log2(1 + eta zeta(q')^2) (channel
-    "expected", the paper's objective) or one faded sample log2(1 + eta |h|^2) (channel
-    "rician"). ``reach`` is how far (in moves) the UAV has put itself out of reach of qF,
-    so lingering too long costs more at every step; ``terminal`` is the final miss, steep
-    near zero so that even a tiny miss never pays. Both are 0 for a trajectory that meets
-    eq. (10), so with the guard the reward is the rate alone and the return is N R - r(q0)
-    with R of eq. (9). ``info`` holds the weighted terms, which sum to the reward:
+    with tol = ``FEASIBILITY_TOL`` (1e-6 m). ``rate`` is log2(1 + eta zeta(q')^2) (channel "expected",
+    the paper's objective) or one faded sample log2(1 + eta |h|^2) (channel "rician"); with
+    ``antennas`` = N_t > 1 the env sets the beam and the phases at their closed-form joint optimum
+    (aligned phases and MRT, ``ios_uav_env.model.miso``) and ``rate`` is log2(1 + G(q')), G = eta
+    (N_t (S^2 + a_D^2) + 2 S a_D |a_c^T conj(a_G)|) (``channel.aligned_gain``; channel "expected"
+    only). ``reach`` is how far (in moves) the UAV has put itself out of reach of qF, so lingering
+    too long costs more at every step; ``terminal`` is the final miss, steep near zero so that even
+    a tiny miss never pays. Both are 0 for a trajectory that meets eq. (10), so with the guard the
+    reward is the rate alone and the return is N R - r(q0) with R of eq. (9). ``info`` holds the
+    weighted terms, which sum to the reward:
     ``reward_rate`` (rate), ``reward_reach`` (-w_reach reach), ``reward_terminal``
     (-w_terminal terminal) and ``reward_energy`` (0 but for the energy objective).
 
@@ -247,6 +251,9 @@ class IOSUAVEnv(UAVEnv):
       the better EE of its loiter and hover flights (``observation.loiter_efficiency``).
     - ``knowledge`` ("exact"), ``report_sigma`` (10 m) and ``filter_estimate`` (False): what the
       UAV is told of the node each slot, see "Moving nodes".
+    - ``antennas`` (a ``ScenarioConfig`` field; 1, ``MISOUAV-v0``'s 4): the UAV's antennas N_t, an
+      integer in [1, 64]; with N_t > 1 the faded and measured rates are refused (no faded sample of
+      the multi-antenna channel is modelled), naming the world's rule.
     - ``render_mode``: None or "rgb_array" (the trajectory over the rate map; needs
       ``pip install ios-uav-env[render]``).
     - ``**kwargs``: ``EnvOptions`` fields (the options above) and ``ScenarioConfig`` fields,
@@ -278,7 +285,8 @@ class IOSUAVEnv(UAVEnv):
       and the energy objective (ids ``ios_uav_env/IOSUAV-Energy-v0`` and
       ``ios_uav_env/IOSUAV-Energy-Random-v0``: the energy features, the energy reward); then
       moving, roughly known nodes (``knowledge``, ``report_sigma``, ``config.motion``; id
-      ``ios_uav_env/IOSUAV-Mobile-v0``); then the energy objective with them.
+      ``ios_uav_env/IOSUAV-Mobile-v0``); then the energy objective with them; then the
+      multi-antenna UAV (``antennas``; id ``ios_uav_env/MISOUAV-v0``), one antenna unchanged.
     """
 
     preset = {"view": "v0"}

@@ -91,6 +91,13 @@ class ArrayConfig:
         return (np.arange(self.n_t) - 0.5 * (self.n_t - 1)) * self.spacing_wl
 
 
+def scenario_array(config: Any) -> ArrayConfig:
+    """The UAV's array of a scenario (a ``ScenarioConfig``): ``config.antennas`` antennas at this
+    class's defaults (lambda / 2 apart, along the x axis, the surface steered at its centre), the
+    array of every rate of ``ios_uav_env.model.channel`` and of the env."""
+    return ArrayConfig(n_t=config.antennas)
+
+
 def steering_vector(array: ArrayConfig, cos_psi: np.ndarray) -> np.ndarray:
     """a(psi) = exp(j 2 pi (d / lambda) delta_n cos psi) for each cos psi, shape (..., N_t).
 

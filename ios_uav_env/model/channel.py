@@ -19,8 +19,10 @@ from __future__ import annotations
 
 import numpy as np
 
+from ios_uav_env.model.array import link_response, scenario_array
 from ios_uav_env.model.config import ScenarioConfig
 from ios_uav_env.model.rate_kernels import (  # noqa: F401 (the compiled kernels, re-exported)
+    PARAM_ANTENNAS,
     PARAM_D_EXP,
     PARAM_ETA,
     PARAM_G_SIDE,
@@ -98,19 +100,59 @@ def zeta(config: ScenarioConfig, positions: np.ndarray) -> np.ndarray:
     return surface_amplitude(config, positions) + direct_amplitude(config, positions)
 
 
+def array_factor(config: ScenarioConfig, positions: np.ndarray) -> np.ndarray:
+    """|a_c^T conj(a_G)| at each position, shape (K,): the product of the UAV array's steering
+    vectors (``model.array``, ``config.antennas`` antennas) towards the surface's centre and
+    towards G, in [0, N_t]; 1 for one antenna."""
+    q = as_positions(positions)
+    array = scenario_array(config)
+    uav = np.column_stack([q, np.full(len(q), config.uav_altitude)])
+    centre = link_response(array, uav, np.asarray(config.ios_center, dtype=float))
+    ground = link_response(array, uav, np.array([*config.ground_node, 0.0]))
+    return np.abs(np.sum(centre * ground.conj(), axis=1))
+
+
+def aligned_gain(config: ScenarioConfig, positions: np.ndarray) -> np.ndarray:
+    """The slot's SNR at each position with the surface's phases and the UAV's beam at their joint
+    optimum, shape (K,): eta zeta^2 (eq. (14)) for one antenna; for ``config.antennas`` = N_t > 1
+    the closed form of ``model.miso`` (aligned phases and MRT; its module docstring derives it),
+    G = eta (N_t (S^2 + a_D^2) + 2 S a_D |a_c^T conj(a_G)|) with S = sum_m a_m
+    (:func:`surface_amplitude`), a_D (:func:`direct_amplitude`) and :func:`array_factor`."""
+    if config.antennas == 1:
+        z = zeta(config, positions)
+        return config.eta * z * z
+    s, a_d = surface_amplitude(config, positions), direct_amplitude(config, positions)
+    cross = 2.0 * s * a_d * array_factor(config, positions)
+    return config.eta * (config.antennas * (s * s + a_d * a_d) + cross)
+
+
 def slot_rates(config: ScenarioConfig, positions: np.ndarray) -> np.ndarray:
-    """Expected-gain rate log2(1 + eta zeta^2) (bps/Hz) at each position, shape (K,).
+    """Expected-gain rate log2(1 + eta zeta^2) (bps/Hz) at each position, shape (K,); with
+    ``config.antennas`` > 1, log2(1 + G) of :func:`aligned_gain`.
 
     The objective the paper optimises (eq. (25)). No feasibility check is made.
     """
+    if config.antennas > 1:
+        return np.log2(1.0 + aligned_gain(config, positions))
     z = zeta(config, positions)
     return np.log2(1.0 + config.eta * z * z)
+
+
+def require_single_antenna(config: ScenarioConfig, what: str) -> None:
+    """``ValueError`` when ``config.antennas`` > 1: ``what`` models the single-antenna channel."""
+    if config.antennas > 1:
+        raise ValueError(
+            f"{what} models the single-antenna UAV, but this config has antennas={config.antennas}: its "
+            "rate at the optimal phases and beam is slot_rates (aligned_gain), any other setting "
+            "ios_uav_env.model.miso (SlotChannel)"
+        )
 
 
 def phased_rates(config: ScenarioConfig, positions: np.ndarray, phases: np.ndarray) -> np.ndarray:
     """Expected-gain rate (bps/Hz) at each position with the surface's ``phases`` (K, M) given:
     E|h|^2 = kappa/(1+kappa) |h^LoS(psi)|^2 + 1/(1+kappa) (sum_m a_m + a_D)^2 (eqs. (4)-(8)), which
-    is zeta^2, and the rate ``slot_rates``, at the closed-form phases; shape (K,)."""
+    is zeta^2, and the rate ``slot_rates``, at the closed-form phases; shape (K,). One antenna."""
+    require_single_antenna(config, "phased_rates")
     k = config.kappa
     gain = k / (1 + k) * np.abs(los_channel(config, positions, phases)) ** 2
     amp = element_amplitudes(config, positions).sum(axis=1) + direct_amplitude(config, positions)
@@ -128,7 +170,8 @@ def small_scale_term(config: ScenarioConfig, positions: np.ndarray, rng: np.rand
 
 
 def faded_rates(config: ScenarioConfig, positions: np.ndarray, rng: np.random.Generator) -> np.ndarray:
-    """One faded-rate sample log2(1 + eta |h|^2) per position under the closed-form phases."""
+    """One faded-rate sample log2(1 + eta |h|^2) per position under the closed-form phases (one antenna)."""
+    require_single_antenna(config, "faded_rates")
     h = zeta(config, positions) * small_scale_term(config, positions, rng)
     return np.log2(1.0 + config.eta * np.abs(h) ** 2)
 

@@ -32,6 +32,7 @@ from ios_uav_env.model.config_checks import (  # noqa: F401 (the schema, re-expo
     Surface,
     as_pair,
     canonical_nodes,
+    check_antennas,
     check_motion,
     check_nodes_off_the_plane,
     check_objective,
@@ -99,6 +100,10 @@ class ScenarioConfig:
     star_phases: str = "independent"  # one of STAR_PHASES: the phase model
     star_bits: int | None = None  # phase bits b; None: continuous phases (the only one modelled here)
     star_access: str = "tdma"  # one of STAR_ACCESS: one node per slot share, or both sides' at once
+    # The UAV's antennas N_t (``docs/model.md``, "Multi-antenna UAV"; ``model.array.scenario_array``),
+    # the phases and the beam in closed form for the node served (``model.miso``); left out of
+    # ``to_dict()`` at 1, the paper's single antenna.
+    antennas: int = 1  # N_t, an integer in [1, MAX_ANTENNAS]
 
     def __post_init__(self) -> None:
         if self.surface not in SURFACE_KINDS:
@@ -172,6 +177,7 @@ class ScenarioConfig:
             )
         check_objective(self)
         check_motion(self)
+        check_antennas(self)
 
     # --- derived quantities -------------------------------------------------------
     @property
@@ -333,9 +339,9 @@ class ScenarioConfig:
         ``ScenarioConfig(**d)``).
 
         ``ground_nodes`` is omitted when None (one node), and each objective field
-        (``propulsion``, ``bandwidth_hz``, ``objective``, ``energy_budget_j``), ``motion`` and each
-        STAR field (:data:`STAR_FIELDS`) at its default, so the dicts of the static rate scenarios
-        are unchanged."""
+        (``propulsion``, ``bandwidth_hz``, ``objective``, ``energy_budget_j``), ``motion``, each
+        STAR field (:data:`STAR_FIELDS`) and ``antennas`` at its default, so the dicts of the static
+        rate scenarios are unchanged."""
         out = {k: list(v) if isinstance(v, tuple) else v for k, v in dataclasses.asdict(self).items()}
         if self.ground_nodes:
             out["ground_nodes"] = [list(p) for p in self.ground_nodes]
@@ -358,8 +364,11 @@ class ScenarioConfig:
 
 #: The names of the ``ScenarioConfig`` fields (the scenario's keyword arguments everywhere).
 SCENARIO_FIELDS: frozenset[str] = frozenset(f.name for f in dataclasses.fields(ScenarioConfig))
-#: The objective's fields, ``motion`` and the STAR fields, left out of ``to_dict()`` at their defaults.
-_OMITTED_AT_DEFAULT = ("propulsion", "bandwidth_hz", "objective", "energy_budget_j", "motion", *STAR_FIELDS)
+#: The objective's fields, ``motion``, the STAR fields and ``antennas``, left out of ``to_dict()`` at
+#: their defaults.
+_OMITTED_AT_DEFAULT = (
+    "propulsion", "bandwidth_hz", "objective", "energy_budget_j", "motion", *STAR_FIELDS, "antennas",
+)  # fmt: skip
 _DEFAULTS = {f.name: f.default for f in dataclasses.fields(ScenarioConfig) if f.name in _OMITTED_AT_DEFAULT}
 _STAR_DEFAULTS = {name: _DEFAULTS[name] for name in STAR_FIELDS}
 

@@ -16,6 +16,7 @@ from typing import Any, Literal
 
 import numpy as np
 
+from ios_uav_env.model.array import MAX_ANTENNAS
 from ios_uav_env.model.mobility import as_motion, rectangles
 from ios_uav_env.model.propulsion import PropulsionModel
 
@@ -94,6 +95,14 @@ def check_motion(cfg: Any) -> None:
     object.__setattr__(cfg, "motion", as_motion(cfg.motion))
     if cfg.motion is not None:
         rectangles(cfg.motion, np.asarray(cfg.nodes, dtype=float), cfg.ios_center, cfg.surface)
+
+
+def check_antennas(cfg: Any) -> None:
+    """Validate ``antennas`` (N_t, an integer in [1, ``array.MAX_ANTENNAS``])."""
+    n = cfg.antennas
+    if not (is_int(n) and 1 <= n <= MAX_ANTENNAS):
+        raise ValueError(f"antennas must be an integer in [1, {MAX_ANTENNAS}] (the UAV's N_t), got {n!r}")
+    object.__setattr__(cfg, "antennas", int(n))
 
 
 def check_objective(cfg: Any) -> None:

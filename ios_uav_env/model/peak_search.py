@@ -42,6 +42,7 @@ import numpy as np
 
 from ios_uav_env.jit import jit
 from ios_uav_env.model.channel import (
+    PARAM_ANTENNAS,
     PARAM_D_EXP,
     PARAM_ETA,
     PARAM_G_SIDE,
@@ -101,7 +102,9 @@ def block_bound(xa: float, xb: float, ya: float, yb: float, nodes: np.ndarray, p
             d2 = u * u + m
             total += w * u * u * u / (d2 * d2)
         zeta += side * total
-    return math.log2(1.0 + params[PARAM_ETA] * zeta * zeta) * (1.0 + BOUND_SLACK)
+    # (N_t antennas gain at most N_t zeta^2: channel.aligned_gain's array factor is at most N_t)
+    gain = params[PARAM_ETA] * max(1.0, params[PARAM_ANTENNAS]) * zeta * zeta  # (as rate_row: 0 reads 1)
+    return math.log2(1.0 + gain) * (1.0 + BOUND_SLACK)
 
 
 @jit(fastmath=False)

@@ -24,6 +24,7 @@ from functools import lru_cache
 import numpy as np
 
 from ios_uav_env.jit import jit
+from ios_uav_env.model.array import scenario_array
 from ios_uav_env.model.config import ScenarioConfig
 from ios_uav_env.model.surface import ground_weights, surface_nodes
 
@@ -43,7 +44,7 @@ def as_positions(positions: np.ndarray, name: str = "positions") -> np.ndarray:
 #: Layout of ``RateKernel.params`` (the scalars of :func:`zeta_point`), by name.
 PARAMS = (
     "x_c", "g_side", "t_factor", "has_surface", "gx", "gy", "z_u2", "k_direct", "d_exp", "eta",
-    "wavelength", "los_gain", "nlos_gain",
+    "wavelength", "los_gain", "nlos_gain", "antennas", "array_k", "axis_x", "axis_y", "y_c", "dz_c2",
 )  # fmt: skip
 # Its columns by name, as the env's kernels name theirs (``envs.single_kernels``' docstring):
 # plain ints, constants in the compiled code.
@@ -60,12 +61,19 @@ PARAM_ETA = PARAMS.index("eta")
 PARAM_WAVELENGTH = PARAMS.index("wavelength")
 PARAM_LOS_GAIN = PARAMS.index("los_gain")
 PARAM_NLOS_GAIN = PARAMS.index("nlos_gain")
+PARAM_ANTENNAS = PARAMS.index("antennas")
+PARAM_ARRAY_K = PARAMS.index("array_k")
+PARAM_AXIS_X = PARAMS.index("axis_x")
+PARAM_AXIS_Y = PARAMS.index("axis_y")
+PARAM_Y_C = PARAMS.index("y_c")
+PARAM_DZ_C2 = PARAMS.index("dz_c2")
 
 
 @jit(inline=True)
-def zeta_row(x: float, y: float, nodes: np.ndarray, params: np.ndarray, i: int) -> float:
-    """zeta at one position: the formula of ``channel.zeta`` as a loop over the surface nodes, for
-    row ``i`` of a batch of rate kernels (``nodes`` (B, 3, K): y_k, (z_U - z_k)^2, J w_k;
+def amplitudes_row(x: float, y: float, nodes: np.ndarray, params: np.ndarray, i: int) -> tuple[float, float]:
+    """The phase-aligned surface amplitude sum_m a_m and the direct amplitude a_D at one position
+    (``channel.surface_amplitude``, ``channel.direct_amplitude``) as a loop over the surface nodes,
+    for row ``i`` of a batch of rate kernels (``nodes`` (B, 3, K): y_k, (z_U - z_k)^2, J w_k;
     ``params`` (B, P): the scalars of :data:`PARAMS`). Inlined into the compiled kernels that
     call it (the env's hot path) and indexed in place: no per-row array views, which cost more
     than the sum itself."""
@@ -75,21 +83,59 @@ def zeta_row(x: float, y: float, nodes: np.ndarray, params: np.ndarray, i: int) 
     )
     dx = x - params[i, PARAM_X_C]
     if params[i, PARAM_HAS_SURFACE] == 0.0 or dx == 0.0:
-        return direct
+        return 0.0, direct
     side = 1.0 if dx * params[i, PARAM_G_SIDE] > 0.0 else params[i, PARAM_T_FACTOR]
     dx2, total = dx * dx, 0.0
     for k in range(nodes.shape[2]):
         dy = y - nodes[i, 0, k]
         d2 = dy * dy + nodes[i, 1, k] + dx2
         total += nodes[i, 2, k] / (d2 * d2)
-    return side * abs(dx) ** 3 * total + direct
+    return side * abs(dx) ** 3 * total, direct
+
+
+@jit(inline=True)
+def zeta_row(x: float, y: float, nodes: np.ndarray, params: np.ndarray, i: int) -> float:
+    """zeta = sum_m a_m + a_D at one position, the formula of ``channel.zeta`` (:func:`amplitudes_row`)."""
+    surface, direct = amplitudes_row(x, y, nodes, params, i)
+    return surface + direct
+
+
+@jit(inline=True)
+def array_factor_row(x: float, y: float, params: np.ndarray, i: int) -> float:
+    """|a_c^T conj(a_G)| at one position, row ``i``: the UAV array's steering vectors towards the
+    surface's centre and towards G (``channel.array_factor``), sum_n cos(k delta_n (cos psi_c -
+    cos psi_G)) with the centred indices delta_n and k = 2 pi d / lambda (the vectors' product is real)."""
+    n_t = params[i, PARAM_ANTENNAS]
+    ux, uy = params[i, PARAM_AXIS_X], params[i, PARAM_AXIS_Y]
+    cx, cy = params[i, PARAM_X_C] - x, params[i, PARAM_Y_C] - y
+    gx, gy = params[i, PARAM_GX] - x, params[i, PARAM_GY] - y
+    cos_c = (ux * cx + uy * cy) / math.sqrt(cx * cx + cy * cy + params[i, PARAM_DZ_C2])
+    cos_g = (ux * gx + uy * gy) / math.sqrt(gx * gx + gy * gy + params[i, PARAM_Z_U2])
+    step, total = params[i, PARAM_ARRAY_K] * (cos_c - cos_g), 0.0
+    for n in range(int(n_t)):
+        total += math.cos(step * (n - 0.5 * (n_t - 1.0)))
+    return abs(total)
+
+
+@jit(inline=True)
+def gain_row(x: float, y: float, nodes: np.ndarray, params: np.ndarray, i: int) -> float:
+    """The slot's SNR at one position, row ``i``: eta zeta^2 for one antenna, and for N_t the
+    closed-form optimum of ``model.miso`` (aligned phases and MRT), eta (N_t (S^2 + a_D^2) +
+    2 S a_D |a_c^T conj(a_G)|) with S = sum_m a_m (``channel.aligned_gain``)."""
+    n_t = params[i, PARAM_ANTENNAS]
+    if n_t <= 1.0:  # (one antenna; a row of zeros, as hand-built or padding rows, reads as one too)
+        z = zeta_row(x, y, nodes, params, i)
+        return params[i, PARAM_ETA] * z * z
+    surface, direct = amplitudes_row(x, y, nodes, params, i)
+    cross = 2.0 * surface * direct * array_factor_row(x, y, params, i)
+    return params[i, PARAM_ETA] * (n_t * (surface * surface + direct * direct) + cross)
 
 
 @jit(inline=True)
 def rate_row(x: float, y: float, nodes: np.ndarray, params: np.ndarray, i: int) -> float:
-    """Expected-gain rate log2(1 + eta zeta^2) at one position, row ``i`` (see :func:`zeta_row`)."""
-    z = zeta_row(x, y, nodes, params, i)
-    return math.log2(1.0 + params[i, PARAM_ETA] * z * z)
+    """Expected-gain rate log2(1 + eta zeta^2) at one position, row ``i`` (see :func:`zeta_row`);
+    for N_t antennas log2(1 + G), the closed-form optimum of ``model.miso`` (:func:`gain_row`)."""
+    return math.log2(1.0 + gain_row(x, y, nodes, params, i))
 
 
 @jit(inline=True)
@@ -159,9 +205,15 @@ class RateKernel:
     wavelength: float  # m, lambda
     los_gain: float  # sqrt(kappa / (1 + kappa))
     nlos_gain: float  # sqrt(1 / (1 + kappa)) / sqrt(2): per real/imaginary part of h_SS
+    antennas: int  # N_t, the UAV's antennas (``config.antennas``)
+    array_k: float  # 2 pi d / lambda, the array's spacing d as a phase per unit of cos psi
+    axis_x: float  # the array's axis u, x component
+    axis_y: float  # the array's axis u, y component (u is horizontal)
+    y_c: float  # m, the surface centre's y
+    dz_c2: float  # m^2, (z_U - z_c)^2 of the surface's centre
 
     nodes: np.ndarray  # (3, K): node_y, dz2, jw stacked (the arrays of zeta_point)
-    params: np.ndarray  # (10,): the scalars of zeta_point, in the order of PARAMS
+    params: np.ndarray  # (len(PARAMS),): the scalars of zeta_point and of the array, in the order of PARAMS
 
     def zeta(self, x: float, y: float) -> float:
         """zeta at one position (x, y): :func:`zeta_point`, tested equal to ``channel.zeta``."""
@@ -228,7 +280,7 @@ def rate_kernel(config: ScenarioConfig) -> RateKernel:
 
 def _own_kernel(config: ScenarioConfig) -> RateKernel:
     """The :class:`RateKernel` of the single-node ``config`` built from its fields alone."""
-    nodes = surface_nodes(config)
+    nodes, array = surface_nodes(config), scenario_array(config)
     fields = dict(
         node_y=nodes.y,
         dz2=(config.uav_altitude - nodes.z) ** 2,
@@ -247,6 +299,12 @@ def _own_kernel(config: ScenarioConfig) -> RateKernel:
         wavelength=config.wavelength,
         los_gain=math.sqrt(config.kappa / (1.0 + config.kappa)),
         nlos_gain=math.sqrt(1.0 / (1.0 + config.kappa)) / math.sqrt(2.0),
+        antennas=array.n_t,
+        array_k=2.0 * math.pi * array.spacing_wl,
+        axis_x=float(array.axis[0]),
+        axis_y=float(array.axis[1]),
+        y_c=config.ios_center[1],
+        dz_c2=(config.uav_altitude - config.ios_center[2]) ** 2,
     )
     packed = np.vstack([fields["node_y"], fields["dz2"], fields["jw"]])
     params = np.array([float(fields[name]) for name in PARAMS])

@@ -30,6 +30,11 @@ the flight's max-min with the best power splits and time sharing of its trajecto
 ``ios_uav_env.model.star_regions.scenario_maxmin`` (certified to its tolerance; the plan gives no
 shares). Under TDMA a STAR scenario is scored as every other surface's.
 
+A multi-antenna UAV (``config.antennas`` = N_t > 1; ``docs/model.md``, "Multi-antenna UAV") serving
+one node: eq. (9) with the slot rate log2(1 + G) of the phases and the beam at their closed-form
+joint optimum (``channel.slot_rates``, ``model.miso``). Several nodes served at once are refused
+here, naming ``model.miso_regions.miso_maxmin``.
+
 A new objective extends this function and :class:`PlanScore` (``docs/development.md``), so
 that every caller (planners, envs, the benchmark) scores it alike.
 """
@@ -109,6 +114,11 @@ def score_plan(
     report = check_trajectory(config, q)
     if config.surface == "star" and config.star_access == "noma":
         return _star_noma(config, q, report, shares, paths)
+    if config.antennas > 1 and config.K > 1:
+        raise ValueError(
+            f"a multi-antenna UAV (antennas={config.antennas}) serving K = {config.K} nodes serves them at "
+            "once (SDMA): score its flight with ios_uav_env.model.miso_regions.miso_maxmin (certified)"
+        )
     if config.K == 1:
         if shares is not None:
             raise ValueError("shares are for K > 1 ground nodes; this scenario has one")
@@ -140,6 +150,11 @@ def _star_noma(
         )
     if paths is not None:
         raise ValueError("paths: a STAR scenario with star_access='noma' is scored for static nodes only")
+    if config.antennas > 1:
+        raise ValueError(
+            f"antennas={config.antennas}: a STAR scenario with star_access='noma' is scored for a "
+            "single-antenna UAV (model.star_regions); use antennas=1, or star_access='tdma'"
+        )
     best = scenario_maxmin(config, q).value
     return _score(config, best, best, False, report, None)
 

@@ -32,17 +32,21 @@ PROBLEMS: dict[str, ScenarioConfig] = {
     "moving-maxmin": RATE.replace(ground_nodes=TWO, motion=GaussMarkov(speed=3.0, sigma=1.0)),
     "moving-ee": RATE.replace(objective="energy_efficiency", motion=GaussMarkov(speed=3.0, sigma=1.0)),
     "noma": RATE.replace(surface="star", star_access="noma", ground_nodes=TWO),
+    "miso": RATE.replace(antennas=4),
 }
 #: The arguments each entry point takes after the config.
 EXTRA = {"mpc": (MPC(k=None), 0), "dp-bound": (None,), "dp-clairvoyant": (None, 10.0)}
 #: The entries cheap enough to run here on every problem they accept (the others, SCA and the
 #: energy bound, are run on their problems by their own tests).
-CHEAP = ("dp", "dp-ee", "dp-budget", "dp-clairvoyant", "dp-star", "tour", "fixed", "loiter", "hover", "mpc")
+CHEAP = (
+    "dp", "dp-ee", "dp-budget", "dp-clairvoyant", "dp-star", "dp-miso", "tour", "fixed", "loiter", "hover",
+    "mpc",
+)  # fmt: skip
 
 
 def _call(name: str, config: ScenarioConfig, **kwargs):
     spec = PLANNERS[name]
-    grid = {"resolution": 10.0} if name in ("dp", "dp-ee", "dp-budget", "dp-star") else {}
+    grid = {"resolution": 10.0} if name in ("dp", "dp-ee", "dp-budget", "dp-star", "dp-miso") else {}
     return spec.load()(config, *EXTRA.get(name, ()), **grid, **kwargs)
 
 
@@ -102,6 +106,10 @@ def test_the_named_examples_are_refused_with_the_planner_that_handles_them():
         PlannerMismatch, match=r"planner 'dp-star'.*surface='ios'.*use dp \(baselines\.dp:solve\)"
     ):
         _call("dp-star", PROBLEMS["maxmin"])
+    with pytest.raises(
+        PlannerMismatch, match=r"planner 'sca'.*antennas=4.*use .*dp-miso \(baselines\.dp:solve_miso\)"
+    ):
+        _call("sca", PROBLEMS["miso"])
 
 
 def test_dp_energy_dispatches_on_the_config():

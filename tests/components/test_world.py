@@ -38,8 +38,8 @@ def test_the_matrix_holds_every_kind_of_every_family():
     for family, registry in FAMILIES.items():
         assert {getattr(w, family).kind for w in worlds} == set(registry.names())
     assert (
-        len(worlds) == len(set(worlds)) == 5 * 2 * 2 * 2 * 4
-    )  # surfaces (STAR: TDMA and NOMA), fadings, objectives, motions, knowledge
+        len(worlds) == len(set(worlds)) == 5 * (2 * 2) * 2 * 2 * 4
+    )  # surfaces (STAR: TDMA and NOMA), links (one antenna or four) x fadings, objectives, motions, knowledge
 
 
 @pytest.mark.parametrize("rule", range(len(world_module.RULES)))
@@ -69,4 +69,6 @@ def test_the_single_antenna_fading_is_named_in_messages():
         World(link={"kind": "single_antenna", "fading": "rician"}).names()["link"]
         == "single_antenna (rician)"
     )
+    link = {"kind": "multi_antenna", "antennas": 8}
+    assert World(link=link).names()["link"] == "multi_antenna (antennas=8)"
     assert World(objective={"kind": "rate", "budget_j": 1e4}).names()["objective"] == "rate within a budget"

@@ -42,7 +42,7 @@ VALUES: dict[str, object] = {
     "element_size_wl": 0.4, "quadrature_nodes": 12, "quadrature_tol": 1e-300, "ground_nodes": NODES,
     "propulsion": {"P0": 60.0}, "bandwidth_hz": 2.0e6, "objective": "energy_efficiency",
     "energy_budget_j": "exceeded", "motion": "other",
-    "star_protocol": "ms", "star_phases": "shared", "star_bits": 2, "star_access": "noma",
+    "star_protocol": "ms", "star_phases": "shared", "star_bits": 2, "star_access": "noma", "antennas": 2,
 }  # fmt: skip
 #: Settings that may leave an episode unchanged, and why they are still accepted.
 ALLOWED = {

@@ -27,9 +27,9 @@ BUDGETS = {"none": None, "exceeded": 1.0 + 1e-6, "met": 3.0}
 def test_the_ids_here_are_every_registered_id():
     families = (
         ios_uav_env.ENV_IDS, ios_uav_env.ENERGY_IDS, ios_uav_env.MOBILE_IDS, ios_uav_env.MULTINODE_IDS,
-        ios_uav_env.MULTINODE_MOBILE_IDS, ios_uav_env.RANDOM_IDS,
+        ios_uav_env.MULTINODE_MOBILE_IDS, ios_uav_env.RANDOM_IDS, ios_uav_env.MISO_IDS,
     )  # fmt: skip
-    assert set(IDS) == {i for family in families for i in family} and len(IDS) == 12
+    assert set(IDS) == {i for family in families for i in family} and len(IDS) == 13
 
 
 def _objective_value(info: dict, config: ScenarioConfig) -> float:

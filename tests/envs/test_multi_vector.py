@@ -252,6 +252,7 @@ def test_every_id_of_the_package_has_a_batched_env():
         *ios_uav_env.ENERGY_IDS,
         *ios_uav_env.MOBILE_IDS,
         *ios_uav_env.MULTINODE_MOBILE_IDS,
+        *ios_uav_env.MISO_IDS,
     ]
     assert all(gym.spec(env_id).vector_entry_point for env_id in ids)
 

@@ -20,17 +20,18 @@ class UAVEnv(gym.Env):
 
     ## Description
 
-    The scenario of Liu et al. (IEEE WCL 2022; the model: ``docs/model.md``) and its
-    extensions: a surface (IOS, RIS, STAR or none), K ground nodes (static or walking, known
-    exactly or through reports), the objective (the rate, max-min for K > 1, or the energy
-    efficiency). One step is one slot; the episode ends at slot N. Every single- and multi-node
-    id of ``ios_uav_env.envs.registration`` is this class with a preset: its keywords (the
-    world's scenario fields and options, ``view``, ``action``, ``draws``). The world runs in a
-    *stepper* (``ios_uav_env.envs.core.stepper``) chosen by the view; this class is the
+    The scenario of Liu et al. (IEEE WCL 2022; the model: ``docs/model.md``) and its extensions: a
+    surface (IOS, RIS, STAR or none), K ground nodes (static or walking, known exactly or through
+    reports), the objective (the rate, max-min for K > 1, or the energy efficiency), the UAV's
+    antennas (``antennas``: N_t > 1 with the beam and the surface's phases set by the env at their
+    closed-form optimum, ``MISOUAV-v0``). One step is one slot; the episode ends at slot N. Every
+    single- and multi-node id of ``ios_uav_env.envs.registration`` is this class with a preset: its
+    keywords (the world's scenario fields and options, ``view``, ``action``, ``draws``). The world
+    runs in a *stepper* (``ios_uav_env.envs.core.stepper``) chosen by the view; this class is the
     Gymnasium face over it (reset, step, render, seeding, copying, pickling).
-    ``env.unwrapped.stepper`` is it, and every attribute this class does not hold is the
-    stepper's (``config``, ``options``, ``trajectory``, ``observation_names``, ``paths``,
-    ``shares``, the row protocol's calls, ...).
+    ``env.unwrapped.stepper`` is it, and every attribute this class does not hold is the stepper's
+    (``config``, ``options``, ``trajectory``, ``observation_names``, ``paths``, ``shares``, the row
+    protocol's calls, ...).
 
     ## Action Space
 
@@ -83,7 +84,8 @@ class UAVEnv(gym.Env):
     ## Version History
 
     * v0: the ids of ``IOSUAVEnv``, ``RandomIOSUAVEnv`` and ``MultiNodeEnv``, their episodes,
-      observations, ``info`` keys and rewards unchanged, made by this one class.
+      observations, ``info`` keys and rewards unchanged, made by this one class; then the
+      multi-antenna id ``MISOUAV-v0`` (``IOSUAVEnv``'s view with ``antennas=4``).
     """
 
     metadata = {"render_modes": ["rgb_array"], "render_fps": 10}
