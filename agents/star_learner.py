@@ -52,8 +52,6 @@ EFFICIENCY_FLOOR, ODDS_EPS = 1e-3, 1e-9
 ORDER_GAIN = 100.0
 #: A group network's input (its own features, then the global ones) and outputs.
 ELEMENT_IN, ELEMENT_OUT = GROUP_FEATURES + GLOBAL_FEATURES, 3
-#: The layer names of ``weights.npz``: the group network's, then the global one's (tanh between).
-LAYERS = ("element", "split")
 
 
 def task_features(task: StarTask) -> np.ndarray:
@@ -172,6 +170,8 @@ class StarLearner(ChannelPhases):
         super().__init__()
         self.path = Path(path)
         self.weights = load_weights(self.path)
+        if not (self.path / "config.json").exists():
+            raise ValueError(f"{self.path / 'config.json'}: no such file (how the model was trained)")
         self.config: dict[str, Any] = json.loads((self.path / "config.json").read_text(encoding="utf-8"))
         self.name = f"learned residual over ChannelPhases ({self.path.name}, StarLearner)"
 

@@ -86,6 +86,10 @@ def test_continuous_phases_have_no_rounding_error_and_bits_do():
 def test_bad_weights_and_layouts_are_refused_by_name(tmp_path):
     with pytest.raises(ValueError, match="weights.npz: no such file"):
         StarLearner(tmp_path / "none")
+    _write(tmp_path / "bare")
+    (tmp_path / "bare" / "config.json").unlink()
+    with pytest.raises(ValueError, match="config.json: no such file"):
+        StarLearner(tmp_path / "bare")
     _write(tmp_path / "bad")
     with np.load(tmp_path / "bad" / "weights.npz") as data:
         arrays = dict(data)
