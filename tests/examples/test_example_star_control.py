@@ -66,3 +66,16 @@ def test_the_element_actor_is_shared_by_the_groups(run_example):
     text = run_example("star_control_ppo.py", "--elements", "16", "--bits", "none", "--steps", "256",
                        "--episodes", "1", "--control", "residual", "--policy", "element")  # fmt: skip
     assert re.search(r"^\s+16\s+none\s+residual\s+0\s+[0-9.]+\s+-\s+100.0\s", text, re.M), text
+
+
+def test_the_residual_figure_is_drawn_by_one_command(run_example, tmp_path):
+    """examples/star_control_figure.py runs the attempt (every M and b at the first seed, the
+    smallest M at every seed) and writes the figure; at a tiny budget here."""
+    require("stable_baselines3", "torch", "matplotlib")
+    figure = tmp_path / "residual.png"
+    out = run_example("star_control_figure.py", "--out", str(figure), "--elements", "16", "64", "--bits",
+                      "none", "--steps", "256", "--episodes", "1", "--seeds", "0", "1")  # fmt: skip
+    assert figure.stat().st_size > 1000 and f"figure: {figure}" in out
+    runs = re.findall(r"^\s+(16|64)\s+none\s+(direct|residual)\s+(\d)\s", out, re.M)
+    expected = [("16", c, s) for c in ("direct", "residual") for s in "01"]
+    assert runs == expected + [("64", "direct", "0"), ("64", "residual", "0")], out
