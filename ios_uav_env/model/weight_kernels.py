@@ -43,37 +43,35 @@ def interpolated_weights(
                 for j in range(m):
                     d2 = (dx2[start + j] + dy2_t[c, start + j]) + z
                     beta_cd[j] = scale[start + j] / (d2 * d2)
-        half[:] = 0.0
-        for c in range(py):
-            for d in range(pz):
-                beta_cd = beta[c, d]
-                for a in range(ny):
-                    k, half_da = ky_t[c, a], half[d, a]
-                    for j in range(m):
-                        half_da[j] += k * beta_cd[j]
-        weights[:] = 0.0
-        for d in range(pz):
-            for a in range(ny):
-                half_da = half[d, a]
-                for b in range(nz):
-                    k, weights_ab = kz_t[d, b], weights[a, b]
-                    for j in range(m):
-                        weights_ab[j] += half_da[j] * k
+        _block_product(half, ky_t, beta, m)
+        _block_product(weights, kz_t, half, m)
         for j in range(m):
             out[start + j] = weights[:, :, j]
     return out
 
 
 @jit(fastmath=False)
+def _block_product(out: np.ndarray, scalars: np.ndarray, vectors: np.ndarray, m: int) -> None:
+    """out[x, y, :m] = the sum over z, from 0 in index order, of scalars[z, y] x vectors[z, x, :m]
+    (IEEE products and sums: a block's (ky B)^T from ky^T and B, then its weights from kz^T and
+    (ky B)^T; a product's operands in either order are the same number)."""
+    out[:] = 0.0
+    for z in range(vectors.shape[0]):
+        for x in range(out.shape[0]):
+            vector = vectors[z, x]
+            for y in range(out.shape[1]):
+                k, row = scalars[z, y], out[x, y]
+                for j in range(m):
+                    row[j] += k * vector[j]
+
+
+@jit(fastmath=False)
 def point_weights(
     scale: np.ndarray, dx2: np.ndarray, dy2: np.ndarray, z2: np.ndarray, ky_t: np.ndarray, kz_t: np.ndarray
 ) -> np.ndarray:
-    """out[p] = ky B kz^T, (ny, nz), with B[c, d] = scale[p] / d2^2, d2 = (dx2[p] + dy2[p, c]) +
-    z2[d] (``ky_t`` = ky^T, ``kz_t`` = kz^T): ``surface._ground_weights``' numpy form element by
-    element, in IEEE arithmetic (no fused multiply-add, no reassociation; each sum from 0 in index
-    order, the inner loops over independent sums on rows, which vectorise), so bit for bit the same.
-    One point after another: for a few points (a configured node's one), where
-    :func:`interpolated_weights`' blocks of points cost more than they save."""
+    """:func:`interpolated_weights` (the same arguments, the same bits) one point after another,
+    its inner loops over a row of a point's sums: for fewer points than a block (a configured
+    node's one), where the blocks cost more than they save."""
     py, ny, pz, nz = ky_t.shape[0], ky_t.shape[1], kz_t.shape[0], kz_t.shape[1]
     out = np.empty((dy2.shape[0], ny, nz))
     beta = np.empty((py, pz))
@@ -84,19 +82,19 @@ def point_weights(
             for d in range(pz):
                 d2 = row + z2[d]
                 beta_c[d] = scale[p] / (d2 * d2)
-        half[:] = 0.0
-        for c in range(py):
-            ky_c, beta_c = ky_t[c], beta[c]
-            for d in range(pz):
-                b, half_d = beta_c[d], half[d]
-                for a in range(ny):
-                    half_d[a] += ky_c[a] * b
-        weights = out[p]
-        weights[:] = 0.0
-        for d in range(pz):
-            kz_d, half_d = kz_t[d], half[d]
-            for a in range(ny):
-                h, weights_a = half_d[a], weights[a]
-                for b in range(nz):
-                    weights_a[b] += h * kz_d[b]
+        _row_product(half, beta, ky_t)
+        _row_product(out[p], half, kz_t)
     return out
+
+
+@jit(fastmath=False)
+def _row_product(out: np.ndarray, scalars: np.ndarray, rows: np.ndarray) -> None:
+    """out[x, :] = the sum over z, from 0 in index order, of scalars[z, x] x rows[z, :] (IEEE:
+    a point's (ky B)^T from B and ky^T, then its weights from (ky B)^T and kz^T)."""
+    out[:] = 0.0
+    for z in range(rows.shape[0]):
+        row = rows[z]
+        for x in range(out.shape[0]):
+            k, target = scalars[z, x], out[x]
+            for y in range(row.shape[0]):
+                target[y] += k * row[y]
