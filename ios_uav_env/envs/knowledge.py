@@ -53,7 +53,7 @@ from ios_uav_env.model.config import ScenarioConfig
 from ios_uav_env.model.kalman import NodeFilter
 from ios_uav_env.model.mobility import BOX_MARGIN
 from ios_uav_env.model.motion import node_bounds, node_paths
-from ios_uav_env.model.node_kernels import kernel_width
+from ios_uav_env.model.node_kernels import kernel_config, kernel_width
 from ios_uav_env.model.reports import SERVED_SHARE, position_reports
 from ios_uav_env.model.scenarios import ScenarioRanges
 
@@ -254,12 +254,16 @@ def start_nodes_track(
     (``path_kernels`` of ``config.node_config(k)``), padded to ``width`` surface nodes (at least)."""
     paths = node_paths(config, rng)
     own = kernel_width(config)  # (every node's kernel geometry is the scenario's)
-    q = max(width, own)
-    nodes = np.empty((config.K, config.N, 3, q))
-    nodes[:, :, 0, own:], nodes[:, :, 1, own:], nodes[:, :, 2, own:] = 0.0, 1.0, 0.0  # zero weight
-    params = np.empty((config.K, config.N, len(PARAMS)))
-    for k in range(config.K):  # (each node's kernels written into the track's arrays)
-        path_kernels(config.node_config(k), paths[:, k], out=(nodes[k, :, :, :own], params[k]))
+    q, k_nodes, slots = max(width, own), config.K, config.N
+    nodes = np.empty((k_nodes * slots, 3, q))
+    nodes[:, 0, own:], nodes[:, 1, own:], nodes[:, 2, own:] = 0.0, 1.0, 0.0  # zero weight
+    params = np.empty((k_nodes * slots, len(PARAMS)))
+    # every node's kernels in one call, written into the track's arrays: the nodes share the kernel
+    # geometry and each point's kernel is its own (path_kernels), so node k's rows are those of
+    # path_kernels(config.node_config(k), paths[:, k])
+    grounds = paths.transpose(1, 0, 2).reshape(k_nodes * slots, 2)
+    path_kernels(kernel_config(config), grounds, out=(nodes[:, :, :own], params))
+    nodes, params = nodes.reshape(k_nodes, slots, 3, q), params.reshape(k_nodes, slots, len(PARAMS))
     held = tuple(
         hold_path_kernels(config.node_config(k), paths[:, k], nodes[k, :, :, :own], params[k])
         for k in range(config.K)

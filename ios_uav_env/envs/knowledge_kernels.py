@@ -115,6 +115,8 @@ def observe_rows(
     params: Any,
     lo: np.ndarray,
     hi: np.ndarray,
+    row_nodes: np.ndarray,
+    row_params: np.ndarray,
     normals: np.ndarray,
     mode: int,
     sigma: float,
@@ -129,11 +131,13 @@ def observe_rows(
 
     Row i's track: ``paths[i]`` (N, 1, 2), ``reports[i]`` (N, 1, 2) and ``measured[i]`` (N,) (the
     records, written in place), ``nodes[i]`` / ``params[i]`` its kernels per slot, ``lo[i]`` /
-    ``hi[i]`` its report clip; ``normals[i]`` the slot's draws (``DRAWS``). ``mode``:
-    ``MODES``; ``sigma`` the report std, ``rate_high`` the measured rate's clip, ``scale`` the
-    observation's length scale. Writes the node features (4-5; unless ``positions`` is False:
-    the filter's, written after) and, unless knowledge is exact, the rate feature (10) of
-    ``obs[i]``, and the raw report in ``raw[i]`` (``"reports"``).
+    ``hi[i]`` its report clip; ``row_nodes[i]`` / ``row_params[i]`` the row's kernel of the slot
+    (the step's, :func:`gather_slot_kernels`), which the measured rate reads where it has the
+    track's width (the row's, in cache, instead of the track's slot far in memory); ``normals[i]``
+    the slot's draws (``DRAWS``). ``mode``: ``MODES``; ``sigma`` the report std, ``rate_high``
+    the measured rate's clip, ``scale`` the observation's length scale. Writes the node features
+    (4-5; unless ``positions`` is False: the filter's, written after) and, unless knowledge is
+    exact, the rate feature (10) of ``obs[i]``, and the raw report in ``raw[i]`` (``"reports"``).
 
     Two compiled calls, neither inlined into the other: :func:`tell_positions` in IEEE
     arithmetic (as numpy computes a report and a feature) and :func:`measure_rates` with the
@@ -142,7 +146,8 @@ def observe_rows(
     if mode != 2 or positions:
         tell_positions(rows, state, paths, reports, lo, hi, normals, mode, sigma, scale, positions, obs, raw)
     if mode != 0:
-        measure_rates(rows, state, measured, nodes, params, normals, 2 if mode == 1 else 0, rate_high, obs)
+        kernels = (nodes, params, row_nodes, row_params)
+        measure_rates(rows, state, measured, *kernels, normals, 2 if mode == 1 else 0, rate_high, obs)
 
 
 @jit(fastmath=False)
@@ -191,19 +196,25 @@ def measure_rates(
     measured: Any,
     nodes: Any,
     params: Any,
+    row_nodes: np.ndarray,
+    row_params: np.ndarray,
     normals: np.ndarray,
     first: int,
     rate_high: float,
     obs: np.ndarray,
 ) -> None:
     """The measured rates of :func:`observe_rows` (``normals[i, first:first + 2]``), recorded
-    unclipped and told clipped to ``rate_high``."""
+    unclipped and told clipped to ``rate_high``: on the row's kernel of the slot (``row_nodes[i]``,
+    ``row_params[i]``: the track's slot copied, the same numbers) where it has the track's width
+    (the same sum), else on the track's."""
     for j in range(rows.size):
         i = rows[j]
         slot = int(state[i, 2])
-        rate = faded_row(
-            state[i, 0], state[i, 1], normals[i, first], normals[i, first + 1], nodes[i], params[i], slot
-        )
+        x, y, n_re, n_im = state[i, 0], state[i, 1], normals[i, first], normals[i, first + 1]
+        kernel, scalars, at = row_nodes, row_params, i
+        if nodes[i].shape[2] != row_nodes.shape[2]:
+            kernel, scalars, at = nodes[i], params[i], slot
+        rate = faded_row(x, y, n_re, n_im, kernel, scalars, at)
         measured[i][slot] = rate
         obs[i, 10] = rate_high if rate_high < rate else rate
 

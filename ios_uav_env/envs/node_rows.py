@@ -154,8 +154,9 @@ class NodeBlockRows:
             for i in rows.tolist():
                 draw[i](out=out[i])
         if self._knowledge != 0:
+            kernels = self._rows.nodes, self._rows.params
             measure_nodes(rows, state, shares, self._track_measured, self._track_nodes, self._track_params,
-                          normals, self._knowledge == 1, self._rate_high, self._told)  # fmt: skip
+                          *kernels, normals, self._knowledge == 1, self._rate_high, self._told)  # fmt: skip
         tell_nodes(rows, state, shares, self._track_paths, self._track_reports, self._track_tally, self._lo,
                    self._hi, normals, self._knowledge, self._sigma, self._scale, not self._estimate,
                    self._width, self._told, obs, self._raw)  # fmt: skip

@@ -74,22 +74,29 @@ def gather_node_kernels(
 @jit
 def measure_nodes(
     rows: np.ndarray, state: np.ndarray, shares: np.ndarray, measured: Any, track_nodes: Any,
-    track_params: Any, normals: np.ndarray, reported: bool, rate_high: float, told: np.ndarray,
+    track_params: Any, row_nodes: np.ndarray, row_params: np.ndarray, normals: np.ndarray, reported: bool,
+    rate_high: float, told: np.ndarray,
 ) -> None:  # fmt: skip
     """Each served node's measured rate of the slot (``share > SERVED_SHARE``; node k's normals
     ``normals[i, f + 2k : f + 2k + 2]``, f = 2 K after the reports' normals when ``reported``, else
     0), recorded unclipped in ``measured[i][k, slot]`` and told clipped to ``rate_high`` in
-    ``told[i, k]`` (NaN: not served)."""
+    ``told[i, k]`` (NaN: not served). On the row's node kernels of the slot (``row_nodes[i, k]``,
+    ``row_params[i, k]``: the track's slot, copied there for the step) where they have the track's
+    width (the same numbers and sum, in cache), else on the track's."""
     for j in range(rows.size):
         i = rows[j]
         slot = int(state[i, 2])
         kernel, scalars, record = track_nodes[i], track_params[i], measured[i]
         first = 2 * kernel.shape[0] if reported else 0
+        own = kernel.shape[3] == row_nodes.shape[3]
         for k in range(kernel.shape[0]):
             told[i, k] = np.nan
             if shares[i, k] > SERVED_SHARE:
                 n_re, n_im = normals[i, first + 2 * k], normals[i, first + 2 * k + 1]
-                rate = faded_row(state[i, 0], state[i, 1], n_re, n_im, kernel[k], scalars[k], slot)
+                nodes, params, at = row_nodes[i], row_params[i], k
+                if not own:
+                    nodes, params, at = kernel[k], scalars[k], slot
+                rate = faded_row(state[i, 0], state[i, 1], n_re, n_im, nodes, params, at)
                 record[k, slot] = rate
                 told[i, k] = rate_high if rate_high < rate else rate
 

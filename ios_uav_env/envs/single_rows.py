@@ -156,9 +156,9 @@ class SingleNodeRows:
             for i in rows.tolist():
                 draw[i](out=out[i])
         observe_rows(rows, self._state, self._track_paths, self._track_reports, self._track_measured,
-                     self._track_nodes, self._track_params, self._lo, self._hi, normals, self._knowledge,
-                     self._sigma, self._rate_high, self._scale, not self._estimate, obs,
-                     self._raw)  # fmt: skip
+                     self._track_nodes, self._track_params, self._lo, self._hi, self._nodes, self._params,
+                     normals, self._knowledge, self._sigma, self._rate_high, self._scale, not self._estimate,
+                     obs, self._raw)  # fmt: skip
         if self._estimate:
             for i in rows.tolist():
                 told = filter_report(envs[i].stepper.track, self._raw[i : i + 1].copy(), self._sigma)

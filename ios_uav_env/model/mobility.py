@@ -131,14 +131,15 @@ def rectangles(
             else:
                 low_x = max(low_x, plane + gap)
         lo[k], hi[k] = (low_x, y0), (high_x, y1)
-        name = "ground_node" if len(points) == 1 else f"ground_nodes[{k}]"
-        where = f"x in [{low_x:g}, {high_x:g}], y in [{y0:g}, {y1:g}] m"
-        if not (low_x < high_x and y0 < y1):
-            raise ValueError(
-                f"{name}={(x, y)}: its motion rectangle {where} (the box on its side of the IOS "
-                f"plane, plane_margin={motion.plane_margin:g} m) is empty: widen motion.box"
-            )
-        if not (low_x <= x <= high_x and y0 <= y <= y1):
+        empty = not (low_x < high_x and y0 < y1)
+        if empty or not (low_x <= x <= high_x and y0 <= y <= y1):  # (the message formatted only here)
+            name = "ground_node" if len(points) == 1 else f"ground_nodes[{k}]"
+            where = f"x in [{low_x:g}, {high_x:g}], y in [{y0:g}, {y1:g}] m"
+            if empty:
+                raise ValueError(
+                    f"{name}={(x, y)}: its motion rectangle {where} (the box on its side of the IOS "
+                    f"plane, plane_margin={motion.plane_margin:g} m) is empty: widen motion.box"
+                )
             raise ValueError(
                 f"{name}={(x, y)} starts outside its motion rectangle {where} (motion.box, and at "
                 f"least plane_margin={motion.plane_margin:g} m from the IOS plane x = {ios_center[0]:g} m)"

@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import operator
 import weakref
 from dataclasses import dataclass
 from functools import lru_cache
@@ -245,9 +246,13 @@ BASES_HELD = 256
 _BASES: dict[tuple, RateKernel] = {}
 
 
+#: reads the fields of :data:`_KERNEL_FIELDS` in one C call (a drawn scenario's key is read at every reset)
+_KERNEL_GETTER = operator.attrgetter(*_KERNEL_FIELDS)
+
+
 def _kernel_key(config: ScenarioConfig) -> tuple:
     """``config``'s kernel geometry: its fields outside :data:`DRAWN_FIELDS`."""
-    return tuple(getattr(config, name) for name in _KERNEL_FIELDS)
+    return _KERNEL_GETTER(config)
 
 
 @lru_cache(maxsize=64)

@@ -53,6 +53,7 @@ import numpy as np
 
 from ios_uav_env.jit import HAVE_NUMBA, jit
 from ios_uav_env.model.config import ScenarioConfig
+from ios_uav_env.model.weight_kernels import WEIGHT_BLOCK, interpolated_weights, point_weights
 
 #: Share of ``quadrature_tol`` that the ground side's interpolation of beta may take (module
 #: docstring): the amplitude's relative error stays within (1 + this) x ``quadrature_tol``.
@@ -314,7 +315,8 @@ def ground_weights(config: ScenarioConfig, grounds: np.ndarray) -> np.ndarray:
 
 def _ground_weights(config: ScenarioConfig, projection: _Projection, grounds: np.ndarray) -> np.ndarray:
     """(P, ny nz) node weights ky B kz^T of the (P, 2) ``grounds``, B (py, pz) beta at the
-    ground side's points (module docstring): :func:`_interpolated_weights` compiled, or the same
+    ground side's points (module docstring): :func:`interpolated_weights` compiled (a path of
+    points; :func:`point_weights` for fewer than :data:`WEIGHT_BLOCK`), or the same
     IEEE operations in the same order as numpy (without numba), so the same bits either way."""
     assert projection.gy is not None and projection.gz2 is not None
     assert projection.ky is not None and projection.kz is not None
@@ -322,7 +324,8 @@ def _ground_weights(config: ScenarioConfig, projection: _Projection, grounds: np
     dy2 = (grounds[:, 1, None] - projection.gy[None, :]) ** 2  # (P, py)
     ky, kz = projection.ky, projection.kz
     if HAVE_NUMBA:
-        weights = _interpolated_weights(dx2**1.5, dx2, dy2, projection.gz2, projection.ky_t, projection.kz_t)
+        compiled = interpolated_weights if len(grounds) >= WEIGHT_BLOCK else point_weights
+        weights = compiled(dx2**1.5, dx2, dy2, projection.gz2, projection.ky_t, projection.kz_t)
         return weights.reshape(len(grounds), -1)
     d2 = (dx2[:, None, None] + dy2[:, :, None]) + projection.gz2[None, None, :]
     beta = (dx2**1.5)[:, None, None] / (d2 * d2)  # (P, py, pz)
@@ -333,39 +336,3 @@ def _ground_weights(config: ScenarioConfig, projection: _Projection, grounds: np
     for d in range(kz.shape[1]):
         out += half[:, :, d, None] * kz[None, None, :, d]
     return out.reshape(len(grounds), -1)
-
-
-@jit(fastmath=False)
-def _interpolated_weights(
-    scale: np.ndarray, dx2: np.ndarray, dy2: np.ndarray, z2: np.ndarray, ky_t: np.ndarray, kz_t: np.ndarray
-) -> np.ndarray:
-    """out[p] = ky B kz^T, (ny, nz), with B[c, d] = scale[p] / d2^2, d2 = (dx2[p] + dy2[p, c]) +
-    z2[d] (``ky_t`` = ky^T, ``kz_t`` = kz^T): :func:`_ground_weights`' numpy form element by
-    element, in IEEE arithmetic (no fused multiply-add, no reassociation; each sum from 0 in index
-    order, the inner loops over independent sums on rows, which vectorise), so bit for bit the same."""
-    py, ny, pz, nz = ky_t.shape[0], ky_t.shape[1], kz_t.shape[0], kz_t.shape[1]
-    out = np.empty((dy2.shape[0], ny, nz))
-    beta = np.empty((py, pz))
-    half = np.empty((pz, ny))  # (ky B)^T
-    for p in range(dy2.shape[0]):
-        for c in range(py):
-            row, beta_c = dx2[p] + dy2[p, c], beta[c]
-            for d in range(pz):
-                d2 = row + z2[d]
-                beta_c[d] = scale[p] / (d2 * d2)
-        half[:] = 0.0
-        for c in range(py):
-            ky_c, beta_c = ky_t[c], beta[c]
-            for d in range(pz):
-                b, half_d = beta_c[d], half[d]
-                for a in range(ny):
-                    half_d[a] += ky_c[a] * b
-        weights = out[p]
-        weights[:] = 0.0
-        for d in range(pz):
-            kz_d, half_d = kz_t[d], half[d]
-            for a in range(ny):
-                h, weights_a = half_d[a], weights[a]
-                for b in range(nz):
-                    weights_a[b] += h * kz_d[b]
-    return out

@@ -1,8 +1,9 @@
 """``channel.hold_path_kernels``: while its handle lives, ``path_kernels`` of the same config and
 path returns copies of the held kernels instead of projecting the surface again (the multi-node
 env's score of an episode finds its track's kernels), the same arrays bit for bit. A moving-node
-episode projects the surface once per node at reset (its track's kernels; no static kernels that
-the track overwrites), and the batched env's score takes the track's kernels as they are
+episode projects the surface once at reset (its track's kernels, every node's path in one call,
+each node's rows its own ``path_kernels``; no static kernels that the track overwrites), and the
+batched env's score takes the track's kernels as they are
 (``schedule.node_rates``' ``kernels``)."""
 
 from __future__ import annotations
@@ -13,6 +14,7 @@ import numpy as np
 import pytest
 
 import ios_uav_env as ie
+from ios_uav_env.envs.knowledge import start_nodes_track
 from ios_uav_env.envs.multi import MultiNodeEnv
 from ios_uav_env.envs.multi_vector import MultiNodeVectorEnv
 from ios_uav_env.model import channel, rate_kernels, schedule, surface
@@ -78,37 +80,54 @@ def test_the_episode_score_reuses_the_tracks_kernels(projections, built):
     call, held or not), equal bit for bit to the score that builds them."""
     env = MultiNodeEnv(CONFIG, knowledge="reports")
     env.reset(seed=3)
-    assert len(projections) == CONFIG.K  # the track's kernels, one projection per node, and no other
+    assert len(projections) == 1  # the track's kernels, one projection of every node's path, and no other
     actions = np.random.default_rng(3).uniform(-1.0, 1.0, (CONFIG.N, 2 + CONFIG.K))
     terminated, t = False, 0
     while not terminated:
         _, _, terminated, _, info = env.step(actions[t])
         t += 1
-    assert len(projections) == CONFIG.K and not built  # the best schedule projected nor asked nothing
+    assert len(projections) == 1 and not built  # the best schedule projected nor asked nothing
     kept = env.track.held
     env.track.held = ()  # (drop the handles: the score then projects the paths again)
     del kept
     gc.collect()
     fresh = reported_maxmin_rate(env.config, env.trajectory, env.truth)
-    assert len(projections) == 2 * CONFIG.K
+    assert len(projections) == 1 + CONFIG.K  # (the score projects each node's path)
     assert info["best_schedule_rate"] == fresh  # bit for bit
 
 
-def test_a_moving_episode_projects_once_per_node_at_each_reset(projections):
+def test_a_moving_episode_projects_once_at_each_reset(projections):
     """Every reset of moving nodes on a new scenario (a drawn one, or a new config pinned) builds
-    its track's kernels only: K projections, in the single env and in each row of the batch."""
+    its track's kernels only: one projection of every node's path, in the single env and in each
+    row of the batch."""
     ranges = ScenarioRanges(T=(40.0, 60.0), base=ScenarioConfig(motion=WALK))
     env = MultiNodeEnv(random_nodes=(2, 4), ranges=ranges, knowledge="reports")
     for seed in range(3):
         env.reset(seed=seed)
-        assert len(projections) == env.config.K
+        assert len(projections) == 1
         projections.clear()
     env.reset(options={"config": CONFIG.replace(T=50.0)})
-    assert len(projections) == CONFIG.K
+    assert len(projections) == 1
     projections.clear()
     vec = MultiNodeVectorEnv(3, random_nodes=(2, 4), ranges=ranges, knowledge="rates")
     vec.reset(seed=4)
-    assert len(projections) == sum(cfg.K for cfg in vec.configs)
+    assert len(projections) == vec.num_envs
+
+
+@pytest.mark.parametrize("width", [0, 90])
+def test_a_tracks_kernels_are_each_nodes_own_path_kernels(width):
+    """The track projects every node's path in one call: node k's kernels are those of
+    ``path_kernels(config.node_config(k), paths[:, k])`` bit for bit, padded (width 90) with
+    surface nodes of zero weight."""
+    track = start_nodes_track(CONFIG, np.random.default_rng(7), 5.0, width)
+    track.held = ()  # (no handles: path_kernels below projects each path again)
+    gc.collect()
+    own = ie.path_kernels(CONFIG.node_config(0), track.paths[:, 0])[0].shape[2]
+    assert track.nodes.shape == (CONFIG.K, CONFIG.N, 3, max(width, own))
+    for k in range(CONFIG.K):
+        nodes, params = ie.path_kernels(CONFIG.node_config(k), track.paths[:, k].copy())
+        assert np.array_equal(track.nodes[k, :, :, :own], nodes) and np.array_equal(track.params[k], params)
+        assert (track.nodes[k, :, 2, own:] == 0.0).all() and (track.nodes[k, :, 1, own:] == 1.0).all()
 
 
 def test_the_batched_score_takes_the_tracks_kernels(projections, built):
@@ -117,11 +136,11 @@ def test_the_batched_score_takes_the_tracks_kernels(projections, built):
     bit for bit to the score that builds them."""
     vec = MultiNodeVectorEnv(2, CONFIG, knowledge="reports")
     vec.reset(seed=5)
-    assert len(projections) == 2 * CONFIG.K
+    assert len(projections) == 2  # (one per row)
     rng = np.random.default_rng(5)
     for _ in range(CONFIG.N - 1):
         _, _, terminated, _, info = vec.step(rng.uniform(-1.0, 1.0, vec.action_space.shape))
-    assert terminated.all() and not built and len(projections) == 2 * CONFIG.K
+    assert terminated.all() and not built and len(projections) == 2
     for i, env in enumerate(vec.envs):
         env.track.held = ()  # (no handles: the score below builds the kernels again)
         fresh = reported_maxmin_rate(env.config, vec.trajectories[i], env.truth)

@@ -2,7 +2,7 @@
 runs) against the numpy forms they replace: the same results bit for bit.
 
 - ``surface._beta_grid`` (the element weights of every ground position) and the stacked
-  projection of ``surface.ground_weights``;
+  projection of ``surface.ground_weights``, a path of points side by side;
 - ``surface._projection``, cached per geometry (shared by scenarios that differ in G, T, q0,
   qF or the surface's kind);
 - ``motion._walk`` (the Gauss-Markov walk of ``node_paths`` with its slots' normals drawn at
@@ -78,6 +78,19 @@ def test_ground_weights_are_the_numpy_weights_bit_for_bit(exact):
         assert np.array_equal(surface.ground_weights(config, grounds), rows)
         single = surface.surface_nodes(config.replace(ground_node=tuple(grounds[3])))
         assert np.array_equal(single.weight, rows[3])
+
+
+def test_a_long_path_of_grounds_is_weighted_point_by_point():
+    """A moving node's path (more points than the compiled weights take side by side, and not a
+    multiple of them): every point's weights are the numpy form's and its own alone, bit for bit."""
+    rng = np.random.default_rng(5)
+    for config in _drawn(3, 2):
+        count = 2 * surface.WEIGHT_BLOCK + 11
+        grounds = rng.uniform(-300.0, 300.0, (count, 2))
+        got = surface.ground_weights(config, grounds)
+        assert np.array_equal(got, _numpy_interpolated(config, grounds))
+        for p in (0, surface.WEIGHT_BLOCK - 1, surface.WEIGHT_BLOCK, count - 1):
+            assert np.array_equal(surface.ground_weights(config, grounds[p : p + 1])[0], got[p])
 
 
 #: Geometries of the ground side's interpolation: the paper's, a low surface (more points), a

@@ -1,0 +1,100 @@
+"""The compiled node weights of the surface's ground side (``ios_uav_env.model.surface``, module
+docstring): ky B kz^T for each ground point, B the beta at the interpolation points, in IEEE
+arithmetic in the numpy form's order, element by element, so bit for bit the numpy weights.
+:func:`interpolated_weights` takes the points of a moving node's path :data:`WEIGHT_BLOCK` at a
+time (its innermost loops over the points, which vectorise); :func:`point_weights` one point
+after another, for a few points (a configured node's one)."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ios_uav_env.jit import jit
+
+__all__ = ["WEIGHT_BLOCK", "interpolated_weights", "point_weights"]
+
+
+#: Points :func:`interpolated_weights` computes side by side (its innermost loops run over them).
+WEIGHT_BLOCK = 32
+
+
+@jit(fastmath=False)
+def interpolated_weights(
+    scale: np.ndarray, dx2: np.ndarray, dy2: np.ndarray, z2: np.ndarray, ky_t: np.ndarray, kz_t: np.ndarray
+) -> np.ndarray:
+    """out[p] = ky B kz^T, (ny, nz), with B[c, d] = scale[p] / d2^2, d2 = (dx2[p] + dy2[p, c]) +
+    z2[d] (``ky_t`` = ky^T, ``kz_t`` = kz^T): ``surface._ground_weights``' numpy form element by
+    element, in IEEE arithmetic (no fused multiply-add, no reassociation; each sum from 0 in index
+    order), so bit for bit the same. The points are taken :data:`WEIGHT_BLOCK` at a time and the
+    innermost loops run over a block's points, each point's sums on their own, so they vectorise
+    without reordering any sum."""
+    py, ny, pz, nz = ky_t.shape[0], ky_t.shape[1], kz_t.shape[0], kz_t.shape[1]
+    points, block = dy2.shape[0], WEIGHT_BLOCK
+    out = np.empty((points, ny, nz))
+    dy2_t = np.ascontiguousarray(dy2.T)
+    beta = np.empty((py, pz, block))
+    half = np.empty((pz, ny, block))  # (ky B)^T of the block's points
+    weights = np.empty((ny, nz, block))
+    for start in range(0, points, block):
+        m = min(block, points - start)
+        for c in range(py):
+            for d in range(pz):
+                z, beta_cd = z2[d], beta[c, d]
+                for j in range(m):
+                    d2 = (dx2[start + j] + dy2_t[c, start + j]) + z
+                    beta_cd[j] = scale[start + j] / (d2 * d2)
+        _block_product(half, ky_t, beta, m)
+        _block_product(weights, kz_t, half, m)
+        for j in range(m):
+            out[start + j] = weights[:, :, j]
+    return out
+
+
+@jit(fastmath=False)
+def _block_product(out: np.ndarray, scalars: np.ndarray, vectors: np.ndarray, m: int) -> None:
+    """out[x, y, :m] = the sum over z, from 0 in index order, of scalars[z, y] x vectors[z, x, :m]
+    (IEEE products and sums: a block's (ky B)^T from ky^T and B, then its weights from kz^T and
+    (ky B)^T; a product's operands in either order are the same number)."""
+    out[:] = 0.0
+    for z in range(vectors.shape[0]):
+        for x in range(out.shape[0]):
+            vector = vectors[z, x]
+            for y in range(out.shape[1]):
+                k, row = scalars[z, y], out[x, y]
+                for j in range(m):
+                    row[j] += k * vector[j]
+
+
+@jit(fastmath=False)
+def point_weights(
+    scale: np.ndarray, dx2: np.ndarray, dy2: np.ndarray, z2: np.ndarray, ky_t: np.ndarray, kz_t: np.ndarray
+) -> np.ndarray:
+    """:func:`interpolated_weights` (the same arguments, the same bits) one point after another,
+    its inner loops over a row of a point's sums: for fewer points than a block (a configured
+    node's one), where the blocks cost more than they save."""
+    py, ny, pz, nz = ky_t.shape[0], ky_t.shape[1], kz_t.shape[0], kz_t.shape[1]
+    out = np.empty((dy2.shape[0], ny, nz))
+    beta = np.empty((py, pz))
+    half = np.empty((pz, ny))  # (ky B)^T
+    for p in range(dy2.shape[0]):
+        for c in range(py):
+            row, beta_c = dx2[p] + dy2[p, c], beta[c]
+            for d in range(pz):
+                d2 = row + z2[d]
+                beta_c[d] = scale[p] / (d2 * d2)
+        _row_product(half, beta, ky_t)
+        _row_product(out[p], half, kz_t)
+    return out
+
+
+@jit(fastmath=False)
+def _row_product(out: np.ndarray, scalars: np.ndarray, rows: np.ndarray) -> None:
+    """out[x, :] = the sum over z, from 0 in index order, of scalars[z, x] x rows[z, :] (IEEE:
+    a point's (ky B)^T from B and ky^T, then its weights from (ky B)^T and kz^T)."""
+    out[:] = 0.0
+    for z in range(rows.shape[0]):
+        row = rows[z]
+        for x in range(out.shape[0]):
+            k, target = scalars[z, x], out[x]
+            for y in range(row.shape[0]):
+                target[y] += k * row[y]
