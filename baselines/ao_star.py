@@ -172,7 +172,8 @@ def solve(
     ``history``: one record per round (weights, radius, status, candidate score, accepted,
     predicted first-order gain). ``info``: ``start_rate`` (the start's score), ``upper_bound``
     (dp-star's certified bound, or None if the start carried none), ``gap``, ``rounds``,
-    ``accepted``, ``stop`` (why it stopped), ``start_seconds`` (dp-star's), ``fd_step``.
+    ``accepted``, ``stop`` (why it stopped), ``start_seconds`` (dp-star's), ``fd_step``. ``seconds``:
+    this call's wall time (dp-star's included when it runs it).
     """
     t0 = time.perf_counter()
     check_planner("ao-star", config)

@@ -41,7 +41,7 @@ Access: a STAR surface serving both sides' nodes at once (``ScenarioConfig(surfa
 star_access="noma")``) is scored by ``score_plan`` (``star_regions.scenario_maxmin``). ``dp-star``
 plans it and ``ao-star`` polishes dp-star's plan off the grid (they and only they: ``accesses`` =
 ("noma",)); every other planner and bound above optimises the one-node-per-slot-share (TDMA)
-schedule and refuses it, naming ``dp-star`` (``ao-star`` for the local ones); the heuristics,
+schedule and refuses it, naming ``dp-star`` and ``ao-star``; the heuristics,
 which optimise nothing, fly it and are scored on it.
 
 Antennas: a multi-antenna UAV (``ScenarioConfig(antennas=N_t)``, N_t > 1) has the closed-form
@@ -232,6 +232,8 @@ def check(name: str, config: ScenarioConfig, paths: Any = None) -> PlannerSpec:
         fits += [p for p in handlers(config, paths=True) if p not in fits]
     others = [p for p in fits if p is not spec]
     same = [p for p in others if p.kind == spec.kind] or others
+    if config.star_access == "noma" and "noma" not in spec.accesses:  # every NOMA planner: dp-star, ao-star
+        same = [p for p in others if p.kind != "heuristic"] or others
     names = ", ".join(f"{p.name} ({p.entry})" for p in same)
     hint = f"; use {names}" if names else "; no registered planner handles it"
     if spec in fits:  # it would, given the nodes' true paths

@@ -119,11 +119,13 @@ def test_the_registry_routes_noma_to_it_and_tdma_away_from_it():
     ):
         solve(tdma, np.linspace(tdma.q0, tdma.qF, tdma.N))
     with pytest.raises(
-        PlannerMismatch, match=r"planner 'sca'.*star_access='noma'.*use ao-star \(baselines\.ao_star"
+        PlannerMismatch,
+        match=r"planner 'sca'.*star_access='noma'.*use dp-star .*, ao-star \(baselines\.ao_star",
     ):
         registry.check("sca", SMALL)
     with pytest.raises(
-        PlannerMismatch, match=r"planner 'dp'.*star_access='noma'.*use dp-star \(baselines\.dp_star"
+        PlannerMismatch,
+        match=r"planner 'dp'.*star_access='noma'.*use dp-star \(baselines\.dp_star:solve\), ao-star",
     ):
         registry.check("dp", SMALL)
 
