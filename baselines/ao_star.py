@@ -203,8 +203,9 @@ def solve(
         if step is None:
             stop = "no interior way-point"
             break
-        w = scenario_maxmin(config, q).dual_weights
-        grad = gradients(config, q, w, fd_step, frontier_points)
+        if it == 0 or history[-1]["accepted"]:  # a rejected step leaves q, so w* and g as they were
+            w = scenario_maxmin(config, q).dual_weights
+            grad = gradients(config, q, w, fd_step, frontier_points)
         cand, status = step(q, grad, radius)
         record: dict[str, Any] = {"round": it, "weights": w.tolist(), "radius": radius, "status": status}
         ok = False
