@@ -37,7 +37,8 @@ points of spacing ``resolution`` / 2^j around it, j = 1..``refine``, moves <= D,
 the path changes), and keeps the new flight only if ``score_plan`` scores it higher; the rounds
 stop at the first that does not gain. The plan therefore never scores below the best candidate.
 It is a local search on the grid's refinement, not SCA: a flight between grid points is reached,
-the surface setting and the power split of every slot stay the scorer's own optimum.
+the surface setting and the power split of every slot stay the scorer's own optimum
+(``baselines.ao_star`` polishes the plan further with a trust-region SCA step off the lattices).
 
 **The certified bound.** Over a cell, f_w needs an upper bound the relaxed DP
 (``baselines.dp_relaxed``) can use. Let c_k(q) = log2(1 + g_k(q)), g_k = eta (a_D^k + sum_m

@@ -24,6 +24,7 @@ name                      objectives           budget  K      motion      kind
 ``loiter``, ``hover``     any (scored)         yes     >= 1   static      heuristic
 ``mpc``                   rate                 no      >= 1   online      online
 ``dp-star``               rate                 no      2      static      optimum
+``ao-star``               rate                 no      2      static      local
 ``dp-miso``               rate                 no      1      static      optimum
 ``dp-bound``              rate                 no      >= 1   paths       bound
 ``energy-bound``          energy_efficiency    no      1      static      bound
@@ -38,8 +39,9 @@ refuses moving nodes, whose score it would not see.
 
 Access: a STAR surface serving both sides' nodes at once (``ScenarioConfig(surface="star",
 star_access="noma")``) is scored by ``score_plan`` (``star_regions.scenario_maxmin``). ``dp-star``
-plans it (and only it: ``accesses`` = ("noma",)); every other planner and bound above optimises
-the one-node-per-slot-share (TDMA) schedule and refuses it, naming ``dp-star``; the heuristics,
+plans it and ``ao-star`` polishes dp-star's plan off the grid (they and only they: ``accesses`` =
+("noma",)); every other planner and bound above optimises the one-node-per-slot-share (TDMA)
+schedule and refuses it, naming ``dp-star`` and ``ao-star``; the heuristics,
 which optimise nothing, fly it and are scored on it.
 
 Antennas: a multi-antenna UAV (``ScenarioConfig(antennas=N_t)``, N_t > 1) has the closed-form
@@ -189,6 +191,9 @@ PLANNERS: dict[str, PlannerSpec] = {
         PlannerSpec("dp-star", "baselines.dp_star:solve", ("rate",), False, 2, 2, "static", "optimum",
                     "STAR surface serving both sides' users at once (NOMA): best DP plan over the user "
                     "weights and a certified max-min bound", accesses=("noma",)),
+        PlannerSpec("ao-star", "baselines.ao_star:solve", ("rate",), False, 2, 2, "static", "local",
+                    "dp-star's plan polished by alternating optimisation: the max-min dual weights and a "
+                    "trust-region SCA step on a continuous trajectory (NOMA)", accesses=("noma",)),
         PlannerSpec("dp-miso", "baselines.dp:solve_miso", ("rate",), False, 1, 1, "static", "optimum",
                     "global optimum on a grid of the multi-antenna UAV's closed-form rate (aligned phases "
                     "and MRT, any N_t)", antennas=True),
@@ -227,6 +232,8 @@ def check(name: str, config: ScenarioConfig, paths: Any = None) -> PlannerSpec:
         fits += [p for p in handlers(config, paths=True) if p not in fits]
     others = [p for p in fits if p is not spec]
     same = [p for p in others if p.kind == spec.kind] or others
+    if config.star_access == "noma" and "noma" not in spec.accesses:  # every NOMA planner: dp-star, ao-star
+        same = [p for p in others if p.kind != "heuristic"] or others
     names = ", ".join(f"{p.name} ({p.entry})" for p in same)
     hint = f"; use {names}" if names else "; no registered planner handles it"
     if spec in fits:  # it would, given the nodes' true paths

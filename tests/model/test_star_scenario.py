@@ -322,8 +322,8 @@ def test_the_tdma_planners_refuse_noma_naming_dp_star():
     ):
         registry.solve("dp", NOMA)
     handlers = registry.handlers(NOMA)
-    assert {p.kind for p in handlers} == {"heuristic", "optimum"}
-    assert [p.name for p in handlers if p.kind != "heuristic"] == ["dp-star"]
+    assert {p.kind for p in handlers} == {"heuristic", "optimum", "local"}
+    assert [p.name for p in handlers if p.kind != "heuristic"] == ["dp-star", "ao-star"]
     plan = registry.solve("hover", NOMA)
     assert plan.mean_rate == pytest.approx(score_plan(NOMA, plan.trajectory).rate, rel=1e-12)
 
