@@ -330,13 +330,15 @@ def test_the_tdma_planners_refuse_noma_naming_dp_star():
 
 @pytest.mark.parametrize("nodes", [1, 2])
 def test_the_envs_refuse_noma_naming_the_scorer(nodes):
+    """A NOMA scenario outside the NOMA ids is refused: with one node by the world's rule, naming
+    the NOMA id and the scorer; with two nodes by the TDMA env itself, naming the NOMA id."""
     if nodes == 1:
         config, env_id, extra = NOMA.replace(ground_nodes=None), "ios_uav_env/IOSUAV-v0", {"surface": "star"}
+        pattern = r"surface star \(noma\).*STARUAV-NOMA-v0.*score_plan \(ios_uav_env.model.star_regions"
     else:
         config, env_id, extra = NOMA, "ios_uav_env/IOSUAV-MultiNode-v0", {}
-    with pytest.raises(
-        ValueError, match=r"surface star \(noma\).*score_plan \(ios_uav_env.model.star_regions"
-    ):
+        pattern = r"surface star \(noma\).*one node per slot share \(TDMA\): use ios_uav_env/STARUAV-NOMA-v0"
+    with pytest.raises(ValueError, match=pattern):
         gym.make(env_id, config=config, **extra)
 
 
