@@ -38,8 +38,9 @@ whose reward in slot n is no smaller than f_w^n(q[n])), so the relaxed optimum s
 every feasible trajectory's score on these paths, and no online policy, which knows less,
 can exceed it; Kelley's cuts are built from the same per-slot rewards. Static paths give
 the static tables exactly. The plans below the bound are the plain grid DP's with the
-per-slot rewards f_w^n at the grid points (:func:`moving_dp_path`) at every w, and the
-clairvoyant tour (``baselines.tour.solve(config, paths=...)``), all scored on the paths.
+per-slot rewards f_w^n at the grid points (:func:`moving_dp_path` on the scorer's rates,
+:func:`rate_maps`) at every w, and the clairvoyant tour (``baselines.tour.solve(config,
+paths=...)``, or the caller's ``tour_plan``), all scored on the paths.
 
 **Which side is loose.** Two things separate UB from the best plan: (i) the grid
 relaxation, chiefly the move rule (two squares at most D apart may have centres up to

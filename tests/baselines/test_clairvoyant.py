@@ -144,3 +144,27 @@ def test_static_paths_give_todays_sca():
     a = sca_multi.solve(config, max_iters=1)
     b = sca_multi.solve(config, max_iters=1, paths=static_paths(config))
     assert np.array_equal(a.trajectory, b.trajectory) and a.mean_rate == b.mean_rate
+
+
+def test_a_given_tour_plan_stands_for_solving_it_again(mobile):
+    """``tour_plan=``: solve_multinode and SCA on the paths start from the caller's clairvoyant tour
+    and give what they give when they solve it themselves; another config's tour is refused."""
+    from baselines import sca_multi
+
+    config, paths, plan = mobile
+    tour_plan = tour.solve(config, paths=paths)
+    given = solve_multinode(config, resolution=H, paths=paths, tour_plan=tour_plan)
+    assert np.array_equal(given.trajectory, plan.trajectory)
+    assert given.info["upper_bound"] == plan.info["upper_bound"]
+    a = sca_multi.solve(config, max_iters=1, paths=paths)
+    b = sca_multi.solve(config, max_iters=1, paths=paths, tour_plan=tour_plan)
+    runs = [[(s["start"], s["init_score"], s["score"]) for s in p.info["starts"]] for p in (a, b)]
+    assert np.array_equal(a.trajectory, b.trajectory) and runs[0] == runs[1]
+    longer = config.replace(T=config.T + 2.0)
+    other = tour.solve(longer, paths=node_paths(longer, np.random.default_rng(0)))
+    for solve in (
+        lambda: solve_multinode(config, resolution=H, paths=paths, tour_plan=other),
+        lambda: sca_multi.solve(config, max_iters=1, paths=paths, tour_plan=other),
+    ):
+        with pytest.raises(ValueError, match="tour_plan"):
+            solve()
