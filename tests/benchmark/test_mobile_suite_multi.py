@@ -2,10 +2,13 @@
 baselines.references multi-node-mobile --quick`` loads, the scorer plays any policy in
 ``ios_uav_env/IOSUAV-MultiNode-Mobile-v0`` on each scenario's episode seed and scores its own
 shares on the nodes' true paths as % of the clairvoyant optimum and of the bound, replaying the
-suite's ``straight`` row exactly; the draws are the env's family from a stream of their own."""
+suite's ``straight`` row exactly; the optimum is the best of its clairvoyant candidates, and the
+pipeline refuses a tampered record, naming it; the draws are the env's family from a stream of
+their own."""
 
 from __future__ import annotations
 
+import json
 from pathlib import Path
 
 import gymnasium as gym
@@ -13,13 +16,18 @@ import numpy as np
 import pytest
 
 from baselines.references.mobile import mobile_tasks
-from baselines.references.online import MULTI_MOBILE_RANGES, multi_mobile_tasks, online_rows
+from baselines.references.online import (
+    MULTI_MOBILE_RANGES,
+    ONLINE_SHARE,
+    multi_mobile_tasks,
+    online_rows,
+)
 from ios_uav_env import MULTINODE_MOBILE_ID
 from ios_uav_env.benchmark import evaluate, load_suite, reference_results, score_trajectories
 from ios_uav_env.benchmark.multi_policies import StraightEqualShares
 from ios_uav_env.benchmark.suite import MULTI_MOBILE_REFERENCES
 from ios_uav_env.model.motion import node_paths
-from tests.benchmark.quick_suites import freeze_quick_online, tampered
+from tests.benchmark.quick_suites import freeze_quick_online, rerun_tampered_online, tampered
 
 
 @pytest.fixture(scope="module")
@@ -80,3 +88,44 @@ def test_the_draws_are_the_envs_family_from_their_own_stream():
     assert tasks == multi_mobile_tasks(3, 20261130)
     assert all(2 <= len(t["config"]["ground_nodes"]) <= 4 for t in tasks)
     assert {t["seed"] for t in tasks}.isdisjoint(t["seed"] for t in mobile_tasks(3, 20261130))
+
+
+def test_the_rows_and_the_share_are_pinned():
+    """K > 1 holds every online row of one node but MPC over the tour at k = 1 (its cost), and the
+    optimum must reach 99.5 % of each, as for one node: no looser allowance for K > 1."""
+    assert ONLINE_SHARE == 0.995
+    assert online_rows(2) == online_rows(4) == ("mpc_dp_k1", "mpc_dp_k10", "mpc_k10", "plan_once", "straight")
+    assert set(MULTI_MOBILE_REFERENCES) == {"optimum", "bound", "clairvoyant", *online_rows(2)}
+
+
+def test_the_optimum_is_the_best_of_its_clairvoyant_candidates(frozen, suite):
+    (path,) = (frozen.parent / "cache").glob("online_*.json")
+    optimum = json.loads(path.read_text())["optimum"]
+    rates = optimum["candidates"]
+    assert any(c.startswith("dp (") for c in rates) and any(c.startswith("sca from ") for c in rates)
+    assert optimum["rate"] == rates[optimum["source"]] == max(rates.values())
+    (s,) = suite.scenarios
+    assert s.reference["optimum"]["source"] == optimum["source"]
+    # SCA starts from the clairvoyant tour and solve_multinode's plan, and never lowers a start's score
+    sca = next(r for c, r in rates.items() if c.startswith("sca from "))
+    assert sca >= max(s.value("clairvoyant"), *(r for c, r in rates.items() if c.startswith("dp (")))
+
+
+def test_a_tampered_record_stops_the_freeze_naming_it(frozen, tmp_path):
+    def above_the_optimum(data):  # an online row 1 % above the optimum, still under the bound
+        data["mpc_k10"]["rate"] = min(data["optimum"]["rate"] * 1.01, data["bound"]["upper_bound"])
+
+    message = rerun_tampered_online(frozen, tmp_path, above_the_optimum, multi=True)
+    assert "not frozen" in message and "#0: optimum" in message and "mpc_k10" in message
+
+    def bound_below(data):
+        data["bound"]["upper_bound"] = data["optimum"]["rate"] * 0.99
+
+    assert "#0: bound" in rerun_tampered_online(frozen, tmp_path / "b", bound_below, multi=True)
+
+    def straight_infeasible(data):
+        data["straight"]["feasible"] = False
+
+    message = rerun_tampered_online(frozen, tmp_path / "c", straight_infeasible, multi=True)
+    assert "#0: straight failed or infeasible" in message
+
