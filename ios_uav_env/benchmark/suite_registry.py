@@ -214,6 +214,9 @@ SUITES: dict[str, RegisteredSuite] = {
     "mobile-v2": RegisteredSuite(
         "mobile-v2.json", "a20d796bb79315b07bb072d961092fae9accb88fcc24a911873b0a5ba9d06944"
     ),
+    "multi-node-mobile-v1": RegisteredSuite(
+        "multi-node-mobile-v1.json", "08f72c968b77a6021e8e0a2217ffefdd6520ede4e1ad437bf847f9f329c3d8d3"
+    ),
     "multi-uav-v1": RegisteredSuite(
         "multi-uav-v1.json", "f91bfffa79084d1d9a6723050209a3a840c32cf908fd8c4632a4bb3473be7999"
     ),

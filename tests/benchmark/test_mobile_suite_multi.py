@@ -15,17 +15,20 @@ import gymnasium as gym
 import numpy as np
 import pytest
 
+from baselines.references.draws import ENTROPY
 from baselines.references.mobile import mobile_tasks
 from baselines.references.online import (
     MULTI_MOBILE_RANGES,
+    MULTI_MOBILE_SIZE,
     ONLINE_SHARE,
+    check_online_record,
     multi_mobile_tasks,
     online_rows,
 )
-from ios_uav_env import MULTINODE_MOBILE_ID
-from ios_uav_env.benchmark import evaluate, load_suite, reference_results, score_trajectories
+from ios_uav_env import MULTINODE_MOBILE_ID, ScenarioConfig
+from ios_uav_env.benchmark import SUITES, evaluate, load_suite, reference_results, score_trajectories
 from ios_uav_env.benchmark.multi_policies import StraightEqualShares
-from ios_uav_env.benchmark.suite import MULTI_MOBILE_REFERENCES
+from ios_uav_env.benchmark.suite import MULTI_MOBILE_REFERENCES, content_hash, suite_path
 from ios_uav_env.model.motion import node_paths
 from tests.benchmark.quick_suites import freeze_quick_online, rerun_tampered_online, tampered
 
@@ -129,3 +132,36 @@ def test_a_tampered_record_stops_the_freeze_naming_it(frozen, tmp_path):
     message = rerun_tampered_online(frozen, tmp_path / "c", straight_infeasible, multi=True)
     assert "#0: straight failed or infeasible" in message
 
+
+#: The shipped suite's registered hash, and mobile-v2's (freezing this one changed neither).
+MULTI_MOBILE_V1_SHA256 = "08f72c968b77a6021e8e0a2217ffefdd6520ede4e1ad437bf847f9f329c3d8d3"
+MOBILE_V2_SHA256 = "a20d796bb79315b07bb072d961092fae9accb88fcc24a911873b0a5ba9d06944"
+
+
+def test_multi_node_mobile_v1_is_the_pipelines_draws_under_its_registered_hash():
+    suite = load_suite("multi-node-mobile-v1")
+    data = json.loads(suite_path("multi-node-mobile-v1").read_text(encoding="utf-8"))
+    registered = SUITES["multi-node-mobile-v1"].sha256
+    assert registered == MULTI_MOBILE_V1_SHA256 == suite.sha256 == content_hash(data)
+    assert SUITES["mobile-v2"].sha256 == MOBILE_V2_SHA256 == load_suite("mobile-v2").sha256
+    assert suite.kind == "multi-node-mobile" and suite.normalizer == "optimum"
+    assert suite.references == MULTI_MOBILE_REFERENCES and len(suite) == MULTI_MOBILE_SIZE
+    tasks = multi_mobile_tasks(MULTI_MOBILE_SIZE, ENTROPY)
+    assert [s.seed for s in suite] == [t["seed"] for t in tasks]
+    assert [s.config for s in suite] == [ScenarioConfig(**t["config"]) for t in tasks]
+
+
+def test_every_frozen_scenario_passes_the_pipelines_checks():
+    """The pipeline's own check on every stored scenario (bound >= optimum >= 99.5 % of every
+    online row, every row feasible and under the bound), and each optimum names its planner."""
+    data = json.loads(suite_path("multi-node-mobile-v1").read_text(encoding="utf-8"))
+    for entry in data["scenarios"]:
+        assert check_online_record(entry) == [], entry["index"]
+        assert entry["optimum"]["source"].startswith(("dp (", "sca from ")), entry["index"]
+        assert entry["optimum"]["rate"] >= entry["clairvoyant"]["rate"], entry["index"]
+
+
+def test_the_straight_row_replays_in_the_env():
+    suite = load_suite("multi-node-mobile-v1")
+    result = evaluate(StraightEqualShares(), suite, n=3)
+    assert [row.rate for row in result.scenarios] == [s.value("straight") for s in suite.subset(3)]
