@@ -278,10 +278,7 @@ def solve_multinode(
     check_relaxed_grid(config, h, margin, moving is not None)
     tour.check_candidate_grid(config)
 
-    if tour_plan is None:
-        tour_plan = tour.solve(config, paths=moving)
-    elif tour_plan.config != config or tour_plan.trajectory.shape != (config.N, 2):
-        raise ValueError("tour_plan must be the tour's plan of this config (tour.solve(config, paths=paths))")
+    tour_plan = tour.tour_of(config, moving, tour_plan)
     if start_weights is None:
         start_weights = ie.schedule(config, tour_plan.trajectory, moving).weights
     w = np.asarray(start_weights, dtype=float)

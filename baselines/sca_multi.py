@@ -317,8 +317,9 @@ def default_starts(
     from baselines.dp_bound import hover_points, weighted_dp_path
     from baselines.fixed import fly_hover_fly_path
     from baselines.tour import solve as tour_solve
+    from baselines.tour import tour_of
 
-    plan = tour_solve(config, paths=paths) if tour_plan is None else tour_plan
+    plan = tour_of(config, paths, tour_plan)
     starts = [("tour", plan.trajectory)]
     path = (
         None if paths is not None else weighted_dp_path(config, ie.schedule(config, plan.trajectory).weights)
@@ -381,8 +382,6 @@ def solve(
     from baselines.tour import moving_paths, plan_on_paths
 
     moving = moving_paths(config, paths)
-    if tour_plan is not None and (tour_plan.config != config or tour_plan.trajectory.shape != (config.N, 2)):
-        raise ValueError("tour_plan must be the tour's plan of this config (tour.solve(config, paths=paths))")
     starts = default_starts(config, moving, tour_plan) + given
     surrogate = MultiSurrogate(config, tiles, solver.upper(), moving)
     history: list[dict[str, Any]] = []

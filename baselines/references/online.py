@@ -191,8 +191,7 @@ def clairvoyant_multi(
     from baselines.dp_bound import solve_multinode
 
     t0, given = time.perf_counter(), tour_plan is not None
-    if tour_plan is None:
-        tour_plan = tour.solve(config, paths=truth)
+    tour_plan = tour.tour_of(config, truth, tour_plan)
     dp = solve_multinode(config, resolution=resolution, bound_resolution=bound_resolution, paths=truth,
                          tour_plan=tour_plan)  # fmt: skip
     dp_name = f"dp ({dp.info['plan_source']})"
