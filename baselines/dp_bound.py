@@ -38,8 +38,9 @@ whose reward in slot n is no smaller than f_w^n(q[n])), so the relaxed optimum s
 every feasible trajectory's score on these paths, and no online policy, which knows less,
 can exceed it; Kelley's cuts are built from the same per-slot rewards. Static paths give
 the static tables exactly. The plans below the bound are the plain grid DP's with the
-per-slot rewards f_w^n at the grid points (:func:`moving_dp_path`) at every w, and the
-clairvoyant tour (``baselines.tour.solve(config, paths=...)``), all scored on the paths.
+per-slot rewards f_w^n at the grid points (:func:`moving_dp_path` on the scorer's rates,
+:func:`rate_maps`) at every w, and the clairvoyant tour (``baselines.tour.solve(config,
+paths=...)``, or the caller's ``tour_plan``), all scored on the paths.
 
 **Which side is loose.** Two things separate UB from the best plan: (i) the grid
 relaxation, chiefly the move rule (two squares at most D apart may have centres up to
@@ -80,7 +81,8 @@ from baselines.grid import (
 from baselines.plan import Plan
 from baselines.registry import check as check_planner
 from ios_uav_env import ScenarioConfig
-from ios_uav_env.model.motion import check_paths, node_config_at
+from ios_uav_env.model.channel import rates_at
+from ios_uav_env.model.motion import check_paths
 
 #: Default cap on Kelley iterations (relaxed DP solves) and their relative stopping gap.
 MAX_CUTS = 25
@@ -88,7 +90,8 @@ CUT_TOL = 1e-4
 
 __all__ = [
     "RelaxedDP", "ZETA_SLACK", "check_plain_grid", "check_relaxed_grid", "clairvoyant_bound",
-    "kelley_minimise", "kelley_step", "region_rate_bound", "relaxed_offsets", "solve_multinode",
+    "kelley_minimise", "kelley_step", "node_maps", "rate_maps", "region_rate_bound", "relaxed_offsets",
+    "solve_multinode",
 ]  # fmt: skip
 
 
@@ -110,20 +113,26 @@ def weighted_dp_path(
         return None
 
 
-def moving_rate_maps(config: ScenarioConfig, paths: np.ndarray, xs: np.ndarray, ys: np.ndarray) -> np.ndarray:
-    """(N, K, ny, nx) bps/Hz: r_k(grid point; w_k[n]) for every slot n (one map per distinct
-    node position, ``node_config_at``)."""
+def node_maps(config: ScenarioConfig, k: int, path: np.ndarray, xs: np.ndarray, ys: np.ndarray) -> np.ndarray:
+    """(n, ny, nx): r_k(grid point; path[i]) for each slot i of node k's ``path`` (n, 2) m."""
     xx, yy = np.meshgrid(xs, ys)
     points = np.column_stack([xx.ravel(), yy.ravel()])
-    out = np.empty((config.N, config.K, *xx.shape))
-    maps: dict[ScenarioConfig, np.ndarray] = {}
-    for n in range(config.N):
-        for k in range(config.K):
-            c = node_config_at(config, k, paths[n, k])
-            if c not in maps:
-                maps[c] = ie.slot_rates(c, points).reshape(xx.shape)
-            out[n, k] = maps[c]
+    where, inverse = np.unique(path, axis=0, return_inverse=True)
+    inverse = np.ravel(inverse)
+    nodes, params = ie.path_kernels(config.node_config(k), where)
+    out = np.empty((len(path), *xx.shape))
+    for u in range(len(where)):
+        rates = rates_at(points, np.ascontiguousarray(nodes[u]), params[u].copy())
+        out[inverse == u] = rates.reshape(xx.shape)
     return out
+
+
+def rate_maps(config: ScenarioConfig, paths: np.ndarray, xs: np.ndarray, ys: np.ndarray) -> np.ndarray:
+    """(n, K, ny, nx) bps/Hz: r_k(grid point; w_k[i]) for each slot i of ``paths`` (n, K, 2) m on
+    the grid ``xs`` (nx,) x ``ys`` (ny,): the scorer's rates (``path_kernels``), one map computed
+    per distinct position of a node."""
+    w = np.asarray(paths, dtype=float)
+    return np.stack([node_maps(config, k, w[:, k], xs, ys) for k in range(w.shape[1])], axis=1)
 
 
 def moving_dp_path(
@@ -234,6 +243,7 @@ def solve_multinode(
     start_weights: np.ndarray | None = None,
     progress: bool = False,
     paths: np.ndarray | None = None,
+    tour_plan: Plan | None = None,
 ) -> Plan:
     """K > 1: the best DP plan found and the certified upper bound (module docstring).
 
@@ -242,7 +252,9 @@ def solve_multinode(
 
     ``resolution``: grid of the plain DPs (the plans); ``bound_resolution``: cell side of
     the relaxed DP (default ``resolution``); ``max_cuts``, ``tol``: Kelley's iterations and
-    relative stopping gap; ``start_weights``: the first w (default: the tour's dual weights).
+    relative stopping gap; ``start_weights``: the first w (default: the tour's dual weights);
+    ``tour_plan``: the tour's plan of ``config`` (on ``paths``), ``baselines.tour.solve(config,
+    paths=paths)``, when the caller has it (it is not solved again).
     ``info``: ``upper_bound`` (>= every feasible trajectory's max-min rate), ``weights`` (its
     w), ``kelley_lower`` (no w gives a bound below it on this grid), ``gap`` (upper_bound /
     mean_rate - 1; inf when the plan scores 0 below a positive bound), ``cuts`` (per iteration:
@@ -266,7 +278,7 @@ def solve_multinode(
     check_relaxed_grid(config, h, margin, moving is not None)
     tour.check_candidate_grid(config)
 
-    tour_plan = tour.solve(config, paths=moving)
+    tour_plan = tour.tour_of(config, moving, tour_plan)
     if start_weights is None:
         start_weights = ie.schedule(config, tour_plan.trajectory, moving).weights
     w = np.asarray(start_weights, dtype=float)
@@ -279,7 +291,7 @@ def solve_multinode(
         centre_rates = ie.node_rates(config, np.column_stack([xx.ravel(), yy.ravel()]))
         centre_rates = centre_rates.reshape(config.K, *xx.shape)
     else:  # (N, K, ny, nx): the grid's rate maps of every slot
-        centre_rates = moving_rate_maps(config, moving, xs, ys)
+        centre_rates = rate_maps(config, moving, xs, ys)
     rf = ie.node_rates(config, np.array([config.qF]))[:, 0]
     cuts: list[np.ndarray] = []
     records: list[dict[str, Any]] = []

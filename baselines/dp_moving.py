@@ -58,7 +58,14 @@ from typing import Any
 import numpy as np
 
 import ios_uav_env as ie
-from baselines.dp_bound import check_plain_grid, clairvoyant_bound, moving_dp_path, solve_multinode
+from baselines.dp_bound import (
+    check_plain_grid,
+    clairvoyant_bound,
+    moving_dp_path,
+    node_maps,
+    rate_maps,
+    solve_multinode,
+)
 from baselines.grid import DEFAULT_MARGIN, corridor_path, disk_offsets, grid_axes, validate_grid_args
 from baselines.plan import Plan
 from baselines.registry import check as check_planner
@@ -75,30 +82,6 @@ REFINE_CELLS = 2
 REFINE_SWEEPS = 25
 
 __all__ = ["REFINE_LEVELS", "SCHEME", "grid_plan", "rate_maps", "refine_path", "refine_plan", "solve"]
-
-
-def _node_maps(
-    config: ScenarioConfig, k: int, path: np.ndarray, xs: np.ndarray, ys: np.ndarray
-) -> np.ndarray:
-    """(n, ny, nx): r_k(grid point; path[i]) for each slot i of node k's ``path`` (n, 2) m."""
-    xx, yy = np.meshgrid(xs, ys)
-    points = np.column_stack([xx.ravel(), yy.ravel()])
-    where, inverse = np.unique(path, axis=0, return_inverse=True)
-    inverse = np.ravel(inverse)
-    nodes, params = ie.path_kernels(config.node_config(k), where)
-    out = np.empty((len(path), *xx.shape))
-    for u in range(len(where)):
-        rates = rates_at(points, np.ascontiguousarray(nodes[u]), params[u].copy())
-        out[inverse == u] = rates.reshape(xx.shape)
-    return out
-
-
-def rate_maps(config: ScenarioConfig, paths: np.ndarray, xs: np.ndarray, ys: np.ndarray) -> np.ndarray:
-    """(n, K, ny, nx) bps/Hz: r_k(grid point; w_k[i]) for each slot i of ``paths`` (n, K, 2) m on
-    the grid ``xs`` (nx,) x ``ys`` (ny,): the scorer's rates (``path_kernels``), one map computed
-    per distinct position of a node."""
-    w = np.asarray(paths, dtype=float)
-    return np.stack([_node_maps(config, k, w[:, k], xs, ys) for k in range(w.shape[1])], axis=1)
 
 
 def grid_plan(
@@ -125,11 +108,11 @@ def grid_plan(
             raise ValueError(f"weights must be K={config.K} numbers >= 0 summing to 1, got {weights!r}")
     check_plain_grid(config, resolution, margin, moving=True)
     xs, ys, _ = grid_axes(config, resolution, margin)
-    rewards = _node_maps(config, 0, w_paths[:, 0], xs, ys)  # (N, ny, nx); slot N's layer is not read
+    rewards = node_maps(config, 0, w_paths[:, 0], xs, ys)  # (N, ny, nx); slot N's layer is not read
     if config.K > 1:  # max_k w_k r_k, one node's maps at a time
         rewards *= w[0]
         for k in range(1, config.K):
-            np.maximum(rewards, w[k] * _node_maps(config, k, w_paths[:, k], xs, ys), out=rewards)
+            np.maximum(rewards, w[k] * node_maps(config, k, w_paths[:, k], xs, ys), out=rewards)
     traj = moving_dp_path(config, rewards, resolution, margin)
     if traj is None:
         return None

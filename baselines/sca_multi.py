@@ -305,16 +305,21 @@ def _run(
     return q, best.value, best.shares, n, stop
 
 
-def default_starts(config: ScenarioConfig, paths: np.ndarray | None = None) -> list[tuple[str, np.ndarray]]:
+def default_starts(
+    config: ScenarioConfig, paths: np.ndarray | None = None, tour_plan: Plan | None = None
+) -> list[tuple[str, np.ndarray]]:
     """The tour's plan; a DP-derived plan (the tour through the hover points of the grid DP's
     path for f_w at the tour's dual weights, and the nodes' peaks); fly-hover-fly over the
     tour's all-node compromise point(s). Starts equal to an earlier one are dropped. With
-    moving nodes' ``paths``: the clairvoyant tour and the fly-hover-fly flights (module doc)."""
+    moving nodes' ``paths``: the clairvoyant tour and the fly-hover-fly flights (module doc).
+    ``tour_plan``: the tour's plan (``baselines.tour.solve(config, paths=paths)``) when the caller
+    has it (it is not solved again)."""
     from baselines.dp_bound import hover_points, weighted_dp_path
     from baselines.fixed import fly_hover_fly_path
     from baselines.tour import solve as tour_solve
+    from baselines.tour import tour_of
 
-    plan = tour_solve(config, paths=paths)
+    plan = tour_of(config, paths, tour_plan)
     starts = [("tour", plan.trajectory)]
     path = (
         None if paths is not None else weighted_dp_path(config, ie.schedule(config, plan.trajectory).weights)
@@ -342,11 +347,14 @@ def solve(
     solver: str = "CLARABEL",
     progress: bool = False,
     paths: np.ndarray | None = None,
+    tour_plan: Plan | None = None,
 ) -> Plan:
     """Max-min trajectory and shares for K >= 2 nodes by BCD with the paper's SCA (module doc).
 
     ``paths`` (N, K, 2) m: the nodes' true paths, known in advance (module doc, "On node
-    paths"); every score, and the plan's, is on them.
+    paths"); every score, and the plan's, is on them. ``tour_plan``: the tour's plan of
+    ``config`` on them (``baselines.tour.solve(config, paths=paths)``) when the caller has it:
+    the starts are built from it instead of solving the tour again.
 
     ``init``: extra feasible (N, 2) trajectories or Plans to start from (added to
     :func:`default_starts`). Returns a :class:`Plan` (scheme "ia"/"ra"/"cuc" by surface) with
@@ -374,7 +382,7 @@ def solve(
     from baselines.tour import moving_paths, plan_on_paths
 
     moving = moving_paths(config, paths)
-    starts = (default_starts(config) if moving is None else default_starts(config, moving)) + given
+    starts = default_starts(config, moving, tour_plan) + given
     surrogate = MultiSurrogate(config, tiles, solver.upper(), moving)
     history: list[dict[str, Any]] = []
     summaries = []

@@ -75,6 +75,7 @@ __all__ = [
     "route_lp",
     "route_trajectory",
     "solve",
+    "tour_of",
 ]
 
 
@@ -347,6 +348,16 @@ def solve(
         assert best is not None
         _, traj, info = best
     return plan_on_paths("tour", truth, traj, time.perf_counter() - t0, moving, info)
+
+
+def tour_of(config: ScenarioConfig, paths: np.ndarray | None, plan: Plan | None = None) -> Plan:
+    """The tour's plan of ``config`` on ``paths`` (:func:`solve`): ``plan`` when the caller has it
+    (``ValueError`` if it is not a plan of this config), else solved here."""
+    if plan is None:
+        return solve(config, paths=paths)
+    if plan.config != config or np.shape(plan.trajectory) != (config.N, 2):
+        raise ValueError("tour_plan must be the tour's plan of this config (tour.solve(config, paths=paths))")
+    return plan
 
 
 def _route(

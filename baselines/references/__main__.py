@@ -274,8 +274,10 @@ def _online(args: argparse.Namespace, name: str, directory: Path, multi: bool) -
     n = _size(args, MULTI_MOBILE_SIZE if multi else MOBILE_SIZE, ONLINE_QUICK["n"])
     family = MULTI_MOBILE_RANGES if multi else MOBILE_RANGES
     ranges = dataclasses.replace(family, **ONLINE_QUICK_RANGES) if args.quick else family
+    full = (online.MULTI_DP_RESOLUTION, online.MULTI_BOUND_RESOLUTION) if multi else (
+        online.DP_RESOLUTION, online.BOUND_RESOLUTION)  # fmt: skip
     grids = (ONLINE_QUICK["dp_resolution"], *(ONLINE_QUICK["resolution"],) * 2) if args.quick else (
-        online.DP_RESOLUTION, online.BOUND_RESOLUTION, online.MPC_RESOLUTION)  # fmt: skip
+        *full, online.MPC_RESOLUTION)  # fmt: skip
     settings = dict(zip(("dp_resolution", "bound_resolution", "mpc_resolution"), grids, strict=True))
     settings["dp_refine"] = online.DP_REFINE
     cache = args.cache or (ONLINE_QUICK_DIR[multi] / "cache" if args.quick else ONLINE_CACHE[multi])
@@ -285,7 +287,7 @@ def _online(args: argparse.Namespace, name: str, directory: Path, multi: bool) -
         key=functools.partial(online.online_key, **settings), jobs=args.jobs,
         order=online.longest_first,
         progress=not args.quick, desc=name, unit="scenario", describe=online.describe,
-        required=("config", "seed", "optimum", "bound", *online.ONLINE),
+        required=("config", "seed", "optimum", "bound", *(online.MULTI_ONLINE if multi else online.ONLINE)),
     )  # fmt: skip
     share = f"{100 * online.ONLINE_SHARE:g}%"
     passed = (

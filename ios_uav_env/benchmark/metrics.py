@@ -17,8 +17,9 @@ By suite kind:
   compared with; a mobile suite normalised by ``"optimum"`` (``mobile-v2``) as % of the
   clairvoyant optimum (``pct_optimum``, the DP on the true path) and of the bound;
 - ``multi-node-mobile``: the max-min rate with the plan's own shares on the nodes' true paths as
-  % of the clairvoyant optimum (the normaliser) and of the bound, and the best schedule's % of
-  the optimum;
+  % of the clairvoyant optimum (the normaliser: the best plan clairvoyant planners found) and of
+  the certified bound, and the best schedule's % of the optimum; planning time is compared with
+  MPC-DP(k=1)'s;
 - ``multi-uav``: the team's max-min rate of U flights (``fleet_maxmin``, the best time sharing of
   every slot) as % of the centralised planner's (the normaliser, ``baselines.fleet``) and of its
   certified bound; a plan is feasible when every flight is and the UAVs stay separated;
@@ -46,8 +47,8 @@ from ios_uav_env.benchmark.suite_registry import (
 )
 
 #: How a reference is named in summaries and tables.
-LABELS = {"dp": "DP", "sca": "SCA", "bound": "bound", "mpc_k1": "MPC(k=1)", "optimum": "optimum",
-          "planner": "planner"}  # fmt: skip
+LABELS = {"dp": "DP", "sca": "SCA", "bound": "bound", "mpc_k1": "MPC(k=1)", "mpc_dp_k1": "MPC-DP(k=1)",
+          "optimum": "optimum", "planner": "planner"}  # fmt: skip
 
 
 @dataclass(frozen=True)

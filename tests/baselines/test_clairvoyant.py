@@ -9,7 +9,7 @@ from baselines.dp_bound import (
     RelaxedDP,
     clairvoyant_bound,
     moving_dp_path,
-    moving_rate_maps,
+    rate_maps,
     region_rate_bound,
     solve_multinode,
 )
@@ -102,8 +102,10 @@ def test_moving_dp_is_the_grid_dp_when_the_rewards_stand_still():
     reward = np.max(np.array([0.3, 0.7])[:, None, None] * rates, axis=0)
     q = moving_dp_path(config, np.repeat(reward[None], config.N, axis=0), H)
     assert np.array_equal(q, grid_path(config, reward, 0.0, H)[0]) and ie.check_trajectory(config, q).feasible
-    maps = moving_rate_maps(config, static_paths(config), xs, ys)
-    assert np.array_equal(maps, np.broadcast_to(rates, maps.shape))
+    # the maps are the scorer's per-slot kernels (its rates on paths, bit for bit: test_dp_moving),
+    # the static rates to rounding
+    maps = rate_maps(config, static_paths(config), xs, ys)
+    np.testing.assert_allclose(maps, np.broadcast_to(rates, maps.shape), rtol=1e-12)
 
 
 def test_one_moving_node():
@@ -142,3 +144,27 @@ def test_static_paths_give_todays_sca():
     a = sca_multi.solve(config, max_iters=1)
     b = sca_multi.solve(config, max_iters=1, paths=static_paths(config))
     assert np.array_equal(a.trajectory, b.trajectory) and a.mean_rate == b.mean_rate
+
+
+def test_a_given_tour_plan_stands_for_solving_it_again(mobile):
+    """``tour_plan=``: solve_multinode and SCA on the paths start from the caller's clairvoyant tour
+    and give what they give when they solve it themselves; another config's tour is refused."""
+    from baselines import sca_multi
+
+    config, paths, plan = mobile
+    tour_plan = tour.solve(config, paths=paths)
+    given = solve_multinode(config, resolution=H, paths=paths, tour_plan=tour_plan)
+    assert np.array_equal(given.trajectory, plan.trajectory)
+    assert given.info["upper_bound"] == plan.info["upper_bound"]
+    a = sca_multi.solve(config, max_iters=1, paths=paths)
+    b = sca_multi.solve(config, max_iters=1, paths=paths, tour_plan=tour_plan)
+    runs = [[(s["start"], s["init_score"], s["score"]) for s in p.info["starts"]] for p in (a, b)]
+    assert np.array_equal(a.trajectory, b.trajectory) and runs[0] == runs[1]
+    longer = config.replace(T=config.T + 2.0)
+    other = tour.solve(longer, paths=node_paths(longer, np.random.default_rng(0)))
+    for solve in (
+        lambda: solve_multinode(config, resolution=H, paths=paths, tour_plan=other),
+        lambda: sca_multi.solve(config, max_iters=1, paths=paths, tour_plan=other),
+    ):
+        with pytest.raises(ValueError, match="tour_plan"):
+            solve()

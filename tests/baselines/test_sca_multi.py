@@ -49,7 +49,7 @@ def test_a_worse_iterate_is_never_accepted(config, tour_plan, monkeypatch):
     """The exact-score check: feed a step that returns a worse feasible trajectory."""
     line = straight_line_path(config)
     monkeypatch.setattr(sca_multi, "_step", lambda surrogate, q, shares: (line, 0.0, "optimal"))
-    monkeypatch.setattr(sca_multi, "default_starts", lambda c: [("tour", tour_plan.trajectory)])
+    monkeypatch.setattr(sca_multi, "default_starts", lambda c, *given: [("tour", tour_plan.trajectory)])
     plan = sca_multi.solve(config, max_iters=3)
     assert plan.mean_rate == pytest.approx(tour_plan.mean_rate, abs=1e-12)
     assert plan.info["starts"][0]["stop"] == "decrease"

@@ -4,9 +4,12 @@ the online suites normalised by the clairvoyant optimum)."""
 from __future__ import annotations
 
 import json
+import shutil
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any
+
+import pytest
 
 from baselines.references.__main__ import main as references_main
 
@@ -28,12 +31,31 @@ def tampered(frozen: Path, tmp_path: Path, change: Callable[[dict], Any]) -> Pat
     return path
 
 
+def _online_argv(multi: bool) -> list[str]:
+    return ["multi-node-mobile"] if multi else ["mobile", "--version", "2"]
+
+
 def freeze_quick_online(tmp_path_factory: Any, multi: bool) -> Path:
     """A one-scenario quick suite normalised by the clairvoyant optimum, frozen by the references
     CLI: ``mobile --version 2 --quick`` (one node) or ``multi-node-mobile --quick`` (``multi``)."""
     kind = "multi-node-mobile" if multi else "mobile"
     out = tmp_path_factory.mktemp(f"{kind}-online")
-    version = [] if multi else ["--version", "2"]
-    argv = [kind, *version, "--quick", "--n", "1", "--cache", str(out / "cache"), "--dir", str(out)]
+    argv = [*_online_argv(multi), "--quick", "--n", "1", "--cache", str(out / "cache"), "--dir", str(out)]
     assert references_main(argv) == 0
     return out / f"{kind}-quick-v{1 if multi else 2}.json"
+
+
+def rerun_tampered_online(frozen: Path, tmp_path: Path, change: Callable[[dict], Any], multi: bool) -> str:
+    """The references CLI on a copy of the quick online suite's cache whose one record ``change``
+    edits: the message it stops with (``SystemExit``); no suite file is written."""
+    cache = tmp_path / "cache"
+    shutil.copytree(frozen.parent / "cache", cache)
+    (record,) = cache.glob("online_*.json")
+    data = json.loads(record.read_text())
+    change(data)
+    record.write_text(json.dumps(data))
+    argv = [*_online_argv(multi), "--quick", "--n", "1", "--cache", str(cache), "--dir", str(tmp_path)]
+    with pytest.raises(SystemExit) as stop:
+        references_main(argv)
+    assert not list(tmp_path.glob("*.json")), "a suite that fails a check is never written"
+    return str(stop.value)

@@ -10,20 +10,18 @@ from __future__ import annotations
 import json
 import re
 import shlex
-import shutil
 from pathlib import Path
 
 import numpy as np
 import pytest
 
-from baselines.references.__main__ import main as references_main
 from baselines.references.online import ONLINE_SHARE, check_online_record, online_rows
 from ios_uav_env import MOBILE_ID
 from ios_uav_env.benchmark import evaluate, load_suite, reference_results, score_trajectories
 from ios_uav_env.benchmark.cli import main as cli_main
 from ios_uav_env.benchmark.suite import BOUND_REL, MOBILE_V2_REFERENCES, SUITES, content_hash
 from ios_uav_env.envs.policies import HoverAt
-from tests.benchmark.quick_suites import freeze_quick_online, tampered
+from tests.benchmark.quick_suites import freeze_quick_online, rerun_tampered_online, tampered
 from tests.benchmark.test_leaderboard import _rows, task_changes_of
 
 #: The shipped suites normalised by the clairvoyant optimum (each registered one has its section
@@ -67,33 +65,17 @@ def test_the_scorer_reports_the_optimum_and_the_bound_and_replays_the_env_rows(s
     assert optimum.aggregate.mean_pct_bound == pytest.approx(100 * s.value("optimum") / s.value("bound"))
 
 
-def _rerun(frozen: Path, tmp_path: Path, change) -> str:
-    """The references CLI on a copy of the quick suite's cache whose one record ``change`` edits:
-    the message it stops with (``SystemExit``)."""
-    cache = tmp_path / "cache"
-    shutil.copytree(frozen.parent / "cache", cache)
-    (record,) = cache.glob("online_*.json")
-    data = json.loads(record.read_text())
-    change(data)
-    record.write_text(json.dumps(data))
-    argv = ["mobile", "--version", "2", "--quick", "--n", "1", "--cache", str(cache), "--dir", str(tmp_path)]
-    with pytest.raises(SystemExit) as stop:
-        references_main(argv)
-    assert not list(tmp_path.glob("*.json")), "a suite that fails a check is never written"
-    return str(stop.value)
-
-
 def test_a_tampered_record_stops_the_freeze_naming_it(frozen, tmp_path):
     def above_the_optimum(data):  # an online row 1 % above the optimum, still under the bound
         data["mpc_dp_k1"]["rate"] = min(data["optimum"]["rate"] * 1.01, data["bound"]["upper_bound"])
 
-    message = _rerun(frozen, tmp_path, above_the_optimum)
+    message = rerun_tampered_online(frozen, tmp_path, above_the_optimum, multi=False)
     assert "not frozen" in message and "#0: optimum" in message and "mpc_dp_k1" in message
 
     def bound_below(data):
         data["bound"]["upper_bound"] = data["optimum"]["rate"] * 0.99
 
-    assert "#0: bound" in _rerun(frozen, tmp_path / "b", bound_below)
+    assert "#0: bound" in rerun_tampered_online(frozen, tmp_path / "b", bound_below, multi=False)
 
 
 def test_the_record_checks_name_every_failure(frozen):

@@ -93,7 +93,7 @@ def test_every_pinned_argument_is_refused_as_ignored_even_with_the_opt_in(name, 
     suite = suites[name]
     config = suite[0].config
     taken = sorted(k for k in env_arguments(suite.env_id) if k in PINNED)
-    assert "motion" in taken and ("focus" in taken or suite.multi_node or suite.fleets or suite.star_control)
+    assert "motion" in taken and ("focus" in taken or suite.schedules or suite.fleets or suite.star_control)
     # a fleet suite pins its fleet, a STAR-control suite its keywords (access is both)
     assert FLEET <= set(taken) if suite.fleets else not (FLEET - STAR) & set(taken)
     assert STAR <= set(taken) if suite.star_control else not (STAR - FLEET) & set(taken)

@@ -30,7 +30,7 @@ def _width(suite) -> int:
         return _star_width(suite)
     if suite.fleets:  # the move, one score per node slot and the surface bid
         return 2 + suite.env_kwargs["max_nodes"] + 1
-    return 2 + (4 if suite.multi_node else 0)
+    return 2 + (4 if suite.schedules else 0)
 
 
 def _star_width(suite) -> int:
