@@ -20,9 +20,10 @@ q[n+1]) use the reports of slots 0..n and the measured rates of slots 0..n-1 onl
    ``baselines.tour.solve(paths=predicted)``; ``"dp"``, the receding-horizon DP of
    ``baselines.dp_moving`` on the predicted paths' rate maps (``grid_plan`` on the grid of
    spacing ``resolution`` anchored at q[n], arrival at qF at slot N a hard constraint, then
-   ``refine`` corridor levels). With K > 1 nodes the DP maximises the per-slot rewards
-   max_k w_k r_k at the dual weights w of the incumbent's predicted frame (step 3); the first
-   plan is the better of the tour and the DP at the tour's weights;
+   ``refine`` corridor levels). With K > 1 nodes every plan has two candidates, the tour and
+   the DP maximising the per-slot rewards max_k w_k r_k at the dual weights w of the incumbent's
+   predicted frame (step 3; the first plan: at the tour's frame), and the better one is kept
+   ("Several nodes" below);
 3. the rest of the frame is scheduled by ``maxmin_schedule(rates, fixed=past shares)`` on a
    rate matrix whose past columns are the *credited* rates of the slots flown and whose future
    columns are the predicted rates r_k(q[m]; ŵ_k[m]) of the plan; the new plan is kept only
@@ -37,6 +38,25 @@ slot i made at slot i (the expected-gain rate the score counts); ``"measured"``:
 faded rate of each node served in slot i (0 where it was not served, where it does not count).
 The tour chooses its route on the remaining horizon alone; the past enters through the shares
 and the incumbent test.
+
+**Several nodes: why the tour is a candidate at every re-plan.** The frame's dual weights w
+already count the flown slots: the past columns enter the LP of ``maxmin_schedule`` with their
+fixed shares, so w leans to the nodes that are behind over the whole flight, and the DP at w
+maximises the continuation's Lagrangian
+
+    L(q; w) = sum_k w_k P_k + (1/N) sum_{m >= n} max_k w_k r_k(q[m]; ŵ_k[m]),
+
+P_k the flown slots' credited rate of node k: the dual function of the whole flight's max-min
+(``schedule_lp.dual_value`` with ``fixed``), an upper bound on the max-min of its path, not that
+max-min. Its maximiser gives every slot to one node's weighted rate; at the weights where the
+incumbent is balanced it trades the nodes behind for the one in front, and its frame's max-min
+is then low (a Lagrangian subproblem recovers no primal: ``dp_bound.solve_multinode`` recovers
+one with tours through the hovers of DP paths at many of Kelley's weights; a re-plan solves one
+subproblem). With the DP as the only candidate after the first plan, a re-plan either kept the
+incumbent, made on older predictions, or switched to a path that chases one node, however often
+it re-planned. The tour, re-solved on the current predictions, is the candidate that balances the
+nodes; the DP stays a candidate and is kept where its predicted frame is worth more. For one node
+(w = 1, L is the mean rate) nothing changes.
 
 **Plan once** (``MPC(k=None)``): the plan made at slot 0 (the filter after the first reports),
 flown to the end with its shares, never re-planned.
@@ -256,9 +276,9 @@ def run_online(
                 found.append(_tour_rest(config, planner, rest, pred, past))
             else:
                 weights = None if k_nodes == 1 or old is None else old.weights
-                if weights is None and k_nodes > 1:  # the first plan: the tour's, and the DP at its weights
+                if k_nodes > 1:  # the tour, and the DP at the incumbent's weights (first plan: the tour's)
                     found.append(_tour_rest(config, planner, rest, pred, past))
-                    weights = found[0][0].weights
+                    weights = found[0][0].weights if weights is None else weights
                 rest_q = _dp_rest(planner, rest, pred, weights)
                 if rest_q is not None:
                     found.append((_frame(config, past, rest_q, pred), rest_q))
