@@ -1,6 +1,6 @@
 """MPC on the frozen ``multi-node-mobile-v1`` scenarios, against the suite's stored rows.
 
-    python benchmarks/mpc_dp_multi.py [--k 10] [--planner dp|tour] [--oracle] [IDX ...]
+    python benchmarks/mpc_dp_multi.py [--k 10] [--planner dp-tour|dp|tour] [--oracle] [IDX ...]
 
 Per scenario (all 24 by default, or the indices given) one episode of ``MPC(k, planner)``
 (``baselines.mpc.run_online`` at the scenario's episode seed, MPC-DP at the suite's grid,
@@ -58,7 +58,7 @@ class Oracle:
 def run(task: dict[str, Any], k: int, planner: str, oracle: bool) -> tuple[float, int, int]:
     """% of the optimum of one episode, the plans made and kept."""
     config = ScenarioConfig(**task["config"])
-    options: dict[str, Any] = {"planner": "dp", "resolution": MPC_RESOLUTION} if planner == "dp" else {}
+    options: dict[str, Any] = {"planner": planner, "resolution": MPC_RESOLUTION} if planner != "tour" else {}
     real = mpc.NodeFilter
     if oracle:
         truth = node_paths(config, np.random.default_rng(task["seed"]))
@@ -75,7 +75,7 @@ def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("indices", nargs="*", type=int, help="scenario indices (default: all)")
     parser.add_argument("--k", type=int, default=10, help="slots between re-plans")
-    parser.add_argument("--planner", choices=("dp", "tour"), default="dp")
+    parser.add_argument("--planner", choices=("dp-tour", "dp", "tour"), default="dp-tour")
     parser.add_argument("--oracle", action="store_true", help="plan on the true future paths")
     args = parser.parse_args(argv)
     tasks = json.loads(SUITE.read_text())["scenarios"]

@@ -123,6 +123,7 @@ ONE = STATIC.replace(ground_nodes=((-60.0, -20.0),))
 def test_the_dp_planner_is_a_choice_named_apart() -> None:
     assert MPC().planner == "tour" and MPC(k=1).name == "mpc-k1" and MPC(k=None).name == "plan-once"
     assert MPC(k=1, planner="dp").name == "mpc-dp-k1" and MPC(k=None, planner="dp").name == "plan-once-dp"
+    assert MPC(k=10, planner="dp-tour").name == "mpc-dp-tour-k10"
     bad = [({"planner": "sca"}, r"MPC\.planner"), ({"resolution": 0.0}, r"MPC\.resolution"),
            ({"resolution": True}, r"MPC\.resolution"), ({"refine": -1}, r"MPC\.refine")]  # fmt: skip
     for kwargs, match in bad:
@@ -155,10 +156,12 @@ def test_several_nodes_mpc_dp_starts_from_the_tour() -> None:
     np.testing.assert_array_equal(again.trajectory, run.trajectory)
 
 
-def test_the_dp_replans_at_the_incumbents_dual_weights(monkeypatch: pytest.MonkeyPatch) -> None:
-    """K = 2: every plan solves the tour on the current predictions, then the weighted DP: the
-    first plan's at the tour frame's dual weights, a re-plan's at those of the incumbent's frame
-    (the first frame of the re-plan, computed before the tour's)."""
+@pytest.mark.parametrize("inner", ["dp", "dp-tour"])
+def test_the_dp_replans_at_the_incumbents_dual_weights(monkeypatch: pytest.MonkeyPatch, inner: str) -> None:
+    """K = 2: the first plan solves the tour, then the weighted DP at the tour frame's dual
+    weights; a re-plan runs the DP at the weights of the incumbent's frame (the first frame of the
+    re-plan). ``"dp"`` solves the tour at the first plan only, ``"dp-tour"`` at every plan (before
+    the DP, whose weights are still the incumbent's)."""
     from baselines import mpc
 
     frames: list = []
@@ -181,18 +184,22 @@ def test_the_dp_replans_at_the_incumbents_dual_weights(monkeypatch: pytest.Monke
     monkeypatch.setattr(mpc, "_frame", frame)
     monkeypatch.setattr(mpc, "_tour_rest", tour_rest)
     monkeypatch.setattr(dp_moving, "grid_plan", grid_plan)
-    run = run_online(MOBILE, MPC(k=5, planner="dp"), 3)
-    assert run.n_plans == 4 and len(calls) == 4 and len(tours) == 4
+    run = run_online(MOBILE, MPC(k=5, planner=inner), 3)
+    assert run.n_plans == 4 and len(calls) == 4 and len(tours) == (4 if inner == "dp-tour" else 1)
     np.testing.assert_array_equal(calls[0][1], frames[calls[0][0] - 1].weights)  # the tour's frame
     assert tours[0] == 0
-    for (seen, weights), before in zip(calls[1:], tours[1:], strict=True):
-        assert seen == before + 1  # the incumbent's frame, the tour's, then the DP
-        np.testing.assert_array_equal(weights, frames[before - 1].weights)
+    if inner == "dp-tour":
+        for (seen, weights), before in zip(calls[1:], tours[1:], strict=True):
+            assert seen == before + 1  # the incumbent's frame, the tour's, then the DP
+            np.testing.assert_array_equal(weights, frames[before - 1].weights)
+    else:
+        for seen, weights in calls[1:]:  # the incumbent's frame, then the DP
+            np.testing.assert_array_equal(weights, frames[seen - 1].weights)
     assert not np.allclose(calls[1][1], 0.5)
 
 
 def test_several_nodes_a_replan_keeps_at_least_the_tours_frame(monkeypatch: pytest.MonkeyPatch) -> None:
-    """K = 2 static nodes known exactly (the predictions are the truth, the credited rates the
+    """``"dp-tour"``, K = 2 static nodes known exactly (the predictions are the truth, the credited rates the
     scored ones): every plan's candidates are the tour and the weighted DP, and the next re-plan's
     incumbent frame (the kept plan, its flown shares fixed) is worth at least the best of them,
     so never less than the tour re-solved on the same predictions."""
@@ -222,7 +229,7 @@ def test_several_nodes_a_replan_keeps_at_least_the_tours_frame(monkeypatch: pyte
     monkeypatch.setattr(mpc, "_frame", frame)
     monkeypatch.setattr(mpc, "_tour_rest", tour_rest)
     monkeypatch.setattr(mpc, "_dp_rest", dp_rest)
-    run = run_online(STATIC, MPC(k=5, planner="dp"), 0, report_sigma=0.0)
+    run = run_online(STATIC, MPC(k=5, planner="dp-tour"), 0, report_sigma=0.0)
     assert run.feasible and len(plans) == run.n_plans == 4
     assert [name for name, _ in plans[0]] == ["tour", "dp"]
     for made, after in zip(plans, plans[1:], strict=False):
