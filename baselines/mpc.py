@@ -22,7 +22,9 @@ q[n+1]) use the reports of slots 0..n and the measured rates of slots 0..n-1 onl
    spacing ``resolution`` anchored at q[n], arrival at qF at slot N a hard constraint, then
    ``refine`` corridor levels). With K > 1 nodes the DP maximises the per-slot rewards
    max_k w_k r_k at the dual weights w of the incumbent's predicted frame (step 3); the first
-   plan is the better of the tour and the DP at the tour's weights;
+   plan is the better of the tour and the DP at the tour's weights. ``"dp-tour"``: with K > 1
+   every plan has both candidates, the tour re-solved on the current predictions and the DP,
+   and the better one is kept ("Several nodes" below); with one node it is ``"dp"``;
 3. the rest of the frame is scheduled by ``maxmin_schedule(rates, fixed=past shares)`` on a
    rate matrix whose past columns are the *credited* rates of the slots flown and whose future
    columns are the predicted rates r_k(q[m]; ŵ_k[m]) of the plan; the new plan is kept only
@@ -37,6 +39,25 @@ slot i made at slot i (the expected-gain rate the score counts); ``"measured"``:
 faded rate of each node served in slot i (0 where it was not served, where it does not count).
 The tour chooses its route on the remaining horizon alone; the past enters through the shares
 and the incumbent test.
+
+**Several nodes: why ``"dp-tour"`` makes the tour a candidate at every re-plan.** The frame's dual weights w
+already count the flown slots: the past columns enter the LP of ``maxmin_schedule`` with their
+fixed shares, so w leans to the nodes that are behind over the whole flight, and the DP at w
+maximises the continuation's Lagrangian
+
+    L(q; w) = sum_k w_k P_k + (1/N) sum_{m >= n} max_k w_k r_k(q[m]; ŵ_k[m]),
+
+P_k the flown slots' credited rate of node k: the dual function of the whole flight's max-min
+(``schedule_lp.dual_value`` with ``fixed``), an upper bound on the max-min of its path, not that
+max-min. Its maximiser gives every slot to one node's weighted rate; at the weights where the
+incumbent is balanced it trades the nodes behind for the one in front, and its frame's max-min
+is then low (a Lagrangian subproblem recovers no primal: ``dp_bound.solve_multinode`` recovers
+one with tours through the hovers of DP paths at many of Kelley's weights; a re-plan solves one
+subproblem). With the DP as the only candidate after the first plan (``"dp"``), a re-plan either keeps the
+incumbent, made on older predictions, or switches to a path that chases one node, however often
+it re-plans. The tour, re-solved on the current predictions, is the candidate that balances the
+nodes; the DP stays a candidate and is kept where its predicted frame is worth more. For one node
+(w = 1, L is the mean rate) nothing changes.
 
 **Plan once** (``MPC(k=None)``): the plan made at slot 0 (the filter after the first reports),
 flown to the end with its shares, never re-planned.
@@ -79,6 +100,8 @@ from ios_uav_env.model.score import PlanScore
 
 #: m, the filter's report std when the reports are exact (``report_sigma = 0``).
 EXACT_SIGMA = 1e-6
+#: The inner planners of a re-plan (module docstring, step 2, and "Several nodes").
+INNER_PLANNERS: tuple[str, ...] = ("tour", "dp", "dp-tour")
 #: The DP planner's defaults: grid spacing (m) and corridor refinement levels.
 DP_RESOLUTION = 5.0
 DP_REFINE = 2
@@ -95,7 +118,7 @@ class MPC:
     max_points: int | None = None  # tour: most hover points per route (None: its default)
     orders: int = 2  # tour: orders solved per subset
     keep: int = 5  # tour: LP winners scored exactly
-    planner: Literal["tour", "dp"] = "tour"  # the inner planner of each re-plan (module docstring)
+    planner: Literal["tour", "dp", "dp-tour"] = "tour"  # the inner planner of each re-plan (module docstring)
     resolution: float = DP_RESOLUTION  # dp: grid spacing (m), in (0, D]
     refine: int = DP_REFINE  # dp: corridor refinement levels (baselines.dp_moving), >= 0
 
@@ -105,8 +128,8 @@ class MPC:
             raise ValueError(f"MPC.k must be None (plan once) or an integer >= 1 (slots), got {k!r}")
         if self.credit not in ("model", "measured"):
             raise ValueError(f"MPC.credit must be 'model' or 'measured', got {self.credit!r}")
-        if self.planner not in ("tour", "dp"):
-            raise ValueError(f"MPC.planner must be 'tour' or 'dp', got {self.planner!r}")
+        if self.planner not in INNER_PLANNERS:
+            raise ValueError(f"MPC.planner must be one of {INNER_PLANNERS}, got {self.planner!r}")
         r = self.resolution
         if isinstance(r, bool) or not isinstance(r, (int, float)) or not (math.isfinite(r) and r > 0):
             raise ValueError(f"MPC.resolution must be a finite number > 0 (m; at most D), got {r!r}")
@@ -116,9 +139,10 @@ class MPC:
 
     @property
     def name(self) -> str:
-        """``"plan-once"`` or ``"mpc-k<k>"``; with the DP, ``"plan-once-dp"`` or ``"mpc-dp-k<k>"``."""
-        if self.planner == "dp":
-            return "plan-once-dp" if self.k is None else f"mpc-dp-k{self.k}"
+        """``"plan-once"`` or ``"mpc-k<k>"``; with the DP, ``"plan-once-dp"`` or ``"mpc-dp-k<k>"``
+        (``"dp-tour"``: ``"plan-once-dp-tour"`` or ``"mpc-dp-tour-k<k>"``)."""
+        if self.planner != "tour":
+            return f"plan-once-{self.planner}" if self.k is None else f"mpc-{self.planner}-k{self.k}"
         return "plan-once" if self.k is None else f"mpc-k{self.k}"
 
 
@@ -217,7 +241,7 @@ def run_online(
     check_planner("mpc", config)
     if not isinstance(planner, MPC):
         raise TypeError(f"planner must be an MPC (MPC(k=...) or MPC(k=None)), got {type(planner).__name__}")
-    if planner.planner == "dp":
+    if planner.planner != "tour":
         validate_grid_args(config, planner.resolution, DEFAULT_MARGIN)
     rng = np.random.default_rng(_check_seed(seed))
     truth = node_paths(config, rng) if paths is None else check_paths(config, paths)
@@ -256,9 +280,9 @@ def run_online(
                 found.append(_tour_rest(config, planner, rest, pred, past))
             else:
                 weights = None if k_nodes == 1 or old is None else old.weights
-                if weights is None and k_nodes > 1:  # the first plan: the tour's, and the DP at its weights
+                if k_nodes > 1 and (weights is None or planner.planner == "dp-tour"):  # the tour (below)
                     found.append(_tour_rest(config, planner, rest, pred, past))
-                    weights = found[0][0].weights
+                    weights = found[0][0].weights if weights is None else weights
                 rest_q = _dp_rest(planner, rest, pred, weights)
                 if rest_q is not None:
                     found.append((_frame(config, past, rest_q, pred), rest_q))

@@ -123,6 +123,7 @@ ONE = STATIC.replace(ground_nodes=((-60.0, -20.0),))
 def test_the_dp_planner_is_a_choice_named_apart() -> None:
     assert MPC().planner == "tour" and MPC(k=1).name == "mpc-k1" and MPC(k=None).name == "plan-once"
     assert MPC(k=1, planner="dp").name == "mpc-dp-k1" and MPC(k=None, planner="dp").name == "plan-once-dp"
+    assert MPC(k=10, planner="dp-tour").name == "mpc-dp-tour-k10"
     bad = [({"planner": "sca"}, r"MPC\.planner"), ({"resolution": 0.0}, r"MPC\.resolution"),
            ({"resolution": True}, r"MPC\.resolution"), ({"refine": -1}, r"MPC\.refine")]  # fmt: skip
     for kwargs, match in bad:
@@ -155,14 +156,18 @@ def test_several_nodes_mpc_dp_starts_from_the_tour() -> None:
     np.testing.assert_array_equal(again.trajectory, run.trajectory)
 
 
-def test_the_dp_replans_at_the_incumbents_dual_weights(monkeypatch: pytest.MonkeyPatch) -> None:
-    """K = 2: each weighted DP runs at the dual weights of the frame computed just before it,
-    the tour's at the first plan and the incumbent's at a re-plan."""
+@pytest.mark.parametrize("inner", ["dp", "dp-tour"])
+def test_the_dp_replans_at_the_incumbents_dual_weights(monkeypatch: pytest.MonkeyPatch, inner: str) -> None:
+    """K = 2: the first plan solves the tour, then the weighted DP at the tour frame's dual
+    weights; a re-plan runs the DP at the weights of the incumbent's frame (the first frame of the
+    re-plan). ``"dp"`` solves the tour at the first plan only, ``"dp-tour"`` at every plan (before
+    the DP, whose weights are still the incumbent's)."""
     from baselines import mpc
 
     frames: list = []
     calls: list[tuple[int, np.ndarray]] = []
-    real_frame, real_plan = mpc._frame, dp_moving.grid_plan
+    tours: list[int] = []
+    real_frame, real_plan, real_tour = mpc._frame, dp_moving.grid_plan, mpc._tour_rest
 
     def frame(*args):
         frames.append(real_frame(*args))
@@ -172,10 +177,62 @@ def test_the_dp_replans_at_the_incumbents_dual_weights(monkeypatch: pytest.Monke
         calls.append((len(frames), weights))
         return real_plan(*args, weights=weights, **kwargs)
 
+    def tour_rest(*args):
+        tours.append(len(frames))
+        return real_tour(*args)
+
     monkeypatch.setattr(mpc, "_frame", frame)
+    monkeypatch.setattr(mpc, "_tour_rest", tour_rest)
     monkeypatch.setattr(dp_moving, "grid_plan", grid_plan)
-    run = run_online(MOBILE, MPC(k=10, planner="dp"), 3)
-    assert run.n_plans == 2 and len(calls) == 2
-    for seen, weights in calls:
-        np.testing.assert_array_equal(weights, frames[seen - 1].weights)
+    run = run_online(MOBILE, MPC(k=5, planner=inner), 3)
+    assert run.n_plans == 4 and len(calls) == 4 and len(tours) == (4 if inner == "dp-tour" else 1)
+    np.testing.assert_array_equal(calls[0][1], frames[calls[0][0] - 1].weights)  # the tour's frame
+    assert tours[0] == 0
+    if inner == "dp-tour":
+        for (seen, weights), before in zip(calls[1:], tours[1:], strict=True):
+            assert seen == before + 1  # the incumbent's frame, the tour's, then the DP
+            np.testing.assert_array_equal(weights, frames[before - 1].weights)
+    else:
+        for seen, weights in calls[1:]:  # the incumbent's frame, then the DP
+            np.testing.assert_array_equal(weights, frames[seen - 1].weights)
     assert not np.allclose(calls[1][1], 0.5)
+
+
+def test_several_nodes_a_replan_keeps_at_least_the_tours_frame(monkeypatch: pytest.MonkeyPatch) -> None:
+    """``"dp-tour"``, K = 2 static nodes known exactly (the predictions are the truth, the credited rates the
+    scored ones): every plan's candidates are the tour and the weighted DP, and the next re-plan's
+    incumbent frame (the kept plan, its flown shares fixed) is worth at least the best of them,
+    so never less than the tour re-solved on the same predictions."""
+    from baselines import mpc
+
+    plans: list[list[tuple[str, float]]] = []  # per plan: (candidate, predicted frame value)
+    real_frame, real_tour, real_dp = mpc._frame, mpc._tour_rest, mpc._dp_rest
+    tag = ["old"]
+
+    def frame(*args):
+        f = real_frame(*args)
+        if tag[0] == "old" or not plans:
+            plans.append([])
+        plans[-1].append((tag[0], f.value))
+        tag[0] = "old"
+        return f
+
+    def tour_rest(*args):
+        tag[0] = "tour"
+        return real_tour(*args)
+
+    def dp_rest(*args):
+        q = real_dp(*args)
+        tag[0] = "dp"
+        return q
+
+    monkeypatch.setattr(mpc, "_frame", frame)
+    monkeypatch.setattr(mpc, "_tour_rest", tour_rest)
+    monkeypatch.setattr(mpc, "_dp_rest", dp_rest)
+    run = run_online(STATIC, MPC(k=5, planner="dp-tour"), 0, report_sigma=0.0)
+    assert run.feasible and len(plans) == run.n_plans == 4
+    assert [name for name, _ in plans[0]] == ["tour", "dp"]
+    for made, after in zip(plans, plans[1:], strict=False):
+        assert [name for name, _ in after] == ["old", "tour", "dp"]
+        assert after[0][1] >= max(value for _, value in made) - 1e-9
+    assert run.rate >= max(value for _, value in plans[-1]) - 1e-9

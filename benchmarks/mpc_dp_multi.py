@@ -1,0 +1,103 @@
+"""MPC on the frozen ``multi-node-mobile-v1`` scenarios, against the suite's stored rows.
+
+    python benchmarks/mpc_dp_multi.py [--k 10] [--planner dp-tour|dp|tour] [--oracle] [IDX ...]
+
+Per scenario (all 24 by default, or the indices given) one episode of ``MPC(k, planner)``
+(``baselines.mpc.run_online`` at the scenario's episode seed, MPC-DP at the suite's grid,
+``MPC_RESOLUTION``), scored as the suite scores its rows (``baselines.references.online.score``:
+the max-min rate with the planner's own shares on the true paths), printed as % of the stored
+optimum next to the stored ``mpc_dp_k<k>`` row (k = 1 or 10) and ``mpc_k10``, with the re-plans
+made and kept; then the mean / 10th percentile / minimum of each column over the scenarios run.
+
+``--oracle``: the planner is given the true future paths in place of the Kalman filter's
+estimate and prediction (the reports and the measured rates are drawn as usual): the part of
+the gap to the optimum that prediction, not planning, accounts for.
+
+One process; to use two cores run two with disjoint indices.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT))
+
+from baselines import mpc  # noqa: E402
+from baselines.references.online import MPC_RESOLUTION, score  # noqa: E402
+from ios_uav_env import ScenarioConfig  # noqa: E402
+from ios_uav_env.model.motion import node_paths  # noqa: E402
+
+SUITE = ROOT / "ios_uav_env" / "benchmark" / "suites" / "multi-node-mobile-v1.json"
+
+
+class Oracle:
+    """A stand-in for ``NodeFilter`` that knows the true paths (N, K, 2): its estimate of slot n
+    is the true position, its prediction the true future."""
+
+    def __init__(self, truth: np.ndarray) -> None:
+        self.truth, self.n = truth, 0
+
+    @property
+    def position(self) -> np.ndarray:
+        return self.truth[self.n]
+
+    def step(self, reports: np.ndarray) -> None:
+        self.n += 1
+
+    def predict_paths(self, steps: int) -> np.ndarray:
+        return self.truth[self.n + 1 : self.n + 1 + steps]
+
+
+def run(task: dict[str, Any], k: int, planner: str, oracle: bool) -> tuple[float, int, int]:
+    """% of the optimum of one episode, the plans made and kept."""
+    config = ScenarioConfig(**task["config"])
+    options: dict[str, Any] = {"planner": planner, "resolution": MPC_RESOLUTION} if planner != "tour" else {}
+    real = mpc.NodeFilter
+    if oracle:
+        truth = node_paths(config, np.random.default_rng(task["seed"]))
+        mpc.NodeFilter = type("OracleFilter", (), {"start": staticmethod(lambda *a: Oracle(truth))})
+    try:
+        result = mpc.run_online(config, mpc.MPC(k=k, **options), task["seed"])
+    finally:
+        mpc.NodeFilter = real
+    rate = score(config, result.trajectory, result.shares, result.paths).rate
+    return 100.0 * rate / task["optimum"]["rate"], result.n_plans, result.n_kept
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("indices", nargs="*", type=int, help="scenario indices (default: all)")
+    parser.add_argument("--k", type=int, default=10, help="slots between re-plans")
+    parser.add_argument("--planner", choices=("dp-tour", "dp", "tour"), default="dp-tour")
+    parser.add_argument("--oracle", action="store_true", help="plan on the true future paths")
+    args = parser.parse_args(argv)
+    tasks = json.loads(SUITE.read_text())["scenarios"]
+    chosen = args.indices or list(range(len(tasks)))
+    stored_row = f"mpc_dp_k{args.k}" if args.k in (1, 10) else None
+    cols: dict[str, list[float]] = {"run": [], "stored": [], "mpc_k10": []}
+    for i in chosen:
+        task = tasks[i]
+        pct, plans, kept = run(task, args.k, args.planner, args.oracle)
+        opt = task["optimum"]["rate"]
+        stored = 100.0 * task[stored_row]["rate"] / opt if stored_row else float("nan")
+        tour10 = 100.0 * task["mpc_k10"]["rate"] / opt
+        for key, value in zip(cols, (pct, stored, tour10), strict=True):
+            cols[key].append(value)
+        k_nodes = len(task["config"]["ground_nodes"])
+        print(f"#{i:2d} K={k_nodes} run {pct:6.2f} %  stored {stored:6.2f} %  mpc_k10 {tour10:6.2f} %  "
+              f"plans {plans} kept {kept}", flush=True)  # fmt: skip
+    for key, values in cols.items():
+        v = np.asarray(values)
+        print(f"{key:8s} mean / p10 / min: {v.mean():.2f} / {np.percentile(v, 10):.2f} / {v.min():.2f}")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
