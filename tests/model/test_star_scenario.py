@@ -127,8 +127,9 @@ def test_one_bit_coupled_phases_and_several_antennas_with_bits_are_refused():
         ScenarioConfig(surface="star", star_bits=1, star_phases="coupled")
     config = ScenarioConfig(surface="star", star_bits=2, antennas=2, T=40.0)
     flight = np.linspace(config.q0, config.qF, config.N)
+    refusal = r"antennas=2 with star_bits=2.*use antennas=1, or star_bits=None"
     for rate_of in (channel.slot_rates, lambda c, q: score_plan(c, q).rate, channel.aligned_gain):
-        with pytest.raises(ValueError, match=r"antennas=2 with star_bits=2.*use antennas=1, or star_bits=None"):
+        with pytest.raises(ValueError, match=refusal):
             rate_of(config, flight)
 
 
