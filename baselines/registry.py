@@ -46,9 +46,11 @@ which optimise nothing, fly it and are scored on it.
 
 Phase bits: a STAR surface of b-bit phases (``ScenarioConfig(surface="star", star_bits=b)``, TDMA)
 has the slot rate of the node's exact b-bit phases (``channel.slot_rates``), again a function of the
-UAV's position: ``dp`` plans it on those rate maps (``bits`` true; for K > 1 its certified bound is
-the continuous phases' relaxation, which b-bit rates never exceed); the heuristics fly it and are
-scored on it; every other planner and bound plans continuous phases and refuses it, naming ``dp``.
+UAV's position: ``dp`` plans it on those rate maps (``bits`` true) and ``dp-bound`` bounds it
+(the relaxation of the aligned phases' amplitude, which no b-bit setting exceeds: its bound holds,
+looser than for continuous phases); the heuristics (the tour among them, whose hover points and
+schedule read the same rates) fly it and are scored on it; every other planner plans continuous
+phases and refuses it, naming ``dp``.
 
 Antennas: a multi-antenna UAV (``ScenarioConfig(antennas=N_t)``, N_t > 1) has the closed-form
 rate of its aligned phases and MRT (``channel.slot_rates``). ``dp-miso`` plans it (one node, any
@@ -190,7 +192,7 @@ PLANNERS: dict[str, PlannerSpec] = {
         PlannerSpec("sca-ee", "baselines.sca_energy:solve", ("energy_efficiency",), False, 1, 1, "static",
                     "local", "SCA with the propulsion term inside Dinkelbach"),
         PlannerSpec("tour", "baselines.tour:solve", ("rate",), False, 1, None, "paths", "heuristic",
-                    "tour over hover points with an LP schedule, on given node paths"),
+                    "tour over hover points with an LP schedule, on given node paths", bits=True),
         PlannerSpec("fixed", "baselines.fixed:fly_hover_fly", _ANY, True, 1, None, "static", "heuristic",
                     "fly-hover-fly over the first node (scored on the config)", accesses=_BOTH,
                     antennas=True, bits=True),
@@ -212,7 +214,8 @@ PLANNERS: dict[str, PlannerSpec] = {
                     "global optimum on a grid of the multi-antenna UAV's closed-form rate (aligned phases "
                     "and MRT, any N_t)", antennas=True),
         PlannerSpec("dp-bound", "baselines.dp_bound:clairvoyant_bound", ("rate",), False, 1, None, "paths",
-                    "bound", "certified upper bound of the rate (max-min for K > 1), given node paths"),
+                    "bound", "certified upper bound of the rate (max-min for K > 1), given node paths",
+                    bits=True),
         PlannerSpec("energy-bound", "baselines.energy_bound:solve", ("energy_efficiency",), False, 1, 1,
                     "static", "bound", "certified upper bound of the energy efficiency"),
     )
