@@ -152,9 +152,9 @@ def discrete_zeta_row(x: float, y: float, nodes: np.ndarray, params: np.ndarray,
     [0, 2 pi) visits it. Element m's level changes at psi = f_m + c 2 pi / 2^b, c = 0 .. 2^b - 1,
     with f_m in [0, 2 pi / 2^b], so the M 2^b breakpoints in order are the M offsets f_m sorted,
     passed 2^b times: one sort of M numbers (:func:`offset_order`; the row function sorts all
-    M 2^b). The amplitude
-    returned is summed again at the best setting found, element by element (not the running sum's).
-    IEEE arithmetic (``fastmath=False``): the same bits whichever kernel calls it."""
+    M 2^b). The amplitude returned is summed again at the best setting found, element by element
+    (not the running sum's). IEEE arithmetic (``fastmath=False``): the same bits whichever kernel
+    calls it."""
     dxg, dyg = x - params[i, PARAM_GX], y - params[i, PARAM_GY]
     dug2 = dxg * dxg + dyg * dyg + params[i, PARAM_Z_U2]
     direct = params[i, PARAM_K_DIRECT] * dug2 ** params[i, PARAM_D_EXP]
