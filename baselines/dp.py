@@ -34,6 +34,12 @@ log2(1 + G) of its phases and beam at their closed-form joint optimum (``ios_uav
 again a function of the position alone: :func:`solve_miso` (planner ``dp-miso``) runs the same DP
 on that rate map.
 
+**A STAR surface of b-bit phases** (``ScenarioConfig(surface="star", star_bits=b)``, TDMA): the slot
+rate is that of the node's exact b-bit phases (``channel.slot_rates``: the per-slot optimum of
+``ios_uav_env.model.star_slot``), again a function of the position alone, so :func:`solve` runs
+the same DP on the b-bit rate map (each cell searched element by element: a few seconds more for
+M = 6000). It is the trajectory reference of the STAR flight ids made with ``star_bits``.
+
 **Parity.** The plan's ``mean_rate`` is ``ios_uav_env.average_rate`` of the trajectory; the
 DP's own optimum is in ``plan.info["dp_objective"]`` and is checked equal to it (1e-9).
 """

@@ -44,6 +44,14 @@ plans it and ``ao-star`` polishes dp-star's plan off the grid (they and only the
 schedule and refuses it, naming ``dp-star`` and ``ao-star``; the heuristics,
 which optimise nothing, fly it and are scored on it.
 
+Phase bits: a STAR surface of b-bit phases (``ScenarioConfig(surface="star", star_bits=b)``, TDMA)
+has the slot rate of the node's exact b-bit phases (``channel.slot_rates``), again a function of the
+UAV's position: ``dp`` plans it on those rate maps (``bits`` true) and ``dp-bound`` bounds it
+(the relaxation of the aligned phases' amplitude, which no b-bit setting exceeds: its bound holds,
+looser than for continuous phases); the heuristics (the tour among them, whose hover points and
+schedule read the same rates) fly it and are scored on it; every other planner plans continuous
+phases and refuses it, naming ``dp``.
+
 Antennas: a multi-antenna UAV (``ScenarioConfig(antennas=N_t)``, N_t > 1) has the closed-form
 rate of its aligned phases and MRT (``channel.slot_rates``). ``dp-miso`` plans it (one node, any
 N_t, ``antennas`` true); the heuristics fly it and are scored on it; every other planner and bound
@@ -97,6 +105,9 @@ class PlannerSpec:
     # plans (or, a heuristic, flies and is scored on) a multi-antenna UAV (``ScenarioConfig.antennas``
     # > 1: the closed-form rate of the aligned phases and MRT); every planner takes one antenna
     antennas: bool = False
+    # plans (or, a heuristic, flies and is scored on) a STAR surface of b-bit phases (``ScenarioConfig.
+    # star_bits``: the node's exact b-bit phases per slot); every other planner takes continuous ones
+    bits: bool = False
 
     def __post_init__(self) -> None:
         if bad := [o for o in self.objectives if o not in OBJECTIVES]:
@@ -135,6 +146,11 @@ class PlannerSpec:
                 f"antennas={config.antennas} (it plans the single-antenna UAV; a multi-antenna UAV's rate is "
                 "the closed form of its aligned phases and MRT)"
             )
+        if config.star_bits is not None and not self.bits:
+            return (
+                f"star_bits={config.star_bits} (it plans a surface of continuous phases; a b-bit surface's "
+                "slot rate is that of the node's exact b-bit phases, channel.slot_rates)"
+            )
         if config.star_access not in self.accesses:
             if config.star_access == "noma":
                 return (
@@ -159,7 +175,7 @@ PLANNERS: dict[str, PlannerSpec] = {
     p.name: p
     for p in (
         PlannerSpec("dp", "baselines.dp:solve", ("rate",), False, 1, None, "static", "optimum",
-                    "global optimum on a grid (K > 1: best DP plan and certified max-min bound)"),
+                    "global optimum on a grid (K > 1: best DP plan and certified max-min bound)", bits=True),
         PlannerSpec("dp-ee", "baselines.dp_energy:solve_ee", ("energy_efficiency",), False, 1, 1, "static",
                     "optimum", "best energy efficiency on the DP grid (Dinkelbach)"),
         PlannerSpec("dp-ee-multi", "baselines.dp_energy_multi:solve", ("energy_efficiency",), False, 2, None,
@@ -176,16 +192,16 @@ PLANNERS: dict[str, PlannerSpec] = {
         PlannerSpec("sca-ee", "baselines.sca_energy:solve", ("energy_efficiency",), False, 1, 1, "static",
                     "local", "SCA with the propulsion term inside Dinkelbach"),
         PlannerSpec("tour", "baselines.tour:solve", ("rate",), False, 1, None, "paths", "heuristic",
-                    "tour over hover points with an LP schedule, on given node paths"),
+                    "tour over hover points with an LP schedule, on given node paths", bits=True),
         PlannerSpec("fixed", "baselines.fixed:fly_hover_fly", _ANY, True, 1, None, "static", "heuristic",
                     "fly-hover-fly over the first node (scored on the config)", accesses=_BOTH,
-                    antennas=True),
+                    antennas=True, bits=True),
         PlannerSpec("loiter", "baselines.loiter:loiter", _ANY, True, 1, None, "static", "heuristic",
                     "fly to the rate peak at V_mr, circle it at V_mp, back to qF (scored on the config)",
-                    accesses=_BOTH, antennas=True),
+                    accesses=_BOTH, antennas=True, bits=True),
         PlannerSpec("hover", "baselines.loiter:hover", _ANY, True, 1, None, "static", "heuristic",
                     "fly to the rate peak at v_max and hover there (scored on the config)", accesses=_BOTH,
-                    antennas=True),
+                    antennas=True, bits=True),
         PlannerSpec("mpc", "baselines.mpc:run_online", ("rate",), False, 1, None, "online", "online",
                     "MPC (the tour or the receding-horizon DP) on the Kalman filter's predicted paths"),
         PlannerSpec("dp-star", "baselines.dp_star:solve", ("rate",), False, 2, 2, "static", "optimum",
@@ -198,7 +214,8 @@ PLANNERS: dict[str, PlannerSpec] = {
                     "global optimum on a grid of the multi-antenna UAV's closed-form rate (aligned phases "
                     "and MRT, any N_t)", antennas=True),
         PlannerSpec("dp-bound", "baselines.dp_bound:clairvoyant_bound", ("rate",), False, 1, None, "paths",
-                    "bound", "certified upper bound of the rate (max-min for K > 1), given node paths"),
+                    "bound", "certified upper bound of the rate (max-min for K > 1), given node paths",
+                    bits=True),
         PlannerSpec("energy-bound", "baselines.energy_bound:solve", ("energy_efficiency",), False, 1, 1,
                     "static", "bound", "certified upper bound of the energy efficiency"),
     )
@@ -233,6 +250,8 @@ def check(name: str, config: ScenarioConfig, paths: Any = None) -> PlannerSpec:
     others = [p for p in fits if p is not spec]
     same = [p for p in others if p.kind == spec.kind] or others
     if config.star_access == "noma" and "noma" not in spec.accesses:  # every NOMA planner: dp-star, ao-star
+        same = [p for p in others if p.kind != "heuristic"] or others
+    if config.star_bits is not None and not spec.bits:  # the b-bit planner: dp
         same = [p for p in others if p.kind != "heuristic"] or others
     names = ", ".join(f"{p.name} ({p.entry})" for p in same)
     hint = f"; use {names}" if names else "; no registered planner handles it"

@@ -40,7 +40,19 @@ def test_main_job_writes_the_docs_frame_on_request(tmp_path):
 
 def test_step_speed_benchmark_runs(tmp_path):
     out = run([str(ROOT / "benchmarks" / "step_speed.py"), "--steps", "300", "--repeats", "1"], tmp_path)
-    assert "CartPole-v1" in out.stdout and "raw ratio" in out.stdout
+    assert "CartPole-v1" in out.stdout and "raw ratio" in out.stdout and "the bar (>= 0.5" in out.stdout
+
+
+def test_step_speed_benchmark_measures_another_id_with_its_keywords(tmp_path):
+    """The STAR id with 2-bit phases (its own line, no bar); a bad keyword is an argument error."""
+    script = str(ROOT / "benchmarks" / "step_speed.py")
+    args = [script, "--steps", "50", "--repeats", "1", "--env", "ios_uav_env/STARUAV-v0"]
+    out = run([*args, "--env-kwargs", "star_bits:2"], tmp_path)
+    assert "ios_uav_env/STARUAV-v0 star_bits=2" in out.stdout
+    assert "the bar is ios_uav_env/IOSUAV-v0's" in out.stdout
+    bad = [sys.executable, *args, "--env-kwargs", "star_bits:9"]
+    refused = subprocess.run(bad, capture_output=True, text=True, timeout=120)
+    assert refused.returncode == 2 and "star_bits must be None" in refused.stderr
 
 
 def test_main_job_runs_every_fixed_ids_surface_star_included(tmp_path):

@@ -7,7 +7,8 @@ surface: a node across it gets the direct link only), ``none`` (the direct link 
 phases set for the node served; ``docs/model.md``, "STAR surfaces"). The physics is
 ``ios_uav_env.model.channel`` on ``ScenarioConfig.surface``; a surface component says which
 sides it serves and which controls it takes. The surfaces take one control, their closed-form
-phases (eq. (13), ``channel.phase_shifts``): a link given ``phases=None`` applies it, and any
+phases (eq. (13), ``channel.phase_shifts``; a STAR surface of b-bit phases, the node's exact
+b-bit ones, ``channel.zeta``): a link given ``phases=None`` applies it, and any
 (K, M) phase array is accepted by the link's per-element model.
 """
 
@@ -73,8 +74,10 @@ class STARSurface(Surface):
     """A STAR surface: reflects and transmits, with the choices of
     ``ios_uav_env.model.star.StarSurface`` (``protocol``, ``phases``, ``bits``) and the ``access``
     scheme, the ``ScenarioConfig`` fields ``star_*``. Under TDMA the node served gets the whole
-    surface on its side (``ScenarioConfig.transmit_factor``: 1); under NOMA both sides' nodes are
-    served at once, which ``score_plan`` scores (``star_regions.star_maxmin``) and the envs refuse."""
+    surface on its side (``ScenarioConfig.transmit_factor``: 1) at its aligned phases, or with
+    ``bits`` = b at its exact b-bit phases (``channel.zeta``); under NOMA both sides' nodes are
+    served at once (continuous phases), which ``score_plan`` scores (``star_regions.star_maxmin``)
+    and ``STARUAV-NOMA-v0`` runs."""
 
     kind: ClassVar[str] = "star"
     reflects: ClassVar[bool] = True
@@ -90,8 +93,9 @@ class STARSurface(Surface):
 
     @classmethod
     def variants(cls) -> tuple[Surface, ...]:
-        """Each access scheme: TDMA (the envs run it) and NOMA (``score_plan`` scores it)."""
-        return (cls(), cls(access="noma"))
+        """Each access scheme: TDMA (the envs run it) and NOMA (``score_plan`` scores it), and TDMA
+        with 2-bit phases (the envs run it, but not with faded or measured rates)."""
+        return (cls(), cls(access="noma"), cls(bits=2))
 
     def config_fields(self) -> dict[str, Any]:
         """``surface="star"`` and the ``star_*`` fields."""

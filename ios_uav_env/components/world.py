@@ -109,6 +109,8 @@ class World:
             out["link"] += f" ({self.link.fading})"
         if getattr(self.surface, "access", "tdma") != "tdma":
             out["surface"] += f" ({self.surface.access})"
+        if getattr(self.surface, "bits", None) is not None:
+            out["surface"] += f" ({self.surface.bits}-bit phases)"
         if self.objective.budget_j is not None:
             out["objective"] += " within a budget"
         return {**out, "nodes": f"K = {self.nodes}"}
@@ -152,6 +154,17 @@ RULES: tuple[tuple[Any, str], ...] = (
         "or use access 'tdma' in an env",
     ),
     (
+        lambda w: (
+            w.surface.kind == "star"
+            and w.surface.bits is not None
+            and (w.link.fading != "expected" or not w.knowledge.exact)
+        ),
+        "surface star with b-bit phases (the field star_bits) and fading 'rician' or measured rates "
+        "(knowledge reports, filtered or rates): a b-bit slot's rate is that of the node's exact b-bit "
+        "phases on the LoS channel (model.star_slot's TDMA rate), with no faded sample modelled; use "
+        "fading 'expected' (channel='expected') with knowledge exact, or continuous phases (star_bits=None)",
+    ),
+    (
         lambda w: w.link.fading != "expected" and not w.knowledge.exact,
         "link fading 'rician' with measured rates (knowledge reports, filtered or rates): a measured rate is "
         "the slot's own faded sample, so a second faded rate of the same slot would contradict it; use "
@@ -163,6 +176,12 @@ RULES: tuple[tuple[Any, str], ...] = (
         "the multi-antenna UAV's rate is the closed form of its aligned phases and MRT (model.miso), with "
         "no faded sample modelled; use fading 'expected' (channel='expected') with knowledge exact, or the "
         "single_antenna link for faded or measured rates",
+    ),
+    (
+        lambda w: w.link.kind == "multi_antenna" and w.surface.kind == "star" and w.surface.bits is not None,
+        "link multi_antenna with surface star of b-bit phases (the field star_bits): the multi-antenna UAV's "
+        "rate is the closed form of its aligned phases and MRT (model.miso), and b-bit phases are modelled "
+        "for a single-antenna UAV; use the single_antenna link, or continuous phases (star_bits=None)",
     ),
     (
         lambda w: w.link.kind == "multi_antenna" and w.nodes > 1,

@@ -5,7 +5,9 @@
 at every reset from a family ``ios_uav_env.model.scenarios.ScenarioRanges`` with its
 ``np_random``, observing the instance through the 6 instance features of ``IOSUAVEnv``.
 ``ios_uav_env/STARUAV-Random-v0`` is the same family with every scenario on a STAR surface
-(``surface="star"``: ``ScenarioRanges.with_surface``).
+(``surface="star"``: ``ScenarioRanges.with_surface``); ``gym.make("ios_uav_env/STARUAV-Random-v0",
+star_bits=2)`` draws it with 2-bit phases (the field applied to ``ranges.base``: every drawn
+scenario's surface sets the node's exact 2-bit phases in every slot, ``IOSUAVEnv``'s "Rewards").
 ``ios_uav_env/IOSUAV-Energy-Random-v0`` is the same family with the objective
 ``"energy_efficiency"`` (``objective`` applied to ``ranges.base``): the energy features, reward
 and score of ``IOSUAVEnv``'s "Energy", with lambda_ref the reference of each drawn scenario.
@@ -128,7 +130,7 @@ class RandomIOSUAVEnv(UAVEnv):
       id's keyword, ranges (or a config) left at the default surfaces take it, and ranges (or a
       config) that chose another are refused with ``ValueError`` (``settings.check_ranges_surface``).
     - ``**overrides``: ``ScenarioConfig`` fields that the ranges do not draw (e.g.
-      ``v_max``, ``alpha``), applied to ``ranges.base``; a drawn field (``T``,
+      ``v_max``, ``alpha``, a STAR surface's ``star_bits``), applied to ``ranges.base``; a drawn field (``T``,
       ``ground_node``, ``q0``, ``qF``, ``ios_shape``) raises ``ValueError``:
       change ``ranges`` instead.
 
@@ -148,7 +150,8 @@ class RandomIOSUAVEnv(UAVEnv):
 
     ## Version History
 
-    * v0: Initial version.
+    * v0: Initial version; later, without changing its episodes: b-bit phases on the STAR
+      surface (``star_bits``, ``STARUAV-Random-v0``).
     """
 
     preset = {"view": "v0", "draws": True}

@@ -228,8 +228,8 @@ def check_scenario_overrides(
         for name, what in (("star_protocol", "protocol"), ("star_phases", "phase model")):
             inert[name] = (
                 f"the STAR surface's {what}: an env serves one node per slot share, which gets the whole "
-                f"surface on its side at its aligned phases whatever the {what} "
-                "(ScenarioConfig.transmit_factor)"
+                f"surface on its side at its aligned phases (or its exact b-bit phases, star_bits) whatever "
+                f"the {what} (ScenarioConfig.transmit_factor)"
             )
     if set(surfaces) == {"none"}:
         for name in SURFACE_CHANNEL_FIELDS:

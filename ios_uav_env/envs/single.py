@@ -41,7 +41,8 @@ class IOSUAVEnv(UAVEnv):
     eq. (10): arrive at ``qF`` at slot N with at most D = v_max dt per move. Ids:
     ``ios_uav_env/IOSUAV-v0`` (IOS), ``ios_uav_env/RISUAV-v0`` (reflect-only RIS),
     ``ios_uav_env/UAV-v0`` (no surface) and ``ios_uav_env/STARUAV-v0`` (a STAR surface, one node
-    per slot share); ``ios_uav_env/MISOUAV-v0`` is the IOS scenario with an N_t-antenna UAV
+    per slot share; with ``star_bits`` = b the env sets the node's exact b-bit phases in every
+    slot); ``ios_uav_env/MISOUAV-v0`` is the IOS scenario with an N_t-antenna UAV
     (``antennas``, 4; a multi-antenna UAV below); ``ios_uav_env/IOSUAV-Energy-v0`` is the IOS scenario
     with the objective ``"energy_efficiency"`` (bits per joule of propulsion energy; see
     "Energy"). ``env.unwrapped.trajectory`` is the (n, 2) array of the way-points so far (m).
@@ -117,16 +118,19 @@ class IOSUAVEnv(UAVEnv):
         reach    = max(0, |qF - q'| - m D - tol) / D
         terminal = e + sqrt(e),  e = max(0, |qF - q'| - tol) / D   (last step only; else 0)
 
-    with tol = ``FEASIBILITY_TOL`` (1e-6 m). ``rate`` is log2(1 + eta zeta(q')^2) (channel "expected",
-    the paper's objective) or one faded sample log2(1 + eta |h|^2) (channel "rician"); with
-    ``antennas`` = N_t > 1 the env sets the beam and the phases at their closed-form joint optimum
-    (aligned phases and MRT, ``ios_uav_env.model.miso``) and ``rate`` is log2(1 + G(q')), G = eta
-    (N_t (S^2 + a_D^2) + 2 S a_D |a_c^T conj(a_G)|) (``channel.aligned_gain``; channel "expected"
-    only). ``reach`` is how far (in moves) the UAV has put itself out of reach of qF, so lingering
-    too long costs more at every step; ``terminal`` is the final miss, steep near zero so that even
-    a tiny miss never pays. Both are 0 for a trajectory that meets eq. (10), so with the guard the
-    reward is the rate alone and the return is N R - r(q0) with R of eq. (9). ``info`` holds the
-    weighted terms, which sum to the reward:
+    with tol = ``FEASIBILITY_TOL`` (1e-6 m). ``rate`` is log2(1 + eta zeta(q')^2) (channel
+    "expected", the paper's objective) or one faded sample log2(1 + eta |h|^2) (channel "rician");
+    with ``antennas`` = N_t > 1 the env sets the beam and the phases at their closed-form joint
+    optimum (aligned phases and MRT, ``ios_uav_env.model.miso``) and ``rate`` is log2(1 + G(q')),
+    G = eta (N_t (S^2 + a_D^2) + 2 S a_D |a_c^T conj(a_G)|) (``channel.aligned_gain``; channel
+    "expected" only); on a STAR surface of b-bit phases (``star_bits`` = b) the env sets the node's
+    exact b-bit phases and ``rate`` is log2(1 + eta |h_b(q')|^2), |h_b| the amplitude at those
+    phases (``channel.zeta``): the node's rate in ``star_slot.slot_optimum``'s per-slot b-bit
+    optimum under TDMA (channel "expected" only). ``reach`` is how far (in moves) the UAV has put
+    itself out of reach of qF, so lingering too long costs more at every step; ``terminal`` is the
+    final miss, steep near zero so that even a tiny miss never pays. Both are 0 for a trajectory
+    that meets eq. (10), so with the guard the reward is the rate alone and the return is
+    N R - r(q0) with R of eq. (9). ``info`` holds the weighted terms, which sum to the reward:
     ``reward_rate`` (rate), ``reward_reach`` (-w_reach reach), ``reward_terminal``
     (-w_terminal terminal) and ``reward_energy`` (0 but for the energy objective).
 
@@ -254,6 +258,11 @@ class IOSUAVEnv(UAVEnv):
     - ``antennas`` (a ``ScenarioConfig`` field; 1, ``MISOUAV-v0``'s 4): the UAV's antennas N_t, an
       integer in [1, 64]; with N_t > 1 the faded and measured rates are refused (no faded sample of
       the multi-antenna channel is modelled), naming the world's rule.
+    - ``star_bits`` (a ``ScenarioConfig`` field of the STAR surface; None): b-bit phases, an
+      integer in [1, 8] (``STARUAV-v0`` and ``STARUAV-Random-v0``: ``gym.make(id, star_bits=2)``),
+      the rate above; the faded and measured rates, NOMA (``star_access="noma"``) and several
+      antennas are refused with them, each naming what runs. The STAR surface's protocol and
+      phase model stay out of a TDMA rate with bits too (as keywords: refused as doing nothing).
     - ``render_mode``: None or "rgb_array" (the trajectory over the rate map; needs
       ``pip install ios-uav-env[render]``).
     - ``**kwargs``: ``EnvOptions`` fields (the options above) and ``ScenarioConfig`` fields,
@@ -273,6 +282,9 @@ class IOSUAVEnv(UAVEnv):
     >>> obs, info = env.reset(seed=0)
     >>> obs.shape, info["slot"]
     ((11,), 1)
+    >>> env = gym.make("ios_uav_env/STARUAV-v0", star_bits=2)  # the node's exact 2-bit phases per slot
+    >>> env.unwrapped.config.star_bits, env.reset(seed=0)[0].shape
+    (2, (11,))
 
     ```
 
@@ -286,7 +298,8 @@ class IOSUAVEnv(UAVEnv):
       ``ios_uav_env/IOSUAV-Energy-Random-v0``: the energy features, the energy reward); then
       moving, roughly known nodes (``knowledge``, ``report_sigma``, ``config.motion``; id
       ``ios_uav_env/IOSUAV-Mobile-v0``); then the energy objective with them; then the
-      multi-antenna UAV (``antennas``; id ``ios_uav_env/MISOUAV-v0``), one antenna unchanged.
+      multi-antenna UAV (``antennas``; id ``ios_uav_env/MISOUAV-v0``), one antenna unchanged;
+      then b-bit phases on the STAR surface (``star_bits``), continuous phases unchanged.
     """
 
     preset = {"view": "v0"}

@@ -23,6 +23,7 @@ from ios_uav_env.model.array import link_response, scenario_array
 from ios_uav_env.model.config import ScenarioConfig
 from ios_uav_env.model.rate_kernels import (  # noqa: F401 (the compiled kernels, re-exported)
     PARAM_ANTENNAS,
+    PARAM_BITS,
     PARAM_D_EXP,
     PARAM_ETA,
     PARAM_G_SIDE,
@@ -49,8 +50,10 @@ from ios_uav_env.model.rate_kernels import (  # noqa: F401 (the compiled kernels
     rate_row,
     rates_at,
     rates_of_rows,
+    require_bits_model,
     zeta_point,
     zeta_row,
+    zetas_at,
 )
 from ios_uav_env.model.surface import element_positions, element_to_ground
 
@@ -96,7 +99,15 @@ def direct_amplitude(config: ScenarioConfig, positions: np.ndarray) -> np.ndarra
 
 
 def zeta(config: ScenarioConfig, positions: np.ndarray) -> np.ndarray:
-    """Phase-aligned channel amplitude zeta = sum_m a_m + a_D of eq. (14), shape (K,)."""
+    """Phase-aligned channel amplitude zeta = sum_m a_m + a_D of eq. (14), shape (K,).
+
+    A STAR surface of b-bit phases (``config.star_bits`` = b): the amplitude at the node's exact
+    b-bit phases instead, max over theta on the grid {0, 2 pi / 2^b, ...} of
+    |a_D + sum_m a_m e^{j (phi_m - theta_m)}| with phi_m = :func:`phase_shifts` (the aligned
+    phases), computed element by element by the compiled ``rate_kernels.discrete_zeta_row`` (the
+    search of ``star_rows.discrete_phases``, which ``star_slot.slot_optimum``'s TDMA rate takes)."""
+    if config.star_bits is not None:
+        return rate_kernel(config).zetas(as_positions(positions))
     return surface_amplitude(config, positions) + direct_amplitude(config, positions)
 
 
@@ -121,6 +132,7 @@ def aligned_gain(config: ScenarioConfig, positions: np.ndarray) -> np.ndarray:
     if config.antennas == 1:
         z = zeta(config, positions)
         return config.eta * z * z
+    require_bits_model(config)
     s, a_d = surface_amplitude(config, positions), direct_amplitude(config, positions)
     cross = 2.0 * s * a_d * array_factor(config, positions)
     return config.eta * (config.antennas * (s * s + a_d * a_d) + cross)
@@ -128,7 +140,9 @@ def aligned_gain(config: ScenarioConfig, positions: np.ndarray) -> np.ndarray:
 
 def slot_rates(config: ScenarioConfig, positions: np.ndarray) -> np.ndarray:
     """Expected-gain rate log2(1 + eta zeta^2) (bps/Hz) at each position, shape (K,); with
-    ``config.antennas`` > 1, log2(1 + G) of :func:`aligned_gain`.
+    ``config.antennas`` > 1, log2(1 + G) of :func:`aligned_gain`; with b-bit phases
+    (``config.star_bits``), log2(1 + eta |h_b|^2) of the amplitude |h_b| at the node's exact
+    b-bit phases (:func:`zeta`).
 
     The objective the paper optimises (eq. (25)). No feasibility check is made.
     """

@@ -98,7 +98,7 @@ class ScenarioConfig:
     # Refused with any other surface unless at their defaults; left out of ``to_dict()`` there.
     star_protocol: str = "es"  # one of STAR_PROTOCOLS: energy splitting, mode or time switching
     star_phases: str = "independent"  # one of STAR_PHASES: the phase model
-    star_bits: int | None = None  # phase bits b; None: continuous phases (the only one modelled here)
+    star_bits: int | None = None  # phase bits b (TDMA: the node's exact b-bit phases); None: continuous
     star_access: str = "tdma"  # one of STAR_ACCESS: one node per slot share, or both sides' at once
     # The UAV's antennas N_t (``docs/model.md``, "Multi-antenna UAV"; ``model.array.scenario_array``),
     # the phases and the beam in closed form for the node served (``model.miso``); left out of
@@ -275,7 +275,8 @@ class ScenarioConfig:
         The rate kernel is a node's rate served alone. A STAR surface serving one node (TDMA,
         ``star_access="tdma"``; under NOMA these are the single-user rates c_s) is set for it:
         with energy splitting, mode or time switching the node gets the whole surface on its side,
-        u^s = sqrt(beta^s) = 1 on every element, at phases aligned to it (where one side alone
+        u^s = sqrt(beta^s) = 1 on every element, at phases aligned to it (with ``star_bits`` = b, at
+        its exact b-bit phases: ``rate_kernels.discrete_zeta_row``; where one side alone
         carries power the coupled and shared phase models bind nothing:
         ``ios_uav_env.model.star_slot``, "TDMA"). Its element is a unit
         element on either side, so its channel is the IOS's geometry with factor 1 on both sides.

@@ -78,6 +78,8 @@ def check_star_fields(cfg: Any, defaults: Mapping[str, Any]) -> None:
     """Validate the STAR fields (:func:`check_star`) and refuse them away from their defaults
     with another surface than ``"star"``: they would do nothing."""
     check_star(cfg.star_protocol, cfg.star_phases, cfg.star_bits, cfg.star_access)
+    if cfg.star_bits is not None:  # (a plain int: stable hashing, equality and JSON)
+        object.__setattr__(cfg, "star_bits", int(cfg.star_bits))
     if cfg.surface == "star":
         return
     for name in STAR_FIELDS:
@@ -180,13 +182,17 @@ def check_nodes_off_the_plane(cfg: Any) -> None:
 def check_star(protocol: Any, phases: Any, bits: Any, access: Any, prefix: str = "star_") -> None:
     """``ValueError`` naming the field (``prefix`` + protocol, phases, bits or access) and its
     allowed values unless these are a STAR surface the scenario's rate model runs: a protocol of
-    :data:`STAR_PROTOCOLS`, a phase model of :data:`STAR_PHASES`, continuous phases (bits None) and
-    an access scheme of :data:`STAR_ACCESS` (NOMA with energy splitting and independent phases,
-    the case whose flight optimum ``star_regions.star_maxmin`` certifies).
+    :data:`STAR_PROTOCOLS`, a phase model of :data:`STAR_PHASES`, continuous phases (bits None) or
+    b-bit ones (an integer in [1, :data:`STAR_MAX_BITS`]; with the coupled phase model b >= 2, as
+    ``star.StarSurface`` asks: +-pi/2 is not on the 1-bit grid) and an access scheme of
+    :data:`STAR_ACCESS` (NOMA with energy splitting, independent and continuous phases, the case
+    whose flight optimum ``star_regions.star_maxmin`` certifies).
 
-    b-bit phases are refused: the best b-bit phases of the served node depend on the UAV's
-    position element by element (``star.best_discrete_phases``), which the rate kernel's
-    compressed element sum does not hold; ``star_slot.slot_optimum`` computes b-bit per-slot rates."""
+    b-bit phases are modelled under TDMA: the node served gets the whole surface on its side at
+    its exact b-bit phases, slot by slot (``star_slot.slot_optimum``'s TDMA rate; in flight the
+    rate kernel's ``rate_kernels.discrete_zeta_row``). Under NOMA they are refused: the flight's
+    optimum is certified for continuous phases only (``star_slot``'s per-slot NOMA max-min with
+    b bits is a search whose bound is the continuous one)."""
     if not (isinstance(protocol, str) and protocol in STAR_PROTOCOLS):
         raise ValueError(
             f"{prefix}protocol must be one of {STAR_PROTOCOLS}, got {protocol!r} (the configured "
@@ -194,20 +200,27 @@ def check_star(protocol: Any, phases: Any, bits: Any, access: Any, prefix: str =
         )
     if not (isinstance(phases, str) and phases in STAR_PHASES):
         raise ValueError(f"{prefix}phases must be one of {STAR_PHASES}, got {phases!r}")
-    if bits is not None:
-        if not (is_int(bits) and 1 <= bits <= STAR_MAX_BITS):
-            raise ValueError(
-                f"{prefix}bits must be None (continuous phases) or an integer in [1, {STAR_MAX_BITS}], "
-                f"got {bits!r}"
-            )
+    if bits is not None and not (is_int(bits) and 1 <= bits <= STAR_MAX_BITS):
         raise ValueError(
-            f"{prefix}bits={bits!r}: b-bit phases are not modelled in a scenario (the served node's "
-            "best b-bit phases vary with the UAV position element by element, outside the rate "
-            f"kernel); use {prefix}bits=None (continuous phases), and for b-bit per-slot rates "
-            "ios_uav_env.model.star_slot.slot_optimum with star.StarSurface(bits=b) and access 'tdma'"
+            f"{prefix}bits must be None (continuous phases) or an integer in [1, {STAR_MAX_BITS}], "
+            f"got {bits!r}"
         )
     if not (isinstance(access, str) and access in STAR_ACCESS):
         raise ValueError(f"{prefix}access must be one of {STAR_ACCESS}, got {access!r}")
+    if bits is not None and access == "noma":
+        raise ValueError(
+            f"{prefix}bits={bits!r} with {prefix}access='noma': b-bit phases are modelled with "
+            f"{prefix}access='tdma' (the node served at its exact b-bit phases in each slot share); "
+            "the NOMA flight's optimum (ios_uav_env.model.star_regions.star_maxmin) is certified for "
+            "continuous phases only, and star_slot's per-slot NOMA max-min with b bits is a search "
+            f"bounded by the continuous optimum: use {prefix}access='tdma', or {prefix}bits=None"
+        )
+    if bits == 1 and phases == "coupled":
+        raise ValueError(
+            f"{prefix}bits=1 with {prefix}phases='coupled': the coupled model's theta^t - theta^r = "
+            f"+-pi/2 is not on the 1-bit grid {{0, pi}} (star.StarSurface); use {prefix}bits >= 2, or "
+            "another phase model"
+        )
     if access == "noma" and (protocol, phases) != ("es", "independent"):
         raise ValueError(
             f"{prefix}access='noma' is modelled for {prefix}protocol='es' with {prefix}phases="

@@ -45,7 +45,7 @@ def as_positions(positions: np.ndarray, name: str = "positions") -> np.ndarray:
 #: Layout of ``RateKernel.params`` (the scalars of :func:`zeta_point`), by name.
 PARAMS = (
     "x_c", "g_side", "t_factor", "has_surface", "gx", "gy", "z_u2", "k_direct", "d_exp", "eta",
-    "wavelength", "los_gain", "nlos_gain", "antennas", "array_k", "axis_x", "axis_y", "y_c", "dz_c2",
+    "wavelength", "los_gain", "nlos_gain", "antennas", "array_k", "axis_x", "axis_y", "y_c", "dz_c2", "bits",
 )  # fmt: skip
 # Its columns by name, as the env's kernels name theirs (``envs.single_kernels``' docstring):
 # plain ints, constants in the compiled code.
@@ -68,6 +68,7 @@ PARAM_AXIS_X = PARAMS.index("axis_x")
 PARAM_AXIS_Y = PARAMS.index("axis_y")
 PARAM_Y_C = PARAMS.index("y_c")
 PARAM_DZ_C2 = PARAMS.index("dz_c2")
+PARAM_BITS = PARAMS.index("bits")
 
 
 @jit(inline=True)
@@ -94,9 +95,130 @@ def amplitudes_row(x: float, y: float, nodes: np.ndarray, params: np.ndarray, i:
     return side * abs(dx) ** 3 * total, direct
 
 
+#: Bucket size above which :func:`offset_order` sorts a bucket by merge sort (else by insertion).
+_INSERTION_MAX = 32
+
+
+@jit(fastmath=False)
+def offset_order(offset: np.ndarray, m: int, width: float) -> np.ndarray:
+    """The indices of ``offset[:m]``, numbers in [0, ``width``], in increasing order, ties by index
+    (a stable sort): a bucket sort, m buckets of equal width (monotone in the offset, so the
+    buckets in turn are in order), each sorted by insertion, or by merge sort when larger than
+    :data:`_INSERTION_MAX`. Linear time for offsets spread over [0, width] (element phases are),
+    where the compiled ``np.argsort`` (quicksort) of M numbers costs most of the search."""
+    count = np.zeros(m + 1, dtype=np.int64)
+    bucket = np.empty(m, dtype=np.int64)
+    for k in range(m):
+        b = min(max(int(offset[k] / width * m), 0), m - 1)
+        bucket[k] = b
+        count[b + 1] += 1
+    for b in range(m):
+        count[b + 1] += count[b]
+    fill = count[:m].copy()
+    order = np.empty(m, dtype=np.int64)
+    for k in range(m):
+        order[fill[bucket[k]]] = k
+        fill[bucket[k]] += 1
+    for b in range(m):
+        lo, hi = count[b], count[b + 1]
+        if hi - lo > _INSERTION_MAX:
+            part = order[lo:hi].copy()
+            order[lo:hi] = part[np.argsort(offset[part], kind="mergesort")]
+            continue
+        for p in range(lo + 1, hi):
+            k, value = order[p], offset[order[p]]
+            q = p - 1
+            while q >= lo and offset[order[q]] > value:
+                order[q + 1] = order[q]
+                q -= 1
+            order[q + 1] = k
+    return order
+
+
+@jit(fastmath=False)
+def discrete_zeta_row(x: float, y: float, nodes: np.ndarray, params: np.ndarray, i: int) -> float:
+    """The channel amplitude of the node served at its exact b-bit phases, b = ``params[i,
+    PARAM_BITS]`` >= 1, at one position, row ``i``: max over theta in {0, 2 pi / 2^b, ...}^M of
+    |a_D + sum_m a_m e^{j (phi_m - theta_m)}|, the element amplitudes a_m of :func:`amplitudes_row`
+    and phi_m = 2 pi / lambda (d_UG - d_Um - d_mG) the phase that lines element m up with the direct
+    path (``channel.phase_shifts``). ``nodes`` must be the elements themselves (a config with
+    ``star_bits`` has no compression: ``surface.node_count``); an element is read from its node
+    (y_m, (z_U - z_m)^2, J beta_m), its distance to G from the node and G's coordinates, and a node
+    of zero weight (a batch's padding) is skipped.
+
+    The search is ``star_rows.discrete_phases``' (exact; the derivation is its docstring's): for a
+    direction psi of the sum, each element's best level is the one nearest phi_m - psi, and the
+    optimum's own direction gives a setting at least as good as the optimum, so scanning psi over
+    [0, 2 pi) visits it. Element m's level changes at psi = f_m + c 2 pi / 2^b, c = 0 .. 2^b - 1,
+    with f_m in [0, 2 pi / 2^b], so the M 2^b breakpoints in order are the M offsets f_m sorted,
+    passed 2^b times: one sort of M numbers (:func:`offset_order`; the row function sorts all
+    M 2^b). The amplitude returned is summed again at the best setting found, element by element
+    (not the running sum's). IEEE arithmetic (``fastmath=False``): the same bits whichever kernel
+    calls it."""
+    dxg, dyg = x - params[i, PARAM_GX], y - params[i, PARAM_GY]
+    dug2 = dxg * dxg + dyg * dyg + params[i, PARAM_Z_U2]
+    direct = params[i, PARAM_K_DIRECT] * dug2 ** params[i, PARAM_D_EXP]
+    dx = x - params[i, PARAM_X_C]
+    if params[i, PARAM_HAS_SURFACE] == 0.0 or dx == 0.0:
+        return direct
+    side = 1.0 if dx * params[i, PARAM_G_SIDE] > 0.0 else params[i, PARAM_T_FACTOR]
+    levels = 2 ** int(params[i, PARAM_BITS])
+    step = 2.0 * math.pi / levels
+    wave = 2.0 * math.pi / params[i, PARAM_WAVELENGTH]
+    d_ug, z_u = math.sqrt(dug2), math.sqrt(params[i, PARAM_Z_U2])
+    gx_c, gy = params[i, PARAM_GX] - params[i, PARAM_X_C], params[i, PARAM_GY]
+    scale, dx2 = side * abs(dx) ** 3, dx * dx
+    n = nodes.shape[2]
+    t_re, t_im, offset = np.empty(n), np.empty(n), np.empty(n)
+    m = 0  # elements read (nodes of nonzero weight)
+    s_re, s_im = direct, 0.0
+    for k in range(n):
+        weight = nodes[i, 2, k]
+        if weight == 0.0:
+            continue
+        dy = y - nodes[i, 0, k]
+        d2 = dy * dy + nodes[i, 1, k] + dx2  # d_Um^2
+        amp = scale * weight / (d2 * d2)
+        z_m = z_u - math.sqrt(nodes[i, 1, k])
+        gy_m = gy - nodes[i, 0, k]
+        phi = wave * (d_ug - math.sqrt(d2) - math.sqrt(gx_c * gx_c + gy_m * gy_m + z_m * z_m))
+        r = phi - math.floor(phi / step + 0.5) * step  # phi_m - its nearest level, in [-step/2, step/2]
+        t_re[m], t_im[m] = amp * math.cos(r), amp * math.sin(r)
+        offset[m] = r + 0.5 * step  # f_m: the element's first breakpoint
+        s_re += t_re[m]
+        s_im += t_im[m]
+        m += 1
+    order = offset_order(offset, m, step)
+    turn_re, turn_im = np.empty(levels + 1), np.empty(levels + 1)  # e^{j c step}
+    for c in range(levels + 1):
+        turn_re[c], turn_im[c] = math.cos(c * step), math.sin(c * step)
+    best, best_pass, best_rank = s_re * s_re + s_im * s_im, 0, -1  # (no breakpoint passed)
+    for c in range(levels):  # the c-th breakpoint of each element turns its term by one more level
+        f_re, f_im = turn_re[c + 1] - turn_re[c], turn_im[c + 1] - turn_im[c]
+        for p in range(m):
+            k = order[p]
+            s_re += t_re[k] * f_re - t_im[k] * f_im
+            s_im += t_re[k] * f_im + t_im[k] * f_re
+            value = s_re * s_re + s_im * s_im
+            if value > best:
+                best, best_pass, best_rank = value, c, p
+    a_re, a_im = direct, 0.0
+    for p in range(m):
+        k = order[p]
+        c = best_pass + 1 if p <= best_rank else best_pass
+        a_re += t_re[k] * turn_re[c] - t_im[k] * turn_im[c]
+        a_im += t_re[k] * turn_im[c] + t_im[k] * turn_re[c]
+    return math.sqrt(a_re * a_re + a_im * a_im)
+
+
 @jit(inline=True)
 def zeta_row(x: float, y: float, nodes: np.ndarray, params: np.ndarray, i: int) -> float:
-    """zeta = sum_m a_m + a_D at one position, the formula of ``channel.zeta`` (:func:`amplitudes_row`)."""
+    """The channel amplitude of the node served at one position, the formula of ``channel.zeta``:
+    zeta = sum_m a_m + a_D at its aligned phases (:func:`amplitudes_row`), or with b-bit phases
+    (``params[i, PARAM_BITS]`` = b > 0, ``ScenarioConfig.star_bits``) at its exact b-bit phases
+    (:func:`discrete_zeta_row`)."""
+    if params[i, PARAM_BITS] != 0.0:
+        return discrete_zeta_row(x, y, nodes, params, i)
     surface, direct = amplitudes_row(x, y, nodes, params, i)
     return surface + direct
 
@@ -168,6 +290,15 @@ def rate_point(x: float, y: float, nodes: np.ndarray, params: np.ndarray) -> flo
 
 
 @jit
+def zetas_at(points: np.ndarray, nodes: np.ndarray, params: np.ndarray) -> np.ndarray:
+    """:func:`zeta_point` at each of the (n, 2) ``points`` (one compiled loop)."""
+    out = np.empty(points.shape[0])
+    for i in range(points.shape[0]):
+        out[i] = zeta_point(points[i, 0], points[i, 1], nodes, params)
+    return out
+
+
+@jit
 def rates_at(points: np.ndarray, nodes: np.ndarray, params: np.ndarray) -> np.ndarray:
     """:func:`rate_point` at each of the (n, 2) ``points`` (one compiled loop): the
     expected-gain rates of ``channel.slot_rates`` for the kernel's config, without its (n, nodes)
@@ -212,6 +343,7 @@ class RateKernel:
     axis_y: float  # the array's axis u, y component (u is horizontal)
     y_c: float  # m, the surface centre's y
     dz_c2: float  # m^2, (z_U - z_c)^2 of the surface's centre
+    bits: int  # b of the node's exact b-bit phases (``star_bits``); 0: continuous (aligned) phases
 
     nodes: np.ndarray  # (3, K): node_y, dz2, jw stacked (the arrays of zeta_point)
     params: np.ndarray  # (len(PARAMS),): the scalars of zeta_point and of the array, in the order of PARAMS
@@ -223,6 +355,10 @@ class RateKernel:
     def rate(self, x: float, y: float) -> float:
         """Expected-gain rate log2(1 + eta zeta^2) at one position (x, y)."""
         return rate_point(float(x), float(y), self.nodes, self.params)
+
+    def zetas(self, points: np.ndarray) -> np.ndarray:
+        """zeta at the (n, 2) ``points``: :func:`zetas_at` (``channel.zeta``)."""
+        return zetas_at(np.ascontiguousarray(points, dtype=np.float64), self.nodes, self.params)
 
     def rates(self, points: np.ndarray) -> np.ndarray:
         """Expected-gain rates at the (n, 2) ``points``: :func:`rates_at` (``channel.slot_rates``)."""
@@ -283,8 +419,23 @@ def rate_kernel(config: ScenarioConfig) -> RateKernel:
     )
 
 
+def require_bits_model(config: ScenarioConfig) -> None:
+    """``ValueError`` for b-bit phases (``star_bits``) on a multi-antenna UAV (``antennas`` > 1): its
+    rate is the closed form of the aligned phases and MRT (``model.miso``), and b-bit phases are
+    modelled for one antenna (a scenario may hold both, as a NOMA one may hold several antennas: the
+    rate model refuses them, and the envs by ``World.check``)."""
+    if config.star_bits is not None and config.antennas > 1:
+        raise ValueError(
+            f"antennas={config.antennas} with star_bits={config.star_bits}: the multi-antenna UAV's rate is "
+            "the closed form of its aligned phases and MRT (model.miso), and b-bit phases are modelled for "
+            "a single-antenna UAV: use antennas=1, or star_bits=None"
+        )
+
+
 def _own_kernel(config: ScenarioConfig) -> RateKernel:
-    """The :class:`RateKernel` of the single-node ``config`` built from its fields alone."""
+    """The :class:`RateKernel` of the single-node ``config`` built from its fields alone
+    (:func:`require_bits_model` first)."""
+    require_bits_model(config)
     nodes, array = surface_nodes(config), scenario_array(config)
     fields = dict(
         node_y=nodes.y,
@@ -310,6 +461,7 @@ def _own_kernel(config: ScenarioConfig) -> RateKernel:
         axis_y=float(array.axis[1]),
         y_c=config.ios_center[1],
         dz_c2=(config.uav_altitude - config.ios_center[2]) ** 2,
+        bits=0 if config.star_bits is None else config.star_bits,
     )
     packed = np.vstack([fields["node_y"], fields["dz2"], fields["jw"]])
     params = np.array([float(fields[name]) for name in PARAMS])

@@ -22,7 +22,10 @@ rho_y = c/a_y + sqrt(1 + (c/a_y)^2) and rho_z = w + sqrt(w^2 - 1), w = (z_U - z_
 sum in the tests), and the exact sum once n reaches the grid size: a UAV close above a large
 surface gets more nodes, never a silently wrong amplitude. At the paper's geometry n = 8 and
 the error is ~1e-16. ``quadrature_nodes = 0`` always sums over the elements;
-``quadrature_tol = inf`` uses exactly ``quadrature_nodes`` (the planners' coarse surrogates).
+``quadrature_tol = inf`` uses exactly ``quadrature_nodes`` (the planners' coarse surrogates). A
+STAR surface of b-bit phases (``star_bits``) always sums over the elements, whatever the
+quadrature fields: its best phases are chosen element by element (``rate_kernels.discrete_zeta_row``
+reads each element's position and weight from the nodes).
 
 **The ground side.** The node weights ly beta lz^T need the M element weights beta_m of G,
 one division each, for every G: a moving node's kernel per slot paid M divisions and an
@@ -131,8 +134,11 @@ def quadrature_error_bound(config: ScenarioConfig, n: int) -> float:
 
 
 def node_count(config: ScenarioConfig) -> int:
-    """Nodes per axis of the compression of ``config`` (0: the exact per-element sum)."""
+    """Nodes per axis of the compression of ``config`` (0: the exact per-element sum, always with
+    b-bit phases, ``star_bits``)."""
     n = config.quadrature_nodes
+    if config.star_bits is not None:
+        return 0
     if n == 0 or math.isinf(config.quadrature_tol):
         return n
     largest = max(config.ios_shape)
@@ -194,8 +200,9 @@ class _Projection:
 
 class _Geometry:
     """``config`` hashed and compared by the fields its :class:`_Projection` depends on (the
-    grid: ``ios_shape``, the pitch, ``ios_center``; the node count: ``uav_altitude`` and the
-    quadrature fields), not by G, T, q0, qF or the surface's kind: the key of the projection's
+    grid: ``ios_shape``, the pitch, ``ios_center``; the node count: ``uav_altitude``, the
+    quadrature fields and whether the phases have bits), not by G, T, q0, qF or the surface's kind
+    otherwise: the key of the projection's
     cache, so the drawn scenarios of a family share one projection per surface size."""
 
     __slots__ = ("config", "key")
@@ -204,7 +211,7 @@ class _Geometry:
         self.config = config
         self.key = (
             config.ios_shape, config.element_spacing_wl, config.wavelength, config.ios_center,
-            config.uav_altitude, config.quadrature_nodes, config.quadrature_tol,
+            config.uav_altitude, config.quadrature_nodes, config.quadrature_tol, config.star_bits is not None,
         )  # fmt: skip
 
     def __hash__(self) -> int:

@@ -38,8 +38,9 @@ def test_the_matrix_holds_every_kind_of_every_family():
     for family, registry in FAMILIES.items():
         assert {getattr(w, family).kind for w in worlds} == set(registry.names())
     assert (
-        len(worlds) == len(set(worlds)) == 5 * (2 * 2) * 2 * 2 * 4
-    )  # surfaces (STAR: TDMA and NOMA), links (one antenna or four) x fadings, objectives, motions, knowledge
+        len(worlds) == len(set(worlds)) == 6 * (2 * 2) * 2 * 2 * 4
+    )  # surfaces (STAR: TDMA, NOMA, 2-bit TDMA), links (one antenna or four) x fadings, objectives, motions,
+    # knowledge
 
 
 @pytest.mark.parametrize("rule", range(len(world_module.RULES)))

@@ -22,10 +22,11 @@ from tests.envs.golden.record import (
     GOLDEN_DIR,
     INDEX_NAME,
     golden_arrays,
+    golden_names,
     has_vector,
+    id_of,
     main,
     record,
-    registered_ids,
     single_episode,
 )
 from tests.tolerances import GOLDEN_EXACT_OBS_ABS, GOLDEN_OBS_ABS, GOLDEN_REL, NORMALISATION_CHANGE
@@ -90,22 +91,24 @@ def mismatches(
 
 
 def test_every_registered_id_has_a_golden() -> None:
-    """A new id needs its golden (python -m tests.envs.golden.record), a removed one loses its own."""
-    assert sorted(INDEX["ids"]) == registered_ids()
-    for env_id, entry in INDEX["ids"].items():
+    """A new id (or variant) needs its golden (python -m tests.envs.golden.record --new), a removed
+    one loses its own; a variant's entry names its id."""
+    assert sorted(INDEX["ids"]) == golden_names()
+    for name, entry in INDEX["ids"].items():
         assert (GOLDEN_DIR / entry["file"]).is_file(), entry["file"]
-        assert entry["batched"] or not has_vector(env_id), f"{env_id}: its batched env has no golden"
+        assert entry.get("id", name) == id_of(name)
+        assert entry["batched"] or not has_vector(id_of(name)), f"{name}: its batched env has no golden"
 
 
 @pytest.mark.parametrize("env_id", sorted(INDEX["ids"]))
 def test_golden_episode(env_id: str) -> None:
     entry = INDEX["ids"][env_id]
     stored = _stored(env_id)
-    batched = entry["batched"] and has_vector(env_id)  # (Gymnasium < 1.0 has no vector entry points)
+    batched = entry["batched"] and has_vector(id_of(env_id))  # (Gymnasium < 1.0 has no vector entry points)
     if not batched:
         stored = _part(stored, "single")
     new = golden_arrays(env_id, {**entry, "batched": batched})
-    problems = mismatches(stored, new, observation_bound(env_id))
+    problems = mismatches(stored, new, observation_bound(id_of(env_id)))
     assert not problems, f"{env_id} ({entry['kwargs']}) left its golden episode:\n" + "\n".join(problems)
 
 
@@ -156,16 +159,16 @@ def test_the_recorder_refuses_to_overwrite_goldens(tmp_path, capsys) -> None:
 
 
 def test_only_the_ids_that_observe_measured_rates_get_the_looser_observation_bound() -> None:
-    bounds = {env_id: observation_bound(env_id) for env_id in INDEX["ids"]}
+    bounds = {env_id: observation_bound(id_of(env_id)) for env_id in INDEX["ids"]}
     loose = sorted(env_id for env_id, bound in bounds.items() if bound == GOLDEN_OBS_ABS)
     assert loose == ["ios_uav_env/IOSUAV-Mobile-v0", "ios_uav_env/IOSUAV-MultiNode-Mobile-v0"], loose
     assert bounds[PAPER_ID] == GOLDEN_EXACT_OBS_ABS < GOLDEN_OBS_ABS
 
 
-def test_the_recorder_adds_only_the_ids_its_index_lacks(tmp_path, capsys) -> None:
-    """``--new``: the index without one id gets that id's golden and entry (the shipped ones), and
-    nothing else is written; another machine's versions are refused before anything runs."""
-    new_id = "ios_uav_env/STARUAV-v0"
+@pytest.mark.parametrize("new_id", ["ios_uav_env/STARUAV-v0", "ios_uav_env/STARUAV-v0+star_bits=2"])
+def test_the_recorder_adds_only_the_ids_its_index_lacks(tmp_path, capsys, new_id) -> None:
+    """``--new``: the index without one id (or variant) gets its golden and entry (the shipped
+    ones), and nothing else is written; another machine's versions are refused before anything runs."""
     shipped = json.loads((GOLDEN_DIR / INDEX_NAME).read_text(encoding="utf-8"))
     lacking = {**shipped, "ids": {i: e for i, e in shipped["ids"].items() if i != new_id}}
     (tmp_path / INDEX_NAME).write_text(json.dumps(lacking), encoding="utf-8")

@@ -1,18 +1,27 @@
 """The STAR ids (``ios_uav_env/STARUAV-v0``, ``ios_uav_env/STARUAV-Random-v0``): each is the env of
-its family on the STAR surface (TDMA), scored by ``score_plan``; its STAR fields as keywords."""
+its family on the STAR surface (TDMA), scored by ``score_plan``; its STAR fields as keywords, b-bit
+phases (``star_bits``) among them: the scorer's rate, seeded reproduction, the batched rows, the
+checkers."""
 
 from __future__ import annotations
+
+import warnings
 
 import gymnasium as gym
 import numpy as np
 import pytest
+from gymnasium.utils.env_checker import check_env
 
 import ios_uav_env
 from ios_uav_env import RANDOM_ENV_ID, STAR_ID, STAR_RANDOM_ID, ScenarioConfig, ScenarioRanges, score_plan
 from ios_uav_env.envs.single import INSTANCE_NAMES, IOSUAVEnv
+from ios_uav_env.model import channel
+from tests.tolerances import RATE_REL
 
 IOS_ID = "ios_uav_env/IOSUAV-v0"
 STAR = ScenarioConfig(surface="star", T=40.0)  # a short mission of the paper's scenario, STAR surface
+#: Short missions over small surfaces: the randomised id's b-bit episodes in the tests.
+SHORT_RANGES = ScenarioRanges(T=(40.0, 50.0), ios_rows=(20, 22))
 
 
 def episode(env: gym.Env, seed: int = 3) -> dict:
@@ -69,22 +78,97 @@ def test_the_star_ids_rate_is_score_plans():
 
 
 def test_the_star_fields_as_keywords():
-    """Access: TDMA runs, NOMA is refused naming its scorer; b-bit phases naming the per-slot
-    optimum. The protocol and phase model do not enter a TDMA rate: as keywords they are refused
-    as doing nothing, and in a config passed whole they are the scenario's, with the same episode."""
+    """Access: TDMA runs, NOMA is refused naming its scorer; b-bit phases run (their own tests
+    below), with NOMA refused naming TDMA. The protocol and phase model do not enter a TDMA rate,
+    with continuous or b-bit phases: as keywords they are refused as doing nothing, and in a config
+    passed whole they are the scenario's, with the same episode."""
     assert gym.make(STAR_ID, star_access="tdma").unwrapped.config == ScenarioConfig(surface="star")
+    assert gym.make(STAR_ID, star_bits=2).unwrapped.config == ScenarioConfig(surface="star", star_bits=2)
     for env_id in (STAR_ID, STAR_RANDOM_ID):
         with pytest.raises(ValueError, match=rf"{env_id}.*'noma', the field star_access.*star_regions"):
             gym.make(env_id, star_access="noma")
-        with pytest.raises(ValueError, match=r"star_bits=2.*star_slot\.slot_optimum"):
-            gym.make(env_id, star_bits=2)
+        with pytest.raises(ValueError, match=r"star_bits=2 with star_access='noma'.*star_access='tdma'"):
+            gym.make(env_id, star_bits=2, star_access="noma")
         for field, value in (("star_protocol", "ms"), ("star_phases", "shared")):
             with pytest.raises(ValueError, match=rf"{field} is the STAR surface's .* in {env_id} .*nothing"):
                 gym.make(env_id, **{field: value})
-    switched = STAR.replace(star_protocol="ms", star_phases="coupled")
-    env = gym.make(STAR_ID, config=switched)
-    assert env.unwrapped.config == switched
-    assert same(episode(env), episode(gym.make(STAR_ID, T=40.0)))
+    for bits in (None, 2):
+        switched = STAR.replace(star_protocol="ms", star_phases="coupled", star_bits=bits)
+        env = gym.make(STAR_ID, config=switched)
+        assert env.unwrapped.config == switched
+        assert same(episode(env), episode(gym.make(STAR_ID, T=40.0, star_bits=bits)))
+
+
+# --- b-bit phases: the keyword star_bits ---------------------------------------------------------
+
+
+def test_b_bit_phases_fly_on_the_scorers_rate():
+    """The env's rate at every slot is the model's b-bit slot rate (``channel.slot_rates``, the
+    per-slot optimum of ``star_slot``: tests/model/test_star_bits.py), its ``average_rate`` and its
+    reward sum are ``score_plan``'s, and b bits score below continuous phases on the same flight."""
+    out = episode(gym.make(STAR_ID, T=40.0, star_bits=2))
+    config, flight = out["config"], out["trajectory"]
+    assert config == STAR.replace(star_bits=2)
+    rates = [float(info["rate"]) for info in out["infos"]]
+    np.testing.assert_allclose(rates, channel.slot_rates(config, flight), rtol=RATE_REL)
+    score = score_plan(config, flight)
+    assert score.feasible and bool(out["infos"][-1]["feasible"])
+    assert float(out["infos"][-1]["average_rate"]) == pytest.approx(score.rate, rel=RATE_REL)
+    # the guard keeps every penalty at 0: the rewards are the rates of slots 2..N, slot 1's in reset's info
+    assert (rates[0] + sum(out["rewards"])) / config.N == pytest.approx(score.rate, rel=RATE_REL)
+    assert score.rate < score_plan(STAR, flight).rate
+
+
+@pytest.mark.parametrize("env_id", [STAR_ID, STAR_RANDOM_ID])
+def test_b_bit_episodes_reproduce_and_the_batch_rows_are_the_singles(env_id):
+    """Two envs of the same seed give the same episode bit for bit, and so does row i of the
+    batched form (seeded seed + i) against the single env, across an autoreset; the randomised id
+    draws every scenario with the keyword's bits."""
+    kwargs = {"star_bits": 2, **({"T": 40.0} if env_id == STAR_ID else {"ranges": SHORT_RANGES})}
+    first = episode(gym.make(env_id, **kwargs), seed=5)
+    assert same(first, episode(gym.make(env_id, **kwargs), seed=5))
+    assert first["config"].star_bits == 2 and first["config"].surface == "star"
+    assert not same(first, episode(gym.make(env_id, **{**kwargs, "star_bits": 3}), seed=5))
+    vec = gym.make_vec(env_id, num_envs=3, vectorization_mode="vector_entry_point", **kwargs)
+    singles = [gym.make(env_id, **kwargs) for _ in range(3)]
+    obs, _ = vec.reset(seed=5)
+    pending = [False] * 3
+    for i, env in enumerate(singles):
+        o, _ = env.reset(seed=5 + i)
+        assert np.array_equal(o, obs[i])
+    rng, ends = np.random.default_rng(5), 0
+    while ends < 4:
+        actions = rng.uniform(-1.0, 1.0, (3, 2)).astype(np.float32)
+        obs, reward, terminated, _, info = vec.step(actions)
+        for i, env in enumerate(singles):
+            if pending[i]:  # (the batch's NEXT_STEP autoreset: this step resets the row)
+                (o, i_info), r, t = env.reset(), 0.0, False
+            else:
+                o, r, t, _, i_info = env.step(actions[i])
+            pending[i], ends = bool(t), ends + bool(t)
+            assert np.array_equal(o, obs[i]) and r == reward[i] and t == terminated[i]
+            assert all(np.array_equal(np.asarray(v), np.asarray(info[k][i])) for k, v in i_info.items())
+    assert [env.config.star_bits for env in vec.unwrapped.envs] == [2, 2, 2]
+    vec.close()
+
+
+@pytest.mark.parametrize("env_id", [STAR_ID, STAR_RANDOM_ID])
+def test_b_bit_ids_pass_the_checkers(env_id):
+    """Gymnasium's checker and SB3's, without a warning, on the b-bit form of each STAR id."""
+    kwargs = {"star_bits": 2} if env_id == STAR_ID else {"star_bits": 2, "ranges": SHORT_RANGES}
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        check_env(gym.make(env_id, **kwargs).unwrapped, skip_render_check=True)
+    sb3_checker = pytest.importorskip("stable_baselines3.common.env_checker")
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        sb3_checker.check_env(gym.make(env_id, **kwargs).unwrapped, warn=True)
+
+
+def test_b_bit_phases_refuse_faded_rates_naming_the_expected_channel():
+    with pytest.raises(ValueError, match=r"b-bit phases \(the field star_bits\) and fading 'rician'.*"
+                       r"channel='expected'"):  # fmt: skip
+        gym.make(STAR_ID, star_bits=2, channel="rician")
 
 
 @pytest.mark.parametrize("seed", [0, 1, 2, 3])

@@ -98,11 +98,39 @@ def test_bad_star_values_name_the_field_and_the_allowed_values(changes, message)
 
 
 @pytest.mark.parametrize("bits", [1, 2, 8])
-def test_b_bit_phases_are_refused_naming_the_per_slot_solver(bits):
+def test_b_bit_phases_are_a_tdma_scenario_and_refused_under_noma_naming_tdma(bits):
+    """b-bit phases with TDMA are a scenario of every protocol and phase model (coupled from 2
+    bits), written and read back; with NOMA they are refused, naming the allowed access."""
+    for protocol in STAR_PROTOCOLS:
+        for phases in STAR_PHASES:
+            if phases == "coupled" and bits == 1:
+                continue
+            fields = {"star_protocol": protocol, "star_phases": phases}
+            config = ScenarioConfig(surface="star", star_bits=bits, **fields)
+            assert config.to_dict()["star_bits"] == bits
+            assert ScenarioConfig.from_dict(json.loads(json.dumps(config.to_dict()))) == config
+    assert ScenarioConfig(surface="star", star_bits=np.int64(bits)).star_bits.__class__ is int
     with pytest.raises(
-        ValueError, match=rf"star_bits={bits}: b-bit phases are not modelled.*star_slot.slot_optimum"
+        ValueError,
+        match=rf"star_bits={bits} with star_access='noma': b-bit phases are modelled with star_access='tdma'"
+        r".*use star_access='tdma', or star_bits=None",
     ):
-        ScenarioConfig(surface="star", star_bits=bits)
+        ScenarioConfig(surface="star", star_bits=bits, star_access="noma")
+    with pytest.raises(ValueError, match=rf"star_bits={bits!r} is a field of the STAR surface"):
+        ScenarioConfig(surface="ios", star_bits=bits)
+
+
+def test_one_bit_coupled_phases_and_several_antennas_with_bits_are_refused():
+    """Coupled phases need 2 bits (the scenario refuses 1); several antennas with bits are a scenario
+    the rate model refuses (the closed form of the multi-antenna UAV has aligned phases)."""
+    with pytest.raises(ValueError, match=r"star_bits=1 with star_phases='coupled'.*not on the 1-bit grid"):
+        ScenarioConfig(surface="star", star_bits=1, star_phases="coupled")
+    config = ScenarioConfig(surface="star", star_bits=2, antennas=2, T=40.0)
+    flight = np.linspace(config.q0, config.qF, config.N)
+    refusal = r"antennas=2 with star_bits=2.*use antennas=1, or star_bits=None"
+    for rate_of in (channel.slot_rates, lambda c, q: score_plan(c, q).rate, channel.aligned_gain):
+        with pytest.raises(ValueError, match=refusal):
+            rate_of(config, flight)
 
 
 def test_leaving_the_star_surface_resets_its_fields():
@@ -123,8 +151,10 @@ def test_the_star_component_sets_and_reads_back_the_fields():
     assert SURFACES.make(world.surface.to_dict()) == world.surface
     with pytest.raises(ValueError, match=r"surface.protocol must be one of"):
         STARSurface(protocol="fixed")
-    with pytest.raises(ValueError, match=r"surface.bits=3: b-bit phases are not modelled"):
-        World(surface={"kind": "star", "bits": 3})
+    bits = World(surface={"kind": "star", "bits": 3})
+    assert ScenarioConfig().replace(**bits.config_fields()).star_bits == 3
+    with pytest.raises(ValueError, match=r"surface.bits=3 with surface.access='noma'.*surface.access='tdma'"):
+        World(surface={"kind": "star", "bits": 3, "access": "noma"})
 
 
 # --- the channel -----------------------------------------------------------------------------

@@ -6,9 +6,9 @@ Run it from the repository root, as a module (``tests`` is a namespace package t
     python -m tests.envs.golden.record --new        # only the ids the index lacks (a new id)
     python -m tests.envs.golden.record --overwrite  # re-record (say why in the commit)
 
-``--new`` records the ids registered but not in ``index.json`` and adds their entries, leaving
-every other file and entry as it is; it refuses when this machine's versions (:func:`versions`)
-are not the index's, which the index states for every golden.
+``--new`` records the ids registered (and the variants) but not in ``index.json`` and adds their
+entries, leaving every other file and entry as it is; it refuses when this machine's versions
+(:func:`versions`) are not the index's, which the index states for every golden.
 
 For every id registered on ``import ios_uav_env`` it records, in one ``<id>.npz`` file
 (``np.savez_compressed``; the id's ``/`` written ``__``):
@@ -22,7 +22,10 @@ For every id registered on ``import ios_uav_env`` it records, in one ``<id>.npz`
   an episode and then ``EXTRA_STEPS`` more (so at least one row is autoreset and runs on).
 
 ``kwargs`` is ``{"T": SHORT_T}`` (a short mission, a small file) where the id takes ``T`` and the
-episode does run on it, else ``{}``: every other setting is the id's default. Each part holds the
+episode does run on it, else ``{}``: every other setting is the id's default. A *variant*
+(:data:`VARIANTS`) is an id run with keywords of its own on top (a form its defaults do not run,
+e.g. b-bit phases): a golden of its own, named ``<id>+<key>=<value>``, whose index entry names the
+id (``"id"``); ``--new`` records a variant the index lacks as it records a new id. Each part holds the
 observations (the reset's first), actions, rewards, terminated and truncated flags, and every
 ``info`` key (``<part>.info.<key>``, stacked over the reset and the steps), all with the dtypes
 the env produced; a non-numeric value is stored as its ``repr``. ``<part>.info_keys`` is the list
@@ -66,14 +69,31 @@ MAX_STEPS = 1000
 PARTS = ("single", "batched")
 
 
+#: The variants' goldens: name -> (the id, its keywords besides the id's ``golden_kwargs``).
+VARIANTS: dict[str, tuple[str, dict[str, Any]]] = {
+    "ios_uav_env/STARUAV-v0+star_bits=2": ("ios_uav_env/STARUAV-v0", {"star_bits": 2}),
+}
+
+
 def registered_ids() -> list[str]:
     """Every env id the package registers, sorted."""
     return sorted(env_id for env_id in gym.registry if env_id.startswith("ios_uav_env/"))
 
 
-def file_name(env_id: str) -> str:
-    """The golden file of ``env_id``."""
-    return env_id.replace("/", "__") + ".npz"
+def golden_names() -> list[str]:
+    """The name of every golden: each registered id and each variant of one, sorted."""
+    ids = registered_ids()
+    return sorted([*ids, *(name for name, (env_id, _) in VARIANTS.items() if env_id in ids)])
+
+
+def id_of(name: str) -> str:
+    """The env id a golden ``name`` runs (a variant's id, or the name itself)."""
+    return VARIANTS[name][0] if name in VARIANTS else name
+
+
+def file_name(name: str) -> str:
+    """The golden file of the golden ``name`` (an id or a variant)."""
+    return name.replace("/", "__") + ".npz"
 
 
 def has_vector(env_id: str) -> bool:
@@ -202,8 +222,10 @@ def batched_episode(
     raise RuntimeError(f"{env_id}: the batch did not end in {MAX_STEPS} steps")
 
 
-def golden_arrays(env_id: str, entry: dict[str, Any]) -> dict[str, np.ndarray]:
-    """Every array of ``env_id``'s golden file for its ``index.json`` entry."""
+def golden_arrays(name: str, entry: dict[str, Any]) -> dict[str, np.ndarray]:
+    """Every array of the golden ``name``'s file for its ``index.json`` entry (a variant's runs its
+    entry's ``id``)."""
+    env_id = entry.get("id", name)
     arrays = single_episode(env_id, entry["kwargs"], entry["seed"])
     if entry["batched"]:
         arrays.update(batched_episode(env_id, entry["kwargs"], entry["seed"], entry["num_envs"]))
@@ -222,9 +244,14 @@ def versions() -> dict[str, str]:
     return out
 
 
-def _entry(env_id: str) -> dict[str, Any]:
-    """The ``index.json`` entry of ``env_id`` (its file, seed, kwargs and batch)."""
-    entry = {"file": file_name(env_id), "seed": SEED, "kwargs": golden_kwargs(env_id)}
+def _entry(name: str) -> dict[str, Any]:
+    """The ``index.json`` entry of the golden ``name`` (its file, seed, kwargs and batch; a variant's
+    its id too)."""
+    env_id, extra = VARIANTS.get(name, (name, {}))
+    kwargs = {**golden_kwargs(env_id), **extra}
+    entry: dict[str, Any] = {"file": file_name(name), "seed": SEED, "kwargs": kwargs}
+    if name in VARIANTS:
+        entry["id"] = env_id
     entry["batched"] = has_vector(env_id)
     if entry["batched"]:
         entry["num_envs"] = NUM_ENVS
@@ -239,7 +266,8 @@ def _write_golden(out: Path, env_id: str, entry: dict[str, Any]) -> None:
 
 
 def record_new(out: Path = GOLDEN_DIR) -> dict[str, Any]:
-    """Record the golden file of every registered id that ``out``'s index lacks and add its entry,
+    """Record the golden file of every registered id (and variant) that ``out``'s index lacks and add
+    its entry,
     leaving the other goldens and entries as they are. Refuses (before running anything):
     ``FileNotFoundError`` without an index, ``FileExistsError`` when a new id's file exists, and
     ``ValueError`` when this machine's :func:`versions` are not the index's. Returns the index."""
@@ -252,7 +280,7 @@ def record_new(out: Path = GOLDEN_DIR) -> dict[str, Any]:
             f"the goldens in {out} were recorded with {index['versions']}, this machine has {versions()}: "
             "a new golden must come from the versions the index states"
         )
-    new = [env_id for env_id in registered_ids() if env_id not in index["ids"]]
+    new = [name for name in golden_names() if name not in index["ids"]]
     existing = [file_name(env_id) for env_id in new if (out / file_name(env_id)).exists()]
     if existing:
         raise FileExistsError(f"files of ids the index lacks exist in {out} ({', '.join(existing)})")
@@ -267,7 +295,7 @@ def record_new(out: Path = GOLDEN_DIR) -> dict[str, Any]:
 def record(out: Path = GOLDEN_DIR, overwrite: bool = False) -> dict[str, Any]:
     """Record the golden file of every registered id and the index into ``out``; refuse (``FileExistsError``,
     before running anything) to replace goldens unless ``overwrite``. Returns the index."""
-    ids = registered_ids()
+    ids = golden_names()
     targets = [out / INDEX_NAME, *(out / file_name(env_id) for env_id in ids)]
     existing = [path.name for path in targets if path.exists()]
     if existing and not overwrite:
