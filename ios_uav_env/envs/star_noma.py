@@ -147,6 +147,13 @@ class StarNomaStepper(EnvViews):
     """
 
     view, action = "star_noma", "move_weight"
+    #: The fixed id and the Random id (``random_line``), the default scenario, the rows' class and
+    #: the observation's names: what a stepper of the same design on another link replaces.
+    ids: tuple[str, str] = (STAR_NOMA_ID, STAR_NOMA_RANDOM_ID)
+    default_config: ScenarioConfig = NOMA_CONFIG
+    rows_class: type = StarNomaRows
+    names: tuple[str, ...] = OBSERVATION_NAMES
+    surfaces: tuple[str, ...] = ("star",)
 
     def __init__(
         self,
@@ -182,29 +189,29 @@ class StarNomaStepper(EnvViews):
             raise ValueError(f"render_mode must be None (this env does not render), got {render_mode!r}")
         self.render_mode = None
         self.random_line = bool(random_line)
-        self.env_id = STAR_NOMA_RANDOM_ID if self.random_line else STAR_NOMA_ID
+        self.env_id = self.ids[1] if self.random_line else self.ids[0]
         if self.random_line and (config is not None or {"q0", "qF"} & set(overrides)):
             raise ValueError(
                 f"{self.env_id} draws its line (q0, qF) at every reset: give no config, q0 or qF "
-                f"(one scenario: {STAR_NOMA_ID})"
+                f"(one scenario: {self.ids[0]})"
             )
         # kappa, epsilon, bandwidth_hz, propulsion do nothing here (no fading, no IOS, no energy);
         # the STAR protocol and phase model are checked by the config (NOMA: "es", "independent")
         own = {k: v for k, v in overrides.items() if k not in ("star_protocol", "star_phases")}
-        check_scenario_overrides(self.env_id, own, ("star",), fades=False, multinode=True)
-        base = NOMA_CONFIG if config is None else as_config(config)
+        check_scenario_overrides(self.env_id, own, self.surfaces, fades=False, multinode=True)
+        base = self.default_config if config is None else as_config(config)
         if config is not None:  # (the keywords replace the id's own scenario's fields freely)
             check_config_keywords(self.env_id, base, overrides)
         self._base = base.replace(**overrides) if overrides else base
-        check_noma_scenario(self._base, self.env_id)
+        self.check_config(self._base, self.env_id)
         self.config = self._base
-        self.observation_names: tuple[str, ...] = OBSERVATION_NAMES
+        self.observation_names: tuple[str, ...] = self.names
         self.action_space = spaces.Box(-1.0, 1.0, (3,), np.float32)
         low, high = self._bounds(self._base)
         self.observation_space = spaces.Box(low, high, dtype=np.float32)
         #: The episode as a row (``StarNomaRows`` of one: the batched env runs B of them).
-        self.rows = StarNomaRows(1, int(frontier_points), bool(score), self.options.length_scale)
-        self._obs = np.zeros((1, len(OBSERVATION_NAMES)), dtype=np.float32)
+        self.rows = self.rows_class(1, int(frontier_points), bool(score), self.options.length_scale)
+        self._obs = np.zeros((1, len(self.names)), dtype=np.float32)
         self._reward, self._terminated = np.zeros(1), np.zeros(1, dtype=np.bool_)
         self._table = np.zeros((1, len(INFO_KEYS)))
         self._active = np.ones(1, dtype=np.bool_)
@@ -252,12 +259,17 @@ class StarNomaStepper(EnvViews):
 
     def check_scenario(self, cfg: ScenarioConfig, field: str = 'options["config"]') -> None:
         """``ValueError`` naming ``field`` unless the pinned ``cfg`` is a scenario this env runs."""
-        check_noma_scenario(cfg, self.env_id, field)
+        self.check_config(cfg, self.env_id, field)
         low, high = self._bounds(cfg)
         if np.any(low < self.observation_space.low) or np.any(high > self.observation_space.high):
             raise ValueError(
                 f"{field}: the scenario does not fit this env's observation space; make an env on it"
             )
+
+    def check_config(self, config: ScenarioConfig, env_id: str, field: str = "config") -> None:
+        """``ValueError`` naming ``env_id`` and ``field`` unless the env runs ``config``
+        (:func:`check_noma_scenario`)."""
+        check_noma_scenario(config, env_id, field)
 
     def start(self) -> tuple[np.ndarray, dict[str, Any]]:
         """The rest of ``reset``: slot 1 at q0; the first observation and ``info``."""
