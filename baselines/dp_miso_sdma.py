@@ -47,9 +47,9 @@ import time
 
 import numpy as np
 
-from baselines.dp_bound import CUT_TOL, kelley_minimise, kelley_step
+from baselines.dp_bound import CUT_TOL, kelley_step
 from baselines.dp_relaxed import RelaxedDP, check_plain_grid, check_relaxed_grid
-from baselines.dp_star import MAX_CUTS, _check_cuts
+from baselines.dp_star import MAX_CUTS, _check_cuts, bound_cell, minimise_relaxed
 from baselines.grid import DEFAULT_MARGIN, grid_axes, grid_path, validate_grid_args
 from baselines.plan import Plan
 from baselines.registry import check as check_planner
@@ -118,11 +118,7 @@ def sdma_bound(
     validate_grid_args(config, resolution, margin)
     _check_cuts(max_cuts, tol)
     check_relaxed_grid(config, resolution, margin)
-    relaxed = SdmaRelaxedDP(config, resolution, margin)
-    w = np.full(2, 0.5) if start_weights is None else np.asarray(start_weights, dtype=float)
-    if w.shape != (2,) or np.any(w < 0) or abs(w.sum() - 1) > 1e-9:
-        raise ValueError(f"start_weights must be two numbers >= 0 summing to 1, got {w!r}")
-    return kelley_minimise(relaxed.value, w, max_cuts=max_cuts, tol=tol)
+    return minimise_relaxed(SdmaRelaxedDP(config, resolution, margin), start_weights, max_cuts, tol)
 
 
 def solve(
@@ -148,9 +144,7 @@ def solve(
     _check(config)
     validate_grid_args(config, resolution, margin)
     _check_cuts(max_cuts, tol)
-    h = resolution / 2 if bound_resolution is None else bound_resolution
-    if isinstance(h, bool) or not (isinstance(h, (int, float)) and math.isfinite(h) and h > 0):
-        raise ValueError(f"bound_resolution must be a finite number > 0 (m), got {h!r}")
+    h = bound_cell(resolution, bound_resolution)
     check_plain_grid(config, resolution, margin)
     check_relaxed_grid(config, h, margin)
     xs, ys, _ = grid_axes(config, resolution, margin)

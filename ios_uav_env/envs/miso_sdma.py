@@ -17,11 +17,9 @@ from typing import Any
 import gymnasium as gym
 
 from ios_uav_env.envs.miso_sdma_rows import OBSERVATION_NAMES, MisoSdmaRows
-from ios_uav_env.envs.options import EnvOptions
 from ios_uav_env.envs.registration import MISO_SDMA_ID, MISO_SDMA_RANDOM_ID
-from ios_uav_env.envs.settings import check_world
 from ios_uav_env.envs.star_control import BASE_CONFIG
-from ios_uav_env.envs.star_noma import StarNomaStepper
+from ios_uav_env.envs.star_noma import StarNomaStepper, check_two_user_world
 from ios_uav_env.model.config import ScenarioConfig
 from ios_uav_env.model.miso_sdma import check_sdma_scenario
 
@@ -52,12 +50,7 @@ def check_sdma_env_scenario(config: ScenarioConfig, env_id: str, field: str = "c
             f"{env_id} ({field}): ground_nodes must be two users (the action weighs user 0 against user 1), "
             f"got K = {config.K}"
         )
-    if config.energy_budget_j is not None:
-        raise ValueError(
-            f"{env_id} ({field}): energy_budget_j must be None (the env scores the max-min rate without "
-            f"an energy budget), got {config.energy_budget_j!r}"
-        )
-    check_world(config, EnvOptions(), env_id, field, sdma=True)
+    check_two_user_world(config, env_id, field, sdma=True)
     try:
         check_sdma_scenario(config, field)
     except ValueError as err:

@@ -25,7 +25,7 @@ from ios_uav_env.envs.star_noma_rows import INFO_KEYS, OBSERVATION_NAMES, StarNo
 from ios_uav_env.model.config import ScenarioConfig, as_config, scenario_option
 from ios_uav_env.model.star_maps import FRONTIER_POINTS
 
-__all__ = ["NOMA_CONFIG", "StarNomaStepper", "check_noma_scenario"]
+__all__ = ["NOMA_CONFIG", "StarNomaStepper", "check_noma_scenario", "check_two_user_world"]
 
 #: The scenario of the NOMA ids: ``STARControl-v0``'s (an 8 x 8 STAR surface low on a facade, plane
 #: x = 0, users (-5, 2) and (5, -2) m, -110 dBm, the UAV from (-250, -150) to (-250, 150) m in
@@ -45,12 +45,7 @@ def check_noma_scenario(config: ScenarioConfig, env_id: str, field: str = "confi
             f"needs surface='star' and star_access='noma', got surface={config.surface!r}, "
             f"star_access={config.star_access!r} (TDMA: ios_uav_env/IOSUAV-MultiNode-v0 on the config)"
         )
-    if config.energy_budget_j is not None:
-        raise ValueError(
-            f"{env_id} ({field}): energy_budget_j must be None (the env scores the max-min rate without "
-            f"an energy budget), got {config.energy_budget_j!r}"
-        )
-    check_world(config, EnvOptions(), env_id, field, noma=True)
+    check_two_user_world(config, env_id, field, noma=True)
     x_c = config.ios_center[0]
     xs = [x for x, _ in config.nodes]
     if (xs[0] - x_c) * (xs[1] - x_c) >= 0:
@@ -58,6 +53,18 @@ def check_noma_scenario(config: ScenarioConfig, env_id: str, field: str = "confi
             f"{env_id} ({field}): ground_nodes must be one user on each side of the surface plane "
             f"x = {x_c:g} m (off it), got x = {xs[0]:g} and {xs[1]:g} m"
         )
+
+
+def check_two_user_world(config: ScenarioConfig, env_id: str, field: str, **link: bool) -> None:
+    """``ValueError`` naming ``env_id`` and ``field`` for an energy budget (the two-user envs score
+    the max-min rate without one), then the world's checks (``settings.check_world`` with ``link``:
+    ``noma=True`` or ``sdma=True``)."""
+    if config.energy_budget_j is not None:
+        raise ValueError(
+            f"{env_id} ({field}): energy_budget_j must be None (the env scores the max-min rate without "
+            f"an energy budget), got {config.energy_budget_j!r}"
+        )
+    check_world(config, EnvOptions(), env_id, field, **link)
 
 
 class StarNomaStepper(EnvViews):

@@ -136,6 +136,16 @@ def score_plan(
     return _score(config, own, best.value, True, report, best)
 
 
+def _refuse_shares_and_paths(
+    shares: np.ndarray | None, paths: np.ndarray | None, what: str, how: str
+) -> None:
+    """``ValueError`` for TDMA shares or node paths given to a scenario ``what`` scored with ``how``."""
+    if shares is not None:
+        raise ValueError(f"shares are TDMA shares; {what} is scored with {how}: give none")
+    if paths is not None:
+        raise ValueError(f"paths: {what} is scored for static nodes only")
+
+
 def _star_noma(
     config: ScenarioConfig,
     q: np.ndarray,
@@ -144,14 +154,9 @@ def _star_noma(
     paths: np.ndarray | None,
 ) -> PlanScore:
     """The score of a STAR scenario under NOMA (module docstring)."""
-    if shares is not None:
-        raise ValueError(
-            "shares are TDMA shares; a STAR scenario with star_access='noma' is scored with the best "
-            "power splits and time sharing of its trajectory "
-            "(ios_uav_env.model.star_regions.scenario_maxmin): give none"
-        )
-    if paths is not None:
-        raise ValueError("paths: a STAR scenario with star_access='noma' is scored for static nodes only")
+    how = "the best power splits and time sharing of its trajectory"
+    how += " (ios_uav_env.model.star_regions.scenario_maxmin)"
+    _refuse_shares_and_paths(shares, paths, "a STAR scenario with star_access='noma'", how)
     if config.antennas > 1:
         raise ValueError(
             f"antennas={config.antennas}: a STAR scenario with star_access='noma' is scored for a "
@@ -169,14 +174,9 @@ def _miso_sdma(
     paths: np.ndarray | None,
 ) -> PlanScore:
     """The score of a multi-antenna UAV serving its K nodes at once (module docstring)."""
-    if shares is not None:
-        raise ValueError(
-            f"shares are TDMA shares; a multi-antenna UAV (antennas={config.antennas}) serving K = "
-            f"{config.K} nodes at once is scored with the best time sharing of its slots' settings "
-            "(ios_uav_env.model.miso_sdma.sdma_maxmin): give none"
-        )
-    if paths is not None:
-        raise ValueError("paths: a multi-antenna UAV serving several nodes is scored for static nodes only")
+    what = f"a multi-antenna UAV (antennas={config.antennas}) serving K = {config.K} nodes at once"
+    how = "the best time sharing of its slots' settings (ios_uav_env.model.miso_sdma.sdma_maxmin)"
+    _refuse_shares_and_paths(shares, paths, what, how)
     check_sdma_scenario(config)
     best = sdma_maxmin(config, q).value
     return _score(config, best, best, False, report, None)
