@@ -123,8 +123,8 @@ class MisoSdmaStepper(StarNomaStepper):
     (min_k R_k), and ``score``: at slot N ``ios_uav_env.score_plan(config, trajectory).rate``,
     the flight's max-min with time sharing of the lattice settings in every slot
     (``model.miso_sdma.sdma_maxmin``), the number the planner ``dp-miso-sdma`` is scored by; 0
-    before slot N, NaN at slot N with ``score=False`` (scoring runs 9 per-slot AOs a slot, about
-    a second a flight). ``min_rate`` <= ``score``: the env's settings are among the scorer's.
+    before slot N, NaN at slot N with ``score=False`` (scoring runs 9 per-slot AOs a slot: several
+    seconds a flight). ``min_rate`` <= ``score``: the env's settings are among the scorer's.
 
     ## Arguments
 

@@ -117,10 +117,8 @@ def score_plan(
     """
     q = np.asarray(trajectory, dtype=np.float64)
     report = check_trajectory(config, q)
-    if config.surface == "star" and config.star_access == "noma":
-        return _star_noma(config, q, report, shares, paths)
-    if config.antennas > 1 and config.K > 1:
-        return _miso_sdma(config, q, report, shares, paths)
+    if (config.surface == "star" and config.star_access == "noma") or (config.antennas > 1 and config.K > 1):
+        return _served_at_once(config, q, report, shares, paths)
     if config.K == 1:
         if shares is not None:
             raise ValueError("shares are for K > 1 ground nodes; this scenario has one")
@@ -136,49 +134,36 @@ def score_plan(
     return _score(config, own, best.value, True, report, best)
 
 
-def _refuse_shares_and_paths(
-    shares: np.ndarray | None, paths: np.ndarray | None, what: str, how: str
-) -> None:
-    """``ValueError`` for TDMA shares or node paths given to a scenario ``what`` scored with ``how``."""
+def _served_at_once(
+    config: ScenarioConfig,
+    q: np.ndarray,
+    report: TrajectoryReport,
+    shares: np.ndarray | None,
+    paths: np.ndarray | None,
+) -> PlanScore:
+    """The score of a scenario whose nodes are served at once in every slot (module docstring): a
+    STAR surface under NOMA, or a multi-antenna UAV (SDMA); no TDMA shares, static nodes."""
+    if config.surface == "star" and config.star_access == "noma":
+        what = "a STAR scenario with star_access='noma'"
+        how = "the best power splits and time sharing of its trajectory"
+        how += " (ios_uav_env.model.star_regions.scenario_maxmin)"
+    else:
+        what = f"a multi-antenna UAV (antennas={config.antennas}) serving K = {config.K} nodes at once"
+        how = "the best time sharing of its slots' settings (ios_uav_env.model.miso_sdma.sdma_maxmin)"
     if shares is not None:
         raise ValueError(f"shares are TDMA shares; {what} is scored with {how}: give none")
     if paths is not None:
         raise ValueError(f"paths: {what} is scored for static nodes only")
-
-
-def _star_noma(
-    config: ScenarioConfig,
-    q: np.ndarray,
-    report: TrajectoryReport,
-    shares: np.ndarray | None,
-    paths: np.ndarray | None,
-) -> PlanScore:
-    """The score of a STAR scenario under NOMA (module docstring)."""
-    how = "the best power splits and time sharing of its trajectory"
-    how += " (ios_uav_env.model.star_regions.scenario_maxmin)"
-    _refuse_shares_and_paths(shares, paths, "a STAR scenario with star_access='noma'", how)
-    if config.antennas > 1:
-        raise ValueError(
-            f"antennas={config.antennas}: a STAR scenario with star_access='noma' is scored for a "
-            "single-antenna UAV (model.star_regions); use antennas=1, or star_access='tdma'"
-        )
-    best = scenario_maxmin(config, q).value
-    return _score(config, best, best, False, report, None)
-
-
-def _miso_sdma(
-    config: ScenarioConfig,
-    q: np.ndarray,
-    report: TrajectoryReport,
-    shares: np.ndarray | None,
-    paths: np.ndarray | None,
-) -> PlanScore:
-    """The score of a multi-antenna UAV serving its K nodes at once (module docstring)."""
-    what = f"a multi-antenna UAV (antennas={config.antennas}) serving K = {config.K} nodes at once"
-    how = "the best time sharing of its slots' settings (ios_uav_env.model.miso_sdma.sdma_maxmin)"
-    _refuse_shares_and_paths(shares, paths, what, how)
-    check_sdma_scenario(config)
-    best = sdma_maxmin(config, q).value
+    if config.surface == "star" and config.star_access == "noma":
+        if config.antennas > 1:
+            raise ValueError(
+                f"antennas={config.antennas}: a STAR scenario with star_access='noma' is scored for a "
+                "single-antenna UAV (model.star_regions); use antennas=1, or star_access='tdma'"
+            )
+        best = scenario_maxmin(config, q).value
+    else:
+        check_sdma_scenario(config)
+        best = sdma_maxmin(config, q).value
     return _score(config, best, best, False, report, None)
 
 
