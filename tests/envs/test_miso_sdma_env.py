@@ -10,6 +10,7 @@ import gymnasium as gym
 import numpy as np
 import pytest
 
+from agents.scores import score_label
 from ios_uav_env import MISO_SDMA_ID, MISO_SDMA_RANDOM_ID, ScenarioConfig, score_plan
 from ios_uav_env.components import UnsupportedWorld, World
 from ios_uav_env.envs.miso_sdma import SDMA_CONFIG
@@ -31,6 +32,7 @@ def test_the_ids_run_the_sdma_scenario_and_the_random_id_draws_its_line():
     assert env.unwrapped.config == SDMA_CONFIG and env.unwrapped.view == "miso_sdma"
     assert env.action_space.shape == (3,) and env.observation_space.shape == (16,)
     assert env.unwrapped.observation_names[0] == "sdma_x"
+    assert score_label(env).name == "min_rate"  # (the training scripts' label: a max-min of two users)
     random = gym.make(MISO_SDMA_RANDOM_ID, score=False)
     lines = {random.reset(seed=seed)[1]["position_x"] for seed in range(3)}
     assert len(lines) == 3 and all(-250.0 <= x <= -100.0 for x in lines)
