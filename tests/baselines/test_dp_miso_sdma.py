@@ -1,9 +1,11 @@
 """``dp-miso-sdma`` (``baselines.dp_miso_sdma``): a multi-antenna UAV serving two users at once. Its
 plan is scored by ``score_plan`` as it reports, feasible, never below the best candidate, and the
-certified bound holds: above the plan, above other flights, and its premises checked at points."""
+certified bound holds: above the plan, above other flights and env episodes, and its premises
+checked at points; the plan flown through ``MISOUAV-SDMA-v0`` scores what the planner reports."""
 
 from __future__ import annotations
 
+import gymnasium as gym
 import numpy as np
 import pytest
 
@@ -11,7 +13,7 @@ from baselines.dp_miso_sdma import SdmaRelaxedDP, solve, two_user_bound
 from baselines.dp_relaxed import region_rate_bound
 from baselines.registry import PlannerMismatch
 from baselines.registry import solve as solve_registered
-from ios_uav_env import score_plan
+from ios_uav_env import MISO_SDMA_ID, score_plan
 from ios_uav_env.envs.miso_sdma import SDMA_CONFIG
 from ios_uav_env.model.miso import slot_bounds, weighted_sum_bound
 from ios_uav_env.model.miso_sdma import slot_channel_at
@@ -76,3 +78,28 @@ def test_what_it_does_not_plan_is_refused_naming_the_field():
         solve(SMALL.replace(ground_nodes=three))
     with pytest.raises(ValueError, match=r"ios_shape must have M = M_y M_z in \[1, 256\]"):
         solve(SMALL.replace(ios_shape=(20, 20)))
+
+
+def _fly(env: gym.Env, moves: np.ndarray, weights: np.ndarray) -> dict:
+    env.reset(seed=0)
+    for move, a_w in zip(moves, weights, strict=True):
+        _, _, done, _, info = env.step(np.array([*move, a_w]))
+    assert done
+    return info
+
+
+def test_the_plan_flown_through_the_env_scores_what_the_planner_reports(plan):
+    """The plan's moves / D as actions (the arrival guard leaves a feasible plan as it is, to
+    rounding): the env's score is the planner's rate whatever the weights flown, and no episode
+    scores above the certified bound (nor does the env's own max-min)."""
+    env = gym.make(MISO_SDMA_ID, config=SMALL)
+    q = plan.trajectory
+    moves = np.diff(q, axis=0) / SMALL.D
+    info = _fly(env, moves, np.random.default_rng(0).uniform(-1, 1, len(moves)))
+    assert np.allclose(env.unwrapped.trajectory, q, rtol=0, atol=1e-9)
+    assert info["score"] == pytest.approx(plan.mean_rate, rel=PLANNER_REL)
+    assert info["min_rate"] <= info["score"] * (1 + PLANNER_REL)
+    rng = np.random.default_rng(1)
+    for _ in range(2):
+        info = _fly(env, rng.uniform(-1, 1, (SMALL.N - 1, 2)), rng.uniform(-1, 1, SMALL.N - 1))
+        assert info["min_rate"] <= info["score"] <= plan.info["upper_bound"]
