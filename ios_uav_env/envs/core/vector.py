@@ -4,7 +4,7 @@
 single- and multi-node id. Its template env (a ``UAVEnv`` made with the id's keywords) chooses the
 rows by its view: ``single_rows.SingleNodeRows`` (``"v0"``), ``node_rows.NodeBlockRows``
 (``"node_blocks"``), which hold the row arrays and call the compiled step, or
-``star_noma_rows.StarNomaRows`` (``"star_noma"``) or ``miso_sdma_rows.MisoSdmaRows``
+``star_noma_rows.StarNomaRows`` (``"star_noma"``) or ``miso_sdma.MisoSdmaRows``
 (``"miso_sdma"``): numpy, the rows the single env runs one of.
 Everything else is
 ``ios_uav_env.envs.batched.BatchedEnv``'s, once: the scenario choice at reset in one template env
