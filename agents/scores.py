@@ -30,12 +30,12 @@ class ScoreLabel:
 def score_label(env: Any) -> ScoreLabel:
     """The :class:`ScoreLabel` of a (single, possibly wrapped) env of this package: its objective
     (``env.unwrapped.config.objective``) and whether it serves several nodes (the node-block view of
-    ``UAVEnv``: ``MultiNodeEnv``'s ids; the view ``"star_noma"``: two users, whose ``min_rate`` is
-    the episode's own max-min, ``score`` being ``score_plan``'s)."""
+    ``UAVEnv``: ``MultiNodeEnv``'s ids; the views ``"star_noma"`` and ``"miso_sdma"``: two users,
+    whose ``min_rate`` is the episode's own max-min, ``score`` being ``score_plan``'s)."""
     base = env.unwrapped
     objective = base.config.objective
     if objective not in SCORES:
         raise ValueError(f"objective must be one of {', '.join(SCORES)}, got {objective!r}")
     one, several, unit = SCORES[objective]
     view = getattr(base, "view", None)
-    return ScoreLabel(objective, several if view in ("node_blocks", "star_noma") else one, unit)
+    return ScoreLabel(objective, several if view in ("node_blocks", "star_noma", "miso_sdma") else one, unit)

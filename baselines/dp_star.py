@@ -107,6 +107,8 @@ _REFINE_SWEEPS = 10  # corridor DPs per level at most (repeated while the path c
 
 __all__ = [
     "MAX_CUTS",
+    "bound_cell",
+    "minimise_relaxed",
     "REFINE_LEVELS",
     "REFINE_ROUNDS",
     "NomaRelaxedDP",
@@ -161,11 +163,26 @@ def noma_bound(
     _check_scenario(config)
     _check_cuts(max_cuts, tol)
     check_relaxed_grid(config, resolution, margin)
-    relaxed = NomaRelaxedDP(config, resolution, margin)
+    return minimise_relaxed(NomaRelaxedDP(config, resolution, margin), start_weights, max_cuts, tol)
+
+
+def minimise_relaxed(
+    relaxed: RelaxedDP, start_weights: np.ndarray | None, max_cuts: int, tol: float
+) -> tuple[float, np.ndarray, float, list[dict[str, Any]]]:
+    """Kelley's minimisation over two users' weights of ``relaxed``'s UB(w) from ``start_weights``
+    (default (1/2, 1/2)): :func:`noma_bound`'s answer, for any two-user relaxed DP."""
     w = np.full(2, 0.5) if start_weights is None else np.asarray(start_weights, dtype=float)
     if w.shape != (2,) or np.any(w < 0) or abs(w.sum() - 1) > 1e-9:
         raise ValueError(f"start_weights must be two numbers >= 0 summing to 1, got {w!r}")
     return kelley_minimise(relaxed.value, w, max_cuts=max_cuts, tol=tol)
+
+
+def bound_cell(resolution: float, bound_resolution: float | None) -> float:
+    """The relaxed DP's cell side: ``bound_resolution``, by default ``resolution`` / 2 (checked)."""
+    h = resolution / 2 if bound_resolution is None else bound_resolution
+    if isinstance(h, bool) or not (isinstance(h, (int, float)) and math.isfinite(h) and h > 0):
+        raise ValueError(f"bound_resolution must be a finite number > 0 (m), got {h!r}")
+    return h
 
 
 def refine_plan(
@@ -248,9 +265,7 @@ def solve(
     for name, value in (("refine", refine), ("refine_rounds", refine_rounds)):
         if isinstance(value, bool) or not (isinstance(value, int) and value >= 0):
             raise ValueError(f"{name} must be an integer >= 0, got {value!r}")
-    h = resolution / 2 if bound_resolution is None else bound_resolution
-    if isinstance(h, bool) or not (isinstance(h, (int, float)) and math.isfinite(h) and h > 0):
-        raise ValueError(f"bound_resolution must be a finite number > 0 (m), got {h!r}")
+    h = bound_cell(resolution, bound_resolution)
     check_plain_grid(config, resolution, margin)
     check_relaxed_grid(config, h, margin)
     users = np.asarray(config.nodes, dtype=float)

@@ -26,6 +26,7 @@ name                      objectives           budget  K      motion      kind
 ``dp-star``               rate                 no      2      static      optimum
 ``ao-star``               rate                 no      2      static      local
 ``dp-miso``               rate                 no      1      static      optimum
+``dp-miso-sdma``          rate                 no      2      static      optimum
 ``dp-bound``              rate                 no      >= 1   paths       bound
 ``energy-bound``          energy_efficiency    no      1      static      bound
 ========================  ===================  ======  =====  ==========  =========
@@ -55,7 +56,9 @@ phases and refuses it, naming ``dp``.
 Antennas: a multi-antenna UAV (``ScenarioConfig(antennas=N_t)``, N_t > 1) has the closed-form
 rate of its aligned phases and MRT (``channel.slot_rates``). ``dp-miso`` plans it (one node, any
 N_t, ``antennas`` true); the heuristics fly it and are scored on it; every other planner and bound
-plans the single-antenna UAV and refuses it, naming ``dp-miso``.
+plans the single-antenna UAV and refuses it, naming ``dp-miso``. Serving two nodes at once (SDMA:
+N_t >= 2, K = 2, ``score_plan`` by ``model.miso_sdma``), ``dp-miso-sdma`` plans it (``min_antennas``
+2: it refuses one antenna, whose two nodes are served one per slot share).
 
 A caller that plans one problem and scores the plan on another on purpose (the rate DP's plan
 under the energy objective, say) says so: it plans on ``config.replace(objective="rate")`` and
@@ -108,6 +111,8 @@ class PlannerSpec:
     # plans (or, a heuristic, flies and is scored on) a STAR surface of b-bit phases (``ScenarioConfig.
     # star_bits``: the node's exact b-bit phases per slot); every other planner takes continuous ones
     bits: bool = False
+    # the fewest antennas it plans (2: a multi-antenna UAV serving its nodes at once, SDMA)
+    min_antennas: int = 1
 
     def __post_init__(self) -> None:
         if bad := [o for o in self.objectives if o not in OBJECTIVES]:
@@ -150,6 +155,11 @@ class PlannerSpec:
             return (
                 f"star_bits={config.star_bits} (it plans a surface of continuous phases; a b-bit surface's "
                 "slot rate is that of the node's exact b-bit phases, channel.slot_rates)"
+            )
+        if config.antennas < self.min_antennas:
+            return (
+                f"antennas={config.antennas} (it plans a UAV of >= {self.min_antennas} antennas serving its "
+                "nodes at once, SDMA)"
             )
         if config.star_access not in self.accesses:
             if config.star_access == "noma":
@@ -213,6 +223,10 @@ PLANNERS: dict[str, PlannerSpec] = {
         PlannerSpec("dp-miso", "baselines.dp:solve_miso", ("rate",), False, 1, 1, "static", "optimum",
                     "global optimum on a grid of the multi-antenna UAV's closed-form rate (aligned phases "
                     "and MRT, any N_t)", antennas=True),
+        PlannerSpec("dp-miso-sdma", "baselines.dp_miso_sdma:solve", ("rate",), False, 2, 2, "static",
+                    "optimum", "multi-antenna UAV serving two users at once (SDMA): best DP plan over the "
+                    "user weights on the per-slot AO settings and a certified max-min bound", antennas=True,
+                    min_antennas=2),
         PlannerSpec("dp-bound", "baselines.dp_bound:clairvoyant_bound", ("rate",), False, 1, None, "paths",
                     "bound", "certified upper bound of the rate (max-min for K > 1), given node paths",
                     bits=True),

@@ -25,7 +25,7 @@ from ios_uav_env.components.objective import OBJECTIVES, Objective
 from ios_uav_env.components.surface import SURFACES, Surface, surface_of
 from ios_uav_env.model.config import ScenarioConfig
 
-__all__ = ["FAMILIES", "UnsupportedWorld", "World", "combinations", "noma_runs"]
+__all__ = ["FAMILIES", "UnsupportedWorld", "World", "combinations", "noma_runs", "sdma_runs"]
 
 #: family name -> its registry, in the order of ``World``'s fields.
 FAMILIES = {
@@ -142,6 +142,14 @@ def noma_runs(world: World) -> bool:
     )
 
 
+def sdma_runs(world: World) -> bool:
+    """Whether an env runs ``world``'s multi-antenna UAV serving several nodes at once
+    (``envs.miso_sdma``, the view ``"miso_sdma"``): two static, exactly known nodes, an IOS, the
+    expected-gain link, the rate objective without a budget (the other envs refuse it by their
+    own check, ``settings.check_world``)."""
+    return world.surface.kind == "ios" and noma_runs(world)
+
+
 #: The combinations the simulator does not run: (applies to a world, why). Each names the
 #: components involved and, where one exists, what to use instead.
 RULES: tuple[tuple[Any, str], ...] = (
@@ -184,10 +192,12 @@ RULES: tuple[tuple[Any, str], ...] = (
         "for a single-antenna UAV; use the single_antenna link, or continuous phases (star_bits=None)",
     ),
     (
-        lambda w: w.link.kind == "multi_antenna" and w.nodes > 1,
+        lambda w: w.link.kind == "multi_antenna" and w.nodes > 1 and not sdma_runs(w),
         "link multi_antenna with several nodes: the multi-antenna UAV serves them at once (SDMA with the "
-        "per-slot beams), which ios_uav_env.model.miso_regions.miso_maxmin scores and the envs do not run; "
-        "use one node (K = 1), or the single_antenna link for one node per slot share (TDMA)",
+        "per-slot beams), which the envs run for two static, exactly known nodes on an ios surface with "
+        "fading 'expected' and the rate objective without a budget (ios_uav_env/MISOUAV-SDMA-v0); score "
+        "another SDMA flight with ios_uav_env.score_plan (ios_uav_env.model.miso_sdma), or use one node "
+        "(K = 1), or the single_antenna link for one node per slot share (TDMA)",
     ),
 )
 

@@ -82,6 +82,8 @@ def feature_source(name: str) -> str:
     """Which env argument (or id) publishes the observation feature ``name`` (for error messages)."""
     if name.startswith("noma_"):  # (ios_uav_env.envs.star_noma's layout)
         return "ios_uav_env/STARUAV-NOMA-v0 or ios_uav_env/STARUAV-NOMA-Random-v0"
+    if name.startswith("sdma_"):  # (ios_uav_env.envs.miso_sdma's layout)
+        return "ios_uav_env/MISOUAV-SDMA-v0 or ios_uav_env/MISOUAV-SDMA-Random-v0"
     if name.startswith("star_"):  # (ios_uav_env.envs.star_control's layout)
         phases = name.startswith("star_phase_")
         return "ios_uav_env/STARControl-v0" + (" with channel_phases=True" if phases else "")

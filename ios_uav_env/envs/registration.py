@@ -73,6 +73,14 @@ STAR_NOMA_IDS: dict[str, dict[str, Any]] = {STAR_NOMA_ID: {}, STAR_NOMA_RANDOM_I
 MISO_ID = "ios_uav_env/MISOUAV-v0"
 MISO_IDS: dict[str, dict[str, Any]] = {MISO_ID: {"antennas": 4}}
 
+#: The multi-antenna UAV serving two users at once (SDMA; ``ios_uav_env.envs.miso_sdma``): the agent
+#: flies and weighs the users, the env sets the beams and the surface's phases by the per-slot
+#: weighted-sum AO; scored by ``score_plan`` as ``dp-miso-sdma``'s plans. The Random id draws the
+#: line's x at every reset.
+MISO_SDMA_ID = "ios_uav_env/MISOUAV-SDMA-v0"
+MISO_SDMA_RANDOM_ID = "ios_uav_env/MISOUAV-SDMA-Random-v0"
+MISO_SDMA_IDS: dict[str, dict[str, Any]] = {MISO_SDMA_ID: {}, MISO_SDMA_RANDOM_ID: {"random_line": True}}
+
 #: The surface as the agent's control (``ios_uav_env.envs.star_control``): the UAV flies a given
 #: line past a small STAR surface and the agent sets the surface's coefficients in every slot; its
 #: batched form is ``ios_uav_env.envs.star_control_vector.STARControlVectorEnv``.
@@ -99,6 +107,7 @@ V0: dict[str, Any] = {}
 V0_DRAWN: dict[str, Any] = {"draws": True}
 NODE_BLOCKS: dict[str, Any] = {"view": "node_blocks"}
 STAR_NOMA: dict[str, Any] = {"view": "star_noma"}
+MISO_SDMA: dict[str, Any] = {"view": "miso_sdma"}
 
 #: The one env class and the one vector class of every single- and multi-node id.
 ENTRY_POINT = "ios_uav_env.envs.core.env:UAVEnv"
@@ -107,7 +116,8 @@ VECTOR_ENTRY_POINT = "ios_uav_env.envs.core.vector:UAVVectorEnv"
 
 def presets() -> dict[str, dict[str, Any]]:
     """id -> the keywords ``UAVEnv`` is registered with for each single- and multi-node id: its
-    view's preset (:data:`V0`, :data:`V0_DRAWN`, :data:`NODE_BLOCKS`, :data:`STAR_NOMA`), then its
+    view's preset (:data:`V0`, :data:`V0_DRAWN`, :data:`NODE_BLOCKS`, :data:`STAR_NOMA`,
+    :data:`MISO_SDMA`), then its
     own (the world's scenario fields and options, ``random_nodes``, ``random_line``, ``antennas``)."""
     families = (
         (ENV_IDS, V0),
@@ -118,6 +128,7 @@ def presets() -> dict[str, dict[str, Any]]:
         ({**MULTINODE_IDS, **MULTINODE_MOBILE_IDS}, NODE_BLOCKS),
         (STAR_NOMA_IDS, STAR_NOMA),
         (MISO_IDS, V0),
+        (MISO_SDMA_IDS, MISO_SDMA),
     )
     return {env_id: {**view, **kwargs} for ids, view in families for env_id, kwargs in ids.items()}
 
@@ -125,7 +136,7 @@ def presets() -> dict[str, dict[str, Any]]:
 def register_envs() -> None:
     """Register every id of :data:`ENV_IDS`, :data:`RANDOM_IDS`, :data:`MULTINODE_IDS`,
     :data:`ENERGY_IDS`, :data:`MOBILE_IDS`, :data:`MULTINODE_MOBILE_IDS`, :data:`STAR_NOMA_IDS`,
-    :data:`MISO_IDS`,
+    :data:`MISO_IDS`, :data:`MISO_SDMA_IDS`,
     :data:`STAR_CONTROL_IDS` and :data:`MISO_CONTROL_IDS` not registered yet: each single- and
     multi-node id as ``UAVEnv`` with its keywords (:func:`presets`) and ``UAVVectorEnv`` as its
     batched env.

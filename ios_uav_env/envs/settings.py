@@ -18,6 +18,7 @@ from ios_uav_env.envs.registration import (
     ENERGY_RANDOM_ID,
     ENV_IDS,
     MISO_ID,
+    MISO_SDMA_ID,
     MOBILE_ID,
     MULTINODE_IDS,
     MULTINODE_MOBILE_ID,
@@ -70,14 +71,20 @@ def multinode_id(random_nodes: Any, mobile: bool) -> str:
 
 
 def check_world(
-    config: ScenarioConfig, options: Any, env_id: str, field: str = "config", noma: bool = False
+    config: ScenarioConfig,
+    options: Any,
+    env_id: str,
+    field: str = "config",
+    noma: bool = False,
+    sdma: bool = False,
 ) -> World:
     """The world of ``config`` (the env's scenario, or its family's base, named ``field``) and
     ``options`` (``EnvOptions``), checked (``ios_uav_env.components.World.check``, the one place
     that says which combinations of components the simulator runs): ``UnsupportedWorld`` (a
     ``ValueError``) naming ``env_id``, ``field``, the components and why. ``noma``: the env runs a
     STAR surface under NOMA (the view ``"star_noma"``); every other env refuses one, naming
-    :data:`STAR_NOMA_ID`."""
+    :data:`STAR_NOMA_ID`. ``sdma``: the env runs a multi-antenna UAV serving several nodes at once
+    (the view ``"miso_sdma"``); every other env refuses one, naming :data:`MISO_SDMA_ID`."""
     world = World.of(
         config,
         channel=options.channel,
@@ -96,6 +103,13 @@ def check_world(
             f"{env_id} ({field}; {options_set}): surface star with access 'noma' (star_access='noma', "
             f"{named}) serves a node on each side in one slot; this env serves one node per slot share "
             f"(TDMA): use {STAR_NOMA_ID}, or access 'tdma'"
+        )
+    if world.link.kind == "multi_antenna" and world.nodes > 1 and not sdma:
+        named = ", ".join(f"{family} {kind}" for family, kind in world.names().items())
+        raise UnsupportedWorld(
+            f"{env_id} ({field}; {options_set}): link multi_antenna with several nodes ({named}): the "
+            f"multi-antenna UAV serves them at once (SDMA); this env serves one node per slot share "
+            f"(TDMA): use {MISO_SDMA_ID}, or antennas=1"
         )
     return world
 

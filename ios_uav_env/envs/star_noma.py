@@ -25,7 +25,7 @@ from ios_uav_env.envs.star_noma_rows import INFO_KEYS, OBSERVATION_NAMES, StarNo
 from ios_uav_env.model.config import ScenarioConfig, as_config, scenario_option
 from ios_uav_env.model.star_maps import FRONTIER_POINTS
 
-__all__ = ["NOMA_CONFIG", "StarNomaStepper", "check_noma_scenario"]
+__all__ = ["NOMA_CONFIG", "StarNomaStepper", "check_noma_scenario", "check_two_user_world"]
 
 #: The scenario of the NOMA ids: ``STARControl-v0``'s (an 8 x 8 STAR surface low on a facade, plane
 #: x = 0, users (-5, 2) and (5, -2) m, -110 dBm, the UAV from (-250, -150) to (-250, 150) m in
@@ -45,12 +45,7 @@ def check_noma_scenario(config: ScenarioConfig, env_id: str, field: str = "confi
             f"needs surface='star' and star_access='noma', got surface={config.surface!r}, "
             f"star_access={config.star_access!r} (TDMA: ios_uav_env/IOSUAV-MultiNode-v0 on the config)"
         )
-    if config.energy_budget_j is not None:
-        raise ValueError(
-            f"{env_id} ({field}): energy_budget_j must be None (the env scores the max-min rate without "
-            f"an energy budget), got {config.energy_budget_j!r}"
-        )
-    check_world(config, EnvOptions(), env_id, field, noma=True)
+    check_two_user_world(config, env_id, field, noma=True)
     x_c = config.ios_center[0]
     xs = [x for x, _ in config.nodes]
     if (xs[0] - x_c) * (xs[1] - x_c) >= 0:
@@ -58,6 +53,18 @@ def check_noma_scenario(config: ScenarioConfig, env_id: str, field: str = "confi
             f"{env_id} ({field}): ground_nodes must be one user on each side of the surface plane "
             f"x = {x_c:g} m (off it), got x = {xs[0]:g} and {xs[1]:g} m"
         )
+
+
+def check_two_user_world(config: ScenarioConfig, env_id: str, field: str, **link: bool) -> None:
+    """``ValueError`` naming ``env_id`` and ``field`` for an energy budget (the two-user envs score
+    the max-min rate without one), then the world's checks (``settings.check_world`` with ``link``:
+    ``noma=True`` or ``sdma=True``)."""
+    if config.energy_budget_j is not None:
+        raise ValueError(
+            f"{env_id} ({field}): energy_budget_j must be None (the env scores the max-min rate without "
+            f"an energy budget), got {config.energy_budget_j!r}"
+        )
+    check_world(config, EnvOptions(), env_id, field, **link)
 
 
 class StarNomaStepper(EnvViews):
@@ -147,6 +154,13 @@ class StarNomaStepper(EnvViews):
     """
 
     view, action = "star_noma", "move_weight"
+    #: The fixed id and the Random id (``random_line``), the default scenario, the rows' class and
+    #: the observation's names: what a stepper of the same design on another link replaces.
+    ids: tuple[str, str] = (STAR_NOMA_ID, STAR_NOMA_RANDOM_ID)
+    default_config: ScenarioConfig = NOMA_CONFIG
+    rows_class: type = StarNomaRows
+    names: tuple[str, ...] = OBSERVATION_NAMES
+    surfaces: tuple[str, ...] = ("star",)
 
     def __init__(
         self,
@@ -182,29 +196,29 @@ class StarNomaStepper(EnvViews):
             raise ValueError(f"render_mode must be None (this env does not render), got {render_mode!r}")
         self.render_mode = None
         self.random_line = bool(random_line)
-        self.env_id = STAR_NOMA_RANDOM_ID if self.random_line else STAR_NOMA_ID
+        self.env_id = self.ids[1] if self.random_line else self.ids[0]
         if self.random_line and (config is not None or {"q0", "qF"} & set(overrides)):
             raise ValueError(
                 f"{self.env_id} draws its line (q0, qF) at every reset: give no config, q0 or qF "
-                f"(one scenario: {STAR_NOMA_ID})"
+                f"(one scenario: {self.ids[0]})"
             )
         # kappa, epsilon, bandwidth_hz, propulsion do nothing here (no fading, no IOS, no energy);
         # the STAR protocol and phase model are checked by the config (NOMA: "es", "independent")
         own = {k: v for k, v in overrides.items() if k not in ("star_protocol", "star_phases")}
-        check_scenario_overrides(self.env_id, own, ("star",), fades=False, multinode=True)
-        base = NOMA_CONFIG if config is None else as_config(config)
+        check_scenario_overrides(self.env_id, own, self.surfaces, fades=False, multinode=True)
+        base = self.default_config if config is None else as_config(config)
         if config is not None:  # (the keywords replace the id's own scenario's fields freely)
             check_config_keywords(self.env_id, base, overrides)
         self._base = base.replace(**overrides) if overrides else base
-        check_noma_scenario(self._base, self.env_id)
+        self.check_config(self._base, self.env_id)
         self.config = self._base
-        self.observation_names: tuple[str, ...] = OBSERVATION_NAMES
+        self.observation_names: tuple[str, ...] = self.names
         self.action_space = spaces.Box(-1.0, 1.0, (3,), np.float32)
         low, high = self._bounds(self._base)
         self.observation_space = spaces.Box(low, high, dtype=np.float32)
         #: The episode as a row (``StarNomaRows`` of one: the batched env runs B of them).
-        self.rows = StarNomaRows(1, int(frontier_points), bool(score), self.options.length_scale)
-        self._obs = np.zeros((1, len(OBSERVATION_NAMES)), dtype=np.float32)
+        self.rows = self.rows_class(1, int(frontier_points), bool(score), self.options.length_scale)
+        self._obs = np.zeros((1, len(self.names)), dtype=np.float32)
         self._reward, self._terminated = np.zeros(1), np.zeros(1, dtype=np.bool_)
         self._table = np.zeros((1, len(INFO_KEYS)))
         self._active = np.ones(1, dtype=np.bool_)
@@ -252,12 +266,17 @@ class StarNomaStepper(EnvViews):
 
     def check_scenario(self, cfg: ScenarioConfig, field: str = 'options["config"]') -> None:
         """``ValueError`` naming ``field`` unless the pinned ``cfg`` is a scenario this env runs."""
-        check_noma_scenario(cfg, self.env_id, field)
+        self.check_config(cfg, self.env_id, field)
         low, high = self._bounds(cfg)
         if np.any(low < self.observation_space.low) or np.any(high > self.observation_space.high):
             raise ValueError(
                 f"{field}: the scenario does not fit this env's observation space; make an env on it"
             )
+
+    def check_config(self, config: ScenarioConfig, env_id: str, field: str = "config") -> None:
+        """``ValueError`` naming ``env_id`` and ``field`` unless the env runs ``config``
+        (:func:`check_noma_scenario`)."""
+        check_noma_scenario(config, env_id, field)
 
     def start(self) -> tuple[np.ndarray, dict[str, Any]]:
         """The rest of ``reset``: slot 1 at q0; the first observation and ``info``."""

@@ -91,18 +91,26 @@ class StarNomaRows:
         """Serve row ``i``'s current slot at weight ``w`` of user 0: the weighted-sum optimum of
         the slot's frontier, its rates added to S_k; the slot's entries of the info row ``row``."""
         x, y, n = self.state[i]
-        maps = frontier_maps(self.configs[i], np.array([[x, y]]), self.users[i], self.points)
-        value, upper, rates = maps.weighted_sum(np.array([w, 1.0 - w]))
-        self.alone[i] = np.log2(1.0 + maps.full_snr[:, 0])
-        self.served[i] += rates[:, 0]
+        w, value, upper, rates = self.slot(i, x, y, w)
+        self.served[i] += rates
         self.weights[i, int(n)] = w
         ep = self.episode[i]
         dist = math.hypot(ep[2] - x, ep[3] - y)
         average = self.served[i] / ep[7]
         row[:] = (
-            n + 1.0, x, y, dist, w, rates[0, 0], rates[1, 0], value[0], upper[0], average[0], average[1],
+            n + 1.0, x, y, dist, w, rates[0], rates[1], value, upper, average[0], average[1],
             min(average[0], average[1]), 0.0,
         )  # fmt: skip
+
+    def slot(self, i: int, x: float, y: float, w: float) -> tuple[float, float, float, np.ndarray]:
+        """Row ``i``'s slot at (``x``, ``y``) m served at weight ``w`` of user 0: (the weight the
+        setting is made for, w . R of the setting, a certified bound on the slot's best w . R, the
+        rates R (2,)); writes each user's rate alone into ``alone[i]``. Here: the weighted-sum
+        optimum of the slot's ES frontier."""
+        maps = frontier_maps(self.configs[i], np.array([[x, y]]), self.users[i], self.points)
+        value, upper, rates = maps.weighted_sum(np.array([w, 1.0 - w]))
+        self.alone[i] = np.log2(1.0 + maps.full_snr[:, 0])
+        return w, float(value[0]), float(upper[0]), rates[:, 0]
 
     def _observe(self, i: int, out: np.ndarray) -> None:
         """Row ``i``'s observation at its current slot into ``out`` (float32)."""

@@ -1,5 +1,6 @@
 """Envs from worlds: ``make_world`` builds the env (single or batched) that runs a
-``ios_uav_env.components.World`` (a STAR surface under NOMA: ``ios_uav_env/STARUAV-NOMA-v0``).
+``ios_uav_env.components.World`` (a STAR surface under NOMA: ``ios_uav_env/STARUAV-NOMA-v0``; a
+multi-antenna UAV serving several nodes: ``ios_uav_env/MISOUAV-SDMA-v0``).
 Every env checks its own world at construction
 (``settings.check_world``: ``World.check``, the one place that says which combinations of
 components the simulator runs).
@@ -18,8 +19,9 @@ import gymnasium as gym
 
 from ios_uav_env.components import World
 from ios_uav_env.envs.core.vector import UAVVectorEnv
+from ios_uav_env.envs.miso_sdma import SDMA_CONFIG
 from ios_uav_env.envs.multi_features import DEFAULT_NODES
-from ios_uav_env.envs.registration import STAR_NOMA_ID, presets
+from ios_uav_env.envs.registration import MISO_SDMA_ID, STAR_NOMA_ID, presets
 from ios_uav_env.envs.star_noma import NOMA_CONFIG
 from ios_uav_env.model.config import ScenarioConfig, as_config
 
@@ -30,12 +32,15 @@ SINGLE_NODE_ID = "ios_uav_env/IOSUAV-v0"
 MULTI_NODE_ID = "ios_uav_env/IOSUAV-MultiNode-v0"
 
 
-def default_scenario(nodes: int, noma: bool = False) -> ScenarioConfig:
+def default_scenario(nodes: int, noma: bool = False, sdma: bool = False) -> ScenarioConfig:
     """The scenario a world of ``nodes`` nodes runs on when none is given: the paper's for one
     node, the multi-node id's three nodes (``multi.DEFAULT_NODES``) for three, the NOMA id's
-    (``star_noma.NOMA_CONFIG``) for a STAR surface under NOMA (``noma``)."""
+    (``star_noma.NOMA_CONFIG``) for a STAR surface under NOMA (``noma``), the SDMA id's
+    (``miso_sdma.SDMA_CONFIG``) for a multi-antenna UAV serving several nodes (``sdma``)."""
     if noma:
         return NOMA_CONFIG
+    if sdma:
+        return SDMA_CONFIG
     if nodes == 1:
         return ScenarioConfig()
     if nodes == len(DEFAULT_NODES):
@@ -58,7 +63,8 @@ def make_world(
         raise TypeError(f"world must be an ios_uav_env.components.World, got {world!r}")
     world.check()
     noma = world.surface.kind == "star" and world.surface.access == "noma"  # (two users: the NOMA id)
-    base = default_scenario(world.nodes, noma) if config is None else as_config(config)
+    sdma = world.link.kind == "multi_antenna" and world.nodes > 1  # (two users: the SDMA id)
+    base = default_scenario(world.nodes, noma, sdma) if config is None else as_config(config)
     if base.K != world.nodes:
         raise ValueError(f"config has K = {base.K} ground nodes, but the world has nodes={world.nodes}")
     clash = sorted(set(kwargs) & (set(world.config_fields()) | set(world.option_fields())))
@@ -66,7 +72,8 @@ def make_world(
         raise ValueError(f"{clash} are set by the world's components: change the world, not the keywords")
     cfg = base.replace(**world.config_fields())
     arguments = {"config": cfg, **world.option_fields(), **kwargs}
-    env_id = STAR_NOMA_ID if noma else SINGLE_NODE_ID if world.nodes == 1 else MULTI_NODE_ID
+    env_id = SINGLE_NODE_ID if world.nodes == 1 else MULTI_NODE_ID
+    env_id = STAR_NOMA_ID if noma else MISO_SDMA_ID if sdma else env_id
     if world.nodes == 1:  # the single-node id's own keyword (its surface) would replace the config's
         arguments["surface"] = cfg.surface
     if num_envs is None:

@@ -234,19 +234,23 @@ def wmmse_beams(H: np.ndarray, W: np.ndarray, weights: np.ndarray | None = None)
     Z[null] = 0.0
     lam = np.where(null, 0.0, lam)
     energy = np.sum(np.abs(Z) ** 2, axis=1)
+    live_energy, live_lam = energy[energy > 0], lam[energy > 0]
 
     def power(mu: float) -> float:
-        live = energy > 0
-        return float(np.sum(energy[live] / (lam[live] + mu) ** 2))
+        return float((live_energy / (live_lam + mu) ** 2).sum())
 
     if np.any((energy > 0) & null) or power(0.0) > 1.0:
-        lo, hi = 0.0, float(np.sqrt(energy.sum()))  # power(hi) <= 1
-        for _ in range(200):
-            mu = 0.5 * (lo + hi)
-            lo, hi = (mu, hi) if power(mu) > 1.0 else (lo, mu)
-            if hi - lo <= 1e-15 * hi:
-                break
-        mu = hi
+        hi = float(np.sqrt(energy.sum()))  # power(hi) <= 1
+        if live_energy.size <= _SHORT_SUM:  # the compiled bisection, numpy's sums bit for bit
+            mu = _power_level(live_energy, live_lam, hi)
+        else:
+            lo = 0.0
+            for _ in range(200):
+                mu = 0.5 * (lo + hi)
+                lo, hi = (mu, hi) if power(mu) > 1.0 else (lo, mu)
+                if hi - lo <= 1e-15 * hi:
+                    break
+            mu = hi
     else:
         mu = 0.0
     scale = np.zeros_like(lam)
@@ -255,6 +259,30 @@ def wmmse_beams(H: np.ndarray, W: np.ndarray, weights: np.ndarray | None = None)
     out = U @ (scale[:, None] * Z)
     power_out = float(np.sum(np.abs(out) ** 2))
     return out / np.sqrt(power_out) if power_out > 1.0 else out
+
+
+#: Arrays up to this length are summed by numpy's reduction left to right (its pairwise sum adds
+#: blocks under 8 in one loop; tested): :func:`_power_level` reproduces it.
+_SHORT_SUM = 7
+
+
+@jit(fastmath=False)
+def _power_level(energy: np.ndarray, lam: np.ndarray, hi: float) -> float:
+    """``wmmse_beams``' bisection on the power multiplier mu: the least hi found with
+    sum_i energy_i / (lam_i + mu)^2 <= 1, each sum added in numpy's order (:data:`_SHORT_SUM`)."""
+    lo = 0.0
+    for _ in range(200):
+        mu = 0.5 * (lo + hi)
+        total = 0.0
+        for i in range(energy.size):
+            total += energy[i] / (lam[i] + mu) ** 2
+        if total > 1.0:
+            lo = mu
+        else:
+            hi = mu
+        if hi - lo <= 1e-15 * hi:
+            break
+    return hi
 
 
 def _cascade(channel: SlotChannel, W: np.ndarray) -> np.ndarray:

@@ -32,8 +32,12 @@ shares). Under TDMA a STAR scenario is scored as every other surface's.
 
 A multi-antenna UAV (``config.antennas`` = N_t > 1; ``docs/model.md``, "Multi-antenna UAV") serving
 one node: eq. (9) with the slot rate log2(1 + G) of the phases and the beam at their closed-form
-joint optimum (``channel.slot_rates``, ``model.miso``). Several nodes served at once are refused
-here, naming ``model.miso_regions.miso_maxmin``.
+joint optimum (``channel.slot_rates``, ``model.miso``). Serving K in [2, 4] static nodes at once
+(SDMA) on a surface of at most ``miso_sdma.MAX_ELEMENTS`` elements: ``rate`` and
+``best_schedule_rate`` are the flight's max-min with time sharing of the per-slot settings of
+``ios_uav_env.model.miso_sdma`` (the weighted-sum AO at the lattice weights and each node alone;
+``sdma_maxmin``, exact over those settings; the plan gives no shares). Larger surfaces are
+refused (the per-slot AO's cost).
 
 A new objective extends this function and :class:`PlanScore` (``docs/development.md``), so
 that every caller (planners, envs, the benchmark) scores it alike.
@@ -46,6 +50,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ios_uav_env.model.config import ScenarioConfig
+from ios_uav_env.model.miso_sdma import check_sdma_scenario, sdma_maxmin
 from ios_uav_env.model.schedule import Schedule, schedule, scheduled_rates
 from ios_uav_env.model.star_regions import scenario_maxmin
 from ios_uav_env.model.trajectory import TrajectoryReport, check_trajectory
@@ -112,13 +117,8 @@ def score_plan(
     """
     q = np.asarray(trajectory, dtype=np.float64)
     report = check_trajectory(config, q)
-    if config.surface == "star" and config.star_access == "noma":
-        return _star_noma(config, q, report, shares, paths)
-    if config.antennas > 1 and config.K > 1:
-        raise ValueError(
-            f"a multi-antenna UAV (antennas={config.antennas}) serving K = {config.K} nodes serves them at "
-            "once (SDMA): score its flight with ios_uav_env.model.miso_regions.miso_maxmin (certified)"
-        )
+    if (config.surface == "star" and config.star_access == "noma") or (config.antennas > 1 and config.K > 1):
+        return _served_at_once(config, q, report, shares, paths)
     if config.K == 1:
         if shares is not None:
             raise ValueError("shares are for K > 1 ground nodes; this scenario has one")
@@ -134,28 +134,36 @@ def score_plan(
     return _score(config, own, best.value, True, report, best)
 
 
-def _star_noma(
+def _served_at_once(
     config: ScenarioConfig,
     q: np.ndarray,
     report: TrajectoryReport,
     shares: np.ndarray | None,
     paths: np.ndarray | None,
 ) -> PlanScore:
-    """The score of a STAR scenario under NOMA (module docstring)."""
+    """The score of a scenario whose nodes are served at once in every slot (module docstring): a
+    STAR surface under NOMA, or a multi-antenna UAV (SDMA); no TDMA shares, static nodes."""
+    if config.surface == "star" and config.star_access == "noma":
+        what = "a STAR scenario with star_access='noma'"
+        how = "the best power splits and time sharing of its trajectory"
+        how += " (ios_uav_env.model.star_regions.scenario_maxmin)"
+    else:
+        what = f"a multi-antenna UAV (antennas={config.antennas}) serving K = {config.K} nodes at once"
+        how = "the best time sharing of its slots' settings (ios_uav_env.model.miso_sdma.sdma_maxmin)"
     if shares is not None:
-        raise ValueError(
-            "shares are TDMA shares; a STAR scenario with star_access='noma' is scored with the best "
-            "power splits and time sharing of its trajectory "
-            "(ios_uav_env.model.star_regions.scenario_maxmin): give none"
-        )
+        raise ValueError(f"shares are TDMA shares; {what} is scored with {how}: give none")
     if paths is not None:
-        raise ValueError("paths: a STAR scenario with star_access='noma' is scored for static nodes only")
-    if config.antennas > 1:
-        raise ValueError(
-            f"antennas={config.antennas}: a STAR scenario with star_access='noma' is scored for a "
-            "single-antenna UAV (model.star_regions); use antennas=1, or star_access='tdma'"
-        )
-    best = scenario_maxmin(config, q).value
+        raise ValueError(f"paths: {what} is scored for static nodes only")
+    if config.surface == "star" and config.star_access == "noma":
+        if config.antennas > 1:
+            raise ValueError(
+                f"antennas={config.antennas}: a STAR scenario with star_access='noma' is scored for a "
+                "single-antenna UAV (model.star_regions); use antennas=1, or star_access='tdma'"
+            )
+        best = scenario_maxmin(config, q).value
+    else:
+        check_sdma_scenario(config)
+        best = sdma_maxmin(config, q).value
     return _score(config, best, best, False, report, None)
 
 

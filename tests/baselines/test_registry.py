@@ -33,6 +33,7 @@ PROBLEMS: dict[str, ScenarioConfig] = {
     "moving-ee": RATE.replace(objective="energy_efficiency", motion=GaussMarkov(speed=3.0, sigma=1.0)),
     "noma": RATE.replace(surface="star", star_access="noma", ground_nodes=TWO),
     "miso": RATE.replace(antennas=4),
+    "sdma": RATE.replace(antennas=4, ground_nodes=TWO),
 }
 #: The arguments each entry point takes after the config.
 EXTRA = {"mpc": (MPC(k=None), 0), "dp-bound": (None,), "dp-clairvoyant": (None, 10.0)}

@@ -35,7 +35,7 @@ def test_the_ids_are_all_here():
     ie = ios_uav_env
     expected = {*ie.ENV_IDS, *ie.RANDOM_IDS, *ie.MULTINODE_IDS, *ie.ENERGY_IDS, *ie.MOBILE_IDS,
                 *ie.MULTINODE_MOBILE_IDS, *ie.STAR_CONTROL_IDS, *ie.MISO_CONTROL_IDS,
-                *ie.STAR_NOMA_IDS, *ie.MISO_IDS}  # fmt: skip
+                *ie.STAR_NOMA_IDS, *ie.MISO_IDS, *ie.MISO_SDMA_IDS}  # fmt: skip
     assert set(IDS) == expected and set(CHANNELS) == {"expected", "rician"}
     assert {ie.STAR_ID, ie.STAR_RANDOM_ID} <= expected
 

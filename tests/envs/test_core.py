@@ -16,6 +16,7 @@ from ios_uav_env import ScenarioConfig
 from ios_uav_env.envs.core.env import UAVEnv
 from ios_uav_env.envs.core.stepper import VIEWS, Stepper
 from ios_uav_env.envs.core.vector import UAVVectorEnv
+from ios_uav_env.envs.miso_sdma import MisoSdmaStepper
 from ios_uav_env.envs.multi import MultiNodeEnv
 from ios_uav_env.envs.multi_node import MultiNodeStepper
 from ios_uav_env.envs.multi_vector import MultiNodeVectorEnv
@@ -37,6 +38,7 @@ IDS = {
     *ie.MULTINODE_MOBILE_IDS,
     *ie.STAR_NOMA_IDS,
     *ie.MISO_IDS,
+    *ie.MISO_SDMA_IDS,
 }
 DRAWN = {*ie.RANDOM_IDS, ie.ENERGY_RANDOM_ID, *ie.MOBILE_IDS}
 NODE_BLOCKS = {*ie.MULTINODE_IDS, *ie.MULTINODE_MOBILE_IDS}
@@ -49,9 +51,14 @@ def test_every_single_and_multi_node_id_is_the_one_class_with_its_preset():
         assert spec.entry_point == ENTRY_POINT and spec.vector_entry_point == VECTOR_ENTRY_POINT, env_id
         env = gym.make(env_id).unwrapped
         view = "node_blocks" if env_id in NODE_BLOCKS else "star_noma" if env_id in ie.STAR_NOMA_IDS else "v0"
+        view = "miso_sdma" if env_id in ie.MISO_SDMA_IDS else view
         assert type(env) is UAVEnv and (env.view, env.action) == (view, VIEWS[view]), env_id
         assert env.draws == (env_id in DRAWN) and isinstance(env.stepper, Stepper), env_id
-        steppers = {"node_blocks": MultiNodeStepper, "star_noma": StarNomaStepper}
+        steppers = {
+            "node_blocks": MultiNodeStepper,
+            "star_noma": StarNomaStepper,
+            "miso_sdma": MisoSdmaStepper,
+        }
         expected = steppers.get(view, SingleNodeStepper)
         expected = DrawnSingleNodeStepper if env_id in DRAWN else expected
         assert type(env.stepper) is expected and env.stepper_class(**spec.kwargs) is expected, env_id

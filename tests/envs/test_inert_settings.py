@@ -67,6 +67,8 @@ def test_every_setting_is_walked():
 def _base_kwargs(env_id: str) -> dict:
     if "NOMA" in env_id:  # (the NOMA ids' scenario is their own; the Random one draws its line only)
         return {"ios_shape": (4, 4), "score": False}
+    if "SDMA" in env_id:  # (the SDMA ids' too)
+        return {"ios_shape": (2, 2), "score": False}
     if "MultiNode-v0" in env_id:
         return {"T": 40.0}
     if "MultiNode" in env_id:

@@ -15,8 +15,12 @@ from ios_uav_env.envs.single import IOSUAVEnv
 
 #: Every registered id of the package that flies a plan (the surface control ids' UAV flies a given
 #: line: their info is scored against the per-slot optimum, ``test_star_control.py``,
-#: ``test_miso_control.py``; the NOMA STAR ids' ``score`` is ``score_plan``'s, ``test_star_noma.py``).
-CONTROL_IDS = {*ios_uav_env.STAR_CONTROL_IDS, *ios_uav_env.MISO_CONTROL_IDS, *ios_uav_env.STAR_NOMA_IDS}
+#: ``test_miso_control.py``; the NOMA STAR and SDMA ids' ``score`` is ``score_plan``'s,
+#: ``test_star_noma.py``, ``test_miso_sdma_env.py``).
+CONTROL_IDS = {
+    *ios_uav_env.STAR_CONTROL_IDS, *ios_uav_env.MISO_CONTROL_IDS, *ios_uav_env.STAR_NOMA_IDS,
+    *ios_uav_env.MISO_SDMA_IDS,
+}  # fmt: skip
 IDS = sorted(i for i in gym.registry if i.startswith("ios_uav_env/") and i not in CONTROL_IDS)
 RTOL = 1e-9  # the kernels' float64 sums against the model's, in another order
 #: Budget factors on the scenario's least energy: just above it (any flight of random moves

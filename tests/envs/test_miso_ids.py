@@ -103,7 +103,7 @@ def test_what_the_closed_form_does_not_model_is_refused(kwargs, match):
 
 def test_several_nodes_with_antennas_are_refused_by_name_in_the_multi_node_env():
     nodes = ((-100.0, -20.0), (60.0, 30.0))
-    with pytest.raises(UnsupportedWorld, match=r"multi_antenna with several nodes.*miso_maxmin"):
+    with pytest.raises(UnsupportedWorld, match=r"multi_antenna with several nodes.*MISOUAV-SDMA-v0"):
         gym.make("ios_uav_env/IOSUAV-MultiNode-v0", config=ScenarioConfig(ground_nodes=nodes, antennas=4))
 
 

@@ -24,6 +24,7 @@ def test_registered_ids_are_the_package_ids():
         *ios_uav_env.MISO_CONTROL_IDS,
         *ios_uav_env.STAR_NOMA_IDS,
         *ios_uav_env.MISO_IDS,
+        *ios_uav_env.MISO_SDMA_IDS,
     }
 
 

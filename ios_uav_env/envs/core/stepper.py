@@ -15,7 +15,9 @@ Each observation view comes with the action type it is read with (:data:`VIEWS`)
   ``multi_node.MultiNodeStepper``; ``BASE_FEATURES``, one block per node slot
   (``node_block_names``), then the energy features;
 - ``"star_noma"``, read with ``"move_weight"`` (``Box(-1, 1, (3,))``: the move and user 0's weight):
-  ``star_noma.StarNomaStepper``; a STAR surface serving a user on each side by NOMA.
+  ``star_noma.StarNomaStepper``; a STAR surface serving a user on each side by NOMA;
+- ``"miso_sdma"``, read with ``"move_weight"`` as ``"star_noma"``: ``miso_sdma.MisoSdmaStepper``; a
+  multi-antenna UAV serving two users at once (SDMA).
 
 :func:`choose_view` checks the view (``"v0"`` when none is given) and :func:`make_stepper` builds
 the stepper: the only branching on the kind of world in the env
@@ -29,6 +31,7 @@ from typing import Any, Protocol, runtime_checkable
 import gymnasium as gym
 import numpy as np
 
+from ios_uav_env.envs.miso_sdma import MisoSdmaStepper
 from ios_uav_env.envs.multi_node import MultiNodeStepper
 from ios_uav_env.envs.single_drawn import DrawnSingleNodeStepper
 from ios_uav_env.envs.single_node import SingleNodeStepper
@@ -38,7 +41,9 @@ from ios_uav_env.model.config import ScenarioConfig
 __all__ = ["VIEWS", "Stepper", "choose_view", "make_stepper", "stepper_class"]
 
 #: view -> the action type it is read with.
-VIEWS: dict[str, str] = {"v0": "move", "node_blocks": "move_scores", "star_noma": "move_weight"}
+VIEWS: dict[str, str] = {
+    "v0": "move", "node_blocks": "move_scores", "star_noma": "move_weight", "miso_sdma": "move_weight",
+}  # fmt: skip
 
 
 @runtime_checkable
@@ -96,6 +101,8 @@ def stepper_class(view: str, draws: bool = False) -> type:
         return MultiNodeStepper
     if view == "star_noma":
         return StarNomaStepper
+    if view == "miso_sdma":
+        return MisoSdmaStepper
     return DrawnSingleNodeStepper if draws else SingleNodeStepper
 
 
@@ -113,7 +120,7 @@ def make_stepper(
     if view != "v0" and draws:
         raise ValueError(
             "draws is the v0 view's scenario draw; the node-block view draws with random_nodes=(low, high), "
-            "the star_noma view with random_line=True"
+            "the star_noma and miso_sdma views with random_line=True"
         )
     cls = stepper_class(view, draws)
     if cls is DrawnSingleNodeStepper:  # (its first argument is the family it draws from)

@@ -4,7 +4,8 @@
 single- and multi-node id. Its template env (a ``UAVEnv`` made with the id's keywords) chooses the
 rows by its view: ``single_rows.SingleNodeRows`` (``"v0"``), ``node_rows.NodeBlockRows``
 (``"node_blocks"``), which hold the row arrays and call the compiled step, or
-``star_noma_rows.StarNomaRows`` (``"star_noma"``: numpy, the rows the single env runs one of).
+``star_noma_rows.StarNomaRows`` (``"star_noma"``) or ``miso_sdma.MisoSdmaRows``
+(``"miso_sdma"``): numpy, the rows the single env runs one of.
 Everything else is
 ``ios_uav_env.envs.batched.BatchedEnv``'s, once: the scenario choice at reset in one template env
 per row (the row protocol), seeding (row i is the single env reset with seed ``seed + i``, draw
@@ -24,7 +25,6 @@ from ios_uav_env.envs.core.env import UAVEnv
 from ios_uav_env.envs.core.stepper import choose_view
 from ios_uav_env.envs.node_rows import NodeBlockRows
 from ios_uav_env.envs.single_rows import SingleNodeRows
-from ios_uav_env.envs.star_noma_rows import StarNomaRows
 
 __all__ = ["UAVVectorEnv"]
 
@@ -57,9 +57,9 @@ class UAVVectorEnv(BatchedEnv):
     def _init_rows(self, template: UAVEnv) -> None:
         if template.view == "node_blocks":
             self.rows: Any = NodeBlockRows(template, self.envs, self.num_threads, self.best_schedule)
-        elif template.view == "star_noma":
+        elif template.view in ("star_noma", "miso_sdma"):
             own = template.rows  # (the single env's one row: its frontier angles, score, length scale)
-            self.rows = StarNomaRows(self.num_envs, own.points, own.score, own.length_scale)
+            self.rows = type(own)(self.num_envs, own.points, own.score, own.length_scale)
         else:
             self.rows = SingleNodeRows(template, self.envs, self.num_threads)
         self.info_keys = self.rows.info_keys  # (the node blocks': more with the energy objective, Rician)
