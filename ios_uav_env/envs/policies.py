@@ -41,10 +41,7 @@ from ios_uav_env.envs.observation_layout import (
 from ios_uav_env.model.config import moves_needed
 from ios_uav_env.model.propulsion import PropulsionModel, max_range_speed
 
-__all__ = [
-    "TARGETS", "FeatureReader", "HoverAt", "Loiter", "ServeNeediest", "full_speed_move", "move_toward",
-    "moves_left",
-]  # fmt: skip
+__all__ = ["TARGETS", "FeatureReader", "HoverAt", "Loiter", "full_speed_move", "move_toward", "moves_left"]
 
 
 def _single_layout_columns(needed: tuple[str, ...], width: int, who: str) -> tuple[int, ...]:
@@ -276,82 +273,4 @@ class Loiter(FeatureReader):
         return (
             f"Loiter(D={self.D:g}, length_scale={self.length_scale:g}, sides={self.sides}, "
             f"cruise={self.cruise:g})"
-        )
-
-
-class ServeNeediest(FeatureReader):
-    """Several nodes, from the observation: fly at full speed towards the node that needs the UAV
-    most and give it the slot, a tracker of the told (or filtered) node positions for the max-min
-    rate.
-
-    The node it serves is the one of least ``served + travel x distance / L`` among the
-    scenario's nodes (``mask``): ``served`` the rate served to it so far (S_k / N, bps/Hz; the
-    UAV's own tally of measured rates where the knowledge is not exact) and the distance its
-    told position is away. So it starts with the nearest node, stays on it while that node's
-    service is within ``travel`` x its distance to another node of the least served one, then
-    goes on: ``travel`` (bps/Hz per length L) is the service a move of L must be worth. The
-    node's score is 1, every other's -1 (with the env's ``share_sharpness`` of 5 that node gets
-    all but 1e-4 of the slot). The env's arrival guard brings the UAV to qF in time.
-
-    ``k_max`` must be the env's (the action has 2 + ``k_max`` components), ``served`` the name of
-    the served feature (``"served_measured"`` unless the knowledge is exact, then ``"served"``);
-    ``D`` (m) and ``length_scale`` (m) the env's D = v_max dt and L.
-    """
-
-    #: It takes a batch of observations too ((B, obs_dim) -> (B, 2 + k_max)).
-    batched = True
-
-    def __init__(
-        self, travel: float = 0.2, k_max: int = 4, served: str = "served_measured", D: float = 25.0,
-        length_scale: float = 400.0,
-    ) -> None:  # fmt: skip
-        def finite(value: Any) -> bool:
-            return not isinstance(value, bool) and isinstance(value, (int, float)) and math.isfinite(value)
-
-        for name, value in (("D", D), ("length_scale", length_scale)):
-            if not (finite(value) and value > 0):
-                raise ValueError(f"{name} must be a finite number > 0 (m), got {value!r}")
-        if not (finite(travel) and travel >= 0):
-            raise ValueError(f"travel must be a finite number >= 0 (bps/Hz per length L), got {travel!r}")
-        if isinstance(k_max, bool) or not isinstance(k_max, int) or k_max < 1:
-            raise ValueError(f"k_max must be an integer >= 1 (the env's node slots), got {k_max!r}")
-        if served not in ("served", "served_measured"):
-            raise ValueError(f"served must be 'served' or 'served_measured', got {served!r}")
-        self.travel, self.k_max, self.served = float(travel), k_max, served
-        self.D, self.length_scale = float(D), float(length_scale)
-        self.observation_features = tuple(
-            f"{feature}_{k}" for feature in ("mask", "dx_node", "dy_node", served) for k in range(k_max)
-        )
-
-    @property
-    def name(self) -> str:
-        return "serve the neediest node (heuristic, from the observation)"
-
-    def __call__(self, obs: np.ndarray) -> np.ndarray:
-        o = np.atleast_2d(np.asarray(obs, dtype=np.float64))
-        if self._layout is None:
-            raise ValueError(
-                f"{self!r} reads several node blocks: bind it to its env's layout first, "
-                "policy.bind(env.unwrapped.observation_names) (run_episode and evaluate do)"
-            )
-        cols = np.asarray(self._columns(o)).reshape(4, self.k_max)
-        mask, dx, dy, served = (o[:, c] for c in cols)
-        distance = np.hypot(dx, dy)  # in units of L
-        need = np.where(mask > 0.5, served + self.travel * distance, np.inf)
-        target = np.argmin(need, axis=1)
-        rows = np.arange(len(o))
-        offset = np.column_stack([dx[rows, target], dy[rows, target]]) * self.length_scale
-        scores = -np.ones((len(o), self.k_max))
-        scores[rows, target] = 1.0
-        action = np.concatenate([full_speed_move(offset, self.D), scores], axis=1).astype(np.float32)
-        return action if np.ndim(obs) == 2 else action[0]
-
-    def act(self, obs: np.ndarray, deterministic: bool = True) -> np.ndarray:
-        """SB3-style alias of ``__call__`` (the policy is deterministic)."""
-        return self(obs)
-
-    def __repr__(self) -> str:
-        return (
-            f"ServeNeediest(travel={self.travel:g}, k_max={self.k_max}, served={self.served!r}, "
-            f"D={self.D:g}, length_scale={self.length_scale:g})"
         )
