@@ -2,6 +2,7 @@
 makes, against how far a real regression moves it: the measurement behind ``tests/tolerances.py``.
 
     python benchmarks/replay_tolerance.py [--ulps 4 64] [--seeds 6]
+    python benchmarks/replay_tolerance.py --multi-node-mobile [--ulps 4 64] [--seeds 6]
 
 For each shipped agent every action is multiplied by 1 + u, u uniform within +-U float32 ulps
 and redrawn each call (what different float32 kernels do to the same weights), and the episode
@@ -12,6 +13,11 @@ rate deviation and the worst miss deviation (m) of each, and whether the toleran
 (``dagger_IOSUAV-MultiNode-Random-v0``) is replayed as its test replays it: the first 8
 scenarios of ``multi-node-v1`` (``Suite.subset(8)``) against the rates of its recorded suite
 table (``suite_report.csv``); its plans have no terminal miss (a plan is feasible or not).
+
+``--multi-node-mobile``: the multi-node agent with memory (``MULTI_MOBILE``), whose single episodes
+move by several % under that noise, is measured as its test replays it: the deviation (points)
+of its mean % of the optimum over all of ``multi-node-mobile-v1`` from the unperturbed mean,
+against ``MULTI_MOBILE_MEAN_ABS``.
 """
 
 from __future__ import annotations
@@ -33,13 +39,15 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # agents/ and test
 from agents.evaluate import MODELS_DIR, SHIPPED  # noqa: E402
 from agents.loading import load_agent  # noqa: E402
 from agents.rollout import rollout  # noqa: E402
-from tests.tolerances import MISS_ABS, NORMALISATION_CHANGE, RATE_REL  # noqa: E402
+from tests.tolerances import MISS_ABS, MULTI_MOBILE_MEAN_ABS, NORMALISATION_CHANGE, RATE_REL  # noqa: E402
 
 AGENTS = (*SHIPPED, "ppo_IOSUAV-MultiNode-v0")
 #: The multi-node generalist, replayed on suite scenarios (see the module docstring).
 GENERALIST = "dagger_IOSUAV-MultiNode-Random-v0"
 #: How many of ``multi-node-v1``'s scenarios its replay covers (the test's subset).
 GENERALIST_SCENARIOS = 8
+#: The multi-node agent with memory, replayed on all of multi-node-mobile-v1 (module docstring).
+MULTI_MOBILE = "ppo_memory_IOSUAV-MultiNode-Mobile-v0"
 
 
 class _Perturbed:
@@ -88,13 +96,42 @@ def suite_deviation(agent: Any, recorded: dict[int, float], **perturbation: Any)
     return worst, 0.0
 
 
+def multi_mobile_mean(agent: Any, **perturbation: Any) -> float:
+    """The mean % of the optimum over multi-node-mobile-v1 of ``agent`` (the numpy export, its
+    memory beside it) with ``perturbation`` (:class:`_Perturbed`'s arguments)."""
+    from ios_uav_env.benchmark import evaluate
+
+    perturbed = _Perturbed(agent, **perturbation)
+    results = evaluate(perturbed.act, "multi-node-mobile-v1", env_kwargs=agent.env_kwargs, name=MULTI_MOBILE)
+    return float(results.aggregate.stats["mean_pct_optimum"])
+
+
+def multi_mobile(ulps: list[float], seeds: int) -> None:
+    """Print the ``--multi-node-mobile`` measurement (module docstring)."""
+    from agents.loading import load_numpy_agent
+
+    agent = load_numpy_agent(MODELS_DIR / MULTI_MOBILE)
+    base = multi_mobile_mean(agent)
+    print(f"{MULTI_MOBILE}: mean {base:.2f} % of the optimum; tolerance {MULTI_MOBILE_MEAN_ABS:g} points")
+    for u in ulps:
+        worst = max(abs(multi_mobile_mean(agent, ulps=u, seed=s) - base) for s in range(seeds))
+        print(f"  {u:g} ulps: mean moved by up to {worst:.2f} points "
+              f"({'held' if worst <= MULTI_MOBILE_MEAN_ABS else 'NOT held'})")  # fmt: skip
+    moved = abs(multi_mobile_mean(agent, scale=NORMALISATION_CHANGE) - base)
+    print(f"  obs x (1 + {NORMALISATION_CHANGE:g}): mean moved by {moved:.2f} points")
+
+
 def main(argv: list[str] | None = None) -> int:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("--ulps", type=float, nargs="+", default=[4.0, 64.0], help="jitter sizes (float32 ulps)")
     p.add_argument("--seeds", type=int, default=6, help="jitter draws per size (default 6)")
+    p.add_argument("--multi-node-mobile", action="store_true", help=f"measure {MULTI_MOBILE} only")
     args = p.parse_args(argv)
     if args.seeds < 1 or any(u <= 0 for u in args.ulps):
         p.error("--seeds must be >= 1 and every --ulps > 0")
+    if args.multi_node_mobile:
+        multi_mobile(args.ulps, args.seeds)
+        return 0
     print(f"tolerances: rate {RATE_REL:g} relative, terminal miss {MISS_ABS:g} m")
     for name in (*AGENTS, GENERALIST):
         agent = load_agent(MODELS_DIR / name)
