@@ -72,3 +72,21 @@ def test_with_travel_it_beats_the_tour_mpc_on_the_frozen_suite():
 
     a = evaluate(NearestWorstNode(travel=0.2), "multi-node-mobile-v1", env_kwargs={"filter_estimate": True})
     assert a.aggregate.feasible == 24 and a.aggregate.stats["mean_pct_optimum"] > MPC_K10_MEAN
+
+
+@pytest.mark.parametrize("knowledge", ["exact", "filtered reports"])
+def test_the_clairvoyant_optimum_is_above_the_tracker_on_every_scenario(knowledge):
+    """The suite's normaliser is the best clairvoyant plan found, not a proven optimum; the online
+    task's acceptance is that it holds at least 99.5 % (the grid's resolution) of every online row on
+    every scenario, the tracker flown with exact knowledge of the nodes included (a task change,
+    scored on the same true paths) and the bound above the optimum. Largest recorded: 97.8 % of the
+    optimum (exact) and 90.1 % (filtered), so a normaliser that fell by 3 % on a scenario fails."""
+    from ios_uav_env.benchmark import evaluate
+
+    kwargs = {"knowledge": "exact"} if knowledge == "exact" else {"filter_estimate": True}
+    res = evaluate(NearestWorstNode(travel=0.2), "multi-node-mobile-v1", env_kwargs=kwargs,
+                   allow_task_change=knowledge == "exact")  # fmt: skip
+    assert len(res.scenarios) == 24 and all(r.feasible for r in res.scenarios)
+    for r in res.scenarios:
+        assert r.pct["optimum"] <= 100.0 / 0.995, (r.index, r.pct)
+        assert r.pct["bound"] <= r.pct["optimum"], (r.index, r.pct)
