@@ -79,15 +79,17 @@ def test_the_rates_order_as_the_phase_grids_nest():
     r_1 <= r_2 <= r_3 <= r_continuous, at drawn positions on both sides, each node; 8 bits come
     within 1e-3 of continuous phases."""
     rng = np.random.default_rng(0)
-    q = np.column_stack([rng.uniform(-400.0, 400.0, 300), rng.uniform(-150.0, 150.0, 300)])
+    q = np.column_stack([rng.uniform(-400.0, 400.0, 100), rng.uniform(-150.0, 150.0, 100)])
     for node in NODES:
         config = STAR.replace(ground_node=node)
-        rates = [channel.slot_rates(config.replace(star_bits=b), q) for b in (1, 2, 3, 8)]
+        rates = [channel.slot_rates(config.replace(star_bits=b), q) for b in (1, 2, 3)]
         rates.append(channel.slot_rates(config, q))
         for low, high in itertools.pairwise(rates):
             assert np.all(low <= high * (1 + EXACT))
         assert np.all(rates[0] < rates[-1])  # (one bit loses at every position here)
-        assert np.all(rates[3] >= rates[4] * (1 - 1e-3))
+        fine = channel.slot_rates(config.replace(star_bits=8), q[:10])  # (2^8 passes each: a few)
+        assert np.all(rates[2][:10] <= fine * (1 + EXACT)) and np.all(fine <= rates[3][:10] * (1 + EXACT))
+        assert np.all(fine >= rates[3][:10] * (1 - 1e-3))
 
 
 def test_zero_weight_nodes_change_nothing():
