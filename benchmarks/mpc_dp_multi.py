@@ -1,6 +1,7 @@
 """MPC on the frozen ``multi-node-mobile-v1`` scenarios, against the suite's stored rows.
 
-    python benchmarks/mpc_dp_multi.py [--k 10] [--planner dp-tour|dp|tour] [--oracle] [--plans F.npz] [IDX...]
+    python benchmarks/mpc_dp_multi.py [--k 10] [--planner dp-tour|dp|tour] [--oracle] [--plans F.npz]
+        [--trace] [IDX ...]
 
 Per scenario (all 24 by default, or the indices given) one episode of ``MPC(k, planner)``
 (``baselines.mpc.run_online`` at the scenario's episode seed, MPC-DP at the suite's grid,
@@ -18,6 +19,12 @@ the gap to the optimum that prediction, not planning, accounts for.
 scenario; the scenarios it already holds are read back and not run again (the run resumes). The
 benchmark scores it as any row, ``python -m ios_uav_env.benchmark evaluate --suite
 multi-node-mobile-v1 --trajectories FILE.npz`` (``docs/leaderboard.md``). Not with ``--oracle``.
+
+``--trace``: every re-plan's predicted frame values (``OnlineResult.replans``: the incumbent's and
+each candidate's on the predictions of that slot, and what was kept), then the drift of the plans
+flown: each plan's predicted value at the re-plan that kept it against its value on the next
+re-plan's predictions (the incumbent there), as the mean relative drop of the plans that replaced
+the incumbent and of the incumbents kept.
 
 One process; to use two cores run two with disjoint indices (and distinct ``--plans`` files).
 """
@@ -85,6 +92,20 @@ def run(task: dict[str, Any], k: int, planner: str, oracle: bool) -> tuple[float
     return 100.0 * rate / task["optimum"]["rate"], result.n_plans, result.n_kept
 
 
+def drift(replans: tuple[mpc.Replan, ...]) -> dict[str, list[float]]:
+    """The relative drop (%) of each flown plan's predicted frame value from the re-plan that kept
+    it to the next re-plan's predictions, for the plans that replaced the incumbent (the first plan
+    included) and for the incumbents kept."""
+    out: dict[str, list[float]] = {"replaced": [], "kept": []}
+    for made, after in zip(replans, replans[1:], strict=False):
+        value = made.incumbent if made.kept == "incumbent" else made.candidates[made.kept]
+        if value is None or after.incumbent is None or value <= 0:
+            continue
+        what = "kept" if made.kept == "incumbent" else "replaced"
+        out[what].append(100.0 * (value - after.incumbent) / value)
+    return out
+
+
 def pct_of_optimum(task: dict[str, Any], q: np.ndarray, shares: np.ndarray) -> float:
     """% of the stored optimum of a flight ``q`` with its ``shares`` on the scenario's true paths."""
     config = ScenarioConfig(**task["config"])
@@ -99,7 +120,10 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--planner", choices=("dp-tour", "dp", "tour"), default="dp-tour")
     parser.add_argument("--oracle", action="store_true", help="plan on the true future paths")
     parser.add_argument("--plans", type=Path, default=None, help="write the flights here (.npz), resuming")
+    parser.add_argument("--trace", action="store_true", help="print every re-plan's predicted frame values")
     args = parser.parse_args(argv)
+    if args.trace and args.plans is not None:
+        parser.error("--trace runs every episode: not with --plans")
     if args.plans is not None and (args.oracle or args.plans.suffix != ".npz"):
         parser.error("--plans is a .npz file, and not with --oracle (the flights of the online task only)")
     plans: tuple[dict[int, np.ndarray], dict[int, float], dict[int, np.ndarray]] = ({}, {}, {})
@@ -117,6 +141,14 @@ def main(argv: list[str] | None = None) -> int:
             result = episode(task, args.k, args.planner, args.oracle)
             pct = pct_of_optimum(task, result.trajectory, result.shares)
             made, kept = result.n_plans, result.n_kept
+            if args.trace:
+                for r in result.replans:
+                    old = "-" if r.incumbent is None else f"{r.incumbent:.4f}"
+                    cands = " ".join(f"{name} {value:.4f}" for name, value in r.candidates.items())
+                    print(f"    slot {r.slot:3d}: incumbent {old} | {cands} -> {r.kept}")
+                for what, drops in drift(result.replans).items():
+                    mean = f"{np.mean(drops):+.1f} %" if drops else "-"
+                    print(f"    {what}: {len(drops)} plans, predicted value lost by the next re-plan {mean}")
             if args.plans is not None:
                 plans[0][i], plans[1][i], plans[2][i] = result.trajectory, result.seconds, result.shares
                 write_trajectories(args.plans, *plans, compressed=True)
