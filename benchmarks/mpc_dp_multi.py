@@ -84,14 +84,6 @@ def episode(task: dict[str, Any], k: int, planner: str, oracle: bool) -> mpc.Onl
     return result
 
 
-def run(task: dict[str, Any], k: int, planner: str, oracle: bool) -> tuple[float, int, int]:
-    """% of the optimum of one episode, the plans made and kept."""
-    result = episode(task, k, planner, oracle)
-    config = ScenarioConfig(**task["config"])
-    rate = score(config, result.trajectory, result.shares, result.paths).rate
-    return 100.0 * rate / task["optimum"]["rate"], result.n_plans, result.n_kept
-
-
 def drift(replans: tuple[mpc.Replan, ...]) -> dict[str, list[float]]:
     """The relative drop (%) of each flown plan's predicted frame value from the re-plan that kept
     it to the next re-plan's predictions, for the plans that replaced the incumbent (the first plan
