@@ -106,7 +106,8 @@ INNER_PLANNERS: tuple[str, ...] = ("tour", "dp", "dp-tour")
 DP_RESOLUTION = 5.0
 DP_REFINE = 2
 
-__all__ = ["DP_REFINE", "DP_RESOLUTION", "EXACT_SIGMA", "MPC", "SERVED_SHARE", "OnlineResult", "run_online"]
+__all__ = ["DP_REFINE", "DP_RESOLUTION", "EXACT_SIGMA", "MPC", "SERVED_SHARE", "OnlineResult", "Replan",
+           "run_online"]  # fmt: skip
 
 
 @dataclass(frozen=True)
@@ -147,6 +148,18 @@ class MPC:
 
 
 @dataclass(frozen=True)
+class Replan:
+    """One re-plan of an episode: the predicted frame values (bps/Hz, ``_frame``'s ``value`` on the
+    predictions of ``slot``) of the incumbent (None at the first plan) and of each candidate
+    (``"tour"``, ``"dp"``), and what was flown next (a candidate's name, or ``"incumbent"``)."""
+
+    slot: int
+    incumbent: float | None
+    candidates: dict[str, float]
+    kept: str
+
+
+@dataclass(frozen=True)
 class OnlineResult:
     """One online episode: what was flown, its score on the true paths, the planning time."""
 
@@ -160,6 +173,7 @@ class OnlineResult:
     paths: np.ndarray  # (N, K, 2) m, the true node paths
     reports: np.ndarray  # (N, K, 2) m, the position reports
     measured: np.ndarray  # (K, N) bps/Hz, measured rates (NaN where a node was not served)
+    replans: tuple[Replan, ...] = ()  # every re-plan's predicted frame values, in order
 
     @property
     def rate(self) -> float:
@@ -258,6 +272,7 @@ def run_online(
     plan_q: np.ndarray | None = None  # the incumbent's positions of every slot (N, 2)
     plan_a: np.ndarray | None = None  # the incumbent's shares (K, N)
     seconds, n_plans, n_kept = 0.0, 0, 0
+    replans: list[Replan] = []
     filt: NodeFilter | None = None
     for n in range(n_slots):
         reports[n] = position_reports(truth[n], rng, report_sigma)
@@ -276,21 +291,35 @@ def run_online(
             rest = _rest_config(config, q[n], n, estimate)
             old = None if plan_q is None else _frame(config, past, plan_q[n:], pred)
             found: list[tuple[Schedule, np.ndarray]] = []  # (predicted frame, rest of the flight)
+            names: list[str] = []  # the candidates' planners, in the order of found
             if planner.planner == "tour":
                 found.append(_tour_rest(config, planner, rest, pred, past))
+                names.append("tour")
             else:
                 weights = None if k_nodes == 1 or old is None else old.weights
                 if k_nodes > 1 and (weights is None or planner.planner == "dp-tour"):  # the tour (below)
                     found.append(_tour_rest(config, planner, rest, pred, past))
+                    names.append("tour")
                     weights = found[0][0].weights if weights is None else weights
                 rest_q = _dp_rest(planner, rest, pred, weights)
                 if rest_q is not None:
                     found.append((_frame(config, past, rest_q, pred), rest_q))
+                    names.append("dp")
             if not found and old is None:  # the tour (or no grid path in time: the tour stands in)
                 found.append(_tour_rest(config, planner, rest, pred, past))
+                names.append("tour")
             n_plans += 1
-            new = max(found, key=lambda f: f[0].value) if found else None  # (the first of equal values)
-            if new is not None and (old is None or new[0].value > old.value):
+            # the best candidate (the first of equal values)
+            best = max(range(len(found)), key=lambda i: found[i][0].value) if found else None
+            new = None if best is None else found[best]
+            replaced = new is not None and (old is None or new[0].value > old.value)
+            replans.append(Replan(
+                slot=n, incumbent=None if old is None else float(old.value),
+                candidates={name: float(f[0].value) for name, f in zip(names, found, strict=True)},
+                kept=names[best] if replaced and best is not None else "incumbent",
+            ))  # fmt: skip
+            if replaced:
+                assert new is not None
                 plan_q = np.concatenate([q[:n], new[1]])
                 plan_a, n_kept = new[0].shares, n_kept + 1
             elif old is not None:
@@ -315,4 +344,5 @@ def run_online(
     return OnlineResult(
         scheme=planner.name, trajectory=q, shares=shares, score=score, seconds=seconds,
         n_plans=n_plans, n_kept=n_kept, paths=truth, reports=reports, measured=measured,
+        replans=tuple(replans),
     )  # fmt: skip

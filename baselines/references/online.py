@@ -333,12 +333,14 @@ def describe(i: int, rec: Mapping[str, Any]) -> str:
     return f"#{i}: optimum {gap}; mpc_dp_k1 {pct('mpc_dp_k1')}, best online {best} {pct(best)} of it"
 
 
-def check_online_record(rec: Mapping[str, Any]) -> list[str]:
+def check_online_record(rec: Mapping[str, Any], extra: Sequence[str] = ()) -> list[str]:
     """What refuses a record (module docstring, "Checks"): one line per failure, naming the scenario
-    and the row; none for a record fit to freeze."""
+    and the row; none for a record fit to freeze. ``extra``: more online rows of the record
+    (``{"rate", "feasible"}``), checked as the suite's own (rows scored after the freeze)."""
     i, config = rec["index"], ScenarioConfig(**rec["config"])
     ub, notes = rec["bound"].get("upper_bound"), []
-    rows = ("optimum", "clairvoyant", *online_rows(config.K))
+    online = (*online_rows(config.K), *extra)
+    rows = ("optimum", "clairvoyant", *online)
     for name in rows:
         if "error" in rec[name] or not rec[name]["feasible"]:
             notes.append(f"#{i}: {name} failed or infeasible ({rec[name].get('error', 'infeasible')})")
@@ -351,7 +353,7 @@ def check_online_record(rec: Mapping[str, Any]) -> list[str]:
         rate = float(rec[name]["rate"])
         if rate > ub * (1.0 + BOUND_REL):
             notes.append(f"#{i}: {name} {rate!r} > bound {ub!r} bps/Hz")
-        if name in online_rows(config.K) and opt < ONLINE_SHARE * rate:
+        if name in online and opt < ONLINE_SHARE * rate:
             notes.append(f"#{i}: optimum {opt!r} < {100 * ONLINE_SHARE:g}% of {name} {rate!r} bps/Hz "
                          f"({100 * opt / rate:.3f}%)")  # fmt: skip
     return notes

@@ -236,3 +236,26 @@ def test_several_nodes_a_replan_keeps_at_least_the_tours_frame(monkeypatch: pyte
         assert [name for name, _ in after] == ["old", "tour", "dp"]
         assert after[0][1] >= max(value for _, value in made) - 1e-9
     assert run.rate >= max(value for _, value in plans[-1]) - 1e-9
+
+
+@pytest.mark.parametrize("inner", ["tour", "dp", "dp-tour"])
+def test_every_replan_is_recorded_with_its_candidates(inner: str) -> None:
+    """``OnlineResult.replans``: one record per plan, at the re-plan slots; the first has no
+    incumbent; a plan flown next is the best candidate and beats the incumbent, else the incumbent
+    is worth at least every candidate; the candidates are the inner planner's (``"dp"``: the tour at
+    the first plan only, ``"dp-tour"``: at every plan); the replacements are ``n_kept``."""
+    run = run_online(MOBILE, MPC(k=5, planner=inner), 3)
+    assert len(run.replans) == run.n_plans >= 3
+    assert [r.slot for r in run.replans] == [5 * i for i in range(run.n_plans)]
+    assert run.replans[0].incumbent is None and run.replans[0].kept != "incumbent"
+    assert sum(r.kept != "incumbent" for r in run.replans) == run.n_kept
+    expected = {"tour": [["tour"]] * 2, "dp": [["tour", "dp"], ["dp"]], "dp-tour": [["tour", "dp"]] * 2}[
+        inner
+    ]
+    for i, r in enumerate(run.replans):
+        assert list(r.candidates) == expected[min(i, 1)], (i, r)
+        best = max(r.candidates.values())
+        if r.kept == "incumbent":
+            assert r.incumbent is not None and r.incumbent >= best
+        else:
+            assert r.candidates[r.kept] == best and (r.incumbent is None or best > r.incumbent)
