@@ -73,18 +73,11 @@ def check_miso(config: ScenarioConfig, miso: Any, seed: Any, where: str) -> dict
     """``miso`` as stored, checked with its ``seed`` and ``config`` (``ValueError`` naming ``where``
     and the field): exactly the keys :data:`MISO_FIELDS`, accepted by the env's constructor; a seed
     >= 0; the config the env builds for those keywords and the line its reset draws for ``seed``."""
-    from ios_uav_env.benchmark.star_suite import check_line
+    from ios_uav_env.benchmark.star_suite import check_fields, check_line
     from ios_uav_env.envs.miso_control import USERS, MISOControlEnv
     from ios_uav_env.envs.star_control import BASE_CONFIG, Y_SPAN
 
-    if not isinstance(miso, Mapping):
-        raise ValueError(f"{where}: miso must be an object of {list(MISO_FIELDS)}, got {miso!r}")
-    if set(miso) != set(MISO_FIELDS):
-        raise ValueError(
-            f"{where}: miso must have exactly the fields {list(MISO_FIELDS)}, got {sorted(map(str, miso))}"
-        )
-    if not isinstance(miso["elements"], list):
-        raise ValueError(f"{where}: miso.elements must be a list [M_y, M_z], got {miso['elements']!r}")
+    check_fields(miso, "miso", MISO_FIELDS, where)
     try:
         kw = miso_kwargs(miso)
         MISOControlEnv(**kw, optimum=False)

@@ -49,6 +49,7 @@ __all__ = [
     "STAR_FIELDS",
     "StarEpisode",
     "StarTask",
+    "check_fields",
     "check_line",
     "check_star",
     "make_star_env",
@@ -116,6 +117,19 @@ def _expected_config(star: Mapping[str, Any], x: float) -> ScenarioConfig:
     return BASE_CONFIG.replace(ios_shape=shape, q0=(x, Y_SPAN[0]), qF=(x, Y_SPAN[1]))
 
 
+def check_fields(value: Any, name: str, fields: tuple[str, ...], where: str) -> None:
+    """A stored scenario's env keywords ``value`` (the field ``name``): an object of exactly the keys
+    ``fields`` whose ``elements`` is a list [M_y, M_z] (``ValueError`` naming ``where`` otherwise)."""
+    if not isinstance(value, Mapping):
+        raise ValueError(f"{where}: {name} must be an object of {list(fields)}, got {value!r}")
+    if set(value) != set(fields):
+        raise ValueError(
+            f"{where}: {name} must have exactly the fields {list(fields)}, got {sorted(map(str, value))}"
+        )
+    if not isinstance(value["elements"], list):
+        raise ValueError(f"{where}: {name}.elements must be a list [M_y, M_z], got {value['elements']!r}")
+
+
 def check_star(config: ScenarioConfig, star: Any, seed: Any, where: str) -> dict[str, Any]:
     """``star`` as stored, checked with its ``seed`` and ``config`` (``ValueError`` naming ``where``
     and the field): exactly the keys :data:`STAR_FIELDS`, accepted by the env's constructor; a seed
@@ -123,14 +137,7 @@ def check_star(config: ScenarioConfig, star: Any, seed: Any, where: str) -> dict
     reset draws for ``seed`` (module docstring)."""
     from ios_uav_env.envs.star_control import STARControlEnv
 
-    if not isinstance(star, Mapping):
-        raise ValueError(f"{where}: star must be an object of {list(STAR_FIELDS)}, got {star!r}")
-    if set(star) != set(STAR_FIELDS):
-        raise ValueError(
-            f"{where}: star must have exactly the fields {list(STAR_FIELDS)}, got {sorted(map(str, star))}"
-        )
-    if not isinstance(star["elements"], list):
-        raise ValueError(f"{where}: star.elements must be a list [M_y, M_z], got {star['elements']!r}")
+    check_fields(star, "star", STAR_FIELDS, where)
     try:
         STARControlEnv(**star_kwargs(star))
     except (TypeError, ValueError) as err:
