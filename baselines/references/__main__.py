@@ -1,5 +1,5 @@
-"""``python -m baselines.references {single-node,multi-node,energy,mobile,multi-node-mobile,multi-uav,star}``:
-freeze a suite
+"""``python -m baselines.references <kind>``: freeze a suite (kinds: single-node, multi-node, energy,
+mobile, multi-node-mobile, multi-uav, star, miso)
 (module docstring of :mod:`baselines.references`)."""
 
 from __future__ import annotations
@@ -21,6 +21,7 @@ from baselines.references.content import (
 )
 from baselines.references.draws import ENERGY_RANGES, ENERGY_SIZE, ENTROPY, energy_configs, multinode_configs
 from baselines.references.fleet import FLEET_SIZE
+from baselines.references.miso import MISO_SIZE
 from baselines.references.mobile import (
     MOBILE_RANGES,
     MOBILE_SIZE,
@@ -65,6 +66,11 @@ FLEET_QUICK_DIR = Path("out/multi-uav-quick")
 STAR_CACHE = Path("out/star-v1")
 STAR_QUICK = {"n": 3, "random_episodes": 1}
 STAR_QUICK_DIR = Path("out/star-quick")
+#: ``miso``: its cache; ``--quick``: the first 2 scenarios (N_t = 2, K = 2, M = 16: sum, max-min)
+#: with one random episode each, named miso-quick-v1, cached and written under out/miso-quick.
+MISO_CACHE = Path("out/miso-v1")
+MISO_QUICK = {"n": 2, "random_episodes": 1}
+MISO_QUICK_DIR = Path("out/miso-quick")
 
 
 def _drawn_parser(
@@ -134,7 +140,15 @@ def _parser() -> argparse.ArgumentParser:
         STAR_CACHE,
         "a tiny check suite: 3 scenarios of 16 elements, one random episode, in out/star-quick",
     )
-    for sub in (single, multi, energy, mobile, multi_mobile, fleets, stars):
+    misos = _drawn_parser(
+        kinds,
+        "miso",
+        "play the MISO-control held-out episodes (AO optimum, bound, rows) and freeze them",
+        MISO_SIZE,
+        MISO_CACHE,
+        "a tiny check suite: 2 scenarios of N_t = K = 2, M = 16, one random episode, in out/miso-quick",
+    )
+    for sub in (single, multi, energy, mobile, multi_mobile, fleets, stars, misos):
         sub.add_argument("--name", default=None, help="suite name (default <kind>-v<version>)")
         sub.add_argument(
             "--version", type=int, default=1, help="mobile: 2 is the suite normalised by the optimum"
@@ -145,7 +159,7 @@ def _parser() -> argparse.ArgumentParser:
 
 def main(argv: Sequence[str] | None = None) -> int:
     args = _parser().parse_args(argv)
-    quick = args.kind in ("energy", "mobile", "multi-node-mobile", "multi-uav", "star") and args.quick
+    quick = args.kind in ("energy", "mobile", "multi-node-mobile", "multi-uav", "star", "miso") and args.quick
     name = args.name or (f"{args.kind}-quick-v{args.version}" if quick else f"{args.kind}-v{args.version}")
     quick_dir = MOBILE_QUICK_DIR if args.kind == "mobile" else QUICK_DIR
     directory = args.dir or (quick_dir if quick else SUITE_DIR)
@@ -159,8 +173,8 @@ def main(argv: Sequence[str] | None = None) -> int:
         return _energy(args, name, directory)
     if args.kind == "multi-uav":
         return _fleet(args, name, args.dir or (FLEET_QUICK_DIR if quick else SUITE_DIR))
-    if args.kind == "star":
-        return _star(args, name, args.dir or (STAR_QUICK_DIR if quick else SUITE_DIR))
+    if args.kind in ("star", "miso"):
+        return _star(args, name, args.dir or (_surface(args.kind)["quick_dir"] if quick else SUITE_DIR))
     if args.kind == "multi-node-mobile" or (args.kind == "mobile" and args.version >= 2):
         multi = args.kind == "multi-node-mobile"
         return _online(args, name, args.dir or (ONLINE_QUICK_DIR[multi] if quick else SUITE_DIR), multi)
@@ -335,27 +349,48 @@ def _fleet(args: argparse.Namespace, name: str, directory: Path) -> int:
     return _finish(args, records, fleet.check_fleet_record, passed, build, directory)
 
 
+def _surface(kind: str) -> dict[str, Any]:
+    """The pieces of a surface-control suite (``star``, ``miso``): its module's draws, solve,
+    cache key, checks and content, and its defaults."""
+    from baselines.references import miso, star
+
+    if kind == "miso":
+        return {"size": MISO_SIZE, "quick": MISO_QUICK, "cache": MISO_CACHE, "quick_dir": MISO_QUICK_DIR,
+                "episodes": miso.RANDOM_EPISODES, "tasks": miso.miso_tasks, "solve": miso.solve_miso,
+                "key": miso.miso_key, "order": miso.longest_first, "describe": miso.describe,
+                "required": ("config", "miso", "seed", *miso.MISO_REFERENCES),
+                "check": miso.check_miso_record, "content": miso.miso_content,
+                "passed": f"checks: AO optimum > 0, <= bound and within {100 * miso.AO_GAP:g}% of it, "
+                "replayed, no row above it"}  # fmt: skip
+    return {"size": STAR_SIZE, "quick": STAR_QUICK, "cache": STAR_CACHE, "quick_dir": STAR_QUICK_DIR,
+            "episodes": star.RANDOM_EPISODES, "tasks": star.star_tasks, "solve": star.solve_star,
+            "key": star.star_key, "order": star.longest_first, "describe": star.describe,
+            "required": ("config", "star", "seed", *star.STAR_REFERENCES), "check": star.check_star_record,
+            "content": star.star_content,
+            "passed": "checks: optimum > 0 and <= bound (= under TDMA), replayed to rounding, no row above "
+            "the optimum"}  # fmt: skip
+
+
 def _star(args: argparse.Namespace, name: str, directory: Path) -> int:
-    """``star``: draw, play (cached, resumable), check and freeze the STAR-control suite
-    (:mod:`baselines.references.star`); a scenario that fails a check stops the freeze, named."""
+    """``star`` / ``miso``: draw, play (cached, resumable), check and freeze a surface-control suite
+    (:mod:`baselines.references.star`, :mod:`baselines.references.miso`); a scenario that fails a
+    check stops the freeze, named."""
     import functools
 
-    from baselines.references import star
     from baselines.runner import run_tasks
 
-    n = _size(args, STAR_SIZE, STAR_QUICK["n"])
-    episodes = STAR_QUICK["random_episodes"] if args.quick else star.RANDOM_EPISODES
+    p = _surface(args.kind)
+    n = _size(args, p["size"], p["quick"]["n"])
+    episodes = p["quick"]["random_episodes"] if args.quick else p["episodes"]
     settings = {"entropy": args.seed, "random_episodes": episodes}
-    cache = args.cache or (STAR_QUICK_DIR / "cache" if args.quick else STAR_CACHE)
+    cache = args.cache or (p["quick_dir"] / "cache" if args.quick else p["cache"])
     records = run_tasks(
-        functools.partial(star.solve_star, **settings), star.star_tasks(n, args.seed), cache,
-        key=functools.partial(star.star_key, **settings), jobs=args.jobs, order=star.longest_first,
-        progress=not args.quick, desc=name, unit="scenario", describe=star.describe,
-        required=("config", "star", "seed", *star.STAR_REFERENCES),
+        functools.partial(p["solve"], **settings), p["tasks"](n, args.seed), cache,
+        key=functools.partial(p["key"], **settings), jobs=args.jobs, order=p["order"],
+        progress=not args.quick, desc=name, unit="scenario", describe=p["describe"], required=p["required"],
     )  # fmt: skip
-    passed = "checks: optimum > 0 and <= bound (= under TDMA), replayed to rounding, no row above the optimum"
-    build = lambda: star.star_content(records, name, args.version, seed=args.seed, random_episodes=episodes)  # noqa: E731
-    return _finish(args, records, star.check_star_record, passed, build, directory)
+    build = lambda: p["content"](records, name, args.version, seed=args.seed, random_episodes=episodes)  # noqa: E731
+    return _finish(args, records, p["check"], p["passed"], build, directory)
 
 
 if __name__ == "__main__":

@@ -28,7 +28,7 @@ import hashlib
 import itertools
 import json
 import time
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from typing import Any
 
 import numpy as np
@@ -63,19 +63,28 @@ RANDOM_EPISODES = 3
 STAR_ENV_KWARGS = {"channel_phases": True}
 
 
-def star_tasks(n: int, seed: int) -> list[dict[str, Any]]:
-    """The first ``n`` STAR-control tasks ``{"index", "star", "seed"}`` (module docstring, "Draws")."""
+def drawn_tasks(
+    n: int, seed: int, spawn_key: tuple[int, ...], field: str, keywords: Callable[[int], dict[str, Any]]
+) -> list[dict[str, Any]]:
+    """The first ``n`` tasks ``{"index", field, "seed"}`` of a surface-control suite: scenario i's
+    env keywords ``keywords(i)`` and an episode seed drawn in turn from
+    ``default_rng(SeedSequence(entropy=seed, spawn_key=spawn_key))``."""
     if isinstance(n, bool) or not isinstance(n, (int, np.integer)) or n < 1:
         raise ValueError(f"n must be an integer >= 1 (scenarios), got {n!r}")
-    rng = np.random.default_rng(np.random.SeedSequence(entropy=int(seed), spawn_key=STAR_SPAWN_KEY))
-    tasks = []
-    for i in range(int(n)):
+    rng = np.random.default_rng(np.random.SeedSequence(entropy=int(seed), spawn_key=spawn_key))
+    return [{"index": i, field: keywords(i), "seed": int(rng.integers(0, 2**31 - 1))} for i in range(int(n))]
+
+
+def star_tasks(n: int, seed: int) -> list[dict[str, Any]]:
+    """The first ``n`` STAR-control tasks ``{"index", "star", "seed"}`` (module docstring, "Draws")."""
+
+    def keywords(i: int) -> dict[str, Any]:
         m, bits, access, protocol = SETTINGS[i % len(SETTINGS)]
         side = int(round(m**0.5))
-        star = {"elements": [side, side], "bits": bits, "group": 1, "protocol": protocol, "access": access,
+        return {"elements": [side, side], "bits": bits, "group": 1, "protocol": protocol, "access": access,
                 "direct_link": False}  # fmt: skip
-        tasks.append({"index": i, "star": star, "seed": int(rng.integers(0, 2**31 - 1))})
-    return tasks
+
+    return drawn_tasks(n, seed, STAR_SPAWN_KEY, "star", keywords)
 
 
 def solve_star(
@@ -114,11 +123,17 @@ def solve_star(
     return record
 
 
+def task_key(task: Mapping[str, Any], entropy: int, random_episodes: int, field: str) -> str:
+    """A surface-control task's cache file stem: ``field`` (``star``, ``miso``), its index and a hash
+    of its keywords ``task[field]``, seed and settings."""
+    settings = [int(entropy), int(random_episodes), f"{field}:v1"]
+    blob = json.dumps([task[field], task["seed"], *settings], sort_keys=True)
+    return f"{field}_{int(task['index']):03d}_{hashlib.sha1(blob.encode()).hexdigest()[:16]}"
+
+
 def star_key(task: Mapping[str, Any], entropy: int, random_episodes: int = RANDOM_EPISODES) -> str:
     """A task's cache file stem: ``star_``, its index and a hash of its keywords, seed and settings."""
-    settings = [int(entropy), int(random_episodes), "star:v1"]
-    blob = json.dumps([task["star"], task["seed"], *settings], sort_keys=True)
-    return f"star_{int(task['index']):03d}_{hashlib.sha1(blob.encode()).hexdigest()[:16]}"
+    return task_key(task, entropy, random_episodes, "star")
 
 
 def describe(index: int, record: Mapping[str, Any]) -> str:
@@ -158,6 +173,27 @@ def check_star_record(rec: Mapping[str, Any]) -> list[str]:
     return notes
 
 
+def scenario_entry(
+    rec: Mapping[str, Any], check: Callable[[Mapping[str, Any]], list[str]], field: str, fields: Sequence[str]
+) -> dict[str, Any]:
+    """A surface-control record's scenario entry: its index, config, keywords ``rec[field]`` (the
+    keys ``fields``), seed, optimum and bound (the other rows are the caller's); ``ValueError``
+    naming the scenario where ``check(rec)`` has a note."""
+    notes = check(rec)
+    if notes:
+        raise ValueError("; ".join(notes))
+    o = rec["optimum"]
+    return {
+        "index": int(rec["index"]),
+        "config": ScenarioConfig(**rec["config"]).to_dict(),
+        field: {k: rec[field][k] for k in fields},
+        "seed": int(rec["seed"]),
+        "optimum": {"rate": float(o["rate"]), "replayed": float(o["replayed"]),
+                    "seconds": round(float(o["seconds"]), 4)},
+        "bound": {"upper_bound": float(rec["bound"]["upper_bound"])},
+    }  # fmt: skip
+
+
 def star_content(
     records: Sequence[Mapping[str, Any]], name: str, version: int, *, seed: int, random_episodes: int
 ) -> dict[str, Any]:
@@ -165,19 +201,7 @@ def star_content(
     naming the scenario where :func:`check_star_record` has a note)."""
     scenarios = []
     for rec in records:
-        notes = check_star_record(rec)
-        if notes:
-            raise ValueError("; ".join(notes))
-        entry: dict[str, Any] = {
-            "index": int(rec["index"]),
-            "config": ScenarioConfig(**rec["config"]).to_dict(),
-            "star": {k: rec["star"][k] for k in STAR_FIELDS},
-            "seed": int(rec["seed"]),
-        }
-        o = rec["optimum"]
-        entry["optimum"] = {"rate": float(o["rate"]), "replayed": float(o["replayed"]),
-                            "seconds": round(float(o["seconds"]), 4)}  # fmt: skip
-        entry["bound"] = {"upper_bound": float(rec["bound"]["upper_bound"])}
+        entry = scenario_entry(rec, check_star_record, "star", STAR_FIELDS)
         for r in ("quantised", "aligned", "phases"):
             entry[r] = {"rate": float(rec[r]["rate"])}
         entry["random"] = {"rate": float(rec["random"]["rate"]), "episodes": int(rec["random"]["episodes"])}

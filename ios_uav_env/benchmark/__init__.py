@@ -31,6 +31,8 @@ alone (no planner, no deep-learning library):
   plans may carry their shares: :func:`read_plans`);
 - :mod:`~ios_uav_env.benchmark.star_suite`: the STAR-control suites (the agent sets the surface;
   a policy bound to each scenario, scored by the env's reward sum as % of the per-slot optimum);
+- :mod:`~ios_uav_env.benchmark.miso_suite`: the MISO-control suites (the agent sets a multi-antenna
+  UAV's beams and the surface's phases; scored as the STAR-control suites, as % of the per-slot AO);
 - ``python -m ios_uav_env.benchmark {list,show,evaluate}``: the command line
   (:mod:`~ios_uav_env.benchmark.cli`).
 """

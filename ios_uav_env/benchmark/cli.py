@@ -34,7 +34,9 @@ with its best schedule.
 
 On a STAR-control suite (``--suite star-v1``) the line has % of the per-slot optimum and of its
 certified bound; the policy is bound to each scenario's widths if it has ``bind``
-(``ios_uav_env.benchmark.star_suite``), and ``--trajectories`` does not apply.
+(``ios_uav_env.benchmark.star_suite``), and ``--trajectories`` does not apply. A MISO-control
+suite (``--suite miso-v1``) is scored the same way, as % of the per-slot AO optimum
+(``ios_uav_env.benchmark.miso_suite``).
 """
 
 from __future__ import annotations

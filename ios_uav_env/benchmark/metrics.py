@@ -25,7 +25,9 @@ By suite kind:
   certified bound; a plan is feasible when every flight is and the UAVs stay separated;
 - ``star-control``: the mean slot value of the surface's settings (the env's reward sum / N) as %
   of the per-slot optimum (the normaliser, ``star_slot.slot_optimum``) and of its certified bound;
-  every episode is feasible (the UAV's line is given), and a plan's time is the policy's own calls.
+  every episode is feasible (the UAV's line is given), and a plan's time is the policy's own calls;
+- ``miso-control``: the same of the beams' and phases' settings, the mean slot objective (sum or
+  max-min rate) as % of the per-slot AO optimum (``miso_slot.slot_optimum``) and of its bound.
 """
 
 from __future__ import annotations
@@ -36,6 +38,7 @@ from dataclasses import dataclass
 from ios_uav_env.benchmark.suite import Suite
 from ios_uav_env.benchmark.suite_registry import (
     ENERGY,
+    MISO_CONTROL,
     MOBILE,
     MULTI_NODE,
     MULTI_NODE_MOBILE,
@@ -86,6 +89,7 @@ METRICS = {
     MULTI_NODE_MOBILE: Metrics(SCORED[MULTI_NODE_MOBILE], True, timed=TIMED[MULTI_NODE_MOBILE]),
     MULTI_UAV: Metrics(SCORED[MULTI_UAV], False, timed=TIMED[MULTI_UAV]),
     STAR_CONTROL: Metrics(SCORED[STAR_CONTROL], False, timed=TIMED[STAR_CONTROL]),
+    MISO_CONTROL: Metrics(SCORED[MISO_CONTROL], False, timed=TIMED[MISO_CONTROL]),
 }
 
 

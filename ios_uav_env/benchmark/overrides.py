@@ -70,7 +70,9 @@ FLEET: frozenset[str] = frozenset(
 )
 #: A STAR-control suite's env keywords (``star_suite.STAR_FIELDS``): each scenario fixes them.
 STAR: frozenset[str] = frozenset({"elements", "bits", "group", "protocol", "access", "direct_link"})
-PINNED: frozenset[str] = DRAW | SCORING | FLEET | STAR | SCENARIO_FIELDS
+#: A MISO-control suite's env keywords (``miso_suite.MISO_FIELDS``): each scenario fixes them.
+MISO: frozenset[str] = frozenset({"antennas", "users", "elements", "objective"})
+PINNED: frozenset[str] = DRAW | SCORING | FLEET | STAR | MISO | SCENARIO_FIELDS
 #: Presentation arguments a policy's own ``env_kwargs`` fix: the observations it was trained on.
 OBSERVATION: frozenset[str] = PRESENTATION - {"render_mode"}
 
@@ -199,9 +201,10 @@ def check_overrides(
     if pinned:
         fields = [k for k in pinned if k in SCENARIO_FIELDS]
         fleet = [k for k in pinned if k in FLEET]
-        star = [k for k in pinned if k in STAR] if getattr(suite, "star_control", False) else []
+        star = [k for k in pinned if k in STAR | MISO] if getattr(suite, "star_control", False) else []
         what = (f"the scenario fields {fields} come from each scenario" if fields
-                else f"the STAR keywords {star} come from each scenario" if star
+                else f"the {'MISO' if getattr(suite, 'miso_control', False) else 'STAR'} keywords {star} "
+                "come from each scenario" if star
                 else f"the fleet's {fleet} come from each scenario" if fleet
                 else "no reset draws a scenario")  # fmt: skip
         pins = (

@@ -170,10 +170,11 @@ def _check_env_takes(suite: Suite, env_kwargs: Mapping[str, Any], policy: Any) -
             ) from None
         return
     if suite.star_control:  # the first scenario's env (the widths are each scenario's: bound per scenario)
-        from ios_uav_env.benchmark.star_suite import make_star_env
+        from ios_uav_env.benchmark.star_scoring import control_of
 
+        make_env, _, field, _ = control_of(suite)
         try:
-            make_star_env(suite[0].star, kwargs).close()
+            make_env(getattr(suite[0], field), kwargs).close()
         except (TypeError, ValueError) as err:
             raise ValueError(
                 f"{suite.env_id} does not take the env_kwargs {dict(env_kwargs)}: {err}"
@@ -229,7 +230,7 @@ def evaluate(
             raise ValueError(f"batched and at_once are for single-UAV suites; {suite.name} flies fleets")
         return evaluate_fleet(policy, suite, env_kwargs=env_kwargs, n=n, seed=seed, name=name,
                               allow_task_change=allow_task_change)  # fmt: skip
-    if suite.star_control:  # the surface's settings: episodes of STARControl-v0 (benchmark.star_suite)
+    if suite.star_control:  # the surface's settings: episodes of STARControl-v0 or MISOControl-v0
         from ios_uav_env.benchmark.star_scoring import evaluate_star
 
         if batched or at_once:

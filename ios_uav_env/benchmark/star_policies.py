@@ -119,9 +119,13 @@ def aligned_setting(env: Any) -> dict[str, Any]:
     return {**setting, "split": float(noma_maxmin(g_r, g_t)[1])}
 
 
-def setting_policy(
-    env: Any, setting_of: Callable[[Any], dict[str, Any]]
-) -> Callable[[np.ndarray], np.ndarray]:
-    """An action function that plays ``setting_of(env)`` of every slot (``env.action_of``)."""
+def setting_policy(env: Any, setting_of: Callable[[Any], Any]) -> Callable[[np.ndarray], np.ndarray]:
+    """An action function that plays ``setting_of(env)`` of every slot (``env.action_of``; a tuple
+    setting, as MISOControl-v0's (phases, beams), is its arguments)."""
     base = env.unwrapped
-    return lambda obs: base.action_of(setting_of(base))
+
+    def act(obs: np.ndarray) -> np.ndarray:
+        setting = setting_of(base)
+        return base.action_of(*setting) if isinstance(setting, tuple) else base.action_of(setting)
+
+    return act

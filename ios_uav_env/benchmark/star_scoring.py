@@ -1,6 +1,7 @@
-"""A policy's episodes on a STAR-control suite: each scenario's env, the policy bound to it, and its
-rows (:mod:`ios_uav_env.benchmark.star_suite` says what a scenario holds and how an episode is
-scored)."""
+"""A policy's episodes on a surface-control suite (STAR-control, ``star-v1``; MISO-control,
+``miso-v1``): each scenario's env, the policy bound to it, and its rows
+(:mod:`ios_uav_env.benchmark.star_suite` and :mod:`ios_uav_env.benchmark.miso_suite` say what a
+scenario holds; both are scored by ``star_suite.star_episode``)."""
 
 from __future__ import annotations
 
@@ -13,8 +14,9 @@ from ios_uav_env.benchmark.policy_calls import action_function, check_seed, poli
 from ios_uav_env.benchmark.policy_errors import NamedPolicy
 from ios_uav_env.benchmark.results import Results, ScenarioResult
 from ios_uav_env.benchmark.star_suite import StarTask, make_star_env, star_episode
+from ios_uav_env.benchmark.suite_registry import MISO_CONTROL
 
-__all__ = ["bound_policy", "evaluate_star"]
+__all__ = ["bound_policy", "evaluate_star", "control_of"]
 
 
 def bound_policy(policy: Any, task: StarTask, where: str) -> Any:
@@ -28,11 +30,21 @@ def bound_policy(policy: Any, task: StarTask, where: str) -> Any:
         wanted = getattr(getattr(chosen, space, None), "shape", None)
         if wanted is not None and tuple(wanted) != (width,):
             raise ValueError(
-                f"{where}: the policy {what} of shape {tuple(wanted)}, the scenario's env ({width},) (M = "
-                f"{task.M}, group {task.group}, access {task.access!r}): give the policy a bind(task) that "
-                "picks one for each scenario (ios_uav_env.benchmark.star_suite)"
+                f"{where}: the policy {what} of shape {tuple(wanted)}, the scenario's env ({width},) "
+                f"({task}): give the policy a bind(task) that picks one for each scenario "
+                "(ios_uav_env.benchmark.star_suite)"
             )
     return chosen
+
+
+def control_of(suite: Any) -> tuple[Any, Any, str, str]:
+    """A surface-control suite's env maker, task class, scenario field of the env keywords and
+    ``info`` key of a slot's certified bound."""
+    if suite.kind == MISO_CONTROL:
+        from ios_uav_env.benchmark.miso_suite import MisoTask, make_miso_env
+
+        return make_miso_env, MisoTask, "miso", "bound"
+    return make_star_env, StarTask, "star", "optimum_upper"
 
 
 def evaluate_star(
@@ -45,7 +57,8 @@ def evaluate_star(
     name: str | None = None,
     allow_task_change: bool = False,
 ) -> Results:
-    """Score ``policy`` on the first ``n`` scenarios of the STAR-control ``suite``: a ``Results``
+    """Score ``policy`` on the first ``n`` scenarios of the surface-control ``suite`` (STAR- or
+    MISO-control: :func:`control_of`): a ``Results``
     (% of the per-slot optimum and of its certified bound). Each scenario's episode is reset with
     the scenario's own seed (``seed`` is checked, not used: the seed fixes the line, so it is the
     scenario's). ``env_kwargs`` are added to the suite's and checked as on every suite
@@ -57,15 +70,17 @@ def evaluate_star(
     name = name or policy_name(policy)
     kwargs = {**suite.env_kwargs, **own}
     scenarios, metrics = suite.subset(n), metrics_of(suite)
+    make_env, task_of, field, upper = control_of(suite)
     rows = []
     for i, s in enumerate((scenarios[0], *scenarios)):  # the first: a warm-up, not scored
         where = f"{suite.name} scenario {s.index}"
-        env = make_star_env(s.star, {**kwargs, "optimum": False})  # (the reference holds it)
+        keywords = getattr(s, field)
+        env = make_env(keywords, {**kwargs, "optimum": False})  # (the reference holds it)
         try:
-            chosen = bound_policy(policy, StarTask.of(s.star, env), where)
+            chosen = bound_policy(policy, task_of.of(keywords, env), where)
             act = NamedPolicy(action_function(chosen), suite.name, name)
             act.at(s, warm_up=i == 0)
-            episode = star_episode(env, act, s.seed, s.config, where)
+            episode = star_episode(env, act, s.seed, s.config, where, upper)
         finally:
             env.close()
         if i:

@@ -49,6 +49,8 @@ __all__ = [
     "STAR_FIELDS",
     "StarEpisode",
     "StarTask",
+    "check_fields",
+    "check_line",
     "check_star",
     "make_star_env",
     "star_episode",
@@ -115,43 +117,60 @@ def _expected_config(star: Mapping[str, Any], x: float) -> ScenarioConfig:
     return BASE_CONFIG.replace(ios_shape=shape, q0=(x, Y_SPAN[0]), qF=(x, Y_SPAN[1]))
 
 
+def check_fields(value: Any, name: str, fields: tuple[str, ...], where: str) -> None:
+    """A stored scenario's env keywords ``value`` (the field ``name``): an object of exactly the keys
+    ``fields`` whose ``elements`` is a list [M_y, M_z] (``ValueError`` naming ``where`` otherwise)."""
+    if not isinstance(value, Mapping):
+        raise ValueError(f"{where}: {name} must be an object of {list(fields)}, got {value!r}")
+    if set(value) != set(fields):
+        raise ValueError(
+            f"{where}: {name} must have exactly the fields {list(fields)}, got {sorted(map(str, value))}"
+        )
+    if not isinstance(value["elements"], list):
+        raise ValueError(f"{where}: {name}.elements must be a list [M_y, M_z], got {value['elements']!r}")
+
+
 def check_star(config: ScenarioConfig, star: Any, seed: Any, where: str) -> dict[str, Any]:
     """``star`` as stored, checked with its ``seed`` and ``config`` (``ValueError`` naming ``where``
     and the field): exactly the keys :data:`STAR_FIELDS`, accepted by the env's constructor; a seed
     >= 0; the config the env builds on that surface for a line of its range, the line the env's
     reset draws for ``seed`` (module docstring)."""
-    from ios_uav_env.envs.star_control import X_RANGE, STARControlEnv
+    from ios_uav_env.envs.star_control import STARControlEnv
 
-    if not isinstance(star, Mapping):
-        raise ValueError(f"{where}: star must be an object of {list(STAR_FIELDS)}, got {star!r}")
-    if set(star) != set(STAR_FIELDS):
-        raise ValueError(
-            f"{where}: star must have exactly the fields {list(STAR_FIELDS)}, got {sorted(map(str, star))}"
-        )
-    if not isinstance(star["elements"], list):
-        raise ValueError(f"{where}: star.elements must be a list [M_y, M_z], got {star['elements']!r}")
+    check_fields(star, "star", STAR_FIELDS, where)
     try:
         STARControlEnv(**star_kwargs(star))
     except (TypeError, ValueError) as err:
         raise ValueError(f"{where}: star: {err}") from None
+    check_line(config, _expected_config(star, float(config.q0[0])), seed, STARControlEnv(elements=(4, 4)),
+               where, "STARControl-v0", f"the surface {star['elements']}")  # fmt: skip
+    return {k: star[k] for k in STAR_FIELDS}
+
+
+def check_line(
+    config: ScenarioConfig, expected: ScenarioConfig, seed: Any, probe: Any, where: str, env: str, what: str
+) -> None:
+    """A surface-control scenario's ``seed`` and ``config`` checked (``ValueError`` naming ``where``):
+    a seed >= 0; ``config`` the env's episode scenario ``expected`` (``what``: its keywords) with a
+    line x in the env's range; the line ``probe`` (an env whose reset's only draw is the line, as in
+    every surface-control env) draws for ``seed``."""
+    from ios_uav_env.envs.star_control import X_RANGE
+
     if isinstance(seed, bool) or not isinstance(seed, int) or seed < 0:
         raise ValueError(f"{where}: seed must be an integer >= 0 (the episode's reset seed), got {seed!r}")
     x = float(config.q0[0])
-    if not X_RANGE[0] <= x <= X_RANGE[1] or config != _expected_config(star, x):
+    if not X_RANGE[0] <= x <= X_RANGE[1] or config != expected:
         raise ValueError(
-            f"{where}: config must be STARControl-v0's episode scenario on the surface {star['elements']} "
-            f"with a line x in {list(X_RANGE)} m (q0 = (x, -150), qF = (x, 150)), got q0 = {config.q0}, "
-            f"ios_shape = {config.ios_shape}"
+            f"{where}: config must be {env}'s episode scenario on {what} with a line x in {list(X_RANGE)} m "
+            f"(q0 = (x, -150), qF = (x, 150)), got q0 = {config.q0}, ios_shape = {config.ios_shape}"
         )
-    probe = STARControlEnv(elements=(4, 4))  # the reset's only draw is the line: the smallest surface
     probe.reset(seed=seed)
     if probe.config.q0 != config.q0:
         raise ValueError(
-            f"{where}: seed {seed} draws the line x = {probe.config.q0[0]!r} m in STARControl-v0, not the "
+            f"{where}: seed {seed} draws the line x = {probe.config.q0[0]!r} m in {env}, not the "
             f"config's x = {x!r} m: the pair was edited or the env's draw changed; either way it is not "
             "this suite's task"
         )
-    return {k: star[k] for k in STAR_FIELDS}
 
 
 def make_star_env(star: Mapping[str, Any], env_kwargs: Mapping[str, Any]) -> Any:
@@ -165,9 +184,15 @@ def make_star_env(star: Mapping[str, Any], env_kwargs: Mapping[str, Any]) -> Any
 
 
 def star_episode(
-    env: Any, act: Callable[[np.ndarray], Any], seed: int, config: ScenarioConfig, where: str
+    env: Any,
+    act: Callable[[np.ndarray], Any],
+    seed: int,
+    config: ScenarioConfig,
+    where: str,
+    upper: str = "optimum_upper",
 ) -> StarEpisode:
-    """One episode of ``act`` in ``env`` reset with ``seed``, scored by the env's reward sum.
+    """One episode of ``act`` in ``env`` reset with ``seed``, scored by the env's reward sum
+    (``upper``: the ``info`` key of a slot's certified bound; ``"bound"`` in MISOControl-v0).
 
     ``RuntimeError`` naming ``where`` if the env's episode is not ``config`` (its draw for
     ``seed`` changed: another line, another task); ``ValueError`` naming ``where`` for an action
@@ -180,7 +205,7 @@ def star_episode(
             f"suite's {config.q0[0]!r} m (or another scenario): its draw changed, so this is not the "
             "suite's task; a changed env needs a new suite version"
         )
-    seconds, upper, info, done = 0.0, 0.0, {}, False
+    seconds, total, info, done = 0.0, 0.0, {}, False
     while not done:
         start = time.perf_counter()
         action = act(obs)
@@ -189,7 +214,7 @@ def star_episode(
             obs, _, terminated, truncated, info = env.step(action)
         except ValueError as err:
             raise ValueError(f"{where}: {err}") from None
-        upper += info["optimum_upper"]
+        total += info[upper]
         done = terminated or truncated
     n = info["slot"] + 1
-    return StarEpisode(info["return"] / n, info["optimum_return"] / n, upper / n, seconds)
+    return StarEpisode(info["return"] / n, info["optimum_return"] / n, total / n, seconds)

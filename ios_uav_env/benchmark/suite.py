@@ -28,6 +28,8 @@ from ios_uav_env.benchmark.suite_registry import (  # noqa: F401 (the registry, 
     FLEET_REFERENCES,
     FORMAT,
     KIND_REFERENCES,
+    MISO_CONTROL,
+    MISO_ENV_ID,
     MOBILE,
     MOBILE_KINDS,
     MOBILE_REFERENCES,
@@ -59,6 +61,10 @@ from ios_uav_env.benchmark.suite_registry import (  # noqa: F401 (the registry, 
 )
 from ios_uav_env.model.config import ScenarioConfig
 
+#: The kinds whose policy sets a surface (and beams) every slot of a given line, scored by
+#: ``star_scoring.evaluate_star``.
+SURFACE_CONTROL = (STAR_CONTROL, MISO_CONTROL)
+
 
 @dataclass(frozen=True)
 class SuiteScenario:
@@ -71,6 +77,7 @@ class SuiteScenario:
     seed: int | None = None  # a mobile or STAR-control suite's episode seed (the node's path, the line)
     fleet: Mapping[str, Any] | None = None  # a several-UAV suite's fleet (benchmark.fleet_suite)
     star: Mapping[str, Any] | None = None  # a STAR-control suite's env keywords (benchmark.star_suite)
+    miso: Mapping[str, Any] | None = None  # a MISO-control suite's env keywords (benchmark.miso_suite)
 
     def paths(self) -> Any:
         """(N, 1, 2) m: the node's true path of a mobile scenario (drawn from ``seed`` as the env
@@ -153,8 +160,14 @@ class Suite:
 
     @property
     def star_control(self) -> bool:
-        """The surface as the agent's control: each scenario's episode in ``STARControl-v0``."""
-        return self.kind == STAR_CONTROL
+        """The surface as the agent's control: each scenario's episode in ``STARControl-v0``, or
+        the beams and the surface in ``MISOControl-v0`` (:attr:`miso_control`)."""
+        return self.kind in SURFACE_CONTROL
+
+    @property
+    def miso_control(self) -> bool:
+        """The UAV's beams and the surface's phases as the agent's control (``MISOControl-v0``)."""
+        return self.kind == MISO_CONTROL
 
     @property
     def schedules(self) -> bool:
@@ -286,6 +299,7 @@ def _check_header(path: Path, data: Mapping[str, Any]) -> tuple[str, tuple[str, 
         MULTI_NODE_MOBILE: MULTINODE_MOBILE_IDS,
         MULTI_UAV: {FLEET_ENV_ID: {}},
         STAR_CONTROL: {STAR_ENV_ID: {}},
+        MISO_CONTROL: {MISO_ENV_ID: {}},
     }
     env_ids = list(ids[kind]) if kind in ids else [*ENV_IDS, RANDOM_ENV_ID]
     if data.get("env_id") not in env_ids:
@@ -353,13 +367,19 @@ def _scenario(
     elif "fleet" in rec:
         raise ValueError(f"{path}: scenario {index}: only a several-UAV suite's scenarios have a fleet")
     seed = rec.get("seed")
-    star = None
+    star = miso = None
     if kind == STAR_CONTROL:
         from ios_uav_env.benchmark.star_suite import check_star
 
         star = check_star(config, rec.get("star"), seed, f"{path}: scenario {index}")
     elif "star" in rec:
         raise ValueError(f"{path}: scenario {index}: only a STAR-control suite's scenarios have a star")
+    if kind == MISO_CONTROL:
+        from ios_uav_env.benchmark.miso_suite import check_miso
+
+        miso = check_miso(config, rec.get("miso"), seed, f"{path}: scenario {index}")
+    elif "miso" in rec:
+        raise ValueError(f"{path}: scenario {index}: only a MISO-control suite's scenarios have a miso")
     if kind in MOBILE_KINDS:
         if config.motion is None:
             raise ValueError(
@@ -369,9 +389,9 @@ def _scenario(
             raise ValueError(
                 f"{path}: scenario {index}: seed must be an integer >= 0 (the episode's), got {seed!r}"
             )
-    elif seed is not None and kind != STAR_CONTROL:
+    elif seed is not None and kind not in SURFACE_CONTROL:
         raise ValueError(
-            f"{path}: scenario {index}: only a mobile suite's scenarios have a seed (and a STAR-control "
+            f"{path}: scenario {index}: only a mobile suite's scenarios have a seed (and a surface-control "
             "suite's)"
         )
     reference = {}
@@ -393,7 +413,7 @@ def _scenario(
                     f"{path}: scenario {index}: {r}.{field} must be true or false, got {values[field]!r}"
                 )
         reference[r] = dict(values)
-    if kind in (ENERGY, MULTI_UAV, STAR_CONTROL, *MOBILE_KINDS) and "bound" in reference:
+    if kind in (ENERGY, MULTI_UAV, *SURFACE_CONTROL, *MOBILE_KINDS) and "bound" in reference:
         bound = float(reference["bound"]["upper_bound"])
         above = [f"{r} {reference[r][VALUE_KEY[kind]]!r}" for r in references if r != "bound"
                  and float(reference[r][VALUE_KEY[kind]]) > bound * (1.0 + BOUND_REL)]  # fmt: skip
@@ -403,8 +423,8 @@ def _scenario(
                 f"{path}: scenario {index}: the certified bound.upper_bound {bound!r} {UNIT[kind]} is below "
                 f"{', '.join(above)}: no plan's {what} may exceed it"
             )
-    seeded = kind in (*MOBILE_KINDS, STAR_CONTROL)
-    return SuiteScenario(index, config, reference, kind, seed if seeded else None, fleet, star)
+    seeded = kind in (*MOBILE_KINDS, *SURFACE_CONTROL)
+    return SuiteScenario(index, config, reference, kind, seed if seeded else None, fleet, star, miso)
 
 
 def _number(value: Any, where: str, above: float | None) -> None:

@@ -84,6 +84,13 @@ surface in every slot: each scenario holds the env's keywords (``star``: ``eleme
 value, bps/Hz: the return / N) of :data:`STAR_REFERENCES`: ``optimum`` (the per-slot optima, the
 normaliser), ``bound`` (their certified upper bounds), ``quantised``, ``aligned``, ``phases`` and
 ``random`` (:mod:`ios_uav_env.benchmark.star_suite`).
+
+A MISO-control suite (``"kind": "miso-control"``, ``miso-v1``; frozen by ``python -m
+baselines.references miso``) runs in ``ios_uav_env/MISOControl-v0``, the agent setting a
+multi-antenna UAV's beams and a small IOS's phases in every slot: each scenario holds the env's
+keywords (``miso``: ``antennas``, ``users``, ``elements``, ``objective``), its episode ``seed`` and
+the episode's ``config``, and episode values (the mean slot objective, bps/Hz) of
+:data:`MISO_REFERENCES` (:mod:`ios_uav_env.benchmark.miso_suite`).
 """
 
 from __future__ import annotations
@@ -123,6 +130,13 @@ FLEET_REFERENCES = ("planner", "bound", "tour", "dual", "straight")
 #: continuous optimum's setting on the env's phase grid, the aligned closed form, the channel-phase
 #: heuristic policy and uniform random actions.
 STAR_REFERENCES = ("optimum", "bound", "quantised", "aligned", "phases", "random")
+#: Those of a MISO-control suite: the per-slot AO optimum (the normaliser), the certified bound,
+#: MRT and ZF with the best user's aligned phases (ZF only where N_t >= K: else 0, ``feasible``
+#: false), MRT with uniformly random phases and the ``DirectMRT`` heuristic on the observation.
+MISO_REFERENCES = ("optimum", "bound", "mrt_aligned", "zf_aligned", "mrt_random", "direct")
+MISO_CONTROL = "miso-control"
+#: The env a MISO-control suite runs in (``ios_uav_env.envs.registration.MISO_CONTROL_ID``).
+MISO_ENV_ID = "ios_uav_env/MISOControl-v0"
 SINGLE_NODE, MULTI_NODE, ENERGY, MOBILE = "single-node", "multi-node", "energy", "mobile"
 MULTI_NODE_MOBILE, MULTI_UAV, STAR_CONTROL = "multi-node-mobile", "multi-uav", "star-control"
 #: The env a STAR-control suite runs in (``ios_uav_env.envs.registration.STAR_CONTROL_ID``).
@@ -142,6 +156,7 @@ KIND_REFERENCES = {
     MULTI_NODE_MOBILE: MULTI_MOBILE_REFERENCES,
     MULTI_UAV: FLEET_REFERENCES,
     STAR_CONTROL: STAR_REFERENCES,
+    MISO_CONTROL: MISO_REFERENCES,
 }
 SCORED = {
     SINGLE_NODE: ("dp", "sca"),
@@ -151,6 +166,7 @@ SCORED = {
     MULTI_NODE_MOBILE: ("optimum", "bound"),
     MULTI_UAV: ("planner", "bound"),
     STAR_CONTROL: ("optimum", "bound"),
+    MISO_CONTROL: ("optimum", "bound"),
 }
 #: By suite kind and normaliser (the file's ``normalizer``): the references scored, the normaliser
 #: first. A kind's default is :data:`SCORED`'s; a mobile suite may be normalised by the optimum.
@@ -158,10 +174,12 @@ NORMALISERS: dict[str, dict[str, tuple[str, ...]]] = {kind: {refs[0]: refs} for 
 NORMALISERS[MOBILE]["optimum"] = ("optimum", "bound")
 #: By suite kind: the reference whose planning time a policy's is compared with.
 TIMED = {SINGLE_NODE: "sca", MULTI_NODE: "sca", ENERGY: "sca", MOBILE: "mpc_k1",
-         MULTI_NODE_MOBILE: "mpc_dp_k1", MULTI_UAV: "planner", STAR_CONTROL: "optimum"}  # fmt: skip
+         MULTI_NODE_MOBILE: "mpc_dp_k1", MULTI_UAV: "planner", STAR_CONTROL: "optimum",
+         MISO_CONTROL: "optimum"}  # fmt: skip
 #: By suite kind: the key of a plan reference's value (a bound's is ``"upper_bound"``) and its unit.
 VALUE_KEY = {SINGLE_NODE: "rate", MULTI_NODE: "rate", ENERGY: "energy_efficiency", MOBILE: "rate",
-             MULTI_NODE_MOBILE: "rate", MULTI_UAV: "rate", STAR_CONTROL: "rate"}  # fmt: skip
+             MULTI_NODE_MOBILE: "rate", MULTI_UAV: "rate", STAR_CONTROL: "rate",
+             MISO_CONTROL: "rate"}  # fmt: skip
 UNIT = {
     SINGLE_NODE: "bps/Hz",
     MULTI_NODE: "bps/Hz",
@@ -170,6 +188,7 @@ UNIT = {
     MULTI_NODE_MOBILE: "bps/Hz",
     MULTI_UAV: "bps/Hz",
     STAR_CONTROL: "bps/Hz",
+    MISO_CONTROL: "bps/Hz",
 }
 
 
@@ -222,6 +241,9 @@ SUITES: dict[str, RegisteredSuite] = {
     ),
     "star-v1": RegisteredSuite(
         "star-v1.json", "18ca1f8e909449fa879528d00d6896762ad752f2b702aa979800a6ed7deb671f"
+    ),
+    "miso-v1": RegisteredSuite(
+        "miso-v1.json", "3b6ac90413b9424948719af34fc434ed2d75844eb7518e7d4815747365dd5ab2"
     ),
 }
 DEFAULT_SUITE = "single-node-v1"

@@ -59,3 +59,14 @@ def rerun_tampered_online(frozen: Path, tmp_path: Path, change: Callable[[dict],
         references_main(argv)
     assert not list(tmp_path.glob("*.json")), "a suite that fails a check is never written"
     return str(stop.value)
+
+
+def shipped_copy(tmp_path: Path, suite: str, name: str, n: int) -> Path:
+    """A copy of the shipped ``suite``'s first ``n`` scenarios under the new ``name`` (it loads with
+    its own hash, so a test may change it)."""
+    from ios_uav_env.benchmark.suite_registry import suite_path
+
+    data = json.loads(suite_path(suite).read_text())
+    path = tmp_path / f"{name}.json"
+    path.write_text(json.dumps({**data, "name": name, "scenarios": data["scenarios"][:n]}))
+    return path

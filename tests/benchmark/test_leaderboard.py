@@ -64,6 +64,13 @@ STAR_SUMMARY = re.compile(
 )
 STAR_COLUMNS = {"mean % of optimum": "mean", "p10": "p10", "min": "min", "mean % of bound": "bound",
                 "feasible": "feasible"}  # fmt: skip
+MISO_SUMMARY = re.compile(
+    r"% of optimum mean (?P<mean>-?[\d.]+) \| p10 (?P<p10>-?[\d.]+) \| min (?P<min>-?[\d.]+); % of bound "
+    r"mean (?P<bound>-?[\d.]+) \| p10 (?P<bp10>-?[\d.]+) \| min (?P<bmin>-?[\d.]+); "
+    r"feasible (?P<feasible>\d+/\d+)"
+)
+MISO_COLUMNS = {"mean % of optimum": "mean", "p10": "p10", "min": "min", "mean % of bound": "bound",
+                "bound p10": "bp10", "bound min": "bmin", "feasible": "feasible"}  # fmt: skip
 #: The policies of star-v1's rows whose rollouts the suite stores, by the reference that holds them.
 STAR_STORED = {"ios_uav_env.benchmark.star_policies:ChannelPhases": "phases"}
 #: The first scenarios a star-v1 policy row is run on (M = 16, continuous: TDMA, ES-NOMA, MS-NOMA).
@@ -103,6 +110,7 @@ ENERGY_ROWS = _rows("energy-v1")
 MOBILE_ROWS = _rows("mobile-v1")
 FLEET_ROWS = _rows("multi-uav-v1")
 STAR_ROWS = _rows("star-v1")
+MISO_ROWS = _rows("miso-v1")
 STAR_POLICY_ROWS = [row for row in STAR_ROWS if " evaluate " in row["command"]
                     and any(f"--policy {policy}" in row["command"] for policy in STAR_STORED)]  # fmt: skip
 #: Every row to run: (summary pattern, columns, row) of every suite's table.
@@ -113,6 +121,7 @@ ALL_ROWS = (
     + [(MOBILE_SUMMARY, MOBILE_COLUMNS, row) for row in MOBILE_ROWS]
     + [(FLEET_SUMMARY, FLEET_COLUMNS, row) for row in FLEET_ROWS]
     + [(STAR_SUMMARY, STAR_COLUMNS, row) for row in STAR_ROWS if row not in STAR_POLICY_ROWS]
+    + [(MISO_SUMMARY, MISO_COLUMNS, row) for row in MISO_ROWS]
 )
 KINDS = {
     id(COLUMNS): "single",
@@ -121,6 +130,7 @@ KINDS = {
     id(MOBILE_COLUMNS): "mobile",
     id(FLEET_COLUMNS): "fleet",
     id(STAR_COLUMNS): "star",
+    id(MISO_COLUMNS): "miso",
 }
 
 
@@ -171,6 +181,16 @@ def test_the_star_table_has_the_references_and_a_policy_and_is_sorted():
     means = [float(row["mean % of optimum"]) for row in STAR_ROWS]
     assert means == sorted(means, reverse=True), "rows must be in order of mean % of the optimum"
     assert all("--suite star-v1" in row["command"] for row in STAR_ROWS) and STAR_POLICY_ROWS
+
+
+def test_the_miso_table_has_the_references_and_a_policy_and_is_sorted():
+    policies = " ".join(row["policy"] for row in MISO_ROWS)
+    for name in ("per-slot AO optimum", "certified bound", "MRT", "ZF", "random phases", "DirectMRT"):
+        assert name in policies, name
+    means = [float(row["mean % of optimum"]) for row in MISO_ROWS]
+    assert means == sorted(means, reverse=True), "rows must be in order of mean % of the optimum"
+    assert all("--suite miso-v1" in row["command"] for row in MISO_ROWS)
+    assert any(" evaluate " in row["command"] for row in MISO_ROWS)
 
 
 @pytest.mark.parametrize("row", STAR_POLICY_ROWS, ids=[row["#"] for row in STAR_POLICY_ROWS])

@@ -17,6 +17,7 @@ from ios_uav_env.benchmark.cli import main
 from ios_uav_env.benchmark.overrides import (
     DRAW,
     FLEET,
+    MISO,
     PINNED,
     PRESENTATION,
     REWARD,
@@ -64,8 +65,9 @@ def test_the_classes_are_disjoint_and_cover_every_argument_of_every_suite_env(su
     for name, suite in suites.items():
         arguments = env_arguments(suite.env_id)
         assert {"arrival_guard", "knowledge", "T"} <= arguments, name
-        # a UAV-flight env's own arguments, or the STAR-control env's keywords
-        own = STAR | {"channel_phases"} if suite.star_control else {"peak_hint", "config"}
+        # a UAV-flight env's own arguments, or the STAR- or MISO-control env's keywords
+        surface = MISO if suite.miso_control else STAR | {"channel_phases"}
+        own = surface if suite.star_control else {"peak_hint", "config"}
         assert own <= arguments, name
         unclassified = sorted(k for k in arguments if classify(k) == "unclassified")
         assert not unclassified, f"{name}: classify {unclassified} in ios_uav_env.benchmark.overrides"
@@ -94,9 +96,12 @@ def test_every_pinned_argument_is_refused_as_ignored_even_with_the_opt_in(name, 
     config = suite[0].config
     taken = sorted(k for k in env_arguments(suite.env_id) if k in PINNED)
     assert "motion" in taken and ("focus" in taken or suite.schedules or suite.fleets or suite.star_control)
-    # a fleet suite pins its fleet, a STAR-control suite its keywords (access is both)
+    # a fleet suite pins its fleet, a STAR- or MISO-control suite its keywords (access is both)
     assert FLEET <= set(taken) if suite.fleets else not (FLEET - STAR) & set(taken)
-    assert STAR <= set(taken) if suite.star_control else not (STAR - FLEET) & set(taken)
+    if suite.miso_control:
+        assert MISO <= set(taken) and not (STAR - MISO) & set(taken)
+    else:
+        assert STAR <= set(taken) if suite.star_control else not (STAR - FLEET) & set(taken)
     for k in taken:
         value = getattr(config, k) if k in SCENARIO_FIELDS else 0.5
         for allow in (False, True):

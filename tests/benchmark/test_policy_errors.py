@@ -34,6 +34,9 @@ def _width(suite) -> int:
 
 
 def _star_width(suite) -> int:
+    if suite.miso_control:  # 2 N_t K beam entries and M phases
+        miso = suite[0].miso
+        return 2 * miso["antennas"] * miso["users"] + miso["elements"][0] * miso["elements"][1]
     star = suite[0].star
     g = star["elements"][0] * star["elements"][1] // star["group"]
     return 2 * g + 1 if star["access"] == "tdma" else 3 * g + 1

@@ -18,7 +18,7 @@ from ios_uav_env.benchmark.policy_errors import PolicyError
 from ios_uav_env.benchmark.star_policies import ChannelPhases
 from ios_uav_env.benchmark.star_suite import StarTask, star_episode, star_kwargs
 from ios_uav_env.benchmark.suite_registry import suite_path
-from tests.benchmark.quick_suites import tampered
+from tests.benchmark.quick_suites import shipped_copy, tampered
 from tests.tolerances import PLANNER_REL, RATE_REL
 
 #: The shipped suite's first scenarios: M = 16 with continuous phases under TDMA, ES-NOMA, MS-NOMA.
@@ -42,11 +42,7 @@ def shipped():
 @pytest.fixture
 def copy(tmp_path):
     """A copy of the shipped suite's first scenarios under a new name (it loads with its own hash)."""
-    data = json.loads(suite_path("star-v1").read_text())
-    data = {**data, "name": "star-dev-v1", "scenarios": data["scenarios"][:FIRST]}
-    path = tmp_path / "star-dev-v1.json"
-    path.write_text(json.dumps(data))
-    return path
+    return shipped_copy(tmp_path, "star-v1", "star-dev-v1", FIRST)
 
 
 def test_the_draws_are_a_stream_of_their_own_and_cover_every_setting_alike():
