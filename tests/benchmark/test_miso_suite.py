@@ -206,3 +206,10 @@ def test_the_pipeline_never_overwrites_the_shipped_suite(tmp_path):
     with pytest.raises(SystemExit, match="'miso-v1' is a registered suite"):  # 1 scenario: other content
         references_main(["miso", "--n", "1", "--cache", str(tmp_path / "cache")])
     assert suite_path("miso-v1").read_bytes() == before
+
+
+def test_an_unbound_heuristic_is_refused_naming_bind():
+    """``DirectMRT`` reads the observation by the scenario's names: called before ``bind`` it has no
+    names to read, and says so instead of acting on an unknown layout."""
+    with pytest.raises(ValueError, match=r"DirectMRT is unbound: bind it to the scenario"):
+        DirectMRT()(np.zeros(8, dtype=np.float32))

@@ -18,6 +18,7 @@ from ios_uav_env import (
     ScenarioConfig,
 )
 from ios_uav_env.benchmark.fleet_policies import NearestWorstNode
+from ios_uav_env.benchmark.miso_policies import DirectMRT
 from ios_uav_env.benchmark.multi_policies import StraightEqualShares
 from ios_uav_env.benchmark.star_policies import ChannelPhases
 from ios_uav_env.envs.observation import SINGLE_LAYOUTS, feature_source, require_features
@@ -58,8 +59,9 @@ def _make(env_id: str, hint: bool, vector: bool = False):
 def test_every_shipped_policy_is_a_feature_reader():
     """Every class of the package that maps an observation to an action (a ``__call__`` of its own)
     reads the observation by name: the flight policies are the ones checked here; the surface
-    control's ``ChannelPhases`` binds to a suite scenario's task (its observation names and action
-    width) and is refused without the channel phases (``tests/benchmark/test_star_suite.py``)."""
+    controls' ``ChannelPhases`` (STAR) and ``DirectMRT`` (MISO) bind to a suite scenario's task (its
+    observation names and action width): the first is refused without the channel phases
+    (``tests/benchmark/test_star_suite.py``), the second unbound (``tests/benchmark/test_miso_suite.py``)."""
     import importlib
     import pkgutil
 
@@ -78,9 +80,10 @@ def test_every_shipped_policy_is_a_feature_reader():
 
     # (the scorer's wrapper of an action function, which evaluate makes of the policy once bound)
     shipped -= {NamedPolicy}
-    assert shipped - {ChannelPhases} == {HoverAt, Loiter, StraightEqualShares, NearestWorstNode}
-    assert ChannelPhases in shipped
-    shipped -= {ChannelPhases}
+    surface_controls = {ChannelPhases, DirectMRT}
+    assert shipped - surface_controls == {HoverAt, Loiter, StraightEqualShares, NearestWorstNode}
+    assert surface_controls <= shipped
+    shipped -= surface_controls
     assert all(issubclass(cls, FeatureReader) for cls in shipped)
     assert {type(make()) for make in POLICIES.values()} == shipped
 
