@@ -324,11 +324,12 @@ def model_config(settings: ImitationSettings, **extra: Any) -> dict[str, Any]:
             **extra}  # fmt: skip
 
 
-def _save(folder: Path, model: Any, venv: Any, config: dict[str, Any]) -> None:
+def save_model_folder(folder: str | Path, model: Any, venv: Any, config: dict[str, Any]) -> Path:
     """``vecnormalize.pkl``, ``model.zip`` and ``config.json`` of ``folder``, each written atomically
     (a failed write leaves the previous file whole); the statistics before the model."""
     from agents.callbacks import replace_into
 
+    folder = Path(folder)
     folder.mkdir(parents=True, exist_ok=True)
     with naming(folder / "vecnormalize.pkl"):
         atomic_write_bytes(folder / "vecnormalize.pkl", pickle.dumps(venv))  # what venv.save writes
@@ -336,6 +337,7 @@ def _save(folder: Path, model: Any, venv: Any, config: dict[str, Any]) -> None:
         replace_into(folder / "model.zip", model.save)
     with naming(folder / "config.json"):
         atomic_write_text(folder / "config.json", json.dumps(config, indent=1))
+    return folder
 
 
 def run(settings: ImitationSettings) -> dict[str, Any]:
@@ -392,7 +394,7 @@ def run(settings: ImitationSettings) -> dict[str, Any]:
         losses = fit(model, venv, every, mask, settings.epochs, settings.batch_size,
                      settings.learning_rate, settings.seed + r, settings.progress,
                      permute=settings.permute, observation_names=env.observation_names)  # fmt: skip
-        _save(folder, model, venv, model_config(settings, round=r))
+        save_model_folder(folder, model, venv, model_config(settings, round=r))
         ratio = data.ratio[: len(plans)]  # round 0: the clean pass
         summary["rounds"].append({
             "round": r, "labels": int(len(every.obs)), "played": "expert" if r == 0 else "policy",
@@ -415,7 +417,7 @@ def run(settings: ImitationSettings) -> dict[str, Any]:
         summary["polish"] = {"after_round": last, "epochs": settings.polish_epochs, **losses,
                              "seconds": round(time.perf_counter() - start, 1)}  # fmt: skip
         print(f"polish: loss move {losses['move']:.4f} share {losses['share']:.4f}", flush=True)
-    _save(out, model, venv, model_config(settings))
+    save_model_folder(out, model, venv, model_config(settings))
     summary.update(wall_time_s=round(time.perf_counter() - t0, 1), scenarios=settings.scenarios)
     with naming(summary_path):
         atomic_write_text(summary_path, json.dumps(summary, indent=1))

@@ -27,8 +27,8 @@ The folder (``model.zip``, ``vecnormalize.pkl``, ``config.json``) loads with
 from __future__ import annotations
 
 import argparse
+import io
 import json
-import pickle
 import time
 from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
@@ -36,7 +36,9 @@ from typing import Any
 
 import numpy as np
 
+from agents.imitation import save_model_folder
 from ios_uav_env import MOBILE_ID, ScenarioConfig, sample_scenario, score_plan
+from ios_uav_env.io import atomic_write_bytes, atomic_write_text
 
 #: The first training seed (scenario and episode); the suite's draws come from its own SeedSequence.
 FIRST_SEED = 10_000
@@ -185,16 +187,6 @@ def model_config(**extra: Any) -> dict[str, Any]:
             "trained_by": "agents.mpc_clone", "expert": dict(EXPERT), **extra}  # fmt: skip
 
 
-def save(folder: str | Path, model: Any, venv: Any, config: dict[str, Any]) -> Path:
-    """``model.zip``, ``vecnormalize.pkl`` and ``config.json`` in ``folder``."""
-    folder = Path(folder)
-    folder.mkdir(parents=True, exist_ok=True)
-    (folder / "vecnormalize.pkl").write_bytes(pickle.dumps(venv))
-    model.save(folder / "model.zip")
-    (folder / "config.json").write_text(json.dumps(config, indent=1))
-    return folder
-
-
 def run(out: str | Path, episodes: int, *, first_seed: int = FIRST_SEED, jobs: int = 1, epochs: int = 200,
         batch_size: int = 256, learning_rate: float = 1e-3, seed: int = 0) -> dict[str, Any]:  # fmt: skip
     """Collect ``episodes`` expert episodes (cached in ``out/data.npz``), fit, save the model in
@@ -213,7 +205,9 @@ def run(out: str | Path, episodes: int, *, first_seed: int = FIRST_SEED, jobs: i
                                                                   "seconds")}  # fmt: skip
         data["obs"] = np.concatenate([e["obs"] for e in eps])
         data["labels"] = np.concatenate([e["labels"] for e in eps])
-        np.savez(data_path, **data)
+        buffer = io.BytesIO()
+        np.savez(buffer, **data)
+        atomic_write_bytes(data_path, buffer.getvalue())  # a killed run leaves no half cache
     collect_seconds = time.perf_counter() - start
     th.manual_seed(seed)
     model, venv = new_model(data["obs"], seed)
@@ -227,8 +221,8 @@ def run(out: str | Path, episodes: int, *, first_seed: int = FIRST_SEED, jobs: i
         "trajectory_gap_max_m": float(np.max(data["max_gap"])), "fit_loss": loss, "epochs": epochs,
         "fit_seconds": time.perf_counter() - start,
     }  # fmt: skip
-    save(out, model, venv, model_config(summary=summary))
-    (out / "summary.json").write_text(json.dumps(summary, indent=1))
+    save_model_folder(out, model, venv, model_config(summary=summary))
+    atomic_write_text(out / "summary.json", json.dumps(summary, indent=1))
     return summary
 
 

@@ -15,7 +15,7 @@ import yaml
 
 import ios_uav_env  # noqa: F401
 from agents.fast import FastPPO
-from agents.imitation import ImitationSettings, _new_model, _save, model_config
+from agents.imitation import ImitationSettings, _new_model, model_config, save_model_folder
 from tests.agents.test_fast import entry, recipe
 
 pytestmark = pytest.mark.usefixtures("one_torch_thread")
@@ -39,9 +39,10 @@ def _observations(env_kwargs: dict, n: int, seed: int) -> np.ndarray:
 
 @pytest.fixture(scope="module")
 def imitation_model(tmp_path_factory) -> Path:
-    """A model folder as ``agents.imitation`` writes it (its own ``_new_model`` and ``_save``): an MLP of
-    [24, 24] on the hinted random multi-node id, observation statistics of real observations, and
-    weights moved away from their initialisation (a fit would do that; here a seeded perturbation)."""
+    """A model folder as ``agents.imitation`` writes it (its own ``_new_model`` and
+    ``save_model_folder``): an MLP of [24, 24] on the hinted random multi-node id, observation
+    statistics of real observations, and weights moved away from their initialisation (a fit would
+    do that; here a seeded perturbation)."""
     folder = tmp_path_factory.mktemp("imitation")
     settings = ImitationSettings(out=str(folder), net_arch=(24, 24), env_kwargs=dict(HINTED), seed=5)
     env = gym.make(RANDOM, **HINTED).unwrapped
@@ -50,7 +51,7 @@ def imitation_model(tmp_path_factory) -> Path:
     with torch.no_grad():
         for p in model.policy.parameters():
             p.add_(0.3 * torch.randn(p.shape, generator=generator))
-    _save(folder, model, venv, model_config(settings))
+    save_model_folder(folder, model, venv, model_config(settings))
     return folder
 
 
