@@ -263,9 +263,9 @@ def check(name: str, config: ScenarioConfig, paths: Any = None) -> PlannerSpec:
         fits += [p for p in handlers(config, paths=True) if p not in fits]
     others = [p for p in fits if p is not spec]
     same = [p for p in others if p.kind == spec.kind] or others
-    if config.star_access == "noma" and "noma" not in spec.accesses:  # every NOMA planner: dp-star, ao-star
-        same = [p for p in others if p.kind != "heuristic"] or others
-    if config.star_bits is not None and not spec.bits:  # the b-bit planner: dp
+    noma = config.star_access == "noma" and "noma" not in spec.accesses  # the NOMA planners: dp-star, ao-star
+    bits = config.star_bits is not None and not spec.bits  # the b-bit planner: dp
+    if noma or bits:  # name the planners that plan it, not only the heuristics of the same kind
         same = [p for p in others if p.kind != "heuristic"] or others
     names = ", ".join(f"{p.name} ({p.entry})" for p in same)
     hint = f"; use {names}" if names else "; no registered planner handles it"

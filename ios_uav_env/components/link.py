@@ -30,9 +30,9 @@ import numpy as np
 
 from ios_uav_env.components.base import Component, Registry
 from ios_uav_env.model import channel
-from ios_uav_env.model.array import MAX_ANTENNAS, scenario_array
+from ios_uav_env.model.array import scenario_array
 from ios_uav_env.model.config import ScenarioConfig
-from ios_uav_env.model.config_checks import is_int
+from ios_uav_env.model.config_checks import checked_antennas
 from ios_uav_env.model.miso_regions import miso_pricer
 from ios_uav_env.model.regions import Pricer, tdma_pricer
 from ios_uav_env.model.schedule import node_rates
@@ -141,10 +141,7 @@ class MultiAntennaLink(Link):
 
     def __post_init__(self) -> None:
         super().__post_init__()
-        n = self.antennas
-        if not (is_int(n) and 1 <= n <= MAX_ANTENNAS):
-            raise ValueError(f"link.antennas must be an integer in [1, {MAX_ANTENNAS}] (N_t), got {n!r}")
-        object.__setattr__(self, "antennas", int(n))
+        object.__setattr__(self, "antennas", checked_antennas(self.antennas, "link.antennas"))
 
     def _config(self, config: ScenarioConfig) -> ScenarioConfig:
         """``config`` with this link's antennas."""

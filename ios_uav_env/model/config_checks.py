@@ -99,12 +99,17 @@ def check_motion(cfg: Any) -> None:
         rectangles(cfg.motion, np.asarray(cfg.nodes, dtype=float), cfg.ios_center, cfg.surface)
 
 
-def check_antennas(cfg: Any) -> None:
-    """Validate ``antennas`` (N_t, an integer in [1, ``array.MAX_ANTENNAS``])."""
-    n = cfg.antennas
+def checked_antennas(n: Any, name: str = "antennas") -> int:
+    """``n`` as the UAV's antenna count N_t (the scenario's or a link's), an integer in
+    [1, ``array.MAX_ANTENNAS``]; else a ``ValueError`` naming the field ``name``."""
     if not (is_int(n) and 1 <= n <= MAX_ANTENNAS):
-        raise ValueError(f"antennas must be an integer in [1, {MAX_ANTENNAS}] (the UAV's N_t), got {n!r}")
-    object.__setattr__(cfg, "antennas", int(n))
+        raise ValueError(f"{name} must be an integer in [1, {MAX_ANTENNAS}] (N_t), got {n!r}")
+    return int(n)
+
+
+def check_antennas(cfg: Any) -> None:
+    """Validate ``antennas`` (:func:`checked_antennas`)."""
+    object.__setattr__(cfg, "antennas", checked_antennas(cfg.antennas))
 
 
 def check_objective(cfg: Any) -> None:
