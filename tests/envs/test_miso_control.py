@@ -284,3 +284,8 @@ def test_gymnasiums_checker_passes_a_rician_channel_without_warnings(channel):
     with warnings.catch_warnings():
         warnings.simplefilter("error")
         check_env(env.unwrapped, skip_render_check=True)
+
+
+def test_a_multi_antenna_flight_refuses_the_rician_channel_naming_the_per_slot_env():
+    with pytest.raises(ValueError, match=r"fading 'rician'.*ios_uav_env/MISOControl-v0 \(channel='rician'"):
+        gym.make("ios_uav_env/MISOUAV-v0", channel="rician")
