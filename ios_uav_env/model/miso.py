@@ -217,7 +217,9 @@ def mrt_beam(h: np.ndarray) -> np.ndarray:
 
 def user_gain_bound(channel: SlotChannel, k: int) -> float:
     """G_k >= max over the surface and beams ||w|| <= 1 of |h_k w|^2 (SNR units): exact (attained by
-    :func:`aligned_phases` and MRT) when ``channel.rank_one``, else (sqrt(N_t) S + ||d_k||)^2."""
+    :func:`aligned_phases` and MRT) when ``channel.rank_one``, else (sum_m |c_km| ||g_m|| + ||d_k||)^2
+    (the triangle inequality and Cauchy-Schwarz: certified for any UAV-surface matrix, e.g. a Rician
+    draw of ``model.miso_fading``; (sqrt(N_t) S + ||d_k||)^2 for unit-modulus steering rows)."""
     _check_user(channel, k)
     S = float(np.abs(channel.coef[k]).sum())
     d = channel.direct[k]
