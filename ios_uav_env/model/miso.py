@@ -111,12 +111,17 @@ def slot_channel(config: ScenarioConfig, array: ArrayConfig, position: np.ndarra
     """The :class:`SlotChannel` of ``config``'s K nodes for the UAV at horizontal ``position``
     (2,) m, built from the single-node channel's per-element functions of each node's config
     (:func:`slot_channels` of one position)."""
+    return slot_channels(config, array, one_position(position))[0]
+
+
+def one_position(position: np.ndarray) -> np.ndarray:
+    """``position`` as a (1, 2) array of one horizontal position (x, y) m, else ``ValueError``."""
     q = ch.as_positions(position, "position")
     if len(q) != 1:
         raise ValueError(
             f"position must be one horizontal position (x, y) in m, got shape {np.shape(position)}"
         )
-    return slot_channels(config, array, q)[0]
+    return q
 
 
 def slot_channels(config: ScenarioConfig, array: ArrayConfig, trajectory: np.ndarray) -> list[SlotChannel]:

@@ -55,7 +55,7 @@ import numpy as np
 from ios_uav_env.model import channel as ch
 from ios_uav_env.model.array import ArrayConfig
 from ios_uav_env.model.config import ScenarioConfig
-from ios_uav_env.model.miso import SlotChannel, slot_channels
+from ios_uav_env.model.miso import SlotChannel, one_position, slot_channels
 
 #: The scattered parts (the module docstring): the paper's one vector per user link, or i.i.d.
 #: per surface element and antenna.
@@ -82,16 +82,19 @@ def _weights(config: ScenarioConfig) -> tuple[float, float]:
     return math.sqrt(k / (1 + k)), math.sqrt(1 / (1 + k))
 
 
+def _users(config: ScenarioConfig) -> list[ScenarioConfig]:
+    return [config.node_config(k) for k in range(config.K)]
+
+
 def _link_amplitudes(config: ScenarioConfig, q: np.ndarray) -> np.ndarray:
     """sqrt(eta) (sum_m a_km + a_Dk) of each position and user, shape (P, K)."""
-    users = [config.node_config(k) for k in range(config.K)]
-    amp = [ch.element_amplitudes(u, q).sum(axis=1) + ch.direct_amplitude(u, q) for u in users]
+    amp = [ch.element_amplitudes(u, q).sum(axis=1) + ch.direct_amplitude(u, q) for u in _users(config)]
     return math.sqrt(config.eta) * np.stack(amp, axis=1)
 
 
 def _direct_amplitudes(config: ScenarioConfig, q: np.ndarray) -> np.ndarray:
     """sqrt(eta) a_Dk of each position and user, shape (P, K)."""
-    amp = [ch.direct_amplitude(config.node_config(k), q) for k in range(config.K)]
+    amp = [ch.direct_amplitude(u, q) for u in _users(config)]
     return math.sqrt(config.eta) * np.stack(amp, axis=1)
 
 
@@ -134,12 +137,7 @@ def rician_slot_channel(
 ) -> SlotChannel:
     """One Rician draw of the :class:`~ios_uav_env.model.miso.SlotChannel` at the horizontal
     ``position`` (2,) m: :func:`rician_slot_channels` of one position."""
-    q = ch.as_positions(position, "position")
-    if len(q) != 1:
-        raise ValueError(
-            f"position must be one horizontal position (x, y) in m, got shape {np.shape(position)}"
-        )
-    return rician_slot_channels(config, array, q, rng, scattering)[0]
+    return rician_slot_channels(config, array, one_position(position), rng, scattering)[0]
 
 
 def mean_gains(
@@ -154,14 +152,13 @@ def mean_gains(
     LoS power weighted by kappa / (1 + kappa) plus the scattered power, the cross terms having
     mean zero."""
     check_scattering(scattering)
-    q = ch.as_positions(position, "position")
+    q = one_position(position)
     los = slot_channels(config, array, q)[0]
     a, b = _weights(config)
     power = np.sum(np.abs(los.matrix(phases)) ** 2, axis=1)
     if scattering == "link":
         scattered = _link_amplitudes(config, q)[0] ** 2
     else:
-        users = [config.node_config(k) for k in range(config.K)]
-        surface = np.array([np.sum(ch.element_amplitudes(u, q) ** 2) for u in users])
+        surface = np.array([np.sum(ch.element_amplitudes(u, q) ** 2) for u in _users(config)])
         scattered = config.eta * surface + _direct_amplitudes(config, q)[0] ** 2
     return a * a * power + b * b * array.n_t * scattered
