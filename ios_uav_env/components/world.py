@@ -182,8 +182,9 @@ RULES: tuple[tuple[Any, str], ...] = (
         lambda w: w.link.kind == "multi_antenna" and (w.link.fading != "expected" or not w.knowledge.exact),
         "link multi_antenna with fading 'rician' or measured rates (knowledge reports, filtered or rates): "
         "the multi-antenna UAV's rate is the closed form of its aligned phases and MRT (model.miso), with "
-        "no faded sample modelled; use fading 'expected' (channel='expected') with knowledge exact, or the "
-        "single_antenna link for faded or measured rates",
+        "no faded sample of a flight modelled; use fading 'expected' (channel='expected') with knowledge "
+        "exact, or the single_antenna link for faded or measured rates; a multi-antenna UAV's Rician channel "
+        "runs per slot in ios_uav_env/MISOControl-v0 (channel='rician', model.miso_fading)",
     ),
     (
         lambda w: w.link.kind == "multi_antenna" and w.surface.kind == "star" and w.surface.bits is not None,

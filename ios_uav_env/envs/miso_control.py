@@ -17,7 +17,7 @@ import numpy as np
 from gymnasium import spaces
 
 from ios_uav_env.envs.star_control import BASE_CONFIG, LENGTH_SCALE, N_SLOTS, X_RANGE, Y_SPAN
-from ios_uav_env.model.array import ArrayConfig
+from ios_uav_env.model.array import ArrayConfig, link_response
 from ios_uav_env.model.miso import (
     SlotChannel,
     aligned_phases,
@@ -28,6 +28,7 @@ from ios_uav_env.model.miso import (
     slot_channels,
     user_rates,
 )
+from ios_uav_env.model.miso_fading import rician_slot_channels
 from ios_uav_env.model.miso_slot import SlotSolution, slot_optimum
 
 #: The K <= 4 users (m; the first K of them), around the small surface of STARControl-v0's
@@ -41,6 +42,9 @@ M_RANGE = (4, 64)  # M = M_y M_z, small enough for element-by-element control an
 #: The UAV's ULA: lambda / 2 spacing, its axis along y (the flight's direction), one far-field angle
 #: to the surface's centre (``steering="centre"``: the UAV-surface channel is rank one).
 ORIENTATION = math.pi / 2
+#: The slot channels (``channel``): LoS, or one Rician draw per slot (``model.miso_fading``) with
+#: the scattering "link" ("rician") or "element" ("rician_element").
+CHANNELS: dict[str, str | None] = {"los": None, "rician": "link", "rician_element": "element"}
 INFO_KEYS = (
     "slot", "uav_x", "uav_y", "rates", "value", "optimum", "bound", "mrt_aligned", "zf_aligned", "tdma",
     "return", "optimum_return", "bound_return", "pct_of_optimum", "pct_of_bound",
@@ -135,9 +139,11 @@ class MISOControlEnv(gym.Env):
     ## Starting State
 
     The UAV at (x, -150) m, x ~ U[-250, -100] m from ``reset(seed=...)``'s generator (the only
-    draw). ``env.unwrapped.config`` is the episode's scenario (the users as its nodes, the line as
-    q0 -> qF), ``env.unwrapped.array`` the ``ArrayConfig``, ``env.unwrapped.positions`` the (N, 2)
-    way-points and ``env.unwrapped.channels`` each slot's ``miso.SlotChannel``.
+    draw with ``channel="los"``; a Rician channel then draws every slot's fading from it, in
+    ``model.miso_fading``'s order). ``env.unwrapped.config`` is the episode's scenario (the users
+    as its nodes, the line as q0 -> qF), ``env.unwrapped.array`` the ``ArrayConfig``,
+    ``env.unwrapped.positions`` the (N, 2) way-points and ``env.unwrapped.channels`` each slot's
+    ``miso.SlotChannel`` (the drawn ones with a Rician ``channel``).
 
     ## Episode End
 
@@ -149,6 +155,13 @@ class MISOControlEnv(gym.Env):
     - ``users``: K in [1, 4]; default 2.
     - ``elements``: the surface shape (M_y, M_z), M in [4, 64]; default (4, 4).
     - ``objective``: ``"sum"`` (default) or ``"maxmin"`` (``miso.SLOT_OBJECTIVES``).
+    - ``channel``: ``"los"`` (default: the LoS channels), ``"rician"`` or ``"rician_element"``: one
+      Rician draw per slot (Rician factor kappa = 3, ``model.miso_fading.rician_slot_channels``)
+      with the scattering ``"link"`` (the paper's eqs. (4)-(8) per antenna: the UAV-surface channel
+      stays rank one) or ``"element"`` (i.i.d. per element and antenna: a full-rank UAV-surface
+      channel, on which the aligned phases with MRT are no longer the K = 1 optimum). The reward,
+      the bound and the references are those of the drawn channel; the observation's steering
+      vector stays the LoS one.
     - ``optimum``: whether ``info`` carries the scoring references, the per-slot AO value and the
       baselines (default True). The AO costs hundredths to tenths of a second a slot, far more
       than the step (``benchmarks/miso_control.py`` prints both): train without it, score with it.
@@ -174,6 +187,7 @@ class MISOControlEnv(gym.Env):
         elements: tuple[int, int] = (4, 4),
         objective: str = "sum",
         optimum: bool = True,
+        channel: str = "los",
     ) -> None:
         self.n_t = _count("antennas", antennas, ANTENNAS, "N_t, the UAV's antennas")
         self.K = _count("users", users, USER_COUNTS, "K, the users served at once")
@@ -181,7 +195,9 @@ class MISOControlEnv(gym.Env):
         check_objective(objective)
         if not isinstance(optimum, bool):
             raise ValueError(f"optimum must be True or False, got {optimum!r}")
-        self.objective, self.with_optimum = objective, optimum
+        if channel not in CHANNELS:
+            raise ValueError(f"channel must be one of {tuple(CHANNELS)}, got {channel!r}")
+        self.objective, self.with_optimum, self.channel = objective, optimum, channel
         self.array = ArrayConfig(n_t=self.n_t, orientation_rad=ORIENTATION)
         self.config = self._base = BASE_CONFIG.replace(ios_shape=shape, ground_nodes=USERS[: self.K])
         self.M = shape[0] * shape[1]
@@ -200,6 +216,7 @@ class MISOControlEnv(gym.Env):
         self.positions = np.zeros((N_SLOTS, 2))
         self.slot = 0
         self.solution: SlotSolution | None = None  # the last slot's AO setting (the warm start)
+        self._steering: np.ndarray | None = None  # (N, N_t) the LoS a_c of a Rician episode
         self._totals = np.zeros(3)  # return, optimum return (NaN without the optimum), bound return
 
     # -- the episode --------------------------------------------------------------------------
@@ -210,7 +227,15 @@ class MISOControlEnv(gym.Env):
         x = float(self.np_random.uniform(*X_RANGE))
         self.config = self._base.replace(q0=(x, Y_SPAN[0]), qF=(x, Y_SPAN[1]))  # the episode's line
         self.positions = np.column_stack([np.full(N_SLOTS, x), np.linspace(*Y_SPAN, N_SLOTS)])
-        self.channels = slot_channels(self.config, self.array, self.positions)
+        scattering = CHANNELS[self.channel]
+        if scattering is None:
+            self.channels, self._steering = slot_channels(self.config, self.array, self.positions), None
+        else:
+            self.channels = rician_slot_channels(
+                self.config, self.array, self.positions, self.np_random, scattering
+            )
+            uav = np.column_stack([self.positions, np.full(N_SLOTS, self.config.uav_altitude)])
+            self._steering = link_response(self.array, uav, np.asarray(self.config.ios_center))
         self.slot, self.solution = 0, None
         self._totals = np.array([0.0, 0.0 if self.with_optimum else math.nan, 0.0])
         start = 0.0 if self.with_optimum else math.nan
@@ -269,7 +294,7 @@ class MISOControlEnv(gym.Env):
         direct = np.linalg.norm(ch.direct, axis=1)
         gains = slot_bounds(ch).gains
         unit = ch.direct / np.where(direct > 0, direct, 1.0)[:, None]
-        steering = ch.to_elements[0] / math.sqrt(self.n_t)
+        steering = (ch.to_elements[0] if self._steering is None else self._steering[n]) / math.sqrt(self.n_t)
         parts = [
             [*(q / LENGTH_SCALE), n / (N_SLOTS - 1)], users.ravel(),
             surface / np.where(surface + direct > 0, surface + direct, 1.0),

@@ -257,7 +257,8 @@ class IOSUAVEnv(UAVEnv):
       UAV is told of the node each slot, see "Moving nodes".
     - ``antennas`` (a ``ScenarioConfig`` field; 1, ``MISOUAV-v0``'s 4): the UAV's antennas N_t, an
       integer in [1, 64]; with N_t > 1 the faded and measured rates are refused (no faded sample of
-      the multi-antenna channel is modelled), naming the world's rule.
+      a multi-antenna flight is modelled; per slot: ``MISOControl-v0``'s Rician ``channel``), naming
+      the world's rule.
     - ``star_bits`` (a ``ScenarioConfig`` field of the STAR surface; None): b-bit phases, an
       integer in [1, 8] (``STARUAV-v0`` and ``STARUAV-Random-v0``: ``gym.make(id, star_bits=2)``),
       the rate above; the faded and measured rates, NOMA (``star_access="noma"``) and several

@@ -158,7 +158,7 @@ def require_single_antenna(config: ScenarioConfig, what: str) -> None:
         raise ValueError(
             f"{what} models the single-antenna UAV, but this config has antennas={config.antennas}: its "
             "rate at the optimal phases and beam is slot_rates (aligned_gain), any other setting "
-            "ios_uav_env.model.miso (SlotChannel)"
+            "ios_uav_env.model.miso (SlotChannel), a Rician draw ios_uav_env.model.miso_fading"
         )
 
 

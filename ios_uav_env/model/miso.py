@@ -111,12 +111,17 @@ def slot_channel(config: ScenarioConfig, array: ArrayConfig, position: np.ndarra
     """The :class:`SlotChannel` of ``config``'s K nodes for the UAV at horizontal ``position``
     (2,) m, built from the single-node channel's per-element functions of each node's config
     (:func:`slot_channels` of one position)."""
+    return slot_channels(config, array, one_position(position))[0]
+
+
+def one_position(position: np.ndarray) -> np.ndarray:
+    """``position`` as a (1, 2) array of one horizontal position (x, y) m, else ``ValueError``."""
     q = ch.as_positions(position, "position")
     if len(q) != 1:
         raise ValueError(
             f"position must be one horizontal position (x, y) in m, got shape {np.shape(position)}"
         )
-    return slot_channels(config, array, q)[0]
+    return q
 
 
 def slot_channels(config: ScenarioConfig, array: ArrayConfig, trajectory: np.ndarray) -> list[SlotChannel]:
@@ -217,7 +222,9 @@ def mrt_beam(h: np.ndarray) -> np.ndarray:
 
 def user_gain_bound(channel: SlotChannel, k: int) -> float:
     """G_k >= max over the surface and beams ||w|| <= 1 of |h_k w|^2 (SNR units): exact (attained by
-    :func:`aligned_phases` and MRT) when ``channel.rank_one``, else (sqrt(N_t) S + ||d_k||)^2."""
+    :func:`aligned_phases` and MRT) when ``channel.rank_one``, else (sum_m |c_km| ||g_m|| + ||d_k||)^2
+    (the triangle inequality and Cauchy-Schwarz: certified for any UAV-surface matrix, e.g. a Rician
+    draw of ``model.miso_fading``; (sqrt(N_t) S + ||d_k||)^2 for unit-modulus steering rows)."""
     _check_user(channel, k)
     S = float(np.abs(channel.coef[k]).sum())
     d = channel.direct[k]

@@ -3,20 +3,23 @@ id ``ios_uav_env/MISOControl-v0``, and its batched form ``miso_control_vector``)
 objective of ``miso.user_rates`` at the action's setting, no action beats the certified bound, the
 AO setting given as an action reaches the AO value, K = 1 reaches the bound (closed form), seeded
 episodes repeat bit for bit, the batch's row b is the single env seeded seed + b across
-autoresets, bad keywords are refused by name. (The id's checkers and golden episode:
-``test_checkers.py``, ``test_golden.py``.)"""
+autoresets, bad keywords are refused by name; with a Rician ``channel`` the slots are the model's
+draws from the env's generator, the bound still holds, and the same properties hold. (The id's
+checkers and golden episode: ``test_checkers.py``, ``test_golden.py``.)"""
 
 from __future__ import annotations
 
 import math
 import pickle
+import warnings
 
 import gymnasium as gym
 import numpy as np
 import pytest
+from gymnasium.utils.env_checker import check_env
 
 import ios_uav_env
-from ios_uav_env.envs.miso_control import INFO_KEYS, N_SLOTS, USERS, MISOControlEnv, wrap
+from ios_uav_env.envs.miso_control import CHANNELS, INFO_KEYS, N_SLOTS, USERS, X_RANGE, MISOControlEnv, wrap
 from ios_uav_env.envs.miso_control_vector import MISOControlVectorEnv
 from ios_uav_env.model.miso import (
     aligned_phases,
@@ -24,8 +27,10 @@ from ios_uav_env.model.miso import (
     mrt_beam,
     objective_value,
     slot_bounds,
+    slot_channels,
     user_rates,
 )
+from ios_uav_env.model.miso_fading import rician_slot_channels
 from ios_uav_env.model.miso_slot import slot_optimum
 
 ID = ios_uav_env.MISO_CONTROL_ID
@@ -120,11 +125,12 @@ def test_the_ao_setting_as_an_action_reaches_the_ao_value(kwargs):
     assert terminated and info["pct_of_optimum"] >= 100 * (1 - 1e-9)
 
 
-@pytest.mark.parametrize("antennas", [1, 2, 8])
-def test_one_user_reaches_the_bound_with_the_observed_phases_and_mrt(antennas):
-    """K = 1, a rank-one UAV-surface link: the optimum is the aligned phases (the observation's
-    last M features, times pi) with MRT, and the bound is that value (Wu & Zhang's closed form)."""
-    env = MISOControlEnv(antennas=antennas, users=1, elements=(4, 4))
+@pytest.mark.parametrize(("antennas", "channel"), [(1, "los"), (2, "los"), (8, "los"), (4, "rician")])
+def test_one_user_reaches_the_bound_with_the_observed_phases_and_mrt(antennas, channel):
+    """K = 1, a rank-one UAV-surface link (LoS, or Rician with the link scattering, which fades the
+    direct row only): the optimum is the aligned phases (the observation's last M features, times
+    pi) with MRT, and the bound is that value (Wu & Zhang's closed form)."""
+    env = MISOControlEnv(antennas=antennas, users=1, elements=(4, 4), channel=channel)
     obs, _ = env.reset(seed=6)
     for _ in range(N_SLOTS):
         ch = env.channels[env.slot]
@@ -161,9 +167,13 @@ def test_seeded_episodes_repeat_bit_for_bit_and_the_env_pickles():
     assert all(np.array_equal(x, y, equal_nan=True) for x, y in pairs)
 
 
-@pytest.mark.parametrize(("mode", "optimum"), [("next_step", False), ("same_step", True)])
-def test_batch_row_b_is_the_single_env_seeded_seed_plus_b_across_an_autoreset(mode, optimum):
-    kwargs, B, seed = {"antennas": 2, "users": 2, "elements": (2, 2), "optimum": optimum}, 3, 20
+@pytest.mark.parametrize(
+    ("mode", "optimum", "channel"),
+    [("next_step", False, "los"), ("same_step", True, "los"), ("next_step", False, "rician_element")],
+)
+def test_batch_row_b_is_the_single_env_seeded_seed_plus_b_across_an_autoreset(mode, optimum, channel):
+    kwargs = {"antennas": 2, "users": 2, "elements": (2, 2), "optimum": optimum, "channel": channel}
+    B, seed = 3, 20
     vec = gym.make_vec(ID, num_envs=B, vectorization_mode="vector_entry_point", autoreset_mode=mode, **kwargs)
     assert isinstance(vec.unwrapped, MISOControlVectorEnv)
     singles = [MISOControlEnv(**kwargs) for _ in range(B)]
@@ -201,6 +211,7 @@ def test_batch_row_b_is_the_single_env_seeded_seed_plus_b_across_an_autoreset(mo
         ({"antennas": True}, "antennas"), ({"users": 0}, "users"), ({"users": 5}, "users"),
         ({"elements": (1, 2)}, "elements"), ({"elements": (8, 16)}, "elements"),
         ({"elements": 16}, "elements"), ({"objective": "sum_rate"}, "objective"), ({"optimum": 1}, "optimum"),
+        ({"channel": "rayleigh"}, "channel"), ({"channel": "link"}, "channel"),
     ],
 )  # fmt: skip
 def test_bad_keywords_are_refused_by_name(kwargs, name):
@@ -227,3 +238,54 @@ def test_bad_actions_and_calls_are_refused():
     for bad, name in ((0, "num_envs"), ("later", "autoreset_mode")):
         with pytest.raises(ValueError, match=f"^{name} must"):
             MISOControlVectorEnv(**{name: bad})
+
+
+@pytest.mark.parametrize("channel", ["rician", "rician_element"])
+def test_a_rician_episodes_slots_are_the_models_draws_from_the_envs_generator(channel):
+    """reset(seed=s) draws x, then every slot's fading (``miso_fading.rician_slot_channels``) from
+    the same generator: the channels are the model's, bit for bit, with the scattering the channel
+    names; the LoS channel (the default) draws nothing more and is unchanged."""
+    kwargs = {"antennas": 4, "users": 2, "elements": (2, 4), "optimum": False}
+    env, los = MISOControlEnv(**kwargs, channel=channel), MISOControlEnv(**kwargs)
+    obs, _ = env.reset(seed=3)
+    rng = np.random.default_rng(3)
+    assert env.positions[0, 0] == rng.uniform(*X_RANGE)
+    want = rician_slot_channels(env.config, env.array, env.positions, rng, CHANNELS[channel])
+    for got, ref in zip(env.channels, want, strict=True):
+        assert all(
+            np.array_equal(getattr(got, f), getattr(ref, f)) for f in ("coef", "to_elements", "direct")
+        )
+        assert got.rank_one == (channel == "rician")
+    obs_los, _ = los.reset(seed=3)
+    plain = slot_channels(los.config, los.array, los.positions)
+    assert all(np.array_equal(a.direct, b.direct) for a, b in zip(los.channels, plain, strict=True))
+    assert not np.array_equal(obs, obs_los)  # the faded rows are observed
+    steering = [n for n, name in enumerate(env.observation_names) if name.startswith("miso_steering_")]
+    assert np.array_equal(obs[steering], obs_los[steering])  # the LoS steering vector, both channels
+
+
+@pytest.mark.parametrize("channel", ["rician", "rician_element"])
+def test_a_rician_episode_repeats_bit_for_bit_and_stays_below_the_bound(channel):
+    kwargs = {"antennas": 2, "users": 2, "elements": (2, 2), "channel": channel}
+    first, second = _episode(gym.make(ID, **kwargs), 4), _episode(gym.make(ID, **kwargs), 4)
+    assert all(np.array_equal(x, y, equal_nan=True) for x, y in zip(first, second, strict=True))
+    env = MISOControlEnv(**kwargs)
+    env.reset(seed=5)
+    rng = np.random.default_rng(6)
+    for _ in range(N_SLOTS):
+        _, reward, _, _, info = env.step(rng.uniform(-1, 1, env.action_space.shape))
+        assert reward <= info["bound"] * (1 + 1e-12) and info["optimum"] <= info["bound"] * (1 + 1e-9)
+        assert info["optimum"] >= info["mrt_aligned"] * (1 - 1e-12)
+
+
+@pytest.mark.parametrize("channel", ["rician", "rician_element"])
+def test_gymnasiums_checker_passes_a_rician_channel_without_warnings(channel):
+    env = gym.make(ID, antennas=2, users=2, elements=(2, 2), channel=channel)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        check_env(env.unwrapped, skip_render_check=True)
+
+
+def test_a_multi_antenna_flight_refuses_the_rician_channel_naming_the_per_slot_env():
+    with pytest.raises(ValueError, match=r"fading 'rician'.*ios_uav_env/MISOControl-v0 \(channel='rician'"):
+        gym.make("ios_uav_env/MISOUAV-v0", channel="rician")

@@ -72,6 +72,11 @@ PARTS = ("single", "batched")
 #: The variants' goldens: name -> (the id, its keywords besides the id's ``golden_kwargs``).
 VARIANTS: dict[str, tuple[str, dict[str, Any]]] = {
     "ios_uav_env/STARUAV-v0+star_bits=2": ("ios_uav_env/STARUAV-v0", {"star_bits": 2}),
+    "ios_uav_env/MISOControl-v0+channel=rician": ("ios_uav_env/MISOControl-v0", {"channel": "rician"}),
+    "ios_uav_env/MISOControl-v0+channel=rician_element": (
+        "ios_uav_env/MISOControl-v0",
+        {"channel": "rician_element"},
+    ),
 }
 
 
