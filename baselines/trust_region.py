@@ -15,7 +15,12 @@ about the surface's centre, the gradients scaled to O(1))
 
 maximises the first-order model on the disc of radius r about each way-point; its optimum is the
 candidate flight. The speed limit is ``sca_problem``'s (an inward margin, loosened to the current
-step where that is longer, so q^l is feasible for the program).
+step where that is longer, so q^l is feasible for the program). The solver meets it to its accuracy
+only (~1e-6 m in these units, the feasibility check's own tolerance); with ``repair`` a candidate
+whose largest step exceeds D by delta is mixed with the straight line from q0 to qF (each step
+D - s, s > 0 when the horizon is not tight): q_t = (1 - t) q + t q_line has every step at most
+(1 - t)(D + delta) + t (D - s) <= D for t = delta / (delta + s) (a relative 1e-9 D more for the
+rounding), a move of order delta, and the same ends.
 
 **The ascent** (:func:`ascend`). Each round builds the model at the current flight (weights and
 gradients; rebuilt only after an accepted step, since a rejected one leaves the flight as it
@@ -69,11 +74,16 @@ class TrustStep:
     """The step's convex program (module docstring), built once per scenario (cvxpy DPP
     parameters: gradients, iterate, speed limits, radius) and re-solved by calling it."""
 
-    def __init__(self, config: ScenarioConfig, solver: str = "CLARABEL"):
+    def __init__(self, config: ScenarioConfig, solver: str = "CLARABEL", repair: bool = False):
         m, scale = config.N - 2, LENGTH_SCALE
         if m < 1:
             raise ValueError(f"config: N must be >= 3 slots for a way-point to move, got N = {config.N}")
         self.config, self.solver, self.centre = config, solver, np.asarray(config.ios_center[:2], dtype=float)
+        self.repair = repair
+        self.line = np.linspace(
+            np.asarray(config.q0, dtype=float), np.asarray(config.qF, dtype=float), config.N
+        )
+        self.slack = config.D - float(np.linalg.norm(self.line[1] - self.line[0]))
         self.x = cp.Variable((m, 2))
         self.grad = cp.Parameter((m, 2))
         self.anchor = cp.Parameter((m, 2))
@@ -106,7 +116,14 @@ class TrustStep:
         if status not in OK_STATUSES or self.x.value is None:
             return None, status
         interior = self.x.value * scale + self.centre
-        return np.vstack([q[:1], interior, q[-1:]]), status
+        cand = np.vstack([q[:1], interior, q[-1:]])
+        excess = float(np.linalg.norm(np.diff(cand, axis=0), axis=1).max()) - cfg.D
+        if self.repair and excess > 0 and self.slack > 0:
+            delta = excess + 1e-9 * cfg.D
+            t = min(1.0, delta / (delta + self.slack))
+            cand[1:-1] = (1 - t) * cand[1:-1] + t * self.line[1:-1]
+            status += " (repaired)"
+        return cand, status
 
 
 def trust_step(
@@ -147,19 +164,20 @@ def ascend(
     patience: int,
     max_seconds: float = math.inf,
     solver: str = "CLARABEL",
+    repair: bool = False,
     name: str = "ascent",
     progress: bool = False,
 ) -> Ascent:
     """The trust-region ascent (module docstring) from the feasible flight ``q`` of score
     ``score``: ``model(q) -> (weights, gradients (N, 2))`` the first-order model at a flight,
     ``evaluate(candidate) -> (feasible, score)`` the scorer. The arguments are the caller's,
-    already checked; ``name`` prefixes the ``progress`` lines."""
+    already checked; ``repair``: :class:`TrustStep`'s; ``name`` prefixes the ``progress`` lines."""
     t0 = time.perf_counter()
     out = Ascent(np.asarray(q, dtype=float), float(score))
     if config.N <= 2:
         out.stop = "no interior way-point"
         return out
-    step, rejections = TrustStep(config, solver), 0
+    step, rejections = TrustStep(config, solver, repair), 0
     w, grad = model(out.trajectory)
     for it in range(max_rounds):
         if time.perf_counter() - t0 >= max_seconds:
