@@ -43,7 +43,7 @@ import numpy as np
 
 from baselines.plan import Plan
 from baselines.registry import check as check_planner
-from baselines.trust_region import ascend, count, positive
+from baselines.trust_region import ascend, checked_region, positive
 from ios_uav_env import ScenarioConfig, check_trajectory, score_plan
 from ios_uav_env.model.miso import tdma_rates
 from ios_uav_env.model.miso_sdma import (
@@ -146,15 +146,10 @@ def solve(
     """
     t0 = time.perf_counter()
     _check(config)
-    max_rounds = count("max_rounds", max_rounds, 1)
-    patience = count("patience", patience, 1)
+    region = checked_region(config, max_rounds=max_rounds, patience=patience, radius=radius,
+                            min_radius=min_radius, max_radius=max_radius, fd_step=fd_step)  # fmt: skip
+    fd_step = region.pop("fd_step")
     max_seconds = positive("max_seconds", max_seconds)
-    cap = positive("max_radius", config.D if max_radius is None else max_radius)
-    radius = positive("radius", radius)
-    min_radius = positive("min_radius", min_radius, high=radius)
-    if radius > cap:
-        raise ValueError(f"radius must be <= max_radius ({cap:g} m), got {radius!r}")
-    fd_step = positive("fd_step", fd_step)
     from baselines import dp_miso_sdma
 
     start_info: dict[str, Any] = {}
@@ -181,8 +176,7 @@ def solve(
         scored = score_plan(config, cand)
         return scored.feasible, scored.rate
 
-    run = ascend(config, q, score, model, evaluate, radius=radius, min_radius=min_radius, max_radius=cap,
-                 max_rounds=max_rounds, patience=patience, max_seconds=max_seconds, solver=solver,
+    run = ascend(config, q, score, model, evaluate, **region, max_seconds=max_seconds, solver=solver,
                  repair=True, name="ao-miso-sdma", progress=progress)  # fmt: skip
     ascent_seconds = time.perf_counter() - t1
     upper, bound_w, bound_seconds = start_info.get("upper_bound"), start_info.get("bound_weights"), 0.0

@@ -47,7 +47,7 @@ import numpy as np
 
 from baselines.plan import Plan
 from baselines.registry import check as check_planner
-from baselines.trust_region import ascend, count, positive, trust_step
+from baselines.trust_region import ascend, checked_region, trust_step
 from ios_uav_env import ScenarioConfig, check_trajectory, score_plan
 from ios_uav_env.model.star_maps import FRONTIER_POINTS, frontier_maps
 from ios_uav_env.model.star_regions import scenario_maxmin
@@ -109,14 +109,9 @@ def solve(
     """
     t0 = time.perf_counter()
     check_planner("ao-star", config)
-    max_rounds = count("max_rounds", max_rounds, 1)
-    patience = count("patience", patience, 1)
-    cap = positive("max_radius", config.D if max_radius is None else max_radius)
-    radius = positive("radius", radius)
-    min_radius = positive("min_radius", min_radius, high=radius)
-    if radius > cap:
-        raise ValueError(f"radius must be <= max_radius ({cap:g} m), got {radius!r}")
-    fd_step = positive("fd_step", fd_step)
+    region = checked_region(config, max_rounds=max_rounds, patience=patience, radius=radius,
+                            min_radius=min_radius, max_radius=max_radius, fd_step=fd_step)  # fmt: skip
+    fd_step = region.pop("fd_step")
     upper_bound, start_seconds = None, 0.0
     if start is None:
         from baselines.dp_star import solve as dp_star
@@ -138,9 +133,9 @@ def solve(
         scored = score_plan(config, cand)
         return scored.feasible, scored.rate
 
-    run = ascend(config, q, score, model, evaluate, radius=radius, min_radius=min_radius, max_radius=cap,
-                 max_rounds=max_rounds, patience=patience, solver=solver, name="ao-star",
-                 progress=progress)  # fmt: skip
+    run = ascend(
+        config, q, score, model, evaluate, **region, solver=solver, name="ao-star", progress=progress
+    )
     start_rate, q, score = score, run.trajectory, run.score
     info = {
         "start_rate": start_rate,

@@ -48,7 +48,9 @@ import numpy as np
 from baselines.sca_problem import LENGTH_SCALE, OK_STATUSES, STEP_MARGIN
 from ios_uav_env import ScenarioConfig
 
-__all__ = ["GROW", "SHRINK", "Ascent", "TrustStep", "ascend", "count", "positive", "trust_step"]
+__all__ = [
+    "GROW", "SHRINK", "Ascent", "TrustStep", "ascend", "checked_region", "count", "positive", "trust_step",
+]  # fmt: skip
 
 #: Trust radius factors after an accepted and a rejected step.
 GROW = 2.0
@@ -68,6 +70,28 @@ def count(name: str, value: Any, low: int) -> int:
     if isinstance(value, bool) or not isinstance(value, numbers.Integral) or value < low:
         raise ValueError(f"{name} must be an integer >= {low}, got {value!r}")
     return int(value)
+
+
+def checked_region(
+    config: ScenarioConfig,
+    *,
+    max_rounds: Any,
+    patience: Any,
+    radius: Any,
+    min_radius: Any,
+    max_radius: Any,
+    fd_step: Any,
+) -> dict[str, Any]:
+    """The ascent's arguments checked (``ValueError`` naming the one out of its range), as the
+    keywords of :func:`ascend` (``max_radius`` None: D) plus ``fd_step`` (m, > 0)."""
+    rounds, patience = count("max_rounds", max_rounds, 1), count("patience", patience, 1)
+    cap = positive("max_radius", config.D if max_radius is None else max_radius)
+    radius = positive("radius", radius)
+    min_radius = positive("min_radius", min_radius, high=radius)
+    if radius > cap:
+        raise ValueError(f"radius must be <= max_radius ({cap:g} m), got {radius!r}")
+    return {"max_rounds": rounds, "patience": patience, "radius": radius, "min_radius": min_radius,
+            "max_radius": cap, "fd_step": positive("fd_step", fd_step)}  # fmt: skip
 
 
 class TrustStep:
