@@ -69,6 +69,7 @@ def test_three_users_from_the_grid_plan(start3):
     plan = solve(THREE, start3, max_rounds=2)
     _check_plan(THREE, start3.mean_rate, plan, start3.info["upper_bound"])
     assert start3.mean_rate <= start3.info["upper_bound"] and len(plan.info["bound_weights"]) == 3
+    assert start3.info["grid_dual"] >= start3.mean_rate * (1 - PLANNER_REL)  # no grid path beats the dual
 
 
 def test_three_users_from_the_straight_line_with_sdma_bound():
