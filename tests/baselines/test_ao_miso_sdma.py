@@ -72,12 +72,14 @@ def test_three_users_from_the_grid_plan(start3):
     assert start3.info["grid_dual"] >= start3.mean_rate * (1 - PLANNER_REL)  # no grid path beats the dual
 
 
-def test_three_users_from_the_straight_line_with_sdma_bound():
-    line = np.linspace(THREE.q0, THREE.qF, THREE.N)
-    from_line = solve(THREE, line, max_rounds=1, bound_resolution=6.25)
+@pytest.mark.parametrize("users", [3, 4])
+def test_three_and_four_users_from_the_straight_line_with_sdma_bound(users):
+    config = THREE if users == 3 else THREE.replace(ground_nodes=(*THREE.ground_nodes, (-150.0, 60.0)))
+    line = np.linspace(config.q0, config.qF, config.N)
+    from_line = solve(config, line, max_rounds=1, bound_resolution=6.25)
     # no bound carried by a bare flight: sdma_bound at 6.25 m, above the plan
-    _check_plan(THREE, score_plan(THREE, line).rate, from_line, from_line.info["upper_bound"])
-    assert from_line.info["bound_seconds"] > 0 and len(from_line.info["bound_weights"]) == 3
+    _check_plan(config, score_plan(config, line).rate, from_line, from_line.info["upper_bound"])
+    assert from_line.info["bound_seconds"] > 0 and len(from_line.info["bound_weights"]) == users
 
 
 def test_the_gradients_are_the_slot_values_the_scorer_computes(start):
