@@ -26,7 +26,8 @@ name                      objectives           budget  K      motion      kind
 ``dp-star``               rate                 no      2      static      optimum
 ``ao-star``               rate                 no      2      static      local
 ``dp-miso``               rate                 no      1      static      optimum
-``dp-miso-sdma``          rate                 no      2      static      optimum
+``dp-miso-sdma``          rate                 no      2..4   static      optimum
+``ao-miso-sdma``          rate                 no      2..4   static      local
 ``dp-bound``              rate                 no      >= 1   paths       bound
 ``energy-bound``          energy_efficiency    no      1      static      bound
 ========================  ===================  ======  =====  ==========  =========
@@ -56,9 +57,10 @@ phases and refuses it, naming ``dp``.
 Antennas: a multi-antenna UAV (``ScenarioConfig(antennas=N_t)``, N_t > 1) has the closed-form
 rate of its aligned phases and MRT (``channel.slot_rates``). ``dp-miso`` plans it (one node, any
 N_t, ``antennas`` true); the heuristics fly it and are scored on it; every other planner and bound
-plans the single-antenna UAV and refuses it, naming ``dp-miso``. Serving two nodes at once (SDMA:
-N_t >= 2, K = 2, ``score_plan`` by ``model.miso_sdma``), ``dp-miso-sdma`` plans it (``min_antennas``
-2: it refuses one antenna, whose two nodes are served one per slot share).
+plans the single-antenna UAV and refuses it, naming ``dp-miso``. Serving K in [2, 4] nodes at once
+(SDMA: N_t >= 2, ``score_plan`` by ``model.miso_sdma``), ``dp-miso-sdma`` plans it and
+``ao-miso-sdma`` polishes its plan off the grid (``min_antennas`` 2: they refuse one antenna, whose
+nodes are served one per slot share).
 
 A caller that plans one problem and scores the plan on another on purpose (the rate DP's plan
 under the energy objective, say) says so: it plans on ``config.replace(objective="rate")`` and
@@ -223,9 +225,13 @@ PLANNERS: dict[str, PlannerSpec] = {
         PlannerSpec("dp-miso", "baselines.dp:solve_miso", ("rate",), False, 1, 1, "static", "optimum",
                     "global optimum on a grid of the multi-antenna UAV's closed-form rate (aligned phases "
                     "and MRT, any N_t)", antennas=True),
-        PlannerSpec("dp-miso-sdma", "baselines.dp_miso_sdma:solve", ("rate",), False, 2, 2, "static",
-                    "optimum", "multi-antenna UAV serving two users at once (SDMA): best DP plan over the "
+        PlannerSpec("dp-miso-sdma", "baselines.dp_miso_sdma:solve", ("rate",), False, 2, 4, "static",
+                    "optimum", "multi-antenna UAV serving K users at once (SDMA): best DP plan over the "
                     "user weights on the per-slot AO settings and a certified max-min bound", antennas=True,
+                    min_antennas=2),
+        PlannerSpec("ao-miso-sdma", "baselines.ao_miso_sdma:solve", ("rate",), False, 2, 4, "static",
+                    "local", "dp-miso-sdma's plan polished by alternating optimisation: the max-min dual "
+                    "weights and a trust-region SCA step on a continuous trajectory (SDMA)", antennas=True,
                     min_antennas=2),
         PlannerSpec("dp-bound", "baselines.dp_bound:clairvoyant_bound", ("rate",), False, 1, None, "paths",
                     "bound", "certified upper bound of the rate (max-min for K > 1), given node paths",

@@ -73,9 +73,9 @@ def test_the_relaxed_states_bound_the_gains_in_their_cells():
 def test_what_it_does_not_plan_is_refused_naming_the_field():
     with pytest.raises(PlannerMismatch, match=r"antennas=1 \(it plans a UAV of >= 2 antennas"):
         solve_registered("dp-miso-sdma", SMALL.replace(antennas=1))
-    three = (*SMALL.ground_nodes, (-60.0, 30.0))
-    with pytest.raises(PlannerMismatch, match=r"3 ground node\(s\) \(it takes K = 2\)"):
-        solve(SMALL.replace(ground_nodes=three))
+    five = (*SMALL.ground_nodes, (-60.0, 30.0), (-60.0, -30.0), (-30.0, 0.0))
+    with pytest.raises(PlannerMismatch, match=r"5 ground node\(s\) \(it takes 2 <= K <= 4\)"):
+        solve(SMALL.replace(ground_nodes=five))
     with pytest.raises(ValueError, match=r"ios_shape must have M = M_y M_z in \[1, 256\]"):
         solve(SMALL.replace(ios_shape=(20, 20)))
 
