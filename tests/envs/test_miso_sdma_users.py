@@ -8,10 +8,12 @@ and the batched rows: ``test_miso_sdma_env.py`` (parametrised over K)."""
 from __future__ import annotations
 
 import itertools
+import warnings
 
 import gymnasium as gym
 import numpy as np
 import pytest
+from gymnasium.utils.env_checker import check_env
 
 from ios_uav_env import MISO_SDMA_ID, MISO_SDMA_RANDOM_ID, score_plan
 from ios_uav_env.components import World
@@ -153,3 +155,15 @@ def test_the_score_is_score_plan_of_the_flight_and_bounds_the_envs_own_max_min(u
     rates = [final[f"rate_{k}"] for k in range(users)]
     assert final["min_rate"] == min(rates) and final["min_rate"] <= final["score"] * (1 + PLANNER_REL)
     assert sum(out["rewards"]) == pytest.approx(config.N * final["min_rate"], rel=PLANNER_REL)
+
+
+@pytest.mark.parametrize("users", [3, 4])
+def test_the_random_id_of_k_users_passes_the_checker_and_stays_in_its_space(users):
+    env = gym.make(MISO_SDMA_RANDOM_ID, users=users, score=False)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        check_env(env.unwrapped, skip_render_check=True)
+    for seed in (0, 1):
+        out = run(env, seed)
+        assert all(env.observation_space.contains(obs) for obs in out["obs"])
+        assert out["trajectory"][0, 0] == out["trajectory"][-1, 0]  # the drawn line's x, start and end
