@@ -3,7 +3,8 @@ form (B rows) both run, so a row of the batch is the single env's episode bit fo
 
 :class:`StarNomaRows` holds B episodes of the view ``"star_noma"`` (the stepper
 ``ios_uav_env.envs.star_noma.StarNomaStepper`` holds one row; ``UAVVectorEnv`` holds B): the
-UAV's position and path, the weights, the two users' cumulative rates S_k, and each slot's rates,
+UAV's position and path, the weights, the users' cumulative rates S_k (two users here; K = 2 to 4
+for the SDMA rows, ``miso_sdma.MisoSdmaRows``, which replace the slot), and each slot's rates,
 which are those of the surface setting and power split the env sets: the weighted-sum slot
 optimum of the agent's weight at the slot's position, read off the ES frontier
 (``ios_uav_env.model.star_maps``: ``frontier_maps``, ``FrontierMaps.weighted_sum``). Each row's
