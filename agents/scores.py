@@ -30,7 +30,7 @@ class ScoreLabel:
 def score_label(env: Any) -> ScoreLabel:
     """The :class:`ScoreLabel` of a (single, possibly wrapped) env of this package: its objective
     (``env.unwrapped.config.objective``) and whether it serves several nodes (the node-block view of
-    ``UAVEnv``: ``MultiNodeEnv``'s ids; the views ``"star_noma"`` and ``"miso_sdma"``: two users,
+    ``UAVEnv``: ``MultiNodeEnv``'s ids; the views ``"star_noma"`` and ``"miso_sdma"``: 2 to 4 users,
     whose ``min_rate`` is the episode's own max-min, ``score`` being ``score_plan``'s)."""
     base = env.unwrapped
     objective = base.config.objective

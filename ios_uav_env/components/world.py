@@ -24,6 +24,7 @@ from ios_uav_env.components.motion import MOTIONS, Motion
 from ios_uav_env.components.objective import OBJECTIVES, Objective
 from ios_uav_env.components.surface import SURFACES, Surface, surface_of
 from ios_uav_env.model.config import ScenarioConfig
+from ios_uav_env.model.miso_sdma import LATTICE_LEVELS
 
 __all__ = ["FAMILIES", "UnsupportedWorld", "World", "combinations", "noma_runs", "sdma_runs"]
 
@@ -128,12 +129,13 @@ class World:
         return self
 
 
-def noma_runs(world: World) -> bool:
+def noma_runs(world: World, nodes: tuple[int, ...] = (2,)) -> bool:
     """Whether an env runs ``world``'s NOMA STAR surface (``envs.star_noma``, the view
-    ``"star_noma"``): two static, exactly known nodes, the expected-gain link, the rate objective
-    without a budget (the other envs refuse NOMA by their own check, ``settings.check_world``)."""
+    ``"star_noma"``): two static, exactly known nodes (K in ``nodes``), the expected-gain link, the
+    rate objective without a budget (the other envs refuse NOMA by their own check,
+    ``settings.check_world``)."""
     return (
-        world.nodes == 2
+        world.nodes in nodes
         and world.motion.kind == "static"
         and world.knowledge.exact
         and world.link.fading == "expected"
@@ -144,10 +146,11 @@ def noma_runs(world: World) -> bool:
 
 def sdma_runs(world: World) -> bool:
     """Whether an env runs ``world``'s multi-antenna UAV serving several nodes at once
-    (``envs.miso_sdma``, the view ``"miso_sdma"``): two static, exactly known nodes, an IOS, the
-    expected-gain link, the rate objective without a budget (the other envs refuse it by their
-    own check, ``settings.check_world``)."""
-    return world.surface.kind == "ios" and noma_runs(world)
+    (``envs.miso_sdma``, the view ``"miso_sdma"``): K in [2, 4] static, exactly known nodes (the
+    SDMA scorer's weight lattices: ``model.miso_sdma.LATTICE_LEVELS``), an IOS, the expected-gain
+    link, the rate objective without a budget (the other envs refuse it by their own check,
+    ``settings.check_world``)."""
+    return world.surface.kind == "ios" and noma_runs(world, tuple(LATTICE_LEVELS))
 
 
 #: The combinations the simulator does not run: (applies to a world, why). Each names the
@@ -195,8 +198,9 @@ RULES: tuple[tuple[Any, str], ...] = (
     (
         lambda w: w.link.kind == "multi_antenna" and w.nodes > 1 and not sdma_runs(w),
         "link multi_antenna with several nodes: the multi-antenna UAV serves them at once (SDMA with the "
-        "per-slot beams), which the envs run for two static, exactly known nodes on an ios surface with "
-        "fading 'expected' and the rate objective without a budget (ios_uav_env/MISOUAV-SDMA-v0); score "
+        "per-slot beams), which the envs run for K in [2, 4] static, exactly known nodes on an ios surface "
+        "with fading 'expected' and the rate objective without a budget (ios_uav_env/MISOUAV-SDMA-v0, "
+        "-K3-v0, -K4-v0); score "
         "another SDMA flight with ios_uav_env.score_plan (ios_uav_env.model.miso_sdma), or use one node "
         "(K = 1), or the single_antenna link for one node per slot share (TDMA)",
     ),

@@ -83,7 +83,7 @@ def feature_source(name: str) -> str:
     if name.startswith("noma_"):  # (ios_uav_env.envs.star_noma's layout)
         return "ios_uav_env/STARUAV-NOMA-v0 or ios_uav_env/STARUAV-NOMA-Random-v0"
     if name.startswith("sdma_"):  # (ios_uav_env.envs.miso_sdma's layout)
-        return "ios_uav_env/MISOUAV-SDMA-v0 or ios_uav_env/MISOUAV-SDMA-Random-v0"
+        return "ios_uav_env/MISOUAV-SDMA-v0, -Random-v0, -K3-v0 or -K4-v0 (users >= k + 1 for a user k's)"
     if name.startswith("star_"):  # (ios_uav_env.envs.star_control's layout)
         phases = name.startswith("star_phase_")
         return "ios_uav_env/STARControl-v0" + (" with channel_phases=True" if phases else "")

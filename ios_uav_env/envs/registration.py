@@ -76,10 +76,16 @@ MISO_IDS: dict[str, dict[str, Any]] = {MISO_ID: {"antennas": 4}}
 #: The multi-antenna UAV serving two users at once (SDMA; ``ios_uav_env.envs.miso_sdma``): the agent
 #: flies and weighs the users, the env sets the beams and the surface's phases by the per-slot
 #: weighted-sum AO; scored by ``score_plan`` as ``dp-miso-sdma``'s plans. The Random id draws the
-#: line's x at every reset.
+#: line's x at every reset. The K3 and K4 ids serve three and four users (the keyword ``users``,
+#: which the Random id draws its lines with too: ``gym.make(MISO_SDMA_RANDOM_ID, users=3)``).
 MISO_SDMA_ID = "ios_uav_env/MISOUAV-SDMA-v0"
 MISO_SDMA_RANDOM_ID = "ios_uav_env/MISOUAV-SDMA-Random-v0"
-MISO_SDMA_IDS: dict[str, dict[str, Any]] = {MISO_SDMA_ID: {}, MISO_SDMA_RANDOM_ID: {"random_line": True}}
+MISO_SDMA_K3_ID = "ios_uav_env/MISOUAV-SDMA-K3-v0"
+MISO_SDMA_K4_ID = "ios_uav_env/MISOUAV-SDMA-K4-v0"
+MISO_SDMA_IDS: dict[str, dict[str, Any]] = {
+    MISO_SDMA_ID: {}, MISO_SDMA_RANDOM_ID: {"random_line": True},
+    MISO_SDMA_K3_ID: {"users": 3}, MISO_SDMA_K4_ID: {"users": 4},
+}  # fmt: skip
 
 #: The surface as the agent's control (``ios_uav_env.envs.star_control``): the UAV flies a given
 #: line past a small STAR surface and the agent sets the surface's coefficients in every slot; its
@@ -118,7 +124,8 @@ def presets() -> dict[str, dict[str, Any]]:
     """id -> the keywords ``UAVEnv`` is registered with for each single- and multi-node id: its
     view's preset (:data:`V0`, :data:`V0_DRAWN`, :data:`NODE_BLOCKS`, :data:`STAR_NOMA`,
     :data:`MISO_SDMA`), then its
-    own (the world's scenario fields and options, ``random_nodes``, ``random_line``, ``antennas``)."""
+    own (the world's scenario fields and options, ``random_nodes``, ``random_line``, ``antennas``,
+    ``users``)."""
     families = (
         (ENV_IDS, V0),
         ({ENERGY_ID: ENERGY_IDS[ENERGY_ID]}, V0),

@@ -21,7 +21,7 @@ from ios_uav_env.envs.options import EnvOptions, EnvViews, split_kwargs
 from ios_uav_env.envs.registration import STAR_NOMA_ID, STAR_NOMA_RANDOM_ID
 from ios_uav_env.envs.settings import check_config_keywords, check_scenario_overrides, check_world
 from ios_uav_env.envs.star_control import BASE_CONFIG, X_RANGE, Y_SPAN
-from ios_uav_env.envs.star_noma_rows import INFO_KEYS, OBSERVATION_NAMES, StarNomaRows
+from ios_uav_env.envs.star_noma_rows import OBSERVATION_NAMES, StarNomaRows
 from ios_uav_env.model.config import ScenarioConfig, as_config, scenario_option
 from ios_uav_env.model.star_maps import FRONTIER_POINTS
 
@@ -212,17 +212,23 @@ class StarNomaStepper(EnvViews):
         self._base = base.replace(**overrides) if overrides else base
         self.check_config(self._base, self.env_id)
         self.config = self._base
-        self.observation_names: tuple[str, ...] = self.names
-        self.action_space = spaces.Box(-1.0, 1.0, (3,), np.float32)
+        self.observation_names: tuple[str, ...] = self.observation_layout(self._base.K)
+        #: The episode as a row (``StarNomaRows`` of one: the batched env runs B of them).
+        self.rows = self.rows_class(
+            1, int(frontier_points), bool(score), self.options.length_scale, self._base.K
+        )
+        self.action_space = spaces.Box(-1.0, 1.0, (self.rows.action_size,), np.float32)
         low, high = self._bounds(self._base)
         self.observation_space = spaces.Box(low, high, dtype=np.float32)
-        #: The episode as a row (``StarNomaRows`` of one: the batched env runs B of them).
-        self.rows = self.rows_class(1, int(frontier_points), bool(score), self.options.length_scale)
-        self._obs = np.zeros((1, len(self.names)), dtype=np.float32)
+        self._obs = np.zeros((1, len(self.observation_names)), dtype=np.float32)
         self._reward, self._terminated = np.zeros(1), np.zeros(1, dtype=np.bool_)
-        self._table = np.zeros((1, len(INFO_KEYS)))
+        self._table = np.zeros((1, self.rows.info_width))
         self._active = np.ones(1, dtype=np.bool_)
         self._started = False
+
+    def observation_layout(self, users: int) -> tuple[str, ...]:
+        """The observation's names for ``users`` users (two here: :attr:`names`)."""
+        return self.names
 
     def _bounds(self, config: ScenarioConfig) -> tuple[np.ndarray, np.ndarray]:
         """(low, high) of the observation over the episodes of ``config`` (over every line drawn
@@ -237,10 +243,14 @@ class StarNomaStepper(EnvViews):
         points += [((x,) * 2, (y,) * 2) for x, y in config.nodes]
         scale = self.options.length_scale
         lengths = [pad(v / scale) for v in length_bounds(fixed, points, (config.N - 1) * config.D)]
-        rate = pad(max(ground_free_rate_bound(config.node_config(k)) for k in (0, 1)))
-        high = np.array([*lengths[:6], 1.0, 1.0, *lengths[6:8], rate, rate, *lengths[8:10], rate, rate])
+        users = range(config.K)
+        rate = pad(max(ground_free_rate_bound(config.node_config(k)) for k in users))
+        blocks = [[*lengths[6 + 2 * k : 8 + 2 * k], rate, rate] for k in users]
+        high = np.array([*lengths[:6], 1.0, 1.0, *(v for block in blocks for v in block)])
         low = -high
-        low[6], low[10:12], low[14:16] = 0.0, 0.0, 0.0  # the moves left and the rates
+        low[6] = 0.0  # the moves left
+        for k in users:  # and the rates
+            low[10 + 4 * k : 12 + 4 * k] = 0.0
         if not np.all(np.isfinite(high.astype(np.float32))):
             raise ValueError(
                 f"length_scale must be >= {max(lengths) * scale / 1e38:g} m here (the observation's "
@@ -267,6 +277,10 @@ class StarNomaStepper(EnvViews):
     def check_scenario(self, cfg: ScenarioConfig, field: str = 'options["config"]') -> None:
         """``ValueError`` naming ``field`` unless the pinned ``cfg`` is a scenario this env runs."""
         self.check_config(cfg, self.env_id, field)
+        if cfg.K != self._base.K:
+            raise ValueError(
+                f"{field}: ground_nodes must be K = {self._base.K} users (this env's spaces), got K = {cfg.K}"
+            )
         low, high = self._bounds(cfg)
         if np.any(low < self.observation_space.low) or np.any(high > self.observation_space.high):
             raise ValueError(
@@ -309,9 +323,11 @@ class StarNomaStepper(EnvViews):
 
     @property
     def weights(self) -> np.ndarray:
-        """User 0's weight in each slot so far, (n + 1,) (slot 1's: 1/2)."""
+        """The weights each slot was served at so far: for two users user 0's, (n + 1,) (slot 1's:
+        1/2), for K > 2 every user's, (n + 1, K)."""
         n = int(self.rows.state[0, 2]) + 1 if self._started else 0
-        return self.rows.weights[0, :n].copy()
+        w = self.rows.weights[0, :n].copy()
+        return w[:, 0] if self.rows.k == 2 else w
 
     def render(self) -> np.ndarray | None:
         """No frames: this env does not render (``render_mode`` None)."""

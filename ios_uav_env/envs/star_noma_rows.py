@@ -3,7 +3,8 @@ form (B rows) both run, so a row of the batch is the single env's episode bit fo
 
 :class:`StarNomaRows` holds B episodes of the view ``"star_noma"`` (the stepper
 ``ios_uav_env.envs.star_noma.StarNomaStepper`` holds one row; ``UAVVectorEnv`` holds B): the
-UAV's position and path, the weights, the two users' cumulative rates S_k, and each slot's rates,
+UAV's position and path, the weights, the users' cumulative rates S_k (two users here; K = 2 to 4
+for the SDMA rows, ``miso_sdma.MisoSdmaRows``, which replace the slot), and each slot's rates,
 which are those of the surface setting and power split the env sets: the weighted-sum slot
 optimum of the agent's weight at the slot's position, read off the ES frontier
 (``ios_uav_env.model.star_maps``: ``frontier_maps``, ``FrontierMaps.weighted_sum``). Each row's
@@ -24,7 +25,7 @@ from ios_uav_env.model.guard import guarded_position
 from ios_uav_env.model.score import score_plan
 from ios_uav_env.model.star_maps import frontier_maps
 
-__all__ = ["INFO_KEYS", "OBSERVATION_NAMES", "StarNomaRows"]
+__all__ = ["INFO_KEYS", "OBSERVATION_NAMES", "StarNomaRows", "info_keys"]
 
 #: The observation's features (``StarNomaStepper``'s docstring), per user k = 0, 1 the last four.
 OBSERVATION_NAMES = (
@@ -32,33 +33,49 @@ OBSERVATION_NAMES = (
     "noma_time_left", "noma_slack",
     *(f"noma_{f}_{k}" for k in (0, 1) for f in ("dx_user", "dy_user", "rate_alone", "rate")),
 )  # fmt: skip
-#: The keys of ``info`` (``StarNomaStepper``'s docstring), in the info table's column order.
-INFO_KEYS = (
-    "slot", "position_x", "position_y", "distance_to_final", "weight", "slot_rate_0", "slot_rate_1",
-    "slot_value", "slot_upper", "rate_0", "rate_1", "min_rate", "score",
-)  # fmt: skip
-_COL = {key: j for j, key in enumerate(INFO_KEYS)}
-_HALF = 0.5  # the weight of slot 1 (at q0, before any action): the users weighted alike
+
+
+def info_keys(users: int = 2) -> tuple[str, ...]:
+    """The keys of ``info`` of a flight of ``users`` users, in the info table's column order: for two
+    users user 0's weight ``weight`` (``StarNomaStepper``'s docstring), for more each user's weight
+    ``weight_k`` (``miso_sdma.MisoSdmaStepper``'s)."""
+    k = range(users)
+    weights = ("weight",) if users == 2 else tuple(f"weight_{j}" for j in k)
+    return (
+        "slot", "position_x", "position_y", "distance_to_final", *weights, *(f"slot_rate_{j}" for j in k),
+        "slot_value", "slot_upper", *(f"rate_{j}" for j in k), "min_rate", "score",
+    )  # fmt: skip
+
+
+#: The keys of ``info`` of the two-user flights (``StarNomaStepper``'s docstring).
+INFO_KEYS = info_keys(2)
 
 
 class StarNomaRows:
     """B episodes of the NOMA STAR flight (module docstring). ``points``: the frontier angles of
     ``frontier_maps``; ``score``: whether an episode's end scores the flight (else NaN);
-    ``length_scale`` (m): lengths in the observation are divided by it."""
+    ``length_scale`` (m): lengths in the observation are divided by it; ``users``: K, the users
+    of every episode (two here; a subclass's slot may serve more: ``miso_sdma.MisoSdmaRows``).
 
-    info_keys = INFO_KEYS
-    info_width = len(INFO_KEYS)
+    The action of a row is (a_x, a_y) then, for two users, a_w (user 0's weight w = (a_w + 1) / 2,
+    user 1's 1 - w), for K > 2 one a_k per user (:meth:`action_weights`)."""
 
-    def __init__(self, num_envs: int, points: int, score: bool, length_scale: float) -> None:
+    def __init__(self, num_envs: int, points: int, score: bool, length_scale: float, users: int = 2) -> None:
         b = self.num_envs = int(num_envs)
         self.points, self.score, self.length_scale = int(points), bool(score), float(length_scale)
+        k = self.k = int(users)
+        self.info_keys = info_keys(k)
+        self.info_width = len(self.info_keys)
+        self._col = {key: j for j, key in enumerate(self.info_keys)}
+        #: The action's length: the move, then one weight for two users, else one per user.
+        self.action_size = 3 if k == 2 else 2 + k
         self.state = np.zeros((b, 3))  # the UAV's x, y and the moves made
         self.path = np.zeros((b, 1, 2))  # each row's way-points (grows with the longest episode)
-        self.weights = np.zeros((b, 1))  # each row's weight of user 0 per slot
-        self.served = np.zeros((b, 2))  # S_k: the users' rates summed over the slots so far
-        self.alone = np.zeros((b, 2))  # c_k at the current position: user k with everything
+        self.weights = np.zeros((b, 1, k))  # each row's users' weights per slot
+        self.served = np.zeros((b, k))  # S_k: the users' rates summed over the slots so far
+        self.alone = np.zeros((b, k))  # c_k at the current position: user k with everything
         self.configs: list[Any] = [None] * b
-        self.users = np.zeros((b, 2, 2))
+        self.users = np.zeros((b, k, 2))
         self.episode = np.zeros((b, 8))  # q0 x, y; qF x, y; surface centre x, y; D; N
 
     # --- episodes -----------------------------------------------------------------------
@@ -70,26 +87,26 @@ class StarNomaRows:
         if n > self.path.shape[1]:
             grow = n - self.path.shape[1]
             self.path = np.pad(self.path, ((0, 0), (0, grow), (0, 0)))
-            self.weights = np.pad(self.weights, ((0, 0), (0, grow)))
+            self.weights = np.pad(self.weights, ((0, 0), (0, grow), (0, 0)))
         self.configs[i] = config
         self.users[i] = np.asarray(config.nodes, dtype=np.float64)
         self.episode[i] = (*config.q0, *config.qF, *config.ios_center[:2], config.D, n)
 
     def start(self, rows: np.ndarray, obs: np.ndarray, info: np.ndarray) -> None:
-        """Start the episodes of ``rows`` (loaded): slot 1 at q0 served with weight 1/2; their first
-        observations and ``info`` rows."""
+        """Start the episodes of ``rows`` (loaded): slot 1 at q0 served with the users weighted
+        alike (1 / K each); their first observations and ``info`` rows."""
         for i in rows.tolist():
             ep = self.episode[i]
             self.state[i] = (ep[0], ep[1], 0.0)
             self.path[i] = 0.0
             self.path[i, 0] = ep[0:2]
             self.served[i] = 0.0
-            self._serve(i, _HALF, info[i])
+            self._serve(i, np.full(self.k, 1.0 / self.k), info[i])
             self._observe(i, obs[i])
 
-    def _serve(self, i: int, w: float, row: np.ndarray) -> None:
-        """Serve row ``i``'s current slot at weight ``w`` of user 0: the weighted-sum optimum of
-        the slot's frontier, its rates added to S_k; the slot's entries of the info row ``row``."""
+    def _serve(self, i: int, w: np.ndarray, row: np.ndarray) -> None:
+        """Serve row ``i``'s current slot at the users' weights ``w`` (K,): the slot's setting
+        (:meth:`slot`), its rates added to S_k; the slot's entries of the info row ``row``."""
         x, y, n = self.state[i]
         w, value, upper, rates = self.slot(i, x, y, w)
         self.served[i] += rates
@@ -97,20 +114,30 @@ class StarNomaRows:
         ep = self.episode[i]
         dist = math.hypot(ep[2] - x, ep[3] - y)
         average = self.served[i] / ep[7]
-        row[:] = (
-            n + 1.0, x, y, dist, w, rates[0], rates[1], value, upper, average[0], average[1],
-            min(average[0], average[1]), 0.0,
-        )  # fmt: skip
+        shown = w[:1] if self.k == 2 else w  # (two users: user 0's weight)
+        row[:] = (n + 1.0, x, y, dist, *shown, *rates, value, upper, *average, average.min(), 0.0)
 
-    def slot(self, i: int, x: float, y: float, w: float) -> tuple[float, float, float, np.ndarray]:
-        """Row ``i``'s slot at (``x``, ``y``) m served at weight ``w`` of user 0: (the weight the
-        setting is made for, w . R of the setting, a certified bound on the slot's best w . R, the
-        rates R (2,)); writes each user's rate alone into ``alone[i]``. Here: the weighted-sum
-        optimum of the slot's ES frontier."""
+    def slot(self, i: int, x: float, y: float, w: np.ndarray) -> tuple[np.ndarray, float, float, np.ndarray]:
+        """Row ``i``'s slot at (``x``, ``y``) m served at the users' weights ``w`` (K,): (the
+        weights the setting is made for, w . R of the setting, a certified bound on the slot's best
+        w . R, the rates R (K,)); writes each user's rate alone into ``alone[i]``. Here: the
+        weighted-sum optimum of the slot's ES frontier."""
         maps = frontier_maps(self.configs[i], np.array([[x, y]]), self.users[i], self.points)
-        value, upper, rates = maps.weighted_sum(np.array([w, 1.0 - w]))
+        value, upper, rates = maps.weighted_sum(w)
         self.alone[i] = np.log2(1.0 + maps.full_snr[:, 0])
         return w, float(value[0]), float(upper[0]), rates[:, 0]
+
+    def action_weights(self, a: np.ndarray) -> np.ndarray:
+        """The users' weights (K,) of one row's action ``a``: for two users (w, 1 - w) with
+        w = (clip(a_w, -1, 1) + 1) / 2; for K > 2 the normalised shifted scores
+        p_k = (clip(a_k, -1, 1) + 1) / 2, w = p / sum_j p_j (1 / K each when every p_k is 0):
+        every point of the simplex is some action's (a vertex e_k: a_k > -1, the others -1)."""
+        if self.k == 2:
+            w = (min(1.0, max(-1.0, float(a[2]))) + 1.0) / 2.0
+            return np.array([w, 1.0 - w])
+        p = (np.clip(a[2:], -1.0, 1.0) + 1.0) / 2.0
+        total = float(p.sum())
+        return p / total if total > 0.0 else np.full(self.k, 1.0 / self.k)
 
     def _observe(self, i: int, out: np.ndarray) -> None:
         """Row ``i``'s observation at its current slot into ``out`` (float32)."""
@@ -120,7 +147,7 @@ class StarNomaRows:
         slack = left - math.hypot(ep[2] - x, ep[3] - y) / ep[6]
         head = [x * inv, y * inv, (ep[2] - x) * inv, (ep[3] - y) * inv, (ep[4] - x) * inv, (ep[5] - y) * inv,
                 left / (ep[7] - 1.0), slack / (1.0 + abs(slack))]  # fmt: skip
-        for k in (0, 1):
+        for k in range(self.k):
             u = self.users[i, k]
             head += [(u[0] - x) * inv, (u[1] - y) * inv, self.alone[i, k], self.served[i, k] / ep[7]]
         out[:] = head
@@ -136,19 +163,19 @@ class StarNomaRows:
             norm = math.hypot(ax, ay)
             if norm > 1.0:
                 ax, ay = ax / norm, ay / norm
-            w = (min(1.0, max(-1.0, float(actions[i, 2]))) + 1.0) / 2.0
+            w = self.action_weights(actions[i])
             x0, y0, n = st
             left = int(ep[7] - 2.0 - n)  # moves left after this one
             d = ep[6]
             x, y = guarded_position((x0, y0), (x0 + d * ax, y0 + d * ay), (ep[2], ep[3]), d, left)
             st[:] = (x, y, n + 1.0)
             self.path[i, int(n) + 1] = (x, y)
-            before = min(self.served[i, 0], self.served[i, 1])
+            before = self.served[i].min()
             self._serve(i, w, info[i])
-            reward[i] = min(self.served[i, 0], self.served[i, 1]) - before
+            reward[i] = self.served[i].min() - before
             terminated[i] = left == 0
             if left == 0:
-                info[i, _COL["score"]] = self.flight_score(i) if self.score else math.nan
+                info[i, self._col["score"]] = self.flight_score(i) if self.score else math.nan
             self._observe(i, obs[i])
 
     def flight_score(self, i: int) -> float:
@@ -175,11 +202,13 @@ class StarNomaRows:
         return False
 
     def check_actions(self, actions: Any) -> np.ndarray:
-        """``actions`` (B, 3) as float64, checked (``ValueError`` naming the shape or the rows)."""
+        """``actions`` (B, :attr:`action_size`) as float64, checked (``ValueError`` naming the shape
+        or the rows)."""
         a = np.asarray(actions, dtype=np.float64)
-        shape = (self.num_envs, 3)
+        shape = (self.num_envs, self.action_size)
         if a.shape != shape:
-            raise ValueError(f"actions must have shape {shape} (the move, then the weight), got {a.shape}")
+            what = "the weight" if self.k == 2 else f"{self.k} user weights"
+            raise ValueError(f"actions must have shape {shape} (the move, then {what}), got {a.shape}")
         bad = ~np.isfinite(a).all(axis=1)
         if bad.any():
             raise ValueError(
@@ -189,6 +218,6 @@ class StarNomaRows:
 
     def info_arrays(self, table: np.ndarray) -> dict[str, Any]:
         """``info`` as column views of the info table (``slot`` as int64)."""
-        out: dict[str, Any] = {key: table[:, j] for key, j in _COL.items()}
+        out: dict[str, Any] = {key: table[:, j] for key, j in self._col.items()}
         out["slot"] = out["slot"].astype(np.int64)
         return out

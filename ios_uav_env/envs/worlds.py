@@ -19,7 +19,7 @@ import gymnasium as gym
 
 from ios_uav_env.components import World
 from ios_uav_env.envs.core.vector import UAVVectorEnv
-from ios_uav_env.envs.miso_sdma import SDMA_CONFIG
+from ios_uav_env.envs.miso_sdma import SDMA_CONFIGS
 from ios_uav_env.envs.multi_features import DEFAULT_NODES
 from ios_uav_env.envs.registration import MISO_SDMA_ID, STAR_NOMA_ID, presets
 from ios_uav_env.envs.star_noma import NOMA_CONFIG
@@ -35,12 +35,13 @@ MULTI_NODE_ID = "ios_uav_env/IOSUAV-MultiNode-v0"
 def default_scenario(nodes: int, noma: bool = False, sdma: bool = False) -> ScenarioConfig:
     """The scenario a world of ``nodes`` nodes runs on when none is given: the paper's for one
     node, the multi-node id's three nodes (``multi.DEFAULT_NODES``) for three, the NOMA id's
-    (``star_noma.NOMA_CONFIG``) for a STAR surface under NOMA (``noma``), the SDMA id's
-    (``miso_sdma.SDMA_CONFIG``) for a multi-antenna UAV serving several nodes (``sdma``)."""
+    (``star_noma.NOMA_CONFIG``) for a STAR surface under NOMA (``noma``), the SDMA ids' of that
+    many users (``miso_sdma.SDMA_CONFIGS``) for a multi-antenna UAV serving several nodes
+    (``sdma``)."""
     if noma:
         return NOMA_CONFIG
-    if sdma:
-        return SDMA_CONFIG
+    if sdma and nodes in SDMA_CONFIGS:
+        return SDMA_CONFIGS[nodes]
     if nodes == 1:
         return ScenarioConfig()
     if nodes == len(DEFAULT_NODES):
@@ -63,7 +64,7 @@ def make_world(
         raise TypeError(f"world must be an ios_uav_env.components.World, got {world!r}")
     world.check()
     noma = world.surface.kind == "star" and world.surface.access == "noma"  # (two users: the NOMA id)
-    sdma = world.link.kind == "multi_antenna" and world.nodes > 1  # (two users: the SDMA id)
+    sdma = world.link.kind == "multi_antenna" and world.nodes > 1  # (2 to 4 users: the SDMA id)
     base = default_scenario(world.nodes, noma, sdma) if config is None else as_config(config)
     if base.K != world.nodes:
         raise ValueError(f"config has K = {base.K} ground nodes, but the world has nodes={world.nodes}")

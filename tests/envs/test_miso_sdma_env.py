@@ -13,7 +13,8 @@ import pytest
 from agents.scores import score_label
 from ios_uav_env import MISO_SDMA_ID, MISO_SDMA_RANDOM_ID, ScenarioConfig, score_plan
 from ios_uav_env.components import UnsupportedWorld, World
-from ios_uav_env.envs.miso_sdma import SDMA_CONFIG
+from ios_uav_env.envs.miso_sdma import SDMA_CONFIG, SDMA_CONFIGS
+from ios_uav_env.envs.registration import MISO_SDMA_K3_ID, MISO_SDMA_K4_ID
 from ios_uav_env.envs.worlds import make_world
 from ios_uav_env.model.miso import tdma_rates
 from ios_uav_env.model.miso_sdma import slot_channel_at, slot_points, weight_lattice
@@ -39,9 +40,9 @@ def test_the_ids_run_the_sdma_scenario_and_the_random_id_draws_its_line():
 
 
 def test_the_world_rule_lifts_only_what_the_env_runs():
-    assert World(link=LINK, nodes=2).check().nodes == 2
+    assert [World(link=LINK, nodes=k).check().nodes for k in (2, 3, 4)] == [2, 3, 4]
     refused = [
-        World(link=LINK, nodes=3),
+        World(link=LINK, nodes=5),
         World(link=LINK, nodes=2, motion="gauss_markov"),
         World(link=LINK, nodes=2, surface="ris"),
         World(link=LINK, nodes=2, objective="energy_efficiency"),
@@ -56,10 +57,10 @@ def test_the_world_rule_lifts_only_what_the_env_runs():
 
 
 def test_the_sdma_id_refuses_what_it_does_not_run_naming_the_field():
-    three = ((10.0, -10.0), (-120.0, -10.0), (-60.0, 30.0))
+    five = ((10.0, -10.0), (-120.0, -10.0), (-60.0, 30.0), (20.0, 30.0), (-30.0, -60.0))
     cases = [
         ({"antennas": 1}, r"antennas must be an integer in \[2, 64\]"),
-        ({"ground_nodes": three}, r"ground_nodes must be two users"),
+        ({"ground_nodes": five}, r"ground_nodes must be K in \[2, 4\] users.*got K = 5"),
         ({"ios_shape": (20, 20)}, r"ios_shape must have M = M_y M_z in \[1, 256\]"),
         ({"surface": "ris"}, r"multi_antenna with several nodes"),
         ({"energy_budget_j": 1e6}, r"energy_budget_j must be None"),
@@ -109,9 +110,11 @@ def test_the_score_is_score_plan_of_the_flight_and_bounds_the_envs_own_max_min()
     assert sum(out["rewards"]) == pytest.approx(SMALL.N * final["min_rate"], rel=PLANNER_REL)
 
 
-def test_seeded_episodes_reproduce_bit_for_bit():
-    a, b = (run(gym.make(MISO_SDMA_RANDOM_ID, T=13.0, score=False), 5) for _ in range(2))
-    c = run(gym.make(MISO_SDMA_RANDOM_ID, T=13.0, score=False), 6)
+@pytest.mark.parametrize("users", [2, 4])
+def test_seeded_episodes_reproduce_bit_for_bit(users):
+    kwargs = {"T": 13.0, "score": False, "users": users}
+    a, b = (run(gym.make(MISO_SDMA_RANDOM_ID, **kwargs), 5) for _ in range(2))
+    c = run(gym.make(MISO_SDMA_RANDOM_ID, **kwargs), 6)
     for key in ("obs", "rewards"):
         assert all(np.array_equal(x, y) for x, y in zip(a[key], b[key], strict=True))
     assert all(np.array_equal(x[k], y[k], equal_nan=True)
@@ -120,20 +123,30 @@ def test_seeded_episodes_reproduce_bit_for_bit():
     assert not np.array_equal(a["trajectory"], c["trajectory"])
 
 
-def test_the_batched_rows_are_the_single_env_seeded_seed_plus_i():
+#: (id, keywords) of short flights of 2, 3 and 4 users.
+BATCHED = [
+    (MISO_SDMA_ID, {"config": SMALL}),
+    (MISO_SDMA_K3_ID, {"config": SMALL.replace(ground_nodes=SDMA_CONFIGS[3].ground_nodes)}),
+    (MISO_SDMA_K4_ID, {"config": SMALL.replace(ground_nodes=SDMA_CONFIGS[4].ground_nodes)}),
+]
+
+
+@pytest.mark.parametrize(("env_id", "kwargs"), BATCHED, ids=["K2", "K3", "K4"])
+def test_the_batched_rows_are_the_single_env_seeded_seed_plus_i(env_id, kwargs):
     """Row i of ``gym.make_vec`` is the single env reset with seed + i and given row i's actions,
     bit for bit, across an autoreset."""
-    kwargs = {"config": SMALL, "score": False}
+    kwargs = {**kwargs, "score": False}
     b, seed, steps = 2, 11, 6  # 4 steps an episode: every row ends one and starts another
-    vec = gym.make_vec(MISO_SDMA_ID, num_envs=b, vectorization_mode="vector_entry_point", **kwargs)
-    actions = np.random.default_rng(0).uniform(-1, 1, (steps, b, 3)).astype(np.float32)
+    vec = gym.make_vec(env_id, num_envs=b, vectorization_mode="vector_entry_point", **kwargs)
+    size = vec.single_action_space.shape[0]
+    actions = np.random.default_rng(0).uniform(-1, 1, (steps, b, size)).astype(np.float32)
     obs, info = vec.reset(seed=seed)
     batch = [(obs, None, None, info)]
     for t in range(steps):
         obs, reward, terminated, _, info = vec.step(actions[t])
         batch.append((obs, reward, terminated, info))
     for i in range(b):
-        env = gym.make(MISO_SDMA_ID, **kwargs)
+        env = gym.make(env_id, **kwargs)
         obs, info = env.reset(seed=seed + i)
         rows, ended = [(obs, None, None, info)], False
         for t in range(steps):

@@ -31,7 +31,8 @@ def run(env: gym.Env, seed: int, actions_seed: int | None = None) -> dict:
     out = {"obs": [obs], "rewards": [], "infos": [info]}
     done = False
     while not done:
-        obs, reward, done, truncated, info = env.step(rng.uniform(-1, 1, 3).astype(np.float32))
+        action = rng.uniform(-1, 1, env.action_space.shape).astype(np.float32)
+        obs, reward, done, truncated, info = env.step(action)
         assert not truncated
         out["obs"].append(obs)
         out["rewards"].append(reward)

@@ -14,8 +14,8 @@ import ios_uav_env
 CONTROL_IDS = {*ios_uav_env.STAR_CONTROL_IDS, *ios_uav_env.MISO_CONTROL_IDS}
 IDS = sorted(i for i in gym.registry if i.startswith("ios_uav_env/") and i not in CONTROL_IDS)
 MULTI_IDS = {*ios_uav_env.MULTINODE_IDS, *ios_uav_env.MULTINODE_MOBILE_IDS}
-#: (the NOMA and SDMA ids run two users: their refusals are in ``test_star_noma.py``,
-#: ``test_miso_sdma_env.py``)
+#: (the NOMA and SDMA ids run two users, the SDMA K3 and K4 ids three and four: their refusals are in
+#: ``test_star_noma.py``, ``test_miso_sdma_env.py``, ``test_miso_sdma_users.py``)
 TWO_USER_IDS = {*ios_uav_env.STAR_NOMA_IDS, *ios_uav_env.MISO_SDMA_IDS}
 SINGLE_IDS = [i for i in IDS if i not in MULTI_IDS and i not in TWO_USER_IDS]
 NODES = ((-100.0, -20.0), (150.0, -60.0))

@@ -16,8 +16,9 @@ Each observation view comes with the action type it is read with (:data:`VIEWS`)
   (``node_block_names``), then the energy features;
 - ``"star_noma"``, read with ``"move_weight"`` (``Box(-1, 1, (3,))``: the move and user 0's weight):
   ``star_noma.StarNomaStepper``; a STAR surface serving a user on each side by NOMA;
-- ``"miso_sdma"``, read with ``"move_weight"`` as ``"star_noma"``: ``miso_sdma.MisoSdmaStepper``; a
-  multi-antenna UAV serving two users at once (SDMA).
+- ``"miso_sdma"``, read with ``"move_weight"`` as ``"star_noma"`` (for K > 2 users ``Box(-1, 1,
+  (2 + K,))``: the move and one weight per user): ``miso_sdma.MisoSdmaStepper``; a multi-antenna UAV
+  serving K = 2 to 4 users at once (SDMA).
 
 :func:`choose_view` checks the view (``"v0"`` when none is given) and :func:`make_stepper` builds
 the stepper: the only branching on the kind of world in the env

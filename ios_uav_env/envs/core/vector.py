@@ -58,8 +58,8 @@ class UAVVectorEnv(BatchedEnv):
         if template.view == "node_blocks":
             self.rows: Any = NodeBlockRows(template, self.envs, self.num_threads, self.best_schedule)
         elif template.view in ("star_noma", "miso_sdma"):
-            own = template.rows  # (the single env's one row: its frontier angles, score, length scale)
-            self.rows = type(own)(self.num_envs, own.points, own.score, own.length_scale)
+            own = template.rows  # (the single env's one row: its frontier angles, score, length scale, K)
+            self.rows = type(own)(self.num_envs, own.points, own.score, own.length_scale, own.k)
         else:
             self.rows = SingleNodeRows(template, self.envs, self.num_threads)
         self.info_keys = self.rows.info_keys  # (the node blocks': more with the energy objective, Rician)
