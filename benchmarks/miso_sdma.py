@@ -1,6 +1,6 @@
 """A multi-antenna UAV serving users at once (SDMA): the scorer's runtime, dp-miso-sdma, ao-miso-sdma, bounds.
 
-    python benchmarks/miso_sdma.py [--resolution 12.5] [--quick] [--ao] [--ao-rounds 30]
+    python benchmarks/miso_sdma.py [--resolution 12.5] [--quick] [--ao] [--users 2 3] [--ao-rounds 30]
 
 Scenario: the SDMA ids' (``ios_uav_env.envs.miso_sdma.SDMA_CONFIG``: an 8 x 8 IOS low on a facade,
 user 0 behind it at (10, -10) m, user 1 at (-120, -10) m, a 4-antenna UAV from (-250, -150) to
@@ -11,8 +11,8 @@ alone, time-shared: the users-alone settings only); then ``dp-miso-sdma``'s plan
 settings it computed, its seconds) and the env's steps per second (``score=False``).
 ``--quick``: a 25 m grid.
 
-``--ao``: instead of the dp-miso-sdma line, on the scenario (two users) and on its three-user
-variant (:data:`THIRD_USER` added), the straight line's score, dp-miso-sdma's plan (its score, the
+``--ao``: instead of the dp-miso-sdma line, on the SDMA ids' scenarios of ``--users`` users (default
+2 and 3: ``MISOUAV-SDMA-v0`` and ``-K3-v0``), the straight line's score, dp-miso-sdma's plan (its score, the
 certified bound ``sdma_bound`` and its seconds) and ``ao-miso-sdma`` from that plan (its score, its
 gain over dp-miso-sdma, the gap to the bound, its rounds and accepted steps, its seconds, the
 ascent's alone), ``--ao-rounds`` rounds at most (the planner's default seconds cap).
@@ -35,17 +35,16 @@ import gymnasium as gym  # noqa: E402
 from baselines.ao_miso_sdma import solve as ao_miso_sdma  # noqa: E402
 from baselines.dp_miso_sdma import solve  # noqa: E402
 from ios_uav_env import MISO_SDMA_ID, score_plan  # noqa: E402
-from ios_uav_env.envs.miso_sdma import SDMA_CONFIG  # noqa: E402
+from ios_uav_env.envs.miso_sdma import SDMA_CONFIG, SDMA_CONFIGS  # noqa: E402
 from ios_uav_env.model.miso_sdma import slot_points  # noqa: E402
 from ios_uav_env.model.schedule import maxmin_schedule  # noqa: E402
 
-#: The three-user variant's third user (m): between the two, on the UAV's side of the surface.
-THIRD_USER = (-60.0, 30.0)
 
-
-def compare_ao(resolution: float, rounds: int) -> None:
-    """The ``--ao`` lines (module docstring): straight line, dp-miso-sdma and ao-miso-sdma."""
-    for config in (SDMA_CONFIG, SDMA_CONFIG.replace(ground_nodes=(*SDMA_CONFIG.ground_nodes, THIRD_USER))):
+def compare_ao(resolution: float, rounds: int, users: list[int]) -> None:
+    """The ``--ao`` lines (module docstring): straight line, dp-miso-sdma and ao-miso-sdma on the SDMA
+    ids' scenario of each number of ``users`` (``SDMA_CONFIGS``: ``MISOUAV-SDMA-v0``, ``-K3-v0``,
+    ``-K4-v0``)."""
+    for config in (SDMA_CONFIGS[k] for k in users):
         line = score_plan(config, np.linspace(config.q0, config.qF, config.N)).rate
         dp = solve(config, resolution=resolution)
         ub = dp.info["upper_bound"]
@@ -67,7 +66,10 @@ def main(argv: list[str] | None = None) -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--resolution", type=float, default=12.5)
     parser.add_argument("--quick", action="store_true")
-    parser.add_argument("--ao", action="store_true", help="compare ao-miso-sdma (two and three users)")
+    parser.add_argument("--ao", action="store_true", help="compare ao-miso-sdma with dp-miso-sdma")
+    parser.add_argument(
+        "--users", type=int, nargs="+", default=[2, 3], choices=sorted(SDMA_CONFIGS), help="K of --ao's ids"
+    )
     parser.add_argument("--ao-rounds", type=int, default=30)
     args = parser.parse_args(argv)
     resolution = 25.0 if args.quick else args.resolution
@@ -83,7 +85,7 @@ def main(argv: list[str] | None = None) -> None:
             f"straight line, N = {config.N}: SDMA score {rate:.4f} bps/Hz in {seconds:.2f} s; TDMA {tdma:.4f}"
         )
     if args.ao:
-        compare_ao(resolution, args.ao_rounds)
+        compare_ao(resolution, args.ao_rounds, args.users)
     else:
         plan = solve(SDMA_CONFIG, resolution=resolution)
         info = plan.info
