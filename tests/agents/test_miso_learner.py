@@ -126,7 +126,10 @@ def test_the_trainer_pays_the_env_reward_and_writes_a_model_it_keeps(tmp_path, c
     assert miso_training.main(argv) == out
     config = json.loads((out / "config.json").read_text())
     assert config["command"].startswith("python -m agents.miso_training --out") and config["settings"] == 24
-    assert set(config["pct_of_bound"]) == {"start", "end"} and "model: " in capsys.readouterr().out
+    assert (
+        set(config["pct_of_bound"]) == {"start", "equal powers", "end"}
+        and "model: " in capsys.readouterr().out
+    )
     with pytest.raises(SystemExit):
         miso_training.main(argv)
     assert "--overwrite" in capsys.readouterr().err
