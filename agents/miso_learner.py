@@ -27,10 +27,12 @@ features).
   users' aligned phase vectors (one user's when its weight dominates);
 - beams: w_k = sqrt(p_k) u_k / ||u_k||, u_k = (I + sum_j q_j h-hat_j^H h-hat_j)^-1 h-hat_k^H with
   q_j = exp(``LOG_Q0`` + z_j) and p = softmax(y). This is the structure of every Pareto-optimal
-  linear precoder of a MISO broadcast channel (Bjornson, Bengtsson & Ottersten, IEEE Signal
-  Processing Magazine 2014, eq. (9): the MMSE directions of a virtual uplink with powers q_j, the
+  linear precoder of a MISO broadcast channel (Bjornson, Bengtsson & Ottersten, "Optimal
+  multiuser transmit beamforming: a difficult problem with a simple solution structure", IEEE
+  Signal Processing Magazine 2014: the MMSE directions of a virtual uplink with powers q_j, the
   downlink powers p_k), so the optimum of the sum rate and of the max-min rate for the phases is
-  in the family; q_j -> 0 gives MRT, large equal q_j regularised ZF.
+  in the family (for the rows the observation gives); q_j -> 0 gives MRT, large equal q_j
+  regularised ZF.
 
 The network (:func:`outputs`) is shared by the users: user k's features and the global ones
 (the task, the UAV's position, the users' means) -> (z_k, y_k, a_k), so one set of weights plays
