@@ -134,15 +134,24 @@ def compose(base: np.ndarray, group_out: np.ndarray, split_out: np.ndarray, task
 def load_weights(path: str | Path) -> dict[str, list[tuple[np.ndarray, np.ndarray]]]:
     """The two networks of ``path/weights.npz`` (arrays ``<net>_w<i>``, ``<net>_b<i>``), checked
     against the feature widths (``ValueError`` naming the file and the array)."""
+    nets = (("element", ELEMENT_IN, ELEMENT_OUT), ("split", GLOBAL_FEATURES, 1))
+    return load_layers(path, nets, "StarLearner")
+
+
+def load_layers(
+    path: str | Path, nets: tuple[tuple[str, int, int], ...], owner: str
+) -> dict[str, list[tuple[np.ndarray, np.ndarray]]]:
+    """The networks ``(name, width in, width out)`` of ``path/weights.npz``: each the arrays
+    ``<name>_w<i>``, ``<name>_b<i>`` (x @ W + b) for i = 0, 1, ..., chained from ``width in`` to
+    ``width out`` features (``ValueError`` naming the file and the network otherwise; ``owner``:
+    the policy whose model folder it is)."""
     file = Path(path) / "weights.npz"
     if not file.exists():
-        raise ValueError(
-            f"{file}: no such file (a StarLearner model folder holds weights.npz and config.json)"
-        )
+        raise ValueError(f"{file}: no such file (a {owner} model folder holds weights.npz and config.json)")
     with np.load(file) as data:
         arrays = {key: np.asarray(data[key], dtype=np.float64) for key in data.files}
     out: dict[str, list[tuple[np.ndarray, np.ndarray]]] = {}
-    for net, width_in, width_out in (("element", ELEMENT_IN, ELEMENT_OUT), ("split", GLOBAL_FEATURES, 1)):
+    for net, width_in, width_out in nets:
         layers, i = [], 0
         while f"{net}_w{i}" in arrays:
             layers.append((arrays[f"{net}_w{i}"], arrays[f"{net}_b{i}"]))
