@@ -87,17 +87,25 @@ def _parts(H: np.ndarray, W: np.ndarray, order: np.ndarray):
     return Hs, X, T, interference, r
 
 
-def _gradient(Hs, X, T, interference, c, order, W, B) -> np.ndarray:
-    """The real gradient of sum_ij c_ij r_ij: the beams' tangent part (real, then imaginary parts of
-    W's entries), then the phases' when ``B`` (M, K, K), v_m c_im g_m^T w_l in positions, is given."""
-    D = np.cumsum(c / T, axis=1) - (np.cumsum(c / interference, axis=1) - c / interference)
-    grad = np.empty_like(W)
-    grad[:, order] = Hs.conj().T @ (X * D) / _LN2
-    grad = 2.0 * (grad - np.vdot(W, grad).real * W)
-    parts = [grad.real.ravel(), grad.imag.ravel()]
+def _gradients(
+    H: np.ndarray, W: np.ndarray, order: np.ndarray, B: np.ndarray | None
+) -> tuple[np.ndarray, np.ndarray]:
+    """The rates r (K, K) (:func:`_parts`) and the real gradient of each r_ij, (K, K, n): the beams'
+    tangent part (real, then imaginary parts of W's entries, user columns), then the phases' when
+    ``B`` (M, K, K), v_m c_im g_m^T w_l in positions, is given (the module docstring)."""
+    K = H.shape[0]
+    Hs, X, T, interference, r = _parts(H, W, order)
+    lpos = np.arange(K)
+    D = (lpos[None, None, :] >= lpos[None, :, None]) / T[:, :, None]
+    D = D - (lpos[None, None, :] > lpos[None, :, None]) / interference[:, :, None]  # D[i, j, l]
+    pos = np.einsum("in,il,ijl->ijnl", Hs.conj(), X, D) / _LN2
+    grad = np.empty_like(pos)
+    grad[..., order] = pos
+    grad = 2.0 * (grad - np.einsum("nl,ijnl->ij", W.conj(), grad).real[:, :, None, None] * W)
+    parts = [grad.real.reshape(K, K, -1), grad.imag.reshape(K, K, -1)]
     if B is not None:  # d X_il / d psi_m = -j v_m c_im g_m^T w_l
-        parts.append(2.0 / _LN2 * np.real(-1j * np.einsum("il,mil->m", D * X.conj(), B)))
-    return np.concatenate(parts)
+        parts.append(2.0 / _LN2 * np.real(-1j * np.einsum("ijl,il,mil->ijm", D, X.conj(), B)))
+    return r, np.concatenate(parts, axis=2)
 
 
 def _unit(d: np.ndarray) -> np.ndarray | None:
@@ -105,27 +113,19 @@ def _unit(d: np.ndarray) -> np.ndarray | None:
     return d / size if size > 1e-300 and math.isfinite(size) else None
 
 
-def _direction(
-    H: np.ndarray, W: np.ndarray, order: np.ndarray, total: bool, width: float, B: np.ndarray | None
-) -> np.ndarray | None:
-    """A unit ascent direction at W (and the phases with ``B``; the module docstring): for the sum,
-    the soft-min's gradient at temperature ``width``; for the max-min, the least-norm point of the
-    convex hull of the gradients of the rates within ``width`` of the minimum (the steepest ascent
-    direction of their minimum)."""
-    Hs, X, T, interference, r = _parts(H, W, order)
-    if total:  # one soft-min per message (column) over its decoders (width 0: the least one)
+def _direction(r: np.ndarray, G: np.ndarray, total: bool, width: float) -> np.ndarray | None:
+    """A unit ascent direction from the rates ``r`` and their gradients ``G`` (:func:`_gradients`;
+    the module docstring): for the sum, the soft-min's gradient at temperature ``width`` (0: the
+    least decoder's); for the max-min, the least-norm point of the convex hull of the gradients of
+    the rates within ``width`` of the minimum (the steepest ascent direction of their minimum)."""
+    if total:  # one soft-min per message (column) over its decoders
         if width > 0:
             e = np.exp(-(r - r.min(axis=0)) / width)
         else:
             e = (np.arange(len(r))[:, None] == np.argmin(r, axis=0)[None, :]).astype(float)
-        return _unit(_gradient(Hs, X, T, interference, e / e.sum(axis=0), order, W, B))
-    grads = []
-    for i, j in np.argwhere(r <= r.min() + width):
-        c = np.zeros_like(r)
-        c[i, j] = 1.0
-        grads.append(_gradient(Hs, X, T, interference, c, order, W, B))
-    G = np.array(grads)
-    return _unit(_least_norm(G @ G.T, 200) @ G)
+        return _unit(np.einsum("ij,ijn->n", e / e.sum(axis=0), G))
+    active = G[r <= r.min() + width]
+    return _unit(_least_norm(active @ active.T, 200) @ active)
 
 
 @jit(fastmath=False)
@@ -178,11 +178,12 @@ def _ascend(
     s, n = 0.5, W.size
     for _ in range(steps):
         moved = False
+        B = None
+        if channel is not None:
+            B = np.exp(-1j * psi)[:, None, None] * _cascade(channel, W)[:, order][:, :, order]
+        r, G = _gradients(H, W, order, B)
         for width in (0.1 * scale, 0.01 * scale, 0.001 * scale, 0.0):
-            B = None
-            if channel is not None:
-                B = np.exp(-1j * psi)[:, None, None] * _cascade(channel, W)[:, order][:, :, order]
-            d = _direction(H, W, order, total, width, B)
+            d = _direction(r, G, total, width)
             if d is None:
                 continue
             dW = (d[:n] + 1j * d[n : 2 * n]).reshape(W.shape)

@@ -144,11 +144,9 @@ def test_the_ascent_gradient_is_the_rates_derivative():
     W = _random_beams(rng, 2, 3)
     W /= np.linalg.norm(W)
     B = np.exp(-1j * psi)[:, None, None] * miso_noma_slot._cascade(slot, W)[:, order][:, :, order]
-    Hs, X, T, interference, r = miso_noma_slot._parts(slot.matrix(psi), W, order)
+    _, gradients = miso_noma_slot._gradients(slot.matrix(psi), W, order, B)
     for i, j in ((0, 0), (2, 0), (2, 1), (2, 2)):
-        c = np.zeros((3, 3))
-        c[i, j] = 1.0
-        grad = miso_noma_slot._gradient(Hs, X, T, interference, c, order, W, B)
+        grad = gradients[i, j]
         direction = rng.normal(size=grad.size)
         n = W.size
         dW = (direction[:n] + 1j * direction[n : 2 * n]).reshape(W.shape)
