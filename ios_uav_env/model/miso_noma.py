@@ -17,9 +17,9 @@ remove it) iff its rate is at most the least of their capacities; the achievable
 
 (the standard SIC rate condition of the MISO-NOMA downlink: Y. Liu, Z. Qin, M. Elkashlan, Z. Ding,
 A. Nallanathan and L. Hanzo, *Nonorthogonal multiple access for 5G and beyond*, Proc. IEEE 105(12),
-2017, Section IV; M. F. Hanif, Z. Ding, T. Ratnarajah and G. K. Karagiannidis, *A
+2017; M. F. Hanif, Z. Ding, T. Ratnarajah and G. K. Karagiannidis, *A
 minorization-maximization method for optimizing sum rate in the downlink of non-orthogonal multiple
-access systems*, IEEE TSP 64(1), 2016, eqs. (3)-(5)). The last user pi(K) decodes everything and
+access systems*, IEEE TSP 64(1), 2016). The last user pi(K) decodes everything and
 sees no interference. This is the convention of the STAR model's two-user NOMA
 (``star.noma_rates``: the weaker user's message is decoded first, by both, and the stronger user
 removes it), generalised to K users and beams: with N_t = 1, K = 2 and pi ascending in
