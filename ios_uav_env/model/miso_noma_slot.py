@@ -8,20 +8,24 @@ alternating optimisation (AO) from several starts. Every step is *accepted only 
 objective rises*, so each run's value never falls below its start's, and the result is at least the
 best start.
 
-**Beams** (:func:`improve_beams`): projected gradient ascent on the sphere with backtracking. The
-objective's min over decoders is not differentiable where two decoders tie (which is where the
-max-min optimum sits), so the direction is the gradient of its smooth lower bound, the soft-min
--t ln sum exp(-r / t) (over each message's decoders for the sum, over every (decoder, message) pair
-for the max-min). With T_ij = sum_{l >= j} |h_i w_l|^2 + 1 and I_ij = T_ij - |h_i w_j|^2 (positions
-in the order), r_ij = log2(T_ij / I_ij) and
+**Ascent on the beams and the phases** (:func:`improve_beams` for the beams alone): up to
+``BEAM_STEPS`` accepted steps of projected ascent on the sphere with backtracking, the beams and
+the phases moved jointly. With T_ij = sum_{l >= j} |h_i w_l|^2 + 1 and I_ij = T_ij - |h_i w_j|^2
+(positions in the order), r_ij = log2(T_ij / I_ij) and
 
     d r_ij / d conj(w_l) = h_i^H (h_i w_l) ([l >= j] / T_ij - [l > j] / I_ij) / ln 2,
+    d r_ij / d psi_m = (2 / ln 2) sum_l ([l >= j] / T_ij - [l > j] / I_ij)
+                       * Re{conj(h_i w_l) (-j v_m c_im g_m^T w_l)}
 
-so for weights c_ij (the soft-min's) the gradient is column l of H^H (X * D) / ln 2, X = H W,
-D_il = sum_{j <= l} c_ij / T_ij - sum_{j < l} c_ij / I_ij. The step W <- (W + s d) / ||W + s d||
-along the unit tangent direction d starts at twice the last accepted s (at most 1) and halves until
-the exact objective rises; if no step rises, the temperature t (10 % of the mean rate) is cut
-tenfold, twice, then set to 0 (the least rates' own gradients) before the block gives up.
+(v_m = exp(-j psi_m); the beams' part projected on the sphere's tangent). The objective's min over
+decoders is not differentiable where two rates tie, which is where the max-min optimum sits, so
+the direction is, for the max-min, the least-norm point of the convex hull of the gradients of the
+rates within a width t of the smallest (the steepest ascent direction of their minimum; Frank-Wolfe
+on the simplex), and for the sum the gradient of a soft-min -t ln sum_i exp(-r_ij / t) per message
+j over its decoders. The step (W + s d_W) / ||W + s d_W||, psi + s d_psi along the unit direction
+starts at twice the last accepted s (at most 1) and halves until the exact objective rises; if
+none does, the width t (10 % of the mean rate) is cut tenfold, twice, then set to 0 (the least
+rates' own gradients) before the block gives up.
 
 **Phases**: one pass of 1-D searches over each element's phase (a coarse grid of 16, then 8 halving
 steps about the best, as the SDMA max-min AO's ``miso_slot._maxmin_sweep``) of the exact objective at

@@ -3,25 +3,13 @@ certified bound, NOMA's sum rate at least TDMA's."""
 
 from __future__ import annotations
 
-import importlib.util
 import re
-import sys
-from pathlib import Path
 
-ROOT = Path(__file__).resolve().parents[2]
+from tests.benchmarks.quick import run_main
 
 
 def test_the_quick_run_prints_its_rows_below_the_bound(capsys):
-    spec = importlib.util.spec_from_file_location(
-        "benchmarks_miso_noma", ROOT / "benchmarks" / "miso_noma.py"
-    )
-    module = importlib.util.module_from_spec(spec)
-    sys.modules[spec.name] = module
-    try:
-        spec.loader.exec_module(module)
-        assert module.main(["--quick"]) == 0
-    finally:
-        sys.modules.pop(spec.name, None)
+    run_main("miso_noma", ["--quick"])
     out = capsys.readouterr().out
     rows = re.findall(r"^\s+2\s+([23])\s+4\s+" + r"\s+".join([r"([\d.]+)"] * 7) + "$", out, re.M)
     assert len(rows) == 4, out  # two grid points, two objectives
