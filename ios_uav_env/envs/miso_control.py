@@ -29,6 +29,8 @@ from ios_uav_env.model.miso import (
     user_rates,
 )
 from ios_uav_env.model.miso_fading import rician_slot_channels
+from ios_uav_env.model.miso_noma import decoding_order, sic_rates
+from ios_uav_env.model.miso_noma_slot import NomaSolution, noma_optimum
 from ios_uav_env.model.miso_slot import SlotSolution, slot_optimum
 
 #: The K <= 4 users (m; the first K of them), around the small surface of STARControl-v0's
@@ -37,6 +39,10 @@ from ios_uav_env.model.miso_slot import SlotSolution, slot_optimum
 #: whose axis is the flight's direction y, sees them at different angles.
 USERS = ((-10.0, 10.0), (10.0, -10.0), (-10.0, -30.0), (10.0, 30.0))
 ANTENNAS = (1, 8)  # N_t, the antennas the env takes
+#: How the K users share the slot: linear precoding, every user treating the others as noise
+#: ("sdma", ``miso.user_rates``), or superposition coding with SIC in the slot's decoding order
+#: ("noma", ``miso_noma.sic_rates`` with ``miso_noma.decoding_order``).
+ACCESS = ("sdma", "noma")
 USER_COUNTS = (1, len(USERS))  # K
 M_RANGE = (4, 64)  # M = M_y M_z, small enough for element-by-element control and a per-slot AO
 #: The UAV's ULA: lambda / 2 spacing, its axis along y (the flight's direction), one far-field angle
@@ -124,7 +130,8 @@ class MISOControlEnv(gym.Env):
 
     ## Rewards
 
-    reward = f(R_1, ..., R_K) of the slot's setting, R_k = ``miso.user_rates`` (bps/Hz) and f the
+    reward = f(R_1, ..., R_K) of the slot's setting, R_k = ``miso.user_rates`` (bps/Hz; with
+    ``access="noma"`` the SIC rates, see Arguments) and f the
     ``objective``: the sum rate (``"sum"``) or the smallest rate (``"maxmin"``). ``info`` holds
     ``rates`` (K,), ``value`` (the reward), ``bound`` (``miso.slot_bounds``, certified: no setting
     beats it), the scoring references ``optimum`` (``miso_slot.slot_optimum``'s AO value of the
@@ -162,6 +169,15 @@ class MISOControlEnv(gym.Env):
       channel, on which the aligned phases with MRT are no longer the K = 1 optimum). The reward,
       the bound and the references are those of the drawn channel; the observation's steering
       vector stays the LoS one.
+    - ``access``: ``"sdma"`` (default: linear precoding, each user treating the others' signals as
+      noise, ``miso.user_rates``) or ``"noma"`` (superposition coding with SIC,
+      ``miso_noma.sic_rates``): the action is still the beams and the phases, and the env decodes
+      in the slot's stated order ``miso_noma.decoding_order`` (ascending single-user gain bound
+      G_k, which the observation's gain shares give), so the reward is the objective of the SIC
+      rates, ``optimum`` is ``miso_noma_slot.noma_optimum``'s AO value (warm-started as above) and
+      ``bound`` is the same ``miso.slot_bounds`` (it bounds the SIC rates too); ``mrt_aligned``,
+      ``zf_aligned`` and ``tdma`` stay the linear-precoding and TDMA references. The default
+      leaves every output of the SDMA env unchanged.
     - ``optimum``: whether ``info`` carries the scoring references, the per-slot AO value and the
       baselines (default True). The AO costs hundredths to tenths of a second a slot, far more
       than the step (``benchmarks/miso_control.py`` prints both): train without it, score with it.
@@ -188,6 +204,7 @@ class MISOControlEnv(gym.Env):
         objective: str = "sum",
         optimum: bool = True,
         channel: str = "los",
+        access: str = "sdma",
     ) -> None:
         self.n_t = _count("antennas", antennas, ANTENNAS, "N_t, the UAV's antennas")
         self.K = _count("users", users, USER_COUNTS, "K, the users served at once")
@@ -197,6 +214,9 @@ class MISOControlEnv(gym.Env):
             raise ValueError(f"optimum must be True or False, got {optimum!r}")
         if channel not in CHANNELS:
             raise ValueError(f"channel must be one of {tuple(CHANNELS)}, got {channel!r}")
+        if not (isinstance(access, str) and access in ACCESS):
+            raise ValueError(f"access must be one of {ACCESS} (how the users share the slot), got {access!r}")
+        self.access = access
         self.objective, self.with_optimum, self.channel = objective, optimum, channel
         self.array = ArrayConfig(n_t=self.n_t, orientation_rad=ORIENTATION)
         self.config = self._base = BASE_CONFIG.replace(ios_shape=shape, ground_nodes=USERS[: self.K])
@@ -215,7 +235,7 @@ class MISOControlEnv(gym.Env):
         self.channels: list[SlotChannel] = []
         self.positions = np.zeros((N_SLOTS, 2))
         self.slot = 0
-        self.solution: SlotSolution | None = None  # the last slot's AO setting (the warm start)
+        self.solution: SlotSolution | NomaSolution | None = None  # the last slot's AO setting (warm start)
         self._steering: np.ndarray | None = None  # (N, N_t) the LoS a_c of a Rician episode
         self._totals = np.zeros(3)  # return, optimum return (NaN without the optimum), bound return
 
@@ -249,7 +269,7 @@ class MISOControlEnv(gym.Env):
             raise RuntimeError("the episode has ended: call reset()")
         ch = self.channels[self.slot]
         phases, beams = self.setting(action)
-        rates = user_rates(ch.matrix(phases), beams)
+        rates = self.rates(ch, phases, beams)
         value = objective_value(rates, self.objective)
         bound = slot_bounds(ch).of(self.objective)
         refs = self._references(ch)
@@ -257,6 +277,14 @@ class MISOControlEnv(gym.Env):
         info = self._info(rates, refs, bound)
         self.slot += 1
         return self._observation(), float(value), self.slot == N_SLOTS, False, info
+
+    def rates(self, channel: SlotChannel, phases: np.ndarray, beams: np.ndarray) -> np.ndarray:
+        """The users' rates (K,) bps/Hz of a setting under the env's ``access``: ``miso.user_rates``
+        (SDMA) or ``miso_noma.sic_rates`` in ``miso_noma.decoding_order(channel)`` (NOMA)."""
+        H = channel.matrix(phases)
+        if self.access == "noma":
+            return sic_rates(H, beams, decoding_order(channel))
+        return user_rates(H, beams)
 
     # -- the action ---------------------------------------------------------------------------
     def setting(self, action: Any) -> tuple[np.ndarray, np.ndarray]:
@@ -311,7 +339,10 @@ class MISOControlEnv(gym.Env):
         setting, kept in ``solution``) and the baselines; NaN without ``optimum``."""
         if not self.with_optimum:
             return dict.fromkeys(("optimum", "mrt_aligned", "zf_aligned", "tdma"), math.nan)
-        self.solution = slot_optimum(ch, self.objective, warm=self.solution)
+        if self.access == "noma":
+            self.solution = noma_optimum(ch, self.objective, warm=self.solution)
+        else:
+            self.solution = slot_optimum(ch, self.objective, warm=self.solution)
         base = baselines(ch, self.objective, np.random.default_rng(0))  # (its random draw unused)
         return {"optimum": self.solution.value, "mrt_aligned": base["MRT aligned"],
                 "zf_aligned": base["ZF aligned"], "tdma": base["TDMA"]}  # fmt: skip

@@ -3,25 +3,13 @@ AO between MRT with aligned phases and the certified bound."""
 
 from __future__ import annotations
 
-import importlib.util
 import re
-import sys
-from pathlib import Path
 
-ROOT = Path(__file__).resolve().parents[2]
+from tests.benchmarks.quick import run_main
 
 
 def test_the_quick_run_prints_ao_between_the_aligned_baseline_and_the_bound(capsys):
-    spec = importlib.util.spec_from_file_location(
-        "benchmarks_miso_slot", ROOT / "benchmarks" / "miso_slot.py"
-    )
-    module = importlib.util.module_from_spec(spec)
-    sys.modules[spec.name] = module
-    try:
-        spec.loader.exec_module(module)
-        assert module.main(["--quick"]) == 0
-    finally:
-        sys.modules.pop(spec.name, None)
+    module = run_main("miso_slot", ["--quick"])
     out = capsys.readouterr().out
     number = r"\s+(-|[\d.]+)"
     rows = re.findall(r"^\s*(\d)\s+(\d)\s+(sum|maxmin)" + number * len(module.COLUMNS) + r"\s*$", out, re.M)

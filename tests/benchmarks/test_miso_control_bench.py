@@ -2,25 +2,13 @@
 
 from __future__ import annotations
 
-import importlib.util
 import re
-import sys
-from pathlib import Path
 
-ROOT = Path(__file__).resolve().parents[2]
+from tests.benchmarks.quick import run_main
 
 
 def test_the_quick_run_prints_a_row_per_objective(capsys):
-    spec = importlib.util.spec_from_file_location(
-        "benchmarks_miso_control", ROOT / "benchmarks" / "miso_control.py"
-    )
-    module = importlib.util.module_from_spec(spec)
-    sys.modules[spec.name] = module
-    try:
-        spec.loader.exec_module(module)
-        assert module.main(["--quick", "--episodes", "1"]) == 0
-    finally:
-        sys.modules.pop(spec.name, None)
+    run_main("miso_control", ["--quick", "--episodes", "1"])
     out = capsys.readouterr().out
     rows = re.findall(r"^\s+2\s+2\s+16\s+(sum|maxmin)\s+([\d.]+)\s+(-?[\d.]+)\s+([\d.]+)$", out, re.M)
     assert [r[0] for r in rows] == ["sum", "maxmin"], out
