@@ -327,20 +327,18 @@ def ground_weights(config: ScenarioConfig, grounds: np.ndarray) -> np.ndarray:
 
 def path_weights_into(config: ScenarioConfig, grounds: np.ndarray, out: np.ndarray) -> bool:
     """Write ``config.J * ground_weights(config, grounds)`` ((P, n), the surface weights of the
-    ``channel.path_kernels`` of the (P, 2) ``grounds``) into ``out`` ((P, n), e.g. a view of a
-    batched row's buffer), bit for bit, and return True: one compiled call that allocates
-    nothing (:func:`~ios_uav_env.model.weight_kernels.interpolated_weights_into`; the block and
-    the point forms give the same bits, so it takes the block form for any P). False, with
+    ``channel.path_kernels`` of the (P, 2) ``grounds``) into ``out`` ((P, n), any view: a batched
+    row's buffer, the weight rows of a path's kernels), bit for bit, and return True: one
+    compiled call that allocates nothing (``weight_kernels.interpolated_weights_into``; the block
+    and the point forms give the same bits, so it takes the block form for any P). False, with
     nothing written, where that call does not apply: without numba, on a surface whose weights are
     not interpolated (its elements', or the Lagrange projection of its elements'), or an ``out``
-    of another shape or not C-contiguous."""
+    of another shape."""
     projection = _projection(config)
-    shape = (len(grounds), projection.y.size)
-    if not HAVE_NUMBA or projection.ky is None or out.shape != shape or not out.flags.c_contiguous:
+    if not HAVE_NUMBA or projection.ky is None or out.shape != (len(grounds), projection.y.size):
         return False
     dx2, dy2 = _ground_terms(config, projection, grounds)
-    weights = out.reshape(len(grounds), projection.ky.shape[0], projection.kz.shape[0])
-    interpolated_weights_into(weights, config.J, dx2**1.5, dx2, dy2, projection.gz2, projection.ky_t,
+    interpolated_weights_into(out, config.J, dx2**1.5, dx2, dy2, projection.gz2, projection.ky_t,
                               projection.kz_t)  # fmt: skip
     return True
 

@@ -29,7 +29,8 @@ def interpolated_weights(
     innermost loops run over a block's points, each point's sums on their own, so they vectorise
     without reordering any sum."""
     out = np.empty((dy2.shape[0], ky_t.shape[1], kz_t.shape[1]))
-    interpolated_weights_into(out, 1.0, scale, dx2, dy2, z2, ky_t, kz_t)
+    interpolated_weights_into(out.reshape(dy2.shape[0], ky_t.shape[1] * kz_t.shape[1]), 1.0, scale, dx2, dy2,
+                              z2, ky_t, kz_t)  # fmt: skip
     return out
 
 
@@ -38,9 +39,10 @@ def interpolated_weights_into(
     out: np.ndarray, factor: float, scale: np.ndarray, dx2: np.ndarray, dy2: np.ndarray, z2: np.ndarray,
     ky_t: np.ndarray, kz_t: np.ndarray,
 ) -> None:  # fmt: skip
-    """:func:`interpolated_weights` written into ``out`` ((points, ny, nz), e.g. a view of a row's
-    buffer), each weight multiplied by ``factor`` (one IEEE product per weight after its sums, as
-    numpy's ``factor * weights``; 1.0: the weights themselves, bit for bit)."""
+    """:func:`interpolated_weights` written into ``out`` ((points, ny nz), point p's (ny, nz) weights
+    flattened in C order into row p; any 2-d view, e.g. the weight rows of a path's kernels), each
+    weight multiplied by ``factor`` (one IEEE product per weight after its sums, as numpy's
+    ``factor * weights``; 1.0: the weights themselves, bit for bit)."""
     py, ny, pz, nz = ky_t.shape[0], ky_t.shape[1], kz_t.shape[0], kz_t.shape[1]
     points, block = dy2.shape[0], WEIGHT_BLOCK
     dy2_t = np.ascontiguousarray(dy2.T)
@@ -60,7 +62,7 @@ def interpolated_weights_into(
         for j in range(m):
             for x in range(ny):
                 for y in range(nz):
-                    out[start + j, x, y] = factor * weights[x, y, j]
+                    out[start + j, x * nz + y] = factor * weights[x, y, j]
 
 
 @jit(fastmath=False)
