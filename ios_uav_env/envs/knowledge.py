@@ -34,7 +34,7 @@ and ``"rates"``).
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -83,17 +83,34 @@ __all__ = [
 
 @dataclass(eq=False)
 class NodeTrack:
-    """One episode's node: its true path, its kernel per slot, and what was observed so far."""
+    """One episode's node: its true path, its kernel per slot, and what was observed so far. The
+    kernels per slot (``nodes``, ``params``) are built when first read, from the path (a batched
+    env's rows compute each slot's weights into their own buffers instead,
+    ``envs.slot_weights``): the same numbers whenever they are built."""
 
     paths: np.ndarray  # (N, 1, 2) m, the true positions w[n]
-    nodes: np.ndarray  # (N, 3, n), slot n's rate kernel (channel.path_kernels)
-    params: np.ndarray  # (N, P)
     lo: np.ndarray  # (2,) m, the report clip's lower corner
     hi: np.ndarray  # (2,) m, its upper corner
     reports: np.ndarray  # (N, 1, 2) m, the reports of the slots so far (NaN: not yet)
     measured: np.ndarray  # (N,) bps/Hz, the measured rates of the slots so far (NaN: not yet)
-    config: ScenarioConfig | None = None  # the episode's scenario (the filter's model)
+    config: ScenarioConfig  # the episode's scenario (the kernels' and the filter's model)
     filter: NodeFilter | None = None  # the Kalman filter of the reports so far (filter_estimate)
+    _kernels: tuple[np.ndarray, np.ndarray] | None = field(default=None, repr=False)
+
+    def _built(self) -> tuple[np.ndarray, np.ndarray]:
+        if self._kernels is None:
+            self._kernels = path_kernels(self.config.node_config(0), self.paths[:, 0])
+        return self._kernels
+
+    @property
+    def nodes(self) -> np.ndarray:
+        """(N, 3, n): slot n's rate kernel (``channel.path_kernels`` of the path)."""
+        return self._built()[0]
+
+    @property
+    def params(self) -> np.ndarray:
+        """(N, P): slot n's kernel scalars (``channel.path_kernels`` of the path)."""
+        return self._built()[1]
 
 
 def _rectangles(config: ScenarioConfig) -> tuple[np.ndarray, np.ndarray]:
@@ -105,13 +122,13 @@ def _rectangles(config: ScenarioConfig) -> tuple[np.ndarray, np.ndarray]:
 
 
 def start_track(config: ScenarioConfig, rng: np.random.Generator, sigma: float) -> NodeTrack:
-    """Draw the episode's node path from ``rng`` and build its kernel per slot (module docstring)."""
+    """Draw the episode's node path from ``rng`` (module docstring); its kernels per slot are built
+    when first read (:class:`NodeTrack`)."""
     paths = node_paths(config, rng)
-    nodes, params = path_kernels(config.node_config(0), paths[:, 0])
     lo, hi = (corner[0] for corner in _rectangles(config))
     margin = REPORT_CLIP * sigma
     full = np.full((config.N, 1, 2), np.nan)
-    return NodeTrack(paths, nodes, params, lo - margin, hi + margin, full, np.full(config.N, np.nan), config)
+    return NodeTrack(paths, lo - margin, hi + margin, full, np.full(config.N, np.nan), config)
 
 
 def observe_slot(

@@ -10,8 +10,8 @@ arithmetic as the per-row path does (the report ``w + s e`` and its clip and the
 features in IEEE arithmetic, the faded rate with ``channel.faded_row``'s own flags), so the
 rows equal the single env's bit for bit (tested, with and without numba). The Kalman filter of
 ``filter_estimate`` stays Python per row (``knowledge.filter_report`` on the raw reports the
-kernel leaves in ``raw``). :func:`gather_slot_kernels` copies each row's rate kernel of the slot
-it flies to out of its track.
+kernel leaves in ``raw``). ``slot_weights.put_slot_kernels`` puts each row's rate kernel of the
+slot it flies to in the row.
 
 The rows' tracks are held as lists of their arrays (:func:`row_list`: a numba typed list, or a
 plain list without numba), set once per episode and row; the kernels write the track records
@@ -38,7 +38,6 @@ __all__ = [
     "DRAWS",
     "MODES",
     "EpisodeDraws",
-    "gather_slot_kernels",
     "measure_rates",
     "observe_rows",
     "row_list",
@@ -132,7 +131,7 @@ def observe_rows(
     Row i's track: ``paths[i]`` (N, 1, 2), ``reports[i]`` (N, 1, 2) and ``measured[i]`` (N,) (the
     records, written in place), ``nodes[i]`` / ``params[i]`` its kernels per slot, ``lo[i]`` /
     ``hi[i]`` its report clip; ``row_nodes[i]`` / ``row_params[i]`` the row's kernel of the slot
-    (the step's, :func:`gather_slot_kernels`), which the measured rate reads where it has the
+    (the step's, ``slot_weights.put_slot_kernels``), which the measured rate reads where it has the
     track's width (the row's, in cache, instead of the track's slot far in memory); ``normals[i]``
     the slot's draws (``DRAWS``). ``mode``: ``MODES``; ``sigma`` the report std, ``rate_high``
     the measured rate's clip, ``scale`` the observation's length scale. Writes the node features
@@ -217,27 +216,3 @@ def measure_rates(
         rate = faded_row(x, y, n_re, n_im, kernel, scalars, at)
         measured[i][slot] = rate
         obs[i, 10] = rate_high if rate_high < rate else rate
-
-
-@jit(fastmath=False)
-def gather_slot_kernels(
-    rows: np.ndarray,
-    state: np.ndarray,
-    track_nodes: Any,
-    track_params: Any,
-    nodes: np.ndarray,
-    params: np.ndarray,
-) -> None:
-    """Copy each row's rate kernel of the slot it flies to (``state[i, 2] + 1``) out of its track
-    (``track_nodes[i]`` (N, 3, k), ``track_params[i]`` (N, P)) into ``nodes[i, :, :k]`` /
-    ``params[i]``; a row at its episode's end is left as it is (the step refuses it). Only the
-    surface weights (``nodes[i, 2]``) and the scalars are copied: a track's node coordinates
-    (rows 0 and 1) are its kernel geometry's in every slot (``channel.path_kernels``), already in
-    the row since its episode began (its slot-1 kernel, copied whole)."""
-    for j in range(rows.size):
-        i = rows[j]
-        slot = int(state[i, 2]) + 1
-        kernel = track_nodes[i]
-        if slot < kernel.shape[0]:
-            nodes[i, 2, : kernel.shape[2]] = kernel[slot, 2]
-            params[i, :] = track_params[i][slot]

@@ -190,18 +190,22 @@ class NodeRows:
 def episode_best_values(rows: NodeRows, ended: np.ndarray, envs: Sequence[Any],
                         num_threads: int | None = None) -> np.ndarray:  # fmt: skip
     """``info["best_schedule_rate"]`` of the rows ``ended`` (their episodes just ended; ``envs[j]``
-    the env of row ``ended[j]``): static nodes by :meth:`NodeRows.best_values` (compiled, all
-    rows at once, no scipy); moving nodes, and a row whose certificate failed, by
+    the env of row ``ended[j]``): by :meth:`NodeRows.best_values` (compiled, all rows at once, no
+    scipy) the static nodes, and the moving nodes of a row whose slots' rates were kept
+    (``stored``: every slot stepped by the kernels, whose rate of node k in slot n is r_k(q[n];
+    w_k[n]) on the slot's kernel at the true position, the rate ``schedule.node_rates`` takes on
+    the paths); a row without kept rates and a row whose certificate failed by
     ``schedule.reported_maxmin_rate`` of the env's flight on its true paths, with the kernels its
     node track holds (:func:`track_kernels`; ``maxmin_rate``: NaN where that falls back to HiGHS
-    without scipy, ``schedule.scipy_or_warn``)."""
+    without scipy, ``schedule.scipy_or_warn``). Both take the same certified column generation:
+    the same value to rounding."""
     from ios_uav_env.model.schedule import reported_maxmin_rate
 
     values = np.full(len(ended), np.nan)
-    static = np.array([not env.mobile for env in envs], dtype=bool)
+    compiled = np.array([not env.mobile for env in envs], dtype=bool) | rows.stored[ended]
     ok = np.zeros(len(ended), dtype=bool)
-    if static.any():
-        values[static], ok[static] = rows.best_values(ended[static], num_threads)
+    if compiled.any():
+        values[compiled], ok[compiled] = rows.best_values(ended[compiled], num_threads)
     for j in np.flatnonzero(~ok):
         i, env = ended[j], envs[j]
         path = rows.path[i, : env.config.N]

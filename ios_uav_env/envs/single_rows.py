@@ -22,12 +22,12 @@ from ios_uav_env.envs.knowledge_kernels import (
     DRAWS,
     MODES,
     EpisodeDraws,
-    gather_slot_kernels,
     observe_rows,
     row_list,
 )
 from ios_uav_env.envs.single_kernels import INFO, STATE, fly_rows, reset_rows, step_rows, step_rows_batched
 from ios_uav_env.envs.single_node import INFO_KEYS
+from ios_uav_env.envs.slot_weights import SlotWeights
 from ios_uav_env.jit import run_batched
 
 __all__ = ["Outputs", "SingleNodeRows"]
@@ -81,6 +81,12 @@ class SingleNodeRows:
             self._track_measured = row_list(np.zeros(1), b)
             self._track_nodes = row_list(np.zeros((1, 3, 1)), b)
             self._track_params = row_list(np.zeros((1, template.kernel.params.size)), b)
+            # each row's kernels of every slot (envs.slot_weights), where the compiled weights apply;
+            # such a row's track entries are these stand-ins of the rows' width (never read)
+            width, size = template.kernel.nodes.shape[1], template.kernel.params.size
+            self._slot_weights = SlotWeights(b, template.max_slots, width, size)
+            self._stand_in = (np.zeros((1, 3, width)), np.zeros((1, size)))
+            self._stands_in = np.zeros(b, dtype=np.bool_)  # the row's track entries are the stand-ins
             # each row's draw of the slot's normals: its generator's standard_normal and the row's
             # slice of _slot_normals (set at each episode: a seeded reset makes a new generator);
             # channel "expected": every slot's at the episode's start, in one call per row
@@ -110,6 +116,8 @@ class SingleNodeRows:
             grown[:, 1, :] = 1.0
             grown[:, :, : self._nodes.shape[2]] = self._nodes
             self._nodes = grown
+            if self._mobile:  # the buffered rows' kernels are now padded: they read their tracks
+                self._read_tracks()
         self._nodes[i, :, :k] = nodes
         self._nodes[i, :, k:] = ((0.0,), (1.0,), (0.0,))  # padded nodes: zero weight
         self._params[i] = row.kernel.params
@@ -118,10 +126,9 @@ class SingleNodeRows:
         if self._mobile:
             row.start_track(row.config)
             track = row.track
-            self._nodes[i, :, :k], self._params[i] = track.nodes[0], track.params[0]
             self._track_paths[i], self._track_reports[i] = track.paths, track.reports
-            self._track_measured[i], self._track_nodes[i] = track.measured, track.nodes
-            self._track_params[i] = track.params
+            self._track_measured[i] = track.measured
+            self._load_kernels(i, row, k)
             self._lo[i], self._hi[i] = track.lo, track.hi
             self._draw[i] = env.np_random.standard_normal
             if self._episode_draws is not None and self._draws:
@@ -134,6 +141,31 @@ class SingleNodeRows:
         self._plain[i] = row.config is row.base_config and not self._mobile
         if self._rician:
             self._normals[i] = env.np_random.standard_normal(2)
+
+    def _load_kernels(self, i: int, row: Any, k: int) -> None:
+        """Row ``i``'s kernels of every slot of the episode just drawn (its track's path, ``k``
+        surface nodes), its slot-1 kernel in the row: from :class:`SlotWeights` where they apply
+        (the surface fills the rows' kernel width), else its track's."""
+        buffered = k == self._nodes.shape[2] == self._slot_weights.weights.shape[
+            2
+        ] and self._slot_weights.load(i, row.config, row.track.paths, row.kernel.params)
+        if buffered:  # (the node coordinates, the geometry's, are in the row: the scenario's kernel)
+            self._slot_weights.first(i, self._nodes, self._params)
+            if not self._stands_in[i]:
+                self._track_nodes[i], self._track_params[i] = self._stand_in
+                self._stands_in[i] = True
+            return
+        track = row.track
+        self._nodes[i, :, :k], self._params[i] = track.nodes[0], track.params[0]
+        self._track_nodes[i], self._track_params[i] = track.nodes, track.params
+        self._stands_in[i] = False
+
+    def _read_tracks(self) -> None:
+        """Every buffered row reads its track's kernels from now on (the rows' kernels grew wider)."""
+        for i in np.flatnonzero(self._slot_weights.slots).tolist():
+            track = self.envs[i].stepper.track
+            self._track_nodes[i], self._track_params[i] = track.nodes, track.params
+            self._slot_weights.slots[i], self._stands_in[i] = 0, False
 
     def start(self, rows: np.ndarray, obs: np.ndarray, info: np.ndarray) -> None:
         """Start the episodes of ``rows`` (loaded): their first observations and ``info`` rows."""
@@ -224,8 +256,8 @@ class SingleNodeRows:
         obs, reward, terminated, info = outputs
         stepping = np.flatnonzero(active)
         if self._mobile:  # each row's kernel of the slot it flies to (a row at its end is refused below)
-            gather_slot_kernels(stepping, self._state, self._track_nodes, self._track_params, self._nodes,
-                                self._params)  # fmt: skip
+            tracks = self._track_nodes, self._track_params
+            self._slot_weights.put(stepping, self._state, 1, *tracks, self._nodes, self._params)
         if self._rician:
             for i in stepping:
                 self._normals[i] = self.envs[i].np_random.standard_normal(2)

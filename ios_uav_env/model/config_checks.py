@@ -93,10 +93,12 @@ def check_star_fields(cfg: Any, defaults: Mapping[str, Any]) -> None:
 
 def check_motion(cfg: Any) -> None:
     """Validate ``motion`` (a dict becomes the model): every node inside its motion rectangle
-    (``ios_uav_env.model.mobility.rectangles``: the box, off the IOS plane's strip)."""
+    (``ios_uav_env.model.mobility.rectangles``: the box, off the IOS plane's strip). The
+    rectangles are kept on ``cfg`` (``motion.node_bounds`` hands out copies of them)."""
     object.__setattr__(cfg, "motion", as_motion(cfg.motion))
     if cfg.motion is not None:
-        rectangles(cfg.motion, np.asarray(cfg.nodes, dtype=float), cfg.ios_center, cfg.surface)
+        bounds = rectangles(cfg.motion, np.asarray(cfg.nodes, dtype=float), cfg.ios_center, cfg.surface)
+        object.__setattr__(cfg, "_node_bounds", bounds)
 
 
 def checked_antennas(n: Any, name: str = "antennas") -> int:

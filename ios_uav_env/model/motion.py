@@ -62,7 +62,12 @@ def node_bounds(config: ScenarioConfig) -> tuple[np.ndarray, np.ndarray]:
     of the IOS plane ``plane_margin`` away from it; :func:`~ios_uav_env.model.mobility.rectangles`)."""
     if config.motion is None:
         raise ValueError("node_bounds needs a motion model (config.motion is None: the nodes are static)")
-    return rectangles(config.motion, np.asarray(config.nodes, dtype=float), config.ios_center, config.surface)
+    bounds = vars(config).get("_node_bounds")  # (the validation's, config_checks.check_motion)
+    if bounds is None:
+        return rectangles(
+            config.motion, np.asarray(config.nodes, dtype=float), config.ios_center, config.surface
+        )
+    return bounds[0].copy(), bounds[1].copy()
 
 
 def static_paths(config: ScenarioConfig) -> np.ndarray:

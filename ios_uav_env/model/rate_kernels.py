@@ -15,6 +15,7 @@ is importable from :mod:`ios_uav_env.model.channel` too.
 
 from __future__ import annotations
 
+import copy
 import dataclasses
 import math
 import operator
@@ -27,7 +28,7 @@ import numpy as np
 from ios_uav_env.jit import jit
 from ios_uav_env.model.array import scenario_array
 from ios_uav_env.model.config import ScenarioConfig
-from ios_uav_env.model.surface import ground_weights, surface_nodes
+from ios_uav_env.model.surface import ground_weights, path_weights_into, surface_nodes
 
 
 def as_positions(positions: np.ndarray, name: str = "positions") -> np.ndarray:
@@ -414,9 +415,10 @@ def rate_kernel(config: ScenarioConfig) -> RateKernel:
     nodes[2] = jw
     params[PARAM_G_SIDE], params[PARAM_GX], params[PARAM_GY] = g_side, gx, gy
     ground = np.asarray(config.ground_node, dtype=float)
-    return dataclasses.replace(
-        base, jw=jw, g_side=g_side, ground=ground, gx=gx, gy=gy, nodes=nodes, params=params
-    )
+    # base's fields with G's parts replaced (what dataclasses.replace gives: RateKernel checks nothing)
+    kernel = copy.copy(base)
+    vars(kernel).update(jw=jw, g_side=g_side, ground=ground, gx=gx, gy=gy, nodes=nodes, params=params)
+    return kernel
 
 
 def require_bits_model(config: ScenarioConfig) -> None:
@@ -530,7 +532,8 @@ def path_kernels(
         nodes[:], params[:] = held.nodes, held.params
         return nodes, params
     nodes[:, :2] = base.nodes[:2]
-    nodes[:, 2] = config.J * ground_weights(config, points)
+    if not path_weights_into(config, points, nodes[:, 2]):  # (written in place: the same numbers)
+        nodes[:, 2] = config.J * ground_weights(config, points)
     params[:] = base.params
     params[:, PARAM_G_SIDE] = np.sign(points[:, 0] - config.ios_center[0])
     params[:, PARAM_GX], params[:, PARAM_GY] = points[:, 0], points[:, 1]

@@ -56,7 +56,12 @@ import numpy as np
 
 from ios_uav_env.jit import HAVE_NUMBA, jit
 from ios_uav_env.model.config import ScenarioConfig
-from ios_uav_env.model.weight_kernels import WEIGHT_BLOCK, interpolated_weights, point_weights
+from ios_uav_env.model.weight_kernels import (
+    WEIGHT_BLOCK,
+    interpolated_weights,
+    interpolated_weights_into,
+    point_weights,
+)
 
 #: Share of ``quadrature_tol`` that the ground side's interpolation of beta may take (module
 #: docstring): the amplitude's relative error stays within (1 + this) x ``quadrature_tol``.
@@ -320,6 +325,35 @@ def ground_weights(config: ScenarioConfig, grounds: np.ndarray) -> np.ndarray:
     return np.matmul(np.matmul(projection.ly, betas), projection.lz.T).reshape(len(points), -1)
 
 
+def path_weights_into(config: ScenarioConfig, grounds: np.ndarray, out: np.ndarray) -> bool:
+    """Write ``config.J * ground_weights(config, grounds)`` ((P, n), the surface weights of the
+    ``channel.path_kernels`` of the (P, 2) ``grounds``) into ``out`` ((P, n), any view: a batched
+    row's buffer, the weight rows of a path's kernels), bit for bit, and return True: one
+    compiled call that allocates nothing (``weight_kernels.interpolated_weights_into``; the block
+    and the point forms give the same bits, so it takes the block form for any P). False, with
+    nothing written, where that call does not apply: without numba, on a surface whose weights are
+    not interpolated (its elements', or the Lagrange projection of its elements'), or an ``out``
+    of another shape."""
+    projection = _projection(config)
+    if not HAVE_NUMBA or projection.ky is None or out.shape != (len(grounds), projection.y.size):
+        return False
+    dx2, dy2 = _ground_terms(config, projection, grounds)
+    interpolated_weights_into(out, config.J, dx2**1.5, dx2, dy2, projection.gz2, projection.ky_t,
+                              projection.kz_t)  # fmt: skip
+    return True
+
+
+def _ground_terms(
+    config: ScenarioConfig, projection: _Projection, grounds: np.ndarray
+) -> tuple[np.ndarray, ...]:
+    """(dx2 (P,), dy2 (P, py)): the squared distances of the (P, 2) ``grounds`` to the IOS plane and
+    to the ground side's interpolation rows (:func:`_ground_weights`)."""
+    assert projection.gy is not None
+    dx2 = (grounds[:, 0] - config.ios_center[0]) ** 2
+    dy2 = (grounds[:, 1, None] - projection.gy[None, :]) ** 2  # (P, py)
+    return dx2, dy2
+
+
 def _ground_weights(config: ScenarioConfig, projection: _Projection, grounds: np.ndarray) -> np.ndarray:
     """(P, ny nz) node weights ky B kz^T of the (P, 2) ``grounds``, B (py, pz) beta at the
     ground side's points (module docstring): :func:`interpolated_weights` compiled (a path of
@@ -327,8 +361,7 @@ def _ground_weights(config: ScenarioConfig, projection: _Projection, grounds: np
     IEEE operations in the same order as numpy (without numba), so the same bits either way."""
     assert projection.gy is not None and projection.gz2 is not None
     assert projection.ky is not None and projection.kz is not None
-    dx2 = (grounds[:, 0] - config.ios_center[0]) ** 2
-    dy2 = (grounds[:, 1, None] - projection.gy[None, :]) ** 2  # (P, py)
+    dx2, dy2 = _ground_terms(config, projection, grounds)
     ky, kz = projection.ky, projection.kz
     if HAVE_NUMBA:
         compiled = interpolated_weights if len(grounds) >= WEIGHT_BLOCK else point_weights

@@ -11,7 +11,7 @@ import numpy as np
 
 from ios_uav_env.jit import jit
 
-__all__ = ["WEIGHT_BLOCK", "interpolated_weights", "point_weights"]
+__all__ = ["WEIGHT_BLOCK", "interpolated_weights", "interpolated_weights_into", "point_weights"]
 
 
 #: Points :func:`interpolated_weights` computes side by side (its innermost loops run over them).
@@ -28,9 +28,23 @@ def interpolated_weights(
     order), so bit for bit the same. The points are taken :data:`WEIGHT_BLOCK` at a time and the
     innermost loops run over a block's points, each point's sums on their own, so they vectorise
     without reordering any sum."""
+    out = np.empty((dy2.shape[0], ky_t.shape[1], kz_t.shape[1]))
+    interpolated_weights_into(out.reshape(dy2.shape[0], ky_t.shape[1] * kz_t.shape[1]), 1.0, scale, dx2, dy2,
+                              z2, ky_t, kz_t)  # fmt: skip
+    return out
+
+
+@jit(fastmath=False)
+def interpolated_weights_into(
+    out: np.ndarray, factor: float, scale: np.ndarray, dx2: np.ndarray, dy2: np.ndarray, z2: np.ndarray,
+    ky_t: np.ndarray, kz_t: np.ndarray,
+) -> None:  # fmt: skip
+    """:func:`interpolated_weights` written into ``out`` ((points, ny nz), point p's (ny, nz) weights
+    flattened in C order into row p; any 2-d view, e.g. the weight rows of a path's kernels), each
+    weight multiplied by ``factor`` (one IEEE product per weight after its sums, as numpy's
+    ``factor * weights``; 1.0: the weights themselves, bit for bit)."""
     py, ny, pz, nz = ky_t.shape[0], ky_t.shape[1], kz_t.shape[0], kz_t.shape[1]
     points, block = dy2.shape[0], WEIGHT_BLOCK
-    out = np.empty((points, ny, nz))
     dy2_t = np.ascontiguousarray(dy2.T)
     beta = np.empty((py, pz, block))
     half = np.empty((pz, ny, block))  # (ky B)^T of the block's points
@@ -46,8 +60,9 @@ def interpolated_weights(
         _block_product(half, ky_t, beta, m)
         _block_product(weights, kz_t, half, m)
         for j in range(m):
-            out[start + j] = weights[:, :, j]
-    return out
+            for x in range(ny):
+                for y in range(nz):
+                    out[start + j, x * nz + y] = factor * weights[x, y, j]
 
 
 @jit(fastmath=False)

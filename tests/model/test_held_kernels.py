@@ -29,15 +29,23 @@ CONFIG = ScenarioConfig(T=40.0, ios_shape=(100, 20), ground_nodes=((40.0, 30.0),
 
 @pytest.fixture
 def projections(monkeypatch):
-    """The number of surface projections (``surface.ground_weights`` calls) made so far."""
+    """The number of surface projections made so far (``surface.ground_weights`` calls, and the
+    ``surface.path_weights_into`` calls that wrote a path's weights)."""
     calls = []
-    real = surface.ground_weights
+    real, real_into = surface.ground_weights, surface.path_weights_into
 
     def counted(*args):
         calls.append(1)
         return real(*args)
 
+    def counted_into(*args):
+        written = real_into(*args)
+        if written:
+            calls.append(1)
+        return written
+
     monkeypatch.setattr(rate_kernels, "ground_weights", counted)
+    monkeypatch.setattr(rate_kernels, "path_weights_into", counted_into)
     return calls
 
 
