@@ -24,7 +24,6 @@ from ios_uav_env.envs.multi_step import (  # noqa: F401 (the kernels, re-exporte
     step_rows_batched,
 )
 from ios_uav_env.envs.multi_table import (
-    ACT_MOVE,
     ACT_MOVE_X,
     ACT_MOVE_Y,
     ACT_SCORES,
@@ -56,9 +55,10 @@ def move_norms(actions: np.ndarray) -> np.ndarray:
     whose squared move exceeds 1 - 1e-6 (the rows it may project), 0 for the others (whose
     norm is below 1: the kernel does not read it)."""
     norms = np.zeros(actions.shape[0])
-    rows = np.flatnonzero(actions[:, ACT_MOVE_X] ** 2 + actions[:, ACT_MOVE_Y] ** 2 > 1.0 - 1e-6)
+    ax, ay = actions[:, ACT_MOVE_X], actions[:, ACT_MOVE_Y]
+    rows = np.flatnonzero(ax * ax + ay * ay > 1.0 - 1e-6)
     if rows.size:
-        norms[rows] = [math.hypot(ax, ay) for ax, ay in actions[rows, ACT_MOVE].tolist()]
+        norms[rows] = list(map(math.hypot, ax[rows].tolist(), ay[rows].tolist()))
     return norms
 
 
@@ -89,6 +89,9 @@ class NodeRows:
         self.loaded: list[ScenarioConfig | None] = [None] * b
         # the rows whose scenario was loaded without its static node kernels (load(kernels=False))
         self.bare = np.zeros(b, dtype=np.bool_)
+        # the arrays of the scenario loaded last (_scenario_arrays): rows that load the same
+        # scenario object (a fixed id's, a batch reset on one pinned scenario) copy them
+        self._held: tuple[Any, ...] | None = None
 
     def _grow(self, name: str, axis: int, size: int, fill: tuple[float, ...] = (0.0,)) -> None:
         """Grow array ``self.<name>`` along ``axis`` to ``size``; new entries 0, or ``fill`` over the
@@ -108,7 +111,7 @@ class NodeRows:
         node kernels to the caller, who puts its own at once (moving nodes: the track's of slot 1):
         the arrays still grow to the scenario's surface width, but no surface is projected."""
         if self.loaded[i] is not cfg or (kernels and self.bare[i]):
-            width = kernel_width(cfg)
+            width, held_kernels, points, episode = self._scenario_arrays(cfg, kernels)
             if width > self.nodes.shape[3]:
                 self._grow("nodes", 3, width, fill=(0.0, 1.0, 0.0))  # padded nodes: zero weight
             if cfg.N > self.path.shape[1]:
@@ -116,16 +119,31 @@ class NodeRows:
                 self._grow("share_path", 1, cfg.N)
                 self._grow("rate_path", 1, cfg.N)
             if kernels:
-                nodes, params = node_kernels(cfg)  # each node's rate kernel, no config per node
+                nodes, params = held_kernels  # each node's rate kernel, no config per node
                 self.nodes[i, : cfg.K, :, :width] = nodes
                 self.nodes[i, : cfg.K, :, width:] = ((0.0,), (1.0,), (0.0,))
                 self.params[i, : cfg.K] = params
             self.bare[i] = not kernels
-            length_scale, sharpness, softmin_beta, peak_hint, clip = self.settings
-            self.points[i, : cfg.K] = node_points(cfg, node_peaks(cfg) if peak_hint else None)
-            self.episode[i] = episode_row(cfg, length_scale, sharpness, softmin_beta, peak_hint, 0.0, clip)
+            self.points[i, : cfg.K] = points
+            self.episode[i] = episode
             self.loaded[i] = cfg
         self.state[i, MST_X], self.state[i, MST_Y] = self.path[i, 0] = cfg.q0
+
+    def _scenario_arrays(self, cfg: ScenarioConfig, kernels: bool) -> tuple[Any, ...]:
+        """(Q, (nodes, params) or None, points, episode row) of ``cfg`` as :meth:`load` writes them
+        (``kernels``: with the node kernels): those of the scenario object loaded last when
+        ``cfg`` is it (the same numbers: each is a function of the scenario and the settings),
+        else computed and held."""
+        held = self._held
+        if held is None or held[0] is not cfg:
+            length_scale, sharpness, softmin_beta, peak_hint, clip = self.settings
+            points = node_points(cfg, node_peaks(cfg) if peak_hint else None)
+            episode = episode_row(cfg, length_scale, sharpness, softmin_beta, peak_hint, 0.0, clip)
+            held = (cfg, kernel_width(cfg), None, points, episode)
+        if kernels and held[2] is None:
+            held = (*held[:2], node_kernels(cfg), *held[3:])
+        self._held = held
+        return held[1:]
 
     def set_reference(self, i: int, reference: float, observed: float | None = None) -> None:
         """lambda_ref (bits/J) of row ``i``'s episode, and the one its observation shows
