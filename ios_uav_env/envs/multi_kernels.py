@@ -55,10 +55,11 @@ def move_norms(actions: np.ndarray) -> np.ndarray:
     whose squared move exceeds 1 - 1e-6 (the rows it may project), 0 for the others (whose
     norm is below 1: the kernel does not read it)."""
     norms = np.zeros(actions.shape[0])
-    ax, ay = actions[:, ACT_MOVE_X], actions[:, ACT_MOVE_Y]
-    rows = np.flatnonzero(ax * ax + ay * ay > 1.0 - 1e-6)
+    rows = np.flatnonzero(actions[:, ACT_MOVE_X] ** 2 + actions[:, ACT_MOVE_Y] ** 2 > 1.0 - 1e-6)
     if rows.size:
-        norms[rows] = list(map(math.hypot, ax[rows].tolist(), ay[rows].tolist()))
+        norms[rows] = list(
+            map(math.hypot, actions[rows, ACT_MOVE_X].tolist(), actions[rows, ACT_MOVE_Y].tolist())
+        )
     return norms
 
 
@@ -91,7 +92,10 @@ class NodeRows:
         self.bare = np.zeros(b, dtype=np.bool_)
         # the arrays of the scenario loaded last (_scenario_arrays): rows that load the same
         # scenario object (a fixed id's, a batch reset on one pinned scenario) copy them
-        self._held: tuple[Any, ...] | None = None
+        self._held_config: ScenarioConfig | None = None
+        self._held_width: int | None = None
+        self._held_kernels: tuple[np.ndarray, np.ndarray] | None = None
+        self._held_rows: tuple[np.ndarray, np.ndarray] = (np.zeros(0), np.zeros(0))
 
     def _grow(self, name: str, axis: int, size: int, fill: tuple[float, ...] = (0.0,)) -> None:
         """Grow array ``self.<name>`` along ``axis`` to ``size``; new entries 0, or ``fill`` over the
@@ -133,17 +137,20 @@ class NodeRows:
         """(Q, (nodes, params) or None, points, episode row) of ``cfg`` as :meth:`load` writes them
         (``kernels``: with the node kernels): those of the scenario object loaded last when
         ``cfg`` is it (the same numbers: each is a function of the scenario and the settings),
-        else computed and held."""
-        held = self._held
-        if held is None or held[0] is not cfg:
+        else computed and held. Q is the kernels' width (``kernel_width``'s, which the moving
+        nodes' loads ask for without the kernels)."""
+        if self._held_config is not cfg:
             length_scale, sharpness, softmin_beta, peak_hint, clip = self.settings
             points = node_points(cfg, node_peaks(cfg) if peak_hint else None)
             episode = episode_row(cfg, length_scale, sharpness, softmin_beta, peak_hint, 0.0, clip)
-            held = (cfg, kernel_width(cfg), None, points, episode)
-        if kernels and held[2] is None:
-            held = (*held[:2], node_kernels(cfg), *held[3:])
-        self._held = held
-        return held[1:]
+            self._held_config, self._held_rows = cfg, (points, episode)
+            self._held_width = self._held_kernels = None
+        if kernels and self._held_kernels is None:
+            nodes, params = node_kernels(cfg)
+            self._held_width, self._held_kernels = int(nodes.shape[2]), (nodes, params)
+        elif self._held_width is None:
+            self._held_width = kernel_width(cfg)
+        return (self._held_width, self._held_kernels, *self._held_rows)
 
     def set_reference(self, i: int, reference: float, observed: float | None = None) -> None:
         """lambda_ref (bits/J) of row ``i``'s episode, and the one its observation shows
@@ -170,12 +177,11 @@ class NodeRows:
         args: tuple[Any, ...] = (actions, self.state, self.episode, self.points, self.nodes, self.params,
                                  self.served, self.shares, self.rates, self.flags, obs, reward, terminated,
                                  info, self.path, self.share_path, active, norms, self.expected,
-                                 self.normals)  # fmt: skip
+                                 self.normals, self.rate_path)  # fmt: skip
         if serial:
             step_rows(*args)
         else:
             run_batched(step_rows_batched, step_rows, num_threads, *args)
-        keep_rates(np.flatnonzero(active), self.state, self.rates, self.rate_path)
 
     def fly(self, rows: np.ndarray, targets: np.ndarray, moves: np.ndarray, obs: np.ndarray,
             info: np.ndarray) -> None:  # fmt: skip
@@ -186,7 +192,7 @@ class NodeRows:
         bad = fly_rows(rows, targets, moves, np.zeros((b, width)), self.state, self.episode, self.points,
                        self.nodes, self.params, self.served, self.shares, self.rates, self.flags, obs,
                        np.zeros(b), np.zeros(b, dtype=np.bool_), info, self.path, self.share_path,
-                       np.zeros(b), self.expected, self.normals)  # fmt: skip
+                       np.zeros(b), self.expected, self.normals, self.rate_path)  # fmt: skip
         if bad >= 0:
             raise ValueError(
                 f"fly entry {bad} (row {rows[bad] if bad < rows.size else '?'}) is out of range: rows must "
