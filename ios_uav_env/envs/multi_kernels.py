@@ -24,7 +24,6 @@ from ios_uav_env.envs.multi_step import (  # noqa: F401 (the kernels, re-exporte
     step_rows_batched,
 )
 from ios_uav_env.envs.multi_table import (
-    ACT_MOVE,
     ACT_MOVE_X,
     ACT_MOVE_Y,
     ACT_SCORES,
@@ -58,7 +57,9 @@ def move_norms(actions: np.ndarray) -> np.ndarray:
     norms = np.zeros(actions.shape[0])
     rows = np.flatnonzero(actions[:, ACT_MOVE_X] ** 2 + actions[:, ACT_MOVE_Y] ** 2 > 1.0 - 1e-6)
     if rows.size:
-        norms[rows] = [math.hypot(ax, ay) for ax, ay in actions[rows, ACT_MOVE].tolist()]
+        norms[rows] = list(
+            map(math.hypot, actions[rows, ACT_MOVE_X].tolist(), actions[rows, ACT_MOVE_Y].tolist())
+        )
     return norms
 
 
@@ -89,6 +90,12 @@ class NodeRows:
         self.loaded: list[ScenarioConfig | None] = [None] * b
         # the rows whose scenario was loaded without its static node kernels (load(kernels=False))
         self.bare = np.zeros(b, dtype=np.bool_)
+        # the arrays of the scenario loaded last (_scenario_arrays): rows that load the same
+        # scenario object (a fixed id's, a batch reset on one pinned scenario) copy them
+        self._held_config: ScenarioConfig | None = None
+        self._held_width: int | None = None
+        self._held_kernels: tuple[np.ndarray, np.ndarray] | None = None
+        self._held_rows: tuple[np.ndarray, np.ndarray] = (np.zeros(0), np.zeros(0))
 
     def _grow(self, name: str, axis: int, size: int, fill: tuple[float, ...] = (0.0,)) -> None:
         """Grow array ``self.<name>`` along ``axis`` to ``size``; new entries 0, or ``fill`` over the
@@ -108,7 +115,7 @@ class NodeRows:
         node kernels to the caller, who puts its own at once (moving nodes: the track's of slot 1):
         the arrays still grow to the scenario's surface width, but no surface is projected."""
         if self.loaded[i] is not cfg or (kernels and self.bare[i]):
-            width = kernel_width(cfg)
+            width, held_kernels, points, episode = self._scenario_arrays(cfg, kernels)
             if width > self.nodes.shape[3]:
                 self._grow("nodes", 3, width, fill=(0.0, 1.0, 0.0))  # padded nodes: zero weight
             if cfg.N > self.path.shape[1]:
@@ -116,16 +123,34 @@ class NodeRows:
                 self._grow("share_path", 1, cfg.N)
                 self._grow("rate_path", 1, cfg.N)
             if kernels:
-                nodes, params = node_kernels(cfg)  # each node's rate kernel, no config per node
+                nodes, params = held_kernels  # each node's rate kernel, no config per node
                 self.nodes[i, : cfg.K, :, :width] = nodes
                 self.nodes[i, : cfg.K, :, width:] = ((0.0,), (1.0,), (0.0,))
                 self.params[i, : cfg.K] = params
             self.bare[i] = not kernels
-            length_scale, sharpness, softmin_beta, peak_hint, clip = self.settings
-            self.points[i, : cfg.K] = node_points(cfg, node_peaks(cfg) if peak_hint else None)
-            self.episode[i] = episode_row(cfg, length_scale, sharpness, softmin_beta, peak_hint, 0.0, clip)
+            self.points[i, : cfg.K] = points
+            self.episode[i] = episode
             self.loaded[i] = cfg
         self.state[i, MST_X], self.state[i, MST_Y] = self.path[i, 0] = cfg.q0
+
+    def _scenario_arrays(self, cfg: ScenarioConfig, kernels: bool) -> tuple[Any, ...]:
+        """(Q, (nodes, params) or None, points, episode row) of ``cfg`` as :meth:`load` writes them
+        (``kernels``: with the node kernels): those of the scenario object loaded last when
+        ``cfg`` is it (the same numbers: each is a function of the scenario and the settings),
+        else computed and held. Q is the kernels' width (``kernel_width``'s, which the moving
+        nodes' loads ask for without the kernels)."""
+        if self._held_config is not cfg:
+            length_scale, sharpness, softmin_beta, peak_hint, clip = self.settings
+            points = node_points(cfg, node_peaks(cfg) if peak_hint else None)
+            episode = episode_row(cfg, length_scale, sharpness, softmin_beta, peak_hint, 0.0, clip)
+            self._held_config, self._held_rows = cfg, (points, episode)
+            self._held_width = self._held_kernels = None
+        if kernels and self._held_kernels is None:
+            nodes, params = node_kernels(cfg)
+            self._held_width, self._held_kernels = int(nodes.shape[2]), (nodes, params)
+        elif self._held_width is None:
+            self._held_width = kernel_width(cfg)
+        return (self._held_width, self._held_kernels, *self._held_rows)
 
     def set_reference(self, i: int, reference: float, observed: float | None = None) -> None:
         """lambda_ref (bits/J) of row ``i``'s episode, and the one its observation shows
@@ -152,12 +177,11 @@ class NodeRows:
         args: tuple[Any, ...] = (actions, self.state, self.episode, self.points, self.nodes, self.params,
                                  self.served, self.shares, self.rates, self.flags, obs, reward, terminated,
                                  info, self.path, self.share_path, active, norms, self.expected,
-                                 self.normals)  # fmt: skip
+                                 self.normals, self.rate_path)  # fmt: skip
         if serial:
             step_rows(*args)
         else:
             run_batched(step_rows_batched, step_rows, num_threads, *args)
-        keep_rates(np.flatnonzero(active), self.state, self.rates, self.rate_path)
 
     def fly(self, rows: np.ndarray, targets: np.ndarray, moves: np.ndarray, obs: np.ndarray,
             info: np.ndarray) -> None:  # fmt: skip
@@ -168,7 +192,7 @@ class NodeRows:
         bad = fly_rows(rows, targets, moves, np.zeros((b, width)), self.state, self.episode, self.points,
                        self.nodes, self.params, self.served, self.shares, self.rates, self.flags, obs,
                        np.zeros(b), np.zeros(b, dtype=np.bool_), info, self.path, self.share_path,
-                       np.zeros(b), self.expected, self.normals)  # fmt: skip
+                       np.zeros(b), self.expected, self.normals, self.rate_path)  # fmt: skip
         if bad >= 0:
             raise ValueError(
                 f"fly entry {bad} (row {rows[bad] if bad < rows.size else '?'}) is out of range: rows must "

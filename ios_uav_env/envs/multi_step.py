@@ -308,11 +308,13 @@ def _step_row(
     nodes: np.ndarray, params: np.ndarray, served: np.ndarray, shares: np.ndarray, rates: np.ndarray,
     flags: np.ndarray, obs: np.ndarray, reward: np.ndarray, terminated: np.ndarray, info: np.ndarray,
     path: np.ndarray, share_path: np.ndarray, norms: np.ndarray, expected: np.ndarray, normals: np.ndarray,
+    rate_path: np.ndarray,
 ) -> None:  # fmt: skip
     """One slot of row ``i`` (see :func:`step_rows`); a row whose episode is over (or whose
-    ``path`` is full) is left as it is: nothing is written past its slot N."""
+    ``path`` is full) is left as it is: nothing is written past its slot N. ``rate_path``
+    receives the node rates of the new way-point (all K_max columns of ``rates[i]``)."""
     ep, st = episode[i], state[i]
-    n_max = min(path.shape[1], share_path.shape[1])
+    n_max = min(path.shape[1], share_path.shape[1], rate_path.shape[1])
     if st[MST_MOVES_MADE] >= ep[MEP_MOVES] or st[MST_MOVES_MADE] + 1.0 >= n_max:
         return  # (the envs never step such a row: they check first)
     d, n_slots, k_n = ep[MEP_D], ep[MEP_N], int(ep[MEP_K])
@@ -342,6 +344,8 @@ def _step_row(
         expected[i, k] = expected[i, k] + shares[i, k] * rates[i, k]
         share_path[i, int(n) + 1, k] = shares[i, k]
         low = min(low, served[i, k])
+    for k in range(rates.shape[1]):
+        rate_path[i, int(n) + 1, k] = rates[i, k]
     st[MST_MIN_RATE] = low / n_slots
     beta = ep[MEP_SOFTMIN_BETA]
     previous, st[MST_POTENTIAL] = st[MST_POTENTIAL], soft_minimum(served[i], k_n, n_slots, beta)
@@ -369,13 +373,15 @@ def step_rows(
     params: np.ndarray, served: np.ndarray, shares: np.ndarray, rates: np.ndarray, flags: np.ndarray,
     obs: np.ndarray, reward: np.ndarray, terminated: np.ndarray, info: np.ndarray, path: np.ndarray,
     share_path: np.ndarray, active: np.ndarray, norms: np.ndarray, expected: np.ndarray, normals: np.ndarray,
+    rate_path: np.ndarray,
 ) -> None:  # fmt: skip
     """:func:`step_rows_batched` one row after the other (where numba's threads cannot run:
     ``ios_uav_env.jit.parallel_safe``)."""
     for i in range(actions.shape[0]):
         if active[i]:
             _step_row(i, actions, state, episode, points, nodes, params, served, shares, rates, flags, obs,
-                      reward, terminated, info, path, share_path, norms, expected, normals)  # fmt: skip
+                      reward, terminated, info, path, share_path, norms, expected, normals,
+                      rate_path)  # fmt: skip
 
 
 @jit(fastmath=False, parallel=True)
@@ -384,13 +390,15 @@ def step_rows_batched(
     params: np.ndarray, served: np.ndarray, shares: np.ndarray, rates: np.ndarray, flags: np.ndarray,
     obs: np.ndarray, reward: np.ndarray, terminated: np.ndarray, info: np.ndarray, path: np.ndarray,
     share_path: np.ndarray, active: np.ndarray, norms: np.ndarray, expected: np.ndarray, normals: np.ndarray,
+    rate_path: np.ndarray,
 ) -> None:  # fmt: skip
     """One slot of every active row: move (unit-disk projection, then the arrival guard), shares,
     node rates, served rates, reward, observation and info. ``actions`` (B, 2 + K_max) must be
-    finite (the caller checks); ``flags`` as ``single_kernels.flags_of``; ``path`` (B, N_max, 2)
-    and ``share_path`` (B, N_max, K_max) receive the new way-point and shares (at ``moves
-    made``). ``norms`` (B,): |move| of each row whose move may leave the unit disk, 0 for the
-    others (:func:`move_norms`: Python's ``math.hypot``, which the compiled one does not match
+    finite (the caller checks); ``flags`` as ``single_kernels.flags_of``; ``path`` (B, N_max, 2),
+    ``share_path`` and ``rate_path`` (B, N_max, K_max) receive the new way-point, shares and node
+    rates (at ``moves made``; the rates kept for the episode's best schedule,
+    ``NodeRows.best_values``). ``norms`` (B,): |move| of each row whose move may leave the unit
+    disk, 0 for the others (:func:`move_norms`: Python's ``math.hypot``, which the compiled one does not match
     bit for bit). ``expected`` (B, K_max): each node's expected-gain sum sum_n alpha_k[n]
     r_k(q[n]); ``normals`` (B, K_max, 2): the slot's draws of h_SS per node (channel "rician"
     only). The rows run in parallel on numba's threads
@@ -400,7 +408,8 @@ def step_rows_batched(
     for i in prange(actions.shape[0]):  # rows are independent, on numba's threads
         if active[i]:
             _step_row(i, actions, state, episode, points, nodes, params, served, shares, rates, flags, obs,
-                      reward, terminated, info, path, share_path, norms, expected, normals)  # fmt: skip
+                      reward, terminated, info, path, share_path, norms, expected, normals,
+                      rate_path)  # fmt: skip
 
 
 @jit(fastmath=False)
@@ -409,7 +418,7 @@ def fly_rows(
     episode: np.ndarray, points: np.ndarray, nodes: np.ndarray, params: np.ndarray, served: np.ndarray,
     shares: np.ndarray, rates: np.ndarray, flags: np.ndarray, obs: np.ndarray, reward: np.ndarray,
     terminated: np.ndarray, info: np.ndarray, path: np.ndarray, share_path: np.ndarray, norms: np.ndarray,
-    expected: np.ndarray, normals: np.ndarray,
+    expected: np.ndarray, normals: np.ndarray, rate_path: np.ndarray,
 ) -> int:  # fmt: skip
     """``moves[r]`` slots of row ``rows[r]``, each a full-speed move towards ``targets[r]`` (the rest
     of the way once within D; the arrival guard as always) with equal shares: the steps of
@@ -420,7 +429,7 @@ def fly_rows(
     < 0, or a row whose moves (summed over its entries) would finish its episode or pass the
     end of ``path``."""
     bad = fly_entry_out_of_range(
-        rows, targets, moves, state, episode, min(path.shape[1], share_path.shape[1])
+        rows, targets, moves, state, episode, min(path.shape[1], share_path.shape[1], rate_path.shape[1])
     )
     if bad >= 0:
         return bad
@@ -432,15 +441,17 @@ def fly_rows(
         for _ in range(moves[r]):
             toward(i, targets[r, 0], targets[r, 1], state, episode, actions)
             _step_row(i, actions, state, episode, points, nodes, params, served, shares, rates, flags, obs,
-                      reward, terminated, info, path, share_path, norms, expected, normals)  # fmt: skip
+                      reward, terminated, info, path, share_path, norms, expected, normals,
+                      rate_path)  # fmt: skip
     return -1
 
 
 @jit(fastmath=False)
 def keep_rates(rows: np.ndarray, state: np.ndarray, rates: np.ndarray, rate_path: np.ndarray) -> None:
     """Store the node rates ``rates[i]`` of each of ``rows`` (int64) at its way-point, slot
-    ``moves made`` + 1 of ``rate_path`` (B, N_max, K_max): the rates the step just computed, kept
-    for the episode's best schedule (``NodeRows.best_values``)."""
+    ``moves made`` + 1 of ``rate_path`` (B, N_max, K_max): the rates :func:`reset_rows` just
+    computed, kept for the episode's best schedule (``NodeRows.best_values``; a step writes its
+    own)."""
     for i in rows:
         n = int(state[i, MST_MOVES_MADE])
         for k in range(rates.shape[1]):

@@ -69,24 +69,34 @@ __all__ = [
 
 
 @jit
-def _price(r: np.ndarray, w: np.ndarray, assign: np.ndarray, bounds: np.ndarray, out: np.ndarray) -> float:
+def _price(
+    r: np.ndarray, w: np.ndarray, assign: np.ndarray, bounds: np.ndarray, out: np.ndarray, top: np.ndarray
+) -> float:
     """Give every slot to a node of largest w_k r_k[n] (the first on a tie): ``assign`` (N,)
-    receives the nodes, ``out`` (K,) the vertex's R_k / B_k (``bounds``: B_k); returns g(w)."""
+    receives the nodes, ``out`` (K,) the vertex's R_k / B_k (``bounds``: B_k); returns g(w).
+    ``top`` (N,) is scratch (each slot's largest w_k r_k[n]). Every loop runs over the slots
+    with the node fixed, without a branch, so that it vectorises (the sums are reassociated:
+    equal to the slot-by-slot sums to rounding)."""
     k_n, n_n = r.shape
-    for k in range(k_n):
-        out[k] = 0.0
+    w0 = w[0]
+    for n in range(n_n):
+        top[n] = w0 * r[0, n]
+        assign[n] = 0
+    for k in range(1, k_n):
+        wk = w[k]
+        for n in range(n_n):
+            v = wk * r[k, n]
+            up = v > top[n]
+            top[n] = v if up else top[n]
+            assign[n] = k if up else assign[n]
     total = 0.0
     for n in range(n_n):
-        best, top = 0, w[0] * r[0, n]
-        for k in range(1, k_n):
-            v = w[k] * r[k, n]
-            if v > top:
-                best, top = k, v
-        assign[n] = best
-        out[best] += r[best, n]
-        total += top
+        total += top[n]
     for k in range(k_n):
-        out[k] /= n_n * bounds[k]
+        s = 0.0
+        for n in range(n_n):
+            s += r[k, n] if assign[n] == k else 0.0
+        out[k] = s / (n_n * bounds[k])
     return total / n_n
 
 
@@ -114,7 +124,8 @@ def maxmin_kernel(r: np.ndarray, shares: np.ndarray, weights: np.ndarray) -> tup
         w[k] = coef[k] / total  # start at w_k ~ 1 / B_k: every node's full time valued alike
     cols = np.zeros((MAX_COLUMNS, k_n))
     assign = np.empty((MAX_COLUMNS, n_n), dtype=np.int8)
-    best_g = _price(r, w, assign[0], bounds, cols[0])
+    top = np.empty(n_n)  # (_price's scratch)
+    best_g = _price(r, w, assign[0], bounds, cols[0], top)
     w_best, w_s = w.copy(), np.empty(k_n)
     n_cols = 1
     m = k_n + 1
@@ -150,14 +161,14 @@ def maxmin_kernel(r: np.ndarray, shares: np.ndarray, weights: np.ndarray) -> tup
         new = k_n + 1 + n_cols
         for k in range(k_n):  # price first between the best w so far and the master's (smoothing)
             w_s[k] = SMOOTH * w_best[k] + (1.0 - SMOOTH) * w[k]
-        g = _price(r, w_s, assign[n_cols], bounds, cols[n_cols])
+        g = _price(r, w_s, assign[n_cols], bounds, cols[n_cols], top)
         if g < best_g:
             best_g = g
             w_best[:] = w_s
         if reduced(new, k_n, y, cols, coef) > STOP:  # it improves the master's t: keep it
             n_cols += 1
             continue
-        g = _price(r, w, assign[n_cols], bounds, cols[n_cols])  # else the master's own w
+        g = _price(r, w, assign[n_cols], bounds, cols[n_cols], top)  # else the master's own w
         if g < best_g:
             best_g = g
             w_best[:] = w

@@ -162,6 +162,25 @@ def test_maxmin_row_edge_cases():
     assert maxmin.maxmin_row(r)[0] == pytest.approx(maxmin_schedule(r).value, rel=1e-12)
 
 
+@pytest.mark.parametrize("family", sorted(FAMILIES))
+def test_the_pricing_gives_each_slot_to_the_first_best_node(family):
+    """The priced vertex (the master's column): every slot to the first node of largest w_k r_k[n]
+    (ties included: equal rows, integer rates, zero weights), its rates R_k / B_k and g(w) the
+    slot-by-slot sums to rounding."""
+    rng = np.random.default_rng(len(family) + 100)
+    for r in _instances(family, 10, seed=len(family) + 200):
+        k, n = r.shape
+        bounds = r.mean(axis=1)
+        for w in (np.full(k, 1.0 / k), rng.dirichlet(np.ones(k)), np.eye(k)[rng.integers(k)]):
+            assign, out = np.full(n, -1, dtype=np.int8), np.empty(k)
+            g = maxmin._price(r, w, assign, bounds, out, np.empty(n))
+            products = w[:, None] * r
+            np.testing.assert_array_equal(assign, np.argmax(products, axis=0))  # (the first maximum)
+            expected = np.array([r[j, assign == j].sum() for j in range(k)]) / (n * bounds)
+            np.testing.assert_allclose(out, expected, rtol=1e-13, atol=0)
+            assert g == pytest.approx(products.max(axis=0).mean(), rel=1e-13)
+
+
 def test_compiled_and_plain_python_agree():
     """The same instances under numba and under IOS_UAV_ENV_NO_NUMBA=1: the same values (to
     rounding: fast-math sums) and both certified."""
