@@ -70,8 +70,10 @@ FLEET: frozenset[str] = frozenset(
 )
 #: A STAR-control suite's env keywords (``star_suite.STAR_FIELDS``): each scenario fixes them.
 STAR: frozenset[str] = frozenset({"elements", "bits", "group", "protocol", "access", "direct_link"})
-#: A MISO-control suite's env keywords (``miso_suite.MISO_FIELDS``): each scenario fixes them.
-MISO: frozenset[str] = frozenset({"antennas", "users", "elements", "objective"})
+#: A MISO-control suite's env keywords (``miso_suite.MISO_FIELDS``): each scenario fixes them; and
+#: ``access``, which its scenarios leave at the env's default (linear precoding: the suite's
+#: references are the SDMA AO's), so another would score one problem against another's references.
+MISO: frozenset[str] = frozenset({"antennas", "users", "elements", "objective", "access"})
 PINNED: frozenset[str] = DRAW | SCORING | FLEET | STAR | MISO | SCENARIO_FIELDS
 #: Presentation arguments a policy's own ``env_kwargs`` fix: the observations it was trained on.
 OBSERVATION: frozenset[str] = PRESENTATION - {"render_mode"}

@@ -22,6 +22,7 @@ from ios_uav_env.model.config import ScenarioConfig
 from ios_uav_env.model.motion import node_paths
 from ios_uav_env.model.scenarios import ScenarioRanges
 from ios_uav_env.model.schedule import node_rates, reported_maxmin_rate
+from tests.tolerances import PLANNER_REL
 
 WALK = {"kind": "gauss_markov"}
 CONFIG = ScenarioConfig(T=40.0, ios_shape=(100, 20), ground_nodes=((40.0, 30.0), (-50.0, 60.0)), motion=WALK)
@@ -140,8 +141,8 @@ def test_a_tracks_kernels_are_each_nodes_own_path_kernels(width):
 
 def test_the_batched_score_takes_the_tracks_kernels(projections, built):
     """At each episode end the batched env scores a moving row on its track's kernels as they are:
-    no surface projected and no kernels asked of ``path_kernels`` (held or not), the value equal
-    bit for bit to the score that builds them."""
+    no surface projected and no kernels asked of ``path_kernels`` (held or not), the value the
+    score that builds them gets (to the LP's reassociation)."""
     vec = MultiNodeVectorEnv(2, CONFIG, knowledge="reports")
     vec.reset(seed=5)
     assert len(projections) == 2  # (one per row)
@@ -152,7 +153,9 @@ def test_the_batched_score_takes_the_tracks_kernels(projections, built):
     for i, env in enumerate(vec.envs):
         env.track.held = ()  # (no handles: the score below builds the kernels again)
         fresh = reported_maxmin_rate(env.config, vec.trajectories[i], env.truth)
-        assert info["best_schedule_rate"][i] == fresh  # bit for bit
+        # the batched rows solve the max-min LP compiled on the rates they kept, the fresh score
+        # by the scorer's own LP: the same optimum, summed in another order
+        assert info["best_schedule_rate"][i] == pytest.approx(fresh, rel=PLANNER_REL)
     assert len(built) == 2 * CONFIG.K
 
 
