@@ -129,8 +129,9 @@ def solve(
 ) -> Plan:
     """AO/SCA from dp-miso-sdma's plan (module docstring): the best flight met and its history.
 
-    ``start``: a ``Plan`` (e.g. dp-miso-sdma's; its ``info["upper_bound"]`` is carried) or a
-    feasible (N, 2) flight; None runs ``dp_miso_sdma.solve(config, resolution, **dp_options)``.
+    ``start``: a ``Plan`` (e.g. dp-miso-sdma's; its ``info["upper_bound"]`` is carried when it is
+    dp-miso-sdma's plan of this very config, the only plan whose bound certifies it) or a feasible
+    (N, 2) flight; None runs ``dp_miso_sdma.solve(config, resolution, **dp_options)``.
     ``bound_resolution``: the relaxed DP's cell side (m) of ``sdma_bound`` when the start carries no
     bound (default ``resolution`` / 2). ``radius``, ``min_radius``, ``max_radius`` (default D): the
     trust region's initial radius, floor and cap (m); ``max_rounds``, ``patience``, ``max_seconds``:
@@ -158,8 +159,11 @@ def solve(
             config, resolution, bound_resolution=bound_resolution, **(dp_options or {})
         )
     if isinstance(start, Plan):
-        start_info = {"upper_bound": start.info.get("upper_bound"), "seconds": start.seconds,
-                      "bound_weights": start.info.get("bound_weights")}  # fmt: skip
+        start_info = {"seconds": start.seconds}
+        if start.scheme == "dp-miso-sdma" and start.config == config:  # its bound certifies this config
+            start_info.update(
+                upper_bound=start.info.get("upper_bound"), bound_weights=start.info.get("bound_weights")
+            )
         start = start.trajectory
     q = np.asarray(start, dtype=float)
     if q.shape != (config.N, 2) or not check_trajectory(config, q).feasible:

@@ -52,7 +52,7 @@ import numpy as np
 
 from baselines.dp_bound import CUT_TOL, kelley_minimise, kelley_step
 from baselines.dp_relaxed import RelaxedDP, check_plain_grid, check_relaxed_grid
-from baselines.dp_star import MAX_CUTS, _check_cuts, bound_cell
+from baselines.dp_star import MAX_CUTS, _check_cuts, bound_cell, checked_start_weights
 from baselines.grid import DEFAULT_MARGIN, grid_axes, grid_path, validate_grid_args
 from baselines.plan import Plan
 from baselines.registry import check as check_planner
@@ -159,10 +159,7 @@ def sdma_bound(
     validate_grid_args(config, resolution, margin)
     _check_cuts(max_cuts, tol)
     check_relaxed_grid(config, resolution, margin)
-    k = config.K
-    w = np.full(k, 1.0 / k) if start_weights is None else np.asarray(start_weights, dtype=float)
-    if w.shape != (k,) or np.any(w < 0) or abs(w.sum() - 1) > 1e-9:
-        raise ValueError(f"start_weights must be K = {k} numbers >= 0 summing to 1, got {start_weights!r}")
+    w = checked_start_weights(start_weights, config.K)
     return kelley_minimise(SdmaRelaxedDP(config, resolution, margin).value, w, max_cuts=max_cuts, tol=tol)
 
 

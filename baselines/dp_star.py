@@ -108,6 +108,7 @@ _REFINE_SWEEPS = 10  # corridor DPs per level at most (repeated while the path c
 __all__ = [
     "MAX_CUTS",
     "bound_cell",
+    "checked_start_weights",
     "minimise_relaxed",
     "REFINE_LEVELS",
     "REFINE_ROUNDS",
@@ -171,10 +172,23 @@ def minimise_relaxed(
 ) -> tuple[float, np.ndarray, float, list[dict[str, Any]]]:
     """Kelley's minimisation over two users' weights of ``relaxed``'s UB(w) from ``start_weights``
     (default (1/2, 1/2)): :func:`noma_bound`'s answer, for any two-user relaxed DP."""
-    w = np.full(2, 0.5) if start_weights is None else np.asarray(start_weights, dtype=float)
-    if w.shape != (2,) or np.any(w < 0) or abs(w.sum() - 1) > 1e-9:
-        raise ValueError(f"start_weights must be two numbers >= 0 summing to 1, got {w!r}")
-    return kelley_minimise(relaxed.value, w, max_cuts=max_cuts, tol=tol)
+    return kelley_minimise(relaxed.value, checked_start_weights(start_weights, 2), max_cuts=max_cuts, tol=tol)
+
+
+def checked_start_weights(start_weights: np.ndarray | None, k: int) -> np.ndarray:
+    """Kelley's start over ``k`` users' weights: ``start_weights`` as k finite numbers >= 0 summing to
+    1 (``ValueError`` naming the field otherwise), by default 1/k each."""
+    if start_weights is None:
+        return np.full(k, 1.0 / k)
+    try:
+        w = np.asarray(start_weights, dtype=float)
+    except (TypeError, ValueError):
+        w = np.full(0, np.nan)
+    if w.shape != (k,) or not np.all(np.isfinite(w)) or np.any(w < 0) or abs(w.sum() - 1) > 1e-9:
+        raise ValueError(
+            f"start_weights must be K = {k} finite numbers >= 0 summing to 1, got {start_weights!r}"
+        )
+    return w
 
 
 def bound_cell(resolution: float, bound_resolution: float | None) -> float:

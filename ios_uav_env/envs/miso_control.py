@@ -212,7 +212,7 @@ class MISOControlEnv(gym.Env):
         check_objective(objective)
         if not isinstance(optimum, bool):
             raise ValueError(f"optimum must be True or False, got {optimum!r}")
-        if channel not in CHANNELS:
+        if not (isinstance(channel, str) and channel in CHANNELS):
             raise ValueError(f"channel must be one of {tuple(CHANNELS)}, got {channel!r}")
         if not (isinstance(access, str) and access in ACCESS):
             raise ValueError(f"access must be one of {ACCESS} (how the users share the slot), got {access!r}")

@@ -93,8 +93,9 @@ class StarNomaRows:
         self.episode[i] = (*config.q0, *config.qF, *config.ios_center[:2], config.D, n)
 
     def start(self, rows: np.ndarray, obs: np.ndarray, info: np.ndarray) -> None:
-        """Start the episodes of ``rows`` (loaded): slot 1 at q0 served with the users weighted
-        alike (1 / K each); their first observations and ``info`` rows."""
+        """Start the episodes of ``rows`` (loaded): slot 1 at q0 served at the users' equal weights
+        (1 / K each; a subclass's slot may round them, as the SDMA rows round to the lattice point
+        nearest them); their first observations and ``info`` rows."""
         for i in rows.tolist():
             ep = self.episode[i]
             self.state[i] = (ep[0], ep[1], 0.0)

@@ -110,6 +110,8 @@ def rician_slot_channels(
     ``config.kappa`` and the ``scattering`` of :data:`SCATTERINGS`. The LoS channels are
     :func:`~ios_uav_env.model.miso.slot_channels`' (kappa -> infinity recovers them)."""
     check_scattering(scattering)
+    if not isinstance(rng, np.random.Generator):
+        raise ValueError(f"rng must be a numpy Generator (np.random.default_rng(seed)), got {rng!r}")
     los = slot_channels(config, array, trajectory)
     q = ch.as_positions(trajectory, "trajectory")
     P, K, M, n_t = len(q), config.K, config.M, array.n_t

@@ -28,11 +28,13 @@ removes it), generalised to K users and beams: with N_t = 1, K = 2 and pi ascend
 least the weak user's own.
 
 **The default order** (:func:`decoding_order`): ascending G_k, each user's single-user gain bound
-``miso.user_gain_bound`` (the best |h_k w|^2 any surface setting and unit beam give it; exact for
-the rank-one UAV-surface link), ties by index: the user the slot can serve least well is decoded
-first, by everyone, and the best-served one decodes every message. It is a function of the slot's
-channel alone, not of the setting, so a given order's rates are continuous in the beams and the
-phases (an order read off |h_k(psi)|^2 would jump with psi); any permutation can be given instead.
+``miso.user_gain_bound`` (an upper bound of |h_k w|^2 over the surface settings and unit beams,
+equal to its maximum for the rank-one UAV-surface link; on a full-rank one, e.g. Rician scattering
+per element, the triangle inequality's bound), ties by index: the user the slot can serve least
+well (by that measure) is decoded first, by everyone, and the best-served one decodes every
+message. It is a function of the slot's channel alone, not of the setting, so a given order's
+rates are continuous in the beams and the phases (an order read off |h_k(psi)|^2 would jump with
+psi); any permutation can be given instead.
 
 **Full power.** Scaling every beam by c > 1 turns every SINR a / (b + 1) into c^2 a / (c^2 b + 1),
 larger: the optimum spends all of P, and the AO searches the unit sphere ||W||_F = 1.

@@ -50,7 +50,7 @@ import numpy as np
 
 from ios_uav_env.jit import jit
 from ios_uav_env.model.miso import SlotChannel, aligned_phases, check_objective, mrt_beams
-from ios_uav_env.model.miso_noma import _value, decoding_order
+from ios_uav_env.model.miso_noma import _value, check_order, decoding_order
 from ios_uav_env.model.miso_slot import _cascade, alone_starts
 
 __all__ = ["NomaSolution", "improve_beams", "noma_alternate", "noma_optimum", "noma_starts"]
@@ -159,10 +159,35 @@ def improve_beams(
 ) -> tuple[np.ndarray, float]:
     """Up to ``steps`` accepted ascent steps on the beams alone, the phases fixed (``H``), from
     ``beams`` (N_t, K), nonzero; returns the beams (unit Frobenius norm) and their objective, never
-    below the start's at full power."""
-    W = np.asarray(beams, dtype=complex)
-    _, _, W, value = _ascend(None, H, None, W / np.linalg.norm(W), order, objective, steps)
+    below the start's at full power. ``order``: a permutation of the users (``check_order``)."""
+    check_objective(objective)
+    H = np.asarray(H, dtype=complex)
+    if H.ndim != 2 or not np.all(np.isfinite(H)):
+        raise ValueError(f"H must be a finite (K, N_t) channel matrix, got shape {H.shape}")
+    W = _checked_start_beams(beams, H.shape[1], H.shape[0])
+    if not np.any(W):
+        raise ValueError("beams must be nonzero (the ascent starts from their direction)")
+    if not (isinstance(steps, (int, np.integer)) and not isinstance(steps, bool) and steps >= 0):
+        raise ValueError(f"steps must be an integer >= 0, got {steps!r}")
+    pi = check_order(order, H.shape[0])
+    _, _, W, value = _ascend(None, H, None, W / np.linalg.norm(W), pi, objective, int(steps))
     return W, value
+
+
+def _checked_start_beams(beams: object, n_t: int, k: int) -> np.ndarray:
+    """``beams`` as a finite complex (N_t, K) array of any power (a start, normalised by the
+    caller), else ``ValueError`` naming what is wrong."""
+    try:
+        W = np.array(beams, dtype=complex)
+    except (TypeError, ValueError):
+        raise ValueError(
+            f"beams must be a complex array of shape ({n_t}, {k}) (N_t, K), got {beams!r}"
+        ) from None
+    if W.shape != (n_t, k):
+        raise ValueError(f"beams must be a complex array of shape ({n_t}, {k}) (N_t, K), got shape {W.shape}")
+    if not np.all(np.isfinite(W)):
+        raise ValueError("beams must be finite: they have NaN or infinite entries")
+    return W
 
 
 def _ascend(
@@ -263,17 +288,15 @@ def noma_alternate(
     objective rises, until an iteration gains less than ``tol`` (relative) or after ``max_iter``.
     ``history`` records the objective, nondecreasing. Zero ``beams`` start from equal-power MRT."""
     check_objective(objective)
-    if not (isinstance(max_iter, (int, np.integer)) and max_iter >= 0):
+    if not (isinstance(max_iter, (int, np.integer)) and not isinstance(max_iter, bool) and max_iter >= 0):
         raise ValueError(f"max_iter must be an integer >= 0, got {max_iter!r}")
-    if not (tol >= 0):
-        raise ValueError(f"tol must be a number >= 0, got {tol!r}")
+    if isinstance(tol, bool) or not (isinstance(tol, (int, float, np.floating)) and tol >= 0):
+        raise ValueError(f"tol must be a number >= 0 (relative), got {tol!r}")
     pi = decoding_order(channel, order)
     total = objective == "sum"
     psi = np.mod(channel.check_phases(phases), 2 * np.pi)
     H = channel.matrix(psi)
-    W = np.array(beams, dtype=complex)
-    if W.shape != (channel.n_t, channel.K) or not np.all(np.isfinite(W)):
-        raise ValueError(f"beams must be a finite array of shape ({channel.n_t}, {channel.K}), got {W.shape}")
+    W = _checked_start_beams(beams, channel.n_t, channel.K)
     W = W / np.linalg.norm(W) if np.linalg.norm(W) > 0 else mrt_beams(H)
     value = _objective(H, W, pi, total)
     history = [value]

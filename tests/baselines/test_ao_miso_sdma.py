@@ -10,15 +10,15 @@ import pytest
 
 from baselines import registry
 from baselines.ao_miso_sdma import active_settings, gradients, solve
+from baselines.dp_miso_sdma import sdma_bound, water_filling_bound
 from baselines.dp_miso_sdma import solve as dp_miso_sdma
-from baselines.dp_miso_sdma import water_filling_bound
 from baselines.registry import PlannerMismatch
 from ios_uav_env import check_trajectory, score_plan
 from ios_uav_env.envs.miso_sdma import SDMA_CONFIG
 from ios_uav_env.model.miso import weighted_sum_bound
 from ios_uav_env.model.miso_sdma import sdma_pricer, slot_points
 from ios_uav_env.model.regions import maxmin_regions
-from tests.tolerances import PLANNER_REL
+from tests.tolerances import PLANNER_REL, RATE_REL
 
 #: The SDMA ids' scenario on a short flight (5 slots) and a coarse grid (as test_dp_miso_sdma.py).
 SMALL = SDMA_CONFIG.replace(T=5.0, q0=(-250.0, -40.0), qF=(-250.0, 40.0))
@@ -77,8 +77,8 @@ def test_three_and_four_users_from_the_straight_line_with_sdma_bound(users):
     config = THREE if users == 3 else THREE.replace(ground_nodes=(*THREE.ground_nodes, (-150.0, 60.0)))
     line = np.linspace(config.q0, config.qF, config.N)
     from_line = solve(config, line, max_rounds=1, bound_resolution=6.25)
-    # no bound carried by a bare flight: sdma_bound at 6.25 m, above the plan
-    _check_plan(config, score_plan(config, line).rate, from_line, from_line.info["upper_bound"])
+    # no bound carried by a bare flight: sdma_bound at 6.25 m (computed apart), above the plan
+    _check_plan(config, score_plan(config, line).rate, from_line, sdma_bound(config, 6.25)[0])
     assert from_line.info["bound_seconds"] > 0 and len(from_line.info["bound_weights"]) == users
 
 
@@ -148,3 +148,13 @@ def test_bad_arguments_are_refused_by_name():
             solve(SMALL, line, **kwargs)
     with pytest.raises(ValueError, match=r"start must be a feasible \(N = 5, 2\) flight"):
         solve(SMALL, line * 3)
+
+
+def test_a_plan_of_another_config_carries_no_bound(start):
+    """Only dp-miso-sdma's plan of this very config certifies it: a start planned on another config
+    (here 3 dB more noise, the same geometry) has its bound recomputed, not copied."""
+    noisier = SMALL.replace(noise_dbm=SMALL.noise_dbm + 3.0)
+    plan = solve(noisier, start, max_rounds=1, bound_resolution=12.5)
+    assert plan.info["bound_seconds"] > 0
+    assert plan.info["upper_bound"] == pytest.approx(sdma_bound(noisier, 12.5)[0], rel=RATE_REL)
+    assert plan.info["upper_bound"] < start.info["upper_bound"]  # the noisier config's bound is lower

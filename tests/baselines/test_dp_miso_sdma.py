@@ -9,7 +9,7 @@ import gymnasium as gym
 import numpy as np
 import pytest
 
-from baselines.dp_miso_sdma import SdmaRelaxedDP, solve, two_user_bound
+from baselines.dp_miso_sdma import SdmaRelaxedDP, sdma_bound, solve, two_user_bound
 from baselines.dp_relaxed import region_rate_bound
 from baselines.registry import PlannerMismatch
 from baselines.registry import solve as solve_registered
@@ -103,3 +103,13 @@ def test_the_plan_flown_through_the_env_scores_what_the_planner_reports(plan):
     for _ in range(2):
         info = _fly(env, rng.uniform(-1, 1, (SMALL.N - 1, 2)), rng.uniform(-1, 1, SMALL.N - 1))
         assert info["min_rate"] <= info["score"] <= plan.info["upper_bound"]
+
+
+@pytest.mark.parametrize(
+    "weights", [[np.nan, np.nan], [0.5, np.inf], [0.6, 0.6], [-0.5, 1.5], [1.0], "ab"], ids=str
+)
+def test_bad_start_weights_are_refused_before_any_bound(weights):
+    """NaN weights passed the sign and sum checks (every comparison with NaN is False) and gave an
+    infinite "bound": finite numbers are required too."""
+    with pytest.raises(ValueError, match=r"start_weights must be K = 2 finite numbers >= 0 summing to 1"):
+        sdma_bound(SMALL, 12.5, start_weights=weights)

@@ -176,5 +176,5 @@ def test_bad_arguments_are_refused_by_name(kwargs, match):
 def test_users_on_one_side_are_refused():
     with pytest.raises(ValueError, match="ground_nodes must lie on opposite sides"):
         solve(SMALL.replace(ground_nodes=((-5.0, 2.0), (-8.0, -2.0))))
-    with pytest.raises(ValueError, match="start_weights must be two numbers"):
+    with pytest.raises(ValueError, match="start_weights must be K = 2 finite numbers"):
         noma_bound(SMALL, 12.5, start_weights=np.array([0.5, 0.6]))

@@ -212,6 +212,7 @@ def test_batch_row_b_is_the_single_env_seeded_seed_plus_b_across_an_autoreset(mo
         ({"elements": (1, 2)}, "elements"), ({"elements": (8, 16)}, "elements"),
         ({"elements": 16}, "elements"), ({"objective": "sum_rate"}, "objective"), ({"optimum": 1}, "optimum"),
         ({"channel": "rayleigh"}, "channel"), ({"channel": "link"}, "channel"),
+        ({"channel": ["los"]}, "channel"), ({"access": ["noma"]}, "access"), ({"access": "tdma"}, "access"),
     ],
 )  # fmt: skip
 def test_bad_keywords_are_refused_by_name(kwargs, name):

@@ -61,7 +61,14 @@ def test_the_ao_setting_as_an_action_reaches_the_ao_value():
 
 
 def test_the_default_access_is_sdma_and_leaves_the_episode_unchanged():
+    """The default is linear precoding (``miso.user_rates``: each user treats the others as noise);
+    the golden episodes of ``MISOControl-v0`` hold its outputs from before the keyword."""
     assert ACCESS == ("sdma", "noma") and MISOControlEnv().access == "sdma"
+    env = MISOControlEnv(antennas=2, elements=(2, 2), optimum=False)
+    env.reset(seed=4)
+    ch, action = env.channels[env.slot], np.random.default_rng(4).uniform(-1, 1, env.action_space.shape)
+    phases, beams = env.setting(action)
+    assert env.step(action)[1] == objective_value(user_rates(ch.matrix(phases), beams), env.objective)
     kwargs = {"antennas": 2, "elements": (2, 2), "optimum": False}
     first = _episode(MISOControlEnv(**kwargs), 8)
     second = _episode(MISOControlEnv(access="sdma", **kwargs), 8)
@@ -120,8 +127,9 @@ def test_both_checkers_pass_without_warnings():
 
 def test_noma_on_rician_slots_decodes_the_drawn_channels():
     """The two keywords combine: under ``channel="rician"`` the SIC rates are those of the slot's
-    drawn channel (and its own decoding order), not of the LoS one, and stay under its bound."""
-    env = MISOControlEnv(**SMALL[0], channel="rician", optimum=False)
+    drawn channel (and its own decoding order), not of the LoS one, and stay under its bound; the
+    AO reference is the NOMA AO of the drawn channel."""
+    env = MISOControlEnv(**SMALL[0], channel="rician")
     los = MISOControlEnv(**SMALL[0], optimum=False)
     env.reset(seed=3)
     los.reset(seed=3)
@@ -133,3 +141,5 @@ def test_noma_on_rician_slots_decodes_the_drawn_channels():
     _, reward, _, _, info = env.step(action)
     assert reward == objective_value(rates, env.objective)
     assert reward <= slot_bounds(ch).of(env.objective) * (1 + 1e-12)
+    assert info["optimum"] == noma_optimum(ch, env.objective).value  # the first slot: no warm start
+    assert info["bound"] == slot_bounds(ch).of(env.objective)

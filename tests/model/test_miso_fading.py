@@ -33,17 +33,17 @@ def test_one_antenna_link_scattering_is_the_papers_channel_from_the_same_stream(
     phases = np.random.default_rng(1).uniform(0, 2 * np.pi, (len(PATH), ONE_USER.M))
     for kappa in (0.0, 3.0, 10.0):
         config = ONE_USER.replace(kappa=kappa)
-        today, ours = np.random.default_rng(5), np.random.default_rng(5)
-        h = np.sqrt(config.eta) * ch.channel(config, PATH, today, phases)
+        paper_rng, ours = np.random.default_rng(5), np.random.default_rng(5)
+        h = np.sqrt(config.eta) * ch.channel(config, PATH, paper_rng, phases)
         drawn = miso_fading.rician_slot_channels(config, ArrayConfig(), PATH, ours)
         h_ours = np.array([c.matrix(p)[0, 0] for c, p in zip(drawn, phases, strict=True)])
         np.testing.assert_allclose(h_ours, h, rtol=ROUNDING)
-        assert ours.bit_generator.state == today.bit_generator.state
-        today, ours = np.random.default_rng(6), np.random.default_rng(6)
-        h = np.sqrt(config.eta) * ch.channel(config, PATH[:1], today, phases[:1])
+        assert ours.bit_generator.state == paper_rng.bit_generator.state
+        paper_rng, ours = np.random.default_rng(6), np.random.default_rng(6)
+        h = np.sqrt(config.eta) * ch.channel(config, PATH[:1], paper_rng, phases[:1])
         one = miso_fading.rician_slot_channel(config, ArrayConfig(), PATH[0], ours)
         np.testing.assert_allclose(one.matrix(phases[0])[0], h, rtol=ROUNDING)
-        assert ours.bit_generator.state == today.bit_generator.state
+        assert ours.bit_generator.state == paper_rng.bit_generator.state
 
 
 @pytest.mark.parametrize("scattering", miso_fading.SCATTERINGS)
@@ -168,3 +168,5 @@ def test_bad_input_is_refused_by_name():
         miso_fading.rician_slot_channel(CONFIG, _array(2), PATH, rng)
     with pytest.raises(ValueError, match="^phases must"):
         miso_fading.mean_gains(CONFIG, _array(2), PATH[0], np.zeros(3))
+    with pytest.raises(ValueError, match=r"^rng must be a numpy Generator"):
+        miso_fading.rician_slot_channels(CONFIG, _array(2), PATH, 5)

@@ -87,6 +87,24 @@ def test_the_default_order_sorts_the_single_user_gains_and_bad_orders_are_refuse
         miso_noma_slot.noma_optimum(slot, "mean")
     with pytest.raises(ValueError, match="max_iter must be"):
         miso_noma_slot.noma_alternate(slot, "sum", np.zeros(slot.M), W, max_iter=-1)
+    for bad_kw, match in (({"max_iter": True}, "max_iter must be"), ({"tol": "x"}, "tol must be a number")):
+        with pytest.raises(ValueError, match=match):
+            miso_noma_slot.noma_alternate(slot, "sum", np.zeros(slot.M), W, **bad_kw)
+    with pytest.raises(ValueError, match="beams must be finite"):
+        miso_noma_slot.noma_alternate(slot, "sum", np.zeros(slot.M), np.full((2, 3), np.nan))
+    # the beams-only ascent checks what it is given: objective, order, beams, steps
+    H2 = slot.matrix(np.zeros(slot.M))
+    for args, match in (
+        ((W, order, "bogus"), "objective must be one of"),
+        ((W, (0, 0, 1), "sum"), "order must be a permutation"),
+        ((np.zeros((2, 3)), order, "sum"), "beams must be nonzero"),
+        ((np.full((2, 3), np.nan), order, "sum"), "beams must be finite"),
+        ((np.ones((3, 2)), order, "sum"), r"beams must be a complex array of shape \(2, 3\)"),
+    ):
+        with pytest.raises(ValueError, match=match):
+            miso_noma_slot.improve_beams(H2, *args)
+    with pytest.raises(ValueError, match="steps must be an integer"):
+        miso_noma_slot.improve_beams(H2, W, order, "sum", steps=-1)
 
 
 def test_the_interference_free_bound_bounds_every_noma_setting_and_order():
