@@ -21,8 +21,9 @@ For every id registered on ``import ios_uav_env`` it records, in one ``<id>.npz`
   ``SEED + i``), actions drawn the same way for the whole batch, stepped until every row has ended
   an episode and then ``EXTRA_STEPS`` more (so at least one row is autoreset and runs on).
 
-``kwargs`` is ``{"T": SHORT_T}`` (a short mission, a small file) where the id takes ``T`` and the
-episode does run on it, else ``{}``: every other setting is the id's default. A *variant*
+``kwargs`` is ``{"T": SHORT_T}`` (a short mission, a small file) where the id takes ``T``, the
+episode does run on it and the id's own mission is longer, else ``{}``: every other setting is the
+id's default (an index entry keeps the kwargs it was recorded with). A *variant*
 (:data:`VARIANTS`) is an id run with keywords of its own on top (a form its defaults do not run,
 e.g. b-bit phases): a golden of its own, named ``<id>+<key>=<value>``, whose index entry names the
 id (``"id"``); ``--new`` records a variant the index lacks as it records a new id. Each part holds the
@@ -107,16 +108,24 @@ def has_vector(env_id: str) -> bool:
 
 
 def golden_kwargs(env_id: str) -> dict[str, Any]:
-    """``{"T": SHORT_T}`` if ``env_id`` takes ``T`` and its episode runs on it, else ``{}``."""
+    """``{"T": SHORT_T}`` if ``env_id`` takes ``T``, its episode runs on it and its own mission is
+    longer, else ``{}`` (an id whose default mission is already short keeps it)."""
     try:
         env = gym.make(env_id, T=SHORT_T)
     except (TypeError, ValueError):
         return {}
     try:
         env.reset(seed=SEED)
-        return {"T": SHORT_T} if env.unwrapped.config.T == SHORT_T else {}
+        if env.unwrapped.config.T != SHORT_T:
+            return {}
     finally:
         env.close()
+    default = gym.make(env_id)
+    try:
+        default.reset(seed=SEED)
+        return {"T": SHORT_T} if default.unwrapped.config.T > SHORT_T else {}
+    finally:
+        default.close()
 
 
 def _kind(value: Any) -> str:
