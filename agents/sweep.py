@@ -401,7 +401,15 @@ def _run_tune(
             verbose=1 if progress else 0,
         ),
     )
-    results = tuner.fit()
+    # Tune's fit installs a SIGINT handler of its own in the main thread and leaves it there: the
+    # caller's Ctrl-C (KeyboardInterrupt, or its own handler) is restored when the trials end
+    main_thread = threading.current_thread() is threading.main_thread()
+    sigint = signal.getsignal(signal.SIGINT) if main_thread else None
+    try:
+        results = tuner.fit()
+    finally:
+        if sigint is not None:
+            signal.signal(signal.SIGINT, sigint)
     by_name = {t.name: t for t in trials}
     finished = set()
     errors = [f"{Trial.from_dict(r.config['trial']).name}: {r.error}" for r in results if r.error is not None]

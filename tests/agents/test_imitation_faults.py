@@ -170,6 +170,8 @@ def test_a_signal_ends_the_run_with_one_line_and_the_same_command_resumes(run_co
         raise Terminated
 
     old = signal.signal(signal.SIGTERM, terminated)
+    # SIGINT as a command line has it (KeyboardInterrupt), whatever an earlier test in this worker left
+    old_int = signal.signal(signal.SIGINT, signal.default_int_handler)
     fail_at_fit(monkeypatch, signum)
     argv = ["--out", str(run_copy), "--rounds", "3", *TINY]
     try:
@@ -178,6 +180,7 @@ def test_a_signal_ends_the_run_with_one_line_and_the_same_command_resumes(run_co
         code = type(exc).__name__
     finally:
         signal.signal(signal.SIGTERM, old)
+        signal.signal(signal.SIGINT, old_int)
     err = capsys.readouterr().err
     assert code == 128 + signum
     name = signal.Signals(signum).name

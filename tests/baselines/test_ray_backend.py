@@ -10,6 +10,7 @@ from __future__ import annotations
 import functools
 import json
 import os
+import signal
 import sys
 from pathlib import Path
 
@@ -86,7 +87,9 @@ def test_training_sweep_same_on_ray(ray_session, tmp_path):
         training_sweep.run_sweep, trials, timesteps=512, eval_freq=0, jobs=2, progress=False
     )
     local = run(tmp_path / "local")
+    sigint = signal.getsignal(signal.SIGINT)
     on_ray = run(tmp_path / "ray", backend="ray")
+    assert signal.getsignal(signal.SIGINT) is sigint  # Tune's own Ctrl-C handler does not outlive the sweep
     for a, b in zip(local, on_ray, strict=True):
         assert a["trial"] == b["trial"] and a["steps"] == b["steps"] == 512
         assert abs(a["average_rate"] - b["average_rate"]) <= 1e-9
