@@ -11,6 +11,8 @@ PY := $(VENV)/bin/python
 # torch is pinned here (not in pyproject, which keeps torch>=2.3) so that pip takes the
 # CPU build on this machine's local index instead of resolving a multi-GB CUDA build; the
 # constraints file keeps it so while pip installs the extras (torchrl, tianshou, rl-zoo3).
+# Every venv installs with --no-compile: pip would byte-compile all of torch, Ray and the RL
+# libraries (about a CPU minute); Python compiles what the tests import, once, when they do.
 TORCH_SPEC ?= torch==2.13.0
 CONSTRAINTS ?= .ci/constraints.txt
 # The oldest releases the env supports (pyproject's floors; SB3 2.3.2 is the last to accept
@@ -24,7 +26,9 @@ OLDEST_TESTS ?= tests/envs/test_single.py tests/envs/test_registration.py tests/
 # The wheel's own tests (model, envs, benchmark: numpy, Gymnasium and scipy's LP) on the oldest
 # Python minor of pyproject's requires-python and the newest one tested, each in .venv-py<minor>
 # (.venv-py310 ...) with the newest releases that minor gets. No torch, no numba, no matplotlib:
-# Gymnasium's checker, which renders a frame, and the compiled peak search are left out (-k).
+# Gymnasium's checker, which renders a frame, and the compiled peak search are left out (-k), and so
+# are the tests marked slow_without_numba (optimisers run many times: minutes in plain Python; the
+# main suite runs them, and their code's plain-Python path is tested there too).
 # A minor's interpreter is pyenv's build of it, else python<minor> on the PATH if it runs; with
 # neither, the minor is skipped with a note (under CI, CI set, that is an error). pip compiles no
 # bytecode there (--no-compile): the tests import a small part of what it installs.
@@ -33,7 +37,8 @@ PYENV_ROOT ?= $(HOME)/.pyenv
 VERSION_PINS ?= pytest scipy
 VERSION_TESTS ?= tests/model tests/envs/test_single.py tests/envs/test_registration.py \
 	tests/envs/test_policies.py tests/envs/test_rollout.py tests/envs/test_multi.py \
-	tests/benchmark/test_results.py -k "not check_env and not checker and not compiled_search"
+	tests/benchmark/test_results.py -k "not check_env and not checker and not compiled_search" \
+	-m "not slow_without_numba"
 # the interpreter of Python $(1) (e.g. 3.10), empty if this machine has none that runs
 python_of = $(firstword $(foreach c,$(wildcard $(PYENV_ROOT)/versions/$(1).*/bin/python$(1)) \
 	$(shell command -v python$(1) 2>/dev/null),$(if $(shell $(c) -c 'print(1)' 2>/dev/null),$(c))))
@@ -46,16 +51,16 @@ $(VENV)/.installed: pyproject.toml Makefile $(CONSTRAINTS)
 	@command -v $(PYTHON) >/dev/null 2>&1 || { echo "need $(PYTHON) (set PYTHON=...)"; exit 1; }
 	test -x $(PY) || $(PYTHON) -m venv $(VENV)
 	$(PY) -m pip install -q --upgrade pip
-	$(PY) -m pip install -q -c $(CONSTRAINTS) "$(TORCH_SPEC)"
-	$(PY) -m pip install -q -c $(CONSTRAINTS) -e ".[all]"
+	$(PY) -m pip install -q --no-compile -c $(CONSTRAINTS) "$(TORCH_SPEC)"
+	$(PY) -m pip install -q --no-compile -c $(CONSTRAINTS) -e ".[all]"
 	touch $@
 
 $(OLDEST_VENV)/.installed: pyproject.toml Makefile $(CONSTRAINTS)
 	@command -v $(PYTHON) >/dev/null 2>&1 || { echo "need $(PYTHON) (set PYTHON=...)"; exit 1; }
 	test -x $(OLDEST_VENV)/bin/python || $(PYTHON) -m venv $(OLDEST_VENV)
 	$(OLDEST_VENV)/bin/python -m pip install -q --upgrade pip
-	$(OLDEST_VENV)/bin/python -m pip install -q -c $(CONSTRAINTS) "$(TORCH_SPEC)"
-	$(OLDEST_VENV)/bin/python -m pip install -q -c $(CONSTRAINTS) -e . $(OLDEST_PINS)
+	$(OLDEST_VENV)/bin/python -m pip install -q --no-compile -c $(CONSTRAINTS) "$(TORCH_SPEC)"
+	$(OLDEST_VENV)/bin/python -m pip install -q --no-compile -c $(CONSTRAINTS) -e . $(OLDEST_PINS)
 	touch $@
 
 .PRECIOUS: .venv-py%/.installed

@@ -46,6 +46,7 @@ def _constants(model: PropulsionModel) -> np.ndarray:
     return np.array([model.P0, model.U_tip, model.P_i, model.v0, model.drag_coefficient])
 
 
+@pytest.mark.slow_without_numba
 def test_lambda_ref_is_score_plans_ee_of_the_hover_flight():
     rng = np.random.default_rng(1)
     for i in range(40):
@@ -73,6 +74,7 @@ def test_flight_efficiency_scores_any_flight_as_score_plan():
         assert ours == pytest.approx(score_plan(config, q).energy_efficiency, rel=EE_REL)
 
 
+@pytest.mark.slow_without_numba
 def test_the_flight_reaches_qf_within_d_per_move():
     from ios_uav_env.model.config import ScenarioConfig
     from ios_uav_env.model.trajectory import check_trajectory
@@ -84,6 +86,7 @@ def test_the_flight_reaches_qf_within_d_per_move():
         assert tuple(q[-1]) == config.qF and check_trajectory(config, q).feasible
 
 
+@pytest.mark.slow_without_numba
 def test_the_compiled_flight_is_the_plain_python_flight():
     code = """
 import json, sys

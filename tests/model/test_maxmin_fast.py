@@ -69,6 +69,7 @@ def _assert_certified(r: np.ndarray, found: tuple) -> None:
     assert abs(dual - value) <= FAST_TOL * dual  # (weak duality: value <= dual, up to rounding)
 
 
+@pytest.mark.slow_without_numba
 @pytest.mark.parametrize("family", sorted(FAMILIES))
 def test_the_value_is_highs_value_with_a_valid_certificate(family):
     """40 instances per family (K = 2..8, N = 2..300): the fast path answers (no fallback), its

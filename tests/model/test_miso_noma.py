@@ -128,6 +128,7 @@ def test_the_interference_free_bound_bounds_every_noma_setting_and_order():
                 assert weights @ rates <= weighted * (1 + 1e-9)
 
 
+@pytest.mark.slow_without_numba
 @pytest.mark.parametrize("objective", miso.SLOT_OBJECTIVES)
 def test_the_ao_climbs_from_its_starts_and_stays_below_the_bound(objective):
     rng = np.random.default_rng(4)
@@ -181,6 +182,7 @@ def test_the_ascent_gradient_is_the_rates_derivative():
         assert grad @ tangent == pytest.approx(numeric, rel=1e-5, abs=1e-9)
 
 
+@pytest.mark.slow_without_numba
 def test_the_ao_is_within_a_numerical_optimisers_reach_on_tiny_slots():
     """K = 2, N_t = 2, M = 4: Nelder-Mead from 6 random starts over the beams (on the sphere) and the
     phases finds no setting 0.2 % better than the AO, and comes within 1 % of it (the test can tell)."""

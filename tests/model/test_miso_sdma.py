@@ -82,6 +82,7 @@ def test_serving_both_at_once_beats_tdma_and_the_bound_holds(slots):
     assert got.upper >= got.value and 0 < got.gap < 1
 
 
+@pytest.mark.slow_without_numba
 def test_score_plan_scores_an_sdma_flight_deterministically():
     got = score_plan(CONFIG, FLIGHT)
     assert got.rate == sdma_maxmin(CONFIG, FLIGHT).value == score_plan(CONFIG, FLIGHT).rate

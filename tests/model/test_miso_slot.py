@@ -26,6 +26,7 @@ def _cases(seed: int, n: int):
         yield random_slot(rng, n_t=n_t, K=K, steering=str(rng.choice(["centre", "element"]))), rng
 
 
+@pytest.mark.slow_without_numba
 @pytest.mark.parametrize("objective", miso.SLOT_OBJECTIVES)
 def test_every_iteration_keeps_or_raises_the_objective(objective):
     for slot, rng in _cases(11, 6):
@@ -40,6 +41,7 @@ def test_every_iteration_keeps_or_raises_the_objective(objective):
         np.testing.assert_allclose(miso.user_rates(slot.matrix(run.phases), run.beams), run.rates, rtol=1e-12)
 
 
+@pytest.mark.slow_without_numba
 @pytest.mark.parametrize("objective", miso.SLOT_OBJECTIVES)
 def test_the_optimum_lies_between_the_aligned_baselines_and_the_bound(objective):
     for slot, _ in _cases(23 if objective == "sum" else 29, 12):
@@ -52,6 +54,7 @@ def test_the_optimum_lies_between_the_aligned_baselines_and_the_bound(objective)
         assert np.sum(np.abs(best.beams) ** 2) <= 1 + 1e-12
 
 
+@pytest.mark.slow_without_numba
 @pytest.mark.parametrize("objective", miso.SLOT_OBJECTIVES)
 def test_the_phase_updates_gain_over_the_beams_alone(objective):
     """From random phases, AO beats the best beams for those phases (max-min: the exact optimum;
@@ -74,6 +77,7 @@ def test_the_phase_updates_gain_over_the_beams_alone(objective):
     assert np.sum(np.array(gains) > 1e-3) >= len(gains) // 2, gains
 
 
+@pytest.mark.slow_without_numba
 def test_one_user_reaches_the_closed_form():
     for slot, _ in _cases(31, 6):
         one = miso.SlotChannel(slot.coef[:1], slot.to_elements, slot.direct[:1], slot.rank_one)
@@ -86,6 +90,7 @@ def test_one_user_reaches_the_closed_form():
                 assert best.value <= optimum * (1 + 1e-12)
 
 
+@pytest.mark.slow_without_numba
 def test_maxmin_beams_balance_the_sinrs_at_full_power_and_no_optimiser_beats_them():
     rng = np.random.default_rng(41)
     for _ in range(2):
@@ -132,6 +137,7 @@ def test_wmmse_beam_updates_keep_the_power_and_climb_to_a_stationary_point():
         assert polished <= values[-1] * (1 + 1e-6)
 
 
+@pytest.mark.slow_without_numba
 def test_the_plain_python_sweeps_agree_with_the_compiled_ones():
     slot, rng = next(_cases(47, 1))
     phases = miso.random_phases(slot, rng)
@@ -176,6 +182,7 @@ def test_bad_arguments_name_the_field_and_the_range():
         miso_slot.alternate(slot, "sum", phases, 2 * W)
 
 
+@pytest.mark.slow_without_numba
 @pytest.mark.parametrize("objective", miso.SLOT_OBJECTIVES)
 def test_slot_optimum_beats_its_starts_and_repeats(objective):
     """``slot_optimum``: at least the plain AO without random starts, at least each user alone (the

@@ -41,6 +41,7 @@ def _random_setup(rng: np.random.Generator, n_t: int, K: int):
     return config, array, rng.uniform(-80.0, 80.0, 2)
 
 
+@pytest.mark.slow_without_numba
 @pytest.mark.parametrize("objective", miso.SLOT_OBJECTIVES)
 @pytest.mark.parametrize(("n_t", "K"), [(2, 2), (4, 3), (1, 2)])
 def test_every_scheme_is_below_the_bound_and_ao_above_the_aligned_starts(objective, n_t, K):
@@ -79,6 +80,7 @@ def test_the_warm_start_carries_ao_along_the_powers(objective):
     assert np.all(np.diff(sweep.values["AO"]) >= -ROUNDING * sweep.values["AO"][1:])
 
 
+@pytest.mark.slow_without_numba
 @pytest.mark.parametrize("K", [2, 3])
 def test_zero_forcing_gains_k_streams_per_decade_and_mrt_saturates(K):
     """At 70 -> 80 dBm every ZF SINR is >= 1e4 (checked): the slope is within 1e-3 of

@@ -64,6 +64,7 @@ def test_branch_and_bound_returns_the_exhaustive_point_and_rate(side):
             assert (ours.x, ours.y) == (theirs.x, theirs.y) and _same_rate(ours.rate, theirs.rate)
 
 
+@pytest.mark.slow_without_numba
 @pytest.mark.parametrize("block", [1, 3, 8, 13])
 def test_every_block_size_finds_the_same_point(block):
     code = {None: 0, "front": 1, "behind": -1}

@@ -74,6 +74,7 @@ def test_the_search_is_exact_against_brute_force(bits):
         assert channel.zeta(config, q)[0] == pytest.approx(brute, rel=EXACT)
 
 
+@pytest.mark.slow_without_numba
 def test_the_rates_order_as_the_phase_grids_nest():
     """b-bit grids nest (1 in 2 in 3), and every phase setting is below the aligned one: per slot
     r_1 <= r_2 <= r_3 <= r_continuous, at drawn positions on both sides, each node; 8 bits come

@@ -54,6 +54,7 @@ def _choices(phases: str, bits: int | None, n_gamma: int = 11, n_theta: int = 24
     return np.cos(g), np.sin(g), a, a + o
 
 
+@pytest.mark.slow_without_numba
 def test_es_independent_against_a_grid() -> None:
     """ES, aligned phases: value within the stated gap of the optimum; the bound above a grid."""
     rng = np.random.default_rng(5)
@@ -197,6 +198,7 @@ def _scenarios(n: int) -> list[tuple[StarChannels, StarChannels]]:
     return out
 
 
+@pytest.mark.slow_without_numba
 def test_es_ms_single_side_ordering_on_drawn_scenarios() -> None:
     """ES >= MS >= the better of all-transmit and all-reflect (same access), provably: MS's
     settings are ES's and include both single sides; ES's value is within its gap of its optimum.
