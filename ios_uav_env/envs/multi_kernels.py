@@ -15,6 +15,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from ios_uav_env.envs.core.kernel import flags_of
 from ios_uav_env.envs.multi_step import (  # noqa: F401 (the kernels, re-exported)
     fly_rows,
     keep_rates,
@@ -39,7 +40,6 @@ from ios_uav_env.envs.multi_table import (
     set_reference,
 )
 from ios_uav_env.envs.options import EnvOptions
-from ios_uav_env.envs.single_kernels import flags_of
 from ios_uav_env.jit import run_batched
 from ios_uav_env.model.channel import PARAMS
 from ios_uav_env.model.config import ScenarioConfig

@@ -10,19 +10,23 @@ x, y, its side of the IOS and, with ``peak_hint``, its reachable rate peak x, y 
 (``ios_uav_env.model.channel.RateKernel`` of ``config.node_config(k)``: ``nodes`` (B, K_max, 3, Q),
 ``params`` (B, K_max, P)). :func:`reset_rows` and :func:`step_rows` write the observations,
 rewards and the ``info`` table (``multi_table.info_columns``, read by ``info_arrays``) of the
-rows they touch: node k's rate is ``channel.rate_point``, the move goes through
-``guard.guarded_position``, the shares are the softmax of ``share_sharpness`` x the scores of
-the scenario's K nodes, and the reward terms are those of ``MultiNodeEnv``'s docstring.
+rows they touch: node k's rate is ``channel.rate_point``, the shares are the softmax of
+``share_sharpness`` x the scores of the scenario's K nodes, and the reward terms are those of
+``MultiNodeEnv``'s docstring. The move (unit-disk projection, ``guard.guarded_position``, the
+step's power and energy), the reward's reach, terminal and energy terms, the reset of the core
+state, the running eq. (10) check and the energy features are the row-step core's
+(``ios_uav_env.envs.core.kernel``), the ones the single-node view's step runs; the rates, the
+shares, the min-rate potential and the observation and ``info`` writers are this view's.
 Compiled with numba when installed (``ios_uav_env.jit``). The kernels index every column by
 name (``multi_table``'s module docstring), never by number.
 
-Two options of ``flags`` (``single_kernels.flags_of``) change the step: ``energy`` (the
+Two options of ``flags`` (``core.kernel.flags_of``) change the step: ``energy`` (the
 objective ``"energy_efficiency"``) adds the reward's energy term -(lambda_ref / B) P(V_n) and the
 energy features after the node blocks; ``rician`` serves each node its faded rate of the slot
 (``channel.faded_point`` with the two standard normal draws of ``normals[i, k]``), while
 ``expected`` (B, K_max) keeps the expected-gain sums sum_n alpha_k[n] r_k(q[n]) that the score
 and the energy efficiency are taken on. Every step books the move's propulsion energy
-(``single_kernels.slot_power``) whatever the flags.
+(``core.kernel.slot_power``) whatever the flags.
 """
 
 from __future__ import annotations
@@ -31,32 +35,33 @@ import math
 
 import numpy as np
 
+from ios_uav_env.envs.core.kernel import (
+    FLAG_ENERGY,
+    FLAG_RICIAN,
+    fly_entry_out_of_range,
+    move_row,
+    observe_energy,
+    reward_row,
+    start_row,
+    toward,
+    violation,
+)
 from ios_uav_env.envs.multi_table import (
     ACT_MOVE_X,
     ACT_MOVE_Y,
     ACT_SCORES,
     MEP_BITS_SCALE,
-    MEP_BLADE_K,
-    MEP_BUDGET,
     MEP_CX,
     MEP_CY,
     MEP_D,
-    MEP_DRAG,
-    MEP_DT,
     MEP_ELEMENTS,
-    MEP_ENERGY_COST,
-    MEP_ENERGY_WEIGHT,
     MEP_HORIZON,
-    MEP_INDUCED_K,
     MEP_INV_L,
     MEP_IS_IOS,
     MEP_IS_RIS,
     MEP_K,
-    MEP_MIN_POWER_MOVE,
     MEP_MOVES,
     MEP_N,
-    MEP_P_BLADE,
-    MEP_P_INDUCED,
     MEP_PEAK_HINT,
     MEP_QFX,
     MEP_QFY,
@@ -93,10 +98,7 @@ from ios_uav_env.envs.multi_table import (
     MORE_POWER,
     MORE_REWARD_ENERGY,
     MST_ENERGY,
-    MST_EXCESS,
     MST_MIN_RATE,
-    MST_MOVE_X,
-    MST_MOVE_Y,
     MST_MOVES_MADE,
     MST_POTENTIAL,
     MST_X,
@@ -122,25 +124,8 @@ from ios_uav_env.envs.multi_table import (
     PT_X,
     PT_Y,
 )
-from ios_uav_env.envs.single_kernels import (
-    FLAG_ARRIVAL_GUARD,
-    FLAG_ENERGY,
-    FLAG_REACH_WEIGHT,
-    FLAG_RICIAN,
-    FLAG_TERMINAL_WEIGHT,
-    OBS_ENERGY_WEIGHT,
-    OBS_MIN_POWER_MOVE,
-    OBS_MOVE_X,
-    OBS_MOVE_Y,
-    fly_entry_out_of_range,
-    penalties,
-    slot_power,
-    toward,
-)
 from ios_uav_env.jit import jit, prange
 from ios_uav_env.model.channel import faded_point, rate_point
-from ios_uav_env.model.config import ENERGY_RTOL, FEASIBILITY_TOL
-from ios_uav_env.model.guard import guarded_position
 
 
 @jit(fastmath=False)
@@ -200,27 +185,22 @@ def _observe(obs: np.ndarray, i: int, x: float, y: float, left: float, dist: flo
             for c in range(width):
                 o[j + c] = 0.0
     if flags[FLAG_ENERGY] != 0.0:
-        j = N_MOBS + width * points.shape[1]
-        o[j + OBS_MOVE_X], o[j + OBS_MOVE_Y] = state[i, MST_MOVE_X], state[i, MST_MOVE_Y]
-        o[j + OBS_ENERGY_WEIGHT], o[j + OBS_MIN_POWER_MOVE] = ep[MEP_ENERGY_WEIGHT], ep[MEP_MIN_POWER_MOVE]
+        observe_energy(obs, i, N_MOBS + width * points.shape[1], state, episode)
 
 
 @jit(inline=True, fastmath=False)
 def _info(info: np.ndarray, i: int, state: np.ndarray, episode: np.ndarray, shares: np.ndarray,
           served: np.ndarray, dist: float, left: float, r_rate: float, r_reach: float,
           r_terminal: float, expected: np.ndarray, power: float, r_energy: float) -> None:  # fmt: skip
-    """Write ``info`` row ``i`` (``best_schedule_rate`` 0: the caller's, at episode end); with an
-    energy budget, ``feasible`` also asks E <= E_max (1 + ENERGY_RTOL) of the energy so far, as
-    ``check_trajectory`` does. Then :data:`MORE`: the move's ``power`` (W), the ``energy`` so far
-    (J), the bits per joule so far B dt min_k sum_n alpha_k[n] r_k(q[n]) / E (expected-gain
+    """Write ``info`` row ``i`` (``best_schedule_rate`` 0: the caller's, at episode end; the running
+    eq. (10) check: ``core.kernel.violation``). Then :data:`MORE`: the move's ``power`` (W), the
+    ``energy`` so far (J), the bits per joule so far B dt min_k sum_n alpha_k[n] r_k(q[n]) / E (expected-gain
     rates; 0 before the first move), the energy term, min_k of ``expected`` / N, and each node's
     ``expected`` / N."""
     st, ep, row = state[i], episode[i], info[i]
     k_max = served.shape[1]
     k_n, n_slots = int(ep[MEP_K]), ep[MEP_N]
-    deficit = max(0.0, dist - left * ep[MEP_D])
-    worst = max(st[MST_EXCESS], deficit)
-    feasible = worst <= FEASIBILITY_TOL and st[MST_ENERGY] <= ep[MEP_BUDGET] * (1.0 + ENERGY_RTOL)
+    deficit, worst, feasible = violation(i, dist, left, state, episode)
     row[MINFO_POSITION_X], row[MINFO_POSITION_Y] = st[MST_X], st[MST_Y]
     row[MINFO_SLOT], row[MINFO_DISTANCE_TO_FINAL] = st[MST_MOVES_MADE] + 1.0, dist
     row[MINFO_MIN_RATE], row[MINFO_BEST_SCHEDULE_RATE] = st[MST_MIN_RATE], 0.0
@@ -278,9 +258,8 @@ def reset_rows(
             expected[i, k] = shares[i, k] * rates[i, k]
             share_path[i, 0, k] = shares[i, k]
             low = min(low, served[i, k])
-        st[MST_MOVES_MADE], st[MST_EXCESS] = 0.0, 0.0
+        start_row(i, state)
         st[MST_MIN_RATE], st[MST_POTENTIAL] = low / ep[MEP_N], 0.0  # potential before slot 1: 0
-        st[MST_ENERGY], st[MST_MOVE_X], st[MST_MOVE_Y] = 0.0, 0.0, 0.0
         dist = math.hypot(ep[MEP_QFX] - x, ep[MEP_QFY] - y)
         left = ep[MEP_MOVES]
         _observe(obs, i, x, y, left, dist, episode, points, served, rates, state, flags)
@@ -317,25 +296,12 @@ def _step_row(
     n_max = min(path.shape[1], share_path.shape[1], rate_path.shape[1])
     if st[MST_MOVES_MADE] >= ep[MEP_MOVES] or st[MST_MOVES_MADE] + 1.0 >= n_max:
         return  # (the envs never step such a row: they check first)
-    d, n_slots, k_n = ep[MEP_D], ep[MEP_N], int(ep[MEP_K])
-    ax, ay = actions[i, ACT_MOVE_X], actions[i, ACT_MOVE_Y]
-    norm = norms[i]
-    if norm > 1.0:
-        ax, ay = ax / norm, ay / norm
+    n_slots, k_n = ep[MEP_N], int(ep[MEP_K])
     _softmax(i, actions, ep[MEP_SHARPNESS], k_n, shares)
-    x0, y0, n = st[MST_X], st[MST_Y], st[MST_MOVES_MADE]
-    left = ep[MEP_MOVES] - n - 1.0  # moves left after this one
-    x, y = x0 + d * ax, y0 + d * ay
-    if flags[FLAG_ARRIVAL_GUARD] != 0.0:
-        x, y = guarded_position((x0, y0), (x, y), (ep[MEP_QFX], ep[MEP_QFY]), d, int(left))
-    st[MST_X], st[MST_Y], st[MST_MOVES_MADE] = x, y, n + 1.0
-    length = math.hypot(x - x0, y - y0)
-    st[MST_EXCESS] = max(st[MST_EXCESS], length - d)
-    power = slot_power(length, ep[MEP_DT], ep[MEP_P_BLADE], ep[MEP_BLADE_K], ep[MEP_P_INDUCED],
-                       ep[MEP_INDUCED_K], ep[MEP_DRAG])  # fmt: skip
-    st[MST_ENERGY] += ep[MEP_DT] * power
-    st[MST_MOVE_X], st[MST_MOVE_Y] = (x - x0) / d, (y - y0) / d
-    path[i, int(n) + 1, 0], path[i, int(n) + 1, 1] = x, y
+    n = st[MST_MOVES_MADE]
+    x, y, left, power = move_row(
+        i, actions[i, ACT_MOVE_X], actions[i, ACT_MOVE_Y], norms[i], state, episode, flags, path
+    )
     _rates(i, x, y, k_n, nodes, params, rates)
     low = math.inf
     for k in range(k_n):
@@ -350,18 +316,12 @@ def _step_row(
     beta = ep[MEP_SOFTMIN_BETA]
     previous, st[MST_POTENTIAL] = st[MST_POTENTIAL], soft_minimum(served[i], k_n, n_slots, beta)
     dist = math.hypot(ep[MEP_QFX] - x, ep[MEP_QFY] - y)
-    r_reach, r_terminal = penalties(dist, left, d, flags[FLAG_REACH_WEIGHT], flags[FLAG_TERMINAL_WEIGHT])
-    done = left == 0.0
     r_rate = n_slots * (st[MST_POTENTIAL] - previous)
-    if done and beta != 0.0:
+    if left == 0.0 and beta != 0.0:
         r_rate += n_slots * (st[MST_MIN_RATE] - st[MST_POTENTIAL])
-    r_energy = 0.0
-    if flags[FLAG_ENERGY] != 0.0:
-        r_energy = -ep[MEP_ENERGY_COST] * power
-        reward[i] = r_rate + r_energy + r_reach + r_terminal
-    else:
-        reward[i] = r_rate + r_reach + r_terminal
-    terminated[i] = done
+    r_reach, r_terminal, r_energy = reward_row(
+        i, r_rate, dist, left, power, episode, flags, reward, terminated
+    )
     _observe(obs, i, x, y, left, dist, episode, points, served, rates, state, flags)
     _info(info, i, state, episode, shares, served, dist, left, r_rate, r_reach, r_terminal, expected, power,
           r_energy)  # fmt: skip
@@ -394,7 +354,7 @@ def step_rows_batched(
 ) -> None:  # fmt: skip
     """One slot of every active row: move (unit-disk projection, then the arrival guard), shares,
     node rates, served rates, reward, observation and info. ``actions`` (B, 2 + K_max) must be
-    finite (the caller checks); ``flags`` as ``single_kernels.flags_of``; ``path`` (B, N_max, 2),
+    finite (the caller checks); ``flags`` as ``core.kernel.flags_of``; ``path`` (B, N_max, 2),
     ``share_path`` and ``rate_path`` (B, N_max, K_max) receive the new way-point, shares and node
     rates (at ``moves made``; the rates kept for the episode's best schedule,
     ``NodeRows.best_values``). ``norms`` (B,): |move| of each row whose move may leave the unit

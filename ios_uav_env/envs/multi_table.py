@@ -12,9 +12,11 @@ ACT_SCORES + k]``), ``MINFO_`` (:data:`INFO`) and ``MORE_`` (:data:`MORE`, at it
 block: ``row[more + MORE_POWER]``), ``MOBS_`` (the observation's :data:`BASE_FEATURES`) and
 ``NODE_`` (the features of a node block, at their offset in the block: ``o[j + NODE_SERVED]``;
 :data:`NODE_FEATURES`, then with ``peak_hint`` :data:`NODE_PEAK_FEATURES`). ``N_*`` are the
-lengths of the blocks. The flags and the energy features after the node blocks are the single
-env's (``single_kernels.FLAG_*``, ``OBS_MOVE_X`` ...). ``tests/envs/test_kernel_columns.py``
-refuses a literal column index.
+lengths of the blocks. ``state`` and ``episode`` begin with the core's columns
+(``core.kernel.CORE_STATE``, ``CORE_EPISODE``: ``MST_X`` is ``S_X``, ``MEP_DT`` is ``E_DT``),
+which the row-step core shared with the single-node view reads; the flags and the energy features
+after the node blocks are the core's too (``core.kernel.FLAG_*``, ``observe_energy``).
+``tests/envs/test_kernel_columns.py`` refuses a literal column index.
 """
 
 from __future__ import annotations
@@ -25,8 +27,8 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from ios_uav_env.envs.observation import M_SCALE, T_SCALE, min_power_move
-from ios_uav_env.envs.single_kernels import budget_of
+from ios_uav_env.envs.core.kernel import CORE_EPISODE, CORE_STATE, core_episode_values
+from ios_uav_env.envs.observation import M_SCALE, T_SCALE
 from ios_uav_env.jit import HAVE_NUMBA
 from ios_uav_env.model.config import ScenarioConfig
 from ios_uav_env.model.peak import rate_peak
@@ -37,14 +39,15 @@ __all__ = [
     "info_columns", "info_keys", "node_peaks", "node_points", "set_reference",
 ]  # fmt: skip
 
-#: Columns of a row of ``state`` (``moves_made`` at column 2, as in ``single_kernels.STATE``;
-#: ``energy``: the propulsion energy so far, J; ``move_x``, ``move_y``: the last move / D).
-STATE = ("x", "y", "moves_made", "excess", "min_rate", "potential", "energy", "move_x", "move_y")
-#: Columns of a row of ``episode``.
-EPISODE = (
-    "D", "qfx", "qfy", "moves", "inv_l", "N", "cx", "cy", "K", "sharpness", "elements", "is_ios",
-    "is_ris", "horizon", "softmin_beta", "peak_hint", "dt", "p_blade", "blade_k", "p_induced", "induced_k",
-    "drag", "budget", "energy_cost", "energy_weight", "min_power_move", "bits_scale", "served_clip",
+#: Columns of a row of ``state``: the core's (``core.kernel.CORE_STATE``: the UAV position, moves
+#: made, the step excess, the propulsion energy so far (J), the last move / D), then the min rate
+#: so far and the rate term's potential.
+STATE = CORE_STATE + ("min_rate", "potential")
+#: Columns of a row of ``episode``: the core's (``core.kernel.CORE_EPISODE``), then the node-block
+#: view's.
+EPISODE = CORE_EPISODE + (
+    "N", "cx", "cy", "K", "sharpness", "elements", "is_ios", "is_ris", "horizon", "softmin_beta",
+    "peak_hint", "served_clip",
 )  # fmt: skip
 #: Columns of a row of ``points`` (per node).
 POINT = ("x", "y", "side", "peak_x", "peak_y", "peak_rate")
@@ -75,16 +78,27 @@ MST_X = STATE.index("x")
 MST_Y = STATE.index("y")
 MST_MOVES_MADE = STATE.index("moves_made")
 MST_EXCESS = STATE.index("excess")
-MST_MIN_RATE = STATE.index("min_rate")
-MST_POTENTIAL = STATE.index("potential")
 MST_ENERGY = STATE.index("energy")
 MST_MOVE_X = STATE.index("move_x")
 MST_MOVE_Y = STATE.index("move_y")
+MST_MIN_RATE = STATE.index("min_rate")
+MST_POTENTIAL = STATE.index("potential")
 
 MEP_D = EPISODE.index("D")
 MEP_QFX = EPISODE.index("qfx")
 MEP_QFY = EPISODE.index("qfy")
 MEP_MOVES = EPISODE.index("moves")
+MEP_DT = EPISODE.index("dt")
+MEP_P_BLADE = EPISODE.index("p_blade")
+MEP_BLADE_K = EPISODE.index("blade_k")
+MEP_P_INDUCED = EPISODE.index("p_induced")
+MEP_INDUCED_K = EPISODE.index("induced_k")
+MEP_DRAG = EPISODE.index("drag")
+MEP_BUDGET = EPISODE.index("budget")
+MEP_ENERGY_COST = EPISODE.index("energy_cost")
+MEP_ENERGY_WEIGHT = EPISODE.index("energy_weight")
+MEP_MIN_POWER_MOVE = EPISODE.index("min_power_move")
+MEP_BITS_SCALE = EPISODE.index("bits_scale")
 MEP_INV_L = EPISODE.index("inv_l")
 MEP_N = EPISODE.index("N")
 MEP_CX = EPISODE.index("cx")
@@ -97,17 +111,6 @@ MEP_IS_RIS = EPISODE.index("is_ris")
 MEP_HORIZON = EPISODE.index("horizon")
 MEP_SOFTMIN_BETA = EPISODE.index("softmin_beta")
 MEP_PEAK_HINT = EPISODE.index("peak_hint")
-MEP_DT = EPISODE.index("dt")
-MEP_P_BLADE = EPISODE.index("p_blade")
-MEP_BLADE_K = EPISODE.index("blade_k")
-MEP_P_INDUCED = EPISODE.index("p_induced")
-MEP_INDUCED_K = EPISODE.index("induced_k")
-MEP_DRAG = EPISODE.index("drag")
-MEP_BUDGET = EPISODE.index("budget")
-MEP_ENERGY_COST = EPISODE.index("energy_cost")
-MEP_ENERGY_WEIGHT = EPISODE.index("energy_weight")
-MEP_MIN_POWER_MOVE = EPISODE.index("min_power_move")
-MEP_BITS_SCALE = EPISODE.index("bits_scale")
 MEP_SERVED_CLIP = EPISODE.index("served_clip")
 
 PT_X = POINT.index("x")
@@ -238,19 +241,17 @@ def node_peaks(config: ScenarioConfig) -> tuple[tuple[float, float, float], ...]
 def episode_row(config: ScenarioConfig, length_scale: float, sharpness: float, softmin_beta: float = 0.0,
                 peak_hint: bool = False, reference: float = 0.0,
                 served_clip: float = math.inf) -> np.ndarray:  # fmt: skip
-    """The ``episode`` row of ``config`` (see :data:`EPISODE`): the propulsion constants of
-    ``single_kernels.slot_power``, the energy budget (``single_kernels.budget_of``), then the
-    energy reward's constants of lambda_ref = ``reference`` (bits/J; :func:`set_reference`), the
-    minimum-power move V_mp dt / D, B dt (bits per bps/Hz of a slot) and where the observation
+    """The ``episode`` row of ``config`` (see :data:`EPISODE`): the core's columns
+    (``core.kernel.core_episode_values``: the propulsion constants, the energy budget, the
+    minimum-power move V_mp dt / D, B dt), the energy reward's constants of lambda_ref =
+    ``reference`` (bits/J; :func:`set_reference`), then the view's, with where the observation
     clips the served rates (``served_clip``, bps/Hz: finite for faded rates only)."""
-    (fx, fy), (cx, cy) = config.qF, config.ios_center[:2]
+    cx, cy = config.ios_center[:2]
     elements = config.M / M_SCALE if config.surface != "none" else 0.0
     kind = float(config.surface == "ios"), float(config.surface == "ris")
-    m = config.propulsion
-    row = [config.D, fx, fy, config.N - 1, 1.0 / length_scale, config.N, cx, cy, config.K, sharpness,
-           elements, *kind, config.T / T_SCALE, softmin_beta, float(peak_hint), config.dt, m.P0,
-           3.0 / m.U_tip**2, m.P_i, 1.0 / (2.0 * m.v0**2), m.drag_coefficient, budget_of(config), 0.0, 0.0,
-           min_power_move(config), config.bandwidth_hz * config.dt, served_clip]  # fmt: skip
+    row = core_episode_values(config, length_scale)
+    row += [config.N, cx, cy, config.K, sharpness, elements, *kind, config.T / T_SCALE, softmin_beta,
+            float(peak_hint), served_clip]  # fmt: skip
     out = np.array(row, dtype=np.float64)
     set_reference(out, config, reference)
     return out

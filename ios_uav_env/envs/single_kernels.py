@@ -1,25 +1,28 @@
 """The env's transition as array kernels: one implementation for the single and the batched env.
 
-A batch of B episodes is a few arrays (row i = episode i): ``state`` (:data:`STATE`: the UAV
-position, moves made, the running sums), ``episode`` (:data:`EPISODE`: the constants of the
-episode's scenario and of its observation), and the rate kernel's ``nodes`` / ``params``
-(``ios_uav_env.model.channel.RateKernel``; node arrays padded with zero weights). :func:`reset_rows`
-and :func:`step_rows` write the observations, rewards and ``info`` columns (:data:`INFO`) of
-the rows they touch. ``IOSUAVEnv`` runs them on a batch of one, ``IOSUAVVectorEnv`` on B rows:
-the same physics (``channel.rate_row``, ``faded_row``), the same arrival guard
-(``guard.guarded_position``) and the same reward, compiled with numba when it is installed.
+A batch of B episodes is a few arrays (row i = episode i): ``state`` (:data:`STATE`: the core's
+columns, the UAV position, moves made, excess, energy and last move, then the running sums),
+``episode`` (:data:`EPISODE`: the core's constants of the episode's scenario, then those of its
+observation), and the rate kernel's ``nodes`` / ``params`` (``ios_uav_env.model.channel.RateKernel``;
+node arrays padded with zero weights). :func:`reset_rows` and :func:`step_rows` write the
+observations, rewards and ``info`` columns (:data:`INFO`) of the rows they touch. ``IOSUAVEnv``
+runs them on a batch of one, ``IOSUAVVectorEnv`` on B rows: the same physics
+(``channel.rate_row``, ``faded_row``) and the row-step core that the node-block view's step runs
+too (``ios_uav_env.envs.core.kernel``: the move through the arrival guard, the propulsion power,
+the reward's reach, terminal and energy terms), compiled with numba when it is installed. What is
+this view's own: the node's rate, the running rate sums and the v0 observation and ``info`` writers.
 
-Every step also flies its move at one constant speed over the slot and books its propulsion
-power P(|move| / dt) (:func:`move_power`: eq. (12) of the propulsion model, inlined from the
-``episode`` row's constants in the cancellation-free form of ``model.propulsion``), the energy
-so far and the bits per joule so far (``info``'s ``power``, ``energy``, ``energy_efficiency``);
-the reward's energy term -(lambda_ref / B) P and the energy features of the observation are
-added only for the objective ``"energy_efficiency"`` (flag ``energy``).
+Every step flies its move at one constant speed over the slot and books its propulsion power
+P(|move| / dt) (``core.kernel.move_row``), the energy so far and the bits per joule so far
+(``info``'s ``power``, ``energy``, ``energy_efficiency``); the reward's energy term -(lambda_ref
+/ B) P and the energy features of the observation are added only for the objective
+``"energy_efficiency"`` (flag ``energy``). The kernels here are compiled with the fast-math flags
+of ``ios_uav_env.jit`` (the node sums vectorise), which the inlined core takes on.
 
 The kernels address every column by name, never by number: a module-level int per entry of
-:data:`STATE`, :data:`EPISODE`, :data:`INFO` and :data:`FLAGS`, named by a prefix and the entry
-upper-cased, ``ST_`` (``state[i, ST_MOVES_MADE]``), ``EP_`` (``episode[i, EP_INV_L]``), ``INFO_``
-(``info[i, INFO_RATE]``) and ``FLAG_`` (``flags[FLAG_ENERGY]``), and ``OBS_`` for the observation's
+:data:`STATE`, :data:`EPISODE` and :data:`INFO`, named by a prefix and the entry upper-cased,
+``ST_`` (``state[i, ST_MOVES_MADE]``), ``EP_`` (``episode[i, EP_INV_L]``) and ``INFO_``
+(``info[i, INFO_RATE]``), the core's ``FLAG_`` (``flags[FLAG_ENERGY]``), and ``OBS_`` for the observation's
 components (the names of ``observation_layout``: ``obs[i, OBS_X]``; a component of an appended block
 at its offset in the block, ``obs[i, k + OBS_MOVE_X]`` with ``k`` where the block starts, ``N_*``
 the blocks' lengths). Each is ``TUPLE.index("name")``: a plain int, which numba freezes into the
@@ -34,22 +37,45 @@ import math
 
 import numpy as np
 
-from ios_uav_env.envs.observation import T_SCALE, instance_values, min_power_move
-from ios_uav_env.envs.observation_layout import ENERGY_NAMES, INSTANCE_NAMES, OBS_NAMES, PEAK_NAMES
-from ios_uav_env.envs.options import EnvOptions
+from ios_uav_env.envs.core.kernel import (
+    CORE_EPISODE,
+    CORE_STATE,
+    E_ENERGY_COST,
+    E_ENERGY_WEIGHT,
+    FLAG_ENERGY,
+    FLAG_INSTANCE_FEATURES,
+    FLAG_PEAK_HINT,
+    FLAG_RICIAN,
+    FLAGS,
+    N_ENERGY,
+    core_episode_values,
+    fly_entry_out_of_range,
+    move_row,
+    observe_energy,
+    reward_row,
+    start_row,
+    toward,
+    violation,
+)
+from ios_uav_env.envs.observation import T_SCALE, instance_values
+from ios_uav_env.envs.observation_layout import INSTANCE_NAMES, OBS_NAMES, PEAK_NAMES
 from ios_uav_env.jit import jit, prange
 from ios_uav_env.model.channel import faded_row, rate_row
-from ios_uav_env.model.config import ENERGY_RTOL, FEASIBILITY_TOL, ScenarioConfig
-from ios_uav_env.model.guard import guarded_position
+from ios_uav_env.model.config import ScenarioConfig
 
-#: Columns of a row of ``state``.
-STATE = ("x", "y", "moves_made", "sum_expected", "sum_rate", "excess", "energy", "move_x", "move_y")
-#: Columns of a row of ``episode``: the scenario's constants, then the observation's.
-EPISODE = (
-    "D", "qfx", "qfy", "moves", "inv_l", "fx_l", "fy_l", "gx_l", "gy_l", "cx_l", "cy_l", "inv_moves",
-    "left_scale", "elements", "is_ios", "is_ris", "transmit", "horizon", "peak_x_l", "peak_y_l", "peak_rate",
-    "dt", "p_blade", "blade_k", "p_induced", "induced_k", "drag", "bits_scale", "energy_cost",
-    "energy_weight", "min_power_move", "budget",
+__all__ = [
+    "EPISODE", "FLAGS", "INFO", "STATE", "episode_row", "fly_rows", "reset_rows", "step_rows",
+    "step_rows_batched",
+]  # fmt: skip
+
+#: Columns of a row of ``state``: the core's (``core.kernel.CORE_STATE``: the UAV position,
+#: moves made, the step excess, the energy, the last move), then the running rate sums.
+STATE = CORE_STATE + ("sum_expected", "sum_rate")
+#: Columns of a row of ``episode``: the core's (``core.kernel.CORE_EPISODE``), then the
+#: observation's constants.
+EPISODE = CORE_EPISODE + (
+    "fx_l", "fy_l", "gx_l", "gy_l", "cx_l", "cy_l", "inv_moves", "left_scale", "elements", "is_ios",
+    "is_ris", "transmit", "horizon", "peak_x_l", "peak_y_l", "peak_rate",
 )  # fmt: skip
 #: Columns of a row of ``info`` (``INFO_KEYS`` with ``position`` as x and y).
 INFO = (
@@ -57,34 +83,36 @@ INFO = (
     "reward_reach", "reward_terminal", "average_rate", "mean_faded_rate", "feasible", "worst_violation",
     "terminal_miss", "power", "energy", "energy_efficiency", "reward_energy",
 )  # fmt: skip
-#: Entries of the ``flags`` array: the env options the kernels need (``energy``: the objective
-#: is the energy efficiency; its reward term and observation features are on).
-FLAGS = (
-    "arrival_guard",
-    "rician",
-    "instance_features",
-    "peak_hint",
-    "reach_weight",
-    "terminal_weight",
-    "energy",
-)
+# The entries of the ``flags`` array are the core's (``core.kernel.FLAGS``, ``core.kernel.flags_of``).
 
 
-# The columns by name (see the module's docstring).
+# The columns by name (see the module's docstring); the core's columns (``S_``, ``E_``) are the
+# same columns under the core's names.
 ST_X = STATE.index("x")
 ST_Y = STATE.index("y")
 ST_MOVES_MADE = STATE.index("moves_made")
-ST_SUM_EXPECTED = STATE.index("sum_expected")
-ST_SUM_RATE = STATE.index("sum_rate")
 ST_EXCESS = STATE.index("excess")
 ST_ENERGY = STATE.index("energy")
 ST_MOVE_X = STATE.index("move_x")
 ST_MOVE_Y = STATE.index("move_y")
+ST_SUM_EXPECTED = STATE.index("sum_expected")
+ST_SUM_RATE = STATE.index("sum_rate")
 
 EP_D = EPISODE.index("D")
 EP_QFX = EPISODE.index("qfx")
 EP_QFY = EPISODE.index("qfy")
 EP_MOVES = EPISODE.index("moves")
+EP_DT = EPISODE.index("dt")
+EP_P_BLADE = EPISODE.index("p_blade")
+EP_BLADE_K = EPISODE.index("blade_k")
+EP_P_INDUCED = EPISODE.index("p_induced")
+EP_INDUCED_K = EPISODE.index("induced_k")
+EP_DRAG = EPISODE.index("drag")
+EP_BUDGET = EPISODE.index("budget")
+EP_ENERGY_COST = EPISODE.index("energy_cost")
+EP_ENERGY_WEIGHT = EPISODE.index("energy_weight")
+EP_MIN_POWER_MOVE = EPISODE.index("min_power_move")
+EP_BITS_SCALE = EPISODE.index("bits_scale")
 EP_INV_L = EPISODE.index("inv_l")
 EP_FX_L = EPISODE.index("fx_l")
 EP_FY_L = EPISODE.index("fy_l")
@@ -102,17 +130,6 @@ EP_HORIZON = EPISODE.index("horizon")
 EP_PEAK_X_L = EPISODE.index("peak_x_l")
 EP_PEAK_Y_L = EPISODE.index("peak_y_l")
 EP_PEAK_RATE = EPISODE.index("peak_rate")
-EP_DT = EPISODE.index("dt")
-EP_P_BLADE = EPISODE.index("p_blade")
-EP_BLADE_K = EPISODE.index("blade_k")
-EP_P_INDUCED = EPISODE.index("p_induced")
-EP_INDUCED_K = EPISODE.index("induced_k")
-EP_DRAG = EPISODE.index("drag")
-EP_BITS_SCALE = EPISODE.index("bits_scale")
-EP_ENERGY_COST = EPISODE.index("energy_cost")
-EP_ENERGY_WEIGHT = EPISODE.index("energy_weight")
-EP_MIN_POWER_MOVE = EPISODE.index("min_power_move")
-EP_BUDGET = EPISODE.index("budget")
 #: The instance values (``instance_values``: elements .. horizon), columns EP_ELEMENTS on, in the
 #: order of the observation's instance block.
 N_INSTANCE_VALUES = EP_HORIZON + 1 - EP_ELEMENTS
@@ -136,17 +153,9 @@ INFO_ENERGY = INFO.index("energy")
 INFO_ENERGY_EFFICIENCY = INFO.index("energy_efficiency")
 INFO_REWARD_ENERGY = INFO.index("reward_energy")
 
-FLAG_ARRIVAL_GUARD = FLAGS.index("arrival_guard")
-FLAG_RICIAN = FLAGS.index("rician")
-FLAG_INSTANCE_FEATURES = FLAGS.index("instance_features")
-FLAG_PEAK_HINT = FLAGS.index("peak_hint")
-FLAG_REACH_WEIGHT = FLAGS.index("reach_weight")
-FLAG_TERMINAL_WEIGHT = FLAGS.index("terminal_weight")
-FLAG_ENERGY = FLAGS.index("energy")
-
 # The observation's columns: the base block (OBS_NAMES) from 0, then the blocks that the flags
 # append (instance, energy, peak; ``observation_layout.observation_names``), each at its offset
-# in its block.
+# in its block (the energy block: ``core.kernel.observe_energy``).
 OBS_X = OBS_NAMES.index("x")
 OBS_Y = OBS_NAMES.index("y")
 OBS_DX_FINAL = OBS_NAMES.index("dx_final")
@@ -162,45 +171,24 @@ N_OBS = len(OBS_NAMES)
 OBS_ELEMENTS = INSTANCE_NAMES.index("elements")
 OBS_SECONDS_LEFT = INSTANCE_NAMES.index("seconds_left")
 N_INSTANCE = len(INSTANCE_NAMES)
-OBS_MOVE_X = ENERGY_NAMES.index("move_x")
-OBS_MOVE_Y = ENERGY_NAMES.index("move_y")
-OBS_ENERGY_WEIGHT = ENERGY_NAMES.index("energy_weight")
-OBS_MIN_POWER_MOVE = ENERGY_NAMES.index("min_power_move")
-N_ENERGY = len(ENERGY_NAMES)
 OBS_DX_PEAK = PEAK_NAMES.index("dx_peak")
 OBS_DY_PEAK = PEAK_NAMES.index("dy_peak")
 OBS_RATE_PEAK = PEAK_NAMES.index("rate_peak")
-
-
-def flags_of(options: EnvOptions, energy: bool = False) -> np.ndarray:
-    """The ``flags`` array of ``options`` (see :data:`FLAGS`); ``energy``: the scenario's objective
-    is ``"energy_efficiency"``."""
-    return np.array(
-        [options.arrival_guard, options.channel == "rician", options.instance_features, options.peak_hint,
-         options.reach_weight, options.terminal_weight, energy], dtype=np.float64,
-    )  # fmt: skip
-
-
-def budget_of(config: ScenarioConfig) -> float:
-    """``config.energy_budget_j`` (J), inf without a budget: the ``budget`` column of the kernels."""
-    return math.inf if config.energy_budget_j is None else float(config.energy_budget_j)
 
 
 def episode_row(
     config: ScenarioConfig, length_scale: float, peak: tuple[float, float, float], reference: float = 0.0
 ) -> np.ndarray:
     """The ``episode`` row of ``config`` (see :data:`EPISODE`); ``peak``: the peak hint (x, y, rate);
-    ``reference``: lambda_ref (bits/J) of the energy reward (0 for the rate objective). Its last
-    column is the energy budget (:func:`budget_of`)."""
+    ``reference``: lambda_ref (bits/J) of the energy reward (0 for the rate objective)."""
     inv_l, moves = 1.0 / length_scale, config.N - 1
     (fx, fy), (gx, gy), (cx, cy) = config.qF, config.ground_node, config.ios_center[:2]
-    m = config.propulsion
+    row = core_episode_values(config, length_scale)
     cost = reference / config.bandwidth_hz  # bps/Hz per W
-    row = [config.D, fx, fy, moves, inv_l, fx * inv_l, fy * inv_l, gx * inv_l, gy * inv_l, cx * inv_l,
-           cy * inv_l, 1.0 / moves, config.dt / T_SCALE, *instance_values(config), peak[0] * inv_l,
-           peak[1] * inv_l, peak[2], config.dt, m.P0, 3.0 / m.U_tip**2, m.P_i, 1.0 / (2.0 * m.v0**2),
-           m.drag_coefficient, config.bandwidth_hz * config.dt, cost, cost * m.hover_power,
-           min_power_move(config), budget_of(config)]  # fmt: skip
+    row[E_ENERGY_COST], row[E_ENERGY_WEIGHT] = cost, cost * config.propulsion.hover_power
+    row += [fx * inv_l, fy * inv_l, gx * inv_l, gy * inv_l, cx * inv_l, cy * inv_l, 1.0 / moves,
+            config.dt / T_SCALE, *instance_values(config), peak[0] * inv_l, peak[1] * inv_l,
+            peak[2]]  # fmt: skip
     return np.array(row, dtype=np.float64)
 
 
@@ -211,9 +199,9 @@ def episode_row(
 
 @jit(inline=True)
 def _observe(obs: np.ndarray, i: int, x: float, y: float, left: float, dist: float, rate: float,
-             ep: np.ndarray, flags: np.ndarray, mx: float, my: float) -> None:  # fmt: skip
-    """Write observation row ``i`` (the layout of ``IOSUAVEnv``'s docstring); ``ep``: ``episode``,
-    (``mx``, ``my``): the last move / D."""
+             st: np.ndarray, ep: np.ndarray, flags: np.ndarray) -> None:  # fmt: skip
+    """Write observation row ``i`` (the layout of ``IOSUAVEnv``'s docstring); ``st``: ``state``,
+    ``ep``: ``episode``."""
     inv_l = ep[i, EP_INV_L]
     xl, yl = x * inv_l, y * inv_l
     s = left - dist / ep[i, EP_D]
@@ -230,9 +218,7 @@ def _observe(obs: np.ndarray, i: int, x: float, y: float, left: float, dist: flo
         obs[i, k + OBS_SECONDS_LEFT] = left * ep[i, EP_LEFT_SCALE]
         k += N_INSTANCE
     if flags[FLAG_ENERGY] != 0.0:
-        obs[i, k + OBS_MOVE_X], obs[i, k + OBS_MOVE_Y] = mx, my
-        obs[i, k + OBS_ENERGY_WEIGHT] = ep[i, EP_ENERGY_WEIGHT]
-        obs[i, k + OBS_MIN_POWER_MOVE] = ep[i, EP_MIN_POWER_MOVE]
+        observe_energy(obs, i, k, st, ep)
         k += N_ENERGY
     if flags[FLAG_PEAK_HINT] != 0.0:
         obs[i, k + OBS_DX_PEAK], obs[i, k + OBS_DY_PEAK] = ep[i, EP_PEAK_X_L] - xl, ep[i, EP_PEAK_Y_L] - yl
@@ -244,13 +230,11 @@ def _info(info: np.ndarray, i: int, st: np.ndarray, ep: np.ndarray, rate: float,
           dist: float, left: float, r_rate: float, r_reach: float, r_terminal: float, power: float,
           r_energy: float) -> None:  # fmt: skip
     """Write ``info`` row ``i``: the step's terms and the running eq. (9) score and eq. (10)
-    check (``st``: ``state``, ``ep``: ``episode``; with an energy budget, feasible also asks
-    E <= E_max (1 + ENERGY_RTOL) of the energy so far, as ``check_trajectory``), the move's power,
+    check (``st``: ``state``, ``ep``: ``episode``; ``core.kernel.violation``), the move's power,
     the energy so far and the bits per joule so far, B dt sum_n r(q[n]) / E (0 before the first
     move)."""
     points = st[i, ST_MOVES_MADE] + 1.0  # way-points so far
-    deficit = max(0.0, dist - left * ep[i, EP_D])  # how far qF is out of reach (m)
-    worst = max(st[i, ST_EXCESS], deficit)
+    deficit, worst, feasible = violation(i, dist, left, st, ep)
     energy = st[i, ST_ENERGY]
     info[i, INFO_RATE], info[i, INFO_EXPECTED_RATE] = rate, expected
     info[i, INFO_POSITION_X], info[i, INFO_POSITION_Y] = st[i, ST_X], st[i, ST_Y]
@@ -259,8 +243,7 @@ def _info(info: np.ndarray, i: int, st: np.ndarray, ep: np.ndarray, rate: float,
     info[i, INFO_REWARD_TERMINAL] = r_terminal
     info[i, INFO_AVERAGE_RATE] = st[i, ST_SUM_EXPECTED] / points
     info[i, INFO_MEAN_FADED_RATE] = st[i, ST_SUM_RATE] / points
-    within = energy <= ep[i, EP_BUDGET] * (1.0 + ENERGY_RTOL)
-    info[i, INFO_FEASIBLE] = 1.0 if worst <= FEASIBILITY_TOL and within else 0.0
+    info[i, INFO_FEASIBLE] = 1.0 if feasible else 0.0
     info[i, INFO_WORST_VIOLATION], info[i, INFO_TERMINAL_MISS] = worst, deficit
     info[i, INFO_POWER], info[i, INFO_ENERGY], info[i, INFO_REWARD_ENERGY] = power, energy, r_energy
     info[i, INFO_ENERGY_EFFICIENCY] = (
@@ -280,96 +263,12 @@ def reset_rows(
         rate = expected
         if flags[FLAG_RICIAN] != 0.0:
             rate = faded_row(x, y, normals[i, 0], normals[i, 1], nodes, params, i)
-        state[i, ST_MOVES_MADE], state[i, ST_SUM_EXPECTED], state[i, ST_SUM_RATE] = 0.0, expected, rate
-        state[i, ST_EXCESS], state[i, ST_ENERGY] = 0.0, 0.0
-        state[i, ST_MOVE_X], state[i, ST_MOVE_Y] = 0.0, 0.0
+        start_row(i, state)
+        state[i, ST_SUM_EXPECTED], state[i, ST_SUM_RATE] = expected, rate
         dist = math.hypot(episode[i, EP_QFX] - x, episode[i, EP_QFY] - y)
         moves = episode[i, EP_MOVES]
-        _observe(obs, i, x, y, moves, dist, expected, episode, flags, 0.0, 0.0)
+        _observe(obs, i, x, y, moves, dist, expected, state, episode, flags)
         _info(info, i, state, episode, rate, expected, dist, moves, 0.0, 0.0, 0.0, 0.0, 0.0)
-
-
-@jit(inline=True)
-def slot_power(
-    length: float, dt: float, p_blade: float, blade_k: float, p_induced: float, induced_k: float, drag: float
-) -> float:
-    """P(V) (W) of a move of ``length`` m flown over a slot of ``dt`` s, V = length / dt: eq. (12)
-    (``ios_uav_env.propulsion_power``, inlined) with the constants of an ``episode`` row's
-    ``p_blade, blade_k, p_induced, induced_k, drag`` columns (both kernels' rows hold them)."""
-    v = length / dt
-    v2 = v * v
-    x = v2 * induced_k
-    return p_blade * (1.0 + blade_k * v2) + p_induced / math.sqrt(math.sqrt(1.0 + x * x) + x) + drag * v2 * v
-
-
-@jit(inline=True)
-def move_power(length: float, ep: np.ndarray, i: int) -> float:
-    """:func:`slot_power` with row ``i``'s constants."""
-    return slot_power(length, ep[i, EP_DT], ep[i, EP_P_BLADE], ep[i, EP_BLADE_K], ep[i, EP_P_INDUCED],
-                      ep[i, EP_INDUCED_K], ep[i, EP_DRAG])  # fmt: skip
-
-
-@jit(inline=True)
-def _move(i: int, actions: np.ndarray, st: np.ndarray, ep: np.ndarray, flags: np.ndarray,
-          path: np.ndarray) -> tuple[float, float, float, float]:  # fmt: skip
-    """Move row ``i`` (unit-disk projection, then the arrival guard) and book the move's energy;
-    return (x, y, moves left, the move's power P in W)."""
-    ax, ay = actions[i, 0], actions[i, 1]
-    norm = math.hypot(ax, ay)  # no overflow for huge actions
-    if norm > 1.0:
-        ax, ay = ax / norm, ay / norm
-    d, x0, y0 = ep[i, EP_D], st[i, ST_X], st[i, ST_Y]
-    x, y = x0 + d * ax, y0 + d * ay
-    n = st[i, ST_MOVES_MADE]
-    left = ep[i, EP_MOVES] - n - 1.0  # moves left after this one
-    if flags[FLAG_ARRIVAL_GUARD] != 0.0:
-        x, y = guarded_position((x0, y0), (x, y), (ep[i, EP_QFX], ep[i, EP_QFY]), d, int(left))
-    st[i, ST_X], st[i, ST_Y], st[i, ST_MOVES_MADE] = x, y, n + 1.0
-    length = math.hypot(x - x0, y - y0)
-    st[i, ST_EXCESS] = max(st[i, ST_EXCESS], length - d)
-    power = move_power(length, ep, i)
-    st[i, ST_ENERGY] += ep[i, EP_DT] * power
-    st[i, ST_MOVE_X], st[i, ST_MOVE_Y] = (x - x0) / d, (y - y0) / d
-    path[i, int(n) + 1, 0], path[i, int(n) + 1, 1] = x, y
-    return x, y, left, power
-
-
-@jit(inline=True)
-def penalties(dist: float, left: float, d: float, w_reach: float, w_terminal: float) -> tuple[float, float]:
-    """The reach and terminal reward terms of a UAV ``dist`` m from qF with ``left`` moves of at
-    most ``d`` m to go: -w_reach x the distance it can no longer cover (in moves), and at the
-    last slot (``left == 0``) -w_terminal x (miss + sqrt(miss)), the miss in moves."""
-    reach = max(0.0, dist - left * d - FEASIBILITY_TOL) / d
-    r_reach = -w_reach * reach if reach > 0.0 else 0.0
-    r_terminal = 0.0
-    if left == 0.0:
-        miss = max(0.0, dist - FEASIBILITY_TOL) / d
-        if miss > 0.0:
-            r_terminal = -w_terminal * (miss + math.sqrt(miss))
-    return r_reach, r_terminal
-
-
-@jit(inline=True)
-def _settle(i: int, x: float, y: float, left: float, rate: float, expected: float, power: float,
-            st: np.ndarray, ep: np.ndarray, flags: np.ndarray, obs: np.ndarray, reward: np.ndarray,
-            terminated: np.ndarray, info: np.ndarray) -> None:  # fmt: skip
-    """Row ``i`` after its move (of ``power`` W): the running sums, the reward terms, the
-    observation, the info."""
-    st[i, ST_SUM_EXPECTED] += expected
-    st[i, ST_SUM_RATE] += rate
-    dist = math.hypot(ep[i, EP_QFX] - x, ep[i, EP_QFY] - y)
-    r_reach, r_terminal = penalties(
-        dist, left, ep[i, EP_D], flags[FLAG_REACH_WEIGHT], flags[FLAG_TERMINAL_WEIGHT]
-    )
-    r_energy = 0.0
-    if flags[FLAG_ENERGY] != 0.0:
-        r_energy = -ep[i, EP_ENERGY_COST] * power
-        reward[i] = rate + r_energy + r_reach + r_terminal
-    else:
-        reward[i] = rate + r_reach + r_terminal
-    terminated[i] = left == 0.0
-    _observe(obs, i, x, y, left, dist, expected, ep, flags, st[i, ST_MOVE_X], st[i, ST_MOVE_Y])
-    _info(info, i, st, ep, rate, expected, dist, left, rate, r_reach, r_terminal, power, r_energy)
 
 
 @jit(inline=True)
@@ -398,15 +297,22 @@ def _step_row(
     params: np.ndarray, normals: np.ndarray, flags: np.ndarray, obs: np.ndarray, reward: np.ndarray,
     terminated: np.ndarray, info: np.ndarray, path: np.ndarray,
 ) -> None:  # fmt: skip
-    """One slot of row ``i``: move (unit-disk projection, then the arrival guard), rate (channel
-    "rician": the faded rate from ``normals`` (B, 2)), reward, observation and info. ``path``
+    """One slot of row ``i``: the core's move (``core.kernel.move_row``: unit-disk projection,
+    arrival guard, power), the rate (channel "rician": the faded rate from ``normals`` (B, 2)), the
+    running sums, the core's reward (``core.kernel.reward_row``), observation and info. ``path``
     (B, N_max, 2) receives the new way-point (at index ``moves made``)."""
-    x, y, left, power = _move(i, actions, state, episode, flags, path)
+    ax, ay = actions[i, 0], actions[i, 1]
+    x, y, left, power = move_row(i, ax, ay, math.hypot(ax, ay), state, episode, flags, path)
     expected = rate_row(x, y, nodes, params, i)
     rate = expected
     if flags[FLAG_RICIAN] != 0.0:
         rate = faded_row(x, y, normals[i, 0], normals[i, 1], nodes, params, i)
-    _settle(i, x, y, left, rate, expected, power, state, episode, flags, obs, reward, terminated, info)
+    state[i, ST_SUM_EXPECTED] += expected
+    state[i, ST_SUM_RATE] += rate
+    dist = math.hypot(episode[i, EP_QFX] - x, episode[i, EP_QFY] - y)
+    r_reach, r_terminal, r_energy = reward_row(i, rate, dist, left, power, episode, flags, reward, terminated)
+    _observe(obs, i, x, y, left, dist, expected, state, episode, flags)
+    _info(info, i, state, episode, rate, expected, dist, left, rate, r_reach, r_terminal, power, r_energy)
 
 
 @jit
@@ -451,38 +357,6 @@ def step_rows_batched(
                 _step_row(i, actions, state, episode, nodes, params, normals, flags, obs, reward, terminated,
                           info, path)  # fmt: skip
     return bad
-
-
-@jit(inline=True, fastmath=False)
-def fly_entry_out_of_range(rows: np.ndarray, targets: np.ndarray, moves: np.ndarray, state: np.ndarray,
-                           episode: np.ndarray, path_length: int) -> int:  # fmt: skip
-    """-1 if every entry of a flight (``fly_rows``) may fly, else the first that may not: a row
-    outside 0..B-1, a move count < 0, or a row whose moves (summed over its entries) would finish
-    its episode or pass ``path_length``; 0 if ``targets`` or ``moves`` are shorter than ``rows``."""
-    if targets.shape[0] < rows.size or moves.size < rows.size:
-        return 0
-    planned = np.zeros(state.shape[0])
-    for r in range(rows.size):
-        i = rows[r]
-        if i < 0 or i >= state.shape[0] or moves[r] < 0:
-            return r
-        planned[i] += moves[r]
-        end = state[i, ST_MOVES_MADE] + planned[i]  # moves made after this entry
-        if end >= episode[i, EP_MOVES] or end >= path_length:
-            return r
-    return -1
-
-
-@jit(inline=True, fastmath=False)
-def toward(i: int, tx: float, ty: float, state: np.ndarray, episode: np.ndarray, actions: np.ndarray) -> None:
-    """Row ``i``'s move towards (``tx``, ``ty``) m into ``actions[i, :2]``: full speed (``D`` =
-    ``episode[i, EP_D]``), or the rest of the way once within D (``policies.full_speed_move``)."""
-    d = episode[i, EP_D]
-    mx, my = (tx - state[i, ST_X]) / d, (ty - state[i, ST_Y]) / d
-    length = math.hypot(mx, my)
-    if length > 1.0:
-        mx, my = mx / length, my / length
-    actions[i, 0], actions[i, 1] = mx, my
 
 
 @jit(fastmath=False)

@@ -21,6 +21,7 @@ import gymnasium as gym
 import numpy as np
 from gymnasium import spaces
 
+from ios_uav_env.envs.core.kernel import flags_of
 from ios_uav_env.envs.knowledge import NodeTrack, mobile_bounds
 from ios_uav_env.envs.observation import check_fits, space_bounds
 from ios_uav_env.envs.observation_layout import observation_names
@@ -32,7 +33,7 @@ from ios_uav_env.envs.settings import (
     several_nodes_error,
     single_node_id,
 )
-from ios_uav_env.envs.single_kernels import INFO, STATE, episode_row, flags_of, reset_rows, step_rows
+from ios_uav_env.envs.single_kernels import INFO, STATE, episode_row, reset_rows, step_rows
 from ios_uav_env.envs.single_mobile import MobileNode
 from ios_uav_env.jit import HAVE_NUMBA
 from ios_uav_env.model.channel import RateKernel, rate_kernel, slot_rates
@@ -138,7 +139,7 @@ class SingleNodeStepper(MobileNode, EnvViews):
     # --- the env as one row of the step kernel (what the batched env copies) -------------------
     @property
     def flags(self) -> np.ndarray:
-        """The kernel's option flags of this env (``single_kernels.flags_of(options)``)."""
+        """The kernel's option flags of this env (``core.kernel.flags_of(options)``)."""
         return self._flags
 
     @property

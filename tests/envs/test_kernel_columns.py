@@ -1,6 +1,7 @@
 """No literal column index in the compiled kernels: they address the columns of their arrays by
-name (the module constants derived from ``STATE``, ``EPISODE``, ``INFO``, ``FLAGS`` and the
-observation's layout in ``ios_uav_env.envs.single_kernels``; from ``STATE``, ``EPISODE``,
+name (the module constants derived from ``CORE_STATE``, ``CORE_EPISODE`` and ``FLAGS`` in
+``ios_uav_env.envs.core.kernel``, the row-step core both views share; from ``STATE``, ``EPISODE``,
+``INFO`` and the observation's layout in ``ios_uav_env.envs.single_kernels``; from ``STATE``, ``EPISODE``,
 ``POINT``, ``ACTION``, ``INFO``, ``MORE`` and the observation's features in
 ``ios_uav_env.envs.multi_table`` for ``multi_kernels`` and ``multi_step``; from ``PARAMS`` in
 ``ios_uav_env.model.rate_kernels``; from ``SIZES`` and ``OUT`` in ``ios_uav_env.model.maxmin_paths``;
@@ -27,6 +28,7 @@ from agents.fast import kernel as fast_kernel
 from ios_uav_env.envs import multi_table as mt
 from ios_uav_env.envs import observation_layout as layout
 from ios_uav_env.envs import single_kernels as sk
+from ios_uav_env.envs.core import kernel as core
 from ios_uav_env.model import maxmin_paths, rate_kernels
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -48,8 +50,15 @@ MULTI_NODE = (
 #: Per kernel module: (the names its functions give the arrays whose columns are named, the names
 #: of arrays without named columns, whose indices are free).
 MODULES = {
+    "ios_uav_env/envs/core/kernel.py": (
+        {"state", "episode", "flags", "obs"},
+        {
+            "actions", "path", "targets",  # (x, y) pairs per row
+            "rows", "moves", "reward", "terminated", "planned",  # one entry per row / entry
+        },
+    ),
     "ios_uav_env/envs/single_kernels.py": (
-        {"state", "st", "episode", "ep", "info", "flags", "obs"},
+        {"state", "st", "episode", "ep", "info", "flags", "obs", "row"},
         {
             "actions", "normals", "path", "targets",  # (x, y) pairs per row
             "rows", "moves", "active", "reward", "terminated", "planned",  # one entry per row / entry
@@ -202,7 +211,9 @@ def test_the_check_reads_the_multi_kernels_and_self() -> None:
         (sk, sk.STATE, "ST_"),
         (sk, sk.EPISODE, "EP_"),
         (sk, sk.INFO, "INFO_"),
-        (sk, sk.FLAGS, "FLAG_"),
+        (core, core.CORE_STATE, "S_"),
+        (core, core.CORE_EPISODE, "E_"),
+        (core, core.FLAGS, "FLAG_"),
         (sk, layout.OBS_NAMES, "OBS_"),
         (mt, mt.STATE, "MST_"),
         (mt, mt.EPISODE, "MEP_"),
@@ -232,13 +243,13 @@ def test_observation_blocks_match_the_layout() -> None:
     """The appended blocks' constants are offsets in ``observation_layout``'s blocks, and the
     instance values that ``_observe`` copies as a run of columns are the same names in the same
     order in ``EPISODE`` and in the observation."""
-    for names, constants in (
-        (layout.INSTANCE_NAMES, ("OBS_ELEMENTS", "OBS_SECONDS_LEFT")),
-        (layout.ENERGY_NAMES, ("OBS_MOVE_X", "OBS_MOVE_Y", "OBS_ENERGY_WEIGHT", "OBS_MIN_POWER_MOVE")),
-        (layout.PEAK_NAMES, ("OBS_DX_PEAK", "OBS_DY_PEAK", "OBS_RATE_PEAK")),
+    for module, names, constants in (
+        (sk, layout.INSTANCE_NAMES, ("OBS_ELEMENTS", "OBS_SECONDS_LEFT")),
+        (core, layout.ENERGY_NAMES, ("OBS_MOVE_X", "OBS_MOVE_Y", "OBS_ENERGY_WEIGHT", "OBS_MIN_POWER_MOVE")),
+        (sk, layout.PEAK_NAMES, ("OBS_DX_PEAK", "OBS_DY_PEAK", "OBS_RATE_PEAK")),
     ):
         for constant in constants:
-            assert names[getattr(sk, constant)] == constant.removeprefix("OBS_").lower()
+            assert names[getattr(module, constant)] == constant.removeprefix("OBS_").lower()
     assert (sk.N_OBS, sk.N_INSTANCE, sk.N_ENERGY) == (
         len(layout.OBS_NAMES), len(layout.INSTANCE_NAMES), len(layout.ENERGY_NAMES),
     )  # fmt: skip
@@ -252,8 +263,8 @@ def test_multi_layout_matches_the_env_and_the_single_kernels() -> None:
     """The multi-node kernels' observation constants name the components of ``MultiNodeEnv``'s
     ``observation_names`` (the base block, node block k at ``N_MOBS + width k``, the energy block
     after the node blocks at the single kernels' offsets); the ``info`` blocks fill
-    ``info_columns``; and the columns that ``single_kernels``' ``toward`` and
-    ``fly_entry_out_of_range`` read of the multi-node rows are the same."""
+    ``info_columns``; and both views' ``state`` and ``episode`` rows begin with the core's
+    columns (``core.kernel``, whose ``move_row``, ``reward_row``, ``toward`` ... read them)."""
     k_max = 3
     for peak in (False, True):
         features = mt.NODE_FEATURES + (mt.NODE_PEAK_FEATURES if peak else ())
@@ -267,11 +278,14 @@ def test_multi_layout_matches_the_env_and_the_single_kernels() -> None:
                 assert names[mt.N_MOBS + width * k + getattr(mt, "NODE_" + name.upper())] == f"{name}_{k}"
         energy = mt.N_MOBS + width * k_max
         for constant in ("OBS_MOVE_X", "OBS_MOVE_Y", "OBS_ENERGY_WEIGHT", "OBS_MIN_POWER_MOVE"):
-            assert names[energy + getattr(sk, constant)] == constant.removeprefix("OBS_").lower()
+            assert names[energy + getattr(core, constant)] == constant.removeprefix("OBS_").lower()
     assert mt.info_columns(k_max) == mt.N_MINFO + 3 * k_max + mt.N_MORE
     assert mt.BEST == mt.MINFO_BEST_SCHEDULE_RATE
     assert (mt.MST_X, mt.MST_Y, mt.MST_MOVES_MADE) == (sk.ST_X, sk.ST_Y, sk.ST_MOVES_MADE)
     assert (mt.MEP_D, mt.MEP_MOVES) == (sk.EP_D, sk.EP_MOVES)
+    # both views' rows begin with the core's columns, which the shared row-step core reads
+    assert sk.STATE[: len(core.CORE_STATE)] == mt.STATE[: len(core.CORE_STATE)] == core.CORE_STATE
+    assert sk.EPISODE[: len(core.CORE_EPISODE)] == mt.EPISODE[: len(core.CORE_EPISODE)] == core.CORE_EPISODE
     assert (mt.ACT_MOVE_X, mt.ACT_MOVE_Y) == (0, 1)  # toward writes actions[i, :2]
     assert mt.ACTION[mt.ACT_MOVE] == ("move_x", "move_y")
     assert mt.INFO[mt.MINFO_POSITION] == ("position_x", "position_y")
