@@ -57,7 +57,7 @@ from ios_uav_env.model.scenarios import ScenarioRanges
 from ios_uav_env.model.surface import interpolation_terms
 from ios_uav_env.model.weight_kernels import interpolated_weights_into
 
-__all__ = ["DrawnEpisodes", "draw_episodes", "path_weights", "takes_drawn_episodes"]
+__all__ = ["WINDOW", "DrawnEpisodes", "draw_episodes", "put_rows", "start_rows", "takes_drawn_episodes"]
 
 #: The uniform draws of a row, in order: G's x and y, q0's x and y, qF's x and y, the heading.
 N_UNIFORM = 7
@@ -126,7 +126,17 @@ class DrawnEpisodes:
         self.length_scale = options.length_scale
         self.heading_drawn = heading is None
         self.clip: tuple[np.ndarray, np.ndarray] = (np.zeros((rows, 2)), np.zeros((rows, 2)))
-        self.geometries: dict[tuple[int, int, int], Any] = {}  # (surface, rows, width) -> geometry or None
+        self.geometries: dict[tuple[int, int, int], int] = {}  # (surface, rows, width) -> index or -1
+        self.table: list[Any] = []  # the geometries (DrawnEpisodes.geometry), in index order
+        self.tables: tuple[np.ndarray, ...] = ()  # the same as the kernels take them (_stack)
+        # each windowed row's geometry, its weights of WINDOW slots from slot ``first``, its kernel
+        # scalars (G's of slot 0) and the power 1.5 of its slots' dx2
+        self.windowed = np.zeros(rows, dtype=np.bool_)
+        self.geometry_of = np.zeros(rows, dtype=np.int64)
+        self.weights = np.zeros((rows, WINDOW, 1))
+        self.first = np.zeros(rows, dtype=np.int64)
+        self.base = np.zeros((rows, template.kernel.params.size))
+        self.scale = np.zeros((rows, slots))
 
     # --- per row: the draws --------------------------------------------------------------
     def draw(self, i: int, rng: np.random.Generator) -> int:
@@ -164,20 +174,33 @@ class DrawnEpisodes:
         for i in np.flatnonzero(self.bad[rows]).tolist():
             self.config(int(rows[i]))  # (raises the config's own error)
 
-    def geometry(self, i: int, width: int) -> Any:
-        """The kernel geometry of row ``i``'s scenario: (its base kernel's nodes and params, its
-        episode row, the weights' terms of ``surface.interpolation_terms``), built from the row's
-        config at its first row; None where the compiled weights do not apply (the row reads its
+    def geometries_of(self, rows: np.ndarray, width: int) -> np.ndarray:
+        """Each of ``rows``' kernel geometry (its index in the tables, :meth:`geometry`; -1: none)."""
+        codes = self.surface[rows] * (1 << 32) + self.ios_rows[rows]
+        keys, first, inverse = np.unique(codes, return_index=True, return_inverse=True)
+        ids = np.array([self.geometry(int(rows[j]), width) for j in first.tolist()], dtype=np.int64)
+        return ids[np.ravel(inverse)] if keys.size else ids
+
+    def geometry(self, i: int, width: int) -> int:
+        """The index of row ``i``'s kernel geometry in the tables (its base kernel's nodes and params,
+        its episode row, the weights' terms of ``surface.interpolation_terms``), added from the
+        row's config at its first row; -1 where the compiled weights do not apply (the row reads its
         track, as ``SlotWeights`` leaves it) or its surface has fewer nodes than ``width``."""
         key = (int(self.surface[i]), int(self.ios_rows[i]), int(width))
-        if key in self.geometries:
-            return self.geometries[key]
+        found = self.geometries.get(key)
+        if found is not None:
+            return found
         cfg = self.config(i)
         kernel = rate_kernel(cfg)
         terms = interpolation_terms(cfg)
         fits = terms is not None and kernel.nodes.shape[1] == width == terms[4].shape[1] * terms[5].shape[1]
-        self.geometries[key] = (kernel.nodes, kernel.params, episode_row(cfg, self.length_scale, (0.0, 0.0, 0.0)),
-                                terms) if fits else None  # fmt: skip
+        if not fits:
+            self.geometries[key] = -1
+            return -1
+        assert terms is not None
+        self.table.append((kernel.nodes, kernel.params, episode_row(cfg, self.length_scale, (0.0, 0.0, 0.0)), terms))
+        self.geometries[key] = len(self.table) - 1
+        self.tables = _stack(self.table)
         return self.geometries[key]
 
     def config(self, i: int) -> ScenarioConfig:
@@ -201,17 +224,55 @@ class DrawnEpisodes:
         lo, hi = self.clip
         return NodeTrack(self.paths[i, :n], lo[i].copy(), hi[i].copy(), self.reports[i, :n], self.measured[i, :n], cfg)
 
-    def weights(self, rows: np.ndarray, geometry: Any, weights: np.ndarray, grounds: np.ndarray,
-                base: np.ndarray, slots: np.ndarray, nodes: np.ndarray, params: np.ndarray,
-                episode: np.ndarray) -> None:  # fmt: skip
-        """Step 3 for ``rows`` (int64) of one ``geometry`` (:meth:`geometry`): the surface weights
-        of every slot and G's scalars into the ``SlotWeights`` buffers (``weights``, ``grounds``,
-        ``base``, ``slots``), the first slot's kernel into ``nodes`` / ``params`` and the geometry's
-        columns of the episode row."""
-        kernel_nodes, kernel_params, row, (factor, cx, gy, gz2, ky_t, kz_t) = geometry
-        scale = self.dx2[rows] ** 1.5  # (numpy's power, as path_weights_into takes it)
-        path_weights(rows, self.paths, self.slots, self.dx2, scale, factor, cx, gy, gz2, ky_t, kz_t, kernel_nodes,
-                     kernel_params, row, weights, grounds, base, slots, nodes, params, episode)  # fmt: skip
+    def start(self, rows: np.ndarray, geometry: np.ndarray, nodes: np.ndarray, params: np.ndarray,
+              episode: np.ndarray) -> None:  # fmt: skip
+        """Step 3 for ``rows`` (int64) of ``geometry`` (their indices, none -1): each row's first
+        window of slot weights, its kernel scalars, the first slot's kernel into ``nodes`` /
+        ``params`` and the geometry's columns of the episode row; the rows are ``windowed``."""
+        width = nodes.shape[2]
+        if self.weights.shape[2] != width:
+            self.weights = np.zeros((self.weights.shape[0], WINDOW, width))
+        self.scale[rows] = self.dx2[rows] ** 1.5  # (numpy's power, as path_weights_into takes it)
+        self.geometry_of[rows] = geometry
+        start_rows(rows, geometry, *self.tables, self.paths, self.slots, self.dx2, self.scale, self.weights,
+                   self.first, self.base, nodes, params, episode)  # fmt: skip
+        self.windowed[rows] = True
+
+    def put(self, rows: np.ndarray, state: np.ndarray, nodes: np.ndarray, params: np.ndarray) -> None:
+        """Each ``windowed`` row of ``rows``' kernel of the slot it flies to (``state[i, 2] + 1``)
+        into ``nodes`` / ``params``, as ``slot_weights.put_slot_kernels`` puts a buffered row's;
+        a row past its episode's end is left as it is."""
+        put_rows(rows, state, self.windowed, *self.tables, self.paths, self.slots, self.dx2, self.scale,
+                 self.weights, self.first, self.base, nodes, params, self.geometry_of)  # fmt: skip
+
+
+#: Slots of weights a row holds at a time (computed WINDOW slots ahead, as the slots come).
+WINDOW = 16
+
+
+def _stack(table: list[Any]) -> tuple[np.ndarray, ...]:
+    """The geometries of ``table`` as the padded arrays the kernels take: factor (G,), x_c (G,),
+    gy (G, PY), gz2 (G, PZ), ky_t (G, PY, NY), kz_t (G, PZ, NZ), their sizes (G, 4: py, pz, ny,
+    nz), the base kernels' node coordinates (G, 2, n) and params (G, P), the episode rows (G, E)."""
+    terms = [entry[3] for entry in table]
+    g = len(table)
+    py = max(t[2].size for t in terms)
+    pz = max(t[3].size for t in terms)
+    ny = max(t[4].shape[1] for t in terms)
+    nz = max(t[5].shape[1] for t in terms)
+    factor, cx = np.zeros(g), np.zeros(g)
+    gy, gz2, ky, kz = np.zeros((g, py)), np.zeros((g, pz)), np.zeros((g, py, ny)), np.zeros((g, pz, nz))
+    sizes = np.zeros((g, 4), dtype=np.int64)
+    nodes = np.zeros((g, 2, table[0][0].shape[1]))
+    params = np.zeros((g, table[0][1].size))
+    rows = np.zeros((g, table[0][2].size))
+    for j, (kernel_nodes, kernel_params, row, t) in enumerate(table):
+        factor[j], cx[j] = t[0], t[1]
+        a, b, c, d = t[2].size, t[3].size, t[4].shape[1], t[5].shape[1]
+        gy[j, :a], gz2[j, :b], ky[j, :a, :c], kz[j, :b, :d] = t[2], t[3], t[4], t[5]
+        sizes[j] = a, b, c, d
+        nodes[j], params[j], rows[j] = kernel_nodes[:2], kernel_params, row
+    return factor, cx, gy, gz2, ky, kz, sizes, nodes, params, rows
 
 
 #: Index of the fixed heading in ``DrawnEpisodes.constants``.
@@ -332,40 +393,80 @@ DRAWN_COLUMNS = np.array(
 
 
 @jit(fastmath=False)
-def path_weights(
-    rows: np.ndarray, paths: np.ndarray, slots: np.ndarray, dx2: np.ndarray, scale: np.ndarray, factor: float,
-    cx: float, gy: np.ndarray, gz2: np.ndarray, ky_t: np.ndarray, kz_t: np.ndarray, kernel_nodes: np.ndarray,
-    kernel_params: np.ndarray, row: np.ndarray, weights: np.ndarray, grounds: np.ndarray, base: np.ndarray,
-    weight_slots: np.ndarray, nodes: np.ndarray, params: np.ndarray, episode: np.ndarray,
+def _fill(i: int, g: int, first: int, count: int, factor: np.ndarray, gy: np.ndarray, gz2: np.ndarray,
+          ky: np.ndarray, kz: np.ndarray, sizes: np.ndarray, paths: np.ndarray, dx2: np.ndarray,
+          scale: np.ndarray, weights: np.ndarray) -> None:  # fmt: skip
+    """Row ``i``'s surface weights of slots ``first`` .. ``first + count - 1`` into ``weights[i, :count]``
+    (geometry ``g``): ``surface.path_weights_into``'s call (dx2, its power 1.5 ``scale``, dy2 =
+    (y - gy)^2; each point's weights are its own arithmetic, whatever points it is computed with)."""
+    py, pz, ny, nz = sizes[g, 0], sizes[g, 1], sizes[g, 2], sizes[g, 3]
+    dy2 = np.empty((count, py))
+    for s in range(count):
+        y = paths[i, first + s, 0, 1]
+        for m in range(py):
+            d = y - gy[g, m]
+            dy2[s, m] = d * d
+    interpolated_weights_into(weights[i, :count], factor[g], scale[i, first : first + count],
+                              dx2[i, first : first + count], dy2, gz2[g, :pz], ky[g, :py, :ny], kz[g, :pz, :nz])  # fmt: skip
+
+
+@jit(fastmath=False)
+def start_rows(
+    rows: np.ndarray, geometry: np.ndarray, factor: np.ndarray, cx: np.ndarray, gy: np.ndarray, gz2: np.ndarray,
+    ky: np.ndarray, kz: np.ndarray, sizes: np.ndarray, kernel_nodes: np.ndarray, kernel_params: np.ndarray,
+    episode_rows: np.ndarray, paths: np.ndarray, slots: np.ndarray, dx2: np.ndarray, scale: np.ndarray,
+    weights: np.ndarray, first: np.ndarray, base: np.ndarray, nodes: np.ndarray, params: np.ndarray,
+    episode: np.ndarray,
 ) -> None:  # fmt: skip
-    """Step 3 of the module docstring for ``rows`` of one geometry: ``SlotWeights.load`` and
-    ``first`` (``surface.path_weights_into``'s arguments: dx2, its power 1.5 ``scale`` (rows, S),
-    dy2 = (y - gy)^2), with the geometry's kernel (``kernel_nodes``, ``kernel_params``: G's
-    scalars replaced, as ``rate_kernel`` does) and episode ``row`` (its drawn columns kept)."""
-    k = kernel_nodes.shape[1]
-    drawn = np.zeros(row.size, dtype=np.bool_)
+    """Step 3 of the module docstring for ``rows``: ``SlotWeights.load`` and ``first`` (the first
+    ``WINDOW`` slots' weights), with the geometry's kernel (G's scalars replaced, as
+    ``rate_kernel`` does) and episode row (its drawn columns kept)."""
+    drawn = np.zeros(episode.shape[1], dtype=np.bool_)
     for c in DRAWN_COLUMNS:
         drawn[c] = True
     for j in range(rows.size):
-        i = rows[j]
-        n = slots[i]
-        dy2 = np.empty((n, gy.size))
-        for s in range(n):
-            y = paths[i, s, 0, 1]
-            for m in range(gy.size):
-                d = y - gy[m]
-                dy2[s, m] = d * d
-        interpolated_weights_into(weights[i, :n], factor, scale[j, :n], dx2[i, :n], dy2, gz2, ky_t, kz_t)
-        for s in range(n):
-            x = paths[i, s, 0, 0]
-            grounds[i, s, 0] = 1.0 if x > cx else (-1.0 if x < cx else 0.0)
-            grounds[i, s, 1], grounds[i, s, 2] = x, paths[i, s, 0, 1]
-        base[i, :] = kernel_params
-        base[i, PARAM_G_SIDE], base[i, PARAM_GX], base[i, PARAM_GY] = grounds[i, 0, 0], grounds[i, 0, 1], grounds[i, 0, 2]
-        weight_slots[i] = n
-        nodes[i, 0, :k], nodes[i, 1, :k] = kernel_nodes[0], kernel_nodes[1]
+        i, g = rows[j], geometry[j]
+        n, k = slots[i], kernel_nodes.shape[2]
+        _fill(i, g, 0, min(n, weights.shape[1]), factor, gy, gz2, ky, kz, sizes, paths, dx2, scale, weights)
+        first[i] = 0
+        x, y, x_c = paths[i, 0, 0, 0], paths[i, 0, 0, 1], cx[g]
+        base[i, :] = kernel_params[g]
+        base[i, PARAM_G_SIDE] = 1.0 if x > x_c else (-1.0 if x < x_c else 0.0)
+        base[i, PARAM_GX], base[i, PARAM_GY] = x, y
+        nodes[i, 0, :k], nodes[i, 1, :k] = kernel_nodes[g, 0], kernel_nodes[g, 1]
         nodes[i, 2, :k] = weights[i, 0]
         params[i, :] = base[i]
-        for c in range(row.size):
+        for c in range(episode.shape[1]):
             if not drawn[c]:
-                episode[i, c] = row[c]
+                episode[i, c] = episode_rows[g, c]
+
+
+@jit(fastmath=False)
+def put_rows(
+    rows: np.ndarray, state: np.ndarray, windowed: np.ndarray, factor: np.ndarray, cx: np.ndarray,
+    gy: np.ndarray, gz2: np.ndarray, ky: np.ndarray, kz: np.ndarray, sizes: np.ndarray, kernel_nodes: np.ndarray,
+    kernel_params: np.ndarray, episode_rows: np.ndarray, paths: np.ndarray, slots: np.ndarray,
+    dx2: np.ndarray, scale: np.ndarray, weights: np.ndarray, first: np.ndarray, base: np.ndarray,
+    nodes: np.ndarray, params: np.ndarray, geometry: np.ndarray,
+) -> None:  # fmt: skip
+    """``DrawnEpisodes.put``: each windowed row's kernel of slot ``state[i, 2] + 1`` (its window moved
+    on to start there when the slot is past it, ``_fill``)."""
+    for j in range(rows.size):
+        i = rows[j]
+        if not windowed[i]:
+            continue
+        slot = int(state[i, 2]) + 1
+        n = slots[i]
+        if slot >= n:
+            continue
+        at = slot - first[i]
+        if at < 0 or at >= weights.shape[1]:
+            g = geometry[i]
+            _fill(i, g, slot, min(n - slot, weights.shape[1]), factor, gy, gz2, ky, kz, sizes, paths, dx2, scale,
+                  weights)  # fmt: skip
+            first[i], at = slot, 0
+        nodes[i, 2, : weights.shape[2]] = weights[i, at]
+        x, y, x_c = paths[i, slot, 0, 0], paths[i, slot, 0, 1], cx[geometry[i]]
+        params[i, :] = base[i]
+        params[i, PARAM_G_SIDE] = 1.0 if x > x_c else (-1.0 if x < x_c else 0.0)
+        params[i, PARAM_GX], params[i, PARAM_GY] = x, y

@@ -136,25 +136,22 @@ class SingleNodeRows:
             if width:
                 draws.draw(i, rng, n, width)
         drawn.make(mine, self._state, self._path, self._episode, self._lo, self._hi)
-        slot_weights, k = self._slot_weights, self._nodes.shape[2]
-        fits = k == slot_weights.weights.shape[2]
-        codes = drawn.surface[mine] * (1 << 32) + drawn.ios_rows[mine]
-        order = np.argsort(codes, kind="stable")
-        cuts = np.flatnonzero(np.diff(codes[order])) + 1
-        loaded = set()
-        for group in np.split(mine[order], cuts):
-            geometry = drawn.geometry(int(group[0]), k) if fits else None
-            if geometry is None:  # (the row reads its track: as load makes it, on the drawn episode)
-                for i in group.tolist():
-                    self._load_drawn(i, envs[i])
-                    loaded.add(i)
-                continue
-            drawn.weights(group, geometry, slot_weights.weights, slot_weights.grounds, slot_weights.base,
-                          slot_weights.slots, self._nodes, self._params, self._episode)  # fmt: skip
+        slot_weights = self._slot_weights
+        drawn.windowed[mine] = False
+        while True:  # (a row loaded here may widen the rows' kernels: the others are looked at again)
+            width = self._nodes.shape[2]
+            geometry = drawn.geometries_of(mine, width)
+            unfit = geometry < 0
+            for i in mine[unfit].tolist():  # (the row reads its track: as load makes it, on the drawn episode)
+                self._load_drawn(i, envs[i])
+            mine, geometry = mine[~unfit], geometry[~unfit]
+            if self._nodes.shape[2] == width:
+                break
+        if mine.size:
+            drawn.start(mine, geometry, self._nodes, self._params, self._episode)
+            slot_weights.slots[mine] = 0  # (the drawn rows' own windows hold their weights)
         stand_in, paths, reports, measured = self._stand_in, drawn.paths, drawn.reports, drawn.measured
         for i in mine.tolist():
-            if i in loaded:
-                continue
             if not self._buffered[i]:
                 self._track_paths[i], self._track_reports[i] = paths[i], reports[i]
                 self._track_measured[i] = measured[i]
@@ -162,7 +159,7 @@ class SingleNodeRows:
             if not self._stands_in[i]:
                 self._track_nodes[i], self._track_params[i] = stand_in
                 self._stands_in[i] = True
-        self._plain[mine] = False
+        self._plain[rows[~rest]] = False
         return rest
 
     def _load_drawn(self, i: int, env: Any) -> None:
@@ -242,10 +239,11 @@ class SingleNodeRows:
 
     def _read_tracks(self) -> None:
         """Every buffered row reads its track's kernels from now on (the rows' kernels grew wider)."""
-        for i in np.flatnonzero(self._slot_weights.slots).tolist():
+        windowed = np.zeros(self.num_envs, dtype=np.bool_) if self._drawn is None else self._drawn.windowed
+        for i in np.flatnonzero((self._slot_weights.slots > 0) | windowed).tolist():
             track = self.envs[i].stepper.track
             self._track_nodes[i], self._track_params[i] = track.nodes, track.params
-            self._slot_weights.slots[i], self._stands_in[i] = 0, False
+            self._slot_weights.slots[i], self._stands_in[i], windowed[i] = 0, False, False
 
     def start(self, rows: np.ndarray, obs: np.ndarray, info: np.ndarray) -> None:
         """Start the episodes of ``rows`` (loaded): their first observations and ``info`` rows."""
@@ -350,8 +348,11 @@ class SingleNodeRows:
         obs, reward, terminated, info = outputs
         stepping = np.flatnonzero(active)
         if self._mobile:  # each row's kernel of the slot it flies to (a row at its end is refused below)
-            tracks = self._track_nodes, self._track_params
-            self._slot_weights.put(stepping, self._state, 1, *tracks, self._nodes, self._params)
+            tracks, drawn = (self._track_nodes, self._track_params), self._drawn
+            if drawn is None or not drawn.windowed[stepping].all():  # (the rows not drawn together)
+                self._slot_weights.put(stepping, self._state, 1, *tracks, self._nodes, self._params)
+            if drawn is not None:  # (the drawn rows: from their windows)
+                drawn.put(stepping, self._state, self._nodes, self._params)
         if self._rician:
             for i in stepping:
                 self._normals[i] = self.envs[i].np_random.standard_normal(2)
