@@ -17,9 +17,13 @@ per row. :class:`DrawnEpisodes` makes the same episode for every resetting row a
    a row that fails is built as a ``ScenarioConfig``, whose validation raises its own error), walks
    the node path (``motion._walk``'s arithmetic) and writes the episode row's drawn columns, the
    report clip, the records and the UAV's start;
-3. per kernel geometry (surface, IOS rows) one compiled call (:func:`path_weights`) writes the
-   rows' surface weights of every slot (``surface.path_weights_into``'s numbers) into the batch's
-   ``SlotWeights``, and the rows' first kernels.
+3. one compiled call (:func:`start_rows`) writes each row's first kernel (its kernel geometry's,
+   surface and IOS rows, from padded tables of the geometries met so far, with G's weights and
+   scalars) and the surface weights of its first :data:`WINDOW` slots into a small per-row window;
+   at each step :func:`put_rows` puts the slot's kernel in the row, computing the next window when
+   the slot leaves the last (``surface.path_weights_into``'s numbers: a point's weights are its own
+   arithmetic, whatever points they are computed with). No (B, N_max, n) buffer of every slot's
+   weights: nothing large to fault in at the first reset, nothing far in memory to read per step.
 
 Everything is IEEE arithmetic in the order of the Python code it replaces: the same episode bit
 for bit (tested against the single env). No ``ScenarioConfig`` is made per reset: a row's config
@@ -61,6 +65,30 @@ __all__ = ["WINDOW", "DrawnEpisodes", "draw_episodes", "put_rows", "start_rows",
 
 #: The uniform draws of a row, in order: G's x and y, q0's x and y, qF's x and y, the heading.
 N_UNIFORM = 7
+
+#: Where ``draw_episodes`` reads its scalars in ``DrawnEpisodes.constants``: the IOS centre's x and
+#: y, the plane margin, whether the motion has a box and the box (x0, x1, y0, y1), the fixed
+#: heading, the motion's speed, sigma, memory and slot gain sqrt(1 - a^2) sigma, dt, D, the report
+#: clip's margin, 1 / length_scale, ``T_SCALE`` and ``BOX_MARGIN``.
+(
+    C_CX,
+    C_CY,
+    C_GAP,
+    C_HAS_BOX,
+    C_BOX,
+    C_HEADING,
+    C_SPEED,
+    C_SIGMA,
+    C_MEMORY,
+    C_GAIN,
+    C_DT,
+    C_D,
+    C_MARGIN,
+    C_INV_L,
+    C_T_SCALE,
+    C_BOX_MARGIN,
+) = (0, 1, 2, 3, 4, 8, 9, 10, 11, 12, 13, 14, 15, 16, 17, 18)
+N_CONSTANTS = 19
 
 
 def takes_drawn_episodes(template: Any) -> bool:
@@ -111,18 +139,24 @@ class DrawnEpisodes:
         self.bad = np.zeros(rows, dtype=np.int64)
         self.dx2 = np.zeros((rows, slots))
         r = self.ranges
-        self.intervals = np.array([r.ground_x, r.ground_y, r.start_x, r.start_y, r.end_x, r.end_y], dtype=np.float64)
+        self.intervals = np.array(
+            [r.ground_x, r.ground_y, r.start_x, r.start_y, r.end_x, r.end_y], dtype=np.float64
+        )
         self.cuts = np.array([s != "none" for s in r.surfaces], dtype=np.bool_)
         heading = motion.heading
         box = motion.box
-        # the scalars of the kernel, in the order draw_episodes takes them
-        self.constants = np.array([
-            float(base.ios_center[0]), float(base.ios_center[1]), motion.plane_margin, float(box is not None),
-            *(np.ravel(box) if box is not None else (0.0, 0.0, 0.0, 0.0)), float(heading is None),
-            0.0 if heading is None else heading, motion.speed, motion.sigma, motion.memory,
-            math.sqrt(1.0 - motion.memory * motion.memory) * motion.sigma, base.dt, base.D,
-            REPORT_CLIP * float(options.report_sigma), 1.0 / options.length_scale, T_SCALE, BOX_MARGIN,
-        ], dtype=np.float64)  # fmt: skip
+        # the scalars of the kernel, at the C_* indices draw_episodes reads them at
+        self.constants = np.zeros(N_CONSTANTS)
+        c = self.constants
+        c[C_CX], c[C_CY], c[C_GAP] = float(base.ios_center[0]), float(base.ios_center[1]), motion.plane_margin
+        c[C_HAS_BOX] = float(box is not None)
+        if box is not None:
+            c[C_BOX : C_BOX + 4] = np.ravel(box)
+        c[C_HEADING] = 0.0 if heading is None else heading
+        c[C_SPEED], c[C_SIGMA], c[C_MEMORY] = motion.speed, motion.sigma, motion.memory
+        c[C_GAIN] = math.sqrt(1.0 - motion.memory * motion.memory) * motion.sigma  # (node_paths' gain)
+        c[C_DT], c[C_D], c[C_MARGIN] = base.dt, base.D, REPORT_CLIP * float(options.report_sigma)
+        c[C_INV_L], c[C_T_SCALE], c[C_BOX_MARGIN] = 1.0 / options.length_scale, T_SCALE, BOX_MARGIN
         self.length_scale = options.length_scale
         self.heading_drawn = heading is None
         self.clip: tuple[np.ndarray, np.ndarray] = (np.zeros((rows, 2)), np.zeros((rows, 2)))
@@ -149,7 +183,9 @@ class DrawnEpisodes:
         self.surface[i] = int(rng.integers(len(r.surfaces)))
         rng.random(out=u[2 : 7 if self.heading_drawn else 6])  # q0, qF (and node_paths' heading)
         if 2 * n > self.normals.shape[1]:
-            raise RuntimeError(f"a drawn episode of N = {n} slots exceeds the space's {self.normals.shape[1] // 2}")
+            raise RuntimeError(
+                f"a drawn episode of N = {n} slots exceeds the space's {self.normals.shape[1] // 2}"
+            )
         rng.standard_normal(out=self.normals[i, : 2 * n])  # v[0], then the slots' (node_paths)
         self.slots[i] = n
         return n
@@ -198,7 +234,9 @@ class DrawnEpisodes:
             self.geometries[key] = -1
             return -1
         assert terms is not None
-        self.table.append((kernel.nodes, kernel.params, episode_row(cfg, self.length_scale, (0.0, 0.0, 0.0)), terms))
+        self.table.append(
+            (kernel.nodes, kernel.params, episode_row(cfg, self.length_scale, (0.0, 0.0, 0.0)), terms)
+        )
         self.geometries[key] = len(self.table) - 1
         self.tables = _stack(self.table)
         return self.geometries[key]
@@ -222,7 +260,9 @@ class DrawnEpisodes:
         batch's path and records (the batched env records the slots in them) and the report clip."""
         n = int(self.slots[i])
         lo, hi = self.clip
-        return NodeTrack(self.paths[i, :n], lo[i].copy(), hi[i].copy(), self.reports[i, :n], self.measured[i, :n], cfg)
+        return NodeTrack(
+            self.paths[i, :n], lo[i].copy(), hi[i].copy(), self.reports[i, :n], self.measured[i, :n], cfg
+        )
 
     def start(self, rows: np.ndarray, geometry: np.ndarray, nodes: np.ndarray, params: np.ndarray,
               episode: np.ndarray) -> None:  # fmt: skip
@@ -275,16 +315,13 @@ def _stack(table: list[Any]) -> tuple[np.ndarray, ...]:
     return factor, cx, gy, gz2, ky, kz, sizes, nodes, params, rows
 
 
-#: Index of the fixed heading in ``DrawnEpisodes.constants``.
-C_HEADING = 9
-
-
 @jit(fastmath=False)
 def draw_episodes(
     rows: np.ndarray, uniform: np.ndarray, slots: np.ndarray, surface: np.ndarray, normals: np.ndarray,
     headings: np.ndarray, intervals: np.ndarray, cuts: np.ndarray, c: np.ndarray, ground: np.ndarray,
     ends: np.ndarray, paths: np.ndarray, reports: np.ndarray, measured: np.ndarray, lo: np.ndarray,
-    hi: np.ndarray, dx2: np.ndarray, bad: np.ndarray, state: np.ndarray, path: np.ndarray, episode: np.ndarray,
+    hi: np.ndarray, dx2: np.ndarray, bad: np.ndarray, state: np.ndarray, path: np.ndarray,
+    episode: np.ndarray,
 ) -> None:  # fmt: skip
     """Step 2 of the module docstring for ``rows``, in IEEE arithmetic in the order of
     ``scenarios._draw`` / ``_off_plane``, ``mobility.rectangles``, ``motion.node_paths`` /
@@ -292,9 +329,10 @@ def draw_episodes(
     of :class:`DrawnEpisodes`; ``headings``: (rows, 2) cos and sin of each row's mean heading.
     ``bad[i]`` = 1 where the scenario's validation must decide (the node outside its motion
     rectangle, the rectangle empty, the node on the IOS plane, T too short)."""
-    cx, cy, gap, has_box = c[0], c[1], c[2], c[3] != 0.0
-    speed, sigma, a, gain, dt, d_max, margin = c[10], c[11], c[12], c[13], c[14], c[15], c[16]
-    inv_l, t_scale, box_margin = c[17], c[18], c[19]
+    cx, cy, gap, has_box = c[C_CX], c[C_CY], c[C_GAP], c[C_HAS_BOX] != 0.0
+    speed, sigma, a, gain = c[C_SPEED], c[C_SIGMA], c[C_MEMORY], c[C_GAIN]
+    dt, d_max, margin = c[C_DT], c[C_D], c[C_MARGIN]
+    inv_l, t_scale, box_margin = c[C_INV_L], c[C_T_SCALE], c[C_BOX_MARGIN]
     for j in range(rows.size):
         i = rows[j]
         u = uniform[i]
@@ -322,7 +360,7 @@ def draw_episodes(
             flagged = True
         # the motion rectangle (mobility.rectangles)
         if has_box:
-            bx0, bx1, by0, by1 = c[4], c[5], c[6], c[7]
+            bx0, bx1, by0, by1 = c[C_BOX], c[C_BOX + 1], c[C_BOX + 2], c[C_BOX + 3]
         else:
             bx0, bx1 = min(gx, cx) - box_margin, max(gx, cx) + box_margin
             by0, by1 = min(gy, cy) - box_margin, max(gy, cy) + box_margin
@@ -388,7 +426,8 @@ def draw_episodes(
 
 #: The episode row's columns ``draw_episodes`` writes (the others are the geometry's).
 DRAWN_COLUMNS = np.array(
-    sorted({EP_QFX, EP_QFY, EP_MOVES, EP_FX_L, EP_FY_L, EP_GX_L, EP_GY_L, EP_INV_MOVES, EP_HORIZON}), dtype=np.int64
+    sorted({EP_QFX, EP_QFY, EP_MOVES, EP_FX_L, EP_FY_L, EP_GX_L, EP_GY_L, EP_INV_MOVES, EP_HORIZON}),
+    dtype=np.int64,
 )
 
 
@@ -407,12 +446,14 @@ def _fill(i: int, g: int, first: int, count: int, factor: np.ndarray, gy: np.nda
             d = y - gy[g, m]
             dy2[s, m] = d * d
     interpolated_weights_into(weights[i, :count], factor[g], scale[i, first : first + count],
-                              dx2[i, first : first + count], dy2, gz2[g, :pz], ky[g, :py, :ny], kz[g, :pz, :nz])  # fmt: skip
+                              dx2[i, first : first + count], dy2, gz2[g, :pz], ky[g, :py, :ny],
+                              kz[g, :pz, :nz])  # fmt: skip
 
 
 @jit(fastmath=False)
 def start_rows(
-    rows: np.ndarray, geometry: np.ndarray, factor: np.ndarray, cx: np.ndarray, gy: np.ndarray, gz2: np.ndarray,
+    rows: np.ndarray, geometry: np.ndarray, factor: np.ndarray, cx: np.ndarray, gy: np.ndarray,
+    gz2: np.ndarray,
     ky: np.ndarray, kz: np.ndarray, sizes: np.ndarray, kernel_nodes: np.ndarray, kernel_params: np.ndarray,
     episode_rows: np.ndarray, paths: np.ndarray, slots: np.ndarray, dx2: np.ndarray, scale: np.ndarray,
     weights: np.ndarray, first: np.ndarray, base: np.ndarray, nodes: np.ndarray, params: np.ndarray,
@@ -444,7 +485,8 @@ def start_rows(
 @jit(fastmath=False)
 def put_rows(
     rows: np.ndarray, state: np.ndarray, windowed: np.ndarray, factor: np.ndarray, cx: np.ndarray,
-    gy: np.ndarray, gz2: np.ndarray, ky: np.ndarray, kz: np.ndarray, sizes: np.ndarray, kernel_nodes: np.ndarray,
+    gy: np.ndarray, gz2: np.ndarray, ky: np.ndarray, kz: np.ndarray, sizes: np.ndarray,
+    kernel_nodes: np.ndarray,
     kernel_params: np.ndarray, episode_rows: np.ndarray, paths: np.ndarray, slots: np.ndarray,
     dx2: np.ndarray, scale: np.ndarray, weights: np.ndarray, first: np.ndarray, base: np.ndarray,
     nodes: np.ndarray, params: np.ndarray, geometry: np.ndarray,
@@ -462,7 +504,8 @@ def put_rows(
         at = slot - first[i]
         if at < 0 or at >= weights.shape[1]:
             g = geometry[i]
-            _fill(i, g, slot, min(n - slot, weights.shape[1]), factor, gy, gz2, ky, kz, sizes, paths, dx2, scale,
+            count = min(n - slot, weights.shape[1])
+            _fill(i, g, slot, count, factor, gy, gz2, ky, kz, sizes, paths, dx2, scale,
                   weights)  # fmt: skip
             first[i], at = slot, 0
         nodes[i, 2, : weights.shape[2]] = weights[i, at]

@@ -7,7 +7,10 @@ a moving or roughly known node does not support, draws the episode's node path a
 ``paths``, ``reports``, ``measured_rates``). These are the single-node row protocol's mobile calls
 (``ios_uav_env.envs.row_protocol.SingleNodeRow``): the batched env makes ``start_track`` on each
 row's template env and observes all its rows in compiled calls on their ``track`` arrays
-(``ios_uav_env.envs.knowledge_kernels``). Inactive (``track`` None) for a static, exactly known node.
+(``ios_uav_env.envs.knowledge_kernels``). A randomised moving env's batch draws its rows' episodes
+together instead (``ios_uav_env.envs.mobile_draws``) and each row env defers its episode to it
+(:meth:`MobileNode.defer_episode`: its scenario, kernel and track built when first read). Inactive
+(``track`` None) for a static, exactly known node.
 
 It also holds lambda_ref, the reference EE of the energy reward (objective
 ``"energy_efficiency"``; ``IOSUAVEnv``'s "Energy"): :meth:`MobileNode._scenario_reference` per
@@ -18,7 +21,7 @@ reference flights scored on the node path just drawn, which only the reward uses
 
 from __future__ import annotations
 
-from functools import lru_cache
+from functools import cache
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -114,7 +117,11 @@ class MobileNode:
         state = self.__dict__
         if state.get("_deferral") is None and state.pop("_track_views", False):
             track = state["_track"]  # (the last episode's, read: its arrays leave the batch's buffers)
-            track.paths, track.reports, track.measured = track.paths.copy(), track.reports.copy(), track.measured.copy()
+            track.paths, track.reports, track.measured = (
+                track.paths.copy(),
+                track.reports.copy(),
+                track.measured.copy(),
+            )
         cls = type(self)
         if not getattr(cls, "_defers", False):
             self.__class__ = _deferring(cls)
@@ -203,7 +210,7 @@ def _deferred_attribute(name: str) -> property:
     return property(get, put)
 
 
-@lru_cache(maxsize=None)
+@cache
 def _deferring(cls: type) -> type:
     """``cls`` with :data:`DEFERRED` read through :func:`_deferred_attribute` (only the row envs of
     a batched env that defers their episodes take it: every other env reads plain attributes)."""

@@ -19,7 +19,6 @@ import gymnasium as gym
 import numpy as np
 
 from ios_uav_env.envs.knowledge import filter_report
-from ios_uav_env.envs.mobile_draws import DrawnEpisodes, takes_drawn_episodes
 from ios_uav_env.envs.knowledge_kernels import (
     DRAWS,
     MODES,
@@ -27,6 +26,7 @@ from ios_uav_env.envs.knowledge_kernels import (
     observe_rows,
     row_list,
 )
+from ios_uav_env.envs.mobile_draws import DrawnEpisodes, takes_drawn_episodes
 from ios_uav_env.envs.single_kernels import INFO, STATE, fly_rows, reset_rows, step_rows, step_rows_batched
 from ios_uav_env.envs.single_node import INFO_KEYS
 from ios_uav_env.envs.slot_weights import SlotWeights
@@ -126,7 +126,9 @@ class SingleNodeRows:
             return rest
         mine = rows[~rest].astype(np.int64)
         envs, draws, width = self.envs, self._episode_draws, self._draws
-        for i, seed in zip(mine.tolist(), [s for s, r in zip(seeds, rest.tolist(), strict=True) if not r], strict=True):
+        for i, seed in zip(
+            mine.tolist(), [s for s, r in zip(seeds, rest.tolist(), strict=True) if not r], strict=True
+        ):
             env = envs[i]
             if seed is not None:
                 gym.Env.reset(env, seed=seed)  # (the seeding of begin_episode)
@@ -142,7 +144,9 @@ class SingleNodeRows:
             width = self._nodes.shape[2]
             geometry = drawn.geometries_of(mine, width)
             unfit = geometry < 0
-            for i in mine[unfit].tolist():  # (the row reads its track: as load makes it, on the drawn episode)
+            for i in mine[
+                unfit
+            ].tolist():  # (the row reads its track: as load makes it, on the drawn episode)
                 self._load_drawn(i, envs[i])
             mine, geometry = mine[~unfit], geometry[~unfit]
             if self._nodes.shape[2] == width:

@@ -25,7 +25,9 @@ from ios_uav_env.model.rate_kernels import rate_kernel
 from ios_uav_env.model.scenarios import ScenarioRanges, sample_scenario
 from tests.envs.batch_rows import same, step_batch_and_singles
 
-pytestmark = pytest.mark.skipif(not HAVE_NUMBA, reason="the compiled draw needs numba (else: the per-row path)")
+pytestmark = pytest.mark.skipif(
+    not HAVE_NUMBA, reason="the compiled draw needs numba (else: the per-row path)"
+)
 
 #: Ranges whose nodes start near the IOS plane (moved off its strip), walk fast into their
 #: rectangles' edges (reflected), on both surfaces and several IOS row counts.
@@ -46,7 +48,9 @@ def drawn_vec(ranges, rows: int, **kwargs):
     return vec
 
 
-@pytest.mark.parametrize("ranges", [NEAR_PLANE, BOXED, ScenarioRanges(base=ScenarioConfig(motion=GaussMarkov()))])
+@pytest.mark.parametrize(
+    "ranges", [NEAR_PLANE, BOXED, ScenarioRanges(base=ScenarioConfig(motion=GaussMarkov()))]
+)
 def test_the_compiled_draw_is_the_single_envs_draw_bit_for_bit(ranges):
     rows, seed = 24, 5
     vec = drawn_vec(ranges, rows, report_sigma=15.0)
@@ -66,7 +70,9 @@ def test_the_compiled_draw_is_the_single_envs_draw_bit_for_bit(ranges):
         assert same(env.track.paths, track.paths)
         assert same(env.track.lo, track.lo) and same(env.track.hi, track.hi)
         # (slot 0's report and rate are the reset's observation: the later slots' are not drawn yet)
-        assert same(env.track.reports[1:], track.reports[1:]) and same(env.track.measured[1:], track.measured[1:])
+        assert same(env.track.reports[1:], track.reports[1:]) and same(
+            env.track.measured[1:], track.measured[1:]
+        )
         assert same(episode[i], env.episode_row[0] if env.episode_row.ndim == 2 else env.episode_row)
         kernel = rate_kernel(cfg)
         k = kernel.nodes.shape[1]
