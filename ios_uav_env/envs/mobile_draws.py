@@ -61,7 +61,15 @@ from ios_uav_env.model.scenarios import ScenarioRanges
 from ios_uav_env.model.surface import interpolation_terms
 from ios_uav_env.model.weight_kernels import interpolated_weights_into
 
-__all__ = ["WINDOW", "DrawnEpisodes", "draw_episodes", "put_rows", "start_rows", "takes_drawn_episodes"]
+__all__ = [
+    "WINDOW",
+    "DrawnEpisodes",
+    "draw_episodes",
+    "put_rows",
+    "start_rows",
+    "take_slot_normals",
+    "takes_drawn_episodes",
+]
 
 #: The uniform draws of a row, in order: G's x and y, q0's x and y, qF's x and y, the heading.
 N_UNIFORM = 7
@@ -513,3 +521,17 @@ def put_rows(
         params[i, :] = base[i]
         params[i, PARAM_G_SIDE] = 1.0 if x > x_c else (-1.0 if x < x_c else 0.0)
         params[i, PARAM_GX], params[i, PARAM_GY] = x, y
+
+
+@jit(fastmath=False)
+def take_slot_normals(
+    rows: np.ndarray, state: np.ndarray, normals: np.ndarray, taken: np.ndarray, out: np.ndarray
+) -> None:
+    """``knowledge_kernels.EpisodeDraws.take`` compiled (``normals``, ``taken``: its arrays): each row
+    ``i`` of ``rows``' normals of its slot ``state[i, 2]`` into ``out[i]``, one slot more taken."""
+    for j in range(rows.size):
+        i = rows[j]
+        slot = int(state[i, 2])
+        for c in range(out.shape[1]):
+            out[i, c] = normals[i, slot, c]
+        taken[i] += 1

@@ -26,11 +26,11 @@ from ios_uav_env.envs.knowledge_kernels import (
     observe_rows,
     row_list,
 )
-from ios_uav_env.envs.mobile_draws import DrawnEpisodes, takes_drawn_episodes
+from ios_uav_env.envs.mobile_draws import DrawnEpisodes, take_slot_normals, takes_drawn_episodes
 from ios_uav_env.envs.single_kernels import INFO, STATE, fly_rows, reset_rows, step_rows, step_rows_batched
 from ios_uav_env.envs.single_node import INFO_KEYS
 from ios_uav_env.envs.slot_weights import SlotWeights
-from ios_uav_env.jit import run_batched
+from ios_uav_env.jit import HAVE_NUMBA, run_batched
 
 __all__ = ["Outputs", "SingleNodeRows"]
 
@@ -265,7 +265,11 @@ class SingleNodeRows:
         rows = np.asarray(rows, dtype=np.int64)
         normals, envs, draw, out = self._slot_normals, self.envs, self._draw, self._draw_out
         if self._draws and self._episode_draws is not None:
-            self._episode_draws.take(rows, self._state[rows, 2].astype(np.int64), normals)
+            draws = self._episode_draws
+            if HAVE_NUMBA:  # (EpisodeDraws.take, compiled)
+                take_slot_normals(rows, self._state, draws.normals, draws.taken, normals)
+            else:
+                draws.take(rows, self._state[rows, 2].astype(np.int64), normals)
         elif self._draws:
             for i in rows.tolist():
                 draw[i](out=out[i])
