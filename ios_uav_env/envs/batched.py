@@ -191,10 +191,24 @@ class BatchedEnv(RowCalls, gym.vector.VectorEnv):
         and restart: the rows' generators as the single envs' would be (e.g. draws made ahead
         of the episode's slots taken back). Nothing by default."""
 
+    def _draw_rows(self, rows: np.ndarray, seeds: Sequence[int | None], options: Sequence[Any]) -> np.ndarray:
+        """Before the row envs reset ``rows`` (after :meth:`_end_rows`): new episodes the subclass
+        makes itself for some of them, as their envs would (e.g. all the drawn episodes at once);
+        the mask of ``rows`` left to reset through their envs. None by default: all of them."""
+        return np.ones(len(rows), dtype=np.bool_)
+
     def _reset_rows(self, rows: np.ndarray, seeds: Sequence[int | None], options: Sequence[Any]) -> None:
         """New episodes on ``rows``: each row's env chooses its scenario (with its seed and options)."""
         self._end_rows(rows, seeds)
-        for i, seed, row_options in zip(rows, seeds, options, strict=True):
+        rest = self._draw_rows(rows, seeds, options)
+        if not rest.all():
+            keep = rest.tolist()
+            rows_left = rows[rest]
+            seeds = [s for s, k in zip(seeds, keep, strict=True) if k]
+            options = [o for o, k in zip(options, keep, strict=True) if k]
+        else:
+            rows_left = rows
+        for i, seed, row_options in zip(rows_left, seeds, options, strict=True):
             env = self.envs[i]
             env.begin_episode(seed, row_options)
             self._load_row(int(i), env)

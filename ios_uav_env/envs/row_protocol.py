@@ -30,7 +30,11 @@ calls): the current scenario as one kernel row (``kernel``, ``episode_row``, ``f
 ``begin_episode``: ``start_track(cfg)`` draws the episode's node path, ``track`` holds each slot's
 rate kernel and the records, ``observe_slot(slot, q, obs)`` writes what the UAV is told after the
 slot (the batched env tells all its rows in compiled calls on their ``track`` arrays instead,
-``knowledge_kernels``, with ``rate_clip``).
+``knowledge_kernels``, with ``rate_clip``). A randomised moving env (``mobile_draws.takes_drawn_episodes``)
+may skip ``begin_episode`` and ``start_track`` without options: its rows draw their episodes from
+the row env's ``np_random`` together (``mobile_draws.DrawnEpisodes``, the same draws) and
+``defer_episode(source, i)`` makes the row env build its scenario, kernel and track from them
+when first read.
 
 K >= 1 nodes (:class:`MultiNodeRow`: the view ``"node_blocks"``; what ``node_rows.NodeBlockRows``
 calls): the settings of the kernels' rows (``max_nodes``, ``options``, ``share_sharpness``,
@@ -124,6 +128,11 @@ class SingleNodeRow(ScenarioRow, Protocol):
 
     def observe_slot(self, slot: int, q: np.ndarray, obs: np.ndarray) -> None:
         """(Mobile.) Write what the UAV at ``q`` is told of the node in ``slot`` into ``obs``."""
+        ...
+
+    def defer_episode(self, source: Any, i: int) -> None:
+        """(Mobile.) Take the episode row ``i`` of ``source`` drew for this env (its ``np_random``'s
+        draws): ``config``, ``kernel``, ``episode_row`` and ``track`` built from it when first read."""
         ...
 
 

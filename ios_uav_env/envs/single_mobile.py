@@ -7,7 +7,10 @@ a moving or roughly known node does not support, draws the episode's node path a
 ``paths``, ``reports``, ``measured_rates``). These are the single-node row protocol's mobile calls
 (``ios_uav_env.envs.row_protocol.SingleNodeRow``): the batched env makes ``start_track`` on each
 row's template env and observes all its rows in compiled calls on their ``track`` arrays
-(``ios_uav_env.envs.knowledge_kernels``). Inactive (``track`` None) for a static, exactly known node.
+(``ios_uav_env.envs.knowledge_kernels``). A randomised moving env's batch draws its rows' episodes
+together instead (``ios_uav_env.envs.mobile_draws``) and each row env defers its episode to it
+(:meth:`MobileNode.defer_episode`: its scenario, kernel and track built when first read). Inactive
+(``track`` None) for a static, exactly known node.
 
 It also holds lambda_ref, the reference EE of the energy reward (objective
 ``"energy_efficiency"``; ``IOSUAVEnv``'s "Energy"): :meth:`MobileNode._scenario_reference` per
@@ -18,7 +21,8 @@ reference flights scored on the node path just drawn, which only the reward uses
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING
+from functools import cache
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -103,6 +107,35 @@ class MobileNode:
         if self.energy_objective:
             self._episode_reference(cfg)
 
+    def defer_episode(self, source: Any, i: int) -> None:
+        """Take the episode a batched env drew for this row env (row ``i`` of ``source``, a
+        ``mobile_draws.DrawnEpisodes``; after its generator drew it, instead of ``begin_episode``
+        and :meth:`start_track`): the scenario, its rate kernel, the episode row and the track are
+        built from ``source`` when first read (:meth:`_resume_episode`), the same as
+        ``begin_episode`` and :meth:`start_track` would have made them. A mobile env of the rate
+        objective only (row protocol, ``DrawnEpisodes``)."""
+        state = self.__dict__
+        if state.get("_deferral") is None and state.pop("_track_views", False):
+            track = state["_track"]  # (the last episode's, read: its arrays leave the batch's buffers)
+            track.paths, track.reports, track.measured = (
+                track.paths.copy(),
+                track.reports.copy(),
+                track.measured.copy(),
+            )
+        cls = type(self)
+        if not getattr(cls, "_defers", False):
+            self.__class__ = _deferring(cls)
+        state["_deferral"] = (source, i)
+
+    def _resume_episode(self) -> None:
+        """Build the deferred episode (:meth:`defer_episode`): ``_set_config`` on the row's
+        scenario, then its track on the batch's arrays (views: the batched env records in them)."""
+        source, i = self.__dict__.pop("_deferral")
+        cfg = source.config(i)
+        self._set_config(cfg)
+        self._track = source.track(i, cfg)
+        self.__dict__["_track_views"] = True
+
     def observe_slot(self, slot: int, q: np.ndarray, obs: np.ndarray) -> None:
         """Write what the UAV at ``q`` is told of the node in ``slot`` (0-based: 0 at reset, n after
         the n-th step) into the observation row ``obs`` in place (the node features 4-5 and,
@@ -150,3 +183,37 @@ class MobileNode:
         "rates"; else NaN)."""
         n = len(self.trajectory)
         return np.full(n, np.nan) if self._track is None else self._track.measured[:n].copy()
+
+
+#: The attributes of a row env's episode that :meth:`MobileNode.defer_episode` builds when first read.
+DEFERRED = ("config", "kernel", "reference_efficiency", "_episode", "_nodes", "_params", "_track")
+
+
+def _deferred_attribute(name: str) -> property:
+    """A data descriptor for ``name``: reading or setting it first builds a deferred episode."""
+
+    def get(self: Any) -> Any:
+        state = self.__dict__
+        if state.get("_deferral") is not None:
+            self._resume_episode()
+        try:
+            return state[name]
+        except KeyError:
+            raise AttributeError(name) from None
+
+    def put(self: Any, value: Any) -> None:
+        state = self.__dict__
+        if state.get("_deferral") is not None:
+            self._resume_episode()
+        state[name] = value
+
+    return property(get, put)
+
+
+@cache
+def _deferring(cls: type) -> type:
+    """``cls`` with :data:`DEFERRED` read through :func:`_deferred_attribute` (only the row envs of
+    a batched env that defers their episodes take it: every other env reads plain attributes)."""
+    namespace = {name: _deferred_attribute(name) for name in DEFERRED}
+    # (a name of its own: pickle refuses it rather than rebuild the plain class on a deferred state)
+    return type(f"Deferring{cls.__name__}", (cls,), {**namespace, "_defers": True})

@@ -15,6 +15,7 @@ from __future__ import annotations
 
 from typing import Any
 
+import gymnasium as gym
 import numpy as np
 
 from ios_uav_env.envs.knowledge import filter_report
@@ -25,10 +26,11 @@ from ios_uav_env.envs.knowledge_kernels import (
     observe_rows,
     row_list,
 )
+from ios_uav_env.envs.mobile_draws import DrawnEpisodes, take_slot_normals, takes_drawn_episodes
 from ios_uav_env.envs.single_kernels import INFO, STATE, fly_rows, reset_rows, step_rows, step_rows_batched
 from ios_uav_env.envs.single_node import INFO_KEYS
 from ios_uav_env.envs.slot_weights import SlotWeights
-from ios_uav_env.jit import run_batched
+from ios_uav_env.jit import HAVE_NUMBA, run_batched
 
 __all__ = ["Outputs", "SingleNodeRows"]
 
@@ -64,6 +66,8 @@ class SingleNodeRows:
         # records) and what its UAV is told per slot, for all rows in one compiled call
         # (ios_uav_env.envs.knowledge_kernels; the draws from each row's template env)
         self._mobile = template.mobile
+        self._drawn: DrawnEpisodes | None = None
+        self._drawn_stand: tuple[np.ndarray, np.ndarray] | None = None
         if self._mobile:
             options = template.options
             self._knowledge = MODES[options.knowledge]
@@ -93,6 +97,10 @@ class SingleNodeRows:
             self._draw: list[Any] = [None] * b
             self._draw_out = [self._slot_normals[i, : self._draws] for i in range(b)]
             self._episode_draws = None if self._rician else EpisodeDraws(b, template.max_slots, 4)
+            # a randomised moving env's rows draw their episodes together (envs.mobile_draws); the
+            # rows whose track lists hold the batch's buffers (set once, then reused)
+            self._drawn = DrawnEpisodes(template, b) if takes_drawn_episodes(template) else None
+            self._buffered = np.zeros(b, dtype=np.bool_)
 
     @property
     def state(self) -> np.ndarray:
@@ -104,11 +112,71 @@ class SingleNodeRows:
         """(B, N_max, 2) m: each row's way-points."""
         return self._path
 
-    def load(self, i: int, env: Any) -> None:
-        """Copy the current scenario of ``env`` into row ``i`` (growing the node arrays if needed).
-        The row protocol's names are read on the env's stepper (``UAVEnv.stepper``, whose calls the
-        env forwards), once per row reset."""
+    def draw(self, rows: np.ndarray, seeds: list[int | None], options: list[Any]) -> np.ndarray:
+        """New episodes on ``rows`` (``BatchedEnv._reset_rows``, after ``end``) whose row envs draw
+        them from their ranges (a randomised moving env, no options): drawn for all of them at
+        once (``mobile_draws.DrawnEpisodes``: the row's generator draws what its env's reset draws,
+        the rest is compiled), each row env deferring its episode to it (``defer_episode``). The
+        mask of ``rows`` left to reset through their row envs (all, for the other envs)."""
+        drawn = self._drawn
+        if drawn is None:
+            return np.ones(rows.size, dtype=np.bool_)
+        rest = np.array([o is not None for o in options], dtype=np.bool_)
+        if rest.all():
+            return rest
+        mine = rows[~rest].astype(np.int64)
+        envs, draws, width = self.envs, self._episode_draws, self._draws
+        for i, seed in zip(
+            mine.tolist(), [s for s, r in zip(seeds, rest.tolist(), strict=True) if not r], strict=True
+        ):
+            env = envs[i]
+            if seed is not None:
+                gym.Env.reset(env, seed=seed)  # (the seeding of begin_episode)
+            rng = env.np_random
+            env.stepper.defer_episode(drawn, i)  # (before the draw rewrites the buffers a read track views)
+            n = drawn.draw(i, rng)
+            if width:
+                draws.draw(i, rng, n, width)
+        drawn.make(mine, self._state, self._path, self._episode, self._lo, self._hi)
+        slot_weights = self._slot_weights
+        drawn.windowed[mine] = False
+        while True:  # (a row loaded here may widen the rows' kernels: the others are looked at again)
+            width = self._nodes.shape[2]
+            geometry = drawn.geometries_of(mine, width)
+            unfit = geometry < 0
+            for i in mine[
+                unfit
+            ].tolist():  # (the row reads its track: as load makes it, on the drawn episode)
+                self._load_drawn(i, envs[i])
+            mine, geometry = mine[~unfit], geometry[~unfit]
+            if self._nodes.shape[2] == width:
+                break
+        if mine.size:
+            drawn.start(mine, geometry, self._nodes, self._params, self._episode)
+            slot_weights.slots[mine] = 0  # (the drawn rows' own windows hold their weights)
+        stand_in, paths, reports, measured = self._stand_in, drawn.paths, drawn.reports, drawn.measured
+        for i in mine.tolist():
+            if not self._buffered[i]:
+                self._track_paths[i], self._track_reports[i] = paths[i], reports[i]
+                self._track_measured[i] = measured[i]
+                self._buffered[i] = True
+            if not self._stands_in[i]:
+                self._track_nodes[i], self._track_params[i] = stand_in
+                self._stands_in[i] = True
+        self._plain[rows[~rest]] = False
+        return rest
+
+    def _load_drawn(self, i: int, env: Any) -> None:
+        """Row ``i`` from its row env's (deferred) drawn episode, as :meth:`load` after its draws."""
         row = env.stepper
+        k = self._fit(i, row)
+        self._set_track(i, row, k)
+        self._episode[i] = row.episode_row
+        self._state[i, 0:2] = self._path[i, 0] = row.config.q0
+
+    def _fit(self, i: int, row: Any) -> int:
+        """Row ``i``'s scenario kernel (of ``row``) in the row, growing the node arrays if needed;
+        its width."""
         nodes = row.kernel.nodes
         k = nodes.shape[1]
         if k > self._nodes.shape[2]:
@@ -121,15 +189,28 @@ class SingleNodeRows:
         self._nodes[i, :, :k] = nodes
         self._nodes[i, :, k:] = ((0.0,), (1.0,), (0.0,))  # padded nodes: zero weight
         self._params[i] = row.kernel.params
+        return k
+
+    def _set_track(self, i: int, row: Any, k: int) -> None:
+        """Row ``i``'s track (of ``row``, drawn) in the track lists, its kernels and report clip."""
+        track = row.track
+        self._track_paths[i], self._track_reports[i] = track.paths, track.reports
+        self._track_measured[i] = track.measured
+        self._buffered[i] = False
+        self._load_kernels(i, row, k)
+        self._lo[i], self._hi[i] = track.lo, track.hi
+
+    def load(self, i: int, env: Any) -> None:
+        """Copy the current scenario of ``env`` into row ``i`` (growing the node arrays if needed).
+        The row protocol's names are read on the env's stepper (``UAVEnv.stepper``, whose calls the
+        env forwards), once per row reset."""
+        row = env.stepper
+        k = self._fit(i, row)
         # a mobile row: its node path (drawn as the single env's reset does), slot 1's kernel and, with
         # the energy objective, the episode's lambda_ref in the row's episode_row (copied below)
         if self._mobile:
             row.start_track(row.config)
-            track = row.track
-            self._track_paths[i], self._track_reports[i] = track.paths, track.reports
-            self._track_measured[i] = track.measured
-            self._load_kernels(i, row, k)
-            self._lo[i], self._hi[i] = track.lo, track.hi
+            self._set_track(i, row, k)
             self._draw[i] = env.np_random.standard_normal
             if self._episode_draws is not None and self._draws:
                 self._episode_draws.draw(i, env.np_random, row.config.N, self._draws)
@@ -162,10 +243,11 @@ class SingleNodeRows:
 
     def _read_tracks(self) -> None:
         """Every buffered row reads its track's kernels from now on (the rows' kernels grew wider)."""
-        for i in np.flatnonzero(self._slot_weights.slots).tolist():
+        windowed = np.zeros(self.num_envs, dtype=np.bool_) if self._drawn is None else self._drawn.windowed
+        for i in np.flatnonzero((self._slot_weights.slots > 0) | windowed).tolist():
             track = self.envs[i].stepper.track
             self._track_nodes[i], self._track_params[i] = track.nodes, track.params
-            self._slot_weights.slots[i], self._stands_in[i] = 0, False
+            self._slot_weights.slots[i], self._stands_in[i], windowed[i] = 0, False, False
 
     def start(self, rows: np.ndarray, obs: np.ndarray, info: np.ndarray) -> None:
         """Start the episodes of ``rows`` (loaded): their first observations and ``info`` rows."""
@@ -183,18 +265,36 @@ class SingleNodeRows:
         rows = np.asarray(rows, dtype=np.int64)
         normals, envs, draw, out = self._slot_normals, self.envs, self._draw, self._draw_out
         if self._draws and self._episode_draws is not None:
-            self._episode_draws.take(rows, self._state[rows, 2].astype(np.int64), normals)
+            draws = self._episode_draws
+            if HAVE_NUMBA:  # (EpisodeDraws.take, compiled)
+                take_slot_normals(rows, self._state, draws.normals, draws.taken, normals)
+            else:
+                draws.take(rows, self._state[rows, 2].astype(np.int64), normals)
         elif self._draws:
             for i in rows.tolist():
                 draw[i](out=out[i])
-        observe_rows(rows, self._state, self._track_paths, self._track_reports, self._track_measured,
-                     self._track_nodes, self._track_params, self._lo, self._hi, self._nodes, self._params,
-                     normals, self._knowledge, self._sigma, self._rate_high, self._scale, not self._estimate,
-                     obs, self._raw)  # fmt: skip
+        tracks = (self._track_paths, self._track_reports, self._track_measured, self._track_nodes,
+                  self._track_params)  # fmt: skip
+        if self._drawn is not None and self._buffered[rows].all() and self._stands_in[rows].all():
+            tracks = self._drawn_tracks()  # (the same arrays as one (B, ...) array each: no list to read)
+        observe_rows(rows, self._state, *tracks, self._lo, self._hi, self._nodes, self._params, normals,
+                     self._knowledge, self._sigma, self._rate_high, self._scale, not self._estimate, obs,
+                     self._raw)  # fmt: skip
         if self._estimate:
             for i in rows.tolist():
                 told = filter_report(envs[i].stepper.track, self._raw[i : i + 1].copy(), self._sigma)
                 obs[i, 4:6] = (told[0] - self._state[i, 0:2]) / self._scale
+
+    def _drawn_tracks(self) -> tuple[np.ndarray, ...]:
+        """The drawn rows' tracks as ``observe_rows`` takes them (each row's entry of a list of arrays,
+        or of one array): the batch's paths, reports and measured rates (``DrawnEpisodes``), and
+        stand-in kernels of the rows' width (the rows' own kernels are read: ``measure_rates``)."""
+        drawn = self._drawn
+        assert drawn is not None
+        width, size = self._nodes.shape[2], self._params.shape[1]
+        if self._drawn_stand is None or self._drawn_stand[0].shape[3] != width:
+            self._drawn_stand = (np.zeros((self.num_envs, 1, 3, width)), np.zeros((self.num_envs, 1, size)))
+        return (drawn.paths, drawn.reports, drawn.measured, *self._drawn_stand)
 
     def end(self, rows: np.ndarray, seeds: Any) -> None:
         """Before ``rows`` begin new episodes with ``seeds`` (``BatchedEnv._end_rows``): a moving
@@ -256,8 +356,11 @@ class SingleNodeRows:
         obs, reward, terminated, info = outputs
         stepping = np.flatnonzero(active)
         if self._mobile:  # each row's kernel of the slot it flies to (a row at its end is refused below)
-            tracks = self._track_nodes, self._track_params
-            self._slot_weights.put(stepping, self._state, 1, *tracks, self._nodes, self._params)
+            tracks, drawn = (self._track_nodes, self._track_params), self._drawn
+            if drawn is None or not drawn.windowed[stepping].all():  # (the rows not drawn together)
+                self._slot_weights.put(stepping, self._state, 1, *tracks, self._nodes, self._params)
+            if drawn is not None:  # (the drawn rows: from their windows)
+                drawn.put(stepping, self._state, self._nodes, self._params)
         if self._rician:
             for i in stepping:
                 self._normals[i] = self.envs[i].np_random.standard_normal(2)

@@ -343,6 +343,24 @@ def path_weights_into(config: ScenarioConfig, grounds: np.ndarray, out: np.ndarr
     return True
 
 
+def interpolation_terms(
+    config: ScenarioConfig,
+) -> tuple[float, float, np.ndarray, np.ndarray, np.ndarray, np.ndarray] | None:
+    """What :func:`path_weights_into` computes a path's weights of ``config`` (one node) from:
+    (J, x_c, gy (py,), gz2 (pz,), ky_t (py, ny), kz_t (pz, nz)), the arguments of
+    ``weight_kernels.interpolated_weights_into`` besides the points' own terms (dx2 = (x - x_c)^2,
+    its power 1.5 and dy2 = (y - gy)^2); None where that call does not apply (no numba, a surface
+    whose weights are not interpolated). For callers that compute many paths' weights at once
+    (``envs.mobile_draws``)."""
+    projection = _projection(config)
+    if not HAVE_NUMBA or projection.ky is None:
+        return None
+    assert projection.gy is not None and projection.gz2 is not None
+    assert projection.ky_t is not None and projection.kz_t is not None
+    return (config.J, float(config.ios_center[0]), projection.gy, projection.gz2, projection.ky_t,
+            projection.kz_t)  # fmt: skip
+
+
 def _ground_terms(
     config: ScenarioConfig, projection: _Projection, grounds: np.ndarray
 ) -> tuple[np.ndarray, ...]:

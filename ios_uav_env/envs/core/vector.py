@@ -93,6 +93,10 @@ class UAVVectorEnv(BatchedEnv):
     def _end_rows(self, rows: np.ndarray, seeds: Any) -> None:
         self.rows.end(rows, seeds)
 
+    def _draw_rows(self, rows: np.ndarray, seeds: Any, options: Any) -> np.ndarray:
+        draw = getattr(self.rows, "draw", None)  # (the single-node rows': a randomised moving env's)
+        return np.ones(len(rows), dtype=np.bool_) if draw is None else draw(rows, seeds, options)
+
     def _restart_rows(self, rows: np.ndarray) -> None:
         """New episodes on ``rows`` without a seed or options (autoreset, :meth:`restart`): the rows
         restart those that keep their scenario themselves, the others reset through their envs."""
