@@ -112,14 +112,52 @@ class NodeWeights:
         self._index: dict[Any, int] = {}  # a projection's geometry -> its entry in the lists
         self.ky_t, self.kz_t = _typed_list(np.zeros((1, 1))), _typed_list(np.zeros((1, 1)))
         self.gy, self.gz2 = _typed_list(np.zeros(1)), _typed_list(np.zeros(1))
+        self._held: dict[int, tuple[Any, Any]] = {}  # id(kernel config) -> (it, _geometry's tuple)
+        self._last: tuple[ScenarioConfig, Any] | None = None  # (the config asked last, its tuple)
+
+    def _geometry(self, config: ScenarioConfig) -> tuple[Any, ...] | None:
+        """(kernel config, projection index, Q, the kernels' node coordinates (2, Q), the kernel
+        scalars, J, the IOS centre's x) of ``config``'s node kernels, held per kernel config
+        (``node_kernels.kernel_config``: one per surface geometry and the other kernel fields);
+        None where the compiled weights do not apply (no numba, weights not interpolated)."""
+        if not HAVE_NUMBA:
+            return None
+        if self._last is not None and self._last[0] is config:
+            return self._last[1]
+        kc = kernel_config(config)
+        held = self._held.get(id(kc))
+        if held is None or held[0] is not kc:
+            projection = _projection(kc)
+            if projection.ky is None:
+                held = (kc, None)
+            else:
+                key = _Geometry(kc).key  # (the projection's cache key: one entry per surface geometry)
+                index = self._index.get(key)
+                if index is None:
+                    index = self._index[key] = len(self.gy)
+                    # (writeable C-ordered copies: the lists' type; the projection's may be read-only)
+                    self.ky_t.append(np.array(projection.ky_t, dtype=np.float64, order="C"))
+                    self.kz_t.append(np.array(projection.kz_t, dtype=np.float64, order="C"))
+                    self.gy.append(np.array(projection.gy, dtype=np.float64, order="C"))
+                    self.gz2.append(np.array(projection.gz2, dtype=np.float64, order="C"))
+                base = _base_kernel(kc)
+                coords = np.array(base.nodes[:2], dtype=np.float64, order="C")
+                params = np.array(base.params, dtype=np.float64)
+                held = (
+                    kc,
+                    (kc, index, int(projection.y.size), coords, params, kc.J, float(kc.ios_center[0])),
+                )
+            if len(self._held) >= 4096:  # (bounded: kernel_config's own cache is)
+                self._held.clear()
+            self._held[id(kc)] = held
+        self._last = (config, held[1])
+        return held[1]
 
     def width(self, config: ScenarioConfig) -> int | None:
         """Q, the surface nodes of ``config``'s node kernels (``node_kernels.kernel_width``'s), where
         the compiled weights apply to it; None where they do not."""
-        if not HAVE_NUMBA:
-            return None
-        projection = _projection(kernel_config(config))
-        return None if projection.ky is None else int(projection.y.size)
+        geometry = self._geometry(config)
+        return None if geometry is None else geometry[2]
 
     def load(self, i: int, config: ScenarioConfig, paths: np.ndarray, nodes: np.ndarray) -> bool:
         """Row ``i``'s episode on ``config`` whose nodes walk ``paths`` ((N, K, 2) m): the ground
@@ -127,43 +165,23 @@ class NodeWeights:
         (the row's kernels, (K_max, 3, Q)). False (nothing kept, ``slots[i]`` 0) where the compiled
         weights do not apply: then the caller builds the track's kernels."""
         self.slots[i] = 0
-        if not HAVE_NUMBA:
+        geometry = self._geometry(config)
+        if geometry is None or geometry[2] > nodes.shape[3]:
             return False
-        kc = kernel_config(config)
-        projection = _projection(kc)
-        if projection.ky is None or projection.y.size > nodes.shape[3]:
-            return False
+        _, index, q, coords, params, factor, cx = geometry
         k_nodes, n = config.K, config.N
         if n > self.points.shape[2]:
             grown = np.zeros((*self.points.shape[:2], n, 5))
             grown[:, :, : self.points.shape[2]] = self.points
             self.points = grown
-        # the ground terms as surface._ground_terms and path_kernels compute them, on the same
-        # (K N, 2) array of the nodes' points, node after node
+        # the ground terms as surface._ground_terms and path_kernels compute them (numpy, on the
+        # same (K N, 2) array of the nodes' points, node after node), then put in place compiled
         grounds = paths.transpose(1, 0, 2).reshape(k_nodes * n, 2)
-        cx = kc.ios_center[0]
         dx2 = (grounds[:, 0] - cx) ** 2
-        out = self.points[i, :k_nodes, :n]
-        out[:, :, PT_GX] = grounds[:, 0].reshape(k_nodes, n)
-        out[:, :, PT_GY] = grounds[:, 1].reshape(k_nodes, n)
-        out[:, :, PT_DX2] = dx2.reshape(k_nodes, n)
-        out[:, :, PT_SCALE] = (dx2**1.5).reshape(k_nodes, n)
-        out[:, :, PT_SIDE] = np.sign(grounds[:, 0] - cx).reshape(k_nodes, n)
-        key = _Geometry(kc).key  # (the projection's cache key: one entry per surface geometry)
-        index = self._index.get(key)
-        if index is None:
-            index = self._index[key] = len(self.gy)
-            # (writeable C-ordered copies: the lists' type; the projection's own may be read-only)
-            self.ky_t.append(np.array(projection.ky_t, dtype=np.float64, order="C"))
-            self.kz_t.append(np.array(projection.kz_t, dtype=np.float64, order="C"))
-            self.gy.append(np.array(projection.gy, dtype=np.float64, order="C"))
-            self.gz2.append(np.array(projection.gz2, dtype=np.float64, order="C"))
-        base = _base_kernel(kc)
-        q = projection.y.size
-        nodes[i, :k_nodes, :2, :q] = base.nodes[:2]
-        nodes[i, :k_nodes, :, q:] = ((0.0,), (1.0,), (0.0,))
-        self.base[i] = base.params
-        self.which[i], self.factors[i] = index, kc.J
+        side = np.sign(grounds[:, 0] - cx)
+        _fill_row(self.points, i, k_nodes, n, grounds, dx2, dx2**1.5, side, nodes, coords)
+        self.base[i] = params
+        self.which[i], self.factors[i] = index, factor
         self.counts[i], self.widths[i], self.slots[i] = k_nodes, q, n
         return True
 
@@ -173,6 +191,27 @@ class NodeWeights:
         """:func:`put_node_weights` of these buffers."""
         put_node_weights(rows, state, ahead, self.slots, self.counts, self.which, self.points, self.base,
                          self.factors, self.ky_t, self.kz_t, self.gy, self.gz2, nodes, params)  # fmt: skip
+
+
+@jit(fastmath=False)
+def _fill_row(
+    points: np.ndarray, i: int, k_nodes: int, n: int, grounds: np.ndarray, dx2: np.ndarray, scale: np.ndarray,
+    side: np.ndarray, nodes: np.ndarray, coords: np.ndarray,
+) -> None:  # fmt: skip
+    """Row ``i``'s ground terms (``grounds`` (K n, 2) and the per-point ``dx2``, ``scale``, ``side``,
+    node after node) into ``points[i, :K, :n]``, and its kernels' node coordinates ``coords`` (2, Q)
+    and padding (0, 1, 0) beyond Q into ``nodes[i, :K]``."""
+    q = coords.shape[1]
+    for k in range(k_nodes):
+        for slot in range(n):
+            p, point = k * n + slot, points[i, k, slot]
+            point[PT_GX], point[PT_GY] = grounds[p, 0], grounds[p, 1]
+            point[PT_DX2], point[PT_SCALE], point[PT_SIDE] = dx2[p], scale[p], side[p]
+        kernel = nodes[i, k]
+        for x in range(q):
+            kernel[0, x], kernel[1, x] = coords[0, x], coords[1, x]
+        for x in range(q, kernel.shape[1]):
+            kernel[0, x], kernel[1, x], kernel[2, x] = 0.0, 1.0, 0.0
 
 
 def _typed_list(template: np.ndarray) -> Any:
@@ -191,7 +230,7 @@ def _typed_list(template: np.ndarray) -> Any:
 def put_node_weights(
     rows: np.ndarray, state: np.ndarray, ahead: int, slots: np.ndarray, counts: np.ndarray, which: np.ndarray,
     points: np.ndarray, base: np.ndarray, factors: np.ndarray, ky_ts: Any, kz_ts: Any, gys: Any, gz2s: Any,
-    nodes: np.ndarray, params: np.ndarray,
+    nodes: np.ndarray, params: np.ndarray, block: int = WEIGHT_BLOCK,
 ) -> None:  # fmt: skip
     """Each row's node kernels of slot ``state[i, 2] + ahead`` (1: the slot it flies to; -1:
     the episode's first, slot 0) into ``nodes[i, k, 2, :ny nz]`` (the surface weights J ky B kz^T)
@@ -222,7 +261,6 @@ def put_node_weights(
         kinds[t] = which[at_row[t]]
     order = np.argsort(kinds, kind="mergesort")
     at_row, at_node, at_slot = at_row[order], at_node[order], at_slot[order]
-    block = WEIGHT_BLOCK
     dx2 = np.empty(block)
     scale = np.empty(block)
     start = 0
