@@ -255,11 +255,21 @@ def put_node_weights(
             for k in range(counts[i]):
                 at_row[t], at_node[t], at_slot[t] = i, k, slot
                 t += 1
-    # the points grouped by projection (a block takes one), in row order within a projection
-    kinds = np.empty(total, dtype=np.int64)
+    # the points grouped by projection (a block takes one), in row order within a projection (a
+    # counting sort: the projections met are few)
+    kinds = 0
     for t in range(total):
-        kinds[t] = which[at_row[t]]
-    order = np.argsort(kinds, kind="mergesort")
+        kinds = max(kinds, which[at_row[t]] + 1)
+    first = np.zeros(kinds + 1, dtype=np.int64)
+    for t in range(total):
+        first[which[at_row[t]] + 1] += 1
+    for p in range(kinds):
+        first[p + 1] += first[p]
+    order = np.empty(total, dtype=np.int64)
+    for t in range(total):
+        p = which[at_row[t]]
+        order[first[p]] = t
+        first[p] += 1
     at_row, at_node, at_slot = at_row[order], at_node[order], at_slot[order]
     dx2 = np.empty(block)
     scale = np.empty(block)
