@@ -74,6 +74,7 @@ __all__ = [
     "mobile_bounds",
     "node_extent",
     "nodes_extent",
+    "nodes_track_kernels",
     "observe_nodes",
     "observe_slot",
     "start_nodes_track",
@@ -270,6 +271,21 @@ def start_nodes_track(
     """Draw the episode's K node paths from ``rng`` and build every node's kernel per slot
     (``path_kernels`` of ``config.node_config(k)``), padded to ``width`` surface nodes (at least)."""
     paths = node_paths(config, rng)
+    nodes, params, held = nodes_track_kernels(config, paths, width)
+    lo, hi = _rectangles(config)
+    margin = REPORT_CLIP * sigma
+    return NodesTrack(
+        paths, nodes, params, lo - margin, hi + margin, np.full((config.N, config.K, 2), np.nan),
+        np.full((config.K, config.N), np.nan), np.zeros(config.K), config, held=held,
+    )  # fmt: skip
+
+
+def nodes_track_kernels(
+    config: ScenarioConfig, paths: np.ndarray, width: int
+) -> tuple[np.ndarray, np.ndarray, tuple[HeldKernels, ...]]:
+    """(nodes (K, N, 3, Q), params (K, N, P), held): every node's kernel per slot of the (N, K, 2)
+    ``paths`` (``path_kernels`` of ``config.node_config(k)``), padded to ``width`` surface nodes (at
+    least), and the objects holding them for the episode's score (:func:`start_nodes_track`'s)."""
     own = kernel_width(config)  # (every node's kernel geometry is the scenario's)
     q, k_nodes, slots = max(width, own), config.K, config.N
     nodes = np.empty((k_nodes * slots, 3, q))
@@ -285,12 +301,7 @@ def start_nodes_track(
         hold_path_kernels(config.node_config(k), paths[:, k], nodes[k, :, :, :own], params[k])
         for k in range(config.K)
     )  # (views of the track's arrays: no copy)
-    lo, hi = _rectangles(config)
-    margin = REPORT_CLIP * sigma
-    return NodesTrack(
-        paths, nodes, params, lo - margin, hi + margin, np.full((config.N, config.K, 2), np.nan),
-        np.full((config.K, config.N), np.nan), np.zeros(config.K), config, held=held,
-    )  # fmt: skip
+    return nodes, params, held
 
 
 def observe_nodes(

@@ -109,13 +109,14 @@ class NodeRows:
         grown[tuple(slice(0, n) for n in old.shape)] = old
         setattr(self, name, grown)
 
-    def load(self, i: int, cfg: ScenarioConfig, kernels: bool = True) -> None:
+    def load(self, i: int, cfg: ScenarioConfig, kernels: bool = True, width: int | None = None) -> None:
         """Copy the scenario ``cfg`` into row ``i`` (unless it is already there) and put the UAV at q0
         (the energy reward's lambda_ref: :meth:`set_reference`). ``kernels=False`` leaves the row's
         node kernels to the caller, who puts its own at once (moving nodes: the track's of slot 1):
-        the arrays still grow to the scenario's surface width, but no surface is projected."""
+        the arrays still grow to the scenario's surface width, but no surface is projected;
+        ``width``: that width (``kernel_width(cfg)``) where the caller knows it."""
         if self.loaded[i] is not cfg or (kernels and self.bare[i]):
-            width, held_kernels, points, episode = self._scenario_arrays(cfg, kernels)
+            width, held_kernels, points, episode = self._scenario_arrays(cfg, kernels, width)
             if width > self.nodes.shape[3]:
                 self._grow("nodes", 3, width, fill=(0.0, 1.0, 0.0))  # padded nodes: zero weight
             if cfg.N > self.path.shape[1]:
@@ -133,7 +134,9 @@ class NodeRows:
             self.loaded[i] = cfg
         self.state[i, MST_X], self.state[i, MST_Y] = self.path[i, 0] = cfg.q0
 
-    def _scenario_arrays(self, cfg: ScenarioConfig, kernels: bool) -> tuple[Any, ...]:
+    def _scenario_arrays(
+        self, cfg: ScenarioConfig, kernels: bool, width: int | None = None
+    ) -> tuple[Any, ...]:
         """(Q, (nodes, params) or None, points, episode row) of ``cfg`` as :meth:`load` writes them
         (``kernels``: with the node kernels): those of the scenario object loaded last when
         ``cfg`` is it (the same numbers: each is a function of the scenario and the settings),
@@ -149,7 +152,7 @@ class NodeRows:
             nodes, params = node_kernels(cfg)
             self._held_width, self._held_kernels = int(nodes.shape[2]), (nodes, params)
         elif self._held_width is None:
-            self._held_width = kernel_width(cfg)
+            self._held_width = kernel_width(cfg) if width is None else width
         return (self._held_width, self._held_kernels, *self._held_rows)
 
     def set_reference(self, i: int, reference: float, observed: float | None = None) -> None:

@@ -28,11 +28,13 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from ios_uav_env.envs.knowledge import NodesTrack, observe_nodes, start_nodes_track
+from ios_uav_env.envs.node_weights import start_bare_track
 from ios_uav_env.envs.nodes_kernels import N_BASE
 from ios_uav_env.model.motion import static_paths
 
 if TYPE_CHECKING:
     from ios_uav_env.envs.multi_kernels import NodeRows
+    from ios_uav_env.envs.node_weights import NodeWeights
     from ios_uav_env.envs.options import EnvOptions
     from ios_uav_env.model.config import ScenarioConfig
 
@@ -60,6 +62,24 @@ class MobileNodes:
         rows.load(i, self.config, kernels=not self.mobile)
         if self.mobile:
             self._start_track(rows, i)
+        self._prepare(rows, i)
+
+    def load_row_bare(self, rows: NodeRows, i: int, weights: NodeWeights) -> None:
+        """:meth:`load_row` for a batched env that computes each slot's node kernels in the row
+        (``node_weights.NodeWeights``: ``weights.load`` keeps the row's ground terms; it puts slot
+        1's kernels in the row itself, ``NodeWeights.put``): the same draws, the track's kernels
+        built only when read (``node_weights.BareNodesTrack``). A row the compiled weights do not
+        take gets its track's kernels of slot 1 here, as :meth:`load_row`."""
+        rows.load(
+            i, self.config, kernels=not self.mobile, width=weights.width(self.config) if self.mobile else None
+        )
+        if self.mobile:
+            track = start_bare_track(
+                self.config, self.np_random, self.options.report_sigma, rows.nodes.shape[3]
+            )
+            self._track = track
+            if not weights.load(i, self.config, track.paths, rows.nodes):
+                self._put(rows, i, 0)
         self._prepare(rows, i)
 
     def prepare_slot(self, rows: NodeRows, i: int) -> None:

@@ -10,7 +10,9 @@ seed ``seed + i`` (tested). The last step of an episode also reports ``best_sche
 ``best_schedule=False`` skips it (NaN at episode ends). The rows read their template envs through
 the multi-node row protocol (``row_protocol.MultiNodeRow``: ``load_row``; moving nodes: each
 slot's kernels and what the rows observe in compiled calls over the rows,
-``ios_uav_env.envs.nodes_kernels``). With the energy objective each row's lambda_ref is its
+``ios_uav_env.envs.nodes_kernels``; with channel "expected" each slot's node kernels are computed
+in the rows before the step, ``ios_uav_env.envs.node_weights``, the tracks building theirs only
+when read). With the energy objective each row's lambda_ref is its
 template env's; with channel "rician" each row draws its slots' fading from its template env's
 ``np_random`` (so row i is the single env of seed ``seed + i``, draw for draw).
 """
@@ -25,6 +27,7 @@ from ios_uav_env.envs.knowledge import filter_report
 from ios_uav_env.envs.knowledge_kernels import EpisodeDraws, row_list
 from ios_uav_env.envs.multi_kernels import NodeRows, episode_best_values, move_norms
 from ios_uav_env.envs.multi_table import BEST, info_arrays, info_columns
+from ios_uav_env.envs.node_weights import NodeWeights, measure_node_rates
 from ios_uav_env.envs.nodes_kernels import (
     MODES,
     N_BASE,
@@ -88,6 +91,9 @@ class NodeBlockRows:
         self._draw_out: list[Any] = [None] * b
         # channel "expected": every slot's normals at the episode's start, in one call per row
         self._episode_draws = None if self._rician else EpisodeDraws(b, 1, 4 * k)
+        # channel "expected": each row's node kernels of the slot it flies to computed in the row
+        # before the step (node_weights; a row the compiled weights do not take: its track's, gathered)
+        self._weights = None if self._rician else NodeWeights(b, k, self._rows.params.shape[2])
 
     @property
     def kernel_rows(self) -> NodeRows:
@@ -109,13 +115,20 @@ class NodeBlockRows:
         protocol's names read on the env's stepper, ``UAVEnv.stepper``, whose calls the env forwards)."""
         row = env.stepper
         # the scenario, node paths, lambda_ref, the first slot's fading: as the single env's reset
-        row.load_row(self._rows, i)
+        weights = self._weights if self._mobile else None
+        if weights is not None and hasattr(row, "load_row_bare"):  # (each slot's kernels computed)
+            row.load_row_bare(self._rows, i, weights)
+        else:
+            if weights is not None:
+                weights.slots[i] = 0
+            row.load_row(self._rows, i)
         track = row.track if self._mobile else None
         if track is not None:
             k = self._k[i] = row.config.K
             self._track_paths[i], self._track_reports[i] = track.paths, track.reports
             self._track_measured[i], self._track_tally[i] = track.measured, track.tally
-            self._track_nodes[i], self._track_params[i] = track.nodes, track.params
+            if weights is None or weights.slots[i] == 0:  # (the track's kernels: built)
+                self._track_nodes[i], self._track_params[i] = track.nodes, track.params
             self._lo[i, :k], self._hi[i, :k] = track.lo, track.hi
             self._draw[i] = env.np_random.standard_normal
             self._draw_out[i] = self._slot_normals[i, : draws(self._kind, k)]
@@ -124,6 +137,9 @@ class NodeBlockRows:
 
     def start(self, rows: np.ndarray, obs: np.ndarray, info: np.ndarray) -> None:
         """Start the episodes of ``rows`` (loaded): their first observations and ``info`` rows."""
+        if self._mobile and self._weights is not None:  # the first slot's node kernels
+            rows = np.asarray(rows, dtype=np.int64)
+            self._weights.put(rows, self._rows.state, -1, self._rows.nodes, self._rows.params)
         self._rows.start(rows, obs, info)
         if self._mobile:
             self._observe_rows(rows, obs)
@@ -153,7 +169,12 @@ class NodeBlockRows:
         elif self._knowledge != 0:
             for i in rows.tolist():
                 draw[i](out=out[i])
-        if self._knowledge != 0:
+        if self._knowledge != 0 and self._weights is not None:
+            w = self._weights
+            measure_node_rates(rows, state, shares, counts, w.widths, w.slots, self._track_measured,
+                               self._track_nodes, self._track_params, self._rows.nodes, self._rows.params,
+                               normals, self._knowledge == 1, self._rate_high, self._told)  # fmt: skip
+        elif self._knowledge != 0:
             kernels = self._rows.nodes, self._rows.params
             measure_nodes(rows, state, shares, self._track_measured, self._track_nodes, self._track_params,
                           *kernels, normals, self._knowledge == 1, self._rate_high, self._told)  # fmt: skip
@@ -199,9 +220,13 @@ class NodeBlockRows:
             for i in stepping:
                 self.envs[i].stepper.prepare_slot(self._rows, i)
         elif self._mobile:  # each row's node kernels of the slot it flies to, in one call
-            rows = self._rows
-            gather_node_kernels(stepping, rows.state, self._track_nodes, self._track_params, rows.nodes,
-                                rows.params)  # fmt: skip
+            rows, weights = self._rows, self._weights
+            assert weights is not None
+            weights.put(stepping, rows.state, 1, rows.nodes, rows.params)  # (computed in the row)
+            kept = stepping[weights.slots[stepping] == 0]  # (the others: their tracks')
+            if kept.size:
+                gather_node_kernels(kept, rows.state, self._track_nodes, self._track_params, rows.nodes,
+                                    rows.params)  # fmt: skip
         self._rows.step(actions, active, outputs, move_norms(actions), self.num_threads)
         if self._mobile:
             self._observe_rows(stepping, obs)

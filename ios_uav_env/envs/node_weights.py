@@ -1,0 +1,349 @@
+"""Each moving row's node kernels of the slot it flies to, computed in the step's call: no track arrays.
+
+The batched multi-node env with moving or roughly known nodes (``node_rows.NodeBlockRows``) used
+to build, at every reset, each row's (K, N, 3, Q) kernels of every node and slot
+(``knowledge.start_nodes_track``: ``channel.path_kernels``) and to copy a slot's out of them
+before each step (``nodes_kernels.gather_node_kernels``): per episode a few hundred kB written
+and read back from scattered arrays. A moving node's kernel changes from slot to slot only in its
+surface weights (``nodes[2]``, ``surface.path_weights_into``: J ky B kz^T, B the beta of the ground
+point at the interpolation points) and G's scalars (``g_side``, ``gx``, ``gy``). So here a row's
+episode keeps per node and slot only the ground point's terms ((B, K_max, S, 5): gx, gy, dx2,
+dx2 ** 1.5 and the side, computed by numpy at reset exactly as ``path_kernels`` computes them),
+and :func:`put_node_weights` computes the weights of the slot each row flies to straight into the
+row's kernel (``NodeRows.nodes[i, k, 2]``), one point after another in the order of
+``weight_kernels``' sums (IEEE arithmetic, each sum from 0 in index order: the block form's and the
+point form's bits, tested equal to the old path's bit for bit).
+
+The row's track (:class:`BareNodesTrack`) holds the paths and the records but builds its kernels
+only when read (the energy objective's reference, a score that falls back to the track's
+kernels, a caller inspecting it): the same numbers as ``start_nodes_track``'s.
+
+A row the compiled weights do not take (no numba, a surface whose weights are not interpolated)
+keeps the old path (``slots[i] == 0``: its track's kernels, gathered per step).
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+from ios_uav_env.envs.knowledge import (
+    REPORT_CLIP,
+    NodesTrack,
+    _rectangles,
+    nodes_track_kernels,
+)
+from ios_uav_env.jit import HAVE_NUMBA, jit
+from ios_uav_env.model.channel import faded_row
+from ios_uav_env.model.config import ScenarioConfig
+from ios_uav_env.model.motion import node_paths
+from ios_uav_env.model.node_kernels import kernel_config
+from ios_uav_env.model.rate_kernels import PARAM_G_SIDE, PARAM_GX, PARAM_GY, _base_kernel
+from ios_uav_env.model.reports import SERVED_SHARE
+from ios_uav_env.model.surface import _Geometry, _projection
+from ios_uav_env.model.weight_kernels import WEIGHT_BLOCK, _block_product
+
+__all__ = ["BareNodesTrack", "NodeWeights", "measure_node_rates", "put_node_weights", "start_bare_track"]
+
+#: The columns of a ground point's terms in ``NodeWeights.points``.
+PT_GX, PT_GY, PT_DX2, PT_SCALE, PT_SIDE = range(5)
+
+
+class BareNodesTrack(NodesTrack):
+    """A ``knowledge.NodesTrack`` whose kernels (``nodes``, ``params``, ``held``) are built when first
+    read (``knowledge.nodes_track_kernels`` of its paths, padded to ``width``): the numbers
+    ``start_nodes_track`` builds at once."""
+
+    def __init__(self, paths: np.ndarray, lo: np.ndarray, hi: np.ndarray, config: ScenarioConfig,
+                 width: int) -> None:  # fmt: skip
+        self._kernels: tuple[np.ndarray, np.ndarray] | None = None
+        self._width = width
+        super().__init__(
+            paths, None, None, lo, hi, np.full((config.N, config.K, 2), np.nan),  # type: ignore[arg-type]
+            np.full((config.K, config.N), np.nan), np.zeros(config.K), config,
+        )  # fmt: skip
+
+    def _built(self) -> tuple[np.ndarray, np.ndarray]:
+        if self._kernels is None:
+            nodes, params, held = nodes_track_kernels(self.config, self.paths, self._width)
+            self._kernels, self.held = (nodes, params), held
+        return self._kernels
+
+    def _get_nodes(self) -> np.ndarray:
+        return self._built()[0]
+
+    def _get_params(self) -> np.ndarray:
+        return self._built()[1]
+
+    def _ignore(self, value: Any) -> None:  # (the dataclass's __init__ sets them: built when read)
+        if value is not None:
+            raise AttributeError("a BareNodesTrack builds its own kernels")
+
+    nodes = property(_get_nodes, _ignore)  # type: ignore[assignment]
+    params = property(_get_params, _ignore)  # type: ignore[assignment]
+
+
+def start_bare_track(
+    config: ScenarioConfig, rng: np.random.Generator, sigma: float, width: int
+) -> BareNodesTrack:
+    """``knowledge.start_nodes_track`` without building the kernels (the same draws from ``rng``:
+    the node paths)."""
+    paths = node_paths(config, rng)
+    lo, hi = _rectangles(config)
+    margin = REPORT_CLIP * sigma
+    return BareNodesTrack(paths, lo - margin, hi + margin, config, width)
+
+
+class NodeWeights:
+    """The rows' ground-point terms of every node and slot (``points`` (B, K_max, S, 5), module
+    docstring), each row's episode slot count (``slots``: 0, the row keeps its track's kernels),
+    node count, kernel width, projection (an index into the lists of the projections met), J
+    and the kernel scalars G's do not replace (``base`` (B, P))."""
+
+    def __init__(self, rows: int, max_nodes: int, params: int) -> None:
+        self.points = np.zeros((rows, max_nodes, 1, 5))
+        self.slots = np.zeros(rows, dtype=np.int64)
+        self.counts = np.zeros(rows, dtype=np.int64)
+        self.widths = np.zeros(rows, dtype=np.int64)
+        self.which = np.zeros(rows, dtype=np.int64)
+        self.factors = np.zeros(rows)
+        self.base = np.zeros((rows, params))
+        self._index: dict[Any, int] = {}  # a projection's geometry -> its entry in the lists
+        self.ky_t, self.kz_t = _typed_list(np.zeros((1, 1))), _typed_list(np.zeros((1, 1)))
+        self.gy, self.gz2 = _typed_list(np.zeros(1)), _typed_list(np.zeros(1))
+        self._held: dict[int, tuple[Any, Any]] = {}  # id(kernel config) -> (it, _geometry's tuple)
+        self._last: tuple[ScenarioConfig, Any] | None = None  # (the config asked last, its tuple)
+
+    def _geometry(self, config: ScenarioConfig) -> tuple[Any, ...] | None:
+        """(kernel config, projection index, Q, the kernels' node coordinates (2, Q), the kernel
+        scalars, J, the IOS centre's x) of ``config``'s node kernels, held per kernel config
+        (``node_kernels.kernel_config``: one per surface geometry and the other kernel fields);
+        None where the compiled weights do not apply (no numba, weights not interpolated)."""
+        if not HAVE_NUMBA:
+            return None
+        if self._last is not None and self._last[0] is config:
+            return self._last[1]
+        kc = kernel_config(config)
+        held = self._held.get(id(kc))
+        if held is None or held[0] is not kc:
+            projection = _projection(kc)
+            if projection.ky is None:
+                held = (kc, None)
+            else:
+                key = _Geometry(kc).key  # (the projection's cache key: one entry per surface geometry)
+                index = self._index.get(key)
+                if index is None:
+                    index = self._index[key] = len(self.gy)
+                    # (writeable C-ordered copies: the lists' type; the projection's may be read-only)
+                    self.ky_t.append(np.array(projection.ky_t, dtype=np.float64, order="C"))
+                    self.kz_t.append(np.array(projection.kz_t, dtype=np.float64, order="C"))
+                    self.gy.append(np.array(projection.gy, dtype=np.float64, order="C"))
+                    self.gz2.append(np.array(projection.gz2, dtype=np.float64, order="C"))
+                base = _base_kernel(kc)
+                coords = np.array(base.nodes[:2], dtype=np.float64, order="C")
+                params = np.array(base.params, dtype=np.float64)
+                held = (
+                    kc,
+                    (kc, index, int(projection.y.size), coords, params, kc.J, float(kc.ios_center[0])),
+                )
+            if len(self._held) >= 4096:  # (bounded: kernel_config's own cache is)
+                self._held.clear()
+            self._held[id(kc)] = held
+        self._last = (config, held[1])
+        return held[1]
+
+    def width(self, config: ScenarioConfig) -> int | None:
+        """Q, the surface nodes of ``config``'s node kernels (``node_kernels.kernel_width``'s), where
+        the compiled weights apply to it; None where they do not."""
+        geometry = self._geometry(config)
+        return None if geometry is None else geometry[2]
+
+    def load(self, i: int, config: ScenarioConfig, paths: np.ndarray, nodes: np.ndarray) -> bool:
+        """Row ``i``'s episode on ``config`` whose nodes walk ``paths`` ((N, K, 2) m): the ground
+        terms of every node and slot, and the kernels' node coordinates and padding in ``nodes[i]``
+        (the row's kernels, (K_max, 3, Q)). False (nothing kept, ``slots[i]`` 0) where the compiled
+        weights do not apply: then the caller builds the track's kernels."""
+        self.slots[i] = 0
+        geometry = self._geometry(config)
+        if geometry is None or geometry[2] > nodes.shape[3]:
+            return False
+        _, index, q, coords, params, factor, cx = geometry
+        k_nodes, n = config.K, config.N
+        if n > self.points.shape[2]:
+            grown = np.zeros((*self.points.shape[:2], n, 5))
+            grown[:, :, : self.points.shape[2]] = self.points
+            self.points = grown
+        # the ground terms as surface._ground_terms and path_kernels compute them (numpy, on the
+        # same (K N, 2) array of the nodes' points, node after node), then put in place compiled
+        grounds = paths.transpose(1, 0, 2).reshape(k_nodes * n, 2)
+        dx2 = (grounds[:, 0] - cx) ** 2
+        side = np.sign(grounds[:, 0] - cx)
+        _fill_row(self.points, i, k_nodes, n, grounds, dx2, dx2**1.5, side, nodes, coords)
+        self.base[i] = params
+        self.which[i], self.factors[i] = index, factor
+        self.counts[i], self.widths[i], self.slots[i] = k_nodes, q, n
+        return True
+
+    def put(
+        self, rows: np.ndarray, state: np.ndarray, ahead: int, nodes: np.ndarray, params: np.ndarray
+    ) -> None:
+        """:func:`put_node_weights` of these buffers."""
+        put_node_weights(rows, state, ahead, self.slots, self.counts, self.which, self.points, self.base,
+                         self.factors, self.ky_t, self.kz_t, self.gy, self.gz2, nodes, params)  # fmt: skip
+
+
+@jit(fastmath=False)
+def _fill_row(
+    points: np.ndarray, i: int, k_nodes: int, n: int, grounds: np.ndarray, dx2: np.ndarray, scale: np.ndarray,
+    side: np.ndarray, nodes: np.ndarray, coords: np.ndarray,
+) -> None:  # fmt: skip
+    """Row ``i``'s ground terms (``grounds`` (K n, 2) and the per-point ``dx2``, ``scale``, ``side``,
+    node after node) into ``points[i, :K, :n]``, and its kernels' node coordinates ``coords`` (2, Q)
+    and padding (0, 1, 0) beyond Q into ``nodes[i, :K]``."""
+    q = coords.shape[1]
+    for k in range(k_nodes):
+        for slot in range(n):
+            p, point = k * n + slot, points[i, k, slot]
+            point[PT_GX], point[PT_GY] = grounds[p, 0], grounds[p, 1]
+            point[PT_DX2], point[PT_SCALE], point[PT_SIDE] = dx2[p], scale[p], side[p]
+        kernel = nodes[i, k]
+        for x in range(q):
+            kernel[0, x], kernel[1, x] = coords[0, x], coords[1, x]
+        for x in range(q, kernel.shape[1]):
+            kernel[0, x], kernel[1, x], kernel[2, x] = 0.0, 1.0, 0.0
+
+
+def _typed_list(template: np.ndarray) -> Any:
+    """An empty numba typed list of ``template``'s array type (a plain list without numba)."""
+    if not HAVE_NUMBA:
+        return []
+    from numba.typed import List
+
+    out = List()
+    out.append(template)  # (types the list)
+    out.pop()
+    return out
+
+
+@jit(fastmath=False)
+def put_node_weights(
+    rows: np.ndarray, state: np.ndarray, ahead: int, slots: np.ndarray, counts: np.ndarray, which: np.ndarray,
+    points: np.ndarray, base: np.ndarray, factors: np.ndarray, ky_ts: Any, kz_ts: Any, gys: Any, gz2s: Any,
+    nodes: np.ndarray, params: np.ndarray, block: int = WEIGHT_BLOCK,
+) -> None:  # fmt: skip
+    """Each row's node kernels of slot ``state[i, 2] + ahead`` (1: the slot it flies to; -1:
+    the episode's first, slot 0) into ``nodes[i, k, 2, :ny nz]`` (the surface weights J ky B kz^T)
+    and ``params[i, k]``, for the rows with ``slots[i]`` > 0 whose slot is in their episode (the
+    others are left as they are). The points (row, node) are taken ``WEIGHT_BLOCK`` at a time (a
+    block: points of one projection), as ``weight_kernels.interpolated_weights_into`` takes a
+    path's: IEEE arithmetic, each point's sums on their own in index order (module docstring)."""
+    total = 0
+    for j in range(rows.size):
+        i = rows[j]
+        slot = 0 if ahead < 0 else int(state[i, 2]) + ahead
+        if slots[i] > 0 and slot < slots[i]:
+            total += counts[i]
+    at_row = np.empty(total, dtype=np.int64)
+    at_node = np.empty(total, dtype=np.int64)
+    at_slot = np.empty(total, dtype=np.int64)
+    t = 0
+    for j in range(rows.size):
+        i = rows[j]
+        slot = 0 if ahead < 0 else int(state[i, 2]) + ahead
+        if slots[i] > 0 and slot < slots[i]:
+            for k in range(counts[i]):
+                at_row[t], at_node[t], at_slot[t] = i, k, slot
+                t += 1
+    # the points grouped by projection (a block takes one), in row order within a projection (a
+    # counting sort: the projections met are few)
+    kinds = 0
+    for t in range(total):
+        kinds = max(kinds, which[at_row[t]] + 1)
+    first = np.zeros(kinds + 1, dtype=np.int64)
+    for t in range(total):
+        first[which[at_row[t]] + 1] += 1
+    for p in range(kinds):
+        first[p + 1] += first[p]
+    order = np.empty(total, dtype=np.int64)
+    for t in range(total):
+        p = which[at_row[t]]
+        order[first[p]] = t
+        first[p] += 1
+    at_row, at_node, at_slot = at_row[order], at_node[order], at_slot[order]
+    dx2 = np.empty(block)
+    scale = np.empty(block)
+    start = 0
+    while start < total:
+        p = which[at_row[start]]
+        m = 1
+        while m < block and start + m < total and which[at_row[start + m]] == p:
+            m += 1
+        ky_t, kz_t, gy, gz2 = ky_ts[p], kz_ts[p], gys[p], gz2s[p]
+        py, ny, pz, nz = ky_t.shape[0], ky_t.shape[1], kz_t.shape[0], kz_t.shape[1]
+        dy2_t = np.empty((py, block))
+        beta = np.empty((py, pz, block))
+        half = np.empty((pz, ny, block))
+        weights = np.empty((ny, nz, block))
+        for j in range(m):
+            point = points[at_row[start + j], at_node[start + j], at_slot[start + j]]
+            dx2[j], scale[j] = point[PT_DX2], point[PT_SCALE]
+            for c in range(py):
+                e = point[PT_GY] - gy[c]
+                dy2_t[c, j] = e * e
+        for c in range(py):
+            for d in range(pz):
+                z, beta_cd = gz2[d], beta[c, d]
+                for j in range(m):
+                    d2 = (dx2[j] + dy2_t[c, j]) + z
+                    beta_cd[j] = scale[j] / (d2 * d2)
+        _block_product(half, ky_t, beta, m)
+        _block_product(weights, kz_t, half, m)
+        for j in range(m):
+            i, k = at_row[start + j], at_node[start + j]
+            point = points[i, k, at_slot[start + j]]
+            factor, out = factors[i], nodes[i, k, 2]
+            for x in range(ny):
+                for y in range(nz):
+                    out[x * nz + y] = factor * weights[x, y, j]
+            params[i, k, :] = base[i]
+            params[i, k, PARAM_G_SIDE] = point[PT_SIDE]
+            params[i, k, PARAM_GX] = point[PT_GX]
+            params[i, k, PARAM_GY] = point[PT_GY]
+        start += m
+
+
+@jit
+def measure_node_rates(
+    rows: np.ndarray, state: np.ndarray, shares: np.ndarray, counts: np.ndarray, widths: np.ndarray,
+    slots: np.ndarray, measured: Any, track_nodes: Any, track_params: Any, row_nodes: np.ndarray,
+    row_params: np.ndarray, normals: np.ndarray, reported: bool, rate_high: float, told: np.ndarray,
+) -> None:  # fmt: skip
+    """``nodes_kernels.measure_nodes`` for rows of both kinds: a row with ``slots[i]`` > 0 (its
+    kernels computed in the row, :func:`put_node_weights`) measures on the row's kernels, of its
+    own width ``widths[i]`` (a C-ordered copy where the rows are wider: the numbers and the sum of
+    the track's kernel); the others as ``measure_nodes`` does (``counts[i]`` nodes)."""
+    for j in range(rows.size):
+        i = rows[j]
+        slot = int(state[i, 2])
+        record = measured[i]
+        k_nodes = counts[i]
+        first = 2 * k_nodes if reported else 0
+        fresh = slots[i] > 0
+        own = fresh and widths[i] == row_nodes.shape[3]
+        mine = row_nodes[i]
+        if fresh and not own:
+            mine = np.ascontiguousarray(row_nodes[i, :, :, : widths[i]])
+        elif not fresh:
+            own = track_nodes[i].shape[3] == row_nodes.shape[3]
+        for k in range(k_nodes):
+            told[i, k] = np.nan
+            if shares[i, k] > SERVED_SHARE:
+                n_re, n_im = normals[i, first + 2 * k], normals[i, first + 2 * k + 1]
+                if fresh or own:
+                    rate = faded_row(state[i, 0], state[i, 1], n_re, n_im, mine, row_params[i], k)
+                else:
+                    rate = faded_row(state[i, 0], state[i, 1], n_re, n_im, track_nodes[i][k],
+                                     track_params[i][k], slot)  # fmt: skip
+                record[k, slot] = rate
+                told[i, k] = rate_high if rate_high < rate else rate
