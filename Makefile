@@ -11,8 +11,10 @@ PY := $(VENV)/bin/python
 # torch is pinned here (not in pyproject, which keeps torch>=2.3) so that pip takes the
 # CPU build on this machine's local index instead of resolving a multi-GB CUDA build; the
 # constraints file keeps it so while pip installs the extras (torchrl, tianshou, rl-zoo3).
-# Every venv installs with --no-compile: pip would byte-compile all of torch, Ray and the RL
-# libraries (about a CPU minute); Python compiles what the tests import, once, when they do.
+# The side venvs install with --no-compile: pip would byte-compile all of torch and the RL
+# libraries there (about a CPU minute); Python compiles what their tests import, when they do. The
+# main venv is compiled at install: Ray's node starts its processes within a timeout, and on a
+# loaded machine compiling Ray's modules at that first start went past it.
 TORCH_SPEC ?= torch==2.13.0
 CONSTRAINTS ?= .ci/constraints.txt
 # The oldest releases the env supports (pyproject's floors; SB3 2.3.2 is the last to accept
@@ -51,8 +53,8 @@ $(VENV)/.installed: pyproject.toml Makefile $(CONSTRAINTS)
 	@command -v $(PYTHON) >/dev/null 2>&1 || { echo "need $(PYTHON) (set PYTHON=...)"; exit 1; }
 	test -x $(PY) || $(PYTHON) -m venv $(VENV)
 	$(PY) -m pip install -q --upgrade pip
-	$(PY) -m pip install -q --no-compile -c $(CONSTRAINTS) "$(TORCH_SPEC)"
-	$(PY) -m pip install -q --no-compile -c $(CONSTRAINTS) -e ".[all]"
+	$(PY) -m pip install -q -c $(CONSTRAINTS) "$(TORCH_SPEC)"
+	$(PY) -m pip install -q -c $(CONSTRAINTS) -e ".[all]"
 	touch $@
 
 $(OLDEST_VENV)/.installed: pyproject.toml Makefile $(CONSTRAINTS)
