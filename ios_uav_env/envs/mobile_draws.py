@@ -70,7 +70,7 @@ from ios_uav_env.jit import HAVE_NUMBA
 from ios_uav_env.model.config import ScenarioConfig
 from ios_uav_env.model.mobility import BOX_MARGIN, GaussMarkov
 from ios_uav_env.model.rate_kernels import rate_kernel
-from ios_uav_env.model.scenarios import ScenarioRanges
+from ios_uav_env.model.scenarios import ScenarioRanges, drawn_changes
 from ios_uav_env.model.surface import interpolation_terms
 
 __all__ = [
@@ -241,15 +241,12 @@ class DrawnEpisodes:
         """Row ``i``'s scenario as ``sample_scenario`` makes it (validated: a ``ValueError`` of the
         config for a draw it refuses)."""
         r = self.ranges
-        n, ground, ends = int(self.slots[i]), self.ground[i], self.ends[i]
-        return r.base.replace(
-            ground_node=(float(ground[0]), float(ground[1])),
-            T=n * r.base.dt,
-            ios_shape=r.shape(int(self.ios_rows[i])),
-            surface=r.surfaces[int(self.surface[i])],
-            q0=(float(ends[0]), float(ends[1])),
-            qF=(float(ends[2]), float(ends[3])),
-        )
+        g, e = self.ground[i].tolist(), self.ends[i].tolist()
+        changes = drawn_changes(
+            r, (g[0], g[1]), int(self.slots[i]), int(self.ios_rows[i]), r.surfaces[int(self.surface[i])],
+            (e[0], e[1]), (e[2], e[3]),
+        )  # fmt: skip
+        return r.base.replace(**changes)
 
     def track(self, i: int, cfg: ScenarioConfig) -> NodeTrack:
         """Row ``i``'s track on its scenario ``cfg`` (``knowledge.start_track``'s): views of the

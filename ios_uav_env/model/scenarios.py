@@ -242,13 +242,29 @@ def _draw(rng: np.random.Generator, r: ScenarioRanges) -> dict[str, Any]:
     rows = int(rng.integers(r.ios_rows[0], r.ios_rows[1], endpoint=True))
     surface = r.surfaces[int(rng.integers(len(r.surfaces)))]
     x0, y0, xf, yf = (float(rng.uniform(*pair)) for pair in (r.start_x, r.start_y, r.end_x, r.end_y))
+    return drawn_changes(r, _off_plane(ground, r.base, surface), slots, rows, surface, (x0, y0), (xf, yf))
+
+
+def drawn_changes(
+    r: ScenarioRanges,
+    ground: tuple[float, float],
+    slots: int,
+    rows: int,
+    surface: str,
+    q0: tuple[float, float],
+    qF: tuple[float, float],
+) -> dict[str, Any]:
+    """The changes of ``r.base`` that :func:`sample_scenario`'s draws make: G at ``ground`` (m,
+    already off the IOS plane), N = ``slots`` (T = N dt), ``rows`` rows of the IOS, ``surface``,
+    q0 and qF (m). A batched env that draws the numbers in compiled code builds its rows' configs
+    with it."""
     return {
-        "ground_node": _off_plane(ground, r.base, surface),
+        "ground_node": ground,
         "T": slots * r.base.dt,
         "ios_shape": r.shape(rows),
         "surface": surface,
-        "q0": (x0, y0),
-        "qF": (xf, yf),
+        "q0": q0,
+        "qF": qF,
     }
 
 
