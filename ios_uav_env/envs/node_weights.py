@@ -42,7 +42,7 @@ from ios_uav_env.model.node_kernels import kernel_config
 from ios_uav_env.model.rate_kernels import PARAM_G_SIDE, PARAM_GX, PARAM_GY, _base_kernel
 from ios_uav_env.model.reports import SERVED_SHARE
 from ios_uav_env.model.surface import _Geometry, _projection
-from ios_uav_env.model.weight_kernels import WEIGHT_BLOCK, _block_product
+from ios_uav_env.model.weight_kernels import WEIGHT_BLOCK, block_weights
 
 __all__ = ["BareNodesTrack", "NodeWeights", "measure_node_rates", "put_node_weights", "start_bare_track"]
 
@@ -291,14 +291,7 @@ def put_node_weights(
             for c in range(py):
                 e = point[PT_GY] - gy[c]
                 dy2_t[c, j] = e * e
-        for c in range(py):
-            for d in range(pz):
-                z, beta_cd = gz2[d], beta[c, d]
-                for j in range(m):
-                    d2 = (dx2[j] + dy2_t[c, j]) + z
-                    beta_cd[j] = scale[j] / (d2 * d2)
-        _block_product(half, ky_t, beta, m)
-        _block_product(weights, kz_t, half, m)
+        block_weights(weights, half, beta, scale, dx2, dy2_t, gz2, ky_t, kz_t, 0, m)
         for j in range(m):
             i, k = at_row[start + j], at_node[start + j]
             point = points[i, k, at_slot[start + j]]

@@ -11,7 +11,13 @@ import numpy as np
 
 from ios_uav_env.jit import jit
 
-__all__ = ["WEIGHT_BLOCK", "interpolated_weights", "interpolated_weights_into", "point_weights"]
+__all__ = [
+    "WEIGHT_BLOCK",
+    "block_weights",
+    "interpolated_weights",
+    "interpolated_weights_into",
+    "point_weights",
+]
 
 
 #: Points :func:`interpolated_weights` computes side by side (its innermost loops run over them).
@@ -51,18 +57,30 @@ def interpolated_weights_into(
     weights = np.empty((ny, nz, block))
     for start in range(0, points, block):
         m = min(block, points - start)
-        for c in range(py):
-            for d in range(pz):
-                z, beta_cd = z2[d], beta[c, d]
-                for j in range(m):
-                    d2 = (dx2[start + j] + dy2_t[c, start + j]) + z
-                    beta_cd[j] = scale[start + j] / (d2 * d2)
-        _block_product(half, ky_t, beta, m)
-        _block_product(weights, kz_t, half, m)
+        block_weights(weights, half, beta, scale, dx2, dy2_t, z2, ky_t, kz_t, start, m)
         for j in range(m):
             for x in range(ny):
                 for y in range(nz):
                     out[start + j, x * nz + y] = factor * weights[x, y, j]
+
+
+@jit(fastmath=False)
+def block_weights(
+    weights: np.ndarray, half: np.ndarray, beta: np.ndarray, scale: np.ndarray, dx2: np.ndarray,
+    dy2_t: np.ndarray, z2: np.ndarray, ky_t: np.ndarray, kz_t: np.ndarray, start: int, m: int,
+) -> None:  # fmt: skip
+    """The unscaled weights of the block of points ``start`` .. ``start + m - 1`` into
+    ``weights[:, :, :m]`` ((ny, nz, block)): B = ``scale`` / d^4 at the interpolation points
+    (d^2 = (dx^2 + dy^2) + z^2, ``dy2_t`` (py, points)) into ``beta`` ((py, pz, block)), then
+    (ky B)^T into ``half`` ((pz, ny, block)) and kz^T (ky B)^T (:func:`_block_product`), IEEE."""
+    for c in range(ky_t.shape[0]):
+        for d in range(kz_t.shape[0]):
+            z, beta_cd = z2[d], beta[c, d]
+            for j in range(m):
+                d2 = (dx2[start + j] + dy2_t[c, start + j]) + z
+                beta_cd[j] = scale[start + j] / (d2 * d2)
+    _block_product(half, ky_t, beta, m)
+    _block_product(weights, kz_t, half, m)
 
 
 @jit(fastmath=False)
