@@ -28,7 +28,7 @@ none does, the width t (10 % of the mean rate) is cut tenfold, twice, then set t
 rates' own gradients) before the block gives up.
 
 **Phases**: one pass of 1-D searches over each element's phase (a coarse grid of 16, then 8 halving
-steps about the best, as the SDMA max-min AO's ``miso_slot._maxmin_sweep``) of the exact objective at
+steps about the best, ``phase_sweep.sic_sweep``, as the SDMA max-min AO's) of the exact objective at
 the current beams, h_k w_j moving by (v_m' - v_m) c_km g_m^T w_j; an element moves only to a strictly
 better phase, and the pass is kept only if the objective recomputed from the new phases is higher.
 
@@ -52,6 +52,7 @@ from ios_uav_env.jit import jit
 from ios_uav_env.model.miso import SlotChannel, aligned_phases, check_objective, mrt_beams
 from ios_uav_env.model.miso_noma import _value, check_order, decoding_order
 from ios_uav_env.model.miso_slot import _cascade, alone_starts
+from ios_uav_env.model.phase_sweep import sic_sweep
 
 __all__ = ["NomaSolution", "improve_beams", "noma_alternate", "noma_optimum", "noma_starts"]
 
@@ -235,43 +236,6 @@ def _ascend(
     return psi, H, W, value
 
 
-@jit(fastmath=False)
-def _phase_sweep(
-    v: np.ndarray, B: np.ndarray, X: np.ndarray, order: np.ndarray, total: bool, n_grid: int, n_halvings: int
-) -> np.ndarray:
-    """One pass of 1-D searches over each element's phase of the exact SIC objective (the module
-    docstring); ``X`` = H W is kept current in place."""
-    M, K = B.shape[0], B.shape[1]
-    Y, out = np.empty_like(X), np.empty(K)
-    current = _value(X, order, total, out)
-    for m in range(M):
-        now = v[m]
-        base = np.angle(now)
-        best, best_angle = current, base
-        for c in range(1, n_grid + 2 * n_halvings):
-            if c < n_grid:
-                angle = base + 2.0 * np.pi * c / n_grid
-            else:
-                h = 2.0 * np.pi / n_grid * 0.5 ** ((c - n_grid) // 2 + 1)
-                angle = best_angle + (2 * (c % 2) - 1) * h
-            step = np.exp(1j * angle) - now
-            for k in range(K):
-                for j in range(K):
-                    Y[k, j] = X[k, j] + step * B[m, k, j]
-            value = _value(Y, order, total, out)
-            if value > best:
-                best, best_angle = value, angle
-        if best > current:
-            current = best
-            new = np.exp(1j * best_angle)
-            step = new - now
-            for k in range(K):
-                for j in range(K):
-                    X[k, j] += step * B[m, k, j]
-            v[m] = new
-    return v
-
-
 def noma_alternate(
     channel: SlotChannel,
     objective: str,
@@ -305,7 +269,7 @@ def noma_alternate(
         new_psi, new_H, new_W, new = _ascend(channel, H, psi, W, pi, objective, BEAM_STEPS)
         if new > value:
             psi, H, W, value = new_psi, new_H, new_W, new
-        v = _phase_sweep(np.exp(-1j * psi), _cascade(channel, W), H @ W, pi, total, N_GRID, N_HALVINGS)
+        v = sic_sweep(np.exp(-1j * psi), _cascade(channel, W), H @ W, pi, total, N_GRID, N_HALVINGS)
         new_psi = np.mod(-np.angle(v), 2 * np.pi)
         new_H = channel.matrix(new_psi)
         new = _objective(new_H, W, pi, total)

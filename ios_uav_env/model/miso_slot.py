@@ -54,6 +54,7 @@ from ios_uav_env.model.miso import (
     user_rates,
     zf_beams,
 )
+from ios_uav_env.model.phase_sweep import maxmin_sweep
 
 
 @dataclass(frozen=True, eq=False)
@@ -365,90 +366,8 @@ def _maxmin_phases(
     live = norms > 0
     directions = np.where(live, W / np.where(live, norms, 1.0), mrt_beams(H) * np.sqrt(H.shape[0]))
     powers = norms**2
-    v, powers = _maxmin_sweep(v.copy(), _cascade(channel, directions), H @ directions, powers, 16, 8, 4)
+    v, powers = maxmin_sweep(v.copy(), _cascade(channel, directions), H @ directions, powers, 16, 8, 4)
     return v, directions * np.sqrt(powers)
-
-
-@jit(fastmath=False)
-def _balanced(
-    r: np.ndarray,
-    B: np.ndarray,
-    m: int,
-    step: complex,
-    p: np.ndarray,
-    rounds: int,
-    g: np.ndarray,
-    q: np.ndarray,
-) -> float:
-    """Element m's factor moved by ``step`` (``r`` = H D unchanged, D the unit directions): writes
-    into ``q`` the powers after ``rounds`` normalised balancing rounds from ``p`` (sum 1),
-    q_k proportional to (sum_{j != k} g_kj q_j + 1) / g_kk, and returns their exact min SINR
-    (``g`` (K, K + 1) is work space: the gains |h_k d_j|^2 and a column)."""
-    K = r.shape[0]
-    for k in range(K):
-        q[k] = p[k]
-        for j in range(K):
-            g[k, j] = abs(r[k, j] + step * B[m, k, j]) ** 2
-    for _ in range(rounds):
-        size = 0.0
-        for k in range(K):  # a Jacobi round: the new values in g's last column first
-            total = 1.0
-            for j in range(K):
-                if j != k:
-                    total += g[k, j] * q[j]
-            g[k, K] = total / g[k, k] if g[k, k] > 0.0 else 0.0
-            size += g[k, K]
-        if not size > 0.0:
-            break
-        for k in range(K):
-            q[k] = g[k, K] / size
-    worst = np.inf
-    for k in range(K):
-        total = 1.0
-        for j in range(K):
-            if j != k:
-                total += g[k, j] * q[j]
-        worst = min(worst, g[k, k] * q[k] / total)
-    return worst
-
-
-@jit(fastmath=False)
-def _maxmin_sweep(
-    v: np.ndarray, B: np.ndarray, r: np.ndarray, p: np.ndarray, n_grid: int, n_halvings: int, rounds: int
-) -> tuple[np.ndarray, np.ndarray]:
-    """One pass of 1-D searches over each element's phase (a coarse grid, then halving steps about
-    the best) of the min SINR at the beams' directions, the powers ``p`` rebalanced for each
-    candidate; the state moves only to a strictly better one. ``r`` = H D is kept current."""
-    M, K = B.shape[0], B.shape[1]
-    g, q, best_p = np.empty((K, K + 1)), np.empty(K), p.copy()
-    current = _balanced(r, B, 0, 0j, p, 0, g, q)
-    for m in range(M):
-        now = v[m]
-        base = np.angle(now)
-        best, best_angle = current, base
-        best_p[:] = p
-        for c in range(n_grid + 2 * n_halvings):
-            if c < n_grid:  # the current phase (rebalanced) and the coarse grid
-                angle = base + 2.0 * np.pi * c / n_grid
-            else:  # halving steps about the best so far
-                h = 2.0 * np.pi / n_grid * 0.5 ** ((c - n_grid) // 2 + 1)
-                angle = best_angle + (2 * (c % 2) - 1) * h
-            step = 0j if c == 0 else np.exp(1j * angle) - now
-            value = _balanced(r, B, m, step, p, rounds, g, q)
-            if value > best:
-                best, best_angle = value, angle
-                best_p[:] = q
-        if best > current:
-            current = best
-            p[:] = best_p
-            if best_angle != base:
-                new = np.exp(1j * best_angle)
-                step = new - now
-                for k in range(K):
-                    for j in range(K):
-                        r[k, j] += step * B[m, k, j]
-                v[m] = new
-    return v, p
 
 
 __all__ = [
