@@ -139,7 +139,9 @@ class NodeBlockRows:
         """Start the episodes of ``rows`` (loaded): their first observations and ``info`` rows."""
         if self._mobile and self._weights is not None:  # the first slot's node kernels
             rows = np.asarray(rows, dtype=np.int64)
-            self._weights.put(rows, self._rows.state, -1, self._rows.nodes, self._rows.params)
+            self._weights.put(
+                rows, self._rows.state, -1, self._rows.nodes, self._rows.params, self.num_threads
+            )
         self._rows.start(rows, obs, info)
         if self._mobile:
             self._observe_rows(rows, obs)
@@ -222,7 +224,9 @@ class NodeBlockRows:
         elif self._mobile:  # each row's node kernels of the slot it flies to, in one call
             rows, weights = self._rows, self._weights
             assert weights is not None
-            weights.put(stepping, rows.state, 1, rows.nodes, rows.params)  # (computed in the row)
+            weights.put(
+                stepping, rows.state, 1, rows.nodes, rows.params, self.num_threads
+            )  # (computed in the row)
             kept = stepping[weights.slots[stepping] == 0]  # (the others: their tracks')
             if kept.size:
                 gather_node_kernels(kept, rows.state, self._track_nodes, self._track_params, rows.nodes,
