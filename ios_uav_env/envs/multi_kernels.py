@@ -88,6 +88,8 @@ class NodeRows:
         # not flown by fly(), which skips slots): the episode's best schedule needs no new rates
         self.rate_path, self.stored = np.zeros((b, 1, k)), np.zeros(b, dtype=np.bool_)
         self.loaded: list[ScenarioConfig | None] = [None] * b
+        # each row's (K, N): its scenario's, or those of a row drawn in compiled code (no config)
+        self.sizes = np.zeros((b, 2), dtype=np.int64)
         # the rows whose scenario was loaded without its static node kernels (load(kernels=False))
         self.bare = np.zeros(b, dtype=np.bool_)
         # the arrays of the scenario loaded last (_scenario_arrays): rows that load the same
@@ -132,6 +134,7 @@ class NodeRows:
             self.points[i, : cfg.K] = points
             self.episode[i] = episode
             self.loaded[i] = cfg
+        self.sizes[i, 0], self.sizes[i, 1] = cfg.K, cfg.N
         self.state[i, MST_X], self.state[i, MST_Y] = self.path[i, 0] = cfg.q0
 
     def _scenario_arrays(
@@ -205,8 +208,7 @@ class NodeRows:
     def best_values(self, rows: np.ndarray, num_threads: int | None = None) -> tuple[np.ndarray, np.ndarray]:
         """(values, certified): the best-schedule value of each of ``rows`` (ended episodes) on its
         scenario's static nodes, all rows in one compiled call (``maxmin_paths.path_values``)."""
-        sizes = np.array([(self.loaded[i].K, self.loaded[i].N) for i in rows], dtype=np.int64)
-        return path_values(rows, sizes, self.path, self.nodes, self.params, num_threads,
+        return path_values(rows, self.sizes[rows], self.path, self.nodes, self.params, num_threads,
                            self.rate_path, self.stored)  # fmt: skip
 
     def schedule(self, i: int, k: int) -> np.ndarray:

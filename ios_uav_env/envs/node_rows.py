@@ -21,12 +21,14 @@ from __future__ import annotations
 
 from typing import Any
 
+import gymnasium as gym
 import numpy as np
 
 from ios_uav_env.envs.knowledge import filter_report
 from ios_uav_env.envs.knowledge_kernels import EpisodeDraws, row_list
 from ios_uav_env.envs.multi_kernels import NodeRows, episode_best_values, move_norms
 from ios_uav_env.envs.multi_table import BEST, info_arrays, info_columns
+from ios_uav_env.envs.node_draws import DrawnNodeEpisodes, takes_drawn_nodes
 from ios_uav_env.envs.node_weights import NodeWeights, measure_node_rates
 from ios_uav_env.envs.nodes_kernels import (
     MODES,
@@ -94,6 +96,12 @@ class NodeBlockRows:
         # channel "expected": each row's node kernels of the slot it flies to computed in the row
         # before the step (node_weights; a row the compiled weights do not take: its track's, gathered)
         self._weights = None if self._rician else NodeWeights(b, k, self._rows.params.shape[2])
+        # rows whose envs draw from the ranges: drawn together in compiled calls (envs.node_draws);
+        # the rows whose track lists hold the batch's buffers (set once, then reused)
+        self._drawn = (
+            DrawnNodeEpisodes(template, b, self._rows, self._weights) if takes_drawn_nodes(template) else None
+        )
+        self._buffered = np.zeros(b, dtype=np.bool_)
 
     @property
     def kernel_rows(self) -> NodeRows:
@@ -125,6 +133,7 @@ class NodeBlockRows:
         track = row.track if self._mobile else None
         if track is not None:
             k = self._k[i] = row.config.K
+            self._buffered[i] = False
             self._track_paths[i], self._track_reports[i] = track.paths, track.reports
             self._track_measured[i], self._track_tally[i] = track.measured, track.tally
             if weights is None or weights.slots[i] == 0:  # (the track's kernels: built)
@@ -134,6 +143,47 @@ class NodeBlockRows:
             self._draw_out[i] = self._slot_normals[i, : draws(self._kind, k)]
             if self._episode_draws is not None and self._knowledge != 0:
                 self._episode_draws.draw(i, env.np_random, row.config.N, draws(self._kind, k))
+
+    def draw(self, rows: np.ndarray, seeds: list[int | None], options: list[Any]) -> np.ndarray:
+        """New episodes on ``rows`` (``BatchedEnv._reset_rows``, after ``end``) whose row envs draw
+        them from their ranges (no options): drawn for all of them at once
+        (``node_draws.DrawnNodeEpisodes``: the row's generator draws what its env's reset draws, the
+        rest is compiled), each row env deferring its episode to it (``defer_episode``). The mask of
+        ``rows`` left to reset through their row envs (all, for the other envs)."""
+        drawn = self._drawn
+        if drawn is None:
+            return np.ones(rows.size, dtype=np.bool_)
+        rest = np.array([o is not None for o in options], dtype=np.bool_)
+        if rest.all():
+            return rest
+        mine = rows[~rest].astype(np.int64)
+        envs, draws_, kind = self.envs, self._episode_draws, self._kind
+        observed = self._knowledge != 0 and draws_ is not None
+        for i, seed in zip(
+            mine.tolist(), [s for s, r in zip(seeds, rest.tolist(), strict=True) if not r], strict=True
+        ):
+            env = envs[i]
+            if seed is not None:
+                gym.Env.reset(env, seed=seed)  # (the seeding of begin_episode)
+            rng = env.np_random
+            env.stepper.defer_episode(drawn, i)  # (before the draw rewrites the buffers a read track views)
+            n, k = drawn.draw(i, rng)
+            if observed:
+                draws_.draw(i, rng, n, draws(kind, k))
+        unfit = drawn.make(mine, self._lo, self._hi)
+        self._k[mine] = drawn.counts[mine]
+        for i in unfit.tolist():  # (a surface the compiled weights do not take: the track's kernels)
+            row = envs[i].stepper
+            self._rows.load(i, row.config, kernels=False)
+            row._put(self._rows, i, 0)
+            self._track_nodes[i], self._track_params[i] = row.track.nodes, row.track.params
+        paths, reports, measured, tally = drawn.paths, drawn.reports, drawn.measured, drawn.tally
+        for i in mine.tolist():
+            if not self._buffered[i]:
+                self._track_paths[i], self._track_reports[i] = paths[i], reports[i]
+                self._track_measured[i], self._track_tally[i] = measured[i], tally[i]
+                self._buffered[i] = True
+        return rest
 
     def start(self, rows: np.ndarray, obs: np.ndarray, info: np.ndarray) -> None:
         """Start the episodes of ``rows`` (loaded): their first observations and ``info`` rows."""
@@ -182,7 +232,7 @@ class NodeBlockRows:
                           *kernels, normals, self._knowledge == 1, self._rate_high, self._told)  # fmt: skip
         tell_nodes(rows, state, shares, self._track_paths, self._track_reports, self._track_tally, self._lo,
                    self._hi, normals, self._knowledge, self._sigma, self._scale, not self._estimate,
-                   self._width, self._told, obs, self._raw)  # fmt: skip
+                   self._width, self._told, obs, self._raw, self._rows.sizes)  # fmt: skip
         if self._estimate:
             for i in rows.tolist():
                 k = int(counts[i])

@@ -105,19 +105,20 @@ def measure_nodes(
 def tell_nodes(
     rows: np.ndarray, state: np.ndarray, shares: np.ndarray, paths: Any, reports: Any, tally: Any,
     lo: np.ndarray, hi: np.ndarray, normals: np.ndarray, mode: int, sigma: float, scale: float,
-    positions: bool, width: int, told: np.ndarray, obs: np.ndarray, raw: np.ndarray,
+    positions: bool, width: int, told: np.ndarray, obs: np.ndarray, raw: np.ndarray, sizes: np.ndarray,
 ) -> None:  # fmt: skip
     """The node features of each row's observation ``obs[i]``, in IEEE arithmetic: each node
     block's position (12 + ``width`` k + 1, + 2: the truth, the clipped report of the normals
     ``normals[i, 2k : 2k + 2]`` (recorded in ``reports[i]``, the raw one in ``raw[i, k]``) or 0
     for ``"rates"``; not written when ``positions`` is False: the filter's, written after) and,
     unless knowledge is exact (``mode``: ``MODES``), the served tally (+ share x told rate, over
-    N) and the rate feature (the told rate ``told[i, k]`` of :func:`measure_nodes`, 0: not served)."""
+    N) and the rate feature (the told rate ``told[i, k]`` of :func:`measure_nodes`, 0: not served).
+    ``sizes[i]``: the row's (K, N) (its track's arrays may be the batch's, longer)."""
     for j in range(rows.size):
         i = rows[j]
         slot = int(state[i, 2])
         path, record, served = paths[i], reports[i], tally[i]
-        n_slots, k_nodes = path.shape[0], path.shape[1]
+        k_nodes, n_slots = sizes[i, 0], sizes[i, 1]
         for k in range(k_nodes):
             at = N_BASE + width * k
             px, py = path[slot, k, 0], path[slot, k, 1]

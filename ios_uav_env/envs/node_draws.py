@@ -1,0 +1,272 @@
+"""The drawn episodes of the batched moving multi-node env, made for all resetting rows at once.
+
+``ios_uav_env/IOSUAV-MultiNode-Mobile-v0`` draws a scenario of K nodes
+(``scenarios.sample_multinode``) and the nodes' paths (``motion.node_paths``) at every reset. Its
+batched env (``node_rows.NodeBlockRows``) used to make both per row through the row env
+(``begin_episode``, ``load_row_bare``): a validated ``ScenarioConfig``, the paths, the track, the
+ground terms of ``node_weights.NodeWeights.load``, the row's scenario arrays, all Python per row.
+:class:`DrawnNodeEpisodes` makes the same episode for every resetting row at once, as
+``mobile_draws.DrawnEpisodes`` does for one node:
+
+1. per row, the row's generator draws the numbers the single env's reset draws, in its order and
+   with the same calls' streams (``uniform(lo, hi)`` is ``lo + (hi - lo) * random()``, bit for bit;
+   the integers with the very calls of ``sample_multinode`` and ``scenarios._draw``; the nodes'
+   headings, then their velocities' and the slots' normals in one ``standard_normal`` call: the
+   stream of ``node_paths``' calls), then the episode's observation normals
+   (``knowledge_kernels.EpisodeDraws``, by the batched env);
+2. one compiled call (``node_draw_kernels.draw_node_episodes``) turns them into the scenario's
+   drawn fields (the nodes moved off the IOS plane's strip as ``scenarios._off_plane`` does),
+   checks what the config's validation checks of them (every node in its motion rectangle, off
+   the IOS plane, T long enough: a row that fails is built as a ``ScenarioConfig``, whose
+   validation raises its own error), walks the paths (``motion._walk``'s arithmetic), writes the
+   track's records (the batch's buffers), the ground terms of every node and slot (their power
+   1.5 then by numpy, as ``NodeWeights.load`` takes it: numpy's power is not libm's), the rows'
+   node points, the episode row's drawn columns and the UAV's start;
+3. one compiled call (``node_draw_kernels.start_node_rows``) puts each row's kernel geometry (one
+   per surface kind and IOS rows, from the row's config at its first row: ``NodeWeights``'
+   projection, J and kernel scalars, the kernels' node coordinates, the episode row's other
+   columns) in the rows; each slot's node kernels are then ``node_weights.put_node_weights``'.
+
+Everything is IEEE arithmetic in the order of the Python code it replaces: the same episode bit
+for bit (tested against the single env). No ``ScenarioConfig`` is made per reset: a row's config
+and track are built when someone asks for them (:meth:`DrawnNodeEpisodes.config`; the row env
+defers its episode to it, ``multi_mobile.MobileNodes.defer_episode``).
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+import numpy as np
+
+from ios_uav_env.envs.knowledge import REPORT_CLIP
+from ios_uav_env.envs.mobile_draw_kernels import (
+    C_BOX,
+    C_BOX_MARGIN,
+    C_CX,
+    C_CY,
+    C_D,
+    C_DT,
+    C_GAIN,
+    C_GAP,
+    C_HAS_BOX,
+    C_MARGIN,
+    C_MEMORY,
+    C_SIGMA,
+    C_SPEED,
+    C_T_SCALE,
+    N_CONSTANTS,
+)
+from ios_uav_env.envs.multi_table import episode_row
+from ios_uav_env.envs.node_draw_kernels import U_ENDS, U_G, draw_node_episodes, start_node_rows
+from ios_uav_env.envs.node_weights import PT_DX2, PT_SCALE, BareNodesTrack
+from ios_uav_env.envs.observation import T_SCALE
+from ios_uav_env.jit import HAVE_NUMBA
+from ios_uav_env.model.config import ScenarioConfig
+from ios_uav_env.model.mobility import BOX_MARGIN, GaussMarkov
+from ios_uav_env.model.scenarios import ScenarioRanges, drawn_changes, multinode_changes
+
+__all__ = ["DrawnNodeEpisodes", "takes_drawn_nodes"]
+
+
+def takes_drawn_nodes(template: Any) -> bool:
+    """Whether the batched rows of ``template`` (a ``UAVEnv`` of the node-block view) can make their
+    episodes with :class:`DrawnNodeEpisodes`: moving nodes of a Gauss-Markov motion drawn at every
+    reset (``random_nodes``), the rate objective without an energy budget, the expected channel, no
+    filter and no peak hint, compiled (numba)."""
+    row = template.stepper
+    if not (HAVE_NUMBA and row.mobile and row.random_nodes):
+        return False
+    options, ranges = row.options, row.ranges
+    return (
+        isinstance(ranges, ScenarioRanges)
+        and isinstance(ranges.base.motion, GaussMarkov)
+        and ranges.base.energy_budget_j is None
+        and not row.energy_objective
+        and options.channel == "expected"
+        and not options.filter_estimate
+        and not options.peak_hint
+    )
+
+
+class DrawnNodeEpisodes:
+    """The drawn episodes of ``rows`` rows (module docstring): their draws, scenario fields and the
+    nodes' tracks (``paths`` and ``reports`` (B, S, K_max, 2), ``measured`` (B, K_max, S),
+    ``tally`` (B, K_max): the batch's records, ``S`` the most slots), for ``template``'s ranges and
+    options; ``kernel_rows`` and ``weights``: the batch's ``NodeRows`` and ``NodeWeights``."""
+
+    def __init__(self, template: Any, rows: int, kernel_rows: Any, weights: Any) -> None:
+        row = template.stepper
+        self.ranges: ScenarioRanges = row.ranges
+        self.node_range: tuple[int, int] = row.random_nodes
+        self.kernel_rows, self.weights = kernel_rows, weights
+        base, motion = self.ranges.base, self.ranges.base.motion
+        k, slots = row.max_nodes, self.ranges.slot_range[1]
+        self.slots = np.zeros(rows, dtype=np.int64)
+        self.counts = np.zeros(rows, dtype=np.int64)
+        self.ios_rows = np.zeros(rows, dtype=np.int64)
+        self.surface = np.zeros(rows, dtype=np.int64)
+        self.uniform = np.zeros((rows, 2 * k + 6))  # (node_draw_kernels.U_*)
+        self.theta = np.zeros((rows, k))
+        self.headings = np.zeros((rows, k, 2))
+        self.normals = np.zeros((rows, 2 * k * slots))
+        self.ends = np.zeros((rows, 4))  # q0's x, y, qF's x, y
+        self.bad = np.zeros(rows, dtype=np.int64)
+        self.width = np.zeros(rows, dtype=np.int64)  # the rows' kernel width at the draw (the track's)
+        self.paths = np.zeros((rows, slots, k, 2))
+        self.reports = np.full((rows, slots, k, 2), np.nan)
+        self.measured = np.full((rows, k, slots), np.nan)
+        self.tally = np.zeros((rows, k))
+        if weights.points.shape[2] < slots:  # (every slot's ground terms, NodeWeights.load's)
+            weights.points = np.zeros((rows, k, slots, weights.points.shape[3]))
+        r = self.ranges
+        self.intervals = np.array(
+            [r.ground_x, r.ground_y, r.start_x, r.start_y, r.end_x, r.end_y], dtype=np.float64
+        )
+        self.cuts = np.array([s != "none" for s in r.surfaces], dtype=np.bool_)
+        box = motion.box
+        self.constants = np.zeros(N_CONSTANTS)  # (the C_* indices the kernel reads)
+        c = self.constants
+        c[C_CX], c[C_CY], c[C_GAP] = float(base.ios_center[0]), float(base.ios_center[1]), motion.plane_margin
+        c[C_HAS_BOX] = float(box is not None)
+        if box is not None:
+            c[C_BOX : C_BOX + 4] = np.ravel(box)
+        c[C_SPEED], c[C_SIGMA], c[C_MEMORY] = motion.speed, motion.sigma, motion.memory
+        c[C_GAIN] = math.sqrt(1.0 - motion.memory * motion.memory) * motion.sigma  # (node_paths' gain)
+        c[C_DT], c[C_D], c[C_MARGIN] = base.dt, base.D, REPORT_CLIP * float(row.options.report_sigma)
+        c[C_T_SCALE], c[C_BOX_MARGIN] = T_SCALE, BOX_MARGIN
+        self.heading: float | None = motion.heading
+        self.geometries: dict[tuple[int, int], int] = {}  # (surface, IOS rows) -> index or -1
+        self.table: list[tuple[Any, ...]] = []  # each geometry's entries (geometry), in index order
+        self.tables: tuple[np.ndarray, ...] = ()  # the same as start_node_rows takes them (_stack)
+        self.clip: tuple[np.ndarray, np.ndarray] = (np.zeros((rows, k, 2)), np.zeros((rows, k, 2)))
+
+    # --- per row: the draws --------------------------------------------------------------
+    def draw(self, i: int, rng: np.random.Generator) -> tuple[int, int]:
+        """Row ``i``'s scenario and paths draws from ``rng`` (module docstring, step 1); its (N, K)."""
+        r, u = self.ranges, self.uniform[i]
+        k = int(rng.integers(self.node_range[0], self.node_range[1], endpoint=True))
+        if k > self.theta.shape[1]:
+            raise RuntimeError(f"a drawn episode of K = {k} nodes exceeds the rows' {self.theta.shape[1]}")
+        width = self.theta.shape[1]
+        rng.random(out=u[0 : 2 * k])  # the nodes (x, y uniform(lo, hi) calls, node after node)
+        rng.random(out=u[2 * width + U_G : 2 * width + U_G + 2])  # (the scenario's own G: replaced)
+        n = int(rng.integers(*r.slot_range, endpoint=True))
+        self.ios_rows[i] = int(rng.integers(r.ios_rows[0], r.ios_rows[1], endpoint=True))
+        self.surface[i] = int(rng.integers(len(r.surfaces)))
+        rng.random(out=u[2 * width + U_ENDS : 2 * width + U_ENDS + 4])  # q0, qF
+        if self.heading is None:
+            rng.random(out=self.theta[i, :k])  # (node_paths' uniform(0, 2 pi, K))
+        if 2 * k * n > self.normals.shape[1]:
+            raise RuntimeError(f"a drawn episode of N = {n} slots exceeds the space's")
+        rng.standard_normal(out=self.normals[i, : 2 * k * n])  # v[0], then the slots' (node_paths)
+        self.slots[i], self.counts[i] = n, k
+        return n, k
+
+    # --- per batch: the compiled episode ---------------------------------------------------
+    def make(self, rows: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
+        """Steps 2 and 3 for ``rows`` (int64; drawn): their fields, checks, tracks, ground terms,
+        the rows' scenario arrays, ``lo`` / ``hi`` (B, K_max, 2) their report clips. A row the
+        checks flag is built as its ``ScenarioConfig`` (which raises the validation's error); one
+        that passes it after all goes on. Rows whose geometry the compiled weights do not take are
+        left with ``weights.slots`` 0 (their envs' tracks put their kernels: the returned rows)."""
+        kr, w = self.kernel_rows, self.weights
+        self.clip = (lo, hi)
+        k_max = self.theta.shape[1]
+        theta = self.theta[rows] * (2.0 * math.pi) + 0.0  # uniform(0, 2 pi): 0 + 2 pi u
+        if self.heading is not None:
+            theta = np.full((rows.size, k_max), self.heading)
+        self.headings[rows, :, 0], self.headings[rows, :, 1] = np.cos(theta), np.sin(theta)  # (numpy's)
+        longest = int(self.slots[rows].max())
+        if longest > kr.path.shape[1]:
+            for name in ("path", "share_path", "rate_path"):
+                kr._grow(name, 1, longest)
+        draw_node_episodes(rows, self.uniform, self.counts, self.slots, self.surface, self.normals,
+                           self.headings, self.intervals, self.cuts, self.constants, self.ends, self.paths,
+                           self.reports, self.measured, self.tally, lo, hi, self.bad, w.points, kr.points,
+                           kr.sizes, kr.state, kr.path, kr.episode)  # fmt: skip
+        for i in np.flatnonzero(self.bad[rows]).tolist():
+            self.config(int(rows[i]))  # (raises the config's own error)
+        terms = w.points[rows]
+        terms[:, :, :, PT_SCALE] = terms[:, :, :, PT_DX2] ** 1.5  # (numpy's power, as NodeWeights.load)
+        w.points[rows] = terms
+        geometry = self.geometries_of(rows)
+        for i in rows.tolist():
+            kr.loaded[i], kr.bare[i] = None, True
+        fits = geometry >= 0
+        w.slots[rows[~fits]] = 0
+        if fits.any():
+            q = int(self.tables[1][geometry[fits]].max())
+            if q > kr.nodes.shape[3]:
+                kr._grow("nodes", 3, q, fill=(0.0, 1.0, 0.0))  # padded nodes: zero weight
+            start_node_rows(rows[fits], geometry[fits], self.counts, self.slots, *self.tables, w.slots,
+                            w.counts, w.which, w.widths, w.factors, w.base, kr.nodes, kr.episode)  # fmt: skip
+        self.width[rows] = kr.nodes.shape[3]
+        return rows[~fits]
+
+    def geometries_of(self, rows: np.ndarray) -> np.ndarray:
+        """Each of ``rows``' kernel geometry (its index in the tables, :meth:`geometry`; -1: none)."""
+        codes = self.surface[rows] * (1 << 32) + self.ios_rows[rows]
+        keys, first, inverse = np.unique(codes, return_index=True, return_inverse=True)
+        ids = np.array([self.geometry(int(rows[j])) for j in first.tolist()], dtype=np.int64)
+        return ids[np.ravel(inverse)] if keys.size else ids
+
+    def geometry(self, i: int) -> int:
+        """The index of row ``i``'s kernel geometry in the tables (``NodeWeights``' projection, Q,
+        node coordinates, kernel scalars and J, the episode row of ``multi_table.episode_row``),
+        added from the row's config at its first row; -1 where the compiled weights do not apply
+        (``NodeWeights.width`` None)."""
+        key = (int(self.surface[i]), int(self.ios_rows[i]))
+        found = self.geometries.get(key)
+        if found is not None:
+            return found
+        cfg = self.config(i)
+        held = self.weights._geometry(cfg)
+        if held is None:
+            self.geometries[key] = -1
+            return -1
+        _, projection, q, coords, params, factor, _ = held
+        length_scale, sharpness, softmin_beta, _, clip = self.kernel_rows.settings
+        row = episode_row(cfg, length_scale, sharpness, softmin_beta, False, 0.0, clip)
+        self.table.append((projection, q, factor, coords, params, row))
+        self.geometries[key] = len(self.table) - 1
+        self.tables = _stack(self.table)
+        return self.geometries[key]
+
+    def config(self, i: int) -> ScenarioConfig:
+        """Row ``i``'s scenario as ``sample_multinode`` makes it (validated: a ``ValueError`` of the
+        config for a draw it refuses)."""
+        r, k, e = self.ranges, int(self.counts[i]), self.ends[i].tolist()
+        nodes = tuple((float(x), float(y)) for x, y in self.paths[i, 0, :k].tolist())
+        changes = drawn_changes(
+            r, nodes[0], int(self.slots[i]), int(self.ios_rows[i]), r.surfaces[int(self.surface[i])],
+            (e[0], e[1]), (e[2], e[3]),
+        )  # fmt: skip
+        return r.base.replace(**multinode_changes(changes, nodes))
+
+    def track(self, i: int, cfg: ScenarioConfig) -> BareNodesTrack:
+        """Row ``i``'s track on its scenario ``cfg`` (``node_weights.start_bare_track``'s): views of
+        the batch's paths and records (the batched env records the slots in them), its report clip
+        (a copy of the rows'), kernels built when read."""
+        n, k = int(self.slots[i]), int(self.counts[i])
+        lo, hi = self.clip
+        track = BareNodesTrack(self.paths[i, :n, :k], lo[i, :k].copy(), hi[i, :k].copy(), cfg,
+                               int(self.width[i]))  # fmt: skip
+        track.reports, track.measured = self.reports[i, :n, :k], self.measured[i, :k, :n]
+        track.tally = self.tally[i, :k]
+        return track
+
+
+def _stack(table: list[tuple[Any, ...]]) -> tuple[np.ndarray, ...]:
+    """The geometries of ``table`` as the padded arrays ``start_node_rows`` takes: projection (G,),
+    Q (G,), J (G,), node coordinates (G, 2, Q_max), kernel scalars (G, P), episode rows (G, E)."""
+    g = len(table)
+    q_max = max(entry[1] for entry in table)
+    which, widths = np.zeros(g, dtype=np.int64), np.zeros(g, dtype=np.int64)
+    factors, coords = np.zeros(g), np.zeros((g, 2, q_max))
+    params, rows = np.zeros((g, table[0][4].size)), np.zeros((g, table[0][5].size))
+    for j, (projection, q, factor, xy, scalars, row) in enumerate(table):
+        which[j], widths[j], factors[j] = projection, q, factor
+        coords[j, :, :q], params[j], rows[j] = xy, scalars, row
+    return which, widths, factors, coords, params, rows
