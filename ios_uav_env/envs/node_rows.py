@@ -26,6 +26,7 @@ import numpy as np
 
 from ios_uav_env.envs.knowledge import filter_report
 from ios_uav_env.envs.knowledge_kernels import EpisodeDraws, row_list
+from ios_uav_env.envs.mobile_draw_kernels import take_slot_normals
 from ios_uav_env.envs.multi_kernels import NodeRows, episode_best_values, move_norms
 from ios_uav_env.envs.multi_table import BEST, info_arrays, info_columns
 from ios_uav_env.envs.node_draws import DrawnNodeEpisodes, takes_drawn_nodes
@@ -67,6 +68,7 @@ class NodeBlockRows:
         # and the records), drawn by its template env at reset, and what its UAV is told per slot,
         # for all rows in one compiled call (ios_uav_env.envs.nodes_kernels)
         self._mobile = template.mobile
+        self._drawn: DrawnNodeEpisodes | None = None  # (a randomised moving env's: _init_tracks)
         if self._mobile:
             self._init_tracks(template)
 
@@ -217,7 +219,8 @@ class NodeBlockRows:
         normals, envs, counts, draw, out = self._slot_normals, self.envs, self._k, self._draw, self._draw_out
         state, shares = self._rows.state, self._rows.shares
         if self._knowledge != 0 and self._episode_draws is not None:
-            self._episode_draws.take(rows, state[rows, 2].astype(np.int64), normals)
+            draws_ = self._episode_draws  # (EpisodeDraws.take's gather, compiled)
+            take_slot_normals(rows, state, draws_.normals, draws_.taken, normals)
         elif self._knowledge != 0:
             for i in rows.tolist():
                 draw[i](out=out[i])
