@@ -179,7 +179,7 @@ class DrawnNodeEpisodes:
             theta = np.full((rows.size, k_max), self.heading)
         self.headings[rows, :, 0], self.headings[rows, :, 1] = np.cos(theta), np.sin(theta)  # (numpy's)
         longest = int(self.slots[rows].max())
-        if longest > kr.path.shape[1]:
+        if longest > kr.path.shape[1]:  # (the rows' arrays as long as the longest episode)
             for name in ("path", "share_path", "rate_path"):
                 kr._grow(name, 1, longest)
         draw_node_episodes(rows, self.uniform, self.counts, self.slots, self.surface, self.normals,
@@ -188,9 +188,9 @@ class DrawnNodeEpisodes:
                            kr.sizes, kr.state, kr.path, kr.episode)  # fmt: skip
         for i in np.flatnonzero(self.bad[rows]).tolist():
             self.config(int(rows[i]))  # (raises the config's own error)
-        terms = w.points[rows]
-        terms[:, :, :, PT_SCALE] = terms[:, :, :, PT_DX2] ** 1.5  # (numpy's power, as NodeWeights.load)
-        w.points[rows] = terms
+        k, n = int(self.counts[rows].max()), int(self.slots[rows].max())
+        # the ground terms' power 1.5: numpy's, as NodeWeights.load takes it (not libm's, numba's)
+        w.points[rows, :k, :n, PT_SCALE] = w.points[rows, :k, :n, PT_DX2] ** 1.5
         geometry = self.geometries_of(rows)
         for i in rows.tolist():
             kr.loaded[i], kr.bare[i] = None, True

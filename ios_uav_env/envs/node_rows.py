@@ -94,7 +94,9 @@ class NodeBlockRows:
         self._draw: list[Any] = [None] * b
         self._draw_out: list[Any] = [None] * b
         # channel "expected": every slot's normals at the episode's start, in one call per row
-        self._episode_draws = None if self._rician else EpisodeDraws(b, 1, 4 * k)
+        # (drawn rows: as long as the longest episode at once, not grown row after row at a first reset)
+        slots = template.stepper.ranges.slot_range[1] if takes_drawn_nodes(template) else 1
+        self._episode_draws = None if self._rician else EpisodeDraws(b, slots, 4 * k)
         # channel "expected": each row's node kernels of the slot it flies to computed in the row
         # before the step (node_weights; a row the compiled weights do not take: its track's, gathered)
         self._weights = None if self._rician else NodeWeights(b, k, self._rows.params.shape[2])
