@@ -38,8 +38,10 @@ from ios_uav_env.envs.nodes_kernels import (
     gather_node_kernels,
     measure_nodes,
     tell_nodes,
+    tell_nodes_batched,
 )
 from ios_uav_env.envs.single_rows import Outputs
+from ios_uav_env.jit import run_batched
 
 __all__ = ["NodeBlockRows"]
 
@@ -235,9 +237,10 @@ class NodeBlockRows:
             kernels = self._rows.nodes, self._rows.params
             measure_nodes(rows, state, shares, self._track_measured, self._track_nodes, self._track_params,
                           *kernels, normals, self._knowledge == 1, self._rate_high, self._told)  # fmt: skip
-        tell_nodes(rows, state, shares, self._track_paths, self._track_reports, self._track_tally, self._lo,
-                   self._hi, normals, self._knowledge, self._sigma, self._scale, not self._estimate,
-                   self._width, self._told, obs, self._raw, self._rows.sizes)  # fmt: skip
+        run_batched(tell_nodes_batched, tell_nodes, self.num_threads, rows, state, shares, self._track_paths,
+                    self._track_reports, self._track_tally, self._lo, self._hi, normals, self._knowledge,
+                    self._sigma, self._scale, not self._estimate, self._width, self._told, obs, self._raw,
+                    self._rows.sizes)  # fmt: skip
         if self._estimate:
             for i in rows.tolist():
                 k = int(counts[i])
