@@ -10,10 +10,28 @@ the deferring class (:func:`deferring`): every other env reads plain attributes.
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from functools import cache
 from typing import Any
 
-__all__ = ["defer", "deferring"]
+import gymnasium as gym
+import numpy as np
+
+__all__ = ["defer", "deferring", "drawn_rows"]
+
+
+def drawn_rows(
+    envs: Sequence[Any], rows: np.ndarray, seeds: Sequence[int | None], options: Sequence[Any]
+) -> tuple[np.ndarray, np.ndarray]:
+    """(rest, mine) of a batch's reset of ``rows``: the mask of the rows whose envs reset
+    themselves (a row with options: e.g. its pinned scenario) and the others (int64), whose envs
+    are seeded with their ``seeds`` (``gym.Env.reset``: the seeding of ``begin_episode``; None:
+    none) for the batch to draw their episodes from their generators."""
+    rest = np.array([o is not None for o in options], dtype=np.bool_)
+    for i, seed, own in zip(rows.tolist(), seeds, rest.tolist(), strict=True):
+        if not own and seed is not None:
+            gym.Env.reset(envs[i], seed=seed)
+    return rest, rows[~rest].astype(np.int64)
 
 
 def defer(stepper: Any, source: Any, i: int, names: tuple[str, ...], views: tuple[str, ...]) -> None:

@@ -7,8 +7,6 @@ indices (the single-node draw's constants: the same motion and scenario fields).
 
 from __future__ import annotations
 
-import math
-
 import numpy as np
 
 from ios_uav_env.envs.mobile_draw_kernels import (
@@ -26,6 +24,8 @@ from ios_uav_env.envs.mobile_draw_kernels import (
     C_SIGMA,
     C_SPEED,
     C_T_SCALE,
+    horizon_flagged,
+    node_rectangle,
 )
 from ios_uav_env.envs.multi_table import (
     MEP_HORIZON,
@@ -43,6 +43,7 @@ from ios_uav_env.envs.multi_table import (
 from ios_uav_env.envs.node_weights import PT_DX2, PT_GX, PT_GY
 from ios_uav_env.envs.node_weights import PT_SIDE as TERM_SIDE
 from ios_uav_env.jit import jit
+from ios_uav_env.model.motion import walk_component
 
 #: Where a row's uniform draws sit in ``DrawnNodeEpisodes.uniform`` (K_max nodes): the nodes' x and
 #: y at 2 k and 2 k + 1, then from 2 K_max the scenario's own G (drawn, not used), q0 and qF.
@@ -81,15 +82,7 @@ def draw_node_episodes(
         yf = intervals[5, 0] + (intervals[5, 1] - intervals[5, 0]) * u[at + 3]
         ends[i, 0], ends[i, 1], ends[i, 2], ends[i, 3] = x0, y0, xf, yf
         t = n * dt
-        flagged = False
-        # N = round(T / dt) and the config's checks of T (whole slots, N >= 2, reach qF): flagged for
-        # the config to decide where they could fail (a slack, not the exact test)
-        ratio = t / dt
-        if abs(ratio - n) > 1e-12 * max(1.0, ratio) or n < 2:
-            flagged = True
-        dist = math.sqrt((xf - x0) * (xf - x0) + (yf - y0) * (yf - y0))
-        if math.ceil(dist / d_max - 1e-9) + 1 >= n - 1e-6 * n:
-            flagged = True
+        flagged = horizon_flagged(n, dt, x0, y0, xf, yf, d_max)
         p = paths[i]
         # the nodes (uniform in G's ranges, then off the IOS plane's strip), their box
         bx0, bx1, by0, by1 = cx, cx, cy, cy
@@ -98,8 +91,6 @@ def draw_node_episodes(
             gy = intervals[1, 0] + (intervals[1, 1] - intervals[1, 0]) * u[2 * k + 1]
             if cut and not abs(gx - cx) >= gap:
                 gx = cx - gap if gx < cx else cx + gap
-            if cut and gx == cx:
-                flagged = True
             p[0, k, 0], p[0, k, 1] = gx, gy
             bx0, bx1, by0, by1 = min(bx0, gx), max(bx1, gx), min(by0, gy), max(by1, gy)
         if has_box:
@@ -108,43 +99,19 @@ def draw_node_episodes(
             bx0, bx1, by0, by1 = bx0 - box_margin, bx1 + box_margin, by0 - box_margin, by1 + box_margin
         for k in range(k_nodes):
             gx, gy = p[0, k, 0], p[0, k, 1]
-            low_x, high_x = bx0, bx1
-            if cut:
-                if gx < cx:
-                    high_x = min(high_x, cx - gap)
-                else:
-                    low_x = max(low_x, cx + gap)
-            if not (low_x < high_x and by0 < by1) or not (low_x <= gx <= high_x and by0 <= gy <= by1):
-                flagged = True
+            low_x, high_x, outside = node_rectangle(gx, gy, cut, cx, gap, bx0, bx1, by0, by1)
+            flagged = flagged or outside
             lo[i, k, 0], lo[i, k, 1] = low_x - margin, by0 - margin
             hi[i, k, 0], hi[i, k, 1] = high_x + margin, by1 + margin
             # the node's path (node_paths: the mean velocity, v[0], then _walk)
             mx, my = speed * headings[i, k, 0], speed * headings[i, k, 1]
             vx, vy = mx + sigma * normals[i, 2 * k], my + sigma * normals[i, 2 * k + 1]
             for s in range(n - 1):
-                for comp in range(2):
-                    v = vx if comp == 0 else vy
-                    mean = mx if comp == 0 else my
-                    low = low_x if comp == 0 else by0
-                    high = high_x if comp == 0 else by1
-                    q = p[s, k, comp] + v * dt
-                    vel = a * v + (1.0 - a) * mean + gain * normals[i, 2 * k_nodes * (s + 1) + 2 * k + comp]
-                    if low <= q <= high:
-                        p[s + 1, k, comp] = q
-                    else:
-                        width = high - low
-                        w = q - low
-                        times = np.floor(w / width)
-                        r = w - times * width
-                        if times % 2 != 0:
-                            p[s + 1, k, comp] = high - r
-                            vel, mean = -vel, -mean
-                        else:
-                            p[s + 1, k, comp] = low + r
-                    if comp == 0:
-                        vx, mx = vel, mean
-                    else:
-                        vy, my = vel, mean
+                z = 2 * k_nodes * (s + 1) + 2 * k  # (the slot's normals of the node)
+                p[s + 1, k, 0], vx, mx = walk_component(p[s, k, 0], vx, mx, normals[i, z], low_x, high_x, a,
+                                                        gain, dt)  # fmt: skip
+                p[s + 1, k, 1], vy, my = walk_component(p[s, k, 1], vy, my, normals[i, z + 1], by0, by1, a,
+                                                        gain, dt)  # fmt: skip
             # the records (NaN until observed), the ground terms of every slot, the node's point
             for s in range(n):
                 reports[i, s, k, 0], reports[i, s, k, 1] = np.nan, np.nan

@@ -40,31 +40,13 @@ from typing import Any
 
 import numpy as np
 
-from ios_uav_env.envs.knowledge import REPORT_CLIP
-from ios_uav_env.envs.mobile_draw_kernels import (
-    C_BOX,
-    C_BOX_MARGIN,
-    C_CX,
-    C_CY,
-    C_D,
-    C_DT,
-    C_GAIN,
-    C_GAP,
-    C_HAS_BOX,
-    C_MARGIN,
-    C_MEMORY,
-    C_SIGMA,
-    C_SPEED,
-    C_T_SCALE,
-    N_CONSTANTS,
-)
+from ios_uav_env.envs.mobile_draws import draw_constants
 from ios_uav_env.envs.multi_table import episode_row
 from ios_uav_env.envs.node_draw_kernels import U_ENDS, U_G, draw_node_episodes, start_node_rows
 from ios_uav_env.envs.node_weights import PT_DX2, PT_SCALE, BareNodesTrack
-from ios_uav_env.envs.observation import T_SCALE
 from ios_uav_env.jit import HAVE_NUMBA
 from ios_uav_env.model.config import ScenarioConfig
-from ios_uav_env.model.mobility import BOX_MARGIN, GaussMarkov
+from ios_uav_env.model.mobility import GaussMarkov
 from ios_uav_env.model.scenarios import ScenarioRanges, drawn_changes, multinode_changes
 
 __all__ = ["DrawnNodeEpisodes", "takes_drawn_nodes"]
@@ -125,17 +107,7 @@ class DrawnNodeEpisodes:
             [r.ground_x, r.ground_y, r.start_x, r.start_y, r.end_x, r.end_y], dtype=np.float64
         )
         self.cuts = np.array([s != "none" for s in r.surfaces], dtype=np.bool_)
-        box = motion.box
-        self.constants = np.zeros(N_CONSTANTS)  # (the C_* indices the kernel reads)
-        c = self.constants
-        c[C_CX], c[C_CY], c[C_GAP] = float(base.ios_center[0]), float(base.ios_center[1]), motion.plane_margin
-        c[C_HAS_BOX] = float(box is not None)
-        if box is not None:
-            c[C_BOX : C_BOX + 4] = np.ravel(box)
-        c[C_SPEED], c[C_SIGMA], c[C_MEMORY] = motion.speed, motion.sigma, motion.memory
-        c[C_GAIN] = math.sqrt(1.0 - motion.memory * motion.memory) * motion.sigma  # (node_paths' gain)
-        c[C_DT], c[C_D], c[C_MARGIN] = base.dt, base.D, REPORT_CLIP * float(row.options.report_sigma)
-        c[C_T_SCALE], c[C_BOX_MARGIN] = T_SCALE, BOX_MARGIN
+        self.constants = draw_constants(base, row.options)  # (the scalars the kernel reads)
         self.heading: float | None = motion.heading
         self.geometries: dict[tuple[int, int], int] = {}  # (surface, IOS rows) -> index or -1
         self.table: list[tuple[Any, ...]] = []  # each geometry's entries (geometry), in index order

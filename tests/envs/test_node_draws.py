@@ -27,21 +27,14 @@ from ios_uav_env.model.mobility import GaussMarkov
 from ios_uav_env.model.scenarios import ScenarioRanges, sample_multinode
 from tests.envs.batch_rows import same, step_batch_and_singles
 
+# (their nodes start near the IOS plane and walk fast into their rectangles' edges; a fixed heading
+# and a box of its own)
+from tests.envs.test_mobile_draws import BOXED, NEAR_PLANE
+
 pytestmark = pytest.mark.skipif(
     not HAVE_NUMBA, reason="the compiled draw needs numba (else: the per-row path)"
 )
 
-#: Nodes that start near the IOS plane (moved off its strip), walk fast into their rectangles'
-#: edges (reflected), on both surfaces and several IOS row counts, one to four of them.
-NEAR_PLANE = ScenarioRanges(
-    ground_x=(-3.0, 3.0), ground_y=(-20.0, 20.0), T=(40.0, 80.0), ios_rows=(20, 24),
-    base=ScenarioConfig(motion=GaussMarkov(speed=6.0, sigma=3.0, plane_margin=2.5)),
-)  # fmt: skip
-#: A fixed heading and a box of its own (no heading draws; the rectangles are the box's).
-BOXED = ScenarioRanges(
-    T=(40.0, 60.0),
-    base=ScenarioConfig(motion=GaussMarkov(heading=0.7, speed=4.0, box=((-300.0, 300.0), (-200.0, 200.0)))),
-)
 RECORDS = ("paths", "reports", "measured", "tally")
 
 
