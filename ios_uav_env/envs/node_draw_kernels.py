@@ -45,41 +45,38 @@ from ios_uav_env.envs.node_weights import PT_SIDE as TERM_SIDE
 from ios_uav_env.jit import jit
 from ios_uav_env.model.motion import walk_component
 
-#: Where a row's uniform draws sit in ``DrawnNodeEpisodes.uniform`` (K_max nodes): the nodes' x and
-#: y at 2 k and 2 k + 1, then from 2 K_max the scenario's own G (drawn, not used), q0 and qF.
-U_G, U_ENDS = 0, 2
-
 
 @jit(fastmath=False)
 def draw_node_episodes(
-    rows: np.ndarray, uniform: np.ndarray, counts: np.ndarray, slots: np.ndarray, surface: np.ndarray,
-    normals: np.ndarray, headings: np.ndarray, intervals: np.ndarray, cuts: np.ndarray, c: np.ndarray,
-    ends: np.ndarray, paths: np.ndarray, reports: np.ndarray, measured: np.ndarray, tally: np.ndarray,
-    lo: np.ndarray, hi: np.ndarray, bad: np.ndarray, terms: np.ndarray, points: np.ndarray,
-    sizes: np.ndarray, state: np.ndarray, path: np.ndarray, episode: np.ndarray,
+    rows: np.ndarray, uniform: np.ndarray, late: np.ndarray, counts: np.ndarray, slots: np.ndarray,
+    surface: np.ndarray, normals: np.ndarray, headings: np.ndarray, intervals: np.ndarray,
+    cuts: np.ndarray, c: np.ndarray, ends: np.ndarray, paths: np.ndarray, reports: np.ndarray,
+    measured: np.ndarray, tally: np.ndarray, lo: np.ndarray, hi: np.ndarray, bad: np.ndarray,
+    terms: np.ndarray, points: np.ndarray, sizes: np.ndarray, state: np.ndarray, path: np.ndarray,
+    episode: np.ndarray,
 ) -> None:  # fmt: skip
     """Step 2 of ``node_draws``' module docstring for ``rows``, in IEEE arithmetic in the order of
     ``scenarios.sample_multinode`` / ``_off_plane``, ``mobility.rectangles``, ``motion.node_paths``
     / ``_walk``, ``knowledge.start_nodes_track``, ``NodeWeights.load`` (its ground terms but their
     power 1.5, numpy's) and ``multi_table.node_points`` / ``episode_row``. ``headings`` (B, K_max,
-    2): cos and sin of each node's mean heading. ``bad[i]`` = 1 where the scenario's validation must
-    decide (a node outside its motion rectangle, a rectangle empty, a node on the IOS plane, T
-    too short)."""
+    2): cos and sin of each node's mean heading; ``uniform[i]``: the row's uniform draws of the
+    nodes' x and y (2 k, 2 k + 1), ``late[i]``: those of q0 and qF (x, y, x, y). ``bad[i]`` = 1
+    where the scenario's validation must decide (a node outside its motion rectangle, a rectangle
+    empty, a node on the IOS plane, T too short)."""
     cx, cy, gap, has_box = c[C_CX], c[C_CY], c[C_GAP], c[C_HAS_BOX] != 0.0
     speed, sigma, a, gain = c[C_SPEED], c[C_SIGMA], c[C_MEMORY], c[C_GAIN]
     dt, d_max, margin = c[C_DT], c[C_D], c[C_MARGIN]
     t_scale, box_margin = c[C_T_SCALE], c[C_BOX_MARGIN]
-    width_k = uniform.shape[1] // 2 - 3  # (K_max)
     for j in range(rows.size):
         i = rows[j]
         u = uniform[i]
         k_nodes, n = counts[i], slots[i]
         cut = cuts[surface[i]]
-        at = 2 * width_k + U_ENDS
-        x0 = intervals[2, 0] + (intervals[2, 1] - intervals[2, 0]) * u[at]
-        y0 = intervals[3, 0] + (intervals[3, 1] - intervals[3, 0]) * u[at + 1]
-        xf = intervals[4, 0] + (intervals[4, 1] - intervals[4, 0]) * u[at + 2]
-        yf = intervals[5, 0] + (intervals[5, 1] - intervals[5, 0]) * u[at + 3]
+        e = late[i]
+        x0 = intervals[2, 0] + (intervals[2, 1] - intervals[2, 0]) * e[0]
+        y0 = intervals[3, 0] + (intervals[3, 1] - intervals[3, 0]) * e[1]
+        xf = intervals[4, 0] + (intervals[4, 1] - intervals[4, 0]) * e[2]
+        yf = intervals[5, 0] + (intervals[5, 1] - intervals[5, 0]) * e[3]
         ends[i, 0], ends[i, 1], ends[i, 2], ends[i, 3] = x0, y0, xf, yf
         t = n * dt
         flagged = horizon_flagged(n, dt, x0, y0, xf, yf, d_max)

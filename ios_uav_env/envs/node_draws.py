@@ -42,7 +42,7 @@ import numpy as np
 
 from ios_uav_env.envs.mobile_draws import draw_constants
 from ios_uav_env.envs.multi_table import episode_row
-from ios_uav_env.envs.node_draw_kernels import U_ENDS, U_G, draw_node_episodes, start_node_rows
+from ios_uav_env.envs.node_draw_kernels import draw_node_episodes, start_node_rows
 from ios_uav_env.envs.node_weights import PT_DX2, PT_SCALE, BareNodesTrack
 from ios_uav_env.jit import HAVE_NUMBA
 from ios_uav_env.model.config import ScenarioConfig
@@ -89,8 +89,8 @@ class DrawnNodeEpisodes:
         self.counts = np.zeros(rows, dtype=np.int64)
         self.ios_rows = np.zeros(rows, dtype=np.int64)
         self.surface = np.zeros(rows, dtype=np.int64)
-        self.uniform = np.zeros((rows, 2 * k + 6))  # (node_draw_kernels.U_*)
-        self.theta = np.zeros((rows, k))
+        self.uniform = np.zeros((rows, 2 * k + 2))  # the nodes' x, y, G's (draw)
+        self.late = np.zeros((rows, 4 + k))  # q0's x, y, qF's x, y, the nodes' headings (draw)
         self.headings = np.zeros((rows, k, 2))
         self.normals = np.zeros((rows, 2 * k * slots))
         self.ends = np.zeros((rows, 4))  # q0's x, y, qF's x, y
@@ -109,7 +109,8 @@ class DrawnNodeEpisodes:
         self.cuts = np.array([s != "none" for s in r.surfaces], dtype=np.bool_)
         self.constants = draw_constants(base, row.options)  # (the scalars the kernel reads)
         self.heading: float | None = motion.heading
-        self.geometries: dict[tuple[int, int], int] = {}  # (surface, IOS rows) -> index or -1
+        # each (surface, IOS rows)'s geometry: its index in the tables, -1 none, -2 not met yet
+        self.lookup = np.full((len(r.surfaces), r.ios_rows[1] + 1), -2, dtype=np.int64)
         self.table: list[tuple[Any, ...]] = []  # each geometry's entries (geometry), in index order
         self.tables: tuple[np.ndarray, ...] = ()  # the same as start_node_rows takes them (_stack)
         self.clip: tuple[np.ndarray, np.ndarray] = (np.zeros((rows, k, 2)), np.zeros((rows, k, 2)))
@@ -117,19 +118,17 @@ class DrawnNodeEpisodes:
     # --- per row: the draws --------------------------------------------------------------
     def draw(self, i: int, rng: np.random.Generator) -> tuple[int, int]:
         """Row ``i``'s scenario and paths draws from ``rng`` (module docstring, step 1); its (N, K)."""
-        r, u = self.ranges, self.uniform[i]
+        r = self.ranges
         k = int(rng.integers(self.node_range[0], self.node_range[1], endpoint=True))
-        if k > self.theta.shape[1]:
-            raise RuntimeError(f"a drawn episode of K = {k} nodes exceeds the rows' {self.theta.shape[1]}")
-        width = self.theta.shape[1]
-        rng.random(out=u[0 : 2 * k])  # the nodes (x, y uniform(lo, hi) calls, node after node)
-        rng.random(out=u[2 * width + U_G : 2 * width + U_G + 2])  # (the scenario's own G: replaced)
+        if k > self.late.shape[1] - 4:
+            raise RuntimeError(f"a drawn episode of K = {k} nodes exceeds the rows' {self.late.shape[1] - 4}")
+        # the nodes' x, y (uniform(lo, hi) calls, node after node), then the scenario's own G (replaced)
+        rng.random(out=self.uniform[i, : 2 * k + 2])
         n = int(rng.integers(*r.slot_range, endpoint=True))
         self.ios_rows[i] = int(rng.integers(r.ios_rows[0], r.ios_rows[1], endpoint=True))
         self.surface[i] = int(rng.integers(len(r.surfaces)))
-        rng.random(out=u[2 * width + U_ENDS : 2 * width + U_ENDS + 4])  # q0, qF
-        if self.heading is None:
-            rng.random(out=self.theta[i, :k])  # (node_paths' uniform(0, 2 pi, K))
+        # q0, qF, then node_paths' uniform(0, 2 pi, K) headings (when drawn)
+        rng.random(out=self.late[i, : 4 + k if self.heading is None else 4])
         if 2 * k * n > self.normals.shape[1]:
             raise RuntimeError(f"a drawn episode of N = {n} slots exceeds the space's")
         rng.standard_normal(out=self.normals[i, : 2 * k * n])  # v[0], then the slots' (node_paths)
@@ -145,8 +144,8 @@ class DrawnNodeEpisodes:
         left with ``weights.slots`` 0 (their envs' tracks put their kernels: the returned rows)."""
         kr, w = self.kernel_rows, self.weights
         self.clip = (lo, hi)
-        k_max = self.theta.shape[1]
-        theta = self.theta[rows] * (2.0 * math.pi) + 0.0  # uniform(0, 2 pi): 0 + 2 pi u
+        k_max = self.late.shape[1] - 4
+        theta = self.late[rows, 4:] * (2.0 * math.pi) + 0.0  # uniform(0, 2 pi): 0 + 2 pi u
         if self.heading is not None:
             theta = np.full((rows.size, k_max), self.heading)
         self.headings[rows, :, 0], self.headings[rows, :, 1] = np.cos(theta), np.sin(theta)  # (numpy's)
@@ -154,7 +153,7 @@ class DrawnNodeEpisodes:
         if longest > kr.path.shape[1]:  # (the rows' arrays as long as the longest episode)
             for name in ("path", "share_path", "rate_path"):
                 kr._grow(name, 1, longest)
-        draw_node_episodes(rows, self.uniform, self.counts, self.slots, self.surface, self.normals,
+        draw_node_episodes(rows, self.uniform, self.late, self.counts, self.slots, self.surface, self.normals,
                            self.headings, self.intervals, self.cuts, self.constants, self.ends, self.paths,
                            self.reports, self.measured, self.tally, lo, hi, self.bad, w.points, kr.points,
                            kr.sizes, kr.state, kr.path, kr.episode)  # fmt: skip
@@ -179,10 +178,10 @@ class DrawnNodeEpisodes:
 
     def geometries_of(self, rows: np.ndarray) -> np.ndarray:
         """Each of ``rows``' kernel geometry (its index in the tables, :meth:`geometry`; -1: none)."""
-        codes = self.surface[rows] * (1 << 32) + self.ios_rows[rows]
-        keys, first, inverse = np.unique(codes, return_index=True, return_inverse=True)
-        ids = np.array([self.geometry(int(rows[j])) for j in first.tolist()], dtype=np.int64)
-        return ids[np.ravel(inverse)] if keys.size else ids
+        ids = self.lookup[self.surface[rows], self.ios_rows[rows]]
+        for j in np.flatnonzero(ids == -2).tolist():  # (a geometry not met yet: from its first row)
+            ids[j] = self.geometry(int(rows[j]))
+        return ids
 
     def geometry(self, i: int) -> int:
         """The index of row ``i``'s kernel geometry in the tables (``NodeWeights``' projection, Q,
@@ -190,21 +189,21 @@ class DrawnNodeEpisodes:
         added from the row's config at its first row; -1 where the compiled weights do not apply
         (``NodeWeights.width`` None)."""
         key = (int(self.surface[i]), int(self.ios_rows[i]))
-        found = self.geometries.get(key)
-        if found is not None:
+        found = int(self.lookup[key])
+        if found != -2:
             return found
         cfg = self.config(i)
         held = self.weights._geometry(cfg)
         if held is None:
-            self.geometries[key] = -1
+            self.lookup[key] = -1
             return -1
         _, projection, q, coords, params, factor, _ = held
         length_scale, sharpness, softmin_beta, _, clip = self.kernel_rows.settings
         row = episode_row(cfg, length_scale, sharpness, softmin_beta, False, 0.0, clip)
         self.table.append((projection, q, factor, coords, params, row))
-        self.geometries[key] = len(self.table) - 1
+        self.lookup[key] = len(self.table) - 1
         self.tables = _stack(self.table)
-        return self.geometries[key]
+        return len(self.table) - 1
 
     def config(self, i: int) -> ScenarioConfig:
         """Row ``i``'s scenario as ``sample_multinode`` makes it (validated: a ``ValueError`` of the
