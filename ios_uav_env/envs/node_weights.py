@@ -48,8 +48,6 @@ __all__ = ["BareNodesTrack", "NodeWeights", "measure_node_rates", "put_node_weig
 
 #: The columns of a ground point's terms in ``NodeWeights.points``.
 PT_GX, PT_GY, PT_DX2, PT_SCALE, PT_SIDE = range(5)
-#: Fewer rows than this are put by the serial kernel (e.g. the rows an autoreset starts).
-SERIAL_ROWS = 32
 
 
 class BareNodesTrack(NodesTrack):
@@ -195,7 +193,7 @@ class NodeWeights:
         blocks, :func:`put_node_weights_batched`; None: numba's current setting)."""
         args = (rows, state, ahead, self.slots, self.counts, self.which, self.points, self.base, self.factors,
                 self.ky_t, self.kz_t, self.gy, self.gz2, nodes, params)  # fmt: skip
-        if num_threads == 1 or rows.size < SERIAL_ROWS:  # (a few rows: no threads to wake)
+        if num_threads == 1:
             put_node_weights(*args)
         else:
             run_batched(put_node_weights_batched, put_node_weights, num_threads, *args)

@@ -122,7 +122,7 @@ def test_the_batch_equals_its_single_envs_with_the_compiled_weights():
 
 @needs_numba
 def test_the_blocks_on_numbas_threads_give_the_serial_kernels():
-    vec = batch(rows=40, seed=6)  # (>= SERIAL_ROWS: the threaded kernel)
+    vec = batch(rows=24, seed=6)
     rows = vec.rows
     weights, kernels = rows._weights, rows.kernel_rows
     every = np.arange(vec.num_envs, dtype=np.int64)
