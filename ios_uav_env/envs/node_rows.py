@@ -232,10 +232,13 @@ class NodeBlockRows:
             kernels = self._rows.nodes, self._rows.params
             measure_nodes(rows, state, shares, self._track_measured, self._track_nodes, self._track_params,
                           *kernels, normals, self._knowledge == 1, self._rate_high, self._told)  # fmt: skip
-        run_batched(tell_nodes_batched, tell_nodes, self.num_threads, rows, state, shares, self._track_paths,
-                    self._track_reports, self._track_tally, self._lo, self._hi, normals, self._knowledge,
-                    self._sigma, self._scale, not self._estimate, self._width, self._told, obs, self._raw,
-                    self._rows.sizes)  # fmt: skip
+        args = (rows, state, shares, self._track_paths, self._track_reports, self._track_tally, self._lo,
+                self._hi, normals, self._knowledge, self._sigma, self._scale, not self._estimate, self._width,
+                self._told, obs, self._raw, self._rows.sizes)  # fmt: skip
+        if self.num_threads == 1:  # (IEEE either way: one thread runs the plain loop)
+            tell_nodes(*args)
+        else:
+            run_batched(tell_nodes_batched, tell_nodes, self.num_threads, *args)
         if self._estimate:
             for i in rows.tolist():
                 k = int(counts[i])
