@@ -12,7 +12,9 @@ the multi-node row protocol (``row_protocol.MultiNodeRow``: ``load_row``; moving
 slot's kernels and what the rows observe in compiled calls over the rows,
 ``ios_uav_env.envs.nodes_kernels``; with channel "expected" each slot's node kernels are computed
 in the rows before the step, ``ios_uav_env.envs.node_weights``, the tracks building theirs only
-when read). With the energy objective each row's lambda_ref is its
+when read; a randomised moving env's rows draw their episodes together in compiled calls,
+``ios_uav_env.envs.node_draws``, their row envs building their scenarios only when read). With
+the energy objective each row's lambda_ref is its
 template env's; with channel "rician" each row draws its slots' fading from its template env's
 ``np_random`` (so row i is the single env of seed ``seed + i``, draw for draw).
 """
