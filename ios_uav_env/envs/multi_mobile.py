@@ -100,6 +100,11 @@ class MobileNodes:
         self._track = source.track(i, cfg)
         self.__dict__["_track_views"] = True
 
+    def put_first_kernels(self, rows: NodeRows, i: int) -> None:
+        """Put the track's node kernels of the episode's first slot in row ``i`` of ``rows`` (a row
+        whose kernels the batch does not compute: ``NodeWeights``' ``slots[i]`` 0)."""
+        self._put(rows, i, 0)
+
     def prepare_slot(self, rows: NodeRows, i: int) -> None:
         """Ready row ``i`` for its next step: the node kernels of the slot it flies to (moving or
         roughly known nodes) and the slot's fading (channel "rician", from ``np_random``)."""

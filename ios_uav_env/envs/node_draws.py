@@ -149,10 +149,7 @@ class DrawnNodeEpisodes:
         if self.heading is not None:
             theta = np.full((rows.size, k_max), self.heading)
         self.headings[rows, :, 0], self.headings[rows, :, 1] = np.cos(theta), np.sin(theta)  # (numpy's)
-        longest = int(self.slots[rows].max())
-        if longest > kr.path.shape[1]:  # (the rows' arrays as long as the longest episode)
-            for name in ("path", "share_path", "rate_path"):
-                kr._grow(name, 1, longest)
+        kr.fit(0, int(self.slots[rows].max()))  # (the rows' arrays as long as the longest episode)
         draw_node_episodes(rows, self.uniform, self.late, self.counts, self.slots, self.surface, self.normals,
                            self.headings, self.intervals, self.cuts, self.constants, self.ends, self.paths,
                            self.reports, self.measured, self.tally, lo, hi, self.bad, w.points, kr.points,
@@ -168,9 +165,7 @@ class DrawnNodeEpisodes:
         fits = geometry >= 0
         w.slots[rows[~fits]] = 0
         if fits.any():
-            q = int(self.tables[1][geometry[fits]].max())
-            if q > kr.nodes.shape[3]:
-                kr._grow("nodes", 3, q, fill=(0.0, 1.0, 0.0))  # padded nodes: zero weight
+            kr.fit(int(self.tables[1][geometry[fits]].max()), 0)  # (the widest surface's nodes)
             start_node_rows(rows[fits], geometry[fits], self.counts, self.slots, *self.tables, w.slots,
                             w.counts, w.which, w.widths, w.factors, w.base, kr.nodes, kr.episode)  # fmt: skip
         self.width[rows] = kr.nodes.shape[3]
@@ -193,7 +188,7 @@ class DrawnNodeEpisodes:
         if found != -2:
             return found
         cfg = self.config(i)
-        held = self.weights._geometry(cfg)
+        held = self.weights.geometry(cfg)
         if held is None:
             self.lookup[key] = -1
             return -1

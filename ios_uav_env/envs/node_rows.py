@@ -178,7 +178,7 @@ class NodeBlockRows:
         for i in unfit.tolist():  # (a surface the compiled weights do not take: the track's kernels)
             row = envs[i].stepper
             self._rows.load(i, row.config, kernels=False)
-            row._put(self._rows, i, 0)
+            row.put_first_kernels(self._rows, i)
             self._track_nodes[i], self._track_params[i] = row.track.nodes, row.track.params
         paths, reports, measured, tally = drawn.paths, drawn.reports, drawn.measured, drawn.tally
         for i in mine.tolist():

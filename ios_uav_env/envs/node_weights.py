@@ -153,6 +153,12 @@ class NodeWeights:
         self._last = (config, held[1])
         return held[1]
 
+    def geometry(self, config: ScenarioConfig) -> tuple[Any, ...] | None:
+        """(kernel config, projection index, Q, the kernels' node coordinates (2, Q), the kernel
+        scalars, J, the IOS centre's x) of ``config``'s node kernels (None: the compiled weights do
+        not apply), as :meth:`load` takes them: a batch that fills its rows' entries itself."""
+        return self._geometry(config)
+
     def width(self, config: ScenarioConfig) -> int | None:
         """Q, the surface nodes of ``config``'s node kernels (``node_kernels.kernel_width``'s), where
         the compiled weights apply to it; None where they do not."""
