@@ -7,8 +7,6 @@ reads its track's kernels."""
 
 from __future__ import annotations
 
-import dataclasses
-
 import gymnasium as gym
 import numpy as np
 import pytest
@@ -25,7 +23,7 @@ from ios_uav_env.jit import HAVE_NUMBA
 from ios_uav_env.model.config import ScenarioConfig
 from ios_uav_env.model.mobility import GaussMarkov
 from ios_uav_env.model.scenarios import ScenarioRanges, sample_multinode
-from tests.envs.batch_rows import same, step_batch_and_singles
+from tests.envs.batch_rows import OUTSIDE, refused_after, refused_ranges, same, step_batch_and_singles
 
 # (their nodes start near the IOS plane and walk fast into their rectangles' edges; a fixed heading
 # and a box of its own)
@@ -137,26 +135,10 @@ def test_a_draw_the_scenario_refuses_is_refused_with_its_error():
     (here forced after construction): the batched reset raises the config's own error, as the
     single env's does. Skipping the compiled draw's checks would let the bad scenario run (row 0,
     valid, is the one whose config the batch builds for the rows' kernel geometry)."""
-    good = ScenarioRanges(
-        ground_y=(-40.0, 40.0), T=(40.0, 60.0), ios_rows=(20, 20), surfaces=("ios",),
-        base=ScenarioConfig(motion=GaussMarkov(box=((-300.0, 300.0), (-50.0, 50.0)))),
-    )  # fmt: skip
-    bad = dataclasses.replace(good)
-    object.__setattr__(bad, "ground_y", (-40.0, 150.0))  # (what construction would have refused)
-    single = MultiNodeEnv(random_nodes=(2, 3), ranges=bad, knowledge="reports")
-    message = "starts outside its motion rectangle"
-
-    def refused(seed: int) -> bool:
-        try:
-            single.reset(seed=seed)
-        except ValueError as err:
-            assert message in str(err)
-            return True
-        return False
-
-    seed = next(s for s in range(200) if not refused(s) and refused(s + 1))
+    bad = refused_ranges()
+    seed = refused_after(MultiNodeEnv(random_nodes=(2, 3), ranges=bad, knowledge="reports"))
     vec = drawn_vec(bad, 2, nodes=(2, 3))
-    with pytest.raises(ValueError, match=message):
+    with pytest.raises(ValueError, match=OUTSIDE):
         vec.reset(seed=seed)
     with pytest.raises(RuntimeError, match="reset"):
         vec.step(np.zeros(vec.action_space.shape))
