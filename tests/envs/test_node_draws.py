@@ -182,3 +182,26 @@ def test_only_the_envs_it_reproduces_take_the_compiled_draw():
         assert not takes_drawn_nodes(MultiNodeVectorEnv(2, **kwargs, **extra).envs[0]), extra
     assert not takes_drawn_nodes(gym.make("ios_uav_env/IOSUAV-MultiNode-Random-v0").unwrapped)
     assert ios_uav_env  # (registers the ids)
+
+
+def test_pinned_and_drawn_rows_side_by_side():
+    """A reset that pins some rows' scenarios (a narrower surface than the drawn ones, one alike)
+    and draws the others: the drawn rows' compiled episodes next to the pinned rows' loads (the
+    rows' arrays grown by either), every row its single env over episodes."""
+    ranges = ScenarioRanges(T=(40.0, 60.0), ios_rows=(20, 30), base=ScenarioConfig(motion=GaussMarkov()))
+    kwargs = {"random_nodes": (2, 4), "ranges": ranges, "knowledge": "reports"}
+    nodes = ((40.0, 30.0), (-50.0, 60.0), (90.0, -20.0))
+    pinned = [
+        ranges.base.replace(T=50.0, ground_nodes=nodes, ios_shape=shape) for shape in ((10, 6), (100, 25))
+    ]
+    configs = [pinned[0], None, None, pinned[1], None]
+    vec = MultiNodeVectorEnv(len(configs), **kwargs)
+    singles = [MultiNodeEnv(**kwargs) for _ in configs]
+    obs, _ = vec.reset(seed=2, options={"configs": configs})
+    for i, env in enumerate(singles):
+        options = None if configs[i] is None else {"config": configs[i]}
+        assert same(env.reset(seed=2 + i, options=options)[0], obs[i])
+    drawn = [env.stepper.__dict__.get("_deferral") is not None for env in vec.envs]
+    assert drawn == [c is None for c in configs]
+    actions = np.random.default_rng(2).uniform(-1.2, 1.2, (130, *vec.action_space.shape))
+    assert step_batch_and_singles(vec, singles, actions, RECORDS, False) >= len(configs)
