@@ -24,6 +24,7 @@ from ios_uav_env.envs.single_kernels import (
     EP_QFY,
 )
 from ios_uav_env.jit import jit
+from ios_uav_env.model.motion import walk_component
 from ios_uav_env.model.rate_kernels import PARAM_G_SIDE, PARAM_GX, PARAM_GY
 from ios_uav_env.model.weight_kernels import interpolated_weights_into
 
@@ -53,6 +54,41 @@ N_CONSTANTS = 19
 
 #: Slots of weights a row holds at a time (computed WINDOW slots ahead, as the slots come).
 WINDOW = 16
+
+
+@jit(inline=True, fastmath=False)
+def horizon_flagged(n: int, dt: float, x0: float, y0: float, xf: float, yf: float, d_max: float) -> bool:
+    """Whether the config must check T = ``n`` ``dt`` itself: N = round(T / dt) and the config's
+    checks of T (whole slots, N >= 2, qF reached from q0 in N - 1 moves of at most ``d_max``) could
+    fail (a slack, not the exact test: the config decides)."""
+    t = n * dt
+    ratio = t / dt
+    if abs(ratio - n) > 1e-12 * max(1.0, ratio) or n < 2:
+        return True
+    dist = math.sqrt((xf - x0) * (xf - x0) + (yf - y0) * (yf - y0))
+    return math.ceil(dist / d_max - 1e-9) + 1 >= n - 1e-6 * n
+
+
+@jit(inline=True, fastmath=False)
+def node_rectangle(
+    gx: float, gy: float, cut: bool, cx: float, gap: float, bx0: float, bx1: float, by0: float, by1: float
+) -> tuple[float, float, bool]:
+    """(low_x, high_x, flagged) of the node at (``gx``, ``gy``) in the box [bx0, bx1] x [by0, by1]
+    (``mobility.rectangles``): x cut to its side of the IOS plane x = ``cx``, ``gap`` away from it
+    when ``cut`` (a surface); flagged where the config's validation must decide (the node on the
+    plane, the rectangle empty, the node outside it)."""
+    low_x, high_x = bx0, bx1
+    flagged = False
+    if cut:
+        if gx < cx:
+            high_x = min(high_x, cx - gap)
+        else:
+            low_x = max(low_x, cx + gap)
+        if gx == cx:
+            flagged = True
+    if not (low_x < high_x and by0 < by1) or not (low_x <= gx <= high_x and by0 <= gy <= by1):
+        flagged = True
+    return low_x, high_x, flagged
 
 
 @jit(fastmath=False)
@@ -89,32 +125,15 @@ def draw_episodes(
         ends[i, 0], ends[i, 1], ends[i, 2], ends[i, 3] = x0, y0, xf, yf
         n = slots[i]
         t = n * dt
-        flagged = False
-        # N = round(T / dt) and the config's checks of T (whole slots, N >= 2, reach qF): flagged
-        # for the config to decide where they could fail (a slack, not the exact test)
-        ratio = t / dt
-        if abs(ratio - n) > 1e-12 * max(1.0, ratio) or n < 2:
-            flagged = True
-        dist = math.sqrt((xf - x0) * (xf - x0) + (yf - y0) * (yf - y0))
-        if math.ceil(dist / d_max - 1e-9) + 1 >= n - 1e-6 * n:
-            flagged = True
+        flagged = horizon_flagged(n, dt, x0, y0, xf, yf, d_max)
         # the motion rectangle (mobility.rectangles)
         if has_box:
             bx0, bx1, by0, by1 = c[C_BOX], c[C_BOX + 1], c[C_BOX + 2], c[C_BOX + 3]
         else:
             bx0, bx1 = min(gx, cx) - box_margin, max(gx, cx) + box_margin
             by0, by1 = min(gy, cy) - box_margin, max(gy, cy) + box_margin
-        low_x, high_x = bx0, bx1
-        if cut:
-            if gx < cx:
-                high_x = min(high_x, cx - gap)
-            else:
-                low_x = max(low_x, cx + gap)
-            if gx == cx:
-                flagged = True
-        if not (low_x < high_x and by0 < by1) or not (low_x <= gx <= high_x and by0 <= gy <= by1):
-            flagged = True
-        bad[i] = 1 if flagged else 0
+        low_x, high_x, outside = node_rectangle(gx, gy, cut, cx, gap, bx0, bx1, by0, by1)
+        bad[i] = 1 if flagged or outside else 0
         lo[i, 0], lo[i, 1] = low_x - margin, by0 - margin
         hi[i, 0], hi[i, 1] = high_x + margin, by1 + margin
         # the node path (node_paths: the mean velocity, v[0], then _walk)
@@ -125,29 +144,10 @@ def draw_episodes(
         dx = gx - cx
         dx2[i, 0] = dx * dx
         for s in range(n - 1):
-            for comp in range(2):
-                v = vx if comp == 0 else vy
-                mean = mx if comp == 0 else my
-                low = low_x if comp == 0 else by0
-                high = high_x if comp == 0 else by1
-                q = p[s, 0, comp] + v * dt
-                vel = a * v + (1.0 - a) * mean + gain * normals[i, 2 + 2 * s + comp]
-                if low <= q <= high:
-                    p[s + 1, 0, comp] = q
-                else:
-                    width = high - low
-                    w = q - low
-                    times = np.floor(w / width)
-                    r = w - times * width
-                    if times % 2 != 0:
-                        p[s + 1, 0, comp] = high - r
-                        vel, mean = -vel, -mean
-                    else:
-                        p[s + 1, 0, comp] = low + r
-                if comp == 0:
-                    vx, mx = vel, mean
-                else:
-                    vy, my = vel, mean
+            p[s + 1, 0, 0], vx, mx = walk_component(p[s, 0, 0], vx, mx, normals[i, 2 + 2 * s], low_x, high_x,
+                                                    a, gain, dt)  # fmt: skip
+            p[s + 1, 0, 1], vy, my = walk_component(p[s, 0, 1], vy, my, normals[i, 3 + 2 * s], by0, by1, a,
+                                                    gain, dt)  # fmt: skip
             dx = p[s + 1, 0, 0] - cx
             dx2[i, s + 1] = dx * dx
         for s in range(n):  # the records (knowledge.start_track: NaN until observed)

@@ -76,6 +76,7 @@ from ios_uav_env.model.surface import interpolation_terms
 __all__ = [
     "WINDOW",
     "DrawnEpisodes",
+    "draw_constants",
     "draw_episodes",
     "put_rows",
     "start_rows",
@@ -85,6 +86,24 @@ __all__ = [
 
 #: The uniform draws of a row, in order: G's x and y, q0's x and y, qF's x and y, the heading.
 N_UNIFORM = 7
+
+
+def draw_constants(base: ScenarioConfig, options: Any) -> np.ndarray:
+    """The scalars the compiled draws read, at their ``C_*`` indices (``mobile_draw_kernels``), of
+    the scenarios on ``base`` (its motion, IOS centre, dt and D) and the env's ``options``
+    (``EnvOptions``: the report clip's margin, the length scale)."""
+    motion = base.motion
+    c = np.zeros(N_CONSTANTS)
+    c[C_CX], c[C_CY], c[C_GAP] = float(base.ios_center[0]), float(base.ios_center[1]), motion.plane_margin
+    c[C_HAS_BOX] = float(motion.box is not None)
+    if motion.box is not None:
+        c[C_BOX : C_BOX + 4] = np.ravel(motion.box)
+    c[C_HEADING] = 0.0 if motion.heading is None else motion.heading
+    c[C_SPEED], c[C_SIGMA], c[C_MEMORY] = motion.speed, motion.sigma, motion.memory
+    c[C_GAIN] = math.sqrt(1.0 - motion.memory * motion.memory) * motion.sigma  # (node_paths' gain)
+    c[C_DT], c[C_D], c[C_MARGIN] = base.dt, base.D, REPORT_CLIP * float(options.report_sigma)
+    c[C_INV_L], c[C_T_SCALE], c[C_BOX_MARGIN] = 1.0 / options.length_scale, T_SCALE, BOX_MARGIN
+    return c
 
 
 def takes_drawn_episodes(template: Any) -> bool:
@@ -140,19 +159,7 @@ class DrawnEpisodes:
         )
         self.cuts = np.array([s != "none" for s in r.surfaces], dtype=np.bool_)
         heading = motion.heading
-        box = motion.box
-        # the scalars of the kernel, at the C_* indices draw_episodes reads them at
-        self.constants = np.zeros(N_CONSTANTS)
-        c = self.constants
-        c[C_CX], c[C_CY], c[C_GAP] = float(base.ios_center[0]), float(base.ios_center[1]), motion.plane_margin
-        c[C_HAS_BOX] = float(box is not None)
-        if box is not None:
-            c[C_BOX : C_BOX + 4] = np.ravel(box)
-        c[C_HEADING] = 0.0 if heading is None else heading
-        c[C_SPEED], c[C_SIGMA], c[C_MEMORY] = motion.speed, motion.sigma, motion.memory
-        c[C_GAIN] = math.sqrt(1.0 - motion.memory * motion.memory) * motion.sigma  # (node_paths' gain)
-        c[C_DT], c[C_D], c[C_MARGIN] = base.dt, base.D, REPORT_CLIP * float(options.report_sigma)
-        c[C_INV_L], c[C_T_SCALE], c[C_BOX_MARGIN] = 1.0 / options.length_scale, T_SCALE, BOX_MARGIN
+        self.constants = draw_constants(base, options)  # (the scalars of the kernel)
         self.length_scale = options.length_scale
         self.heading_drawn = heading is None
         self.clip: tuple[np.ndarray, np.ndarray] = (np.zeros((rows, 2)), np.zeros((rows, 2)))

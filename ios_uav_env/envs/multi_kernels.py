@@ -43,7 +43,7 @@ from ios_uav_env.envs.options import EnvOptions
 from ios_uav_env.jit import run_batched
 from ios_uav_env.model.channel import PARAMS
 from ios_uav_env.model.config import ScenarioConfig
-from ios_uav_env.model.maxmin_paths import path_values
+from ios_uav_env.model.maxmin_paths import SIZE_K, SIZE_N, path_values
 from ios_uav_env.model.node_kernels import kernel_width, node_kernels
 
 if TYPE_CHECKING:
@@ -88,6 +88,8 @@ class NodeRows:
         # not flown by fly(), which skips slots): the episode's best schedule needs no new rates
         self.rate_path, self.stored = np.zeros((b, 1, k)), np.zeros(b, dtype=np.bool_)
         self.loaded: list[ScenarioConfig | None] = [None] * b
+        # each row's (K, N): its scenario's, or those of a row drawn in compiled code (no config)
+        self.sizes = np.zeros((b, 2), dtype=np.int64)
         # the rows whose scenario was loaded without its static node kernels (load(kernels=False))
         self.bare = np.zeros(b, dtype=np.bool_)
         # the arrays of the scenario loaded last (_scenario_arrays): rows that load the same
@@ -109,6 +111,15 @@ class NodeRows:
         grown[tuple(slice(0, n) for n in old.shape)] = old
         setattr(self, name, grown)
 
+    def fit(self, width: int, slots: int) -> None:
+        """Grow the arrays to hold node kernels of ``width`` surface nodes (the new ones padding of
+        zero weight in every row) and episodes of ``slots`` slots."""
+        if width > self.nodes.shape[3]:
+            self._grow("nodes", 3, width, fill=(0.0, 1.0, 0.0))  # padded nodes: zero weight
+        if slots > self.path.shape[1]:
+            for name in ("path", "share_path", "rate_path"):
+                self._grow(name, 1, slots)
+
     def load(self, i: int, cfg: ScenarioConfig, kernels: bool = True, width: int | None = None) -> None:
         """Copy the scenario ``cfg`` into row ``i`` (unless it is already there) and put the UAV at q0
         (the energy reward's lambda_ref: :meth:`set_reference`). ``kernels=False`` leaves the row's
@@ -117,12 +128,7 @@ class NodeRows:
         ``width``: that width (``kernel_width(cfg)``) where the caller knows it."""
         if self.loaded[i] is not cfg or (kernels and self.bare[i]):
             width, held_kernels, points, episode = self._scenario_arrays(cfg, kernels, width)
-            if width > self.nodes.shape[3]:
-                self._grow("nodes", 3, width, fill=(0.0, 1.0, 0.0))  # padded nodes: zero weight
-            if cfg.N > self.path.shape[1]:
-                self._grow("path", 1, cfg.N)
-                self._grow("share_path", 1, cfg.N)
-                self._grow("rate_path", 1, cfg.N)
+            self.fit(width, cfg.N)
             if kernels:
                 nodes, params = held_kernels  # each node's rate kernel, no config per node
                 self.nodes[i, : cfg.K, :, :width] = nodes
@@ -132,6 +138,7 @@ class NodeRows:
             self.points[i, : cfg.K] = points
             self.episode[i] = episode
             self.loaded[i] = cfg
+        self.sizes[i, SIZE_K], self.sizes[i, SIZE_N] = cfg.K, cfg.N
         self.state[i, MST_X], self.state[i, MST_Y] = self.path[i, 0] = cfg.q0
 
     def _scenario_arrays(
@@ -205,8 +212,7 @@ class NodeRows:
     def best_values(self, rows: np.ndarray, num_threads: int | None = None) -> tuple[np.ndarray, np.ndarray]:
         """(values, certified): the best-schedule value of each of ``rows`` (ended episodes) on its
         scenario's static nodes, all rows in one compiled call (``maxmin_paths.path_values``)."""
-        sizes = np.array([(self.loaded[i].K, self.loaded[i].N) for i in rows], dtype=np.int64)
-        return path_values(rows, sizes, self.path, self.nodes, self.params, num_threads,
+        return path_values(rows, self.sizes[rows], self.path, self.nodes, self.params, num_threads,
                            self.rate_path, self.stored)  # fmt: skip
 
     def schedule(self, i: int, k: int) -> np.ndarray:

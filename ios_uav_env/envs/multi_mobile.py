@@ -23,10 +23,11 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from ios_uav_env.envs.deferral import defer
 from ios_uav_env.envs.knowledge import NodesTrack, observe_nodes, start_nodes_track
 from ios_uav_env.envs.node_weights import start_bare_track
 from ios_uav_env.envs.nodes_kernels import N_BASE
@@ -81,6 +82,28 @@ class MobileNodes:
             if not weights.load(i, self.config, track.paths, rows.nodes):
                 self._put(rows, i, 0)
         self._prepare(rows, i)
+
+    def defer_episode(self, source: Any, i: int) -> None:
+        """Take the episode a batched env drew for this row env (row ``i`` of ``source``, a
+        ``node_draws.DrawnNodeEpisodes``; after its generator drew it, instead of ``begin_episode``
+        and :meth:`load_row_bare`): the scenario and the track are built from ``source`` when first
+        read (:meth:`_resume_episode`), the same as ``begin_episode`` and ``start_bare_track``
+        would have made them. Moving nodes of the rate objective only (``DrawnNodeEpisodes``)."""
+        defer(self, source, i, DEFERRED, ("paths", "reports", "measured", "tally"))
+
+    def _resume_episode(self) -> None:
+        """Build the deferred episode (:meth:`defer_episode`): the row's scenario, then its track on
+        the batch's arrays (views: the batched env records in them)."""
+        source, i = self.__dict__.pop("_deferral")
+        cfg = source.config(i)
+        self.config = cfg
+        self._track = source.track(i, cfg)
+        self.__dict__["_track_views"] = True
+
+    def put_first_kernels(self, rows: NodeRows, i: int) -> None:
+        """Put the track's node kernels of the episode's first slot in row ``i`` of ``rows`` (a row
+        whose kernels the batch does not compute: ``NodeWeights``' ``slots[i]`` 0)."""
+        self._put(rows, i, 0)
 
     def prepare_slot(self, rows: NodeRows, i: int) -> None:
         """Ready row ``i`` for its next step: the node kernels of the slot it flies to (moving or
@@ -175,3 +198,7 @@ class MobileNodes:
         if self._track is None:
             return np.full((self.config.K, n), np.nan)
         return self._track.measured[:, :n].copy()
+
+
+#: The attributes of a row env's episode that :meth:`MobileNodes.defer_episode` builds when first read.
+DEFERRED = ("config", "_track")

@@ -12,7 +12,9 @@ the multi-node row protocol (``row_protocol.MultiNodeRow``: ``load_row``; moving
 slot's kernels and what the rows observe in compiled calls over the rows,
 ``ios_uav_env.envs.nodes_kernels``; with channel "expected" each slot's node kernels are computed
 in the rows before the step, ``ios_uav_env.envs.node_weights``, the tracks building theirs only
-when read). With the energy objective each row's lambda_ref is its
+when read; a randomised moving env's rows draw their episodes together in compiled calls,
+``ios_uav_env.envs.node_draws``, their row envs building their scenarios only when read). With
+the energy objective each row's lambda_ref is its
 template env's; with channel "rician" each row draws its slots' fading from its template env's
 ``np_random`` (so row i is the single env of seed ``seed + i``, draw for draw).
 """
@@ -23,10 +25,13 @@ from typing import Any
 
 import numpy as np
 
+from ios_uav_env.envs.deferral import drawn_rows
 from ios_uav_env.envs.knowledge import filter_report
 from ios_uav_env.envs.knowledge_kernels import EpisodeDraws, row_list
+from ios_uav_env.envs.mobile_draw_kernels import take_slot_normals
 from ios_uav_env.envs.multi_kernels import NodeRows, episode_best_values, move_norms
 from ios_uav_env.envs.multi_table import BEST, info_arrays, info_columns
+from ios_uav_env.envs.node_draws import DrawnNodeEpisodes, takes_drawn_nodes
 from ios_uav_env.envs.node_weights import NodeWeights, measure_node_rates
 from ios_uav_env.envs.nodes_kernels import (
     MODES,
@@ -35,8 +40,10 @@ from ios_uav_env.envs.nodes_kernels import (
     gather_node_kernels,
     measure_nodes,
     tell_nodes,
+    tell_nodes_batched,
 )
 from ios_uav_env.envs.single_rows import Outputs
+from ios_uav_env.jit import run_batched
 
 __all__ = ["NodeBlockRows"]
 
@@ -65,6 +72,7 @@ class NodeBlockRows:
         # and the records), drawn by its template env at reset, and what its UAV is told per slot,
         # for all rows in one compiled call (ios_uav_env.envs.nodes_kernels)
         self._mobile = template.mobile
+        self._drawn: DrawnNodeEpisodes | None = None  # (a randomised moving env's: _init_tracks)
         if self._mobile:
             self._init_tracks(template)
 
@@ -90,10 +98,18 @@ class NodeBlockRows:
         self._draw: list[Any] = [None] * b
         self._draw_out: list[Any] = [None] * b
         # channel "expected": every slot's normals at the episode's start, in one call per row
-        self._episode_draws = None if self._rician else EpisodeDraws(b, 1, 4 * k)
+        # (drawn rows: as long as the longest episode at once, not grown row after row at a first reset)
+        slots = template.stepper.ranges.slot_range[1] if takes_drawn_nodes(template) else 1
+        self._episode_draws = None if self._rician else EpisodeDraws(b, slots, 4 * k)
         # channel "expected": each row's node kernels of the slot it flies to computed in the row
         # before the step (node_weights; a row the compiled weights do not take: its track's, gathered)
         self._weights = None if self._rician else NodeWeights(b, k, self._rows.params.shape[2])
+        # rows whose envs draw from the ranges: drawn together in compiled calls (envs.node_draws);
+        # the rows whose track lists hold the batch's buffers (set once, then reused)
+        self._drawn = (
+            DrawnNodeEpisodes(template, b, self._rows, self._weights) if takes_drawn_nodes(template) else None
+        )
+        self._buffered = np.zeros(b, dtype=np.bool_)
 
     @property
     def kernel_rows(self) -> NodeRows:
@@ -125,6 +141,7 @@ class NodeBlockRows:
         track = row.track if self._mobile else None
         if track is not None:
             k = self._k[i] = row.config.K
+            self._buffered[i] = False
             self._track_paths[i], self._track_reports[i] = track.paths, track.reports
             self._track_measured[i], self._track_tally[i] = track.measured, track.tally
             if weights is None or weights.slots[i] == 0:  # (the track's kernels: built)
@@ -135,11 +152,49 @@ class NodeBlockRows:
             if self._episode_draws is not None and self._knowledge != 0:
                 self._episode_draws.draw(i, env.np_random, row.config.N, draws(self._kind, k))
 
+    def draw(self, rows: np.ndarray, seeds: list[int | None], options: list[Any]) -> np.ndarray:
+        """New episodes on ``rows`` (``BatchedEnv._reset_rows``, after ``end``) whose row envs draw
+        them from their ranges (no options): drawn for all of them at once
+        (``node_draws.DrawnNodeEpisodes``: the row's generator draws what its env's reset draws, the
+        rest is compiled), each row env deferring its episode to it (``defer_episode``). The mask of
+        ``rows`` left to reset through their row envs (all, for the other envs)."""
+        drawn = self._drawn
+        if drawn is None:
+            return np.ones(rows.size, dtype=np.bool_)
+        rest, mine = drawn_rows(self.envs, rows, seeds, options)
+        if not mine.size:
+            return rest
+        envs, draws_, kind = self.envs, self._episode_draws, self._kind
+        observed = self._knowledge != 0 and draws_ is not None
+        for i in mine.tolist():
+            env = envs[i]
+            rng = env.np_random
+            env.stepper.defer_episode(drawn, i)  # (before the draw rewrites the buffers a read track views)
+            n, k = drawn.draw(i, rng)
+            if observed:
+                draws_.draw(i, rng, n, draws(kind, k))
+        unfit = drawn.make(mine, self._lo, self._hi)
+        self._k[mine] = drawn.counts[mine]
+        for i in unfit.tolist():  # (a surface the compiled weights do not take: the track's kernels)
+            row = envs[i].stepper
+            self._rows.load(i, row.config, kernels=False)
+            row.put_first_kernels(self._rows, i)
+            self._track_nodes[i], self._track_params[i] = row.track.nodes, row.track.params
+        paths, reports, measured, tally = drawn.paths, drawn.reports, drawn.measured, drawn.tally
+        for i in mine.tolist():
+            if not self._buffered[i]:
+                self._track_paths[i], self._track_reports[i] = paths[i], reports[i]
+                self._track_measured[i], self._track_tally[i] = measured[i], tally[i]
+                self._buffered[i] = True
+        return rest
+
     def start(self, rows: np.ndarray, obs: np.ndarray, info: np.ndarray) -> None:
         """Start the episodes of ``rows`` (loaded): their first observations and ``info`` rows."""
         if self._mobile and self._weights is not None:  # the first slot's node kernels
             rows = np.asarray(rows, dtype=np.int64)
-            self._weights.put(rows, self._rows.state, -1, self._rows.nodes, self._rows.params)
+            self._weights.put(
+                rows, self._rows.state, -1, self._rows.nodes, self._rows.params, self.num_threads
+            )
         self._rows.start(rows, obs, info)
         if self._mobile:
             self._observe_rows(rows, obs)
@@ -165,7 +220,8 @@ class NodeBlockRows:
         normals, envs, counts, draw, out = self._slot_normals, self.envs, self._k, self._draw, self._draw_out
         state, shares = self._rows.state, self._rows.shares
         if self._knowledge != 0 and self._episode_draws is not None:
-            self._episode_draws.take(rows, state[rows, 2].astype(np.int64), normals)
+            draws_ = self._episode_draws  # (EpisodeDraws.take's gather, compiled)
+            take_slot_normals(rows, state, draws_.normals, draws_.taken, normals)
         elif self._knowledge != 0:
             for i in rows.tolist():
                 draw[i](out=out[i])
@@ -178,9 +234,13 @@ class NodeBlockRows:
             kernels = self._rows.nodes, self._rows.params
             measure_nodes(rows, state, shares, self._track_measured, self._track_nodes, self._track_params,
                           *kernels, normals, self._knowledge == 1, self._rate_high, self._told)  # fmt: skip
-        tell_nodes(rows, state, shares, self._track_paths, self._track_reports, self._track_tally, self._lo,
-                   self._hi, normals, self._knowledge, self._sigma, self._scale, not self._estimate,
-                   self._width, self._told, obs, self._raw)  # fmt: skip
+        args = (rows, state, shares, self._track_paths, self._track_reports, self._track_tally, self._lo,
+                self._hi, normals, self._knowledge, self._sigma, self._scale, not self._estimate, self._width,
+                self._told, obs, self._raw, self._rows.sizes)  # fmt: skip
+        if self.num_threads == 1:  # (IEEE either way: one thread runs the plain loop)
+            tell_nodes(*args)
+        else:
+            run_batched(tell_nodes_batched, tell_nodes, self.num_threads, *args)
         if self._estimate:
             for i in rows.tolist():
                 k = int(counts[i])
@@ -222,7 +282,9 @@ class NodeBlockRows:
         elif self._mobile:  # each row's node kernels of the slot it flies to, in one call
             rows, weights = self._rows, self._weights
             assert weights is not None
-            weights.put(stepping, rows.state, 1, rows.nodes, rows.params)  # (computed in the row)
+            weights.put(
+                stepping, rows.state, 1, rows.nodes, rows.params, self.num_threads
+            )  # (computed in the row)
             kept = stepping[weights.slots[stepping] == 0]  # (the others: their tracks')
             if kept.size:
                 gather_node_kernels(kept, rows.state, self._track_nodes, self._track_params, rows.nodes,

@@ -34,7 +34,7 @@ from ios_uav_env.envs.knowledge import (
     _rectangles,
     nodes_track_kernels,
 )
-from ios_uav_env.jit import HAVE_NUMBA, jit
+from ios_uav_env.jit import HAVE_NUMBA, jit, prange, run_batched
 from ios_uav_env.model.channel import faded_row
 from ios_uav_env.model.config import ScenarioConfig
 from ios_uav_env.model.motion import node_paths
@@ -153,6 +153,12 @@ class NodeWeights:
         self._last = (config, held[1])
         return held[1]
 
+    def geometry(self, config: ScenarioConfig) -> tuple[Any, ...] | None:
+        """(kernel config, projection index, Q, the kernels' node coordinates (2, Q), the kernel
+        scalars, J, the IOS centre's x) of ``config``'s node kernels (None: the compiled weights do
+        not apply), as :meth:`load` takes them: a batch that fills its rows' entries itself."""
+        return self._geometry(config)
+
     def width(self, config: ScenarioConfig) -> int | None:
         """Q, the surface nodes of ``config``'s node kernels (``node_kernels.kernel_width``'s), where
         the compiled weights apply to it; None where they do not."""
@@ -186,11 +192,17 @@ class NodeWeights:
         return True
 
     def put(
-        self, rows: np.ndarray, state: np.ndarray, ahead: int, nodes: np.ndarray, params: np.ndarray
-    ) -> None:
-        """:func:`put_node_weights` of these buffers."""
-        put_node_weights(rows, state, ahead, self.slots, self.counts, self.which, self.points, self.base,
-                         self.factors, self.ky_t, self.kz_t, self.gy, self.gz2, nodes, params)  # fmt: skip
+        self, rows: np.ndarray, state: np.ndarray, ahead: int, nodes: np.ndarray, params: np.ndarray,
+        num_threads: int | None = 1,
+    ) -> None:  # fmt: skip
+        """:func:`put_node_weights` of these buffers (on ``num_threads`` of numba's threads: its
+        blocks, :func:`put_node_weights_batched`; None: numba's current setting)."""
+        args = (rows, state, ahead, self.slots, self.counts, self.which, self.points, self.base, self.factors,
+                self.ky_t, self.kz_t, self.gy, self.gz2, nodes, params)  # fmt: skip
+        if num_threads == 1:
+            put_node_weights(*args)
+        else:
+            run_batched(put_node_weights_batched, put_node_weights, num_threads, *args)
 
 
 @jit(fastmath=False)
@@ -227,6 +239,96 @@ def _typed_list(template: np.ndarray) -> Any:
 
 
 @jit(fastmath=False)
+def _point_blocks(
+    rows: np.ndarray, state: np.ndarray, ahead: int, slots: np.ndarray, counts: np.ndarray, which: np.ndarray,
+    block: int,
+) -> tuple[np.ndarray, np.ndarray]:  # fmt: skip
+    """The points (row, node, slot) whose kernels :func:`put_node_weights` computes, (points, 3),
+    grouped by projection (a counting sort: the projections met are few), in row order within a
+    projection, and the start of each block (at most ``block`` points of one projection; the last
+    entry: the number of points)."""
+    total = 0
+    for j in range(rows.size):
+        i = rows[j]
+        slot = 0 if ahead < 0 else int(state[i, 2]) + ahead
+        if slots[i] > 0 and slot < slots[i]:
+            total += counts[i]
+    at = np.empty((total, 3), dtype=np.int64)
+    t = 0
+    for j in range(rows.size):
+        i = rows[j]
+        slot = 0 if ahead < 0 else int(state[i, 2]) + ahead
+        if slots[i] > 0 and slot < slots[i]:
+            for k in range(counts[i]):
+                at[t, 0], at[t, 1], at[t, 2] = i, k, slot
+                t += 1
+    kinds = 0
+    for t in range(total):
+        kinds = max(kinds, which[at[t, 0]] + 1)
+    first = np.zeros(kinds + 1, dtype=np.int64)
+    for t in range(total):
+        first[which[at[t, 0]] + 1] += 1
+    for p in range(kinds):
+        first[p + 1] += first[p]
+    points = np.empty((total, 3), dtype=np.int64)
+    for t in range(total):
+        p = which[at[t, 0]]
+        points[first[p]] = at[t]
+        first[p] += 1
+    starts = np.empty(total + 1, dtype=np.int64)
+    count, start = 0, 0
+    while start < total:
+        starts[count] = start
+        count += 1
+        p, m = which[points[start, 0]], 1
+        while m < block and start + m < total and which[points[start + m, 0]] == p:
+            m += 1
+        start += m
+    starts[count] = total
+    return points, starts[: count + 1].copy()
+
+
+@jit(fastmath=False)
+def _put_block(
+    b: int, points_at: np.ndarray, starts: np.ndarray, which: np.ndarray, points: np.ndarray,
+    base: np.ndarray, factors: np.ndarray, ky_ts: Any, kz_ts: Any, gys: Any, gz2s: Any, nodes: np.ndarray,
+    params: np.ndarray,
+) -> None:  # fmt: skip
+    """Block ``b`` of :func:`_point_blocks`: its points' weights (``weight_kernels.block_weights``)
+    and G's scalars into their rows' kernels."""
+    start, m = starts[b], starts[b + 1] - starts[b]
+    p = which[points_at[start, 0]]
+    ky_t, kz_t, gy, gz2 = ky_ts[p], kz_ts[p], gys[p], gz2s[p]
+    py, ny, pz, nz = ky_t.shape[0], ky_t.shape[1], kz_t.shape[0], kz_t.shape[1]
+    dx2 = np.empty(m)
+    scale = np.empty(m)
+    dy2_t = np.empty((py, m))
+    beta = np.empty((py, pz, m))
+    half = np.empty((pz, ny, m))
+    weights = np.empty((ny, nz, m))
+    for j in range(m):
+        at = points_at[start + j]
+        point = points[at[0], at[1], at[2]]
+        dx2[j], scale[j] = point[PT_DX2], point[PT_SCALE]
+        for c in range(py):
+            e = point[PT_GY] - gy[c]
+            dy2_t[c, j] = e * e
+    block_weights(weights, half, beta, scale, dx2, dy2_t, gz2, ky_t, kz_t, 0, m)
+    for j in range(m):
+        at = points_at[start + j]
+        i, k = at[0], at[1]
+        point = points[i, k, at[2]]
+        factor, out = factors[i], nodes[i, k, 2]
+        for x in range(ny):
+            for y in range(nz):
+                out[x * nz + y] = factor * weights[x, y, j]
+        params[i, k, :] = base[i]
+        params[i, k, PARAM_G_SIDE] = point[PT_SIDE]
+        params[i, k, PARAM_GX] = point[PT_GX]
+        params[i, k, PARAM_GY] = point[PT_GY]
+
+
+@jit(fastmath=False)
 def put_node_weights(
     rows: np.ndarray, state: np.ndarray, ahead: int, slots: np.ndarray, counts: np.ndarray, which: np.ndarray,
     points: np.ndarray, base: np.ndarray, factors: np.ndarray, ky_ts: Any, kz_ts: Any, gys: Any, gz2s: Any,
@@ -236,74 +338,26 @@ def put_node_weights(
     the episode's first, slot 0) into ``nodes[i, k, 2, :ny nz]`` (the surface weights J ky B kz^T)
     and ``params[i, k]``, for the rows with ``slots[i]`` > 0 whose slot is in their episode (the
     others are left as they are). The points (row, node) are taken ``WEIGHT_BLOCK`` at a time (a
-    block: points of one projection), as ``weight_kernels.interpolated_weights_into`` takes a
-    path's: IEEE arithmetic, each point's sums on their own in index order (module docstring)."""
-    total = 0
-    for j in range(rows.size):
-        i = rows[j]
-        slot = 0 if ahead < 0 else int(state[i, 2]) + ahead
-        if slots[i] > 0 and slot < slots[i]:
-            total += counts[i]
-    at_row = np.empty(total, dtype=np.int64)
-    at_node = np.empty(total, dtype=np.int64)
-    at_slot = np.empty(total, dtype=np.int64)
-    t = 0
-    for j in range(rows.size):
-        i = rows[j]
-        slot = 0 if ahead < 0 else int(state[i, 2]) + ahead
-        if slots[i] > 0 and slot < slots[i]:
-            for k in range(counts[i]):
-                at_row[t], at_node[t], at_slot[t] = i, k, slot
-                t += 1
-    # the points grouped by projection (a block takes one), in row order within a projection (a
-    # counting sort: the projections met are few)
-    kinds = 0
-    for t in range(total):
-        kinds = max(kinds, which[at_row[t]] + 1)
-    first = np.zeros(kinds + 1, dtype=np.int64)
-    for t in range(total):
-        first[which[at_row[t]] + 1] += 1
-    for p in range(kinds):
-        first[p + 1] += first[p]
-    order = np.empty(total, dtype=np.int64)
-    for t in range(total):
-        p = which[at_row[t]]
-        order[first[p]] = t
-        first[p] += 1
-    at_row, at_node, at_slot = at_row[order], at_node[order], at_slot[order]
-    dx2 = np.empty(block)
-    scale = np.empty(block)
-    start = 0
-    while start < total:
-        p = which[at_row[start]]
-        m = 1
-        while m < block and start + m < total and which[at_row[start + m]] == p:
-            m += 1
-        ky_t, kz_t, gy, gz2 = ky_ts[p], kz_ts[p], gys[p], gz2s[p]
-        py, ny, pz, nz = ky_t.shape[0], ky_t.shape[1], kz_t.shape[0], kz_t.shape[1]
-        dy2_t = np.empty((py, block))
-        beta = np.empty((py, pz, block))
-        half = np.empty((pz, ny, block))
-        weights = np.empty((ny, nz, block))
-        for j in range(m):
-            point = points[at_row[start + j], at_node[start + j], at_slot[start + j]]
-            dx2[j], scale[j] = point[PT_DX2], point[PT_SCALE]
-            for c in range(py):
-                e = point[PT_GY] - gy[c]
-                dy2_t[c, j] = e * e
-        block_weights(weights, half, beta, scale, dx2, dy2_t, gz2, ky_t, kz_t, 0, m)
-        for j in range(m):
-            i, k = at_row[start + j], at_node[start + j]
-            point = points[i, k, at_slot[start + j]]
-            factor, out = factors[i], nodes[i, k, 2]
-            for x in range(ny):
-                for y in range(nz):
-                    out[x * nz + y] = factor * weights[x, y, j]
-            params[i, k, :] = base[i]
-            params[i, k, PARAM_G_SIDE] = point[PT_SIDE]
-            params[i, k, PARAM_GX] = point[PT_GX]
-            params[i, k, PARAM_GY] = point[PT_GY]
-        start += m
+    block: points of one projection, :func:`_point_blocks`), as
+    ``weight_kernels.interpolated_weights_into`` takes a path's: IEEE arithmetic, each point's
+    sums on their own in index order (module docstring), so whatever block a point is in and
+    whichever thread computes it, its numbers are the same."""
+    at, starts = _point_blocks(rows, state, ahead, slots, counts, which, block)
+    for b in range(starts.size - 1):
+        _put_block(b, at, starts, which, points, base, factors, ky_ts, kz_ts, gys, gz2s, nodes, params)
+
+
+@jit(fastmath=False, parallel=True)
+def put_node_weights_batched(
+    rows: np.ndarray, state: np.ndarray, ahead: int, slots: np.ndarray, counts: np.ndarray, which: np.ndarray,
+    points: np.ndarray, base: np.ndarray, factors: np.ndarray, ky_ts: Any, kz_ts: Any, gys: Any, gz2s: Any,
+    nodes: np.ndarray, params: np.ndarray, block: int = WEIGHT_BLOCK,
+) -> None:  # fmt: skip
+    """:func:`put_node_weights` with the blocks on numba's threads (a block's points are rows'
+    own: no two blocks write the same kernel)."""
+    at, starts = _point_blocks(rows, state, ahead, slots, counts, which, block)
+    for b in prange(starts.size - 1):
+        _put_block(b, at, starts, which, points, base, factors, ky_ts, kz_ts, gys, gz2s, nodes, params)
 
 
 @jit

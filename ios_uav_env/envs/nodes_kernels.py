@@ -32,11 +32,19 @@ import numpy as np
 
 from ios_uav_env.envs.knowledge_kernels import MODES
 from ios_uav_env.envs.multi_table import BASE_FEATURES
-from ios_uav_env.jit import jit
+from ios_uav_env.jit import jit, prange
 from ios_uav_env.model.channel import faded_row
 from ios_uav_env.model.reports import SERVED_SHARE
 
-__all__ = ["MODES", "N_BASE", "draws", "gather_node_kernels", "measure_nodes", "tell_nodes"]
+__all__ = [
+    "MODES",
+    "N_BASE",
+    "draws",
+    "gather_node_kernels",
+    "measure_nodes",
+    "tell_nodes",
+    "tell_nodes_batched",
+]
 
 #: The scenario-level features before the node blocks (``multi_table.BASE_FEATURES``).
 N_BASE = len(BASE_FEATURES)
@@ -105,37 +113,60 @@ def measure_nodes(
 def tell_nodes(
     rows: np.ndarray, state: np.ndarray, shares: np.ndarray, paths: Any, reports: Any, tally: Any,
     lo: np.ndarray, hi: np.ndarray, normals: np.ndarray, mode: int, sigma: float, scale: float,
-    positions: bool, width: int, told: np.ndarray, obs: np.ndarray, raw: np.ndarray,
+    positions: bool, width: int, told: np.ndarray, obs: np.ndarray, raw: np.ndarray, sizes: np.ndarray,
 ) -> None:  # fmt: skip
     """The node features of each row's observation ``obs[i]``, in IEEE arithmetic: each node
     block's position (12 + ``width`` k + 1, + 2: the truth, the clipped report of the normals
     ``normals[i, 2k : 2k + 2]`` (recorded in ``reports[i]``, the raw one in ``raw[i, k]``) or 0
     for ``"rates"``; not written when ``positions`` is False: the filter's, written after) and,
     unless knowledge is exact (``mode``: ``MODES``), the served tally (+ share x told rate, over
-    N) and the rate feature (the told rate ``told[i, k]`` of :func:`measure_nodes`, 0: not served)."""
+    N) and the rate feature (the told rate ``told[i, k]`` of :func:`measure_nodes`, 0: not served).
+    ``sizes[i]``: the row's (K, N) (its track's arrays may be the batch's, longer)."""
     for j in range(rows.size):
-        i = rows[j]
-        slot = int(state[i, 2])
-        path, record, served = paths[i], reports[i], tally[i]
-        n_slots, k_nodes = path.shape[0], path.shape[1]
-        for k in range(k_nodes):
-            at = N_BASE + width * k
-            px, py = path[slot, k, 0], path[slot, k, 1]
-            if mode == 1:
-                rx = px + sigma * normals[i, 2 * k]
-                ry = py + sigma * normals[i, 2 * k + 1]
-                raw[i, k, 0], raw[i, k, 1] = rx, ry
-                px = min(max(rx, lo[i, k, 0]), hi[i, k, 0])
-                py = min(max(ry, lo[i, k, 1]), hi[i, k, 1])
-                record[slot, k, 0], record[slot, k, 1] = px, py
-            if mode == 2:
-                obs[i, at + 1], obs[i, at + 2] = 0.0, 0.0
-            elif positions:
-                obs[i, at + 1] = (px - state[i, 0]) / scale
-                obs[i, at + 2] = (py - state[i, 1]) / scale
-            if mode != 0:
-                rate = told[i, k]
-                if not math.isnan(rate):
-                    served[k] += shares[i, k] * rate
-                obs[i, at + 4] = served[k] / n_slots
-                obs[i, at + 5] = 0.0 if math.isnan(rate) else rate
+        _tell_row(rows[j], state, shares, paths, reports, tally, lo, hi, normals, mode, sigma, scale,
+                  positions, width, told, obs, raw, sizes)  # fmt: skip
+
+
+@jit(fastmath=False, parallel=True)
+def tell_nodes_batched(
+    rows: np.ndarray, state: np.ndarray, shares: np.ndarray, paths: Any, reports: Any, tally: Any,
+    lo: np.ndarray, hi: np.ndarray, normals: np.ndarray, mode: int, sigma: float, scale: float,
+    positions: bool, width: int, told: np.ndarray, obs: np.ndarray, raw: np.ndarray, sizes: np.ndarray,
+) -> None:  # fmt: skip
+    """:func:`tell_nodes` with the rows on numba's threads (each row writes its own entries)."""
+    for j in prange(rows.size):
+        _tell_row(rows[j], state, shares, paths, reports, tally, lo, hi, normals, mode, sigma, scale,
+                  positions, width, told, obs, raw, sizes)  # fmt: skip
+
+
+@jit(fastmath=False)
+def _tell_row(
+    i: int, state: np.ndarray, shares: np.ndarray, paths: Any, reports: Any, tally: Any, lo: np.ndarray,
+    hi: np.ndarray, normals: np.ndarray, mode: int, sigma: float, scale: float, positions: bool, width: int,
+    told: np.ndarray, obs: np.ndarray, raw: np.ndarray, sizes: np.ndarray,
+) -> None:  # fmt: skip
+    """Row ``i`` of :func:`tell_nodes`."""
+    slot = int(state[i, 2])
+    path, record, served = paths[i], reports[i], tally[i]
+    k_nodes, n_slots = sizes[i, 0], sizes[i, 1]
+    for k in range(k_nodes):
+        at = N_BASE + width * k
+        px, py = path[slot, k, 0], path[slot, k, 1]
+        if mode == 1:
+            rx = px + sigma * normals[i, 2 * k]
+            ry = py + sigma * normals[i, 2 * k + 1]
+            raw[i, k, 0], raw[i, k, 1] = rx, ry
+            px = min(max(rx, lo[i, k, 0]), hi[i, k, 0])
+            py = min(max(ry, lo[i, k, 1]), hi[i, k, 1])
+            record[slot, k, 0], record[slot, k, 1] = px, py
+        if mode == 2:
+            obs[i, at + 1], obs[i, at + 2] = 0.0, 0.0
+        elif positions:
+            obs[i, at + 1] = (px - state[i, 0]) / scale
+            obs[i, at + 2] = (py - state[i, 1]) / scale
+        if mode != 0:
+            rate = told[i, k]
+            if not math.isnan(rate):
+                served[k] += shares[i, k] * rate
+            obs[i, at + 4] = served[k] / n_slots
+            obs[i, at + 5] = 0.0 if math.isnan(rate) else rate

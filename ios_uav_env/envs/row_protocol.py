@@ -44,7 +44,11 @@ i)`` before each step, ``observe_slot(rows, i, obs)`` after the start and each s
 roughly known nodes; nothing otherwise), and ``mobile`` and ``truth`` for the episode's score.
 ``NodeBlockRows`` makes ``prepare_slot`` only where it draws (channel "rician"): it swaps
 in its moving rows' kernels and tells them what they observe in compiled calls on their
-``track`` arrays (``nodes_kernels``, with ``rate_clip`` and ``node_features``).
+``track`` arrays (``nodes_kernels``, with ``rate_clip`` and ``node_features``). A randomised
+moving env (``node_draws.takes_drawn_nodes``) may skip ``begin_episode`` and ``load_row``
+without options, as the single node's: ``defer_episode(source, i)`` (its rows drew the episodes
+from the row env's ``np_random``, ``node_draws.DrawnNodeEpisodes``), then
+``put_first_kernels(rows, i)`` for a row whose kernels the batch does not compute.
 
 A batched ``reset(seed=..., options=...)`` becomes the rows' ``begin_episode`` arguments by
 :func:`row_seeds` and :func:`rows_options` (every pinned scenario checked before any row resets).
@@ -180,6 +184,15 @@ class MultiNodeRow(ScenarioRow, Protocol):
     @property
     def truth(self) -> np.ndarray | None:
         """(N, K, 2) m: the episode's true node paths (None for static, exactly known nodes)."""
+        ...
+
+    def defer_episode(self, source: Any, i: int) -> None:
+        """(Mobile.) Take the episode row ``i`` of ``source`` drew for this env (its ``np_random``'s
+        draws): ``config`` and ``track`` built from it when first read."""
+        ...
+
+    def put_first_kernels(self, rows: NodeRows, i: int) -> None:
+        """(Mobile.) Put the track's node kernels of the first slot in row ``i`` of ``rows``."""
         ...
 
 

@@ -21,11 +21,11 @@ reference flights scored on the node path just drawn, which only the reward uses
 
 from __future__ import annotations
 
-from functools import cache
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from ios_uav_env.envs.deferral import defer
 from ios_uav_env.envs.knowledge import NodeTrack, observe_slot, start_track
 from ios_uav_env.envs.observation import (
     flights_efficiency,
@@ -114,18 +114,7 @@ class MobileNode:
         built from ``source`` when first read (:meth:`_resume_episode`), the same as
         ``begin_episode`` and :meth:`start_track` would have made them. A mobile env of the rate
         objective only (row protocol, ``DrawnEpisodes``)."""
-        state = self.__dict__
-        if state.get("_deferral") is None and state.pop("_track_views", False):
-            track = state["_track"]  # (the last episode's, read: its arrays leave the batch's buffers)
-            track.paths, track.reports, track.measured = (
-                track.paths.copy(),
-                track.reports.copy(),
-                track.measured.copy(),
-            )
-        cls = type(self)
-        if not getattr(cls, "_defers", False):
-            self.__class__ = _deferring(cls)
-        state["_deferral"] = (source, i)
+        defer(self, source, i, DEFERRED, ("paths", "reports", "measured"))
 
     def _resume_episode(self) -> None:
         """Build the deferred episode (:meth:`defer_episode`): ``_set_config`` on the row's
@@ -187,33 +176,3 @@ class MobileNode:
 
 #: The attributes of a row env's episode that :meth:`MobileNode.defer_episode` builds when first read.
 DEFERRED = ("config", "kernel", "reference_efficiency", "_episode", "_nodes", "_params", "_track")
-
-
-def _deferred_attribute(name: str) -> property:
-    """A data descriptor for ``name``: reading or setting it first builds a deferred episode."""
-
-    def get(self: Any) -> Any:
-        state = self.__dict__
-        if state.get("_deferral") is not None:
-            self._resume_episode()
-        try:
-            return state[name]
-        except KeyError:
-            raise AttributeError(name) from None
-
-    def put(self: Any, value: Any) -> None:
-        state = self.__dict__
-        if state.get("_deferral") is not None:
-            self._resume_episode()
-        state[name] = value
-
-    return property(get, put)
-
-
-@cache
-def _deferring(cls: type) -> type:
-    """``cls`` with :data:`DEFERRED` read through :func:`_deferred_attribute` (only the row envs of
-    a batched env that defers their episodes take it: every other env reads plain attributes)."""
-    namespace = {name: _deferred_attribute(name) for name in DEFERRED}
-    # (a name of its own: pickle refuses it rather than rebuild the plain class on a deferred state)
-    return type(f"Deferring{cls.__name__}", (cls,), {**namespace, "_defers": True})

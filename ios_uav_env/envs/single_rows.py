@@ -15,9 +15,9 @@ from __future__ import annotations
 
 from typing import Any
 
-import gymnasium as gym
 import numpy as np
 
+from ios_uav_env.envs.deferral import drawn_rows
 from ios_uav_env.envs.knowledge import filter_report
 from ios_uav_env.envs.knowledge_kernels import (
     DRAWS,
@@ -121,17 +121,12 @@ class SingleNodeRows:
         drawn = self._drawn
         if drawn is None:
             return np.ones(rows.size, dtype=np.bool_)
-        rest = np.array([o is not None for o in options], dtype=np.bool_)
-        if rest.all():
+        rest, mine = drawn_rows(self.envs, rows, seeds, options)
+        if not mine.size:
             return rest
-        mine = rows[~rest].astype(np.int64)
         envs, draws, width = self.envs, self._episode_draws, self._draws
-        for i, seed in zip(
-            mine.tolist(), [s for s, r in zip(seeds, rest.tolist(), strict=True) if not r], strict=True
-        ):
+        for i in mine.tolist():
             env = envs[i]
-            if seed is not None:
-                gym.Env.reset(env, seed=seed)  # (the seeding of begin_episode)
             rng = env.np_random
             env.stepper.defer_episode(drawn, i)  # (before the draw rewrites the buffers a read track views)
             n = drawn.draw(i, rng)

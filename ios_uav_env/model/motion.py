@@ -123,23 +123,32 @@ def _walk(
     for n in range(normals.shape[0]):
         for k in range(w.shape[0]):
             for c in range(2):
-                p = out[n, k, c] + v[k, c] * dt
-                vel = a * v[k, c] + (1.0 - a) * mean[k, c] + gain * normals[n, k, c]
-                low, high = lo[k, c], hi[k, c]
-                if low <= p <= high:
-                    out[n + 1, k, c] = p
-                else:
-                    width = high - low
-                    u = p - low
-                    times = np.floor(u / width)
-                    r = u - times * width
-                    if times % 2 != 0:  # mirrored an odd number of times: reversed
-                        out[n + 1, k, c] = high - r
-                        vel, mean[k, c] = -vel, -mean[k, c]
-                    else:
-                        out[n + 1, k, c] = low + r
-                v[k, c] = vel
+                out[n + 1, k, c], v[k, c], mean[k, c] = walk_component(
+                    out[n, k, c], v[k, c], mean[k, c], normals[n, k, c], lo[k, c], hi[k, c], a, gain, dt
+                )
     return out
+
+
+@jit(inline=True, fastmath=False)
+def walk_component(
+    w: float, v: float, mean: float, normal: float, low: float, high: float, a: float, gain: float, dt: float
+) -> tuple[float, float, float]:
+    """One slot of one component of :func:`node_paths`' walk: (w[n+1], v[n+1], the mean velocity
+    after it) from w[n], v[n], the mean velocity and the slot's standard ``normal``, reflected into
+    [``low``, ``high``] as :func:`~ios_uav_env.model.mobility.reflect` does (an odd number of
+    mirrorings reverses the velocity and the mean). IEEE operations in :func:`_walk`'s order: the
+    batched envs' compiled draws walk with it too."""
+    p = w + v * dt
+    vel = a * v + (1.0 - a) * mean + gain * normal
+    if low <= p <= high:
+        return p, vel, mean
+    width = high - low
+    u = p - low
+    times = np.floor(u / width)
+    r = u - times * width
+    if times % 2 != 0:  # mirrored an odd number of times: reversed
+        return high - r, -vel, -mean
+    return low + r, vel, mean
 
 
 def check_paths(config: ScenarioConfig, paths: Any, n_slots: int | None = None) -> np.ndarray:

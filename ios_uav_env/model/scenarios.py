@@ -288,7 +288,15 @@ def sample_multinode(
     k = int(rng.integers(nodes[0], nodes[1], endpoint=True))
     points = [(float(rng.uniform(*ranges.ground_x)), float(rng.uniform(*ranges.ground_y))) for _ in range(k)]
     changes = _draw(rng, ranges)
-    del changes["ground_node"]
     # (a walking node drawn next to the IOS plane starts at its margin: sample_scenario's rule)
-    changes["ground_nodes"] = tuple(_off_plane(p, ranges.base, changes["surface"]) for p in points)
-    return ranges.base.replace(**changes)
+    nodes_off = tuple(_off_plane(p, ranges.base, changes["surface"]) for p in points)
+    return ranges.base.replace(**multinode_changes(changes, nodes_off))
+
+
+def multinode_changes(changes: dict[str, Any], nodes: tuple[tuple[float, float], ...]) -> dict[str, Any]:
+    """:func:`sample_multinode`'s changes of ``r.base``: ``changes`` (:func:`drawn_changes`' of the
+    scenario's draws) with the ground nodes ``nodes`` (m, already off the IOS plane) instead of G. A
+    batched env that draws the numbers in compiled code builds its rows' configs with it."""
+    out = {name: value for name, value in changes.items() if name != "ground_node"}
+    out["ground_nodes"] = nodes
+    return out

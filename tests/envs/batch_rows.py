@@ -5,10 +5,15 @@ envs with the same actions and compares them."""
 
 from __future__ import annotations
 
+import dataclasses
 from collections.abc import Iterable, Sequence
 from typing import Any
 
 import numpy as np
+
+from ios_uav_env.model.config import ScenarioConfig
+from ios_uav_env.model.mobility import GaussMarkov
+from ios_uav_env.model.scenarios import ScenarioRanges
 
 #: The moving nodes' knowledge settings both tests run.
 CASES = [
@@ -73,3 +78,34 @@ def cut_episodes(
     for i, env in enumerate(singles):
         assert same(env.reset()[0], obs[i]), i
     step_batch_and_singles(vec, singles, [next(steps) for _ in range(3)], records, filtered)
+
+
+#: The message of a drawn node outside its motion rectangle (``mobility.rectangles``).
+OUTSIDE = "starts outside its motion rectangle"
+
+
+def refused_ranges() -> Any:
+    """Ranges that check out at construction (their corners) but some of whose draws the config
+    refuses (a node drawn outside its motion box: forced after construction)."""
+    good = ScenarioRanges(
+        ground_y=(-40.0, 40.0), T=(40.0, 60.0), ios_rows=(20, 20), surfaces=("ios",),
+        base=ScenarioConfig(motion=GaussMarkov(box=((-300.0, 300.0), (-50.0, 50.0)))),
+    )  # fmt: skip
+    bad = dataclasses.replace(good)
+    object.__setattr__(bad, "ground_y", (-40.0, 150.0))  # (what construction would have refused)
+    return bad
+
+
+def refused_after(single: Any, tries: int = 200) -> int:
+    """The first seed s whose reset of the env ``single`` passes and whose s + 1's raises the
+    config's :data:`OUTSIDE` error (a batch reset with seed s refuses its row 1, not its row 0)."""
+
+    def refused(seed: int) -> bool:
+        try:
+            single.reset(seed=seed)
+        except ValueError as err:
+            assert OUTSIDE in str(err)
+            return True
+        return False
+
+    return next(s for s in range(tries) if not refused(s) and refused(s + 1))

@@ -36,7 +36,7 @@ ROOT = Path(__file__).resolve().parents[2]
 #: The multi-node kernels' arrays (the row table of ``multi_kernels`` and the step of ``multi_step``
 #: share their names).
 MULTI_NODE = (
-    {"state", "st", "episode", "ep", "info", "row", "obs", "o", "points", "flags", "actions"},
+    {"state", "st", "episode", "ep", "info", "row", "obs", "o", "points", "flags", "actions", "sizes"},
     {
         "rates", "served", "shares", "expected", "share_path", "rate_path",  # one entry per node
         "nodes", "params",  # the nodes' rate kernels (rate_kernels' layout), passed whole

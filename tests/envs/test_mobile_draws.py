@@ -5,8 +5,6 @@ validation still refuses a bad draw with its own error; configs are built only w
 
 from __future__ import annotations
 
-import dataclasses
-
 import gymnasium as gym
 import numpy as np
 import pytest
@@ -23,7 +21,7 @@ from ios_uav_env.model.mobility import GaussMarkov
 from ios_uav_env.model.motion import node_paths
 from ios_uav_env.model.rate_kernels import rate_kernel
 from ios_uav_env.model.scenarios import ScenarioRanges, sample_scenario
-from tests.envs.batch_rows import same, step_batch_and_singles
+from tests.envs.batch_rows import OUTSIDE, refused_after, refused_ranges, same, step_batch_and_singles
 
 pytestmark = pytest.mark.skipif(
     not HAVE_NUMBA, reason="the compiled draw needs numba (else: the per-row path)"
@@ -128,26 +126,10 @@ def test_a_draw_the_scenario_refuses_is_refused_with_its_error():
     (here forced after construction): the batched reset raises the config's own error, as the
     single env's does. Skipping the compiled draw's checks would let the bad scenario run (row 0,
     valid, is the one whose config the batch builds for the rows' kernel geometry)."""
-    good = ScenarioRanges(
-        ground_y=(-40.0, 40.0), T=(40.0, 60.0), ios_rows=(20, 20), surfaces=("ios",),
-        base=ScenarioConfig(motion=GaussMarkov(box=((-300.0, 300.0), (-50.0, 50.0)))),
-    )  # fmt: skip
-    bad = dataclasses.replace(good)
-    object.__setattr__(bad, "ground_y", (-40.0, 150.0))  # (what construction would have refused)
-    single = RandomIOSUAVEnv(bad, knowledge="reports")
-    message = "starts outside its motion rectangle"
-
-    def refused(seed: int) -> bool:
-        try:
-            single.reset(seed=seed)
-        except ValueError as err:
-            assert message in str(err)
-            return True
-        return False
-
-    seed = next(s for s in range(100) if not refused(s) and refused(s + 1))
+    bad = refused_ranges()
+    seed = refused_after(RandomIOSUAVEnv(bad, knowledge="reports"))
     vec = drawn_vec(bad, 2)
-    with pytest.raises(ValueError, match=message):
+    with pytest.raises(ValueError, match=OUTSIDE):
         vec.reset(seed=seed)
     with pytest.raises(RuntimeError, match="reset"):
         vec.step(np.zeros((2, 2)))

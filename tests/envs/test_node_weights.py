@@ -118,3 +118,20 @@ def test_rows_the_compiled_weights_do_not_take_keep_their_tracks(kwargs, monkeyp
 def test_the_batch_equals_its_single_envs_with_the_compiled_weights():
     # (the rows of test_nodes_kernels' check: surfaces of 48, 64 and 40 nodes, all compiled)
     assert check_rows({"knowledge": "reports"}, rows=5, seed=4) > 0
+
+
+@needs_numba
+def test_the_blocks_on_numbas_threads_give_the_serial_kernels():
+    vec = batch(rows=24, seed=6)
+    rows = vec.rows
+    weights, kernels = rows._weights, rows.kernel_rows
+    every = np.arange(vec.num_envs, dtype=np.int64)
+    for slot in range(1, 30, 7):
+        state = kernels.state.copy()
+        state[:, 2] = slot
+        serial = kernels.nodes.copy(), kernels.params.copy()
+        threaded = kernels.nodes.copy(), kernels.params.copy()
+        weights.put(every, state, 1, *serial)
+        weights.put(every, state, 1, *threaded, num_threads=2)
+        assert same(serial[0], threaded[0]) and same(serial[1], threaded[1])
+        assert not same(serial[0], kernels.nodes)  # (the slot's kernels were put)
