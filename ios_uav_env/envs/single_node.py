@@ -33,8 +33,9 @@ from ios_uav_env.envs.settings import (
     several_nodes_error,
     single_node_id,
 )
-from ios_uav_env.envs.single_kernels import INFO, STATE, episode_row, reset_rows, step_rows
+from ios_uav_env.envs.single_kernels import INFO, STATE, episode_row
 from ios_uav_env.envs.single_mobile import MobileNode
+from ios_uav_env.envs.view_steps import reset_rows, step_rows
 from ios_uav_env.jit import HAVE_NUMBA
 from ios_uav_env.model.channel import RateKernel, rate_kernel, slot_rates
 from ios_uav_env.model.config import ScenarioConfig, as_config, scenario_option

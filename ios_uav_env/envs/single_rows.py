@@ -27,9 +27,10 @@ from ios_uav_env.envs.knowledge_kernels import (
     row_list,
 )
 from ios_uav_env.envs.mobile_draws import DrawnEpisodes, take_slot_normals, takes_drawn_episodes
-from ios_uav_env.envs.single_kernels import INFO, STATE, fly_rows, reset_rows, step_rows, step_rows_batched
+from ios_uav_env.envs.single_kernels import INFO, STATE
 from ios_uav_env.envs.single_node import INFO_KEYS
 from ios_uav_env.envs.slot_weights import SlotWeights
+from ios_uav_env.envs.view_steps import fly_rows, reset_rows, step_rows, step_rows_batched
 from ios_uav_env.jit import HAVE_NUMBA, run_batched
 
 __all__ = ["Outputs", "SingleNodeRows"]
