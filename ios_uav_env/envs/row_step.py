@@ -111,53 +111,57 @@ def reset_rows(
 
 
 @jit(inline=True)
-def _step_row(
-    i: int, actions: np.ndarray, state: np.ndarray, episode: np.ndarray, points: np.ndarray,
-    nodes: np.ndarray, params: np.ndarray, served: np.ndarray, shares: np.ndarray, rates: np.ndarray,
-    flags: np.ndarray, obs: np.ndarray, reward: np.ndarray, terminated: np.ndarray, info: np.ndarray,
-    path: np.ndarray, share_path: np.ndarray, norms: np.ndarray, expected: np.ndarray, normals: np.ndarray,
-    rate_path: np.ndarray, node_blocks: bool,
+def _step_each(
+    lo: int, hi: int, active: np.ndarray, n_max: int, actions: np.ndarray, state: np.ndarray,
+    episode: np.ndarray, points: np.ndarray, nodes: np.ndarray, params: np.ndarray, served: np.ndarray,
+    shares: np.ndarray, rates: np.ndarray, flags: np.ndarray, obs: np.ndarray, reward: np.ndarray,
+    terminated: np.ndarray, info: np.ndarray, path: np.ndarray, share_path: np.ndarray, norms: np.ndarray,
+    expected: np.ndarray, normals: np.ndarray, rate_path: np.ndarray, node_blocks: bool,
 ) -> None:  # fmt: skip
-    """One slot of row ``i``: node blocks take their shares from the scores (``softmax_shares``);
-    the core's move; each node's rates; the view's rate term (the served rate, or the potential's
-    change); the core's reward; the view's observation and ``info``. ``path`` (B, N_max, 2)
-    receives the new way-point (at index ``moves made``). ``norms[i]``: the move's length where it
-    may exceed 1 (node blocks: ``multi_kernels.move_norms``; a single-node row takes its own)."""
+    """One slot of each active row ``i`` in ``lo`` .. ``hi`` - 1 (node blocks: that has a move left
+    and room in paths of ``n_max`` way-points): node blocks take their shares from the scores
+    (``softmax_shares``); the core's move; each node's rates; the view's rate term (the served
+    rate, or the potential's change); the core's reward; the view's observation and ``info``.
+    ``path`` (B, N_max, 2) receives the new way-point (at index ``moves made``). ``norms[i]``: the
+    move's length where it may exceed 1 (node blocks: ``multi_kernels.move_norms``; a single-node
+    row takes its own). The rows' loop is inside: inlined in a serial loop, each array argument
+    is bound (and reference-counted) once per call, not once per row."""
     k_max = served.shape[1] if node_blocks else 1
-    k_n = int(episode[i, MEP_K]) if node_blocks else 1
-    ax, ay = actions[i, ACT_MOVE_X], actions[i, ACT_MOVE_Y]
-    if node_blocks:
-        softmax_shares(i, actions, episode[i, MEP_SHARPNESS], k_n, shares)
-        norm = norms[i]
-    else:
-        norm = math.hypot(ax, ay)
-    slot = int(state[i, S_MOVES_MADE]) + 1  # the new way-point's index
-    x, y, left, power = move_row(i, ax, ay, norm, state, episode, flags, path)
-    first, first_served, low = 0.0, 0.0, math.inf
-    for k in range(k_n):
-        e, r = _node_rates(i * k_max + k, x, y, nodes, params, normals, flags)
+    for i in range(lo, hi):
+        if not active[i] or (node_blocks and not _steps(state, episode, i, n_max)):
+            continue
+        k_n = int(episode[i, MEP_K]) if node_blocks else 1
+        ax, ay = actions[i, ACT_MOVE_X], actions[i, ACT_MOVE_Y]
         if node_blocks:
-            low = min(low, add_node_rate(i, k, slot, e, r, shares, rates, served, expected, share_path))
+            softmax_shares(i, actions, episode[i, MEP_SHARPNESS], k_n, shares)
+            norm = norms[i]
         else:
-            add_rates(i, e, r, state)
-            first, first_served = e, r
-    dist = math.hypot(episode[i, E_QFX] - x, episode[i, E_QFY] - y)
-    r_rate = (
-        rate_term(i, slot, left, low, state, episode, served, rates, rate_path)
-        if node_blocks
-        else first_served
-    )
-    r_reach, r_terminal, r_energy = reward_row(
-        i, r_rate, dist, left, power, episode, flags, reward, terminated
-    )
-    if node_blocks:
-        observe_nodes(obs, i, x, y, left, dist, episode, points, served, rates, state, flags)
-        info_nodes(info, i, state, episode, shares, served, dist, left, r_rate, r_reach, r_terminal, expected,
-                   power, r_energy)  # fmt: skip
-    else:
-        observe_single(obs, i, x, y, left, dist, first, state, episode, flags)
-        info_single(info, i, state, episode, first_served, first, dist, left, r_rate, r_reach, r_terminal,
-                    power, r_energy)  # fmt: skip
+            norm = math.hypot(ax, ay)
+        slot = int(state[i, S_MOVES_MADE]) + 1  # the new way-point's index
+        x, y, left, power = move_row(i, ax, ay, norm, state, episode, flags, path)
+        first, first_served, low = 0.0, 0.0, math.inf
+        for k in range(k_n):
+            e, r = _node_rates(i * k_max + k, x, y, nodes, params, normals, flags)
+            if node_blocks:
+                low = min(low, add_node_rate(i, k, slot, e, r, shares, rates, served, expected, share_path))
+            else:
+                add_rates(i, e, r, state)
+                first, first_served = e, r
+        dist = math.hypot(episode[i, E_QFX] - x, episode[i, E_QFY] - y)
+        r_rate = first_served
+        if node_blocks:
+            r_rate = rate_term(i, slot, left, low, state, episode, served, rates, rate_path)
+        r_reach, r_terminal, r_energy = reward_row(
+            i, r_rate, dist, left, power, episode, flags, reward, terminated
+        )
+        if node_blocks:
+            observe_nodes(obs, i, x, y, left, dist, episode, points, served, rates, state, flags)
+            info_nodes(info, i, state, episode, shares, served, dist, left, r_rate, r_reach, r_terminal,
+                       expected, power, r_energy)  # fmt: skip
+        else:
+            observe_single(obs, i, x, y, left, dist, first, state, episode, flags)
+            info_single(info, i, state, episode, first_served, first, dist, left, r_rate, r_reach,
+                        r_terminal, power, r_energy)  # fmt: skip
 
 
 @jit(inline=True)
@@ -205,17 +209,15 @@ def step_rows(
     share_path: np.ndarray, active: np.ndarray, norms: np.ndarray, expected: np.ndarray, normals: np.ndarray,
     rate_path: np.ndarray, node_blocks: bool,
 ) -> int:  # fmt: skip
-    """One slot of every active row (:func:`_step_row`), one row after the other. Returns -1, or,
+    """One slot of every active row (:func:`_step_each`), one row after the other. Returns -1, or,
     stepping nothing, the refusal of a single-node batch (:func:`_refused`); a node-block row
     whose episode is over is left as it is."""
     n_max = _path_room(path, share_path, rate_path, node_blocks)
     bad = _refused(actions, state, episode, active, n_max, node_blocks)
     if bad < 0:
-        for i in range(actions.shape[0]):
-            if active[i] and (not node_blocks or _steps(state, episode, i, n_max)):
-                _step_row(i, actions, state, episode, points, nodes, params, served, shares, rates, flags,
-                          obs, reward, terminated, info, path, share_path, norms, expected, normals,
-                          rate_path, node_blocks)  # fmt: skip
+        _step_each(0, actions.shape[0], active, n_max, actions, state, episode, points, nodes, params, served,
+                   shares, rates, flags, obs, reward, terminated, info, path, share_path, norms, expected,
+                   normals, rate_path, node_blocks)  # fmt: skip
     return bad
 
 
@@ -235,10 +237,9 @@ def step_rows_batched(
     bad = _refused(actions, state, episode, active, n_max, node_blocks)
     if bad < 0:
         for i in prange(actions.shape[0]):  # rows are independent
-            if active[i] and (not node_blocks or _steps(state, episode, i, n_max)):
-                _step_row(i, actions, state, episode, points, nodes, params, served, shares, rates, flags,
-                          obs, reward, terminated, info, path, share_path, norms, expected, normals,
-                          rate_path, node_blocks)  # fmt: skip
+            _step_each(i, i + 1, active, n_max, actions, state, episode, points, nodes, params, served,
+                       shares, rates, flags, obs, reward, terminated, info, path, share_path, norms, expected,
+                       normals, rate_path, node_blocks)  # fmt: skip
     return bad
 
 
@@ -260,6 +261,7 @@ def fly_rows(
     bad = fly_entry_out_of_range(rows, targets, moves, state, episode, n_max)
     if bad >= 0:
         return bad
+    everyone = np.ones(state.shape[0], dtype=np.bool_)
     for r in range(rows.size):
         i = rows[r]
         for k in range(actions.shape[1]):
@@ -267,7 +269,7 @@ def fly_rows(
         norms[i] = 0.0  # the moves below are on the unit disk already
         for _ in range(moves[r]):
             toward(i, targets[r, 0], targets[r, 1], state, episode, actions)
-            _step_row(i, actions, state, episode, points, nodes, params, served, shares, rates, flags, obs,
-                      reward, terminated, info, path, share_path, norms, expected, normals, rate_path,
-                      node_blocks)  # fmt: skip
+            _step_each(i, i + 1, everyone, n_max, actions, state, episode, points, nodes, params, served,
+                       shares, rates, flags, obs, reward, terminated, info, path, share_path, norms, expected,
+                       normals, rate_path, node_blocks)  # fmt: skip
     return -1
