@@ -14,7 +14,11 @@ node-block view (``ios_uav_env.envs.multi_kernels.NodeRows``; arrays:
 The entry points are thin so that what the envs pay per call stays their view's: numba's
 dispatcher converts each argument at every call from Python, so a view passes only its own
 arrays (the single env's step, 13 of them); the rest is built here, where a call costs no
-conversion.
+conversion. The row step's reset, serial step and flight are inlined here (compiled with the
+flags each entry point declares: the row step's, fast-math, and IEEE for the flights), its
+parallel step is called. (Numba's disk cache keys a compiled function by its own module's
+source: after a change of ``row_step`` or of what it inlines, delete the ``*.nbi`` / ``*.nbc``
+files of this module too.)
 """
 
 from __future__ import annotations
@@ -70,7 +74,7 @@ def step_rows_batched(
                                  path, False)  # fmt: skip
 
 
-@jit
+@jit(fastmath=False)
 def fly_rows(
     rows: np.ndarray, targets: np.ndarray, moves: np.ndarray, actions: np.ndarray, state: np.ndarray,
     episode: np.ndarray, nodes: np.ndarray, params: np.ndarray, normals: np.ndarray, flags: np.ndarray,
@@ -149,7 +153,7 @@ def step_node_rows_batched(
                           rate_path, True)  # fmt: skip
 
 
-@jit
+@jit(fastmath=False)
 def fly_node_rows(
     rows: np.ndarray, targets: np.ndarray, moves: np.ndarray, actions: np.ndarray, state: np.ndarray,
     episode: np.ndarray, points: np.ndarray, nodes: np.ndarray, params: np.ndarray, served: np.ndarray,
