@@ -26,9 +26,10 @@ the inlined functions with its own flags: it declares theirs.
 
 Arithmetic: the fast-math flags of ``ios_uav_env.jit`` (the node sums vectorise), in the step
 and the reset; the flight (:func:`fly_rows`) in IEEE arithmetic, as plain Python rounds it,
-whichever view. The functions these call compiled on their own keep their own flags: the
-arrival guard's projection (``model.guard``), the b-bit phase search
-(``rate_kernels.discrete_zeta_row``) and the soft minimum (``multi_step.soft_minimum``).
+whichever view. The
+functions these call compiled on their own keep their own flags: the arrival guard's
+projection (``model.guard``), the b-bit phase search (``rate_kernels.discrete_zeta_row``) and
+the soft minimum (``multi_step.soft_minimum``).
 """
 
 from __future__ import annotations
