@@ -3,9 +3,8 @@
 - ``core``: ``UAVEnv`` and ``UAVVectorEnv``, the one env class and the one vector class of every
   single- and multi-node id; the view chooses a stepper (``core.stepper``) and the vector's rows;
 - ``single_node`` / ``single_drawn``: the v0 view's steppers (one ground node, a fixed or a drawn
-  scenario), ``single_rows`` their rows in the batched env, ``single_kernels`` their columns and
-  writers in the one row step (``row_step``, compiled with numba if installed; ``view_steps``:
-  each view's entry points into it); ``single`` / ``random_env`` / ``single_vector``: the
+  scenario), ``single_rows`` their rows in the batched env, ``single_kernels`` the step they
+  share (compiled with numba if installed); ``single`` / ``random_env`` / ``single_vector``: the
   presets ``IOSUAVEnv``, ``RandomIOSUAVEnv`` and their vector classes (with the v0 contract);
 - ``multi_node`` / ``node_rows`` / ``multi_kernels``: the same for K >= 1 ground nodes (the node
   blocks; ``multi`` / ``multi_vector``: the presets ``MultiNodeEnv``, ``MultiNodeVectorEnv``;

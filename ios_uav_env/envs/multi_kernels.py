@@ -1,11 +1,10 @@
 """The multi-node envs' rows: :class:`NodeRows` holds the arrays of B multi-node episodes (row i =
-episode i), loads each row's scenario and calls the node-block view's entry points into the one
-compiled row step on them (``ios_uav_env.envs.view_steps``' ``reset_node_rows`` ..., re-exported
-here as ``reset_rows``, ``step_rows``, ``step_rows_batched``, ``fly_rows``; ``soft_minimum``),
-one implementation for ``MultiNodeEnv`` (a batch of one) and ``MultiNodeVectorEnv`` (B rows);
-:func:`episode_best_values` scores the rows whose episodes end, :func:`move_norms` the moves'
-lengths the kernels take. The arrays' layout and the view's part of the step: ``multi_step``'s
-docstring; the step: ``row_step``'s.
+episode i), loads each row's scenario and calls the compiled kernels of
+``ios_uav_env.envs.multi_step`` on them (re-exported here: ``reset_rows``, ``step_rows``,
+``step_rows_batched``, ``fly_rows``, ``soft_minimum``), one implementation for ``MultiNodeEnv`` (a
+batch of one) and ``MultiNodeVectorEnv`` (B rows); :func:`episode_best_values` scores the rows
+whose episodes end, :func:`move_norms` the moves' lengths the kernels take. The arrays' layout
+and the kernels' contract: ``multi_step``'s docstring.
 """
 
 from __future__ import annotations
@@ -17,7 +16,14 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from ios_uav_env.envs.core.kernel import flags_of
-from ios_uav_env.envs.multi_step import keep_rates, soft_minimum  # noqa: F401 (re-exported)
+from ios_uav_env.envs.multi_step import (  # noqa: F401 (the kernels, re-exported)
+    fly_rows,
+    keep_rates,
+    reset_rows,
+    soft_minimum,
+    step_rows,
+    step_rows_batched,
+)
 from ios_uav_env.envs.multi_table import (
     ACT_MOVE_X,
     ACT_MOVE_Y,
@@ -34,10 +40,6 @@ from ios_uav_env.envs.multi_table import (
     set_reference,
 )
 from ios_uav_env.envs.options import EnvOptions
-from ios_uav_env.envs.view_steps import fly_node_rows as fly_rows
-from ios_uav_env.envs.view_steps import reset_node_rows as reset_rows
-from ios_uav_env.envs.view_steps import step_node_rows as step_rows
-from ios_uav_env.envs.view_steps import step_node_rows_batched as step_rows_batched
 from ios_uav_env.jit import run_batched
 from ios_uav_env.model.channel import PARAMS
 from ios_uav_env.model.config import ScenarioConfig

@@ -1,25 +1,23 @@
-"""The single-node view's rows: their columns, each scenario's ``episode`` row and the view's
-observation and ``info`` writers, which the one compiled row step (``ios_uav_env.envs.row_step``)
-runs on them.
+"""The env's transition as array kernels: one implementation for the single and the batched env.
 
 A batch of B episodes is a few arrays (row i = episode i): ``state`` (:data:`STATE`: the core's
 columns, the UAV position, moves made, excess, energy and last move, then the running sums),
 ``episode`` (:data:`EPISODE`: the core's constants of the episode's scenario, then those of its
 observation), and the rate kernel's ``nodes`` / ``params`` (``ios_uav_env.model.channel.RateKernel``;
-node arrays padded with zero weights). The compiled entry points ``reset_rows``, ``step_rows``,
-``step_rows_batched`` and ``fly_rows`` (``ios_uav_env.envs.view_steps``: this view's signatures)
-call the one row step, which writes the observations, rewards and ``info`` columns (:data:`INFO`)
-of the rows they touch. ``IOSUAVEnv`` runs them on a batch of one, ``IOSUAVVectorEnv`` on B rows:
-the same physics (``channel.rate_row``, ``faded_row``) and the same compiled step as the
-node-block view (a single-node row is its K = 1 case). What is this view's own: the running
-rate sums and the v0 observation and ``info`` writers (:func:`observe_single`,
-:func:`info_single`).
+node arrays padded with zero weights). :func:`reset_rows` and :func:`step_rows` write the
+observations, rewards and ``info`` columns (:data:`INFO`) of the rows they touch. ``IOSUAVEnv``
+runs them on a batch of one, ``IOSUAVVectorEnv`` on B rows: the same physics
+(``channel.rate_row``, ``faded_row``) and the row-step core that the node-block view's step runs
+too (``ios_uav_env.envs.core.kernel``: the move through the arrival guard, the propulsion power,
+the reward's reach, terminal and energy terms), compiled with numba when it is installed. What is
+this view's own: the node's rate, the running rate sums and the v0 observation and ``info`` writers.
 
 Every step flies its move at one constant speed over the slot and books its propulsion power
 P(|move| / dt) (``core.kernel.move_row``), the energy so far and the bits per joule so far
 (``info``'s ``power``, ``energy``, ``energy_efficiency``); the reward's energy term -(lambda_ref
 / B) P and the energy features of the observation are added only for the objective
-``"energy_efficiency"`` (flag ``energy``).
+``"energy_efficiency"`` (flag ``energy``). The kernels here are compiled with the fast-math flags
+of ``ios_uav_env.jit`` (the node sums vectorise), which the inlined core takes on.
 
 The kernels address every column by name, never by number: a module-level int per entry of
 :data:`STATE`, :data:`EPISODE` and :data:`INFO`, named by a prefix and the entry upper-cased,
@@ -35,6 +33,8 @@ global. A run of columns is its named first column plus an offset (``ep[i, EP_EL
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 from ios_uav_env.envs.core.kernel import (
@@ -45,18 +45,28 @@ from ios_uav_env.envs.core.kernel import (
     FLAG_ENERGY,
     FLAG_INSTANCE_FEATURES,
     FLAG_PEAK_HINT,
+    FLAG_RICIAN,
     FLAGS,
     N_ENERGY,
     core_episode_values,
+    fly_entry_out_of_range,
+    move_row,
     observe_energy,
+    reward_row,
+    start_row,
+    toward,
     violation,
 )
 from ios_uav_env.envs.observation import T_SCALE, instance_values
 from ios_uav_env.envs.observation_layout import INSTANCE_NAMES, OBS_NAMES, PEAK_NAMES
-from ios_uav_env.jit import jit
+from ios_uav_env.jit import jit, prange
+from ios_uav_env.model.channel import faded_row, rate_row
 from ios_uav_env.model.config import ScenarioConfig
 
-__all__ = ["EPISODE", "FLAGS", "INFO", "STATE", "episode_row", "info_single", "observe_single"]
+__all__ = [
+    "EPISODE", "FLAGS", "INFO", "STATE", "episode_row", "fly_rows", "reset_rows", "step_rows",
+    "step_rows_batched",
+]  # fmt: skip
 
 #: Columns of a row of ``state``: the core's (``core.kernel.CORE_STATE``: the UAV position,
 #: moves made, the step excess, the energy, the last move), then the running rate sums.
@@ -188,8 +198,8 @@ def episode_row(
 
 
 @jit(inline=True)
-def observe_single(obs: np.ndarray, i: int, x: float, y: float, left: float, dist: float, rate: float,
-                   st: np.ndarray, ep: np.ndarray, flags: np.ndarray) -> None:  # fmt: skip
+def _observe(obs: np.ndarray, i: int, x: float, y: float, left: float, dist: float, rate: float,
+             st: np.ndarray, ep: np.ndarray, flags: np.ndarray) -> None:  # fmt: skip
     """Write observation row ``i`` (the layout of ``IOSUAVEnv``'s docstring); ``st``: ``state``,
     ``ep``: ``episode``."""
     inv_l = ep[i, EP_INV_L]
@@ -216,9 +226,9 @@ def observe_single(obs: np.ndarray, i: int, x: float, y: float, left: float, dis
 
 
 @jit(inline=True)
-def info_single(info: np.ndarray, i: int, st: np.ndarray, ep: np.ndarray, rate: float, expected: float,
-                dist: float, left: float, r_rate: float, r_reach: float, r_terminal: float, power: float,
-                r_energy: float) -> None:  # fmt: skip
+def _info(info: np.ndarray, i: int, st: np.ndarray, ep: np.ndarray, rate: float, expected: float,
+          dist: float, left: float, r_rate: float, r_reach: float, r_terminal: float, power: float,
+          r_energy: float) -> None:  # fmt: skip
     """Write ``info`` row ``i``: the step's terms and the running eq. (9) score and eq. (10)
     check (``st``: ``state``, ``ep``: ``episode``; ``core.kernel.violation``), the move's power,
     the energy so far and the bits per joule so far, B dt sum_n r(q[n]) / E (0 before the first
@@ -241,15 +251,133 @@ def info_single(info: np.ndarray, i: int, st: np.ndarray, ep: np.ndarray, rate: 
     )
 
 
+@jit
+def reset_rows(
+    rows: np.ndarray, state: np.ndarray, episode: np.ndarray, nodes: np.ndarray, params: np.ndarray,
+    normals: np.ndarray, flags: np.ndarray, obs: np.ndarray, info: np.ndarray,
+) -> None:  # fmt: skip
+    """Start the episodes of ``rows`` at the position already in ``state``'s ``x``, ``y`` (q0)."""
+    for i in rows:
+        x, y = state[i, ST_X], state[i, ST_Y]
+        expected = rate_row(x, y, nodes, params, i)
+        rate = expected
+        if flags[FLAG_RICIAN] != 0.0:
+            rate = faded_row(x, y, normals[i, 0], normals[i, 1], nodes, params, i)
+        start_row(i, state)
+        state[i, ST_SUM_EXPECTED], state[i, ST_SUM_RATE] = expected, rate
+        dist = math.hypot(episode[i, EP_QFX] - x, episode[i, EP_QFY] - y)
+        moves = episode[i, EP_MOVES]
+        _observe(obs, i, x, y, moves, dist, expected, state, episode, flags)
+        _info(info, i, state, episode, rate, expected, dist, moves, 0.0, 0.0, 0.0, 0.0, 0.0)
+
+
 @jit(inline=True)
-def add_rates(i: int, expected: float, rate: float, state: np.ndarray) -> None:
-    """Add a slot's expected-gain and served rates to row ``i``'s running sums (slot 1's to the
-    zeros of :func:`start_rates`: 0 + r is r exactly)."""
+def _finite_actions(actions: np.ndarray, active: np.ndarray) -> int:
+    """-1 if every active row's action is finite, else the first row whose action is not."""
+    for i in range(actions.shape[0]):
+        if active[i] and not (math.isfinite(actions[i, 0]) and math.isfinite(actions[i, 1])):
+            return i
+    return -1
+
+
+@jit(inline=True)
+def _ended_row(active: np.ndarray, state: np.ndarray, episode: np.ndarray, path: np.ndarray) -> int:
+    """-1 if every active row has a move left (and room in ``path``), else the first that has not."""
+    for i in range(active.shape[0]):
+        if active[i] and (
+            state[i, ST_MOVES_MADE] >= episode[i, EP_MOVES] or state[i, ST_MOVES_MADE] + 1.0 >= path.shape[1]
+        ):
+            return i
+    return -1
+
+
+@jit(inline=True)
+def _step_row(
+    i: int, actions: np.ndarray, state: np.ndarray, episode: np.ndarray, nodes: np.ndarray,
+    params: np.ndarray, normals: np.ndarray, flags: np.ndarray, obs: np.ndarray, reward: np.ndarray,
+    terminated: np.ndarray, info: np.ndarray, path: np.ndarray,
+) -> None:  # fmt: skip
+    """One slot of row ``i``: the core's move (``core.kernel.move_row``: unit-disk projection,
+    arrival guard, power), the rate (channel "rician": the faded rate from ``normals`` (B, 2)), the
+    running sums, the core's reward (``core.kernel.reward_row``), observation and info. ``path``
+    (B, N_max, 2) receives the new way-point (at index ``moves made``)."""
+    ax, ay = actions[i, 0], actions[i, 1]
+    x, y, left, power = move_row(i, ax, ay, math.hypot(ax, ay), state, episode, flags, path)
+    expected = rate_row(x, y, nodes, params, i)
+    rate = expected
+    if flags[FLAG_RICIAN] != 0.0:
+        rate = faded_row(x, y, normals[i, 0], normals[i, 1], nodes, params, i)
     state[i, ST_SUM_EXPECTED] += expected
     state[i, ST_SUM_RATE] += rate
+    dist = math.hypot(episode[i, EP_QFX] - x, episode[i, EP_QFY] - y)
+    r_reach, r_terminal, r_energy = reward_row(i, rate, dist, left, power, episode, flags, reward, terminated)
+    _observe(obs, i, x, y, left, dist, expected, state, episode, flags)
+    _info(info, i, state, episode, rate, expected, dist, left, rate, r_reach, r_terminal, power, r_energy)
 
 
-@jit(inline=True)
-def start_rates(i: int, state: np.ndarray) -> None:
-    """Row ``i``'s running rate sums at reset, before slot 1's rates are added: 0."""
-    state[i, ST_SUM_EXPECTED], state[i, ST_SUM_RATE] = 0.0, 0.0
+@jit
+def step_rows(
+    actions: np.ndarray, state: np.ndarray, episode: np.ndarray, nodes: np.ndarray, params: np.ndarray,
+    normals: np.ndarray, flags: np.ndarray, obs: np.ndarray, reward: np.ndarray, terminated: np.ndarray,
+    info: np.ndarray, path: np.ndarray, active: np.ndarray,
+) -> int:  # fmt: skip
+    """One slot of every active row (:func:`_step_row`), one after the other: the single env's
+    step (one row). Returns -1, or, stepping nothing, the first active row whose action is not
+    finite, or else ``B`` + the first active row whose episode is over (nothing is ever written
+    past a row's slot N: the envs check first)."""
+    bad = _finite_actions(actions, active)
+    if bad < 0:
+        ended = _ended_row(active, state, episode, path)
+        bad = -1 if ended < 0 else actions.shape[0] + ended
+    if bad < 0:
+        for i in range(actions.shape[0]):
+            if active[i]:
+                _step_row(i, actions, state, episode, nodes, params, normals, flags, obs, reward, terminated,
+                          info, path)  # fmt: skip
+    return bad
+
+
+@jit(parallel=True)
+def step_rows_batched(
+    actions: np.ndarray, state: np.ndarray, episode: np.ndarray, nodes: np.ndarray, params: np.ndarray,
+    normals: np.ndarray, flags: np.ndarray, obs: np.ndarray, reward: np.ndarray, terminated: np.ndarray,
+    info: np.ndarray, path: np.ndarray, active: np.ndarray,
+) -> int:  # fmt: skip
+    """:func:`step_rows` for batches: the rows in parallel on numba's threads
+    (``IOSUAVVectorEnv(num_threads=...)``). The loop body is compiled apart, without the
+    reference counting that the inlined helpers cost in :func:`step_rows`. (Two functions, not
+    one compiled twice: numba's disk cache keys a function by its name, not by its options.)"""
+    bad = _finite_actions(actions, active)
+    if bad < 0:
+        ended = _ended_row(active, state, episode, path)
+        bad = -1 if ended < 0 else actions.shape[0] + ended
+    if bad < 0:
+        for i in prange(actions.shape[0]):  # rows are independent
+            if active[i]:
+                _step_row(i, actions, state, episode, nodes, params, normals, flags, obs, reward, terminated,
+                          info, path)  # fmt: skip
+    return bad
+
+
+@jit(fastmath=False)
+def fly_rows(
+    rows: np.ndarray, targets: np.ndarray, moves: np.ndarray, actions: np.ndarray, state: np.ndarray,
+    episode: np.ndarray, nodes: np.ndarray, params: np.ndarray, normals: np.ndarray, flags: np.ndarray,
+    obs: np.ndarray, reward: np.ndarray, terminated: np.ndarray, info: np.ndarray, path: np.ndarray,
+) -> int:  # fmt: skip
+    """``moves[r]`` slots of row ``rows[r]``, each a full-speed move towards ``targets[r]`` (the rest
+    of the way once within D; the arrival guard as always): the steps of :func:`step_rows` with
+    those actions (``actions``: (B, 2) scratch; the expected rate: no fading draws); a row given
+    more than once flies its entries in order. Returns -1, or, flying nothing, the first entry
+    ``r`` that is out of range: a row outside 0..B-1, a move count < 0, or a row whose moves
+    (summed over its entries) would finish its episode or pass the end of ``path``."""
+    bad = fly_entry_out_of_range(rows, targets, moves, state, episode, path.shape[1])
+    if bad >= 0:
+        return bad
+    for r in range(rows.size):
+        i = rows[r]
+        for _ in range(moves[r]):
+            toward(i, targets[r, 0], targets[r, 1], state, episode, actions)
+            _step_row(i, actions, state, episode, nodes, params, normals, flags, obs, reward, terminated,
+                      info, path)  # fmt: skip
+    return -1

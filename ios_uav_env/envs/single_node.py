@@ -5,8 +5,7 @@ when its view is ``"v0"`` (the ids of ``IOSUAVEnv`` and ``RandomIOSUAVEnv``, who
 the contract: spaces, rewards, ``info``). The stepper is a thin adapter over the model
 (``ios_uav_env.model.channel`` and ``.trajectory``): action -> next way-point (optionally through
 the arrival guard) -> rate -> reward, the per-step rate ``RateKernel.rate`` /
-``RateKernel.faded_rate`` in the one compiled row step (``row_step``, through ``view_steps``; the
-rows' columns: ``single_kernels``) on a batch of one, and the
+``RateKernel.faded_rate`` in the compiled kernels of ``single_kernels`` on a batch of one, and the
 score of a finished episode ``average_rate`` (eq. (9)) of ``trajectory``. It holds the episode's
 state and makes the single-node row protocol's calls (``row_protocol.SingleNodeRow``); its
 generator is its env's ``np_random``.
@@ -34,9 +33,8 @@ from ios_uav_env.envs.settings import (
     several_nodes_error,
     single_node_id,
 )
-from ios_uav_env.envs.single_kernels import INFO, STATE, episode_row
+from ios_uav_env.envs.single_kernels import INFO, STATE, episode_row, reset_rows, step_rows
 from ios_uav_env.envs.single_mobile import MobileNode
-from ios_uav_env.envs.view_steps import reset_rows, step_rows
 from ios_uav_env.jit import HAVE_NUMBA
 from ios_uav_env.model.channel import RateKernel, rate_kernel, slot_rates
 from ios_uav_env.model.config import ScenarioConfig, as_config, scenario_option
@@ -119,7 +117,7 @@ class SingleNodeStepper(MobileNode, EnvViews):
         self.observation_names: tuple[str, ...] = observation_names(
             o.instance_features, o.peak_hint, self.energy_objective, o.knowledge
         )
-        # a batch of one episode for the row step (ios_uav_env.envs.row_step; columns: single_kernels)
+        # a batch of one episode for the kernels of ios_uav_env.envs.single_kernels (rows of length 1)
         self._flags = flags_of(self.options, self.energy_objective)
         self._rows = np.zeros(1, dtype=np.int64)
         self._active = np.ones(1, dtype=np.bool_)

@@ -2,9 +2,8 @@
 
 ``UAVVectorEnv`` (``ios_uav_env.envs.core.vector``) holds a :class:`SingleNodeRows` when its
 template's view is ``"v0"`` (the ids of ``IOSUAVVectorEnv`` and ``RandomIOSUAVVectorEnv``). It
-runs the single-node view's entry points into the one compiled row step
-(``ios_uav_env.envs.view_steps``, ``row_step``), the ones the single-node stepper runs on a batch
-of one, on B rows: the same physics, arrival guard and reward. Row i is the single env
+runs the kernels of ``ios_uav_env.envs.single_kernels``, the ones the single-node stepper runs on
+a batch of one, on B rows: the same physics, arrival guard and reward. Row i is the single env
 reset with seed ``seed + i``: the same scenarios, and with channel "rician" the same fading
 draws, so a batch reproduces B single envs exactly (tested). The rows read their template envs
 through the single-node row protocol (``row_protocol.SingleNodeRow``); a moving or roughly known
@@ -28,10 +27,9 @@ from ios_uav_env.envs.knowledge_kernels import (
     row_list,
 )
 from ios_uav_env.envs.mobile_draws import DrawnEpisodes, take_slot_normals, takes_drawn_episodes
-from ios_uav_env.envs.single_kernels import INFO, STATE
+from ios_uav_env.envs.single_kernels import INFO, STATE, fly_rows, reset_rows, step_rows, step_rows_batched
 from ios_uav_env.envs.single_node import INFO_KEYS
 from ios_uav_env.envs.slot_weights import SlotWeights
-from ios_uav_env.envs.view_steps import fly_rows, reset_rows, step_rows, step_rows_batched
 from ios_uav_env.jit import HAVE_NUMBA, run_batched
 
 __all__ = ["Outputs", "SingleNodeRows"]
@@ -327,7 +325,7 @@ class SingleNodeRows:
     def fly(
         self, rows: np.ndarray, targets: np.ndarray, moves: np.ndarray, obs: np.ndarray, info: np.ndarray
     ) -> bool:
-        """``BatchedEnv.fly`` in one call of ``view_steps.fly_rows`` (not for mobile or
+        """``BatchedEnv.fly`` in one call of ``single_kernels.fly_rows`` (not for mobile or
         rician rows: each slot's track or fading draw steps slot by slot)."""
         if self._mobile or self._rician:
             return False

@@ -4,9 +4,9 @@
 ``UAVVectorEnv`` (``ios_uav_env.envs.core.vector``) for every id; these classes make the same
 batched env for code that names them: ``IOSUAVVectorEnv`` the fixed single-node ids' (the view
 ``"v0"``), ``RandomIOSUAVVectorEnv`` the randomised ones' (``draws=True``; ``ranges`` its first
-argument after ``num_envs``). The rows are ``single_rows.SingleNodeRows``: the compiled row step
-(``row_step``, through ``view_steps``), the one the single env runs on a batch of one, on B rows,
-so row i is the single env reset with seed ``seed + i`` (tested). ``info`` is a dict of arrays (``INFO_KEYS``,
+argument after ``num_envs``). The rows are ``single_rows.SingleNodeRows``: the kernels of
+``single_kernels``, the ones the single env runs on a batch of one, on B rows, so row i is the
+single env reset with seed ``seed + i`` (tested). ``info`` is a dict of arrays (``INFO_KEYS``,
 ``position`` of shape (B, 2)) with Gymnasium's ``_key`` masks (all True: every row has every key).
 """
 

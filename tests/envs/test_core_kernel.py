@@ -1,9 +1,8 @@
 """The row-step core (``ios_uav_env.envs.core.kernel``) is the one move, arrival guard, power and
-reward assembly of the one compiled row step (``ios_uav_env.envs.row_step``) that both views run:
-the step and the views' writers bind the core's functions (the same objects), none holds a copy
-of what the core does, and a single-node env and a node-block env on the same one-node scenario,
-given the same moves, fly the same flight and book the same power, energy, reach, terminal and
-energy terms and eq. (10) check."""
+reward assembly of both views' compiled steps: both kernel modules bind the core's functions (the
+same objects), neither holds a copy of what the core does, and a single-node env and a node-block
+env on the same one-node scenario, given the same moves, fly the same flight and book the same
+power, energy, reach, terminal and energy terms and eq. (10) check."""
 
 from __future__ import annotations
 
@@ -14,21 +13,18 @@ import numpy as np
 import pytest
 
 from ios_uav_env import ScenarioConfig
-from ios_uav_env.envs import multi_step, row_step, single_kernels
+from ios_uav_env.envs import multi_kernels, multi_step, single_kernels, single_rows
 from ios_uav_env.envs.core import kernel as core
 from ios_uav_env.envs.multi import MultiNodeEnv
 from ios_uav_env.envs.single import IOSUAVEnv
 from tests.tolerances import GOLDEN_REL
 
 ROOT = Path(__file__).resolve().parents[2]
-#: The modules of the step and of the views' parts of it, with the core's helpers each calls.
-BINDS = {
-    "ios_uav_env/envs/row_step.py": (
-        row_step, ("move_row", "reward_row", "start_row", "toward", "fly_entry_out_of_range"),
-    ),
-    "ios_uav_env/envs/single_kernels.py": (single_kernels, ("violation", "observe_energy")),
-    "ios_uav_env/envs/multi_step.py": (multi_step, ("violation", "observe_energy")),
-}  # fmt: skip
+VIEWS = {"ios_uav_env/envs/single_kernels.py": single_kernels, "ios_uav_env/envs/multi_step.py": multi_step}
+#: The core's row helpers that every view's step, reset and flight run.
+SHARED = (
+    "move_row", "reward_row", "start_row", "violation", "observe_energy", "toward", "fly_entry_out_of_range",
+)  # fmt: skip
 #: What only the core calls: the arrival guard, the propulsion power, the reach and terminal terms.
 CORE_ONLY = ("guarded_position", "slot_power", "move_power", "penalties")
 
@@ -44,25 +40,28 @@ def _functions(path: str) -> dict[str, ast.FunctionDef]:
     return {node.name: node for node in tree.body if isinstance(node, ast.FunctionDef)}
 
 
-@pytest.mark.parametrize("path", sorted(BINDS))
-def test_the_step_and_the_views_bind_the_one_core(path: str) -> None:
-    """The row step and each view's writers hold the core's helpers themselves (not copies)."""
-    module, names = BINDS[path]
-    for name in names:
+@pytest.mark.parametrize("path", sorted(VIEWS))
+def test_both_views_bind_the_one_core(path: str) -> None:
+    """Each view's kernel module holds the core's helpers themselves (not copies of them)."""
+    module = VIEWS[path]
+    for name in SHARED:
         assert getattr(module, name) is getattr(core, name), (path, name)
+    # and the env faces call these modules' kernels
+    assert single_rows.step_rows is single_kernels.step_rows
+    assert multi_kernels.step_rows is multi_step.step_rows
 
 
-def test_the_step_runs_through_the_core() -> None:
-    """The row step moves and rewards through the core (``move_row``, ``reward_row``), its reset
-    through ``start_row``, its flight through ``toward``; neither it nor a view calls the guard,
-    the propulsion power or the reach and terminal terms itself."""
-    functions = _functions("ios_uav_env/envs/row_step.py")
-    assert {"move_row", "reward_row"} <= _calls(functions["_step_each"])
+@pytest.mark.parametrize("path", sorted(VIEWS))
+def test_the_views_step_through_the_core(path: str) -> None:
+    """Each view's row step moves and rewards through the core (``move_row``, ``reward_row``), its
+    reset through ``start_row``, its flight through ``toward``; no view calls the guard, the
+    propulsion power or the reach and terminal terms itself."""
+    functions = _functions(path)
+    assert {"move_row", "reward_row"} <= _calls(functions["_step_row"])
     assert "start_row" in _calls(functions["reset_rows"])
-    assert {"toward", "fly_entry_out_of_range", "_step_each"} <= _calls(functions["fly_rows"])
-    for path in (*BINDS, "ios_uav_env/envs/view_steps.py"):
-        for name, function in _functions(path).items():
-            assert not _calls(function) & set(CORE_ONLY), (path, name)
+    assert {"toward", "fly_entry_out_of_range", "_step_row"} <= _calls(functions["fly_rows"])
+    for name, function in functions.items():
+        assert not _calls(function) & set(CORE_ONLY), (path, name)
 
 
 def _flight(env, width: int, moves: np.ndarray) -> list[dict]:

@@ -3,8 +3,7 @@ name (the module constants derived from ``CORE_STATE``, ``CORE_EPISODE`` and ``F
 ``ios_uav_env.envs.core.kernel``, the row-step core both views share; from ``STATE``, ``EPISODE``,
 ``INFO`` and the observation's layout in ``ios_uav_env.envs.single_kernels``; from ``STATE``, ``EPISODE``,
 ``POINT``, ``ACTION``, ``INFO``, ``MORE`` and the observation's features in
-``ios_uav_env.envs.multi_table`` for ``multi_kernels`` and ``multi_step``; the core's and
-``multi_table``'s in the one row step ``ios_uav_env.envs.row_step``; from ``PARAMS`` in
+``ios_uav_env.envs.multi_table`` for ``multi_kernels`` and ``multi_step``; from ``PARAMS`` in
 ``ios_uav_env.model.rate_kernels``; from ``SIZES`` and ``OUT`` in ``ios_uav_env.model.maxmin_paths``;
 from ``LAYER``, ``SETTINGS`` and ``STATS`` in ``agents.fast.kernel``), never by number
 (``ep[i, 29]``, ``flags[6]``, ``ep[i, 13 + j]``).
@@ -76,14 +75,6 @@ MODULES = {
             "values",  # update_settings' keyword arguments
         },
     ),
-    "ios_uav_env/envs/row_step.py": (
-        {"state", "episode", "flags", "actions"},
-        {
-            "normals", "targets",  # (re, im) draws and (x, y) pairs per (folded) row
-            "rows", "moves", "active", "norms", "everyone",  # one entry per row / entry
-        },
-    ),
-    "ios_uav_env/envs/view_steps.py": ({"state", "episode", "flags"}, set()),
     "ios_uav_env/envs/multi_kernels.py": MULTI_NODE,
     "ios_uav_env/envs/multi_step.py": MULTI_NODE,
     "ios_uav_env/envs/multi_table.py": (

@@ -1,5 +1,5 @@
-"""The row-step core that the one compiled row step runs: one UAV's move, arrival guard, propulsion
-power and reward assembly on a row of the kernels' arrays, whatever the view.
+"""The row-step core that both compiled steps run: one UAV's move, arrival guard, propulsion power
+and reward assembly on a row of the kernels' arrays, whatever the view.
 
 Both row layouts, the single-node view's (``ios_uav_env.envs.single_kernels``, one node) and the
 node-block view's (``ios_uav_env.envs.multi_step`` over K nodes, columns in
@@ -15,16 +15,14 @@ What is the same in both views lives here, once: :func:`move_row` (unit-disk pro
 guard, the step's excess, power and energy, the last move and the way-point), :func:`reward_row`
 (the reach and terminal terms, the energy term, the reward and ``terminated``),
 :func:`start_row` (the core columns at reset), :func:`violation` (the running eq. (10) check)
-and :func:`observe_energy` (the energy features). The one row step
-(``ios_uav_env.envs.row_step``: reset, step, batched step and flight of any row, a single-node
-row being the K = 1 case) runs them, with each node's rate (``channel.rate_row``) and the view's
-part chosen by its ``node_blocks`` flag: its running sums or shares and potential, and its
+and :func:`observe_energy` (the energy features). What differs is the view's: its rates (one
+node's ``rate_row``, or K nodes' ``rate_point`` with shares), its running sums and its
 observation and ``info`` writers.
 
-The helpers are inlined (``jit(inline=True)``) into the row step's compiled functions, so they
-take its arithmetic, the same for both views: the fast-math flags of ``ios_uav_env.jit`` in the
-step and the reset, IEEE in the flight (``row_step.fly_rows``). The arrival guard's projection
-(``model.guard.guarded_position``) is compiled on its own and keeps its own flags.
+The helpers are inlined (``jit(inline=True)``) into each view's compiled entry points, so each
+is compiled with its view's arithmetic: the single-node step with the fast-math flags of
+``ios_uav_env.jit`` (its vectorised node sums), the node-block step in IEEE arithmetic
+(``fastmath=False``: it reproduces plain Python bit for bit through the arrival guard).
 
 Columns are addressed by name, as in the views' modules: ``S_`` (:data:`CORE_STATE`: ``state[i,
 S_ENERGY]``), ``E_`` (:data:`CORE_EPISODE`: ``episode[i, E_DT]``) and ``FLAG_`` (:data:`FLAGS`).
