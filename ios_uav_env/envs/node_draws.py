@@ -174,17 +174,21 @@ class DrawnNodeEpisodes:
         return rows[~fits]
 
     def geometries_of(self, rows: np.ndarray) -> np.ndarray:
-        """Each of ``rows``' kernel geometry (its index in the tables, :meth:`geometry`; -1: none)."""
+        """Each of ``rows``' kernel geometry (its index in the tables, :meth:`geometry`; -1: none),
+        the tables restacked once if geometries were added."""
         ids = self.lookup[self.surface[rows], self.ios_rows[rows]]
+        met = len(self.table)
         for j in np.flatnonzero(ids == -2).tolist():  # (a geometry not met yet: from its first row)
             ids[j] = self.geometry(int(rows[j]))
+        if len(self.table) > met:
+            self.tables = _stack(self.table)
         return ids
 
     def geometry(self, i: int) -> int:
         """The index of row ``i``'s kernel geometry in the tables (``NodeWeights``' projection, Q,
         node coordinates, kernel scalars and J, the episode row of ``multi_table.episode_row``),
-        added from the row's config at its first row; -1 where the compiled weights do not apply
-        (``NodeWeights.width`` None)."""
+        added from the row's config at its first row (``tables`` restacked by :meth:`geometries_of`);
+        -1 where the compiled weights do not apply (``NodeWeights.width`` None)."""
         key = (int(self.surface[i]), int(self.ios_rows[i]))
         found = int(self.lookup[key])
         if found != -2:
@@ -199,7 +203,6 @@ class DrawnNodeEpisodes:
         row = episode_row(cfg, length_scale, sharpness, softmin_beta, False, 0.0, clip)
         self.table.append((projection, q, factor, coords, params, row))
         self.lookup[key] = len(self.table) - 1
-        self.tables = _stack(self.table)
         return len(self.table) - 1
 
     def config(self, i: int) -> ScenarioConfig:
