@@ -291,23 +291,44 @@ def _point_blocks(
 
 
 @jit(fastmath=False)
+def _put_blocks(
+    first: int, last: int, points_at: np.ndarray, starts: np.ndarray, which: np.ndarray, points: np.ndarray,
+    cx: np.ndarray, base: np.ndarray, factors: np.ndarray, ky_ts: Any, kz_ts: Any, gys: Any, gz2s: Any,
+    nodes: np.ndarray, params: np.ndarray, block: int,
+) -> None:  # fmt: skip
+    """Blocks ``first`` .. ``last - 1`` of :func:`_point_blocks`, one after another (:func:`_put_block`),
+    on work arrays of ``block`` points allocated once (again where a projection's sizes differ)."""
+    shape = (-1, -1, -1, -1)
+    dx2, scale = np.empty(block), np.empty(block)
+    dy2_t, beta = np.empty((1, block)), np.empty((1, 1, block))
+    half, weights = np.empty((1, 1, block)), np.empty((1, 1, block))
+    for b in range(first, last):
+        p = which[points_at[starts[b], 0]]
+        ky_t, kz_t = ky_ts[p], kz_ts[p]
+        sizes = (ky_t.shape[0], ky_t.shape[1], kz_t.shape[0], kz_t.shape[1])
+        if sizes != shape:
+            shape = sizes
+            py, ny, pz, nz = sizes
+            dy2_t, beta = np.empty((py, block)), np.empty((py, pz, block))
+            half, weights = np.empty((pz, ny, block)), np.empty((ny, nz, block))
+        _put_block(b, points_at, starts, which, points, cx, base, factors, ky_ts, kz_ts, gys, gz2s, nodes,
+                   params, dx2, scale, dy2_t, beta, half, weights)  # fmt: skip
+
+
+@jit(fastmath=False)
 def _put_block(
     b: int, points_at: np.ndarray, starts: np.ndarray, which: np.ndarray, points: np.ndarray, cx: np.ndarray,
     base: np.ndarray, factors: np.ndarray, ky_ts: Any, kz_ts: Any, gys: Any, gz2s: Any, nodes: np.ndarray,
-    params: np.ndarray,
+    params: np.ndarray, dx2: np.ndarray, scale: np.ndarray, dy2_t: np.ndarray, beta: np.ndarray,
+    half: np.ndarray, weights: np.ndarray,
 ) -> None:  # fmt: skip
-    """Block ``b`` of :func:`_point_blocks`: its points' weights (``weight_kernels.block_weights``)
-    and G's scalars into their rows' kernels."""
+    """Block ``b`` of :func:`_point_blocks`: its points' weights (``weight_kernels.block_weights``, on
+    the work arrays ``dx2`` .. ``weights``, their last axis at least the block's points) and G's
+    scalars into their rows' kernels."""
     start, m = starts[b], starts[b + 1] - starts[b]
     p = which[points_at[start, 0]]
     ky_t, kz_t, gy, gz2 = ky_ts[p], kz_ts[p], gys[p], gz2s[p]
-    py, ny, pz, nz = ky_t.shape[0], ky_t.shape[1], kz_t.shape[0], kz_t.shape[1]
-    dx2 = np.empty(m)
-    scale = np.empty(m)
-    dy2_t = np.empty((py, m))
-    beta = np.empty((py, pz, m))
-    half = np.empty((pz, ny, m))
-    weights = np.empty((ny, nz, m))
+    py, ny, nz = ky_t.shape[0], ky_t.shape[1], kz_t.shape[1]
     for j in range(m):
         at = points_at[start + j]
         point = points[at[0], at[2], at[1]]
@@ -347,8 +368,13 @@ def put_node_weights(
     sums on their own in index order (module docstring), so whatever block a point is in and
     whichever thread computes it, its numbers are the same."""
     at, starts = _point_blocks(rows, state, ahead, slots, counts, which, block)
-    for b in range(starts.size - 1):
-        _put_block(b, at, starts, which, points, cx, base, factors, ky_ts, kz_ts, gys, gz2s, nodes, params)
+    _put_blocks(0, starts.size - 1, at, starts, which, points, cx, base, factors, ky_ts, kz_ts, gys, gz2s,
+                nodes, params, block)  # fmt: skip
+
+
+#: The runs of blocks :func:`put_node_weights_batched` hands numba's threads (each allocates its
+#: work arrays once).
+BLOCK_RUNS = 16
 
 
 @jit(fastmath=False, parallel=True)
@@ -357,11 +383,15 @@ def put_node_weights_batched(
     points: np.ndarray, cx: np.ndarray, base: np.ndarray, factors: np.ndarray, ky_ts: Any, kz_ts: Any,
     gys: Any, gz2s: Any, nodes: np.ndarray, params: np.ndarray, block: int = WEIGHT_BLOCK,
 ) -> None:  # fmt: skip
-    """:func:`put_node_weights` with the blocks on numba's threads (a block's points are rows'
-    own: no two blocks write the same kernel)."""
+    """:func:`put_node_weights` with the blocks on numba's threads, in :data:`BLOCK_RUNS` runs of
+    consecutive blocks (a block's points are rows' own: no two blocks write the same kernel)."""
     at, starts = _point_blocks(rows, state, ahead, slots, counts, which, block)
-    for b in prange(starts.size - 1):
-        _put_block(b, at, starts, which, points, cx, base, factors, ky_ts, kz_ts, gys, gz2s, nodes, params)
+    blocks = starts.size - 1
+    runs = min(blocks, BLOCK_RUNS)
+    for r in prange(runs):
+        first, last = blocks * r // runs, blocks * (r + 1) // runs
+        _put_blocks(first, last, at, starts, which, points, cx, base, factors, ky_ts, kz_ts, gys, gz2s, nodes,
+                    params, block)  # fmt: skip
 
 
 @jit
