@@ -299,9 +299,9 @@ def _put_blocks(
     """Blocks ``first`` .. ``last - 1`` of :func:`_point_blocks`, one after another (:func:`_put_block`),
     on work arrays of ``block`` points allocated once (again where a projection's sizes differ)."""
     shape = (-1, -1, -1, -1)
-    dx2, scale = np.empty(block), np.empty(block)
-    dy2_t, beta = np.empty((1, block)), np.empty((1, 1, block))
-    half, weights = np.empty((1, 1, block)), np.empty((1, 1, block))
+    dx2, scale = np.zeros(block), np.zeros(block)  # (zeros: the unused lanes are computed, not read)
+    dy2_t, beta = np.zeros((1, block)), np.zeros((1, 1, block))
+    half, weights = np.zeros((1, 1, block)), np.zeros((1, 1, block))
     for b in range(first, last):
         p = which[points_at[starts[b], 0]]
         ky_t, kz_t = ky_ts[p], kz_ts[p]
@@ -309,8 +309,8 @@ def _put_blocks(
         if sizes != shape:
             shape = sizes
             py, ny, pz, nz = sizes
-            dy2_t, beta = np.empty((py, block)), np.empty((py, pz, block))
-            half, weights = np.empty((pz, ny, block)), np.empty((ny, nz, block))
+            dy2_t, beta = np.zeros((py, block)), np.zeros((py, pz, block))
+            half, weights = np.zeros((pz, ny, block)), np.zeros((ny, nz, block))
         _put_block(b, points_at, starts, which, points, cx, base, factors, ky_ts, kz_ts, gys, gz2s, nodes,
                    params, dx2, scale, dy2_t, beta, half, weights)  # fmt: skip
 
