@@ -67,7 +67,7 @@ class MobileNodes:
 
     def load_row_bare(self, rows: NodeRows, i: int, weights: NodeWeights) -> None:
         """:meth:`load_row` for a batched env that computes each slot's node kernels in the row
-        (``node_weights.NodeWeights``: ``weights.load`` keeps the row's ground terms; it puts slot
+        (``node_weights.NodeWeights``: ``weights.load`` keeps the row's ground points; it puts slot
         1's kernels in the row itself, ``NodeWeights.put``): the same draws, the track's kernels
         built only when read (``node_weights.BareNodesTrack``). A row the compiled weights do not
         take gets its track's kernels of slot 1 here, as :meth:`load_row`."""

@@ -40,8 +40,7 @@ from ios_uav_env.envs.multi_table import (
     PT_X,
     PT_Y,
 )
-from ios_uav_env.envs.node_weights import PT_DX2, PT_GX, PT_GY
-from ios_uav_env.envs.node_weights import PT_SIDE as TERM_SIDE
+from ios_uav_env.envs.node_weights import PT_GX, PT_GY, PT_SCALE
 from ios_uav_env.jit import jit
 from ios_uav_env.model.motion import walk_component
 
@@ -57,10 +56,11 @@ def draw_node_episodes(
 ) -> None:  # fmt: skip
     """Step 2 of ``node_draws``' module docstring for ``rows``, in IEEE arithmetic in the order of
     ``scenarios.sample_multinode`` / ``_off_plane``, ``mobility.rectangles``, ``motion.node_paths``
-    / ``_walk``, ``knowledge.start_nodes_track``, ``NodeWeights.load`` (its ground terms but their
-    power 1.5, numpy's) and ``multi_table.node_points`` / ``episode_row``. ``headings`` (B, K_max,
-    2): cos and sin of each node's mean heading; ``uniform[i]``: the row's uniform draws of the
-    nodes' x and y (2 k, 2 k + 1), ``late[i]``: those of q0 and qF (x, y, x, y). ``bad[i]`` = 1
+    / ``_walk``, ``knowledge.start_nodes_track``, ``NodeWeights.load`` (its ground points, dx2 in
+    the scale's column: its power 1.5 is numpy's) and ``multi_table.node_points`` /
+    ``episode_row``. ``headings`` (B, K_max, 2): cos and sin of each node's mean heading;
+    ``uniform[i]``: the row's uniform draws of the nodes' x and y (2 k, 2 k + 1), ``late[i]``: those
+    of q0 and qF (x, y, x, y); ``terms`` (B, S, K_max, 3): ``NodeWeights.points``. ``bad[i]`` = 1
     where the scenario's validation must decide (a node outside its motion rectangle, a rectangle
     empty, a node on the IOS plane, T too short)."""
     cx, cy, gap, has_box = c[C_CX], c[C_CY], c[C_GAP], c[C_HAS_BOX] != 0.0
@@ -109,14 +109,13 @@ def draw_node_episodes(
                                                         gain, dt)  # fmt: skip
                 p[s + 1, k, 1], vy, my = walk_component(p[s, k, 1], vy, my, normals[i, z + 1], by0, by1, a,
                                                         gain, dt)  # fmt: skip
-            # the records (NaN until observed), the ground terms of every slot, the node's point
+            # the records (NaN until observed), the ground points of every slot, the node's point
             for s in range(n):
                 reports[i, s, k, 0], reports[i, s, k, 1] = np.nan, np.nan
                 measured[i, k, s] = np.nan
                 dx = p[s, k, 0] - cx
-                term = terms[i, k, s]
-                term[PT_GX], term[PT_GY], term[PT_DX2] = p[s, k, 0], p[s, k, 1], dx * dx
-                term[TERM_SIDE] = 1.0 if dx > 0.0 else (-1.0 if dx < 0.0 else 0.0)
+                term = terms[i, s, k]
+                term[PT_GX], term[PT_GY], term[PT_SCALE] = p[s, k, 0], p[s, k, 1], dx * dx
             tally[i, k] = 0.0
             points[i, k, :] = 0.0
             points[i, k, PT_X], points[i, k, PT_Y] = gx, gy

@@ -4,7 +4,7 @@
 (``scenarios.sample_multinode``) and the nodes' paths (``motion.node_paths``) at every reset. Its
 batched env (``node_rows.NodeBlockRows``) used to make both per row through the row env
 (``begin_episode``, ``load_row_bare``): a validated ``ScenarioConfig``, the paths, the track, the
-ground terms of ``node_weights.NodeWeights.load``, the row's scenario arrays, all Python per row.
+ground points of ``node_weights.NodeWeights.load``, the row's scenario arrays, all Python per row.
 :class:`DrawnNodeEpisodes` makes the same episode for every resetting row at once, as
 ``mobile_draws.DrawnEpisodes`` does for one node:
 
@@ -19,8 +19,8 @@ ground terms of ``node_weights.NodeWeights.load``, the row's scenario arrays, al
    checks what the config's validation checks of them (every node in its motion rectangle, off
    the IOS plane, T long enough: a row that fails is built as a ``ScenarioConfig``, whose
    validation raises its own error), walks the paths (``motion._walk``'s arithmetic), writes the
-   track's records (the batch's buffers), the ground terms of every node and slot (their power
-   1.5 then by numpy, as ``NodeWeights.load`` takes it: numpy's power is not libm's), the rows'
+   track's records (the batch's buffers), the ground points of every slot and node (their scale's
+   power 1.5 then by numpy, as ``NodeWeights.load`` takes it: numpy's power is not libm's), the rows'
    node points, the episode row's drawn columns and the UAV's start;
 3. one compiled call (``node_draw_kernels.start_node_rows``) puts each row's kernel geometry (one
    per surface kind and IOS rows, from the row's config at its first row: ``NodeWeights``'
@@ -40,10 +40,11 @@ from typing import Any
 
 import numpy as np
 
+from ios_uav_env.envs.mobile_draw_kernels import C_CX
 from ios_uav_env.envs.mobile_draws import draw_constants
 from ios_uav_env.envs.multi_table import episode_row
 from ios_uav_env.envs.node_draw_kernels import draw_node_episodes, start_node_rows
-from ios_uav_env.envs.node_weights import PT_DX2, PT_SCALE, BareNodesTrack
+from ios_uav_env.envs.node_weights import PT_SCALE, BareNodesTrack
 from ios_uav_env.jit import HAVE_NUMBA
 from ios_uav_env.model.config import ScenarioConfig
 from ios_uav_env.model.mobility import GaussMarkov
@@ -100,8 +101,8 @@ class DrawnNodeEpisodes:
         self.reports = np.full((rows, slots, k, 2), np.nan)
         self.measured = np.full((rows, k, slots), np.nan)
         self.tally = np.zeros((rows, k))
-        if weights.points.shape[2] < slots:  # (every slot's ground terms, NodeWeights.load's)
-            weights.points = np.zeros((rows, k, slots, weights.points.shape[3]))
+        if weights.points.shape[1] < slots:  # (every slot's ground points, NodeWeights.load's)
+            weights.points = np.zeros((rows, slots, k, weights.points.shape[3]))
         r = self.ranges
         self.intervals = np.array(
             [r.ground_x, r.ground_y, r.start_x, r.start_y, r.end_x, r.end_y], dtype=np.float64
@@ -137,7 +138,7 @@ class DrawnNodeEpisodes:
 
     # --- per batch: the compiled episode ---------------------------------------------------
     def make(self, rows: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
-        """Steps 2 and 3 for ``rows`` (int64; drawn): their fields, checks, tracks, ground terms,
+        """Steps 2 and 3 for ``rows`` (int64; drawn): their fields, checks, tracks, ground points,
         the rows' scenario arrays, ``lo`` / ``hi`` (B, K_max, 2) their report clips. A row the
         checks flag is built as its ``ScenarioConfig`` (which raises the validation's error); one
         that passes it after all goes on. Rows whose geometry the compiled weights do not take are
@@ -157,8 +158,9 @@ class DrawnNodeEpisodes:
         for i in np.flatnonzero(self.bad[rows]).tolist():
             self.config(int(rows[i]))  # (raises the config's own error)
         k, n = int(self.counts[rows].max()), int(self.slots[rows].max())
-        # the ground terms' power 1.5: numpy's, as NodeWeights.load takes it (not libm's, numba's)
-        w.points[rows, :k, :n, PT_SCALE] = w.points[rows, :k, :n, PT_DX2] ** 1.5
+        # the ground points' scale dx2 ** 1.5: numpy's, as NodeWeights.load takes it (not libm's, numba's)
+        w.points[rows, :n, :k, PT_SCALE] = w.points[rows, :n, :k, PT_SCALE] ** 1.5
+        w.cx[rows] = self.constants[C_CX]
         geometry = self.geometries_of(rows)
         for i in rows.tolist():
             kr.loaded[i], kr.bare[i] = None, True
@@ -172,17 +174,21 @@ class DrawnNodeEpisodes:
         return rows[~fits]
 
     def geometries_of(self, rows: np.ndarray) -> np.ndarray:
-        """Each of ``rows``' kernel geometry (its index in the tables, :meth:`geometry`; -1: none)."""
+        """Each of ``rows``' kernel geometry (its index in the tables, :meth:`geometry`; -1: none),
+        the tables restacked once if geometries were added."""
         ids = self.lookup[self.surface[rows], self.ios_rows[rows]]
+        met = len(self.table)
         for j in np.flatnonzero(ids == -2).tolist():  # (a geometry not met yet: from its first row)
             ids[j] = self.geometry(int(rows[j]))
+        if len(self.table) > met:
+            self.tables = _stack(self.table)
         return ids
 
     def geometry(self, i: int) -> int:
         """The index of row ``i``'s kernel geometry in the tables (``NodeWeights``' projection, Q,
         node coordinates, kernel scalars and J, the episode row of ``multi_table.episode_row``),
-        added from the row's config at its first row; -1 where the compiled weights do not apply
-        (``NodeWeights.width`` None)."""
+        added from the row's config at its first row (``tables`` restacked by :meth:`geometries_of`);
+        -1 where the compiled weights do not apply (``NodeWeights.width`` None)."""
         key = (int(self.surface[i]), int(self.ios_rows[i]))
         found = int(self.lookup[key])
         if found != -2:
@@ -197,7 +203,6 @@ class DrawnNodeEpisodes:
         row = episode_row(cfg, length_scale, sharpness, softmin_beta, False, 0.0, clip)
         self.table.append((projection, q, factor, coords, params, row))
         self.lookup[key] = len(self.table) - 1
-        self.tables = _stack(self.table)
         return len(self.table) - 1
 
     def config(self, i: int) -> ScenarioConfig:

@@ -7,12 +7,14 @@ before each step (``nodes_kernels.gather_node_kernels``): per episode a few hund
 and read back from scattered arrays. A moving node's kernel changes from slot to slot only in its
 surface weights (``nodes[2]``, ``surface.path_weights_into``: J ky B kz^T, B the beta of the ground
 point at the interpolation points) and G's scalars (``g_side``, ``gx``, ``gy``). So here a row's
-episode keeps per node and slot only the ground point's terms ((B, K_max, S, 5): gx, gy, dx2,
-dx2 ** 1.5 and the side, computed by numpy at reset exactly as ``path_kernels`` computes them),
-and :func:`put_node_weights` computes the weights of the slot each row flies to straight into the
-row's kernel (``NodeRows.nodes[i, k, 2]``), one point after another in the order of
-``weight_kernels``' sums (IEEE arithmetic, each sum from 0 in index order: the block form's and the
-point form's bits, tested equal to the old path's bit for bit).
+episode keeps per slot and node only the ground point and its scale ((B, S, K_max, 3): gx, gy and
+|gx - x_c|^3 = dx2 ** 1.5, the power computed by numpy at reset exactly as ``path_kernels``
+computes it: numpy's power is not libm's); the point's other terms (dx2 = (gx - x_c)^2, the
+side) are IEEE arithmetic of gx, computed where they are used. :func:`put_node_weights` computes
+the weights of the slot each row flies to straight into the row's kernel
+(``NodeRows.nodes[i, k, 2]``), one point after another in the order of ``weight_kernels``' sums
+(IEEE arithmetic, each sum from 0 in index order: the block form's and the point form's bits,
+tested equal to the old path's bit for bit).
 
 The row's track (:class:`BareNodesTrack`) holds the paths and the records but builds its kernels
 only when read (the energy objective's reference, a score that falls back to the track's
@@ -46,8 +48,8 @@ from ios_uav_env.model.weight_kernels import WEIGHT_BLOCK, block_weights
 
 __all__ = ["BareNodesTrack", "NodeWeights", "measure_node_rates", "put_node_weights", "start_bare_track"]
 
-#: The columns of a ground point's terms in ``NodeWeights.points``.
-PT_GX, PT_GY, PT_DX2, PT_SCALE, PT_SIDE = range(5)
+#: The columns of a ground point in ``NodeWeights.points``: its x, y and scale |x - x_c|^3.
+PT_GX, PT_GY, PT_SCALE = range(3)
 
 
 class BareNodesTrack(NodesTrack):
@@ -96,13 +98,14 @@ def start_bare_track(
 
 
 class NodeWeights:
-    """The rows' ground-point terms of every node and slot (``points`` (B, K_max, S, 5), module
-    docstring), each row's episode slot count (``slots``: 0, the row keeps its track's kernels),
-    node count, kernel width, projection (an index into the lists of the projections met), J
-    and the kernel scalars G's do not replace (``base`` (B, P))."""
+    """The rows' ground points of every slot and node (``points`` (B, S, K_max, 3), module
+    docstring) and the IOS centre's x (``cx`` (B,)), each row's episode slot count (``slots``: 0,
+    the row keeps its track's kernels), node count, kernel width, projection (an index into the
+    lists of the projections met), J and the kernel scalars G's do not replace (``base`` (B, P))."""
 
     def __init__(self, rows: int, max_nodes: int, params: int) -> None:
-        self.points = np.zeros((rows, max_nodes, 1, 5))
+        self.points = np.zeros((rows, 1, max_nodes, 3))
+        self.cx = np.zeros(rows)
         self.slots = np.zeros(rows, dtype=np.int64)
         self.counts = np.zeros(rows, dtype=np.int64)
         self.widths = np.zeros(rows, dtype=np.int64)
@@ -167,7 +170,7 @@ class NodeWeights:
 
     def load(self, i: int, config: ScenarioConfig, paths: np.ndarray, nodes: np.ndarray) -> bool:
         """Row ``i``'s episode on ``config`` whose nodes walk ``paths`` ((N, K, 2) m): the ground
-        terms of every node and slot, and the kernels' node coordinates and padding in ``nodes[i]``
+        points of every slot and node, and the kernels' node coordinates and padding in ``nodes[i]``
         (the row's kernels, (K_max, 3, Q)). False (nothing kept, ``slots[i]`` 0) where the compiled
         weights do not apply: then the caller builds the track's kernels."""
         self.slots[i] = 0
@@ -176,16 +179,16 @@ class NodeWeights:
             return False
         _, index, q, coords, params, factor, cx = geometry
         k_nodes, n = config.K, config.N
-        if n > self.points.shape[2]:
-            grown = np.zeros((*self.points.shape[:2], n, 5))
-            grown[:, :, : self.points.shape[2]] = self.points
+        if n > self.points.shape[1]:
+            grown = np.zeros((self.points.shape[0], n, *self.points.shape[2:]))
+            grown[:, : self.points.shape[1]] = self.points
             self.points = grown
-        # the ground terms as surface._ground_terms and path_kernels compute them (numpy, on the
-        # same (K N, 2) array of the nodes' points, node after node), then put in place compiled
+        # the scale as surface._ground_terms and path_kernels compute it (numpy, on the same (K N, 2)
+        # array of the nodes' points, node after node), then put in place compiled
         grounds = paths.transpose(1, 0, 2).reshape(k_nodes * n, 2)
         dx2 = (grounds[:, 0] - cx) ** 2
-        side = np.sign(grounds[:, 0] - cx)
-        _fill_row(self.points, i, k_nodes, n, grounds, dx2, dx2**1.5, side, nodes, coords)
+        _fill_row(self.points, i, k_nodes, n, grounds, dx2**1.5, nodes, coords)
+        self.cx[i] = cx
         self.base[i] = params
         self.which[i], self.factors[i] = index, factor
         self.counts[i], self.widths[i], self.slots[i] = k_nodes, q, n
@@ -197,8 +200,8 @@ class NodeWeights:
     ) -> None:  # fmt: skip
         """:func:`put_node_weights` of these buffers (on ``num_threads`` of numba's threads: its
         blocks, :func:`put_node_weights_batched`; None: numba's current setting)."""
-        args = (rows, state, ahead, self.slots, self.counts, self.which, self.points, self.base, self.factors,
-                self.ky_t, self.kz_t, self.gy, self.gz2, nodes, params)  # fmt: skip
+        args = (rows, state, ahead, self.slots, self.counts, self.which, self.points, self.cx, self.base,
+                self.factors, self.ky_t, self.kz_t, self.gy, self.gz2, nodes, params)  # fmt: skip
         if num_threads == 1:
             put_node_weights(*args)
         else:
@@ -207,18 +210,17 @@ class NodeWeights:
 
 @jit(fastmath=False)
 def _fill_row(
-    points: np.ndarray, i: int, k_nodes: int, n: int, grounds: np.ndarray, dx2: np.ndarray, scale: np.ndarray,
-    side: np.ndarray, nodes: np.ndarray, coords: np.ndarray,
+    points: np.ndarray, i: int, k_nodes: int, n: int, grounds: np.ndarray, scale: np.ndarray,
+    nodes: np.ndarray, coords: np.ndarray,
 ) -> None:  # fmt: skip
-    """Row ``i``'s ground terms (``grounds`` (K n, 2) and the per-point ``dx2``, ``scale``, ``side``,
-    node after node) into ``points[i, :K, :n]``, and its kernels' node coordinates ``coords`` (2, Q)
-    and padding (0, 1, 0) beyond Q into ``nodes[i, :K]``."""
+    """Row ``i``'s ground points (``grounds`` (K n, 2) and their ``scale``, node after node) into
+    ``points[i, :n, :K]``, and its kernels' node coordinates ``coords`` (2, Q) and padding (0, 1, 0)
+    beyond Q into ``nodes[i, :K]``."""
     q = coords.shape[1]
     for k in range(k_nodes):
         for slot in range(n):
-            p, point = k * n + slot, points[i, k, slot]
-            point[PT_GX], point[PT_GY] = grounds[p, 0], grounds[p, 1]
-            point[PT_DX2], point[PT_SCALE], point[PT_SIDE] = dx2[p], scale[p], side[p]
+            p, point = k * n + slot, points[i, slot, k]
+            point[PT_GX], point[PT_GY], point[PT_SCALE] = grounds[p, 0], grounds[p, 1], scale[p]
         kernel = nodes[i, k]
         for x in range(q):
             kernel[0, x], kernel[1, x] = coords[0, x], coords[1, x]
@@ -289,27 +291,49 @@ def _point_blocks(
 
 
 @jit(fastmath=False)
-def _put_block(
-    b: int, points_at: np.ndarray, starts: np.ndarray, which: np.ndarray, points: np.ndarray,
-    base: np.ndarray, factors: np.ndarray, ky_ts: Any, kz_ts: Any, gys: Any, gz2s: Any, nodes: np.ndarray,
-    params: np.ndarray,
+def _put_blocks(
+    first: int, last: int, points_at: np.ndarray, starts: np.ndarray, which: np.ndarray, points: np.ndarray,
+    cx: np.ndarray, base: np.ndarray, factors: np.ndarray, ky_ts: Any, kz_ts: Any, gys: Any, gz2s: Any,
+    nodes: np.ndarray, params: np.ndarray, block: int,
 ) -> None:  # fmt: skip
-    """Block ``b`` of :func:`_point_blocks`: its points' weights (``weight_kernels.block_weights``)
-    and G's scalars into their rows' kernels."""
+    """Blocks ``first`` .. ``last - 1`` of :func:`_point_blocks`, one after another (:func:`_put_block`),
+    on work arrays of ``block`` points allocated once (again where a projection's sizes differ)."""
+    shape = (-1, -1, -1, -1)
+    dx2, scale = np.zeros(block), np.zeros(block)  # (zeros: the unused lanes are computed, not read)
+    dy2_t, beta = np.zeros((1, block)), np.zeros((1, 1, block))
+    half, weights = np.zeros((1, 1, block)), np.zeros((1, 1, block))
+    for b in range(first, last):
+        p = which[points_at[starts[b], 0]]
+        ky_t, kz_t = ky_ts[p], kz_ts[p]
+        sizes = (ky_t.shape[0], ky_t.shape[1], kz_t.shape[0], kz_t.shape[1])
+        if sizes != shape:
+            shape = sizes
+            py, ny, pz, nz = sizes
+            dy2_t, beta = np.zeros((py, block)), np.zeros((py, pz, block))
+            half, weights = np.zeros((pz, ny, block)), np.zeros((ny, nz, block))
+        _put_block(b, points_at, starts, which, points, cx, base, factors, ky_ts, kz_ts, gys, gz2s, nodes,
+                   params, dx2, scale, dy2_t, beta, half, weights)  # fmt: skip
+
+
+@jit(fastmath=False)
+def _put_block(
+    b: int, points_at: np.ndarray, starts: np.ndarray, which: np.ndarray, points: np.ndarray, cx: np.ndarray,
+    base: np.ndarray, factors: np.ndarray, ky_ts: Any, kz_ts: Any, gys: Any, gz2s: Any, nodes: np.ndarray,
+    params: np.ndarray, dx2: np.ndarray, scale: np.ndarray, dy2_t: np.ndarray, beta: np.ndarray,
+    half: np.ndarray, weights: np.ndarray,
+) -> None:  # fmt: skip
+    """Block ``b`` of :func:`_point_blocks`: its points' weights (``weight_kernels.block_weights``, on
+    the work arrays ``dx2`` .. ``weights``, their last axis at least the block's points) and G's
+    scalars into their rows' kernels."""
     start, m = starts[b], starts[b + 1] - starts[b]
     p = which[points_at[start, 0]]
     ky_t, kz_t, gy, gz2 = ky_ts[p], kz_ts[p], gys[p], gz2s[p]
-    py, ny, pz, nz = ky_t.shape[0], ky_t.shape[1], kz_t.shape[0], kz_t.shape[1]
-    dx2 = np.empty(m)
-    scale = np.empty(m)
-    dy2_t = np.empty((py, m))
-    beta = np.empty((py, pz, m))
-    half = np.empty((pz, ny, m))
-    weights = np.empty((ny, nz, m))
+    py, ny, nz = ky_t.shape[0], ky_t.shape[1], kz_t.shape[1]
     for j in range(m):
         at = points_at[start + j]
-        point = points[at[0], at[1], at[2]]
-        dx2[j], scale[j] = point[PT_DX2], point[PT_SCALE]
+        point = points[at[0], at[2], at[1]]
+        dx = point[PT_GX] - cx[at[0]]
+        dx2[j], scale[j] = dx * dx, point[PT_SCALE]  # (dx2: numpy's (x - x_c) ** 2, a product)
         for c in range(py):
             e = point[PT_GY] - gy[c]
             dy2_t[c, j] = e * e
@@ -317,13 +341,14 @@ def _put_block(
     for j in range(m):
         at = points_at[start + j]
         i, k = at[0], at[1]
-        point = points[i, k, at[2]]
+        point = points[i, at[2], k]
         factor, out = factors[i], nodes[i, k, 2]
         for x in range(ny):
             for y in range(nz):
                 out[x * nz + y] = factor * weights[x, y, j]
+        dx = point[PT_GX] - cx[i]
         params[i, k, :] = base[i]
-        params[i, k, PARAM_G_SIDE] = point[PT_SIDE]
+        params[i, k, PARAM_G_SIDE] = 1.0 if dx > 0.0 else (-1.0 if dx < 0.0 else 0.0)  # (np.sign's)
         params[i, k, PARAM_GX] = point[PT_GX]
         params[i, k, PARAM_GY] = point[PT_GY]
 
@@ -331,8 +356,8 @@ def _put_block(
 @jit(fastmath=False)
 def put_node_weights(
     rows: np.ndarray, state: np.ndarray, ahead: int, slots: np.ndarray, counts: np.ndarray, which: np.ndarray,
-    points: np.ndarray, base: np.ndarray, factors: np.ndarray, ky_ts: Any, kz_ts: Any, gys: Any, gz2s: Any,
-    nodes: np.ndarray, params: np.ndarray, block: int = WEIGHT_BLOCK,
+    points: np.ndarray, cx: np.ndarray, base: np.ndarray, factors: np.ndarray, ky_ts: Any, kz_ts: Any,
+    gys: Any, gz2s: Any, nodes: np.ndarray, params: np.ndarray, block: int = WEIGHT_BLOCK,
 ) -> None:  # fmt: skip
     """Each row's node kernels of slot ``state[i, 2] + ahead`` (1: the slot it flies to; -1:
     the episode's first, slot 0) into ``nodes[i, k, 2, :ny nz]`` (the surface weights J ky B kz^T)
@@ -343,21 +368,30 @@ def put_node_weights(
     sums on their own in index order (module docstring), so whatever block a point is in and
     whichever thread computes it, its numbers are the same."""
     at, starts = _point_blocks(rows, state, ahead, slots, counts, which, block)
-    for b in range(starts.size - 1):
-        _put_block(b, at, starts, which, points, base, factors, ky_ts, kz_ts, gys, gz2s, nodes, params)
+    _put_blocks(0, starts.size - 1, at, starts, which, points, cx, base, factors, ky_ts, kz_ts, gys, gz2s,
+                nodes, params, block)  # fmt: skip
+
+
+#: The runs of blocks :func:`put_node_weights_batched` hands numba's threads (each allocates its
+#: work arrays once).
+BLOCK_RUNS = 16
 
 
 @jit(fastmath=False, parallel=True)
 def put_node_weights_batched(
     rows: np.ndarray, state: np.ndarray, ahead: int, slots: np.ndarray, counts: np.ndarray, which: np.ndarray,
-    points: np.ndarray, base: np.ndarray, factors: np.ndarray, ky_ts: Any, kz_ts: Any, gys: Any, gz2s: Any,
-    nodes: np.ndarray, params: np.ndarray, block: int = WEIGHT_BLOCK,
+    points: np.ndarray, cx: np.ndarray, base: np.ndarray, factors: np.ndarray, ky_ts: Any, kz_ts: Any,
+    gys: Any, gz2s: Any, nodes: np.ndarray, params: np.ndarray, block: int = WEIGHT_BLOCK,
 ) -> None:  # fmt: skip
-    """:func:`put_node_weights` with the blocks on numba's threads (a block's points are rows'
-    own: no two blocks write the same kernel)."""
+    """:func:`put_node_weights` with the blocks on numba's threads, in :data:`BLOCK_RUNS` runs of
+    consecutive blocks (a block's points are rows' own: no two blocks write the same kernel)."""
     at, starts = _point_blocks(rows, state, ahead, slots, counts, which, block)
-    for b in prange(starts.size - 1):
-        _put_block(b, at, starts, which, points, base, factors, ky_ts, kz_ts, gys, gz2s, nodes, params)
+    blocks = starts.size - 1
+    runs = min(blocks, BLOCK_RUNS)
+    for r in prange(runs):
+        first, last = blocks * r // runs, blocks * (r + 1) // runs
+        _put_blocks(first, last, at, starts, which, points, cx, base, factors, ky_ts, kz_ts, gys, gz2s, nodes,
+                    params, block)  # fmt: skip
 
 
 @jit

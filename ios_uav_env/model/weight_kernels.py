@@ -22,6 +22,10 @@ __all__ = [
 
 #: Points :func:`interpolated_weights` computes side by side (its innermost loops run over them).
 WEIGHT_BLOCK = 32
+#: The interpolation points per axis whose products :func:`_block_product` unrolls (the paper's
+#: geometry's, ``surface.ground_count``): a point's sum over them then stays in a register, the
+#: block's points side by side in the vector lanes.
+UNROLLED_POINTS = 9
 
 
 @jit(fastmath=False)
@@ -52,9 +56,9 @@ def interpolated_weights_into(
     py, ny, pz, nz = ky_t.shape[0], ky_t.shape[1], kz_t.shape[0], kz_t.shape[1]
     points, block = dy2.shape[0], WEIGHT_BLOCK
     dy2_t = np.ascontiguousarray(dy2.T)
-    beta = np.empty((py, pz, block))
-    half = np.empty((pz, ny, block))  # (ky B)^T of the block's points
-    weights = np.empty((ny, nz, block))
+    beta = np.zeros((py, pz, block))  # (zeros: a last block's unused lanes, computed but not read)
+    half = np.zeros((pz, ny, block))  # (ky B)^T of the block's points
+    weights = np.zeros((ny, nz, block))
     for start in range(0, points, block):
         m = min(block, points - start)
         block_weights(weights, half, beta, scale, dx2, dy2_t, z2, ky_t, kz_t, start, m)
@@ -72,7 +76,9 @@ def block_weights(
     """The unscaled weights of the block of points ``start`` .. ``start + m - 1`` into
     ``weights[:, :, :m]`` ((ny, nz, block)): B = ``scale`` / d^4 at the interpolation points
     (d^2 = (dx^2 + dy^2) + z^2, ``dy2_t`` (py, points)) into ``beta`` ((py, pz, block)), then
-    (ky B)^T into ``half`` ((pz, ny, block)) and kz^T (ky B)^T (:func:`_block_product`), IEEE."""
+    (ky B)^T into ``half`` ((pz, ny, block)) and kz^T (ky B)^T (:func:`_block_product`), IEEE.
+    The lanes past ``m`` may be computed too (from what the work arrays hold there: finite
+    numbers, e.g. zeros or an earlier block's) and are not to be read."""
     for c in range(ky_t.shape[0]):
         for d in range(kz_t.shape[0]):
             z, beta_cd = z2[d], beta[c, d]
@@ -87,7 +93,16 @@ def block_weights(
 def _block_product(out: np.ndarray, scalars: np.ndarray, vectors: np.ndarray, m: int) -> None:
     """out[x, y, :m] = the sum over z, from 0 in index order, of scalars[z, y] x vectors[z, x, :m]
     (IEEE products and sums: a block's (ky B)^T from ky^T and B, then its weights from kz^T and
-    (ky B)^T; a product's operands in either order are the same number)."""
+    (ky B)^T; a product's operands in either order are the same number). With
+    :data:`UNROLLED_POINTS` terms and blocks of :data:`WEIGHT_BLOCK` lanes the same sums in the same
+    order, each in a register (:func:`_unrolled_product`: all the lanes)."""
+    if (
+        vectors.shape[0] == UNROLLED_POINTS
+        and out.shape[2] == WEIGHT_BLOCK
+        and vectors.shape[2] == WEIGHT_BLOCK
+    ):
+        _unrolled_product(out, scalars, vectors)
+        return
     out[:] = 0.0
     for z in range(vectors.shape[0]):
         for x in range(out.shape[0]):
@@ -96,6 +111,22 @@ def _block_product(out: np.ndarray, scalars: np.ndarray, vectors: np.ndarray, m:
                 k, row = scalars[z, y], out[x, y]
                 for j in range(m):
                     row[j] += k * vector[j]
+
+
+@jit(fastmath=False)
+def _unrolled_product(out: np.ndarray, scalars: np.ndarray, vectors: np.ndarray) -> None:
+    """:func:`_block_product` of :data:`UNROLLED_POINTS` terms on every one of the
+    :data:`WEIGHT_BLOCK` lanes: a lane's sum ((0 + s_0 v_0) + s_1 v_1) + ... in a register, the
+    constant counts letting the compiler unroll the terms and vectorise the lanes (IEEE: the
+    same sums, bit for bit)."""
+    for x in range(out.shape[0]):
+        for y in range(out.shape[1]):
+            row = out[x, y]
+            for j in range(WEIGHT_BLOCK):
+                total = 0.0
+                for z in range(UNROLLED_POINTS):
+                    total += scalars[z, y] * vectors[z, x, j]
+                row[j] = total
 
 
 @jit(fastmath=False)

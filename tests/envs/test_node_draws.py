@@ -1,6 +1,6 @@
 """The batched moving multi-node env's compiled draw of its episodes (ios_uav_env/envs/node_draws.py)
 equals the single env's reset bit for bit: the scenario (``sample_multinode``), the node paths
-(``node_paths``), the report clips, the rows' scenario arrays and ground terms; the batch equals
+(``node_paths``), the report clips, the rows' scenario arrays and ground points; the batch equals
 its single envs over episodes; the scenario's validation still refuses a bad draw with its own
 error; configs are built only when read; a row whose surface the compiled weights do not take
 reads its track's kernels."""
@@ -72,11 +72,11 @@ def test_the_compiled_draw_is_the_single_envs_draw_bit_for_bit(ranges):
         )
         assert same(kernel_rows.points[i, :k], node_points(cfg))
         assert tuple(kernel_rows.sizes[i]) == (k, n)
-        # the ground terms and kernel entries NodeWeights.load makes of the config and its paths
+        # the ground points and kernel entries NodeWeights.load makes of the config and its paths
         ref = NodeWeights(1, k, kernel_rows.params.shape[2])
         buffer = np.zeros((1, k, 3, kernel_rows.nodes.shape[3]))
         assert ref.load(0, cfg, track.paths, buffer)
-        assert same(weights.points[i, :k, :n], ref.points[0, :k, :n])
+        assert same(weights.points[i, :n, :k], ref.points[0, :n, :k]) and weights.cx[i] == ref.cx[0]
         assert same(weights.base[i], ref.base[0]) and weights.factors[i] == ref.factors[0]
         assert (weights.counts[i], weights.widths[i], weights.slots[i]) == (k, ref.widths[0], n)
         assert same(kernel_rows.nodes[i, :k, :2], buffer[0, :, :2])
