@@ -32,7 +32,7 @@ from ios_uav_env.envs.mobile_draw_kernels import take_slot_normals
 from ios_uav_env.envs.multi_kernels import NodeRows, episode_best_values, move_norms
 from ios_uav_env.envs.multi_table import BEST, info_arrays, info_columns
 from ios_uav_env.envs.node_draws import DrawnNodeEpisodes, takes_drawn_nodes
-from ios_uav_env.envs.node_measure import measure_rows
+from ios_uav_env.envs.node_measure import measure_node_rates
 from ios_uav_env.envs.node_weights import NodeWeights
 from ios_uav_env.envs.nodes_kernels import (
     MODES,
@@ -215,8 +215,8 @@ class NodeBlockRows:
         ``observe_slot`` (``knowledge.observe_nodes``), bit for bit: per row, the slot's normals
         (from the episode's draw, ``knowledge_kernels.EpisodeDraws``; channel "rician": one draw of
         its generator per slot), then compiled calls for all ``rows``
-        (``node_measure.measure_rows`` or ``nodes_kernels.measure_nodes``, and ``tell_nodes``); the
-        Kalman filter (``filter_estimate``) per row."""
+        (``nodes_kernels.measure_nodes`` and ``tell_nodes``); the Kalman filter (``filter_estimate``)
+        per row."""
         rows = np.asarray(rows, dtype=np.int64)
         normals, envs, counts, draw, out = self._slot_normals, self.envs, self._k, self._draw, self._draw_out
         state, shares = self._rows.state, self._rows.shares
@@ -226,13 +226,13 @@ class NodeBlockRows:
         elif self._knowledge != 0:
             for i in rows.tolist():
                 draw[i](out=out[i])
-        kernels = self._rows.nodes, self._rows.params
         if self._knowledge != 0 and self._weights is not None:
-            w = self._weights  # (node_measure: on numba's threads unless num_threads is 1)
-            measure_rows(self.num_threads, rows, state, shares, counts, w.widths, w.slots,
-                         self._track_measured, self._track_nodes, self._track_params, *kernels, normals,
-                         self._knowledge == 1, self._rate_high, self._told)  # fmt: skip
+            w = self._weights
+            measure_node_rates(rows, state, shares, counts, w.widths, w.slots, self._track_measured,
+                               self._track_nodes, self._track_params, self._rows.nodes, self._rows.params,
+                               normals, self._knowledge == 1, self._rate_high, self._told)  # fmt: skip
         elif self._knowledge != 0:
+            kernels = self._rows.nodes, self._rows.params
             measure_nodes(rows, state, shares, self._track_measured, self._track_nodes, self._track_params,
                           *kernels, normals, self._knowledge == 1, self._rate_high, self._told)  # fmt: skip
         args = (rows, state, shares, self._track_paths, self._track_reports, self._track_tally, self._lo,

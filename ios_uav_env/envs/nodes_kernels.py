@@ -10,8 +10,8 @@ env draws the slot's normals in ONE ``standard_normal(d)`` call of the row's gen
 (:func:`draws`: the K reports' 2 K, then two per node for the measured rates; numpy's Generator
 gives one call of d the stream of the per-row path's calls), and the kernels do the per-row
 arithmetic as the per-row path does: the reports, their clip, the served tally and the features
-in IEEE arithmetic (as numpy computes them), the measured rates too (``channel.measured_rate``, a
-function of its own: the same bits in every kernel it is compiled into). So the rows equal the single env's
+in IEEE arithmetic (as numpy computes them), the faded rates with ``channel.faded_row``'s own
+flags (the kernels' fast-math, in a function of their own). So the rows equal the single env's
 bit for bit (tested, with and without numba). The Kalman filter of ``filter_estimate`` stays
 Python per row (``knowledge.filter_report`` on the raw reports left in ``raw``).
 
@@ -33,7 +33,7 @@ import numpy as np
 from ios_uav_env.envs.knowledge_kernels import MODES
 from ios_uav_env.envs.multi_table import BASE_FEATURES
 from ios_uav_env.jit import jit, prange
-from ios_uav_env.model.channel import measured_rate
+from ios_uav_env.model.channel import faded_row
 from ios_uav_env.model.reports import SERVED_SHARE
 
 __all__ = [
@@ -104,7 +104,7 @@ def measure_nodes(
                 nodes, params, at = row_nodes[i], row_params[i], k
                 if not own:
                     nodes, params, at = kernel[k], scalars[k], slot
-                rate = measured_rate(state[i, 0], state[i, 1], n_re, n_im, nodes, params, at)
+                rate = faded_row(state[i, 0], state[i, 1], n_re, n_im, nodes, params, at)
                 record[k, slot] = rate
                 told[i, k] = rate_high if rate_high < rate else rate
 

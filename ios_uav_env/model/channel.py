@@ -44,7 +44,6 @@ from ios_uav_env.model.rate_kernels import (  # noqa: F401 (the compiled kernels
     faded_point,
     faded_row,
     hold_path_kernels,
-    measured_rate,
     path_kernels,
     rate_kernel,
     rate_point,

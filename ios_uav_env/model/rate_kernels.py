@@ -4,8 +4,7 @@
 coordinates and side, the path-loss and power terms) into two arrays, ``nodes`` (3, Q) and
 ``params`` (columns :data:`PARAMS`), and the compiled functions here evaluate the rate model of
 :mod:`ios_uav_env.model.channel` on them one position at a time: :func:`zeta_row`,
-:func:`rate_row` and :func:`faded_row` inlined into the env's kernels, :func:`measured_rate`
-(:func:`faded_row` in IEEE arithmetic, the multi-node env's measured rates), :func:`rate_point` and
+:func:`rate_row` and :func:`faded_row` inlined into the env's kernels, :func:`rate_point` and
 :func:`rates_at` for one kernel, :func:`rates_of_rows` for one kernel per point (equal to
 ``channel.zeta`` / ``channel.slot_rates`` / ``channel.faded_rates`` to rounding; tested).
 :func:`path_kernels` builds a moving node's kernel per slot from one surface projection, and
@@ -277,20 +276,6 @@ def faded_row(
     re = params[i, PARAM_LOS_GAIN] * math.cos(phase) + params[i, PARAM_NLOS_GAIN] * n_re
     im = -params[i, PARAM_LOS_GAIN] * math.sin(phase) + params[i, PARAM_NLOS_GAIN] * n_im
     return math.log2(1.0 + params[i, PARAM_ETA] * z * z * (re * re + im * im))
-
-
-@jit(fastmath=False)
-def measured_rate(
-    x: float, y: float, n_re: float, n_im: float, nodes: np.ndarray, params: np.ndarray, i: int
-) -> float:
-    """A measured rate: :func:`faded_row` in IEEE arithmetic (inlined here, so under these flags:
-    no fused multiply-add, no reassociation). A compiled caller gets this function compiled on
-    its own, never inlined at numba's level; LLVM may still inline it into the caller, but its
-    instructions keep their (empty) fast-math flags, so every copy rounds alike whatever it is
-    compiled into: a threaded kernel, a serial one, a kernel loaded from numba's cache, or the
-    call from Python (a fast-math copy of the sum was re-optimised with each caller and
-    differed in the last bit between them)."""
-    return faded_row(x, y, n_re, n_im, nodes, params, i)
 
 
 @jit
