@@ -14,7 +14,8 @@
 - ``single_mobile`` / ``multi_mobile`` (with ``knowledge``): moving, roughly known nodes;
   ``mobile_draws`` / ``node_draws``: a batch's randomised moving episodes drawn in compiled calls,
   their row envs building their scenarios when read (``deferral``); ``node_weights``: each slot's
-  node kernels computed in the rows; ``multi_space``: the multi-node observation space;
+  node kernels computed in the rows; ``node_measure``: their measured rates (one compiled call over
+  the rows); ``multi_space``: the multi-node observation space;
 - ``observation``, ``options``, ``guard``: the observation layout (and ``require_features``,
   the check of a layout by feature name), the env options and the arrival guard;
   ``settings``: what each env supports, checked at construction; ``registration``: the ids,

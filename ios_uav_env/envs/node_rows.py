@@ -32,7 +32,8 @@ from ios_uav_env.envs.mobile_draw_kernels import take_slot_normals
 from ios_uav_env.envs.multi_kernels import NodeRows, episode_best_values, move_norms
 from ios_uav_env.envs.multi_table import BEST, info_arrays, info_columns
 from ios_uav_env.envs.node_draws import DrawnNodeEpisodes, takes_drawn_nodes
-from ios_uav_env.envs.node_weights import NodeWeights, measure_node_rates
+from ios_uav_env.envs.node_measure import measure_node_rates
+from ios_uav_env.envs.node_weights import NodeWeights
 from ios_uav_env.envs.nodes_kernels import (
     MODES,
     N_BASE,

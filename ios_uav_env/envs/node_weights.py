@@ -37,16 +37,14 @@ from ios_uav_env.envs.knowledge import (
     nodes_track_kernels,
 )
 from ios_uav_env.jit import HAVE_NUMBA, jit, prange, run_batched
-from ios_uav_env.model.channel import faded_row
 from ios_uav_env.model.config import ScenarioConfig
 from ios_uav_env.model.motion import node_paths
 from ios_uav_env.model.node_kernels import kernel_config
 from ios_uav_env.model.rate_kernels import PARAM_G_SIDE, PARAM_GX, PARAM_GY, _base_kernel
-from ios_uav_env.model.reports import SERVED_SHARE
 from ios_uav_env.model.surface import _Geometry, _projection
 from ios_uav_env.model.weight_kernels import WEIGHT_BLOCK, block_weights
 
-__all__ = ["BareNodesTrack", "NodeWeights", "measure_node_rates", "put_node_weights", "start_bare_track"]
+__all__ = ["BareNodesTrack", "NodeWeights", "put_node_weights", "start_bare_track"]
 
 #: The columns of a ground point in ``NodeWeights.points``: its x, y and scale |x - x_c|^3.
 PT_GX, PT_GY, PT_SCALE = range(3)
@@ -392,39 +390,3 @@ def put_node_weights_batched(
         first, last = blocks * r // runs, blocks * (r + 1) // runs
         _put_blocks(first, last, at, starts, which, points, cx, base, factors, ky_ts, kz_ts, gys, gz2s, nodes,
                     params, block)  # fmt: skip
-
-
-@jit
-def measure_node_rates(
-    rows: np.ndarray, state: np.ndarray, shares: np.ndarray, counts: np.ndarray, widths: np.ndarray,
-    slots: np.ndarray, measured: Any, track_nodes: Any, track_params: Any, row_nodes: np.ndarray,
-    row_params: np.ndarray, normals: np.ndarray, reported: bool, rate_high: float, told: np.ndarray,
-) -> None:  # fmt: skip
-    """``nodes_kernels.measure_nodes`` for rows of both kinds: a row with ``slots[i]`` > 0 (its
-    kernels computed in the row, :func:`put_node_weights`) measures on the row's kernels, of its
-    own width ``widths[i]`` (a C-ordered copy where the rows are wider: the numbers and the sum of
-    the track's kernel); the others as ``measure_nodes`` does (``counts[i]`` nodes)."""
-    for j in range(rows.size):
-        i = rows[j]
-        slot = int(state[i, 2])
-        record = measured[i]
-        k_nodes = counts[i]
-        first = 2 * k_nodes if reported else 0
-        fresh = slots[i] > 0
-        own = fresh and widths[i] == row_nodes.shape[3]
-        mine = row_nodes[i]
-        if fresh and not own:
-            mine = np.ascontiguousarray(row_nodes[i, :, :, : widths[i]])
-        elif not fresh:
-            own = track_nodes[i].shape[3] == row_nodes.shape[3]
-        for k in range(k_nodes):
-            told[i, k] = np.nan
-            if shares[i, k] > SERVED_SHARE:
-                n_re, n_im = normals[i, first + 2 * k], normals[i, first + 2 * k + 1]
-                if fresh or own:
-                    rate = faded_row(state[i, 0], state[i, 1], n_re, n_im, mine, row_params[i], k)
-                else:
-                    rate = faded_row(state[i, 0], state[i, 1], n_re, n_im, track_nodes[i][k],
-                                     track_params[i][k], slot)  # fmt: skip
-                record[k, slot] = rate
-                told[i, k] = rate_high if rate_high < rate else rate
