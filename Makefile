@@ -89,7 +89,7 @@ test:
 test-main: $(VENV)/.installed
 	$(VENV)/bin/ruff check .
 	$(VENV)/bin/ruff format --check .
-	$(PY) -m pytest -q -n 2 --durations=15
+	$(PY) -m pytest -q -n 2 --dist worksteal --durations=15
 
 side: side-venvs
 	nice -n 10 $(MAKE) -j3 --output-sync=target test-oldest test-versions
