@@ -6,12 +6,11 @@ the slot: the row's own where the compiled weights put it there (``node_weights.
 else its track's. :func:`measure_node_rates` does it for the rows one after the other.
 
 The rows stay on one thread. The rate (``channel.faded_row``, fast-math) is inlined into each
-kernel and optimised with it: a threaded copy of this loop differed from the serial kernel and
-the single env in the last bit of about one rate in 70 when the kernels were loaded from numba's
-cache, and a copy behind a compiled-function boundary did too. A rate in IEEE arithmetic rounds
-alike in every copy (the serial and threaded kernels then equal the single env bit for bit,
-fresh and from the cache), but its surface sum costs about twice the fast-math one's (the
-divisions and the sum no longer vectorise): more than a second thread wins back.
+kernel and optimised with it, so a threaded copy of this loop (or one behind a compiled-function
+boundary) may round a rate differently from the serial kernel and the single env, and then the
+batch no longer equals its single envs bit for bit. A rate in IEEE arithmetic rounds alike in
+every copy, but its surface sum's divisions no longer vectorise: slower than the fast-math
+serial loop even on two threads (``results/log.md`` has the figures).
 """
 
 from __future__ import annotations
