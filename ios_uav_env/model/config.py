@@ -276,7 +276,7 @@ class ScenarioConfig:
         ``star_access="tdma"``; under NOMA these are the single-user rates c_s) is set for it:
         with energy splitting, mode or time switching the node gets the whole surface on its side,
         u^s = sqrt(beta^s) = 1 on every element, at phases aligned to it (with ``star_bits`` = b, at
-        its exact b-bit phases: ``rate_kernels.discrete_zeta_row``; where one side alone
+        its exact b-bit phases: ``rate_rows.discrete_zeta_row``; where one side alone
         carries power the coupled and shared phase models bind nothing:
         ``ios_uav_env.model.star_slot``, "TDMA"). Its element is a unit
         element on either side, so its channel is the IOS's geometry with factor 1 on both sides.

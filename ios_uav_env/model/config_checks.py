@@ -197,7 +197,7 @@ def check_star(protocol: Any, phases: Any, bits: Any, access: Any, prefix: str =
 
     b-bit phases are modelled under TDMA: the node served gets the whole surface on its side at
     its exact b-bit phases, slot by slot (``star_slot.slot_optimum``'s TDMA rate; in flight the
-    rate kernel's ``rate_kernels.discrete_zeta_row``). Under NOMA they are refused: the flight's
+    rate kernel's ``rate_rows.discrete_zeta_row``). Under NOMA they are refused: the flight's
     optimum is certified for continuous phases only (``star_slot``'s per-slot NOMA max-min with
     b bits is a search whose bound is the continuous one)."""
     if not (isinstance(protocol, str) and protocol in STAR_PROTOCOLS):
