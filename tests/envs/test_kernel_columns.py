@@ -3,10 +3,10 @@ name (the module constants derived from ``CORE_STATE``, ``CORE_EPISODE`` and ``F
 ``ios_uav_env.envs.core.kernel``, the row-step core both views share; from ``STATE``, ``EPISODE``,
 ``INFO`` and the observation's layout in ``ios_uav_env.envs.single_kernels``; from ``STATE``, ``EPISODE``,
 ``POINT``, ``ACTION``, ``INFO``, ``MORE`` and the observation's features in
-``ios_uav_env.envs.multi_table`` for ``multi_kernels`` and ``multi_step``; from ``PARAMS`` in
-``ios_uav_env.model.rate_rows``; from ``SIZES`` and ``OUT`` in ``ios_uav_env.model.maxmin_paths``;
-from ``LAYER``, ``SETTINGS`` and ``STATS`` in ``agents.fast.kernel``), never by number
-(``ep[i, 29]``, ``flags[6]``, ``ep[i, 13 + j]``).
+``ios_uav_env.envs.multi_table`` for ``multi_kernels``, ``multi_step`` and ``multi_writers``; from
+``PARAMS`` in ``ios_uav_env.model.rate_rows``; from ``SIZES`` and ``OUT`` in
+``ios_uav_env.model.maxmin_paths``; from ``LAYER``, ``SETTINGS`` and ``STATS`` in
+``agents.fast.kernel``), never by number (``ep[i, 29]``, ``flags[6]``, ``ep[i, 13 + j]``).
 
 The check reads each module's source: every array a function body subscripts (``self.<name>``
 counts as ``<name>``) is either one whose columns have names (its column index may hold no int
@@ -33,8 +33,8 @@ from ios_uav_env.model import maxmin_paths, rate_rows
 
 ROOT = Path(__file__).resolve().parents[2]
 
-#: The multi-node kernels' arrays (the row table of ``multi_kernels`` and the step of ``multi_step``
-#: share their names).
+#: The multi-node kernels' arrays (the row table of ``multi_kernels``, the step of ``multi_step`` and
+#: its writers in ``multi_writers`` share their names).
 MULTI_NODE = (
     {"state", "st", "episode", "ep", "info", "row", "obs", "o", "points", "flags", "actions", "sizes"},
     {
@@ -77,6 +77,7 @@ MODULES = {
     ),
     "ios_uav_env/envs/multi_kernels.py": MULTI_NODE,
     "ios_uav_env/envs/multi_step.py": MULTI_NODE,
+    "ios_uav_env/envs/multi_writers.py": MULTI_NODE,
     "ios_uav_env/envs/multi_table.py": (
         {"row", "table"},
         {"columns", "out"},  # info_arrays' columns of the table and its dict
