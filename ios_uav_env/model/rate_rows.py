@@ -10,8 +10,7 @@ position at a time: the row functions (:func:`zeta_row`, :func:`gain_row`, :func
 :func:`discrete_zeta_row` is the node's exact b-bit phases; :func:`rate_point` and
 :func:`rates_at` evaluate one kernel, :func:`rates_of_rows` one kernel per point (equal to
 ``channel.zeta`` / ``channel.slot_rates`` / ``channel.faded_rates`` to rounding; tested).
-Every name here is importable from :mod:`ios_uav_env.model.rate_kernels` and
-:mod:`ios_uav_env.model.channel` too.
+Every name here is importable from :mod:`ios_uav_env.model.rate_kernels` too.
 """
 
 from __future__ import annotations
