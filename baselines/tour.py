@@ -1,9 +1,9 @@
 r"""A tour heuristic for several ground nodes: fly to good hover points in the best order,
 hover there as long as one LP says, and serve the nodes with the LP's shares.
 
-**Hover points** (:func:`hover_candidates`): each node's best reachable point
-(``ios_uav_env.rate_peak`` on its single-node config ``config.node_config(k)``), and
-compromise points: for each pair of nodes (and all nodes when K > 2) the reachable point of a
+**Hover points** (:func:`hover_candidates`, ``baselines.tour_candidates``): each node's best
+reachable point (``ios_uav_env.rate_peak`` on its single-node config ``config.node_config(k)``),
+and compromise points: for each pair of nodes (and all nodes when K > 2) the reachable point of a
 ``resolution`` grid that maximises min_k r_k(q) / r_k^* (r_k^* the node's best grid rate; the
 ratio is 1 for a node with r_k^* = 0, which no reachable point serves). The grid is that of
 ``baselines.grid.grid_box``, clipped to what the UAV can reach, and is sized before it is built
@@ -46,7 +46,6 @@ Static paths give the static tour exactly.
 from __future__ import annotations
 
 import itertools
-import math
 import time
 from typing import Any
 
@@ -56,13 +55,15 @@ import ios_uav_env as ie
 from baselines.fixed import _leg
 from baselines.plan import Plan
 from baselines.registry import check as check_planner
+from baselines.tour_candidates import (  # noqa: F401 (the hover points, re-exported)
+    CANDIDATE_RESOLUTION,
+    check_candidate_grid,
+    hover_candidates,
+    node_rate_maps,
+)
 from ios_uav_env import ScenarioConfig, moves_needed
 from ios_uav_env.model.lp import solve_lp
 from ios_uav_env.model.motion import check_paths, is_static
-from ios_uav_env.model.peak import reachable
-
-#: Grid (m) of the node rate maps that give the compromise points.
-CANDIDATE_RESOLUTION = 5.0
 
 __all__ = [
     "check_candidate_grid",
@@ -77,73 +78,6 @@ __all__ = [
     "solve",
     "tour_of",
 ]
-
-
-def check_candidate_grid(
-    config: ScenarioConfig, resolution: float = CANDIDATE_RESOLUTION, margin: float | None = None
-) -> None:
-    """``ValueError`` (naming ``resolution`` and ``baselines.grid.MAX_TABLE_BYTES``) when the K
-    node rate maps of :func:`node_rate_maps` and their per-cell temporaries would not fit;
-    nothing is allocated. The grid is clipped to what the UAV can reach
-    (``baselines.grid.grid_box``), so only a very long horizon can trip it."""
-    from baselines.grid import DEFAULT_MARGIN, check_grid_bytes
-
-    if not (isinstance(resolution, (int, float)) and math.isfinite(resolution) and resolution > 0):
-        raise ValueError(f"resolution must be a finite number > 0 (m), got {resolution!r}")
-    margin = DEFAULT_MARGIN if margin is None else margin
-    check_grid_bytes(
-        config,
-        resolution,
-        margin,
-        8 * (2 * config.K + 8),
-        "K node rate maps (which tour.solve skips when given candidates)",
-    )
-
-
-def node_rate_maps(
-    config: ScenarioConfig, resolution: float, margin: float | None = None
-) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Every node's rate on the DP grid of ``config``: xs (nx,), ys (ny,), rates (K, ny, nx)."""
-    from baselines.grid import DEFAULT_MARGIN, grid_axes
-
-    check_candidate_grid(config, resolution, margin)
-    xs, ys, _ = grid_axes(config, resolution, DEFAULT_MARGIN if margin is None else margin)
-    xx, yy = np.meshgrid(xs, ys)
-    rates = ie.node_rates(config, np.column_stack([xx.ravel(), yy.ravel()]))
-    return xs, ys, rates.reshape(config.K, len(ys), len(xs))
-
-
-def hover_candidates(
-    config: ScenarioConfig, resolution: float = CANDIDATE_RESOLUTION
-) -> list[tuple[str, tuple[float, float]]]:
-    """Named hover points: each node's reachable peak and the compromise points (module doc)."""
-    if config.K > 1:
-        check_candidate_grid(config, resolution)  # before any rate is computed
-    out: list[tuple[str, tuple[float, float]]] = []
-    for k in range(config.K):
-        peak = ie.rate_peak(config.node_config(k))
-        out.append((f"peak{k + 1}", (peak.x, peak.y)))
-    if config.K > 1:
-        xs, ys, rates = node_rate_maps(config, resolution)
-        xx, yy = np.meshgrid(xs, ys)
-        pts = np.column_stack([xx.ravel(), yy.ravel()])
-        ok = reachable(config, pts)
-        flat = rates.reshape(config.K, -1)
-        best = np.max(np.where(ok, flat, -np.inf), axis=1, keepdims=True)
-        # a node no reachable grid point serves (r_k^* = 0) has no preference: 1 everywhere
-        norm = np.divide(flat, best, out=np.ones_like(flat), where=best > 0)
-        groups = list(itertools.combinations(range(config.K), 2))
-        if config.K > 2:
-            groups.append(tuple(range(config.K)))
-        for group in groups:
-            score = np.where(ok, norm[list(group)].min(axis=0), -np.inf)
-            i = int(np.argmax(score))
-            out.append(("mid" + "-".join(str(k + 1) for k in group), (float(pts[i, 0]), float(pts[i, 1]))))
-    unique: list[tuple[str, tuple[float, float]]] = []
-    for name, p in out:  # a point within 1 m of an earlier one adds nothing
-        if all(math.dist(p, u) > 1.0 for _, u in unique):
-            unique.append((name, p))
-    return unique
 
 
 def route_legs(config: ScenarioConfig, points: np.ndarray) -> tuple[np.ndarray, list[int]] | None:

@@ -52,6 +52,9 @@ records that fail one, so the freeze stops.
 **Cost** (K > 1): the plans and the bound at 5 m (:data:`MULTI_DP_RESOLUTION`,
 :data:`MULTI_BOUND_RESOLUTION`), the tour solved once, ``mpc_k1`` left out. Each record holds its
 ``cpu_seconds`` (not frozen); the measured freeze is in ``results/log.md``.
+
+The draws and the rows' names are :mod:`baselines.references.online_draws`', the checks and the
+content :mod:`baselines.references.online_content`' (both re-exported here).
 """
 
 from __future__ import annotations
@@ -62,29 +65,28 @@ import hashlib
 import json
 import time
 import traceback
-from collections.abc import Mapping, Sequence
+from collections.abc import Mapping
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from ios_uav_env import (
-    MOBILE_ID,
-    MULTINODE_MOBILE_ID,
-    MULTINODE_RANGES,
-    ScenarioConfig,
-    ScenarioRanges,
-    sample_multinode,
-    score_plan,
+from baselines.references.online_content import (  # noqa: F401 (the checks and content, re-exported)
+    ONLINE_SHARE,
+    check_online_record,
+    online_content,
 )
-from ios_uav_env.benchmark.suite_registry import (
-    BOUND_REL,
-    FORMAT,
-    MOBILE,
-    MOBILE_V2_REFERENCES,
-    MULTI_MOBILE_REFERENCES,
-    MULTI_NODE_MOBILE,
+from baselines.references.online_draws import (  # noqa: F401 (the draws and rows, re-exported)
+    MULTI_ENV_ROWS,
+    MULTI_MOBILE_RANGES,
+    MULTI_MOBILE_SIZE,
+    MULTI_MOBILE_SPAWN_KEY,
+    MULTI_ONLINE,
+    ONLINE,
+    TRACKS,
+    multi_mobile_tasks,
+    online_rows,
 )
-from ios_uav_env.model.mobility import GaussMarkov
+from ios_uav_env import MULTINODE_MOBILE_ID, ScenarioConfig, score_plan
 from ios_uav_env.model.motion import node_paths
 from ios_uav_env.model.score import PlanScore
 
@@ -94,26 +96,6 @@ if TYPE_CHECKING:
 #: A row's flight: (trajectory (N, 2) m, its own shares (K, N) or None for one node, seconds).
 Flight = tuple[np.ndarray, Any, float]
 
-#: The multi-node mobile suite's spawn key (its entropy is ``draws.ENTROPY`` unless given) and size.
-MULTI_MOBILE_SPAWN_KEY = (23,)
-MULTI_MOBILE_SIZE = 24
-#: The family of ``ios_uav_env/IOSUAV-MultiNode-Mobile-v0``: the multi-node ranges, nodes walking.
-MULTI_MOBILE_RANGES = dataclasses.replace(
-    MULTINODE_RANGES, base=MULTINODE_RANGES.base.replace(motion=GaussMarkov())
-)
-#: The online rows by name: MPC's k (None: plan once) and inner planner.
-ONLINE = {"mpc_dp_k1": (1, "dp"), "mpc_dp_k10": (10, "dp"), "mpc_k1": (1, "tour"), "mpc_k10": (10, "tour"),
-          "plan_once": (None, "tour")}  # fmt: skip
-#: Those of K > 1: MPC over the tour re-planned every slot (``mpc_k1``) is left out, the costliest
-#: row (a tour on the predicted paths in every one of up to 197 slots: 916 CPU s on the 24
-#: scenarios of ``multi-node-mobile-v1``, against 1470 for all the other rows); the tour's MPC keeps
-#: ``mpc_k10`` and plan once.
-MULTI_ONLINE = tuple(name for name in ONLINE if name != "mpc_k1")
-#: The env rows by name: one node's (the knowledge HoverAt("ground") flies on), K > 1's.
-TRACKS = {"track_exact": "exact", "track_reports": "reports"}
-MULTI_ENV_ROWS = ("straight",)
-#: The optimum must reach this share of every online row (the grid's resolution, nothing else).
-ONLINE_SHARE = 0.995
 #: The grids (m): the optimum's (dp-clairvoyant), the bound's cells, MPC-DP's (baselines.mpc's default).
 DP_RESOLUTION = 2.5
 BOUND_RESOLUTION = 2.5
@@ -133,28 +115,6 @@ __all__ = ["MULTI_BOUND_RESOLUTION", "MULTI_DP_RESOLUTION", "MULTI_MOBILE_RANGES
            "MULTI_MOBILE_SPAWN_KEY", "MULTI_ONLINE", "ONLINE_SHARE", "check_online_record",
            "clairvoyant_multi", "describe", "longest_first", "multi_mobile_tasks", "online_content",
            "online_key", "online_rows", "score", "solve_online", "straight"]  # fmt: skip
-
-
-def online_rows(k: int) -> tuple[str, ...]:
-    """The online rows of a scenario with ``k`` nodes (the MPC rows, then the env rows)."""
-    return (*ONLINE, *TRACKS) if k == 1 else (*MULTI_ONLINE, *MULTI_ENV_ROWS)
-
-
-def multi_mobile_tasks(
-    n: int, seed: int, ranges: ScenarioRanges = MULTI_MOBILE_RANGES
-) -> list[dict[str, Any]]:
-    """The first ``n`` multi-node mobile tasks ``{"index", "config", "seed"}`` (module docstring,
-    "Draws"); ``ranges.base`` must have a motion model (``ValueError`` otherwise)."""
-    if isinstance(n, bool) or not isinstance(n, (int, np.integer)) or n < 1:
-        raise ValueError(f"n must be an integer >= 1 (scenarios), got {n!r}")
-    if ranges.base.motion is None:
-        raise ValueError("ranges.base.motion must be a motion model for mobile scenarios, got None")
-    rng = np.random.default_rng(np.random.SeedSequence(entropy=int(seed), spawn_key=MULTI_MOBILE_SPAWN_KEY))
-    tasks = []
-    for i in range(int(n)):
-        config = sample_multinode(rng, ranges)
-        tasks.append({"index": i, "config": config.to_dict(), "seed": int(rng.integers(2**31))})
-    return tasks
 
 
 def straight(config: ScenarioConfig, seed: int) -> tuple[np.ndarray, np.ndarray, float]:
@@ -331,123 +291,3 @@ def describe(i: int, rec: Mapping[str, Any]) -> str:
     gap = f"{100 * opt / ub:.2f}% of bound" if ub else "bound failed"
     pct = lambda r: f"{100 * float(rec[r]['rate']) / opt:.2f}%" if opt > 0 else "n/a"  # noqa: E731
     return f"#{i}: optimum {gap}; mpc_dp_k1 {pct('mpc_dp_k1')}, best online {best} {pct(best)} of it"
-
-
-def check_online_record(rec: Mapping[str, Any], extra: Sequence[str] = ()) -> list[str]:
-    """What refuses a record (module docstring, "Checks"): one line per failure, naming the scenario
-    and the row; none for a record fit to freeze. ``extra``: more online rows of the record
-    (``{"rate", "feasible"}``), checked as the suite's own (rows scored after the freeze)."""
-    i, config = rec["index"], ScenarioConfig(**rec["config"])
-    ub, notes = rec["bound"].get("upper_bound"), []
-    online = (*online_rows(config.K), *extra)
-    rows = ("optimum", "clairvoyant", *online)
-    for name in rows:
-        if "error" in rec[name] or not rec[name]["feasible"]:
-            notes.append(f"#{i}: {name} failed or infeasible ({rec[name].get('error', 'infeasible')})")
-    if ub is None or not ub > 0:
-        return [*notes, f"#{i}: the bound failed ({rec['bound'].get('error', ub)})"]
-    opt = float(rec["optimum"]["rate"])
-    if opt > ub * (1.0 + BOUND_REL):
-        notes.append(f"#{i}: bound {ub!r} < optimum {opt!r} bps/Hz")
-    for name in rows[1:]:
-        rate = float(rec[name]["rate"])
-        if rate > ub * (1.0 + BOUND_REL):
-            notes.append(f"#{i}: {name} {rate!r} > bound {ub!r} bps/Hz")
-        if name in online and opt < ONLINE_SHARE * rate:
-            notes.append(f"#{i}: optimum {opt!r} < {100 * ONLINE_SHARE:g}% of {name} {rate!r} bps/Hz "
-                         f"({100 * opt / rate:.3f}%)")  # fmt: skip
-    return notes
-
-
-def online_content(
-    records: Sequence[Mapping[str, Any]], name: str, version: int, *, seed: int, ranges: ScenarioRanges,
-    multi: bool, settings: Mapping[str, float],
-) -> dict[str, Any]:  # fmt: skip
-    """The content of ``mobile-v2`` (``multi`` false) or ``multi-node-mobile-v1`` from the records of
-    :func:`solve_task`; ``ValueError`` naming every scenario and row that fails a check
-    (:func:`check_online_record`): such records are never frozen."""
-    failed = [note for rec in records for note in check_online_record(rec)]
-    if failed:
-        raise ValueError(f"{name} is not frozen: {len(failed)} check(s) failed: " + "; ".join(failed))
-    references = MULTI_MOBILE_REFERENCES if multi else MOBILE_V2_REFERENCES
-    scenarios = []
-    for rec in records:
-        config = ScenarioConfig(**rec["config"]).to_dict()
-        entry: dict[str, Any] = {"index": int(rec["index"]), "config": config, "seed": int(rec["seed"])}
-        for r in references:
-            if r == "bound":
-                b = rec["bound"]
-                entry[r] = {"upper_bound": float(b["upper_bound"]), "resolution": float(b["resolution"]),
-                            "seconds": round(float(b["seconds"]), 3)}  # fmt: skip
-                continue
-            entry[r] = {"rate": float(rec[r]["rate"]), "feasible": bool(rec[r]["feasible"]),
-                        "seconds": round(float(rec[r]["seconds"]), 4)}  # fmt: skip
-            if r == "optimum":
-                entry[r]["resolution"] = float(rec[r]["resolution"])
-                if multi:  # the planner and start of the best clairvoyant plan
-                    entry[r]["source"] = str(rec[r]["source"])
-        scenarios.append(entry)
-    grids = {k: float(v) for k, v in settings.items() if k != "dp_refine"}
-    mpc_dp = f"baselines.mpc.MPC(k=1 / 10, planner='dp', resolution={grids['mpc_resolution']:g}) online"
-    if multi:
-        env_id, kind, key = MULTINODE_MOBILE_ID, MULTI_NODE_MOBILE, MULTI_MOBILE_SPAWN_KEY
-        sampler = "ios_uav_env.sample_multinode (2 to 4 nodes), then rng.integers(2**31) as the episode seed"
-        family = "2 to 4 nodes, each"
-        rows = (
-            "optimum: the best clairvoyant plan found on the true paths (not a proven optimum), the "
-            "normaliser: the better of baselines.dp_bound.solve_multinode(paths=...)'s plan (grid DPs at "
-            f"{grids['dp_resolution']:g} m at Kelley's dual weights, the clairvoyant tour, tours through the "
-            "DP paths' hovers) and baselines.sca_multi.solve(paths=...) started from that plan, the "
-            "clairvoyant tour and its fly-hover-fly flights, each scored by score_plan with its own shares "
-            "(source: the winner); bound: the same solve_multinode's certified bound at "
-            f"{grids['bound_resolution']:g} m cells (no flight on the true paths scores more); mpc_dp_k1 / "
-            f"mpc_dp_k10: {mpc_dp}; mpc_k10 / plan_once: MPC(k=10 / None) over the tour; clairvoyant: "
-            "baselines.tour.solve(paths=true paths); straight: StraightEqualShares in the env (the "
-            "multi-node env has no tracking heuristic)"
-        )
-        source = grids
-    else:
-        from baselines.references.mobile import MOBILE_SPAWN_KEY as key
-
-        env_id, kind = MOBILE_ID, MOBILE
-        sampler = "ios_uav_env.sample_scenario, then rng.integers(2**31) as the episode seed"
-        family = "the node"
-        rows = (
-            "optimum: the clairvoyant DP "
-            f"baselines.dp_moving.solve (dp-clairvoyant) at {settings['dp_resolution']:g} m (one node: "
-            f"refine={settings['dp_refine']:g} corridor levels), the normaliser; "
-            "bound: the clairvoyant bound (dp_bound.clairvoyant_bound, K > 1 solve_multinode's certified "
-            f"bound) at {settings['bound_resolution']:g} m cells; mpc_dp_k1 / mpc_dp_k10: {mpc_dp}; "
-            "mpc_k1 / mpc_k10 / plan_once: MPC(k=1 / 10 / None) over the tour; clairvoyant: "
-            "baselines.tour.solve(paths=true paths); track_exact / track_reports: HoverAt('ground') in the "
-            "env on the true position / on the reports"
-        )
-        source = {k: int(v) if k == "dp_refine" else float(v) for k, v in settings.items()}
-    return {
-        "format": FORMAT,
-        "name": name,
-        "version": int(version),
-        "kind": kind,
-        "env_id": env_id,
-        "env_kwargs": {},
-        "normalizer": "optimum",
-        "references": list(references),
-        "description": (
-            f"{len(scenarios)} held-out scenarios of {env_id} ({family} on a pedestrian Gauss-Markov path, "
-            f"known through reports), each with an episode seed, drawn in turn from default_rng(SeedSequence("
-            f"entropy={int(seed)}, spawn_key={tuple(key)})) by {sampler}. The episode seed fixes the true "
-            "paths and the reports' noise, in the env reset with it on the pinned scenario as in "
-            "baselines.mpc.run_online. Values are rates on the true paths with each row's own shares "
-            "(bps/Hz, ios_uav_env.score_plan(config, q, shares, paths=...); max-min for K > 1), with "
-            f"feasibility and seconds per episode (a busy 2-core machine). {rows}. Checked before freezing: "
-            f"bound >= optimum >= {100 * ONLINE_SHARE:g}% of every online row on every scenario."
-        ),
-        "source": {
-            "entropy": int(seed),
-            "spawn_key": list(key),
-            "sampler": sampler,
-            "ranges": ranges.to_dict(),
-            **source,
-        },
-        "scenarios": scenarios,
-    }

@@ -7,13 +7,13 @@ recomputes the hash and raises ``ValueError`` on a mismatch: a suite never chang
 name; a change (new scenarios, new reference values) is a new version, a new name.
 
 The suite kinds, the references each holds and what they mean, the registry and the name and
-identity checks: :mod:`ios_uav_env.benchmark.suite_registry` (re-exported here).
+identity checks: :mod:`ios_uav_env.benchmark.suite_registry`; a suite's scenario and the check of
+its record: :mod:`ios_uav_env.benchmark.suite_scenario` (both re-exported here).
 """
 
 from __future__ import annotations
 
 import json
-import math
 from collections.abc import Iterator, Mapping
 from dataclasses import dataclass
 from pathlib import Path
@@ -59,68 +59,11 @@ from ios_uav_env.benchmark.suite_registry import (  # noqa: F401 (the registry, 
     suite_path,
     suite_text,
 )
-from ios_uav_env.model.config import ScenarioConfig
-
-#: The kinds whose policy sets a surface (and beams) every slot of a given line, scored by
-#: ``star_scoring.evaluate_star``.
-SURFACE_CONTROL = (STAR_CONTROL, MISO_CONTROL)
-
-
-@dataclass(frozen=True)
-class SuiteScenario:
-    """One scenario of a suite: its index, its config and its reference values by name."""
-
-    index: int
-    config: ScenarioConfig
-    reference: Mapping[str, Mapping[str, Any]]
-    kind: str = SINGLE_NODE  # the suite's kind: what value() reads (VALUE_KEY)
-    seed: int | None = None  # a mobile or STAR-control suite's episode seed (the node's path, the line)
-    fleet: Mapping[str, Any] | None = None  # a several-UAV suite's fleet (benchmark.fleet_suite)
-    star: Mapping[str, Any] | None = None  # a STAR-control suite's env keywords (benchmark.star_suite)
-    miso: Mapping[str, Any] | None = None  # a MISO-control suite's env keywords (benchmark.miso_suite)
-
-    def paths(self) -> Any:
-        """(N, 1, 2) m: the node's true path of a mobile scenario (drawn from ``seed`` as the env
-        and ``run_online`` draw it); None for a static suite."""
-        if self.seed is None or self.kind not in MOBILE_KINDS:
-            return None
-        import numpy as np
-
-        from ios_uav_env.model.motion import node_paths
-
-        return node_paths(self.config, np.random.default_rng(self.seed))
-
-    def rate(self, reference: str) -> float:
-        """The rate (bps/Hz) of ``reference`` (one of the suite's references) on this scenario;
-        for a multi-node suite's ``"bound"``, the certified upper bound. An energy suite's
-        plan references hold their rate too; its bound is on EE (``KeyError`` for it here)."""
-        if reference not in self.reference:
-            raise KeyError(
-                f"scenario {self.index} has no reference {reference!r}; it has {sorted(self.reference)}"
-            )
-        if self.kind == ENERGY and reference == "bound":
-            raise KeyError(f"scenario {self.index}: an energy suite's bound is on EE: use value('bound')")
-        return float(self.reference[reference]["upper_bound" if reference == "bound" else "rate"])
-
-    def value(self, reference: str) -> float:
-        """The value of ``reference`` that scores are percentages of: the rate (bps/Hz) on a
-        rate suite, the energy efficiency (bits/J) on an energy suite; a ``"bound"``'s
-        ``upper_bound``."""
-        if reference not in self.reference:
-            raise KeyError(
-                f"scenario {self.index} has no reference {reference!r}; it has {sorted(self.reference)}"
-            )
-        return float(
-            self.reference[reference]["upper_bound" if reference == "bound" else VALUE_KEY[self.kind]]
-        )
-
-    @property
-    def dp_rate(self) -> float:
-        return self.rate("dp")
-
-    @property
-    def sca_rate(self) -> float:
-        return self.rate("sca")
+from ios_uav_env.benchmark.suite_scenario import (  # noqa: F401 (the scenarios, re-exported)
+    SURFACE_CONTROL,
+    SuiteScenario,
+    scenario_from_record,
+)
 
 
 @dataclass(frozen=True)
@@ -235,7 +178,9 @@ def load_suite(suite: str | Path = DEFAULT_SUITE) -> Suite:
     if not isinstance(records, list) or not records:
         raise ValueError(f"{path}: scenarios must be a non-empty list of scenario objects")
     scored = scored_references(kind, data["normalizer"])
-    scenarios = [_scenario(path, kind, references, scored, i, rec) for i, rec in enumerate(records)]
+    scenarios = [
+        scenario_from_record(path, kind, references, scored, i, rec) for i, rec in enumerate(records)
+    ]
     if [s.index for s in scenarios] != list(range(len(scenarios))):
         raise ValueError(f"{path}: scenario indices must be 0 .. n-1 in order")
     return Suite(
@@ -324,115 +269,6 @@ def _check_header(path: Path, data: Mapping[str, Any]) -> tuple[str, tuple[str, 
             f"{list(scored)}, got {references!r}"
         )
     return str(kind), tuple(references)
-
-
-def _scenario(
-    path: Path, kind: str, references: tuple[str, ...], scored: tuple[str, ...], position: int, rec: Any
-) -> SuiteScenario:
-    """Scenario ``position`` of a suite file, checked (``ValueError`` naming it and the field)."""
-    where = f"{path}: scenario {position}"
-    if not isinstance(rec, dict):
-        raise ValueError(f"{where} must be an object (index, config and reference values), got {rec!r}")
-    index = rec.get("index")
-    if isinstance(index, bool) or not isinstance(index, int):
-        raise ValueError(f"{where}: index must be an integer, got {index!r}")
-    missing = [r for r in references if r not in rec]
-    if missing or not isinstance(rec.get("config"), dict):
-        lacks = (
-            f"the reference values {missing}"
-            if missing
-            else "its config (an object of ScenarioConfig fields)"
-        )
-        raise ValueError(f"{path}: scenario {index} lacks {lacks}")
-    try:
-        config = ScenarioConfig(**rec["config"])
-    except (TypeError, ValueError) as err:
-        raise ValueError(f"{path}: scenario {index}: config: {err}") from None
-    if kind in (SINGLE_NODE, ENERGY, MOBILE) and config.K != 1:
-        raise ValueError(
-            f"{path}: scenario {index}: a {kind} suite's config has one node, got K = {config.K}"
-        )
-    if kind == ENERGY and config.objective != "energy_efficiency":
-        raise ValueError(
-            f"{path}: scenario {index}: an energy suite's config has the objective 'energy_efficiency', "
-            f"got {config.objective!r}"
-        )
-    if kind in (MULTI_NODE_MOBILE, MULTI_UAV) and config.K < 2:
-        raise ValueError(f"{path}: scenario {index}: a {kind} suite's config has K >= 2 nodes, got K = 1")
-    fleet = None
-    if kind == MULTI_UAV:
-        from ios_uav_env.benchmark.fleet_suite import check_fleet
-
-        fleet = check_fleet(config, rec.get("fleet"), f"{path}: scenario {index}")
-    elif "fleet" in rec:
-        raise ValueError(f"{path}: scenario {index}: only a several-UAV suite's scenarios have a fleet")
-    seed = rec.get("seed")
-    star = miso = None
-    if kind == STAR_CONTROL:
-        from ios_uav_env.benchmark.star_suite import check_star
-
-        star = check_star(config, rec.get("star"), seed, f"{path}: scenario {index}")
-    elif "star" in rec:
-        raise ValueError(f"{path}: scenario {index}: only a STAR-control suite's scenarios have a star")
-    if kind == MISO_CONTROL:
-        from ios_uav_env.benchmark.miso_suite import check_miso
-
-        miso = check_miso(config, rec.get("miso"), seed, f"{path}: scenario {index}")
-    elif "miso" in rec:
-        raise ValueError(f"{path}: scenario {index}: only a MISO-control suite's scenarios have a miso")
-    if kind in MOBILE_KINDS:
-        if config.motion is None:
-            raise ValueError(
-                f"{path}: scenario {index}: a mobile suite's config needs a motion model, got None"
-            )
-        if isinstance(seed, bool) or not isinstance(seed, int) or seed < 0:
-            raise ValueError(
-                f"{path}: scenario {index}: seed must be an integer >= 0 (the episode's), got {seed!r}"
-            )
-    elif seed is not None and kind not in SURFACE_CONTROL:
-        raise ValueError(
-            f"{path}: scenario {index}: only a mobile suite's scenarios have a seed (and a surface-control "
-            "suite's)"
-        )
-    reference = {}
-    for r in references:
-        values = rec[r]
-        if not isinstance(values, dict):
-            raise ValueError(
-                f"{path}: scenario {index}: {r} must be an object of reference values, got {values!r}"
-            )
-        key = "upper_bound" if r == "bound" else VALUE_KEY[kind]
-        low = 0.0 if r in scored or kind == ENERGY else None  # a score is a percentage of it: > 0
-        _number(values.get(key), f"{path}: scenario {index}: {r}.{key} ({UNIT[kind]})", low)
-        for field in ("seconds", "plan_rate", "resolution", *(("rate", "energy") if kind == ENERGY else ())):
-            if field in values:
-                _number(values[field], f"{path}: scenario {index}: {r}.{field}", None)
-        for field in ("feasible", "plan_feasible"):
-            if field in values and not isinstance(values[field], bool):
-                raise ValueError(
-                    f"{path}: scenario {index}: {r}.{field} must be true or false, got {values[field]!r}"
-                )
-        reference[r] = dict(values)
-    if kind in (ENERGY, MULTI_UAV, *SURFACE_CONTROL, *MOBILE_KINDS) and "bound" in reference:
-        bound = float(reference["bound"]["upper_bound"])
-        above = [f"{r} {reference[r][VALUE_KEY[kind]]!r}" for r in references if r != "bound"
-                 and float(reference[r][VALUE_KEY[kind]]) > bound * (1.0 + BOUND_REL)]  # fmt: skip
-        if above:
-            what = "EE" if kind == ENERGY else "rate"
-            raise ValueError(
-                f"{path}: scenario {index}: the certified bound.upper_bound {bound!r} {UNIT[kind]} is below "
-                f"{', '.join(above)}: no plan's {what} may exceed it"
-            )
-    seeded = kind in (*MOBILE_KINDS, *SURFACE_CONTROL)
-    return SuiteScenario(index, config, reference, kind, seed if seeded else None, fleet, star, miso)
-
-
-def _number(value: Any, where: str, above: float | None) -> None:
-    """``value`` must be a finite number >= 0 (> ``above`` when given)."""
-    ok = isinstance(value, (int, float)) and not isinstance(value, bool) and math.isfinite(value)
-    if not ok or value < 0 or (above is not None and value <= above):
-        bound = f"> {above:g}" if above is not None else ">= 0"
-        raise ValueError(f"{where} must be a finite number {bound}, got {value!r}")
 
 
 def list_suites() -> list[dict[str, Any]]:

@@ -6,7 +6,8 @@ env (``MultiNodeEnv`` on the scenario with that UAV's start and final point: its
 guard, node shares, propulsion and observation), and the fleet couples them through the nodes'
 service and the surface (``ios_uav_env.model.fleet``) and through the separation guard
 (``ios_uav_env.model.separation``). With U = 1 the env is ``MultiNodeEnv`` itself, step for step
-(tested bit for bit).
+(tested bit for bit). What it reports (each agent's outputs of a slot, ``state()``, the flights
+so far, the rendered frame) is its base ``ios_uav_env.envs.fleet_outputs.FleetOutputs``'.
 """
 
 from __future__ import annotations
@@ -14,13 +15,12 @@ from __future__ import annotations
 from collections.abc import Mapping
 from typing import Any
 
-import gymnasium as gym
 import numpy as np
 from gymnasium import spaces
 
 from ios_uav_env.components.base import finite_number
+from ios_uav_env.envs.fleet_outputs import OWN_KEYS, FleetOutputs  # noqa: F401 (OWN_KEYS re-exported)
 from ios_uav_env.envs.fleet_rules import (
-    agent_observations,
     check_team_world,
     guard_distance,
     guarded_moves,
@@ -30,10 +30,10 @@ from ios_uav_env.envs.fleet_rules import (
 from ios_uav_env.envs.multi import MultiNodeEnv
 from ios_uav_env.envs.observation import pad
 from ios_uav_env.model.config import SCENARIO_FIELDS, ScenarioConfig, as_config
-from ios_uav_env.model.fleet import fleet_maxmin, fleet_setup
-from ios_uav_env.model.fleet_horizons import hold_flights, horizon_slots
+from ios_uav_env.model.fleet import fleet_setup
+from ios_uav_env.model.fleet_horizons import horizon_slots
 from ios_uav_env.model.scenarios import DEFAULT_NODES
-from ios_uav_env.model.separation import DEFAULT_SEPARATION, min_distance
+from ios_uav_env.model.separation import DEFAULT_SEPARATION
 
 try:
     from pettingzoo import ParallelEnv
@@ -44,15 +44,8 @@ except ImportError as exc:  # pragma: no cover - exercised in an env without the
 
 __all__ = ["FleetParallelEnv"]
 
-#: The info keys that are each UAV's own (the rest are the team's: ``node_rates``, ``min_rate``,
-#: ``reward_rate``, ``best_schedule_rate``).
-OWN_KEYS = (
-    "position", "slot", "distance_to_final", "shares", "reward_reach", "reward_terminal", "feasible",
-    "worst_violation", "terminal_miss",
-)  # fmt: skip
 
-
-class FleetParallelEnv(ParallelEnv):
+class FleetParallelEnv(FleetOutputs, ParallelEnv):
     """U UAVs serving K ground nodes through one IOS, as a PettingZoo ``ParallelEnv``.
 
     ## Description
@@ -330,76 +323,6 @@ class FleetParallelEnv(ParallelEnv):
         slot = slots_of(self.config, self.access, q[None], shares[None, :, :k_n], beta[None])
         self.team_served[:k_n] += slot[0]
 
-    def _team_outputs(
-        self, live: np.ndarray, results: list[tuple], r_rate: float
-    ) -> tuple[dict, dict, dict, dict, dict]:
-        """The ``live`` agents' (obs, rewards, terminations, truncations, infos) of their UAVs'
-        ``results`` (each UAV env's reset or step output) and the team's rate term ``r_rate``."""
-        cfg = self.config
-        infos = [r[-1] for r in results]
-        penalty = sum(float(i["reward_reach"]) + float(i["reward_terminal"]) for i in infos)
-        reward = r_rate + penalty
-        stepped = len(results[0]) == 5
-        done = stepped and all(r[2] for r in results)  # the last agents leave: the episode's end
-        best = 0.0
-        if done and self.best_schedule:
-            best = fleet_maxmin(cfg, self.trajectories, access=self.access, slots=self.horizon_slots).value
-        self._rows[live] = [r[0] for r in results]
-        q_live = np.array([i["position"] for i in infos])
-        q = np.array([env.trajectory[-1] for env in self.uav_envs])  # a finished UAV: its final point
-        q[live] = q_live
-        node_rates = self.team_served / cfg.N
-        self._min_rate = float(node_rates[: cfg.K].min())
-        scale = self.uav_envs[0].options.length_scale
-        rows = agent_observations(self._rows, node_rates, q, self.served_at, scale)
-        obs, rewards, terms, truncs, out = {}, {}, {}, {}, {}
-        for i, u in enumerate(live):
-            agent = self.possible_agents[u]
-            obs[agent] = rows[u]
-            rewards[agent] = reward
-            terms[agent], truncs[agent] = stepped and bool(results[i][2]), False
-            info = {key: infos[i][key] for key in OWN_KEYS}
-            info.update(
-                node_rates=node_rates.copy(), min_rate=float(node_rates[: cfg.K].min()), reward_rate=r_rate,
-                best_schedule_rate=best, surface_share=float(self.surface_shares[u]),
-                separation_fraction=float(self.separation_fractions[u]), min_distance=min_distance(q_live),
-            )  # fmt: skip
-            out[agent] = info
-        self._state = np.concatenate(rows)
-        return obs, rewards, terms, truncs, out
-
-    def render(self) -> np.ndarray | None:
-        """The UAVs' flights so far over the best node's rate map, each move coloured by the node
-        its UAV serves (``plotting.plot_fleet``), an (H, W, 3) uint8 array (``"rgb_array"``)."""
-        if self.render_mode is None:
-            gym.logger.warn('render() needs render_mode="rgb_array" at construction; returning None')
-            return None
-        from ios_uav_env.plotting import figure_image, plot_fleet
-
-        def draw(ax: Any) -> None:
-            flights = [env.trajectory for env in self.uav_envs]  # each UAV's own, up to its horizon
-            if not len(flights[0]):  # before the first reset: the lanes
-                plot_fleet(ax, self.config, np.stack([self.starts, self.finals], axis=1))
-                return
-            plot_fleet(ax, self.config, flights, [env.shares for env in self.uav_envs])
-            slot = max(len(f) for f in flights)
-            title = f"slot {slot}/{self.config.N}, team min rate so far {self._min_rate:.3f} bps/Hz"
-            ax.set_title(title, fontsize=9)
-
-        return figure_image(draw)
-
-    def state(self) -> np.ndarray:
-        """The agents' observations of the last reset or step, concatenated (for centralised critics)."""
-        return self._state
-
     def close(self) -> None:
         for env in self.uav_envs:
             env.close()
-
-    @property
-    def trajectories(self) -> np.ndarray:
-        """(U, n + 1, 2) m: the UAVs' way-points so far, a UAV past its horizon held at its final
-        point (``model.fleet_horizons.hold_flights``; the slot counts: :attr:`horizon_slots`)."""
-        flights = [env.trajectory for env in self.uav_envs]
-        n = max(len(f) for f in flights)
-        return hold_flights(flights, n) if n else np.zeros((len(flights), 0, 2))

@@ -12,7 +12,8 @@ phase-aligned amplitude (14); rate r(q) = log2(1 + eta zeta^2) (25).
 The closed-form functions (:func:`zeta`, :func:`slot_rates`, :func:`faded_rates`, ...) come
 first, then the per-element model. The same rate one position at a time, compiled (the
 ``RateKernel`` of a config, the kernels the envs step on, a moving node's kernels per slot),
-is :mod:`ios_uav_env.model.rate_kernels`; its names are importable from here too.
+is :mod:`ios_uav_env.model.rate_kernels` (its compiled functions of a kernel's rows:
+:mod:`ios_uav_env.model.rate_rows`); their names are importable from here too.
 """
 
 from __future__ import annotations
@@ -104,7 +105,7 @@ def zeta(config: ScenarioConfig, positions: np.ndarray) -> np.ndarray:
     A STAR surface of b-bit phases (``config.star_bits`` = b): the amplitude at the node's exact
     b-bit phases instead, max over theta on the grid {0, 2 pi / 2^b, ...} of
     |a_D + sum_m a_m e^{j (phi_m - theta_m)}| with phi_m = :func:`phase_shifts` (the aligned
-    phases), computed element by element by the compiled ``rate_kernels.discrete_zeta_row`` (the
+    phases), computed element by element by the compiled ``rate_rows.discrete_zeta_row`` (the
     search of ``star_rows.discrete_phases``, which ``star_slot.slot_optimum``'s TDMA rate takes)."""
     if config.star_bits is not None:
         return rate_kernel(config).zetas(as_positions(positions))

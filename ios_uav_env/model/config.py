@@ -35,6 +35,7 @@ from ios_uav_env.model.config_checks import (  # noqa: F401 (the schema, re-expo
     check_antennas,
     check_motion,
     check_nodes_off_the_plane,
+    check_numbers,
     check_objective,
     check_star,
     check_star_fields,
@@ -115,47 +116,7 @@ class ScenarioConfig:
         canonical_nodes(self)
         object.__setattr__(self, "ios_center", as_pair(self.ios_center, "ios_center", 3))
         check_nodes_off_the_plane(self)
-        shape = as_pair(self.ios_shape, "ios_shape")
-        if any(isinstance(v, (bool, np.bool_)) for v in self.ios_shape) or not all(
-            s == int(s) and s >= 1 for s in shape
-        ):
-            raise ValueError(f"ios_shape must be two integers >= 1 (M_y, M_z; M > 0), got {self.ios_shape!r}")
-        object.__setattr__(self, "ios_shape", (int(shape[0]), int(shape[1])))
-        positive = {
-            "T": self.T, "dt": self.dt, "v_max": self.v_max, "uav_altitude": self.uav_altitude,
-            "power_w": self.power_w, "wavelength": self.wavelength, "alpha": self.alpha,
-            "g_tx": self.g_tx, "g_rx": self.g_rx, "g_element": self.g_element,
-            "element_spacing_wl": self.element_spacing_wl, "element_size_wl": self.element_size_wl,
-        }  # fmt: skip
-        for name, value in positive.items():
-            if not (is_real(value) and math.isfinite(value) and value > 0):
-                raise ValueError(f"{name} must be a finite number > 0, got {value!r}")
-        nonneg = {"epsilon": self.epsilon, "kappa": self.kappa, "gamma": self.gamma}
-        for name, value in nonneg.items():
-            if not (is_real(value) and math.isfinite(value) and value >= 0):
-                raise ValueError(f"{name} must be a finite number >= 0, got {value!r}")
-        if not (is_real(self.noise_dbm) and math.isfinite(self.noise_dbm)):
-            raise ValueError(f"noise_dbm must be finite, got {self.noise_dbm!r}")
-        if not (is_int(self.quadrature_nodes) and 0 <= self.quadrature_nodes <= 64):
-            raise ValueError(f"quadrature_nodes must be an integer in [0, 64], got {self.quadrature_nodes!r}")
-        if not (is_real(self.quadrature_tol) and self.quadrature_tol > 0):
-            raise ValueError(f"quadrature_tol must be a number > 0 (inf: none), got {self.quadrature_tol!r}")
-        # plain Python numbers (numpy scalars accepted): stable hashing, equality and JSON
-        for name in (*positive, *nonneg, "noise_dbm", "quadrature_tol"):
-            object.__setattr__(self, name, float(getattr(self, name)))
-        # derived powers must be finite numbers too: eta = P / sigma^2 enters every rate
-        for name in ("noise_w", "eta"):
-            try:
-                value = getattr(self, name)
-            except OverflowError:
-                value = math.inf
-            if not (math.isfinite(value) and 1e-150 < value < 1e150):
-                raise ValueError(
-                    f"power_w={self.power_w!r} W and noise_dbm={self.noise_dbm!r} dBm give {name} = "
-                    f"{value!r}: it must be a finite number in (1e-150, 1e150) "
-                    "(e.g. noise_dbm in [-250, 250] dBm)"
-                )
-        object.__setattr__(self, "quadrature_nodes", int(self.quadrature_nodes))
+        check_numbers(self)
         ratio = self.T / self.dt
         if abs(ratio - round(ratio)) > 1e-9 * max(1.0, ratio):
             raise ValueError(f"T must be a whole number of slots dt={self.dt} s, got T={self.T} s")
@@ -276,7 +237,7 @@ class ScenarioConfig:
         ``star_access="tdma"``; under NOMA these are the single-user rates c_s) is set for it:
         with energy splitting, mode or time switching the node gets the whole surface on its side,
         u^s = sqrt(beta^s) = 1 on every element, at phases aligned to it (with ``star_bits`` = b, at
-        its exact b-bit phases: ``rate_kernels.discrete_zeta_row``; where one side alone
+        its exact b-bit phases: ``rate_rows.discrete_zeta_row``; where one side alone
         carries power the coupled and shared phase models bind nothing:
         ``ios_uav_env.model.star_slot``, "TDMA"). Its element is a unit
         element on either side, so its channel is the IOS's geometry with factor 1 on both sides.

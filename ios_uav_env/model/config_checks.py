@@ -91,6 +91,55 @@ def check_star_fields(cfg: Any, defaults: Mapping[str, Any]) -> None:
             )
 
 
+def check_numbers(cfg: Any) -> None:
+    """Validate the surface's grid and the scalar fields, each error naming the field: ``ios_shape``
+    two integers >= 1, the lengths, times, powers, gains and sizes finite and > 0, ``epsilon``,
+    ``kappa`` and ``gamma`` finite and >= 0, ``noise_dbm`` finite, ``quadrature_nodes`` an integer in
+    [0, 64] and ``quadrature_tol`` > 0; each is set to a plain Python number, and the derived powers
+    ``noise_w`` and ``eta`` must be finite numbers in (1e-150, 1e150)."""
+    shape = as_pair(cfg.ios_shape, "ios_shape")
+    if any(isinstance(v, (bool, np.bool_)) for v in cfg.ios_shape) or not all(
+        s == int(s) and s >= 1 for s in shape
+    ):
+        raise ValueError(f"ios_shape must be two integers >= 1 (M_y, M_z; M > 0), got {cfg.ios_shape!r}")
+    object.__setattr__(cfg, "ios_shape", (int(shape[0]), int(shape[1])))
+    positive = {
+        "T": cfg.T, "dt": cfg.dt, "v_max": cfg.v_max, "uav_altitude": cfg.uav_altitude,
+        "power_w": cfg.power_w, "wavelength": cfg.wavelength, "alpha": cfg.alpha,
+        "g_tx": cfg.g_tx, "g_rx": cfg.g_rx, "g_element": cfg.g_element,
+        "element_spacing_wl": cfg.element_spacing_wl, "element_size_wl": cfg.element_size_wl,
+    }  # fmt: skip
+    for name, value in positive.items():
+        if not (is_real(value) and math.isfinite(value) and value > 0):
+            raise ValueError(f"{name} must be a finite number > 0, got {value!r}")
+    nonneg = {"epsilon": cfg.epsilon, "kappa": cfg.kappa, "gamma": cfg.gamma}
+    for name, value in nonneg.items():
+        if not (is_real(value) and math.isfinite(value) and value >= 0):
+            raise ValueError(f"{name} must be a finite number >= 0, got {value!r}")
+    if not (is_real(cfg.noise_dbm) and math.isfinite(cfg.noise_dbm)):
+        raise ValueError(f"noise_dbm must be finite, got {cfg.noise_dbm!r}")
+    if not (is_int(cfg.quadrature_nodes) and 0 <= cfg.quadrature_nodes <= 64):
+        raise ValueError(f"quadrature_nodes must be an integer in [0, 64], got {cfg.quadrature_nodes!r}")
+    if not (is_real(cfg.quadrature_tol) and cfg.quadrature_tol > 0):
+        raise ValueError(f"quadrature_tol must be a number > 0 (inf: none), got {cfg.quadrature_tol!r}")
+    # plain Python numbers (numpy scalars accepted): stable hashing, equality and JSON
+    for name in (*positive, *nonneg, "noise_dbm", "quadrature_tol"):
+        object.__setattr__(cfg, name, float(getattr(cfg, name)))
+    # derived powers must be finite numbers too: eta = P / sigma^2 enters every rate
+    for name in ("noise_w", "eta"):
+        try:
+            value = getattr(cfg, name)
+        except OverflowError:
+            value = math.inf
+        if not (math.isfinite(value) and 1e-150 < value < 1e150):
+            raise ValueError(
+                f"power_w={cfg.power_w!r} W and noise_dbm={cfg.noise_dbm!r} dBm give {name} = "
+                f"{value!r}: it must be a finite number in (1e-150, 1e150) "
+                "(e.g. noise_dbm in [-250, 250] dBm)"
+            )
+    object.__setattr__(cfg, "quadrature_nodes", int(cfg.quadrature_nodes))
+
+
 def check_motion(cfg: Any) -> None:
     """Validate ``motion`` (a dict becomes the model): every node inside its motion rectangle
     (``ios_uav_env.model.mobility.rectangles``: the box, off the IOS plane's strip). The
@@ -197,7 +246,7 @@ def check_star(protocol: Any, phases: Any, bits: Any, access: Any, prefix: str =
 
     b-bit phases are modelled under TDMA: the node served gets the whole surface on its side at
     its exact b-bit phases, slot by slot (``star_slot.slot_optimum``'s TDMA rate; in flight the
-    rate kernel's ``rate_kernels.discrete_zeta_row``). Under NOMA they are refused: the flight's
+    rate kernel's ``rate_rows.discrete_zeta_row``). Under NOMA they are refused: the flight's
     optimum is certified for continuous phases only (``star_slot``'s per-slot NOMA max-min with
     b bits is a search whose bound is the continuous one)."""
     if not (isinstance(protocol, str) and protocol in STAR_PROTOCOLS):

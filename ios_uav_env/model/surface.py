@@ -24,7 +24,7 @@ surface gets more nodes, never a silently wrong amplitude. At the paper's geomet
 the error is ~1e-16. ``quadrature_nodes = 0`` always sums over the elements;
 ``quadrature_tol = inf`` uses exactly ``quadrature_nodes`` (the planners' coarse surrogates). A
 STAR surface of b-bit phases (``star_bits``) always sums over the elements, whatever the
-quadrature fields: its best phases are chosen element by element (``rate_kernels.discrete_zeta_row``
+quadrature fields: its best phases are chosen element by element (``rate_rows.discrete_zeta_row``
 reads each element's position and weight from the nodes).
 
 **The ground side.** The node weights ly beta lz^T need the M element weights beta_m of G,

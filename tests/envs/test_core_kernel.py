@@ -1,6 +1,6 @@
 """The row-step core (``ios_uav_env.envs.core.kernel``) is the one move, arrival guard, power and
-reward assembly of both views' compiled steps: both kernel modules bind the core's functions (the
-same objects), neither holds a copy of what the core does, and a single-node env and a node-block
+reward assembly of both views' compiled steps: both views' kernel modules bind the core's functions
+(the same objects), none holds a copy of what the core does, and a single-node env and a node-block
 env on the same one-node scenario, given the same moves, fly the same flight and book the same
 power, energy, reach, terminal and energy terms and eq. (10) check."""
 
@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 
 from ios_uav_env import ScenarioConfig
-from ios_uav_env.envs import multi_kernels, multi_step, single_kernels, single_rows
+from ios_uav_env.envs import multi_kernels, multi_step, multi_writers, single_kernels, single_rows
 from ios_uav_env.envs.core import kernel as core
 from ios_uav_env.envs.multi import MultiNodeEnv
 from ios_uav_env.envs.single import IOSUAVEnv
@@ -21,6 +21,8 @@ from tests.tolerances import GOLDEN_REL
 
 ROOT = Path(__file__).resolve().parents[2]
 VIEWS = {"ios_uav_env/envs/single_kernels.py": single_kernels, "ios_uav_env/envs/multi_step.py": multi_step}
+#: The modules of the writers a view's step inlines (its observation and ``info`` rows), by the step's path.
+WRITERS = {"ios_uav_env/envs/multi_step.py": {"ios_uav_env/envs/multi_writers.py": multi_writers}}
 #: The core's row helpers that every view's step, reset and flight run.
 SHARED = (
     "move_row", "reward_row", "start_row", "violation", "observe_energy", "toward", "fly_entry_out_of_range",
@@ -42,10 +44,12 @@ def _functions(path: str) -> dict[str, ast.FunctionDef]:
 
 @pytest.mark.parametrize("path", sorted(VIEWS))
 def test_both_views_bind_the_one_core(path: str) -> None:
-    """Each view's kernel module holds the core's helpers themselves (not copies of them)."""
-    module = VIEWS[path]
+    """Each view's kernel modules (its step's and its writers') hold the core's helpers themselves
+    (not copies of them): each helper is bound in one of them at least, and wherever bound is the core's."""
+    modules = [VIEWS[path], *WRITERS.get(path, {}).values()]
     for name in SHARED:
-        assert getattr(module, name) is getattr(core, name), (path, name)
+        bound = [getattr(module, name) for module in modules if hasattr(module, name)]
+        assert bound and all(f is getattr(core, name) for f in bound), (path, name)
     # and the env faces call these modules' kernels
     assert single_rows.step_rows is single_kernels.step_rows
     assert multi_kernels.step_rows is multi_step.step_rows
@@ -55,13 +59,14 @@ def test_both_views_bind_the_one_core(path: str) -> None:
 def test_the_views_step_through_the_core(path: str) -> None:
     """Each view's row step moves and rewards through the core (``move_row``, ``reward_row``), its
     reset through ``start_row``, its flight through ``toward``; no view calls the guard, the
-    propulsion power or the reach and terminal terms itself."""
+    propulsion power or the reach and terminal terms itself (nor do its writers)."""
     functions = _functions(path)
     assert {"move_row", "reward_row"} <= _calls(functions["_step_row"])
     assert "start_row" in _calls(functions["reset_rows"])
     assert {"toward", "fly_entry_out_of_range", "_step_row"} <= _calls(functions["fly_rows"])
-    for name, function in functions.items():
-        assert not _calls(function) & set(CORE_ONLY), (path, name)
+    for source in (path, *WRITERS.get(path, {})):
+        for name, function in _functions(source).items():
+            assert not _calls(function) & set(CORE_ONLY), (source, name)
 
 
 def _flight(env, width: int, moves: np.ndarray) -> list[dict]:

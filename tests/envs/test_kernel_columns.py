@@ -3,18 +3,18 @@ name (the module constants derived from ``CORE_STATE``, ``CORE_EPISODE`` and ``F
 ``ios_uav_env.envs.core.kernel``, the row-step core both views share; from ``STATE``, ``EPISODE``,
 ``INFO`` and the observation's layout in ``ios_uav_env.envs.single_kernels``; from ``STATE``, ``EPISODE``,
 ``POINT``, ``ACTION``, ``INFO``, ``MORE`` and the observation's features in
-``ios_uav_env.envs.multi_table`` for ``multi_kernels`` and ``multi_step``; from ``PARAMS`` in
-``ios_uav_env.model.rate_kernels``; from ``SIZES`` and ``OUT`` in ``ios_uav_env.model.maxmin_paths``;
-from ``LAYER``, ``SETTINGS`` and ``STATS`` in ``agents.fast.kernel``), never by number
-(``ep[i, 29]``, ``flags[6]``, ``ep[i, 13 + j]``).
+``ios_uav_env.envs.multi_table`` for ``multi_kernels``, ``multi_step`` and ``multi_writers``; from
+``PARAMS`` in ``ios_uav_env.model.rate_rows``; from ``SIZES`` and ``OUT`` in
+``ios_uav_env.model.maxmin_paths``; from ``LAYER``, ``SETTINGS`` and ``STATS`` in
+``agents.fast.kernel``), never by number (``ep[i, 29]``, ``flags[6]``, ``ep[i, 13 + j]``).
 
 The check reads each module's source: every array a function body subscripts (``self.<name>``
 counts as ``<name>``) is either one whose columns have names (its column index may hold no int
 literal at all: ``ep[i, EP_ELEMENTS + j]``, ``obs[i, k + OBS_MOVE_X]``) or one listed as having
 none (actions, paths, the nets' activations, ...). An array name in neither list fails the test
 until it is classified, so that a kernel cannot slip a literal index past the check under a new
-name. In ``model/rate_kernels.py`` only the compiled functions count (the rest is numpy on (K, 2)
-positions).
+name. In a module of :data:`JIT_ONLY` only the compiled functions count (the rest being numpy on
+whole arrays).
 """
 
 from __future__ import annotations
@@ -29,12 +29,12 @@ from ios_uav_env.envs import multi_table as mt
 from ios_uav_env.envs import observation_layout as layout
 from ios_uav_env.envs import single_kernels as sk
 from ios_uav_env.envs.core import kernel as core
-from ios_uav_env.model import maxmin_paths, rate_kernels
+from ios_uav_env.model import maxmin_paths, rate_rows
 
 ROOT = Path(__file__).resolve().parents[2]
 
-#: The multi-node kernels' arrays (the row table of ``multi_kernels`` and the step of ``multi_step``
-#: share their names).
+#: The multi-node kernels' arrays (the row table of ``multi_kernels``, the step of ``multi_step`` and
+#: its writers in ``multi_writers`` share their names).
 MULTI_NODE = (
     {"state", "st", "episode", "ep", "info", "row", "obs", "o", "points", "flags", "actions", "sizes"},
     {
@@ -77,11 +77,12 @@ MODULES = {
     ),
     "ios_uav_env/envs/multi_kernels.py": MULTI_NODE,
     "ios_uav_env/envs/multi_step.py": MULTI_NODE,
+    "ios_uav_env/envs/multi_writers.py": MULTI_NODE,
     "ios_uav_env/envs/multi_table.py": (
         {"row", "table"},
         {"columns", "out"},  # info_arrays' columns of the table and its dict
     ),
-    "ios_uav_env/model/rate_kernels.py": (
+    "ios_uav_env/model/rate_rows.py": (
         {"params"},
         {
             "nodes", "points", "out",  # the (3, K) surface nodes per row, (x, y) pairs, one per point
@@ -95,7 +96,7 @@ MODULES = {
     ),
 }  # fmt: skip
 #: The modules in which only the compiled functions (decorated with ``jit``) count.
-JIT_ONLY = {"ios_uav_env/model/rate_kernels.py"}
+JIT_ONLY: set[str] = set()
 
 
 def _array_name(node: ast.expr) -> str | None:
@@ -223,7 +224,7 @@ def test_the_check_reads_the_multi_kernels_and_self() -> None:
         (mt, mt.MORE, "MORE_"),
         (mt, mt.BASE_FEATURES, "MOBS_"),
         (mt, mt.NODE_FEATURES + mt.NODE_PEAK_FEATURES, "NODE_"),
-        (rate_kernels, rate_kernels.PARAMS, "PARAM_"),
+        (rate_rows, rate_rows.PARAMS, "PARAM_"),
         (maxmin_paths, maxmin_paths.SIZES, "SIZE_"),
         (maxmin_paths, maxmin_paths.OUT, "OUT_"),
         (fast_kernel, fast_kernel.SETTINGS, "SETTING_"),

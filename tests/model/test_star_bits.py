@@ -1,6 +1,6 @@
 """b-bit phases in a STAR flight (``ScenarioConfig(surface="star", star_bits=b)``, TDMA): the slot
 rate the frame flies on (``channel.zeta`` / ``slot_rates``, the compiled
-``rate_kernels.discrete_zeta_row`` that the envs' kernels, ``score_plan`` and the DP all read) is
+``rate_rows.discrete_zeta_row`` that the envs' kernels, ``score_plan`` and the DP all read) is
 the served node's rate in ``star_slot.slot_optimum``'s TDMA optimum for that slot (the whole surface
 on its side at its exact b-bit phases); the search is exact against brute force; the rates order as
 the phase grids nest; ``score_plan`` and moving nodes read the same rate."""
