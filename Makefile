@@ -11,10 +11,11 @@ PY := $(VENV)/bin/python
 # torch is pinned here (not in pyproject, which keeps torch>=2.3) so that pip takes the
 # CPU build on this machine's local index instead of resolving a multi-GB CUDA build; the
 # constraints file keeps it so while pip installs the extras (torchrl, tianshou, rl-zoo3).
-# The side venvs install with --no-compile: pip would byte-compile all of torch and the RL
-# libraries there (about a CPU minute); Python compiles what their tests import, when they do. The
-# main venv is compiled at install: Ray's node starts its processes within a timeout, and on a
-# loaded machine compiling Ray's modules at that first start went past it.
+# The venvs install with --no-compile: pip would byte-compile all of torch and the RL libraries
+# (about half a CPU minute in the main venv, on the path to the main suite: pip installs on one
+# core); Python compiles what the tests import, when they do. Ray alone is compiled in the main
+# venv after the install (a few CPU seconds on both cores): its node starts its processes within a
+# timeout, and on a loaded machine compiling Ray's modules at that first start went past it.
 TORCH_SPEC ?= torch==2.13.0
 CONSTRAINTS ?= .ci/constraints.txt
 # The oldest releases the env supports (pyproject's floors; SB3 2.3.2 is the last to accept
@@ -53,8 +54,9 @@ $(VENV)/.installed: pyproject.toml Makefile $(CONSTRAINTS)
 	@command -v $(PYTHON) >/dev/null 2>&1 || { echo "need $(PYTHON) (set PYTHON=...)"; exit 1; }
 	test -x $(PY) || $(PYTHON) -m venv $(VENV)
 	$(PY) -m pip install -q --upgrade pip
-	$(PY) -m pip install -q -c $(CONSTRAINTS) "$(TORCH_SPEC)"
-	$(PY) -m pip install -q -c $(CONSTRAINTS) -e ".[all]"
+	$(PY) -m pip install -q --no-compile -c $(CONSTRAINTS) "$(TORCH_SPEC)"
+	$(PY) -m pip install -q --no-compile -c $(CONSTRAINTS) -e ".[all]"
+	$(PY) -m compileall -q -j 0 "$$($(PY) -c 'import os, ray; print(os.path.dirname(ray.__file__))')"
 	touch $@
 
 $(OLDEST_VENV)/.installed: pyproject.toml Makefile $(CONSTRAINTS)
