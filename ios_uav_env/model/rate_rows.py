@@ -79,6 +79,31 @@ _INSERTION_MAX = 32
 
 
 @jit(fastmath=False)
+def merge_order(part: np.ndarray, offset: np.ndarray) -> np.ndarray:
+    """The indices ``part`` ordered by ``offset[part]``, ties in ``part``'s order: a bottom-up
+    merge sort (stable, so the order ``np.argsort(offset[part], kind="stable")`` gives). Written
+    out rather than numba's ``np.argsort(kind="mergesort")``, which costs about a second more to
+    compile, in every process that compiles the b-bit search (each single-node env's reset)."""
+    n = part.size
+    src, dst = part.copy(), np.empty(n, dtype=np.int64)
+    width = 1
+    while width < n:
+        for start in range(0, n, 2 * width):
+            mid, end = min(start + width, n), min(start + 2 * width, n)
+            a, b = start, mid
+            for o in range(start, end):
+                if b >= end or (a < mid and offset[src[a]] <= offset[src[b]]):
+                    dst[o] = src[a]
+                    a += 1
+                else:
+                    dst[o] = src[b]
+                    b += 1
+        src, dst = dst, src
+        width *= 2
+    return src
+
+
+@jit(fastmath=False)
 def offset_order(offset: np.ndarray, m: int, width: float) -> np.ndarray:
     """The indices of ``offset[:m]``, numbers in [0, ``width``], in increasing order, ties by index
     (a stable sort): a bucket sort, m buckets of equal width (monotone in the offset, so the
@@ -101,8 +126,7 @@ def offset_order(offset: np.ndarray, m: int, width: float) -> np.ndarray:
     for b in range(m):
         lo, hi = count[b], count[b + 1]
         if hi - lo > _INSERTION_MAX:
-            part = order[lo:hi].copy()
-            order[lo:hi] = part[np.argsort(offset[part], kind="mergesort")]
+            order[lo:hi] = merge_order(order[lo:hi], offset)
             continue
         for p in range(lo + 1, hi):
             k, value = order[p], offset[order[p]]
