@@ -109,3 +109,56 @@ def run_batched(parallel: Callable[..., Any], serial: Callable[..., Any], num_th
         return parallel(*args)
     finally:
         numba.set_num_threads(before)
+
+
+#: The fewest rows :func:`run_halves` splits (fewer: one call, the helper thread's hand-over costs more).
+HALVES_LEAST = 64
+_helper: tuple[int, Any] | None = None  # (the process's pid, its one helper thread's executor)
+
+
+def _helper_thread() -> Any:
+    """This process's executor of one Python thread (made at the first use; a forked child makes
+    its own: the parent's thread does not exist there)."""
+    global _helper
+    pid = os.getpid()
+    if _helper is None or _helper[0] != pid:
+        from concurrent.futures import ThreadPoolExecutor
+
+        _helper = (pid, ThreadPoolExecutor(max_workers=1, thread_name_prefix="ios-uav-env-rows"))
+    return _helper[1]
+
+
+def threads_of(num_threads: int | None) -> int:
+    """The threads a batched call with ``num_threads`` runs on (None: numba's current setting; 1
+    without numba)."""
+    if _njit is None:
+        return 1
+    import numba
+
+    return (
+        int(numba.get_num_threads())
+        if num_threads is None
+        else min(num_threads, numba.config.NUMBA_NUM_THREADS)
+    )
+
+
+def run_halves(function: Callable[..., Any], rows: Any, num_threads: int | None, *args: Any) -> None:
+    """``function(rows, *args)``, split in two calls on the halves of ``rows`` run at once (the
+    first half on a helper Python thread, the second on this one) where ``num_threads`` (as
+    :func:`threads_of`) is 2 or more and ``rows`` has :data:`HALVES_LEAST` entries or more.
+
+    For a function that does each row's work alone (it writes only what belongs to the rows it
+    is given, and reads nothing another row writes) and releases the GIL for most of it (a
+    ``jit`` kernel, compiled ``nogil``; numpy's random fills): each row gets exactly the
+    computation of the single call (the same compiled code, the same row's draws in the same
+    order), on two cores. An exception of either half is raised after both ended."""
+    size = len(rows)
+    if size < HALVES_LEAST or threads_of(num_threads) < 2:
+        function(rows, *args)
+        return
+    half = size // 2
+    future = _helper_thread().submit(function, rows[:half], *args)
+    try:
+        function(rows[half:], *args)
+    finally:
+        future.result()
