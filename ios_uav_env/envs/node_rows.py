@@ -170,7 +170,7 @@ class NodeBlockRows:
             envs[i].stepper.defer_episode(drawn, i)
         # each row's generator draws its episode (numpy's fills release the GIL: two halves at once)
         run_halves(self._draw_episodes, mine, self.num_threads)
-        unfit = drawn.make(mine, self._lo, self._hi)
+        unfit = drawn.make(mine, self._lo, self._hi, self.num_threads)
         self._k[mine] = drawn.counts[mine]
         for i in unfit.tolist():  # (a surface the compiled weights do not take: the track's kernels)
             row = envs[i].stepper

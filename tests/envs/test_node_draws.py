@@ -104,8 +104,8 @@ def test_the_mobile_id_batch_is_its_single_envs_over_episodes(knowledge):
 
 @pytest.mark.parametrize("knowledge", ["reports", "rates"])
 def test_the_batch_split_in_halves_is_its_single_envs(monkeypatch, knowledge):
-    """The rows' draws and measured rates in two halves at once (``jit.run_halves``, forced on 5
-    rows): each row still its single env's, the resets' draws included."""
+    """The rows' draws, drawn episodes and measured rates in two halves at once (``jit.run_halves``,
+    forced on 5 rows): each row still its single env's, the resets' draws included."""
     monkeypatch.setattr(ios_uav_env.jit, "HALVES_LEAST", 2)
     calls = []
     run_halves = ios_uav_env.jit.run_halves
@@ -115,6 +115,7 @@ def test_the_batch_split_in_halves_is_its_single_envs(monkeypatch, knowledge):
         run_halves(function, rows, num_threads, *args)
 
     monkeypatch.setattr(ios_uav_env.envs.node_rows, "run_halves", counted)
+    monkeypatch.setattr(ios_uav_env.envs.node_draws, "run_halves", counted)
     rows, make = 5, {"knowledge": knowledge, "ranges": ScenarioRanges(T=(40.0, 60.0))}
     vec = gym.make_vec(
         MULTINODE_MOBILE_ID, num_envs=rows, vectorization_mode="vector_entry_point", num_threads=2, **make
@@ -125,7 +126,7 @@ def test_the_batch_split_in_halves_is_its_single_envs(monkeypatch, knowledge):
         assert same(env.reset(seed=7 + i)[0], obs[i])
     actions = np.random.default_rng(7).uniform(-1.2, 1.2, (130, *vec.action_space.shape))
     assert step_batch_and_singles(vec, singles, actions, RECORDS, False) >= 2 * rows
-    assert {name for name, _ in calls} == {"_draw_episodes", "measure_node_rates"}
+    assert {name for name, _ in calls} == {"_draw_episodes", "draw_node_episodes", "measure_node_rates"}
 
 
 def test_the_same_seed_gives_the_same_episodes():
