@@ -111,8 +111,9 @@ def run_batched(parallel: Callable[..., Any], serial: Callable[..., Any], num_th
         numba.set_num_threads(before)
 
 
-#: The fewest rows :func:`run_halves` splits (fewer: one call, the helper thread's hand-over costs more).
-HALVES_LEAST = 64
+#: Fewer rows than this in a batched call run on the caller's thread alone (:func:`run_halves`, the
+#: batched envs' small calls, e.g. a few autoresets): handing them to other threads costs more.
+FEW_ROWS = 64
 _helper: tuple[int, Any] | None = None  # (the process's pid, its one helper thread's executor)
 
 
@@ -145,7 +146,7 @@ def threads_of(num_threads: int | None) -> int:
 def run_halves(function: Callable[..., Any], rows: Any, num_threads: int | None, *args: Any) -> None:
     """``function(rows, *args)``, split in two calls on the halves of ``rows`` run at once (the
     first half on a helper Python thread, the second on this one) where ``num_threads`` (as
-    :func:`threads_of`) is 2 or more and ``rows`` has :data:`HALVES_LEAST` entries or more.
+    :func:`threads_of`) is 2 or more and ``rows`` has :data:`FEW_ROWS` entries or more.
 
     For a function that does each row's work alone (it writes only what belongs to the rows it
     is given, and reads nothing another row writes) and releases the GIL for most of it (a
@@ -153,7 +154,7 @@ def run_halves(function: Callable[..., Any], rows: Any, num_threads: int | None,
     computation of the single call (the same compiled code, the same row's draws in the same
     order), on two cores. An exception of either half is raised after both ended."""
     size = len(rows)
-    if size < HALVES_LEAST or threads_of(num_threads) < 2:
+    if size < FEW_ROWS or threads_of(num_threads) < 2:
         function(rows, *args)
         return
     half = size // 2

@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from ios_uav_env import jit
-from ios_uav_env.jit import HALVES_LEAST, HAVE_NUMBA, run_halves
+from ios_uav_env.jit import FEW_ROWS, HAVE_NUMBA, run_halves
 
 pytestmark = pytest.mark.skipif(not HAVE_NUMBA, reason="without numba every batched call is one call")
 
@@ -26,7 +26,7 @@ def recorder() -> tuple[list[tuple[list[int], int]], object]:
 
 def test_many_rows_on_two_threads_run_as_two_halves_at_once():
     calls, function = recorder()
-    rows, out = np.arange(HALVES_LEAST + 1), np.zeros(HALVES_LEAST + 1)
+    rows, out = np.arange(FEW_ROWS + 1), np.zeros(FEW_ROWS + 1)
     run_halves(function, rows, 2, out, 1.5)
     half = rows.size // 2
     assert sorted(part for part, _ in calls) == [rows[:half].tolist(), rows[half:].tolist()]
@@ -35,7 +35,7 @@ def test_many_rows_on_two_threads_run_as_two_halves_at_once():
     assert (out == 1.5).all()
 
 
-@pytest.mark.parametrize(("size", "threads"), [(HALVES_LEAST + 1, 1), (HALVES_LEAST - 1, 2)])
+@pytest.mark.parametrize(("size", "threads"), [(FEW_ROWS + 1, 1), (FEW_ROWS - 1, 2)])
 def test_one_thread_or_few_rows_is_one_call(size, threads):
     calls, function = recorder()
     rows, out = np.arange(size), np.zeros(size)
@@ -52,8 +52,8 @@ def test_an_error_of_the_helpers_half_is_raised_after_both_ran():
         done.append(rows.size)
 
     with pytest.raises(ValueError, match="first half"):
-        run_halves(function, np.arange(2 * HALVES_LEAST), 2)
-    assert done == [HALVES_LEAST]
+        run_halves(function, np.arange(2 * FEW_ROWS), 2)
+    assert done == [FEW_ROWS]
 
 
 def test_a_forked_process_makes_its_own_helper(monkeypatch):

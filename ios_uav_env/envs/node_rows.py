@@ -44,7 +44,7 @@ from ios_uav_env.envs.nodes_kernels import (
     tell_nodes_batched,
 )
 from ios_uav_env.envs.single_rows import Outputs
-from ios_uav_env.jit import run_batched, run_halves
+from ios_uav_env.jit import FEW_ROWS, run_batched, run_halves
 
 __all__ = ["NodeBlockRows"]
 
@@ -202,9 +202,8 @@ class NodeBlockRows:
         """Start the episodes of ``rows`` (loaded): their first observations and ``info`` rows."""
         if self._mobile and self._weights is not None:  # the first slot's node kernels
             rows = np.asarray(rows, dtype=np.int64)
-            self._weights.put(
-                rows, self._rows.state, -1, self._rows.nodes, self._rows.params, self.num_threads
-            )
+            threads = 1 if rows.size < FEW_ROWS else self.num_threads  # (IEEE: the same bits)
+            self._weights.put(rows, self._rows.state, -1, self._rows.nodes, self._rows.params, threads)
         self._rows.start(rows, obs, info)
         if self._mobile:
             self._observe_rows(rows, obs)
@@ -248,7 +247,7 @@ class NodeBlockRows:
         args = (rows, state, shares, self._track_paths, self._track_reports, self._track_tally, self._lo,
                 self._hi, normals, self._knowledge, self._sigma, self._scale, not self._estimate, self._width,
                 self._told, obs, self._raw, self._rows.sizes)  # fmt: skip
-        if self.num_threads == 1:  # (IEEE either way: one thread runs the plain loop)
+        if self.num_threads == 1 or rows.size < FEW_ROWS:  # (IEEE either way: one thread, the plain loop)
             tell_nodes(*args)
         else:
             run_batched(tell_nodes_batched, tell_nodes, self.num_threads, *args)
