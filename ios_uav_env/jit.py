@@ -114,6 +114,8 @@ def run_batched(parallel: Callable[..., Any], serial: Callable[..., Any], num_th
 #: Fewer rows than this in a batched call run on the caller's thread alone (:func:`run_halves`, the
 #: batched envs' small calls, e.g. a few autoresets): handing them to other threads costs more.
 FEW_ROWS = 64
+#: The same for calls whose rows are episodes to draw (tens of microseconds a row): fewer than this.
+FEW_EPISODES = 4
 _helper: tuple[int, Any] | None = None  # (the process's pid, its one helper thread's executor)
 
 
@@ -143,10 +145,13 @@ def threads_of(num_threads: int | None) -> int:
     )
 
 
-def run_halves(function: Callable[..., Any], rows: Any, num_threads: int | None, *args: Any) -> None:
+def run_halves(
+    function: Callable[..., Any], rows: Any, num_threads: int | None, *args: Any, least: int | None = None
+) -> None:
     """``function(rows, *args)``, split in two calls on the halves of ``rows`` run at once (the
     first half on a helper Python thread, the second on this one) where ``num_threads`` (as
-    :func:`threads_of`) is 2 or more and ``rows`` has :data:`FEW_ROWS` entries or more.
+    :func:`threads_of`) is 2 or more and ``rows`` has ``least`` entries or more (None:
+    :data:`FEW_ROWS`; fewer where each row's work is long, e.g. an episode's draws).
 
     For a function that does each row's work alone (it writes only what belongs to the rows it
     is given, and reads nothing another row writes) and releases the GIL for most of it (a
@@ -154,7 +159,7 @@ def run_halves(function: Callable[..., Any], rows: Any, num_threads: int | None,
     computation of the single call (the same compiled code, the same row's draws in the same
     order), on two cores. An exception of either half is raised after both ended."""
     size = len(rows)
-    if size < FEW_ROWS or threads_of(num_threads) < 2:
+    if size < (FEW_ROWS if least is None else max(least, 2)) or threads_of(num_threads) < 2:
         function(rows, *args)
         return
     half = size // 2

@@ -107,6 +107,7 @@ def test_the_batch_split_in_halves_is_its_single_envs(monkeypatch, knowledge):
     """The rows' draws, drawn episodes and measured rates in two halves at once (``jit.run_halves``,
     forced on 5 rows): each row still its single env's, the resets' draws included."""
     monkeypatch.setattr(ios_uav_env.jit, "FEW_ROWS", 2)
+    monkeypatch.setattr(ios_uav_env.jit, "FEW_EPISODES", 2)
     calls = []
     run_halves = ios_uav_env.jit.run_halves
 
