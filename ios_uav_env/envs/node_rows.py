@@ -219,6 +219,17 @@ class NodeBlockRows:
         """The rows of an autoreset or ``restart`` left to reset through their template envs: all."""
         return rows
 
+    def _records(self, rows: np.ndarray) -> tuple[Any, Any, Any]:
+        """The tracks' paths, reports and tally of ``rows`` as ``tell_nodes`` indexes them by row:
+        the batch's drawn buffers themselves where every one of ``rows`` holds them (a row's entry
+        of a list is its buffers' row: the same arrays, read without the typed lists' per-row
+        cost), else the lists. (The measured rates stay lists: a kernel of the fast-math rate
+        compiled for other argument types may round it otherwise, ``node_measure``.)"""
+        drawn = self._drawn
+        if drawn is not None and self._buffered[rows].all():
+            return drawn.paths, drawn.reports, drawn.tally
+        return self._track_paths, self._track_reports, self._track_tally
+
     def _observe_rows(self, rows: np.ndarray, obs: np.ndarray) -> None:
         """What each row's UAV is told of its nodes in its current slot, as the single env's
         ``observe_slot`` (``knowledge.observe_nodes``), bit for bit: per row, the slot's normals
@@ -245,9 +256,9 @@ class NodeBlockRows:
             kernels = self._rows.nodes, self._rows.params
             measure_nodes(rows, state, shares, self._track_measured, self._track_nodes, self._track_params,
                           *kernels, normals, self._knowledge == 1, self._rate_high, self._told)  # fmt: skip
-        args = (rows, state, shares, self._track_paths, self._track_reports, self._track_tally, self._lo,
-                self._hi, normals, self._knowledge, self._sigma, self._scale, not self._estimate, self._width,
-                self._told, obs, self._raw, self._rows.sizes)  # fmt: skip
+        args = (rows, state, shares, *self._records(rows), self._lo, self._hi, normals, self._knowledge,
+                self._sigma, self._scale, not self._estimate, self._width, self._told, obs, self._raw,
+                self._rows.sizes)  # fmt: skip
         if self.num_threads == 1 or rows.size < jit.FEW_ROWS:  # (IEEE either way: one thread, the plain loop)
             tell_nodes(*args)
         else:
