@@ -145,13 +145,19 @@ def threads_of(num_threads: int | None) -> int:
     )
 
 
+def threads_for(num_threads: int | None, size: int) -> int | None:
+    """``num_threads`` for a batched call of ``size`` rows: 1 (this thread alone) below
+    :data:`FEW_ROWS`."""
+    return 1 if size < FEW_ROWS else num_threads
+
+
 def run_halves(
-    function: Callable[..., Any], rows: Any, num_threads: int | None, *args: Any, least: int | None = None
+    function: Callable[..., Any], rows: Any, num_threads: int | None, *args: Any, episodes: bool = False
 ) -> None:
     """``function(rows, *args)``, split in two calls on the halves of ``rows`` run at once (the
     first half on a helper Python thread, the second on this one) where ``num_threads`` (as
-    :func:`threads_of`) is 2 or more and ``rows`` has ``least`` entries or more (None:
-    :data:`FEW_ROWS`; fewer where each row's work is long, e.g. an episode's draws).
+    :func:`threads_of`) is 2 or more and ``rows`` has :data:`FEW_ROWS` entries or more
+    (``episodes``: rows whose work is an episode's draws, :data:`FEW_EPISODES`).
 
     For a function that does each row's work alone (it writes only what belongs to the rows it
     is given, and reads nothing another row writes) and releases the GIL for most of it (a
@@ -159,7 +165,7 @@ def run_halves(
     computation of the single call (the same compiled code, the same row's draws in the same
     order), on two cores. An exception of either half is raised after both ended."""
     size = len(rows)
-    if size < (FEW_ROWS if least is None else max(least, 2)) or threads_of(num_threads) < 2:
+    if size < max(FEW_EPISODES if episodes else FEW_ROWS, 2) or threads_of(num_threads) < 2:
         function(rows, *args)
         return
     half = size // 2

@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from ios_uav_env import jit
-from ios_uav_env.jit import FEW_ROWS, HAVE_NUMBA, run_halves
+from ios_uav_env.jit import FEW_EPISODES, FEW_ROWS, HAVE_NUMBA, run_halves, threads_for
 
 pytestmark = pytest.mark.skipif(not HAVE_NUMBA, reason="without numba every batched call is one call")
 
@@ -62,3 +62,17 @@ def test_a_forked_process_makes_its_own_helper(monkeypatch):
     assert jit._helper_thread() is first
     monkeypatch.setattr(jit.os, "getpid", lambda: -1)
     assert jit._helper_thread() is not first
+
+
+def test_episodes_split_from_fewer_rows():
+    calls, function = recorder()
+    run_halves(function, np.arange(FEW_EPISODES), 2, np.zeros(FEW_EPISODES), 1.0, episodes=True)
+    assert len(calls) == 2
+    calls, function = recorder()
+    run_halves(function, np.arange(FEW_EPISODES - 1), 2, np.zeros(FEW_EPISODES), 1.0, episodes=True)
+    assert len(calls) == 1
+
+
+def test_few_rows_take_one_thread():
+    assert threads_for(2, FEW_ROWS - 1) == 1 and threads_for(None, FEW_ROWS - 1) == 1
+    assert threads_for(2, FEW_ROWS) == 2 and threads_for(None, FEW_ROWS) is None

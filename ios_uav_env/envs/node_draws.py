@@ -40,7 +40,6 @@ from typing import Any
 
 import numpy as np
 
-from ios_uav_env import jit
 from ios_uav_env.envs.mobile_draw_kernels import C_CX
 from ios_uav_env.envs.mobile_draws import draw_constants
 from ios_uav_env.envs.multi_table import episode_row
@@ -160,7 +159,7 @@ class DrawnNodeEpisodes:
         run_halves(draw_node_episodes, rows, num_threads, self.uniform, self.late, self.counts, self.slots,
                    self.surface, self.normals, self.headings, self.intervals, self.cuts, self.constants,
                    self.ends, self.paths, self.reports, self.measured, self.tally, lo, hi, self.bad, w.points,
-                   kr.points, kr.sizes, kr.state, kr.path, kr.episode, least=jit.FEW_EPISODES)  # fmt: skip
+                   kr.points, kr.sizes, kr.state, kr.path, kr.episode, episodes=True)  # fmt: skip
         for i in np.flatnonzero(self.bad[rows]).tolist():
             self.config(int(rows[i]))  # (raises the config's own error)
         k, n = int(self.counts[rows].max()), int(self.slots[rows].max())

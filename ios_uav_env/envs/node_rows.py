@@ -25,7 +25,6 @@ from typing import Any
 
 import numpy as np
 
-from ios_uav_env import jit
 from ios_uav_env.envs.deferral import drawn_rows
 from ios_uav_env.envs.knowledge import filter_report
 from ios_uav_env.envs.knowledge_kernels import EpisodeDraws, row_list
@@ -45,7 +44,7 @@ from ios_uav_env.envs.nodes_kernels import (
     tell_nodes_batched,
 )
 from ios_uav_env.envs.single_rows import Outputs
-from ios_uav_env.jit import run_batched, run_halves
+from ios_uav_env.jit import run_batched, run_halves, threads_for
 
 __all__ = ["NodeBlockRows"]
 
@@ -170,7 +169,7 @@ class NodeBlockRows:
         for i in mine.tolist():  # (before the draw rewrites the buffers a read track views)
             envs[i].stepper.defer_episode(drawn, i)
         # each row's generator draws its episode (numpy's fills release the GIL: two halves at once)
-        run_halves(self._draw_episodes, mine, self.num_threads, least=jit.FEW_EPISODES)
+        run_halves(self._draw_episodes, mine, self.num_threads, episodes=True)
         unfit = drawn.make(mine, self._lo, self._hi, self.num_threads)
         self._k[mine] = drawn.counts[mine]
         for i in unfit.tolist():  # (a surface the compiled weights do not take: the track's kernels)
@@ -203,7 +202,7 @@ class NodeBlockRows:
         """Start the episodes of ``rows`` (loaded): their first observations and ``info`` rows."""
         if self._mobile and self._weights is not None:  # the first slot's node kernels
             rows = np.asarray(rows, dtype=np.int64)
-            threads = 1 if rows.size < jit.FEW_ROWS else self.num_threads  # (IEEE: the same bits)
+            threads = threads_for(self.num_threads, rows.size)  # (IEEE: the same bits)
             self._weights.put(rows, self._rows.state, -1, self._rows.nodes, self._rows.params, threads)
         self._rows.start(rows, obs, info)
         if self._mobile:
@@ -259,7 +258,7 @@ class NodeBlockRows:
         args = (rows, state, shares, *self._records(rows), self._lo, self._hi, normals, self._knowledge,
                 self._sigma, self._scale, not self._estimate, self._width, self._told, obs, self._raw,
                 self._rows.sizes)  # fmt: skip
-        if self.num_threads == 1 or rows.size < jit.FEW_ROWS:  # (IEEE either way: one thread, the plain loop)
+        if threads_for(self.num_threads, rows.size) == 1:  # (IEEE either way: one thread, the plain loop)
             tell_nodes(*args)
         else:
             run_batched(tell_nodes_batched, tell_nodes, self.num_threads, *args)

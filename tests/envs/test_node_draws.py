@@ -118,9 +118,9 @@ def test_the_batch_split_in_halves_is_its_single_envs(monkeypatch, knowledge):
     calls = []
     run_halves = ios_uav_env.jit.run_halves
 
-    def counted(function, rows, num_threads, *args, **least):
+    def counted(function, rows, num_threads, *args, **episodes):
         calls.append((function.__name__, len(rows)))
-        run_halves(function, rows, num_threads, *args, **least)
+        run_halves(function, rows, num_threads, *args, **episodes)
 
     monkeypatch.setattr(ios_uav_env.envs.node_rows, "run_halves", counted)
     monkeypatch.setattr(ios_uav_env.envs.node_draws, "run_halves", counted)
