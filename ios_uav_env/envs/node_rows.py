@@ -106,11 +106,13 @@ class NodeBlockRows:
         # before the step (node_weights; a row the compiled weights do not take: its track's, gathered)
         self._weights = None if self._rician else NodeWeights(b, k, self._rows.params.shape[2])
         # rows whose envs draw from the ranges: drawn together in compiled calls (envs.node_draws);
-        # the rows whose track lists hold the batch's buffers (set once, then reused)
+        # the rows whose tracks are the batch's buffers (their measured list entries set once, then
+        # reused; their paths, reports and tally entries only when the lists are read: _records)
         self._drawn = (
             DrawnNodeEpisodes(template, b, self._rows, self._weights) if takes_drawn_nodes(template) else None
         )
         self._buffered = np.zeros(b, dtype=np.bool_)
+        self._listed = np.zeros(b, dtype=np.bool_)  # (a buffered row's paths, reports, tally entries set)
 
     @property
     def kernel_rows(self) -> NodeRows:
@@ -142,7 +144,7 @@ class NodeBlockRows:
         track = row.track if self._mobile else None
         if track is not None:
             k = self._k[i] = row.config.K
-            self._buffered[i] = False
+            self._buffered[i] = self._listed[i] = False
             self._track_paths[i], self._track_reports[i] = track.paths, track.reports
             self._track_measured[i], self._track_tally[i] = track.measured, track.tally
             if weights is None or weights.slots[i] == 0:  # (the track's kernels: built)
@@ -177,12 +179,10 @@ class NodeBlockRows:
             self._rows.load(i, row.config, kernels=False)
             row.put_first_kernels(self._rows, i)
             self._track_nodes[i], self._track_params[i] = row.track.nodes, row.track.params
-        paths, reports, measured, tally = drawn.paths, drawn.reports, drawn.measured, drawn.tally
-        for i in mine.tolist():
-            if not self._buffered[i]:
-                self._track_paths[i], self._track_reports[i] = paths[i], reports[i]
-                self._track_measured[i], self._track_tally[i] = measured[i], tally[i]
-                self._buffered[i] = True
+        measured = drawn.measured
+        for i in np.flatnonzero(~self._buffered[mine]).tolist():
+            self._track_measured[int(mine[i])] = measured[mine[i]]
+        self._buffered[mine] = True
         return rest
 
     def _draw_episodes(self, rows: np.ndarray) -> None:
@@ -225,8 +225,14 @@ class NodeBlockRows:
         cost), else the lists. (The measured rates stay lists: a kernel of the fast-math rate
         compiled for other argument types may round it otherwise, ``node_measure``.)"""
         drawn = self._drawn
-        if drawn is not None and self._buffered[rows].all():
-            return drawn.paths, drawn.reports, drawn.tally
+        if drawn is not None:
+            buffered = self._buffered[rows]
+            if buffered.all():
+                return drawn.paths, drawn.reports, drawn.tally
+            for i in rows[buffered & ~self._listed[rows]].tolist():  # (their entries, now read)
+                self._track_paths[i], self._track_reports[i] = drawn.paths[i], drawn.reports[i]
+                self._track_tally[i] = drawn.tally[i]
+                self._listed[i] = True
         return self._track_paths, self._track_reports, self._track_tally
 
     def _observe_rows(self, rows: np.ndarray, obs: np.ndarray) -> None:
