@@ -111,66 +111,12 @@ def run_batched(parallel: Callable[..., Any], serial: Callable[..., Any], num_th
         numba.set_num_threads(before)
 
 
-#: Fewer rows than this in a batched call run on the caller's thread alone (:func:`run_halves`, the
-#: batched envs' small calls, e.g. a few autoresets): handing them to other threads costs more.
+#: Fewer rows than this in a batched call run on the caller's thread alone (:func:`threads_for`:
+#: the batched envs' small calls, e.g. a few autoresets): handing them to other threads costs more.
 FEW_ROWS = 64
-#: The same for calls whose rows are episodes to draw (tens of microseconds a row): fewer than this.
-FEW_EPISODES = 4
-_helper: tuple[int, Any] | None = None  # (the process's pid, its one helper thread's executor)
-
-
-def _helper_thread() -> Any:
-    """This process's executor of one Python thread (made at the first use; a forked child makes
-    its own: the parent's thread does not exist there)."""
-    global _helper
-    pid = os.getpid()
-    if _helper is None or _helper[0] != pid:
-        from concurrent.futures import ThreadPoolExecutor
-
-        _helper = (pid, ThreadPoolExecutor(max_workers=1, thread_name_prefix="ios-uav-env-rows"))
-    return _helper[1]
-
-
-def threads_of(num_threads: int | None) -> int:
-    """The threads a batched call with ``num_threads`` runs on (None: numba's current setting; 1
-    without numba)."""
-    if _njit is None:
-        return 1
-    import numba
-
-    return (
-        int(numba.get_num_threads())
-        if num_threads is None
-        else min(num_threads, numba.config.NUMBA_NUM_THREADS)
-    )
 
 
 def threads_for(num_threads: int | None, size: int) -> int | None:
     """``num_threads`` for a batched call of ``size`` rows: 1 (this thread alone) below
     :data:`FEW_ROWS`."""
     return 1 if size < FEW_ROWS else num_threads
-
-
-def run_halves(
-    function: Callable[..., Any], rows: Any, num_threads: int | None, *args: Any, episodes: bool = False
-) -> None:
-    """``function(rows, *args)``, split in two calls on the halves of ``rows`` run at once (the
-    first half on a helper Python thread, the second on this one) where ``num_threads`` (as
-    :func:`threads_of`) is 2 or more and ``rows`` has :data:`FEW_ROWS` entries or more
-    (``episodes``: rows whose work is an episode's draws, :data:`FEW_EPISODES`).
-
-    For a function that does each row's work alone (it writes only what belongs to the rows it
-    is given, and reads nothing another row writes) and releases the GIL for most of it (a
-    ``jit`` kernel, compiled ``nogil``; numpy's random fills): each row gets exactly the
-    computation of the single call (the same compiled code, the same row's draws in the same
-    order), on two cores. An exception of either half is raised after both ended."""
-    size = len(rows)
-    if size < max(FEW_EPISODES if episodes else FEW_ROWS, 2) or threads_of(num_threads) < 2:
-        function(rows, *args)
-        return
-    half = size // 2
-    future = _helper_thread().submit(function, rows[:half], *args)
-    try:
-        function(rows[half:], *args)
-    finally:
-        future.result()

@@ -45,7 +45,7 @@ from ios_uav_env.envs.mobile_draws import draw_constants
 from ios_uav_env.envs.multi_table import episode_row
 from ios_uav_env.envs.node_draw_kernels import draw_node_episodes, start_node_rows
 from ios_uav_env.envs.node_weights import PT_SCALE, BareNodesTrack
-from ios_uav_env.jit import HAVE_NUMBA, run_halves
+from ios_uav_env.jit import HAVE_NUMBA
 from ios_uav_env.model.config import ScenarioConfig
 from ios_uav_env.model.mobility import GaussMarkov
 from ios_uav_env.model.scenarios import ScenarioRanges, drawn_changes, multinode_changes
@@ -138,16 +138,12 @@ class DrawnNodeEpisodes:
         return n, k
 
     # --- per batch: the compiled episode ---------------------------------------------------
-    def make(
-        self, rows: np.ndarray, lo: np.ndarray, hi: np.ndarray, num_threads: int | None = 1
-    ) -> np.ndarray:
+    def make(self, rows: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
         """Steps 2 and 3 for ``rows`` (int64; drawn): their fields, checks, tracks, ground points,
         the rows' scenario arrays, ``lo`` / ``hi`` (B, K_max, 2) their report clips. A row the
         checks flag is built as its ``ScenarioConfig`` (which raises the validation's error); one
         that passes it after all goes on. Rows whose geometry the compiled weights do not take are
-        left with ``weights.slots`` 0 (their envs' tracks put their kernels: the returned rows).
-        ``num_threads`` 2 or more (None: numba's setting): the rows' step 2 in two halves at once
-        (``jit.run_halves``)."""
+        left with ``weights.slots`` 0 (their envs' tracks put their kernels: the returned rows)."""
         kr, w = self.kernel_rows, self.weights
         self.clip = (lo, hi)
         k_max = self.late.shape[1] - 4
@@ -156,10 +152,10 @@ class DrawnNodeEpisodes:
             theta = np.full((rows.size, k_max), self.heading)
         self.headings[rows, :, 0], self.headings[rows, :, 1] = np.cos(theta), np.sin(theta)  # (numpy's)
         kr.fit(0, int(self.slots[rows].max()))  # (the rows' arrays as long as the longest episode)
-        run_halves(draw_node_episodes, rows, num_threads, self.uniform, self.late, self.counts, self.slots,
-                   self.surface, self.normals, self.headings, self.intervals, self.cuts, self.constants,
-                   self.ends, self.paths, self.reports, self.measured, self.tally, lo, hi, self.bad, w.points,
-                   kr.points, kr.sizes, kr.state, kr.path, kr.episode, episodes=True)  # fmt: skip
+        draw_node_episodes(rows, self.uniform, self.late, self.counts, self.slots, self.surface, self.normals,
+                           self.headings, self.intervals, self.cuts, self.constants, self.ends, self.paths,
+                           self.reports, self.measured, self.tally, lo, hi, self.bad, w.points, kr.points,
+                           kr.sizes, kr.state, kr.path, kr.episode)  # fmt: skip
         for i in np.flatnonzero(self.bad[rows]).tolist():
             self.config(int(rows[i]))  # (raises the config's own error)
         k, n = int(self.counts[rows].max()), int(self.slots[rows].max())

@@ -5,13 +5,11 @@ each node it served (``knowledge.observe_nodes``, the single env's path) on the 
 the slot: the row's own where the compiled weights put it there (``node_weights.put_node_weights``),
 else its track's. :func:`measure_node_rates` does it for the rows one after the other.
 
-Each row's rates are this serial kernel's. The batch may run it on two halves of its rows at once:
-two calls of this one compiled function on two Python threads (``jit.run_halves``: the same machine
-code, so the same bits). Not as a threaded kernel: the rate (``channel.faded_row``, fast-math) is
-inlined into each kernel and optimised with it, so a threaded copy of this loop (or one behind a
-compiled-function boundary) may round a rate differently from the serial kernel and the single env,
-and then the batch no longer equals its single envs bit for bit. A rate in IEEE arithmetic rounds
-alike in every copy, but its surface sum's divisions no longer vectorise: slower than the fast-math
+The rows stay on one thread. The rate (``channel.faded_row``, fast-math) is inlined into each
+kernel and optimised with it, so a threaded copy of this loop (or one behind a compiled-function
+boundary) may round a rate differently from the serial kernel and the single env, and then the
+batch no longer equals its single envs bit for bit. A rate in IEEE arithmetic rounds alike in
+every copy, but its surface sum's divisions no longer vectorise: slower than the fast-math
 serial loop even on two threads (``results/log.md`` has the figures).
 """
 

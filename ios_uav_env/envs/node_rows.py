@@ -44,7 +44,7 @@ from ios_uav_env.envs.nodes_kernels import (
     tell_nodes_batched,
 )
 from ios_uav_env.envs.single_rows import Outputs
-from ios_uav_env.jit import run_batched, run_halves, threads_for
+from ios_uav_env.jit import run_batched, threads_for
 
 __all__ = ["NodeBlockRows"]
 
@@ -167,12 +167,16 @@ class NodeBlockRows:
         rest, mine = drawn_rows(self.envs, rows, seeds, options)
         if not mine.size:
             return rest
-        envs = self.envs
-        for i in mine.tolist():  # (before the draw rewrites the buffers a read track views)
-            envs[i].stepper.defer_episode(drawn, i)
-        # each row's generator draws its episode (numpy's fills release the GIL: two halves at once)
-        run_halves(self._draw_episodes, mine, self.num_threads, episodes=True)
-        unfit = drawn.make(mine, self._lo, self._hi, self.num_threads)
+        envs, draws_, kind = self.envs, self._episode_draws, self._kind
+        observed = self._knowledge != 0 and draws_ is not None
+        for i in mine.tolist():
+            env = envs[i]
+            rng = env.np_random
+            env.stepper.defer_episode(drawn, i)  # (before the draw rewrites the buffers a read track views)
+            n, k = drawn.draw(i, rng)
+            if observed:
+                draws_.draw(i, rng, n, draws(kind, k))
+        unfit = drawn.make(mine, self._lo, self._hi)
         self._k[mine] = drawn.counts[mine]
         for i in unfit.tolist():  # (a surface the compiled weights do not take: the track's kernels)
             row = envs[i].stepper
@@ -184,19 +188,6 @@ class NodeBlockRows:
             self._track_measured[int(mine[i])] = measured[mine[i]]
         self._buffered[mine] = True
         return rest
-
-    def _draw_episodes(self, rows: np.ndarray) -> None:
-        """Each of ``rows``' generator draws its episode (``DrawnNodeEpisodes.draw``), then the
-        episode's observation normals (``EpisodeDraws.draw``): what the single env's reset draws, in
-        its order. Each row's own arrays only (``run_halves`` may run two sets of rows at once)."""
-        envs, drawn, draws_, kind = self.envs, self._drawn, self._episode_draws, self._kind
-        assert drawn is not None
-        observed = self._knowledge != 0 and draws_ is not None
-        for i in rows.tolist():
-            rng = envs[i].np_random
-            n, k = drawn.draw(i, rng)
-            if observed:
-                draws_.draw(i, rng, n, draws(kind, k))
 
     def start(self, rows: np.ndarray, obs: np.ndarray, info: np.ndarray) -> None:
         """Start the episodes of ``rows`` (loaded): their first observations and ``info`` rows."""
@@ -254,9 +245,9 @@ class NodeBlockRows:
         if self._knowledge != 0 and self._weights is not None:
             w = self._weights
             tracks = self._track_measured, self._track_nodes, self._track_params
-            run_halves(measure_node_rates, rows, self.num_threads, state, shares, counts, w.widths, w.slots,
-                       *tracks, self._rows.nodes, self._rows.params, normals, self._knowledge == 1,
-                       self._rate_high, self._told)  # fmt: skip
+            measure_node_rates(rows, state, shares, counts, w.widths, w.slots, *tracks, self._rows.nodes,
+                               self._rows.params, normals, self._knowledge == 1, self._rate_high,
+                               self._told)  # fmt: skip
         elif self._knowledge != 0:
             kernels = self._rows.nodes, self._rows.params
             measure_nodes(rows, state, shares, self._track_measured, self._track_nodes, self._track_params,

@@ -110,22 +110,12 @@ def test_the_mobile_id_batch_is_its_single_envs_over_episodes(knowledge):
 
 
 @pytest.mark.parametrize("knowledge", ["reports", "rates"])
-def test_the_batch_split_in_halves_is_its_single_envs(monkeypatch, knowledge):
-    """The rows' draws, drawn episodes and measured rates in two halves at once (``jit.run_halves``,
-    forced on 5 rows): each row still its single env's, the resets' draws included."""
+def test_small_calls_on_threads_are_the_single_envs(monkeypatch, knowledge):
+    """A few rows' calls (autoresets) run on this thread alone (``jit.threads_for``); forced onto
+    numba's threads here (every call of 5 rows), each row is still its single env's."""
     monkeypatch.setattr(ios_uav_env.jit, "FEW_ROWS", 2)
-    monkeypatch.setattr(ios_uav_env.jit, "FEW_EPISODES", 2)
-    calls = []
-    run_halves = ios_uav_env.jit.run_halves
-
-    def counted(function, rows, num_threads, *args, **episodes):
-        calls.append((function.__name__, len(rows)))
-        run_halves(function, rows, num_threads, *args, **episodes)
-
-    monkeypatch.setattr(ios_uav_env.envs.node_rows, "run_halves", counted)
-    monkeypatch.setattr(ios_uav_env.envs.node_draws, "run_halves", counted)
+    assert ios_uav_env.jit.threads_for(2, 2) == 2
     run_the_id_batch_and_its_singles(knowledge, 5, 7, 130, num_threads=2)
-    assert {name for name, _ in calls} == {"_draw_episodes", "draw_node_episodes", "measure_node_rates"}
 
 
 def test_the_same_seed_gives_the_same_episodes():
