@@ -109,3 +109,14 @@ def run_batched(parallel: Callable[..., Any], serial: Callable[..., Any], num_th
         return parallel(*args)
     finally:
         numba.set_num_threads(before)
+
+
+#: Fewer rows than this in a batched call run on the caller's thread alone (:func:`threads_for`:
+#: the batched envs' small calls, e.g. a few autoresets): handing them to other threads costs more.
+FEW_ROWS = 64
+
+
+def threads_for(num_threads: int | None, size: int) -> int | None:
+    """``num_threads`` for a batched call of ``size`` rows: 1 (this thread alone) below
+    :data:`FEW_ROWS`."""
+    return 1 if size < FEW_ROWS else num_threads

@@ -235,7 +235,9 @@ def episode_best_values(rows: NodeRows, ended: np.ndarray, envs: Sequence[Any],
     from ios_uav_env.model.schedule import reported_maxmin_rate
 
     values = np.full(len(ended), np.nan)
-    compiled = np.array([not env.mobile for env in envs], dtype=bool) | rows.stored[ended]
+    compiled = rows.stored[ended]
+    if not compiled.all():  # (each env asked only where a row's rates were not kept)
+        compiled = compiled | np.array([not env.mobile for env in envs], dtype=bool)
     ok = np.zeros(len(ended), dtype=bool)
     if compiled.any():
         values[compiled], ok[compiled] = rows.best_values(ended[compiled], num_threads)

@@ -85,7 +85,8 @@ class DrawnNodeEpisodes:
         self.node_range: tuple[int, int] = row.random_nodes
         self.kernel_rows, self.weights = kernel_rows, weights
         base, motion = self.ranges.base, self.ranges.base.motion
-        k, slots = row.max_nodes, self.ranges.slot_range[1]
+        self.slot_range: tuple[int, int] = self.ranges.slot_range  # (N's range: a property computing it)
+        k, slots = row.max_nodes, self.slot_range[1]
         self.slots = np.zeros(rows, dtype=np.int64)
         self.counts = np.zeros(rows, dtype=np.int64)
         self.ios_rows = np.zeros(rows, dtype=np.int64)
@@ -125,7 +126,7 @@ class DrawnNodeEpisodes:
             raise RuntimeError(f"a drawn episode of K = {k} nodes exceeds the rows' {self.late.shape[1] - 4}")
         # the nodes' x, y (uniform(lo, hi) calls, node after node), then the scenario's own G (replaced)
         rng.random(out=self.uniform[i, : 2 * k + 2])
-        n = int(rng.integers(*r.slot_range, endpoint=True))
+        n = int(rng.integers(*self.slot_range, endpoint=True))
         self.ios_rows[i] = int(rng.integers(r.ios_rows[0], r.ios_rows[1], endpoint=True))
         self.surface[i] = int(rng.integers(len(r.surfaces)))
         # q0, qF, then node_paths' uniform(0, 2 pi, K) headings (when drawn)

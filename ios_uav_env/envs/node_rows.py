@@ -44,7 +44,7 @@ from ios_uav_env.envs.nodes_kernels import (
     tell_nodes_batched,
 )
 from ios_uav_env.envs.single_rows import Outputs
-from ios_uav_env.jit import run_batched
+from ios_uav_env.jit import run_batched, threads_for
 
 __all__ = ["NodeBlockRows"]
 
@@ -106,11 +106,13 @@ class NodeBlockRows:
         # before the step (node_weights; a row the compiled weights do not take: its track's, gathered)
         self._weights = None if self._rician else NodeWeights(b, k, self._rows.params.shape[2])
         # rows whose envs draw from the ranges: drawn together in compiled calls (envs.node_draws);
-        # the rows whose track lists hold the batch's buffers (set once, then reused)
+        # the rows whose tracks are the batch's buffers (their measured list entries set once, then
+        # reused; their paths, reports and tally entries only when the lists are read: _records)
         self._drawn = (
             DrawnNodeEpisodes(template, b, self._rows, self._weights) if takes_drawn_nodes(template) else None
         )
         self._buffered = np.zeros(b, dtype=np.bool_)
+        self._listed = np.zeros(b, dtype=np.bool_)  # (a buffered row's paths, reports, tally entries set)
 
     @property
     def kernel_rows(self) -> NodeRows:
@@ -142,7 +144,7 @@ class NodeBlockRows:
         track = row.track if self._mobile else None
         if track is not None:
             k = self._k[i] = row.config.K
-            self._buffered[i] = False
+            self._buffered[i] = self._listed[i] = False
             self._track_paths[i], self._track_reports[i] = track.paths, track.reports
             self._track_measured[i], self._track_tally[i] = track.measured, track.tally
             if weights is None or weights.slots[i] == 0:  # (the track's kernels: built)
@@ -181,21 +183,18 @@ class NodeBlockRows:
             self._rows.load(i, row.config, kernels=False)
             row.put_first_kernels(self._rows, i)
             self._track_nodes[i], self._track_params[i] = row.track.nodes, row.track.params
-        paths, reports, measured, tally = drawn.paths, drawn.reports, drawn.measured, drawn.tally
-        for i in mine.tolist():
-            if not self._buffered[i]:
-                self._track_paths[i], self._track_reports[i] = paths[i], reports[i]
-                self._track_measured[i], self._track_tally[i] = measured[i], tally[i]
-                self._buffered[i] = True
+        measured = drawn.measured
+        for i in np.flatnonzero(~self._buffered[mine]).tolist():
+            self._track_measured[int(mine[i])] = measured[mine[i]]
+        self._buffered[mine] = True
         return rest
 
     def start(self, rows: np.ndarray, obs: np.ndarray, info: np.ndarray) -> None:
         """Start the episodes of ``rows`` (loaded): their first observations and ``info`` rows."""
         if self._mobile and self._weights is not None:  # the first slot's node kernels
             rows = np.asarray(rows, dtype=np.int64)
-            self._weights.put(
-                rows, self._rows.state, -1, self._rows.nodes, self._rows.params, self.num_threads
-            )
+            threads = threads_for(self.num_threads, rows.size)  # (IEEE: the same bits)
+            self._weights.put(rows, self._rows.state, -1, self._rows.nodes, self._rows.params, threads)
         self._rows.start(rows, obs, info)
         if self._mobile:
             self._observe_rows(rows, obs)
@@ -209,6 +208,23 @@ class NodeBlockRows:
     def restart(self, rows: np.ndarray, obs: np.ndarray, info: np.ndarray) -> np.ndarray:
         """The rows of an autoreset or ``restart`` left to reset through their template envs: all."""
         return rows
+
+    def _records(self, rows: np.ndarray) -> tuple[Any, Any, Any]:
+        """The tracks' paths, reports and tally of ``rows`` as ``tell_nodes`` indexes them by row:
+        the batch's drawn buffers themselves where every one of ``rows`` holds them (a row's entry
+        of a list is its buffers' row: the same arrays, read without the typed lists' per-row
+        cost), else the lists. (The measured rates stay lists: a kernel of the fast-math rate
+        compiled for other argument types may round it otherwise, ``node_measure``.)"""
+        drawn = self._drawn
+        if drawn is not None:
+            buffered = self._buffered[rows]
+            if buffered.all():
+                return drawn.paths, drawn.reports, drawn.tally
+            for i in rows[buffered & ~self._listed[rows]].tolist():  # (their entries, now read)
+                self._track_paths[i], self._track_reports[i] = drawn.paths[i], drawn.reports[i]
+                self._track_tally[i] = drawn.tally[i]
+                self._listed[i] = True
+        return self._track_paths, self._track_reports, self._track_tally
 
     def _observe_rows(self, rows: np.ndarray, obs: np.ndarray) -> None:
         """What each row's UAV is told of its nodes in its current slot, as the single env's
@@ -228,17 +244,18 @@ class NodeBlockRows:
                 draw[i](out=out[i])
         if self._knowledge != 0 and self._weights is not None:
             w = self._weights
-            measure_node_rates(rows, state, shares, counts, w.widths, w.slots, self._track_measured,
-                               self._track_nodes, self._track_params, self._rows.nodes, self._rows.params,
-                               normals, self._knowledge == 1, self._rate_high, self._told)  # fmt: skip
+            tracks = self._track_measured, self._track_nodes, self._track_params
+            measure_node_rates(rows, state, shares, counts, w.widths, w.slots, *tracks, self._rows.nodes,
+                               self._rows.params, normals, self._knowledge == 1, self._rate_high,
+                               self._told)  # fmt: skip
         elif self._knowledge != 0:
             kernels = self._rows.nodes, self._rows.params
             measure_nodes(rows, state, shares, self._track_measured, self._track_nodes, self._track_params,
                           *kernels, normals, self._knowledge == 1, self._rate_high, self._told)  # fmt: skip
-        args = (rows, state, shares, self._track_paths, self._track_reports, self._track_tally, self._lo,
-                self._hi, normals, self._knowledge, self._sigma, self._scale, not self._estimate, self._width,
-                self._told, obs, self._raw, self._rows.sizes)  # fmt: skip
-        if self.num_threads == 1:  # (IEEE either way: one thread runs the plain loop)
+        args = (rows, state, shares, *self._records(rows), self._lo, self._hi, normals, self._knowledge,
+                self._sigma, self._scale, not self._estimate, self._width, self._told, obs, self._raw,
+                self._rows.sizes)  # fmt: skip
+        if threads_for(self.num_threads, rows.size) == 1:  # (IEEE either way: one thread, the plain loop)
             tell_nodes(*args)
         else:
             run_batched(tell_nodes_batched, tell_nodes, self.num_threads, *args)

@@ -111,11 +111,15 @@ class SurfaceNodes:
 def _lagrange_matrix(nodes: np.ndarray, points: np.ndarray) -> np.ndarray:
     """L[a, i] = L_a(points[i]): Lagrange basis on ``nodes`` evaluated at ``points``."""
     diff = points[None, :] - nodes[:, None]  # (n, P)
-    out = np.ones((nodes.size, points.size))
-    for a in range(nodes.size):  # loop over the few nodes, not over elements
-        others = np.delete(np.arange(nodes.size), a)
-        out[a] = np.prod(diff[others], axis=0) / np.prod(nodes[a] - nodes[others])
-    return out
+    # row a: the products over b != a in ascending b (np.prod's order; from 1.0, and x * 1.0 is x),
+    # every row's factor b at once: the loop is over the few nodes, not over elements
+    num, den = np.ones((nodes.size, points.size)), np.ones(nodes.size)
+    for b in range(nodes.size):
+        num[:b] *= diff[b]
+        num[b + 1 :] *= diff[b]
+        den[:b] *= nodes[:b] - nodes[b]
+        den[b + 1 :] *= nodes[b + 1 :] - nodes[b]
+    return num / den[:, None]
 
 
 def _chebyshev(lo: float, hi: float, n: int) -> np.ndarray:

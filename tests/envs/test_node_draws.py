@@ -87,19 +87,35 @@ def test_the_compiled_draw_is_the_single_envs_draw_bit_for_bit(ranges):
         assert moved > 0  # (some nodes were drawn inside the plane's strip and moved out of it)
 
 
+def run_the_id_batch_and_its_singles(knowledge: str, rows: int, seed: int, steps: int, **vec: object) -> None:
+    """The mobile id's batch of ``rows`` (drawn episodes) and its rows' single envs, reset with
+    ``seed`` and stepped ``steps`` times alike: equal bit for bit, over two episodes a row or more."""
+    make = {"knowledge": knowledge, "ranges": ScenarioRanges(T=(40.0, 60.0))}
+    batch = gym.make_vec(
+        MULTINODE_MOBILE_ID, num_envs=rows, vectorization_mode="vector_entry_point", **vec, **make
+    )
+    assert batch.rows._drawn is not None
+    singles = [gym.make(MULTINODE_MOBILE_ID, **make).unwrapped for _ in range(rows)]
+    obs, _ = batch.reset(seed=seed)
+    for i, env in enumerate(singles):
+        assert same(env.reset(seed=seed + i)[0], obs[i])
+    actions = np.random.default_rng(seed).uniform(-1.2, 1.2, (steps, *batch.action_space.shape))
+    assert step_batch_and_singles(batch, singles, actions, RECORDS, False) >= 2 * rows
+    assert [env.config for env in singles] == batch.configs
+
+
 @pytest.mark.parametrize("knowledge", ["reports", "rates", "exact"])
 def test_the_mobile_id_batch_is_its_single_envs_over_episodes(knowledge):
-    rows = 4
-    make = {"knowledge": knowledge, "ranges": ScenarioRanges(T=(40.0, 60.0))}
-    vec = gym.make_vec(MULTINODE_MOBILE_ID, num_envs=rows, vectorization_mode="vector_entry_point", **make)
-    assert vec.rows._drawn is not None
-    singles = [gym.make(MULTINODE_MOBILE_ID, **make).unwrapped for _ in range(rows)]
-    obs, _ = vec.reset(seed=3)
-    for i, env in enumerate(singles):
-        assert same(env.reset(seed=3 + i)[0], obs[i])
-    actions = np.random.default_rng(3).uniform(-1.2, 1.2, (150, *vec.action_space.shape))
-    assert step_batch_and_singles(vec, singles, actions, RECORDS, False) >= 2 * rows
-    assert [env.config for env in singles] == vec.configs
+    run_the_id_batch_and_its_singles(knowledge, 4, 3, 150)
+
+
+@pytest.mark.parametrize("knowledge", ["reports", "rates"])
+def test_small_calls_on_threads_are_the_single_envs(monkeypatch, knowledge):
+    """A few rows' calls (autoresets) run on this thread alone (``jit.threads_for``); forced onto
+    numba's threads here (every call of 5 rows), each row is still its single env's."""
+    monkeypatch.setattr(ios_uav_env.jit, "FEW_ROWS", 2)
+    assert ios_uav_env.jit.threads_for(2, 2) == 2
+    run_the_id_batch_and_its_singles(knowledge, 5, 7, 130, num_threads=2)
 
 
 def test_the_same_seed_gives_the_same_episodes():

@@ -138,3 +138,23 @@ def test_rate_decreases_far_away():
 def test_bad_positions_raise(bad):
     with pytest.raises(ValueError, match="positions"):
         m.slot_rates(DEFAULT, bad)
+
+
+def test_the_lagrange_basis_is_its_definitions_products_bit_for_bit():
+    """L[a, i] = prod_{b != a} (p_i - x_b) / prod_{b != a} (x_a - x_b), each product numpy's over
+    b ascending: the compressed sums' weights (and so every golden) rest on these bits."""
+    from ios_uav_env.model.surface import _chebyshev, _lagrange_matrix
+
+    rng = np.random.default_rng(0)
+    for n in range(2, 13):
+        nodes = _chebyshev(-1.5, 2.5, n) if n % 2 else rng.uniform(-3.0, 3.0, n)
+        points = np.sort(rng.uniform(-2.0, 3.0, 17))
+        expected = np.ones((n, points.size))
+        for a in range(n):
+            others = np.delete(np.arange(n), a)
+            expected[a] = np.prod(points[None, :] - nodes[others, None], axis=0) / np.prod(
+                nodes[a] - nodes[others]
+            )
+        got = _lagrange_matrix(nodes, points)
+        assert got.tobytes() == expected.tobytes()
+        assert np.allclose(_lagrange_matrix(nodes, nodes), np.eye(n), atol=1e-9)
