@@ -193,8 +193,8 @@ class NodeBlockRows:
         """Start the episodes of ``rows`` (loaded): their first observations and ``info`` rows."""
         if self._mobile and self._weights is not None:  # the first slot's node kernels
             rows = np.asarray(rows, dtype=np.int64)
-            threads = threads_for(self.num_threads, rows.size)  # (IEEE: the same bits)
-            self._weights.put(rows, self._rows.state, -1, self._rows.nodes, self._rows.params, threads)
+            kernels = self._rows.nodes, self._rows.params
+            self._weights.put(rows, self._rows.state, -1, *kernels, self.num_threads)
         self._rows.start(rows, obs, info)
         if self._mobile:
             self._observe_rows(rows, obs)

@@ -36,7 +36,7 @@ from ios_uav_env.envs.knowledge import (
     _rectangles,
     nodes_track_kernels,
 )
-from ios_uav_env.jit import HAVE_NUMBA, jit, prange, run_batched
+from ios_uav_env.jit import HAVE_NUMBA, jit, prange, run_batched, threads_for
 from ios_uav_env.model.config import ScenarioConfig
 from ios_uav_env.model.motion import node_paths
 from ios_uav_env.model.node_kernels import kernel_config
@@ -197,10 +197,11 @@ class NodeWeights:
         num_threads: int | None = 1,
     ) -> None:  # fmt: skip
         """:func:`put_node_weights` of these buffers (on ``num_threads`` of numba's threads: its
-        blocks, :func:`put_node_weights_batched`; None: numba's current setting)."""
+        blocks, :func:`put_node_weights_batched`; None: numba's current setting; fewer rows than
+        ``jit.FEW_ROWS`` on this thread alone, ``jit.threads_for``: IEEE, the same bits)."""
         args = (rows, state, ahead, self.slots, self.counts, self.which, self.points, self.cx, self.base,
                 self.factors, self.ky_t, self.kz_t, self.gy, self.gz2, nodes, params)  # fmt: skip
-        if num_threads == 1:
+        if threads_for(num_threads, rows.size) == 1:
             put_node_weights(*args)
         else:
             run_batched(put_node_weights_batched, put_node_weights, num_threads, *args)
