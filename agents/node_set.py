@@ -158,14 +158,21 @@ def _forward_one(scene: np.ndarray, nodes: np.ndarray, k_real: int, k_max: int, 
     weights = np.exp(heads[:, 1] - top)
     weights /= weights.sum()
     joined = np.zeros((1, base + 2 * h.shape[1]))
-    joined[0, :base] = scene
-    joined[0, base : base + h.shape[1]] = context[0]
+    # (copies element by element here and below: a slice assignment from an array compiles
+    # numba's shape-mismatch error path, about 2 s more of compile)
+    for j in range(base):
+        joined[0, j] = scene[j]
+    for j in range(h.shape[1]):
+        joined[0, base + j] = context[0, j]
+    pooled = joined[0, base + h.shape[1] :]  # (a view: `joined[0, a:] += ...` would assign a slice)
     for i in range(k_real):
-        joined[0, base + h.shape[1] :] += weights[i] * g[i]
+        pooled += weights[i] * g[i]
     move = _dense(_dense(joined, w_move, b_move, True), w_out, b_out, False)[0]
     out = np.zeros(MOVE + k_max)
-    out[:MOVE] = move
-    out[MOVE : MOVE + k_real] = heads[:, 0]
+    for j in range(MOVE):
+        out[j] = move[j]
+    for i in range(k_real):
+        out[MOVE + i] = heads[i, 0]
     return out
 
 

@@ -211,12 +211,20 @@ def start_rows(
         _fill(i, g, 0, min(n, weights.shape[1]), factor, gy, gz2, ky, kz, sizes, paths, dx2, scale, weights)
         first[i] = 0
         x, y, x_c = paths[i, 0, 0, 0], paths[i, 0, 0, 1], cx[g]
-        base[i, :] = kernel_params[g]
+        # (copies element by element, here and in put_rows: a slice assignment from an array
+        # compiles numba's shape-mismatch error path, seconds of compile in every process)
+        for c in range(base.shape[1]):
+            base[i, c] = kernel_params[g, c]
         base[i, PARAM_G_SIDE] = 1.0 if x > x_c else (-1.0 if x < x_c else 0.0)
         base[i, PARAM_GX], base[i, PARAM_GY] = x, y
-        nodes[i, 0, :k], nodes[i, 1, :k] = kernel_nodes[g, 0], kernel_nodes[g, 1]
-        nodes[i, 2, :k] = weights[i, 0]
-        params[i, :] = base[i]
+        for m in range(k):
+            nodes[i, 0, m], nodes[i, 1, m], nodes[i, 2, m] = (
+                kernel_nodes[g, 0, m],
+                kernel_nodes[g, 1, m],
+                weights[i, 0, m],
+            )
+        for c in range(params.shape[1]):
+            params[i, c] = base[i, c]
         for c in range(episode.shape[1]):
             if not drawn[c]:
                 episode[i, c] = episode_rows[g, c]
@@ -248,9 +256,11 @@ def put_rows(
             _fill(i, g, slot, count, factor, gy, gz2, ky, kz, sizes, paths, dx2, scale,
                   weights)  # fmt: skip
             first[i], at = slot, 0
-        nodes[i, 2, : weights.shape[2]] = weights[i, at]
+        for m in range(weights.shape[2]):
+            nodes[i, 2, m] = weights[i, at, m]
         x, y, x_c = paths[i, slot, 0, 0], paths[i, slot, 0, 1], cx[geometry[i]]
-        params[i, :] = base[i]
+        for c in range(params.shape[1]):
+            params[i, c] = base[i, c]
         params[i, PARAM_G_SIDE] = 1.0 if x > x_c else (-1.0 if x < x_c else 0.0)
         params[i, PARAM_GX], params[i, PARAM_GY] = x, y
 

@@ -98,7 +98,8 @@ def node_paths(config: ScenarioConfig, rng: np.random.Generator) -> np.ndarray:
         normals = rng.standard_normal((config.N - 1, k_nodes, 2))
         return _walk(w, v, mean, normals, lo, hi, a, gain, config.dt)
     out = np.empty((config.N, k_nodes, 2))
-    out[0] = w
+    for k in range(w.shape[0]):  # (not out[0] = w: that compiles numba's shape-mismatch error path)
+        out[0, k, 0], out[0, k, 1] = w[k, 0], w[k, 1]
     for n in range(config.N - 1):
         step = w + v * config.dt
         v = a * v + (1.0 - a) * mean + gain * rng.standard_normal((k_nodes, 2))
@@ -119,7 +120,8 @@ def _walk(
     order (no fused multiply-add, no reassociation), so the same paths bit for bit."""
     v, mean = v.copy(), mean.copy()
     out = np.empty((normals.shape[0] + 1, w.shape[0], 2))
-    out[0] = w
+    for k in range(w.shape[0]):  # (not out[0] = w: that compiles numba's shape-mismatch error path)
+        out[0, k, 0], out[0, k, 1] = w[k, 0], w[k, 1]
     for n in range(normals.shape[0]):
         for k in range(w.shape[0]):
             for c in range(2):

@@ -55,6 +55,7 @@ from ios_uav_env.model.channel import (
     PARAM_Z_U2,
     rates_at,
 )
+from ios_uav_env.model.rate_rows import merge_order
 
 #: Relative widening of every block's bound (the module's docstring).
 BOUND_SLACK = 1e-9
@@ -150,6 +151,30 @@ def _blocks(nx: int, ny: int, nline: int, block: int) -> np.ndarray:
     return out
 
 
+@jit(fastmath=False)
+def decreasing_order(values: np.ndarray) -> np.ndarray:
+    """The indices of ``values`` by decreasing value, ties by index, NaN last: the order of
+    ``np.argsort(-values, kind="stable")``, by the b-bit search's merge sort
+    (``rate_rows.merge_order``; numba's ``np.argsort`` costs seconds more to compile, in every
+    process that searches a peak)."""
+    n = values.shape[0]
+    key, numbers, order = np.empty(n), np.empty(n, dtype=np.int64), np.empty(n, dtype=np.int64)
+    count, last = 0, n
+    for j in range(n - 1, -1, -1):  # the NaNs to the end, in index order
+        if math.isnan(values[j]):
+            last -= 1
+            order[last] = j
+    for j in range(n):
+        key[j] = -values[j]
+        if not math.isnan(values[j]):
+            numbers[count] = j
+            count += 1
+    part = merge_order(numbers[:count], key)
+    for j in range(count):
+        order[j] = part[j]
+    return order
+
+
 @jit
 def grid_argmax(
     xs: np.ndarray, ys: np.ndarray, line: np.ndarray, q0: np.ndarray, qf: np.ndarray, d: float, moves: int,
@@ -177,7 +202,7 @@ def grid_argmax(
                 xa, xb = min(xa, line[p, 0]), max(xb, line[p, 0])
                 ya, yb = min(ya, line[p, 1]), max(yb, line[p, 1])
         bounds[j] = block_bound(xa, xb, ya, yb, nodes, params)
-    order = np.argsort(-bounds)
+    order = decreasing_order(bounds)
     best, best_i = -math.inf, -1
     points, index = np.empty((block * block, 2)), np.empty(block * block, dtype=np.int64)
     for j in order:

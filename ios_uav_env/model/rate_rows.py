@@ -126,7 +126,9 @@ def offset_order(offset: np.ndarray, m: int, width: float) -> np.ndarray:
     for b in range(m):
         lo, hi = count[b], count[b + 1]
         if hi - lo > _INSERTION_MAX:
-            order[lo:hi] = merge_order(order[lo:hi], offset)
+            part = merge_order(order[lo:hi], offset)
+            for p in range(hi - lo):  # (element by element: a slice assignment compiles numba's
+                order[lo + p] = part[p]  # shape-mismatch error path, about 2 s more of compile)
             continue
         for p in range(lo + 1, hi):
             k, value = order[p], offset[order[p]]

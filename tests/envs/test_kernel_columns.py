@@ -69,7 +69,7 @@ MODULES = {
         {"layers", "settings", "stats"},
         {
             "theta", "grad", "exp_avg", "exp_avg_sq", "db", "b",  # flat parameter vectors and slices
-            "obs", "actions", "mean", "d_mean", "h", "d", "y", "acts",  # the nets' rows and activations
+            "obs", "actions", "mean", "d_mean", "h", "d", "y", "acts", "out",  # the nets' rows, activations
             "value", "d_value",  # the critic's single output
             "advantages", "old_logp", "logp", "returns", "orders", "inv_var", "g_log_std",
             "values",  # update_settings' keyword arguments
@@ -87,7 +87,7 @@ MODULES = {
         {
             "nodes", "points", "out",  # the (3, K) surface nodes per row, (x, y) pairs, one per point
             "t_re", "t_im", "offset", "order", "turn_re", "turn_im",  # discrete_zeta_row's, one per element
-            "count", "bucket", "fill", "src", "dst",  # offset_order's and merge_order's
+            "count", "bucket", "fill", "src", "dst", "part",  # offset_order's and merge_order's
         },
     ),
     "ios_uav_env/model/maxmin_paths.py": (

@@ -13,7 +13,7 @@ from ios_uav_env.jit import HAVE_NUMBA
 from ios_uav_env.model.channel import PARAMS, rate_kernel, rate_point
 from ios_uav_env.model.config import ScenarioConfig, scene_box
 from ios_uav_env.model.peak import Peak, _axis, _ellipse_box, _exhaustive, rate_peak, search_margin
-from ios_uav_env.model.peak_search import block_bound, fine_axis, grid_argmax, straight_line
+from ios_uav_env.model.peak_search import block_bound, decreasing_order, fine_axis, grid_argmax, straight_line
 from ios_uav_env.model.scenarios import DEFAULT_RANGES, ScenarioRanges, sample_scenario
 from tests.processes import run_without_numba
 
@@ -135,6 +135,19 @@ def test_ties_go_to_the_first_point_as_argmax_does():
         assert (i, rate) == (0, 1.0)  # point 0 is q0 itself, reachable
         i, _ = grid_argmax(xs, ys, np.zeros((0, 2)), q0, qf, 10.0, 40, 0.0, 1.0, 1, nodes, params, block)
         assert i == 6  # G's side (x > 0): the first such point is column 6 of row 0
+
+
+@pytest.mark.parametrize("n", [0, 1, 2, 7, 40, 300])
+def test_blocks_are_visited_by_decreasing_bound_ties_by_index_nan_last(n):
+    """The visiting order is numpy's stable argsort of -bounds: a wrong order would stop the
+    search before a block that holds the peak; ties and NaN (last) included."""
+    rng = np.random.default_rng(n)
+    for values in (rng.normal(size=n), rng.integers(0, 3, size=n).astype(float), np.full(n, 2.0)):
+        values[rng.random(n) < 0.2] = np.nan
+        values[rng.random(n) < 0.1] = -np.inf
+        order = decreasing_order(values)
+        assert order.dtype == np.int64
+        np.testing.assert_array_equal(order, np.argsort(-values, kind="stable"))
 
 
 def test_a_negative_weight_disables_pruning():
