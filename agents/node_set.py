@@ -47,7 +47,7 @@ from torch import nn
 
 from agents.node_orders import MASK, MOVE, NodeLayout  # the node block's mask entry, the move's entries
 from ios_uav_env.envs.multi import BASE_FEATURES
-from ios_uav_env.jit import HAVE_NUMBA, jit
+from ios_uav_env.jit import HAVE_NUMBA, copy_into, jit
 
 #: The encoder's widths when ``net_arch`` gives none for the actor.
 DEFAULT_ARCH = (64, 64)
@@ -158,21 +158,15 @@ def _forward_one(scene: np.ndarray, nodes: np.ndarray, k_real: int, k_max: int, 
     weights = np.exp(heads[:, 1] - top)
     weights /= weights.sum()
     joined = np.zeros((1, base + 2 * h.shape[1]))
-    # (copies element by element here and below: a slice assignment from an array compiles
-    # numba's shape-mismatch error path, about 2 s more of compile)
-    for j in range(base):
-        joined[0, j] = scene[j]
-    for j in range(h.shape[1]):
-        joined[0, base + j] = context[0, j]
+    copy_into(joined[0], scene)  # (jit.copy_into: no slice assignment in a kernel)
+    copy_into(joined[0, base:], context[0])
     pooled = joined[0, base + h.shape[1] :]  # (a view: `joined[0, a:] += ...` would assign a slice)
     for i in range(k_real):
         pooled += weights[i] * g[i]
     move = _dense(_dense(joined, w_move, b_move, True), w_out, b_out, False)[0]
     out = np.zeros(MOVE + k_max)
-    for j in range(MOVE):
-        out[j] = move[j]
-    for i in range(k_real):
-        out[MOVE + i] = heads[i, 0]
+    copy_into(out, move)
+    copy_into(out[MOVE:], heads[:, 0])
     return out
 
 

@@ -120,3 +120,22 @@ def threads_for(num_threads: int | None, size: int) -> int | None:
     """``num_threads`` for a batched call of ``size`` rows: 1 (this thread alone) below
     :data:`FEW_ROWS`."""
     return 1 if size < FEW_ROWS else num_threads
+
+
+def _copy_loop(dst: Any, src: Any) -> None:
+    for j in range(src.shape[0]):
+        dst[j] = src[j]
+
+
+def _copy_slice(dst: Any, src: Any) -> None:
+    dst[: src.shape[0]] = src
+
+
+#: ``copy_into(dst, src)``: ``dst[:len(src)] = src`` for 1-D arrays, in a kernel element by element.
+#: A slice assignment from an array in a compiled function makes numba compile its shape-mismatch
+#: error path (an f-string of the shapes: its string formatting), seconds of compile in every
+#: process that compiles such a kernel; the kernels copy with this instead. Without numba: numpy's
+#: slice assignment.
+copy_into: Callable[[Any, Any], None] = (
+    jit(inline=True, fastmath=False)(_copy_loop) if HAVE_NUMBA else _copy_slice
+)

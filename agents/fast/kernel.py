@@ -43,7 +43,7 @@ import math
 
 import numpy as np
 
-from ios_uav_env.jit import jit, prange
+from ios_uav_env.jit import copy_into, jit, prange
 
 #: Eigen's float tanh (``generic_fast_tanh_float``, the one PyTorch's CPU kernels use): a 13/6
 #: rational approximation on [-c, c], within 3e-7 of tanh; numba's ``np.tanh`` calls the scalar
@@ -152,7 +152,7 @@ def _backward(
             for i in range(d.shape[0]):
                 for j in range(n_out):
                     d[i, j] *= np.float32(1.0) - y[i, j] * y[i, j]
-        grad[w_off : w_off + n_out * n_in] = np.dot(d.T, acts[k]).ravel()
+        copy_into(grad[w_off : w_off + n_out * n_in], np.dot(d.T, acts[k]).ravel())
         db = grad[b_off : b_off + n_out]
         db[:] = 0.0
         for i in range(d.shape[0]):  # the bias's gradient, row by row (vectorised over j)

@@ -23,7 +23,7 @@ from ios_uav_env.envs.single_kernels import (
     EP_QFX,
     EP_QFY,
 )
-from ios_uav_env.jit import jit
+from ios_uav_env.jit import copy_into, jit
 from ios_uav_env.model.motion import walk_component
 from ios_uav_env.model.rate_kernels import PARAM_G_SIDE, PARAM_GX, PARAM_GY
 from ios_uav_env.model.weight_kernels import interpolated_weights_into
@@ -207,24 +207,17 @@ def start_rows(
         drawn[c] = True
     for j in range(rows.size):
         i, g = rows[j], geometry[j]
-        n, k = slots[i], kernel_nodes.shape[2]
+        n = slots[i]
         _fill(i, g, 0, min(n, weights.shape[1]), factor, gy, gz2, ky, kz, sizes, paths, dx2, scale, weights)
         first[i] = 0
         x, y, x_c = paths[i, 0, 0, 0], paths[i, 0, 0, 1], cx[g]
-        # (copies element by element, here and in put_rows: a slice assignment from an array
-        # compiles numba's shape-mismatch error path, seconds of compile in every process)
-        for c in range(base.shape[1]):
-            base[i, c] = kernel_params[g, c]
+        copy_into(base[i], kernel_params[g])
         base[i, PARAM_G_SIDE] = 1.0 if x > x_c else (-1.0 if x < x_c else 0.0)
         base[i, PARAM_GX], base[i, PARAM_GY] = x, y
-        for m in range(k):
-            nodes[i, 0, m], nodes[i, 1, m], nodes[i, 2, m] = (
-                kernel_nodes[g, 0, m],
-                kernel_nodes[g, 1, m],
-                weights[i, 0, m],
-            )
-        for c in range(params.shape[1]):
-            params[i, c] = base[i, c]
+        copy_into(nodes[i, 0], kernel_nodes[g, 0])  # (the first kernel_nodes.shape[2] entries of each)
+        copy_into(nodes[i, 1], kernel_nodes[g, 1])
+        copy_into(nodes[i, 2], weights[i, 0])
+        copy_into(params[i], base[i])
         for c in range(episode.shape[1]):
             if not drawn[c]:
                 episode[i, c] = episode_rows[g, c]
@@ -256,11 +249,9 @@ def put_rows(
             _fill(i, g, slot, count, factor, gy, gz2, ky, kz, sizes, paths, dx2, scale,
                   weights)  # fmt: skip
             first[i], at = slot, 0
-        for m in range(weights.shape[2]):
-            nodes[i, 2, m] = weights[i, at, m]
+        copy_into(nodes[i, 2], weights[i, at])
         x, y, x_c = paths[i, slot, 0, 0], paths[i, slot, 0, 1], cx[geometry[i]]
-        for c in range(params.shape[1]):
-            params[i, c] = base[i, c]
+        copy_into(params[i], base[i])
         params[i, PARAM_G_SIDE] = 1.0 if x > x_c else (-1.0 if x < x_c else 0.0)
         params[i, PARAM_GX], params[i, PARAM_GY] = x, y
 

@@ -41,7 +41,7 @@ from ios_uav_env.envs.multi_table import (
     PT_Y,
 )
 from ios_uav_env.envs.node_weights import PT_GX, PT_GY, PT_SCALE
-from ios_uav_env.jit import jit
+from ios_uav_env.jit import copy_into, jit
 from ios_uav_env.model.motion import walk_component
 
 
@@ -152,7 +152,7 @@ def start_node_rows(
         q = widths[g]
         w_which[i], w_factors[i], w_widths[i] = which[g], factors[g], q
         w_counts[i], w_slots[i] = counts[i], slots[i]
-        w_base[i, :] = params[g]
+        copy_into(w_base[i], params[g])
         for k in range(counts[i]):
             kernel = nodes[i, k]
             for x in range(q):

@@ -36,7 +36,7 @@ from ios_uav_env.envs.knowledge import (
     _rectangles,
     nodes_track_kernels,
 )
-from ios_uav_env.jit import HAVE_NUMBA, jit, prange, run_batched, threads_for
+from ios_uav_env.jit import HAVE_NUMBA, copy_into, jit, prange, run_batched, threads_for
 from ios_uav_env.model.config import ScenarioConfig
 from ios_uav_env.model.motion import node_paths
 from ios_uav_env.model.node_kernels import kernel_config
@@ -346,7 +346,7 @@ def _put_block(
             for y in range(nz):
                 out[x * nz + y] = factor * weights[x, y, j]
         dx = point[PT_GX] - cx[i]
-        params[i, k, :] = base[i]
+        copy_into(params[i, k], base[i])
         params[i, k, PARAM_G_SIDE] = 1.0 if dx > 0.0 else (-1.0 if dx < 0.0 else 0.0)  # (np.sign's)
         params[i, k, PARAM_GX] = point[PT_GX]
         params[i, k, PARAM_GY] = point[PT_GY]

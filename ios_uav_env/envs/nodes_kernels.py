@@ -32,7 +32,7 @@ import numpy as np
 
 from ios_uav_env.envs.knowledge_kernels import MODES
 from ios_uav_env.envs.multi_table import BASE_FEATURES
-from ios_uav_env.jit import jit, prange
+from ios_uav_env.jit import copy_into, jit, prange
 from ios_uav_env.model.channel import faded_row
 from ios_uav_env.model.reports import SERVED_SHARE
 
@@ -73,10 +73,9 @@ def gather_node_kernels(
         kernel, scalars = track_nodes[i], track_params[i]
         if slot >= kernel.shape[1]:
             continue
-        q = kernel.shape[3]
         for k in range(kernel.shape[0]):
-            nodes[i, k, 2, :q] = kernel[k, slot, 2]
-            params[i, k, :] = scalars[k, slot]
+            copy_into(nodes[i, k, 2], kernel[k, slot, 2])  # (its first kernel.shape[3] entries)
+            copy_into(params[i, k], scalars[k, slot])
 
 
 @jit

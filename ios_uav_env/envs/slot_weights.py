@@ -23,7 +23,7 @@ from typing import Any
 
 import numpy as np
 
-from ios_uav_env.jit import jit
+from ios_uav_env.jit import copy_into, jit
 from ios_uav_env.model.config import ScenarioConfig
 from ios_uav_env.model.rate_kernels import PARAM_G_SIDE, PARAM_GX, PARAM_GY
 from ios_uav_env.model.surface import path_weights_into
@@ -91,13 +91,13 @@ def put_slot_kernels(
         slot = int(state[i, 2]) + ahead
         if slots[i] > 0:
             if slot < slots[i]:
-                nodes[i, 2, : weights.shape[2]] = weights[i, slot]
-                params[i, :] = base[i]
+                copy_into(nodes[i, 2], weights[i, slot])  # (its first weights.shape[2] entries)
+                copy_into(params[i], base[i])
                 params[i, PARAM_G_SIDE] = grounds[i, slot, 0]
                 params[i, PARAM_GX] = grounds[i, slot, 1]
                 params[i, PARAM_GY] = grounds[i, slot, 2]
             continue
         kernel = track_nodes[i]
         if slot < kernel.shape[0]:
-            nodes[i, 2, : kernel.shape[2]] = kernel[slot, 2]
-            params[i, :] = track_params[i][slot]
+            copy_into(nodes[i, 2], kernel[slot, 2])
+            copy_into(params[i], track_params[i][slot])

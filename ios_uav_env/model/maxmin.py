@@ -38,7 +38,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ios_uav_env.jit import jit
+from ios_uav_env.jit import copy_into, jit
 from ios_uav_env.model.maxmin_master import invert, master, reduced, refine
 
 #: Largest K the fast path takes (the master has K + 1 rows; more nodes: HiGHS).
@@ -164,14 +164,14 @@ def maxmin_kernel(r: np.ndarray, shares: np.ndarray, weights: np.ndarray) -> tup
         g = _price(r, w_s, assign[n_cols], bounds, cols[n_cols], top)
         if g < best_g:
             best_g = g
-            w_best[:] = w_s
+            copy_into(w_best, w_s)
         if reduced(new, k_n, y, cols, coef) > STOP:  # it improves the master's t: keep it
             n_cols += 1
             continue
         g = _price(r, w, assign[n_cols], bounds, cols[n_cols], top)  # else the master's own w
         if g < best_g:
             best_g = g
-            w_best[:] = w
+            copy_into(w_best, w)
         if reduced(new, k_n, y, cols, coef) <= STOP:
             break
         n_cols += 1

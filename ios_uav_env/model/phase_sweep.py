@@ -22,7 +22,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ios_uav_env.jit import jit
+from ios_uav_env.jit import copy_into, jit
 from ios_uav_env.model.miso_noma import _value
 
 __all__ = ["add_rank_one", "balanced", "maxmin_sweep", "sic_sweep", "sweep_angle"]
@@ -104,17 +104,17 @@ def maxmin_sweep(
         now = v[m]
         base = np.angle(now)
         best, best_angle = current, base
-        best_p[:] = p
+        copy_into(best_p, p)
         for c in range(n_grid + 2 * n_halvings):
             angle = sweep_angle(c, n_grid, base, best_angle)  # c = 0: the current phase, rebalanced
             step = 0j if c == 0 else np.exp(1j * angle) - now
             value = balanced(r, B, m, step, p, rounds, g, q)
             if value > best:
                 best, best_angle = value, angle
-                best_p[:] = q
+                copy_into(best_p, q)
         if best > current:
             current = best
-            p[:] = best_p
+            copy_into(p, best_p)
             if best_angle != base:
                 new = np.exp(1j * best_angle)
                 step = new - now

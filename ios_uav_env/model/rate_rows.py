@@ -19,7 +19,7 @@ import math
 
 import numpy as np
 
-from ios_uav_env.jit import jit
+from ios_uav_env.jit import copy_into, jit
 
 #: Layout of ``RateKernel.params`` (the scalars of :func:`zeta_point`), by name.
 PARAMS = (
@@ -126,9 +126,7 @@ def offset_order(offset: np.ndarray, m: int, width: float) -> np.ndarray:
     for b in range(m):
         lo, hi = count[b], count[b + 1]
         if hi - lo > _INSERTION_MAX:
-            part = merge_order(order[lo:hi], offset)
-            for p in range(hi - lo):  # (element by element: a slice assignment compiles numba's
-                order[lo + p] = part[p]  # shape-mismatch error path, about 2 s more of compile)
+            copy_into(order[lo:hi], merge_order(order[lo:hi], offset))  # (no slice assignment)
             continue
         for p in range(lo + 1, hi):
             k, value = order[p], offset[order[p]]

@@ -87,7 +87,7 @@ MODULES = {
         {
             "nodes", "points", "out",  # the (3, K) surface nodes per row, (x, y) pairs, one per point
             "t_re", "t_im", "offset", "order", "turn_re", "turn_im",  # discrete_zeta_row's, one per element
-            "count", "bucket", "fill", "src", "dst", "part",  # offset_order's and merge_order's
+            "count", "bucket", "fill", "src", "dst",  # offset_order's and merge_order's
         },
     ),
     "ios_uav_env/model/maxmin_paths.py": (
