@@ -98,8 +98,7 @@ def node_paths(config: ScenarioConfig, rng: np.random.Generator) -> np.ndarray:
         normals = rng.standard_normal((config.N - 1, k_nodes, 2))
         return _walk(w, v, mean, normals, lo, hi, a, gain, config.dt)
     out = np.empty((config.N, k_nodes, 2))
-    for k in range(w.shape[0]):  # (not out[0] = w: that compiles numba's shape-mismatch error path)
-        out[0, k, 0], out[0, k, 1] = w[k, 0], w[k, 1]
+    out[0] = w
     for n in range(config.N - 1):
         step = w + v * config.dt
         v = a * v + (1.0 - a) * mean + gain * rng.standard_normal((k_nodes, 2))
