@@ -371,17 +371,12 @@ def _forward_parallel(
     value: np.ndarray,
 ) -> None:  # fmt: skip
     for branch in prange(2):  # the actor's and the critic's passes, one thread each
-        # (copied element by element: a slice assignment from an array compiles numba's
-        # shape-mismatch error path, about 2 s more of compile)
-        if branch == 0:
+        if branch == 0:  # (copy_into, row by row: no slice assignment in a kernel)
             out = _forward(theta, pi_layers, obs)[-1]
             for i in range(out.shape[0]):
-                for j in range(out.shape[1]):
-                    mean[i, j] = out[i, j]
+                copy_into(mean[i], out[i])
         else:
-            out = _forward(theta, vf_layers, obs)[-1]
-            for i in range(out.shape[0]):
-                value[i] = out[i, 0]
+            copy_into(value, _forward(theta, vf_layers, obs)[-1][:, 0])
 
 
 @jit

@@ -39,7 +39,7 @@ from typing import Any
 
 import numpy as np
 
-from ios_uav_env.jit import HAVE_NUMBA, jit
+from ios_uav_env.jit import HAVE_NUMBA, copy_into, jit
 from ios_uav_env.model.config import ScenarioConfig
 from ios_uav_env.model.mobility import BOX_MARGIN, GaussMarkov, as_motion, rectangles, reflect
 
@@ -119,8 +119,8 @@ def _walk(
     order (no fused multiply-add, no reassociation), so the same paths bit for bit."""
     v, mean = v.copy(), mean.copy()
     out = np.empty((normals.shape[0] + 1, w.shape[0], 2))
-    for k in range(w.shape[0]):  # (not out[0] = w: that compiles numba's shape-mismatch error path)
-        out[0, k, 0], out[0, k, 1] = w[k, 0], w[k, 1]
+    for k in range(w.shape[0]):  # (copy_into, row by row: out[0] = w is a row assignment)
+        copy_into(out[0, k], w[k])
     for n in range(normals.shape[0]):
         for k in range(w.shape[0]):
             for c in range(2):

@@ -40,7 +40,7 @@ import math
 
 import numpy as np
 
-from ios_uav_env.jit import jit
+from ios_uav_env.jit import copy_into, jit
 from ios_uav_env.model.channel import (
     PARAM_ANTENNAS,
     PARAM_D_EXP,
@@ -169,9 +169,7 @@ def decreasing_order(values: np.ndarray) -> np.ndarray:
         if not math.isnan(values[j]):
             numbers[count] = j
             count += 1
-    part = merge_order(numbers[:count], key)
-    for j in range(count):
-        order[j] = part[j]
+    copy_into(order, merge_order(numbers[:count], key))
     return order
 
 
