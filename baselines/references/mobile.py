@@ -22,7 +22,7 @@ import dataclasses
 import functools
 import time
 import traceback
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from typing import Any
 
 import numpy as np
@@ -55,14 +55,24 @@ def is_mobile(config: ScenarioConfig) -> bool:
 def mobile_tasks(n: int, seed: int, ranges: ScenarioRanges = MOBILE_RANGES) -> list[dict[str, Any]]:
     """The first ``n`` mobile tasks ``{"index", "config", "seed"}`` (module docstring, "Draws");
     ``ranges.base`` must have a motion model (``ValueError`` otherwise)."""
+    return draw_tasks(n, seed, ranges, MOBILE_SPAWN_KEY, sample_scenario)
+
+
+def draw_tasks(
+    n: int, seed: int, ranges: ScenarioRanges, spawn_key: tuple[int, ...],
+    sample: Callable[[np.random.Generator, ScenarioRanges], ScenarioConfig],
+) -> list[dict[str, Any]]:  # fmt: skip
+    """The first ``n`` tasks ``{"index", "config", "seed"}`` of moving-node scenarios drawn by
+    ``sample`` from ``ranges`` (with a motion model: ``ValueError`` otherwise), each config then
+    its episode seed from one generator of (``seed``, ``spawn_key``)."""
     if isinstance(n, bool) or not isinstance(n, (int, np.integer)) or n < 1:
         raise ValueError(f"n must be an integer >= 1 (scenarios), got {n!r}")
     if ranges.base.motion is None:
         raise ValueError("ranges.base.motion must be a motion model for mobile scenarios, got None")
-    rng = np.random.default_rng(np.random.SeedSequence(entropy=int(seed), spawn_key=MOBILE_SPAWN_KEY))
+    rng = np.random.default_rng(np.random.SeedSequence(entropy=int(seed), spawn_key=spawn_key))
     tasks = []
     for i in range(int(n)):
-        config = sample_scenario(rng, ranges)
+        config = sample(rng, ranges)
         tasks.append({"index": i, "config": config.to_dict(), "seed": int(rng.integers(2**31))})
     return tasks
 

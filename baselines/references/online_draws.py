@@ -13,8 +13,7 @@ from __future__ import annotations
 import dataclasses
 from typing import Any
 
-import numpy as np
-
+from baselines.references.mobile import draw_tasks
 from ios_uav_env import MULTINODE_RANGES, ScenarioRanges, sample_multinode
 from ios_uav_env.model.mobility import GaussMarkov
 
@@ -48,13 +47,4 @@ def multi_mobile_tasks(
 ) -> list[dict[str, Any]]:
     """The first ``n`` multi-node mobile tasks ``{"index", "config", "seed"}`` (module docstring,
     "Draws"); ``ranges.base`` must have a motion model (``ValueError`` otherwise)."""
-    if isinstance(n, bool) or not isinstance(n, (int, np.integer)) or n < 1:
-        raise ValueError(f"n must be an integer >= 1 (scenarios), got {n!r}")
-    if ranges.base.motion is None:
-        raise ValueError("ranges.base.motion must be a motion model for mobile scenarios, got None")
-    rng = np.random.default_rng(np.random.SeedSequence(entropy=int(seed), spawn_key=MULTI_MOBILE_SPAWN_KEY))
-    tasks = []
-    for i in range(int(n)):
-        config = sample_multinode(rng, ranges)
-        tasks.append({"index": i, "config": config.to_dict(), "seed": int(rng.integers(2**31))})
-    return tasks
+    return draw_tasks(n, seed, ranges, MULTI_MOBILE_SPAWN_KEY, sample_multinode)
