@@ -88,6 +88,20 @@ def optimise_slot(
     if not (isinstance(random_starts, (int, np.integer)) and random_starts >= 0):
         raise ValueError(f"random_starts must be an integer >= 0, got {random_starts!r}")
     rng = np.random.default_rng(0) if rng is None else rng
+    starts = aligned_starts(channel)
+    for i in range(random_starts):
+        psi = random_phases(channel, rng)
+        starts.append((f"random {i} MRT", psi, mrt_beams(channel.matrix(psi))))
+    runs = [
+        alternate(channel, objective, psi, W, max_iter=max_iter, tol=tol, start=name, weights=weights)
+        for name, psi, W in starts
+    ]
+    return max(runs, key=lambda run: run.value)
+
+
+def aligned_starts(channel: SlotChannel) -> list[tuple[str, np.ndarray, np.ndarray]]:
+    """The deterministic starts of :func:`optimise_slot`, as (name, phases, beams): each user's
+    aligned phases with MRT and, when N_t >= K and the channels are independent, ZF beams."""
     starts = []
     for k in range(channel.K):
         psi = aligned_phases(channel, k)
@@ -98,14 +112,7 @@ def optimise_slot(
                 starts.append((f"aligned {k} ZF", psi, zf_beams(H)))
             except ValueError:  # dependent channels: no ZF start
                 pass
-    for i in range(random_starts):
-        psi = random_phases(channel, rng)
-        starts.append((f"random {i} MRT", psi, mrt_beams(channel.matrix(psi))))
-    runs = [
-        alternate(channel, objective, psi, W, max_iter=max_iter, tol=tol, start=name, weights=weights)
-        for name, psi, W in starts
-    ]
-    return max(runs, key=lambda run: run.value)
+    return starts
 
 
 def alone_starts(channel: SlotChannel) -> list[tuple[str, np.ndarray, np.ndarray]]:
@@ -235,31 +242,37 @@ def wmmse_beams(H: np.ndarray, W: np.ndarray, weights: np.ndarray | None = None)
     Z[null] = 0.0
     lam = np.where(null, 0.0, lam)
     energy = np.sum(np.abs(Z) ** 2, axis=1)
-    live_energy, live_lam = energy[energy > 0], lam[energy > 0]
-
-    def power(mu: float) -> float:
-        return float((live_energy / (live_lam + mu) ** 2).sum())
-
-    if np.any((energy > 0) & null) or power(0.0) > 1.0:
-        hi = float(np.sqrt(energy.sum()))  # power(hi) <= 1
-        if live_energy.size <= _SHORT_SUM:  # the compiled bisection, numpy's sums bit for bit
-            mu = _power_level(live_energy, live_lam, hi)
-        else:
-            lo = 0.0
-            for _ in range(200):
-                mu = 0.5 * (lo + hi)
-                lo, hi = (mu, hi) if power(mu) > 1.0 else (lo, mu)
-                if hi - lo <= 1e-15 * hi:
-                    break
-            mu = hi
-    else:
-        mu = 0.0
+    mu = _power_multiplier(energy, lam, null)
     scale = np.zeros_like(lam)
     live = energy > 0
     scale[live] = 1.0 / (lam[live] + mu)
     out = U @ (scale[:, None] * Z)
     power_out = float(np.sum(np.abs(out) ** 2))
     return out / np.sqrt(power_out) if power_out > 1.0 else out
+
+
+def _power_multiplier(energy: np.ndarray, lam: np.ndarray, null: np.ndarray) -> float:
+    """The power constraint's multiplier mu >= 0 of :func:`wmmse_beams` for the energies |Z_i|^2 of
+    the right-hand side along Q's eigenvectors and Q's eigenvalues ``lam`` (zero where ``null``):
+    0 when the unconstrained beams fit, else the root of sum_i energy_i / (lam_i + mu)^2 = 1 by
+    bisection."""
+    live_energy, live_lam = energy[energy > 0], lam[energy > 0]
+
+    def power(mu: float) -> float:
+        return float((live_energy / (live_lam + mu) ** 2).sum())
+
+    if not (np.any((energy > 0) & null) or power(0.0) > 1.0):
+        return 0.0
+    hi = float(np.sqrt(energy.sum()))  # power(hi) <= 1
+    if live_energy.size <= _SHORT_SUM:  # the compiled bisection, numpy's sums bit for bit
+        return _power_level(live_energy, live_lam, hi)
+    lo = 0.0
+    for _ in range(200):
+        mu = 0.5 * (lo + hi)
+        lo, hi = (mu, hi) if power(mu) > 1.0 else (lo, mu)
+        if hi - lo <= 1e-15 * hi:
+            break
+    return hi
 
 
 #: Arrays up to this length are summed by numpy's reduction left to right (its pairwise sum adds
@@ -371,6 +384,6 @@ def _maxmin_phases(
 
 
 __all__ = [
-    "SLOT_OBJECTIVES", "SlotSolution", "alone_starts", "alternate", "maxmin_beams", "optimise_slot",
-    "slot_optimum", "wmmse_beams",
+    "SLOT_OBJECTIVES", "SlotSolution", "aligned_starts", "alone_starts", "alternate", "maxmin_beams",
+    "optimise_slot", "slot_optimum", "wmmse_beams",
 ]  # fmt: skip

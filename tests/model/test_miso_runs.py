@@ -1,0 +1,85 @@
+"""model.miso_runs: many weighted-sum AO runs of a slot at once, each equal to miso_slot.alternate's
+run from the same start bit for bit (the arithmetic is the same, operation for operation), on
+drawn channels of every shape the scorer meets and wider arrays whose power multiplier is left to
+the plain-Python bisection."""
+
+import numpy as np
+import pytest
+
+from ios_uav_env.model.miso import SlotChannel
+from ios_uav_env.model.miso_runs import _LEFT, _multipliers, best_weighted_rates, weighted_sum_runs
+from ios_uav_env.model.miso_slot import aligned_starts, alternate, optimise_slot
+
+
+def _channel(rng: np.random.Generator, k: int, n_t: int, m: int, scale: float) -> SlotChannel:
+    def gaussian(*shape: int) -> np.ndarray:
+        return rng.normal(size=shape) + 1j * rng.normal(size=shape)
+
+    steering = np.exp(1j * rng.uniform(0.0, 2 * np.pi, (m, n_t)))
+    return SlotChannel(scale * gaussian(k, m), steering, scale * gaussian(k, n_t), rank_one=False)
+
+
+# (K, N_t, M, scale): the SDMA ids' shapes, a single antenna, and K = 8 users on N_t = 9 antennas (8 > 7
+# live eigenvalues: the multiplier's plain-Python bisection); scales from interference- to noise-limited
+SHAPES = [(2, 2, 4, 3.0), (3, 4, 8, 10.0), (4, 4, 16, 1.0), (3, 1, 6, 30.0), (8, 9, 3, 5.0), (4, 3, 1, 0.05)]
+
+
+@pytest.mark.parametrize("k, n_t, m, scale", SHAPES)
+def test_every_run_is_alternates_run_bit_for_bit(k, n_t, m, scale):
+    rng = np.random.default_rng(k * 100 + n_t * 10 + m)
+    channel = _channel(rng, k, n_t, m, scale)
+    starts = aligned_starts(channel) * 3
+    phases = np.array([psi for _, psi, _ in starts])
+    beams = np.array([w for _, _, w in starts])
+    weights = rng.dirichlet(np.ones(k), size=len(starts))
+    weights[0] = 0.0  # a run that weighs no user
+    iterations = set()
+    for max_iter in (0, 3, 12):
+        values, rates = weighted_sum_runs(channel, phases, beams, weights, max_iter=max_iter)
+        for i in range(len(starts)):
+            run = alternate(channel, "sum", phases[i], beams[i], weights=weights[i], max_iter=max_iter)
+            assert values[i] == run.value and np.array_equal(rates[i], run.rates), (max_iter, i)
+            iterations.add(len(run.history))
+    assert len(iterations) > 3  # runs stop at different iterations: the stopping rule is per run
+
+
+def test_the_best_run_per_weight_is_optimise_slots():
+    rng = np.random.default_rng(7)
+    for k, n_t, m, scale in SHAPES:
+        channel = _channel(rng, k, n_t, m, scale)
+        weights = np.vstack([np.eye(k), rng.dirichlet(np.ones(k), size=4)])
+        best = best_weighted_rates(channel, weights, max_iter=10)
+        for w, rates in zip(weights, best, strict=True):
+            expected = optimise_slot(channel, "sum", random_starts=0, max_iter=10, weights=w).rates
+            assert np.array_equal(rates, expected), (k, n_t, m, w)
+
+
+def test_a_wide_array_leaves_its_multiplier_to_the_plain_python_bisection():
+    energy, lam = np.full((2, 9), 4.0), np.full((2, 9), 0.5)
+    energy[1, 2:] = 0.0  # seven live eigenvalues: the compiled loop's
+    mu = np.empty(2)
+    _multipliers(energy, lam, np.zeros((2, 9), dtype=bool), np.sqrt(energy.sum(axis=1)), mu)
+    assert mu[0] == _LEFT and mu[1] > 0.0
+
+
+@pytest.mark.parametrize(
+    "change, message",
+    [
+        (lambda p, b, w: (p[:, :-1], b, w), "phases must be a finite"),
+        (lambda p, b, w: (p, 2.0 * b, w), "total power"),
+        (lambda p, b, w: (p, b[:, :, :1], w), "beams must be a finite"),
+        (lambda p, b, w: (p, b, -w), "weights must be a finite"),
+        (lambda p, b, w: (p, b, w[:1]), "weights must be a finite"),
+    ],
+)
+def test_bad_runs_are_refused_naming_the_field(change, message):
+    rng = np.random.default_rng(3)
+    channel = _channel(rng, 2, 2, 4, 1.0)
+    starts = aligned_starts(channel)
+    phases = np.array([psi for _, psi, _ in starts])
+    beams = np.array([w for _, _, w in starts])
+    weights = np.full((len(starts), 2), 0.5)
+    with pytest.raises(ValueError, match=message):
+        weighted_sum_runs(channel, *change(phases, beams, weights))
+    with pytest.raises(ValueError, match="max_iter must be an integer >= 0"):
+        weighted_sum_runs(channel, phases, beams, weights, max_iter=-1)
