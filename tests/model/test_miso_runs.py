@@ -28,7 +28,7 @@ SHAPES = [(2, 2, 4, 3.0), (3, 4, 8, 10.0), (4, 4, 16, 1.0), (3, 1, 6, 30.0), (8,
 def test_every_run_is_alternates_run_bit_for_bit(k, n_t, m, scale):
     rng = np.random.default_rng(k * 100 + n_t * 10 + m)
     channel = _channel(rng, k, n_t, m, scale)
-    starts = aligned_starts(channel) * 3
+    starts = aligned_starts(channel) * 2
     phases = np.array([psi for _, psi, _ in starts])
     beams = np.array([w for _, _, w in starts])
     weights = rng.dirichlet(np.ones(k), size=len(starts))
@@ -45,9 +45,9 @@ def test_every_run_is_alternates_run_bit_for_bit(k, n_t, m, scale):
 
 def test_the_best_run_per_weight_is_optimise_slots():
     rng = np.random.default_rng(7)
-    for k, n_t, m, scale in SHAPES:
+    for k, n_t, m, scale in SHAPES[:3]:  # the SDMA ids' shapes
         channel = _channel(rng, k, n_t, m, scale)
-        weights = np.vstack([np.eye(k), rng.dirichlet(np.ones(k), size=4)])
+        weights = np.vstack([np.eye(k)[:1], rng.dirichlet(np.ones(k), size=3)])
         best = best_weighted_rates(channel, weights, max_iter=10)
         for w, rates in zip(weights, best, strict=True):
             expected = optimise_slot(channel, "sum", random_starts=0, max_iter=10, weights=w).rates
