@@ -40,7 +40,6 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ios_uav_env.jit import jit
 from ios_uav_env.model.miso import (
     SLOT_OBJECTIVES,
     SlotChannel,
@@ -52,8 +51,8 @@ from ios_uav_env.model.miso import (
     random_phases,
     sinr,
     user_rates,
-    zf_beams,
 )
+from ios_uav_env.model.miso_runs import _power_multiplier, _wmmse_sweep, aligned_starts, sum_rate_runs
 from ios_uav_env.model.phase_sweep import maxmin_sweep
 
 
@@ -99,22 +98,6 @@ def optimise_slot(
     return max(runs, key=lambda run: run.value)
 
 
-def aligned_starts(channel: SlotChannel) -> list[tuple[str, np.ndarray, np.ndarray]]:
-    """The deterministic starts of :func:`optimise_slot`, as (name, phases, beams): each user's
-    aligned phases with MRT and, when N_t >= K and the channels are independent, ZF beams."""
-    starts = []
-    for k in range(channel.K):
-        psi = aligned_phases(channel, k)
-        H = channel.matrix(psi)
-        starts.append((f"aligned {k} MRT", psi, mrt_beams(H)))
-        if channel.n_t >= channel.K:
-            try:
-                starts.append((f"aligned {k} ZF", psi, zf_beams(H)))
-            except ValueError:  # dependent channels: no ZF start
-                pass
-    return starts
-
-
 def alone_starts(channel: SlotChannel) -> list[tuple[str, np.ndarray, np.ndarray]]:
     """Each user k alone at full power: its aligned phases, MRT on its row, the other beams zero
     (TDMA's sum-rate points as simultaneous settings; WMMSE keeps a zero beam zero), as
@@ -140,7 +123,22 @@ def slot_optimum(
     start, then :func:`alternate` from each user alone (:func:`alone_starts`; the sum rate only,
     so its value is at least TDMA's, one user all the slot) and from ``warm`` (a setting of
     another slot, e.g. the previous one's optimum: its phases and beams are feasible here too).
-    Deterministic: the same channel and ``warm`` give the same solution bit for bit."""
+    Deterministic: the same channel and ``warm`` give the same solution bit for bit. The sum
+    rate's runs go at once (``miso_runs.sum_rate_runs``: :func:`alternate`'s, bit for bit)."""
+    check_objective(objective)
+    if objective == "sum":
+        starts = [*aligned_starts(channel), *alone_starts(channel)]
+        if warm is not None:
+            starts.append(("warm", warm.phases, warm.beams))
+        runs = sum_rate_runs(
+            channel, np.array([p for _, p, _ in starts], dtype=float),
+            np.array([b for _, _, b in starts], dtype=complex), max_iter=max_iter, tol=tol,
+        )  # fmt: skip
+        i = int(np.argmax(runs.values))  # the first best: optimise_slot's max(), then a strict gain
+        return SlotSolution(
+            "sum", float(runs.values[i]), runs.rates[i].copy(), runs.phases[i].copy(), runs.beams[i].copy(),
+            starts[i][0], runs.histories[i],
+        )  # fmt: skip
     best = optimise_slot(channel, objective, random_starts=0, max_iter=max_iter, tol=tol)
     extra = alone_starts(channel) if objective == "sum" else []
     if warm is not None:
@@ -251,54 +249,6 @@ def wmmse_beams(H: np.ndarray, W: np.ndarray, weights: np.ndarray | None = None)
     return out / np.sqrt(power_out) if power_out > 1.0 else out
 
 
-def _power_multiplier(energy: np.ndarray, lam: np.ndarray, null: np.ndarray) -> float:
-    """The power constraint's multiplier mu >= 0 of :func:`wmmse_beams` for the energies |Z_i|^2 of
-    the right-hand side along Q's eigenvectors and Q's eigenvalues ``lam`` (zero where ``null``):
-    0 when the unconstrained beams fit, else the root of sum_i energy_i / (lam_i + mu)^2 = 1 by
-    bisection."""
-    live_energy, live_lam = energy[energy > 0], lam[energy > 0]
-
-    def power(mu: float) -> float:
-        return float((live_energy / (live_lam + mu) ** 2).sum())
-
-    if not (np.any((energy > 0) & null) or power(0.0) > 1.0):
-        return 0.0
-    hi = float(np.sqrt(energy.sum()))  # power(hi) <= 1
-    if live_energy.size <= _SHORT_SUM:  # the compiled bisection, numpy's sums bit for bit
-        return _power_level(live_energy, live_lam, hi)
-    lo = 0.0
-    for _ in range(200):
-        mu = 0.5 * (lo + hi)
-        lo, hi = (mu, hi) if power(mu) > 1.0 else (lo, mu)
-        if hi - lo <= 1e-15 * hi:
-            break
-    return hi
-
-
-#: Arrays up to this length are summed by numpy's reduction left to right (its pairwise sum adds
-#: blocks under 8 in one loop; tested): :func:`_power_level` reproduces it.
-_SHORT_SUM = 7
-
-
-@jit(fastmath=False)
-def _power_level(energy: np.ndarray, lam: np.ndarray, hi: float) -> float:
-    """``wmmse_beams``' bisection on the power multiplier mu: the least hi found with
-    sum_i energy_i / (lam_i + mu)^2 <= 1, each sum added in numpy's order (:data:`_SHORT_SUM`)."""
-    lo = 0.0
-    for _ in range(200):
-        mu = 0.5 * (lo + hi)
-        total = 0.0
-        for i in range(energy.size):
-            total += energy[i] / (lam[i] + mu) ** 2
-        if total > 1.0:
-            lo = mu
-        else:
-            hi = mu
-        if hi - lo <= 1e-15 * hi:
-            break
-    return hi
-
-
 def _cascade(channel: SlotChannel, W: np.ndarray) -> np.ndarray:
     """B (M, K, K): B[m, k, j] = c_km g_m^T w_j, element m's term of h_k w_j per unit v_m."""
     return np.ascontiguousarray(channel.coef.T[:, :, None] * (channel.to_elements @ W)[:, None, :])
@@ -309,30 +259,6 @@ def _sum_rate_phases(
 ) -> np.ndarray:
     u, omega = _receivers(H, W, weights)
     return _wmmse_sweep(v.copy(), _cascade(channel, W), H @ W, omega.astype(float), u.astype(complex))
-
-
-@jit(fastmath=False)
-def _wmmse_sweep(v: np.ndarray, B: np.ndarray, r: np.ndarray, omega: np.ndarray, u: np.ndarray) -> np.ndarray:
-    """One pass of the closed-form element updates of the weighted MSE (the module docstring);
-    ``r`` (K, K) = H W is kept current in place."""
-    M, K = B.shape[0], B.shape[1]
-    for m in range(M):
-        z = 0j
-        for k in range(K):
-            acc = 0j
-            for j in range(K):
-                rho = r[k, j] - v[m] * B[m, k, j]
-                acc += np.conj(rho) * B[m, k, j]
-            z += omega[k] * (2.0 * abs(u[k]) ** 2 * acc - 2.0 * np.conj(u[k]) * B[m, k, k])
-        size = abs(z)
-        if size > 0.0:
-            new = -np.conj(z) / size
-            step = new - v[m]
-            for k in range(K):
-                for j in range(K):
-                    r[k, j] += step * B[m, k, j]
-            v[m] = new
-    return v
 
 
 # --- the max-min rate: SINR balancing and a 1-D phase search -------------------------------------

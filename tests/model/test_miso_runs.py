@@ -7,8 +7,14 @@ import numpy as np
 import pytest
 
 from ios_uav_env.model.miso import SlotChannel
-from ios_uav_env.model.miso_runs import _LEFT, _multipliers, best_weighted_rates, weighted_sum_runs
-from ios_uav_env.model.miso_slot import aligned_starts, alternate, optimise_slot
+from ios_uav_env.model.miso_runs import (
+    _LEFT,
+    _multipliers,
+    aligned_starts,
+    best_weighted_rates,
+    sum_rate_runs,
+)
+from ios_uav_env.model.miso_slot import alternate, optimise_slot, slot_optimum
 
 
 def _channel(rng: np.random.Generator, k: int, n_t: int, m: int, scale: float) -> SlotChannel:
@@ -24,23 +30,63 @@ def _channel(rng: np.random.Generator, k: int, n_t: int, m: int, scale: float) -
 SHAPES = [(2, 2, 4, 3.0), (3, 4, 8, 10.0), (4, 4, 16, 1.0), (3, 1, 6, 30.0), (8, 9, 3, 5.0), (4, 3, 1, 0.05)]
 
 
+def _same_run(runs, i, run) -> bool:
+    return (
+        runs.values[i] == run.value and np.array_equal(runs.rates[i], run.rates)
+        and np.array_equal(runs.phases[i], run.phases) and np.array_equal(runs.beams[i], run.beams)
+        and np.array_equal(runs.histories[i], run.history)
+    )  # fmt: skip
+
+
+@pytest.mark.parametrize("weighted", [True, False])
 @pytest.mark.parametrize("k, n_t, m, scale", SHAPES)
-def test_every_run_is_alternates_run_bit_for_bit(k, n_t, m, scale):
+def test_every_run_is_alternates_run_bit_for_bit(k, n_t, m, scale, weighted):
     rng = np.random.default_rng(k * 100 + n_t * 10 + m)
     channel = _channel(rng, k, n_t, m, scale)
     starts = aligned_starts(channel) * 2
     phases = np.array([psi for _, psi, _ in starts])
     beams = np.array([w for _, _, w in starts])
-    weights = rng.dirichlet(np.ones(k), size=len(starts))
-    weights[0] = 0.0  # a run that weighs no user
+    weights = rng.dirichlet(np.ones(k), size=len(starts)) if weighted else None
+    if weighted:
+        weights[0] = 0.0  # a run that weighs no user
     iterations = set()
     for max_iter in (0, 3, 12):
-        values, rates = weighted_sum_runs(channel, phases, beams, weights, max_iter=max_iter)
+        runs = sum_rate_runs(channel, phases, beams, weights, max_iter=max_iter)
         for i in range(len(starts)):
-            run = alternate(channel, "sum", phases[i], beams[i], weights=weights[i], max_iter=max_iter)
-            assert values[i] == run.value and np.array_equal(rates[i], run.rates), (max_iter, i)
+            w = None if weights is None else weights[i]
+            run = alternate(channel, "sum", phases[i], beams[i], weights=w, max_iter=max_iter)
+            assert _same_run(runs, i, run), (max_iter, i)
             iterations.add(len(run.history))
-    assert len(iterations) > 3  # runs stop at different iterations: the stopping rule is per run
+    if weighted:  # (the plain sum rate's runs here all take the 12 iterations)
+        assert len(iterations) > 3  # runs stop at different iterations: the stopping rule is per run
+
+
+def _slot_optimum_run_by_run(channel, warm):
+    """slot_optimum's sum rate as it ran before its runs were batched: optimise_slot, then each user
+    alone and the warm start, one alternate after the other, kept on a strict gain."""
+    from ios_uav_env.model.miso_slot import alone_starts
+
+    best = optimise_slot(channel, "sum", random_starts=0)
+    extra = alone_starts(channel) + ([("warm", warm.phases, warm.beams)] if warm is not None else [])
+    for name, phases, beams in extra:
+        run = alternate(channel, "sum", phases, beams, start=name)
+        best = run if run.value > best.value else best
+    return best
+
+
+def test_the_slot_optimum_of_the_sum_rate_is_the_best_run_of_its_starts():
+    rng = np.random.default_rng(11)
+    for k, n_t, m, scale in [SHAPES[0], SHAPES[3]]:  # two users on two antennas; three on one
+        warm = None
+        for _ in range(2):  # the second slot warm-started from the first one's optimum
+            channel = _channel(rng, k, n_t, m, scale)
+            got, expected = slot_optimum(channel, "sum", warm=warm), _slot_optimum_run_by_run(channel, warm)
+            assert got.start == expected.start and got.objective == "sum"
+            assert _same_run(
+                type("R", (), {"values": [got.value], "rates": [got.rates], "phases": [got.phases],
+                               "beams": [got.beams], "histories": [got.history]}), 0, expected,
+            )  # fmt: skip
+            warm = got
 
 
 def test_the_best_run_per_weight_is_optimise_slots():
@@ -80,6 +126,6 @@ def test_bad_runs_are_refused_naming_the_field(change, message):
     beams = np.array([w for _, _, w in starts])
     weights = np.full((len(starts), 2), 0.5)
     with pytest.raises(ValueError, match=message):
-        weighted_sum_runs(channel, *change(phases, beams, weights))
+        sum_rate_runs(channel, *change(phases, beams, weights))
     with pytest.raises(ValueError, match="max_iter must be an integer >= 0"):
-        weighted_sum_runs(channel, phases, beams, weights, max_iter=-1)
+        sum_rate_runs(channel, phases, beams, weights, max_iter=-1)

@@ -9,6 +9,7 @@ import pytest
 from ios_uav_env import ScenarioConfig, score_plan
 from ios_uav_env.model.lp import solve_lp
 from ios_uav_env.model.miso import tdma_rates, weighted_sum_bound
+from ios_uav_env.model.miso_runs import _power_level
 from ios_uav_env.model.miso_sdma import (
     MAX_ELEMENTS,
     lattice_index,
@@ -18,7 +19,6 @@ from ios_uav_env.model.miso_sdma import (
     slot_setting,
     weight_lattice,
 )
-from ios_uav_env.model.miso_slot import _power_level
 from ios_uav_env.model.schedule import maxmin_schedule
 
 #: A short flight past an 8 x 8 IOS: user 0 behind it, user 1 on the UAV's side far along the
