@@ -94,7 +94,12 @@ class SlotChannel:
 
     def matrix(self, phases: np.ndarray) -> np.ndarray:
         """H (K, N_t), row k = h_k(psi), for the surface's phase shifts ``phases`` psi (M,) rad."""
-        return (self.coef * np.exp(-1j * self.check_phases(phases))) @ self.to_elements + self.direct
+        return self.matrix_unchecked(self.check_phases(phases))
+
+    def matrix_unchecked(self, phases: np.ndarray) -> np.ndarray:
+        """:meth:`matrix` of ``phases`` that are a finite float (M,) array already (an optimiser's
+        own iterates, in its inner loop), without :meth:`check_phases`."""
+        return (self.coef * np.exp(-1j * phases)) @ self.to_elements + self.direct
 
     def check_phases(self, phases: np.ndarray) -> np.ndarray:
         """``phases`` as a finite float (M,) array (one shared configuration), else ``ValueError``."""

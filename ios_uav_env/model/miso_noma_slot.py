@@ -224,7 +224,7 @@ def _ascend(
                 cand_psi, cand_H = psi, H
                 if channel is not None:
                     cand_psi = np.mod(psi + step * d[2 * n :], 2 * np.pi)
-                    cand_H = channel.matrix(cand_psi)
+                    cand_H = channel.matrix_unchecked(cand_psi)  # (finite: psi and d are)
                 new = _objective(cand_H, cand_W, order, total)
                 if new > value:
                     psi, H, W, value, s, moved = cand_psi, cand_H, cand_W, new, step, True

@@ -268,21 +268,25 @@ def maxmin_beams(H: np.ndarray, *, max_iter: int = 2000, tol: float = 1e-13) -> 
     """Beams (N_t, K) of total power 1 balancing the K SINRs at the max-min optimum for ``H`` (the
     module docstring: the normalised uplink fixed point, then the downlink powers)."""
     K, n_t = H.shape
-    outer = H.conj()[:, :, None] * H[:, None, :]  # (K, N_t, N_t): h_k^H h_k
+    # (K, N_t^2): h_k^H h_k, row k; sum_k lam_k h_k^H h_k is the product with lam as a (1, K) row,
+    # the very product np.tensordot(lam, outer, axes=1) makes (its reshapes and np.dot), without
+    # its Python overhead in a loop of up to max_iter turns
+    outer = (H.conj()[:, :, None] * H[:, None, :]).reshape(K, n_t * n_t)
     lam = np.full(K, 1.0 / K)
     eye = np.eye(n_t)
+    Hh = H.conj().T
     for _ in range(max_iter):
-        S = eye + np.tensordot(lam, outer, axes=1)
-        X = np.linalg.solve(S, H.conj().T)  # (N_t, K): S^-1 h_k^H
+        S = eye + np.dot(lam.reshape(1, K), outer).reshape(n_t, n_t)
+        X = np.linalg.solve(S, Hh)  # (N_t, K): S^-1 h_k^H
         y = np.real(np.sum(H * X.T, axis=1))  # h_k S^-1 h_k^H
         f = (1.0 - lam * y) / y  # 1 / (h_k S_{-k}^-1 h_k^H)
         new = f / f.sum()
-        done = np.max(np.abs(new - lam)) <= tol
+        done = np.abs(new - lam).max() <= tol
         lam = new
         if done:
             break
-    S = eye + np.tensordot(lam, outer, axes=1)
-    X = np.linalg.solve(S, H.conj().T)
+    S = eye + np.dot(lam.reshape(1, K), outer).reshape(n_t, n_t)
+    X = np.linalg.solve(S, Hh)
     directions = X / np.linalg.norm(X, axis=0)
     gains = np.abs(H @ directions) ** 2
     y = np.real(np.sum(H * X.T, axis=1))
