@@ -84,18 +84,54 @@ def optimise_slot(
     with MRT beams. ``weights``: the weighted sum rate (:func:`alternate`)."""
     check_objective(objective)
     _check_weights(weights, channel.K, objective)
+    starts = optimise_starts(channel, random_starts, np.random.default_rng(0) if rng is None else rng)
+    return best_of_starts(channel, objective, starts, weights=weights, max_iter=max_iter, tol=tol)
+
+
+def optimise_starts(
+    channel: SlotChannel, random_starts: int, rng: np.random.Generator
+) -> list[tuple[str, np.ndarray, np.ndarray]]:
+    """:func:`optimise_slot`'s starts: ``miso_runs.aligned_starts``, then ``random_starts`` random
+    phase draws from ``rng`` with MRT beams."""
     if not (isinstance(random_starts, (int, np.integer)) and random_starts >= 0):
         raise ValueError(f"random_starts must be an integer >= 0, got {random_starts!r}")
-    rng = np.random.default_rng(0) if rng is None else rng
     starts = aligned_starts(channel)
     for i in range(random_starts):
         psi = random_phases(channel, rng)
         starts.append((f"random {i} MRT", psi, mrt_beams(channel.matrix(psi))))
-    runs = [
-        alternate(channel, objective, psi, W, max_iter=max_iter, tol=tol, start=name, weights=weights)
-        for name, psi, W in starts
-    ]
-    return max(runs, key=lambda run: run.value)
+    return starts
+
+
+def best_of_starts(
+    channel: SlotChannel,
+    objective: str,
+    starts: list[tuple[str, np.ndarray, np.ndarray]],
+    *,
+    weights: np.ndarray | None = None,
+    max_iter: int = 100,
+    tol: float = 1e-7,
+) -> SlotSolution:
+    """The best :func:`alternate` run from each of ``starts`` (name, phases, beams): the first of the
+    largest values. The sum rate's runs (weighted or not) go at once, ``miso_runs.sum_rate_runs``,
+    each :func:`alternate`'s bit for bit; the max-min's one after the other."""
+    check_objective(objective)
+    alpha = _check_weights(weights, channel.K, objective)
+    if not starts:
+        raise ValueError("starts must hold at least one (name, phases, beams) start")
+    if objective != "sum":
+        runs = [alternate(channel, objective, psi, W, max_iter=max_iter, tol=tol, start=name)
+                for name, psi, W in starts]  # fmt: skip
+        return max(runs, key=lambda run: run.value)
+    batch = sum_rate_runs(
+        channel, np.array([psi for _, psi, _ in starts], dtype=float),
+        np.array([W for _, _, W in starts], dtype=complex),
+        None if alpha is None else np.tile(alpha, (len(starts), 1)), max_iter=max_iter, tol=tol,
+    )  # fmt: skip
+    i = int(np.argmax(batch.values))  # the first largest, as max() over the runs
+    return SlotSolution(
+        "sum", float(batch.values[i]), batch.rates[i].copy(), batch.phases[i].copy(), batch.beams[i].copy(),
+        starts[i][0], batch.histories[i],
+    )  # fmt: skip
 
 
 def alone_starts(channel: SlotChannel) -> list[tuple[str, np.ndarray, np.ndarray]]:
@@ -124,29 +160,11 @@ def slot_optimum(
     so its value is at least TDMA's, one user all the slot) and from ``warm`` (a setting of
     another slot, e.g. the previous one's optimum: its phases and beams are feasible here too).
     Deterministic: the same channel and ``warm`` give the same solution bit for bit. The sum
-    rate's runs go at once (``miso_runs.sum_rate_runs``: :func:`alternate`'s, bit for bit)."""
-    check_objective(objective)
-    if objective == "sum":
-        starts = [*aligned_starts(channel), *alone_starts(channel)]
-        if warm is not None:
-            starts.append(("warm", warm.phases, warm.beams))
-        runs = sum_rate_runs(
-            channel, np.array([p for _, p, _ in starts], dtype=float),
-            np.array([b for _, _, b in starts], dtype=complex), max_iter=max_iter, tol=tol,
-        )  # fmt: skip
-        i = int(np.argmax(runs.values))  # the first best: optimise_slot's max(), then a strict gain
-        return SlotSolution(
-            "sum", float(runs.values[i]), runs.rates[i].copy(), runs.phases[i].copy(), runs.beams[i].copy(),
-            starts[i][0], runs.histories[i],
-        )  # fmt: skip
-    best = optimise_slot(channel, objective, random_starts=0, max_iter=max_iter, tol=tol)
-    extra = alone_starts(channel) if objective == "sum" else []
+    rate's runs go at once (:func:`best_of_starts`)."""
+    starts = [*aligned_starts(channel), *(alone_starts(channel) if objective == "sum" else [])]
     if warm is not None:
-        extra.append(("warm", warm.phases, warm.beams))
-    for name, phases, beams in extra:
-        run = alternate(channel, objective, phases, beams, max_iter=max_iter, tol=tol, start=name)
-        best = run if run.value > best.value else best
-    return best
+        starts.append(("warm", warm.phases, warm.beams))
+    return best_of_starts(channel, objective, starts, max_iter=max_iter, tol=tol)
 
 
 def alternate(
@@ -314,6 +332,6 @@ def _maxmin_phases(
 
 
 __all__ = [
-    "SLOT_OBJECTIVES", "SlotSolution", "aligned_starts", "alone_starts", "alternate", "maxmin_beams",
-    "optimise_slot", "slot_optimum", "wmmse_beams",
+    "SLOT_OBJECTIVES", "SlotSolution", "aligned_starts", "alone_starts", "alternate", "best_of_starts",
+    "maxmin_beams", "optimise_slot", "optimise_starts", "slot_optimum", "wmmse_beams",
 ]  # fmt: skip

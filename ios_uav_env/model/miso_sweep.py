@@ -68,7 +68,7 @@ import numpy as np
 from ios_uav_env.model import miso
 from ios_uav_env.model.array import ArrayConfig
 from ios_uav_env.model.config import ScenarioConfig
-from ios_uav_env.model.miso_slot import SlotSolution, alone_starts, alternate, optimise_slot
+from ios_uav_env.model.miso_slot import SlotSolution, alone_starts, best_of_starts, optimise_starts
 
 __all__ = [
     "POWER_RANGE_DBM", "SCHEMES", "PowerSweep", "check_powers", "dof_slope", "low_power_mrt_ratio",
@@ -182,16 +182,11 @@ def power_sweep(
     for i, p in enumerate(powers):
         channel = sweep_channel(config, array, position, float(p))
         start = time.perf_counter()
-        best = optimise_slot(
-            channel, objective, random_starts=random_starts, rng=np.random.default_rng(seed),
-            max_iter=max_iter, tol=tol,
-        )  # fmt: skip
-        extra = alone_starts(channel) if objective == "sum" else []
+        starts = optimise_starts(channel, random_starts, np.random.default_rng(seed))
+        starts += alone_starts(channel) if objective == "sum" else []
         if previous is not None:
-            extra.append((f"previous power ({powers[i - 1]:g} dBm)", previous.phases, previous.beams))
-        for name, phases, beams in extra:
-            run = alternate(channel, objective, phases, beams, max_iter=max_iter, tol=tol, start=name)
-            best = run if run.value > best.value else best
+            starts.append((f"previous power ({powers[i - 1]:g} dBm)", previous.phases, previous.beams))
+        best = best_of_starts(channel, objective, starts, max_iter=max_iter, tol=tol)
         seconds[i] = time.perf_counter() - start
         values["AO"][i] = best.value
         for name, value in miso.baselines(channel, objective, np.random.default_rng(seed)).items():

@@ -61,17 +61,32 @@ def test_every_run_is_alternates_run_bit_for_bit(k, n_t, m, scale, weighted):
         assert len(iterations) > 3  # runs stop at different iterations: the stopping rule is per run
 
 
+def _best_run_by_run(channel, starts, **options):
+    """The first best of one alternate run after the other from each start (the runs unbatched)."""
+    runs = [alternate(channel, "sum", psi, W, start=name, **options) for name, psi, W in starts]
+    return max(runs, key=lambda run: run.value)
+
+
 def _slot_optimum_run_by_run(channel, warm):
-    """slot_optimum's sum rate as it ran before its runs were batched: optimise_slot, then each user
-    alone and the warm start, one alternate after the other, kept on a strict gain."""
+    """slot_optimum's sum rate run by run: the aligned starts, each user alone, the warm start."""
     from ios_uav_env.model.miso_slot import alone_starts
 
-    best = optimise_slot(channel, "sum", random_starts=0)
     extra = alone_starts(channel) + ([("warm", warm.phases, warm.beams)] if warm is not None else [])
-    for name, phases, beams in extra:
-        run = alternate(channel, "sum", phases, beams, start=name)
-        best = run if run.value > best.value else best
-    return best
+    return _best_run_by_run(channel, aligned_starts(channel) + extra)
+
+
+def test_optimise_slot_is_the_first_best_of_its_runs_random_starts_included():
+    from ios_uav_env.model.miso_slot import best_of_starts, optimise_starts
+
+    channel = _channel(np.random.default_rng(5), 3, 2, 6, 4.0)
+    got = optimise_slot(channel, "sum", random_starts=3, rng=np.random.default_rng(9), max_iter=20)
+    starts = optimise_starts(channel, 3, np.random.default_rng(9))
+    assert [name for name, _, _ in starts][-3:] == ["random 0 MRT", "random 1 MRT", "random 2 MRT"]
+    expected = _best_run_by_run(channel, starts, max_iter=20)
+    assert got.start == expected.start and got.value == expected.value
+    assert np.array_equal(got.phases, expected.phases) and np.array_equal(got.history, expected.history)
+    with pytest.raises(ValueError, match="starts must hold at least one"):
+        best_of_starts(channel, "sum", [])
 
 
 def test_the_slot_optimum_of_the_sum_rate_is_the_best_run_of_its_starts():
@@ -96,8 +111,11 @@ def test_the_best_run_per_weight_is_optimise_slots():
         weights = np.vstack([np.eye(k)[:1], rng.dirichlet(np.ones(k), size=3)])
         best = best_weighted_rates(channel, weights, max_iter=10)
         for w, rates in zip(weights, best, strict=True):
-            expected = optimise_slot(channel, "sum", random_starts=0, max_iter=10, weights=w).rates
-            assert np.array_equal(rates, expected), (k, n_t, m, w)
+            expected = _best_run_by_run(channel, aligned_starts(channel), weights=w, max_iter=10)
+            assert np.array_equal(rates, expected.rates), (k, n_t, m, w)
+            assert np.array_equal(
+                rates, optimise_slot(channel, random_starts=0, max_iter=10, weights=w).rates
+            )
 
 
 def test_a_wide_array_leaves_its_multiplier_to_the_plain_python_bisection():
