@@ -260,36 +260,24 @@ def _multipliers(
     """``mu`` (R,): each run's power multiplier as ``_power_multiplier`` finds it, where at
     most :data:`_SHORT_SUM` eigenvalues are live (numpy's sums are then left to right);
     :data:`_LEFT` where more are."""
+    live_energy, live_lam = np.empty(energy.shape[1]), np.empty(energy.shape[1])
     for r in range(energy.shape[0]):
         n_live, dead_live, total = 0, False, 0.0
         for i in range(energy.shape[1]):
             if energy[r, i] > 0:
+                live_energy[n_live], live_lam[n_live] = energy[r, i], lam[r, i]
                 n_live += 1
                 dead_live = dead_live or null[r, i]
         if n_live > _SHORT_SUM:
             mu[r] = _LEFT
             continue
         if not dead_live:
-            for i in range(energy.shape[1]):
-                if energy[r, i] > 0:
-                    total += energy[r, i] / lam[r, i] ** 2
-        if not (dead_live or total > 1.0):
+            for i in range(n_live):
+                total += live_energy[i] / live_lam[i] ** 2
+        if dead_live or total > 1.0:
+            mu[r] = _power_level(live_energy[:n_live], live_lam[:n_live], hi[r])
+        else:
             mu[r] = 0.0
-            continue
-        lo, top = 0.0, hi[r]
-        for _ in range(200):
-            mid = 0.5 * (lo + top)
-            total = 0.0
-            for i in range(energy.shape[1]):
-                if energy[r, i] > 0:
-                    total += energy[r, i] / (lam[r, i] + mid) ** 2
-            if total > 1.0:
-                lo = mid
-            else:
-                top = mid
-            if top - lo <= 1e-15 * top:
-                break
-        mu[r] = top
 
 
 def _sweep_terms(
