@@ -109,18 +109,22 @@ def solve_lp(
     if highspy is None:
         return _by_linprog(c, a_ub, b_ub, upper, a_eq, b_eq, dual_simplex, feasibility_tol)
     n_ub = len(b_ub)
-    rows = csc_array(a_ub) if a_eq is None else csc_array(vstack([csc_array(a_ub), csc_array(a_eq)]))
+    if isinstance(a_ub, np.ndarray) and (a_eq is None or isinstance(a_eq, np.ndarray)):
+        n_rows, (indptr, indices, data) = n_ub + (0 if a_eq is None else len(a_eq)), dense_columns(a_ub, a_eq)
+    else:
+        rows = csc_array(a_ub) if a_eq is None else csc_array(vstack([csc_array(a_ub), csc_array(a_eq)]))
+        n_rows, (indptr, indices, data) = rows.shape[0], (rows.indptr, rows.indices, rows.data)
     b_eq = np.zeros(0) if b_eq is None else np.asarray(b_eq, dtype=float)
     inf = highspy.kHighsInf
     lp = highspy.HighsLp()
-    lp.num_col_, lp.num_row_ = len(c), rows.shape[0]
+    lp.num_col_, lp.num_row_ = len(c), n_rows
     lp.col_cost_ = c
     lp.col_lower_ = np.zeros(len(c))
     lp.col_upper_ = np.where(np.isinf(upper), inf, upper)
     lp.row_lower_ = np.concatenate([np.full(n_ub, -inf), b_eq])
     lp.row_upper_ = np.concatenate([b_ub, b_eq])
     lp.a_matrix_.format_ = highspy.MatrixFormat.kColwise
-    lp.a_matrix_.start_, lp.a_matrix_.index_, lp.a_matrix_.value_ = rows.indptr, rows.indices, rows.data
+    lp.a_matrix_.start_, lp.a_matrix_.index_, lp.a_matrix_.value_ = indptr, indices, data
     h = _highs()
     h.setOptionValue("solver", "simplex" if dual_simplex else "choose")
     tol = 1e-7 if feasibility_tol is None else float(feasibility_tol)  # HiGHS's defaults
@@ -135,6 +139,20 @@ def solve_lp(
     sol = h.getSolution()
     x, duals = np.asarray(sol.col_value, dtype=float), np.asarray(sol.row_dual, dtype=float)[:n_ub]
     return LPSolution(True, x, float(h.getInfo().objective_function_value), duals, "optimal")
+
+
+def dense_columns(
+    a_ub: np.ndarray, a_eq: np.ndarray | None = None
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(indptr, indices, data) of ``a_ub`` stacked over ``a_eq`` in compressed columns: the arrays
+    ``scipy.sparse.csc_array(vstack([csc_array(a_ub), csc_array(a_eq)]))`` holds (its nonzeros,
+    column after column, rows ascending; int32 indices), without scipy's sparse constructors,
+    whose checks cost more than a small LP's solve."""
+    full = np.asarray(a_ub if a_eq is None else np.vstack([a_ub, a_eq]), dtype=float)
+    cols, rows = np.nonzero(full.T)
+    indptr = np.zeros(full.shape[1] + 1, dtype=np.int32)
+    np.cumsum(np.bincount(cols, minlength=full.shape[1]), out=indptr[1:])
+    return indptr, rows.astype(np.int32), full.T[cols, rows]
 
 
 def _by_linprog(

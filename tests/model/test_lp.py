@@ -103,3 +103,29 @@ def test_threads_solve_their_lps_apart(backend):
     with ThreadPoolExecutor(4) as pool:
         for _ in range(3):
             assert list(pool.map(solve, problems)) == pytest.approx(alone, rel=1e-12)
+
+
+@pytest.mark.parametrize("with_eq", [False, True])
+def test_dense_rows_reach_highs_as_scipys_compressed_columns(with_eq):
+    """A dense problem goes to HiGHS in the very arrays scipy's csc_array would give it (nonzeros
+    column by column, rows ascending, int32 indices): the same model, so the same solution."""
+    from scipy.sparse import csc_array, vstack
+
+    rng = np.random.default_rng(4)
+    a_ub = np.where(rng.uniform(size=(7, 9)) < 0.4, 0.0, rng.normal(size=(7, 9)))
+    a_ub[:, 3] = 0.0  # an empty column
+    a_eq = np.where(rng.uniform(size=(2, 9)) < 0.5, 0.0, 1.0) if with_eq else None
+    scipy_rows = csc_array(a_ub) if a_eq is None else csc_array(vstack([csc_array(a_ub), csc_array(a_eq)]))
+    indptr, indices, data = lp.dense_columns(a_ub, a_eq)
+    for ours, theirs in ((indptr, scipy_rows.indptr), (indices, scipy_rows.indices), (data, scipy_rows.data)):
+        assert ours.dtype == theirs.dtype and np.array_equal(ours, theirs)
+    if lp._highspy() is None:
+        return
+    c, a, b, eq, b_eq, upper = _random_lp(5)
+    dense = lp.solve_lp(c, a, b, upper, a_eq=eq, b_eq=b_eq)
+    sparse = lp.solve_lp(c, csc_array(a), b, upper, a_eq=csc_array(eq), b_eq=b_eq)
+    assert (
+        dense.optimal
+        and np.array_equal(dense.x, sparse.x)
+        and np.array_equal(dense.ub_duals, sparse.ub_duals)
+    )
