@@ -21,7 +21,7 @@ import numpy as np
 from ios_uav_env.jit import jit
 from ios_uav_env.model.miso import SlotChannel, aligned_phases, mrt_beams, zf_beams
 
-__all__ = ["Runs", "aligned_starts", "best_weighted_rates", "sum_rate_runs"]
+__all__ = ["Runs", "aligned_starts", "best_weighted_rates", "or_alone", "sum_rate_runs"]
 
 #: A run's power multiplier that the compiled loop leaves to :func:`_power_multiplier` (more live
 #: eigenvalues than numpy sums left to right, :data:`_SHORT_SUM`).
@@ -109,6 +109,16 @@ def best_weighted_rates(channel: SlotChannel, weights: np.ndarray, *, max_iter: 
     )  # fmt: skip
     best = np.argmax(runs.values.reshape(j_n, s_n), axis=1)  # the first largest, as max() over the runs
     return runs.rates.reshape(j_n, s_n, -1)[np.arange(j_n), best]
+
+
+def or_alone(w: np.ndarray, rates: np.ndarray, solo: np.ndarray) -> np.ndarray:
+    """The better setting at weights ``w`` of the AO's ``rates`` (K,) and each user served alone
+    (``solo``, ``miso.tdma_rates``): ``rates``, or the first user alone whose w_k R_k is larger
+    than w . ``rates`` (its rate for it, 0 for the others)."""
+    k = int(np.argmax(w * solo))
+    if w[k] * solo[k] > float(w @ rates):
+        rates = np.where(np.arange(len(solo)) == k, solo, 0.0)
+    return rates
 
 
 def aligned_starts(channel: SlotChannel) -> list[tuple[str, np.ndarray, np.ndarray]]:

@@ -47,7 +47,7 @@ import numpy as np
 from ios_uav_env.model.array import scenario_array
 from ios_uav_env.model.config import ScenarioConfig
 from ios_uav_env.model.miso import SlotChannel, slot_bounds, slot_channels, tdma_rates, weighted_sum_bound
-from ios_uav_env.model.miso_runs import best_weighted_rates
+from ios_uav_env.model.miso_runs import best_weighted_rates, or_alone
 from ios_uav_env.model.regions import Pricer, RegionSchedule, maxmin_regions
 
 __all__ = [
@@ -130,15 +130,7 @@ def slot_setting(channel: SlotChannel, weights: np.ndarray, alone: np.ndarray | 
     larger there (the first such user)."""
     w = np.asarray(weights, dtype=float)
     solo = tdma_rates(channel) if alone is None else alone
-    return _or_alone(w, best_weighted_rates(channel, w[None], max_iter=MAX_ITER)[0], solo)
-
-
-def _or_alone(w: np.ndarray, rates: np.ndarray, solo: np.ndarray) -> np.ndarray:
-    """``rates``, or the first user alone (``solo``) whose w_k R_k is larger than w . ``rates``."""
-    k = int(np.argmax(w * solo))
-    if w[k] * solo[k] > float(w @ rates):
-        rates = np.where(np.arange(len(solo)) == k, solo, 0.0)
-    return rates
+    return or_alone(w, best_weighted_rates(channel, w[None], max_iter=MAX_ITER)[0], solo)
 
 
 def slot_points(config: ScenarioConfig, trajectory: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -157,7 +149,7 @@ def slot_points(config: ScenarioConfig, trajectory: np.ndarray) -> tuple[np.ndar
         solo = tdma_rates(channel)
         settings = best_weighted_rates(channel, lattice, max_iter=MAX_ITER)  # every w's AO runs at once
         for j, w in enumerate(lattice):
-            points[n, j] = _or_alone(w, settings[j], solo)  # slot_setting(channel, w, solo)
+            points[n, j] = or_alone(w, settings[j], solo)  # slot_setting(channel, w, solo)
         points[n, len(lattice) :] = np.diag(solo)
         gains[n] = slot_bounds(channel).gains
     return points, gains

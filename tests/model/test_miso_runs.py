@@ -147,3 +147,13 @@ def test_bad_runs_are_refused_naming_the_field(change, message):
         sum_rate_runs(channel, *change(phases, beams, weights))
     with pytest.raises(ValueError, match="max_iter must be an integer >= 0"):
         sum_rate_runs(channel, phases, beams, weights, max_iter=-1)
+
+
+def test_a_user_alone_replaces_the_ao_setting_only_when_strictly_better():
+    from ios_uav_env.model.miso_runs import or_alone
+
+    solo = np.array([2.0, 3.0])
+    w = np.array([0.5, 0.5])
+    assert np.array_equal(or_alone(w, np.array([1.0, 1.0]), solo), [0.0, 3.0])  # user 1 alone: 1.5 > 1.0
+    assert np.array_equal(or_alone(w, np.array([2.0, 1.0]), solo), [2.0, 1.0])  # 1.5 = 1.5: the AO's kept
+    assert np.array_equal(or_alone(np.array([1.0, 0.0]), np.array([1.0, 4.0]), solo), [2.0, 0.0])
