@@ -316,11 +316,12 @@ class FleetParallelEnv(FleetOutputs, ParallelEnv):
 
     def _serve(self, live: np.ndarray, shares: np.ndarray) -> None:
         """Add the slot's service of the nodes by the ``live`` UAVs with their node ``shares``
-        (``fleet_rules.slots_of``) to the team's served sums."""
+        (``fleet_rules.slots_of``) to the team's served sums, the slot's link gains kept in the
+        model's per-slot cache for the episode end's best schedule (and any later scoring)."""
         k_n = self.config.K
         q = np.array([self.uav_envs[u].trajectory[-1] for u in live])
         beta = self.surface_shares[live]
-        slot = slots_of(self.config, self.access, q[None], shares[None, :, :k_n], beta[None])
+        slot = slots_of(self.config, self.access, q[None], shares[None, :, :k_n], beta[None], cache=True)
         self.team_served[:k_n] += slot[0]
 
     def close(self) -> None:

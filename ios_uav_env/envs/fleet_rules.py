@@ -16,7 +16,7 @@ from typing import Any
 import numpy as np
 
 from ios_uav_env.model.config import ScenarioConfig
-from ios_uav_env.model.fleet import link_gains_batch, shared_slot_service, slot_service
+from ios_uav_env.model.fleet import cached_link_gains, link_gains_batch, shared_slot_service, slot_service
 from ios_uav_env.model.separation import GUARD_MARGIN, guard_distance, guarded_moves  # noqa: F401
 
 __all__ = [
@@ -56,22 +56,40 @@ def surface_shares(bids: np.ndarray, sharpness: float) -> np.ndarray:
 
 
 def slots_of(
-    config: ScenarioConfig, access: str, q: np.ndarray, shares: np.ndarray, beta: np.ndarray
+    config: ScenarioConfig,
+    access: str,
+    q: np.ndarray,
+    shares: np.ndarray,
+    beta: np.ndarray,
+    cache: bool = False,
 ) -> np.ndarray:
     """(B, K) bps/Hz: the nodes' rates of the slot of B fleets at their way-points ``q`` (B, U, 2)
     m, with their node shares (B, U, K) and surface shares ``beta`` (B, U): the links' gains of all
     fleets at once (``model.fleet.link_gains_batch``), then ``model.fleet.slot_service`` (or in a
     shared band ``shared_slot_service``) per fleet. The arrays are taken C-contiguous, so that a
     fleet's rates do not depend on how the caller sliced them (numpy's sums may round differently
-    on strided views)."""
+    on strided views). ``cache``: the gains through the model's per-slot cache
+    (``model.fleet.cached_link_gains``, the same values bit for bit), so that scoring the flights
+    afterwards (``fleet_maxmin``, which reads that cache) computes none of them again."""
     q, shares, beta = (np.ascontiguousarray(x, dtype=float) for x in (q, shares, beta))
-    gains = link_gains_batch(config, q)
+    gains = _batch_layout(cached_link_gains(config, q)) if cache else link_gains_batch(config, q)
     if access == "shared":
         return np.array(
             [shared_slot_service(g, config.eta, a, c) for g, a, c in zip(gains, shares, beta, strict=True)]
         )
     rates = np.log2(1.0 + config.eta * gains)
     return np.array([slot_service(r, a, c) for r, a, c in zip(rates, shares, beta, strict=True)])
+
+
+def _batch_layout(gains: np.ndarray) -> np.ndarray:
+    """``gains`` (B, U, K, U, K) C-contiguous, as ``model.fleet.cached_link_gains`` returns them,
+    laid out in memory as ``link_gains_batch`` returns its own (a transposed view of its (B, U K,
+    U K) product): the same values, so that the slot's rates and sums round as they do for fleets
+    computed by the batch (numpy's elementwise results keep their input's layout, and its sums
+    round by the memory order)."""
+    b_n, u_n, k_n = gains.shape[:3]
+    square = gains.reshape(b_n, u_n * k_n, u_n * k_n)
+    return square.transpose(0, 2, 1).copy().transpose(0, 2, 1).reshape(gains.shape)
 
 
 def agent_observations(

@@ -15,7 +15,7 @@ from pettingzoo.test import parallel_api_test, parallel_seed_test  # noqa: E402
 
 import ios_uav_env  # noqa: E402
 from ios_uav_env import MultiNodeEnv, ScenarioConfig  # noqa: E402
-from ios_uav_env.model.fleet import fleet_maxmin, link_rates, slot_service  # noqa: E402
+from ios_uav_env.model.fleet import fleet_maxmin, link_gains_batch, link_rates, slot_service  # noqa: E402
 from ios_uav_env.model.separation import min_distance  # noqa: E402
 
 # small surface and horizon: the physics of the paper's scenario at test speed
@@ -273,3 +273,25 @@ def test_render_draws_the_flights_so_far(uavs):
         assert ios_uav_env.parallel_env(CONFIG, uavs=uavs).render() is None
     with pytest.raises(ValueError, match="render_mode must be None or 'rgb_array'"):
         ios_uav_env.parallel_env(CONFIG, uavs=uavs, render_mode="human")
+
+
+def test_the_episode_end_scores_the_flights_from_the_gains_its_slots_computed(monkeypatch):
+    """The parallel env keeps its slots' link gains in the model's per-slot cache, so its episode-end
+    best schedule (``fleet_maxmin`` of the flights, over the cache) computes no gains again."""
+    from ios_uav_env.model import fleet_links
+
+    monkeypatch.setattr(fleet_links, "_GAINS", type(fleet_links._GAINS)())
+    computed = []
+
+    def counting(config, positions):
+        computed.append(len(positions))
+        return link_gains_batch(config, positions)
+
+    monkeypatch.setattr(fleet_links, "link_gains_batch", counting)
+    env = ios_uav_env.parallel_env(CONFIG, uavs=2)
+    rng = np.random.default_rng(3)
+    _, last, _ = _fly(env, lambda env, a, o: rng.uniform(-1, 1, env.action_space(a).shape), seed=3)
+    in_flight = sum(computed)
+    assert in_flight == CONFIG.N and computed.count(1) == len(computed)  # one row a slot, as it flew
+    assert last["uav_0"]["best_schedule_rate"] == fleet_maxmin(CONFIG, env.trajectories).value
+    assert sum(computed) == in_flight  # the episode end's schedule and this one: no row computed again
