@@ -8,12 +8,17 @@
 PYTHON ?= python3.11
 VENV ?= .venv
 PY := $(VENV)/bin/python
+# Python caches the bytecode of what it imports, whatever the shell says: with PYTHONDONTWRITEBYTECODE
+# exported, each of the hundred or so interpreters the tests start would compile torch,
+# Stable-Baselines3, Ray and this package from source again, seconds each (the caches go to
+# __pycache__ folders, which git ignores, in the venvs and the checkout).
+unexport PYTHONDONTWRITEBYTECODE
 # torch is pinned here (not in pyproject, which keeps torch>=2.3) so that pip takes the
 # CPU build on this machine's local index instead of resolving a multi-GB CUDA build; the
 # constraints file keeps it so while pip installs the extras (torchrl, tianshou, rl-zoo3).
 # The venvs install with --no-compile: pip would byte-compile all of torch and the RL libraries
 # (about half a CPU minute in the main venv, on the path to the main suite: pip installs on one
-# core); Python compiles what the tests import, when they do. Ray alone is compiled in the main
+# core); Python compiles what the tests import, when they first do. Ray alone is compiled in the main
 # venv after the install (a few CPU seconds on both cores): its node starts its processes within a
 # timeout, and on a loaded machine compiling Ray's modules at that first start went past it.
 TORCH_SPEC ?= torch==2.13.0
