@@ -34,6 +34,9 @@ CartPoleVectorEnv. Then the multi-node id (``--multinode-id``, "" to skip): the 
 against its batched env at the same B, timed without the LP (``best_schedule=False``, as
 training runs it); the "+ LP" column adds the measured time of one LP per row and episode.
 
+The classification and the episode runner live in ``vector_episodes.py``, the step-level tables in
+``vector_steps.py``, beside this script.
+
     python benchmarks/vector_speed.py [--ids ID ...] [--num-envs 1024] [--episodes 2] [--seconds 30]
                                       [--json PATH]
     python benchmarks/vector_speed.py --steps [--id ios_uav_env/IOSUAV-v0] [--sizes 64 256 1024 4096]
@@ -44,9 +47,8 @@ from __future__ import annotations
 
 import argparse
 import json
-import time
+import sys
 from collections.abc import Callable, Iterable, Mapping, Sequence
-from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -57,21 +59,29 @@ from gymnasium.envs.classic_control.cartpole import CartPoleVectorEnv
 import ios_uav_env  # noqa: F401  (registers the ids)
 from ios_uav_env.io import atomic_write_text
 from ios_uav_env.jit import HAVE_NUMBA
-from ios_uav_env.model.config import ScenarioConfig
-from ios_uav_env.model.schedule import maxmin_rate
 
 try:
     from tqdm import tqdm
 except ImportError:  # pragma: no cover - tqdm comes with the planners and rl extras
     tqdm = None
 
-#: The namespace whose registered ids the episode table times by default.
-NAMESPACE = "ios_uav_env"
-#: The bars, as multiples of CartPoleVectorEnv's env steps/s over whole episodes at the same B.
-FIXED_BAR, RANDOM_BAR = 0.1, 0.03
-FIXED, RANDOM = "fixed", "random"
-#: The seeds whose resets tell whether an id draws its scenario.
-PROBE_SEEDS = (0, 1, 2)
+sys.path.insert(0, str(Path(__file__).resolve().parent))  # the sibling modules, when run by path
+
+from vector_episodes import (  # noqa: E402
+    FIXED,
+    FIXED_BAR,
+    NAMESPACE,
+    RANDOM,
+    RANDOM_BAR,
+    Classification,
+    EpisodeRunner,
+    _warm_up,
+    classify,
+    registered_ids,
+    run_interleaved,
+)
+from vector_steps import numba_threads_available, step_tables  # noqa: E402
+
 #: The episode table's columns (its rows in ``--json``), in order.
 COLUMNS = (
     "id",
@@ -93,162 +103,6 @@ COLUMNS = (
     "meets_bar",
     "note",
 )
-
-
-def numba_threads_available() -> int:
-    import numba
-
-    return int(numba.get_num_threads())
-
-
-# --- whole episodes ---------------------------------------------------------------------
-
-
-def registered_ids(namespace: str = NAMESPACE) -> list[str]:
-    """The ids registered in ``namespace``, in registration order."""
-    return [env_id for env_id, spec in gym.registry.items() if spec.namespace == namespace]
-
-
-@dataclass(frozen=True)
-class Classification:
-    """An id's bar class: ``kind`` "fixed", "random" (reset draws a scenario, or nodes move) or
-    None (cannot classify), and ``why``."""
-
-    kind: str | None
-    why: str
-
-    @property
-    def bar(self) -> float | None:
-        return {FIXED: FIXED_BAR, RANDOM: RANDOM_BAR}.get(self.kind or "")
-
-
-def classify(env_id: str) -> Classification:
-    """Whether ``env_id`` is a fixed-scenario id or a randomised / moving-node one, from its
-    registration: the env its spec makes is reset with each of :data:`PROBE_SEEDS` and its
-    episode scenario (``env.unwrapped.config``, a ``ScenarioConfig``) read. It draws a scenario if
-    two seeds give different scenarios; its nodes move if a scenario has a motion model. The
-    spec's keywords must agree (``random_nodes`` draws, ``motion`` moves). An env without a
-    ``ScenarioConfig`` or one whose keywords and resets disagree cannot be classified."""
-    spec = gym.spec(env_id)
-    try:
-        env = gym.make(env_id).unwrapped
-    except Exception as exc:  # noqa: BLE001  (reported, not raised: the table names the id)
-        return Classification(None, f"cannot make it ({type(exc).__name__}: {exc})")
-    try:
-        configs = []
-        for seed in PROBE_SEEDS:
-            env.reset(seed=seed)
-            configs.append(getattr(env, "config", None))
-    except Exception as exc:  # noqa: BLE001
-        return Classification(None, f"cannot reset it ({type(exc).__name__}: {exc})")
-    finally:
-        env.close()
-    if not all(isinstance(config, ScenarioConfig) for config in configs):
-        return Classification(
-            None,
-            f"its env ({type(env).__name__}) has no ScenarioConfig `config`: draws? moving nodes?",
-        )
-    draws = any(config != configs[0] for config in configs[1:])
-    moves = any(config.motion is not None for config in configs)
-    kwargs = spec.kwargs or {}
-    said = [
-        (bool(kwargs.get("random_nodes")), draws, "random_nodes"),
-        (kwargs.get("motion") is not None, moves, "motion"),
-    ]
-    disagree = [name for declared, seen, name in said if declared and not seen]
-    if disagree:
-        return Classification(None, f"its keywords set {disagree} but its resets show no effect of them")
-    if draws or moves:
-        why = " and ".join(w for w, on in (("reset draws a scenario", draws), ("nodes move", moves)) if on)
-        return Classification(RANDOM, why)
-    return Classification(FIXED, f"one scenario for seeds {list(PROBE_SEEDS)}, static nodes")
-
-
-class EpisodeRunner:
-    """A vector env driven call by call: the first call is ``reset(seed)``, then ``step`` with
-    actions drawn (seeded) from its action space. It counts the timed seconds of its calls, the env
-    steps (rows that moved: in next-step autoreset mode a row's reset call is not one) and the
-    episodes ended."""
-
-    def __init__(self, vec: gym.vector.VectorEnv, seed: int, pool: int = 32) -> None:
-        self.vec, self.seed = vec, seed
-        vec.action_space.seed(seed)
-        self.actions = [vec.action_space.sample() for _ in range(pool)]
-        mode = vec.metadata.get("autoreset_mode", "next_step")
-        self.same_step = "same" in str(getattr(mode, "value", mode)).lower()
-        self.calls = self.steps = self.ended = self.last_ended = 0
-        self.seconds = self.reset_seconds = 0.0
-        self._resetting = np.zeros(vec.num_envs, dtype=np.bool_)
-
-    def call(self) -> float:
-        """One call (reset or step); its seconds."""
-        if self.calls == 0:
-            start = time.perf_counter()
-            self.vec.reset(seed=self.seed)
-            took = self.reset_seconds = time.perf_counter() - start
-        else:
-            action = self.actions[self.calls % len(self.actions)]
-            start = time.perf_counter()
-            _, _, terminated, truncated, _ = self.vec.step(action)
-            took = time.perf_counter() - start
-            done = np.logical_or(terminated, truncated)
-            self.steps += self.vec.num_envs - (0 if self.same_step else int(self._resetting.sum()))
-            self._resetting = done
-            self.last_ended = int(done.sum())
-            self.ended += self.last_ended
-        self.calls += 1
-        self.seconds += took
-        return took
-
-    @property
-    def rate(self) -> float:
-        """Env steps per timed second."""
-        return self.steps / self.seconds if self.seconds > 0 else float("nan")
-
-
-def run_interleaved(
-    ours: EpisodeRunner,
-    cartpole: EpisodeRunner,
-    *,
-    episodes: int,
-    seconds: float,
-    min_seconds: float,
-    slice_seconds: float = 0.1,
-    cartpole_cap: float = 1.0,
-    progress: Callable[[EpisodeRunner], None] | None = None,
-) -> bool:
-    """Run ``ours`` in slices of about ``slice_seconds``, each followed by as long a slice of
-    ``cartpole`` (at most ``cartpole_cap``, at least one call), until ``ours`` has ended
-    ``episodes`` x B episodes and ``min_seconds`` (stopping at an episode end), or has spent
-    ``seconds`` after at least one step; whether its episodes were completed (False: partial)."""
-    target = episodes * ours.vec.num_envs
-    while True:
-        spent = 0.0
-        complete = over = False
-        while not (complete or over or spent >= slice_seconds):
-            spent += ours.call()
-            complete = ours.ended >= target and ours.seconds >= min_seconds and ours.last_ended > 0
-            over = ours.seconds >= seconds and ours.calls >= 2
-        budget, used = min(spent, cartpole_cap), 0.0
-        while used < budget or cartpole.calls < 2:
-            used += cartpole.call()
-        if progress is not None:
-            progress(ours)
-        if complete or over:
-            return complete
-
-
-def _warm_up(make: Callable[[int], gym.vector.VectorEnv], seed: int, max_calls: int = 2000) -> None:
-    """Compile and import what an episode runs (numba kernels, the LP), untimed, on 2 rows: reset,
-    steps until an episode ends, then its autoreset."""
-    vec = make(2)
-    try:
-        runner = EpisodeRunner(vec, seed, pool=4)
-        while runner.calls < max_calls and runner.ended == 0:
-            runner.call()
-        runner.call()
-    finally:
-        vec.close()
 
 
 def time_id(
@@ -451,117 +305,6 @@ def _pooled(rows: Sequence[Mapping[str, Any]]) -> float | None:
     """CartPoleVectorEnv's env steps/s over every id's slices."""
     seconds = sum(row.get("cartpole_seconds") or 0.0 for row in rows)
     return sum(row.get("cartpole_steps") or 0 for row in rows) / seconds if seconds > 0 else None
-
-
-# --- step-level tables (--steps) ---------------------------------------------------------
-def _timer(step: Callable[[], object], calls: int) -> Callable[[], float]:
-    def run() -> float:
-        start = time.perf_counter()
-        for _ in range(calls):
-            step()
-        return time.perf_counter() - start
-
-    return run
-
-
-def single_cartpole(steps: int) -> Callable[[], float]:
-    env = gym.make("CartPole-v1").unwrapped
-    env.reset(seed=0)
-    actions = [int(a) for a in np.random.default_rng(0).integers(0, 2, steps)]
-
-    def run() -> float:
-        start = time.perf_counter()
-        for a in actions:
-            _, _, terminated, truncated, _ = env.step(a)
-            if terminated or truncated:
-                env.reset()
-        return time.perf_counter() - start
-
-    return run
-
-
-def batched(env_id: str, size: int, calls: int, **kwargs: object) -> Callable[[], float]:
-    vec = gym.make_vec(env_id, num_envs=size, vectorization_mode="vector_entry_point", **kwargs)
-    vec.reset(seed=0)
-    actions = np.random.default_rng(0).uniform(-1, 1, (size, *vec.single_action_space.shape))
-    vec.step(actions)  # compile (numba) before timing
-    return _timer(lambda: vec.step(actions), calls)
-
-
-def cartpole_vector(size: int, calls: int) -> Callable[[], float]:
-    vec = CartPoleVectorEnv(num_envs=size)
-    vec.reset(seed=0)
-    actions = np.random.default_rng(0).integers(0, 2, size)
-    return _timer(lambda: vec.step(actions), calls)
-
-
-def single_multinode(env_id: str, episodes: int) -> tuple[Callable[[], float], int, float]:
-    """A timer of ``episodes`` episodes of the single env (random actions, its LP included), their
-    steps, and the time of one best-schedule LP (s; the median of 5 on a random flight)."""
-    env = gym.make(env_id).unwrapped
-    env.reset(seed=0)
-    moves = env.config.N - 1
-    actions = np.random.default_rng(0).uniform(-1, 1, (moves, *env.action_space.shape))
-    for a in actions:
-        env.step(a)
-    lp = []
-    for _ in range(5):
-        start = time.perf_counter()
-        maxmin_rate(env.config, env.trajectory)
-        lp.append(time.perf_counter() - start)
-
-    def run() -> float:
-        start = time.perf_counter()
-        for _ in range(episodes):
-            env.reset(seed=0)
-            for a in actions:
-                env.step(a)
-        return time.perf_counter() - start
-
-    return run, episodes * moves, float(np.median(lp))
-
-
-def multinode_table(env_id: str, sizes: Sequence[int], env_steps: int, repeats: int) -> None:
-    """The multi-node id: single env vs batched env (without and with the LP), per B."""
-    single, single_steps, lp = single_multinode(env_id, 2)
-    single_rate = single_steps / min(single() for _ in range(repeats))
-    moves = single_steps // 2
-    bare = 1.0 / max(1e-12, 1.0 / single_rate - lp / moves)  # the single env's steps without the LP
-    print(f"\n{env_id} ({moves} moves per episode): single MultiNodeEnv {single_rate:,.0f} steps/s "
-          f"with its LP (LP {lp * 1e3:.1f} ms per episode; ~{bare:,.0f} steps/s without it)")  # fmt: skip
-    head = ("B", "batched, no LP", "x single", "batched + LP", "x single")
-    print(f"{head[0]:>6} {head[1]:>16} {head[2]:>10} {head[3]:>14} {head[4]:>10}")
-    for size in sizes:
-        calls = max(10, env_steps // size)
-        ours = batched(env_id, size, calls, best_schedule=False)
-        rate = calls * size / min(ours() for _ in range(repeats))
-        with_lp = 1.0 / (1.0 / rate + lp / moves)  # one LP per row and episode of `moves` steps
-        ratios = rate / single_rate, with_lp / single_rate
-        print(f"{size:>6} {rate:>16,.0f} {ratios[0]:>10.1f} {with_lp:>14,.0f} {ratios[1]:>10.1f}")
-
-
-def step_tables(args: argparse.Namespace) -> None:
-    """The step-level tables of ``--steps`` (see the module's docstring)."""
-    single = single_cartpole(20_000)
-    single_best = min(single() for _ in range(args.repeats))
-    cartpole_rate = 20_000 / single_best
-    threads = args.threads or (numba_threads_available() if HAVE_NUMBA else 1)
-    kernels = "yes" if HAVE_NUMBA else "no (plain-Python kernels)"
-    print(f"numba: {kernels}; env {args.id}; our batched env on {threads} thread(s)")
-    print(f"CartPole-v1 raw (one env): {cartpole_rate:,.0f} steps/s")
-    head = ("B", "ours (steps/s)", "CartPoleVectorEnv", "x CartPole raw", "x CartPoleVec")
-    print(f"{head[0]:>6} {head[1]:>16} {head[2]:>18} {head[3]:>15} {head[4]:>14}")
-    for size in args.sizes:
-        calls = max(10, args.env_steps // size)
-        ours, theirs = batched(args.id, size, calls, num_threads=args.threads), cartpole_vector(size, calls)
-        best_ours = best_theirs = float("inf")
-        for _ in range(args.repeats):  # take turns
-            best_ours = min(best_ours, ours())
-            best_theirs = min(best_theirs, theirs())
-        rate, ref = calls * size / best_ours, calls * size / best_theirs
-        print(f"{size:>6} {rate:>16,.0f} {ref:>18,.0f} {rate / cartpole_rate:>15.1f} {rate / ref:>14.2f}")
-    if args.multinode_id:
-        multinode_table(args.multinode_id, args.sizes, args.env_steps, args.repeats)
 
 
 def build_parser() -> argparse.ArgumentParser:
