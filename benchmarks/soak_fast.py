@@ -39,7 +39,7 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
-from soak_faults import (  # noqa: E402
+from soak_session import (  # noqa: E402
     Session,
     add_fault_arguments,
     check_fault_arguments,
