@@ -1,15 +1,17 @@
-"""Many sum-rate AO runs of one slot at once: ``miso_slot.alternate`` with ``objective="sum"``
-(weighted or not) for R starts, as array operations over the runs, and the WMMSE pieces both share.
+"""Many sum-rate AO runs of one slot at once: the AO of ``miso_slot``'s module docstring with
+``objective="sum"`` (weighted or not) for R starts, as array operations over the runs; a single
+run, ``miso_slot.alternate``'s sum rate and :func:`wmmse_beams`, is a batch of one.
 
 A scorer that prices a slot at J weights runs the AO from S starts at each of them, J x S runs on
 the same channel (``model.miso_sdma``: J up to 15, S up to 2K), and the per-slot optimum runs it
 from every start of ``miso_slot.slot_optimum``. One run is a few dozen numpy calls on K x N_t
 matrices per iteration, so a run costs its calls' overhead, not its arithmetic; here each call holds
-every run still iterating. The arithmetic is ``alternate``'s, operation for operation, on the same
-matrix layouts (the same BLAS and LAPACK calls per matrix, the same reductions along a contiguous
-axis, the same compiled loops), so every run's phases, beams, rates, value and history equal
-``alternate``'s from the same start bit for bit (tested); a run stops after the iteration
-``alternate`` stops at, and the others go on without it.
+every run still iterating. The arithmetic is that of the AO written run by run, operation for
+operation, on the same matrix layouts (the same BLAS and LAPACK calls per matrix, the same
+reductions along a contiguous axis, the same compiled loops), so every run's phases, beams, rates,
+value and history equal that run's alone from the same start bit for bit, whatever else the batch
+holds (tested against the AO written run by run); a run stops after the iteration it would stop at
+alone, and the others go on without it.
 """
 
 from __future__ import annotations
@@ -21,7 +23,7 @@ import numpy as np
 from ios_uav_env.jit import jit
 from ios_uav_env.model.miso import SlotChannel, aligned_phases, mrt_beams, zf_beams
 
-__all__ = ["Runs", "aligned_starts", "best_weighted_rates", "or_alone", "sum_rate_runs"]
+__all__ = ["Runs", "aligned_starts", "best_weighted_rates", "or_alone", "sum_rate_runs", "wmmse_beams"]
 
 #: A run's power multiplier that the compiled loop leaves to :func:`_power_multiplier` (more live
 #: eigenvalues than numpy sums left to right, :data:`_SHORT_SUM`).
@@ -50,9 +52,10 @@ def sum_rate_runs(
     max_iter: int = 100,
     tol: float = 1e-7,
 ) -> Runs:
-    """Run i is ``alternate(channel, "sum", phases[i], beams[i], weights=None or weights[i],
-    max_iter=max_iter, tol=tol)``, bit for bit (module docstring). ``phases`` (R, M) rad, ``beams``
-    (R, N_t, K) of total power <= 1, ``weights`` (R, K) finite and >= 0, or None: the sum rate."""
+    """Run i ends where the same AO run alone ends, bit for bit (module docstring): ``alternate(
+    channel, "sum", phases[i], beams[i], weights=None or weights[i], max_iter=max_iter, tol=tol)``.
+    ``phases`` (R, M) rad, ``beams`` (R, N_t, K) of total power <= 1, ``weights`` (R, K) finite and
+    >= 0, or None: the sum rate."""
     k_n, n_t, m_n = channel.K, channel.n_t, channel.M
     psi = np.array(phases, dtype=float)
     W = np.array(beams, dtype=complex)
@@ -92,6 +95,14 @@ def sum_rate_runs(
         live = live[gain > tol * np.maximum(1.0, np.abs(new))]  # alternate's stopping rule, per run
     rates = _rates(H, W)
     return Runs(_values(alpha, rates), rates, psi, W, [np.array(h) for h in histories])
+
+
+def wmmse_beams(H: np.ndarray, W: np.ndarray, weights: np.ndarray | None = None) -> np.ndarray:
+    """One WMMSE beam update at the receivers and weights of (``H`` (K, N_t), ``W`` (N_t, K)): the
+    exact minimiser of the weighted MSE over sum_k ||w_k||^2 <= 1 (shape (N_t, K)); ``weights``
+    alpha_k (default 1) weigh the users' rates (the weighted sum rate). A batch of one run."""
+    alpha = None if weights is None else np.asarray(weights, dtype=float)[None]
+    return _wmmse_beams(np.asarray(H, dtype=complex)[None], np.asarray(W, dtype=complex)[None], alpha)[0]
 
 
 def best_weighted_rates(channel: SlotChannel, weights: np.ndarray, *, max_iter: int = 100) -> np.ndarray:
@@ -138,7 +149,7 @@ def aligned_starts(channel: SlotChannel) -> list[tuple[str, np.ndarray, np.ndarr
 
 
 def _power_multiplier(energy: np.ndarray, lam: np.ndarray, null: np.ndarray) -> float:
-    """The power constraint's multiplier mu >= 0 of ``miso_slot.wmmse_beams`` for the energies |Z_i|^2 of
+    """The power constraint's multiplier mu >= 0 of :func:`wmmse_beams` for the energies |Z_i|^2 of
     the right-hand side along Q's eigenvectors and Q's eigenvalues ``lam`` (zero where ``null``):
     0 when the unconstrained beams fit, else the root of sum_i energy_i / (lam_i + mu)^2 = 1 by
     bisection."""
@@ -168,7 +179,7 @@ _SHORT_SUM = 7
 
 @jit(fastmath=False)
 def _power_level(energy: np.ndarray, lam: np.ndarray, hi: float) -> float:
-    """``miso_slot.wmmse_beams``' bisection on the power multiplier mu: the least hi found with
+    """:func:`wmmse_beams`' bisection on the power multiplier mu: the least hi found with
     sum_i energy_i / (lam_i + mu)^2 <= 1, each sum added in numpy's order (:data:`_SHORT_SUM`)."""
     lo = 0.0
     for _ in range(200):
@@ -230,7 +241,8 @@ def _values(alpha: np.ndarray | None, rates: np.ndarray) -> np.ndarray:
 
 
 def _receivers(H: np.ndarray, W: np.ndarray, alpha: np.ndarray | None) -> tuple[np.ndarray, np.ndarray]:
-    """(u, omega or alpha omega), each (R, K): ``miso_slot._receivers`` of each run."""
+    """(u, omega or alpha omega), each (R, K): each run's MMSE receivers u_k = h_k w_k / T_k and
+    weights omega_k = 1 / e_k = 1 + SINR_k (times alpha_k when given)."""
     r = H @ W
     total = np.sum(np.abs(r) ** 2, axis=2) + 1.0
     signal = np.diagonal(r, axis1=1, axis2=2)
@@ -239,7 +251,7 @@ def _receivers(H: np.ndarray, W: np.ndarray, alpha: np.ndarray | None) -> tuple[
 
 
 def _wmmse_beams(H: np.ndarray, W: np.ndarray, alpha: np.ndarray | None) -> np.ndarray:
-    """(R, N_t, K): ``miso_slot.wmmse_beams`` of each run."""
+    """(R, N_t, K): :func:`wmmse_beams` of each run."""
     u, omega = _receivers(H, W, alpha)
     Hh = H.conj().transpose(0, 2, 1)
     Q = Hh @ ((omega * np.abs(u) ** 2)[:, :, None] * H)
@@ -293,8 +305,8 @@ def _multipliers(
 def _sweep_terms(
     channel: SlotChannel, H: np.ndarray, W: np.ndarray, alpha: np.ndarray | None
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    """(B (R, M, K, K), H W (R, K, K), omega (R, K), u (R, K)): ``miso_slot._sum_rate_phases``'
-    arguments of ``_wmmse_sweep`` for each run."""
+    """(B (R, M, K, K), H W (R, K, K), omega (R, K), u (R, K)): the arguments of
+    ``_wmmse_sweep`` for each run (the phases' update of the weighted MSE)."""
     u, omega = _receivers(H, W, alpha)
     cascade = np.ascontiguousarray(
         channel.coef.T[None, :, :, None] * (channel.to_elements @ W)[:, :, None, :]
@@ -306,7 +318,7 @@ def _sweep_terms(
 def _wmmse_sweeps(
     v: np.ndarray, B: np.ndarray, r: np.ndarray, omega: np.ndarray, u: np.ndarray
 ) -> np.ndarray:
-    """``miso_slot._wmmse_sweep`` of each run, ``v`` (R, M) updated in place and returned."""
+    """``_wmmse_sweep`` of each run, ``v`` (R, M) updated in place and returned."""
     for i in range(v.shape[0]):
         _wmmse_sweep(v[i], B[i], r[i], omega[i], u[i])
     return v

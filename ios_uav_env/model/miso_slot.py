@@ -52,7 +52,7 @@ from ios_uav_env.model.miso import (
     sinr,
     user_rates,
 )
-from ios_uav_env.model.miso_runs import _power_multiplier, _wmmse_sweep, aligned_starts, sum_rate_runs
+from ios_uav_env.model.miso_runs import aligned_starts, sum_rate_runs, wmmse_beams
 from ios_uav_env.model.phase_sweep import maxmin_sweep
 
 
@@ -189,19 +189,20 @@ def alternate(
     if not (tol >= 0):
         raise ValueError(f"tol must be a number >= 0, got {tol!r}")
     psi = channel.check_phases(phases).copy()
-    H = channel.matrix(psi)
     W = np.array(beams, dtype=complex)
+    if objective == "sum":  # the sum rate's runs: a batch of one
+        a = None if alpha is None else alpha[None]
+        runs = sum_rate_runs(channel, psi[None], W[None], a, max_iter=max_iter, tol=tol)
+        value, rates, psi, W = float(runs.values[0]), runs.rates[0], runs.phases[0], runs.beams[0]
+        return SlotSolution("sum", value, rates, psi, W, start, runs.histories[0])
+    H = channel.matrix(psi)
     value = _value(user_rates(H, W), objective, alpha)
     history = [value]
     for _ in range(max_iter):
-        if objective == "sum":
-            W = wmmse_beams(H, W, alpha)
-            v = _sum_rate_phases(channel, H, W, np.exp(-1j * psi), alpha)
-        else:
-            candidate = maxmin_beams(H)
-            if np.min(sinr(H, candidate)) > np.min(sinr(H, W)):
-                W = candidate
-            v, W = _maxmin_phases(channel, H, W, np.exp(-1j * psi))
+        candidate = maxmin_beams(H)
+        if np.min(sinr(H, candidate)) > np.min(sinr(H, W)):
+            W = candidate
+        v, W = _maxmin_phases(channel, H, W, np.exp(-1j * psi))
         psi = np.mod(-np.angle(v), 2 * np.pi)
         H = channel.matrix(psi)
         new = _value(user_rates(H, W), objective, alpha)
@@ -230,53 +231,9 @@ def _value(rates: np.ndarray, objective: str, alpha: np.ndarray | None) -> float
     return objective_value(rates, objective) if alpha is None else float(alpha @ rates)
 
 
-# --- the sum rate: WMMSE ------------------------------------------------------------------------
-
-
-def _receivers(
-    H: np.ndarray, W: np.ndarray, weights: np.ndarray | None = None
-) -> tuple[np.ndarray, np.ndarray]:
-    """MMSE receivers u_k = h_k w_k / T_k and weights omega_k = 1 / e_k = 1 + SINR_k, times the
-    users' ``weights`` alpha_k when given (the weighted sum rate's WMMSE)."""
-    r = H @ W
-    total = np.sum(np.abs(r) ** 2, axis=1) + 1.0
-    signal = np.diag(r)
-    omega = 1.0 / (1.0 - np.abs(signal) ** 2 / total)
-    return signal / total, omega if weights is None else weights * omega
-
-
-def wmmse_beams(H: np.ndarray, W: np.ndarray, weights: np.ndarray | None = None) -> np.ndarray:
-    """One WMMSE beam update at the receivers and weights of (``H``, ``W``): the exact minimiser of
-    the weighted MSE over sum_k ||w_k||^2 <= 1 (shape (N_t, K)); ``weights`` alpha_k (default 1)
-    weigh the users' rates (the weighted sum rate)."""
-    u, omega = _receivers(H, W, weights)
-    Q = H.conj().T @ ((omega * np.abs(u) ** 2)[:, None] * H)
-    rhs = H.conj().T * (omega * u)[None, :]
-    lam, U = np.linalg.eigh(Q)
-    Z = U.conj().T @ rhs
-    null = lam <= 1e-12 * max(lam.max(), 1e-300)  # rhs lies in Q's range: zero there in exact arithmetic
-    Z[null] = 0.0
-    lam = np.where(null, 0.0, lam)
-    energy = np.sum(np.abs(Z) ** 2, axis=1)
-    mu = _power_multiplier(energy, lam, null)
-    scale = np.zeros_like(lam)
-    live = energy > 0
-    scale[live] = 1.0 / (lam[live] + mu)
-    out = U @ (scale[:, None] * Z)
-    power_out = float(np.sum(np.abs(out) ** 2))
-    return out / np.sqrt(power_out) if power_out > 1.0 else out
-
-
 def _cascade(channel: SlotChannel, W: np.ndarray) -> np.ndarray:
     """B (M, K, K): B[m, k, j] = c_km g_m^T w_j, element m's term of h_k w_j per unit v_m."""
     return np.ascontiguousarray(channel.coef.T[:, :, None] * (channel.to_elements @ W)[:, None, :])
-
-
-def _sum_rate_phases(
-    channel: SlotChannel, H: np.ndarray, W: np.ndarray, v: np.ndarray, weights: np.ndarray | None = None
-) -> np.ndarray:
-    u, omega = _receivers(H, W, weights)
-    return _wmmse_sweep(v.copy(), _cascade(channel, W), H @ W, omega.astype(float), u.astype(complex))
 
 
 # --- the max-min rate: SINR balancing and a 1-D phase search -------------------------------------

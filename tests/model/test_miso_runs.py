@@ -1,7 +1,8 @@
-"""model.miso_runs: many weighted-sum AO runs of a slot at once, each equal to miso_slot.alternate's
-run from the same start bit for bit (the arithmetic is the same, operation for operation), on
-drawn channels of every shape the scorer meets and wider arrays whose power multiplier is left to
-the plain-Python bisection."""
+"""model.miso_runs: many weighted-sum AO runs of a slot at once, each equal bit for bit to the AO
+written run by run from the same start (tests/model/miso_reference.py: the arithmetic is the same,
+operation for operation), as is miso_slot.alternate (a batch of one), on drawn channels of every
+shape the scorer meets and wider arrays whose power multiplier is left to the plain-Python
+bisection."""
 
 import numpy as np
 import pytest
@@ -14,7 +15,9 @@ from ios_uav_env.model.miso_runs import (
     best_weighted_rates,
     sum_rate_runs,
 )
-from ios_uav_env.model.miso_slot import alternate, optimise_slot, slot_optimum
+from ios_uav_env.model.miso_slot import alternate, optimise_slot, slot_optimum, wmmse_beams
+from tests.model.miso_reference import sum_rate_run
+from tests.model.miso_reference import wmmse_beams as reference_beams
 
 
 def _channel(rng: np.random.Generator, k: int, n_t: int, m: int, scale: float) -> SlotChannel:
@@ -49,7 +52,7 @@ def _same_run(runs, i, run) -> bool:
 
 @pytest.mark.parametrize("weighted", [True, False])
 @pytest.mark.parametrize("k, n_t, m, scale", SHAPES)
-def test_every_run_is_alternates_run_bit_for_bit(k, n_t, m, scale, weighted):
+def test_every_run_is_the_run_alone_bit_for_bit(k, n_t, m, scale, weighted):
     rng = np.random.default_rng(k * 100 + n_t * 10 + m)
     channel = _channel(rng, k, n_t, m, scale)
     starts = aligned_starts(channel) * 2
@@ -63,16 +66,22 @@ def test_every_run_is_alternates_run_bit_for_bit(k, n_t, m, scale, weighted):
         runs = sum_rate_runs(channel, phases, beams, weights, max_iter=max_iter)
         for i in range(len(starts)):
             w = None if weights is None else weights[i]
-            run = alternate(channel, "sum", phases[i], beams[i], weights=w, max_iter=max_iter)
+            run = sum_rate_run(channel, phases[i], beams[i], weights=w, max_iter=max_iter)
             assert _same_run(runs, i, run), (max_iter, i)
+            alone = alternate(channel, "sum", phases[i], beams[i], weights=w, max_iter=max_iter)
+            assert _same(_ends(alone), _ends(run)), (max_iter, i)
             iterations.add(len(run.history))
+        H = channel.matrix(phases[0])
+        for i in range(len(starts)):  # one beam update: the public batch of one and the run alone
+            w = None if weights is None else weights[i]
+            assert np.array_equal(wmmse_beams(H, beams[i], w), reference_beams(H, beams[i], w))
     if weighted:  # (the plain sum rate's runs here all take the 12 iterations)
         assert len(iterations) > 3  # runs stop at different iterations: the stopping rule is per run
 
 
 def _best_run_by_run(channel, starts, **options):
-    """The first best of one alternate run after the other from each start (the runs unbatched)."""
-    runs = [alternate(channel, "sum", psi, W, start=name, **options) for name, psi, W in starts]
+    """The first best of one run after the other from each start (the runs unbatched)."""
+    runs = [sum_rate_run(channel, psi, W, start=name, **options) for name, psi, W in starts]
     return max(runs, key=lambda run: run.value)
 
 
