@@ -249,6 +249,13 @@ class ScenarioConfig:
             return self.epsilon
         return 1.0 if self.surface == "star" else 0.0
 
+    @property
+    def ground_side(self) -> float:
+        """The side of the surface plane x = x_c node G is on: sign(x_G - x_c), 1.0, -1.0 or 0.0 (in
+        the plane). A UAV on this side is served by reflection (the side factor 1), on the other by
+        transmission (``transmit_factor``): ``channel.side_factor``."""
+        return float(np.sign(self.ground_node[0] - self.ios_center[0]))
+
     def min_horizon(self) -> float:
         """Shortest T (s) that still lets the UAV reach qF from q0 at v_max."""
         return (int(moves_needed(math.dist(self.q0, self.qF), self.D)) + 1) * self.dt

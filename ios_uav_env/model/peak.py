@@ -84,7 +84,7 @@ def _on_side(config: ScenarioConfig, points: np.ndarray, side: str | None) -> np
     if side is None:
         return np.ones(len(points), dtype=bool)
     x_c = config.ios_center[0]
-    facing = np.sign(points[:, 0] - x_c) * np.sign(config.ground_node[0] - x_c)
+    facing = np.sign(points[:, 0] - x_c) * config.ground_side
     return facing > 0 if side == "front" else facing < 0
 
 

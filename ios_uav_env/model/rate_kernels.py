@@ -173,7 +173,7 @@ def rate_kernel(config: ScenarioConfig) -> RateKernel:
         return base
     jw = config.J * surface_nodes(config).weight
     gx, gy = config.ground_node
-    g_side = float(np.sign(gx - config.ios_center[0]))
+    g_side = config.ground_side
     nodes, params = base.nodes.copy(), base.params.copy()
     nodes[2] = jw
     params[PARAM_G_SIDE], params[PARAM_GX], params[PARAM_GY] = g_side, gx, gy
@@ -207,7 +207,7 @@ def _own_kernel(config: ScenarioConfig) -> RateKernel:
         dz2=(config.uav_altitude - nodes.z) ** 2,
         jw=config.J * nodes.weight,
         x_c=config.ios_center[0],
-        g_side=float(np.sign(config.ground_node[0] - config.ios_center[0])),
+        g_side=config.ground_side,
         t_factor=config.transmit_factor,
         has_surface=config.surface != "none",
         ground=np.asarray(config.ground_node, dtype=float),

@@ -163,3 +163,17 @@ def test_scene_box_holds_the_scene_with_its_margin():
     assert scene_box(config) == (-400.0, 400.0, 0.0, 300.0)
     assert scene_box(config, 10.0) == (-410.0, 410.0, -10.0, 310.0)
     assert scene_box(config, ends=False) == (0.0, 50.0, 0.0, 300.0)  # G and the IOS only
+
+
+@pytest.mark.parametrize(("gx", "side"), [(60.0, 1.0), (-60.0, -1.0), (0.0, 0.0)])
+def test_the_ground_side_is_the_reflection_side_of_the_side_factor(gx, side):
+    """sign(x_G - x_c): a UAV on G's side of the plane is served by reflection (factor 1), on the
+    other by transmission (epsilon), as ``channel.side_factor`` and the rate kernel read it."""
+    from ios_uav_env.model.channel import rate_kernel, side_factor
+
+    surface = "ios" if side else "none"  # (a node in the plane needs no surface)
+    config = ScenarioConfig(ground_node=(gx, 30.0), surface=surface)
+    assert config.ground_side == side and rate_kernel(config).g_side == side
+    if side:
+        x = np.array([side * 50.0, -side * 50.0])
+        np.testing.assert_array_equal(side_factor(config, x), [1.0, config.transmit_factor])
