@@ -19,9 +19,11 @@ def test_the_recipes_cache_bytecode_even_where_the_shell_says_not_to() -> None:
     if make is None:
         pytest.skip("no make on this machine")
     probe = 'probe-bytecode:\n\t@echo "[$$PYTHONDONTWRITEBYTECODE]"'
-    env = {**os.environ, "PYTHONDONTWRITEBYTECODE": "1"}
+    # a make of its own (not a sub-make of `make test`'s: no inherited flags, no directory lines)
+    env = {k: v for k, v in os.environ.items() if k not in ("MAKEFLAGS", "MFLAGS", "MAKELEVEL")}
+    env["PYTHONDONTWRITEBYTECODE"] = "1"
     proc = subprocess.run(
-        [make, "-s", "-f", "Makefile", f"--eval={probe}", "probe-bytecode"],
+        [make, "-s", "--no-print-directory", "-f", "Makefile", f"--eval={probe}", "probe-bytecode"],
         cwd=ROOT, env=env, capture_output=True, text=True, timeout=60,
     )  # fmt: skip
     assert proc.returncode == 0, proc.stderr
