@@ -44,6 +44,7 @@ from ios_uav_env.model.miso import (
     SLOT_OBJECTIVES,
     SlotChannel,
     aligned_phases,
+    check_beams,
     check_objective,
     mrt_beam,
     mrt_beams,
@@ -189,7 +190,7 @@ def alternate(
     if not (tol >= 0):
         raise ValueError(f"tol must be a number >= 0, got {tol!r}")
     psi = channel.check_phases(phases).copy()
-    W = np.array(beams, dtype=complex)
+    W = check_beams(beams, (channel.K, channel.n_t)).copy()
     if objective == "sum":  # the sum rate's runs: a batch of one
         a = None if alpha is None else alpha[None]
         runs = sum_rate_runs(channel, psi[None], W[None], a, max_iter=max_iter, tol=tol)

@@ -178,8 +178,13 @@ def test_bad_arguments_name_the_field_and_the_range():
         miso_slot.alternate(slot, "sum", phases, W, max_iter=2.5)
     with pytest.raises(ValueError, match="tol must be a number >= 0"):
         miso_slot.alternate(slot, "sum", phases, W, tol=float("nan"))
-    with pytest.raises(ValueError, match=r"beams must have total power"):
-        miso_slot.alternate(slot, "sum", phases, 2 * W)
+    for objective in miso.SLOT_OBJECTIVES:  # the single start's beams, named as one setting's
+        with pytest.raises(ValueError, match=r"beams must have total power"):
+            miso_slot.alternate(slot, objective, phases, 2 * W)
+        with pytest.raises(
+            ValueError, match=r"beams must be a finite complex array of shape \(\d+, \d+\) \(N_t, K\)"
+        ):
+            miso_slot.alternate(slot, objective, phases, W[:, :1])
 
 
 @pytest.mark.slow_without_numba
