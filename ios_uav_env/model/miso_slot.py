@@ -190,7 +190,8 @@ def alternate(
     if not (tol >= 0):
         raise ValueError(f"tol must be a number >= 0, got {tol!r}")
     psi = channel.check_phases(phases).copy()
-    W = check_beams(beams, (channel.K, channel.n_t)).copy()
+    check_beams(beams, (channel.K, channel.n_t))
+    W = np.array(beams, dtype=complex)  # (a copy in the caller's memory order: products round by it)
     if objective == "sum":  # the sum rate's runs: a batch of one
         a = None if alpha is None else alpha[None]
         runs = sum_rate_runs(channel, psi[None], W[None], a, max_iter=max_iter, tol=tol)
