@@ -26,7 +26,7 @@ import numpy as np
 from ios_uav_env.model.array import ArrayConfig
 from ios_uav_env.model.config import ScenarioConfig
 from ios_uav_env.model.miso import slot_bounds, slot_channel, tdma_rates, weighted_sum_bound
-from ios_uav_env.model.miso_runs import best_weighted_rates, or_alone
+from ios_uav_env.model.miso_runs import weighted_settings
 from ios_uav_env.model.regions import Pricer, RegionSchedule, maxmin_regions
 
 __all__ = ["miso_maxmin", "miso_pricer"]
@@ -47,7 +47,7 @@ def miso_pricer(
     def price(w: np.ndarray) -> tuple[np.ndarray, float]:
         point, total = np.zeros(config.K), 0.0
         for c, g, solo in zip(channels, gains, alone, strict=True):
-            rates = or_alone(w, best_weighted_rates(c, w[None], max_iter=max_iter)[0], solo)
+            rates = weighted_settings(c, w[None], solo, max_iter=max_iter)[0]
             bound, value = weighted_sum_bound(g, w), float(w @ rates)
             if value > bound * (1 + 1e-9) + 1e-12:
                 raise RuntimeError(f"miso_pricer: the weighted sum {value!r} exceeds its bound {bound!r}")

@@ -23,7 +23,10 @@ import numpy as np
 from ios_uav_env.jit import jit
 from ios_uav_env.model.miso import SlotChannel, aligned_phases, mrt_beams, zf_beams
 
-__all__ = ["Runs", "aligned_starts", "best_weighted_rates", "or_alone", "sum_rate_runs", "wmmse_beams"]
+__all__ = [
+    "Runs", "aligned_starts", "best_weighted_rates", "or_alone", "sum_rate_runs", "weighted_settings",
+    "wmmse_beams",
+]  # fmt: skip
 
 #: A run's power multiplier that the compiled loop leaves to :func:`_power_multiplier` (more live
 #: eigenvalues than numpy sums left to right, :data:`_SHORT_SUM`).
@@ -130,6 +133,16 @@ def or_alone(w: np.ndarray, rates: np.ndarray, solo: np.ndarray) -> np.ndarray:
     if w[k] * solo[k] > float(w @ rates):
         rates = np.where(np.arange(len(solo)) == k, solo, 0.0)
     return rates
+
+
+def weighted_settings(
+    channel: SlotChannel, weights: np.ndarray, solo: np.ndarray, *, max_iter: int = 100
+) -> np.ndarray:
+    """(J, K): the slot's setting at each of ``weights`` (J, K), the better of the AO's
+    (:func:`best_weighted_rates`) and a user alone (``solo``, ``miso.tdma_rates``; :func:`or_alone`)."""
+    w = np.asarray(weights, dtype=float)
+    rates = best_weighted_rates(channel, w, max_iter=max_iter)
+    return np.array([or_alone(wj, rj, solo) for wj, rj in zip(w, rates, strict=True)])
 
 
 def aligned_starts(channel: SlotChannel) -> list[tuple[str, np.ndarray, np.ndarray]]:

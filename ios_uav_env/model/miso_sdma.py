@@ -47,7 +47,7 @@ import numpy as np
 from ios_uav_env.model.array import scenario_array
 from ios_uav_env.model.config import ScenarioConfig
 from ios_uav_env.model.miso import SlotChannel, slot_bounds, slot_channels, tdma_rates, weighted_sum_bound
-from ios_uav_env.model.miso_runs import best_weighted_rates, or_alone
+from ios_uav_env.model.miso_runs import weighted_settings
 from ios_uav_env.model.regions import Pricer, RegionSchedule, maxmin_regions
 
 __all__ = [
@@ -130,7 +130,7 @@ def slot_setting(channel: SlotChannel, weights: np.ndarray, alone: np.ndarray | 
     larger there (the first such user)."""
     w = np.asarray(weights, dtype=float)
     solo = tdma_rates(channel) if alone is None else alone
-    return or_alone(w, best_weighted_rates(channel, w[None], max_iter=MAX_ITER)[0], solo)
+    return weighted_settings(channel, w[None], solo, max_iter=MAX_ITER)[0]
 
 
 def slot_points(config: ScenarioConfig, trajectory: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -147,9 +147,7 @@ def slot_points(config: ScenarioConfig, trajectory: np.ndarray) -> tuple[np.ndar
     for n, p in enumerate(q):
         channel = slot_channel_at(config, p)
         solo = tdma_rates(channel)
-        settings = best_weighted_rates(channel, lattice, max_iter=MAX_ITER)  # every w's AO runs at once
-        for j, w in enumerate(lattice):
-            points[n, j] = or_alone(w, settings[j], solo)  # slot_setting(channel, w, solo)
+        points[n, : len(lattice)] = weighted_settings(channel, lattice, solo, max_iter=MAX_ITER)  # at once
         points[n, len(lattice) :] = np.diag(solo)
         gains[n] = slot_bounds(channel).gains
     return points, gains
