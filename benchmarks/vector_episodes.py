@@ -157,7 +157,7 @@ def run_interleaved(
             return complete
 
 
-def _warm_up(make: Callable[[int], gym.vector.VectorEnv], seed: int, max_calls: int = 2000) -> None:
+def warm_up(make: Callable[[int], gym.vector.VectorEnv], seed: int, max_calls: int = 2000) -> None:
     """Compile and import what an episode runs (numba kernels, the LP), untimed, on 2 rows: reset,
     steps until an episode ends, then its autoreset."""
     vec = make(2)

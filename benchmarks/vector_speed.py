@@ -75,10 +75,10 @@ from vector_episodes import (  # noqa: E402
     RANDOM_BAR,
     Classification,
     EpisodeRunner,
-    _warm_up,
     classify,
     registered_ids,
     run_interleaved,
+    warm_up,
 )
 from vector_steps import numba_threads_available, step_tables  # noqa: E402
 
@@ -139,7 +139,7 @@ def time_id(
     def make(size: int) -> gym.vector.VectorEnv:
         return gym.make_vec(env_id, num_envs=size, vectorization_mode=form, **extra)
 
-    _warm_up(make, seed)
+    warm_up(make, seed)
     vec = make(num_envs)
     cart_env = CartPoleVectorEnv(num_envs=num_envs)
     try:
