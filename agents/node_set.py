@@ -119,7 +119,7 @@ def _dense(inp: np.ndarray, w: np.ndarray, bias: np.ndarray, squash: bool) -> np
     """inp (n, a) @ w (a, b) + bias, then tanh if ``squash``: loops that numba compiles."""
     out = np.empty((inp.shape[0], w.shape[1]))
     for i in range(inp.shape[0]):
-        out[i] = bias
+        copy_into(out[i], bias)  # (not `out[i] = bias`: numba's shape-error path)
         for a in range(w.shape[0]):  # rows of w: the innermost loop runs along memory (SIMD)
             value = inp[i, a]
             for j in range(w.shape[1]):
@@ -161,8 +161,9 @@ def _forward_one(scene: np.ndarray, nodes: np.ndarray, k_real: int, k_max: int, 
     copy_into(joined[0], scene)  # (jit.copy_into: no slice assignment in a kernel)
     copy_into(joined[0, base:], context[0])
     pooled = joined[0, base + h.shape[1] :]  # (a view: `joined[0, a:] += ...` would assign a slice)
-    for i in range(k_real):
-        pooled += weights[i] * g[i]
+    for i in range(k_real):  # (elementwise: an array `+=` compiles numba's shape-error path)
+        for j in range(pooled.size):
+            pooled[j] += weights[i] * g[i, j]
     move = _dense(_dense(joined, w_move, b_move, True), w_out, b_out, False)[0]
     out = np.zeros(MOVE + k_max)
     copy_into(out, move)

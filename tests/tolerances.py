@@ -51,6 +51,18 @@ ids depend on the carrier phase, 2 pi / lambda per metre of distance, and move b
 changed by 0.01 dB moves the rates by ~1e-3 relative (2e-3 bps/Hz, in the info and in the rate
 feature), and a dropped or changed normalisation moves a feature by far more than 2e-4.
 
+## A batch against its single envs: measured rates (``BATCH_MEASURED_REL``)
+
+A batched env and its rows' single envs run on the same machine and are compared bit for bit,
+except where a number comes out of the node rates of the step: the batch computes them in its
+parallel kernel, the single env in the serial one, and the fast-math node sums of the two
+compilations round differently in the last bits (the rewards are compared to 1e-9 for this
+reason). A multi-node row's measured rate is the faded sample of its node's expected-gain rate
+of the step (``channel.faded_of_rate``), and its served tally sums those, so both inherit that
+rounding: a few ulps of a rate, amplified at most by r ln 2 (r < 20 bps/Hz) in 2^r - 1, ~1e-14
+relative. ``BATCH_MEASURED_REL`` leaves a factor 100. A real regression (another slot's kernel,
+another node's normals, a lost clip) moves a measured rate by far more than 1e-6.
+
 ## A moving-node agent replayed (``MOBILE_REPLAY_REL``)
 
 The moving-node agent (``ppo_IOSUAV-Mobile-v0``) observes the *measured* rates of the slots flown,
@@ -92,6 +104,9 @@ NORMALISATION_CHANGE = 1e-3
 PLANNER_REL = 1e-9
 #: Relative tolerance of an SCA re-run (a conic solver's stopping tolerance) against its stored value.
 SOLVER_REL = 1e-6
+#: Relative tolerance of a batched multi-node row's measured rates and served tally against its
+#: single env's (the step's node rates round differently in the parallel and the serial kernel).
+BATCH_MEASURED_REL = 1e-12
 #: Largest change of a golden episode's float64 value (info, reward), in units of max(1, the
 #: largest magnitude of the same key in the recorded episode).
 GOLDEN_REL = 1e-6

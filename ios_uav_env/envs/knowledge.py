@@ -48,7 +48,14 @@ from ios_uav_env.envs.observation import (
 )
 from ios_uav_env.envs.observation_layout import observation_names
 from ios_uav_env.envs.options import KNOWLEDGE, EnvOptions
-from ios_uav_env.model.channel import PARAMS, HeldKernels, faded_row, hold_path_kernels, path_kernels
+from ios_uav_env.model.channel import (
+    PARAMS,
+    HeldKernels,
+    faded_of_rate,
+    faded_row,
+    hold_path_kernels,
+    path_kernels,
+)
 from ios_uav_env.model.config import ScenarioConfig
 from ios_uav_env.model.kalman import NodeFilter
 from ios_uav_env.model.mobility import BOX_MARGIN
@@ -314,11 +321,16 @@ def observe_nodes(
     rate_high: float,
     rng: np.random.Generator,
     estimate: bool = False,
+    *,
+    expected: np.ndarray,
+    params: np.ndarray,
 ) -> tuple[np.ndarray | None, np.ndarray | None]:
     """What the UAV at ``q`` learns of the K nodes in ``slot`` (0-based) with the slot's ``shares``
     (K,), drawn from ``rng`` as ``baselines.mpc.run_online`` draws it: every node's report (K x 2
     normals, ``"reports"``), then two normals per node in node order (``"reports"`` and
-    ``"rates"``), a measured rate for a served node (share > ``SERVED_SHARE``). Returns the told positions
+    ``"rates"``), a measured rate for a served node (share > ``SERVED_SHARE``):
+    ``channel.faded_of_rate`` of the node's expected-gain rate at ``q`` in the slot (``expected``
+    (K,), the step's) and its kernel's scalars (``params`` (K, P), the slot's). Returns the told positions
     ((K, 2) m: the truth, the clipped reports or, with ``estimate``, the Kalman filter's clipped
     estimate; None for ``"rates"``) and the told rates ((K,) bps/Hz, clipped to ``rate_high``, NaN
     for a node not served; None for ``"exact"``). Adds share x told rate to ``track.tally``."""
@@ -332,9 +344,8 @@ def observe_nodes(
     for k in range(len(truth)):
         n_re, n_im = rng.standard_normal(2)  # drawn for every node: the stream ignores the shares
         if shares[k] > SERVED_SHARE:
-            rate = faded_row(
-                float(q[0]), float(q[1]), float(n_re), float(n_im), track.nodes[k], track.params[k], slot
-            )
+            x, y = float(q[0]), float(q[1])
+            rate = faded_of_rate(float(expected[k]), x, y, float(n_re), float(n_im), params, k)
             track.measured[k, slot] = rate
             rates[k] = min(rate, rate_high)
             track.tally[k] += shares[k] * rates[k]

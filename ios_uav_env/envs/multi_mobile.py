@@ -123,7 +123,7 @@ class MobileNodes:
         q, shares = rows.state[i, 0:2], rows.shares[i, :k_n]
         told, rates = observe_nodes(
             self._track, slot, q, shares, o.knowledge, o.report_sigma, self._rate_clip, self.np_random,
-            o.filter_estimate,
+            o.filter_estimate, expected=rows.rates[i, :k_n], params=rows.params[i, :k_n],
         )  # fmt: skip
         width = len(self.node_features)
         for k in range(k_n):

@@ -1,16 +1,17 @@
-"""The measured rates of the batched multi-node env's moving rows: one compiled call over the rows.
+"""The measured rates of the batched multi-node env: one compiled call over the rows.
 
-After each step, a row whose knowledge is ``"reports"`` or ``"rates"`` measures the faded rate of
-each node it served (``knowledge.observe_nodes``, the single env's path) on the node's kernel of
-the slot: the row's own where the compiled weights put it there (``node_weights.put_node_weights``),
-else its track's. :func:`measure_node_rates` does it for the rows one after the other.
+After each step (and at reset), a row whose knowledge is ``"reports"`` or ``"rates"`` measures the
+faded rate of each node it served (``knowledge.observe_nodes``, the single env's path). The step
+has just computed every node's expected-gain rate r_k at the UAV's position on the node's kernel
+of the slot (``NodeRows.rates``), so the sample is ``channel.faded_of_rate`` of it:
+log2(1 + (2^r_k - 1) |h|^2), the slot's fading |h|^2 from the node's two normals and its kernel's
+scalars (``NodeRows.params``). No sum over the surface is taken again. Measured rates exist for
+one antenna, continuous phases and expected fading only (``components.world`` refuses the
+others), where r_k = log2(1 + eta zeta_k^2) exactly.
 
-The rows stay on one thread. The rate (``channel.faded_row``, fast-math) is inlined into each
-kernel and optimised with it, so a threaded copy of this loop (or one behind a compiled-function
-boundary) may round a rate differently from the serial kernel and the single env, and then the
-batch no longer equals its single envs bit for bit. A rate in IEEE arithmetic rounds alike in
-every copy, but its surface sum's divisions no longer vectorise: slower than the fast-math
-serial loop even on two threads (``results/log.md`` has the figures).
+The arithmetic is IEEE (``faded_of_rate`` is a function of its own, compiled without fast-math),
+so the rows round as the single env's Python call does, on any thread: the batch equals its
+single envs bit for bit (tested).
 """
 
 from __future__ import annotations
@@ -20,45 +21,34 @@ from typing import Any
 import numpy as np
 
 from ios_uav_env.jit import jit
-from ios_uav_env.model.channel import faded_row
+from ios_uav_env.model.channel import faded_of_rate
 from ios_uav_env.model.reports import SERVED_SHARE
 
 __all__ = ["measure_node_rates"]
 
 
-@jit
+@jit(fastmath=False)
 def measure_node_rates(
-    rows: np.ndarray, state: np.ndarray, shares: np.ndarray, counts: np.ndarray, widths: np.ndarray,
-    slots: np.ndarray, measured: Any, track_nodes: Any, track_params: Any, row_nodes: np.ndarray,
-    row_params: np.ndarray, normals: np.ndarray, reported: bool, rate_high: float, told: np.ndarray,
+    rows: np.ndarray, state: np.ndarray, shares: np.ndarray, counts: np.ndarray, measured: Any,
+    rates: np.ndarray, params: np.ndarray, normals: np.ndarray, reported: bool, rate_high: float,
+    told: np.ndarray,
 ) -> None:  # fmt: skip
-    """``nodes_kernels.measure_nodes`` for rows of both kinds: a row with ``slots[i]`` > 0 (its
-    kernels computed in the row, ``node_weights.put_node_weights``) measures on the row's kernels,
-    of its own width ``widths[i]`` (a C-ordered copy where the rows are wider: the numbers and the
-    sum of the track's kernel); the others as ``measure_nodes`` does (``counts[i]`` nodes). Node
-    k's rate, unclipped, goes to ``measured[i][k, slot]`` and, clipped to ``rate_high``, to
-    ``told[i, k]`` (NaN: not served)."""
+    """Each served node's measured rate of the slot (``share > SERVED_SHARE``; node k's normals
+    ``normals[i, f + 2k : f + 2k + 2]``, f = 2 K after the reports' normals when ``reported``, else
+    0) from its expected-gain rate ``rates[i, k]`` and kernel scalars ``params[i, k]`` at the row's
+    UAV (``state[i, 0:2]``): recorded unclipped in ``measured[i][k, slot]`` (slot ``state[i, 2]``)
+    and told clipped to ``rate_high`` in ``told[i, k]`` (NaN: not served), for the row's
+    ``counts[i]`` nodes."""
     for j in range(rows.size):
         i = rows[j]
         slot = int(state[i, 2])
         record = measured[i]
         k_nodes = counts[i]
         first = 2 * k_nodes if reported else 0
-        fresh = slots[i] > 0
-        own = fresh and widths[i] == row_nodes.shape[3]
-        mine = row_nodes[i]
-        if fresh and not own:
-            mine = np.ascontiguousarray(row_nodes[i, :, :, : widths[i]])
-        elif not fresh:
-            own = track_nodes[i].shape[3] == row_nodes.shape[3]
         for k in range(k_nodes):
             told[i, k] = np.nan
             if shares[i, k] > SERVED_SHARE:
                 n_re, n_im = normals[i, first + 2 * k], normals[i, first + 2 * k + 1]
-                if fresh or own:
-                    rate = faded_row(state[i, 0], state[i, 1], n_re, n_im, mine, row_params[i], k)
-                else:
-                    rate = faded_row(state[i, 0], state[i, 1], n_re, n_im, track_nodes[i][k],
-                                     track_params[i][k], slot)  # fmt: skip
+                rate = faded_of_rate(rates[i, k], state[i, 0], state[i, 1], n_re, n_im, params[i], k)
                 record[k, slot] = rate
                 told[i, k] = rate_high if rate_high < rate else rate

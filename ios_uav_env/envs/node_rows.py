@@ -39,7 +39,6 @@ from ios_uav_env.envs.nodes_kernels import (
     N_BASE,
     draws,
     gather_node_kernels,
-    measure_nodes,
     tell_nodes,
     tell_nodes_batched,
 )
@@ -231,7 +230,7 @@ class NodeBlockRows:
         ``observe_slot`` (``knowledge.observe_nodes``), bit for bit: per row, the slot's normals
         (from the episode's draw, ``knowledge_kernels.EpisodeDraws``; channel "rician": one draw of
         its generator per slot), then compiled calls for all ``rows``
-        (``nodes_kernels.measure_nodes`` and ``tell_nodes``); the Kalman filter (``filter_estimate``)
+        (``node_measure.measure_node_rates`` and ``tell_nodes``); the Kalman filter (``filter_estimate``)
         per row."""
         rows = np.asarray(rows, dtype=np.int64)
         normals, envs, counts, draw, out = self._slot_normals, self.envs, self._k, self._draw, self._draw_out
@@ -242,16 +241,10 @@ class NodeBlockRows:
         elif self._knowledge != 0:
             for i in rows.tolist():
                 draw[i](out=out[i])
-        if self._knowledge != 0 and self._weights is not None:
-            w = self._weights
-            tracks = self._track_measured, self._track_nodes, self._track_params
-            measure_node_rates(rows, state, shares, counts, w.widths, w.slots, *tracks, self._rows.nodes,
+        if self._knowledge != 0:
+            measure_node_rates(rows, state, shares, counts, self._track_measured, self._rows.rates,
                                self._rows.params, normals, self._knowledge == 1, self._rate_high,
                                self._told)  # fmt: skip
-        elif self._knowledge != 0:
-            kernels = self._rows.nodes, self._rows.params
-            measure_nodes(rows, state, shares, self._track_measured, self._track_nodes, self._track_params,
-                          *kernels, normals, self._knowledge == 1, self._rate_high, self._told)  # fmt: skip
         args = (rows, state, shares, *self._records(rows), self._lo, self._hi, normals, self._knowledge,
                 self._sigma, self._scale, not self._estimate, self._width, self._told, obs, self._raw,
                 self._rows.sizes)  # fmt: skip

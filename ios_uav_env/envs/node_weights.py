@@ -274,7 +274,7 @@ def _point_blocks(
     points = np.empty((total, 3), dtype=np.int64)
     for t in range(total):
         p = which[at[t, 0]]
-        points[first[p]] = at[t]
+        copy_into(points[first[p]], at[t])  # (not `points[r] = at[t]`: numba's shape-error path)
         first[p] += 1
     starts = np.empty(total + 1, dtype=np.int64)
     count, start = 0, 0

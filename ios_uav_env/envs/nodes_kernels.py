@@ -4,14 +4,14 @@
 template env makes on itself in ``multi_mobile.MobileNodes``: before the step, copy each row's
 node kernels of the slot it flies to out of its track (:func:`gather_node_kernels`, the
 ``_put`` of ``prepare_slot``); after it, tell each row's UAV what it learns of its nodes
-(:func:`measure_nodes`, then :func:`tell_nodes`: ``knowledge.observe_nodes`` and the node
+(``node_measure.measure_node_rates``, then :func:`tell_nodes`: ``knowledge.observe_nodes`` and the node
 features of ``MobileNodes.observe_slot``). The draws stay each row's own: per row the batched
 env draws the slot's normals in ONE ``standard_normal(d)`` call of the row's generator
 (:func:`draws`: the K reports' 2 K, then two per node for the measured rates; numpy's Generator
 gives one call of d the stream of the per-row path's calls), and the kernels do the per-row
 arithmetic as the per-row path does: the reports, their clip, the served tally and the features
-in IEEE arithmetic (as numpy computes them), the faded rates with ``channel.faded_row``'s own
-flags (the kernels' fast-math, in a function of their own). So the rows equal the single env's
+in IEEE arithmetic (as numpy computes them), the faded rates as ``channel.faded_of_rate`` of the
+step's expected-gain rates (IEEE too). So the rows equal the single env's
 bit for bit (tested, with and without numba). The Kalman filter of ``filter_estimate`` stays
 Python per row (``knowledge.filter_report`` on the raw reports left in ``raw``).
 
@@ -33,15 +33,12 @@ import numpy as np
 from ios_uav_env.envs.knowledge_kernels import MODES
 from ios_uav_env.envs.multi_table import BASE_FEATURES
 from ios_uav_env.jit import copy_into, jit, prange
-from ios_uav_env.model.channel import faded_row
-from ios_uav_env.model.reports import SERVED_SHARE
 
 __all__ = [
     "MODES",
     "N_BASE",
     "draws",
     "gather_node_kernels",
-    "measure_nodes",
     "tell_nodes",
     "tell_nodes_batched",
 ]
@@ -78,36 +75,6 @@ def gather_node_kernels(
             copy_into(params[i, k], scalars[k, slot])
 
 
-@jit
-def measure_nodes(
-    rows: np.ndarray, state: np.ndarray, shares: np.ndarray, measured: Any, track_nodes: Any,
-    track_params: Any, row_nodes: np.ndarray, row_params: np.ndarray, normals: np.ndarray, reported: bool,
-    rate_high: float, told: np.ndarray,
-) -> None:  # fmt: skip
-    """Each served node's measured rate of the slot (``share > SERVED_SHARE``; node k's normals
-    ``normals[i, f + 2k : f + 2k + 2]``, f = 2 K after the reports' normals when ``reported``, else
-    0), recorded unclipped in ``measured[i][k, slot]`` and told clipped to ``rate_high`` in
-    ``told[i, k]`` (NaN: not served). On the row's node kernels of the slot (``row_nodes[i, k]``,
-    ``row_params[i, k]``: the track's slot, copied there for the step) where they have the track's
-    width (the same numbers and sum, in cache), else on the track's."""
-    for j in range(rows.size):
-        i = rows[j]
-        slot = int(state[i, 2])
-        kernel, scalars, record = track_nodes[i], track_params[i], measured[i]
-        first = 2 * kernel.shape[0] if reported else 0
-        own = kernel.shape[3] == row_nodes.shape[3]
-        for k in range(kernel.shape[0]):
-            told[i, k] = np.nan
-            if shares[i, k] > SERVED_SHARE:
-                n_re, n_im = normals[i, first + 2 * k], normals[i, first + 2 * k + 1]
-                nodes, params, at = row_nodes[i], row_params[i], k
-                if not own:
-                    nodes, params, at = kernel[k], scalars[k], slot
-                rate = faded_row(state[i, 0], state[i, 1], n_re, n_im, nodes, params, at)
-                record[k, slot] = rate
-                told[i, k] = rate_high if rate_high < rate else rate
-
-
 @jit(fastmath=False)
 def tell_nodes(
     rows: np.ndarray, state: np.ndarray, shares: np.ndarray, paths: Any, reports: Any, tally: Any,
@@ -119,7 +86,8 @@ def tell_nodes(
     ``normals[i, 2k : 2k + 2]`` (recorded in ``reports[i]``, the raw one in ``raw[i, k]``) or 0
     for ``"rates"``; not written when ``positions`` is False: the filter's, written after) and,
     unless knowledge is exact (``mode``: ``MODES``), the served tally (+ share x told rate, over
-    N) and the rate feature (the told rate ``told[i, k]`` of :func:`measure_nodes`, 0: not served).
+    N) and the rate feature (the told rate ``told[i, k]`` of ``node_measure.measure_node_rates``,
+    0: not served).
     ``sizes[i]``: the row's (K, N) (its track's arrays may be the batch's, longer)."""
     for j in range(rows.size):
         _tell_row(rows[j], state, shares, paths, reports, tally, lo, hi, normals, mode, sigma, scale,

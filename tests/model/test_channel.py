@@ -119,6 +119,25 @@ def test_faded_rates_are_seeded_samples_around_the_expected_rate():
     assert 0.8 * SPOT_RATE["ios"][0] < many.mean() < SPOT_RATE["ios"][0]
 
 
+@pytest.mark.parametrize("surface", ["ios", "ris", "none"])
+def test_a_faded_sample_from_the_expected_rate_is_the_faded_row(surface):
+    # log2(1 + (2^r - 1) |h|^2) with r = log2(1 + eta zeta^2): the sample without the surface sum,
+    # faded_row's to the rounding of the carrier phase 2 pi d / lambda (~1e4 rad at d = 100 m: an ulp
+    # of it is ~1e-12 rad, and IEEE and fast-math round it differently), near and far (r from
+    # ~1e-7 to ~3 bps/Hz), deep fades included; a wrong phase, side or gain moves it by far more
+    cfg = DEFAULT.replace(surface=surface)
+    kernel = m.rate_kernel(cfg)
+    nodes, params = kernel.nodes[np.newaxis], kernel.params[np.newaxis]
+    q = np.concatenate([random_positions(200, seed=12), [[0.0, 5.0], [-3000.0, 400.0]]])
+    draws = np.random.default_rng(13).standard_normal((len(q), 2)) * [1.0, 3.0]
+    for (x, y), (n_re, n_im) in zip(q, draws, strict=True):
+        rate = m.rate_row(x, y, nodes, params, 0)
+        sample = m.faded_of_rate(rate, x, y, n_re, n_im, params, 0)
+        assert sample == pytest.approx(m.faded_row(x, y, n_re, n_im, nodes, params, 0), rel=1e-9, abs=1e-12)
+    rates = [m.rate_row(x, y, nodes, params, 0) for x, y in q]
+    assert min(rates) < 1e-2 and max(rates) > 0.3  # (both ends of the range were met)
+
+
 def test_rate_kernel_scalar_path_equals_the_vectorised_model():
     q = random_positions(300, seed=10)
     q[0] = (0.0, 5.0)
