@@ -212,8 +212,8 @@ class NodeBlockRows:
         """The tracks' paths, reports and tally of ``rows`` as ``tell_nodes`` indexes them by row:
         the batch's drawn buffers themselves where every one of ``rows`` holds them (a row's entry
         of a list is its buffers' row: the same arrays, read without the typed lists' per-row
-        cost), else the lists. (The measured rates stay lists: a kernel of the fast-math rate
-        compiled for other argument types may round it otherwise, ``node_measure``.)"""
+        cost), else the lists. (The measured rates stay the tracks' lists, which
+        ``node_measure.measure_node_rates`` writes for rows of both kinds.)"""
         drawn = self._drawn
         if drawn is not None:
             buffered = self._buffered[rows]
