@@ -341,10 +341,10 @@ def observe_nodes(
     if knowledge == "exact":
         return told, None
     rates = np.full(len(truth), np.nan)
+    x, y = float(q[0]), float(q[1])
     for k in range(len(truth)):
         n_re, n_im = rng.standard_normal(2)  # drawn for every node: the stream ignores the shares
         if shares[k] > SERVED_SHARE:
-            x, y = float(q[0]), float(q[1])
             rate = faded_of_rate(float(expected[k]), x, y, float(n_re), float(n_im), params, k)
             track.measured[k, slot] = rate
             rates[k] = min(rate, rate_high)

@@ -6,7 +6,8 @@ A mixin of the multi-node env holding the multi-node row protocol's per-row call
 :meth:`MobileNodes.prepare_slot` readies the row's next slot, :meth:`MobileNodes.observe_slot`
 writes what the UAV is told. The batched env makes ``load_row`` on each row's template env and
 the other two, for all its moving rows at once, in compiled calls on the rows' ``track`` arrays
-(``ios_uav_env.envs.nodes_kernels``: the same arithmetic and draws, tested equal bit for bit).
+(``ios_uav_env.envs.nodes_kernels``: the same arithmetic and draws, tested equal bit for bit,
+the measured rates to the rounding of the step's rates).
 
 With moving or roughly known nodes (``ios_uav_env/IOSUAV-MultiNode-Mobile-v0``; the multi-node
 counterpart of the single env's mobile methods) the row's episode draws its node paths and puts

@@ -10,8 +10,11 @@ one antenna, continuous phases and expected fading only (``components.world`` re
 others), where r_k = log2(1 + eta zeta_k^2) exactly.
 
 The arithmetic is IEEE (``faded_of_rate`` is a function of its own, compiled without fast-math),
-so the rows round as the single env's Python call does, on any thread: the batch equals its
-single envs bit for bit (tested).
+so a row rounds as the single env's Python call does from the same r. The batch's r come from its
+parallel step kernel and the single env's from the serial one, whose fast-math node sums round
+differently in the last bits: the measured rates and the served tally equal the single envs' to
+that rounding (``BATCH_MEASURED_REL`` of ``tests/tolerances.py``; tested), the observations bit
+for bit.
 """
 
 from __future__ import annotations

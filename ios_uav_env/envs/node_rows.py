@@ -227,7 +227,8 @@ class NodeBlockRows:
 
     def _observe_rows(self, rows: np.ndarray, obs: np.ndarray) -> None:
         """What each row's UAV is told of its nodes in its current slot, as the single env's
-        ``observe_slot`` (``knowledge.observe_nodes``), bit for bit: per row, the slot's normals
+        ``observe_slot`` (``knowledge.observe_nodes``; bit for bit but the measured rates, equal
+        to the rounding of the step's rates, ``node_measure``): per row, the slot's normals
         (from the episode's draw, ``knowledge_kernels.EpisodeDraws``; channel "rician": one draw of
         its generator per slot), then compiled calls for all ``rows``
         (``node_measure.measure_node_rates`` and ``tell_nodes``); the Kalman filter (``filter_estimate``)

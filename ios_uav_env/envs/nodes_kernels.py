@@ -11,8 +11,9 @@ env draws the slot's normals in ONE ``standard_normal(d)`` call of the row's gen
 gives one call of d the stream of the per-row path's calls), and the kernels do the per-row
 arithmetic as the per-row path does: the reports, their clip, the served tally and the features
 in IEEE arithmetic (as numpy computes them), the faded rates as ``channel.faded_of_rate`` of the
-step's expected-gain rates (IEEE too). So the rows equal the single env's
-bit for bit (tested, with and without numba). The Kalman filter of ``filter_estimate`` stays
+step's expected-gain rates (IEEE too). So the rows' observations and reports equal the single
+env's bit for bit, their measured rates and tally to the rounding of the step's rates
+(``node_measure``; tested, with and without numba). The Kalman filter of ``filter_estimate`` stays
 Python per row (``knowledge.filter_report`` on the raw reports left in ``raw``).
 
 Row i's track (``knowledge.NodesTrack``) is held as its arrays in lists

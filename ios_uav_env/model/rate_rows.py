@@ -299,9 +299,10 @@ def faded_of_rate(
 ) -> float:
     """:func:`faded_row` of a position whose expected-gain rate ``rate`` = log2(1 + eta zeta^2) is
     known (one antenna, continuous phases): eta zeta^2 = 2^rate - 1, so the sample is
-    log2(1 + (2^rate - 1) |h|^2), with no sum over the surface. Equal to :func:`faded_row` to a
-    few ulps (tested). IEEE arithmetic, a function of its own: the same bits from a kernel's
-    loop and from Python (the batched envs and their single envs measure alike)."""
+    log2(1 + (2^rate - 1) |h|^2), with no sum over the surface. Equal to :func:`faded_row` to the
+    rounding of the carrier phase 2 pi d / lambda, which IEEE and fast-math round differently
+    (~1e-11 relative; tested). IEEE arithmetic, a function of its own: the same bits from a
+    kernel's loop and from Python, given the same ``rate``."""
     return math.log2(1.0 + math.expm1(rate * LN2) * fading_row(x, y, n_re, n_im, params, i))
 
 
