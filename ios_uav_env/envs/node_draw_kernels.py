@@ -137,12 +137,12 @@ DRAWN_COLUMNS = np.array(sorted({MEP_QFX, MEP_QFY, MEP_MOVES, MEP_N, MEP_K, MEP_
 def start_node_rows(
     rows: np.ndarray, geometry: np.ndarray, counts: np.ndarray, slots: np.ndarray, which: np.ndarray,
     widths: np.ndarray, factors: np.ndarray, coords: np.ndarray, params: np.ndarray, episodes: np.ndarray,
-    w_slots: np.ndarray, w_counts: np.ndarray, w_which: np.ndarray, w_widths: np.ndarray,
-    w_factors: np.ndarray, w_base: np.ndarray, nodes: np.ndarray, episode: np.ndarray,
+    w_slots: np.ndarray, w_counts: np.ndarray, w_which: np.ndarray, w_factors: np.ndarray, w_base: np.ndarray,
+    nodes: np.ndarray, episode: np.ndarray,
 ) -> None:  # fmt: skip
     """Each of ``rows``' kernel geometry (``geometry[j]``: its index in the tables ``which`` ..
     ``episodes``) into the rows: ``NodeWeights``' entries (``w_*``: its projection, J, kernel
-    scalars, K, Q and N), the kernels' node coordinates and padding (``nodes[i, :K]``, as
+    scalars, K and N), the kernels' node coordinates and padding (``nodes[i, :K]``, as
     ``node_weights._fill_row``) and the episode row's columns the draw does not write."""
     drawn = np.zeros(episode.shape[1], dtype=np.bool_)
     for col in DRAWN_COLUMNS:
@@ -150,7 +150,7 @@ def start_node_rows(
     for j in range(rows.size):
         i, g = rows[j], geometry[j]
         q = widths[g]
-        w_which[i], w_factors[i], w_widths[i] = which[g], factors[g], q
+        w_which[i], w_factors[i] = which[g], factors[g]
         w_counts[i], w_slots[i] = counts[i], slots[i]
         copy_into(w_base[i], params[g])
         for k in range(counts[i]):

@@ -170,7 +170,7 @@ class DrawnNodeEpisodes:
         if fits.any():
             kr.fit(int(self.tables[1][geometry[fits]].max()), 0)  # (the widest surface's nodes)
             start_node_rows(rows[fits], geometry[fits], self.counts, self.slots, *self.tables, w.slots,
-                            w.counts, w.which, w.widths, w.factors, w.base, kr.nodes, kr.episode)  # fmt: skip
+                            w.counts, w.which, w.factors, w.base, kr.nodes, kr.episode)  # fmt: skip
         self.width[rows] = kr.nodes.shape[3]
         return rows[~fits]
 

@@ -98,7 +98,7 @@ def start_bare_track(
 class NodeWeights:
     """The rows' ground points of every slot and node (``points`` (B, S, K_max, 3), module
     docstring) and the IOS centre's x (``cx`` (B,)), each row's episode slot count (``slots``: 0,
-    the row keeps its track's kernels), node count, kernel width, projection (an index into the
+    the row keeps its track's kernels), node count, projection (an index into the
     lists of the projections met), J and the kernel scalars G's do not replace (``base`` (B, P))."""
 
     def __init__(self, rows: int, max_nodes: int, params: int) -> None:
@@ -106,7 +106,6 @@ class NodeWeights:
         self.cx = np.zeros(rows)
         self.slots = np.zeros(rows, dtype=np.int64)
         self.counts = np.zeros(rows, dtype=np.int64)
-        self.widths = np.zeros(rows, dtype=np.int64)
         self.which = np.zeros(rows, dtype=np.int64)
         self.factors = np.zeros(rows)
         self.base = np.zeros((rows, params))
@@ -175,7 +174,7 @@ class NodeWeights:
         geometry = self._geometry(config)
         if geometry is None or geometry[2] > nodes.shape[3]:
             return False
-        _, index, q, coords, params, factor, cx = geometry
+        _, index, _, coords, params, factor, cx = geometry
         k_nodes, n = config.K, config.N
         if n > self.points.shape[1]:
             grown = np.zeros((self.points.shape[0], n, *self.points.shape[2:]))
@@ -189,7 +188,7 @@ class NodeWeights:
         self.cx[i] = cx
         self.base[i] = params
         self.which[i], self.factors[i] = index, factor
-        self.counts[i], self.widths[i], self.slots[i] = k_nodes, q, n
+        self.counts[i], self.slots[i] = k_nodes, n
         return True
 
     def put(
